@@ -1,0 +1,20 @@
+PYTHON ?= python3
+
+.PHONY: install demo test lint bench
+
+install:
+	$(PYTHON) -m pip install -q -e '.[test]'
+
+demo: install
+	toolpath demo
+
+lint:
+	$(PYTHON) -m ruff check .
+
+test: install lint
+	$(PYTHON) -m pytest
+
+bench:
+	$(PYTHON) -m pip install -q -e '.[test,bench]'
+	$(PYTHON) benchmarks/paper_tables.py
+	$(PYTHON) benchmarks/bench_fit.py

@@ -1,0 +1,70 @@
+"""The ``toolpath`` command: ``toolpath fit curve ...`` and ``toolpath demo``."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+
+from toolpath import read_points
+from toolpath.arrays import as_curve_points, as_positive_length
+from toolpath.errors import ToolpathError
+
+from .fit_report import CURVE_METHODS, fit_curve_by_method
+
+__all__ = ["main"]
+
+
+def _parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="toolpath", description="Streamline fitting and CNC toolpaths for blades.")
+    commands = parser.add_subparsers(dest="command", required=True)
+    fit = commands.add_parser("fit", help="fit measured points")
+    what = fit.add_subparsers(dest="what", required=True)
+    curve = what.add_parser("curve", help="fit ordered points of a curve (CSV or XYZ)")
+    curve.add_argument("points", help="CSV with header x,y[,z], or whitespace columns (mm)")
+    curve.add_argument("--tol", type=float, default=0.01, help="max error in mm (0.01)")
+    curve.add_argument("--method", choices=CURVE_METHODS, default="streamline")
+    curve.add_argument("-o", "--output", help="write the fitted curve as JSON")
+    curve.add_argument("--plot", help="write a PNG of points, curve and error")
+    curve.add_argument("--json", action="store_true", help="print the report as JSON")
+    demo = commands.add_parser("demo", help="fit the bundled examples and print the report")
+    demo.add_argument("--out", default="demo", help="folder for the outputs (demo/)")
+    return parser
+
+
+def _fit_curve(args: argparse.Namespace) -> int:
+    tol = as_positive_length(args.tol, name="--tol")
+    points = as_curve_points(read_points(args.points))
+    curve, report = fit_curve_by_method(points, method=args.method, tol=tol)
+    if args.output:
+        payload = curve.to_dict()
+        Path(args.output).write_text(json.dumps(payload), encoding="utf-8")
+    if args.plot:
+        from toolpath.plotting import plot_curve_fit
+
+        plot_curve_fit(points, curve, args.plot, title=f"{args.method}: {args.points}")
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=2))
+    else:
+        print("\n".join(report.lines()))
+    return 0
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Run the command line; returns the exit code (non-zero on error)."""
+    args = _parser().parse_args(argv)
+    try:
+        if args.command == "fit":
+            return _fit_curve(args)
+        from .demo import run_demo
+
+        return run_demo(Path(args.out))
+    except ToolpathError as exc:
+        print(f"toolpath: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

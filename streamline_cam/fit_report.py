@@ -1,0 +1,98 @@
+"""Fitting a curve by method name and describing the result: shared by the CLI and demo."""
+
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from toolpath import (
+    LINEAR_MODELS,
+    fit_bspline_curve,
+    fit_linear_system,
+    fit_streamline_curve,
+)
+from toolpath.errors import InvalidParameterError
+
+__all__ = ["CURVE_METHODS", "CurveFitReport", "fit_curve_by_method"]
+
+CURVE_METHODS = ("streamline", "bspline", *LINEAR_MODELS)
+
+
+@dataclass(frozen=True)
+class CurveFitReport:
+    """What a user reads after a fit: method, size, errors (mm), frame, time (s)."""
+
+    method: str
+    n_points: int
+    n_control_points: int
+    max_error_mm: float
+    rms_error_mm: float
+    tol_mm: float
+    seconds: float
+    T: list[list[float]] | None = None
+    c_mm: list[float] | None = None
+    A: list[list[float]] | None = None
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def within_tol(self) -> bool:
+        """Whether the max error meets the tolerance."""
+        return self.max_error_mm <= self.tol_mm
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        out = {k: v for k, v in self.__dict__.items() if v is not None}
+        out["within_tol"] = self.within_tol
+        return out
+
+    def lines(self) -> list[str]:
+        """Human-readable report lines."""
+        out = [
+            f"method            {self.method}",
+            f"points            {self.n_points}",
+            f"control points    {self.n_control_points}",
+            f"max error         {self.max_error_mm:.6f} mm"
+            + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
+            f"rms error         {self.rms_error_mm:.6f} mm",
+            f"time              {self.seconds:.3f} s",
+        ]
+        for name, matrix in (("T", self.T), ("A", self.A)):
+            if matrix is not None:
+                rows = ["[" + ", ".join(f"{v: .6g}" for v in row) + "]" for row in matrix]
+                out.append(f"{name:<18}" + rows[0])
+                out.extend(" " * 18 + r for r in rows[1:])
+        if self.c_mm is not None:
+            out.append("c                 [" + ", ".join(f"{v:.6g}" for v in self.c_mm) + "] mm")
+        out.extend(f"note              {n}" for n in self.notes)
+        return out
+
+
+def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
+                        ) -> tuple[Any, CurveFitReport]:
+    """Fit ``points`` with ``method`` (see ``CURVE_METHODS``) and report on it."""
+    if method not in CURVE_METHODS:
+        raise InvalidParameterError(f"method must be one of {CURVE_METHODS}, got {method!r}")
+    start = time.perf_counter()
+    if method == "streamline":
+        curve = fit_streamline_curve(points, tol=tol)
+    elif method == "bspline":
+        curve = fit_bspline_curve(points, tol=tol)
+    else:
+        curve = fit_linear_system(points, model=method)
+    seconds = time.perf_counter() - start
+    extra: dict[str, Any] = {}
+    if method == "streamline":
+        extra = {"T": curve.T.tolist(), "c_mm": curve.c.tolist(),
+                 "notes": [f"frame: {curve.frame_label}"]}
+    elif method in LINEAR_MODELS:
+        extra = {"A": curve.A.tolist(),
+                 "notes": ["constant-coefficient model: tol is reported, not enforced"]}
+    report = CurveFitReport(method=method, n_points=len(points),
+                            n_control_points=curve.n_control_points,
+                            max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
+                            tol_mm=tol, seconds=seconds, **extra)
+    return curve, report

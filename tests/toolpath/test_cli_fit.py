@@ -1,0 +1,37 @@
+import json
+
+import numpy as np
+
+from streamline_cam.cli import main
+from toolpath import curve_from_dict
+from toolpath.paper_examples import bundled_data_path
+
+
+def test_fit_curve_writes_json_plot_and_report(tmp_path, capsys):
+    src = bundled_data_path("dev_half_profile_71.csv")
+    out, png = tmp_path / "fit.json", tmp_path / "fit.png"
+    assert main(["fit", "curve", str(src), "--tol", "0.005", "-o", str(out),
+                 "--plot", str(png), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["method"] == "streamline" and report["within_tol"]
+    assert report["max_error_mm"] <= 0.005 and len(report["T"]) == 3
+    curve = curve_from_dict(json.loads(out.read_text()))
+    assert curve.max_error == report["max_error_mm"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_fit_curve_text_report_for_each_method(tmp_path, capsys):
+    path = tmp_path / "arc.txt"
+    s = np.linspace(0, 2, 40)
+    np.savetxt(path, np.c_[np.cos(s), np.sin(s), s] * 30)
+    for method in ("bspline", "P0", "P1-1", "P1-2", "P2"):
+        assert main(["fit", "curve", str(path), "--method", method]) == 0
+        text = capsys.readouterr().out
+        assert f"method            {method}" in text and "max error" in text
+
+
+def test_demo_writes_outputs(tmp_path, capsys):
+    assert main(["demo", "--out", str(tmp_path)]) == 0
+    summary = json.loads((tmp_path / "report.json").read_text())
+    assert len(summary) == 6 and all(row["within_tol"] for row in summary)
+    assert "report.json" in capsys.readouterr().out

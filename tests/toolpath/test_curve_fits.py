@@ -1,0 +1,213 @@
+import json
+
+import numpy as np
+import pytest
+import scipy.interpolate
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
+
+from toolpath import (
+    BSplineCurve,
+    StreamlineCurve,
+    curve_from_dict,
+    fit_bspline_curve,
+    fit_streamline_curve,
+)
+from toolpath.knots import detect_corners
+from toolpath.paper_examples import bundled_data_path, example4, example5
+from toolpath.parametrize import unit_curve_parameters
+from toolpath.pointio import read_points
+
+FITTERS = [fit_streamline_curve, fit_bspline_curve]
+
+
+def _half_profile():
+    return read_points(bundled_data_path("dev_half_profile_71.csv"))
+
+
+# Paper Tables 4 and 5: max error at 44 / 30 control points (B-spline, Algorithm 3).
+@pytest.mark.parametrize("example,count,paper_bspline,paper_streamline",
+                         [(example4, 44, 0.0576, 0.0508), (example5, 30, 0.0353, 0.0289)])
+def test_paper_examples_at_or_below_paper_error_with_paper_counts(example, count,
+                                                                  paper_bspline,
+                                                                  paper_streamline):
+    points = example()
+    bspline = fit_bspline_curve(points, n_control_points=count)
+    streamline = fit_streamline_curve(points, n_control_points=count)
+    assert bspline.n_control_points <= count and streamline.n_control_points <= count
+    assert bspline.max_error <= paper_bspline
+    assert streamline.max_error <= paper_streamline
+
+
+@pytest.mark.parametrize("fit", FITTERS)
+def test_end_points_interpolated_exactly(fit):
+    points = _half_profile()
+    curve = fit(points, tol=0.01)
+    scale = np.abs(points).max()
+    assert np.abs(curve(0.0) - points[0]).max() <= 1e-12 * scale
+    assert np.abs(curve(1.0) - points[-1]).max() <= 1e-12 * scale
+
+
+@pytest.mark.parametrize("fit", FITTERS)
+@pytest.mark.parametrize("points", [_half_profile(), example5()], ids=["3d", "2d"])
+def test_derivatives_match_finite_differences(fit, points):
+    curve = fit(points, tol=0.01, corner_angle_deg=None)
+    t = np.linspace(0.05, 0.95, 13)
+    h = 1e-5
+    d1 = (curve(t + h) - curve(t - h)) / (2 * h)
+    d2 = (curve(t + h) - 2 * curve(t) + curve(t - h)) / h**2
+    scale1 = np.abs(d1).max()
+    np.testing.assert_allclose(curve.derivative(t), d1, atol=1e-6 * scale1)
+    np.testing.assert_allclose(curve.derivative(t, order=2), d2,
+                               atol=2e-3 * np.abs(d2).max())
+
+
+def test_streamline_derivative_is_the_system_rhs():
+    curve = fit_streamline_curve(_half_profile(), tol=0.01)
+    t = np.linspace(0, 1, 9)
+    rhs = np.einsum("ij,njk,kl,nl->ni", np.linalg.inv(curve.T), curve.D(t), curve.T,
+                    curve(t) + curve.c)
+    np.testing.assert_allclose(curve.derivative(t), rhs, rtol=1e-10, atol=1e-10)
+    assert np.allclose(curve.G(0.0), 0.0)
+
+
+@pytest.mark.parametrize("fit", FITTERS)
+def test_fit_within_tol_reports_true_errors(fit):
+    points = _half_profile()
+    curve = fit(points, tol=0.002)
+    errors = np.linalg.norm(curve(curve.params) - points, axis=1)
+    assert curve.max_error <= 0.002
+    assert curve.max_error == pytest.approx(errors.max(), rel=1e-9)
+    assert curve.rms_error == pytest.approx(np.sqrt(np.mean(errors**2)), rel=1e-9)
+
+
+def test_same_knots_bspline_matches_dense_lstsq():
+    points = example5(301)
+    ref = fit_bspline_curve(points, n_control_points=20)
+    curve = fit_bspline_curve(points, knots=ref.knots, minimax=False)
+    t = curve.params
+    # dense design matrix from first principles: each basis function as its own spline
+    n_coef = len(ref.knots) - 4
+    design = np.column_stack([
+        scipy.interpolate.BSpline(ref.knots, np.eye(n_coef)[j], 3)(t) for j in range(n_coef)])
+    rhs = points - np.outer(design[:, 0], points[0]) - np.outer(design[:, -1], points[-1])
+    inner = np.linalg.lstsq(design[:, 1:-1], rhs, rcond=None)[0]
+    expected = np.vstack([points[0], inner, points[-1]])
+    np.testing.assert_allclose(curve.control_points, expected, atol=1e-9)
+
+
+def test_same_knots_streamline_matches_dense_lstsq_in_log_space():
+    points = _half_profile()
+    ref = fit_streamline_curve(points, n_control_points=12)
+    curve = fit_streamline_curve(points, knots=ref.knots, minimax=False)
+    z = (points + curve.c) @ curve.T.T
+    y = np.log(z / z[0])
+    n_coef = len(ref.knots) - 4
+    design = np.column_stack([
+        scipy.interpolate.BSpline(ref.knots, np.eye(n_coef)[j], 3)(curve.params)
+        for j in range(n_coef)])
+    rhs = y - np.outer(design[:, -1], y[-1])
+    inner = np.linalg.lstsq(design[:, 1:-1], rhs, rcond=None)[0]
+    np.testing.assert_allclose(curve.g_coefficients[1:-1], inner, atol=1e-9)
+    np.testing.assert_allclose(curve.g_coefficients[-1], y[-1], atol=1e-12)
+
+
+def test_both_methods_fit_identical_knots():
+    points = example4()
+    stream = fit_streamline_curve(points, n_control_points=44)
+    bspline = fit_bspline_curve(points, knots=stream.knots)
+    assert np.array_equal(bspline.knots, stream.knots)
+    assert bspline.n_control_points == stream.n_control_points
+
+
+@pytest.mark.parametrize("cls,fit", [(StreamlineCurve, fit_streamline_curve),
+                                     (BSplineCurve, fit_bspline_curve)])
+def test_json_round_trip_is_identical(cls, fit):
+    curve = fit(example5(), tol=0.01)
+    back = curve_from_dict(json.loads(json.dumps(curve.to_dict())))
+    assert isinstance(back, cls)
+    t = np.linspace(0, 1, 101)
+    assert np.array_equal(back(t), curve(t))
+    assert np.array_equal(back.derivative(t, 2), curve.derivative(t, 2))
+    assert back.max_error == curve.max_error and back.n_control_points == curve.n_control_points
+
+
+def _circle(n, center, radius=40.0, turns=1.0):
+    s = np.linspace(0, 2 * np.pi * turns, n)
+    return np.c_[np.cos(s), np.sin(s)] * radius + center
+
+
+@pytest.mark.parametrize("points", [
+    _circle(200, (0.0, 0.0), turns=0.98),          # around the origin
+    _circle(200, (40.0, 0.0), turns=0.98),          # through the origin
+    np.c_[np.linspace(-30, 30, 50), np.linspace(-10, 10, 50), np.linspace(5, -5, 50)],
+    example4(),                                     # closed, starts and ends at the origin
+], ids=["around-origin", "through-origin", "3d-line-through-origin", "ex4"])
+def test_curves_around_and_through_the_origin_fit_within_tol(points):
+    curve = fit_streamline_curve(points, tol=0.01)
+    assert curve.max_error <= 0.01
+    z = (points + curve.c) @ curve.T.T
+    assert (z > 0).all()
+
+
+def test_corners_of_paper_examples_detected_where_they_are():
+    x4, x5 = example4(), example5()
+    c4 = detect_corners(x4, unit_curve_parameters(x4))
+    c5 = detect_corners(x5, unit_curve_parameters(x5))
+    assert [c.index for c in c4] == [330, 670]
+    assert all(abs(c.angle_deg - 63.5) < 1.0 for c in c4)
+    assert len(c5) == 1 and abs(c5[0].angle_deg - 19.7) < 1.0
+    # Ex 5's corner lies between samples 492 and 493 (NURBS parameter 0.33 of [0, 0.67])
+    t5 = unit_curve_parameters(x5)
+    assert t5[492] < c5[0].t < t5[493]
+
+
+def test_dominant_point_rule_runs_the_papers_algorithm():
+    points = _half_profile()
+    curve = fit_streamline_curve(points, tol=0.01, knot_method="dominant", frame="paper")
+    assert curve.max_error <= 0.01
+    assert np.allclose(curve.c, 0.0)  # the half profile lies in one octant: T = I, c = 0
+
+
+@st.composite
+def smooth_curves(draw):
+    seed = draw(st.integers(0, 2**31 - 1))
+    rng = np.random.default_rng(seed)
+    dim = draw(st.sampled_from([2, 3]))
+    s = np.linspace(0.0, 1.0, draw(st.integers(60, 300)))
+    coef = rng.normal(size=(4, dim)) * 20.0 / np.arange(1, 5)[:, None] ** 2
+    phase = rng.uniform(0, 2 * np.pi, size=(4, dim))
+    pts = sum(coef[k] * np.sin((k + 1) * np.pi * s[:, None] + phase[k]) for k in range(4))
+    pts = pts + rng.normal(size=dim) * 30.0 + 60.0 * s[:, None] * rng.normal(size=dim)
+    return pts
+
+
+@settings(max_examples=12, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(smooth_curves())
+def test_random_smooth_curves_fit_within_tol(points):
+    for fit in FITTERS:
+        curve = fit(points, tol=0.01)
+        assert curve.max_error <= 0.01
+        assert np.linalg.norm(curve(curve.params) - points, axis=1).max() <= 0.01 + 1e-12
+
+
+@settings(max_examples=8, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(st.integers(0, 2**31 - 1), st.integers(1, 3))
+def test_random_corners_are_detected_and_fit(seed, n_corners):
+    rng = np.random.default_rng(seed)
+    # smooth arcs joined at corners of 30-90 degrees
+    pieces, heading, start = [], 0.0, np.zeros(2)
+    for k in range(n_corners + 1):
+        bend = rng.uniform(-0.8, 0.8)
+        s = np.linspace(0, 1, 80)[(1 if k else 0):]
+        angle = heading + bend * s
+        step = np.c_[np.cos(angle), np.sin(angle)] * (30.0 / 80)
+        piece = start + np.cumsum(step, axis=0)
+        pieces.append(piece)
+        start = piece[-1]
+        heading = angle[-1] + rng.choice([-1, 1]) * np.radians(rng.uniform(30, 90))
+    points = np.vstack(pieces)
+    t = unit_curve_parameters(points)
+    assert len(detect_corners(points, t)) == n_corners
+    for fit in FITTERS:
+        assert fit(points, tol=0.01).max_error <= 0.01

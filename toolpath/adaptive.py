@@ -1,0 +1,268 @@
+"""Choosing the knots of a curve fit: one driver for every method (Algorithm 3, steps 3-6).
+
+A method is reduced to ``fit_at(knots) -> (fit, errors)``: the fit on a given knot vector
+and the distance (mm) of each data point from it. The driver then
+
+- fits a given knot vector (``knots=``), or
+- places knots by **density** (corners at full multiplicity, ``|f''''|^{1/4}`` from a seed
+  fit of ``seed_values``, then error-equidistribution sweeps), or by the paper's
+  **dominant points**, and
+- for a tolerance, searches the fewest control points whose fit has ``max_error <= tol``
+  (exponential then binary search over the number of free knots).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Any, Generic, TypeVar
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .arrays import as_positive_length
+from .errors import FitError, InvalidParameterError
+from .knots import (
+    Corner,
+    detect_corners,
+    dominant_point_knots,
+    error_density,
+    initial_dominant_points,
+    place_knots,
+    refine_dominant_points,
+    third_derivative_density,
+)
+from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients, schoenberg_whitney_violation
+
+__all__ = ["KNOT_METHODS", "KnotOptions", "adapt_knots", "knot_options"]
+
+KNOT_METHODS = ("density", "dominant")
+#: Error-equidistribution sweeps per knot count; the tolerance search carries the learned
+#: density from one count to the next, so later counts start near the optimum.
+DEFAULT_SWEEPS = 12
+#: Turning angle (deg) from which a sharp turn may be a corner (Ex 5's corner is 20°).
+DEFAULT_CORNER_ANGLE_DEG = 8.0
+
+FitT = TypeVar("FitT")
+FitAt = Callable[[NDArray[np.float64], NDArray[np.float64] | None],
+                 tuple[FitT, NDArray[np.float64]]]
+#: Lawson iterations of the minimax polish; the max error settles within about ten.
+MINIMAX_STEPS = 12
+
+
+@dataclass(frozen=True)
+class KnotOptions:
+    """What decides the knots: exactly one of ``tol``, ``n_control_points``, ``knots``."""
+
+    tol: float | None
+    n_control_points: int | None
+    max_control_points: int | None
+    knots: NDArray[np.float64] | None
+    method: str
+    corner_angle_deg: float | None
+    sweeps: int
+    minimax: bool
+
+
+def knot_options(*, tol: Any, n_control_points: Any, max_control_points: Any, knots: Any,
+                 knot_method: str, corner_angle_deg: Any, sweeps: int, minimax: bool
+                 ) -> KnotOptions:
+    """Validate the knot options shared by the curve fitters."""
+    given = [name for name, v in (("tol", tol), ("n_control_points", n_control_points),
+                                  ("knots", knots)) if v is not None]
+    if len(given) != 1:
+        raise InvalidParameterError(
+            "give exactly one of tol, n_control_points or knots; got "
+            + (", ".join(given) if given else "none")
+        )
+    if knot_method not in KNOT_METHODS:
+        raise InvalidParameterError(
+            f"knot_method must be one of {KNOT_METHODS}, got {knot_method!r}")
+    tol_mm = None if tol is None else as_positive_length(tol, name="tol")
+    for name, value in (("n_control_points", n_control_points),
+                        ("max_control_points", max_control_points)):
+        if value is not None and (not isinstance(value, int | np.integer)
+                                  or value < DEGREE + 1):
+            raise InvalidParameterError(
+                f"{name} must be an integer >= {DEGREE + 1}, got {value!r}")
+    knot_array = None
+    if knots is not None:
+        try:
+            knot_array = np.asarray(knots, dtype=float)
+        except (TypeError, ValueError):
+            raise InvalidParameterError(f"knots must be numeric, got {knots!r}") from None
+        if knot_array.ndim != 1 or not np.isfinite(knot_array).all():
+            raise InvalidParameterError("knots must be a 1-D array of finite values")
+    if corner_angle_deg is not None:
+        corner_angle_deg = float(corner_angle_deg)
+    if not isinstance(sweeps, int) or sweeps < 0:
+        raise InvalidParameterError(f"sweeps must be an integer >= 0, got {sweeps!r}")
+    return KnotOptions(tol_mm, n_control_points, max_control_points, knot_array, knot_method,
+                       corner_angle_deg, sweeps, bool(minimax))
+
+
+@dataclass
+class _Trial(Generic[FitT]):
+    fit: FitT
+    errors: NDArray[np.float64]
+    knots: NDArray[np.float64]
+
+    @property
+    def max_error(self) -> float:
+        return float(self.errors.max())
+
+
+def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
+    """Lower the max error on fixed knots by Lawson's iteratively reweighted least squares.
+
+    ``w_i ← w_i e_i / Σ_j w_j e_j`` drives the weighted least-squares solution towards the
+    minimax one (Lawson 1961); the best iterate is kept, so the max error never rises.
+    """
+    if not options.minimax:
+        return trial
+    best = trial
+    weights = np.ones_like(trial.errors)
+    errors = trial.errors
+    for _ in range(MINIMAX_STEPS):
+        weights = weights * errors
+        total = weights.sum()
+        if total <= 0:
+            break
+        weights = weights / total * weights.size
+        fit, errors = fit_at(trial.knots, weights)
+        if errors.max() < best.max_error:
+            best = _Trial(fit, errors, trial.knots)
+    return best
+
+
+def _seed_density(t: NDArray[np.float64], values: NDArray[np.float64], corners: list[Corner]):
+    """Density ``|f''''|^{1/4}`` from a preliminary fit on evenly spread knots."""
+    n_free = int(np.clip(t.size // 6, 4, 120))
+    flat = (np.array([0.0, 1.0]), np.ones(1))
+    knots = place_knots(t, corners, *flat, n_free)
+    spline = end_interpolating_lsq(t, values, knots)
+    return third_derivative_density(spline.t, spline.c)
+
+
+def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
+                seed_values: NDArray[np.float64], fit_at: FitAt, options: KnotOptions
+                ) -> tuple[FitT, NDArray[np.float64], NDArray[np.float64]]:
+    """Run a method with the knots the options ask for.
+
+    Returns
+    -------
+    fit, errors, knots
+        The chosen fit, its per-point error (mm) and its knot vector.
+
+    Raises
+    ------
+    FitError
+        When ``tol`` cannot be reached within ``max_control_points`` (or the data's count).
+    """
+    if options.knots is not None:
+        problem = schoenberg_whitney_violation(t, options.knots)
+        if problem is not None:
+            raise InvalidParameterError(f"knots cannot be fitted: {problem}")
+        trial = _polish(_Trial(*fit_at(options.knots, None), options.knots), fit_at, options)
+        return trial.fit, trial.errors, trial.knots
+    if options.method == "dominant":
+        trial = _dominant(points, t, fit_at, options)
+    else:
+        trial = _density(points, t, seed_values, fit_at, options)
+    return trial.fit, trial.errors, trial.knots
+
+
+def _limit(options: KnotOptions, n_points: int) -> int:
+    limit = n_points
+    if options.max_control_points is not None:
+        limit = min(limit, options.max_control_points)
+    return limit
+
+
+def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
+    corners = ([] if options.corner_angle_deg is None
+               else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
+    edges, density = _seed_density(t, seed_values, corners)
+    fixed = DEGREE + 1 + DEGREE * len(corners)
+
+    learned = [(edges, density)]  # the density the latest attempt ended with
+
+    def attempt(n_free: int) -> _Trial:
+        """Fit with ``n_free`` free knots: seed from the latest density, then sweeps."""
+        knots = place_knots(t, corners, *learned[-1], n_free)
+        best = current = _Trial(*fit_at(knots, None), knots)
+        for _ in range(options.sweeps):
+            learned.append(error_density(current.knots, t, current.errors))
+            knots = place_knots(t, corners, *learned[-1], n_free)
+            current = _Trial(*fit_at(knots, None), knots)
+            if current.max_error < best.max_error:
+                best = current
+        return _polish(best, fit_at, options)
+
+    limit = _limit(options, t.size)
+    if options.n_control_points is not None:
+        return attempt(max(options.n_control_points - fixed, 0))
+    tol = options.tol
+    assert tol is not None
+    # exponential search for a passing count, then bisection for the fewest
+    lo, n_free, best_fail = -1, 1, None
+    passing: _Trial | None = None
+    while True:
+        if n_free + fixed > limit:
+            n_free = limit - fixed
+        trial = attempt(max(n_free, 0))
+        if trial.max_error <= tol:
+            passing, hi = trial, n_free
+            break
+        best_fail = trial if best_fail is None or trial.max_error < best_fail.max_error \
+            else best_fail
+        lo = n_free
+        if n_free + fixed >= limit:
+            raise FitError(
+                f"tol={tol!r} mm not reached with {n_coefficients(best_fail.knots)} control "
+                f"points (best max error {best_fail.max_error:.6g} mm); raise "
+                "max_control_points or tol"
+            )
+        n_free *= 2
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        trial = attempt(mid)
+        if trial.max_error <= tol:
+            passing, hi = trial, mid
+        else:
+            lo = mid
+    return passing
+
+
+def _dominant(points, t, fit_at, options: KnotOptions) -> _Trial:
+    corners = ([] if options.corner_angle_deg is None
+               else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
+    dominant = initial_dominant_points(points, corners)
+    target = options.n_control_points
+    limit = _limit(options, t.size)
+    if target is not None and dominant.size > target:
+        keep = np.unique(np.linspace(0, dominant.size - 1, target).round().astype(int))
+        dominant = dominant[keep]
+    while True:
+        knots = dominant_point_knots(t, dominant, corners)
+        trial = _polish(_Trial(*fit_at(knots, None), knots), fit_at, options)
+        count = n_coefficients(knots)
+        if target is not None and count >= target:
+            return trial
+        if target is None and trial.max_error <= options.tol:
+            return trial
+        if count >= limit:
+            if target is not None:
+                return trial
+            raise FitError(
+                f"tol={options.tol!r} mm not reached with {count} control points (dominant "
+                f"points; best max error {trial.max_error:.6g} mm)"
+            )
+        grown = refine_dominant_points(points, dominant, trial.errors)
+        if grown.size == dominant.size:  # the worst segment cannot be split: any other
+            free = np.setdiff1d(np.arange(t.size), dominant)
+            gaps = np.diff(dominant)
+            k = int(np.argmax(gaps))
+            grown = np.union1d(dominant, [free[np.searchsorted(free, dominant[k])]
+                                          if gaps[k] > 1 else free[0]])
+        dominant = grown

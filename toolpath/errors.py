@@ -1,0 +1,64 @@
+"""The one exception family of :mod:`toolpath`.
+
+Every error a user can provoke with bad input derives from :class:`ToolpathError`, which is
+also a :class:`ValueError`, and names the offending value, point index or file line.
+"""
+
+from __future__ import annotations
+
+__all__ = [
+    "ConvergenceWarning",
+    "DataFileError",
+    "FitError",
+    "InvalidParameterError",
+    "InvalidPointsError",
+    "ToolpathError",
+]
+
+
+class ToolpathError(ValueError):
+    """Base class of every error raised by :mod:`toolpath` for bad input or failed fits."""
+
+
+class InvalidPointsError(ToolpathError):
+    """Point data of the wrong shape, with non-finite values, duplicates or no length.
+
+    Attributes
+    ----------
+    index : int or None
+        0-based index of the first offending point, when there is one.
+    """
+
+    def __init__(self, message: str, *, index: int | None = None) -> None:
+        super().__init__(message)
+        self.index = index
+
+
+class InvalidParameterError(ToolpathError):
+    """A keyword option with an unknown name, value out of range or wrong type."""
+
+
+class DataFileError(ToolpathError):
+    """A point file that cannot be read.
+
+    Attributes
+    ----------
+    path : str
+        The file.
+    line : int or None
+        1-based line number of the first offending line, when there is one.
+    """
+
+    def __init__(self, message: str, *, path: str, line: int | None = None) -> None:
+        where = f"{path}:{line}: " if line is not None else f"{path}: "
+        super().__init__(where + message)
+        self.path = path
+        self.line = line
+
+
+class FitError(ToolpathError):
+    """A fit that cannot be carried out or cannot reach the requested tolerance."""
+
+
+class ConvergenceWarning(UserWarning):
+    """An iterative refinement stopped before converging; the result is still valid."""

@@ -1,0 +1,288 @@
+"""Knot placement for cubic curve fits: corners, density equidistribution, dominant points.
+
+Three ideas, shared by the streamline and B-spline fitters so both can run on the same
+knots:
+
+- **Corners** (C0 points of the data) get a knot of multiplicity ``DEGREE`` at the corner's
+  parameter, so the spline may turn there. A corner is a sample (or a pair of samples,
+  when the true corner falls between them) whose turning angle stands far above its
+  neighbours'. A corner between samples is placed at the intersection of the chords on
+  either side.
+- **Density** inside smooth pieces: for a cubic spline the local error on a span of length
+  ``h`` is about ``c h^4 |f''''|``, so knots equidistributing ``|f''''|^{1/4}`` are
+  asymptotically optimal (de Boor, *A Practical Guide to Splines*, ch. XII). The first
+  density comes from the jumps of ``S'''`` of a preliminary fit; later sweeps use the
+  measured error per span, ``ρ_j = e_j^{1/4} / h_j``.
+- **Dominant points** (Park & Lee 2007, the paper's Algorithm 3): curvature maxima plus
+  points added in the worst segment; knots are averages of ``DEGREE`` consecutive
+  dominant-point parameters.
+
+Every knot vector produced here satisfies the Schoenberg–Whitney condition: each span holds
+data.
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .splinefit import DEGREE, clamped_knots
+
+__all__ = [
+    "Corner",
+    "detect_corners",
+    "dominant_point_knots",
+    "equidistribute",
+    "initial_dominant_points",
+    "place_knots",
+    "refine_dominant_points",
+    "third_derivative_density",
+]
+
+#: A turning angle this many times larger than the largest nearby turn marks a corner.
+CORNER_CONTRAST = 4.0
+
+
+@dataclass(frozen=True)
+class Corner:
+    """A C0 point of the data: parameter ``t`` (mm-free, in [0, 1]) and turning angle."""
+
+    t: float
+    angle_deg: float
+    index: int  # the sample at or just before the corner
+
+
+def _turning_angles(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angle (rad) between consecutive chords at each interior sample, shape (n − 2,)."""
+    chords = np.diff(points, axis=0)
+    unit = chords / np.linalg.norm(chords, axis=1)[:, None]
+    cosine = np.clip(np.einsum("ij,ij->i", unit[:-1], unit[1:]), -1.0, 1.0)
+    return np.arccos(cosine)
+
+
+def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
+                   min_angle_deg: float = 8.0) -> list[Corner]:
+    """Find C0 corners in ordered points.
+
+    A sample (or two adjacent samples whose turns add up, when the true corner lies
+    between them) is a corner when its turn is at least ``min_angle_deg`` and at least
+    ``CORNER_CONTRAST`` times the largest turn at the samples two to five steps away.
+    """
+    turn = _turning_angles(points)  # turn[i] is at sample i + 1
+    n = turn.size
+    if n < 5:
+        return []
+    corners: list[Corner] = []
+    threshold = np.radians(min_angle_deg)
+    i = 0
+    while i < n:
+        pair = turn[i] + (turn[i + 1] if i + 1 < n else 0.0)
+        if turn[i] < 0.25 * threshold or pair < threshold:
+            i += 1
+            continue
+        around = np.concatenate((turn[max(0, i - 5):max(0, i - 1)], turn[i + 3:i + 7]))
+        background = float(around.max()) if around.size else 0.0
+        single = turn[i] >= threshold and turn[i] >= 0.85 * pair
+        if single and turn[i] >= CORNER_CONTRAST * background:
+            corners.append(Corner(float(t[i + 1]), float(np.degrees(turn[i])), i + 1))
+            i += 3
+            continue
+        if not single and pair >= CORNER_CONTRAST * background and i + 1 < n:
+            corners.append(Corner(_between(points, t, i + 1), float(np.degrees(pair)), i + 1))
+            i += 4
+            continue
+        i += 1
+    return corners
+
+
+def _between(points: NDArray[np.float64], t: NDArray[np.float64], j: int) -> float:
+    """Parameter of the corner between samples j and j+1: where the side chords meet."""
+    p0, p1 = points[j - 1], points[j]  # incoming chord
+    q0, q1 = points[j + 1], points[j + 2] if j + 2 < len(points) else points[j + 1]
+    u, v = p1 - p0, q1 - q0
+    # closest points of the lines p1 + a u and q0 + b v (least squares for a, b)
+    lhs = np.stack((u, -v), axis=1)
+    (a, b), *_ = np.linalg.lstsq(lhs, q0 - p1, rcond=None)
+    corner = 0.5 * (p1 + a * u + q0 + b * v)
+    d0 = np.linalg.norm(corner - p1)
+    d1 = np.linalg.norm(q0 - corner)
+    frac = 0.5 if d0 + d1 == 0 else float(np.clip(d0 / (d0 + d1), 0.05, 0.95))
+    return float(t[j] + frac * (t[j + 1] - t[j]))
+
+
+def equidistribute(edges: NDArray[np.float64], density: NDArray[np.float64],
+                   count: int) -> NDArray[np.float64]:
+    """Place ``count`` interior points so each slice holds equal ``∫ density``.
+
+    ``density`` is piecewise constant on the cells between ``edges``.
+    """
+    mass = np.concatenate(([0.0], np.cumsum(density * np.diff(edges))))
+    targets = mass[-1] * np.arange(1, count + 1) / (count + 1)
+    return np.interp(targets, mass, edges)
+
+
+def _respect_data(knots: NDArray[np.float64], t: NDArray[np.float64], lo_index: int,
+                  hi_index: int) -> NDArray[np.float64]:
+    """Move (or drop) knots so every span in ``(t[lo], t[hi])`` holds a data parameter."""
+    out: list[float] = []
+    last = lo_index  # index of the last data point left of the previous knot
+    for knot in np.sort(knots):
+        j = int(np.searchsorted(t, knot, side="right")) - 1  # t[j] <= knot < t[j+1]
+        j = max(j, last + 1)  # at least one data point since the previous knot
+        if j >= hi_index - 1:  # no room: the span to the piece end would be empty
+            break
+        if not t[j] < knot < t[j + 1]:
+            knot = 0.5 * (t[j] + t[j + 1])
+        out.append(float(knot))
+        last = j
+    return np.asarray(out)
+
+
+def place_knots(t: NDArray[np.float64], corners: list[Corner], edges: NDArray[np.float64],
+                density: NDArray[np.float64], n_free: int) -> NDArray[np.float64]:
+    """Clamped knot vector: corner knots (multiplicity ``DEGREE``) plus ``n_free`` knots.
+
+    The free knots equidistribute ``density`` (piecewise constant on ``edges``) over the
+    whole curve; each smooth piece between corners gets the knots falling in it, moved so
+    that every span holds data.
+    """
+    bounds = [0.0] + [c.t for c in corners] + [1.0]
+    free = equidistribute(edges, density, n_free) if n_free > 0 else np.empty(0)
+    inner: list[float] = []
+    for lo, hi in itertools.pairwise(bounds):
+        lo_i = int(np.searchsorted(t, lo, side="left"))
+        hi_i = int(np.searchsorted(t, hi, side="right")) - 1
+        if t[lo_i] > lo:  # corner between samples: the piece starts at the sample before
+            lo_i -= 1
+        if t[hi_i] < hi:
+            hi_i += 1
+        mine = free[(free > lo) & (free < hi)]
+        inner.extend(_respect_data(mine, t, lo_i, hi_i))
+        if hi < 1.0:
+            inner.extend([hi] * DEGREE)
+    return clamped_knots(np.asarray(inner))
+
+
+def third_derivative_density(spline_knots: NDArray[np.float64],
+                             coefficients: NDArray[np.float64]
+                             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Density ``|f''''|^{1/4}`` on the spans of a fitted cubic, from the jumps of ``S'''``.
+
+    ``f''''`` at an interior knot is estimated as the jump of ``S'''`` divided by the mean
+    of the two adjacent span lengths; a span takes the larger estimate of its two ends.
+
+    Returns
+    -------
+    edges, density : ndarray
+        Span edges (distinct knots) and the density on each span.
+    """
+    import scipy.interpolate  # local: scipy stays a toolpath dependency only
+
+    spline = scipy.interpolate.BSpline(spline_knots, coefficients, DEGREE)
+    edges = np.unique(spline_knots)
+    mids = 0.5 * (edges[:-1] + edges[1:])
+    third = spline(mids, nu=3)  # constant on each span; nu= copes with corner knots
+    third = third.reshape(len(mids), -1)
+    h = np.diff(edges)
+    jump = np.linalg.norm(np.diff(third, axis=0), axis=1) / (0.5 * (h[:-1] + h[1:]))
+    at_span = np.zeros(len(mids))
+    at_span[:-1] = jump
+    at_span[1:] = np.maximum(at_span[1:], jump)
+    density = np.power(at_span, 0.25)
+    floor = 1e-3 * density.max() if density.max() > 0 else 1.0
+    return edges, np.maximum(density, floor)
+
+
+def error_density(knots: NDArray[np.float64], t: NDArray[np.float64],
+                  errors: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Density ``e_j^{1/4} / h_j`` from the max error ``e_j`` of the points in each span."""
+    edges = np.unique(knots)
+    span = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
+    worst = np.zeros(len(edges) - 1)
+    np.maximum.at(worst, span, errors)
+    density = np.power(worst, 0.25) / np.diff(edges)
+    positive = density[density > 0]
+    floor = 1e-2 * positive.min() if positive.size else 1.0
+    return edges, np.maximum(density, floor)
+
+
+def _discrete_curvature(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Curvature (1/mm) at each sample from the circle through it and its neighbours."""
+    a, b, c = points[:-2], points[1:-1], points[2:]
+    ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1),
+                  np.linalg.norm(a - c, axis=1))
+    u, v = b - a, c - b
+    if points.shape[1] == 2:
+        cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
+    else:
+        cross = np.linalg.norm(np.cross(u, v), axis=1)
+    kappa = 2.0 * cross / (ab * bc * ca)
+    return np.concatenate(([kappa[0]], kappa, [kappa[-1]]))
+
+
+def initial_dominant_points(points: NDArray[np.float64], corners: list[Corner]
+                            ) -> NDArray[np.int64]:
+    """Park & Lee's initial dominant points: the ends, corners and curvature maxima.
+
+    A curvature maximum counts when it exceeds the mean curvature (Liu et al. 2002 use the
+    same contrast test to skip flat wiggles).
+    """
+    kappa = _discrete_curvature(points)
+    interior = np.arange(1, len(points) - 1)
+    peaks = interior[(kappa[1:-1] >= kappa[:-2]) & (kappa[1:-1] > kappa[2:])
+                     & (kappa[1:-1] > kappa.mean())]
+    chosen = set(peaks.tolist()) | {0, len(points) - 1} | {c.index for c in corners}
+    return np.asarray(sorted(chosen), dtype=np.int64)
+
+
+def refine_dominant_points(points: NDArray[np.float64], dominant: NDArray[np.int64],
+                           errors: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Add one dominant point in the segment holding the largest error (Algorithm 3, step 5).
+
+    The new point halves the segment's combined turning angle and arc length (not simply
+    the point of largest error, which piles points up beside corners).
+    """
+    worst = int(np.argmax(errors))
+    k = int(np.searchsorted(dominant, worst, side="right")) - 1
+    k = min(max(k, 0), len(dominant) - 2)
+    lo, hi = int(dominant[k]), int(dominant[k + 1])
+    if hi - lo < 2:
+        # the worst point is a dominant point: split the neighbouring segment that is wider
+        return dominant
+    seg = points[lo:hi + 1]
+    length = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(seg, axis=0), axis=1))))
+    turn = np.concatenate(([0.0], np.cumsum(_turning_angles(seg)), [0.0]))
+    turn[-1] = turn[-2]
+    score = length / length[-1] + (turn / turn[-1] if turn[-1] > 0 else 0.0)
+    mid = lo + int(np.argmin(np.abs(score - 0.5 * score[-1])))
+    mid = min(max(mid, lo + 1), hi - 1)
+    return np.asarray(sorted(set(dominant.tolist()) | {mid}), dtype=np.int64)
+
+
+def dominant_point_knots(t: NDArray[np.float64], dominant: NDArray[np.int64],
+                         corners: list[Corner] = ()) -> NDArray[np.float64]:
+    """Knots from dominant points: averages of ``DEGREE`` consecutive interior parameters.
+
+    With ``m + 1`` dominant points this gives ``m + 1`` control points (Park & Lee 2007).
+    With ``corners``, each smooth piece between corners is averaged on its own and the
+    corners get knots of multiplicity ``DEGREE``.
+    """
+    td = t[dominant].copy()
+    at = {c.index: c.t for c in corners}
+    for k, index in enumerate(dominant):
+        if index in at:
+            td[k] = at[index]
+    cuts = [k for k, index in enumerate(dominant) if index in at]
+    pieces = np.split(np.arange(td.size), cuts)
+    inner: list[float] = []
+    for p, piece in enumerate(pieces):
+        ends = td[np.r_[piece, piece[-1] + 1] if p < len(pieces) - 1 else piece]
+        n_inner = ends.size - (DEGREE + 1)
+        inner.extend(ends[j:j + DEGREE].mean() for j in range(1, n_inner + 1))
+        if p < len(pieces) - 1:
+            inner.extend([float(td[piece[-1] + 1])] * DEGREE)
+    return clamped_knots(np.asarray(inner))

@@ -1,0 +1,120 @@
+"""Cubic B-spline least squares with end interpolation, shared by every curve fitter.
+
+A clamped cubic ``S(t) = Σ_j P_j N_j(t)`` on ``[0, 1]`` has ``S(0) = P_0`` and
+``S(1) = P_{m−1}``, so the end conditions (the paper's eq. 20, ``G(0) = 0``,
+``G(1) = Y_n``; or ``X(0) = X_0``, ``X(1) = X_n`` for the baseline) fix the first and last
+coefficients, and the interior ones solve the linear least squares of eq. 19:
+``min Σ_i w_i ||S(t_i) − V_i||²``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import scipy.interpolate
+from numpy.typing import NDArray
+
+from .errors import FitError
+
+__all__ = [
+    "DEGREE",
+    "clamped_knots",
+    "end_interpolating_lsq",
+    "interior_knots",
+    "n_coefficients",
+    "schoenberg_whitney_violation",
+]
+
+#: Cubic splines throughout (the paper's eq. 21 and the baseline).
+DEGREE = 3
+
+
+def clamped_knots(interior: NDArray[np.float64], lo: float = 0.0, hi: float = 1.0
+                  ) -> NDArray[np.float64]:
+    """Full knot vector: ``lo`` and ``hi`` repeated ``DEGREE + 1`` times around ``interior``."""
+    k = DEGREE + 1
+    return np.concatenate((np.full(k, lo), np.sort(np.asarray(interior, float)), np.full(k, hi)))
+
+
+def interior_knots(knots: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The interior knots (with multiplicity) of a clamped cubic knot vector."""
+    return np.asarray(knots[DEGREE + 1:-(DEGREE + 1)])
+
+
+def n_coefficients(knots: NDArray[np.float64]) -> int:
+    """Number of control points of a cubic spline on ``knots``."""
+    return len(knots) - DEGREE - 1
+
+
+def schoenberg_whitney_violation(t: NDArray[np.float64], knots: NDArray[np.float64]
+                                 ) -> str | None:
+    """Return why the data parameters ``t`` cannot determine a spline on ``knots``, or None.
+
+    Checked: the knot vector is clamped on ``[t_0, t_n]``, non-decreasing, no interior knot
+    has multiplicity above ``DEGREE``, and every knot span of non-zero length holds at least
+    one data parameter (so no control point floats free between the samples).
+    """
+    k = DEGREE + 1
+    if len(knots) < 2 * k:
+        return f"a cubic knot vector needs at least {2 * k} knots, got {len(knots)}"
+    if np.any(np.diff(knots) < 0):
+        return "knots must be non-decreasing"
+    if not (np.all(knots[:k] == knots[0]) and np.all(knots[-k:] == knots[-1])):
+        return f"knots must be clamped: the first and last {k} knots repeated"
+    if not (np.isclose(knots[0], t[0]) and np.isclose(knots[-1], t[-1])):
+        return (f"knots span [{knots[0]!r}, {knots[-1]!r}] but the parameters span "
+                f"[{t[0]!r}, {t[-1]!r}]")
+    inner = interior_knots(knots)
+    if inner.size:
+        _, counts = np.unique(inner, return_counts=True)
+        if counts.max() > DEGREE:
+            return f"an interior knot repeats {counts.max()} times; at most {DEGREE} allowed"
+    edges = np.unique(knots)
+    held = np.histogram(t, bins=edges)[0]
+    if (held == 0).any():
+        j = int(np.argmax(held == 0))
+        return (f"knot span [{edges[j]:.6g}, {edges[j + 1]:.6g}] holds no data point "
+                "(Schoenberg-Whitney condition); use fewer knots there")
+    n_coef = n_coefficients(knots)
+    if t.size < n_coef:
+        return f"{n_coef} control points need at least as many points, got {t.size}"
+    return None
+
+
+def end_interpolating_lsq(
+    t: NDArray[np.float64],
+    values: NDArray[np.float64],
+    knots: NDArray[np.float64],
+    weights: NDArray[np.float64] | None = None,
+) -> scipy.interpolate.BSpline:
+    """Least-squares cubic spline on ``knots`` through ``values[0]`` and ``values[-1]``.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Increasing parameters with ``t[0] = knots[0]`` and ``t[-1] = knots[-1]``.
+    values : ndarray, shape (n, d)
+        Values to fit.
+    knots : ndarray
+        Clamped cubic knot vector.
+    weights : ndarray, shape (n,), optional
+        Non-negative weights ``w_i`` of the squared residuals.
+
+    Returns
+    -------
+    scipy.interpolate.BSpline
+        With vector coefficients of shape ``(n_coef, d)``; ``S(t_0) = values[0]`` and
+        ``S(t_n) = values[-1]`` hold exactly.
+    """
+    problem = schoenberg_whitney_violation(t, knots)
+    if problem is not None:
+        raise FitError(problem)
+    basis = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).toarray()
+    coef = np.empty((basis.shape[1], values.shape[1]))
+    coef[0], coef[-1] = values[0], values[-1]
+    inner = basis[:, 1:-1]
+    rhs = values - np.outer(basis[:, 0], coef[0]) - np.outer(basis[:, -1], coef[-1])
+    if weights is not None:
+        root = np.sqrt(weights)[:, None]
+        inner, rhs = inner * root, rhs * root
+    coef[1:-1] = np.linalg.lstsq(inner, rhs, rcond=None)[0]
+    return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
