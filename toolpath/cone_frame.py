@@ -35,7 +35,7 @@ __all__ = ["ConeFrame", "algorithm1", "algorithm2", "candidate_frames"]
 #: Paper's sector margin (Algorithm 1 asks 0 < η < 0.1 rad); used by the paper-faithful mode.
 PAPER_ETA_RAD = 0.05
 #: Distances of the shifted barycenter from the origin, in enclosing radii, tried for c.
-KAPPAS = (1.5, 3.0, 10.0)
+KAPPAS = (1.5, 3.0, 10.0, 100.0)
 #: Fractions of the free angle (2-D) or radius factors (3-D) used as cone margins.
 MARGINS = (0.15, 0.6)
 

@@ -29,10 +29,10 @@ from numpy.typing import NDArray
 
 from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
 from .arrays import as_curve_points
+from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import InvalidParameterError
 from .fitted_curve import FittedCurve, check_order, error_figures
-from .knots import detect_corners, place_knots
 from .parametrize import unit_curve_parameters
 from .splinefit import DEGREE, end_interpolating_lsq
 
@@ -175,15 +175,13 @@ class _LogSpaceProblem:
         return coef
 
 
-def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64], corner_angle_deg,
-                  frame: str) -> ConeFrame:
-    """The frame whose log-space fit on a moderate knot vector has the smallest max error."""
-    if frame == "paper":
-        return paper_frame(x)
-    corners = ([] if corner_angle_deg is None
-               else detect_corners(x, t, min_angle_deg=corner_angle_deg))
-    n_free = int(np.clip(t.size // 25, 4, 40))
-    knots = place_knots(t, corners, np.array([0.0, 1.0]), np.ones(1), n_free)
+def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
+                  knots: NDArray[np.float64]) -> ConeFrame:
+    """The candidate frame whose log-space fit on ``knots`` has the smallest max error.
+
+    ``knots`` should be about as many as the final fit will have (the best margin depends on
+    it): the caller passes the B-spline baseline's knots for the same request.
+    """
     best, best_err = None, np.inf
     for candidate in candidate_frames(x):
         _, errors = _LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
@@ -235,7 +233,8 @@ def fit_streamline_curve(
     sweeps : int
         Error-equidistribution sweeps per knot count.
     frame : {"best", "paper"}
-        ``"best"``: the candidate frame with the smallest fit error; ``"paper"``: T = I in
+        ``"best"``: the candidate frame with the smallest fit error on the knots the
+        B-spline baseline needs for the same request; ``"paper"``: T = I in
         one octant, else Algorithm 1 with η = 0.05 or Algorithm 2 with ρ from the cone bound.
     refine : bool
         Minimize the true error ``Σ ||X(t_i) − X_i||²`` (Gauss-Newton) at every knot vector.
@@ -263,7 +262,18 @@ def fit_streamline_curve(
                            sweeps=sweeps, minimax=minimax)
     x = as_curve_points(points)
     t = unit_curve_parameters(x, params)
-    problem = _LogSpaceProblem(x, t, _choose_frame(x, t, corner_angle_deg, frame))
+    if frame == "paper":
+        chosen = paper_frame(x)
+    else:
+        probe = options.knots
+        if probe is None:
+            probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
+                                      max_control_points=max_control_points, params=t,
+                                      knot_method=knot_method,
+                                      corner_angle_deg=corner_angle_deg, sweeps=sweeps,
+                                      minimax=False).knots
+        chosen = _choose_frame(x, t, probe)
+    problem = _LogSpaceProblem(x, t, chosen)
     coef, errors, knot_vector = adapt_knots(
         x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)
     max_error, rms_error = error_figures(errors)
