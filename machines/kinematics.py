@@ -1,0 +1,525 @@
+"""Forward and inverse kinematics, vectorized over paths.
+
+Conventions (every angle in deg, every length in mm):
+
+* Frames as in :mod:`machines.machine`: the machine frame, and the workpiece frame carried
+  by the rotary table, parallel to the machine frame at zero rotary angles with its origin
+  at ``machine.work_origin``. Tool-tip positions and tool axes are given in the workpiece
+  frame; the tool axis is the unit vector from the tip toward the spindle (+Z for a
+  vertical spindle).
+* Rotations are right-handed about the positive machine axis of the moving part: a
+  positive table angle turns the *table* right-handed about +X (A), +Y (B) or +Z (C), as
+  LinuxCNC's ``xyzac-trt-kins`` does (the tests check its forward formula; this is the
+  opposite of the ISO tool-relative direction); a positive head angle turns the
+  *spindle* right-handed about +Y (B) or +X (A).
+* With ``R_k(q)`` the right-handed rotation by ``q`` about axis ``k``, ``t`` the tilt angle,
+  ``c`` the C angle, ``P`` = ``rotary_centre``, ``P_C = P + c_offset``, ``O`` =
+  ``work_origin``, ``L`` = ``tool_length``, ``Lp`` = ``head_pivot_length``, ``G`` the
+  linear joints and ``q``, ``w`` the tip and tool axis in the workpiece frame:
+
+  - table-table: ``tip_M = R_t(t) (R_z(c) (O + q - P_C) + P_C - P) + P``,
+    ``G = tip_M + L Z``, ``w = R_z(-c) R_t(-t) Z``;
+  - head-table: ``tip_M = R_z(c) (O + q - P) + P``, ``u = R_h(t) Z``,
+    ``G = tip_M + (Lp + L) u - Lp Z``, ``w = R_z(-c) u``;
+  - 3-axis: ``G = O + q + L Z``, ``w = Z``.
+
+  Both 5-axis families give ``w = R_z(-c) (sin t d + cos t Z)`` with a fixed horizontal unit
+  vector ``d``, so the tilt magnitude is the angle of ``w`` from +Z and C follows from the
+  azimuth of ``w``. Every ``w`` off +Z has two solutions, ``(t, c)`` and ``(-t, c + 180)``.
+
+Branch and unwrap rules of :func:`inverse` (vectorized; no per-point Python loop):
+
+1. A point whose tilt is inside the singular cone (angle of ``w`` from +Z below
+   `cone_deg`), where C is undefined, does not follow the azimuth of ``w``: C is held at
+   the value of the nearest point outside the cone at the start and end of a path (or at
+   `start`'s), and between cone entry and exit it is carried linearly, by point index,
+   from the entry value to the exit value (these are equal, so C is simply held, when the
+   path passes straight through the vertical; otherwise the turn C must make, at most
+   90 deg, or 180 deg where rule 2 keeps the branch, is spread over the cone instead of
+   jumping at its edge). The tilt is then the signed
+   angle that best fits ``w`` in the plane C allows, so the tool axis there is off by at
+   most `cone_deg`. The tip position is always exact.
+2. Between consecutive points outside the cone, the branch switches when the other
+   branch's C is closer (the C step on the current branch would exceed 90 deg), i.e.
+   where the path crosses the singular cone and the switch costs no C motion, unless the
+   switched branch would leave the tilt axis's travel where the current one would not
+   (e.g. a trunnion with A in [-120, 30] keeps A negative and turns C by 180 deg through
+   the cone instead). This is a sequential pass over such crossings, not over points.
+3. The first branch is the one closest to `start` when given; otherwise the one whose tilt
+   values leave the tilt axis's travel at fewer points up to the first crossing, ties
+   going to ``machine.preferred_tilt_sign``.
+4. C is unwrapped (no 359 -> 0 jumps). Without `start`, the path is shifted by whole turns to
+   begin in [-180, 180] deg, or, on a LIMITED C axis, to fit its travel when a shift can.
+
+Examples
+--------
+>>> import numpy as np
+>>> from machines.machine import load_machine
+>>> m = load_machine("trunnion-ac")
+>>> tips = np.array([[10.0, 0.0, 50.0]])
+>>> axes = np.array([[0.0, np.sin(np.radians(30)), np.cos(np.radians(30))]])
+>>> j = inverse(m, tips, axes)
+>>> j[0, 3:].round(6).tolist()  # A, C: the negative branch (preferred_tilt = negative)
+[-30.0, 180.0]
+>>> tip, axis = forward(m, j)
+>>> bool(np.allclose(tip, tips) and np.allclose(axis, axes))
+True
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from machines.axes import Axis
+from machines.errors import KinematicsError, UnreachableOrientationError
+from machines.machine import KinematicType, Machine
+
+__all__ = [
+    "AXIS_NORM_TOL",
+    "SINGULAR_CONE_DEG",
+    "XYZ_AXIS_TOL_DEG",
+    "InverseSolution",
+    "controller_values",
+    "forward",
+    "inverse",
+    "solve_inverse",
+]
+
+SINGULAR_CONE_DEG: Final[float] = 0.1
+"""Default half-angle of the singular cone, deg. Inside it C does not follow the azimuth of
+the tool axis, and the axis may be off by up to this angle: 0.1 deg (1.7 mrad) moves the
+centre of a 6 mm ball (radius 3 mm) by at most 0.0052 mm, about the finest scallop height
+the planner is asked for, while absorbing round-off and paths that graze the vertical."""
+
+XYZ_AXIS_TOL_DEG: Final[float] = 1e-3
+"""Largest angle from +Z, deg, accepted as "vertical" on a 3-axis machine (17 urad: round-off
+of computed axes, far below any effect on the cut)."""
+
+AXIS_NORM_TOL: Final[float] = 1e-6
+"""Largest accepted deviation of a tool-axis vector's norm from 1 (relative). Vectors within it
+are renormalized; anything further is a caller bug and raises."""
+
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+@dataclass(frozen=True, slots=True)
+class InverseSolution:
+    """Result of :func:`solve_inverse`.
+
+    Attributes
+    ----------
+    joints : numpy.ndarray, shape (n, n_axes)
+        Joint values in the machine's axis order: mm for linear axes, deg (unwrapped) for
+        rotary axes.
+    in_cone : numpy.ndarray of bool, shape (n,)
+        True where the tool axis was inside the singular cone, so C did not follow its
+        azimuth (always False on a 3-axis machine).
+    axis_error_deg : numpy.ndarray, shape (n,)
+        Angle between the requested and the achieved tool axis, deg (0 up to round-off
+        outside the cone, at most the cone angle inside it).
+    """
+
+    joints: NDArray[np.float64]
+    in_cone: NDArray[np.bool_]
+    axis_error_deg: NDArray[np.float64]
+
+
+# --------------------------------------------------------------------------------------
+# helpers
+# --------------------------------------------------------------------------------------
+
+
+def _rot(v: NDArray[np.float64], k: int, ang_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Rotate row vectors ``v`` (n, 3) right-handed about basis axis ``k`` by ``ang_deg``."""
+    a = np.radians(ang_deg)
+    c, s = np.cos(a), np.sin(a)
+    x, y, z = v[:, 0], v[:, 1], v[:, 2]
+    if k == 0:
+        return np.stack([x, c * y - s * z, s * y + c * z], axis=1)
+    if k == 1:
+        return np.stack([c * x + s * z, y, -s * x + c * z], axis=1)
+    return np.stack([c * x - s * y, s * x + c * y, z], axis=1)
+
+
+def _wrap180(a: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Angles wrapped into [-180, 180) deg."""
+    return np.mod(a + 180.0, 360.0) - 180.0
+
+
+def _as_rows(a: ArrayLike, name: str, width: int) -> tuple[NDArray[np.float64], bool]:
+    arr = np.asarray(a, dtype=float)
+    single = arr.ndim == 1
+    if single:
+        arr = arr[None, :]
+    if arr.ndim != 2 or arr.shape[1] != width:
+        raise KinematicsError(
+            f"{name} must have shape (n, {width}) or ({width},), got {np.shape(a)!r}"
+        )
+    bad = ~np.isfinite(arr).all(axis=1)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise KinematicsError(f"{name}[{i}] is not finite: {arr[i].tolist()!r}")
+    return arr, single
+
+
+def _unit_axes(axes: NDArray[np.float64]) -> NDArray[np.float64]:
+    norm = np.linalg.norm(axes, axis=1)
+    bad = np.abs(norm - 1.0) > AXIS_NORM_TOL
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise KinematicsError(
+            f"tool axis {i} is not a unit vector: {axes[i].tolist()!r} has norm "
+            f"{float(norm[i])!r} (tolerance {AXIS_NORM_TOL!r})"
+        )
+    return axes / norm[:, None]
+
+
+def _tilt_index(kin: KinematicType) -> int:
+    return 0 if kin.tilt_letter == "A" else 1
+
+
+def _tilt_sign(kin: KinematicType) -> float:
+    """+1 when the tool axis tilts with the angle (head), -1 when against it (table)."""
+    return 1.0 if kin.tilting_head else -1.0
+
+
+def _azimuth_of_d(kin: KinematicType) -> float:
+    """Azimuth, deg, of the horizontal direction ``d`` the tool axis leans to at t=+90, c=0."""
+    d = _rot(_Z[None, :], _tilt_index(kin), np.array([90.0 * _tilt_sign(kin)]))[0]
+    return float(np.degrees(np.arctan2(d[1], d[0])))
+
+
+def _order(machine: Machine) -> list[int]:
+    """Machine column of each canonical column (X, Y, Z[, tilt, C])."""
+    return [machine.index(letter) for letter in machine.kinematics.letters]
+
+
+# --------------------------------------------------------------------------------------
+# forward
+# --------------------------------------------------------------------------------------
+
+
+def forward(machine: Machine, joints: ArrayLike) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Tool-tip positions and tool axes in the workpiece frame from joint values.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    joints : array_like, shape (n, n_axes) or (n_axes,)
+        Joint values in the machine's axis order: mm for linear axes, deg for rotary axes
+        (any number of turns).
+
+    Returns
+    -------
+    tips : numpy.ndarray, shape (n, 3) or (3,)
+        Tool-tip positions in the workpiece frame, mm.
+    axes : numpy.ndarray, shape (n, 3) or (3,)
+        Unit tool axes (tip toward spindle) in the workpiece frame.
+
+    Raises
+    ------
+    KinematicsError
+        For a wrong shape or non-finite values.
+    """
+    j, single = _as_rows(joints, "joints", machine.n_axes)
+    canon = j[:, _order(machine)]
+    g = canon[:, :3]
+    n = len(j)
+    kin = machine.kinematics
+    origin = np.asarray(machine.work_origin)
+    z = np.broadcast_to(_Z, (n, 3))
+    if kin is KinematicType.XYZ:
+        tips = g - machine.tool_length * _Z - origin
+        axes = np.array(z)
+    else:
+        t, c = canon[:, 3], canon[:, 4]
+        k = _tilt_index(kin)
+        p = np.asarray(machine.rotary_centre)
+        if kin.tilting_head:
+            u = _rot(z, k, t)
+            lp = machine.head_pivot_length
+            tip_m = g + lp * _Z - (lp + machine.tool_length) * u
+            tips = _rot(tip_m - p, 2, -c) + p - origin
+            axes = _rot(u, 2, -c)
+        else:
+            pc = p + np.asarray(machine.c_offset)
+            tip_m = g - machine.tool_length * _Z
+            v = _rot(tip_m - p, k, -t) + p - pc
+            tips = _rot(v, 2, -c) + pc - origin
+            axes = _rot(_rot(z, k, -t), 2, -c)
+    if single:
+        return tips[0], axes[0]
+    return tips, axes
+
+
+# --------------------------------------------------------------------------------------
+# inverse
+# --------------------------------------------------------------------------------------
+
+
+def _fit_turns(c: NDArray[np.float64], axis: Axis) -> NDArray[np.float64]:
+    """Shift an unwrapped C path by whole turns: start in [-180, 180], or fit LIMITED travel."""
+    c = c - 360.0 * np.round(c[0] / 360.0)
+    if not axis.is_limited:
+        return c
+    lo, hi = float(c.min()), float(c.max())
+    centre = np.round(((axis.min + axis.max) - (lo + hi)) / 720.0)
+    ks = np.unique(np.concatenate([np.arange(centre - 2, centre + 3), [0.0]]))
+    excess = np.maximum(0.0, axis.min - (lo + 360.0 * ks)) + np.maximum(
+        0.0, (hi + 360.0 * ks) - axis.max
+    )
+    best = ks[np.lexsort((np.abs(c[0] + 360.0 * ks), excess))[0]]
+    return c + 360.0 * best
+
+
+def _angles(
+    machine: Machine,
+    w: NDArray[np.float64],
+    start: NDArray[np.float64] | None,
+    cone_deg: float,
+) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
+    """Tilt, C, in-cone mask and axis error (deg) for unit tool axes ``w`` along a path."""
+    kin = machine.kinematics
+    n = len(w)
+    phi_d = _azimuth_of_d(kin)
+    tilt_axis = machine.axis(kin.tilt_letter or "")
+    c_axis = machine.axis("C")
+    mag = np.degrees(np.arctan2(np.hypot(w[:, 0], w[:, 1]), w[:, 2]))
+    c_plus = phi_d - np.degrees(np.arctan2(w[:, 1], w[:, 0]))
+    in_cone = mag < cone_deg
+    out = np.flatnonzero(~in_cone)
+    c = np.empty(n)
+    c_start = None if start is None else float(start[machine.index("C")])
+    t_start = None if start is None else float(start[machine.index(kin.tilt_letter or "")])
+    if out.size:
+        cp = c_plus[out]
+        # rule 2: the branch may switch only where the other branch's C is the closer one;
+        # this splits the path into runs, each on one branch
+        flips = np.abs(_wrap180(np.diff(cp))) > 90.0
+        run = np.concatenate([[0], np.cumsum(flips)])
+        n_runs = int(run[-1]) + 1
+        m_out = mag[out]
+        # points of each run that leave the tilt travel on the + and on the - branch
+        miss = {
+            1.0: np.bincount(run, ~tilt_axis.within(m_out), minlength=n_runs).tolist(),
+            -1.0: np.bincount(run, ~tilt_axis.within(-m_out), minlength=n_runs).tolist(),
+        }
+        if c_start is not None and t_start is not None:
+            t0 = m_out[0]
+            dist_plus = abs(_wrap180(np.array(cp[0] - c_start))) + abs(t0 - t_start)
+            dist_minus = abs(_wrap180(np.array(cp[0] + 180.0 - c_start))) + abs(-t0 - t_start)
+            s0 = 1.0 if dist_plus <= dist_minus else -1.0
+        elif miss[1.0][0] == miss[-1.0][0]:
+            s0 = float(machine.preferred_tilt_sign)
+        else:
+            s0 = 1.0 if miss[1.0][0] < miss[-1.0][0] else -1.0
+        # rule 3: cheap sequential pass over the runs (not the points): take the closer
+        # branch unless it leaves the tilt travel where the current one does not
+        signs = [s0]
+        for r in range(1, n_runs):
+            keep = signs[-1]
+            signs.append(keep if miss[-keep][r] > miss[keep][r] else -keep)
+        sign = np.asarray(signs)[run]
+        c_out = np.unwrap(cp + np.where(sign < 0.0, 180.0, 0.0), period=360.0)
+        if c_start is not None:
+            c_out = c_out + 360.0 * np.round((c_start - c_out[0]) / 360.0)
+        else:
+            c_out = _fit_turns(c_out, c_axis)
+        c[out] = c_out
+        # rule 1: inside the cone C is held at the edges of the path and carried linearly
+        # (by point index) from its entry to its exit value between them
+        if in_cone.any():
+            inside = np.flatnonzero(in_cone)
+            if c_start is None:
+                c[inside] = np.interp(inside, out, c_out)
+            else:
+                c[inside] = np.interp(inside, np.r_[-1, out], np.r_[c_start, c_out])
+    else:
+        c[:] = 0.0 if c_start is None else c_start
+    # signed tilt in the plane C allows (exact outside the cone, best fit inside)
+    psi = np.radians(phi_d - c)
+    h0, h1 = np.cos(psi), np.sin(psi)
+    t = np.degrees(np.arctan2(w[:, 0] * h0 + w[:, 1] * h1, w[:, 2]))
+    # the achieved axis is w projected on the plane of h and Z: the error is its angle
+    err = np.degrees(np.arcsin(np.minimum(np.abs(w[:, 0] * h1 - w[:, 1] * h0), 1.0)))
+    return t, c, in_cone, err
+
+
+def solve_inverse(
+    machine: Machine,
+    tips: ArrayLike,
+    axes: ArrayLike,
+    *,
+    start: ArrayLike | None = None,
+    cone_deg: float = SINGULAR_CONE_DEG,
+    axis_tol_deg: float = XYZ_AXIS_TOL_DEG,
+) -> InverseSolution:
+    """Joint values along a path, with the cone and achieved-axis report.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    tips : array_like, shape (n, 3)
+        Tool-tip positions in the workpiece frame, mm, in path order.
+    axes : array_like, shape (n, 3)
+        Unit tool axes (tip toward spindle) in the workpiece frame.
+    start : array_like, shape (n_axes,), optional
+        Joint values the path continues from (machine axis order, mm and deg): the branch
+        and the C turn closest to it are chosen, and C is held at its value if the path
+        starts inside the singular cone.
+    cone_deg : float, optional
+        Half-angle of the singular cone, deg (default :data:`SINGULAR_CONE_DEG`).
+    axis_tol_deg : float, optional
+        3-axis machines only: largest accepted angle of a tool axis from +Z, deg
+        (default :data:`XYZ_AXIS_TOL_DEG`).
+
+    Returns
+    -------
+    InverseSolution
+        Joints (n, n_axes) in the machine's axis order, the in-cone mask and the axis error.
+
+    Raises
+    ------
+    KinematicsError
+        For wrong shapes, non-finite values or non-unit axes.
+    UnreachableOrientationError
+        On a 3-axis machine, for tool axes further than `axis_tol_deg` from +Z; the
+        message names the first such point, and ``indices`` lists all of them.
+
+    Notes
+    -----
+    Travel limits are not applied here: check the result with
+    :func:`machines.limits.check_travel`, which reports and never clips.
+    """
+    q, _ = _as_rows(tips, "tips", 3)
+    w, _ = _as_rows(axes, "axes", 3)
+    if len(q) != len(w):
+        raise KinematicsError(f"tips has {len(q)} rows but axes has {len(w)}")
+    w = _unit_axes(w)
+    if not (np.isfinite(cone_deg) and 0.0 <= cone_deg < 90.0):
+        raise KinematicsError(f"cone_deg must be in [0, 90) deg, got {cone_deg!r}")
+    st = None
+    if start is not None:
+        st, _ = _as_rows(start, "start", machine.n_axes)
+        st = st[0]
+    kin = machine.kinematics
+    origin = np.asarray(machine.work_origin)
+    n = len(q)
+    canon = np.empty((n, len(kin.letters)))
+    if kin is KinematicType.XYZ:
+        off = np.degrees(np.arctan2(np.hypot(w[:, 0], w[:, 1]), w[:, 2]))
+        bad = np.flatnonzero(off > axis_tol_deg)
+        if bad.size:
+            i = int(bad[0])
+            raise UnreachableOrientationError(
+                f"3-axis machine {machine.name!r} holds the tool axis at +Z only: point {i} "
+                f"has tool axis {w[i].round(6).tolist()!r}, {float(off[i]):.4g} deg from +Z "
+                f"({bad.size} such point{'s' if bad.size != 1 else ''}; "
+                f"tolerance {axis_tol_deg!r} deg)",
+                indices=bad.tolist(),
+            )
+        canon[:, :3] = origin + q + machine.tool_length * _Z
+        in_cone = np.zeros(n, dtype=bool)
+        err = off
+    else:
+        t, c, in_cone, err = _angles(machine, w, st, cone_deg)
+        k = _tilt_index(kin)
+        p = np.asarray(machine.rotary_centre)
+        if kin.tilting_head:
+            tip_m = _rot(origin + q - p, 2, c) + p
+            u = _rot(np.broadcast_to(_Z, (n, 3)), k, t)
+            lp = machine.head_pivot_length
+            g = tip_m + (lp + machine.tool_length) * u - lp * _Z
+        else:
+            pc = p + np.asarray(machine.c_offset)
+            tip_m = _rot(_rot(origin + q - pc, 2, c) + pc - p, k, t) + p
+            g = tip_m + machine.tool_length * _Z
+        canon[:, :3] = g
+        canon[:, 3] = t
+        canon[:, 4] = c
+    joints = np.empty_like(canon)
+    joints[:, _order(machine)] = canon
+    return InverseSolution(joints=joints, in_cone=in_cone, axis_error_deg=err)
+
+
+def inverse(
+    machine: Machine,
+    tips: ArrayLike,
+    axes: ArrayLike,
+    *,
+    start: ArrayLike | None = None,
+    cone_deg: float = SINGULAR_CONE_DEG,
+    axis_tol_deg: float = XYZ_AXIS_TOL_DEG,
+) -> NDArray[np.float64]:
+    """Joint values along a path of tool-tip positions and tool axes.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    tips : array_like, shape (n, 3) or (3,)
+        Tool-tip positions in the workpiece frame, mm, in path order.
+    axes : array_like, shape (n, 3) or (3,)
+        Unit tool axes (tip toward spindle) in the workpiece frame.
+    start : array_like, shape (n_axes,), optional
+        Joint values the path continues from (see :func:`solve_inverse`).
+    cone_deg : float, optional
+        Half-angle of the singular cone, deg (default :data:`SINGULAR_CONE_DEG`).
+    axis_tol_deg : float, optional
+        3-axis machines: largest accepted angle from +Z, deg.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n_axes) or (n_axes,)
+        Joint values in the machine's axis order: mm for linear axes, unwrapped deg for
+        rotary axes. Not clipped to travel.
+
+    Raises
+    ------
+    KinematicsError
+        For wrong shapes, non-finite values or non-unit axes.
+    UnreachableOrientationError
+        For a tilted tool axis on a 3-axis machine.
+
+    See Also
+    --------
+    solve_inverse : the same with the in-cone mask and achieved-axis error.
+    forward : the inverse map.
+    """
+    single = np.ndim(tips) == 1
+    sol = solve_inverse(
+        machine, tips, axes, start=start, cone_deg=cone_deg, axis_tol_deg=axis_tol_deg
+    )
+    return sol.joints[0] if single else sol.joints
+
+
+def controller_values(machine: Machine, joints: ArrayLike) -> NDArray[np.float64]:
+    """Joint values as the controller should be sent them.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    joints : array_like, shape (n, n_axes) or (n_axes,)
+        Joint values from :func:`inverse` (mm, unwrapped deg).
+
+    Returns
+    -------
+    numpy.ndarray
+        A copy in which modulo-360 (``Wrap.SHORTEST``) rotary columns are mapped to
+        [0, 360) deg; every other column is unchanged.
+    """
+    j = np.array(joints, dtype=float)
+    if j.ndim not in (1, 2) or j.shape[-1] != machine.n_axes:
+        raise KinematicsError(
+            f"joints must have shape (n, {machine.n_axes}) or ({machine.n_axes},), got {j.shape!r}"
+        )
+    for i, ax in enumerate(machine.axes):
+        j[..., i] = ax.controller_value(j[..., i])
+    return j
