@@ -48,6 +48,9 @@ FitAt = Callable[[NDArray[np.float64], NDArray[np.float64] | None],
                  tuple[FitT, NDArray[np.float64]]]
 #: Lawson iterations of the minimax polish; the max error settles within about ten.
 MINIMAX_STEPS = 12
+#: The minimax polish lowers the least-squares max error by well under this factor
+#: (measured: 15-35% on the paper's examples), so attempts further from tol skip it.
+POLISH_REACH = 1.6
 
 
 @dataclass(frozen=True)
@@ -197,6 +200,8 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
             current = _Trial(*fit_at(knots, None), knots)
             if current.max_error < best.max_error:
                 best = current
+        if options.tol is not None and best.max_error > POLISH_REACH * options.tol:
+            return best  # the polish cannot bring this count within tol: skip its cost
         return _polish(best, fit_at, options)
 
     limit = _limit(options, t.size)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import numpy as np
 import scipy.interpolate
+import scipy.linalg
 from numpy.typing import NDArray
 
 from .errors import FitError
@@ -108,13 +109,33 @@ def end_interpolating_lsq(
     problem = schoenberg_whitney_violation(t, knots)
     if problem is not None:
         raise FitError(problem)
-    basis = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).toarray()
+    basis = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).tocsc()
     coef = np.empty((basis.shape[1], values.shape[1]))
     coef[0], coef[-1] = values[0], values[-1]
     inner = basis[:, 1:-1]
-    rhs = values - np.outer(basis[:, 0], coef[0]) - np.outer(basis[:, -1], coef[-1])
-    if weights is not None:
-        root = np.sqrt(weights)[:, None]
-        inner, rhs = inner * root, rhs * root
-    coef[1:-1] = np.linalg.lstsq(inner, rhs, rcond=None)[0]
+    rhs = values - basis[:, [0]] @ coef[[0]] - basis[:, [-1]] @ coef[[-1]]
+    weighted = inner.T if weights is None else inner.T.multiply(weights[None, :]).tocsr()
+    try:
+        coef[1:-1] = _solve_banded_normal(weighted @ inner, weighted @ rhs)
+    except np.linalg.LinAlgError:
+        # rank-deficient (data too thin for some basis function): QR gives the min-norm fit
+        root = 1.0 if weights is None else np.sqrt(weights)[:, None]
+        coef[1:-1] = np.linalg.lstsq(inner.toarray() * root, rhs * root, rcond=None)[0]
     return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
+
+
+def _solve_banded_normal(normal, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Solve the normal equations ``N c = r``; N is symmetric with bandwidth ``DEGREE``.
+
+    B-spline normal matrices are banded and, under the Schoenberg-Whitney condition,
+    positive definite: a banded Cholesky solve costs O(m) instead of a dense QR. Raises
+    ``LinAlgError`` when the matrix is not positive definite.
+    """
+    m = normal.shape[0]
+    if m == 0:
+        return np.empty((0, rhs.shape[1]))
+    bands = np.zeros((DEGREE + 1, m))
+    for offset in range(min(DEGREE, m - 1) + 1):
+        # upper form for solveh_banded: ab[u + i - j, j] = a[i, j]
+        bands[DEGREE - offset, offset:] = normal.diagonal(offset)
+    return scipy.linalg.solveh_banded(bands, rhs)
