@@ -1,7 +1,159 @@
-"""G-code: the canonical program model, dialect posts, emitter, strict parser, senders.
+"""G-code: the canonical program model, dialects, emitter, strict parser, interpreter.
 
-Will own: frozen block types and ``Program``; the one number formatter; dialects as data
-(GRBL, LinuxCNC, Fanuc-style); a streaming emitter behind a writer interface; an atomic,
-line-numbered parser and the expanding interpreter shared with the simulator;
-``check_program``; and ``gcode.senders`` (serial GRBL and Modbus streaming).
+Units inside: mm, degrees (A/B/C), mm/min (1/min in inverse time), s, rev/min. Inches
+exist only in G-code text (G20), converted with ``MM_PER_INCH = 25.4`` exactly.
+
+Modules
+-------
+program
+    Frozen IR blocks (``Rapid``, ``Linear``, ``Arc``, ``Dwell``, ``Spindle``, ``Coolant``,
+    ``ToolChange``, ``SetUnits``, ``SetDistanceMode``, ``SetPlane``, ``SetFeedMode``,
+    ``SetWorkOffset``, ``Comment``, ``ProgramEnd``) and ``Program``.
+modal
+    Modal groups, frozen ``ModalState`` and its transition rules.
+numbers
+    The one number formatter (scalar and vectorized) and the strict number reader.
+dialects
+    ``Dialect`` data and the ``GRBL``, ``LINUXCNC``, ``FANUC``, ``GENERIC`` presets.
+writer
+    ``Writer`` interface, streaming ``TextWriter``, ``LineCollector`` for tests.
+emitter
+    ``emit(program, dialect, writer)``: streaming text output.
+blockparser
+    ``BlockParser``: strict, atomic one-block parser carrying the modal state.
+parser
+    ``parse``, ``parse_with_errors``, ``parse_file``: text -> ``Program`` with line map.
+interpreter
+    ``interpret``: ``Program`` -> absolute motion ``Segments`` (arcs kept, linearizable).
+errors
+    ``GCodeError`` (``code``, ``line``, ``text``), subclasses, ``ErrorCode`` table.
+
+Not here yet: the post (``Toolpath`` -> ``Program``), ``check_program`` and the senders.
+
+Examples
+--------
+>>> import gcode
+>>> p = gcode.Program((gcode.Rapid(x=0.0, y=0.0), gcode.Linear(x=1.0, feed=100.0)))
+>>> gcode.parse(gcode.emit_text(p, gcode.GRBL), gcode.GRBL).blocks[3:] == p.blocks
+True
 """
+
+from gcode.blockparser import BlockParser
+from gcode.dialects import (
+    FANUC,
+    GENERIC,
+    GRBL,
+    LINUXCNC,
+    CommentStyle,
+    Dialect,
+    dialect_by_name,
+    dialect_names,
+)
+from gcode.emitter import emit, emit_file, emit_lines, emit_text
+from gcode.errors import (
+    ArcError,
+    DialectError,
+    ErrorCode,
+    FeedError,
+    GCodeError,
+    ModalError,
+    SyntaxGCodeError,
+)
+from gcode.interpreter import Segments, interpret
+from gcode.modal import ModalGroup, ModalState, MotionMode
+from gcode.numbers import (
+    MM_PER_INCH,
+    Decimals,
+    NumberKind,
+    format_array,
+    format_number,
+    read_number,
+)
+from gcode.parser import parse, parse_file, parse_with_errors
+from gcode.program import (
+    Arc,
+    Block,
+    Comment,
+    Coolant,
+    CoolantMode,
+    DistanceMode,
+    Dwell,
+    FeedMode,
+    Linear,
+    Plane,
+    Program,
+    ProgramEnd,
+    Rapid,
+    SetDistanceMode,
+    SetFeedMode,
+    SetPlane,
+    SetUnits,
+    SetWorkOffset,
+    Spindle,
+    SpindleDirection,
+    ToolChange,
+    Units,
+)
+from gcode.writer import LineCollector, TextWriter, Writer
+
+__all__ = [
+    "FANUC",
+    "GENERIC",
+    "GRBL",
+    "LINUXCNC",
+    "MM_PER_INCH",
+    "Arc",
+    "ArcError",
+    "Block",
+    "BlockParser",
+    "Comment",
+    "CommentStyle",
+    "Coolant",
+    "CoolantMode",
+    "Decimals",
+    "Dialect",
+    "DialectError",
+    "DistanceMode",
+    "Dwell",
+    "ErrorCode",
+    "FeedError",
+    "FeedMode",
+    "GCodeError",
+    "Linear",
+    "LineCollector",
+    "ModalError",
+    "ModalGroup",
+    "ModalState",
+    "MotionMode",
+    "NumberKind",
+    "Plane",
+    "Program",
+    "ProgramEnd",
+    "Rapid",
+    "Segments",
+    "SetDistanceMode",
+    "SetFeedMode",
+    "SetPlane",
+    "SetUnits",
+    "SetWorkOffset",
+    "Spindle",
+    "SpindleDirection",
+    "SyntaxGCodeError",
+    "TextWriter",
+    "ToolChange",
+    "Units",
+    "Writer",
+    "dialect_by_name",
+    "dialect_names",
+    "emit",
+    "emit_file",
+    "emit_lines",
+    "emit_text",
+    "format_array",
+    "format_number",
+    "interpret",
+    "parse",
+    "parse_file",
+    "parse_with_errors",
+    "read_number",
+]

@@ -1,0 +1,134 @@
+"""Throughput of the G-code emitter and parser against naive and third-party baselines.
+
+Run:  pip install gcodeparser pygcode   (the ``bench`` extra)
+      python benchmarks/bench_gcode.py [--blocks 1000000] [--seed 1]
+
+Builds a program of ``--blocks`` blocks (3-axis linear moves with occasional rapids and
+feed changes), then measures in the same run:
+
+* emission lines/s of ``gcode.emit`` (LinuxCNC dialect, streaming to an in-memory text
+  stream) against a naive per-block f-string emitter writing the same program;
+* parse lines/s of ``gcode.parse`` (strict, atomic, modal, line-numbered, building the
+  frozen IR) against ``gcodeparser.parse_gcode_lines`` and ``pygcode.Line`` parsing the
+  same file. The file is written with every G word present (no modal suppression),
+  because gcodeparser silently skips lines that do not start with a G/M/T command.
+
+Targets (issue 5): emission >= 3x naive; parse >= 10x gcodeparser.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import io
+import os
+import sys
+import time
+from dataclasses import replace
+
+import numpy as np
+
+from gcode import LINUXCNC, Linear, Program, Rapid, TextWriter, emit, parse
+
+
+def build_program(n: int, seed: int) -> Program:
+    rng = np.random.default_rng(seed)
+    xyz = np.round(rng.uniform(-150.0, 150.0, (n, 3)), 3).tolist()
+    feeds = np.where(rng.random(n) < 0.01, 1500.0, 900.0).tolist()
+    rapid = (rng.random(n) < 0.02).tolist()
+    blocks = [
+        Rapid(x=x, y=y, z=z) if r else Linear(x=x, y=y, z=z, feed=f)
+        for (x, y, z), f, r in zip(xyz, feeds, rapid, strict=True)
+    ]
+    return Program(tuple(blocks))
+
+
+def naive_emit(program: Program, out: io.StringIO) -> int:
+    """The f-string emitter found in many hobby CAM scripts (kept correct: no -0 check)."""
+    n = 0
+    for b in program.blocks:
+        words = ["G1" if type(b) is Linear else "G0"]
+        for letter, v in (("X", b.x), ("Y", b.y), ("Z", b.z)):
+            if v is not None:
+                words.append(f"{letter}{v:.3f}")
+        if type(b) is Linear:
+            words.append(f"F{b.feed:.1f}")
+        out.write(" ".join(words) + "\n")
+        n += 1
+    return n
+
+
+def timed(fn):
+    gc.collect()
+    t0 = time.perf_counter()
+    result = fn()
+    return result, time.perf_counter() - t0
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--blocks", type=int, default=1_000_000)
+    ap.add_argument("--seed", type=int, default=1)
+    ap.add_argument("--repeat", type=int, default=1, help="best of N runs for our code")
+    args = ap.parse_args(argv)
+
+    print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}")
+    program, t_build = timed(lambda: build_program(args.blocks, args.seed))
+    print(f"built {len(program):,} blocks in {t_build:.2f} s")
+
+    def ours_emit():
+        s = io.StringIO()
+        return emit(program, LINUXCNC, TextWriter(s)), s
+
+    best = min((timed(ours_emit) for _ in range(args.repeat)), key=lambda r: r[1])
+    (n_ours, _), t_ours = best
+    (n_naive), t_naive = timed(lambda: naive_emit(program, io.StringIO()))
+    r_emit_ours, r_emit_naive = n_ours / t_ours, n_naive / t_naive
+    print("\nemission (lines/s)")
+    print(f"  gcode.emit (numpy columns) {r_emit_ours:12,.0f}  ({t_ours:.2f} s)")
+    print(f"  naive f-string emitter     {r_emit_naive:12,.0f}  ({t_naive:.2f} s)")
+    print(f"  ratio ours/naive           {r_emit_ours / r_emit_naive:12.2f}x  (target >= 3x)")
+
+    full = replace(LINUXCNC, suppress_modal=False)
+    s = io.StringIO()
+    emit(program, full, TextWriter(s))
+    text = s.getvalue()
+    n_lines = text.count("\n")
+    print(f"\nparse file: {n_lines:,} lines, {len(text) / 1e6:.1f} MB, every G word present")
+
+    best = min((timed(lambda: parse(text, full)) for _ in range(args.repeat)), key=lambda r: r[1])
+    parsed, t_parse = best
+    assert len(parsed) == n_lines - 2 + len(full.preamble)
+    rates = {"gcode.parse (strict IR)": n_lines / t_parse}
+
+    try:
+        from gcodeparser import parse_gcode_lines
+
+        _, t_gp = timed(lambda: sum(1 for _ in parse_gcode_lines(text)))
+        rates["gcodeparser 0.3"] = n_lines / t_gp
+    except ImportError:
+        print("  gcodeparser not installed: pip install gcodeparser")
+    try:
+        import pygcode
+
+        def run_pygcode():
+            return sum(1 for line in text.splitlines() if pygcode.Line(line))
+
+        _, t_pg = timed(run_pygcode)
+        rates[f"pygcode {pygcode.__version__}"] = n_lines / t_pg
+    except Exception as exc:  # pygcode is old; report and skip if it breaks on 3.11
+        print(f"  pygcode skipped: {type(exc).__name__}: {exc}")
+
+    print("parse (lines/s)")
+    for name, rate in rates.items():
+        print(f"  {name:26s} {rate:12,.0f}")
+    ours = rates["gcode.parse (strict IR)"]
+    for name, rate in rates.items():
+        if not name.startswith("gcode."):
+            print(f"  ratio ours/{name:15s} {ours / rate:10.2f}x")
+    print("  (target: >= 10x gcodeparser)")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,223 @@
+"""Controller dialects as data: one frozen ``Dialect`` and the presets.
+
+A dialect says what a controller accepts and how text is laid out for it: decimals, axis
+letters, arcs, inverse time, tool change, O words, ``%`` delimiters, line numbers, comment
+style, line-length limit, modal suppression and the preamble/postamble (IR blocks, written
+through the same formatter as the program). Both the emitter and the parser read it.
+
+Presets: :data:`GRBL`, :data:`LINUXCNC`, :data:`FANUC` and the permissive
+:data:`GENERIC` (everything we can parse, no line limit), the parser's default.
+
+Examples
+--------
+>>> from gcode.dialects import dialect_by_name
+>>> d = dialect_by_name("grbl")
+>>> d.axes, d.max_line_length, d.inverse_time
+(('x', 'y', 'z'), 79, False)
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import Enum
+
+from gcode.numbers import Decimals
+from gcode.program import (
+    AXES,
+    Block,
+    DistanceMode,
+    FeedMode,
+    Plane,
+    SetDistanceMode,
+    SetFeedMode,
+    SetPlane,
+)
+
+__all__ = [
+    "FANUC",
+    "GENERIC",
+    "GRBL",
+    "LINUXCNC",
+    "CommentStyle",
+    "Dialect",
+    "dialect_by_name",
+    "dialect_names",
+]
+
+
+class CommentStyle(Enum):
+    """How comments are written: ``(text)`` or ``; text``."""
+
+    PARENS = "parens"
+    SEMICOLON = "semicolon"
+
+
+_SAFE_START: tuple[Block, ...] = (
+    SetFeedMode(FeedMode.UNITS_PER_MINUTE),
+    SetPlane(Plane.XY),
+    SetDistanceMode(DistanceMode.ABSOLUTE),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Dialect:
+    """What one controller accepts and how G-code text is laid out for it.
+
+    Parameters
+    ----------
+    name : str
+        Preset name.
+    axes : tuple of str
+        Axis words accepted, as IR field names (``"x"`` ... ``"c"``).
+    decimals : Decimals
+        Decimals per kind of value.
+    trim_zeros : bool
+        Drop trailing fraction zeros.
+    keep_point : bool
+        Keep the decimal point on integral values (``X10.``), for controls that read
+        point-less numbers in least-input increments (Fanuc).
+    max_line_length : int or None
+        Longest block in characters, counted as GRBL counts them (spaces and comments
+        excluded); None for no limit.
+    word_separator : str
+        Text between words (``""`` for compact GRBL streaming).
+    comment_style : CommentStyle
+        Comment syntax written by the emitter (the parser reads both).
+    arcs : bool
+        G2/G3 accepted.
+    inverse_time : bool
+        G93 accepted.
+    tool_change : bool
+        M6 accepted.
+    o_words : bool
+        ``O`` program-number words accepted.
+    program_number : bool
+        The emitter writes an ``O`` line (``O0001 (NAME)``).
+    program_number_digits : int
+        Zero padding of the program number.
+    percent : bool
+        The emitter writes ``%`` delimiter lines (the parser accepts ``%`` when
+        ``accept_percent``).
+    accept_percent : bool
+        The parser accepts ``%`` lines.
+    line_numbers : bool
+        The emitter writes N words.
+    line_number_start, line_number_step, line_number_max : int
+        N numbering: first, increment, and the value after which numbering restarts.
+    suppress_modal : bool
+        Omit the motion G word and F when unchanged (F is always written in G93).
+    pad_codes : bool
+        Write G and M numbers with two digits (``G01``).
+    dwell_ms : bool
+        G4 P is in milliseconds (Fanuc) instead of seconds.
+    preamble, postamble : tuple of Block
+        Blocks written before and after the program's own blocks (after the units line).
+    """
+
+    name: str
+    axes: tuple[str, ...] = AXES
+    decimals: Decimals = field(default_factory=Decimals)
+    trim_zeros: bool = True
+    keep_point: bool = False
+    max_line_length: int | None = None
+    word_separator: str = " "
+    comment_style: CommentStyle = CommentStyle.PARENS
+    arcs: bool = True
+    inverse_time: bool = True
+    tool_change: bool = True
+    o_words: bool = True
+    program_number: bool = False
+    program_number_digits: int = 4
+    percent: bool = False
+    accept_percent: bool = True
+    line_numbers: bool = False
+    line_number_start: int = 10
+    line_number_step: int = 10
+    line_number_max: int = 99999
+    suppress_modal: bool = True
+    pad_codes: bool = False
+    dwell_ms: bool = False
+    preamble: tuple[Block, ...] = ()
+    postamble: tuple[Block, ...] = ()
+
+    def __post_init__(self) -> None:
+        bad = [a for a in self.axes if a not in AXES]
+        if bad:
+            raise ValueError(f"Dialect.axes must be among {AXES}, got {bad!r}")
+        if self.max_line_length is not None and self.max_line_length < 8:
+            raise ValueError(f"max_line_length too small: {self.max_line_length!r}")
+        if self.word_separator not in ("", " "):
+            raise ValueError(f"word_separator must be '' or ' ', got {self.word_separator!r}")
+        if self.line_number_step <= 0 or self.line_number_start < 0:
+            raise ValueError("line numbers need start >= 0 and step > 0")
+
+
+#: GRBL 1.1: XYZ only, 79 characters (80-byte line buffer incl. NUL, error:11 beyond),
+#: no tool change, arcs, no G93 (by project choice), no O words, no ``%``, compact text.
+GRBL = Dialect(
+    name="grbl",
+    axes=("x", "y", "z"),
+    max_line_length=79,
+    word_separator="",
+    inverse_time=False,
+    tool_change=False,
+    o_words=False,
+    accept_percent=False,
+    preamble=_SAFE_START,
+)
+
+#: LinuxCNC 2.9: A/B/C, G93, tool change, O words; rs274ngc's LINELEN is 255.
+LINUXCNC = Dialect(
+    name="linuxcnc",
+    max_line_length=255,
+    preamble=_SAFE_START,
+)
+
+#: Fanuc-style ISO: ``%`` delimiters, ``O0001 (NAME)``, N numbers, ``G01``, points on
+#: integral values, G4 P in milliseconds.
+FANUC = Dialect(
+    name="fanuc",
+    keep_point=True,
+    program_number=True,
+    percent=True,
+    line_numbers=True,
+    pad_codes=True,
+    dwell_ms=True,
+    preamble=_SAFE_START,
+)
+
+#: Everything the parser understands, no line limit: the parser's default.
+GENERIC = Dialect(name="generic")
+
+_PRESETS = {d.name: d for d in (GRBL, LINUXCNC, FANUC, GENERIC)}
+
+
+def dialect_names() -> tuple[str, ...]:
+    """Return the preset names."""
+    return tuple(_PRESETS)
+
+
+def dialect_by_name(name: str) -> Dialect:
+    """Return the preset called ``name`` (case-insensitive).
+
+    Parameters
+    ----------
+    name : str
+        ``"grbl"``, ``"linuxcnc"``, ``"fanuc"`` or ``"generic"``.
+
+    Returns
+    -------
+    Dialect
+        The preset.
+
+    Raises
+    ------
+    ValueError
+        For an unknown name; the message lists the known ones.
+    """
+    try:
+        return _PRESETS[name.strip().lower()]
+    except KeyError:
+        raise ValueError(
+            f"unknown dialect {name!r}; known: {', '.join(sorted(_PRESETS))}"
+        ) from None

@@ -1,0 +1,319 @@
+"""The one number formatter and reader for all G-code text.
+
+Every number the emitter writes goes through :func:`format_number` (one value) or
+:func:`format_matrix` (a whole column, vectorized with numpy); the parser reads numbers
+with :func:`read_number` or the same grammar (:data:`NUMBER_PATTERN`). Rules:
+
+* fixed point with a number of decimals chosen by the kind of value (:class:`Decimals`);
+* never an exponent (``1e-05``), never ``-0``, never ``nan``/``inf`` (refused);
+* independent of the process locale (no ``locale`` calls, ASCII digits and ``.`` only);
+* optional trim of trailing zeros (``1.500`` -> ``1.5``, ``2.000`` -> ``2``) and an option
+  to keep the decimal point on integral values (``2.``) for Fanuc-style controls, where a
+  coordinate without a point is read in least-input increments (``X2`` = 0.002 mm).
+
+Rounding is half-to-even of ``value * 10**decimals`` in binary floating point, identical
+in the scalar and the vectorized paths (``round`` and ``np.rint`` agree on every float).
+
+Examples
+--------
+>>> from gcode.numbers import format_number, read_number
+>>> format_number(-0.0004, 3), format_number(1e-20, 3), format_number(12.5, 3)
+('0', '0', '12.5')
+>>> format_number(2.0, 3, keep_point=True), format_number(1e21, 3)
+('2.', '1000000000000000000000')
+>>> read_number("-.5"), read_number("10.")
+(-0.5, 10.0)
+"""
+
+from __future__ import annotations
+
+import math
+import re
+from dataclasses import dataclass
+from enum import Enum
+from fractions import Fraction
+
+import numpy as np
+import numpy.typing as npt
+
+from gcode.errors import ErrorCode, SyntaxGCodeError
+
+__all__ = [
+    "MM_PER_INCH",
+    "NUMBER_PATTERN",
+    "Decimals",
+    "NumberKind",
+    "format_array",
+    "format_matrix",
+    "format_number",
+    "read_number",
+]
+
+#: Millimetres per inch, exact by definition (1959 international inch). Lengths are
+#: converted with ``mm / MM_PER_INCH`` and ``inch * MM_PER_INCH``; never with a rounded
+#: reciprocal, and never for rotary axes.
+MM_PER_INCH = 25.4
+
+#: The number grammar shared by emitter and parser: optional sign, digits with an
+#: optional point, or a point followed by digits. ASCII digits only; no exponent.
+NUMBER_PATTERN = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+_NUMBER_RE = re.compile(NUMBER_PATTERN)
+
+# Values whose scaled magnitude exceeds this leave the int64 vector path.
+_VECTOR_LIMIT = 2.0**62
+
+
+class NumberKind(Enum):
+    """Kinds of values that get their own number of decimals."""
+
+    COORD_MM = "coordinate, mm"
+    COORD_INCH = "coordinate, inch"
+    ANGLE = "rotary angle, degrees"
+    FEED_MM = "feed, mm/min"
+    FEED_INCH = "feed, inch/min"
+    INVERSE_TIME = "inverse-time feed, 1/min"
+    SPINDLE = "spindle speed, rev/min"
+    DWELL = "dwell, s"
+
+
+@dataclass(frozen=True, slots=True)
+class Decimals:
+    """Decimals written for each kind of value.
+
+    Parameters
+    ----------
+    coord_mm : int
+        3: 1 um, finer than the step size of hobby and most industrial machines, and the
+        resolution GRBL reports (``N_DECIMAL_COORDVALUE_MM``).
+    coord_inch : int
+        4: 0.0001 in = 2.54 um, GRBL's ``N_DECIMAL_COORDVALUE_INCH``.
+    angle : int
+        3: 0.001 degree, about 1.7 um of arc at 100 mm radius.
+    feed_mm : int
+        1: 0.1 mm/min; feeds are not positions and need no more.
+    feed_inch : int
+        2: 0.01 in/min = 0.254 mm/min.
+    inverse_time : int
+        4: inverse-time F (1/min) of slow long moves can be well below 1, where a
+        relative resolution better than 0.1 % needs 4 decimals.
+    spindle : int
+        0: whole rev/min.
+    dwell : int
+        3: 1 ms.
+    """
+
+    coord_mm: int = 3
+    coord_inch: int = 4
+    angle: int = 3
+    feed_mm: int = 1
+    feed_inch: int = 2
+    inverse_time: int = 4
+    spindle: int = 0
+    dwell: int = 3
+
+    def __post_init__(self) -> None:
+        for name in self.__dataclass_fields__:
+            d = getattr(self, name)
+            if not isinstance(d, int) or not 0 <= d <= 9:
+                raise ValueError(f"Decimals.{name} must be an int in 0..9, got {d!r}")
+
+    def of(self, kind: NumberKind) -> int:
+        """Return the decimals for ``kind``."""
+        return int(getattr(self, _KIND_FIELD[kind]))
+
+
+_KIND_FIELD = {
+    NumberKind.COORD_MM: "coord_mm",
+    NumberKind.COORD_INCH: "coord_inch",
+    NumberKind.ANGLE: "angle",
+    NumberKind.FEED_MM: "feed_mm",
+    NumberKind.FEED_INCH: "feed_inch",
+    NumberKind.INVERSE_TIME: "inverse_time",
+    NumberKind.SPINDLE: "spindle",
+    NumberKind.DWELL: "dwell",
+}
+
+
+def _not_finite(value: float) -> SyntaxGCodeError:
+    return SyntaxGCodeError(ErrorCode.NOT_FINITE, f"cannot write {value!r} as G-code")
+
+
+def format_number(
+    value: float, decimals: int = 3, *, trim: bool = True, keep_point: bool = False
+) -> str:
+    """Format one value as fixed-point G-code text.
+
+    Parameters
+    ----------
+    value : float
+        The value, already in the output unit (mm, inch, degrees, ...).
+    decimals : int
+        Digits after the point (0-9).
+    trim : bool
+        Drop trailing zeros of the fraction (and the point if nothing is left).
+    keep_point : bool
+        With ``decimals > 0``, keep a trailing ``.`` on integral values (``2.``).
+
+    Returns
+    -------
+    str
+        ASCII text: optional ``-``, digits, optional point and fraction.
+
+    Raises
+    ------
+    GCodeError
+        Code NOT_FINITE for NaN or infinity.
+    """
+    value = float(value)
+    if not math.isfinite(value):
+        raise _not_finite(value)
+    if abs(value) < 1e15:
+        q = round(value * (10**decimals))
+    else:  # beyond 2**50 floats are (nearly) integers: exact decimal rounding
+        q = round(Fraction(value) * 10**decimals)  # exact, half to even
+    digits = str(abs(q))
+    sign = "-" if q < 0 else ""
+    if decimals == 0:
+        return sign + digits
+    digits = digits.rjust(decimals + 1, "0")
+    whole, frac = digits[:-decimals], digits[-decimals:]
+    if trim:
+        frac = frac.rstrip("0")
+    if frac:
+        return f"{sign}{whole}.{frac}"
+    return f"{sign}{whole}." if keep_point else sign + whole
+
+
+def format_matrix(
+    values: npt.ArrayLike, decimals: int = 3, *, trim: bool = True, keep_point: bool = False
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]] | None:
+    """Format a column of values into a character matrix, vectorized.
+
+    Row ``n`` of ``chars[keep]`` (row-major) is exactly ``format_number(values[n], ...)``.
+    The emitter places such matrices side by side and compresses them with one boolean
+    index into the bytes of many lines at once.
+
+    Parameters
+    ----------
+    values : array_like of float, shape (n,)
+        Values in the output unit.
+    decimals : int
+        Digits after the point (0-9).
+    trim : bool
+        Drop trailing zeros of the fraction.
+    keep_point : bool
+        Keep a trailing point on integral values when ``decimals > 0``.
+
+    Returns
+    -------
+    (chars, keep) or None
+        ``chars`` uint8 (n, w) ASCII codes and ``keep`` bool (n, w); None when some
+        value is too large for the int64 path (callers then use :func:`format_number`).
+
+    Raises
+    ------
+    GCodeError
+        Code NOT_FINITE if any value is NaN or infinite.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    n = v.shape[0]
+    if not np.isfinite(v).all():
+        raise _not_finite(float(v[~np.isfinite(v)][0]))
+    if n and float(np.abs(v).max()) >= 1e15:  # format_number's exact-decimal range
+        return None
+    q = np.rint(v * float(10**decimals))
+    if n and float(np.abs(q).max()) >= _VECTOR_LIMIT:
+        return None
+    qi = q.astype(np.int64)
+    neg = qi < 0
+    mag = np.abs(qi)
+    scale = np.int64(10**decimals)
+    whole = mag // scale
+    frac = mag - whole * scale
+    top = int(whole.max()) if n else 0
+    n_whole_max = len(str(top))
+    n_whole = np.ones(n, dtype=np.int64)
+    for k in range(1, n_whole_max):
+        n_whole += whole >= 10**k
+    width = 1 + n_whole_max + (1 + decimals if decimals else 0)
+    chars = np.empty((n, width), dtype=np.uint8)
+    keep = np.empty((n, width), dtype=np.bool_)
+    chars[:, 0] = ord("-")
+    keep[:, 0] = neg & (qi != 0)
+    rest = whole
+    for col in range(n_whole_max, 0, -1):  # least significant digit in the last column
+        rest, digit = np.divmod(rest, 10)
+        chars[:, col] = digit + 48
+        keep[:, col] = (n_whole_max - col) < n_whole
+    if decimals:
+        if trim:
+            n_frac = np.full(n, decimals, dtype=np.int64)
+            for k in range(1, decimals + 1):
+                n_frac -= (frac % (10**k)) == 0
+        else:
+            n_frac = np.full(n, decimals, dtype=np.int64)
+        point = 1 + n_whole_max
+        chars[:, point] = ord(".")
+        keep[:, point] = (n_frac > 0) | keep_point
+        rest = frac
+        for m in range(decimals - 1, -1, -1):
+            rest, digit = np.divmod(rest, 10)
+            chars[:, point + 1 + m] = digit + 48
+            keep[:, point + 1 + m] = m < n_frac
+    return chars, keep
+
+
+def format_array(
+    values: npt.ArrayLike, decimals: int = 3, *, trim: bool = True, keep_point: bool = False
+) -> list[str]:
+    """Format a column of values to a list of strings (vectorized where possible).
+
+    Parameters
+    ----------
+    values : array_like of float, shape (n,)
+        Values in the output unit.
+    decimals : int
+        Digits after the point.
+    trim : bool
+        Drop trailing zeros of the fraction.
+    keep_point : bool
+        Keep a trailing point on integral values when ``decimals > 0``.
+
+    Returns
+    -------
+    list of str
+        Same text as :func:`format_number` for every value.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    res = format_matrix(v, decimals, trim=trim, keep_point=keep_point)
+    if res is None:
+        return [format_number(x, decimals, trim=trim, keep_point=keep_point) for x in v]
+    chars, keep = res
+    lengths = keep.sum(axis=1)
+    flat = chars[keep].tobytes().decode("ascii")
+    ends = np.cumsum(lengths).tolist()
+    starts = [0, *ends[:-1]]
+    return [flat[s:e] for s, e in zip(starts, ends, strict=True)]
+
+
+def read_number(text: str) -> float:
+    """Read one number written by the formatter (or any plain fixed-point number).
+
+    Parameters
+    ----------
+    text : str
+        ``[+-]digits[.digits]`` or ``[+-].digits``; no spaces, no exponent.
+
+    Returns
+    -------
+    float
+        The value (correctly rounded, as ``float(text)``).
+
+    Raises
+    ------
+    GCodeError
+        Code BAD_NUMBER_FORMAT for anything else (``1e-3``, ``nan``, ``1,5``, ``""``).
+    """
+    if _NUMBER_RE.fullmatch(text) is None:
+        raise SyntaxGCodeError(ErrorCode.BAD_NUMBER_FORMAT, f"not a fixed-point number: {text!r}")
+    return float(text)
