@@ -3,7 +3,9 @@
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
+import pkgutil
 import sys
 from pathlib import Path
 
@@ -31,7 +33,16 @@ def _parser() -> argparse.ArgumentParser:
     curve.add_argument("--json", action="store_true", help="print the report as JSON")
     demo = commands.add_parser("demo", help="fit the bundled examples and print the report")
     demo.add_argument("--out", default="demo", help="folder for the outputs (demo/)")
+    _register_command_modules(commands)
     return parser
+
+
+def _register_command_modules(commands: argparse._SubParsersAction) -> None:
+    """Let every module in :mod:`streamline_cam.commands` add its sub-command."""
+    from . import commands as package
+
+    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
+        importlib.import_module(f"{package.__name__}.{info.name}").register(commands)
 
 
 def _fit_curve(args: argparse.Namespace) -> int:
@@ -56,6 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (non-zero on error)."""
     args = _parser().parse_args(argv)
     try:
+        handler = getattr(args, "handler", None)
+        if handler is not None:
+            return handler(args)
         if args.command == "fit":
             return _fit_curve(args)
         from .demo import run_demo

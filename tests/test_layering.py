@@ -16,10 +16,10 @@ ALLOWED = {
 # third-party module -> path prefixes (relative to the root) allowed to import it
 CORNERS = {
     "serial": ("gcode/senders/serial.py", "simulator/"),
-    "pymodbus": ("gcode/senders/modbus.py", "simulator/modbus_server.py"),
+    "pymodbus": ("gcode/senders/modbus", "simulator/modbus"),
     "scipy": ("toolpath/",),
     "shapely": ("toolpath/",),
-    "matplotlib": ("toolpath/plotting.py", "streamline_cam/plots.py"),
+    "matplotlib": ("toolpath/plotting", "streamline_cam/plots"),
 }
 
 

@@ -1,0 +1,214 @@
+"""``Toolpath``: the planner's output and the post's input, an immutable value of arrays.
+
+Point ``i`` is a cutter location: the **tool tip** (the lowest point of the cutter on its
+axis: a ball's bottom, a flat or bull-nose cutter's face centre) in the workpiece frame, mm,
+with the unit **tool axis** from the tip towards the spindle. ``kinds[i]`` and
+``feeds_mm_per_min[i]`` describe the move that *arrives* at point ``i`` (point 0 is where the
+tool starts, reached by a rapid). Rapids carry feed ``0`` (the machine's rapid rate applies).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from enum import IntEnum
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from machines import Machine
+from machines.kinematics import InverseSolution, solve_inverse
+from machines.limits import min_segment_times
+
+from .errors import DataFileError, InvalidParameterError
+
+__all__ = ["TOOLPATH_FORMAT_VERSION", "MoveKind", "Toolpath"]
+
+#: Bumped whenever the ``.npz`` layout changes; ``load`` refuses other versions.
+TOOLPATH_FORMAT_VERSION = 1
+
+
+class MoveKind(IntEnum):
+    """What the move arriving at a point does."""
+
+    RAPID = 0  #: positioning above the part, at the machine's rapid rate
+    PLUNGE = 1  #: feeding down from clearance towards the part
+    LEAD_IN = 2  #: approach arc or line onto the surface
+    CUT = 3  #: cutting along a pass
+    LEAD_OUT = 4  #: departing arc or line off the surface
+    LINK = 5  #: feed move between passes without retracting (zig-zag, spiral step)
+    RETRACT = 6  #: feeding up to clearance
+
+
+def _frozen(array: ArrayLike, dtype: Any) -> NDArray[Any]:
+    out = np.array(array, dtype=dtype, copy=True)
+    out.setflags(write=False)
+    return out
+
+
+@dataclass(frozen=True, eq=False)
+class Toolpath:
+    """Cutter locations in order, with tool axes, move kinds and feeds.
+
+    Attributes
+    ----------
+    positions_mm : ndarray, shape (n, 3)
+        Tool-tip positions in the workpiece frame.
+    tool_axes : ndarray, shape (n, 3)
+        Unit tool axes (tip towards spindle).
+    kinds : ndarray of uint8, shape (n,)
+        :class:`MoveKind` of the move arriving at each point.
+    feeds_mm_per_min : ndarray, shape (n,)
+        Tool-tip feed of the move arriving at each point (0 for rapids).
+    pass_index : ndarray of int32, shape (n,)
+        The finishing pass a point belongs to, ``-1`` for linking and positioning moves.
+    metadata : dict
+        Free-form strings (cutter, surface, parameters) carried into the program header.
+    """
+
+    positions_mm: NDArray[np.float64]
+    tool_axes: NDArray[np.float64]
+    kinds: NDArray[np.uint8]
+    feeds_mm_per_min: NDArray[np.float64]
+    pass_index: NDArray[np.int32]
+    metadata: dict[str, str] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        pos = np.asarray(self.positions_mm, dtype=float)
+        if pos.ndim != 2 or pos.shape[1] != 3:
+            raise InvalidParameterError(f"positions_mm must have shape (n, 3), got {pos.shape}")
+        n = len(pos)
+        axes = np.asarray(self.tool_axes, dtype=float)
+        if axes.shape == (3,):
+            axes = np.broadcast_to(axes, (n, 3))
+        checks = {
+            "tool_axes": (axes, (n, 3)),
+            "kinds": (np.asarray(self.kinds), (n,)),
+            "feeds_mm_per_min": (np.asarray(self.feeds_mm_per_min, dtype=float), (n,)),
+            "pass_index": (np.asarray(self.pass_index), (n,)),
+        }
+        for name, (value, shape) in checks.items():
+            if value.shape != shape:
+                raise InvalidParameterError(f"{name} must have shape {shape}, got {value.shape}")
+        for name, value in (("positions_mm", pos), ("tool_axes", axes),
+                            ("feeds_mm_per_min", checks["feeds_mm_per_min"][0])):
+            bad = ~np.isfinite(value).reshape(n, -1).all(axis=1)
+            if bad.any():
+                raise InvalidParameterError(
+                    f"{name} has a non-finite value at point {int(np.argmax(bad))}")
+        norms = np.linalg.norm(axes, axis=1)
+        bad = np.abs(norms - 1.0) > 1e-6
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise InvalidParameterError(
+                f"tool_axes must be unit vectors; point {i} has length {norms[i]:.6g}")
+        kinds = checks["kinds"][0]
+        known = np.isin(kinds, [k.value for k in MoveKind])
+        if not known.all():
+            i = int(np.argmax(~known))
+            raise InvalidParameterError(f"unknown move kind {kinds[i]!r} at point {i}")
+        feeds = checks["feeds_mm_per_min"][0]
+        needs_feed = (kinds != MoveKind.RAPID) & (feeds <= 0.0)
+        if n and needs_feed[1:].any():
+            i = 1 + int(np.argmax(needs_feed[1:]))
+            raise InvalidParameterError(
+                f"feed move {MoveKind(int(kinds[i])).name} at point {i} has no positive feed")
+        object.__setattr__(self, "positions_mm", _frozen(pos, float))
+        object.__setattr__(self, "tool_axes", _frozen(axes, float))
+        object.__setattr__(self, "kinds", _frozen(kinds, np.uint8))
+        object.__setattr__(self, "feeds_mm_per_min", _frozen(feeds, float))
+        object.__setattr__(self, "pass_index", _frozen(checks["pass_index"][0], np.int32))
+        object.__setattr__(self, "metadata", {str(k): str(v) for k, v in self.metadata.items()})
+
+    # ------------------------------------------------------------------ figures
+    def __len__(self) -> int:
+        return len(self.positions_mm)
+
+    @property
+    def segment_lengths_mm(self) -> NDArray[np.float64]:
+        """Tool-tip length of each move (``n - 1`` values; move ``i`` arrives at ``i + 1``)."""
+        return np.linalg.norm(np.diff(self.positions_mm, axis=0), axis=1)
+
+    @property
+    def length_mm(self) -> float:
+        """Total tool-tip path length, rapids included."""
+        return float(self.segment_lengths_mm.sum())
+
+    @property
+    def cutting_length_mm(self) -> float:
+        """Tool-tip length of the feed moves (everything but rapids)."""
+        return float(self.segment_lengths_mm[self.kinds[1:] != MoveKind.RAPID].sum())
+
+    @property
+    def bounds_mm(self) -> NDArray[np.float64]:
+        """``[[xmin, ymin, zmin], [xmax, ymax, zmax]]`` of the tool tip."""
+        if not len(self):
+            return np.full((2, 3), np.nan)
+        return np.stack([self.positions_mm.min(axis=0), self.positions_mm.max(axis=0)])
+
+    @property
+    def n_passes(self) -> int:
+        """Number of distinct finishing passes."""
+        return int(np.unique(self.pass_index[self.pass_index >= 0]).size)
+
+    # ------------------------------------------------------------------ machine
+    def to_machine(self, machine: Machine, *, start: ArrayLike | None = None) -> InverseSolution:
+        """Joint values through the machine's inverse kinematics (machine axis order)."""
+        return solve_inverse(machine, self.positions_mm, self.tool_axes, start=start)
+
+    def segment_times_s(self, machine: Machine,
+                        joints: NDArray[np.float64] | None = None) -> NDArray[np.float64]:
+        """Seconds per move: the programmed feed, slowed to the axes' rate limits.
+
+        Rapids run at the slowest axis's maximum rate; feed moves take
+        ``length / feed`` unless an axis (linear or rotary) would exceed its rate.
+        Acceleration is ignored, so this is a lower bound on real machining time.
+        """
+        if joints is None:
+            joints = self.to_machine(machine).joints
+        limit_s = min_segment_times(machine, joints)
+        feeds = self.feeds_mm_per_min[1:]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            feed_s = np.where(feeds > 0.0, 60.0 * self.segment_lengths_mm / feeds, 0.0)
+        return np.maximum(feed_s, limit_s)
+
+    def estimated_time_s(self, machine: Machine) -> float:
+        """Total of :meth:`segment_times_s` (seconds)."""
+        return float(self.segment_times_s(machine).sum())
+
+    # ------------------------------------------------------------------ files
+    def save(self, path: str | Path) -> None:
+        """Write a ``.npz`` file (version :data:`TOOLPATH_FORMAT_VERSION`)."""
+        keys = np.array(list(self.metadata), dtype=str)
+        values = np.array(list(self.metadata.values()), dtype=str)
+        with Path(path).open("wb") as handle:
+            np.savez_compressed(
+                handle, format_version=np.array(TOOLPATH_FORMAT_VERSION),
+                positions_mm=self.positions_mm, tool_axes=self.tool_axes, kinds=self.kinds,
+                feeds_mm_per_min=self.feeds_mm_per_min, pass_index=self.pass_index,
+                metadata_keys=keys, metadata_values=values)
+
+    @classmethod
+    def load(cls, path: str | Path) -> Toolpath:
+        """Read a file written by :meth:`save`; refuses other format versions."""
+        try:
+            data = np.load(Path(path), allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise DataFileError(f"cannot read a toolpath: {exc}", path=str(path)) from None
+        with data:
+            missing = {"format_version", "positions_mm", "tool_axes", "kinds",
+                       "feeds_mm_per_min", "pass_index"} - set(data.files)
+            if missing:
+                raise DataFileError(f"not a toolpath file: missing {sorted(missing)}",
+                                    path=str(path))
+            version = int(data["format_version"])
+            if version != TOOLPATH_FORMAT_VERSION:
+                raise DataFileError(
+                    f"toolpath format version {version}; this program reads version "
+                    f"{TOOLPATH_FORMAT_VERSION}", path=str(path))
+            metadata = dict(zip(data.get("metadata_keys", np.array([], dtype=str)).tolist(),
+                                data.get("metadata_values", np.array([], dtype=str)).tolist(),
+                                strict=True))
+            return cls(data["positions_mm"], data["tool_axes"], data["kinds"],
+                       data["feeds_mm_per_min"], data["pass_index"], metadata)
