@@ -9,6 +9,8 @@ import pkgutil
 import sys
 from pathlib import Path
 
+from gcode.errors import GCodeError
+from machines.errors import MachineError
 from toolpath import read_points
 from toolpath.arrays import as_curve_points, as_positive_length
 from toolpath.errors import ToolpathError
@@ -75,7 +77,7 @@ def main(argv: list[str] | None = None) -> int:
         from .demo import run_demo
 
         return run_demo(Path(args.out))
-    except ToolpathError as exc:
+    except (ToolpathError, GCodeError, MachineError) as exc:
         print(f"toolpath: error: {exc}", file=sys.stderr)
         return 2
 
