@@ -13,8 +13,19 @@ fit_bspline_curve
     The cubic B-spline baseline with the same knot logic and interface -> ``BSplineCurve``.
 curve_from_dict
     Rebuild any fitted curve from its ``to_dict()`` form.
-read_points
-    Read points from CSV (header ``x,y[,z]``) or whitespace columns.
+fit_streamline_surface
+    ``∂X/∂t = T^{-1} D(t, s) T (X + c)`` through blade sections (Algorithm 4)
+    -> ``StreamlineSurface``.
+fit_bspline_surface
+    The bicubic tensor B-spline baseline, same knot logic -> ``BSplineSurface``.
+surface_from_dict
+    Rebuild a fitted surface from its ``to_dict()`` form.
+ParametricSurface
+    The surface interface planners read: points, partials, normals, curvatures, streamlines.
+read_points, read_sections, as_sections
+    Read points (``x,y[,z]``) or blade sections (``section,x,y,z``); validate sections.
+Toolpath, MoveKind
+    The planner's output: tool tips, tool axes, move kinds and feeds.
 ToolpathError
     Base of every error raised for bad input (also a ``ValueError``).
 """
@@ -24,6 +35,7 @@ from __future__ import annotations
 from typing import Any
 
 from .bspline_curve import BSplineCurve, fit_bspline_curve
+from .bspline_surface import BSplineSurface, fit_bspline_surface
 from .errors import (
     ConvergenceWarning,
     DataFileError,
@@ -33,25 +45,40 @@ from .errors import (
     ToolpathError,
 )
 from .linear_system import LINEAR_MODELS, LinearSystemCurve, fit_linear_system
-from .pointio import read_points
+from .path import MoveKind, Toolpath
+from .pointio import read_points, read_sections
+from .sections import Sections, as_sections
 from .streamline_curve import StreamlineCurve, fit_streamline_curve
+from .streamline_surface import StreamlineSurface, fit_streamline_surface
+from .surface import ParametricSurface
 
 __all__ = [
     "LINEAR_MODELS",
     "BSplineCurve",
+    "BSplineSurface",
     "ConvergenceWarning",
     "DataFileError",
     "FitError",
     "InvalidParameterError",
     "InvalidPointsError",
     "LinearSystemCurve",
+    "MoveKind",
+    "ParametricSurface",
+    "Sections",
     "StreamlineCurve",
+    "StreamlineSurface",
+    "Toolpath",
     "ToolpathError",
+    "as_sections",
     "curve_from_dict",
     "fit_bspline_curve",
+    "fit_bspline_surface",
     "fit_linear_system",
     "fit_streamline_curve",
+    "fit_streamline_surface",
     "read_points",
+    "read_sections",
+    "surface_from_dict",
 ]
 
 _KINDS = {"streamline_curve": StreamlineCurve, "bspline_curve": BSplineCurve}
@@ -64,3 +91,31 @@ def curve_from_dict(data: dict[str, Any]) -> StreamlineCurve | BSplineCurve:
         raise InvalidParameterError(
             f"not a saved curve: kind must be one of {sorted(_KINDS)}, got {kind!r}")
     return _KINDS[kind].from_dict(data)
+
+
+_SURFACE_KINDS = {"streamline_surface": StreamlineSurface, "bspline_surface": BSplineSurface}
+
+
+def surface_from_dict(data: dict[str, Any]) -> StreamlineSurface | BSplineSurface:
+    """Rebuild a fitted surface from ``to_dict()`` output (e.g. a saved blade.json).
+
+    Raises
+    ------
+    InvalidParameterError
+        Not a saved surface, or a surface saved in another format version.
+    """
+    from .fitted_surface import SURFACE_FORMAT_VERSION
+
+    kind = data.get("kind") if isinstance(data, dict) else None
+    if kind not in _SURFACE_KINDS:
+        raise InvalidParameterError(
+            f"not a saved surface: kind must be one of {sorted(_SURFACE_KINDS)}, got {kind!r}")
+    version = data.get("format_version")
+    if version != SURFACE_FORMAT_VERSION:
+        raise InvalidParameterError(
+            f"surface format version {version!r}; this program reads version "
+            f"{SURFACE_FORMAT_VERSION} (refit the surface)")
+    try:
+        return _SURFACE_KINDS[kind].from_dict(data)
+    except (KeyError, TypeError, ValueError) as exc:
+        raise InvalidParameterError(f"the saved {kind} is incomplete or damaged: {exc!r}") from None

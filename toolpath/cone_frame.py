@@ -117,25 +117,26 @@ def _directions(x: NDArray[np.float64]) -> list[NDArray[np.float64]]:
     return [s * v for v in vt for s in (1.0, -1.0)]
 
 
-def candidate_frames(x: NDArray[np.float64]) -> Iterator[ConeFrame]:
+def candidate_frames(x: NDArray[np.float64], *, margins: tuple[float, ...] = MARGINS,
+                     kappas: tuple[float, ...] = KAPPAS) -> Iterator[ConeFrame]:
     """Frames to try: the paper's untranslated one when it exists, then translations.
 
     Translations put the shifted barycenter at ``κ r`` along each principal axis (both
-    senses) for ``κ`` in ``KAPPAS``, with each margin in ``MARGINS``.
+    senses) for ``κ`` in ``kappas``, with each cone margin in ``margins``.
     """
     d = x.shape[1]
     zero = np.zeros(d)
     q = x.mean(axis=0)
     r = float(np.linalg.norm(x - q, axis=1).max())
-    for margin in MARGINS:
+    for margin in margins:
         frame = (algorithm1(x, zero, margin=margin, label=f"c=0 margin={margin}") if d == 2
                  else algorithm2(x, zero, margin=1 + margin, label=f"c=0 margin={margin}"))
         if frame is not None:
             yield frame
     for k, u in enumerate(_directions(x)):
-        for kappa in KAPPAS:
+        for kappa in kappas:
             c = kappa * r * u - q
-            for margin in MARGINS:
+            for margin in margins:
                 label = f"axis {k} kappa={kappa} margin={margin}"
                 frame = (algorithm1(x, c, margin=margin, label=label) if d == 2
                          else algorithm2(x, c, margin=1 + margin, label=label))

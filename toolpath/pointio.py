@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 
 from .errors import DataFileError
 
-__all__ = ["read_points"]
+__all__ = ["read_points", "read_sections"]
 
 _AXES = ("x", "y", "z")
 
@@ -31,6 +31,40 @@ def _parse_row(fields: list[str], *, path: str, line: int) -> list[float]:
     return values
 
 
+def _read_lines(path: str | Path) -> list[tuple[int, str]]:
+    """Numbered non-blank, non-comment lines of a text file."""
+    name = str(path)
+    try:
+        text = Path(path).read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        raise DataFileError(f"cannot read the file: {exc}", path=name) from None
+    lines = [
+        (no, raw) for no, raw in enumerate(text.splitlines(), start=1)
+        if raw.strip() and not raw.lstrip().startswith("#")
+    ]
+    if not lines:
+        raise DataFileError("the file holds no points", path=name)
+    return lines
+
+
+def _table(path: str | Path, lines: list[tuple[int, str]], columns: list[int],
+           n_fields: int, delimiter: str | None) -> NDArray[np.float64]:
+    """The numbers of ``columns`` on every line, each line checked for ``n_fields`` fields."""
+    name = str(path)
+    rows = []
+    for no, raw in lines:
+        fields = _split(raw, delimiter)
+        if len(fields) != n_fields:
+            raise DataFileError(
+                f"expected {n_fields} columns, found {len(fields)}: {raw.strip()!r}",
+                path=name, line=no,
+            )
+        rows.append(_parse_row([fields[c] for c in columns], path=name, line=no))
+    if not rows:
+        raise DataFileError("the file has a header but no points", path=name)
+    return np.asarray(rows, dtype=float)
+
+
 def read_points(path: str | Path) -> NDArray[np.float64]:
     """Read ordered points, in mm, from a text file.
 
@@ -47,17 +81,7 @@ def read_points(path: str | Path) -> NDArray[np.float64]:
     DataFileError
         Naming the file and the 1-based line of the first problem.
     """
-    name = str(path)
-    try:
-        text = Path(path).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        raise DataFileError(f"cannot read the file: {exc}", path=name) from None
-    lines = [
-        (no, raw) for no, raw in enumerate(text.splitlines(), start=1)
-        if raw.strip() and not raw.lstrip().startswith("#")
-    ]
-    if not lines:
-        raise DataFileError("the file holds no points", path=name)
+    lines = _read_lines(path)
     first_no, first = lines[0]
     delimiter = "," if "," in first else None
     head = _split(first, delimiter)
@@ -66,31 +90,60 @@ def read_points(path: str | Path) -> NDArray[np.float64]:
         if "x" not in lowered or "y" not in lowered:
             raise DataFileError(
                 f"the header {first.strip()!r} must name columns x and y (and optionally z)",
-                path=name, line=first_no,
+                path=str(path), line=first_no,
             )
         columns = [lowered.index(a) for a in _AXES if a in lowered]
-        expected_fields = len(head)
-        body = lines[1:]
-    else:
-        if len(head) not in (2, 3):
-            raise DataFileError(
-                f"expected 2 or 3 numbers per line, found {len(head)}", path=name, line=first_no
-            )
-        columns = list(range(len(head)))
-        expected_fields = len(head)
-        body = lines
-    rows = []
-    for no, raw in body:
-        fields = _split(raw, delimiter)
-        if len(fields) != expected_fields:
-            raise DataFileError(
-                f"expected {expected_fields} columns, found {len(fields)}: {raw.strip()!r}",
-                path=name, line=no,
-            )
-        rows.append(_parse_row([fields[c] for c in columns], path=name, line=no))
-    if not rows:
-        raise DataFileError("the file has a header but no points", path=name)
-    return np.asarray(rows, dtype=float)
+        return _table(path, lines[1:], columns, len(head), delimiter)
+    if len(head) not in (2, 3):
+        raise DataFileError(
+            f"expected 2 or 3 numbers per line, found {len(head)}", path=str(path),
+            line=first_no)
+    return _table(path, lines, list(range(len(head))), len(head), delimiter)
+
+
+def read_sections(path: str | Path) -> list[NDArray[np.float64]]:
+    """Read blade sections from CSV with the header ``section,x,y,z`` (any column order).
+
+    Rows are grouped by section, sections numbered in increasing order, and points are in
+    order within each section.
+
+    Returns
+    -------
+    list of ndarray, shape (n_j, 3)
+        One array per section, hub to tip (validate with :func:`toolpath.as_sections`).
+
+    Raises
+    ------
+    DataFileError
+        A missing column, a bad number, a section number that is not an integer, or
+        sections out of order or interleaved, naming the file line.
+    """
+    lines = _read_lines(path)
+    first_no, first = lines[0]
+    delimiter = "," if "," in first else None
+    lowered = [h.strip().lower() for h in _split(first, delimiter)]
+    missing = [c for c in ("section", *_AXES) if c not in lowered]
+    if missing:
+        raise DataFileError(
+            f"the header {first.strip()!r} lacks column(s) {', '.join(missing)}; "
+            "blade files need section,x,y,z", path=str(path), line=first_no)
+    columns = [lowered.index(c) for c in ("section", *_AXES)]
+    table = _table(path, lines[1:], columns, len(lowered), delimiter)
+    ids = table[:, 0]
+    line_numbers = [no for no, _ in lines[1:]]
+    bad = ids != np.round(ids)
+    if bad.any():
+        i = int(np.argmax(bad))
+        raise DataFileError(f"section number {ids[i]!r} is not an integer", path=str(path),
+                            line=line_numbers[i])
+    back = np.diff(ids) < 0
+    if back.any():
+        i = int(np.argmax(back)) + 1
+        raise DataFileError(
+            f"section {int(ids[i])} comes after section {int(ids[i - 1])}: rows must be "
+            "grouped by section in increasing order", path=str(path), line=line_numbers[i])
+    starts = np.flatnonzero(np.diff(ids)) + 1
+    return [chunk[:, 1:] for chunk in np.split(table, starts)]
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:

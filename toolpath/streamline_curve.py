@@ -119,7 +119,7 @@ class StreamlineCurve(FittedCurve):
 
 
 @dataclass(frozen=True)
-class _LogSpaceProblem:
+class LogSpaceProblem:
     """The data seen in one cone frame: ``Y_i = log(Z_i / Z_0)``."""
 
     x: NDArray[np.float64]
@@ -184,7 +184,7 @@ def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
     """
     best, best_err = None, np.inf
     for candidate in candidate_frames(x):
-        _, errors = _LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
+        _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
         if errors.max() < best_err:
             best, best_err = candidate, float(errors.max())
     if best is None:  # candidate_frames always yields translated frames for sane data
@@ -273,7 +273,7 @@ def fit_streamline_curve(
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
                                       minimax=False).knots
         chosen = _choose_frame(x, t, probe)
-    problem = _LogSpaceProblem(x, t, chosen)
+    problem = LogSpaceProblem(x, t, chosen)
     coef, errors, knot_vector = adapt_knots(
         x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)
     max_error, rms_error = error_figures(errors)

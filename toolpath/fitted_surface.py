@@ -1,0 +1,189 @@
+"""What the fitted surfaces share: grid fit, interpolation across sections, figures, JSON.
+
+Both fits separate (Algorithm 4 with the reading of ``paper.md`` §3): with the ``s``
+direction interpolating the sections, the tensor least squares of eq. 29 splits into one
+least-squares fit per section, on **common** ``t``-knots, followed by not-a-knot
+interpolation of each section's coefficients across ``s``. The per-section fits are solved
+together as one curve in ``R^(3m)`` (row ``i`` = point ``i`` of every section), so the knot
+driver of :mod:`toolpath.adaptive` (corners, error density, tolerance search, minimax
+polish) serves surfaces unchanged, with a column's error being its worst section's.
+
+A model describes section ``j`` by a **row** of numbers (its ``t``-coefficients, plus what
+else it needs); the surface interpolates the rows across ``s``. Interpolating all rows but
+row ``j`` and comparing the result at ``s_j`` with the data measures how well the surface
+follows the blade *between* sections (leave-one-out; with twice the section spacing it
+overstates the true in-between error of a cubic by up to about ``2^4``).
+"""
+
+from __future__ import annotations
+
+from abc import abstractmethod
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+import scipy.interpolate
+from numpy.typing import NDArray
+
+from .adaptive import KnotOptions, adapt_knots
+from .fitted_curve import error_figures
+from .sections import Sections
+from .splinefit import DEGREE, n_coefficients
+from .surface import ParametricSurface
+from .tensor_spline import TensorSpline, interpolate_across
+
+__all__ = ["FittedSurface", "GridFit", "column_errors", "fit_grid"]
+
+#: Bumped whenever ``to_dict`` changes shape; ``from_dict`` refuses other versions.
+SURFACE_FORMAT_VERSION = 1
+
+
+def column_errors(fitted: NDArray[np.float64], data: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distances ``(m, n)`` between fitted and data points, both ``(m, n, 3)``."""
+    return np.linalg.norm(fitted - data, axis=2)
+
+
+@dataclass(frozen=True)
+class GridFit:
+    """The ``t``-direction fit of every section on common knots."""
+
+    knots_t: NDArray[np.float64]
+    rows: NDArray[np.float64]  # (m, row length): each section's description
+    errors: NDArray[np.float64]  # (m, n) distances at the data
+
+
+def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
+             options: KnotOptions) -> GridFit:
+    """Run the knot driver on the sections seen as one curve in ``R^(3m)``.
+
+    ``fit_at(knots, weights) -> (rows (m, r), errors (m, n))`` fits every section on
+    ``knots``; the driver sees the per-column worst error.
+    """
+    def driver_fit(knots, weights):
+        rows, errors = fit_at(knots, weights)
+        return (rows, errors), errors.max(axis=0)
+
+    (rows, errors), _, knots = adapt_knots(sections.stacked, sections.t, seed_values,
+                                           driver_fit, options)
+    return GridFit(knots_t=knots, rows=rows, errors=errors)
+
+
+def _outward_sign(surface: ParametricSurface, sections: Sections) -> float:
+    """+1 if ``X_t x X_s`` points away from each section's centroid on average, else -1."""
+    normals = surface.normal(sections.t[None, :], sections.s[:, None])
+    away = sections.points - sections.points.mean(axis=1, keepdims=True)
+    return 1.0 if float(np.einsum("mnk,mnk->", normals, away)) >= 0.0 else -1.0
+
+
+@dataclass(frozen=True, eq=False, kw_only=True)
+class FittedSurface(ParametricSurface):
+    """Fields and figures common to the fitted surfaces.
+
+    Attributes
+    ----------
+    knots_t : ndarray
+        Clamped cubic knots along the sections (common to all sections).
+    knots_s : ndarray
+        Not-a-knot cubic knots across the sections.
+    row_coef : ndarray, shape (n_s, r)
+        Coefficients across ``s`` of the section rows (see the subclass).
+    t_params, s_params : ndarray
+        Grid parameters of the data columns and sections.
+    max_error, rms_error : float
+        Distance (mm) from the data points to ``X(t_i, s_j)``.
+    loo_error : float
+        Largest leave-one-out error over the interior sections (mm), the measure of the
+        fit *between* sections.
+    closed_t : bool
+        Closed sections: ``X(0, s) = X(1, s)`` (the seam, continuous in position).
+    orientation : float
+        ``+1`` or ``-1``, making ``orientation * X_t x X_s`` point outward.
+    """
+
+    knots_t: NDArray[np.float64]
+    knots_s: NDArray[np.float64]
+    row_coef: NDArray[np.float64]
+    t_params: NDArray[np.float64]
+    s_params: NDArray[np.float64]
+    max_error: float
+    rms_error: float
+    loo_error: float
+    closed_t: bool = False
+    orientation: float = 1.0
+
+    # ------------------------------------------------------------------ model hooks
+    @classmethod
+    @abstractmethod
+    def _row_points(cls, knots_t: NDArray[np.float64], row: NDArray[np.float64],
+                    t: NDArray[np.float64], extra: dict[str, Any]) -> NDArray[np.float64]:
+        """Points ``(n, 3)`` at ``t`` of the section described by ``row``."""
+
+    @property
+    def _n_tensor(self) -> int:
+        """Leading entries of a row that are the tensor coefficients (``n_t * 3``)."""
+        return n_coefficients(self.knots_t) * 3
+
+    @property
+    def tensor(self) -> TensorSpline:
+        """The bicubic part: ``G(t, s)`` or ``X(t, s)`` (eq. 29)."""
+        n_t, n_s = n_coefficients(self.knots_t), self.row_coef.shape[0]
+        coef = self.row_coef[:, :self._n_tensor].reshape(n_s, n_t, 3).transpose(1, 0, 2)
+        return TensorSpline(self.knots_t, self.knots_s, np.ascontiguousarray(coef))
+
+    @property
+    def n_control_points(self) -> tuple[int, int]:
+        """Control points ``(along t, across s)`` per coordinate."""
+        return self.tensor.shape
+
+    # ------------------------------------------------------------------ building
+    @classmethod
+    def _from_grid(cls, sections: Sections, grid: GridFit, **fields: Any) -> FittedSurface:
+        """Interpolate the rows across ``s`` and measure the result."""
+        knots_s, row_coef = interpolate_across(sections.s, grid.rows)
+        loo = cls._leave_one_out(sections, grid, fields)
+        max_error, rms_error = error_figures(grid.errors.ravel())
+        surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
+                      t_params=sections.t, s_params=sections.s, max_error=max_error,
+                      rms_error=rms_error, loo_error=loo, closed_t=sections.closed, **fields)
+        object.__setattr__(surface, "orientation", _outward_sign(surface, sections))
+        return surface
+
+    @classmethod
+    def _leave_one_out(cls, sections: Sections, grid: GridFit, extra: dict[str, Any]) -> float:
+        worst = 0.0
+        for j in range(1, sections.n_sections - 1):
+            keep = np.arange(sections.n_sections) != j
+            knots_s, coef = interpolate_across(sections.s[keep], grid.rows[keep])
+            row = scipy.interpolate.BSpline(knots_s, coef, DEGREE)(sections.s[j])
+            points = cls._row_points(grid.knots_t, row, sections.t, extra)
+            worst = max(worst, float(np.linalg.norm(points - sections.points[j], axis=1).max()))
+        return worst
+
+    def rows_at(self, s: NDArray[np.float64], ds: int = 0) -> NDArray[np.float64]:
+        """The interpolated rows (or their ``s``-derivatives) at ``s``: ``(len(s), r)``."""
+        spline = scipy.interpolate.BSpline(self.knots_s, self.row_coef, DEGREE)
+        return spline(np.clip(s, 0.0, 1.0), nu=ds)
+
+    # ------------------------------------------------------------------ JSON
+    def _common_dict(self) -> dict[str, Any]:
+        return {
+            "format_version": SURFACE_FORMAT_VERSION,
+            "knots_t": self.knots_t.tolist(), "knots_s": self.knots_s.tolist(),
+            "row_coef": self.row_coef.tolist(), "t_params": self.t_params.tolist(),
+            "s_params": self.s_params.tolist(), "max_error": self.max_error,
+            "rms_error": self.rms_error, "loo_error": self.loo_error,
+            "closed_t": self.closed_t, "orientation": self.orientation,
+        }
+
+    @staticmethod
+    def _common_fields(data: dict[str, Any]) -> dict[str, Any]:
+        return {
+            "knots_t": np.asarray(data["knots_t"], float),
+            "knots_s": np.asarray(data["knots_s"], float),
+            "row_coef": np.asarray(data["row_coef"], float),
+            "t_params": np.asarray(data["t_params"], float),
+            "s_params": np.asarray(data["s_params"], float),
+            "max_error": float(data["max_error"]), "rms_error": float(data["rms_error"]),
+            "loo_error": float(data["loo_error"]), "closed_t": bool(data["closed_t"]),
+            "orientation": float(data["orientation"]),
+        }

@@ -1,0 +1,193 @@
+"""Blade sections: validation and the grid parameters of a surface fit (Algorithm 4, step 1).
+
+A blade is ``m`` sections (profiles) stacked hub to tip, each ``n`` ordered points. The
+surface fit needs them on a grid: the same point count per section, so that column ``i``
+(the ``i``-th point of every section) gets one parameter ``t_i`` and section ``j`` one
+``s_j``:
+
+- ``t_i`` is the mean over the sections of the chord-length parameter of point ``i``
+  (each section's own chord lengths, normalized to [0, 1]);
+- ``s_j`` is the cumulative mean distance between corresponding points of consecutive
+  sections, normalized to [0, 1] (chord length across the sections).
+
+A **closed** section (a profile wrapped all around) is stored with its first point repeated
+at the end, so ``t = 0`` and ``t = 1`` are the same point (the seam).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .arrays import MIN_CURVE_POINTS, as_curve_points
+from .errors import InvalidParameterError, InvalidPointsError
+from .parametrize import unit_curve_parameters
+
+__all__ = ["CLOSURE_GAP_MM", "MIN_SECTIONS", "Sections", "as_sections"]
+
+#: A cubic across the sections needs four of them.
+MIN_SECTIONS = 4
+#: With ``closed=None``, a section whose last point lies this close to its first (mm) is a
+#: closed loop whose first point was repeated; give ``closed=True`` for a loop left open by
+#: a larger gap (a blunt trailing edge is an open section unless you say otherwise).
+CLOSURE_GAP_MM = 1e-3
+
+
+@dataclass(frozen=True, eq=False)
+class Sections:
+    """Validated sections on a grid.
+
+    Attributes
+    ----------
+    points : ndarray, shape (m, n, 3)
+        Points (mm), section ``j`` hub to tip, point ``i`` along the section; for closed
+        sections the last column repeats the first.
+    closed : bool
+        Whether the sections are closed loops.
+    t : ndarray, shape (n,)
+        Parameter of each column along the sections, 0 to 1.
+    s : ndarray, shape (m,)
+        Parameter of each section across the blade, 0 to 1.
+    """
+
+    points: NDArray[np.float64]
+    closed: bool
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+
+    @property
+    def n_sections(self) -> int:
+        """``m``."""
+        return self.points.shape[0]
+
+    @property
+    def n_columns(self) -> int:
+        """``n``, points per section (with the repeated seam point when closed)."""
+        return self.points.shape[1]
+
+    @property
+    def stacked(self) -> NDArray[np.float64]:
+        """The columns as one curve in ``R^(3m)``: row ``i`` is point ``i`` of every section."""
+        return self.points.transpose(1, 0, 2).reshape(self.n_columns, -1)
+
+
+def _section(j: int, raw: Any) -> NDArray[np.float64]:
+    try:
+        return as_curve_points(raw)
+    except InvalidPointsError as exc:
+        raise InvalidPointsError(f"section {j}: {exc}", index=exc.index) from None
+
+
+def _is_closed(points: list[NDArray[np.float64]], closed: bool | None) -> bool:
+    gaps = np.array([np.linalg.norm(p[-1] - p[0]) for p in points])
+    repeated = gaps <= CLOSURE_GAP_MM
+    if closed is None:
+        if repeated.any() and not repeated.all():
+            j = int(np.argmax(repeated != repeated[0]))
+            raise InvalidPointsError(
+                f"section {j} is {'closed' if repeated[j] else 'open'} but section 0 is "
+                f"{'closed' if repeated[0] else 'open'}: all sections must be one or the other")
+        return bool(repeated.all())
+    return bool(closed)
+
+
+def _column_parameters(points: NDArray[np.float64], params: Any) -> NDArray[np.float64]:
+    if not isinstance(params, str):  # one array for every section
+        return unit_curve_parameters(points[0], params)
+    t = np.mean([unit_curve_parameters(p, params) for p in points], axis=0)
+    t[0], t[-1] = 0.0, 1.0
+    return t
+
+
+def _section_parameters(points: NDArray[np.float64], section_params: Any
+                        ) -> NDArray[np.float64]:
+    if section_params is not None:
+        try:
+            return unit_curve_parameters(points[:, 0], section_params)
+        except InvalidParameterError as exc:
+            raise InvalidParameterError(f"section_params: {exc}") from None
+    gaps = np.linalg.norm(np.diff(points, axis=0), axis=2).mean(axis=1)  # (m-1,)
+    s = np.concatenate(([0.0], np.cumsum(gaps)))
+    return s / s[-1]
+
+
+def _check_order(points: NDArray[np.float64]) -> None:
+    """Sections must advance hub to tip: centroids strictly progress along the span."""
+    centroids = points.mean(axis=1)
+    span = centroids[-1] - centroids[0]
+    length = float(np.linalg.norm(span))
+    if length == 0.0:
+        raise InvalidPointsError("the first and last sections coincide: no span to fit")
+    along = (centroids - centroids[0]) @ (span / length)
+    back = np.diff(along) <= 0.0
+    if back.any():
+        j = int(np.argmax(back)) + 1
+        raise InvalidPointsError(
+            f"section {j} is out of order: its centroid is not beyond section {j - 1}'s "
+            "along the span (sections must be stacked hub to tip)", index=j)
+
+
+def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "chord",
+                section_params: Any = None) -> Sections:
+    """Validate blade sections and compute their grid parameters.
+
+    Parameters
+    ----------
+    sections : array_like, shape (m, n, 3), or a sequence of (n, 3) arrays
+        Sections hub to tip, points in order within each.
+    closed : bool, optional
+        Whether the sections are closed loops. ``None`` (default): closed when every
+        section's last point repeats its first (within :data:`CLOSURE_GAP_MM`). With
+        ``True`` an unrepeated first point is appended to close the loop.
+    params : {"chord", "centripetal", "uniform"} or array_like, shape (n,)
+        Column parameters ``t``: the mean over the sections of each one's parameters by
+        that method, or one array for all (mapped onto [0, 1]).
+    section_params : array_like, shape (m,), optional
+        Section parameters ``s`` (mapped onto [0, 1]); default: chord length across.
+
+    Returns
+    -------
+    Sections
+
+    Raises
+    ------
+    InvalidPointsError
+        Fewer than four sections, sections with different point counts (resample them to
+        one count first: the message names the first odd section), a non-finite value or a
+        repeated point (naming the section and point), sections out of order.
+    """
+    try:
+        raw = list(sections)
+    except TypeError:
+        raise InvalidPointsError(
+            f"sections must be an (m, n, 3) array or a list of (n, 3) arrays, got "
+            f"{type(sections).__name__}") from None
+    if len(raw) < MIN_SECTIONS:
+        raise InvalidPointsError(
+            f"a surface needs at least {MIN_SECTIONS} sections, got {len(raw)}")
+    checked = [_section(j, r) for j, r in enumerate(raw)]
+    for j, p in enumerate(checked):
+        if p.shape[1] != 3:
+            raise InvalidPointsError(f"section {j} has {p.shape[1]}-D points; sections are 3-D")
+    counts = [len(p) for p in checked]
+    if len(set(counts)) > 1:
+        j = next(j for j, c in enumerate(counts) if c != counts[0])
+        raise InvalidPointsError(
+            f"section {j} has {counts[j]} points but section 0 has {counts[0]}: every section "
+            "needs the same number of points, in corresponding order (resample the sections "
+            "to one count, e.g. at the same chord fractions)", index=j)
+    is_closed = _is_closed(checked, closed)
+    if is_closed:
+        checked = [p if np.linalg.norm(p[-1] - p[0]) <= CLOSURE_GAP_MM
+                   else np.vstack((p, p[:1])) for p in checked]
+        checked = [np.vstack((p[:-1], p[:1])) for p in checked]  # an exact seam
+        if len(checked[0]) - 1 < MIN_CURVE_POINTS:
+            raise InvalidPointsError(
+                f"a closed section needs at least {MIN_CURVE_POINTS} distinct points")
+    points = np.stack(checked)
+    _check_order(points)
+    return Sections(points=points, closed=is_closed, t=_column_parameters(points, params),
+                    s=_section_parameters(points, section_params))
