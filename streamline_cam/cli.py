@@ -1,4 +1,4 @@
-"""The ``toolpath`` command: ``toolpath fit curve ...`` and ``toolpath demo``."""
+"""The ``toolpath`` command: fit curve/surface, demo, and :mod:`streamline_cam.commands`."""
 
 from __future__ import annotations
 
@@ -11,11 +11,16 @@ from pathlib import Path
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
-from toolpath import read_points
+from toolpath import as_sections, read_points, read_sections
 from toolpath.arrays import as_curve_points, as_positive_length
 from toolpath.errors import ToolpathError
 
-from .fit_report import CURVE_METHODS, fit_curve_by_method
+from .fit_report import (
+    CURVE_METHODS,
+    SURFACE_METHODS,
+    fit_curve_by_method,
+    fit_surface_by_method,
+)
 
 __all__ = ["main"]
 
@@ -33,6 +38,18 @@ def _parser() -> argparse.ArgumentParser:
     curve.add_argument("-o", "--output", help="write the fitted curve as JSON")
     curve.add_argument("--plot", help="write a PNG of points, curve and error")
     curve.add_argument("--json", action="store_true", help="print the report as JSON")
+    surface = what.add_parser("surface", help="fit blade sections (CSV section,x,y,z)")
+    surface.add_argument("points", help="CSV with header section,x,y,z (mm), sections hub to tip")
+    surface.add_argument("--tol", type=float, default=0.01, help="max error in mm (0.01)")
+    surface.add_argument("--method", choices=SURFACE_METHODS, default="streamline")
+    closure = surface.add_mutually_exclusive_group()
+    closure.add_argument("--closed", dest="closed", action="store_true", default=None,
+                         help="the sections are closed loops (default: detected)")
+    closure.add_argument("--open", dest="closed", action="store_false",
+                         help="the sections are open even if the ends meet")
+    surface.add_argument("-o", "--output", help="write the fitted surface as JSON")
+    surface.add_argument("--plot", help="write a PNG of sections, streamlines and error")
+    surface.add_argument("--json", action="store_true", help="print the report as JSON")
     demo = commands.add_parser("demo", help="fit the bundled examples and print the report")
     demo.add_argument("--out", default="demo", help="folder for the outputs (demo/)")
     _register_command_modules(commands)
@@ -65,6 +82,22 @@ def _fit_curve(args: argparse.Namespace) -> int:
     return 0
 
 
+def _fit_surface(args: argparse.Namespace) -> int:
+    tol = as_positive_length(args.tol, name="--tol")
+    sections = as_sections(read_sections(args.points), closed=args.closed)
+    surface, report = fit_surface_by_method(sections.points, method=args.method, tol=tol,
+                                            closed=sections.closed)
+    if args.output:
+        Path(args.output).write_text(json.dumps(surface.to_dict()), encoding="utf-8")
+    if args.plot:
+        from toolpath.plotting import plot_surface_fit
+
+        plot_surface_fit(sections.points, surface, args.plot,
+                         title=f"{args.method}: {args.points}")
+    print(json.dumps(report.as_dict(), indent=2) if args.json else "\n".join(report.lines()))
+    return 0
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (non-zero on error)."""
     args = _parser().parse_args(argv)
@@ -73,7 +106,7 @@ def main(argv: list[str] | None = None) -> int:
         if handler is not None:
             return handler(args)
         if args.command == "fit":
-            return _fit_curve(args)
+            return _fit_curve(args) if args.what == "curve" else _fit_surface(args)
         from .demo import run_demo
 
         return run_demo(Path(args.out))

@@ -1,4 +1,4 @@
-"""Fitting a curve by method name and describing the result: shared by the CLI and demo."""
+"""Fitting a curve or surface by method name and describing the result (CLI and demo)."""
 
 from __future__ import annotations
 
@@ -12,12 +12,21 @@ from numpy.typing import NDArray
 from toolpath import (
     LINEAR_MODELS,
     fit_bspline_curve,
+    fit_bspline_surface,
     fit_linear_system,
     fit_streamline_curve,
+    fit_streamline_surface,
 )
 from toolpath.errors import InvalidParameterError
 
-__all__ = ["CURVE_METHODS", "CurveFitReport", "fit_curve_by_method"]
+__all__ = [
+    "CURVE_METHODS",
+    "SURFACE_METHODS",
+    "CurveFitReport",
+    "SurfaceFitReport",
+    "fit_curve_by_method",
+    "fit_surface_by_method",
+]
 
 CURVE_METHODS = ("streamline", "bspline", *LINEAR_MODELS)
 
@@ -96,3 +105,70 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
                             max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
                             tol_mm=tol, seconds=seconds, **extra)
     return curve, report
+
+
+SURFACE_METHODS = ("streamline", "bspline")
+
+
+@dataclass(frozen=True)
+class SurfaceFitReport:
+    """What a user reads after a surface fit: sizes, errors (mm), frame, time (s)."""
+
+    method: str
+    n_sections: int
+    points_per_section: int
+    closed: bool
+    n_control_points: tuple[int, int]
+    max_error_mm: float
+    rms_error_mm: float
+    between_sections_mm: float
+    tol_mm: float
+    seconds: float
+    notes: list[str] = field(default_factory=list)
+
+    @property
+    def within_tol(self) -> bool:
+        """Whether the max error at the data meets the tolerance."""
+        return self.max_error_mm <= self.tol_mm
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-ready form."""
+        return {**self.__dict__, "n_control_points": list(self.n_control_points),
+                "within_tol": self.within_tol}
+
+    def lines(self) -> list[str]:
+        """Human-readable report lines."""
+        n_t, n_s = self.n_control_points
+        out = [
+            f"method            {self.method} surface",
+            f"sections          {self.n_sections} x {self.points_per_section} points"
+            + (" (closed)" if self.closed else " (open)"),
+            f"control points    {n_t} x {n_s} (along x across)",
+            f"max error         {self.max_error_mm:.6f} mm"
+            + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
+            f"rms error         {self.rms_error_mm:.6f} mm",
+            f"between sections  {self.between_sections_mm:.6f} mm (leave-one-out, upper bound)",
+            f"time              {self.seconds:.3f} s",
+        ]
+        out.extend(f"note              {n}" for n in self.notes)
+        return out
+
+
+def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: bool | None = None
+                          ) -> tuple[Any, SurfaceFitReport]:
+    """Fit blade ``sections`` with ``method`` (see ``SURFACE_METHODS``) and report on it."""
+    if method not in SURFACE_METHODS:
+        raise InvalidParameterError(
+            f"method must be one of {SURFACE_METHODS}, got {method!r}")
+    start = time.perf_counter()
+    fit = fit_streamline_surface if method == "streamline" else fit_bspline_surface
+    surface = fit(sections, tol=tol, closed=closed)
+    seconds = time.perf_counter() - start
+    notes = [f"frame: {surface.frame_label}"] if method == "streamline" else []
+    report = SurfaceFitReport(
+        method=method, n_sections=len(surface.s_params),
+        points_per_section=len(surface.t_params) - int(surface.closed_t),
+        closed=surface.closed_t, n_control_points=surface.n_control_points,
+        max_error_mm=surface.max_error, rms_error_mm=surface.rms_error,
+        between_sections_mm=surface.loo_error, tol_mm=tol, seconds=seconds, notes=notes)
+    return surface, report

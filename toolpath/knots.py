@@ -216,10 +216,9 @@ def _discrete_curvature(points: NDArray[np.float64]) -> NDArray[np.float64]:
     ab, bc, ca = (np.linalg.norm(b - a, axis=1), np.linalg.norm(c - b, axis=1),
                   np.linalg.norm(a - c, axis=1))
     u, v = b - a, c - b
-    if points.shape[1] == 2:
-        cross = np.abs(u[:, 0] * v[:, 1] - u[:, 1] * v[:, 0])
-    else:
-        cross = np.linalg.norm(np.cross(u, v), axis=1)
+    # |u x v| in any dimension (Lagrange's identity), so stacked sections work too
+    gram = (u * u).sum(axis=1) * (v * v).sum(axis=1) - (u * v).sum(axis=1) ** 2
+    cross = np.sqrt(np.maximum(gram, 0.0))
     kappa = 2.0 * cross / (ab * bc * ca)
     return np.concatenate(([kappa[0]], kappa, [kappa[-1]]))
 

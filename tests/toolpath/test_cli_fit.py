@@ -3,7 +3,7 @@ import json
 import numpy as np
 
 from streamline_cam.cli import main
-from toolpath import curve_from_dict
+from toolpath import curve_from_dict, surface_from_dict
 from toolpath.paper_examples import bundled_data_path
 
 
@@ -35,3 +35,27 @@ def test_demo_writes_outputs(tmp_path, capsys):
     summary = json.loads((tmp_path / "report.json").read_text())
     assert len(summary) == 6 and all(row["within_tol"] for row in summary)
     assert "report.json" in capsys.readouterr().out
+
+
+def test_fit_surface_writes_json_plot_and_report(tmp_path, capsys):
+    src = bundled_data_path("dev_blade_15x142.csv")
+    out, png = tmp_path / "blade.json", tmp_path / "blade.png"
+    assert main(["fit", "surface", str(src), "--tol", "0.01", "-o", str(out),
+                 "--plot", str(png), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["method"] == "streamline" and report["within_tol"]
+    assert report["n_sections"] == 15 and report["points_per_section"] == 142
+    surface = surface_from_dict(json.loads(out.read_text()))
+    assert surface.max_error == report["max_error_mm"] <= 0.01
+    assert list(surface.n_control_points) == report["n_control_points"]
+    assert png.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert main(["fit", "surface", str(src), "--method", "bspline"]) == 0
+    assert "bspline surface" in capsys.readouterr().out
+
+
+def test_fit_surface_bad_file_is_one_line_and_exit_2(tmp_path, capsys):
+    bad = tmp_path / "bad.csv"
+    bad.write_text("section,x,y\n0,1,2\n", encoding="utf-8")
+    assert main(["fit", "surface", str(bad)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and "lacks column(s) z" in err
