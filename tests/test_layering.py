@@ -15,7 +15,7 @@ ALLOWED = {
 }
 # third-party module -> path prefixes (relative to the root) allowed to import it
 CORNERS = {
-    "serial": ("gcode/senders/serial.py", "simulator/"),
+    "serial": ("gcode/senders/serial", "simulator/"),
     "pymodbus": ("gcode/senders/modbus", "simulator/modbus"),
     "scipy": ("toolpath/",),
     "shapely": ("toolpath/",),
