@@ -43,6 +43,10 @@ DEFAULT_SWEEPS = 12
 #: Turning angle (deg) from which a sharp turn may be a corner (Ex 5's corner is 20°).
 DEFAULT_CORNER_ANGLE_DEG = 8.0
 
+#: Sweeps stop once this many in a row lowered the max error by less than SWEEP_GAIN.
+SWEEP_PATIENCE = 3
+SWEEP_GAIN = 0.01
+
 FitT = TypeVar("FitT")
 FitAt = Callable[[NDArray[np.float64], NDArray[np.float64] | None],
                  tuple[FitT, NDArray[np.float64]]]
@@ -65,6 +69,9 @@ class KnotOptions:
     corner_angle_deg: float | None
     sweeps: int
     minimax: bool
+    #: Knots of a related fit for the same request (e.g. the B-spline probe of a streamline
+    #: fit): the search starts at their count and density instead of from scratch.
+    start_knots: NDArray[np.float64] | None = None
 
 
 def knot_options(*, tol: Any, n_control_points: Any, max_control_points: Any, knots: Any,
@@ -185,21 +192,31 @@ def _limit(options: KnotOptions, n_points: int) -> int:
 def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
     corners = ([] if options.corner_angle_deg is None
                else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
-    edges, density = _seed_density(t, seed_values, corners)
     fixed = DEGREE + 1 + DEGREE * len(corners)
-
+    if options.start_knots is not None and options.tol is not None:
+        edges = np.unique(options.start_knots)
+        density = 1.0 / np.maximum(np.diff(edges), 1e-12)
+    else:
+        edges, density = _seed_density(t, seed_values, corners)
     learned = [(edges, density)]  # the density the latest attempt ended with
 
     def attempt(n_free: int) -> _Trial:
         """Fit with ``n_free`` free knots: seed from the latest density, then sweeps."""
         knots = place_knots(t, corners, *learned[-1], n_free)
         best = current = _Trial(*fit_at(knots, None), knots)
+        stale = 0
         for _ in range(options.sweeps):
             learned.append(error_density(current.knots, t, current.errors))
             knots = place_knots(t, corners, *learned[-1], n_free)
             current = _Trial(*fit_at(knots, None), knots)
-            if current.max_error < best.max_error:
-                best = current
+            if current.max_error < best.max_error * (1.0 - SWEEP_GAIN):
+                best, stale = current, 0
+            else:
+                if current.max_error < best.max_error:
+                    best = current
+                stale += 1
+                if stale >= SWEEP_PATIENCE:
+                    break  # the density has settled
         if options.tol is not None and best.max_error > POLISH_REACH * options.tol:
             return best  # the polish cannot bring this count within tol: skip its cost
         return _polish(best, fit_at, options)
@@ -209,6 +226,9 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
         return attempt(max(options.n_control_points - fixed, 0))
     tol = options.tol
     assert tol is not None
+    if options.start_knots is not None:
+        start = int(np.clip(n_coefficients(options.start_knots) - fixed, 0, limit - fixed))
+        return _search_near(attempt, start, tol, limit - fixed)
     # exponential search for a passing count, then bisection for the fewest
     lo, n_free, best_fail = -1, 1, None
     passing: _Trial | None = None
@@ -223,12 +243,21 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
             else best_fail
         lo = n_free
         if n_free + fixed >= limit:
-            raise FitError(
-                f"tol={tol!r} mm not reached with {n_coefficients(best_fail.knots)} control "
-                f"points (best max error {best_fail.max_error:.6g} mm); raise "
-                "max_control_points or tol"
-            )
+            _raise_not_reached(tol, best_fail)
         n_free *= 2
+    return _bisect(attempt, lo, hi, passing, tol)
+
+
+def _raise_not_reached(tol: float, best_fail: _Trial) -> None:
+    raise FitError(
+        f"tol={tol!r} mm not reached with {n_coefficients(best_fail.knots)} control "
+        f"points (best max error {best_fail.max_error:.6g} mm); raise "
+        "max_control_points or tol"
+    )
+
+
+def _bisect(attempt, lo: int, hi: int, passing: _Trial, tol: float) -> _Trial:
+    """Fewest free knots in ``(lo, hi]`` passing ``tol`` (``lo`` fails, ``hi`` passes)."""
     while hi - lo > 1:
         mid = (lo + hi) // 2
         trial = attempt(mid)
@@ -237,6 +266,34 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
         else:
             lo = mid
     return passing
+
+
+def _search_near(attempt, start: int, tol: float, most: int) -> _Trial:
+    """The fewest free knots passing ``tol``, searched outward from ``start``.
+
+    Down one at a time while passing (a related fit's count is usually within one or two),
+    else up by doubling steps, then bisection.
+    """
+    trial = attempt(start)
+    if trial.max_error <= tol:
+        n_free = start
+        while n_free > 0:
+            lower = attempt(n_free - 1)
+            if lower.max_error > tol:
+                break
+            trial, n_free = lower, n_free - 1
+        return trial
+    lo, step, best_fail = start, 1, trial
+    while True:
+        n_free = min(lo + step, most)
+        trial = attempt(n_free)
+        if trial.max_error <= tol:
+            return _bisect(attempt, lo, n_free, trial, tol)
+        if trial.max_error < best_fail.max_error:
+            best_fail = trial
+        if n_free >= most:
+            _raise_not_reached(tol, best_fail)
+        lo, step = n_free, step * 2
 
 
 def _dominant(points, t, fit_at, options: KnotOptions) -> _Trial:

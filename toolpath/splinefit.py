@@ -109,33 +109,51 @@ def end_interpolating_lsq(
     problem = schoenberg_whitney_violation(t, knots)
     if problem is not None:
         raise FitError(problem)
-    basis = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).tocsc()
-    coef = np.empty((basis.shape[1], values.shape[1]))
+    basis = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE)
+    n_coef = basis.shape[1]
+    coef = np.empty((n_coef, values.shape[1]))
     coef[0], coef[-1] = values[0], values[-1]
-    inner = basis[:, 1:-1]
-    rhs = values - basis[:, [0]] @ coef[[0]] - basis[:, [-1]] @ coef[[-1]]
-    weighted = inner.T if weights is None else inner.T.multiply(weights[None, :]).tocsr()
+    w = np.ones(t.size) if weights is None else np.asarray(weights, dtype=float)
+    # every row of the design matrix holds DEGREE + 1 consecutive basis values
+    local = basis.data.reshape(t.size, DEGREE + 1)
+    first = basis.indices.reshape(t.size, DEGREE + 1)[:, 0]
+    ends = np.zeros((t.size, 2))
+    ends[:, 0] = np.where(first == 0, local[:, 0], 0.0)
+    ends[:, 1] = np.where(first + DEGREE == n_coef - 1, local[:, DEGREE], 0.0)
+    rhs_values = values - ends @ coef[[0, -1]]
+    weighted = local * w[:, None]
+    # banded normal matrix N = B^T W B: band o holds N[j, j + o]
+    bands = np.zeros((DEGREE + 1, n_coef))
+    for offset in range(DEGREE + 1):
+        for a in range(DEGREE + 1 - offset):
+            bands[offset] += np.bincount(first + a, weights=weighted[:, a] * local[:, a + offset],
+                                         minlength=n_coef)
+    rhs = np.zeros((n_coef, values.shape[1]))
+    for a in range(DEGREE + 1):
+        np.add.at(rhs, first + a, weighted[:, a, None] * rhs_values)
     try:
-        coef[1:-1] = _solve_banded_normal(weighted @ inner, weighted @ rhs)
+        coef[1:-1] = _solve_banded_normal(bands[:, 1:-1], rhs[1:-1])
     except np.linalg.LinAlgError:
         # rank-deficient (data too thin for some basis function): QR gives the min-norm fit
-        root = 1.0 if weights is None else np.sqrt(weights)[:, None]
-        coef[1:-1] = np.linalg.lstsq(inner.toarray() * root, rhs * root, rcond=None)[0]
+        inner = basis.toarray()[:, 1:-1]
+        root = np.sqrt(w)[:, None]
+        coef[1:-1] = np.linalg.lstsq(inner * root, rhs_values * root, rcond=None)[0]
     return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
 
 
-def _solve_banded_normal(normal, rhs: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Solve the normal equations ``N c = r``; N is symmetric with bandwidth ``DEGREE``.
+def _solve_banded_normal(bands: NDArray[np.float64], rhs: NDArray[np.float64]
+                         ) -> NDArray[np.float64]:
+    """Solve ``N c = r`` for the symmetric ``N`` given by its bands (``bands[o, j] = N[j, j+o]``).
 
     B-spline normal matrices are banded and, under the Schoenberg-Whitney condition,
     positive definite: a banded Cholesky solve costs O(m) instead of a dense QR. Raises
     ``LinAlgError`` when the matrix is not positive definite.
     """
-    m = normal.shape[0]
+    m = bands.shape[1]
     if m == 0:
         return np.empty((0, rhs.shape[1]))
-    bands = np.zeros((DEGREE + 1, m))
+    upper = np.zeros((DEGREE + 1, m))
     for offset in range(min(DEGREE, m - 1) + 1):
-        # upper form for solveh_banded: ab[u + i - j, j] = a[i, j]
-        bands[DEGREE - offset, offset:] = normal.diagonal(offset)
-    return scipy.linalg.solveh_banded(bands, rhs)
+        # upper form for solveh_banded: ab[u + i - j, j] = a[i, j], i.e. N[j-o, j]
+        upper[DEGREE - offset, offset:] = bands[offset, :m - offset]
+    return scipy.linalg.solveh_banded(upper, rhs)

@@ -20,6 +20,7 @@ so componentwise ``Z_k(t) = Z_{0,k} e^{G_k(t)}`` with ``Z = T (X + c)``. The fit
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -273,6 +274,9 @@ def fit_streamline_curve(
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
                                       minimax=False).knots
         chosen = _choose_frame(x, t, probe)
+        if options.knots is None and options.method == "density":
+            # the baseline's knots for the same request: start the search there
+            options = dataclasses.replace(options, start_knots=probe)
     problem = LogSpaceProblem(x, t, chosen)
     coef, errors, knot_vector = adapt_knots(
         x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)

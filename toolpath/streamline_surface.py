@@ -25,6 +25,7 @@ position for every ``s``; the tangent there is continuous only within the fit to
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -277,6 +278,9 @@ def fit_streamline_surface(
                 knot_method=knot_method, corner_angle_deg=corner_angle_deg, sweeps=sweeps,
                 minimax=False).knots_t
         chosen = _choose_frame(grid, probe)
+        if options.knots is None and options.method == "density":
+            # the baseline's knots for the same request: start the search there
+            options = dataclasses.replace(options, start_knots=probe)
     problem = _GridLogProblem(grid, chosen)
     fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options)
     return StreamlineSurface._from_grid(grid, fitted, T=chosen.T, c=chosen.c,
