@@ -4,14 +4,15 @@ import ast
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-PACKAGES = ("machines", "toolpath", "gcode", "simulator", "streamline_cam")
+PACKAGES = ("machines", "toolpath", "gcode", "simulator", "verification", "streamline_cam")
 # package -> our packages it may import
 ALLOWED = {
     "machines": set(),
     "toolpath": {"machines"},
     "gcode": {"machines", "toolpath"},
     "simulator": {"machines", "gcode"},
-    "streamline_cam": {"machines", "toolpath", "gcode", "simulator"},
+    "verification": {"machines", "toolpath", "gcode"},
+    "streamline_cam": {"machines", "toolpath", "gcode", "simulator", "verification"},
 }
 # third-party module -> path prefixes (relative to the root) allowed to import it
 CORNERS = {
@@ -19,7 +20,10 @@ CORNERS = {
     "pymodbus": ("gcode/senders/modbus", "simulator/modbus"),
     "scipy": ("toolpath/",),
     "shapely": ("toolpath/",),
-    "matplotlib": ("toolpath/plotting", "streamline_cam/plots"),
+    "matplotlib": ("toolpath/plotting", "streamline_cam/plots", "verification/plotting"),
+    "fastapi": ("streamline_cam/service",),
+    "uvicorn": ("streamline_cam/service", "streamline_cam/commands/serve"),
+    "tqdm": ("streamline_cam/",),
 }
 
 
