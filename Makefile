@@ -18,3 +18,4 @@ bench:
 	$(PYTHON) -m pip install -q -e '.[test,bench]'
 	$(PYTHON) benchmarks/paper_tables.py
 	$(PYTHON) benchmarks/bench_fit.py
+	$(PYTHON) benchmarks/bench_simulator.py
