@@ -14,6 +14,19 @@ feed changes), then measures in the same run:
   because gcodeparser silently skips lines that do not start with a G/M/T command.
 
 Targets (issue 5): emission >= 3x naive; parse >= 10x gcodeparser.
+
+Where the time goes (1M blocks, this 2-core machine, cProfile):
+
+* emission ~0.6 s: reading the attributes of 1M frozen IR objects (one ``attrgetter``
+  pass per axis, ~0.2 s, the floor for an object IR) then table-driven fixed-point
+  formatting (``format_matrix``: 4-digit uint32 look-ups, ~0.1 s), assembling the line
+  matrix and one boolean compress (~0.15 s);
+* parsing ~3 s: the numpy scan of the 34 MB text (~1.3 s, of which ``strtod`` of 5M
+  numbers ~0.4 s), building 1M frozen IR objects (~0.4 s) and the cyclic GC pass over
+  them when it is switched back on (~0.2-0.3 s). Without a compiled helper (no numba or
+  C extension in this project) and with frozen-dataclass blocks, 10x gcodeparser
+  (~0.6 s for 1M lines) is below the cost of creating the objects plus reading the
+  numbers alone.
 """
 
 from __future__ import annotations

@@ -25,10 +25,22 @@ parser
     ``parse``, ``parse_with_errors``, ``parse_file``: text -> ``Program`` with line map.
 interpreter
     ``interpret``: ``Program`` -> absolute motion ``Segments`` (arcs kept, linearizable).
+machine_frame
+    Machine joints <-> program words (work origin as G54, controller rotary values).
+arcfit
+    ``fit_arcs``: circular arcs through runs of planar points, verified within a tolerance.
+post
+    ``post(toolpath, machine, dialect, options=PostOptions())``: ``Toolpath`` -> ``Program``
+    (kinematics, G93 for 5-axis moves, rate limits, arcs, safe start and end).
+check
+    ``check_program(program_or_path, machine, dialect)`` -> list of ``Issue``: soft limits,
+    rotary travel, unsupported words, long lines, missing feed, feeds above axis rates.
+summary
+    ``summarize``: blocks, bounds, lengths and estimated time of a program.
 errors
     ``GCodeError`` (``code``, ``line``, ``text``), subclasses, ``ErrorCode`` table.
 
-Not here yet: the post (``Toolpath`` -> ``Program``), ``check_program`` and the senders.
+Not here: the senders (``gcode.senders``).
 
 Examples
 --------
@@ -38,7 +50,9 @@ Examples
 True
 """
 
+from gcode.arcfit import ArcSpan, fit_arcs
 from gcode.blockparser import BlockParser
+from gcode.check import Issue, IssueCode, Severity, check_program, check_text
 from gcode.dialects import (
     FANUC,
     GENERIC,
@@ -57,6 +71,7 @@ from gcode.errors import (
     FeedError,
     GCodeError,
     ModalError,
+    PostError,
     SyntaxGCodeError,
 )
 from gcode.interpreter import Segments, interpret
@@ -70,6 +85,7 @@ from gcode.numbers import (
     read_number,
 )
 from gcode.parser import parse, parse_file, parse_with_errors
+from gcode.post import PostOptions, post
 from gcode.program import (
     Arc,
     Block,
@@ -94,6 +110,7 @@ from gcode.program import (
     ToolChange,
     Units,
 )
+from gcode.summary import ProgramSummary, summarize
 from gcode.writer import LineCollector, TextWriter, Writer
 
 __all__ = [
@@ -104,6 +121,7 @@ __all__ = [
     "MM_PER_INCH",
     "Arc",
     "ArcError",
+    "ArcSpan",
     "Block",
     "BlockParser",
     "Comment",
@@ -119,16 +137,21 @@ __all__ = [
     "FeedError",
     "FeedMode",
     "GCodeError",
-    "Linear",
+    "Issue",
+    "IssueCode",
     "LineCollector",
+    "Linear",
     "ModalError",
     "ModalGroup",
     "ModalState",
     "MotionMode",
     "NumberKind",
     "Plane",
+    "PostError",
+    "PostOptions",
     "Program",
     "ProgramEnd",
+    "ProgramSummary",
     "Rapid",
     "Segments",
     "SetDistanceMode",
@@ -136,6 +159,7 @@ __all__ = [
     "SetPlane",
     "SetUnits",
     "SetWorkOffset",
+    "Severity",
     "Spindle",
     "SpindleDirection",
     "SyntaxGCodeError",
@@ -143,17 +167,22 @@ __all__ = [
     "ToolChange",
     "Units",
     "Writer",
+    "check_program",
+    "check_text",
     "dialect_by_name",
     "dialect_names",
     "emit",
     "emit_file",
     "emit_lines",
     "emit_text",
+    "fit_arcs",
     "format_array",
     "format_number",
     "interpret",
     "parse",
     "parse_file",
     "parse_with_errors",
+    "post",
     "read_number",
+    "summarize",
 ]

@@ -17,13 +17,10 @@ import argparse
 import sys
 from pathlib import Path
 
-import numpy as np
-
 from gcode.dialects import dialect_by_name, dialect_names
 from gcode.errors import GCodeError
-from gcode.interpreter import interpret
-from gcode.numbers import format_number
 from gcode.parser import parse
+from gcode.summary import summarize
 
 __all__ = ["main"]
 
@@ -51,34 +48,8 @@ def _build_parser() -> argparse.ArgumentParser:
 
 def _info(path: Path, args: argparse.Namespace) -> list[str]:
     program = parse(path.read_text(encoding="utf-8"), dialect_by_name(args.dialect))
-    seg = interpret(program)
-    lo, hi = seg.bounds()
-    length = seg.lengths()
-    seconds = float(seg.durations(args.rapid_rate).sum()) + seg.dwell_s
-    feed_len = float(length[seg.kind != 0].sum())
-    rapid_len = float(length[seg.kind == 0].sum())
-
-    def f(v: float, d: int = 3) -> str:
-        return format_number(v, d)
-
-    out = [
-        f"file: {path}",
-        f"units: {program.units.name.lower()}",
-        f"blocks: {len(program)}",
-        f"moves: {len(seg)} (rapid {int(np.sum(seg.kind == 0))}, feed "
-        f"{int(np.sum(seg.kind == 1))}, arc {int(np.sum(seg.kind >= 2))})",
-    ]
-    for n, axis in enumerate("XYZABC"):
-        if lo[n] != 0.0 or hi[n] != 0.0:
-            unit = "deg" if axis in "ABC" else "mm"
-            out.append(f"bounds {axis}: {f(lo[n])} .. {f(hi[n])} {unit}")
-    out += [
-        f"length feed: {f(feed_len)} mm",
-        f"length rapid: {f(rapid_len)} mm",
-        f"time: {f(seconds, 1)} s"
-        + ("" if args.rapid_rate else " (feed moves and dwells; rapids not timed)"),
-    ]
-    return out
+    summary = summarize(program, rapid_rate_mm_per_min=args.rapid_rate)
+    return [f"file: {path}", *summary.lines()]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -27,6 +27,7 @@ __all__ = [
     "FeedError",
     "GCodeError",
     "ModalError",
+    "PostError",
     "SyntaxGCodeError",
 ]
 
@@ -177,3 +178,11 @@ class ArcError(GCodeError):
 
 class DialectError(GCodeError):
     """A block the target dialect cannot express (A/B/C on GRBL, M6 without tool change)."""
+
+
+class PostError(GCodeError):
+    """A toolpath the post cannot turn into a program for this machine and dialect.
+
+    For example a 5-axis toolpath (tilted tool axes) for a 3-axis machine, or a machine
+    whose rotary axes the dialect cannot write (code UNSUPPORTED_COMMAND).
+    """

@@ -136,13 +136,17 @@ class Segments:
         Returns
         -------
         ndarray
-            Seconds per segment: 60 length/feed, 60/F in inverse time.
+            Seconds per segment: 60 length/feed, 60/F in inverse time. As in LinuxCNC,
+            a units-per-minute feed move with no XYZ travel takes its rotary distance
+            (degrees, all rotary axes together) at F degrees/min.
         """
         length = self.lengths()
+        rotary = self.end[:, 3:] - self.start[:, 3:]
+        travel = np.where(length > 0.0, length, np.sqrt((rotary * rotary).sum(axis=1)))
         out = np.zeros(len(self))
         feed_rows = self.kind != KIND_RAPID
         upm = feed_rows & ~self.inverse_time
-        out[upm] = 60.0 * length[upm] / self.feed[upm]
+        out[upm] = 60.0 * travel[upm] / self.feed[upm]
         inv = feed_rows & self.inverse_time
         out[inv] = 60.0 / self.feed[inv]
         if rapid_rate is not None:

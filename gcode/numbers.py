@@ -184,6 +184,53 @@ def format_number(
     return f"{sign}{whole}." if keep_point else sign + whole
 
 
+#: Digits of 0..9999, four ASCII codes each (zero padded): whole parts are written four
+#: digits per table look-up instead of one digit per division.
+_DIGITS4 = np.array([list(f"{i:04d}".encode()) for i in range(10_000)], dtype=np.uint8)
+# the same rows as one uint32 each: a 1-D gather is far cheaper than a 2-D one
+_DIGITS4_U32 = np.ascontiguousarray(_DIGITS4).view(np.uint32).ravel()
+# keep masks of a right-aligned 4-digit field by digit count 0..4, as uint32 rows
+_KEEP4_U32 = np.array(
+    [[0] * (4 - k) + [1] * k for k in range(5)], dtype=np.uint8
+).view(np.uint32).ravel()
+# keep masks of a left-aligned 4-digit field by digit count 0..4 (fractions)
+_KEEP4_LEFT_U32 = np.array(
+    [[1] * k + [0] * (4 - k) for k in range(5)], dtype=np.uint8
+).view(np.uint32).ravel()
+# fraction lengths left after trimming trailing zeros, for up to 4 decimals
+_FRAC_TRIMMED = {
+    d: np.array([len(f"{i:0{d}d}".rstrip("0")) for i in range(10**d)], dtype=np.int8)
+    for d in range(1, 5)
+}
+
+
+def _digits4(values: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
+    """Four zero-padded digits (n, 4) of values in 0..9999."""
+    return _DIGITS4_U32[values].view(np.uint8).reshape(values.shape[0], 4)
+
+
+def _frac_digits(
+    frac: npt.NDArray[np.int64], decimals: int, trim: bool
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]]:
+    """Fraction digits (n, decimals) and which of them are written (n, decimals)."""
+    n = frac.shape[0]
+    if decimals <= 4:
+        chars = _digits4(frac)[:, 4 - decimals :]
+        n_frac = _FRAC_TRIMMED[decimals][frac] if trim else np.full(n, decimals, np.int8)
+        keep = _KEEP4_LEFT_U32[n_frac].view(np.bool_).reshape(n, 4)[:, :decimals]
+        return chars, keep
+    chars = np.empty((n, decimals), dtype=np.uint8)
+    rest = frac
+    n_kept = np.full(n, decimals, dtype=np.int64)
+    for m in range(decimals - 1, -1, -1):
+        rest, digit = np.divmod(rest, 10)
+        chars[:, m] = digit + 48
+    if trim:
+        for k in range(1, decimals + 1):
+            n_kept -= (frac % (10**k)) == 0
+    return chars, np.arange(decimals) < n_kept[:, None]
+
+
 def format_matrix(
     values: npt.ArrayLike, decimals: int = 3, *, trim: bool = True, keep_point: bool = False
 ) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]] | None:
@@ -191,7 +238,9 @@ def format_matrix(
 
     Row ``n`` of ``chars[keep]`` (row-major) is exactly ``format_number(values[n], ...)``.
     The emitter places such matrices side by side and compresses them with one boolean
-    index into the bytes of many lines at once.
+    index into the bytes of many lines at once. Digits and their keep masks come from
+    look-up tables (four digits per table row, one uint32 gather), not one division per
+    digit.
 
     Parameters
     ----------
@@ -217,49 +266,51 @@ def format_matrix(
     """
     v = np.asarray(values, dtype=np.float64)
     n = v.shape[0]
-    if not np.isfinite(v).all():
+    top_value = float(np.abs(v).max()) if n else 0.0
+    if not math.isfinite(top_value):
         raise _not_finite(float(v[~np.isfinite(v)][0]))
-    if n and float(np.abs(v).max()) >= 1e15:  # format_number's exact-decimal range
+    if top_value >= 1e15:  # format_number's exact-decimal range
         return None
     q = np.rint(v * float(10**decimals))
-    if n and float(np.abs(q).max()) >= _VECTOR_LIMIT:
+    mag_f = np.abs(q)
+    top_q = float(mag_f.max()) if n else 0.0
+    if top_q >= _VECTOR_LIMIT:
         return None
-    qi = q.astype(np.int64)
-    neg = qi < 0
-    mag = np.abs(qi)
-    scale = np.int64(10**decimals)
-    whole = mag // scale
-    frac = mag - whole * scale
-    top = int(whole.max()) if n else 0
-    n_whole_max = len(str(top))
-    n_whole = np.ones(n, dtype=np.int64)
-    for k in range(1, n_whole_max):
-        n_whole += whole >= 10**k
+    scale = 10**decimals
+    if top_q < 2.0**52:  # exact in float64: floor division without int64 divmod
+        whole = np.floor(mag_f / scale).astype(np.int64)
+        frac = (mag_f - whole * float(scale)).astype(np.int64)
+    else:
+        whole, frac = np.divmod(mag_f.astype(np.int64), scale)
+    n_whole_max = len(str(int(top_q) // scale))
+    groups = -(-n_whole_max // 4)
     width = 1 + n_whole_max + (1 + decimals if decimals else 0)
     chars = np.empty((n, width), dtype=np.uint8)
     keep = np.empty((n, width), dtype=np.bool_)
     chars[:, 0] = ord("-")
-    keep[:, 0] = neg & (qi != 0)
-    rest = whole
-    for col in range(n_whole_max, 0, -1):  # least significant digit in the last column
-        rest, digit = np.divmod(rest, 10)
-        chars[:, col] = digit + 48
-        keep[:, col] = (n_whole_max - col) < n_whole
+    keep[:, 0] = q < 0.0  # -0.0 is not below zero: never "-0"
+    n_whole = np.ones(n, dtype=np.int64)
+    for k in range(1, n_whole_max):
+        n_whole += whole >= 10**k
+    if groups == 1:
+        chars[:, 1 : 1 + n_whole_max] = _digits4(whole)[:, 4 - n_whole_max :]
+        keep4 = _KEEP4_U32[n_whole].view(np.bool_).reshape(n, 4)
+        keep[:, 1 : 1 + n_whole_max] = keep4[:, 4 - n_whole_max :]
+    else:
+        parts, rest = [], whole
+        for _ in range(groups):
+            rest, group = np.divmod(rest, 10_000)
+            parts.append(_digits4(group))
+        digits = np.concatenate(parts[::-1], axis=1)
+        chars[:, 1 : 1 + n_whole_max] = digits[:, 4 * groups - n_whole_max :]
+        keep[:, 1 : 1 + n_whole_max] = np.arange(n_whole_max, 0, -1) <= n_whole[:, None]
     if decimals:
-        if trim:
-            n_frac = np.full(n, decimals, dtype=np.int64)
-            for k in range(1, decimals + 1):
-                n_frac -= (frac % (10**k)) == 0
-        else:
-            n_frac = np.full(n, decimals, dtype=np.int64)
         point = 1 + n_whole_max
+        fchars, fkeep = _frac_digits(frac, decimals, trim)
         chars[:, point] = ord(".")
-        keep[:, point] = (n_frac > 0) | keep_point
-        rest = frac
-        for m in range(decimals - 1, -1, -1):
-            rest, digit = np.divmod(rest, 10)
-            chars[:, point + 1 + m] = digit + 48
-            keep[:, point + 1 + m] = m < n_frac
+        keep[:, point] = fkeep[:, 0] | keep_point
+        chars[:, point + 1 :] = fchars
+        keep[:, point + 1 :] = fkeep
     return chars, keep
 
 

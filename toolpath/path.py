@@ -93,7 +93,8 @@ class Toolpath:
                 raise InvalidParameterError(f"{name} must have shape {shape}, got {value.shape}")
         for name, value in (("positions_mm", pos), ("tool_axes", axes),
                             ("feeds_mm_per_min", checks["feeds_mm_per_min"][0])):
-            bad = ~np.isfinite(value).reshape(n, -1).all(axis=1)
+            bad = (~np.isfinite(value).reshape(n, -1).all(axis=1) if n
+                   else np.zeros(0, dtype=bool))
             if bad.any():
                 raise InvalidParameterError(
                     f"{name} has a non-finite value at point {int(np.argmax(bad))}")

@@ -108,3 +108,15 @@ def test_decimals_table():
 def test_format_matrix_declines_values_beyond_int64():
     assert format_matrix(np.array([1e17]), 3) is None
     assert format_array(np.array([1e17, 1.0]), 3) == ["100000000000000000", "1"]
+
+
+def test_table_formatter_matches_the_scalar_one_over_many_magnitudes(rng):
+    mags = 10.0 ** rng.uniform(-6, 14, 20000)
+    values = np.concatenate([mags * rng.choice([-1.0, 1.0], mags.size), [-0.0, 0.0, 9999.9995]])
+    values = np.concatenate([values, np.round(values, 3), np.round(values, 1)])
+    for decimals in (0, 1, 3, 4, 6):
+        for trim, point in ((True, False), (False, True)):
+            kw = {"trim": trim, "keep_point": point}
+            assert format_array(values, decimals, **kw) == [
+                format_number(v, decimals, **kw) for v in values
+            ]

@@ -1,0 +1,23 @@
+G20
+(pocket 3-axis)
+(machine trunnion-ac, kinematics table-table-ac, dialect generic)
+(G54 must hold the work origin X0 Y0.05 Z-570 mm)
+G94 G17 G90
+G54
+M3 S12000
+G0 Z4.5275
+A0 C0
+X0 Y0
+Z4.1339
+G1 Z3.8976 F11.81
+X0.3937 F31.49
+G3 X0.7874 Y0.3937 I0 J0.3937
+G1 Y0.7874
+Z4.0945 F23.62
+G18
+G2 X1.1811 Z4.0945 I0.1969 K0 F27.55
+G1 Z4.3307 F39.37
+G17
+G0 Z4.5275
+M5
+M30

@@ -1,0 +1,24 @@
+G21
+G94G17G90
+(pocket 3-axis)
+(machine grbl-router, kinematics xyz, dialect grbl)
+(G54 must hold the work origin X-400 Y-300 Z-110 mm)
+G54
+M3S12000
+M8
+G0Z15
+X0Y0
+Z5
+G1Z-1F300
+X10F800
+G3X20Y10I0J10
+G1Y20
+Z4F600
+G18
+G2X30Z4I5K0F700
+G1Z10F1000
+G17
+G0Z15
+M5
+M9
+M30
