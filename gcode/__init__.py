@@ -40,7 +40,7 @@ summary
 errors
     ``GCodeError`` (``code``, ``line``, ``text``), subclasses, ``ErrorCode`` table.
 
-Not here: the senders (``gcode.senders``).
+Senders (serial GRBL, Modbus) live in ``gcode.senders``.
 
 Examples
 --------
