@@ -19,3 +19,5 @@ bench:
 	$(PYTHON) benchmarks/paper_tables.py
 	$(PYTHON) benchmarks/bench_fit.py
 	$(PYTHON) benchmarks/bench_simulator.py
+	$(PYTHON) benchmarks/bench_stream.py
+	$(PYTHON) benchmarks/bench_gcode.py

@@ -3,7 +3,8 @@
 A line is journaled when everything it asked for is done: its last motion block has
 reached its end, or (for lines without motion) every line before it is done. Lines
 rejected with an error, lines discarded by a reset and lines parsed in check mode are not
-journaled. Records are kept in columns (numpy chunks for whole-program runs, Python
+journaled, nor are lines that make no block (a lone ``G1F1200`` or ``G94``: only modal
+state changes). Records are kept in columns (numpy chunks for whole-program runs, Python
 lists for streamed lines) and read back as :class:`JournalEntry` or as arrays.
 
 Examples

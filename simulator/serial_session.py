@@ -175,6 +175,7 @@ class SerialSession:
         self.outbound.clear()
         self._wbuf.clear()
         if self.reset_on_connect:
+            self.inbound.clear()  # bytes of the dropped connection die with the DTR reset
             self._send(self.protocol.restart(), now_s)
         else:
             self._send(self.protocol.banner(), now_s)
