@@ -18,6 +18,7 @@ bench:
 	$(PYTHON) -m pip install -q -e '.[test,bench]'
 	$(PYTHON) benchmarks/paper_tables.py
 	$(PYTHON) benchmarks/bench_fit.py
+	$(PYTHON) benchmarks/bench_toolpath.py
 	$(PYTHON) benchmarks/bench_simulator.py
 	$(PYTHON) benchmarks/bench_stream.py
 	$(PYTHON) benchmarks/bench_gcode.py

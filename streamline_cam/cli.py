@@ -50,8 +50,11 @@ def _parser() -> argparse.ArgumentParser:
     surface.add_argument("-o", "--output", help="write the fitted surface as JSON")
     surface.add_argument("--plot", help="write a PNG of sections, streamlines and error")
     surface.add_argument("--json", action="store_true", help="print the report as JSON")
-    demo = commands.add_parser("demo", help="fit the bundled examples and print the report")
+    demo = commands.add_parser(
+        "demo", help="the whole job on the bundled blade, streamed into the simulator")
     demo.add_argument("--out", default="demo", help="folder for the outputs (demo/)")
+    demo.add_argument("--quick", action="store_true",
+                      help="coarse finishing (scallop 0.05 mm) so it runs in seconds")
     _register_command_modules(commands)
     return parser
 
@@ -109,7 +112,7 @@ def main(argv: list[str] | None = None) -> int:
             return _fit_curve(args) if args.what == "curve" else _fit_surface(args)
         from .demo import run_demo
 
-        return run_demo(Path(args.out))
+        return run_demo(Path(args.out), quick=args.quick)
     except (ToolpathError, GCodeError, MachineError) as exc:
         print(f"toolpath: error: {exc}", file=sys.stderr)
         return 2

@@ -26,6 +26,11 @@ read_points, read_sections, as_sections
     Read points (``x,y[,z]``) or blade sections (``section,x,y,z``); validate sections.
 Toolpath, MoveKind
     The planner's output: tool tips, tool axes, move kinds and feeds.
+plan_finishing
+    Streamline finishing (scallop, chord tolerance, 3/5-axis, gouge checks)
+    -> ``(Toolpath, PlanningReport)``.
+plan_roughing
+    Z-level contour-parallel roughing of blade sections -> ``(Toolpath, RoughingReport)``.
 ToolpathError
     Base of every error raised for bad input (also a ``ValueError``).
 """
@@ -46,6 +51,7 @@ from .errors import (
 )
 from .linear_system import LINEAR_MODELS, LinearSystemCurve, fit_linear_system
 from .path import MoveKind, Toolpath
+from .planning import plan_finishing, plan_roughing
 from .pointio import read_points, read_sections
 from .sections import Sections, as_sections
 from .streamline_curve import StreamlineCurve, fit_streamline_curve
@@ -76,6 +82,8 @@ __all__ = [
     "fit_linear_system",
     "fit_streamline_curve",
     "fit_streamline_surface",
+    "plan_finishing",
+    "plan_roughing",
     "read_points",
     "read_sections",
     "surface_from_dict",

@@ -30,13 +30,6 @@ def test_fit_curve_text_report_for_each_method(tmp_path, capsys):
         assert f"method            {method}" in text and "max error" in text
 
 
-def test_demo_writes_outputs(tmp_path, capsys):
-    assert main(["demo", "--out", str(tmp_path)]) == 0
-    summary = json.loads((tmp_path / "report.json").read_text())
-    assert len(summary) == 6 and all(row["within_tol"] for row in summary)
-    assert "report.json" in capsys.readouterr().out
-
-
 def test_fit_surface_writes_json_plot_and_report(tmp_path, capsys):
     src = bundled_data_path("dev_blade_15x142.csv")
     out, png = tmp_path / "blade.json", tmp_path / "blade.png"

@@ -6,9 +6,21 @@ problem is, so a machinist can find it on the part.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+from typing import Any
+
+from machines.errors import TravelLimitError
+from machines.limits import Violation
+
 from ..errors import ToolpathError
 
-__all__ = ["GougeError", "PlanningError", "UnreachableRegionError"]
+__all__ = [
+    "GougeError",
+    "PlanTravelLimitError",
+    "PlanningError",
+    "UnreachableRegionError",
+    "too_many_points",
+]
 
 
 class PlanningError(ToolpathError):
@@ -43,3 +55,24 @@ class GougeError(PlanningError):
 
 class UnreachableRegionError(PlanningError):
     """Nothing of the surface can be cut with the chosen tool axis."""
+
+
+class PlanTravelLimitError(TravelLimitError):
+    """A finishing plan leaves a machine axis's travel (a :class:`MachineError`).
+
+    The message is the first violation's, followed by where it is on the plan (pass,
+    point, surface parameters); ``violations`` lists them all.
+    """
+
+    def __init__(self, violations: Sequence[Violation], where: str) -> None:
+        super().__init__(violations)
+        self.where = where
+        self.args = (f"{self.args[0]}; {where}",)
+
+
+def too_many_points(opts: Any, n: int) -> PlanningError:
+    """The error for a plan beyond ``opts.max_points`` cutter locations (names the knobs)."""
+    return PlanningError(
+        f"the plan needs more than max_points={opts.max_points} cutter locations "
+        f"({n} so far): raise scallop_mm={opts.scallop_mm!r} or chord_tol_mm="
+        f"{opts.chord_tol_mm!r}, or max_points")

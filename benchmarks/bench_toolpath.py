@@ -1,0 +1,111 @@
+"""Finishing benchmark: time and cutter-location count, 3-axis and 5-axis.
+
+Ball 6 mm, scallop 0.005 mm, chord 0.01 mm (issue 4) on analytic surfaces and, when the
+surface fitter is available, on the bundled development blade. For each case it prints
+the planning time (``measure=False``: what a CAM user waits for), the seconds per million
+cutter locations against the 2 s target, and, measured in the same run:
+
+* ``frame x``: planning time over the time to evaluate the surface frame (all first and
+  second partials) once at as many points: how many surface frames the plan costs;
+* ``numpy x``: seconds per million CL points over a fixed numpy workload (1e6 unit-vector
+  normalizations, a machine-speed yardstick);
+* the independent measurement's time (``measure=True``), reported apart.
+
+Run: ``python benchmarks/bench_toolpath.py [--quick]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import time
+
+import numpy as np
+
+from toolpath.planning import EllipticBladeSurface, SpherePatch, plan_finishing
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
+
+TARGET_S_PER_MILLION = 2.0
+
+
+def _numpy_yardstick() -> float:
+    rng = np.random.default_rng(0)
+    v = rng.normal(size=(1_000_000, 3))
+    best = np.inf
+    for _ in range(3):
+        t0 = time.perf_counter()
+        _ = v / np.linalg.norm(v, axis=1, keepdims=True)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def _frame_time(surface, n: int) -> float:
+    rng = np.random.default_rng(1)
+    t, s = rng.random(n), rng.random(n)
+    t0 = time.perf_counter()
+    surface.frame(t, s)
+    return time.perf_counter() - t0
+
+
+def _cases(quick: bool) -> list[tuple[str, object, dict]]:
+    cases = [
+        ("sphere R50 cap", SpherePatch(radius_mm=50.0, longitude_deg=(-40.0, 40.0),
+                                       colatitude_deg=(15.0, 60.0)), {}),
+        ("elliptic blade", EllipticBladeSurface(), {"linking": "spiral"}),
+        # big enough (about 0.4 million CL points) that fixed costs do not dominate
+        ("sphere R150 dome", SpherePatch(radius_mm=150.0, longitude_deg=(-90.0, 90.0),
+                                         colatitude_deg=(10.0, 70.0)), {"five_only": True}),
+    ]
+    try:
+        from toolpath import fit_streamline_surface
+        from toolpath.paper_examples import bundled_data_path
+    except ImportError:  # pragma: no cover - the fitter not built yet
+        print("(toolpath.fit_streamline_surface not available: the dev blade is skipped)")
+        return cases
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3), tol=0.01, closed=False)
+    cases.append(("dev blade (standing)", centred_on_table(blade, rotation_from_spec("y:-90")),
+                  {"five_only": True}))
+    cases.append(("dev blade (lying)", centred_on_table(blade, rotation_from_spec("x:90"),
+                                                         base_height_mm=0.0),
+                  {"three_only": True}))
+    return cases[:2] if quick else cases
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="analytic surfaces only")
+    args = parser.parse_args()
+    yard = _numpy_yardstick()
+    print(f"numpy yardstick: {yard * 1e3:.1f} ms per 1e6 normalizations")
+    head = (f"{'case':<22}{'axis':<10}{'passes':>7}{'CL pts':>9}{'plan s':>8}{'s/1M':>7}"
+            f"{'target':>8}{'frame x':>9}{'numpy x':>9}{'measure s':>10}"
+            f"{'scallop':>10}{'chord':>9}")
+    print(head)
+    for name, surface, extra in _cases(args.quick):
+        modes = [("3", {}), ("lead-tilt", {"lead_deg": 10.0})]
+        if extra.get("five_only"):
+            modes = modes[1:]
+        if extra.get("three_only"):
+            modes = modes[:1]
+        linking = extra.get("linking", "zigzag")
+        for axis, more in modes:
+            kw = dict(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis,
+                      linking=linking, **more)
+            if axis == "3" and linking == "spiral":
+                kw["linking"] = "zigzag"
+            t0 = time.perf_counter()
+            path, _ = plan_finishing(surface, "ball:6", measure=False, **kw)
+            plan_s = time.perf_counter() - t0
+            n_cl = int((path.pass_index >= 0).sum())
+            per_m = plan_s / n_cl * 1e6
+            frame_s = _frame_time(surface, n_cl)
+            _, rep = plan_finishing(surface, "ball:6", measure=True, **kw)
+            print(f"{name:<22}{axis:<10}{path.n_passes:>7}{n_cl:>9}{plan_s:>8.2f}"
+                  f"{per_m:>7.2f}{'ok' if per_m < TARGET_S_PER_MILLION else 'SLOW':>8}"
+                  f"{plan_s / frame_s:>9.1f}{per_m / yard:>9.1f}"
+                  f"{rep.seconds.get('measure', 0.0):>10.2f}"
+                  f"{rep.max_scallop_mm:>10.5f}{rep.max_chord_error_mm:>9.5f}")
+
+
+if __name__ == "__main__":
+    main()

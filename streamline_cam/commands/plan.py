@@ -1,0 +1,163 @@
+"""``toolpath plan``: finishing passes on a fitted blade surface, checked on a machine.
+
+Reads a surface JSON (``toolpath fit surface ... -o blade.json``, or an analytic surface's
+``to_dict()``), optionally places it in the workpiece frame (``--rotate``, ``--translate``,
+``--on-table``), plans with :func:`toolpath.planning.plan_finishing` under a progress bar
+(stderr), prints the report (stdout), and writes the toolpath (``-o path.npz``) and a PNG
+of the passes (``--plot``). Exit code 0 when the measured result meets the request, 1 when
+it does not (the report says where), 2 on bad input (``main`` prints the one-line error).
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+from tqdm import tqdm
+
+from machines import list_machines
+from toolpath.errors import DataFileError, InvalidParameterError, ToolpathError
+from toolpath.planning import analytic_surface_from_dict, plan_finishing
+from toolpath.planning.cutters import CUTTER_SPEC_HELP
+from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
+from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
+from toolpath.surface import ParametricSurface
+
+__all__ = ["load_surface", "register", "run_plan"]
+
+
+def load_surface(path: str | Path) -> ParametricSurface:
+    """Read a surface JSON: a fitted surface, or one of the analytic test surfaces.
+
+    Raises
+    ------
+    DataFileError
+        Naming the file: missing, not JSON, not a surface, or another format version.
+    """
+    path = Path(path)
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except OSError as exc:
+        raise DataFileError(f"cannot read the surface: {exc.strerror or exc}",
+                            path=str(path)) from None
+    except json.JSONDecodeError as exc:
+        raise DataFileError(f"not JSON: {exc.msg}", path=str(path), line=exc.lineno) from None
+    kind = data.get("kind") if isinstance(data, dict) else None
+    try:
+        if isinstance(kind, str) and kind.startswith("analytic_"):
+            return analytic_surface_from_dict(data)
+        from toolpath import surface_from_dict
+
+        return surface_from_dict(data)
+    except ToolpathError as exc:
+        raise DataFileError(str(exc), path=str(path)) from None
+
+
+def _vector(text: str, name: str) -> tuple[float, float, float]:
+    try:
+        values = tuple(float(v) for v in text.split(","))
+    except ValueError:
+        values = ()
+    if len(values) != 3 or not all(np.isfinite(values)):
+        raise InvalidParameterError(f"{name} must be three numbers x,y,z, got {text!r}")
+    return values  # type: ignore[return-value]
+
+
+def register(commands: argparse._SubParsersAction) -> None:
+    """Add ``plan`` to the ``toolpath`` sub-commands."""
+    p = commands.add_parser(
+        "plan", help="plan finishing passes on a fitted surface",
+        description="Streamline finishing passes (s = const) spaced by the scallop height, "
+                    "points by the chord tolerance, checked for gouges and on the machine.")
+    p.add_argument("surface", help="surface JSON (from 'toolpath fit surface -o')")
+    p.add_argument("--machine", required=True,
+                   help=f"machine name or TOML file (shipped: {', '.join(list_machines())})")
+    p.add_argument("--cutter", default="ball:6", help=CUTTER_SPEC_HELP + " (ball:6)")
+    p.add_argument("--scallop", type=float, default=0.005, help="scallop height, mm (0.005)")
+    p.add_argument("--chord-tol", type=float, default=0.01, help="chord tolerance, mm (0.01)")
+    p.add_argument("--axis", default="3", choices=["3", "lead-tilt"],
+                   help="3: fixed tool axis; lead-tilt: 5-axis from the surface frame")
+    p.add_argument("--lead", type=float, default=0.0, help="lead angle, deg (lead-tilt)")
+    p.add_argument("--tilt", type=float, default=0.0, help="tilt angle, deg (lead-tilt)")
+    p.add_argument("--linking", default="zigzag", choices=["spiral", "zigzag", "oneway"])
+    p.add_argument("--fixed-axis", default="0,0,1", help="tool axis for --axis 3 (0,0,1)")
+    p.add_argument("--feed", type=float, default=DEFAULT_FEED_MM_PER_MIN,
+                   help=f"cutting feed, mm/min ({DEFAULT_FEED_MM_PER_MIN:g})")
+    p.add_argument("--clearance", type=float, default=5.0, help="clearance, mm (5)")
+    p.add_argument("--extend", type=float, default=0.0,
+                   help="extend passes past open edges, mm (0)")
+    p.add_argument("--min-cone", type=float, default=None,
+                   help="keep the tool axis this far from +Z, deg (singular cone)")
+    p.add_argument("--on-gouge", default="raise", choices=["raise", "lift", "retilt"])
+    p.add_argument("--on-limit", default="raise", choices=["raise", "report"],
+                   help="machine travel exceeded: stop (raise) or only report")
+    p.add_argument("--rotate", default="",
+                   help="place the surface: rotations about fixed axes, e.g. 'y:-90,z:30'")
+    p.add_argument("--translate", default=None, help="then shift by x,y,z mm")
+    p.add_argument("--on-table", action="store_true",
+                   help="after --rotate, centre on the table axis, lowest point at "
+                        "--base-height above z=0")
+    p.add_argument("--base-height", type=float, default=20.0,
+                   help="with --on-table, mm above the table (20)")
+    p.add_argument("--no-measure", action="store_true",
+                   help="skip measuring scallop and chord error on the result")
+    p.add_argument("-o", "--output", help="write the toolpath (.npz)")
+    p.add_argument("--plot", help="write a PNG of the passes over the surface")
+    p.add_argument("--json", action="store_true", help="print the report as JSON")
+    p.set_defaults(handler=run_plan)
+
+
+def _place(surface: ParametricSurface, args: argparse.Namespace) -> ParametricSurface:
+    rotation = rotation_from_spec(args.rotate)
+    shift = np.asarray(_vector(args.translate, "--translate")) if args.translate else np.zeros(3)
+    if args.on_table:
+        base = centred_on_table(surface, rotation, base_height_mm=args.base_height)
+        return PlacedSurface(surface, rotation, base.translation + shift)
+    if args.rotate or args.translate:
+        return PlacedSurface(surface, rotation, shift)
+    return surface
+
+
+def run_plan(args: argparse.Namespace) -> int:
+    """Plan, print the report, write the outputs; returns the exit code."""
+    surface = _place(load_surface(args.surface), args)
+    options: dict[str, Any] = {
+        "fixed_axis": _vector(args.fixed_axis, "--fixed-axis"),
+        "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
+        "extend_mm": args.extend, "min_cone_deg": args.min_cone, "on_gouge": args.on_gouge,
+        "on_limit": args.on_limit, "measure": not args.no_measure}
+    with tqdm(total=100, desc="planning", unit="%", file=sys.stderr, leave=False,
+              bar_format="{desc:<22}{bar}| {percentage:3.0f}% {elapsed}") as bar:
+        def progress(stage: str, fraction: float) -> None:
+            bar.set_description_str(f"planning: {stage}")
+            bar.update(max(0, round(100 * fraction) - bar.n))
+
+        path, report = plan_finishing(
+            surface, args.cutter, scallop_mm=args.scallop, chord_tol_mm=args.chord_tol,
+            axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
+            linking=args.linking, machine=args.machine, progress=progress, **options)
+    if args.output:
+        path.save(args.output)
+    if args.plot:
+        from toolpath.plotting_paths import plot_toolpath
+
+        plot_toolpath(surface, path, args.plot, report=report,
+                      title=f"{Path(args.surface).name}: {args.cutter}, {args.axis}, "
+                            f"{args.linking}")
+    if args.json:
+        print(json.dumps(report.as_dict(), indent=2))
+    else:
+        print("\n".join(report.lines()))
+        if args.output:
+            print(f"wrote {args.output} ({len(path)} points)")
+        if args.plot:
+            print(f"wrote {args.plot}")
+    if not report.within_request:
+        print("toolpath: warning: the measured result does not meet the request "
+              "(see the report)", file=sys.stderr)
+        return 1
+    return 0

@@ -1,0 +1,101 @@
+"""``toolpath run``: blade sections -> fit -> plan -> post -> check (-> stream)."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+from ..pipeline import JobRequest, run_job
+from ..progress import StageBars
+from ..streaming import make_streamer
+
+__all__ = ["register"]
+
+
+def add_job_arguments(parser: argparse.ArgumentParser) -> None:
+    """The job parameters shared by ``run`` and ``demo``."""
+    parser.add_argument("--machine", default="grbl-router",
+                        help="machine name or TOML file (grbl-router, trunnion-ac, head-table-bc)")
+    parser.add_argument("--cutter", default="ball:6",
+                        help="ball:D, flat:D or bull:D:r (mm; D is the diameter)")
+    parser.add_argument("--scallop", type=float, default=0.005, help="scallop height, mm")
+    parser.add_argument("--chord-tol", type=float, default=0.01, help="chord tolerance, mm")
+    parser.add_argument("--fit-tol", type=float, default=0.01, help="surface fit tolerance, mm")
+    parser.add_argument("--method", choices=("streamline", "bspline"), default="streamline")
+    parser.add_argument("--axis", choices=("3", "lead-tilt"), default="3")
+    parser.add_argument("--lead", type=float, default=10.0, help="lead angle, deg (5-axis)")
+    parser.add_argument("--tilt", type=float, default=0.0, help="tilt angle, deg (5-axis)")
+    parser.add_argument("--linking", choices=("zigzag", "oneway", "spiral"), default="zigzag")
+    parser.add_argument("--placement", choices=("auto", "flat", "upright", "none"),
+                        default="auto", help="how the part sits on the table")
+    parser.add_argument("--dialect", help="override the machine's G-code dialect")
+
+
+def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
+    """A :class:`JobRequest` from the shared arguments."""
+    return JobRequest(
+        sections_path=points, machine=args.machine, cutter=args.cutter,
+        scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
+        method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
+        linking=args.linking, placement=args.placement, dialect=args.dialect)
+
+
+def report_lines(report: dict) -> list[str]:
+    """The final report, one figure per line."""
+    fit, plan, program, check = report["fit"], report["plan"], report["program"], report["check"]
+    n_t, n_s = fit["n_control_points"]
+    lines = [
+        f"fit        {fit['method']} surface {n_t}x{n_s} CPs, max error "
+        f"{fit['max_error_mm']:.4f} mm (between sections {fit['between_sections_mm']:.4f})",
+        f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
+        f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
+        f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
+        f"{100 * plan['unreachable_fraction']:.1f}%",
+        f"program    {program['lines']} lines, estimated {program['time_s'] / 60:.1f} min",
+        f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
+    ]
+    lines += [f"           {issue}" for issue in check["issues"][:5]]
+    if "stream" in report:
+        lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
+    return lines
+
+
+def _run(args: argparse.Namespace) -> int:
+    out = Path(args.output).parent if args.output else Path("job")
+    bars = StageBars(disable=args.quiet)
+    target = "simulate" if args.simulate else args.send
+    stream = make_streamer(target, dialect=args.dialect) if target else None
+    try:
+        result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
+                         stream=stream, plots=args.plots)
+    finally:
+        bars.close()
+    if args.output and Path(args.output) != result.files["gcode"]:
+        result.files["gcode"].replace(args.output)
+        result.files["gcode"] = Path(args.output)
+    text = report_lines(result.report)
+    print(json.dumps(result.report, indent=2) if args.json else "\n".join(text))
+    print(f"files      {', '.join(str(p) for p in result.files.values())}")
+    failed = result.report["check"]["errors"] or not result.report.get("stream", {"ok": 1})["ok"]
+    return 1 if failed else 0
+
+
+def register(commands: argparse._SubParsersAction) -> None:
+    """Add ``toolpath run``."""
+    parser = commands.add_parser(
+        "run", help="sections -> fit -> plan -> post -> check in one go",
+        description="Fit blade sections, plan finishing passes, post and check the G-code.")
+    parser.add_argument("points", help="CSV section,x,y,z (mm), sections hub to tip")
+    add_job_arguments(parser)
+    parser.add_argument("-o", "--output", help="G-code file (other files go beside it)")
+    target = parser.add_mutually_exclusive_group()
+    target.add_argument("--send", metavar="PORT",
+                        help="stream the checked program to a GRBL controller "
+                             "(/dev/ttyUSB0, socket://127.0.0.1:PORT)")
+    target.add_argument("--simulate", action="store_true",
+                        help="stream it into the built-in simulator over a pseudo-terminal")
+    parser.add_argument("--plots", action="store_true", help="write fit.png and toolpath.png")
+    parser.add_argument("--json", action="store_true", help="print the report as JSON")
+    parser.add_argument("--quiet", action="store_true", help="no progress bars")
+    parser.set_defaults(handler=_run)

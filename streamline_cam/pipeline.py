@@ -1,0 +1,257 @@
+"""One job from measured blade sections to a checked G-code program (and, optionally, a run).
+
+Stages, each a plain hand-over: read and place the sections on the table
+(:mod:`toolpath.placement`) -> fit the streamline surface -> plan the finishing passes ->
+post for the machine and its dialect -> write the G-code -> check it against the machine
+(-> stream it to a controller or the built-in simulator: :mod:`streamline_cam.streaming`).
+Every stage reports progress as ``progress(stage, fraction)`` and its figures land in one
+JSON report beside the files.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import time
+from collections.abc import Callable
+from dataclasses import asdict, dataclass, field, is_dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from gcode.check import Severity, check_program
+from gcode.dialects import dialect_by_name
+from gcode.emitter import emit_file
+from gcode.post import PostOptions, post
+from gcode.summary import summarize
+from machines import load_machine
+from toolpath import as_sections, read_sections
+from toolpath.arrays import as_positive_length
+from toolpath.errors import InvalidParameterError
+from toolpath.placement import place_points
+from toolpath.planning.finishing import plan_finishing
+
+from .fit_report import SURFACE_METHODS, fit_surface_by_method
+
+__all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
+
+#: Stage names, in order, as passed to the progress callback.
+STAGES = ("fit", "plan", "post", "check", "stream")
+Progress = Callable[[str, float], None]
+
+
+@dataclass(frozen=True)
+class JobRequest:
+    """Everything a job needs; defaults are the README's demo settings.
+
+    Attributes
+    ----------
+    sections_path : Path
+        CSV ``section,x,y,z`` (mm), sections hub to tip.
+    machine : str
+        Machine name or TOML path (``grbl-router``, ``trunnion-ac``, ``head-table-bc``).
+    cutter : str
+        ``ball:6`` (diameter 6 mm), ``flat:10``, ``bull:10:2``.
+    scallop_mm, chord_tol_mm, fit_tol_mm : float
+        Scallop height between passes, chord deviation along them, surface fit tolerance.
+    method : str
+        ``streamline`` (Algorithm 4) or ``bspline``.
+    axis_mode : str
+        ``"3"`` or ``"lead-tilt"``; ``lead_deg``/``tilt_deg`` for the latter.
+    linking : str
+        ``zigzag``, ``oneway`` or ``spiral``.
+    placement : str
+        ``auto`` (flat for 3-axis, upright for 5-axis), ``flat``, ``upright`` or ``none``.
+    dialect : str or None
+        Override the machine's dialect.
+    planning_options : dict
+        Extra options for :func:`toolpath.planning.finishing.plan_finishing`.
+    """
+
+    sections_path: Path
+    machine: str = "grbl-router"
+    cutter: str = "ball:6"
+    scallop_mm: float = 0.005
+    chord_tol_mm: float = 0.01
+    fit_tol_mm: float = 0.01
+    method: str = "streamline"
+    axis_mode: str = "3"
+    lead_deg: float = 10.0
+    tilt_deg: float = 0.0
+    linking: str = "zigzag"
+    placement: str = "auto"
+    base_mm: float = 5.0
+    dialect: str | None = None
+    spindle_rpm: float = 12000.0
+    planning_options: dict[str, Any] = field(default_factory=dict)
+
+    def validated(self) -> JobRequest:
+        """Check the parameters a user types, naming the bad one."""
+        for name in ("scallop_mm", "chord_tol_mm", "fit_tol_mm"):
+            as_positive_length(getattr(self, name), name=name)
+        if self.method not in SURFACE_METHODS:
+            raise InvalidParameterError(
+                f"method must be one of {SURFACE_METHODS}, got {self.method!r}")
+        if self.placement not in ("auto", "flat", "upright", "none"):
+            raise InvalidParameterError(
+                f"placement must be auto, flat, upright or none, got {self.placement!r}")
+        return self
+
+
+@dataclass(frozen=True)
+class JobResult:
+    """The report (JSON-ready) and the files written, by name."""
+
+    report: dict[str, Any]
+    files: dict[str, Path]
+
+
+def _jsonable(value: Any) -> Any:
+    if is_dataclass(value) and not isinstance(value, type):
+        return _jsonable(asdict(value))
+    if isinstance(value, dict):
+        return {str(k): _jsonable(v) for k, v in value.items()}
+    if isinstance(value, list | tuple):
+        return [_jsonable(v) for v in value]
+    if isinstance(value, np.ndarray):
+        return value.tolist()
+    if isinstance(value, np.generic):
+        return value.item()
+    if isinstance(value, float) and not np.isfinite(value):
+        return None
+    if isinstance(value, Path):
+        return str(value)
+    if hasattr(value, "value") and not isinstance(value, int | float | str):
+        return str(value.value)
+    return value
+
+
+def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
+    """The planner's plots (passes over the surface), when its plotting module exists."""
+    try:
+        from toolpath import plotting_paths
+    except ImportError:
+        return {}
+    plot = getattr(plotting_paths, "plot_toolpath", None)
+    if plot is None:
+        return {}
+    return {"toolpath_plot": Path(plot(surface, path, out_dir / "toolpath.png"))}
+
+
+def _no_progress(stage: str, fraction: float) -> None:
+    del stage, fraction
+
+
+def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
+            stream: Callable[[Path, Any], dict[str, Any]] | None = None,
+            plots: bool = False) -> JobResult:
+    """Run the pipeline, writing its files into ``out_dir``.
+
+    Parameters
+    ----------
+    request : JobRequest
+        What to make.
+    out_dir : Path
+        Folder for ``surface.json``, ``toolpath.npz``, ``part.nc``, ``report.json``.
+    progress : callable, optional
+        ``progress(stage, fraction)`` with stage in :data:`STAGES`, fraction in [0, 1].
+    stream : callable, optional
+        ``stream(gcode_path, machine) -> dict``: runs the checked program (a sender to a
+        port, or the built-in simulator); its result joins the report.
+    plots : bool
+        Also write ``fit.png`` (sections, streamlines, error) and, where the planner's
+        plotting module is present, ``toolpath.png``.
+
+    Returns
+    -------
+    JobResult
+    """
+    request = request.validated()
+    report_progress = progress or _no_progress
+    out_dir.mkdir(parents=True, exist_ok=True)
+    machine = load_machine(request.machine)
+    dialect = dialect_by_name(request.dialect) if request.dialect else None
+    files: dict[str, Path] = {}
+    report: dict[str, Any] = {"request": _jsonable(request), "machine": machine.name}
+    seconds: dict[str, float] = {}
+
+    start = time.perf_counter()
+    report_progress("fit", 0.0)
+    raw = as_sections(read_sections(request.sections_path))
+    mode = request.placement
+    if mode == "auto":
+        mode = "flat" if request.axis_mode == "3" else "upright"
+    placed, placement = place_points(raw.points, mode=mode, base_mm=request.base_mm)
+    surface, fit_report = fit_surface_by_method(placed, method=request.method,
+                                                tol=request.fit_tol_mm, closed=raw.closed)
+    files["surface"] = out_dir / "surface.json"
+    files["surface"].write_text(json.dumps(surface.to_dict()), encoding="utf-8")
+    report["placement"] = placement.as_dict() | {"text": placement.describe()}
+    report["fit"] = fit_report.as_dict()
+    if plots:
+        from toolpath.plotting import plot_surface_fit
+
+        files["fit_plot"] = plot_surface_fit(
+            as_sections(placed, closed=raw.closed).points, surface, out_dir / "fit.png",
+            title=f"{request.method} fit of {request.sections_path.name}")
+    seconds["fit"] = time.perf_counter() - start
+    report_progress("fit", 1.0)
+
+    start = time.perf_counter()
+    report_progress("plan", 0.0)
+    path, plan_report = plan_finishing(
+        surface, request.cutter, scallop_mm=request.scallop_mm,
+        chord_tol_mm=request.chord_tol_mm, axis_mode=request.axis_mode,
+        lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
+        tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
+        linking=request.linking, machine=machine,
+        **({"progress": lambda _name, fraction: report_progress("plan", fraction)}
+           | request.planning_options))
+    path = dataclasses.replace(path, metadata={**path.metadata,
+                                               "placement": placement.describe()})
+    files["toolpath"] = out_dir / "toolpath.npz"
+    path.save(files["toolpath"])
+    plan_dict = _jsonable(plan_report)
+    plan_dict.pop("unreachable_spans", None)  # per pass; the regions summarize them
+    report["plan"] = plan_dict
+    if plots:
+        files.update(_toolpath_plots(surface, path, out_dir))
+    seconds["plan"] = time.perf_counter() - start
+    report_progress("plan", 1.0)
+
+    start = time.perf_counter()
+    report_progress("post", 0.0)
+    program = post(path, machine, dialect, options=PostOptions(
+        spindle_rpm=request.spindle_rpm, name=request.sections_path.stem))
+    files["gcode"] = out_dir / "part.nc"
+    n_lines = emit_file(program, dialect or dialect_by_name(machine.dialect), files["gcode"])
+    summary = summarize(program, machine=machine)
+    report["program"] = {"lines": n_lines, **_jsonable(summary)}
+    seconds["post"] = time.perf_counter() - start
+    report_progress("post", 1.0)
+
+    start = time.perf_counter()
+    report_progress("check", 0.0)
+    issues = check_program(files["gcode"], machine, dialect)
+    errors = [i for i in issues if i.severity is Severity.ERROR]
+    report["check"] = {"errors": len(errors), "warnings": len(issues) - len(errors),
+                       "issues": [str(i) for i in issues[:50]]}
+    seconds["check"] = time.perf_counter() - start
+    report_progress("check", 1.0)
+
+    if stream is not None:
+        start = time.perf_counter()
+        report_progress("stream", 0.0)
+        if errors:
+            report["stream"] = {"ok": False, "refused": f"{len(errors)} check error(s); "
+                                f"first: {errors[0]}"}
+        else:
+            report["stream"] = stream(files["gcode"], machine)
+        seconds["stream"] = time.perf_counter() - start
+        report_progress("stream", 1.0)
+
+    report["seconds"] = seconds
+    files["report"] = out_dir / "report.json"
+    files["report"].write_text(json.dumps(_jsonable(report), indent=2), encoding="utf-8")
+    return JobResult(report=_jsonable(report), files=files)

@@ -1,0 +1,111 @@
+"""A job's files: which exist, their media types, and the plots drawn on first request.
+
+Plots (``surface``: sections, streamlines and fit error; ``toolpath``: the passes over the
+surface, when :mod:`toolpath.plotting_paths` is installed) are drawn by the library's
+headless plotting modules (imported lazily, so the service starts without matplotlib) into
+``<job>/plots/NAME.png`` once, under one lock per service (pyplot keeps global state), then
+served from disk.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+import os
+import threading
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Final
+
+import numpy as np
+
+from .store import JobRecord
+
+__all__ = ["FILES", "Artefact", "plot_names", "render_plot"]
+
+
+@dataclass(frozen=True)
+class Artefact:
+    """A result file: its name in the job folder, media type, and download suffix."""
+
+    file: str
+    media_type: str
+    suffix: str
+
+
+#: Resource name -> file written by the pipeline.
+FILES: Final[dict[str, Artefact]] = {
+    "report": Artefact("report.json", "application/json", ".json"),
+    "gcode": Artefact("part.nc", "text/plain; charset=utf-8", ".nc"),
+    "toolpath": Artefact("toolpath.npz", "application/octet-stream", ".npz"),
+    "surface": Artefact("surface.json", "application/json", ".json"),
+}
+
+Renderer = Callable[[Path, JobRecord, Path], None]
+
+
+def _placed_sections(job_dir: Path, record: JobRecord) -> np.ndarray:
+    """The sections as fitted: read again and placed by the report's placement."""
+    from toolpath import as_sections, read_sections
+    from toolpath.placement import Placement
+
+    raw = as_sections(read_sections(job_dir / record.input_name))
+    placement = (record.report or {}).get("placement", {})
+    if not placement:
+        return raw.points
+    return Placement(np.asarray(placement["rotation"], dtype=float),
+                     np.asarray(placement["offset_mm"], dtype=float),
+                     str(placement["mode"])).apply(raw.points)
+
+
+def _surface_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
+    from toolpath import surface_from_dict
+    from toolpath.plotting import plot_surface_fit
+
+    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    plot_surface_fit(_placed_sections(job_dir, record), surface, out,
+                     title=f"{record.parameters.get('method', '')} fit: {record.input_name}")
+
+
+def _toolpath_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
+    from toolpath import Toolpath, surface_from_dict
+    from toolpath.plotting_paths import plot_toolpath
+
+    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    plot_toolpath(surface, Toolpath.load(job_dir / "toolpath.npz"), out,
+                  title=f"toolpath: {record.input_name}")
+
+
+def _renderers() -> dict[str, Renderer]:
+    """The plots this installation can draw."""
+    renderers: dict[str, Renderer] = {"surface": _surface_plot}
+    if importlib.util.find_spec("toolpath.plotting_paths") is not None:
+        renderers["toolpath"] = _toolpath_plot
+    return renderers
+
+
+def plot_names() -> list[str]:
+    """Names accepted by ``GET /jobs/{id}/plots/{name}``."""
+    return sorted(_renderers())
+
+
+def render_plot(name: str, job_dir: Path, record: JobRecord, lock: threading.Lock) -> Path:
+    """The PNG of plot ``name`` for a finished job, drawn now if it is not on disk yet.
+
+    Raises
+    ------
+    KeyError
+        Unknown plot name.
+    """
+    renderer = _renderers()[name]
+    out = job_dir / "plots" / f"{name}.png"
+    if out.is_file():
+        return out
+    with lock:
+        if not out.is_file():
+            out.parent.mkdir(exist_ok=True)
+            partial = out.with_suffix(f".{os.getpid()}.part.png")
+            renderer(job_dir, record, partial)
+            partial.replace(out)  # atomic: a reader never sees half a PNG
+    return out

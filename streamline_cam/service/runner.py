@@ -1,0 +1,77 @@
+"""What a worker does with one job: run the pipeline and record the outcome in the store.
+
+:func:`run_stored_job` is a plain module-level function of picklable arguments, so the same
+code runs in a worker process or a thread. Progress goes straight to the store (throttled),
+so the HTTP side reads it from SQLite whatever the executor.
+"""
+
+from __future__ import annotations
+
+import time
+import traceback
+from pathlib import Path
+from typing import Final
+
+from gcode.errors import GCodeError
+from machines.errors import MachineError
+from toolpath.errors import ToolpathError
+
+from ..pipeline import JobRequest, run_job
+from .store import JobStore
+
+__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "run_stored_job"]
+
+PROGRESS_INTERVAL_S: Final[float] = 0.25
+"""Least time between two progress writes of one stage (s): a poll every second or so
+sees movement, and the planner's fine-grained callbacks cost no disk traffic."""
+
+#: The library's own error families: bad input or a request the library refuses.
+USER_ERRORS: Final = (ToolpathError, MachineError, GCodeError)
+
+
+class _Progress:
+    """``progress(stage, fraction)`` writing to the store at most every interval."""
+
+    def __init__(self, store: JobStore, job_id: str, attempt: int) -> None:
+        self._store, self._job_id, self._attempt = store, job_id, attempt
+        self._last: dict[str, float] = {}
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        now = time.monotonic()
+        ends = fraction <= 0.0 or fraction >= 1.0
+        if not ends and now - self._last.get(stage, -1e9) < PROGRESS_INTERVAL_S:
+            return
+        self._last[stage] = now
+        self._store.set_progress(self._job_id, self._attempt, stage,
+                                 min(max(float(fraction), 0.0), 1.0))
+
+
+def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> str:
+    """Run the stored job ``job_id`` (run number ``attempt``) with its files in ``job_dir``.
+
+    Never raises for a failing job: the outcome (report, or message and error class) is
+    written to the store. An unexpected exception is recorded as an internal error with its
+    traceback in ``job_dir/traceback.txt`` (not in the HTTP answer).
+
+    Returns
+    -------
+    str
+        The job's final state, ``"done"``, ``"failed"`` or ``"superseded"`` (a newer run owns
+        the job: this one's outcome was dropped).
+    """
+    store = JobStore(db_path)
+    record = store.get(job_id)
+    if record is None:
+        return "superseded"
+    try:
+        request = JobRequest(sections_path=job_dir / record.input_name, **record.parameters)
+        result = run_job(request, job_dir, progress=_Progress(store, job_id, attempt))
+    except USER_ERRORS as exc:
+        kept = store.fail(job_id, attempt, str(exc), type(exc).__name__)
+    except Exception as exc:  # a bug: keep the service up, the traceback on disk
+        (job_dir / "traceback.txt").write_text(traceback.format_exc(), encoding="utf-8")
+        kept = store.fail(job_id, attempt, f"internal error ({type(exc).__name__}: {exc}); "
+                          "the traceback is in the job's folder", "InternalError")
+    else:
+        return "done" if store.finish(job_id, attempt, result.report) else "superseded"
+    return "failed" if kept else "superseded"

@@ -1,0 +1,48 @@
+"""The bundled development blade, fitted, finished in 5-axis and in 3-axis."""
+
+import numpy as np
+import pytest
+
+from toolpath import fit_streamline_surface
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning import plan_finishing
+from toolpath.planning.gouge import sample_surface
+from toolpath.planning.local import project_to_surface
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
+from toolpath.planning.tool_axis import angle_deg
+
+
+@pytest.fixture(scope="module")
+def blade():
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    sections = rows[:, 1:].reshape(15, 142, 3)[::2]  # every other section: a shorter fit
+    return fit_streamline_surface(sections, tol=0.01, closed=False)
+
+
+def test_five_axis_blade_within_request(blade):
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    path, rep = plan_finishing(standing, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02,
+                               axis_mode="lead-tilt", lead_deg=10.0,
+                               machine="trunnion-ac", on_limit="report")
+    assert rep.max_scallop_mm <= 0.02 and rep.max_chord_error_mm <= 0.02
+    assert rep.uncut_fraction == 0.0 and rep.travel_violations == ()
+    # around the leading edge (radius below 1 mm) the axis turns with the surface but
+    # stays within max_lean_deg (60) of the normal at the ball's contact
+    cut = path.pass_index >= 0
+    centres = path.positions_mm[cut] + 3.0 * path.tool_axes[cut]
+    samples = sample_surface(standing, 0.5)
+    _, near = samples.tree.query(centres)
+    t, s, dist = project_to_surface(standing, centres, samples.t[near], samples.s[near],
+                                    iterations=8)
+    np.testing.assert_allclose(dist, 3.0, atol=1e-6)
+    lean = angle_deg(path.tool_axes[cut], standing.normal(t, s))
+    assert lean.max() <= 60.0 + 1e-6 and np.median(lean) == pytest.approx(10.0, abs=1.0)
+
+
+def test_three_axis_blade_leaves_the_far_side(blade):
+    lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
+    _, rep = plan_finishing(lying, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02,
+                            machine="grbl-router")
+    assert 0.3 < rep.unreachable_fraction < 0.7
+    assert {r.reason for r in rep.unreachable_regions} >= {"faces away"}
+    assert rep.scallop_interior_mm <= 0.02 and rep.max_chord_error_mm <= 0.02

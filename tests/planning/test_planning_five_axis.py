@@ -1,0 +1,75 @@
+"""5-axis tool axes: lead/tilt geometry, smoothing and rate, the singular cone."""
+
+import numpy as np
+import pytest
+
+from machines.errors import UnreachableOrientationError
+from toolpath.path import MoveKind
+from toolpath.planning import PlaneSurface, SpherePatch, plan_finishing
+from toolpath.planning.tool_axis import angle_deg, keep_out_of_cone, lead_tilt_axes
+
+PLANE = PlaneSurface(t_vector_mm=(20.0, 0.0, 0.0), s_vector_mm=(0.0, 6.0, 0.0))
+
+
+@pytest.mark.parametrize("lead, tilt", [(10.0, 0.0), (0.0, 8.0), (15.0, -5.0)])
+def test_lead_and_tilt_in_the_pass_frame(lead, tilt):
+    path, _ = plan_finishing(PLANE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                             axis_mode="lead-tilt", lead_deg=lead, tilt_deg=tilt,
+                             measure=False)
+    n = np.array([0.0, 0.0, 1.0])
+    for p in range(path.n_passes):
+        idx = np.flatnonzero(path.pass_index == p)
+        feed = np.sign(path.positions_mm[idx[-1], 0] - path.positions_mm[idx[0], 0])
+        f = np.array([feed, 0.0, 0.0])
+        b = np.cross(n, f)
+        axes = path.tool_axes[idx]
+        np.testing.assert_allclose(axes @ f, np.sin(np.radians(lead)), atol=1e-9)
+        np.testing.assert_allclose(axes @ b, np.cos(np.radians(lead))
+                                   * np.sin(np.radians(tilt)), atol=1e-9)
+        # the ball still touches at the contact: tip = P + R (n - a), P on the plane
+        contact = path.positions_mm[idx] - 3.0 * (n - axes)
+        np.testing.assert_allclose(contact[:, 2], 0.0, atol=1e-9)
+
+
+def test_lead_tilt_formula():
+    n = np.array([[0.0, 0.0, 1.0]])
+    f = np.array([[1.0, 0.0, 0.0]])
+    a = lead_tilt_axes(n, f, 30.0, 0.0)[0]
+    np.testing.assert_allclose(a, [0.5, 0.0, np.sqrt(3) / 2], atol=1e-12)
+    a = lead_tilt_axes(n, f, 0.0, 30.0)[0]
+    np.testing.assert_allclose(a, [0.0, 0.5, np.sqrt(3) / 2], atol=1e-12)  # left of +x
+
+
+def test_axis_turn_rate_is_limited_by_smoothing():
+    sphere = SpherePatch(radius_mm=12.0, longitude_deg=(-60.0, 60.0),
+                         colatitude_deg=(50.0, 60.0))
+    kw = dict(scallop_mm=0.02, chord_tol_mm=0.01, axis_mode="lead-tilt", lead_deg=5.0,
+              measure=False)
+    _, free = plan_finishing(sphere, "ball:6", max_axis_rate_deg_per_mm=None,
+                             axis_smoothing_mm=0.0, **kw)
+    _, limited = plan_finishing(sphere, "ball:6", max_axis_rate_deg_per_mm=2.0, **kw)
+    assert free.max_axis_rate_deg_per_mm > 3.0
+    assert limited.max_axis_rate_deg_per_mm <= 2.0 + 1e-9
+
+
+def test_singular_cone_is_kept_clear():
+    axes = np.array([[0.0, 0.0, 1.0], [np.sin(0.01), 0.0, np.cos(0.01)], [0.6, 0.0, 0.8]])
+    out, moved = keep_out_of_cone(axes, 5.0, np.array([[0.0, 1.0, 0.0]] * 3))
+    assert moved == 2
+    np.testing.assert_allclose(angle_deg(out[:2], [0, 0, 1]), 5.0)
+    np.testing.assert_allclose(out[2], axes[2])
+    np.testing.assert_allclose(out[1, 1], 0.0, atol=1e-12)  # same azimuth as before
+    path, rep = plan_finishing(PLANE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                               axis_mode="lead-tilt", min_cone_deg=3.0, measure=False)
+    cut = path.kinds == MoveKind.CUT
+    assert angle_deg(path.tool_axes[cut], [0, 0, 1]).min() >= 3.0 - 1e-9
+    assert rep.cone_pushed > 0
+
+
+def test_lead_tilt_on_a_three_axis_machine_is_refused():
+    with pytest.raises(UnreachableOrientationError, match="axis_mode='lead-tilt'"):
+        plan_finishing(PLANE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                       axis_mode="lead-tilt", lead_deg=10, machine="grbl-router")
+    with pytest.raises(UnreachableOrientationError, match="fixed_axis"):
+        plan_finishing(PLANE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                       fixed_axis=(0.0, 1.0, 1.0), machine="grbl-router")

@@ -1,0 +1,74 @@
+"""Gouge checks on a surface with a concave pocket smaller than the cutter."""
+
+import numpy as np
+import pytest
+
+from toolpath.planning import GougeError, PlaneSurface, PocketSurface, parse_cutter, plan_finishing
+from toolpath.planning.gouge import global_clearance, local_margin, sample_surface
+from toolpath.planning.local import pass_frame
+
+POCKET = PocketSurface(size_mm=(16.0, 16.0), centre_mm=(8.0, 8.0), depth_mm=1.5, width_mm=2.0)
+
+
+def test_local_margin_is_one_over_r_minus_the_concave_curvature():
+    frame = pass_frame(POCKET, np.array([0.5]), np.array([0.5]))
+    cutter = parse_cutter("ball:6")
+    margin = local_margin(frame, cutter, np.array([[0.0, 0.0, 1.0]]))
+    assert margin[0] == pytest.approx(1.0 / 3.0 - 1.5 / 4.0, rel=1e-9)
+    assert 1.0 / frame.max_concave_curvature[0] == pytest.approx(POCKET.min_concave_radius_mm)
+
+
+def test_cutter_larger_than_the_pocket_radius_is_refused_naming_the_place():
+    with pytest.raises(GougeError) as err:
+        plan_finishing(POCKET, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01)
+    text = str(err.value)
+    assert "ball:6" in text and "2.6667 mm" in text and "t=0.50000, s=0.50000" in text
+    assert "radius < 2.667" in text
+    assert err.value.t == pytest.approx(0.5)
+    # the depth reported is measured: a dense local sample of the pocket
+    assert err.value.depth_mm == pytest.approx(0.0064, abs=0.0005)
+    # a cutter that fits plans without complaint
+    _, rep = plan_finishing(POCKET, "ball:5", scallop_mm=0.02, chord_tol_mm=0.01,
+                            measure=False)
+    assert rep.min_concave_radius_mm == pytest.approx(2.6667, abs=1e-3)
+    assert rep.cutter_radius_there_mm == pytest.approx(2.5)
+
+
+def test_global_check_sees_the_cutter_inside_the_surface():
+    samples = sample_surface(POCKET, 0.25)
+    cutter = parse_cutter("ball:6")
+    bottom = POCKET(0.5, 0.5)
+    axis = np.array([[0.0, 0.0, 1.0]])
+    tips = cutter.tips_from_contacts(bottom[None], axis, axis)
+    clear = global_clearance(cutter, tips, axis, samples, contacts_mm=bottom[None])
+    assert clear.near_mm[0] < -0.005  # the walls of the pocket are inside the ball
+    # a cutter raised 1 mm is clear (beyond the horizon: inf)
+    clear = global_clearance(cutter, tips + np.array([0.0, 0.0, 1.0]), axis, samples)
+    assert np.isinf(clear.min_mm[0])
+    # flat plane: the contact touches, nothing is inside
+    plane = PlaneSurface()
+    samples = sample_surface(plane, 0.5)
+    p = plane(0.3, 0.4)
+    tip = cutter.tips_from_contacts(p[None], axis, axis)
+    clear = global_clearance(cutter, tip, axis, samples, contacts_mm=p[None])
+    assert -1e-12 < clear.near_mm[0] < 0.05 and np.isinf(clear.far_mm[0])
+
+
+def test_lift_leaves_no_gouge_and_reports_what_it_lifted():
+    path, rep = plan_finishing(POCKET, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                               on_gouge="lift", measure=False)
+    assert rep.n_lifted > 0 and rep.max_lift_mm > 0.01
+    samples = sample_surface(POCKET, 0.1)
+    clear = global_clearance(parse_cutter("ball:6"), path.positions_mm, path.tool_axes,
+                             samples)
+    assert clear.min_mm.min() >= -1e-4
+    # the material left in the pocket shows as a scallop beyond the request there
+    _, measured = plan_finishing(POCKET, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                                 on_gouge="lift")
+    assert not measured.within_request or measured.max_scallop_mm > 0.02
+
+
+def test_retilt_cannot_save_a_ball_in_a_small_hollow():
+    with pytest.raises(GougeError, match="a ball cannot re-tilt"):
+        plan_finishing(POCKET, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                       axis_mode="lead-tilt", lead_deg=10, on_gouge="retilt", measure=False)

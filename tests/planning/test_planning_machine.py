@@ -1,0 +1,52 @@
+"""Plans checked on a machine: travel violations name the right point; time estimate."""
+
+import numpy as np
+import pytest
+
+from machines import MachineError, UnknownMachineError, load_machine
+from machines.kinematics import solve_inverse
+from toolpath.planning import PlaneSurface, PlanTravelLimitError, plan_finishing
+
+# a 20 x 6 mm plate whose far end sticks out past the router's X travel (X <= 0 at
+# x = 400 mm in the workpiece frame, whose origin is the bed centre)
+PLATE = PlaneSurface(origin_mm=(385.0, 0.0, 0.0), t_vector_mm=(20.0, 0.0, 0.0),
+                     s_vector_mm=(0.0, 6.0, 0.0))
+
+
+def test_travel_violation_reports_the_first_offending_point():
+    path, rep = plan_finishing(PLATE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                               machine="grbl-router", on_limit="report", measure=False)
+    (first, *_) = rep.travel_violations
+    machine = load_machine("grbl-router")
+    x_machine = machine.work_origin[0] + path.positions_mm[:, 0]  # tool length 0
+    expected = int(np.argmax(x_machine > 1e-6))
+    assert (first.axis, first.index) == ("X", expected)
+    assert first.value == pytest.approx(x_machine[expected])
+    # the same joints through the kinematics
+    joints = solve_inverse(machine, path.positions_mm, path.tool_axes).joints
+    assert joints[expected, 0] > 0.0 and np.all(joints[:expected, 0] <= 1e-6)
+    assert rep.estimated_time_s > 0.0 and not rep.within_request
+
+
+def test_travel_violation_raises_naming_point_and_pass():
+    with pytest.raises(PlanTravelLimitError) as err:
+        plan_finishing(PLATE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                       machine="grbl-router", measure=False)
+    assert isinstance(err.value, MachineError)
+    text = str(err.value)
+    assert "axis 'X'" in text and "toolpath point" in text and "pass 0" in text
+
+
+def test_within_travel_and_time_at_the_rate_limits():
+    plate = PlaneSurface(t_vector_mm=(20.0, 0.0, 0.0), s_vector_mm=(0.0, 6.0, 0.0))
+    path, rep = plan_finishing(plate, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                               machine="grbl-router", feed_mm_per_min=600.0, measure=False)
+    assert rep.travel_violations == () and rep.machine == "grbl-router"
+    # at least the cutting length at the feed
+    assert rep.estimated_time_s >= 60.0 * path.cutting_length_mm / 600.0 * 0.99
+
+
+def test_unknown_machine():
+    with pytest.raises(UnknownMachineError, match="'mill-9000'"):
+        plan_finishing(PLATE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                       machine="mill-9000")

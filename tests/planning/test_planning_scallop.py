@@ -1,0 +1,71 @@
+"""Stepover from the scallop height: exact circle geometry, and the pass levels."""
+
+import numpy as np
+import pytest
+
+from toolpath.planning.errors import PlanningError
+from toolpath.planning.scallop import pass_levels, scallop_height_mm, stepover_mm
+
+
+def _cusp_by_bisection(w, rho, k):
+    """Oracle: cusp height between two cutter circles on a surface circle, by bisection on
+    the bisector (independent of the law-of-cosines formula)."""
+    if k == 0.0:
+        centre = np.array([w / 2.0, rho])
+        lo, hi = 0.0, rho
+        for _ in range(200):
+            mid = 0.5 * (lo + hi)
+            inside = np.hypot(*(np.array([0.0, mid]) - centre)) < rho
+            lo, hi = (lo, mid) if inside else (mid, hi)
+        return lo
+    big = 1.0 / abs(k)
+    alpha = w / big
+    sign = 1.0 if k < 0 else -1.0  # convex: cutters outside the circle
+    centre = (big + sign * rho) * np.array([np.cos(alpha), np.sin(alpha)])
+    direction = np.array([np.cos(alpha / 2), np.sin(alpha / 2)])
+    lo, hi = 0.0, rho
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        p = (big + sign * mid) * direction
+        inside = np.hypot(*(p - centre)) < rho
+        lo, hi = (lo, mid) if inside else (mid, hi)
+    return lo
+
+
+@pytest.mark.parametrize("k", [-1 / 5.0, -1 / 50.0, 0.0, 1 / 50.0, 1 / 8.0])
+@pytest.mark.parametrize("h", [0.001, 0.01, 0.05])
+def test_stepover_leaves_exactly_the_requested_cusp(k, h):
+    w = float(stepover_mm(h, 3.0, k))
+    assert _cusp_by_bisection(w, 3.0, k) == pytest.approx(h, rel=1e-7, abs=1e-12)
+    assert float(scallop_height_mm(w, 3.0, k)) == pytest.approx(h, rel=1e-9)
+
+
+def test_convex_needs_a_smaller_stepover_than_a_plane_and_concave_a_larger_one():
+    flat = stepover_mm(0.005, 3.0, 0.0)
+    assert stepover_mm(0.005, 3.0, -0.1) < flat < stepover_mm(0.005, 3.0, 0.1)
+    assert stepover_mm(0.005, 3.0, 1 / 2.5) == 0.0  # a 2.5 mm hollow does not fit R 3
+    # a flat face on a convex surface: point contacts, the bulge between them
+    assert float(stepover_mm(0.01, np.inf, -1 / 40.0)) == pytest.approx(
+        2 * np.sqrt(2 * 0.01 * 40.0), rel=1e-3)
+
+
+def test_pass_levels_respect_the_window_minimum():
+    grid = np.linspace(0.0, 1.0, 101)
+    allowed = 0.01 + 0.02 * (grid > 0.5)  # tighter on the lower half
+    levels = pass_levels(grid, allowed, balance=False)
+    assert levels[0] == 0.0 and levels[-1] == 1.0 and np.all(np.diff(levels) > 0)
+    steps = np.diff(levels)
+    for lo, step in zip(levels[:-1], steps, strict=True):
+        window = (grid >= lo - 1e-12) & (grid <= lo + step + 0.01)
+        assert step <= allowed[window].min() + 1e-8
+    balanced = pass_levels(grid, allowed)
+    assert len(balanced) == len(levels)
+    assert np.diff(balanced).max() <= np.diff(levels).max() + 1e-8  # the 1e-9 snap to s = 1
+
+
+def test_pass_levels_refuse_zero_and_too_many():
+    grid = np.linspace(0.0, 1.0, 11)
+    with pytest.raises(PlanningError, match=r"s=0\.5"):
+        pass_levels(grid, np.where(np.isclose(grid, 0.5), 0.0, 0.1))
+    with pytest.raises(PlanningError, match="max_passes=10"):
+        pass_levels(grid, np.full(11, 0.001), max_passes=10)

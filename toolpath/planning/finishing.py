@@ -1,0 +1,547 @@
+"""``plan_finishing``: streamline finishing passes from a surface to a checked toolpath.
+
+Stages (each timed in the report):
+
+1. **probe**: the surface frame on a ``probe_t x n_s`` grid: nominal tool axes, reach
+   (3-axis), local gouge margin, and the allowed step in ``s`` from the scallop formula
+   (:mod:`~toolpath.planning.scallop`);
+2. **spacing**: pass levels in ``s``, worst case along each pass;
+3. **passes**: points along each pass from the chord tolerance
+   (:mod:`~toolpath.planning.sampling`), axes, tips; 3-axis reach boundaries;
+4. **chords**: mid-chord gaps measured against the surface, offending chords split;
+5. **gouge**: local (curvature) and global (samples) checks, then ``on_gouge``;
+6. **linking**: runs, lead arcs, clearance, rapids (:mod:`~toolpath.planning.linking`),
+   and a gouge check of every non-cutting position;
+7. **machine**: inverse kinematics, travel (raise or report) and rate limits, time;
+8. **measure**: scallop and chord error measured on the result
+   (:mod:`~toolpath.planning.measure`).
+"""
+
+from __future__ import annotations
+
+import time
+from typing import Any
+
+import numpy as np
+from numpy.typing import NDArray
+
+from machines import Machine, load_machine
+from machines.errors import UnreachableOrientationError
+
+from ..errors import InvalidParameterError
+from ..path import Toolpath
+from ..surface import ParametricSurface, as_surface
+from .avoid import gouge_depth_mm, local_depth_mm
+from .checks import check_links, gouge_stage, machine_stage
+from .cutters import Cutter, CutterKind, parse_cutter, radial_directions
+from .errors import GougeError, UnreachableRegionError, too_many_points
+from .gouge import local_margin, sample_surface
+from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, link_runs
+from .local import pass_frame
+from .measure import measure_chord, measure_scallop
+from .options import AxisMode, FinishingOptions, Linking, OnGouge
+from .passes import PassLayout, PassPoints, evaluate_points, refine_chords, split_reach
+from .report import PlanningReport, UnreachableSpan, merge_spans
+from .sampling import chord_length_mm, cutter_gap, equidistribute
+from .scallop import pass_levels, stepover_mm
+from .tool_axis import lead_tilt_axes
+
+__all__ = ["plan_finishing"]
+
+_STAGES = ("probe", "spacing", "passes", "chords", "gouge", "linking", "machine", "measure")
+
+
+class _Clock:
+    """Stage timer that also drives the progress callback."""
+
+    def __init__(self, progress: Any) -> None:
+        self.progress = progress
+        self.seconds: dict[str, float] = {}
+        self._stage: str | None = None
+        self._t0 = time.perf_counter()
+
+    def stage(self, name: str) -> None:
+        now = time.perf_counter()
+        if self._stage is not None:
+            self.seconds[self._stage] = now - self._t0
+        self._stage, self._t0 = name, now
+        if self.progress is not None:
+            self.progress(name, _STAGES.index(name) / len(_STAGES))
+
+    def done(self) -> None:
+        self.stage_end()
+        if self.progress is not None:
+            self.progress("done", 1.0)
+
+    def stage_end(self) -> None:
+        if self._stage is not None:
+            self.seconds[self._stage] = time.perf_counter() - self._t0
+            self._stage = None
+
+
+def _as_cutter(cutter: Any) -> Cutter:
+    if isinstance(cutter, Cutter):
+        return cutter
+    if isinstance(cutter, str):
+        return parse_cutter(cutter)
+    raise InvalidParameterError(f"cutter must be a Cutter or a spec like 'ball:6', "
+                                f"got {cutter!r}")
+
+
+def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
+    if machine is None:
+        return None
+    mach = machine if isinstance(machine, Machine) else load_machine(machine)
+    if not mach.kinematics.is_five_axis:
+        if opts.axis_mode is AxisMode.LEAD_TILT:
+            raise UnreachableOrientationError(
+                f"axis_mode='lead-tilt' needs a 5-axis machine: machine {mach.name!r} is "
+                f"3-axis and holds the tool along +Z only; use axis_mode='3'", indices=[])
+        if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=1e-9):
+            raise UnreachableOrientationError(
+                f"fixed_axis={opts.fixed_axis!r} is not +Z: the 3-axis machine {mach.name!r} "
+                f"holds the tool along +Z only; set the part up so that axis is +Z (rotate "
+                f"the surface) or use a 5-axis machine", indices=[])
+    return mach
+
+
+def _nominal(opts: FinishingOptions, normal: NDArray[np.float64], e1: NDArray[np.float64]
+             ) -> NDArray[np.float64]:
+    if opts.axis_mode is AxisMode.FIXED:
+        return np.broadcast_to(np.asarray(opts.fixed_axis), normal.shape).copy()
+    return lead_tilt_axes(normal, e1, opts.lead_deg, opts.tilt_deg)
+
+
+def _reach(opts: FinishingOptions, normal: NDArray[np.float64]) -> NDArray[np.bool_]:
+    if opts.axis_mode is not AxisMode.FIXED:
+        return np.ones(normal.shape[0], dtype=bool)
+    limit = np.sin(np.radians(opts.reach_margin_deg)) - 1e-12
+    return normal @ np.asarray(opts.fixed_axis) >= limit
+
+
+def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+           res: dict[str, float], t: NDArray[np.float64], s: NDArray[np.float64]
+           ) -> dict[str, Any]:
+    """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
+
+    Where the pass is concave (``S11 > 0``) the cusp is planned for the scallop minus the
+    allowed chord undercut (:data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`).
+    """
+    tt, ss = np.meshgrid(t, s, indexing="ij")
+    frame = pass_frame(surface, tt.ravel(), ss.ravel())
+    axes = _nominal(opts, frame.normal, frame.e1)
+    reach = _reach(opts, frame.normal)
+    depth = local_depth_mm(frame, cutter, axes)
+    gouging = reach & (depth > opts.gouge_tol_mm)
+    _, _, c22 = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
+    with np.errstate(divide="ignore"):
+        rho = np.where(c22 > 0.0, 1.0 / np.where(c22 > 0.0, c22, 1.0), np.inf)
+    h = np.where(frame.s11 > 1e-12, opts.scallop_mm - res["undercut_mm"], opts.scallop_mm)
+    width = stepover_mm(h, rho, frame.s22)
+    if cutter.kind is CutterKind.FLAT:
+        width = _flat_stepover(cutter, frame, axes, h)
+    if cutter.kind is not CutterKind.BALL:
+        r = cutter.corner_radius_mm
+        corner = np.where(r > h, 2.0 * np.sqrt(np.maximum(h * (2.0 * r - h), 0.0)), 0.0)
+        width = np.minimum(width, cutter.flat_width_mm(axes, frame.e2) + corner)
+    width = np.where(reach & ~gouging, width, np.inf)
+    allowed = (width / frame.speed_s).reshape(len(t), len(s))
+    area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
+    # chord density |X_t| / L (segments per unit t) for the points along the passes
+    c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
+    big = cutter.radius_mm
+    with np.errstate(divide="ignore"):
+        rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
+    # concave passes: the moves stand above the surface and lift the cusps; keep them low
+    tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], opts.chord_tol_mm)
+    length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"])
+    density = (frame.speed_t / length).reshape(len(t), len(s))
+    return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
+            "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
+            "points": frame.point, "density": density}
+
+
+def _flat_stepover(cutter: Cutter, frame: Any, axes: NDArray[np.float64],
+                   h: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Flat end mill stepover: its section across, and the staircase of a leaning face.
+
+    The section's curvature is the parallel part only (the sharp edge has none to speak
+    of); the face leaning on the surface by the slope across leaves a staircase of height
+    ``w tan(slope)``, ``tan(slope) = |u.e2| tan(lean)``, so ``w <= h / tan(slope)``.
+    """
+    u, sin_lean = radial_directions(frame.normal, axes)
+    cos_lean = np.einsum("ij,ij->i", frame.normal, axes)
+    p = np.cross(axes, u)
+    k_par = sin_lean / cutter.radius_mm
+    k_across = k_par * np.einsum("ij,ij->i", p, frame.e2) ** 2
+    with np.errstate(divide="ignore"):
+        rho = np.where(k_across > 0.0, 1.0 / np.where(k_across > 0.0, k_across, 1.0), np.inf)
+        slope = np.abs(np.einsum("ij,ij->i", u, frame.e2)) * sin_lean / np.maximum(
+            cos_lean, 1e-12)
+        stair = np.where(slope > 0.0, h / np.where(slope > 0.0, slope, 1.0), np.inf)
+    return np.minimum(stepover_mm(h, rho, frame.s22), stair)
+
+
+def _layout(levels: NDArray[np.float64], linking: Linking) -> PassLayout:
+    if linking is Linking.SPIRAL:
+        s_start = np.r_[0.0, levels[:-1], 1.0]
+        s_end = np.r_[0.0, levels[1:], 1.0]
+    else:
+        s_start = s_end = levels
+    n = len(s_start)
+    direction = (np.where(np.arange(n) % 2 == 0, 1, -1) if linking is Linking.ZIGZAG
+                 else np.ones(n, dtype=np.int64))
+    return PassLayout(np.asarray(s_start, float), np.asarray(s_end, float),
+                      np.asarray(direction, dtype=np.int64))
+
+
+def _initial_points(layout: PassLayout, t_probe: NDArray[np.float64],
+                    s_probe: NDArray[np.float64], density: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Equidistributed contacts per pass from the probe grid's chord density.
+
+    The density (segments per unit ``t``) is interpolated linearly in ``s`` to each pass
+    (to each point of a spiral ring); the chord check then adds what this misses.
+    """
+    n_pass = layout.n_passes
+    pid = np.repeat(np.arange(n_pass), t_probe.size)
+    tt = np.tile(t_probe, n_pass)
+    ss = layout.s_of(tt, pid)
+    j = np.clip(np.searchsorted(s_probe, ss, side="right"), 1, s_probe.size - 1)
+    w = (ss - s_probe[j - 1]) / (s_probe[j] - s_probe[j - 1])
+    ti = np.tile(np.arange(t_probe.size), n_pass)
+    dens = (1.0 - w) * density[ti, j - 1] + w * density[ti, j]
+    return equidistribute(t_probe, dens.reshape(n_pass, t_probe.size))
+
+
+def _runs_of(keep: NDArray[np.bool_], pts: PassPoints, closed: bool
+             ) -> list[NDArray[np.int64]]:
+    """Index arrays of maximal kept stretches (at least two points) per pass.
+
+    On closed sections a stretch ending at ``t = 1`` continues into the one starting at
+    ``t = 0`` of the same pass (the same point), so the two are joined.
+    """
+    cont = np.r_[False, (pts.pid[1:] == pts.pid[:-1]) & keep[1:] & keep[:-1]]
+    starts = np.flatnonzero(keep & ~cont)
+    ends = np.flatnonzero(keep & ~np.r_[cont[1:], False])
+    runs = [np.arange(a, b + 1) for a, b in zip(starts, ends, strict=True) if b > a]
+    if not closed or len(runs) < 2:
+        return runs
+    out: list[NDArray[np.int64]] = []
+    i = 0
+    while i < len(runs):
+        first = runs[i]
+        j = i
+        while j + 1 < len(runs) and pts.pid[runs[j + 1][0]] == pts.pid[first[0]]:
+            j += 1
+        last = runs[j]
+        wraps = (j > i and pts.t[first[0]] == 0.0 and pts.t[last[-1]] == 1.0)
+        if wraps:
+            out.extend(runs[i + 1:j])
+            out.append(np.r_[last, first])  # the repeated point is dropped on linking
+        else:
+            out.extend(runs[i:j + 1])
+        i = j + 1
+    return out
+
+
+def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool_],
+           runs: list[NDArray[np.int64]], layout: PassLayout) -> list[UnreachableSpan]:
+    """Uncut stretches of each pass, between the cut runs."""
+    cut = np.zeros(len(pts), dtype=bool)
+    for run in runs:
+        cut[run] = True
+    spans = []
+    starts = np.flatnonzero(np.r_[True, pts.pid[1:] != pts.pid[:-1]])
+    ends = np.r_[starts[1:], len(pts)]
+    for a, b in zip(starts, ends, strict=True):
+        c = cut[a:b]
+        if c.all():
+            continue
+        p = int(pts.pid[a])
+        s_mid = float(0.5 * (layout.s_start[p] + layout.s_end[p]))
+        gaps = np.flatnonzero(np.diff(np.r_[0, (~c).astype(int), 0]))
+        for g0, g1 in zip(gaps[::2], gaps[1::2], strict=True):
+            lo = pts.t[a + g0 - 1] if g0 > 0 else 0.0
+            hi = pts.t[a + g1] if a + g1 < b else 1.0
+            seg = slice(a + g0, a + g1)
+            reason = ("faces away" if faces_away[seg].any()
+                      else "shadowed" if (~keep[seg]).any() else "too short")
+            spans.append(UnreachableSpan(p, s_mid, float(lo), float(hi), reason))
+    return spans
+
+
+def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+               res: dict[str, float], pts: PassPoints, runs: list[NDArray[np.int64]]
+               ) -> list[Run]:
+    """Runs in cutting order with their lead data and how they link."""
+    order = []
+    by_pass: dict[int, list[NDArray[np.int64]]] = {}
+    for run in runs:
+        by_pass.setdefault(int(pts.pid[run[0]]), []).append(run)
+    for p in sorted(by_pass):
+        group = by_pass[p]
+        if pts.direction[group[0][0]] < 0:
+            group = [g[::-1] for g in group[::-1]]
+        order.extend(group)
+    closed = bool(surface.closed_t)
+    feed = pts.feed_dirs
+    out: list[Run] = []
+    for run in order:
+        first, last = run[0], run[-1]
+        out.append(Run(
+            tips=pts.tips[run], axes=pts.axes[run], pass_index=int(pts.pid[first]),
+            normal_start=pts.frame.normal[first], normal_end=pts.frame.normal[last],
+            feed_start=feed[first], feed_end=feed[last],
+            extend_start=not closed and pts.t[first] in (0.0, 1.0),
+            extend_end=not closed and pts.t[last] in (0.0, 1.0)))
+    # how consecutive runs link
+    cand = []
+    for k in range(1, len(out)):
+        prev, run = out[k - 1], out[k]
+        a, b = order[k - 1][-1], order[k][0]
+        gap_mm = float(np.linalg.norm(prev.tips[-1] - run.tips[0]))
+        if opts.linking is Linking.SPIRAL:
+            run.joined = (gap_mm < 1e-6 and run.pass_index == prev.pass_index + 1)
+        elif gap_mm <= res["link_max_mm"] and run.pass_index != prev.pass_index:
+            cand.append((k, a, b))
+    if cand:
+        ks, a, b = (np.array(x) for x in zip(*cand, strict=True))
+        tips = 0.5 * (pts.tips[a] + pts.tips[b])
+        axes = pts.axes[a] + pts.axes[b]
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        gap, _, _ = cutter_gap(surface, cutter, tips, axes, 0.5 * (pts.t[a] + pts.t[b]),
+                               0.5 * (pts.s[a] + pts.s[b]))
+        for k, ok in zip(ks, gap >= -opts.chord_tol_mm, strict=True):
+            out[int(k)].direct_link = bool(ok)
+    return out
+
+
+def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_mm: float,
+                   chord_tol_mm: float, axis_mode: str = "3", lead_deg: float = 0.0,
+                   tilt_deg: float = 0.0, linking: str = "zigzag",
+                   machine: Machine | str | None = None, **options: Any
+                   ) -> tuple[Toolpath, PlanningReport]:
+    """Plan streamline finishing passes on ``surface`` and report what they achieve.
+
+    Parameters
+    ----------
+    surface : ParametricSurface
+        The surface to finish (normals out of the material).
+    cutter : Cutter or str
+        The end mill, or a spec like ``"ball:6"`` (the number is the diameter in mm).
+    scallop_mm : float
+        Largest cusp height between passes, mm.
+    chord_tol_mm : float
+        Largest deviation of the cutter from the surface along a move, mm.
+    axis_mode : {"3", "lead-tilt"}
+        Fixed tool axis (``fixed_axis``, default +Z) or 5-axis lead/tilt.
+    lead_deg, tilt_deg : float
+        Lead and tilt angles for ``"lead-tilt"``, deg.
+    linking : {"zigzag", "oneway", "spiral"}
+        How passes follow each other (``spiral`` needs closed sections).
+    machine : Machine or str, optional
+        Check reach, travel and rates on this machine and estimate the time.
+    **options
+        Any other field of :class:`~toolpath.planning.options.FinishingOptions`.
+
+    Returns
+    -------
+    toolpath : Toolpath
+    report : PlanningReport
+
+    Raises
+    ------
+    InvalidParameterError
+        Bad or unknown options, tolerances <= 0 or not below the cutter radius, spiral on
+        open sections.
+    GougeError
+        A gouge with ``on_gouge="raise"`` (the cutter larger than a concave radius), or a
+        linking move that would gouge; names pass and point.
+    UnreachableRegionError
+        Nothing of the surface can be reached.
+    machines.MachineError
+        Unknown machine, an orientation the machine cannot make, travel exceeded
+        (with ``on_limit="raise"``).
+    """
+    known = {f for f in FinishingOptions.__dataclass_fields__} - {
+        "scallop_mm", "chord_tol_mm", "axis_mode", "lead_deg", "tilt_deg", "linking"}
+    unknown = sorted(set(options) - known)
+    if unknown:
+        raise InvalidParameterError(f"unknown option(s) {unknown}; known: {sorted(known)}")
+    surface = as_surface(surface)
+    cutter = _as_cutter(cutter)
+    opts = FinishingOptions(scallop_mm=scallop_mm, chord_tol_mm=chord_tol_mm,
+                            axis_mode=axis_mode, lead_deg=lead_deg, tilt_deg=tilt_deg,
+                            linking=linking, **options)
+    opts.check_cutter(cutter)
+    res = opts.resolved(cutter)
+    mach = _as_machine(machine, opts)
+    if opts.linking is Linking.SPIRAL and not surface.closed_t:
+        raise InvalidParameterError(
+            "linking='spiral' needs closed sections (surface.closed_t): this surface's "
+            "passes are open; use linking='zigzag' or 'oneway'")
+    clock = _Clock(opts.progress)
+
+    clock.stage("probe")
+    t_probe = np.linspace(0.0, 1.0, opts.probe_t)
+    s_probe = np.linspace(0.0, 1.0, 65)
+    probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
+    finite = probe["allowed"][np.isfinite(probe["allowed"])]
+    if not finite.size and not probe["gouging"].any():
+        raise UnreachableRegionError(
+            f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
+            f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
+            "fixed_axis or axis_mode='lead-tilt'")
+    if opts.probe_s is not None or finite.size:
+        n_s = opts.probe_s or int(np.clip(3.0 / max(float(finite.min()), 1e-6) + 1, 65, 129))
+        if n_s != 65:
+            s_probe = np.linspace(0.0, 1.0, n_s)
+            probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
+    if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
+        raise _probe_gouge(surface, probe, cutter, t_probe, s_probe)
+
+    clock.stage("spacing")
+    allowed = probe["allowed"]
+    allowed = np.where(np.isfinite(allowed), allowed, 1.0)
+    levels = pass_levels(s_probe, allowed,
+                         lookahead=2.0 if opts.linking is Linking.SPIRAL else 1.0)
+    layout = _layout(levels, opts.linking)
+
+    clock.stage("passes")
+    t, pid = _initial_points(layout, t_probe, s_probe, probe["density"])
+    if t.size > opts.max_points:
+        raise too_many_points(opts, t.size)
+    pts = evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    if opts.axis_mode is AxisMode.FIXED:
+        pts, keep = split_reach(surface, cutter, opts, res, layout, pts)
+    else:
+        keep = np.ones(len(pts), dtype=bool)
+    faces_away = ~keep
+
+    clock.stage("chords")
+    pts, keep, planned_chord = refine_chords(surface, cutter, opts, res, layout, pts,
+                                             keep=keep)
+    faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
+        np.zeros(len(pts), dtype=bool)
+
+    clock.stage("gouge")
+    samples = sample_surface(surface, res["gouge_sample_mm"])
+    pts, keep, gstats = gouge_stage(surface, cutter, opts, res, pts, keep, samples)
+    runs = _runs_of(keep, pts, bool(surface.closed_t))
+    if not runs:
+        raise UnreachableRegionError(
+            "no stretch of any pass can be cut (every point faces away from the tool axis "
+            "or is shadowed by the part)")
+    spans = _spans(pts, keep, faces_away, runs, layout)
+
+    clock.stage("linking")
+    run_list = _make_runs(surface, cutter, opts, res, pts, runs)
+    corners = probe["points"]
+    if opts.axis_mode is AxisMode.FIXED:
+        axis = np.asarray(opts.fixed_axis)
+        clearance: ClearancePlane | ClearanceSphere = ClearancePlane(
+            axis, float((corners @ axis).max()) + opts.clearance_mm)
+    else:
+        lo, hi = corners.min(axis=0), corners.max(axis=0)
+        centre = 0.5 * (lo + hi)
+        radius = float(np.linalg.norm(corners - centre, axis=1).max())
+        clearance = ClearanceSphere(centre, radius + opts.clearance_mm)
+    link_opts = LinkOptions(
+        clearance=clearance, feed_mm_per_min=opts.feed_mm_per_min,
+        plunge_feed_mm_per_min=res["plunge_feed_mm_per_min"],
+        lead_radius_mm=res["lead_radius_mm"], lead_angle_deg=opts.lead_angle_deg,
+        approach_mm=opts.approach_mm, extend_mm=opts.extend_mm,
+        chord_tol_mm=opts.chord_tol_mm)
+    positions, axes, kinds, feeds, passes = link_runs(run_list, link_opts)
+    metadata = {"planner": "toolpath.planning.plan_finishing", "cutter": cutter.spec,
+                "surface": type(surface).__name__, "scallop_mm": f"{opts.scallop_mm:g}",
+                "chord_tol_mm": f"{opts.chord_tol_mm:g}", "axis_mode": opts.axis_mode.value,
+                "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
+                "linking": opts.linking.value}
+    path = Toolpath(positions, axes, kinds, feeds, passes, metadata)
+    check_links(path, cutter, samples, opts)
+
+    clock.stage("machine")
+    mstats = machine_stage(path, mach, opts) if mach is not None else None
+
+    clock.stage("measure")
+    scallop = chord = None
+    if opts.measure:
+        chord = measure_chord(path, surface, cutter, samples)
+        scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord)
+    clock.done()
+
+    report = _report(surface, cutter, opts, probe, pts, keep, runs, spans, path, gstats,
+                     planned_chord, mstats, scallop, chord, clock.seconds)
+    return path, report
+
+
+def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
+                 t: NDArray[np.float64], s: NDArray[np.float64]) -> Exception:
+    """The GougeError for a cutter larger than a concave radius (probe grid)."""
+    depth = np.where(probe["gouging"], probe["depth"], -1.0)
+    i = int(np.argmax(depth))
+    ti, si = np.unravel_index(i, (t.size, s.size))
+    frame = probe["frame"]
+    kmax = float(frame.max_concave_curvature[i])
+    p = frame.point[i]
+    radius = 1.0 / kmax if kmax > 0 else float("inf")
+    depth = gouge_depth_mm(surface, cutter, float(t[ti]), float(s[si]), probe["axes"][i])
+    return GougeError(
+        f"cutter {cutter.spec} (radius {cutter.radius_mm:g} mm) is larger than the smallest "
+        f"concave radius of the surface, {radius:.4f} mm at t={t[ti]:.5f}, s={s[si]:.5f} "
+        f"(point ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm): it would cut {depth:.4f} mm into "
+        f"the surface there; use a cutter of radius < {radius:.3f} mm, or on_gouge='lift'",
+        t=float(t[ti]), s=float(s[si]), depth_mm=depth)
+
+
+def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+            probe: dict[str, Any], pts: PassPoints, keep: NDArray[np.bool_],
+            runs: list[NDArray[np.int64]], spans: list[UnreachableSpan], path: Toolpath,
+            gstats: dict[str, Any], planned_chord: float, mstats: dict[str, Any] | None,
+            scallop: Any, chord: Any, seconds: dict[str, float]) -> PlanningReport:
+    cut = np.zeros(len(pts), dtype=bool)
+    for run in runs:
+        cut[run] = True
+    kmax = pts.frame.max_concave_curvature[cut]
+    margin = local_margin(pts.frame, cutter, pts.axes)[cut]
+    if kmax.size and kmax.max() > 0.0:
+        i = int(np.argmax(kmax))
+        min_radius = 1.0 / float(kmax[i])
+        c_there = 1.0 / max(float(margin[i] + kmax[i]), 1e-12)
+    else:
+        min_radius, c_there = float("inf"), cutter.radius_mm
+    area = probe["area"].ravel()
+    unreach = float(area[~probe["reach"]].sum() / max(area.sum(), 1e-300))
+    rate = None
+    if opts.axis_mode is AxisMode.LEAD_TILT and pts.smoothing is not None:
+        rate = pts.smoothing.max_rate_deg_per_mm
+    return PlanningReport(
+        cutter=str(cutter.spec), axis_mode=opts.axis_mode.value, linking=opts.linking.value,
+        scallop_request_mm=opts.scallop_mm, chord_tol_mm=opts.chord_tol_mm,
+        n_passes=path.n_passes, n_points=len(path),
+        n_cut_points=int((path.pass_index >= 0).sum()),
+        max_scallop_mm=None if scallop is None else scallop.max_mm,
+        scallop_interior_mm=None if scallop is None else scallop.interior_max_mm,
+        scallop_at=None if scallop is None else (scallop.t, scallop.s),
+        uncut_fraction=None if scallop is None else scallop.uncut_fraction,
+        max_chord_error_mm=None if chord is None else chord.max_mm,
+        chord_overcut_mm=None if chord is None else chord.overcut_mm,
+        chord_undercut_mm=None if chord is None else chord.undercut_mm,
+        chord_worst_point=None if chord is None else chord.worst_point,
+        planned_chord_error_mm=planned_chord,
+        min_clearance_mm=gstats["min_clearance_mm"],
+        min_concave_radius_mm=min_radius, cutter_radius_there_mm=c_there,
+        n_lifted=gstats["n_lifted"], max_lift_mm=gstats["max_lift_mm"],
+        n_retilted=gstats["n_retilted"], unreachable_spans=tuple(spans),
+        unreachable_regions=merge_spans(spans), unreachable_fraction=unreach,
+        max_axis_rate_deg_per_mm=rate, cone_pushed=pts.cone_pushed,
+        machine=None if mstats is None else mstats["name"],
+        travel_violations=() if mstats is None else mstats["travel"],
+        rate_violations=() if mstats is None else mstats["rates"],
+        estimated_time_s=None if mstats is None else mstats["time_s"],
+        length_mm=path.length_mm, cutting_length_mm=path.cutting_length_mm,
+        seconds=dict(seconds), gouge_tol_mm=opts.gouge_tol_mm,
+        axis_rate_limit_deg_per_mm=(opts.max_axis_rate_deg_per_mm
+                                    if opts.axis_mode is AxisMode.LEAD_TILT else None))

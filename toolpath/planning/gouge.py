@@ -1,0 +1,226 @@
+"""Gouge checks: local (curvature) and global (the cutter solid against surface samples).
+
+**Local.** At a contact the cutter and the surface share the tangent plane; the cutter
+stays out of the surface to second order iff its curvature exceeds the surface's in every
+tangent direction, i.e. iff the 2x2 matrix ``D = C - S`` is positive semi-definite
+(``C`` the cutter's second fundamental form, ``S`` the surface's, both positive when
+curving towards the cutter side). The margin is its smaller eigenvalue
+``(d11 + d22)/2 - sqrt(((d11 - d22)/2)^2 + d12^2)`` (1/mm); for a ball it is
+``1/R - k_max``, negative where a concave radius ``1/k_max`` is smaller than the ball.
+
+**Global.** The surface is sampled on a grid no coarser than ``sample_mm`` in either
+direction; for every cutter location the samples near the cutter are found with a k-d tree
+(a ball of radius ``R + horizon`` around the corner-circle centre ``tip + r a``, which holds
+the whole cutting end, plus spheres along the flutes, each covering a slab of
+``3R`` of the shank; with more locations than samples the tree is built on these probe
+points and asked from every sample instead) and the exact signed distance of the cutter solid
+(:meth:`~toolpath.planning.cutters.Cutter.signed_distance`) is taken at each. The
+clearance of a location is the smallest value (negative: the depth of a gouge); values
+above ``horizon_mm`` are not resolved and reported as ``inf``. Samples closer than the
+cutter diameter to the location's own contact point are the contact itself; they are
+kept apart so the report can tell a curvature gouge near the contact from a collision with
+another part of the surface (the far clearance).
+"""
+
+from __future__ import annotations
+
+import itertools
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from ..surface import ParametricSurface
+from .cutters import Cutter
+from .local import PassFrame
+
+__all__ = [
+    "CLEARANCE_HORIZON_MM",
+    "GOUGE_TOL_MM",
+    "Clearance",
+    "SurfaceSamples",
+    "global_clearance",
+    "local_margin",
+    "sample_surface",
+]
+
+GOUGE_TOL_MM: Final[float] = 1e-4
+"""Penetration counted as a gouge, mm: far below a machine's 1 um resolution, far above the
+1e-12 mm round-off of exact contacts."""
+
+CLEARANCE_HORIZON_MM: Final[float] = 0.1
+"""Clearances are resolved up to this distance, mm; larger ones read ``inf``. It keeps the
+neighbour search small (a disc of radius ``sqrt(2 R h)`` around each contact)."""
+
+_CHUNK: Final[int] = 400_000
+
+
+def local_margin(frame: PassFrame, cutter: Cutter, axes: NDArray[np.float64]
+                 ) -> NDArray[np.float64]:
+    """Smallest eigenvalue of ``C - S`` at each contact, 1/mm (< 0: local gouge)."""
+    c11, c12, c22 = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
+    d11, d12, d22 = c11 - frame.s11, c12 - frame.s12, c22 - frame.s22
+    return 0.5 * (d11 + d22) - np.sqrt(0.25 * (d11 - d22) ** 2 + d12 * d12)
+
+
+@dataclass(frozen=True, eq=False)
+class SurfaceSamples:
+    """A grid of surface points with their parameters and a k-d tree over them."""
+
+    points: NDArray[np.float64]
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    tree: cKDTree
+    spacing_mm: float
+
+
+def sample_surface(surface: ParametricSurface, sample_mm: float, *,
+                   probe: int = 33, max_samples: int = 4_000_000) -> SurfaceSamples:
+    """Grid samples with 3-D spacing at most ``sample_mm`` along ``t`` and ``s``.
+
+    The counts come from the longest iso-curves measured on a ``probe x probe`` grid
+    (polyline length, then 1.02 margin for the chords' shortfall).
+    """
+    g = np.linspace(0.0, 1.0, probe)
+    pts = surface(g, g, grid=True)
+    len_t = np.linalg.norm(np.diff(pts, axis=0), axis=2).sum(axis=0).max() * 1.02
+    len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
+    n_t = max(int(np.ceil(len_t / sample_mm)) + 1, 2)
+    n_s = max(int(np.ceil(len_s / sample_mm)) + 1, 2)
+    if n_t * n_s > max_samples:
+        scale = np.sqrt(n_t * n_s / max_samples)
+        n_t, n_s = int(n_t / scale) + 1, int(n_s / scale) + 1
+    t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), indexing="ij")
+    t, s = t.ravel(), s.ravel()
+    points = surface(t, s)
+    spacing = float(max(len_t / (n_t - 1), len_s / (n_s - 1)))
+    return SurfaceSamples(points=points, t=t, s=s, tree=cKDTree(points), spacing_mm=spacing)
+
+
+@dataclass(frozen=True, eq=False)
+class Clearance:
+    """Per cutter location: the smallest signed distance to the surface samples.
+
+    Attributes
+    ----------
+    near_mm : ndarray, shape (n,)
+        Over samples within a cutter diameter of the location's contact point (all
+        samples when no contact is given), mm; ``inf`` beyond the horizon.
+    far_mm : ndarray, shape (n,)
+        Over the other samples, mm.
+    near_sample, far_sample : ndarray of int, shape (n,)
+        Index of the sample giving each value (``-1`` when ``inf``).
+    """
+
+    near_mm: NDArray[np.float64]
+    far_mm: NDArray[np.float64]
+    near_sample: NDArray[np.int64]
+    far_sample: NDArray[np.int64]
+
+    @property
+    def min_mm(self) -> NDArray[np.float64]:
+        """``min(near, far)``."""
+        return np.minimum(self.near_mm, self.far_mm)
+
+
+def _probes(cutter: Cutter, horizon_mm: float) -> tuple[NDArray[np.float64],
+                                                        NDArray[np.float64]]:
+    """Heights along the axis (from the tip) and radii of the query spheres."""
+    big, r, h = cutter.radius_mm, cutter.corner_radius_mm, cutter.flute_length_mm
+    step = 3.0 * big
+    n_shank = int(np.ceil(max(h - r, 0.0) / step))
+    heights = np.r_[r, r + (np.arange(1, n_shank + 1) - 0.5) * step]
+    radii = np.r_[big, np.full(n_shank, np.hypot(big, 0.5 * step))] + horizon_mm
+    return heights, radii
+
+
+def _min_by_group(group: NDArray[np.int64], value: NDArray[np.float64],
+                  item: NDArray[np.int64], n: int
+                  ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Smallest ``value`` per ``group`` (``inf`` for empty groups) and an item attaining it."""
+    best = np.full(n, np.inf)
+    which = np.full(n, -1, dtype=np.int64)
+    if group.size:
+        np.minimum.at(best, group, value)
+        hit = value == best[group]
+        which[group[hit]] = item[hit]
+    return best, which
+
+
+def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                     samples: SurfaceSamples, *, contacts_mm: NDArray[np.float64] | None = None,
+                     horizon_mm: float = CLEARANCE_HORIZON_MM, flutes: bool = True,
+                     chunk: int = _CHUNK) -> Clearance:
+    """Signed clearance of the cutter at each location against the surface samples.
+
+    Parameters
+    ----------
+    cutter : Cutter
+    tips_mm, axes : ndarray, shape (n, 3)
+        Cutter locations (tool tips) and unit tool axes.
+    samples : SurfaceSamples
+        From :func:`sample_surface`.
+    contacts_mm : ndarray, shape (n, 3), optional
+        Intended contact points; samples within a cutter diameter of them count as
+        *near*. Without them every sample is near.
+    horizon_mm : float
+        Clearances beyond this are not resolved (``inf``).
+    flutes : bool
+        Check the whole flute length (default), not only the cutting end.
+    chunk : int
+        Locations per vectorized batch (bounds memory).
+    """
+    n = len(tips_mm)
+    heights, radii = _probes(cutter, horizon_mm)
+    if not flutes:
+        heights, radii = heights[:1], radii[:1]
+    near = np.full(n, np.inf)
+    far = np.full(n, np.inf)
+    near_i = np.full(n, -1, dtype=np.int64)
+    far_i = np.full(n, -1, dtype=np.int64)
+    near_radius2 = (2.0 * cutter.radius_mm) ** 2
+    n_samples = len(samples.points)
+    for lo in range(0, n, chunk):
+        hi = min(lo + chunk, n)
+        tips, ax = tips_mm[lo:hi], axes[lo:hi]
+        owners, items = [], []
+        for z, radius in zip(heights, radii, strict=True):
+            probes = tips + z * ax
+            if hi - lo > n_samples:
+                # more locations than samples: build the tree on the probes and ask it
+                # from every sample (one query per sample instead of per location)
+                lists = cKDTree(probes).query_ball_point(samples.points, radius, workers=-1)
+                lengths = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
+                if not lengths.sum():
+                    continue
+                items.append(np.repeat(np.arange(n_samples), lengths))
+                owners.append(np.fromiter(itertools.chain.from_iterable(lists),
+                                          dtype=np.int64, count=int(lengths.sum())))
+                continue
+            lists = samples.tree.query_ball_point(probes, radius, workers=-1)
+            lengths = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
+            if not lengths.sum():
+                continue
+            owners.append(np.repeat(np.arange(hi - lo), lengths))
+            items.append(np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
+                                     count=int(lengths.sum())))
+        if not owners:
+            continue
+        owner = np.concatenate(owners)
+        item = np.concatenate(items)
+        dist = cutter.signed_distance(samples.points[item], tips[owner], ax[owner])
+        if contacts_mm is None:
+            is_near = np.ones(owner.size, dtype=bool)
+        else:
+            d = samples.points[item] - contacts_mm[lo:hi][owner]
+            is_near = np.einsum("ij,ij->i", d, d) <= near_radius2
+        for mask, best, which in ((is_near, near, near_i), (~is_near, far, far_i)):
+            value, idx = _min_by_group(owner[mask], dist[mask], item[mask], hi - lo)
+            best[lo:hi] = np.minimum(best[lo:hi], value)
+            which[lo:hi] = np.where(value <= best[lo:hi], idx, which[lo:hi])
+    near = np.where(near > horizon_mm, np.inf, near)
+    far = np.where(far > horizon_mm, np.inf, far)
+    return Clearance(near_mm=near, far_mm=far, near_sample=np.where(np.isinf(near), -1, near_i),
+                     far_sample=np.where(np.isinf(far), -1, far_i))

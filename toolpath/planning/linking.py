@@ -1,0 +1,270 @@
+"""Linking cut runs into one toolpath: lead arcs, extensions, clearance, rapids, plunges.
+
+A *run* is a stretch of one pass cut without lifting. Between two runs the tool either
+
+* continues directly (spiral rings join end to start; zig-zag and one-way runs whose
+  ends are within ``link_max_mm`` and whose straight link stays on the surface get one
+  ``LINK`` feed move), or
+* lifts: lead-out arc, rapid retract to the clearance, rapid traverse, rapid down to
+  ``approach_mm`` above the lead-in, ``PLUNGE`` at the plunge feed, lead-in arc.
+
+**Lead arcs** are quarter circles (``lead_angle_deg``) of radius ``lead_radius_mm`` in the
+plane of the feed direction ``f`` and the surface normal ``n`` at the run's end, tangent to
+the pass: lead-out ``E + rho (sin th f + (1 - cos th) n)``, lead-in
+``S + rho (-sin th f + (1 - cos th) n)``, ``th`` from 0 to the lead angle, with as many points
+as the chord tolerance needs (``2 acos(1 - tol / rho)`` per step). An **extension** is a
+straight ``extend_mm`` continuation of an open edge before the lead arc.
+
+**Clearance.** With a fixed tool axis ``a`` (3-axis) the clearance is the plane
+``p.a = H`` above the part (retract along ``a``, traverse in the plane). With a varying axis
+it is a sphere around the part's bounding box: retract along the tool axis to the sphere,
+traverse on the great circle between the two points (axis interpolated, a point every
+10 deg), descend along the next tool axis.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..path import MoveKind
+
+__all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "link_runs"]
+
+_TRAVERSE_STEP_DEG = 10.0
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(norm > 0.0, norm, 1.0)
+
+
+@dataclass(frozen=True)
+class ClearancePlane:
+    """Plane ``p . axis = height_mm`` (3-axis)."""
+
+    axis: NDArray[np.float64]
+    height_mm: float
+
+    def retract(self, p: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Point of the plane above ``p`` along the fixed axis."""
+        return p + (self.height_mm - float(p @ self.axis)) * self.axis
+
+    def traverse(self, p: NDArray[np.float64], a: NDArray[np.float64], q: NDArray[np.float64],
+                 b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Intermediate points and axes from ``p`` to ``q`` (none: a straight rapid)."""
+        return np.zeros((0, 3)), np.zeros((0, 3))
+
+
+@dataclass(frozen=True)
+class ClearanceSphere:
+    """Sphere ``|p - centre| = radius_mm`` around the part (5-axis)."""
+
+    centre: NDArray[np.float64]
+    radius_mm: float
+
+    def retract(self, p: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Where the ray ``p + l a`` (``l >= 0``) leaves the sphere."""
+        d = p - self.centre
+        b = float(d @ a)
+        c = float(d @ d) - self.radius_mm**2
+        lam = -b + np.sqrt(max(b * b - c, 0.0))
+        return p + max(lam, 0.0) * a
+
+    def traverse(self, p: NDArray[np.float64], a: NDArray[np.float64], q: NDArray[np.float64],
+                 b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Points on the great circle from ``p`` to ``q`` every 10 deg, axes interpolated."""
+        u, v = _unit(p - self.centre), _unit(q - self.centre)
+        ang = float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
+        steps = int(np.ceil(np.degrees(ang) / _TRAVERSE_STEP_DEG))
+        if steps <= 1:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        frac = np.arange(1, steps) / steps
+        if ang > 1e-9:
+            w0 = np.sin((1.0 - frac) * ang) / np.sin(ang)
+            w1 = np.sin(frac * ang) / np.sin(ang)
+            dirs = w0[:, None] * u + w1[:, None] * v
+        else:
+            dirs = np.broadcast_to(u, (frac.size, 3))
+        pts = self.centre + self.radius_mm * _unit(dirs)
+        axes = _unit((1.0 - frac)[:, None] * a + frac[:, None] * b)
+        bad = np.linalg.norm((1.0 - frac)[:, None] * a + frac[:, None] * b, axis=1) < 1e-6
+        axes[bad] = _unit(dirs[bad])
+        return pts, axes
+
+
+@dataclass
+class Run:
+    """One stretch of a pass, in cutting order.
+
+    Attributes
+    ----------
+    tips, axes : ndarray, shape (m, 3)
+        Cutter locations and unit tool axes.
+    pass_index : int
+        The pass it belongs to.
+    normal_start, normal_end, feed_start, feed_end : ndarray, shape (3,)
+        Surface normal and unit feed direction at the two ends (for the lead arcs).
+    extend_start, extend_end : bool
+        Whether the end is an open edge to extend past.
+    joined : bool
+        The run starts where the previous one ended (spiral): no link move.
+    direct_link : bool
+        The previous run may link to this one by a straight ``LINK`` move.
+    """
+
+    tips: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    pass_index: int
+    normal_start: NDArray[np.float64]
+    normal_end: NDArray[np.float64]
+    feed_start: NDArray[np.float64]
+    feed_end: NDArray[np.float64]
+    extend_start: bool = False
+    extend_end: bool = False
+    joined: bool = False
+    direct_link: bool = False
+
+
+@dataclass(frozen=True)
+class LinkOptions:
+    """Linking geometry and feeds (validated by the planner's options)."""
+
+    clearance: ClearancePlane | ClearanceSphere
+    feed_mm_per_min: float
+    plunge_feed_mm_per_min: float
+    lead_radius_mm: float
+    lead_angle_deg: float
+    approach_mm: float
+    extend_mm: float
+    chord_tol_mm: float
+    metadata: dict[str, str] = field(default_factory=dict)
+
+
+class _Builder:
+    """Accumulates points, axes, kinds, feeds and pass indices."""
+
+    def __init__(self, feed: float, plunge: float) -> None:
+        self.pts: list[NDArray[np.float64]] = []
+        self.axes: list[NDArray[np.float64]] = []
+        self.kinds: list[NDArray[np.uint8]] = []
+        self.passes: list[NDArray[np.int32]] = []
+        self.feed, self.plunge = feed, plunge
+        self.last: NDArray[np.float64] | None = None
+
+    def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
+            pass_index: int = -1) -> None:
+        pts = np.atleast_2d(pts)
+        axes = np.broadcast_to(np.atleast_2d(axes), pts.shape)
+        if self.last is not None and len(pts):
+            # drop points repeating the current position (zero-length moves)
+            keep = np.r_[np.linalg.norm(pts[0] - self.last) > 1e-9,
+                         np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
+            pts, axes = pts[keep], axes[keep]
+        if not len(pts):
+            return
+        self.pts.append(pts)
+        self.axes.append(np.array(axes))
+        self.kinds.append(np.full(len(pts), int(kind), dtype=np.uint8))
+        self.passes.append(np.full(len(pts), pass_index, dtype=np.int32))
+        self.last = pts[-1]
+
+    def arrays(self) -> tuple[NDArray[np.float64], ...]:
+        pts = np.concatenate(self.pts)
+        kinds = np.concatenate(self.kinds)
+        feeds = np.where(kinds == MoveKind.RAPID, 0.0,
+                         np.where(kinds == MoveKind.PLUNGE, self.plunge, self.feed))
+        return pts, _unit(np.concatenate(self.axes)), kinds, feeds, np.concatenate(self.passes)
+
+
+def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.float64],
+         radius: float, angle_deg: float, tol: float, *, lead_in: bool) -> NDArray[np.float64]:
+    """Lead arc points (excluding the run's end itself), in travel order."""
+    if radius <= 0.0 or angle_deg <= 0.0:
+        return np.zeros((0, 3))
+    step = 2.0 * np.arccos(max(1.0 - tol / radius, -1.0)) if tol < radius else np.pi / 2
+    count = max(int(np.ceil(np.radians(angle_deg) / max(step, 1e-6))), 1)
+    th = np.linspace(0.0, np.radians(angle_deg), count + 1)[1:]
+    sign = -1.0 if lead_in else 1.0
+    pts = centre_pt + radius * (sign * np.sin(th)[:, None] * f
+                                + (1.0 - np.cos(th))[:, None] * n)
+    return pts[::-1] if lead_in else pts
+
+
+def _approach(run: Run, opt: LinkOptions) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Lead-in points (extension and arc, travel order) and the point they start from."""
+    start, f, n = run.tips[0], run.feed_start, run.normal_start
+    line = np.zeros((0, 3))
+    if run.extend_start and opt.extend_mm > 0.0:
+        line = (start - opt.extend_mm * f)[None, :]
+    base = line[0] if len(line) else start
+    arc = _arc(base, f, n, opt.lead_radius_mm, opt.lead_angle_deg, opt.chord_tol_mm,
+               lead_in=True)
+    pts = np.concatenate([arc, line]) if len(arc) or len(line) else np.zeros((0, 3))
+    first = pts[0] if len(pts) else start
+    return pts, first
+
+
+def _departure(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
+    """Lead-out points (extension and arc) in travel order."""
+    end, f, n = run.tips[-1], run.feed_end, run.normal_end
+    line = np.zeros((0, 3))
+    if run.extend_end and opt.extend_mm > 0.0:
+        line = (end + opt.extend_mm * f)[None, :]
+    base = line[0] if len(line) else end
+    arc = _arc(base, f, n, opt.lead_radius_mm, opt.lead_angle_deg, opt.chord_tol_mm,
+               lead_in=False)
+    return np.concatenate([line, arc])
+
+
+def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], ...]:
+    """Assemble the runs into toolpath arrays (positions, axes, kinds, feeds, passes).
+
+    Returns
+    -------
+    positions_mm, tool_axes, kinds, feeds_mm_per_min, pass_index : ndarray
+        Ready for :class:`~toolpath.path.Toolpath`.
+    """
+    out = _Builder(opt.feed_mm_per_min, opt.plunge_feed_mm_per_min)
+    clear = opt.clearance
+    prev: Run | None = None
+    for run in runs:
+        a0 = run.axes[0]
+        linked = prev is not None and (run.joined or run.direct_link)
+        if prev is not None and not linked:
+            a_end = prev.axes[-1]
+            dep = _departure(prev, opt)
+            out.add(dep, a_end, MoveKind.LEAD_OUT)
+            here = dep[-1] if len(dep) else prev.tips[-1]
+            up = clear.retract(here, a_end)
+            out.add(up, a_end, MoveKind.RAPID)
+        lead, first = _approach(run, opt)
+        if prev is None or not linked:
+            above = first + opt.approach_mm * a0
+            top = clear.retract(above, a0)
+            if prev is not None:
+                mid_pts, mid_axes = clear.traverse(out.last, prev.axes[-1], top, a0)
+                if len(mid_pts):
+                    out.add(mid_pts, mid_axes, MoveKind.RAPID)
+            out.add(top, a0, MoveKind.RAPID)
+            out.add(above, a0, MoveKind.RAPID)
+            out.add(first, a0, MoveKind.PLUNGE)
+            if len(lead) > 1:
+                out.add(lead[1:], a0, MoveKind.LEAD_IN)
+            out.add(run.tips[:1], run.axes[:1], MoveKind.LEAD_IN if len(lead) else
+                    MoveKind.PLUNGE, run.pass_index)
+            out.add(run.tips[1:], run.axes[1:], MoveKind.CUT, run.pass_index)
+        elif run.joined:
+            out.add(run.tips, run.axes, MoveKind.CUT, run.pass_index)
+        else:
+            out.add(run.tips[:1], run.axes[:1], MoveKind.LINK, run.pass_index)
+            out.add(run.tips[1:], run.axes[1:], MoveKind.CUT, run.pass_index)
+        prev = run
+    if prev is not None:
+        dep = _departure(prev, opt)
+        out.add(dep, prev.axes[-1], MoveKind.LEAD_OUT)
+        here = dep[-1] if len(dep) else prev.tips[-1]
+        out.add(clear.retract(here, prev.axes[-1]), prev.axes[-1], MoveKind.RAPID)
+    return out.arrays()

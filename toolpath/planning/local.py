@@ -1,0 +1,155 @@
+"""Local geometry at contact points: pass frame, shape tensor, projection onto the surface.
+
+In the orthonormal tangent basis of a pass (``e1`` along the pass, ``e2`` across it towards
+increasing ``s``), with ``q = sqrt(G - F^2 / E)`` the distance across passes per unit ``s``:
+
+* ``e1 = X_t / sqrt(E)``, ``e2 = (X_s - (F/E) X_t) / q``;
+* the surface's second fundamental form (sign of :mod:`toolpath.surface`: positive is
+  concave, the surface curving towards the cutter) is
+  ``S11 = L / E``, ``S12 = (M - (F/E) L) / (sqrt(E) q)``,
+  ``S22 = (N - 2 (F/E) M + (F/E)^2 L) / q^2``; ``S22`` is the normal curvature across the
+  passes, ``S11`` along them;
+* the geodesic curvature of the pass is ``kg = (X_tt . (n x e1)) / E``.
+
+:func:`project_to_surface` finds the closest surface point by damped Newton steps on
+``min |X(t, s) - p|^2`` (vectorized, fixed number of iterations).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..surface import ParametricSurface
+
+__all__ = ["PassFrame", "pass_frame", "point_normal", "project_to_surface", "wrap_t"]
+
+
+@dataclass(frozen=True, eq=False)
+class PassFrame:
+    """Geometry of the surface at contact points ``(t, s)`` (flat arrays of length n).
+
+    Attributes
+    ----------
+    point, normal, e1, e2 : ndarray, shape (n, 3)
+        Contact point (mm), outward unit normal, unit pass direction (increasing ``t``)
+        and unit across direction (towards increasing ``s``, in the tangent plane).
+    speed_t : ndarray, shape (n,)
+        ``|X_t|``, mm per unit ``t``.
+    speed_s : ndarray, shape (n,)
+        ``q``, distance across passes per unit ``s``, mm.
+    s11, s12, s22 : ndarray, shape (n,)
+        Second fundamental form in ``(e1, e2)``, 1/mm (positive = concave).
+    kg : ndarray, shape (n,)
+        Geodesic curvature of the pass, 1/mm.
+    """
+
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    e1: NDArray[np.float64]
+    e2: NDArray[np.float64]
+    speed_t: NDArray[np.float64]
+    speed_s: NDArray[np.float64]
+    s11: NDArray[np.float64]
+    s12: NDArray[np.float64]
+    s22: NDArray[np.float64]
+    kg: NDArray[np.float64]
+
+    @property
+    def max_concave_curvature(self) -> NDArray[np.float64]:
+        """Largest principal curvature ``k_max`` (1/mm; > 0 where concave)."""
+        mean = 0.5 * (self.s11 + self.s22)
+        root = np.sqrt(0.25 * (self.s11 - self.s22) ** 2 + self.s12**2)
+        return mean + root
+
+
+def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFrame:
+    """Evaluate :class:`PassFrame` at flat (broadcast) parameter arrays ``t``, ``s``."""
+    tt, ss = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(s, dtype=float))
+    f = surface.frame(tt.ravel(), ss.ravel())
+    e_len = np.sqrt(np.maximum(f.E, 1e-300))
+    ratio = f.F / np.maximum(f.E, 1e-300)
+    q2 = np.maximum(f.G - f.F * ratio, 1e-300)
+    q = np.sqrt(q2)
+    e1 = f.xt / e_len[:, None]
+    e2 = (f.xs - ratio[:, None] * f.xt) / q[:, None]
+    s11 = f.L / np.maximum(f.E, 1e-300)
+    s12 = (f.M - ratio * f.L) / (e_len * q)
+    s22 = (f.N - 2.0 * ratio * f.M + ratio**2 * f.L) / q2
+    side = np.cross(f.normal, e1)
+    kg = np.einsum("ij,ij->i", f.xtt, side) / np.maximum(f.E, 1e-300)
+    return PassFrame(point=f.point, normal=f.normal, e1=e1, e2=e2, speed_t=e_len,
+                     speed_s=q, s11=s11, s12=s12, s22=s22, kg=kg)
+
+
+def wrap_t(t: NDArray[np.float64], closed: bool) -> NDArray[np.float64]:
+    """``t`` folded into [0, 1]: modulo 1 on closed sections, clipped otherwise."""
+    return np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)
+
+
+def point_normal(surface: ParametricSurface, t: ArrayLike, s: ArrayLike
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Points and outward unit normals from three partials (cheaper than a frame)."""
+    x = surface(t, s)
+    return x, surface.normal(t, s)
+
+
+def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,
+                       s0: ArrayLike, *, iterations: int = 4
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                  NDArray[np.float64]]:
+    """Closest surface points to ``points`` by Newton's method from ``(t0, s0)``.
+
+    Minimizes ``f = |X(t, s) - p|^2 / 2``: gradient ``g = (d.X_t, d.X_s)`` with
+    ``d = X - p``, Hessian ``[[E + d.X_tt, F + d.X_ts], [F + d.X_ts, G + d.X_ss]]``. The
+    curvature terms matter: from a cutter centre 3 mm off a 0.3 mm leading edge, the
+    first-order (Gauss-Newton) step overshoots tenfold. Where the Hessian is not positive
+    definite the Gauss-Newton matrix ``[[E, F], [F, G]]`` is used. Steps are clipped to
+    0.25 in each parameter, halved (up to 8 times) while they would move away from ``p``
+    (so a step past a sharp nose cannot land on the far side), and the result is kept in
+    the domain (``t`` wraps on closed sections).
+
+    Returns
+    -------
+    t, s : ndarray, shape (n,)
+        Parameters of the closest points found.
+    distance_mm : ndarray, shape (n,)
+        ``|X(t, s) - p|``.
+    """
+    p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
+    s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
+    closed = bool(surface.closed_t)
+    for _ in range(iterations):
+        f = surface.frame(t, s)
+        d = f.point - p
+        g1 = np.einsum("ij,ij->i", d, f.xt)
+        g2 = np.einsum("ij,ij->i", d, f.xs)
+        h11 = f.E + np.einsum("ij,ij->i", d, f.xtt)
+        h12 = f.F + np.einsum("ij,ij->i", d, f.xts)
+        h22 = f.G + np.einsum("ij,ij->i", d, f.xss)
+        det = h11 * h22 - h12 * h12
+        bad = (det <= 1e-12 * (f.E * f.G + 1e-300)) | (h11 <= 0.0)
+        h11 = np.where(bad, f.E, h11)
+        h12 = np.where(bad, f.F, h12)
+        h22 = np.where(bad, f.G, h22)
+        det = np.maximum(h11 * h22 - h12 * h12, 1e-300)
+        step_t = np.clip((h22 * g1 - h12 * g2) / det, -0.25, 0.25)
+        step_s = np.clip((h11 * g2 - h12 * g1) / det, -0.25, 0.25)
+        here = np.einsum("ij,ij->i", d, d)
+        new_t, new_s = wrap_t(t - step_t, closed), np.clip(s - step_s, 0.0, 1.0)
+        worse = np.arange(len(p))
+        for _ in range(8):
+            dn = surface(new_t[worse], new_s[worse]) - p[worse]
+            worse = worse[np.einsum("ij,ij->i", dn, dn) > here[worse] * (1.0 + 1e-12)]
+            if not worse.size:
+                break
+            step_t[worse] *= 0.5
+            step_s[worse] *= 0.5
+            new_t[worse] = wrap_t(t[worse] - step_t[worse], closed)
+            new_s[worse] = np.clip(s[worse] - step_s[worse], 0.0, 1.0)
+        t, s = new_t, new_s
+    x = surface(t, s)
+    return t, s, np.linalg.norm(x - p, axis=1)

@@ -1,0 +1,312 @@
+"""Finishing options: one frozen, validated record; every default with its reason.
+
+Errors name the keyword (the CLI flag names map one to one) and show the value with ``!r``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, fields
+from enum import StrEnum
+from typing import Any, Final
+
+import numpy as np
+
+from ..errors import InvalidParameterError
+from .cutters import Cutter
+from .gouge import GOUGE_TOL_MM
+
+__all__ = [
+    "CONCAVE_UNDERCUT_SHARE",
+    "DEFAULT_FEED_MM_PER_MIN",
+    "AxisMode",
+    "FinishingOptions",
+    "Linking",
+    "OnGouge",
+    "OnLimit",
+    "ProgressCallback",
+]
+
+ProgressCallback = Callable[[str, float], None]
+"""``progress(stage, fraction)``: ``fraction`` in [0, 1] over the whole plan."""
+
+DEFAULT_FEED_MM_PER_MIN: Final[float] = 1500.0
+"""A finishing feed for a 6 mm carbide ball in steel or titanium at ~10 000 rpm
+(0.05 mm/tooth, 3 flutes); the machine's rate limits slow it where needed."""
+
+
+CONCAVE_UNDERCUT_SHARE: Final[float] = 0.25
+"""Share of the scallop allowance given to the chord undercut where passes are concave.
+
+On a concave pass the straight moves stand above the surface (by up to the chord
+deviation) and lift the cusps beside them by as much; so there the moves may stand at
+most ``min(chord_tol_mm, share * scallop_mm)`` above the surface and the passes are spaced
+for ``scallop_mm`` minus that, keeping the material left anywhere within ``scallop_mm``.
+A quarter costs about 13 % more passes on concave areas and nothing elsewhere."""
+
+
+class AxisMode(StrEnum):
+    """How the tool axis is chosen."""
+
+    FIXED = "3"  #: one fixed axis (3-axis machine or 3+2 positioning)
+    LEAD_TILT = "lead-tilt"  #: from the surface frame with lead and tilt (5-axis)
+
+
+class Linking(StrEnum):
+    """How passes follow each other."""
+
+    SPIRAL = "spiral"  #: closed sections: one continuous cut climbing in s
+    ZIGZAG = "zigzag"  #: alternate directions, short links at the ends
+    ONEWAY = "oneway"  #: every pass in the same direction, retract between
+
+
+class OnGouge(StrEnum):
+    """What to do where the cutter would cut into the surface."""
+
+    RAISE = "raise"  #: stop with a GougeError naming pass and point
+    LIFT = "lift"  #: move the cutter up its axis until clear (leaves material)
+    RETILT = "retilt"  #: 5-axis: try other lead/tilt angles at those points
+
+
+class OnLimit(StrEnum):
+    """What to do with machine travel violations."""
+
+    RAISE = "raise"
+    REPORT = "report"
+
+
+def _choice(enum: type[StrEnum], value: Any, name: str) -> Any:
+    aliases = {"3-axis": "3", "3axis": "3", "fixed": "3", "5": "lead-tilt",
+               "5-axis": "lead-tilt", "one-way": "oneway", "zig-zag": "zigzag"}
+    text = aliases.get(str(value).lower(), str(value).lower())
+    try:
+        return enum(text)
+    except ValueError:
+        raise InvalidParameterError(
+            f"{name} must be one of {[e.value for e in enum]}, got {value!r}") from None
+
+
+def _length(value: Any, name: str, *, allow_zero: bool = False) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be a number in mm, got {value!r}") from None
+    if not math.isfinite(out) or out < 0.0 or (out == 0.0 and not allow_zero):
+        bound = ">= 0" if allow_zero else "> 0"
+        raise InvalidParameterError(f"{name} must be a finite length {bound} mm, got {value!r}")
+    return out
+
+
+def _angle(value: Any, name: str, limit: float) -> float:
+    try:
+        out = float(value)
+    except (TypeError, ValueError):
+        raise InvalidParameterError(f"{name} must be an angle in deg, got {value!r}") from None
+    if not math.isfinite(out) or abs(out) > limit:
+        raise InvalidParameterError(
+            f"{name} must be a finite angle within +/-{limit:g} deg, got {value!r}")
+    return out
+
+
+@dataclass(frozen=True)
+class FinishingOptions:
+    """Everything :func:`~toolpath.planning.plan_finishing` can be told (mm, deg, mm/min).
+
+    Attributes
+    ----------
+    scallop_mm, chord_tol_mm : float
+        Requested cusp height between passes and chord deviation along them (> 0 and
+        below the cutter radius).
+    axis_mode : AxisMode
+        ``"3"`` (fixed axis) or ``"lead-tilt"``.
+    lead_deg, tilt_deg : float
+        Lead (forward lean) and tilt (left lean) in the pass frame, within +/-80 deg.
+    linking : Linking
+        ``spiral`` (closed sections only), ``zigzag`` or ``oneway``.
+    fixed_axis : tuple of 3 float
+        The tool axis in 3-axis mode (unit; default +Z of the workpiece).
+    feed_mm_per_min, plunge_feed_mm_per_min : float
+        Cutting feed; plunge feed (default a quarter of the feed: plunging loads the
+        cutter's centre, which cuts worst).
+    clearance_mm : float
+        Height of the clearance plane above the part's highest point (3-axis) or margin
+        of the clearance sphere beyond the part's bounding sphere (5-axis). 5 mm clears
+        clamps' screw heads on a vice-held blade.
+    approach_mm : float
+        Rapid down to this height above the lead-in start, then plunge (2 mm).
+    lead_radius_mm, lead_angle_deg : float
+        Lead arcs (default: the cutter radius, 90 deg: a tangential quarter circle).
+    extend_mm : float
+        Straight extension of passes past open edges (0: none).
+    link_max_mm : float
+        Longest direct zig-zag / one-way link move (default: the cutter diameter).
+    on_gouge : OnGouge
+        ``raise`` / ``lift`` / ``retilt``.
+    gouge_tol_mm : float
+        Penetration counted as a gouge (:data:`~toolpath.planning.gouge.GOUGE_TOL_MM`).
+    gouge_sample_mm : float
+        Surface sample spacing of the global gouge check (default ``min(R/4, 1)``: a
+        pocket narrower than about two samples could hide between them).
+    check_flutes : bool
+        Check the whole flute length, not only the cutting end, in the global check.
+    min_cone_deg : float or None
+        Keep tool axes at least this far from the workpiece +Z (the singular cone of
+        table-table and head-table machines).
+    axis_smoothing_mm : float
+        Initial half-width of the axis smoothing window (default: the cutter radius).
+    max_axis_rate_deg_per_mm : float or None
+        Turn-rate limit of the tool axis along a pass (default 10 deg/mm: a 90 deg turn
+        over 9 mm of travel, which a 5-axis rotary follows at full feed).
+    max_lean_deg : float
+        Largest angle between the tool axis and the surface normal after smoothing
+        (60 deg: a ball's contact then stays 30 deg below its equator, clear of the shank).
+    reach_margin_deg : float
+        3-axis: a surface point is reachable when its normal is at least this far above
+        the plane perpendicular to the fixed axis (0: up to vertical walls).
+    max_segment_mm : float
+        Longest move along a pass (default two cutter diameters: keeps 5-axis
+        interpolation and gouge sampling faithful on flat stretches).
+    probe_t : int
+        Probe count along ``t`` for the spacing and the chord density (513: a sample every
+        0.25 mm on a 130 mm blade section; the chord check adds points the probes miss).
+    probe_s : int or None
+        Probe levels along ``s`` (default: three per pass, at least 65, at most 129; the
+        allowed step varies slowly across the span).
+    on_limit : OnLimit
+        Machine travel violations: ``raise`` (default) or ``report``.
+    max_points : int
+        Refuse plans with more cutter locations (20 million: about 1.5 GB of arrays).
+    measure : bool
+        Measure scallop and chord error on the result (default True).
+    progress : callable or None
+        ``progress(stage, fraction)``.
+    """
+
+    scallop_mm: float
+    chord_tol_mm: float
+    axis_mode: AxisMode = AxisMode.FIXED
+    lead_deg: float = 0.0
+    tilt_deg: float = 0.0
+    linking: Linking = Linking.ZIGZAG
+    fixed_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
+    feed_mm_per_min: float = DEFAULT_FEED_MM_PER_MIN
+    plunge_feed_mm_per_min: float | None = None
+    clearance_mm: float = 5.0
+    approach_mm: float = 2.0
+    lead_radius_mm: float | None = None
+    lead_angle_deg: float = 90.0
+    extend_mm: float = 0.0
+    link_max_mm: float | None = None
+    on_gouge: OnGouge = OnGouge.RAISE
+    gouge_tol_mm: float = GOUGE_TOL_MM
+    gouge_sample_mm: float | None = None
+    check_flutes: bool = True
+    min_cone_deg: float | None = None
+    axis_smoothing_mm: float | None = None
+    max_axis_rate_deg_per_mm: float | None = 10.0
+    max_lean_deg: float = 60.0
+    reach_margin_deg: float = 0.0
+    max_segment_mm: float | None = None
+    probe_t: int = 513
+    probe_s: int | None = None
+    on_limit: OnLimit = OnLimit.RAISE
+    max_points: int = 20_000_000
+    measure: bool = True
+    progress: ProgressCallback | None = None
+
+    def __post_init__(self) -> None:
+        put = object.__setattr__
+        put(self, "scallop_mm", _length(self.scallop_mm, "scallop_mm"))
+        put(self, "chord_tol_mm", _length(self.chord_tol_mm, "chord_tol_mm"))
+        put(self, "axis_mode", _choice(AxisMode, self.axis_mode, "axis_mode"))
+        put(self, "linking", _choice(Linking, self.linking, "linking"))
+        put(self, "on_gouge", _choice(OnGouge, self.on_gouge, "on_gouge"))
+        put(self, "on_limit", _choice(OnLimit, self.on_limit, "on_limit"))
+        put(self, "lead_deg", _angle(self.lead_deg, "lead_deg", 80.0))
+        put(self, "tilt_deg", _angle(self.tilt_deg, "tilt_deg", 80.0))
+        put(self, "lead_angle_deg", _angle(self.lead_angle_deg, "lead_angle_deg", 180.0))
+        put(self, "max_lean_deg", _angle(self.max_lean_deg, "max_lean_deg", 85.0))
+        if self.max_lean_deg <= 0.0:
+            raise InvalidParameterError(f"max_lean_deg must be > 0 deg, got "
+                                        f"{self.max_lean_deg!r}")
+        if self.axis_mode is AxisMode.LEAD_TILT and np.degrees(np.arccos(
+                np.cos(np.radians(self.lead_deg)) * np.cos(np.radians(self.tilt_deg)))
+        ) > self.max_lean_deg:
+            raise InvalidParameterError(
+                f"lead_deg={self.lead_deg!r} and tilt_deg={self.tilt_deg!r} lean the tool "
+                f"more than max_lean_deg={self.max_lean_deg!r} from the normal")
+        put(self, "reach_margin_deg", _angle(self.reach_margin_deg, "reach_margin_deg", 89.0))
+        axis = np.asarray(self.fixed_axis, dtype=float)
+        if axis.shape != (3,) or not np.isfinite(axis).all() or np.linalg.norm(axis) < 1e-9:
+            raise InvalidParameterError(
+                f"fixed_axis must be a non-zero 3-vector, got {self.fixed_axis!r}")
+        axis = axis / np.linalg.norm(axis)
+        put(self, "fixed_axis", (float(axis[0]), float(axis[1]), float(axis[2])))
+        for name in ("feed_mm_per_min", "clearance_mm"):
+            put(self, name, _length(getattr(self, name), name))
+        for name in ("approach_mm", "extend_mm", "gouge_tol_mm"):
+            put(self, name, _length(getattr(self, name), name, allow_zero=True))
+        for name in ("plunge_feed_mm_per_min", "lead_radius_mm", "link_max_mm",
+                     "gouge_sample_mm", "axis_smoothing_mm", "max_segment_mm",
+                     "max_axis_rate_deg_per_mm"):
+            value = getattr(self, name)
+            if value is not None:
+                zero_ok = name in ("lead_radius_mm", "link_max_mm", "axis_smoothing_mm")
+                put(self, name, _length(value, name, allow_zero=zero_ok))
+        if self.min_cone_deg is not None:
+            put(self, "min_cone_deg", _angle(self.min_cone_deg, "min_cone_deg", 60.0))
+            if self.min_cone_deg < 0.0:
+                raise InvalidParameterError(
+                    f"min_cone_deg must be >= 0 deg, got {self.min_cone_deg!r}")
+        if not isinstance(self.probe_t, int) or self.probe_t < 17:
+            raise InvalidParameterError(f"probe_t must be an integer >= 17, got "
+                                        f"{self.probe_t!r}")
+        if self.probe_s is not None and (not isinstance(self.probe_s, int)
+                                         or self.probe_s < 9):
+            raise InvalidParameterError(f"probe_s must be an integer >= 9, got "
+                                        f"{self.probe_s!r}")
+        if not isinstance(self.max_points, int) or self.max_points < 2:
+            raise InvalidParameterError(f"max_points must be an integer >= 2, got "
+                                        f"{self.max_points!r}")
+        if self.axis_mode is AxisMode.FIXED and (self.lead_deg or self.tilt_deg):
+            raise InvalidParameterError(
+                f"lead_deg={self.lead_deg!r} and tilt_deg={self.tilt_deg!r} need "
+                "axis_mode='lead-tilt'; a fixed (3-axis) tool axis has no lead or tilt")
+        if self.on_gouge is OnGouge.RETILT and self.axis_mode is AxisMode.FIXED:
+            raise InvalidParameterError(
+                "on_gouge='retilt' needs axis_mode='lead-tilt' (a 3-axis tool cannot tilt); "
+                "use 'lift' or 'raise'")
+
+    def check_cutter(self, cutter: Cutter) -> None:
+        """Refuse requests that are absurd for this cutter (naming the parameter)."""
+        big = cutter.radius_mm
+        for name in ("scallop_mm", "chord_tol_mm"):
+            value = getattr(self, name)
+            if value >= big:
+                raise InvalidParameterError(
+                    f"{name}={value!r} mm is not smaller than the cutter radius {big:g} mm "
+                    f"({cutter.spec}, diameter {cutter.diameter_mm:g} mm): a finishing "
+                    f"tolerance must be a small fraction of the cutter (typically "
+                    f"0.001-0.05 mm)")
+
+    def resolved(self, cutter: Cutter) -> dict[str, float]:
+        """Defaults that depend on the cutter, in mm or mm/min."""
+        big = cutter.radius_mm
+        return {
+            "plunge_feed_mm_per_min": self.plunge_feed_mm_per_min or self.feed_mm_per_min / 4,
+            "lead_radius_mm": big if self.lead_radius_mm is None else self.lead_radius_mm,
+            "link_max_mm": 2.0 * big if self.link_max_mm is None else self.link_max_mm,
+            "gouge_sample_mm": (min(big / 4.0, 1.0) if self.gouge_sample_mm is None
+                                else self.gouge_sample_mm),
+            "axis_smoothing_mm": (big if self.axis_smoothing_mm is None
+                                  else self.axis_smoothing_mm),
+            "max_segment_mm": (4.0 * big if self.max_segment_mm is None
+                               else self.max_segment_mm),
+            "undercut_mm": min(self.chord_tol_mm, CONCAVE_UNDERCUT_SHARE * self.scallop_mm),
+        }
+
+    def summary(self) -> dict[str, str]:
+        """The options as strings (for toolpath metadata), without the callback."""
+        return {f.name: str(getattr(self, f.name)) for f in fields(self)
+                if f.name != "progress"}

@@ -1,0 +1,314 @@
+"""Cutter locations along the passes: contacts, tool axes, tips, chord refinement, reach.
+
+A pass ``k`` runs over ``t`` in [0, 1] at ``s = s_start[k] + (s_end[k] - s_start[k]) t``
+(constant for zig-zag and one-way; rising by one level gap per ring for a spiral), in the
+direction ``direction[k]`` (+1: increasing ``t``). Points are kept sorted by pass, then
+``t``; :class:`PassPoints` holds their geometry and is rebuilt by merging when points are
+inserted (chord splits, reach boundaries), so nothing already evaluated is recomputed.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, fields, replace
+
+import numpy as np
+from numpy.typing import NDArray
+
+from ..surface import ParametricSurface
+from .cutters import Cutter
+from .errors import too_many_points
+from .local import PassFrame, pass_frame
+from .options import AxisMode, FinishingOptions
+from .sampling import CHORD_FRACTIONS, chord_peak, move_gaps
+from .tool_axis import (
+    AxisSmoothing,
+    keep_out_of_cone,
+    lead_tilt_axes,
+    limit_lean,
+    smooth_axes,
+)
+
+__all__ = [
+    "PassLayout",
+    "PassPoints",
+    "evaluate_points",
+    "insert_points",
+    "refine_chords",
+    "split_reach",
+    "with_tips",
+]
+
+#: Refinement rounds; each halves the offending chords, so 12 rounds shrink one 4096-fold.
+MAX_CHORD_ROUNDS = 12
+
+
+@dataclass(frozen=True)
+class PassLayout:
+    """Where the passes lie and which way they run (arrays of length ``n_passes``)."""
+
+    s_start: NDArray[np.float64]
+    s_end: NDArray[np.float64]
+    direction: NDArray[np.int64]
+
+    def s_of(self, t: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
+        """``s`` of points ``t`` on passes ``pid``."""
+        return self.s_start[pid] + (self.s_end[pid] - self.s_start[pid]) * t
+
+    @property
+    def n_passes(self) -> int:
+        """Number of passes."""
+        return len(self.s_start)
+
+
+@dataclass(frozen=True, eq=False)
+class PassPoints:
+    """Contacts and cutter locations, sorted by pass then ``t``.
+
+    Attributes
+    ----------
+    t, s : ndarray, shape (n,)
+        Surface parameters of the contacts.
+    pid : ndarray of int, shape (n,)
+        Pass of each point.
+    frame : PassFrame
+        Surface geometry at the contacts.
+    nominal, axes : ndarray, shape (n, 3)
+        Lead/tilt (or fixed) axes, and the final ones after smoothing and the cone.
+    tips : ndarray, shape (n, 3)
+        Cutter locations, mm.
+    arclen : ndarray, shape (n,)
+        Contact arc length along each pass from its start, mm (polyline).
+    direction : ndarray of int, shape (n,)
+        Travel direction of each point's pass (+1: increasing ``t``).
+    smoothing : AxisSmoothing or None
+        What the 5-axis smoothing did.
+    cone_pushed : int
+        Axes moved out of the singular cone.
+    """
+
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    pid: NDArray[np.int64]
+    frame: PassFrame
+    nominal: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    tips: NDArray[np.float64]
+    arclen: NDArray[np.float64]
+    direction: NDArray[np.int64]
+    smoothing: AxisSmoothing | None = None
+    cone_pushed: int = 0
+
+    def __len__(self) -> int:
+        return len(self.t)
+
+    @property
+    def same_pass(self) -> NDArray[np.bool_]:
+        """Whether point ``i`` and ``i + 1`` are on the same pass (length ``n - 1``)."""
+        return self.pid[1:] == self.pid[:-1]
+
+    @property
+    def feed_dirs(self) -> NDArray[np.float64]:
+        """Unit feed directions (``e1`` times the pass direction)."""
+        return self.frame.e1 * self.direction[:, None]
+
+
+def _frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
+    return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
+
+
+def _frame_concat(a: PassFrame, b: PassFrame) -> PassFrame:
+    return PassFrame(**{f.name: np.concatenate([getattr(a, f.name), getattr(b, f.name)])
+                        for f in fields(a)})
+
+
+def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[np.int64]
+                  ) -> NDArray[np.float64]:
+    if opts.axis_mode is AxisMode.FIXED:
+        return np.broadcast_to(np.asarray(opts.fixed_axis), frame.normal.shape).copy()
+    return lead_tilt_axes(frame.normal, frame.e1 * direction[:, None], opts.lead_deg,
+                          opts.tilt_deg)
+
+
+def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
+    step = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    step = np.where(pid[1:] == pid[:-1], step, 0.0)
+    total = np.r_[0.0, np.cumsum(step)]
+    starts = np.flatnonzero(np.r_[True, pid[1:] != pid[:-1]])
+    which = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, pid.size]))
+    return total - total[starts][which]
+
+
+def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+            res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
+            s: NDArray[np.float64], pid: NDArray[np.int64], frame: PassFrame,
+            nominal: NDArray[np.float64]) -> PassPoints:
+    """Axes (smoothing, cone), tips and arc length for evaluated contacts."""
+    direction = layout.direction[pid]
+    arclen = _arclen(frame.point, pid)
+    smoothing = None
+    pushed = 0
+    axes = nominal
+    if opts.axis_mode is AxisMode.LEAD_TILT and len(t) > 1:
+        # the rate is per mm of the corner-circle centre's path (a ball's centre): what
+        # the machine moves at the feed
+        core_path = _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
+        smoothing = smooth_axes(nominal, frame.normal, core_path, pid,
+                                smoothing_mm=res["axis_smoothing_mm"],
+                                max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
+                                max_lean_deg=opts.max_lean_deg)
+        axes = smoothing.axes
+        if opts.min_cone_deg:
+            axes, pushed = keep_out_of_cone(axes, opts.min_cone_deg,
+                                            frame.e1 * direction[:, None])
+            # pushing must not break the lean limit: where it would, the lean wins
+            axes, _ = limit_lean(axes, frame.normal, opts.max_lean_deg)
+    tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
+    return PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
+                      arclen=arclen, direction=direction, smoothing=smoothing,
+                      cone_pushed=pushed)
+
+
+def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                    res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
+                    pid: NDArray[np.int64]) -> PassPoints:
+    """Evaluate contacts ``(t, pid)`` (sorted by pass then ``t``) from scratch."""
+    s = layout.s_of(t, pid)
+    frame = pass_frame(surface, t, s)
+    nominal = _nominal_axes(opts, frame, layout.direction[pid])
+    return _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
+
+
+def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                  res: dict[str, float], layout: PassLayout, pts: PassPoints,
+                  t_new: NDArray[np.float64], pid_new: NDArray[np.int64]
+                  ) -> tuple[PassPoints, NDArray[np.int64]]:
+    """Merge new contacts into ``pts``; returns the points and the new ones' indices."""
+    s_new = layout.s_of(t_new, pid_new)
+    f_new = pass_frame(surface, t_new, s_new)
+    nom_new = _nominal_axes(opts, f_new, layout.direction[pid_new])
+    t = np.r_[pts.t, t_new]
+    pid = np.r_[pts.pid, pid_new]
+    order = np.lexsort((t, pid))
+    frame = _frame_take(_frame_concat(pts.frame, f_new), order)
+    nominal = np.concatenate([pts.nominal, nom_new])[order]
+    s = np.r_[pts.s, s_new][order]
+    merged = _finish(surface, cutter, opts, res, layout, t[order], s, pid[order], frame,
+                     nominal)
+    where_new = np.flatnonzero(order >= len(pts))
+    return merged, where_new
+
+
+def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                  res: dict[str, float], layout: PassLayout, pts: PassPoints,
+                  keep: NDArray[np.bool_] | None = None
+                  ) -> tuple[PassPoints, NDArray[np.bool_] | None, float]:
+    """Split chords whose mid-chord cutter-to-surface gap exceeds the chord tolerance.
+
+    The cutter inside each move (tip and axis interpolated) is measured against the
+    surface at three places (one Newton step from the parameters between the move's ends:
+    the foot point is then off by the fourth order of the move's length) and its largest
+    gap estimated
+    (:func:`~toolpath.planning.sampling.chord_peak`); chords cutting deeper
+    than ``chord_tol_mm`` or standing higher than the undercut allowance
+    (``res["undercut_mm"]``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
+    get a contact at their parameter midpoint. Only new chords
+    are checked again. ``keep`` (reachable points) travels along: a chord between two
+    kept points is checked; an inserted point is kept.
+
+    Returns
+    -------
+    pts, keep, worst_mm
+        The refined points, the mask and the largest ``|gap|`` seen on the last check.
+    """
+    tol = opts.chord_tol_mm
+    check = np.ones(max(len(pts) - 1, 0), dtype=bool)
+    worst = 0.0
+    for _ in range(MAX_CHORD_ROUNDS):
+        seg_ok = pts.same_pass & check
+        if keep is not None:
+            seg_ok &= keep[:-1] & keep[1:]
+        idx = np.flatnonzero(seg_ok)
+        if not idx.size:
+            break
+        gaps, _, _ = move_gaps(surface, cutter, pts.tips[idx], pts.tips[idx + 1],
+                               pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
+                               pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
+                               newton=1)
+        peak, u_star = chord_peak(np.clip(gaps, -1e3, 1e3))
+        gap = np.where(np.abs(peak) >= np.abs(gaps).max(axis=1), peak,
+                       gaps[np.arange(len(gaps)), np.argmax(np.abs(gaps), axis=1)])
+        # the model is close, not exact: where it is within 10 % of a limit, measure there
+        limit = np.where(gap < 0.0, tol, res["undercut_mm"])
+        close = np.flatnonzero((np.abs(gap) > 0.9 * limit) & (np.abs(gap) <= limit))
+        for k in np.unique(u_star[close]):
+            sel = close[u_star[close] == k]
+            j = idx[sel]
+            exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
+                                    pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
+                                    pts.s[j], pts.s[j + 1], np.array([k]))
+            gap[sel] = np.where(np.abs(exact[:, 0]) > np.abs(gap[sel]), exact[:, 0], gap[sel])
+        worst = float(np.abs(gap).max())
+        bad = (gap < -tol) | (gap > res["undercut_mm"])
+        if not bad.any():
+            break
+        t_mid = 0.5 * (pts.t[idx] + pts.t[idx + 1])
+        new_t, new_pid = t_mid[bad], pts.pid[idx[bad]]
+        old_len = len(pts)
+        pts, where_new = insert_points(surface, cutter, opts, res, layout, pts, new_t, new_pid)
+        if len(pts) > opts.max_points:
+            raise too_many_points(opts, len(pts))
+        if keep is not None:
+            merged_keep = np.zeros(len(pts), dtype=bool)
+            is_new = np.zeros(len(pts), dtype=bool)
+            is_new[where_new] = True
+            merged_keep[~is_new] = keep
+            merged_keep[is_new] = True
+            keep = merged_keep
+        # check again only the chords next to the new points
+        check = np.zeros(len(pts) - 1, dtype=bool)
+        check[np.clip(where_new - 1, 0, None)] = True
+        check[np.clip(where_new, None, len(pts) - 2)] = True
+        assert len(pts) > old_len
+    return pts, keep, worst
+
+
+def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                res: dict[str, float], layout: PassLayout, pts: PassPoints
+                ) -> tuple[PassPoints, NDArray[np.bool_]]:
+    """3-axis: mark contacts the fixed axis can reach and add the exact boundary points.
+
+    A contact is reachable when ``n . a >= sin(reach_margin_deg)``: the cutter touches it
+    with its cutting end, not its shank. Between a reachable and an unreachable neighbour
+    the boundary ``t`` is found by bisection (40 halvings) and added as a reachable point.
+    """
+    axis = np.asarray(opts.fixed_axis)
+    limit = np.sin(np.radians(opts.reach_margin_deg)) - 1e-12
+
+    def reach(frame_normal: NDArray[np.float64]) -> NDArray[np.bool_]:
+        return frame_normal @ axis >= limit
+
+    ok = reach(pts.frame.normal)
+    edge = np.flatnonzero(pts.same_pass & (ok[:-1] != ok[1:]))
+    if edge.size:
+        good_t = np.where(ok[edge], pts.t[edge], pts.t[edge + 1])
+        bad_t = np.where(ok[edge], pts.t[edge + 1], pts.t[edge])
+        pid = pts.pid[edge]
+        for _ in range(40):
+            mid = 0.5 * (good_t + bad_t)
+            m_ok = reach(surface.normal(mid, layout.s_of(mid, pid)))
+            good_t = np.where(m_ok, mid, good_t)
+            bad_t = np.where(m_ok, bad_t, mid)
+        pts, where_new = insert_points(surface, cutter, opts, res, layout, pts, good_t, pid)
+        merged = np.zeros(len(pts), dtype=bool)
+        is_new = np.zeros(len(pts), dtype=bool)
+        is_new[where_new] = True
+        merged[~is_new] = ok
+        merged[is_new] = True
+        ok = merged
+    return pts, ok
+
+
+def with_tips(pts: PassPoints, axes: NDArray[np.float64], tips: NDArray[np.float64]
+              ) -> PassPoints:
+    """A copy with other axes and tips (gouge handling)."""
+    return replace(pts, axes=axes, tips=tips)

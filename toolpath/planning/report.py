@@ -1,0 +1,266 @@
+"""What a plan achieved, measured on the result: :class:`PlanningReport`.
+
+The scallop and chord figures come from :mod:`toolpath.planning.measure` (independent of
+the planning formulas); clearances from the global gouge check; unreachable regions from
+the reach and shadow tests of 3-axis plans.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from machines.limits import Violation
+
+__all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
+
+
+@dataclass(frozen=True)
+class UnreachableSpan:
+    """A stretch of one pass that is not cut.
+
+    Attributes
+    ----------
+    pass_index : int
+    s : float
+        The pass's ``s`` (its mean, for a spiral ring).
+    t_start, t_end : float
+        Parameter range not cut.
+    reason : str
+        ``"faces away"`` (the normal turns away from the fixed axis: the far side needs
+        another setup or 5-axis) or ``"shadowed"`` (the tool would hit another part of the
+        surface) or ``"too short"`` (a reachable stretch too short to cut).
+    """
+
+    pass_index: int
+    s: float
+    t_start: float
+    t_end: float
+    reason: str
+
+
+@dataclass(frozen=True)
+class UnreachableRegion:
+    """Spans of consecutive passes with overlapping ``t`` ranges and the same reason."""
+
+    reason: str
+    first_pass: int
+    last_pass: int
+    s_min: float
+    s_max: float
+    t_min: float
+    t_max: float
+
+    def describe(self) -> str:
+        """One line for the report."""
+        return (f"{self.reason}: passes {self.first_pass}-{self.last_pass} "
+                f"(s {self.s_min:.4f}..{self.s_max:.4f}, t {self.t_min:.4f}..{self.t_max:.4f})")
+
+
+def merge_spans(spans: list[UnreachableSpan]) -> tuple[UnreachableRegion, ...]:
+    """Group spans into regions: same reason, consecutive passes, overlapping ``t``."""
+    open_regions: list[list[Any]] = []
+    done: list[list[Any]] = []
+    for span in sorted(spans, key=lambda x: (x.pass_index, x.t_start)):
+        merged = False
+        for reg in open_regions:
+            if (reg[0] == span.reason and reg[2] >= span.pass_index - 1
+                    and span.t_start <= reg[6] and span.t_end >= reg[5]):
+                reg[2] = span.pass_index
+                reg[3], reg[4] = min(reg[3], span.s), max(reg[4], span.s)
+                reg[5], reg[6] = min(reg[5], span.t_start), max(reg[6], span.t_end)
+                merged = True
+                break
+        if not merged:
+            open_regions.append([span.reason, span.pass_index, span.pass_index, span.s,
+                                 span.s, span.t_start, span.t_end])
+        still = []
+        for reg in open_regions:
+            (still if reg[2] >= span.pass_index - 1 else done).append(reg)
+        open_regions = still
+    return tuple(UnreachableRegion(*reg) for reg in done + open_regions)
+
+
+def _fmt(value: float | None, unit: str = "mm", digits: int = 5) -> str:
+    if value is None:
+        return "not measured"
+    if math.isinf(value):
+        return "none" if value > 0 else "-inf"
+    return f"{value:.{digits}f} {unit}"
+
+
+@dataclass(frozen=True)
+class PlanningReport:
+    """Figures of a finishing plan (mm, deg, s).
+
+    Attributes
+    ----------
+    cutter, axis_mode, linking : str
+    scallop_request_mm, chord_tol_mm : float
+        What was asked.
+    n_passes, n_points, n_cut_points : int
+        Passes, toolpath points, and cutter locations on the passes.
+    max_scallop_mm : float or None
+        Largest scallop measured on the result (``None`` with ``measure=False``).
+    scallop_interior_mm : float or None
+        The same away from uncut areas (excludes the slivers along unreachable borders).
+    scallop_at : tuple of float or None
+        ``(t, s)`` of the largest scallop.
+    uncut_fraction : float or None
+        Area fraction of the surface no cutter came near.
+    max_chord_error_mm : float or None
+        Largest cutter-to-surface deviation along cutting moves, measured.
+    chord_overcut_mm, chord_undercut_mm : float or None
+        Its two sides (into the surface / left above it).
+    chord_worst_point : int or None
+        Toolpath point the worst move arrives at.
+    planned_chord_error_mm : float
+        Largest mid-chord deviation seen by the planner's own check.
+    min_clearance_mm : float
+        Smallest distance from the cutter to any surface sample away from its contact
+        (the global gouge check); ``inf`` beyond the check's horizon; negative is a gouge.
+    min_concave_radius_mm : float
+        Smallest concave radius of curvature met by a cutter location (``inf``: none).
+    cutter_radius_there_mm : float
+        The cutter's smallest section radius at that location.
+    n_lifted, n_retilted : int
+        Cutter locations moved to avoid gouges (``on_gouge``); ``max_lift_mm``.
+    unreachable_spans, unreachable_regions : tuple
+        What was not cut and why.
+    unreachable_fraction : float
+        Area fraction of the surface left uncut by the plan's own reach tests.
+    max_axis_rate_deg_per_mm : float or None
+        Largest tool-axis turn rate along a pass (5-axis).
+    cone_pushed : int
+        Axes moved out of the singular cone.
+    machine : str or None
+    travel_violations, rate_violations : tuple of Violation
+        Travel (positions) and rate (the feed would be slowed) records, point indices of
+        the toolpath.
+    estimated_time_s : float or None
+        At the machine's rate limits (acceleration ignored).
+    length_mm, cutting_length_mm : float
+    seconds : dict
+        Time per planning stage.
+    gouge_tol_mm : float
+        Penetration counted as a gouge.
+    axis_rate_limit_deg_per_mm : float or None
+        The turn-rate limit asked for (5-axis).
+    """
+
+    cutter: str
+    axis_mode: str
+    linking: str
+    scallop_request_mm: float
+    chord_tol_mm: float
+    n_passes: int
+    n_points: int
+    n_cut_points: int
+    max_scallop_mm: float | None
+    scallop_interior_mm: float | None
+    scallop_at: tuple[float, float] | None
+    uncut_fraction: float | None
+    max_chord_error_mm: float | None
+    chord_overcut_mm: float | None
+    chord_undercut_mm: float | None
+    chord_worst_point: int | None
+    planned_chord_error_mm: float
+    min_clearance_mm: float
+    min_concave_radius_mm: float
+    cutter_radius_there_mm: float
+    n_lifted: int
+    max_lift_mm: float
+    n_retilted: int
+    unreachable_spans: tuple[UnreachableSpan, ...]
+    unreachable_regions: tuple[UnreachableRegion, ...]
+    unreachable_fraction: float
+    max_axis_rate_deg_per_mm: float | None
+    cone_pushed: int
+    machine: str | None
+    travel_violations: tuple[Violation, ...]
+    rate_violations: tuple[Violation, ...]
+    estimated_time_s: float | None
+    length_mm: float
+    cutting_length_mm: float
+    seconds: dict[str, float] = field(default_factory=dict)
+
+    gouge_tol_mm: float = 1e-4
+    axis_rate_limit_deg_per_mm: float | None = None
+
+    @property
+    def within_request(self) -> bool:
+        """Scallop (away from uncut areas), chord error, gouge and travel all as asked."""
+        ok = not self.travel_violations and self.min_clearance_mm >= -self.gouge_tol_mm
+        if self.scallop_interior_mm is not None:
+            ok = ok and self.scallop_interior_mm <= self.scallop_request_mm
+        if self.max_chord_error_mm is not None:
+            ok = ok and self.max_chord_error_mm <= self.chord_tol_mm
+        return bool(ok)
+
+    def lines(self) -> list[str]:
+        """The report as text lines."""
+        out = [
+            f"cutter            {self.cutter}",
+            f"axis / linking    {self.axis_mode} / {self.linking}",
+            f"passes            {self.n_passes}",
+            f"points            {self.n_points} ({self.n_cut_points} on passes)",
+            f"scallop           {_fmt(self.max_scallop_mm)} "
+            f"(request {self.scallop_request_mm:g} mm; away from uncut areas "
+            f"{_fmt(self.scallop_interior_mm)})",
+            f"chord error       {_fmt(self.max_chord_error_mm)} "
+            f"(tolerance {self.chord_tol_mm:g} mm; overcut {_fmt(self.chord_overcut_mm)}, "
+            f"undercut {_fmt(self.chord_undercut_mm)})",
+            f"clearance         {_fmt(self.min_clearance_mm)} to the surface away from "
+            f"the contacts (resolved up to 0.1 mm)",
+            f"concave radius    {_fmt(self.min_concave_radius_mm, digits=3)} smallest met "
+            f"(cutter {self.cutter_radius_there_mm:.3f} mm there)",
+        ]
+        if self.uncut_fraction is not None:
+            out.append(f"uncut area        {100 * self.uncut_fraction:.2f} % of the surface")
+        if self.n_lifted or self.n_retilted:
+            out.append(f"gouge avoidance   {self.n_lifted} lifted (max {self.max_lift_mm:.4f} "
+                       f"mm), {self.n_retilted} re-tilted")
+        if self.unreachable_regions:
+            out.append(f"unreachable       {100 * self.unreachable_fraction:.1f} % of the "
+                       f"surface in {len(self.unreachable_regions)} region(s):")
+            out.extend(f"  {reg.describe()}" for reg in self.unreachable_regions[:10])
+        if self.max_axis_rate_deg_per_mm is not None:
+            limit = ("" if self.axis_rate_limit_deg_per_mm is None
+                     else f" (limit {self.axis_rate_limit_deg_per_mm:g}"
+                     + ("; exceeded where the lean limit keeps the axis near the normal)"
+                        if self.max_axis_rate_deg_per_mm > self.axis_rate_limit_deg_per_mm
+                        else ")"))
+            out.append(f"axis turn rate    {self.max_axis_rate_deg_per_mm:.3f} deg/mm max"
+                       + limit + (f", {self.cone_pushed} axes kept off the singular cone"
+                                  if self.cone_pushed else ""))
+        if self.machine is not None:
+            out.append(f"machine           {self.machine}")
+            out.extend(f"  travel: {v.message()}" for v in self.travel_violations)
+            out.extend(f"  feed limited: {v.message()}" for v in self.rate_violations[:5])
+            if self.estimated_time_s is not None:
+                out.append(f"estimated time    {self.estimated_time_s / 60.0:.2f} min")
+        out.append(f"length            {self.length_mm:.1f} mm "
+                   f"({self.cutting_length_mm:.1f} mm feeding)")
+        total = sum(self.seconds.values())
+        out.append(f"planning time     {total:.2f} s (" + ", ".join(
+            f"{k} {v:.2f}" for k, v in self.seconds.items()) + ")")
+        return out
+
+    def as_dict(self) -> dict[str, Any]:
+        """JSON-able dict (infinities as None)."""
+        data = asdict(self)
+        data["travel_violations"] = [v.message() for v in self.travel_violations]
+        data["rate_violations"] = [v.message() for v in self.rate_violations]
+        data["within_request"] = self.within_request
+
+        def clean(value: Any) -> Any:
+            if isinstance(value, float) and not math.isfinite(value):
+                return None
+            if isinstance(value, dict):
+                return {k: clean(v) for k, v in value.items()}
+            if isinstance(value, list | tuple):
+                return [clean(v) for v in value]
+            return value
+
+        return clean(data)

@@ -1,0 +1,247 @@
+"""Points along a pass from the chord tolerance, and the cutter-to-surface gap that checks them.
+
+Between two cutter locations the cutter moves on a straight line. With the surface's
+normal curvature ``k`` along the pass and the cutter's section radius ``rho`` along the feed
+(``R`` for a ball), the cutter's osculating circle centre moves on a curve of radius
+``|1/k - rho|``; the chord between contacts ``L`` apart leaves the cutter at mid-chord
+``delta = L^2 |k| |1 - rho k| / 8`` off the surface (into it on convex parts, above it on
+concave ones). Adding the pass's geodesic curvature ``kg`` (sideways drift of the track),
+the allowed spacing is the chord of a circle of curvature
+``kappa = sqrt((k (1 - rho k))^2 + kg^2)`` with sagitta ``tol``:
+``L = 2 sqrt(tol (2/kappa - tol))``.
+
+The points of each pass equidistribute ``int |X_t| / L dt`` (so every chord gets the same
+share of the tolerance), and are then verified: :func:`cutter_gap` measures the signed
+distance between the cutter and the surface at chord midpoints by projecting the cutter's
+corner-circle centre onto the surface (Newton), and offending chords are split. Where
+the curvature changes along a move the largest gap is off its middle (near a leading
+edge, by 8 % of the tolerance at ``u = 0.4``), so the gap is measured at
+``u = 1/4, 1/2, 3/4`` and modelled as ``g(u) = u (1 - u)(a + b u + c u^2)`` (zero at the
+contacts, exact for curvature varying quadratically along the move); the model's extreme
+``u*`` is where the move is judged (:func:`chord_peak`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from ..surface import ParametricSurface
+from .cutters import Cutter, CutterKind
+from .local import PassFrame, point_normal, project_to_surface
+
+__all__ = [
+    "CHORD_FRACTIONS",
+    "chord_length_mm",
+    "chord_peak",
+    "cutter_gap",
+    "equidistribute",
+    "move_gaps",
+]
+
+#: Where inside a move the gap is measured; with the ends (gap 0) they fix the model below.
+CHORD_FRACTIONS = (0.25, 0.5, 0.75)
+
+
+def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
+                    tol_mm: float | NDArray[np.float64], max_segment_mm: float
+                    ) -> NDArray[np.float64]:
+    """Allowed contact spacing along the pass, mm (formula in the module docstring).
+
+    Parameters
+    ----------
+    frame : PassFrame
+        Geometry at the probe points.
+    feed_radius_mm : ndarray
+        Cutter section radius along the feed, mm (finite).
+    tol_mm : float or ndarray
+        Chord tolerance (per point: concave passes get the smaller undercut allowance).
+    max_segment_mm : float
+        Upper bound on any spacing.
+    """
+    k = frame.s11
+    kappa = np.hypot(k * (1.0 - feed_radius_mm * k), frame.kg)
+    radius = 1.0 / np.maximum(kappa, 1e-12)
+    length = 2.0 * np.sqrt(np.maximum(tol_mm * (2.0 * radius - tol_mm), tol_mm * tol_mm))
+    return np.minimum(length, max_segment_mm)
+
+
+def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Points per pass where the cumulative density reaches whole numbers.
+
+    Parameters
+    ----------
+    t_grid : ndarray, shape (m,)
+        Increasing parameters from 0 to 1.
+    density : ndarray, shape (n_passes, m)
+        Segments per unit ``t`` (``|X_t| / L``), > 0.
+
+    Returns
+    -------
+    t : ndarray
+        Parameters, each pass from 0 to 1 inclusive, passes concatenated.
+    pass_id : ndarray of int
+        The pass of each point.
+    """
+    n_pass = density.shape[0]
+    dt = np.diff(t_grid)
+    cum = np.concatenate([np.zeros((n_pass, 1)),
+                          np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]) * dt, axis=1)],
+                         axis=1)
+    total = cum[:, -1]
+    n_seg = np.maximum(np.ceil(total - 1e-9).astype(np.int64), 1)
+    counts = n_seg + 1
+    pass_id = np.repeat(np.arange(n_pass), counts)
+    first = np.r_[0, np.cumsum(counts)[:-1]]
+    j = np.arange(counts.sum()) - first[pass_id]
+    target = j * (total / n_seg)[pass_id]
+    # one global monotone abscissa: each pass shifted above the previous one
+    shift = np.r_[0.0, np.cumsum(total + 1.0)[:-1]]
+    xp = (cum + shift[:, None]).ravel()
+    xp = xp + np.arange(xp.size) * 1e-12
+    fp = np.tile(t_grid, n_pass)
+    t = np.interp(target + shift[pass_id], xp, fp)
+    # the ends exactly
+    t[first] = t_grid[0]
+    t[first + counts - 1] = t_grid[-1]
+    return t, pass_id
+
+
+def _disc_basis(axes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two unit vectors spanning the plane perpendicular to each axis."""
+    helper = np.where(np.abs(axes[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
+                      np.array([[0.0, 1.0, 0.0]]))
+    b1 = np.cross(axes, helper)
+    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
+    return b1, np.cross(axes, b1)
+
+
+#: Points of the corner-circle disc tried by :func:`cutter_gap` for flat and bull-nose
+#: cutters: 24 on its rim (15 deg apart, then refined), its centre and 8 at half radius.
+_RIM = 24
+
+
+def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
+               axes: NDArray[np.float64], t0: NDArray[np.float64], s0: NDArray[np.float64],
+               *, newton: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                             NDArray[np.float64]]:
+    """Signed gap between the cutter and the surface near ``(t0, s0)``, mm.
+
+    The cutting end is every point within ``r`` of the disc of radius ``R - r`` at height
+    ``r`` on the axis (a point, the ball centre, for a ball), so the gap is
+    ``min over the disc of (K - X(K)) . n - r`` with ``X(K)`` the closest surface point of
+    ``K``: positive where the cutter stands clear (material left), negative where it cuts
+    into the surface. For a ball one projection; otherwise the disc's centre, 8 points at
+    half its radius and 24 on its rim are projected, and the rim minimum is refined by a
+    parabola through its neighbours (the minimum of a tilted disc lies on its rim, that of
+    a disc lying almost flat on a convex surface may lie inside).
+
+    Returns
+    -------
+    gap_mm, t, s : ndarray
+        The gap and the parameters of the closest surface point.
+    """
+    r = cutter.corner_radius_mm
+    if cutter.kind is CutterKind.BALL:
+        core = tips_mm + r * axes
+        t, s, _ = project_to_surface(surface, core, t0, s0, iterations=newton)
+        x, normals = point_normal(surface, t, s)
+        return np.einsum("ij,ij->i", core - x, normals) - r, t, s
+    m = len(tips_mm)
+    centre = tips_mm + r * axes
+    b1, b2 = _disc_basis(axes)
+    rad = cutter.radius_mm - r
+    phi = np.arange(_RIM) * (2.0 * np.pi / _RIM)
+    inner = np.arange(8) * (np.pi / 4.0)
+    offs = np.concatenate([np.stack([np.cos(phi), np.sin(phi)], 1) * rad, [[0.0, 0.0]],
+                           np.stack([np.cos(inner), np.sin(inner)], 1) * 0.5 * rad])
+    k = len(offs)
+
+    def signed(points: NDArray[np.float64], tt: NDArray[np.float64], ss: NDArray[np.float64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        tt, ss, _ = project_to_surface(surface, points, tt, ss, iterations=newton + 1)
+        x, normals = point_normal(surface, tt, ss)
+        return np.einsum("ij,ij->i", points - x, normals), tt, ss
+
+    pts = (centre[:, None, :] + offs[None, :, 0, None] * b1[:, None, :]
+           + offs[None, :, 1, None] * b2[:, None, :]).reshape(-1, 3)
+    d, tt, ss = signed(pts, np.repeat(t0, k), np.repeat(s0, k))
+    d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
+    best = np.argmin(d, axis=1)
+    rows = np.arange(m)
+    out_d, out_t, out_s = d[rows, best], tt[rows, best], ss[rows, best]
+    on_rim = best < _RIM
+    if on_rim.any():
+        i = np.flatnonzero(on_rim)
+        j = best[i]
+        lo_, hi_ = d[i, (j - 1) % _RIM], d[i, (j + 1) % _RIM]
+        mid = d[i, j]
+        den = lo_ - 2.0 * mid + hi_
+        step = np.where(den > 1e-15, 0.5 * (lo_ - hi_) / np.where(den > 1e-15, den, 1.0), 0.0)
+        ang = phi[j] + np.clip(step, -1.0, 1.0) * (2.0 * np.pi / _RIM)
+        refined = (centre[i] + rad * (np.cos(ang)[:, None] * b1[i]
+                                      + np.sin(ang)[:, None] * b2[i]))
+        d2, t2, s2 = signed(refined, tt[i, j], ss[i, j])
+        better = d2 < out_d[i]
+        out_d[i] = np.where(better, d2, out_d[i])
+        out_t[i] = np.where(better, t2, out_t[i])
+        out_s[i] = np.where(better, s2, out_s[i])
+    return out_d - r, out_t, out_s
+
+
+def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.float64],
+              tips_b: NDArray[np.float64], axes_a: NDArray[np.float64],
+              axes_b: NDArray[np.float64], ta: NDArray[np.float64], tb: NDArray[np.float64],
+              sa: NDArray[np.float64], sb: NDArray[np.float64],
+              fractions: NDArray[np.float64], *, newton: int = 2
+              ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """Gaps of the cutter at ``fractions`` of each move (tip linear, axis normalized-linear).
+
+    The Newton search starts between the ends' contacts ``(ta, sa)`` and ``(tb, sb)``
+    (across the seam the short way on closed sections).
+
+    Returns
+    -------
+    gap, t, s : ndarray, shape (m, len(fractions))
+    """
+    u = np.asarray(fractions, dtype=float)
+    m = len(tips_a)
+    closed = bool(surface.closed_t)
+    if closed:
+        tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
+    tips = (tips_a[:, None, :] * (1.0 - u)[None, :, None]
+            + tips_b[:, None, :] * u[None, :, None]).reshape(-1, 3)
+    axes = (axes_a[:, None, :] * (1.0 - u)[None, :, None]
+            + axes_b[:, None, :] * u[None, :, None]).reshape(-1, 3)
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    t0 = (ta[:, None] * (1.0 - u) + tb[:, None] * u).ravel()
+    s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
+    if closed:
+        t0 = np.mod(t0, 1.0)
+    gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton)
+    return gap.reshape(m, u.size), t.reshape(m, u.size), s.reshape(m, u.size)
+
+
+def chord_peak(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Extreme of ``g(u) = u (1 - u)(a + b u + c u^2)`` through three measured gaps.
+
+    Parameters
+    ----------
+    gaps : ndarray, shape (m, 3)
+        Gaps measured at the three ``fractions`` of each move.
+
+    Returns
+    -------
+    peak, u_star : ndarray, shape (m,)
+        The model's value of largest magnitude on [0, 1] and where it is.
+    """
+    u = np.asarray(fractions, dtype=float)
+    basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
+    coef = np.linalg.solve(basis, gaps.T).T  # (m, 3)
+    grid = np.linspace(0.0, 1.0, 101)
+    model = (grid * (1.0 - grid))[None, :] * (coef[:, :1] + coef[:, 1:2] * grid
+                                               + coef[:, 2:3] * grid * grid)
+    k = np.argmax(np.abs(model), axis=1)
+    return model[np.arange(len(model)), k], grid[k]

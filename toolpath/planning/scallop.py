@@ -1,0 +1,205 @@
+"""Spacing between passes from the requested scallop height, exact for circular sections.
+
+Across the passes, the surface's normal section is a circle of signed curvature ``k``
+(positive concave, :mod:`toolpath.surface`) and the cutter's section a circle of radius
+``rho`` (the ball radius, or the effective radius of a flat or bull-nose cutter across the
+feed, :meth:`~toolpath.planning.cutters.Cutter.curvature_tensor`). The cutter centres
+then lie on the circle of radius ``1/|k| +/- rho`` and the cusp between two passes at
+height ``h`` above the surface (convex surfaces fall away under the cusp, so they need a
+smaller stepover than a plane; concave ones allow a larger one). In the triangle (centre
+of curvature, cutter centre, cusp) the law of cosines gives, for convex and concave alike,
+
+``sin(alpha / 4) = z = |k| sqrt(h (2 rho - h)) / (2 sqrt((1 - h k)(1 - rho k)))``
+
+with ``alpha`` the angle between the two contacts, so the stepover along the surface is
+
+``w = 4 asin(z) / |k| = 2 sqrt(h (2 rho - h)) / sqrt((1 - h k)(1 - rho k)) * asin(z) / z``,
+
+which tends to the flat-surface ``2 sqrt(h (2 rho - h))`` as ``k -> 0``. It needs
+``rho k < 1`` (a concave radius larger than the cutter's; otherwise the cutter gouges,
+see :mod:`toolpath.planning.gouge`). Where a flat or bull-nose face is almost parallel to
+the surface (``rho`` huge), the stepover is also bounded by the width of the face plus
+the corner arcs, ``w <= flat_width + 2 sqrt(h (2 r - h))``.
+
+Pass levels are placed greedily in ``s``: from a level ``s_k`` the next is ``s_k + ds``
+with ``ds = min A(s')`` over ``s' in [s_k, s_k + lookahead * ds]``, where
+``A(s) = min_t w(t, s) / q(t, s)`` is the allowed parameter step over the whole pass
+(``q`` is the distance across passes per unit ``s``), so the worst scallop along every
+pass is within the request.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+from .errors import PlanningError
+
+__all__ = ["pass_levels", "scallop_height_mm", "stepover_mm"]
+
+
+def _asin_ratio(z: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``asin(z) / z`` with its limit 1 at 0 (series below 1e-4)."""
+    z = np.minimum(np.abs(z), 1.0)
+    small = z < 1e-4
+    safe = np.where(small, 1.0, z)
+    return np.where(small, 1.0 + z * z / 6.0, np.arcsin(safe) / safe)
+
+
+def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
+                ) -> NDArray[np.float64]:
+    """Stepover along the surface that leaves cusps of height ``scallop_mm`` (formula above).
+
+    Parameters
+    ----------
+    scallop_mm : float or array_like
+        Cusp height ``h``, mm (``0 < h < 2 rho``).
+    radius_mm : array_like
+        Cutter section radius ``rho`` across the feed, mm (``inf`` allowed: flat face).
+    curvature_per_mm : array_like
+        Surface normal curvature across the passes, 1/mm, positive concave.
+
+    Returns
+    -------
+    ndarray
+        Stepover ``w``, mm; ``0`` where ``rho k >= 1`` (the cutter does not fit). An
+        infinite ``rho`` (a flat face) gives the limit: point contacts, whose cusp is the
+        bulge of a convex surface between them; ``inf`` on a plane, ``0`` when concave.
+    """
+    h = np.asarray(scallop_mm, dtype=float)
+    rho = np.asarray(radius_mm, dtype=float)
+    k = np.asarray(curvature_per_mm, dtype=float)
+    h, rho, k = np.broadcast_arrays(h, rho, k)
+    finite = np.isfinite(rho)
+    rho_f = np.where(finite, rho, 1.0)
+    chord = np.sqrt(np.maximum(h * (2.0 * rho_f - h), 0.0))
+    denom = (1.0 - h * k) * (1.0 - rho_f * k)
+    fits = denom > 0.0
+    root = np.sqrt(np.where(fits, denom, 1.0))
+    z = np.abs(k) * chord / (2.0 * root)
+    # z > 1 only on a convex surface so curved that one contact sees past the other:
+    # there the cusp never reaches h and the stepover is half the circle
+    w = np.where(z >= 1.0, np.pi / np.maximum(np.abs(k), 1e-300),
+                 2.0 * chord / root * _asin_ratio(z))
+    w = np.where(fits, w, 0.0)
+    # a flat profile (rho -> inf): point contacts; on a convex surface the cusp is the
+    # surface's own bulge, z -> sqrt(2 h |k|) / (2 sqrt(1 + h |k|)); on a plane unbounded
+    z_flat = np.sqrt(2.0 * h * np.abs(k)) / (2.0 * np.sqrt(np.maximum(1.0 - h * k, 1e-300)))
+    w_flat = np.where(k < 0.0, np.where(z_flat >= 1.0, np.pi, 4.0 * np.arcsin(
+        np.minimum(z_flat, 1.0))) / np.maximum(np.abs(k), 1e-300), np.where(k == 0.0, np.inf,
+                                                                         0.0))
+    return np.where(finite, w, w_flat)
+
+
+def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
+                      ) -> NDArray[np.float64]:
+    """Cusp height for a given stepover (the inverse of :func:`stepover_mm`), mm.
+
+    From the same triangle: ``x`` (distance of the cusp from the centre of curvature)
+    solves ``x^2 - 2 x D cos(alpha/2) + D^2 - rho^2 = 0`` with ``D = 1/|k| +/- rho`` and
+    ``alpha = w |k|`` (the smaller root when convex, the larger when concave);
+    ``h = x - 1/|k|`` (convex) or ``1/|k| - x`` (concave); on a plane
+    ``h = rho - sqrt(rho^2 - w^2 / 4)``.
+    """
+    w = np.asarray(stepover, dtype=float)
+    rho = np.asarray(radius_mm, dtype=float)
+    k = np.asarray(curvature_per_mm, dtype=float)
+    w, rho, k = np.broadcast_arrays(w, rho, k)
+    flat = np.abs(k) < 1e-12
+    radius = 1.0 / np.where(flat, 1.0, np.abs(k))
+    half = 0.5 * w * np.where(flat, 0.0, np.abs(k))
+    convex = k < 0.0
+    d = np.where(convex, radius + rho, radius - rho)
+    disc = np.maximum(rho**2 - (d * np.sin(half)) ** 2, 0.0)
+    # the cusp lies between the surface and the cutter centres: the nearer root when
+    # convex (centres outside the cusp), the farther when concave
+    x = d * np.cos(half) + np.where(convex, -1.0, 1.0) * np.sqrt(disc)
+    curved = np.where(convex, x - radius, radius - x)
+    plane = rho - np.sqrt(np.maximum(rho**2 - 0.25 * w**2, 0.0))
+    return np.where(flat, plane, curved)
+
+
+def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 1.0,
+                balance: bool = True, max_passes: int = 200_000) -> NDArray[np.float64]:
+    """Greedy pass levels ``0 = s_0 < s_1 < ... < s_n = 1`` (see the module docstring).
+
+    Parameters
+    ----------
+    s_grid : array_like, shape (m,)
+        Increasing probe levels covering [0, 1].
+    allowed_ds : array_like, shape (m,)
+        ``A(s)``: the largest parameter step at each probe level (> 0; ``inf`` where
+        nothing constrains it). Between two levels the smaller value holds.
+    lookahead : float
+        Window factor: ``ds <= min A`` over ``[s_k, s_k + lookahead * ds]`` (2 for a
+        spiral, whose gap at ``t`` spans two consecutive level gaps).
+    balance : bool
+        The pass count is the greedy one, rounded up; with ``balance`` every step is then
+        scaled by the smallest common factor that keeps that count, so the slack is shared
+        by all gaps instead of left in the last one.
+    max_passes : int
+        Refuse plans with more passes than this.
+
+    Returns
+    -------
+    ndarray
+        The levels, first 0 and last 1.
+
+    Raises
+    ------
+    PlanningError
+        If some ``A(s)`` is not positive or the plan needs more than `max_passes`.
+    """
+    grid = np.asarray(s_grid, dtype=float)
+    allowed = np.asarray(allowed_ds, dtype=float)
+    if (allowed <= 0.0).any() or np.isnan(allowed).any():
+        i = int(np.argmax(~(allowed > 0.0)))
+        raise PlanningError(f"no positive stepover at s={grid[i]:.6g}: the cutter cannot "
+                            "keep the scallop there")
+    allowed = np.minimum(allowed, 1.0)
+
+    # conservative between probes: the smaller of the two neighbouring values (a probe
+    # row that is singular, e.g. a flat face lying exactly flat, must not inflate its
+    # neighbours' intervals)
+    lower = np.minimum(allowed[:-1], allowed[1:])
+
+    def at(x: float) -> float:
+        j = int(np.clip(np.searchsorted(grid, x, side="right") - 1, 0, lower.size - 1))
+        return float(allowed[j]) if x == grid[j] else float(lower[j])
+
+    def window_min(lo: float, hi: float) -> float:
+        j0 = int(np.clip(np.searchsorted(grid, lo, side="right") - 1, 0, lower.size - 1))
+        j1 = int(np.clip(np.searchsorted(grid, hi, side="left") - 1, 0, lower.size - 1))
+        return float(lower[j0:j1 + 1].min())
+
+    def greedy(scale: float) -> list[float]:
+        levels = [0.0]
+        s = 0.0
+        while s < 1.0:
+            ds = scale * at(s)
+            for _ in range(60):
+                new = min(ds, scale * window_min(s, min(s + lookahead * ds, 1.0)))
+                if new >= ds * (1.0 - 1e-12):
+                    break
+                ds = new
+            s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds
+            levels.append(s)
+            if len(levels) > max_passes:
+                raise PlanningError(
+                    f"the scallop request needs more than max_passes={max_passes} passes "
+                    f"(step {ds:.3g} in s near s={s:.4g}); raise scallop_mm or max_passes")
+        return levels
+
+    levels = greedy(1.0)
+    if balance and len(levels) > 2:
+        # the count is rounded up: spread the slack over every gap by the smallest uniform
+        # scale that still needs no more passes
+        lo, hi = 0.5, 1.0
+        for _ in range(20):  # scale to 5e-7
+            mid = 0.5 * (lo + hi)
+            if len(greedy(mid)) <= len(levels):
+                hi = mid
+            else:
+                lo = mid
+        levels = greedy(hi)
+    return np.asarray(levels)

@@ -1,0 +1,246 @@
+"""Tool axes: fixed (3-axis) or from the surface frame with lead and tilt (5-axis).
+
+Lead and tilt are given in the pass frame at the contact: ``f`` the feed direction (unit,
+along the direction of travel), ``n`` the outward normal and ``b = n x f`` (to the left of
+the feed, seen from the spindle). The nominal axis is
+
+``a = cos(lead) (cos(tilt) n + sin(tilt) b) + sin(lead) f``
+
+so a positive lead leans the tool forward, towards the feed, and a positive tilt leans it
+to the left. The axes are then smoothed along each pass by a moving average over arc
+length (a box filter of half-width ``w`` applied twice, i.e. a triangular window of
+half-width ``2w``, computed from cumulative integrals, renormalized), the window of a pass
+doubling until its turn rate is within ``max_rate_deg_per_mm``. A smoothed axis leaning
+more than ``max_lean_deg`` from the surface normal is turned back towards the normal onto
+that cone (the contact must stay on the cutting end, well below the shank); where that
+leaves the rate above the limit it is reported. Finally axes can be pushed out of the
+singular cone (angle from the workpiece +Z) along the great circle through +Z.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import ArrayLike, NDArray
+
+__all__ = [
+    "AxisSmoothing",
+    "angle_deg",
+    "keep_out_of_cone",
+    "lead_tilt_axes",
+    "limit_lean",
+    "segment_turn_rates",
+    "smooth_axes",
+]
+
+_Z = np.array([0.0, 0.0, 1.0])
+
+
+def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    norm = np.linalg.norm(v, axis=-1, keepdims=True)
+    return v / np.where(norm > 0.0, norm, 1.0)
+
+
+def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
+    """Angle between unit vectors, deg (``atan2(|a x b|, a.b)``, accurate near 0)."""
+    a = np.asarray(a, dtype=float)
+    b = np.asarray(b, dtype=float)
+    cross = np.linalg.norm(np.cross(a, b), axis=-1)
+    return np.degrees(np.arctan2(cross, np.einsum("...k,...k->...", a, b)))
+
+
+def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
+                   tilt_deg: float) -> NDArray[np.float64]:
+    """Nominal tool axes ``cos L (cos T n + sin T b) + sin L f`` with ``b = n x f``.
+
+    Parameters
+    ----------
+    normals : array_like, shape (n, 3)
+        Unit outward normals.
+    feed_dirs : array_like, shape (n, 3)
+        Unit feed directions (tangent, in the direction of travel).
+    lead_deg, tilt_deg : float
+        Lead (forward lean) and tilt (lean to the left), deg.
+    """
+    n = np.asarray(normals, dtype=float)
+    f = np.asarray(feed_dirs, dtype=float)
+    b = np.cross(n, f)
+    lead, tilt = np.radians(lead_deg), np.radians(tilt_deg)
+    return _unit(np.cos(lead) * (np.cos(tilt) * n + np.sin(tilt) * b) + np.sin(lead) * f)
+
+
+def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64],
+                       same_pass: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Turn rate of the axis on each segment, deg per mm along the pass (0 across passes)."""
+    turn = angle_deg(axes[:-1], axes[1:])
+    length = np.diff(arclen_mm)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = np.where(length > 1e-12, turn / np.maximum(length, 1e-12),
+                        np.where(turn > 1e-9, np.inf, 0.0))
+    return np.where(same_pass, rate, 0.0)
+
+
+def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
+                 lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
+                 half_width: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Mean of the piecewise-linear ``values(x)`` over ``[x - w, x + w]`` within its pass.
+
+    ``x`` is a strictly increasing global coordinate (passes separated by gaps), ``lo_x``,
+    ``hi_x`` the pass ends of each point. ``F`` is the cumulative trapezoid integral.
+    """
+    seg = np.diff(x)
+    cum = np.concatenate([np.zeros((1, values.shape[1])),
+                          np.cumsum(0.5 * (values[1:] + values[:-1]) * seg[:, None], axis=0)])
+    lo = np.maximum(x - half_width, lo_x)
+    hi = np.minimum(x + half_width, hi_x)
+    width = hi - lo
+    out = np.empty_like(values)
+    for k in range(values.shape[1]):
+        f_hi = np.interp(hi, x, cum[:, k])
+        f_lo = np.interp(lo, x, cum[:, k])
+        out[:, k] = np.where(width > 1e-12, (f_hi - f_lo) / np.where(width > 1e-12, width, 1.0),
+                             values[:, k])
+    return out
+
+
+@dataclass(frozen=True)
+class AxisSmoothing:
+    """Result of :func:`smooth_axes`.
+
+    Attributes
+    ----------
+    axes : ndarray, shape (n, 3)
+        Smoothed unit axes.
+    half_width_mm : ndarray, shape (n_passes,)
+        Box half-width used on each pass, mm.
+    max_rate_deg_per_mm : float
+        Largest turn rate left on any segment.
+    worst_point : int
+        Index of the first point of that segment (``-1`` if there are none).
+    limited_points : int
+        Points whose smoothed axis was turned back onto the ``max_lean_deg`` cone.
+    """
+
+    axes: NDArray[np.float64]
+    half_width_mm: NDArray[np.float64]
+    max_rate_deg_per_mm: float
+    worst_point: int
+    limited_points: int
+
+
+def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean_deg: float
+               ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """Turn axes leaning more than ``max_lean_deg`` from the normal back onto that cone.
+
+    ``a' = cos(L) n + sin(L) h`` with ``h`` the unit part of ``a`` perpendicular to ``n``
+    (in the plane of ``a`` and ``n``). Returns the axes and which were moved.
+    """
+    lean = angle_deg(axes, normals)
+    over = lean > max_lean_deg
+    if not over.any():
+        return axes, over
+    perp = axes - np.einsum("ij,ij->i", axes, normals)[:, None] * normals
+    h = _unit(perp)
+    c = np.radians(max_lean_deg)
+    turned = np.cos(c) * normals + np.sin(c) * h
+    return np.where(over[:, None], turned, axes), over
+
+
+def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
+                arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64], *,
+                smoothing_mm: float, max_rate_deg_per_mm: float | None, max_lean_deg: float,
+                max_doublings: int = 12) -> AxisSmoothing:
+    """Smooth nominal axes along each pass and limit their turn rate (module docstring).
+
+    Parameters
+    ----------
+    nominal : ndarray, shape (n, 3)
+        Unit nominal axes, in pass order (passes contiguous, ascending ``pass_id``).
+    normals : ndarray, shape (n, 3)
+        Unit surface normals at the contacts.
+    arclen_mm : ndarray, shape (n,)
+        Arc length along each pass (restarting anywhere; only differences within a pass
+        are used), mm: the path the rate is measured on.
+    pass_id : ndarray, shape (n,)
+        Pass of each point (contiguous runs).
+    smoothing_mm : float
+        Initial box half-width, mm (0: no smoothing unless the rate needs it).
+    max_rate_deg_per_mm : float or None
+        Turn-rate limit, deg/mm; ``None`` for none.
+    max_lean_deg : float
+        Largest angle allowed between an axis and the normal (see :func:`limit_lean`).
+    """
+    n = len(nominal)
+    starts = np.flatnonzero(np.r_[True, pass_id[1:] != pass_id[:-1]])
+    ends = np.r_[starts[1:], n] - 1
+    n_passes = len(starts)
+    which = np.repeat(np.arange(n_passes), ends - starts + 1)
+    # global increasing coordinate: each pass shifted past the previous one plus a gap
+    local = arclen_mm - arclen_mm[starts][which]
+    lengths = local[ends]
+    offsets = np.concatenate([[0.0], np.cumsum(lengths + 1.0)[:-1]])
+    x = local + offsets[which]
+    x = x + np.arange(n) * 1e-12  # strictly increasing even with repeated points
+    lo_x, hi_x = x[starts][which], x[ends][which]
+    same = pass_id[1:] == pass_id[:-1]
+    width = np.full(n_passes, float(smoothing_mm))
+    if max_rate_deg_per_mm is not None:
+        # the smallest window that can help: a few segments
+        seg = np.diff(local)[same] if same.any() else np.array([1.0])
+        floor = 2.0 * float(np.median(seg)) if seg.size else 1.0
+    else:
+        floor = 0.0
+    axes = nominal
+    limited = np.zeros(n, dtype=bool)
+    for _ in range(max_doublings + 1):
+        w_pt = width[which]
+        if (w_pt > 0.0).any():
+            once = _box_average(nominal, x, lo_x, hi_x, w_pt)
+            twice = _box_average(once, x, lo_x, hi_x, w_pt)
+            # a window spanning opposite normals can average to nothing: keep the nominal
+            weak = np.linalg.norm(twice, axis=1) < 0.2
+            twice = np.where(weak[:, None], nominal, _unit(twice))
+            axes, limited = limit_lean(twice, normals, max_lean_deg)
+        rates = segment_turn_rates(axes, x, same)
+        if max_rate_deg_per_mm is None:
+            break
+        bad_seg = rates > max_rate_deg_per_mm
+        bad_pass = np.zeros(n_passes, dtype=bool)
+        bad_pass[which[:-1][bad_seg]] = True
+        if not bad_pass.any():
+            break
+        grow = bad_pass & (width < lengths)
+        if not grow.any():
+            break
+        width = np.where(grow, np.maximum(2.0 * width, floor), width)
+    rates = segment_turn_rates(axes, x, same)
+    worst = int(np.argmax(rates)) if rates.size else -1
+    return AxisSmoothing(axes=axes, half_width_mm=width,
+                         max_rate_deg_per_mm=float(rates.max()) if rates.size else 0.0,
+                         worst_point=worst, limited_points=int(limited.sum()))
+
+
+def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
+                     fallback: NDArray[np.float64]) -> tuple[NDArray[np.float64], int]:
+    """Push axes closer than ``min_cone_deg`` to +Z onto the cone, along the great circle.
+
+    ``a' = cos(c) Z + sin(c) h`` with ``h`` the unit horizontal part of ``a`` (or of
+    ``fallback`` where ``a`` is vertical). Returns the axes and how many were moved.
+    """
+    theta = angle_deg(axes, _Z)
+    inside = theta < min_cone_deg
+    if not inside.any():
+        return axes, 0
+    horiz = axes.copy()
+    horiz[:, 2] = 0.0
+    size = np.linalg.norm(horiz, axis=1)
+    fb = np.asarray(fallback, dtype=float).copy()
+    fb[..., 2] = 0.0
+    fb_size = np.linalg.norm(fb, axis=-1)
+    fb = np.where(fb_size[..., None] > 1e-9, fb / np.where(fb_size > 1e-9, fb_size, 1.0)[
+        ..., None], np.array([1.0, 0.0, 0.0]))
+    h = np.where(size[:, None] > 1e-9, horiz / np.where(size > 1e-9, size, 1.0)[:, None], fb)
+    c = np.radians(min_cone_deg)
+    pushed = np.cos(c) * _Z + np.sin(c) * h
+    return np.where(inside[:, None], pushed, axes), int(inside.sum())
