@@ -33,6 +33,9 @@ class BSplineSurface(FittedSurface):
     def _partials(self, t, s, dt, ds) -> NDArray[np.float64]:
         return self.tensor.partial(t, s, dt, ds)
 
+    def _partials_many(self, t, s, orders):
+        return self.tensor.partials(t, s, tuple(orders))
+
     def to_dict(self) -> dict[str, Any]:
         """JSON-serializable description; :meth:`from_dict` restores it exactly."""
         return {"kind": "bspline_surface", **self._common_dict()}

@@ -98,31 +98,36 @@ class StreamlineSurface(FittedSurface):
         return g_t[..., :, None] * np.eye(3)
 
     def _partials(self, t, s, dt, ds) -> NDArray[np.float64]:
-        g = {order: self.tensor.partial(t, s, *order)
-             for order in {(0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2)}
-             if order[0] <= dt and order[1] <= ds}
-        z0 = (self.X0(s) + self.c) @ self.T.T
+        return self._partials_many(t, s, ((dt, ds),))[dt, ds]
+
+    def _partials_many(self, t, s, orders):
+        needed = tuple({(a, b) for dt, ds in orders for a in range(dt + 1)
+                        for b in range(ds + 1)})
+        g = self.tensor.partials(t, s, needed)
+        most_ds = max(ds for _, ds in orders)
+        rows = self.rows_at(s, 0)
+        z = [(rows[:, -3:] + self.c) @ self.T.T]
+        z += [self.rows_at(s, k)[:, -3:] @ self.T.T for k in range(1, most_ds + 1)]
         e = np.exp(g[0, 0])
-        w = z0 * e
-        if ds == 0:
-            if dt == 0:
-                out = w
-            elif dt == 1:
-                out = w * g[1, 0]
-            else:
-                out = w * (g[2, 0] + g[1, 0] ** 2)
-        else:
-            z1 = self.X0(s, 1) @ self.T.T
-            w_s = e * (z1 + z0 * g[0, 1])
-            if ds == 1 and dt == 0:
-                out = w_s
-            elif ds == 1:
-                out = w_s * g[1, 0] + w * g[1, 1]
-            else:
-                z2 = self.X0(s, 2) @ self.T.T
-                out = e * (z2 + 2.0 * z1 * g[0, 1] + z0 * (g[0, 2] + g[0, 1] ** 2))
-        x = out @ np.linalg.inv(self.T).T
-        return x - self.c if dt == ds == 0 else x
+        w = z[0] * e
+        w_s = e * (z[1] + z[0] * g[0, 1]) if most_ds else None
+        t_inv = np.linalg.inv(self.T).T
+        out = {}
+        for dt, ds in orders:
+            if (dt, ds) == (0, 0):
+                value = w
+            elif (dt, ds) == (1, 0):
+                value = w * g[1, 0]
+            elif (dt, ds) == (2, 0):
+                value = w * (g[2, 0] + g[1, 0] ** 2)
+            elif (dt, ds) == (0, 1):
+                value = w_s
+            elif (dt, ds) == (1, 1):
+                value = w_s * g[1, 0] + w * g[1, 1]
+            else:  # (0, 2)
+                value = e * (z[2] + 2.0 * z[1] * g[0, 1] + z[0] * (g[0, 2] + g[0, 1] ** 2))
+            out[dt, ds] = value @ t_inv - self.c if (dt, ds) == (0, 0) else value @ t_inv
+        return out
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serializable description; :meth:`from_dict` restores it exactly."""

@@ -30,6 +30,8 @@ __all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame"]
 
 #: The highest total derivative order a surface must provide.
 MAX_ORDER = 2
+#: The partials a :class:`SurfaceFrame` needs.
+FRAME_ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
 
 def _parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
@@ -70,8 +72,7 @@ class SurfaceFrame:
 
     def __init__(self, surface: ParametricSurface, t: ArrayLike, s: ArrayLike, grid: bool):
         flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
-        parts = {order: surface._partials(flat_t, flat_s, *order)
-                 for order in ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))}
+        parts = surface._partials_many(flat_t, flat_s, FRAME_ORDERS)
         vec = (*shape, 3)
         self.point = parts[0, 0].reshape(vec)
         self.xt, self.xs = parts[1, 0].reshape(vec), parts[0, 1].reshape(vec)
@@ -119,6 +120,12 @@ class ParametricSurface(ABC):
                   ) -> NDArray[np.float64]:
         """``d^(dt+ds) X / dt^dt ds^ds`` at flat arrays ``t``, ``s`` -> ``(n, 3)``."""
 
+    def _partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                       orders: tuple[tuple[int, int], ...]
+                       ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Several partials at once; override to share work between them."""
+        return {order: self._partials(t, s, *order) for order in orders}
+
     def __call__(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> NDArray[np.float64]:
         """Points at the pairs ``(t, s)`` (broadcast) or, with ``grid=True``, on the grid."""
         return self.derivative(t, s, dt=0, ds=0, grid=grid)
@@ -141,9 +148,10 @@ class ParametricSurface(ABC):
 
     def normal(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> NDArray[np.float64]:
         """Unit normals, oriented outward (``orientation * X_t x X_s``)."""
-        xt = self.derivative(t, s, dt=1, ds=0, grid=grid)
-        xs = self.derivative(t, s, dt=0, ds=1, grid=grid)
-        return self.orientation * _unit(np.cross(xt, xs))
+        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        parts = self._partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
+        normal = self.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+        return normal.reshape((*shape, 3))
 
     def principal_curvatures(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
                              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

@@ -1,11 +1,9 @@
 """Bicubic tensor-product B-splines ``F(t, s) = Σ_a Σ_b C_ab N_a(t) M_b(s)`` (eq. 29).
 
-Partial derivatives use the B-spline derivative rule on the coefficients (de Boor, *A
-Practical Guide to Splines*, X(12)): differentiating along one direction turns the degree-p
-spline with coefficients ``c_a`` on knots ``u`` into the degree p-1 spline with coefficients
-``p (c_{a+1} − c_a) / (u_{a+p+1} − u_{a+1})`` on ``u[1:-1]``. Evaluation then uses sparse
-design matrices (4 non-zeros per row), chunked, so a million scattered pairs cost about as
-much memory as the answer.
+Partial derivatives ``∂^(a+b) F / ∂t^a ∂s^b = Σ C_ij N_i^(a)(t) M_j^(b)(s)`` use the basis
+derivatives (scipy's de Boor recursion), evaluated once per order and direction for all the
+partials asked together (a surface frame needs six), chunked, so a million scattered pairs
+cost about as much memory as the answer.
 """
 
 from __future__ import annotations
@@ -24,14 +22,14 @@ __all__ = ["TensorSpline", "interpolate_across"]
 CHUNK = 65536
 
 
-def _differentiate(knots: NDArray[np.float64], coef: NDArray[np.float64], degree: int,
-                   axis: int) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
-    """Coefficients of the derivative along ``axis`` (de Boor's rule)."""
-    c = np.moveaxis(coef, axis, 0)
-    span = knots[degree + 1:degree + c.shape[0]] - knots[1:c.shape[0]]
-    scale = np.divide(degree, span, out=np.zeros_like(span), where=span > 0)
-    diff = (c[1:] - c[:-1]) * scale.reshape((-1,) + (1,) * (c.ndim - 1))
-    return knots[1:-1], np.moveaxis(diff, 0, axis), degree - 1
+def _basis(identity: scipy.interpolate.BSpline, x: NDArray[np.float64], nu: int):
+    """Basis values at ``x`` (sparse, 4 non-zeros a row) or their ``nu``-th derivatives.
+
+    The derivatives are the spline with identity coefficients, evaluated (dense).
+    """
+    if nu == 0:
+        return scipy.interpolate.BSpline.design_matrix(x, identity.t, DEGREE)
+    return identity(x, nu=nu)
 
 
 @dataclass(frozen=True, eq=False)
@@ -53,23 +51,34 @@ class TensorSpline:
     def partial(self, t: NDArray[np.float64], s: NDArray[np.float64], dt: int = 0,
                 ds: int = 0) -> NDArray[np.float64]:
         """``∂^(dt+ds) F / ∂t^dt ∂s^ds`` at flat arrays ``t``, ``s`` -> ``(n, k)``."""
-        kt, coef, pt = self.knots_t, self.coef, DEGREE
-        for _ in range(dt):
-            kt, coef, pt = _differentiate(kt, coef, pt, 0)
-        ks, ps = self.knots_s, DEGREE
-        for _ in range(ds):
-            ks, coef, ps = _differentiate(ks, coef, ps, 1)
-        n_t, n_s, k = coef.shape
-        flat = coef.reshape(n_t, n_s * k)
-        t = np.clip(t, kt[0], kt[-1])
-        s = np.clip(s, ks[0], ks[-1])
-        out = np.empty((t.size, k))
+        return self.partials(t, s, ((dt, ds),))[dt, ds]
+
+    def partials(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                 orders: tuple[tuple[int, int], ...]) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Several partials at once, sharing the basis values: ``{(dt, ds): (n, k)}``.
+
+        ``F_(a,b)(t, s) = Σ_i Σ_j C_ij N_i^(a)(t) M_j^(b)(s)``: the basis derivatives are
+        evaluated once per order and direction, then contracted with the coefficients.
+        """
+        n_t, n_s, k = self.coef.shape
+        flat = self.coef.reshape(n_t, n_s * k)
+        basis_t = scipy.interpolate.BSpline(self.knots_t, np.eye(n_t), DEGREE)
+        basis_s = scipy.interpolate.BSpline(self.knots_s, np.eye(n_s), DEGREE)
+        t = np.clip(t, self.knots_t[0], self.knots_t[-1])
+        s = np.clip(s, self.knots_s[0], self.knots_s[-1])
+        out = {order: np.empty((t.size, k)) for order in orders}
+        by_t: dict[int, list[int]] = {}
+        for dt, ds in orders:
+            by_t.setdefault(dt, []).append(ds)
+        s_orders = sorted({ds for _, ds in orders})
         for lo in range(0, t.size, CHUNK):
             hi = min(lo + CHUNK, t.size)
-            basis_t = scipy.interpolate.BSpline.design_matrix(t[lo:hi], kt, pt)
-            basis_s = scipy.interpolate.BSpline.design_matrix(s[lo:hi], ks, ps).toarray()
-            along_t = (basis_t @ flat).reshape(hi - lo, n_s, k)
-            out[lo:hi] = np.einsum("nb,nbk->nk", basis_s, along_t)
+            across = {ds: _basis(basis_s, s[lo:hi], ds).toarray() if ds == 0
+                      else _basis(basis_s, s[lo:hi], ds) for ds in s_orders}
+            for dt, s_list in by_t.items():
+                along_t = (_basis(basis_t, t[lo:hi], dt) @ flat).reshape(hi - lo, n_s, k)
+                for ds in s_list:
+                    out[dt, ds][lo:hi] = np.einsum("nb,nbk->nk", across[ds], along_t)
         return out
 
     @property
