@@ -128,15 +128,10 @@ def _jsonable(value: Any) -> Any:
 
 
 def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
-    """The planner's plots (passes over the surface), when its plotting module exists."""
-    try:
-        from toolpath import plotting_paths
-    except ImportError:
-        return {}
-    plot = getattr(plotting_paths, "plot_toolpath", None)
-    if plot is None:
-        return {}
-    return {"toolpath_plot": Path(plot(surface, path, out_dir / "toolpath.png"))}
+    """The passes over the surface (3-D and seen from +Z)."""
+    from toolpath.plotting_paths import plot_toolpath
+
+    return {"toolpath_plot": Path(plot_toolpath(surface, path, out_dir / "toolpath.png"))}
 
 
 def _no_progress(stage: str, fraction: float) -> None:
@@ -160,8 +155,9 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         ``stream(gcode_path, machine) -> dict``: runs the checked program (a sender to a
         port, or the built-in simulator); its result joins the report.
     plots : bool
-        Also write ``fit.png`` (sections, streamlines, error) and, where the planner's
-        plotting module is present, ``toolpath.png``.
+        Also write ``fit.png`` (sections, streamlines, error), ``toolpath.png`` (passes
+        over the surface) and, for 5-axis, ``tool_axis.png`` (axis angles and rotary joints
+        along the path).
 
     Returns
     -------
@@ -217,6 +213,10 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     report["plan"] = plan_dict
     if plots:
         files.update(_toolpath_plots(surface, path, out_dir))
+        if request.axis_mode != "3":
+            from .plots import plot_tool_axis_angles
+
+            files["axis_plot"] = plot_tool_axis_angles(path, machine, out_dir / "tool_axis.png")
     seconds["plan"] = time.perf_counter() - start
     report_progress("plan", 1.0)
 

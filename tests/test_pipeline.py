@@ -1,0 +1,34 @@
+"""The pipeline for a 5-axis job: placement upright, G93 program, checked, plots."""
+
+import json
+from pathlib import Path
+
+from streamline_cam.pipeline import JobRequest, run_job
+from toolpath.paper_examples import bundled_data_path
+
+
+def test_five_axis_job_posts_inverse_time_and_writes_every_plot(tmp_path):
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")),
+                         machine="trunnion-ac", axis_mode="lead-tilt", lead_deg=10.0,
+                         scallop_mm=0.05, chord_tol_mm=0.03)
+    result = run_job(request, tmp_path, plots=True)
+    report = json.loads(result.files["report"].read_text())
+    assert report["placement"]["mode"] == "upright"
+    assert report["plan"]["unreachable_fraction"] == 0.0
+    assert report["plan"]["max_scallop_mm"] <= 0.05
+    assert report["check"]["errors"] == 0
+    text = result.files["gcode"].read_text()
+    assert "G93" in text and " A" not in text.splitlines()[0]
+    for name in ("fit_plot", "toolpath_plot", "axis_plot"):
+        assert result.files[name].read_bytes()[:4] == b"\x89PNG"
+
+
+def test_bad_parameter_is_named_before_any_work(tmp_path):
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=-1.0)
+    try:
+        run_job(request, tmp_path)
+    except ValueError as exc:
+        assert "scallop_mm" in str(exc)
+    else:
+        raise AssertionError("a negative scallop was accepted")
+    assert not (tmp_path / "report.json").exists()
