@@ -32,6 +32,7 @@ Examples
 >>> import numpy as np
 >>> from machines import load_machine
 >>> from toolpath import MoveKind, Toolpath
+from toolpath.joint_refine import refine_for_joint_interpolation
 >>> from gcode import GRBL, emit_lines
 >>> tp = Toolpath(
 ...     positions_mm=[[0, 0, 5], [0, 0, -1], [10, 0, -1], [10, 0, 5]],
@@ -91,12 +92,15 @@ from gcode.program import (
 from machines import Machine, UnreachableOrientationError, Wrap
 from machines.limits import min_segment_times
 from toolpath import MoveKind, Toolpath
+from toolpath.joint_refine import refine_for_joint_interpolation
 
 __all__ = ["DEFAULT_CLEARANCE_MM", "PostOptions", "post"]
 
 #: Default clearance above the highest point of the path (mm): clears clamps and chips
 #: at rapid rate without a long way back down.
 DEFAULT_CLEARANCE_MM = 5.0
+#: Largest distance of the tool tip from the planned chord under joint interpolation, mm.
+DEFAULT_JOINT_TOLERANCE_MM = 0.002
 # Plane bits of a move: the plane's normal coordinate does not change.
 _PLANE_BITS = ((Plane.XY, 1, 2), (Plane.ZX, 2, 1), (Plane.YZ, 4, 0))  # plane, bit, normal
 _ROTARY_COLS = [AXES.index(a) for a in ("a", "b", "c")]
@@ -135,6 +139,10 @@ class PostOptions:
         when None.
     number : int or None
         Program number for dialects that write one.
+    joint_tolerance_mm : float or None
+        5-axis: moves are split until the controller's joint interpolation keeps the tool
+        tip within this distance of the planned chord
+        (:func:`toolpath.joint_refine.refine_for_joint_interpolation`); None: no split.
     """
 
     units: Units = Units.MM
@@ -149,6 +157,7 @@ class PostOptions:
     inverse_time: bool = True
     name: str | None = None
     number: int | None = None
+    joint_tolerance_mm: float | None = DEFAULT_JOINT_TOLERANCE_MM
 
     def __post_init__(self) -> None:
         if not 1 <= self.work_offset <= 6:
@@ -165,6 +174,9 @@ class PostOptions:
             raise ValueError(f"clearance_mm must be finite and >= 0, got {self.clearance_mm!r}")
         if not (math.isfinite(self.arc_tolerance_mm) and self.arc_tolerance_mm > 0.0):
             raise ValueError(f"arc_tolerance_mm must be > 0, got {self.arc_tolerance_mm!r}")
+        tol = self.joint_tolerance_mm
+        if tol is not None and not (math.isfinite(tol) and tol > 0.0):
+            raise ValueError(f"joint_tolerance_mm must be > 0 or None, got {tol!r}")
 
 
 def _check_machine_dialect(machine: Machine, dialect: Dialect) -> None:
@@ -500,6 +512,8 @@ def post(
     if len(toolpath) == 0:
         raise PostError(ErrorCode.NO_AXIS_WORDS, "the toolpath has no points")
     _check_machine_dialect(machine, d)
+    if opts.joint_tolerance_mm is not None:
+        toolpath = refine_for_joint_interpolation(toolpath, machine, opts.joint_tolerance_mm)
     joints = _joints(toolpath, machine)
     moves = _plan_moves(toolpath, machine, joints, d, opts)
     arcs: dict[int, tuple[int, Arc]] = {}

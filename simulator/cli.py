@@ -13,6 +13,7 @@ import argparse
 import sys
 import time
 
+from machines import load_machine
 from simulator.faults import FAULT_NAMES
 from simulator.runtime import Simulator
 
@@ -35,6 +36,9 @@ def add_arguments(parser: argparse.ArgumentParser) -> None:
                         help="keep the job when a client connects (no DTR restart)")  # fmt: skip
     parser.add_argument("--status-interval", type=float, default=0.5,
                         help="seconds between status lines (0 = none)")  # fmt: skip
+    parser.add_argument("--g54", choices=("work-origin", "zero"), default="work-origin",
+                        help="G54 as the operator set it: the machine's work origin (what "
+                             "posted programs expect, the default) or zero")
     parser.add_argument("--duration", type=float, default=None,
                         help="stop after this many seconds (default: until Ctrl-C)")  # fmt: skip
 
@@ -47,6 +51,14 @@ def _status_line(snap: dict[str, object]) -> str:
         f"err {snap['error']} alarms {snap['alarms']} planner {snap['planner_free']} "
         f"rx {snap['rx_free']} dropped {snap['rx_dropped_bytes']}"
     )
+
+
+def _work_offsets(args: argparse.Namespace) -> dict[int, tuple[float, ...]] | None:
+    """G54 = the machine's work origin (A/B/C 0) unless ``--g54 zero``."""
+    if args.g54 == "zero":
+        return None
+    origin = load_machine(args.machine).work_origin
+    return {1: (*(float(v) for v in origin), 0.0, 0.0, 0.0)}
 
 
 def run(args: argparse.Namespace) -> int:
@@ -63,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
             mode=args.mode,
             faults=args.fault,
             reset_on_connect=not args.no_reset_on_connect,
+            work_offsets=_work_offsets(args),
         )
         sim.start()
     except (ValueError, OSError, RuntimeError) as exc:

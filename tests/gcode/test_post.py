@@ -40,8 +40,10 @@ REGEN = os.environ.get("GCODE_REGEN_GOLDEN") == "1"
 # name -> (machine, dialect, toolpath factory, options)
 CASES = {
     "post_grbl": ("grbl-router", GRBL, pocket_3axis, PostOptions()),
-    "post_linuxcnc": ("trunnion-ac", LINUXCNC, blade_5axis, PostOptions(tool=4)),
-    "post_fanuc": ("head-table-bc", FANUC, blade_5axis, PostOptions(tool=4, number=77)),
+    "post_linuxcnc": ("trunnion-ac", LINUXCNC, blade_5axis,
+                      PostOptions(tool=4, joint_tolerance_mm=None)),
+    "post_fanuc": ("head-table-bc", FANUC, blade_5axis,
+                   PostOptions(tool=4, number=77, joint_tolerance_mm=None)),
     "post_generic_inch": (
         "trunnion-ac", GENERIC, pocket_3axis, PostOptions(units=Units.INCH, coolant=None),
     ),
@@ -85,7 +87,7 @@ def _tips_of_program(program, dialect, machine):
 def test_forward_kinematics_of_parsed_joints_reproduces_the_toolpath(machine_name, seed):
     machine = load_machine(machine_name)
     tp = random_5axis(np.random.default_rng(seed))
-    program = post(tp, machine, options=PostOptions(arcs=False))
+    program = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=None))
     seg, (tips, axes) = _tips_of_program(program, LINUXCNC, machine)
     # four approach rapids (Z, rotary, XY, down to point 0), then one segment per move
     n = len(tp)
@@ -99,7 +101,7 @@ def test_forward_kinematics_of_parsed_joints_reproduces_the_toolpath(machine_nam
 def test_inverse_time_blocks_take_the_planned_time_within_every_rate_limit():
     machine = load_machine("trunnion-ac")
     tp = random_5axis(np.random.default_rng(7))
-    program = post(tp, machine, options=PostOptions(arcs=False))
+    program = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=None))
     seg, _ = _tips_of_program(program, LINUXCNC, machine)
     planned = tp.segment_times_s(machine)
     got = seg.durations()[4 : 3 + len(tp)]
@@ -112,7 +114,7 @@ def test_inverse_time_blocks_take_the_planned_time_within_every_rate_limit():
 def test_g94_fallback_gives_the_same_times_as_inverse_time():
     machine = load_machine("head-table-bc")
     tp = random_5axis(np.random.default_rng(3))
-    opts = PostOptions(arcs=False)
+    opts = PostOptions(arcs=False, joint_tolerance_mm=None)
     g93 = post(tp, machine, options=opts)
     g94 = post(tp, machine, options=replace(opts, inverse_time=False))
     assert not any(isinstance(b, SetFeedMode) for b in g94.blocks)
@@ -227,3 +229,23 @@ def test_tool_change_becomes_a_comment_on_grbl():
     text = emit_text(program, GRBL)
     assert "(load tool 3 by hand: grbl has no M6)" in text and "T3" not in text
     assert isinstance(program, Program) and program.name == "pocket 3-axis"
+
+
+@pytest.mark.parametrize("machine_name", ["trunnion-ac", "head-table-bc"])
+def test_joint_interpolation_keeps_the_tip_on_the_planned_chords(machine_name):
+    from toolpath.joint_refine import joint_path_deviation_mm, refine_for_joint_interpolation
+
+    machine = load_machine(machine_name)
+    tp = blade_5axis()
+    before = joint_path_deviation_mm(machine, tp.positions_mm, tp.to_machine(machine).joints)
+    refined = refine_for_joint_interpolation(tp, machine, 0.002)
+    after = joint_path_deviation_mm(machine, refined.positions_mm,
+                                    refined.to_machine(machine).joints)
+    assert before.max() > 0.05 and after.max() <= 0.002
+    # the refined chords lie on the planned ones: every planned point is still there
+    kept = (refined.positions_mm[:, None, :] == tp.positions_mm[None]).all(axis=2).any(axis=0)
+    assert kept.all()
+    # the post splits the same moves (and says so in one header comment)
+    plain = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=None))
+    split = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=0.002))
+    assert len(split.blocks) - len(plain.blocks) == len(refined) - len(tp) + 1

@@ -1,0 +1,74 @@
+"""Splitting moves so the machine's joint interpolation stays on the planned tool-tip path.
+
+A controller interpolates a block linearly in its *joints*. On a 5-axis machine that does not
+move the tool tip along the straight chord the planner checked: with rotary axes turning, the
+tip bows away from it (measured on the dev blade, 5-axis, before this step: up to 0.45 mm on
+a block turning C by 21°, and gouges of 0.24 mm). For each move ``i -> i+1`` the tip at the
+joint midpoint ``FK((q_i + q_{i+1}) / 2)`` is compared with the chord midpoint
+``(p_i + p_{i+1}) / 2``; a move deviating by more than the tolerance gets a point on its chord
+(tool axis: the normalized mean of its ends), and the check repeats. The deviation of a
+segment shrinks about fourfold per halving, so a few rounds suffice.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from machines import Machine
+from machines.kinematics import forward, solve_inverse
+
+from .errors import InvalidParameterError
+from .path import MoveKind, Toolpath
+
+__all__ = ["MAX_ROUNDS", "joint_path_deviation_mm", "refine_for_joint_interpolation"]
+
+#: Halvings at most (a move is split into at most 2**MAX_ROUNDS pieces).
+MAX_ROUNDS = 8
+
+
+def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
+                            joints: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance (mm) of each move's joint-midpoint tip from its chord midpoint, ``(n-1,)``."""
+    if len(tips_mm) < 2:
+        return np.zeros(0)
+    middle_tips, _ = forward(machine, 0.5 * (joints[:-1] + joints[1:]))
+    return np.linalg.norm(middle_tips - 0.5 * (tips_mm[:-1] + tips_mm[1:]), axis=1)
+
+
+def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return v / np.linalg.norm(v, axis=1, keepdims=True)
+
+
+def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: float
+                                   ) -> Toolpath:
+    """``path`` with feed moves split until joint interpolation stays within ``tol_mm``.
+
+    Rapids are left alone (their path is clear of the part by construction). On a 3-axis
+    machine joint and tip interpolation agree and ``path`` is returned unchanged.
+    """
+    if not (np.isfinite(tol_mm) and tol_mm > 0.0):
+        raise InvalidParameterError(f"joint tolerance must be > 0 mm, got {tol_mm!r}")
+    if not machine.kinematics.is_five_axis or len(path) < 2:
+        return path
+    tips, axes = path.positions_mm, path.tool_axes
+    kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
+    for _ in range(MAX_ROUNDS):
+        joints = solve_inverse(machine, tips, axes).joints
+        split = joint_path_deviation_mm(machine, tips, joints) > tol_mm
+        split &= kinds[1:] != MoveKind.RAPID
+        if not split.any():
+            break
+        at = np.flatnonzero(split)  # move at -> at + 1 gets a middle point
+        new_tips = 0.5 * (tips[at] + tips[at + 1])
+        new_axes = _unit_rows(axes[at] + axes[at + 1])
+        where = at + 1
+        tips = np.insert(tips, where, new_tips, axis=0)
+        axes = np.insert(axes, where, new_axes, axis=0)
+        kinds = np.insert(kinds, where, kinds[at + 1])
+        feeds = np.insert(feeds, where, feeds[at + 1])
+        passes = np.insert(passes, where, passes[at + 1])
+    if len(tips) == len(path):
+        return path
+    metadata = {**path.metadata, "joint_refined_mm": f"{tol_mm:g}"}
+    return Toolpath(tips, axes, kinds, feeds, passes, metadata)
