@@ -22,3 +22,4 @@ bench:
 	$(PYTHON) benchmarks/bench_simulator.py
 	$(PYTHON) benchmarks/bench_stream.py
 	$(PYTHON) benchmarks/bench_gcode.py
+	$(PYTHON) benchmarks/bench_verify.py

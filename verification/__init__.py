@@ -1,8 +1,101 @@
 """Material-removal verification: what the emitted G-code will actually cut.
 
-Will own: replaying a parsed program through the machine's forward kinematics (with the
-joints interpolated between blocks as the controller does), sweeping the cutter through a
-stock model (a height map for 3-axis, point-sampled distances for 5-axis), and comparing the
-cut surface with the design surface: gouges, remaining scallops, uncut areas, each traced
-to its block and source line.
+A program is replayed through the interpreter and the machine's forward kinematics, with
+the joints interpolated between blocks as the controller does (a 5-axis block does not move
+the tip on a straight line); the ball-nose cutter's sweep becomes capsule pieces; dexels
+through samples of the design surface (along the normal, or along +Z as a height map on
+3-axis machines) measure the material left, signed (negative = gouge), each traced to its
+block and source line.
+
+Modules
+-------
+options
+    ``VerifyOptions`` (resolution, horizons, tolerances; every default with its reason),
+    ``DexelMethod``.
+replay
+    ``replay(program, machine, ...)`` -> ``ToolMotion``: tool tips and axes sampled in
+    joint space, per-block joint-interpolation deviation.
+samples
+    ``sample_design(surface, ...)`` -> ``DesignSamples``: grid of points, normals, areas,
+    convexity.
+capsule
+    ``line_capsule_interval``: where a line enters and leaves a capsule (the kernel).
+pieces
+    ``ball_pieces``, ``shank_pieces`` -> ``Pieces``: the swept cutter as capsules.
+grid
+    ``PieceGrid``: uniform-grid bucketing of the pieces, candidate pairs in batches.
+dexels
+    ``SweepIndex``: near and collision searches -> ``DexelResult``.
+search
+    ``Dexels``, ``grid_search``: the searches over the sample grid, deviations.
+extremes
+    ``extreme``: the deepest gouge, largest excess and scallop, refined on finer grids.
+report
+    ``VerificationReport`` (JSON via ``to_dict``), ``Location``, ``BlockGouge``,
+    ``DeviationStats``, ``JointDeviation``, ``DeviationMap``.
+verify
+    ``verify_program``, ``verify_file``, ``verify_toolpath`` (a planner's toolpath as the
+    machine runs it, unrounded), ``program_of_toolpath``, ``load_surface``.
+plotting
+    ``plot_deviation_map``: the PNG deviation map (the only matplotlib user).
+errors
+    ``VerificationError`` (a ``ToolpathError``), ``UnsupportedCutterError``.
+
+Examples
+--------
+>>> from gcode import Linear, Program, Rapid
+>>> from machines import load_machine
+>>> from toolpath.planning.analytic import PlaneSurface
+>>> from toolpath.planning.cutters import parse_cutter
+>>> plane = PlaneSurface((0, 0, 0), (10, 0, 0), (0, 2, 0))
+>>> zigzag = [(-4.0, 0.0), (14.0, 0.0), (14.0, 1.0), (-4.0, 1.0), (-4.0, 2.0), (14.0, 2.0)]
+>>> program = Program((Rapid(x=-4.0, y=0.0, z=5.0),
+...                    *(Linear(x=x, y=y, z=0.0, feed=600.0) for x, y in zigzag)))
+>>> report = verify_program(program, plane, load_machine("grbl-router"),
+...                         parse_cutter("ball:6"), options=VerifyOptions(spacing_mm=0.05))
+>>> report.max_gouge is None, round(report.max_excess_mm, 3)  # 3 - sqrt(9 - 0.25)
+(True, 0.042)
 """
+
+from .errors import UnsupportedCutterError, VerificationError
+from .options import DexelMethod, VerifyOptions, stepover_for_scallop_mm
+from .replay import ToolMotion, replay
+from .report import (
+    BlockGouge,
+    DeviationMap,
+    DeviationStats,
+    JointDeviation,
+    Location,
+    VerificationReport,
+)
+from .samples import DesignSamples, sample_design
+from .verify import (
+    load_surface,
+    program_of_toolpath,
+    verify_file,
+    verify_program,
+    verify_toolpath,
+)
+
+__all__ = [
+    "BlockGouge",
+    "DesignSamples",
+    "DeviationMap",
+    "DeviationStats",
+    "DexelMethod",
+    "JointDeviation",
+    "Location",
+    "ToolMotion",
+    "UnsupportedCutterError",
+    "VerificationError",
+    "VerificationReport",
+    "VerifyOptions",
+    "load_surface",
+    "program_of_toolpath",
+    "replay",
+    "sample_design",
+    "stepover_for_scallop_mm",
+    "verify_file",
+    "verify_program",
+    "verify_toolpath",
+]

@@ -1,0 +1,80 @@
+"""Replay: positions from the interpreter and kinematics, joint sampling, unknown start."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from gcode import Arc, Linear, Program, Rapid
+from gcode.machine_frame import joint_columns, work_offset_vector
+from machines import forward, load_machine
+from verification import VerificationError, replay
+from verification.pieces import simplify_polyline
+
+
+def test_three_axis_replay_is_the_program_in_the_workpiece_frame(router):
+    program = Program((Rapid(x=0.0, y=0.0, z=5.0), Linear(z=-1.0, feed=300.0),
+                       Linear(x=10.0, feed=800.0),
+                       Arc(clockwise=False, x=20.0, y=10.0, i=0.0, j=10.0, feed=800.0)))
+    motion = replay(program, router, chord_tol_mm=1e-3, radius_mm=3.0)
+    assert motion.first_swept == 1
+    assert motion.tips_mm[0].tolist() == [0.0, 0.0, 5.0]
+    assert motion.tips_mm[-1] == pytest.approx([20.0, 10.0, -1.0])
+    np.testing.assert_allclose(motion.axes, np.tile([0.0, 0.0, 1.0], (motion.n_instances, 1)))
+    # the arc is sampled within the chord tolerance: radius 10 -> >= pi/2 / (2 acos(1 - 1e-4))
+    arc = np.flatnonzero(motion.move_of_instance == 3)
+    assert arc.size >= 55
+    radii = np.linalg.norm(motion.tips_mm[arc, :2] - [10.0, 10.0], axis=1)
+    assert radii == pytest.approx(10.0)
+    assert motion.tip_deviation_mm.max() == 0.0 and motion.substeps[:3].tolist() == [0, 1, 1]
+
+
+def test_modulo_c_turns_the_short_way_round():
+    machine = load_machine("head-table-bc")
+    program = Program((Rapid(x=0.0, y=0.0, z=-300.0, b=0.0, c=350.0),
+                       Linear(c=10.0, feed=100.0)))
+    motion = replay(program, machine, chord_tol_mm=1e-3, radius_mm=3.0)
+    assert motion.rotary_deg[1] == pytest.approx(20.0)  # not 340
+
+
+def test_a_block_that_turns_a_rotary_axis_is_sampled_until_its_chords_are_within_tolerance():
+    machine = load_machine("trunnion-ac")
+    program = Program((Rapid(x=0.0, y=0.0, z=-300.0, a=0.0, c=0.0),
+                       Linear(a=-40.0, feed=100.0)))
+    tol = 1e-3
+    motion = replay(program, machine, chord_tol_mm=tol, radius_mm=3.0)
+    moving = np.flatnonzero(motion.move_of_instance == 1)
+    # mid-points between consecutive samples, recomputed exactly, stay within the tolerance
+    start = np.array([[0.0, 0.0, -300.0, 0.0, 0.0, 0.0]]) + work_offset_vector(machine)
+    j0 = joint_columns(machine, start)
+    j1 = j0.copy()
+    j1[0, 3] = -40.0
+    n = moving.size
+    u = (np.arange(n) + 0.5) / n
+    mid, _ = forward(machine, j0 + u[:, None] * (j1 - j0))
+    chords = 0.5 * (motion.tips_mm[np.r_[0, moving[:-1]]] + motion.tips_mm[moving])
+    assert np.linalg.norm(mid - chords, axis=1).max() <= tol
+    assert motion.tip_deviation_mm[1] > 1.0  # the tip swings far off the straight line
+
+
+def test_a_program_that_never_sets_an_axis_cannot_be_verified(router):
+    with pytest.raises(VerificationError, match="axis Z"):
+        replay(Program((Rapid(x=0.0, y=0.0), Linear(x=5.0, feed=100.0))), router,
+               chord_tol_mm=1e-3, radius_mm=3.0)
+    with pytest.raises(VerificationError, match="no motion block"):
+        replay(Program(()), router, chord_tol_mm=1e-3, radius_mm=3.0)
+
+
+def test_simplify_keeps_every_vertex_within_tolerance(rng):
+    t = np.linspace(0.0, np.pi, 3001)
+    circle = np.column_stack([40 * np.cos(t), 40 * np.sin(t), 0.001 * rng.normal(size=t.size)])
+    keep = simplify_polyline(circle, 0.005, 5.0)
+    assert keep[0] == 0 and keep[-1] == t.size - 1 and keep.size < 300
+    worst = 0.0
+    for a, b in itertools.pairwise(keep):
+        e = circle[b] - circle[a]
+        v = circle[a:b + 1] - circle[a]
+        f = np.clip(v @ e / (e @ e), 0.0, 1.0)
+        worst = max(worst, float(np.linalg.norm(v - f[:, None] * e, axis=1).max()))
+    assert worst <= 0.005
+    assert np.linalg.norm(np.diff(circle[keep], axis=0), axis=1).max() <= 5.0

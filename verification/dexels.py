@@ -1,0 +1,247 @@
+r"""Dexels through the design samples: how much material the swept cutter leaves on each.
+
+Every design sample ``P`` carries a dexel, the line ``P + lam d`` with ``d`` either the
+outward normal (the default) or ``+Z`` (a Z-map whose nodes are the design samples). A
+capsule piece the line meets in ``[lam_in, lam_out]`` with ``lam_out > 0`` (the tool
+reaches the design point or above it) leaves ``lam_in`` of material: positive is material
+left above ``P``, negative a gouge that deep. A piece that comes *from behind* (its tool
+axis points against the dexel, ``a . d < -1/2``, so the rest of the tool lies inside the
+part: the other side of a thin wall such as a blade's blunt trailing edge, or an underside
+reached from above) and reaches below ``P`` leaves ``max(lam_in, -lam_out)`` instead: it
+counts by how far it pokes out through the design point, since the half-space below ``P``
+that ``lam_in`` measures into is not material there. The remaining material is the
+minimum over the pieces (:func:`~verification.capsule.line_capsule_interval`), converted
+to a normal deviation by ``lam (d . n)``. Negative is a gouge.
+
+Two searches keep the candidate pieces few:
+
+* **Near search** (every sample, ball pieces only). A ball that brings the dexel's
+  remaining material into ``[-g, e]`` (``e`` the excess horizon, ``g`` the gouge search
+  depth) has its centre near ``Q = P + R n``: on a surface of convex radius ``rho`` at
+  ``P`` (``1/rho`` the sample's convexity), within
+  ``r = 1.1 sqrt(2 R (e + g) (rho + R) / (rho + e)) + g`` of ``Q`` (plane: ``rho`` infinite;
+  concave surfaces need less). Remaining material above ``e`` is reported as *not cut*.
+* **Collision search** (a coarse subset of samples, ball and shank pieces). Any piece
+  within ``R + e`` of ``P`` itself: a ball from behind (through a thin part), a rapid
+  through the part, the shank rubbing a wall. Where it finds more than the near search,
+  every sample around is searched again: with the collision search when the piece was the
+  shank or came from behind, else (a ball gouging deeper than ``g`` from outside) with a
+  near search sized for that depth, which holds far fewer candidates.
+
+Candidates come from :class:`~verification.grid.PieceGrid`; pairs are processed in
+batches of at most ``max_pairs``, so memory is bounded whatever the program's length.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .capsule import line_capsule_interval
+from .grid import PieceGrid
+from .pieces import Pieces
+
+__all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "DexelResult", "SweepIndex",
+           "near_search_radius_mm"]
+
+#: Search radii per grid cell (the cell nearest ``reach / CELL_PER_REACH`` is used).
+CELL_PER_REACH = 2.0
+
+#: A piece whose tool axis makes ``a . d`` below this with the dexel comes from behind:
+#: the rest of the tool lies inside the part (axis more than 120 deg from the dexel). Side
+#: contacts (``a`` across the normal) and tilted tools stay "from outside".
+BEHIND_COSINE = -0.5
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+def near_search_radius_mm(radius_mm: float, horizon_mm: float, depth_mm: float,
+                          convexity_per_mm: FloatArray) -> FloatArray:
+    """Radius around ``P + R n`` holding every ball centre that matters (module formula).
+
+    Parameters
+    ----------
+    radius_mm : float
+        Ball radius ``R``, mm.
+    horizon_mm : float
+        Excess horizon ``e``, mm.
+    depth_mm : float
+        Gouge search depth ``g``, mm.
+    convexity_per_mm : ndarray
+        ``1/rho`` at the samples (0 on flat or concave parts), 1/mm.
+
+    Returns
+    -------
+    ndarray
+        Search radii, mm, never above ``R + e + g``.
+    """
+    k = np.asarray(convexity_per_mm, dtype=float)
+    factor = (1.0 + radius_mm * k) / (1.0 + horizon_mm * k)
+    r = 1.1 * np.sqrt(2.0 * radius_mm * (horizon_mm + depth_mm) * factor) + depth_mm
+    return np.minimum(r, radius_mm + horizon_mm + depth_mm)
+
+
+@dataclass(frozen=True, eq=False)
+class DexelResult:
+    """Per dexel: the lowest entry of a piece that reaches the design point, and its block.
+
+    Attributes
+    ----------
+    lam_mm : ndarray, shape (q,)
+        ``min lam_in`` along the dexel, mm; ``inf`` when no candidate piece hit.
+    move : ndarray of int64, shape (q,)
+        Motion block of that piece, ``-1`` when none.
+    shank : ndarray of bool, shape (q,)
+        The piece was part of the shank.
+    behind : ndarray of bool, shape (q,)
+        The piece came from behind (its tool axis against the dexel).
+    pairs : int
+        Candidate pairs tested.
+    """
+
+    lam_mm: FloatArray
+    move: IntArray
+    shank: NDArray[np.bool_]
+    behind: NDArray[np.bool_]
+    pairs: int = 0
+
+    @staticmethod
+    def empty(q: int) -> DexelResult:
+        """No hit on ``q`` dexels."""
+        return DexelResult(np.full(q, np.inf), np.full(q, -1, dtype=np.int64),
+                           np.zeros(q, dtype=np.bool_), np.zeros(q, dtype=np.bool_))
+
+    def merged(self, other: DexelResult) -> DexelResult:
+        """Elementwise the lower of two results on the same dexels."""
+        take = other.lam_mm < self.lam_mm
+        return DexelResult(np.where(take, other.lam_mm, self.lam_mm),
+                           np.where(take, other.move, self.move),
+                           np.where(take, other.shank, self.shank),
+                           np.where(take, other.behind, self.behind), self.pairs + other.pairs)
+
+
+@dataclass(eq=False)
+class SweepIndex:
+    """The swept cutter's pieces, with grids built on demand for each search radius.
+
+    A search of radius ``rho`` uses the grid whose cell is closest to ``rho / 2`` among
+    ``base_cell_mm * 2^k`` (so about ``5^3`` cells are scanned per query cell whatever the
+    level of the iterative deepening); grids are built once and kept.
+
+    Parameters
+    ----------
+    ball, shank : Pieces
+        Ball pieces (near and collision searches) and shank pieces (collision only).
+    radius_mm : float
+        Cutter radius ``R``, mm.
+    lo_mm, hi_mm : ndarray, shape (3,)
+        Box of the design samples, mm.
+    base_cell_mm : float
+        Smallest grid cell, mm.
+    reach_limit_mm : float
+        Largest search radius any query may use, mm (pieces farther than this from the
+        box cannot be candidates and are left out of the grids).
+    max_pairs : int
+        Candidate pairs per batch.
+    """
+
+    ball: Pieces
+    shank: Pieces
+    radius_mm: float
+    lo_mm: FloatArray
+    hi_mm: FloatArray
+    base_cell_mm: float
+    reach_limit_mm: float
+    max_pairs: int = 2_000_000
+    _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
+    _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
+
+    def pieces(self, which: str) -> Pieces:
+        """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
+        if which not in self._pieces:
+            self._pieces[which] = self.ball if which == "near" else self.ball.concat(self.shank)
+        return self._pieces[which]
+
+    def _grid(self, which: str, reach_mm: float) -> PieceGrid:
+        target = max(reach_mm / CELL_PER_REACH, 1e-12)
+        k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+        if (which, k) not in self._grids:
+            pieces = self.pieces(which)
+            cell = self.base_cell_mm * 2.0**k
+            margin = self.reach_limit_mm + pieces.max_half_mm
+            self._grids[which, k] = PieceGrid.build(pieces.mid, self.lo_mm - margin,
+                                                    self.hi_mm + margin, cell)
+        return self._grids[which, k]
+
+    def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+               radii_mm: FloatArray) -> DexelResult:
+        """Lowest entries along dexels among pieces within ``radii`` of ``centres``.
+
+        Parameters
+        ----------
+        which : {"near", "far"}
+            Near search (ball pieces) or collision search (ball and shank pieces).
+        points, dirs : ndarray, shape (q, 3)
+            Dexel origins (design samples, mm) and unit directions.
+        centres : ndarray, shape (q, 3)
+            Search centres, mm.
+        radii_mm : ndarray, shape (q,)
+            Search radii for piece *segments*, mm (the longest half piece is added).
+
+        Returns
+        -------
+        DexelResult
+        """
+        q = points.shape[0]
+        out = DexelResult.empty(q)
+        pieces = self.pieces(which)
+        if q == 0 or pieces.size == 0:
+            return out
+        reach = radii_mm + pieces.max_half_mm
+        grid = self._grid(which, float(np.median(reach)))
+        spans = grid.span_of(reach)
+        pairs = 0
+        for span in np.unique(spans):
+            sel = np.flatnonzero(spans == span)
+            cen, lim2 = centres[sel], reach[sel] ** 2
+            for query, piece in grid.candidate_batches(cen, int(span),
+                                                       max_pairs=self.max_pairs):
+                dm = pieces.mid[piece] - cen[query]
+                close = np.einsum("ij,ij->i", dm, dm) <= lim2[query]
+                del dm
+                qi, piece = sel[query[close]], piece[close]
+                pairs += int(qi.shape[0])
+                if qi.shape[0] == 0:
+                    continue
+                lam_in, lam_out = line_capsule_interval(
+                    points[qi], dirs[qi], pieces.a[piece], pieces.e[piece], pieces.ee[piece],
+                    self.radius_mm)
+                behind = (lam_in < 0.0) & (np.einsum(
+                    "ij,ij->i", pieces.axis[piece], dirs[qi]) < BEHIND_COSINE)
+                value = np.where(behind, np.maximum(lam_in, -lam_out), lam_in)
+                value = np.where(lam_out > 0.0, value, np.inf)
+                _fold_min(qi, value, piece, behind, pieces, points, out)
+        return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+
+
+def _fold_min(query: IntArray, value: FloatArray, piece: IntArray, behind: NDArray[np.bool_],
+              pieces: Pieces, points: FloatArray, out: DexelResult) -> None:
+    """Fold per-pair values into per-query minima (pairs are sorted by query)."""
+    starts = np.flatnonzero(np.r_[True, query[1:] != query[:-1]])
+    best = np.minimum.reduceat(value, starts)
+    group = np.repeat(np.arange(starts.shape[0]), np.diff(np.r_[starts, query.shape[0]]))
+    hit = np.flatnonzero((value == best[group]) & np.isfinite(value))
+    if hit.shape[0] == 0:
+        return
+    g = group[hit]
+    first = hit[np.r_[True, g[1:] != g[:-1]]]
+    gq = query[first]
+    better = value[first] < out.lam_mm[gq]
+    gq, first = gq[better], first[better]
+    out.lam_mm[gq] = value[first]
+    out.move[gq] = pieces.moves_at(piece[first], points[gq])
+    out.shank[gq] = pieces.shank[piece[first]]
+    out.behind[gq] = behind[first]

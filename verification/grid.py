@@ -1,0 +1,179 @@
+"""Spatial bucketing of capsule pieces on a uniform grid (numpy only).
+
+Pieces are registered by their midpoint in cubic cells of side ``cell_mm`` over a box (the
+reach of the surface samples; pieces outside it cannot touch a sample and are dropped).
+The cells are a dense array of offsets into the pieces sorted by cell (a counting sort), so
+a query is a direct index, not a tree walk. A query ball of radius ``rho`` around a point
+is covered by the ``(2k + 1)^3`` cells around the point's cell with ``k = ceil(rho / c)``;
+queries are grouped by ``k`` and expanded into candidate pairs in bounded batches.
+
+The cost of verification is the number of candidate pairs, about (area of the query disc
+on the sheet of ball centres) x (pieces per mm^2 of that sheet), never blocks x samples.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["MAX_CELLS", "PieceGrid"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+MAX_CELLS: Final[int] = 16_000_000
+"""Largest dense grid (cells); the cell grows to stay below it (64 MB of offsets)."""
+
+
+@dataclass(frozen=True, eq=False)
+class PieceGrid:
+    """Pieces sorted by grid cell, with the dense offset table.
+
+    Attributes
+    ----------
+    origin_mm : ndarray, shape (3,)
+        Corner of cell (0, 0, 0), mm.
+    cell_mm : float
+        Cell side, mm.
+    dims : tuple of int
+        Cells along x, y, z.
+    starts : ndarray of int64, shape (n_cells + 1,)
+        Pieces of cell ``k`` are ``order[starts[k]:starts[k + 1]]``.
+    order : ndarray of int64
+        Piece indices sorted by cell.
+    """
+
+    origin_mm: FloatArray
+    cell_mm: float
+    dims: tuple[int, int, int]
+    starts: IntArray
+    order: IntArray
+
+    @classmethod
+    def build(cls, midpoints: FloatArray, lo_mm: FloatArray, hi_mm: FloatArray,
+              cell_mm: float) -> PieceGrid:
+        """Register pieces by midpoint over the box ``[lo, hi]``.
+
+        Parameters
+        ----------
+        midpoints : ndarray, shape (n, 3)
+            Piece midpoints, mm.
+        lo_mm, hi_mm : ndarray, shape (3,)
+            The box queries can reach, mm; pieces outside are left out.
+        cell_mm : float
+            Wanted cell side, mm (enlarged when the grid would exceed :data:`MAX_CELLS`).
+
+        Returns
+        -------
+        PieceGrid
+        """
+        lo = np.asarray(lo_mm, dtype=float)
+        span = np.maximum(np.asarray(hi_mm, dtype=float) - lo, 1e-9)
+        cell = float(cell_mm)
+        volume_cells = float(np.prod(span / cell + 1.0))
+        if volume_cells > MAX_CELLS:
+            cell *= (volume_cells / MAX_CELLS) ** (1.0 / 3.0) * 1.01
+        dims_arr = np.maximum(np.ceil(span / cell).astype(np.int64) + 1, 1)
+        dims = (int(dims_arr[0]), int(dims_arr[1]), int(dims_arr[2]))
+        ijk = np.floor((midpoints - lo) / cell).astype(np.int64)
+        inside = ((ijk >= 0) & (ijk < dims_arr)).all(axis=1)
+        keep = np.flatnonzero(inside)
+        key = (ijk[keep, 0] * dims[1] + ijk[keep, 1]) * dims[2] + ijk[keep, 2]
+        n_cells = dims[0] * dims[1] * dims[2]
+        counts = np.bincount(key, minlength=n_cells)
+        starts = np.zeros(n_cells + 1, dtype=np.int64)
+        np.cumsum(counts, out=starts[1:])
+        order = keep[np.argsort(key, kind="stable")]
+        return cls(lo, cell, dims, starts, order)
+
+    @property
+    def n_pieces(self) -> int:
+        """Pieces registered (inside the box)."""
+        return int(self.order.shape[0])
+
+    def span_of(self, radius_mm: FloatArray) -> IntArray:
+        """Cells ``k`` to search on each side for query radii ``radius_mm``."""
+        return np.maximum(np.ceil(radius_mm / self.cell_mm).astype(np.int64), 1)
+
+    def candidate_batches(self, centres: FloatArray, span: int, *, max_pairs: int
+                          ) -> Iterator[tuple[IntArray, IntArray]]:
+        """Candidate ``(query, piece)`` pairs for queries searched ``span`` cells around.
+
+        Queries are grouped by cell: the ``(2 span + 1)^3`` neighbour cells are looked up
+        once per occupied cell, and every query of the cell is paired with the pieces of
+        its neighbourhood.
+
+        Parameters
+        ----------
+        centres : ndarray, shape (q, 3)
+            Query centres, mm.
+        span : int
+            Cells searched on each side of a query's cell.
+        max_pairs : int
+            Upper bound on the pairs of one batch (memory bound); a single query with
+            more candidates forms a batch of its own.
+
+        Yields
+        ------
+        query, piece : ndarray of int64
+            Pairs, each query's pairs contiguous; ``query`` indexes ``centres``.
+        """
+        q = centres.shape[0]
+        if q == 0 or self.n_pieces == 0:
+            return
+        dims = np.asarray(self.dims, dtype=np.int64)
+        ijk = np.floor((centres - self.origin_mm) / self.cell_mm).astype(np.int64).T
+        ijk = np.clip(ijk, -span - 1, dims[:, None] + span)  # far queries: empty cells
+        key = ((ijk[0] + span + 1) * (dims[1] + 2 * span + 3) + ijk[1] + span + 1) * (
+            dims[2] + 2 * span + 3) + ijk[2] + span + 1
+        by_cell = np.argsort(key, kind="stable")
+        cells, first_query, n_query = np.unique(key[by_cell], return_index=True,
+                                                return_counts=True)
+        cell_ijk = ijk[:, by_cell[first_query]]
+        lists, list_start, list_len = self._neighbourhoods(cell_ijk, span)
+        per_query = np.repeat(list_len, n_query)  # in by_cell order
+        cum = np.cumsum(per_query)
+        cell_of = np.repeat(np.arange(cells.shape[0]), n_query)
+        start = 0
+        while start < q:
+            done = int(cum[start - 1]) if start else 0
+            stop = max(int(np.searchsorted(cum, done + max_pairs, side="right")), start + 1)
+            c = per_query[start:stop]
+            total = int(c.sum())
+            if total:
+                rows = np.repeat(np.arange(start, stop, dtype=np.int64), c)
+                within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(c) - c, c)
+                pieces = lists[list_start[cell_of[rows]] + within]
+                yield by_cell[rows], pieces
+            start = stop
+
+    def _neighbourhoods(self, cell_ijk: IntArray, span: int
+                        ) -> tuple[IntArray, IntArray, IntArray]:
+        """Pieces around each cell: concatenated lists, their starts and lengths.
+
+        Cells are numbered with z fastest, so the ``2 span + 1`` cells of a column along z
+        are one contiguous range of ``order``: ``(2 span + 1)^2`` lookups per cell.
+        """
+        dims = np.asarray(self.dims, dtype=np.int64)
+        rng = np.arange(-span, span + 1, dtype=np.int64)
+        oi, oj = (a.ravel() for a in np.meshgrid(rng, rng, indexing="ij"))
+        ci = cell_ijk[0][:, None] + oi[None, :]  # (u, n_col)
+        cj = cell_ijk[1][:, None] + oj[None, :]
+        k0 = np.maximum(cell_ijk[2] - span, 0)[:, None]
+        k1 = np.minimum(cell_ijk[2] + span, dims[2] - 1)[:, None]
+        valid = (ci >= 0) & (ci < dims[0]) & (cj >= 0) & (cj < dims[1]) & (k0 <= k1)
+        column = (np.where(valid, ci, 0) * dims[1] + np.where(valid, cj, 0)) * dims[2]
+        first = self.starts[column + np.where(valid, k0, 0)]
+        count = np.where(valid, self.starts[column + np.where(valid, k1, 0) + 1] - first, 0)
+        count = count.ravel()
+        total = int(count.sum())
+        rows = np.repeat(np.arange(count.shape[0], dtype=np.int64), count)
+        within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(count) - count, count)
+        lists = self.order[first.ravel()[rows] + within]
+        list_len = count.reshape(valid.shape).sum(axis=1)
+        list_start = np.cumsum(list_len) - list_len
+        return lists, list_start, list_len

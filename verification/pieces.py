@@ -1,0 +1,307 @@
+"""The swept ball-nose cutter as capsule pieces.
+
+* **Ball pieces.** Between consecutive tool instances the ball centre ``C = tip + R a``
+  moves on a straight chord (the replay keeps the true path within its chord tolerance of
+  these chords), so the ball sweeps exactly the capsule of radius ``R`` around the chord.
+  Runs of nearly collinear chords (a program of many short blocks along a line or a gentle
+  curve) are merged first (:func:`simplify_polyline`): a vertex is dropped when every
+  original ball centre between its kept neighbours lies within ``merge_tol_mm`` of the
+  chord joining them. Merging alternates between odd and even vertices, so it takes about
+  ``2 log2(run)`` rounds. The cost of the search then follows the geometry, not the block
+  count.
+* **Shank pieces.** Above the ball centre the flutes and shank are a cylinder of radius
+  ``R`` up to ``C + (H - R) a`` (``H`` the flute length). It is placed at instances
+  resampled along the path every ``shank_spacing_mm`` (measured at the centre and at the
+  top, so tilting in place counts), each a capsule from ``C`` up the axis. Between two such
+  instances the union dips below the true swept shank by at most
+  ``R - sqrt(R^2 - (spacing / 2)^2)``: the shank check is for collisions, not finish.
+
+Every capsule longer than ``max_piece_mm`` is cut into equal pieces (a union of capsules
+on consecutive sub-segments is the same solid), which bounds the reach of a piece from its
+midpoint, and so the grid search radius.
+
+A ball piece keeps the path length (along the ball-centre polyline of all instances) at its
+ends, so a hit is traced back to the block whose stretch of path lies nearest the dexel,
+even inside a merged piece.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .replay import ToolMotion
+
+__all__ = ["Pieces", "ball_pieces", "shank_pieces", "simplify_polyline"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@dataclass(frozen=True, eq=False)
+class Pieces:
+    """Capsule pieces of one radius, one row per piece.
+
+    Attributes
+    ----------
+    a : ndarray, shape (m, 3)
+        Segment starts, mm.
+    e : ndarray, shape (m, 3)
+        Segment vectors (end minus start), mm.
+    ee : ndarray, shape (m,)
+        Squared lengths, mm^2.
+    mid : ndarray, shape (m, 3)
+        Midpoints, mm.
+    half_mm : ndarray, shape (m,)
+        Half lengths, mm.
+    move : ndarray of int64, shape (m,)
+        Motion block (0-based, motion order) of the piece (for ball pieces: at its start).
+    shank : ndarray of bool, shape (m,)
+        The piece is part of the shank (not the ball's sweep).
+    axis : ndarray, shape (m, 3)
+        Unit tool axis (tip towards spindle) at the piece's start: where the rest of the
+        tool lies.
+    arc0_mm, arc1_mm : ndarray, shape (m,)
+        Ball pieces: path length at the ends, mm (NaN for shank pieces).
+    path_arc_mm : ndarray, shape (n_instances,)
+        Path length of the ball centre at every tool instance, mm.
+    path_move : ndarray of int64, shape (n_instances,)
+        Motion block arriving at every instance.
+    """
+
+    a: FloatArray
+    e: FloatArray
+    ee: FloatArray
+    mid: FloatArray
+    half_mm: FloatArray
+    move: IntArray
+    shank: NDArray[np.bool_]
+    axis: FloatArray
+    arc0_mm: FloatArray
+    arc1_mm: FloatArray
+    path_arc_mm: FloatArray
+    path_move: IntArray
+
+    @property
+    def size(self) -> int:
+        """Number of pieces."""
+        return int(self.move.shape[0])
+
+    @property
+    def max_half_mm(self) -> float:
+        """Largest half length, mm (0 when empty)."""
+        return float(self.half_mm.max()) if self.size else 0.0
+
+    def concat(self, other: Pieces) -> Pieces:
+        """Both sets of pieces (the path arrays are this set's)."""
+        def cat(name: str) -> NDArray[np.float64]:
+            return np.concatenate((getattr(self, name), getattr(other, name)))
+
+        return Pieces(cat("a"), cat("e"), cat("ee"), cat("mid"), cat("half_mm"), cat("move"),
+                      cat("shank"), cat("axis"), cat("arc0_mm"), cat("arc1_mm"),
+                      self.path_arc_mm, self.path_move)
+
+    def moves_at(self, piece: IntArray, points_mm: FloatArray) -> IntArray:
+        """Motion block nearest each point along its piece (ball: by path length).
+
+        Parameters
+        ----------
+        piece : ndarray of int64, shape (q,)
+            Piece indices.
+        points_mm : ndarray, shape (q, 3)
+            Points (the dexel origins), mm; each is projected on its piece's segment.
+
+        Returns
+        -------
+        ndarray of int64
+            Motion block numbers (motion order).
+        """
+        ee = self.ee[piece]
+        u = np.einsum("ij,ij->i", points_mm - self.a[piece], self.e[piece])
+        u = np.clip(u / np.where(ee > 0.0, ee, 1.0), 0.0, 1.0)
+        arc0 = self.arc0_mm[piece]
+        arc = arc0 + u * (self.arc1_mm[piece] - arc0)
+        ball = np.isfinite(arc)
+        out = self.move[piece].copy()
+        if ball.any() and self.path_arc_mm.shape[0] > 1:
+            inst = np.searchsorted(self.path_arc_mm, arc[ball], side="left")
+            out[ball] = self.path_move[np.clip(inst, 1, self.path_arc_mm.shape[0] - 1)]
+        return out
+
+
+def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
+                      ) -> IntArray:
+    """Vertices to keep so every dropped vertex lies within ``tol_mm`` of the new chords.
+
+    Rounds alternate between odd and even kept vertices; a vertex is dropped when every
+    original vertex between its two kept neighbours lies within ``tol_mm`` of the chord
+    joining them (checked exactly: the spans of one round are disjoint, so a round costs
+    one pass over the polyline) and that chord is at most ``max_length_mm`` long. The
+    original polyline then lies within ``tol_mm`` of the kept one (the distance of a
+    segment's points from a chord is largest at its ends).
+
+    Parameters
+    ----------
+    points : ndarray, shape (n, 3)
+        The polyline, mm.
+    tol_mm : float
+        Largest distance of an original vertex from the chord replacing it, mm.
+    max_length_mm : float
+        No merged chord longer than this, mm.
+
+    Returns
+    -------
+    ndarray of int64
+        Indices of the kept vertices, first and last always kept.
+    """
+    n = points.shape[0]
+    keep = np.arange(n, dtype=np.int64)
+    idle = 0
+    parity = 1
+    max2 = max_length_mm * max_length_mm
+    while keep.shape[0] > 2 and idle < 2:
+        p = np.arange(max(parity, 1), keep.shape[0] - 1, 2)
+        a_i, c_i = keep[p - 1], keep[p + 1]
+        ac = points[c_i] - points[a_i]
+        aa = np.einsum("ij,ij->i", ac, ac)
+        short = aa <= max2
+        p, a_i, c_i, ac, aa = p[short], a_i[short], c_i[short], ac[short], aa[short]
+        inner = c_i - a_i - 1  # original vertices strictly between the chord's ends
+        owner = np.repeat(np.arange(p.shape[0]), inner)
+        k = np.arange(owner.shape[0]) - np.repeat(np.cumsum(inner) - inner, inner)
+        v = points[a_i[owner] + 1 + k] - points[a_i[owner]]
+        f = np.clip(np.einsum("ij,ij->i", v, ac[owner]) / np.where(aa > 0.0, aa, 1.0)[owner],
+                    0.0, 1.0)
+        dist = np.linalg.norm(v - f[:, None] * ac[owner], axis=1)
+        worst = np.zeros(p.shape[0])
+        if owner.shape[0]:
+            np.maximum.at(worst, owner, dist)
+        drop = worst <= tol_mm
+        if drop.any():
+            mask = np.ones(keep.shape[0], dtype=bool)
+            mask[p[drop]] = False
+            keep = keep[mask]
+            idle = 0
+        else:
+            idle += 1
+        parity = 1 - parity
+    return keep
+
+
+def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0: FloatArray,
+           arc1: FloatArray, max_piece_mm: float, shank: bool, path_arc: FloatArray,
+           path_move: IntArray) -> Pieces:
+    """Pieces of the segments ``a -> b`` (rows (n, 3)), none longer than ``max_piece_mm``."""
+    length = np.linalg.norm(b - a, axis=1)
+    count = np.maximum(np.ceil(length / max_piece_mm), 1).astype(np.int64)
+    if int(count.max(initial=1)) > 1:
+        rep = np.repeat(np.arange(a.shape[0]), count)
+        first = np.cumsum(count) - count
+        k = np.arange(rep.shape[0]) - first[rep]
+        f0 = k / count[rep]
+        f1 = (k + 1) / count[rep]
+        d = b[rep] - a[rep]
+        da = arc1[rep] - arc0[rep]
+        a, b = a[rep] + f0[:, None] * d, a[rep] + f1[:, None] * d
+        arc0, arc1, move = arc0[rep] + f0 * da, arc0[rep] + f1 * da, move[rep]
+        axis = axis[rep]
+    e = b - a
+    ee = np.einsum("ij,ij->i", e, e)
+    return Pieces(np.ascontiguousarray(a), e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee),
+                  np.asarray(move, dtype=np.int64), np.full(move.shape[0], shank),
+                  np.ascontiguousarray(axis), arc0, arc1, path_arc, path_move)
+
+
+def _path(motion: ToolMotion, radius_mm: float) -> tuple[FloatArray, FloatArray]:
+    centres = motion.tips_mm + radius_mm * motion.axes
+    step = np.linalg.norm(np.diff(centres, axis=0), axis=1)
+    return centres, np.concatenate(([0.0], np.cumsum(step)))
+
+
+def ball_pieces(motion: ToolMotion, radius_mm: float, max_piece_mm: float, *,
+                merge_tol_mm: float = 0.0) -> Pieces:
+    """Capsules swept by the ball between consecutive instances (merged, then split).
+
+    Parameters
+    ----------
+    motion : ToolMotion
+        The replayed program.
+    radius_mm : float
+        Ball radius ``R``, mm.
+    max_piece_mm : float
+        Longest piece, mm.
+    merge_tol_mm : float
+        Largest distance of a ball centre from the merged chord replacing it, mm (0: no
+        merging).
+
+    Returns
+    -------
+    Pieces
+        One or more pieces per kept chord; a program with a single instance gives one
+        sphere.
+    """
+    centres, arc = _path(motion, radius_mm)
+    moves = motion.move_of_instance
+    if centres.shape[0] == 1:
+        return _split(centres, centres, motion.axes, moves, arc, arc, max_piece_mm, False, arc,
+                      moves)
+    keep = (simplify_polyline(centres, merge_tol_mm, max_piece_mm) if merge_tol_mm > 0.0
+            else np.arange(centres.shape[0]))
+    i0, i1 = keep[:-1], keep[1:]
+    return _split(centres[i0], centres[i1], motion.axes[i0], moves[i0 + 1], arc[i0], arc[i1],
+                  max_piece_mm, False, arc, moves)
+
+
+def shank_pieces(motion: ToolMotion, radius_mm: float, flute_length_mm: float,
+                 spacing_mm: float, max_piece_mm: float) -> Pieces:
+    """Shank capsules at instances resampled every ``spacing_mm`` along the path.
+
+    Parameters
+    ----------
+    motion : ToolMotion
+        The replayed program.
+    radius_mm : float
+        Cutter radius ``R``, mm.
+    flute_length_mm : float
+        Flute length ``H`` from the tip, mm; the shank capsule runs from the ball centre
+        to ``H - R`` above it.
+    spacing_mm : float
+        Largest path distance between shank instances (centre or top), mm.
+    max_piece_mm : float
+        Longest piece, mm.
+
+    Returns
+    -------
+    Pieces
+        Empty when the flutes end at the ball centre.
+    """
+    height = flute_length_mm - radius_mm
+    centres, path_arc = _path(motion, radius_mm)
+    path_move = motion.move_of_instance
+    if height <= 0.0:
+        empty = np.zeros((0, 3))
+        none = np.zeros(0)
+        return Pieces(empty, empty, none, empty, none, np.zeros(0, dtype=np.int64),
+                      np.zeros(0, dtype=np.bool_), empty, none, none, path_arc, path_move)
+    tops = centres + height * motion.axes
+    step = np.maximum(np.linalg.norm(np.diff(centres, axis=0), axis=1),
+                      np.linalg.norm(np.diff(tops, axis=0), axis=1))
+    cum = np.concatenate(([0.0], np.cumsum(step)))
+    total = float(cum[-1])
+    n = max(int(np.ceil(total / spacing_mm)), 0) + 1
+    target = np.linspace(0.0, total, n) if total > 0.0 else np.zeros(1)
+    idx = np.clip(np.searchsorted(cum, target, side="right") - 1, 0, max(len(cum) - 2, 0))
+    if centres.shape[0] == 1:
+        c, ax, move = centres, motion.axes, path_move
+    else:
+        seg = np.maximum(cum[idx + 1] - cum[idx], 1e-300)
+        f = np.clip((target - cum[idx]) / seg, 0.0, 1.0)[:, None]
+        c = centres[idx] + f * (centres[idx + 1] - centres[idx])
+        ax = motion.axes[idx] + f * (motion.axes[idx + 1] - motion.axes[idx])
+        ax /= np.linalg.norm(ax, axis=1, keepdims=True)
+        move = path_move[idx + 1]
+    nan = np.full(c.shape[0], np.nan)
+    return _split(c, c + height * ax, ax, move, nan, nan, max_piece_mm, True, path_arc,
+                  path_move)

@@ -1,0 +1,219 @@
+"""The searches over the whole design-sample grid, and at any design points.
+
+:class:`Dexels` binds the swept-cutter index (:class:`~verification.dexels.SweepIndex`) to
+the cutter radius, the near search's levels and gouge depth, and the dexel method, and
+turns search results into normal deviations. :func:`grid_search` runs the near search on
+every visible sample, the collision search on a coarse subset, and searches again around
+every coarse sample where the collision search found more (see :mod:`verification.dexels`).
+"""
+
+from __future__ import annotations
+
+from typing import Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from .dexels import DexelResult, SweepIndex, near_search_radius_mm
+from .options import DexelMethod
+from .samples import DesignSamples
+
+__all__ = ["Z_MIN_COSINE", "Dexels", "grid_search", "scatter"]
+
+FloatArray = NDArray[np.float64]
+
+Z_MIN_COSINE: Final[float] = 0.05
+"""A Z-map sees a sample only where its normal is within acos(0.05) = 87 deg of +Z."""
+
+
+class Dexels:
+    """Deviation of arbitrary design points: the searches with their parameters.
+
+    Parameters
+    ----------
+    index : SweepIndex
+        The swept cutter.
+    radius : float
+        Cutter radius ``R``, mm.
+    horizons : tuple of float
+        Near-search levels (iterative deepening), mm; the last is the excess horizon.
+    depth : float
+        Gouge depth the near search is sized for, mm.
+    method : DexelMethod
+        ``normal`` or ``z``.
+    """
+
+    def __init__(self, index: SweepIndex, radius: float, horizons: tuple[float, ...],
+                 depth: float, method: DexelMethod) -> None:
+        self.index, self.radius, self.depth = index, radius, depth
+        self.horizons = horizons
+        self.horizon = horizons[-1]
+        self.method = method
+
+    def directions(self, normals: FloatArray) -> tuple[FloatArray, FloatArray]:
+        """Dexel directions (rows) and their cosine with the normal."""
+        if self.method is DexelMethod.Z:
+            dirs = np.zeros_like(normals)
+            dirs[:, 2] = 1.0
+            return dirs, normals[:, 2].copy()
+        return normals, np.linalg.norm(normals, axis=1)
+
+    def visible(self, normals: FloatArray) -> NDArray[np.bool_]:
+        """Samples whose dexel is defined (Z-map: facing up enough)."""
+        _, cos = self.directions(normals)
+        return cos >= (Z_MIN_COSINE if self.method is DexelMethod.Z else 0.5)
+
+    def search(self, points: FloatArray, normals: FloatArray, convexity: FloatArray,
+               *, near: bool = True, far: bool = False, depth: float | None = None
+               ) -> DexelResult:
+        """Near and/or collision search at design points.
+
+        Parameters
+        ----------
+        points, normals : ndarray, shape (q, 3)
+            Design points (mm) and their unit outward normals.
+        convexity : ndarray, shape (q,)
+            ``1/rho`` at the points, 1/mm (widens the near search at convex edges).
+        near, far : bool
+            Run the near search (iterative deepening over the levels) and/or the
+            collision search.
+        depth : float, optional
+            Gouge depth the near search is sized for, mm (default: the instance's).
+
+        Returns
+        -------
+        DexelResult
+            Along the dexel directions.
+        """
+        g = self.depth if depth is None else depth
+        dirs, cos = self.directions(normals)
+        out = DexelResult.empty(points.shape[0])
+        if near:
+            # iterative deepening: a dexel whose remaining material is found within level
+            # e_k is exact (every ball that could leave less lies within r(e_k)); the others
+            # are searched again with the next, wider level
+            centres = points + self.radius * normals
+            todo = np.arange(points.shape[0])
+            for level in self.horizons:
+                r = near_search_radius_mm(self.radius, level, g, convexity[todo])
+                part = self.index.search("near", points[todo], dirs[todo], centres[todo], r)
+                scatter(out, todo, part, merge=True)
+                todo = todo[~(part.lam_mm * cos[todo] <= level)]
+                if todo.shape[0] == 0:
+                    break
+        if far:
+            r = np.full(points.shape[0], self.radius + self.horizon)
+            scatter(out, np.arange(points.shape[0]),
+                     self.index.search("far", points, dirs, points, r), merge=True)
+        return out
+
+    def deviation(self, result: DexelResult, normals: FloatArray) -> FloatArray:
+        """Normal deviation ``lam (d . n)``, mm; ``+inf`` beyond the horizon, NaN hidden."""
+        _, cos = self.directions(normals)
+        with np.errstate(invalid="ignore"):
+            dev = result.lam_mm * cos
+        dev = np.where(np.isfinite(dev) & (dev <= self.horizon), dev, np.inf)
+        return np.where(self.visible(normals), dev, np.nan)
+
+
+def _coarse_positions(n: int, stride: int) -> NDArray[np.int64]:
+    pos = np.arange(0, n, stride, dtype=np.int64)
+    return pos if pos[-1] == n - 1 else np.append(pos, n - 1)
+
+
+def _dilate(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+    pad = np.pad(mask, 1)
+    out = np.zeros_like(mask)
+    for di in range(3):
+        for dj in range(3):
+            out |= pad[di:di + mask.shape[0], dj:dj + mask.shape[1]]
+    return out
+
+
+class _Windows:
+    """Fine samples around flagged coarse samples (one coarse step and its neighbours)."""
+
+    def __init__(self, ct: NDArray[np.int64], cs: NDArray[np.int64], n_t: int, n_s: int,
+                 coarse: NDArray[np.int64]) -> None:
+        self.ct, self.cs, self.coarse = ct, cs, coarse
+        self.lt = np.clip(np.searchsorted(ct, np.arange(n_t), side="right") - 1, 0,
+                          ct.shape[0] - 1)
+        self.ls = np.clip(np.searchsorted(cs, np.arange(n_s), side="right") - 1, 0,
+                          cs.shape[0] - 1)
+        self.ut = np.minimum(self.lt + 1, ct.shape[0] - 1)
+        self.us = np.minimum(self.ls + 1, cs.shape[0] - 1)
+
+    def around(self, flagged: NDArray[np.bool_]) -> NDArray[np.int64]:
+        """Flat indices of the fine samples (not coarse ones) near flagged coarse samples."""
+        hot = _dilate(flagged.reshape(self.ct.shape[0], self.cs.shape[0]))
+        mark = (hot[np.ix_(self.lt, self.ls)] | hot[np.ix_(self.ut, self.ls)]
+                | hot[np.ix_(self.lt, self.us)] | hot[np.ix_(self.ut, self.us)]).ravel()
+        mark[self.coarse] = False
+        return np.flatnonzero(mark)
+
+
+def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
+                 ) -> tuple[DexelResult, FloatArray]:
+    """Deviation on the whole sample grid (near everywhere, collision coarse + around hits).
+
+    Parameters
+    ----------
+    ev : Dexels
+        The searches.
+    samples : DesignSamples
+        The design samples.
+    collision_stride : int or None
+        Grid steps between the collision search's coarse samples; None: no collision search.
+
+    Returns
+    -------
+    result : DexelResult
+        Per sample (flat, row-major over ``(n_t, n_s)``), along the dexels.
+    deviation : ndarray
+        Normal deviation per sample, mm (``+inf`` beyond the horizon, NaN hidden).
+    """
+    n_t, n_s = samples.shape
+    pts = samples.points.reshape(-1, 3)
+    nrm = samples.normals.reshape(-1, 3)
+    conv = samples.convexity_per_mm.ravel()
+    vis = np.flatnonzero(ev.visible(nrm))
+    res = DexelResult.empty(pts.shape[0])
+    part = ev.search(pts[vis], nrm[vis], conv[vis])
+    scatter(res, vis, part)
+    if collision_stride is not None:
+        ct = _coarse_positions(n_t, collision_stride)
+        cs = _coarse_positions(n_s, collision_stride)
+        coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
+        far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True)
+        flagged = far.lam_mm < res.lam_mm[coarse] - 1e-9
+        # the near search missed it: a ball from outside gouging deeper than it was sized
+        # for, or something it never looks at (shank, from behind, a sharp convex edge)
+        deep = flagged & ~(far.shank | far.behind) & (far.lam_mm < 0.0)
+        collide = flagged & ~deep
+        scatter(res, coarse, far, merge=True)
+        windows = _Windows(ct, cs, n_t, n_s, coarse)
+        if deep.any():
+            # a ball from outside, deeper than the near search was sized for: search again
+            # near, sized for the deepest such gouge (the ball centre that far below Q)
+            depth = min(max(1.25 * float(-far.lam_mm[deep].min()), ev.depth),
+                        ev.radius + ev.horizon)
+            idx = windows.around(deep)
+            scatter(res, idx, ev.search(pts[idx], nrm[idx], conv[idx], depth=depth),
+                     merge=True)
+        if collide.any():
+            idx = windows.around(collide)
+            scatter(res, idx, ev.search(pts[idx], nrm[idx], conv[idx], near=False, far=True),
+                     merge=True)
+    return res, ev.deviation(res, nrm)
+
+
+def scatter(res: DexelResult, idx: NDArray[np.int64], part: DexelResult, *,
+             merge: bool = False) -> None:
+    """Write ``part`` (results at ``idx``) into ``res``; with ``merge`` only where lower."""
+    take = part.lam_mm < res.lam_mm[idx] if merge else np.ones(idx.shape[0], dtype=bool)
+    sel = idx[take]
+    res.lam_mm[sel] = part.lam_mm[take]
+    res.move[sel] = part.move[take]
+    res.shank[sel] = part.shank[take]
+    res.behind[sel] = part.behind[take]
+    object.__setattr__(res, "pairs", res.pairs + part.pairs)

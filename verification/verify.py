@@ -1,0 +1,336 @@
+"""``verify_program``: replay, sweep, compare with the design; one report.
+
+Stages (each timed in the report):
+
+1. **replay** (:mod:`verification.replay`): the program through the interpreter and the
+   machine's forward kinematics, joints interpolated within blocks as the controller does;
+2. **samples** (:mod:`verification.samples`): the design surface on a grid fine enough for
+   the scallop asked for;
+3. **pieces** (:mod:`verification.pieces`): the swept ball as capsules, the shank at
+   resampled instances;
+4. **near** and **collision** searches (:mod:`verification.dexels`): the material left on
+   every dexel, and the block that left it;
+5. **refine**: the largest excesses and deepest gouges re-measured on three levels of finer
+   grids around them (the top of a cusp is a kink a grid misses by ``spacing x slope``);
+6. the report (:mod:`verification.report`).
+
+The design surface must be given in the workpiece frame the program was posted for (the
+frame of :class:`toolpath.Toolpath` and of :func:`machines.forward`).
+"""
+
+from __future__ import annotations
+
+import json
+import math
+import time
+from pathlib import Path
+from typing import Any, Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from gcode.check import machine_dialect
+from gcode.dialects import Dialect, dialect_by_name
+from gcode.machine_frame import machine_axis_names, program_values
+from gcode.parser import parse_file
+from gcode.program import Linear, Program, Rapid
+from machines import Machine
+from toolpath import MoveKind, Toolpath, surface_from_dict
+from toolpath.planning.cutters import Cutter, CutterKind
+from toolpath.surface import ParametricSurface
+
+from .dexels import SweepIndex, near_search_radius_mm
+from .errors import UnsupportedCutterError, VerificationError
+from .extremes import Extreme, border, extreme
+from .options import DexelMethod, VerifyOptions
+from .pieces import ball_pieces, shank_pieces
+from .replay import ToolMotion, replay
+from .report import (
+    BlockGouge,
+    DeviationMap,
+    DeviationStats,
+    JointDeviation,
+    Location,
+    VerificationReport,
+)
+from .samples import sample_design
+from .search import Dexels, grid_search
+
+__all__ = ["load_surface", "program_of_toolpath", "verify_file", "verify_program",
+           "verify_toolpath"]
+
+FloatArray = NDArray[np.float64]
+
+_MAX_GOUGING_BLOCKS: Final[int] = 10
+
+
+def _location(motion: ToolMotion, e: Extreme | None) -> Location | None:
+    if e is None:
+        return None
+    known = e.move >= 0
+    return Location(
+        deviation_mm=e.dev, point_mm=(float(e.point[0]), float(e.point[1]), float(e.point[2])),
+        t=e.t, s=e.s, block_index=int(motion.block_index[e.move]) if known else None,
+        line=int(motion.line[e.move]) if known else None,
+        rapid=bool(motion.rapid[e.move]) if known else None, shank=e.shank)
+
+
+def _gouging_blocks(motion: ToolMotion, dev: FloatArray, move: NDArray[np.int64],
+                    area: FloatArray, points: FloatArray, tol: float) -> tuple[BlockGouge, ...]:
+    d = dev.ravel()
+    g = np.flatnonzero(np.isfinite(d) & (d < -tol) & (move.ravel() >= 0))
+    if g.shape[0] == 0:
+        return ()
+    mv = move.ravel()[g]
+    order = np.lexsort((d[g], mv))
+    g, mv = g[order], mv[order]
+    first = np.flatnonzero(np.r_[True, mv[1:] != mv[:-1]])
+    areas = np.add.reduceat(area.ravel()[g], first)
+    deepest = g[first]  # sorted by deviation within each move: the first is the deepest
+    rank = np.argsort(d[deepest])[:_MAX_GOUGING_BLOCKS]
+    pts = points.reshape(-1, 3)
+    return tuple(
+        BlockGouge(block_index=int(motion.block_index[mv[first[r]]]),
+                   line=int(motion.line[mv[first[r]]]), depth_mm=float(-d[deepest[r]]),
+                   area_mm2=float(areas[r]),
+                   point_mm=tuple(float(v) for v in pts[deepest[r]]),  # type: ignore[arg-type]
+                   rapid=bool(motion.rapid[mv[first[r]]]))
+        for r in rank)
+
+
+def _joints(motion: ToolMotion, tol: float) -> JointDeviation:
+    dev = motion.tip_deviation_mm
+    i = int(np.argmax(dev))
+    has = bool(dev[i] > 0.0)
+    return JointDeviation(
+        max_mm=float(dev[i]), block_index=int(motion.block_index[i]) if has else None,
+        line=int(motion.line[i]) if has else None, rotary_deg=float(motion.rotary_deg[i]),
+        blocks_over_tol=int((dev > tol).sum()), substeps=int(motion.substeps.sum()))
+
+
+def verify_program(program: Program, surface: ParametricSurface, machine: Machine,
+                   cutter: Cutter, *, options: VerifyOptions | None = None,
+                   offsets: dict[int, tuple[float, ...]] | None = None) -> VerificationReport:
+    """Replay a program on a machine and compare what it cuts with the design surface.
+
+    Parameters
+    ----------
+    program : Program
+        The program (parsed, or built with :mod:`gcode.program` / :func:`gcode.post`).
+    surface : ParametricSurface
+        The design surface in the workpiece frame, mm, normals out of the material.
+    machine : Machine
+        The machine that runs the program (kinematics, work origin).
+    cutter : Cutter
+        The cutter (:func:`toolpath.planning.cutters.parse_cutter`); ball-nose only.
+    options : VerifyOptions, optional
+        Resolution, horizons, tolerances.
+    offsets : dict, optional
+        Work offsets G54-G59 (mm, degrees); the machine's work origin when None.
+
+    Returns
+    -------
+    VerificationReport
+        Largest gouge and excess with their blocks and lines, the distribution, the
+        uncut area, joint-interpolation figures and the deviation map.
+
+    Raises
+    ------
+    UnsupportedCutterError
+        For flat and bull-nose cutters.
+    VerificationError
+        For a program without motion or invalid options.
+    """
+    opts = options if options is not None else VerifyOptions()
+    if cutter.kind is not CutterKind.BALL:
+        raise UnsupportedCutterError(
+            f"cutter {cutter.spec!r}: material removal is modelled for ball-nose cutters "
+            f"only (a ball sweeps exact capsules); flat and bull-nose need a torus kernel")
+    if not isinstance(surface, ParametricSurface):
+        raise VerificationError(f"surface must be a ParametricSurface, got "
+                                f"{type(surface).__name__}")
+    radius = cutter.radius_mm
+    cfg = opts.resolved(radius)
+    clock = {"start": time.perf_counter()}
+    timings: dict[str, float] = {}
+
+    def lap(name: str) -> None:
+        now = time.perf_counter()
+        timings[name] = now - clock["start"]
+        clock["start"] = now
+
+    motion = replay(program, machine, chord_tol_mm=opts.replay_tol_mm, radius_mm=radius,
+                    offsets=offsets)
+    lap("replay")
+    samples = sample_design(surface, spacing_t_mm=cfg["spacing_t_mm"],
+                            spacing_s_mm=cfg["spacing_s_mm"], max_samples=opts.max_samples)
+    lap("samples")
+    method = opts.method
+    if method is DexelMethod.AUTO:
+        method = DexelMethod.NORMAL
+    ball = ball_pieces(motion, radius, cfg["max_piece_mm"], merge_tol_mm=opts.merge_tol_mm)
+    shank = shank_pieces(motion, radius, cutter.flute_length_mm, cfg["shank_spacing_mm"],
+                         cfg["shank_piece_mm"])
+    horizon, depth = cfg["horizon_mm"], cfg["gouge_search_mm"]
+    levels = opts.levels()
+    near_cell = float(near_search_radius_mm(radius, levels[0], depth, np.zeros(1))[0])
+    pts = samples.points.reshape(-1, 3)
+    index = SweepIndex(ball, shank, radius, pts.min(axis=0), pts.max(axis=0),
+                       base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
+                       reach_limit_mm=radius + horizon + depth,
+                       max_pairs=opts.max_pairs)
+    ev = Dexels(index, radius, levels, depth, method)
+    lap("pieces")
+    stride = None
+    if opts.collision:
+        step = max(samples.spacing_t_mm, samples.spacing_s_mm)
+        stride = max(1, round(cfg["collision_spacing_mm"] / step))
+    res, dev = grid_search(ev, samples, stride)
+    dev_grid = dev.reshape(samples.shape)
+    move_grid = res.move.reshape(samples.shape)
+    lap("search")
+
+    tol = opts.gouge_tol_mm
+    cut = np.isfinite(dev_grid)
+    band = math.sqrt(2.0 * radius * horizon)  # a ball's profile rises by the horizon
+    interior = cut & ~border(~cut, math.ceil(band / samples.spacing_t_mm),
+                              math.ceil(band / samples.spacing_s_mm))
+    kw = {"refine": opts.refine, "collision": opts.collision}
+    max_gouge = extreme(ev, surface, samples, res, dev_grid, cut, largest=False,
+                         limit=-tol, **kw)
+    max_excess = extreme(ev, surface, samples, res, dev_grid, cut, largest=True,
+                          limit=-np.inf, **kw)
+    max_scallop = extreme(ev, surface, samples, res, dev_grid, interior, largest=True,
+                           limit=-np.inf, **kw)
+    lap("refine")
+    stats = DeviationStats.of(dev_grid, samples.area_mm2, tol)
+    timings["total"] = float(sum(timings.values()))
+    return VerificationReport(
+        machine=machine.name, cutter=cutter.spec, method=method.value, blocks=len(program),
+        motion_blocks=motion.n_moves, tool_instances=motion.n_instances,
+        pieces=ball.size + shank.size, samples=samples.shape,
+        spacing_mm=(samples.spacing_t_mm, samples.spacing_s_mm), horizon_mm=horizon,
+        gouge_tol_mm=tol,
+        requested_scallop_mm=float("nan") if opts.scallop_mm is None else opts.scallop_mm,
+        max_gouge=_location(motion, max_gouge), max_excess=_location(motion, max_excess),
+        max_scallop=_location(motion, max_scallop), unswept_moves=motion.first_swept,
+        gouging_blocks=_gouging_blocks(motion, dev_grid, move_grid, samples.area_mm2,
+                                       samples.points, tol),
+        stats=stats, joints=_joints(motion, tol), pairs=res.pairs, timings_s=timings,
+        deviation_map=DeviationMap(samples.t, samples.s, samples.points, dev_grid,
+                                   np.where(move_grid >= 0, motion.block_index[move_grid], -1)))
+
+
+def load_surface(path: str | Path) -> ParametricSurface:
+    """Read a design surface saved as JSON (a fitted surface, or an analytic test surface).
+
+    Parameters
+    ----------
+    path : str or Path
+        JSON written by ``to_dict()`` of a fitted (``toolpath fit surface -o``) or analytic
+        surface.
+
+    Returns
+    -------
+    ParametricSurface
+
+    Raises
+    ------
+    VerificationError
+        When the file is not JSON or not a saved surface.
+    """
+    try:
+        data: Any = json.loads(Path(path).read_text(encoding="utf-8"))
+    except (OSError, ValueError) as exc:
+        raise VerificationError(f"{path}: cannot read a surface: {exc}") from None
+    kind = data.get("kind") if isinstance(data, dict) else None
+    if isinstance(kind, str) and kind.startswith("analytic"):
+        from toolpath.planning.analytic import analytic_surface_from_dict
+
+        return analytic_surface_from_dict(data)
+    return surface_from_dict(data)
+
+
+def verify_file(path: str | Path, surface: ParametricSurface, machine: Machine,
+                cutter: Cutter, *, dialect: Dialect | None = None,
+                options: VerifyOptions | None = None) -> VerificationReport:
+    """Parse a G-code file strictly and verify it (see :func:`verify_program`).
+
+    Parameters
+    ----------
+    path : str or Path
+        The G-code file.
+    surface, machine, cutter, options
+        As for :func:`verify_program`.
+    dialect : Dialect, optional
+        What the controller accepts; the machine's dialect (restricted to its axes) when
+        None.
+
+    Returns
+    -------
+    VerificationReport
+        Lines in it are lines of the file.
+    """
+    d = dialect if dialect is not None else dialect_by_name(machine.dialect)
+    program = parse_file(path, machine_dialect(machine, d))
+    return verify_program(program, surface, machine, cutter, options=options)
+
+
+def program_of_toolpath(toolpath: Toolpath, machine: Machine) -> Program:
+    """The program a toolpath becomes on a machine, unrounded: one block per point.
+
+    Joints come from the machine's inverse kinematics (:meth:`toolpath.Toolpath.to_machine`)
+    and are written as program words (:func:`gcode.machine_frame.program_values`) without
+    rounding them to any text resolution, rapids as G0 and every other move as G1 at its
+    feed: what the controller would execute if the G-code were exact. The first block
+    positions every axis.
+
+    Parameters
+    ----------
+    toolpath : Toolpath
+        Tool tips and axes in the workpiece frame.
+    machine : Machine
+        The machine.
+
+    Returns
+    -------
+    Program
+        Blocks in mm and degrees; no source lines (lines are block numbers + 1).
+    """
+    words = program_values(machine, toolpath.to_machine(machine).joints)
+    names = machine_axis_names(machine)
+    cols = ["xyzabc".index(a) for a in names]
+    rows = words[:, cols].tolist()
+    feeds = toolpath.feeds_mm_per_min.tolist()
+    kinds = toolpath.kinds.tolist()
+    blocks: list[Rapid | Linear] = [Rapid(**dict(zip(names, rows[0], strict=True)))]
+    for row, kind, feed in zip(rows[1:], kinds[1:], feeds[1:], strict=True):
+        axes = dict(zip(names, row, strict=True))
+        blocks.append(Rapid(**axes) if kind == MoveKind.RAPID
+                      else Linear(**axes, feed=feed if feed > 0.0 else 1.0))
+    return Program(tuple(blocks), name=toolpath.metadata.get("name"))
+
+
+def verify_toolpath(toolpath: Toolpath, surface: ParametricSurface, machine: Machine,
+                    cutter: Cutter, *, options: VerifyOptions | None = None
+                    ) -> VerificationReport:
+    """Verify a toolpath as the machine would run it, before any G-code rounding.
+
+    The planning step's figures (scallop, chord error) are figures of its toolpath; this is
+    the check that confirms them with the machine's joint interpolation between points
+    (:func:`program_of_toolpath`, then :func:`verify_program`). Lines in the report are
+    toolpath point numbers + 1 (block ``i`` arrives at point ``i``).
+
+    Parameters
+    ----------
+    toolpath : Toolpath
+        The planner's output.
+    surface, machine, cutter, options
+        As for :func:`verify_program`.
+
+    Returns
+    -------
+    VerificationReport
+    """
+    program = program_of_toolpath(toolpath, machine)
+    return verify_program(program, surface, machine, cutter, options=options)
