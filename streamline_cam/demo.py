@@ -4,8 +4,9 @@
    the streamline method and the B-spline baseline at 0.01 mm.
 2. Runs the pipeline on the bundled 15 x 142 dev blade: streamline surface, 3-axis
    finishing with a 6 mm ball (scallop 0.005 mm, chord 0.01 mm) on the ``grbl-router``,
-   G-code posted and checked, then streamed into the built-in GRBL simulator over a real
-   pseudo-terminal, whose journal proves every block ran exactly once.
+   G-code posted, checked and verified (the program replayed and the material it leaves
+   measured against the surface), then streamed into the built-in GRBL simulator over a
+   real pseudo-terminal, whose journal proves every block ran exactly once.
 
 Writes ``demo/`` (curve fits, ``blade/`` with the G-code, surface, toolpath, plots and
 journal, and ``report.json``) and prints where.
@@ -72,7 +73,7 @@ def run_demo(out: Path, *, quick: bool = False) -> int:
     bars = StageBars()
     try:
         result = run_job(request, out / "blade", progress=bars, stream=make_streamer("simulate"),
-                         plots=True)
+                         plots=True, verify=True)
     finally:
         bars.close()
     print("\n".join(report_lines(result.report)))

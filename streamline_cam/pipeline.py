@@ -37,7 +37,7 @@ from .fit_report import SURFACE_METHODS, fit_surface_by_method
 __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
 
 #: Stage names, in order, as passed to the progress callback.
-STAGES = ("fit", "plan", "post", "check", "stream")
+STAGES = ("fit", "plan", "post", "check", "verify", "stream")
 Progress = Callable[[str, float], None]
 
 
@@ -134,13 +134,30 @@ def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
     return {"toolpath_plot": Path(plot_toolpath(surface, path, out_dir / "toolpath.png"))}
 
 
+def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
+            dialect: Any, plots: bool) -> dict[str, Any]:
+    """Material-removal check of the written program against the design surface."""
+    from toolpath.planning.cutters import parse_cutter
+    from verification.options import VerifyOptions
+    from verification.verify import verify_file
+
+    outcome = verify_file(files["gcode"], surface, machine, parse_cutter(request.cutter),
+                          dialect=dialect, options=VerifyOptions(scallop_mm=request.scallop_mm))
+    if plots:
+        from verification.plotting import plot_deviation_map
+
+        files["deviation_plot"] = Path(plot_deviation_map(outcome, files["gcode"].parent
+                                                      / "deviation.png"))
+    return outcome.to_dict()
+
+
 def _no_progress(stage: str, fraction: float) -> None:
     del stage, fraction
 
 
 def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
             stream: Callable[[Path, Any], dict[str, Any]] | None = None,
-            plots: bool = False) -> JobResult:
+            plots: bool = False, verify: bool = False) -> JobResult:
     """Run the pipeline, writing its files into ``out_dir``.
 
     Parameters
@@ -154,6 +171,10 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     stream : callable, optional
         ``stream(gcode_path, machine) -> dict``: runs the checked program (a sender to a
         port, or the built-in simulator); its result joins the report.
+    verify : bool
+        Replay the written G-code through the machine's kinematics and compare what it
+        cuts with the fitted surface (:mod:`verification`): confirms the planner's scallop
+        and chord figures on the program itself (ball-nose cutters).
     plots : bool
         Also write ``fit.png`` (sections, streamlines, error), ``toolpath.png`` (passes
         over the surface) and, for 5-axis, ``tool_axis.png`` (axis angles and rotary joints
@@ -239,6 +260,13 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
                        "issues": [str(i) for i in issues[:50]]}
     seconds["check"] = time.perf_counter() - start
     report_progress("check", 1.0)
+
+    if verify:
+        start = time.perf_counter()
+        report_progress("verify", 0.0)
+        report["verify"] = _verify(files, surface, machine, request, dialect, plots)
+        seconds["verify"] = time.perf_counter() - start
+        report_progress("verify", 1.0)
 
     if stream is not None:
         start = time.perf_counter()

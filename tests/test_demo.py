@@ -13,9 +13,13 @@ def test_quick_demo_runs_the_pipeline_and_streams_exactly_once(tmp_path, capsys)
     assert blade["fit"]["max_error_mm"] <= 0.01
     assert blade["plan"]["max_scallop_mm"] <= blade["plan"]["scallop_request_mm"]
     assert blade["check"]["errors"] == 0
+    verified = blade["verify"]
+    assert verified["max_scallop_mm"] <= 1.1 * blade["plan"]["scallop_request_mm"]
+    assert (verified["max_gouge_mm"] or 0.0) <= 1.1 * blade["plan"]["chord_tol_mm"]
     stream = blade["stream"]
     assert stream["ok"] and stream["exactly_once"] and stream["rx_dropped_bytes"] == 0
     assert stream["executed_blocks"] > 1000 and stream["alarm"] is None
-    for name in ("part.nc", "surface.json", "toolpath.npz", "fit.png", "part.journal"):
+    for name in ("part.nc", "surface.json", "toolpath.npz", "fit.png", "part.journal",
+                 "toolpath.png", "deviation.png"):
         assert (tmp_path / "blade" / name).stat().st_size > 0
     assert "exactly_once True" in capsys.readouterr().out

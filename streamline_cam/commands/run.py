@@ -56,6 +56,11 @@ def report_lines(report: dict) -> list[str]:
         f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
     ]
     lines += [f"           {issue}" for issue in check["issues"][:5]]
+    if "verify" in report:
+        v = report["verify"]
+        gouge = v.get("max_gouge_mm") or 0.0
+        lines.append(f"verify     scallop {v.get('max_scallop_mm') or 0.0:.4f} mm, deepest gouge "
+                     f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})")
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
     return lines
@@ -68,7 +73,7 @@ def _run(args: argparse.Namespace) -> int:
     stream = make_streamer(target, dialect=args.dialect) if target else None
     try:
         result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
-                         stream=stream, plots=args.plots)
+                         stream=stream, plots=args.plots, verify=args.verify)
     finally:
         bars.close()
     if args.output and Path(args.output) != result.files["gcode"]:
@@ -95,7 +100,10 @@ def register(commands: argparse._SubParsersAction) -> None:
                              "(/dev/ttyUSB0, socket://127.0.0.1:PORT)")
     target.add_argument("--simulate", action="store_true",
                         help="stream it into the built-in simulator over a pseudo-terminal")
-    parser.add_argument("--plots", action="store_true", help="write fit.png and toolpath.png")
+    parser.add_argument("--plots", action="store_true",
+                        help="write fit.png, toolpath.png, tool_axis.png (5-axis), deviation.png")
+    parser.add_argument("--verify", action="store_true",
+                        help="replay the program and measure what it cuts (ball cutters)")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=_run)
