@@ -65,7 +65,8 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> s
         return "superseded"
     try:
         request = JobRequest(sections_path=job_dir / record.input_name, **record.parameters)
-        result = run_job(request, job_dir, progress=_Progress(store, job_id, attempt))
+        result = run_job(request, job_dir, progress=_Progress(store, job_id, attempt),
+                         verify=True)
     except USER_ERRORS as exc:
         kept = store.fail(job_id, attempt, str(exc), type(exc).__name__)
     except Exception as exc:  # a bug: keep the service up, the traceback on disk

@@ -18,7 +18,8 @@ def test_upload_poll_and_fetch_every_result(service_client, finished_job, tmp_pa
         status = client.get(f"/jobs/{job_id}").json()
         assert status["state"] == "done"
         assert status["name"] == "small_blade"
-        assert status["progress"] == {"fit": 1.0, "plan": 1.0, "post": 1.0, "check": 1.0}
+        assert status["progress"] == {"fit": 1.0, "plan": 1.0, "post": 1.0, "check": 1.0,
+                                  "verify": 1.0}
         assert status["parameters"]["scallop_mm"] == COARSE["scallop_mm"]
         assert {"report", "gcode", "toolpath", "surface", "plot:surface", "stream"} <= set(
             status["links"])
