@@ -16,16 +16,16 @@ import sys
 from pathlib import Path
 from typing import Any
 
-import numpy as np
 from tqdm import tqdm
 
 from machines import list_machines
-from toolpath.errors import DataFileError, InvalidParameterError, ToolpathError
+from toolpath.errors import DataFileError, ToolpathError
 from toolpath.planning import analytic_surface_from_dict, plan_finishing
 from toolpath.planning.cutters import CUTTER_SPEC_HELP
 from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
-from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
 from toolpath.surface import ParametricSurface
+
+from ..surface_args import add_placement_arguments, parse_vector, placed_surface
 
 __all__ = ["load_surface", "register", "run_plan"]
 
@@ -57,16 +57,6 @@ def load_surface(path: str | Path) -> ParametricSurface:
         raise DataFileError(str(exc), path=str(path)) from None
 
 
-def _vector(text: str, name: str) -> tuple[float, float, float]:
-    try:
-        values = tuple(float(v) for v in text.split(","))
-    except ValueError:
-        values = ()
-    if len(values) != 3 or not all(np.isfinite(values)):
-        raise InvalidParameterError(f"{name} must be three numbers x,y,z, got {text!r}")
-    return values  # type: ignore[return-value]
-
-
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``plan`` to the ``toolpath`` sub-commands."""
     p = commands.add_parser(
@@ -95,14 +85,7 @@ def register(commands: argparse._SubParsersAction) -> None:
     p.add_argument("--on-gouge", default="raise", choices=["raise", "lift", "retilt"])
     p.add_argument("--on-limit", default="raise", choices=["raise", "report"],
                    help="machine travel exceeded: stop (raise) or only report")
-    p.add_argument("--rotate", default="",
-                   help="place the surface: rotations about fixed axes, e.g. 'y:-90,z:30'")
-    p.add_argument("--translate", default=None, help="then shift by x,y,z mm")
-    p.add_argument("--on-table", action="store_true",
-                   help="after --rotate, centre on the table axis, lowest point at "
-                        "--base-height above z=0")
-    p.add_argument("--base-height", type=float, default=20.0,
-                   help="with --on-table, mm above the table (20)")
+    add_placement_arguments(p)
     p.add_argument("--no-measure", action="store_true",
                    help="skip measuring scallop and chord error on the result")
     p.add_argument("-o", "--output", help="write the toolpath (.npz)")
@@ -111,22 +94,11 @@ def register(commands: argparse._SubParsersAction) -> None:
     p.set_defaults(handler=run_plan)
 
 
-def _place(surface: ParametricSurface, args: argparse.Namespace) -> ParametricSurface:
-    rotation = rotation_from_spec(args.rotate)
-    shift = np.asarray(_vector(args.translate, "--translate")) if args.translate else np.zeros(3)
-    if args.on_table:
-        base = centred_on_table(surface, rotation, base_height_mm=args.base_height)
-        return PlacedSurface(surface, rotation, base.translation + shift)
-    if args.rotate or args.translate:
-        return PlacedSurface(surface, rotation, shift)
-    return surface
-
-
 def run_plan(args: argparse.Namespace) -> int:
     """Plan, print the report, write the outputs; returns the exit code."""
-    surface = _place(load_surface(args.surface), args)
+    surface = placed_surface(load_surface(args.surface), args)
     options: dict[str, Any] = {
-        "fixed_axis": _vector(args.fixed_axis, "--fixed-axis"),
+        "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
         "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
         "extend_mm": args.extend, "min_cone_deg": args.min_cone, "on_gouge": args.on_gouge,
         "on_limit": args.on_limit, "measure": not args.no_measure}

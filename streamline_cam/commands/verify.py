@@ -13,16 +13,13 @@ import argparse
 import json
 import sys
 
-import numpy as np
-
 from gcode.dialects import dialect_by_name, dialect_names
 from machines import list_machines, load_machine
-from toolpath.errors import InvalidParameterError
 from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
-from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
-from toolpath.surface import ParametricSurface
 from verification import VerifyOptions, load_surface, verify_file
 from verification.options import DEFAULT_HORIZON_MM, DEFAULT_STOCK_MM, DexelMethod
+
+from ..surface_args import add_placement_arguments, placed_surface
 
 __all__ = ["DEFAULT_GOUGE_LIMIT_MM", "register"]
 
@@ -71,38 +68,10 @@ def register(commands: argparse._SubParsersAction) -> None:
                    help="largest design sample grid")
     p.add_argument("--no-collision", action="store_true",
                    help="skip the collision search (shank, rapids through the part)")
-    p.add_argument("--rotate", default="",
-                   help="place the surface as 'toolpath plan' did: rotations about fixed "
-                   "axes, e.g. 'y:-90,z:30'")
-    p.add_argument("--translate", default=None, help="then shift by x,y,z mm")
-    p.add_argument("--on-table", action="store_true",
-                   help="after --rotate, centre on the table axis, lowest point at "
-                   "--base-height above z=0")
-    p.add_argument("--base-height", type=float, default=20.0,
-                   help="with --on-table, mm above the table (20)")
+    add_placement_arguments(p)
     p.add_argument("--plot", help="write the deviation map as a PNG")
     p.add_argument("--json", action="store_true", help="print the report as JSON")
     p.set_defaults(handler=run)
-
-
-def _placed(surface: ParametricSurface, args: argparse.Namespace) -> ParametricSurface:
-    """The surface in the workpiece frame, placed as ``toolpath plan`` places it."""
-    rotation = rotation_from_spec(args.rotate)
-    shift = np.zeros(3)
-    if args.translate:
-        try:
-            shift = np.array([float(v) for v in args.translate.split(",")])
-        except ValueError:
-            shift = np.zeros(0)
-        if shift.shape != (3,) or not np.isfinite(shift).all():
-            raise InvalidParameterError(
-                f"--translate must be three numbers x,y,z, got {args.translate!r}")
-    if args.on_table:
-        base = centred_on_table(surface, rotation, base_height_mm=args.base_height)
-        return PlacedSurface(surface, rotation, base.translation + shift)
-    if args.rotate or args.translate:
-        return PlacedSurface(surface, rotation, shift)
-    return surface
 
 
 def run(args: argparse.Namespace) -> int:
@@ -115,7 +84,7 @@ def run(args: argparse.Namespace) -> int:
         max_samples=args.max_samples, collision=not args.no_collision)
     dialect = dialect_by_name(args.dialect) if args.dialect else None
     try:
-        surface = _placed(load_surface(args.surface), args)
+        surface = placed_surface(load_surface(args.surface), args)
         report = verify_file(args.program, surface, machine, cutter, dialect=dialect,
                              options=options)
     except OSError as exc:
