@@ -190,8 +190,9 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         and chord figures on the program itself (ball-nose cutters).
     plots : bool
         Also write ``fit.png`` (sections, streamlines, error), ``toolpath.png`` (passes
-        over the surface) and, for 5-axis, ``tool_axis.png`` (axis angles and rotary joints
-        along the path).
+        over the surface), ``passes_ts.png`` (the passes in ``(t, s)``), for 5-axis
+        ``tool_axis.png`` (axis angles and rotary joints along the path) and, with
+        ``verify``, ``deviation.png``.
 
     Returns
     -------
@@ -250,6 +251,12 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     report["plan"] = plan_dict
     if plots:
         files.update(_toolpath_plots(surface, path, out_dir))
+        from toolpath.planning.cutters import parse_cutter
+
+        from .plots import plot_passes_in_parameters
+
+        files["parameter_plot"] = plot_passes_in_parameters(
+            surface, path, parse_cutter(request.cutter).radius_mm, out_dir / "passes_ts.png")
         if request.axis_mode != "3":
             from .plots import plot_tool_axis_angles
 

@@ -1,4 +1,4 @@
-"""Plots of a job that no single package owns (matplotlib, Agg): tool-axis angles."""
+"""Job plots no single package owns (matplotlib, Agg): tool-axis angles, passes in (t, s)."""
 
 from __future__ import annotations
 
@@ -11,9 +11,14 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from machines import Machine
-from toolpath import MoveKind, Toolpath
+from toolpath import MoveKind, ParametricSurface, Toolpath
+from toolpath.planning.local import project_to_surface
 
-__all__ = ["plot_tool_axis_angles"]
+#: Coarse grid for the starting guesses of the projection, and points per distance chunk.
+GUESS_GRID = 64
+CHUNK = 2048
+
+__all__ = ["plot_passes_in_parameters", "plot_tool_axis_angles"]
 
 
 def plot_tool_axis_angles(path: Toolpath, machine: Machine, out: Path) -> Path:
@@ -43,6 +48,43 @@ def plot_tool_axis_angles(path: Toolpath, machine: Machine, out: Path) -> Path:
     bottom.set_ylabel(f"{machine.name} rotary joints (deg)")
     if rotary:
         bottom.legend(loc="best", markerscale=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=100)
+    plt.close(fig)
+    return Path(out)
+
+
+def _nearest_grid_parameters(surface: ParametricSurface, points: np.ndarray
+                             ) -> tuple[np.ndarray, np.ndarray]:
+    g = np.linspace(0.0, 1.0, GUESS_GRID)
+    grid = surface(g, g, grid=True).reshape(-1, 3)
+    best = np.empty(len(points), dtype=int)
+    for lo in range(0, len(points), CHUNK):
+        d = ((points[lo:lo + CHUNK, None, :] - grid[None]) ** 2).sum(axis=2)
+        best[lo:lo + CHUNK] = d.argmin(axis=1)
+    return g[best // GUESS_GRID], g[best % GUESS_GRID]
+
+
+def plot_passes_in_parameters(surface: ParametricSurface, path: Toolpath, cutter_radius_mm: float,
+                              out: Path) -> Path:
+    """Write a PNG of the cutting moves in the surface's ``(t, s)`` square (flattened view).
+
+    Each cutter location is mapped to the surface point nearest its ball centre
+    (tip + R * axis), found by Newton projection from the nearest point of a coarse grid;
+    passes (``s = const`` streamlines) show as horizontal lines, gaps as uncut areas.
+    """
+    cutting = np.flatnonzero(path.kinds == MoveKind.CUT)
+    centres = path.positions_mm[cutting] + cutter_radius_mm * path.tool_axes[cutting]
+    t0, s0 = _nearest_grid_parameters(surface, centres)
+    t, s, _ = project_to_surface(surface, centres, t0, s0)
+    fig, ax = plt.subplots(figsize=(9, 6))
+    dots = ax.scatter(t, s, c=path.pass_index[cutting], s=0.5, cmap="viridis")
+    fig.colorbar(dots, ax=ax, label="pass")
+    ax.set_xlim(0.0, 1.0)
+    ax.set_ylim(0.0, 1.0)
+    ax.set_xlabel("t (along the sections)")
+    ax.set_ylabel("s (across the sections)")
+    ax.set_title(f"{path.n_passes} passes in the surface's parameters; blank = not cut")
     fig.tight_layout()
     fig.savefig(out, dpi=100)
     plt.close(fig)

@@ -20,6 +20,6 @@ def test_quick_demo_runs_the_pipeline_and_streams_exactly_once(tmp_path, capsys)
     assert stream["ok"] and stream["exactly_once"] and stream["rx_dropped_bytes"] == 0
     assert stream["executed_blocks"] > 1000 and stream["alarm"] is None
     for name in ("part.nc", "surface.json", "toolpath.npz", "fit.png", "part.journal",
-                 "toolpath.png", "deviation.png"):
+                 "toolpath.png", "deviation.png", "passes_ts.png"):
         assert (tmp_path / "blade" / name).stat().st_size > 0
     assert "exactly_once True" in capsys.readouterr().out
