@@ -94,8 +94,7 @@ def test_drop_after_lines(kind):
         snap = sim.snapshot()
         assert snap["drops"] == 1 and snap["faults_fired"] == ["drop-after-lines=3"]
         assert [e.line for e in sim.journal()] == [1, 2, 3]  # line 3 reached the controller
-        if kind == "pty":
-            assert sim.serial_url != url  # a new device, as after a USB re-plug
+        # a pty is re-created, as after a USB re-plug (the kernel may reuse its number)
         port = _open(sim.serial_url)  # the simulator serves again
         assert _send_response(port, ["G1X-9F600"]) == [b"ok\r\n"]
         port.close()
