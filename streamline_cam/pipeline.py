@@ -41,6 +41,12 @@ __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
 #: the dev blade without it). The planner is asked for the request minus this.
 TEXT_RESERVE_MM = 0.001
 
+#: When the planner's own measurement of its result exceeds what it was asked for, the job
+#: plans again (at most REPLANS times) with the tolerance tightened by the excess times
+#: REPLAN_MARGIN, so the program keeps the user's request.
+REPLANS = 2
+REPLAN_MARGIN = 0.97
+
 #: Stage names, in order, as passed to the progress callback.
 STAGES = ("fit", "plan", "post", "check", "verify", "stream")
 Progress = Callable[[str, float], None]
@@ -231,21 +237,34 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
 
     start = time.perf_counter()
     report_progress("plan", 0.0)
-    path, plan_report = plan_finishing(
-        surface, request.cutter, scallop_mm=_reserved(request.scallop_mm),
-        chord_tol_mm=_reserved(request.chord_tol_mm), axis_mode=request.axis_mode,
-        lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
-        tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
-        linking=request.linking, machine=machine,
-        **({"progress": lambda _name, fraction: report_progress("plan", fraction)}
-           | request.planning_options))
+    scallop_mm, chord_mm = _reserved(request.scallop_mm), _reserved(request.chord_tol_mm)
+    attempts = []
+    for _ in range(1 + REPLANS):
+        path, plan_report = plan_finishing(
+            surface, request.cutter, scallop_mm=scallop_mm, chord_tol_mm=chord_mm,
+            axis_mode=request.axis_mode,
+            lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
+            tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
+            linking=request.linking, machine=machine,
+            **({"progress": lambda _name, fraction: report_progress("plan", fraction)}
+               | request.planning_options))
+        attempts.append({"scallop_mm": scallop_mm, "chord_tol_mm": chord_mm,
+                         "measured_scallop_mm": plan_report.max_scallop_mm,
+                         "measured_chord_mm": plan_report.max_chord_error_mm})
+        over_scallop = (plan_report.max_scallop_mm or 0.0) / scallop_mm
+        over_chord = (plan_report.max_chord_error_mm or 0.0) / chord_mm
+        if max(over_scallop, over_chord) <= 1.0:
+            break
+        # the measured result exceeds what was asked: ask again, tighter by the excess
+        scallop_mm *= REPLAN_MARGIN / over_scallop if over_scallop > 1.0 else 1.0
+        chord_mm *= REPLAN_MARGIN / over_chord if over_chord > 1.0 else 1.0
     path = dataclasses.replace(path, metadata={**path.metadata,
                                                "placement": placement.describe()})
     files["toolpath"] = out_dir / "toolpath.npz"
     path.save(files["toolpath"])
     plan_dict = _jsonable(plan_report) | {
-        "planned_for_scallop_mm": _reserved(request.scallop_mm),
-        "planned_for_chord_tol_mm": _reserved(request.chord_tol_mm),
+        "planned_for_scallop_mm": scallop_mm, "planned_for_chord_tol_mm": chord_mm,
+        "attempts": attempts,
         "scallop_request_mm": request.scallop_mm, "chord_tol_mm": request.chord_tol_mm}
     plan_dict.pop("unreachable_spans", None)  # per pass; the regions summarize them
     report["plan"] = plan_dict
