@@ -159,6 +159,37 @@ def table_7() -> None:
             print(f"  {'':<19}{count:>5}{source:>12}{b:>12.4g}{s:>12.4g}{s / b:>8.2f}")
 
 
+def cylinder_between_sections() -> None:
+    """Why surface frames use wide cones: error between sections on a cylinder patch."""
+    from toolpath.cone_frame import KAPPAS, MARGINS, candidate_frames
+    from toolpath.fitted_surface import GridFit
+    from toolpath.sections import as_sections
+    from toolpath.streamline_surface import (
+        SURFACE_KAPPAS,
+        SURFACE_MARGINS,
+        StreamlineSurface,
+        _GridLogProblem,
+    )
+
+    theta, heights = np.linspace(0.2, 1.2, 40), np.linspace(0.0, 30.0, 6)
+    patch = np.stack([np.c_[40 * np.cos(theta), 40 * np.sin(theta), np.full(40, z)]
+                      for z in heights])
+    grid = as_sections(patch)
+    knots = fit_bspline_surface(patch, tol=1e-4).knots_t
+    t, s = np.meshgrid(np.linspace(0, 1, 50), np.linspace(0, 1, 101))
+    print("\nCylinder patch R40, 6 sections: best frame by data error on the B-spline's knots")
+    print(f"  {'cone candidates':<32}{'data mm':>10}{'between sections mm':>22}")
+    for label, margins, kappas in (("curve fitter's (tight)", MARGINS, KAPPAS),
+                                   ("surface fitter's (wide)", SURFACE_MARGINS, SURFACE_KAPPAS)):
+        best = min(candidate_frames(patch.reshape(-1, 3), margins=margins, kappas=kappas),
+                   key=lambda f: _GridLogProblem(grid, f).fit(knots, False)[1].max())
+        rows, errors = _GridLogProblem(grid, best).fit(knots, False)
+        surface = StreamlineSurface._from_grid(grid, GridFit(knots, rows, errors), T=best.T,
+                                               c=best.c, frame_label=best.label)
+        radius = np.linalg.norm(surface(t, s)[..., :2], axis=-1)
+        print(f"  {label:<32}{errors.max():>10.2e}{np.abs(radius - 40).max():>22.2e}")
+
+
 def main() -> int:
     np.set_printoptions(precision=4)
     tables_1_and_2()
@@ -166,6 +197,7 @@ def main() -> int:
     tables_4_to_6()
     fair_table()
     table_7()
+    cylinder_between_sections()
     return 0
 
 

@@ -21,6 +21,7 @@ so componentwise ``Z_k(t) = Z_{0,k} e^{G_k(t)}`` with ``Z = T (X + c)``. The fit
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -127,11 +128,11 @@ class LogSpaceProblem:
     t: NDArray[np.float64]
     frame: ConeFrame
 
-    @property
+    @functools.cached_property
     def z(self) -> NDArray[np.float64]:
         return self.frame.to_cone(self.x)
 
-    @property
+    @functools.cached_property
     def y(self) -> NDArray[np.float64]:
         z = self.z
         return np.log(z / z[0])

@@ -26,6 +26,7 @@ position for every ``s``; the tangent there is continuous only within the fit to
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass
 from typing import Any
 
@@ -148,12 +149,12 @@ class _GridLogProblem:
     sections: Sections
     frame: ConeFrame
 
-    @property
+    @functools.cached_property
     def z(self) -> NDArray[np.float64]:
         return self.frame.to_cone(self.sections.points.reshape(-1, 3)).reshape(
             self.sections.points.shape)
 
-    @property
+    @functools.cached_property
     def y_stacked(self) -> NDArray[np.float64]:
         z = self.z
         y = np.log(z / z[:, :1, :])  # (m, n, 3)
@@ -181,10 +182,11 @@ def _choose_frame(sections: Sections, knots) -> ConeFrame:
     """The candidate frame fitting best on ``knots`` (the baseline's), in and between sections.
 
     Candidates are wide cones (:data:`SURFACE_MARGINS`): a tight cone makes ``T``
-    ill-conditioned and the exponential amplifies any error between the sections (measured
-    on a cylinder patch: 0.04 mm between sections for a 1e-4 mm fit at the data with the
-    curve fitter's margins, 1e-4 mm with these). The :data:`FINALISTS` with the smallest max
-    error at the data are then judged by ``max(data error, leave-one-out error)``.
+    ill-conditioned and the exponential amplifies any error between the sections (cylinder
+    patch, ``benchmarks/paper_tables.py``: 0.038 mm between sections for a 0.0003 mm fit at
+    the data with the curve fitter's margins, 0.00004 mm with these). The
+    :data:`FINALISTS` with the smallest max error at the data are then judged by
+    ``max(data error, leave-one-out error)``.
     """
     ranked = []
     for candidate in candidate_frames(sections.points.reshape(-1, 3), margins=SURFACE_MARGINS,

@@ -200,17 +200,8 @@ def _run_grbl(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | No
             f"connected: Grbl {info.version} on {args.port} ({info.rx_buffer_bytes}-byte "
             f"buffer, {args.mode})"
         )
-        if args.check:
-            report = sender.check(job)
-            for err in report.errors:
-                _say(f"{args.program}:{err.line}: {err}")
-            if not report.ok:
-                _say(
-                    f"toolpath: error: check mode rejected {len(report.errors)} line(s); "
-                    "nothing was run"
-                )
-                return EXIT_STOPPED
-            _say(f"check mode: {report.lines} lines accepted")
+        if args.check and not _dry_run(sender, job, args):
+            return EXIT_STOPPED
         plan: ResumePlan | None = None
         if args.resume_from:
             if args.resume_from == "journal":
@@ -219,20 +210,36 @@ def _run_grbl(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | No
                 line = int(args.resume_from)
             plan = sender.plan_resume(job, line, clearance_z_mm=args.clearance_z)
             _report_plan(plan)
-        journal = _journal(args, job, args.mode, plan.line if plan else None)
-        try:
-            result = _with_sigint(
-                sender.request_hold,
-                lambda: _finish(
-                    sender.run(job, resume=plan, journal=journal, on_hold=_prompt), bar
-                ),
-            )
-        finally:
-            if journal is not None:
-                journal.close()
-        return result
+        return _stream(sender, job, args, args.mode, plan, bar)
     finally:
         sender.close()
+
+
+def _dry_run(sender, job: Job, args: argparse.Namespace) -> bool:
+    """The controller's check mode over the whole job; False (reported) on any rejection."""
+    report = sender.check(job)
+    for err in report.errors:
+        _say(f"{args.program}:{err.line}: {err}")
+    if not report.ok:
+        _say(f"toolpath: error: check mode rejected {len(report.errors)} line(s); "
+             "nothing was run")
+        return False
+    _say(f"check mode: {report.lines} lines accepted")
+    return True
+
+
+def _stream(sender, job: Job, args: argparse.Namespace, mode: str, plan: ResumePlan | None,
+            bar: ProgressBar | None) -> int:
+    """Run the job under a journal, Ctrl-C meaning feed hold and a prompt."""
+    journal = _journal(args, job, mode, plan.line if plan else None)
+    try:
+        return _with_sigint(
+            sender.request_hold,
+            lambda: _finish(sender.run(job, resume=plan, journal=journal, on_hold=_prompt), bar),
+        )
+    finally:
+        if journal is not None:
+            journal.close()
 
 
 def _report_plan(plan: ResumePlan) -> None:
@@ -273,13 +280,8 @@ def _run_modbus(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | 
             f"connected: Modbus register map {info.version} on {args.modbus} "
             f"({info.slot_count} slots)"
         )
-        if args.check:
-            report = sender.check(job)
-            for err in report.errors:
-                _say(f"{args.program}:{err.line}: {err}")
-            if not report.ok:
-                _say(f"toolpath: error: check mode rejected {len(report.errors)} line(s)")
-                return EXIT_STOPPED
+        if args.check and not _dry_run(sender, job, args):
+            return EXIT_STOPPED
         plan: ResumePlan | None = None
         if args.resume_from:
             if args.resume_from == "journal":
@@ -291,16 +293,6 @@ def _run_modbus(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | 
                 line = int(args.resume_from)
             plan = plan_resume(job, line, dialect=dialect, clearance_z_mm=args.clearance_z)
             _report_plan(plan)
-        journal = _journal(args, job, "modbus", plan.line if plan else None)
-        try:
-            return _with_sigint(
-                sender.request_hold,
-                lambda: _finish(
-                    sender.run(job, resume=plan, journal=journal, on_hold=_prompt), bar
-                ),
-            )
-        finally:
-            if journal is not None:
-                journal.close()
+        return _stream(sender, job, args, "modbus", plan, bar)
     finally:
         sender.close()
