@@ -11,7 +11,11 @@ cutter locations against the 2 s target, and, measured in the same run:
   normalizations, a machine-speed yardstick);
 * the independent measurement's time (``measure=True``), reported apart.
 
-Run: ``python benchmarks/bench_toolpath.py [--quick]``.
+With ``--sweep``: the dev blade planned 3-axis (lying) and 5-axis (standing) over a grid
+of cutters, scallop heights and chord tolerances, each with the measured scallop and chord
+error over the request (``OVER`` where the measured result exceeds it).
+
+Run: ``python benchmarks/bench_toolpath.py [--quick | --sweep]``.
 """
 
 from __future__ import annotations
@@ -71,10 +75,37 @@ def _cases(quick: bool) -> list[tuple[str, object, dict]]:
     return cases[:2] if quick else cases
 
 
+def _sweep() -> None:
+    cases = _cases(quick=False)[-2:]
+    print(f"{'surface':<22}{'cutter':<10}{'scallop':>8}{'chord':>7}{'reserve':>9}"
+          f"{'scallop/req':>12}{'chord/req':>10}")
+    over = 0
+    for (name, surface, _), axis in zip(cases, ("lead-tilt", "3"), strict=True):
+        more = {"lead_deg": 10.0} if axis == "lead-tilt" else {}
+        for cutter in ("ball:6", "ball:10", "bull:8:1"):
+            for scallop in (0.01, 0.03, 0.06, 0.12, 0.25):
+                for chord in (0.005, 0.03, 0.1):
+                    _, rep = plan_finishing(surface, cutter, scallop_mm=scallop,
+                                            chord_tol_mm=chord, axis_mode=axis, **more)
+                    ratio_s = rep.scallop_interior_mm / scallop
+                    ratio_c = rep.max_chord_error_mm / chord
+                    bad = ratio_s > 1.0 or ratio_c > 1.0
+                    over += bad
+                    print(f"{name:<22}{cutter:<10}{scallop:>8g}{chord:>7g}"
+                          f"{rep.rounding_reserve_mm:>9.5f}{ratio_s:>12.3f}{ratio_c:>10.3f}"
+                          + ("  OVER" if bad else ""), flush=True)
+    print(f"{over} plan(s) measured over the request")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="analytic surfaces only")
+    parser.add_argument("--sweep", action="store_true",
+                        help="measured over requested on the dev blade, many requests")
     args = parser.parse_args()
+    if args.sweep:
+        _sweep()
+        return
     yard = _numpy_yardstick()
     print(f"numpy yardstick: {yard * 1e3:.1f} ms per 1e6 normalizations")
     head = (f"{'case':<22}{'axis':<10}{'passes':>7}{'CL pts':>9}{'plan s':>8}{'s/1M':>7}"

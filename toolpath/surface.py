@@ -153,6 +153,14 @@ class ParametricSurface(ABC):
         normal = self.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
         return normal.reshape((*shape, 3))
 
+    def points_and_normals(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
+                           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """Points and outward unit normals from one evaluation of the three partials."""
+        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        parts = self._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
+        normal = self.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+        return parts[0, 0].reshape((*shape, 3)), normal.reshape((*shape, 3))
+
     def principal_curvatures(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
                              ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(k_min, k_max)`` in 1/mm; negative is convex seen from the normal side."""

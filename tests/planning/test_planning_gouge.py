@@ -30,7 +30,8 @@ def test_cutter_larger_than_the_pocket_radius_is_refused_naming_the_place():
     # a cutter that fits plans without complaint
     _, rep = plan_finishing(POCKET, "ball:5", scallop_mm=0.02, chord_tol_mm=0.01,
                             measure=False)
-    assert rep.min_concave_radius_mm == pytest.approx(2.6667, abs=1e-3)
+    # sampled at the cutter locations and on the probe grid: within 0.2 %
+    assert rep.min_concave_radius_mm == pytest.approx(2.6667, rel=2e-3)
     assert rep.cutter_radius_there_mm == pytest.approx(2.5)
 
 

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from toolpath.planning.errors import PlanningError
+from toolpath.planning.sampling import CHORD_FRACTIONS, chord_extremes
 from toolpath.planning.scallop import pass_levels, scallop_height_mm, stepover_mm
 
 
@@ -69,3 +70,20 @@ def test_pass_levels_refuse_zero_and_too_many():
         pass_levels(grid, np.where(np.isclose(grid, 0.5), 0.0, 0.1))
     with pytest.raises(PlanningError, match="max_passes=10"):
         pass_levels(grid, np.full(11, 0.001), max_passes=10)
+
+
+def test_chord_extremes_see_both_sides_of_an_inflected_move():
+    # a move standing 0.0067 above the surface near its start and cutting 0.018 in near
+    # its end (g(u) = u (1 - u)(a + b u)): the largest magnitude alone would hide the
+    # undercut, which the concave allowance limits much tighter than the chord tolerance
+    u = np.array(CHORD_FRACTIONS)
+    a, b = 0.09, -0.25
+    gaps = (u * (1 - u) * (a + b * u))[None, :]
+    low, u_low, high, u_high = chord_extremes(gaps)
+    grid = np.linspace(0.0, 1.0, 100_001)
+    exact = grid * (1 - grid) * (a + b * grid)
+    assert low[0] == pytest.approx(exact.min(), abs=2e-5)
+    assert high[0] == pytest.approx(exact.max(), abs=2e-5)
+    assert u_low[0] == pytest.approx(grid[exact.argmin()], abs=0.01)
+    assert u_high[0] == pytest.approx(grid[exact.argmax()], abs=0.01)
+    assert 0.006 < high[0] < -low[0]

@@ -19,6 +19,7 @@ Stages (each timed in the report):
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from typing import Any
 
@@ -42,6 +43,7 @@ from .measure import measure_chord, measure_scallop
 from .options import AxisMode, FinishingOptions, Linking, OnGouge
 from .passes import PassLayout, PassPoints, evaluate_points, refine_chords, split_reach
 from .report import PlanningReport, UnreachableSpan, merge_spans
+from .resolution import rounding_reserve_mm
 from .sampling import chord_length_mm, cutter_gap, equidistribute
 from .scallop import pass_levels, stepover_mm
 from .tool_axis import lead_tilt_axes
@@ -119,6 +121,20 @@ def _reach(opts: FinishingOptions, normal: NDArray[np.float64]) -> NDArray[np.bo
     return normal @ np.asarray(opts.fixed_axis) >= limit
 
 
+def _rounding_reserve(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                      mach: Machine | None) -> float:
+    """What the G-code's grid can move the cutter by, at poses on a 17 x 17 grid."""
+    if not (opts.coordinate_step_mm or opts.angle_step_deg):
+        return 0.0
+    g = np.linspace(0.0, 1.0, 17)
+    tt, ss = np.meshgrid(g, g, indexing="ij")
+    frame = pass_frame(surface, tt.ravel(), ss.ravel())
+    axes = _nominal(opts, frame.normal, frame.e1)
+    tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
+    return rounding_reserve_mm(tips, axes, mach, coordinate_step_mm=opts.coordinate_step_mm,
+                               angle_step_deg=opts.angle_step_deg)
+
+
 def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
            res: dict[str, float], t: NDArray[np.float64], s: NDArray[np.float64]
            ) -> dict[str, Any]:
@@ -136,7 +152,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     _, _, c22 = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     with np.errstate(divide="ignore"):
         rho = np.where(c22 > 0.0, 1.0 / np.where(c22 > 0.0, c22, 1.0), np.inf)
-    h = np.where(frame.s11 > 1e-12, opts.scallop_mm - res["undercut_mm"], opts.scallop_mm)
+    h = np.where(frame.s11 > 1e-12, res["scallop_mm"] - res["undercut_mm"], res["scallop_mm"])
     width = stepover_mm(h, rho, frame.s22)
     if cutter.kind is CutterKind.FLAT:
         width = _flat_stepover(cutter, frame, axes, h)
@@ -153,7 +169,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     with np.errstate(divide="ignore"):
         rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
     # concave passes: the moves stand above the surface and lift the cusps; keep them low
-    tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], opts.chord_tol_mm)
+    tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], res["chord_tol_mm"])
     length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"])
     density = (frame.speed_t / length).reshape(len(t), len(s))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
@@ -312,7 +328,7 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         axes /= np.linalg.norm(axes, axis=1, keepdims=True)
         gap, _, _ = cutter_gap(surface, cutter, tips, axes, 0.5 * (pts.t[a] + pts.t[b]),
                                0.5 * (pts.s[a] + pts.s[b]))
-        for k, ok in zip(ks, gap >= -opts.chord_tol_mm, strict=True):
+        for k, ok in zip(ks, gap >= -res["chord_tol_mm"], strict=True):
             out[int(k)].direct_link = bool(ok)
     return out
 
@@ -375,8 +391,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                             axis_mode=axis_mode, lead_deg=lead_deg, tilt_deg=tilt_deg,
                             linking=linking, **options)
     opts.check_cutter(cutter)
-    res = opts.resolved(cutter)
     mach = _as_machine(machine, opts)
+    reserve_mm = _rounding_reserve(surface, cutter, opts, mach)
+    res = opts.resolved(cutter, reserve_mm)
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
             "linking='spiral' needs closed sections (surface.closed_t): this surface's "
@@ -452,7 +469,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         plunge_feed_mm_per_min=res["plunge_feed_mm_per_min"],
         lead_radius_mm=res["lead_radius_mm"], lead_angle_deg=opts.lead_angle_deg,
         approach_mm=opts.approach_mm, extend_mm=opts.extend_mm,
-        chord_tol_mm=opts.chord_tol_mm)
+        chord_tol_mm=res["chord_tol_mm"])
     positions, axes, kinds, feeds, passes = link_runs(run_list, link_opts)
     metadata = {"planner": "toolpath.planning.plan_finishing", "cutter": cutter.spec,
                 "surface": type(surface).__name__, "scallop_mm": f"{opts.scallop_mm:g}",
@@ -474,7 +491,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     report = _report(surface, cutter, opts, probe, pts, keep, runs, spans, path, gstats,
                      planned_chord, mstats, scallop, chord, clock.seconds)
-    return path, report
+    return path, dataclasses.replace(report, rounding_reserve_mm=reserve_mm,
+                                     planned_scallop_mm=res["scallop_mm"],
+                                     planned_chord_tol_mm=res["chord_tol_mm"])
 
 
 def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
@@ -504,8 +523,13 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     cut = np.zeros(len(pts), dtype=bool)
     for run in runs:
         cut[run] = True
-    kmax = pts.frame.max_concave_curvature[cut]
-    margin = local_margin(pts.frame, cutter, pts.axes)[cut]
+    # the smallest concave radius the cutter meets: at its locations and on the probe
+    # grid where it cuts (the grid holds the extremes the locations may step over)
+    reach = probe["reach"]
+    kmax = np.r_[pts.frame.max_concave_curvature[cut],
+                 probe["frame"].max_concave_curvature[reach]]
+    margin = np.r_[local_margin(pts.frame, cutter, pts.axes)[cut],
+                   local_margin(probe["frame"], cutter, probe["axes"])[reach]]
     if kmax.size and kmax.max() > 0.0:
         i = int(np.argmax(kmax))
         min_radius = 1.0 / float(kmax[i])

@@ -92,8 +92,7 @@ def wrap_t(t: NDArray[np.float64], closed: bool) -> NDArray[np.float64]:
 def point_normal(surface: ParametricSurface, t: ArrayLike, s: ArrayLike
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Points and outward unit normals from three partials (cheaper than a frame)."""
-    x = surface(t, s)
-    return x, surface.normal(t, s)
+    return surface.points_and_normals(t, s)
 
 
 def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,
@@ -141,8 +140,10 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
         here = np.einsum("ij,ij->i", d, d)
         new_t, new_s = wrap_t(t - step_t, closed), np.clip(s - step_s, 0.0, 1.0)
         worse = np.arange(len(p))
+        x = np.empty_like(p)
         for _ in range(8):
-            dn = surface(new_t[worse], new_s[worse]) - p[worse]
+            x[worse] = surface(new_t[worse], new_s[worse])
+            dn = x[worse] - p[worse]
             worse = worse[np.einsum("ij,ij->i", dn, dn) > here[worse] * (1.0 + 1e-12)]
             if not worse.size:
                 break
@@ -150,6 +151,9 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
             step_s[worse] *= 0.5
             new_t[worse] = wrap_t(t[worse] - step_t[worse], closed)
             new_s[worse] = np.clip(s[worse] - step_s[worse], 0.0, 1.0)
+        if worse.size:  # still farther after 8 halvings: the last step's point
+            x[worse] = surface(new_t[worse], new_s[worse])
         t, s = new_t, new_s
-    x = surface(t, s)
+    if not iterations:
+        x = surface(t, s)
     return t, s, np.linalg.norm(x - p, axis=1)

@@ -7,8 +7,9 @@ toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 surface (Newton from the nearest of a grid of surface samples): its gap checks that it
 touches. Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
 axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
-it), and, on the moves that could hold the largest deviation (model peak at least half
-the largest sample), once more where a smooth model through those gaps peaks; its signed
+it), and, on the moves that could hold the largest deviation (a model extreme at least
+half the largest sample), once more where a smooth model through those gaps is lowest and
+where it is highest; its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
 centre projected onto the surface.
 
@@ -45,7 +46,7 @@ from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .local import point_normal
-from .sampling import CHORD_FRACTIONS, chord_peak, cutter_gap, move_gaps
+from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, move_gaps
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -105,17 +106,20 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         ia, ib = where[lo:lo + m], where[lo:lo + m] + 1
         args = (pos[seg], pos[seg + 1], ax_all[seg], ax_all[seg + 1], t_end[ia], t_end[ib],
                 s_end[ia], s_end[ib])
-        # measured at three places, then once more where the gap model peaks (on the
-        # moves whose peak could be the largest: within half of the largest sample)
+        # measured at three places, then once more where the gap model is lowest and
+        # where it is highest (on the moves whose extreme could be the largest: within
+        # half of the largest sample)
         g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2)
-        peak, u_star = chord_peak(np.clip(g3, -1e3, 1e3), u)
+        low, u_low, high, u_high = chord_extremes(np.clip(g3, -1e3, 1e3), u)
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
-        g_star = np.zeros(m)
-        for k in np.unique(u_star[np.abs(peak) >= 0.5 * top]):  # few values (101-point grid)
-            sel = np.flatnonzero((u_star == k) & (np.abs(peak) >= 0.5 * top))
-            g_star[sel] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                    np.array([k]), newton=2)[0][:, 0]
-        gap = np.concatenate([g_end[ia][:, None], g3, g_star[:, None], g_end[ib][:, None]],
+        g_star = np.zeros((m, 2))
+        for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
+            big = np.abs(value) >= 0.5 * top
+            for k in np.unique(u_at[big]):  # few values (101-point grid)
+                sel = np.flatnonzero((u_at == k) & big)
+                g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
+                                             np.array([k]), newton=2)[0][:, 0]
+        gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
                              axis=1)
         worst[lo:lo + m] = np.abs(gap).max(axis=1)
         over = max(over, float(-gap.min()))

@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from .cutters import Cutter
 from .gouge import GOUGE_TOL_MM
+from .resolution import MAX_RESERVE_SHARE
 
 __all__ = [
     "CONCAVE_UNDERCUT_SHARE",
@@ -175,6 +176,10 @@ class FinishingOptions:
         allowed step varies slowly across the span).
     on_limit : OnLimit
         Machine travel violations: ``raise`` (default) or ``report``.
+    coordinate_step_mm, angle_step_deg : float
+        The grid the G-code writes joints to (0.001 mm and 0.001 deg: the dialects' 3
+        decimals). The plan keeps the request minus what rounding to it can move the
+        cutter (:mod:`~toolpath.planning.resolution`); 0 plans for the exact request.
     max_points : int
         Refuse plans with more cutter locations (20 million: about 1.5 GB of arrays).
     measure : bool
@@ -211,6 +216,8 @@ class FinishingOptions:
     probe_t: int = 513
     probe_s: int | None = None
     on_limit: OnLimit = OnLimit.RAISE
+    coordinate_step_mm: float = 0.001
+    angle_step_deg: float = 0.001
     max_points: int = 20_000_000
     measure: bool = True
     progress: ProgressCallback | None = None
@@ -245,7 +252,7 @@ class FinishingOptions:
         put(self, "fixed_axis", (float(axis[0]), float(axis[1]), float(axis[2])))
         for name in ("feed_mm_per_min", "clearance_mm"):
             put(self, name, _length(getattr(self, name), name))
-        for name in ("approach_mm", "extend_mm", "gouge_tol_mm"):
+        for name in ("approach_mm", "extend_mm", "gouge_tol_mm", "coordinate_step_mm"):
             put(self, name, _length(getattr(self, name), name, allow_zero=True))
         for name in ("plunge_feed_mm_per_min", "lead_radius_mm", "link_max_mm",
                      "gouge_sample_mm", "axis_smoothing_mm", "max_segment_mm",
@@ -254,6 +261,10 @@ class FinishingOptions:
             if value is not None:
                 zero_ok = name in ("lead_radius_mm", "link_max_mm", "axis_smoothing_mm")
                 put(self, name, _length(value, name, allow_zero=zero_ok))
+        put(self, "angle_step_deg", _angle(self.angle_step_deg, "angle_step_deg", 1.0))
+        if self.angle_step_deg < 0.0:
+            raise InvalidParameterError(
+                f"angle_step_deg must be >= 0 deg, got {self.angle_step_deg!r}")
         if self.min_cone_deg is not None:
             put(self, "min_cone_deg", _angle(self.min_cone_deg, "min_cone_deg", 60.0))
             if self.min_cone_deg < 0.0:
@@ -290,10 +301,19 @@ class FinishingOptions:
                     f"tolerance must be a small fraction of the cutter (typically "
                     f"0.001-0.05 mm)")
 
-    def resolved(self, cutter: Cutter) -> dict[str, float]:
-        """Defaults that depend on the cutter, in mm or mm/min."""
+    def resolved(self, cutter: Cutter, reserve_mm: float = 0.0) -> dict[str, float]:
+        """Defaults that depend on the cutter, in mm or mm/min, and the planned tolerances.
+
+        ``scallop_mm`` and ``chord_tol_mm`` are what the plan aims for: the request less
+        ``reserve_mm`` (room for the G-code's rounding), at most
+        :data:`~toolpath.planning.resolution.MAX_RESERVE_SHARE` of it.
+        """
         big = cutter.radius_mm
+        scallop = self.scallop_mm - min(reserve_mm, MAX_RESERVE_SHARE * self.scallop_mm)
+        chord = self.chord_tol_mm - min(reserve_mm, MAX_RESERVE_SHARE * self.chord_tol_mm)
         return {
+            "scallop_mm": scallop,
+            "chord_tol_mm": chord,
             "plunge_feed_mm_per_min": self.plunge_feed_mm_per_min or self.feed_mm_per_min / 4,
             "lead_radius_mm": big if self.lead_radius_mm is None else self.lead_radius_mm,
             "link_max_mm": 2.0 * big if self.link_max_mm is None else self.link_max_mm,
@@ -303,7 +323,7 @@ class FinishingOptions:
                                   else self.axis_smoothing_mm),
             "max_segment_mm": (4.0 * big if self.max_segment_mm is None
                                else self.max_segment_mm),
-            "undercut_mm": min(self.chord_tol_mm, CONCAVE_UNDERCUT_SHARE * self.scallop_mm),
+            "undercut_mm": min(chord, CONCAVE_UNDERCUT_SHARE * scallop),
         }
 
     def summary(self) -> dict[str, str]:

@@ -19,7 +19,7 @@ from .cutters import Cutter
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
-from .sampling import CHORD_FRACTIONS, chord_peak, move_gaps
+from .sampling import CHORD_FRACTIONS, chord_extremes, move_gaps
 from .tool_axis import (
     AxisSmoothing,
     keep_out_of_cone,
@@ -40,6 +40,9 @@ __all__ = [
 
 #: Refinement rounds; each halves the offending chords, so 12 rounds shrink one 4096-fold.
 MAX_CHORD_ROUNDS = 12
+#: A checked chord is checked again when its ends move (tip, plus the cutter radius times
+#: the axis change) by more than this share of the chord tolerance.
+MOVED_SHARE = 0.01
 
 
 @dataclass(frozen=True)
@@ -208,7 +211,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     surface at three places (one Newton step from the parameters between the move's ends:
     the foot point is then off by the fourth order of the move's length) and its largest
     gap estimated
-    (:func:`~toolpath.planning.sampling.chord_peak`); chords cutting deeper
+    (:func:`~toolpath.planning.sampling.chord_extremes`); chords cutting deeper
     than ``chord_tol_mm`` or standing higher than the undercut allowance
     (``res["undercut_mm"]``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
     get a contact at their parameter midpoint. Only new chords
@@ -220,7 +223,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     pts, keep, worst_mm
         The refined points, the mask and the largest ``|gap|`` seen on the last check.
     """
-    tol = opts.chord_tol_mm
+    tol = res["chord_tol_mm"]
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = 0.0
     for _ in range(MAX_CHORD_ROUNDS):
@@ -234,26 +237,28 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                                pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
                                pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
                                newton=1)
-        peak, u_star = chord_peak(np.clip(gaps, -1e3, 1e3))
-        gap = np.where(np.abs(peak) >= np.abs(gaps).max(axis=1), peak,
-                       gaps[np.arange(len(gaps)), np.argmax(np.abs(gaps), axis=1)])
-        # the model is close, not exact: where it is within 10 % of a limit, measure there
-        limit = np.where(gap < 0.0, tol, res["undercut_mm"])
-        close = np.flatnonzero((np.abs(gap) > 0.9 * limit) & (np.abs(gap) <= limit))
-        for k in np.unique(u_star[close]):
-            sel = close[u_star[close] == k]
-            j = idx[sel]
-            exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
-                                    pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
-                                    pts.s[j], pts.s[j + 1], np.array([k]))
-            gap[sel] = np.where(np.abs(exact[:, 0]) > np.abs(gap[sel]), exact[:, 0], gap[sel])
-        worst = float(np.abs(gap).max())
-        bad = (gap < -tol) | (gap > res["undercut_mm"])
+        low, u_low, high, u_high = chord_extremes(np.clip(gaps, -1e3, 1e3))
+        low, high = np.minimum(low, gaps.min(axis=1)), np.maximum(high, gaps.max(axis=1))
+        # the model is close, not exact: where an extreme is within 10 % of its limit,
+        # measure there (a move can both cut in and stand above: both sides are checked)
+        for value, u_at, limit in ((low, u_low, tol), (high, u_high, res["undercut_mm"])):
+            close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
+                                   & (np.sign(value) == (-1.0 if value is low else 1.0)))
+            for k in np.unique(u_at[close]):
+                sel = close[u_at[close] == k]
+                j = idx[sel]
+                exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
+                                        pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
+                                        pts.s[j], pts.s[j + 1], np.array([k]))
+                value[sel] = (np.minimum if value is low else np.maximum)(value[sel],
+                                                                          exact[:, 0])
+        worst = float(max(np.abs(low).max(), np.abs(high).max()))
+        bad = (low < -tol) | (high > res["undercut_mm"])
         if not bad.any():
             break
         t_mid = 0.5 * (pts.t[idx] + pts.t[idx + 1])
         new_t, new_pid = t_mid[bad], pts.pid[idx[bad]]
-        old_len = len(pts)
+        old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
         pts, where_new = insert_points(surface, cutter, opts, res, layout, pts, new_t, new_pid)
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
@@ -264,10 +269,19 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             merged_keep[~is_new] = keep
             merged_keep[is_new] = True
             keep = merged_keep
-        # check again only the chords next to the new points
+        # check again the chords next to the new points, and those whose ends moved: in
+        # 5-axis the axes are smoothed again with the new points, which shifts the tips
+        # and axes of their neighbours (a chord checked before is then another chord)
+        moved = np.zeros(len(pts), dtype=bool)
+        moved[where_new] = True
+        old_at = np.flatnonzero(~moved)
+        shift = (np.linalg.norm(pts.tips[old_at] - old_tips, axis=1)
+                 + cutter.radius_mm * np.linalg.norm(pts.axes[old_at] - old_axes, axis=1))
+        moved[old_at[shift > MOVED_SHARE * tol]] = True
+        at = np.flatnonzero(moved)
         check = np.zeros(len(pts) - 1, dtype=bool)
-        check[np.clip(where_new - 1, 0, None)] = True
-        check[np.clip(where_new, None, len(pts) - 2)] = True
+        check[np.clip(at - 1, 0, None)] = True
+        check[np.clip(at, None, len(pts) - 2)] = True
         assert len(pts) > old_len
     return pts, keep, worst
 

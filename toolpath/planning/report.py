@@ -147,6 +147,11 @@ class PlanningReport:
         Penetration counted as a gouge.
     axis_rate_limit_deg_per_mm : float or None
         The turn-rate limit asked for (5-axis).
+    rounding_reserve_mm : float
+        How far rounding the joints to the G-code's grid can move the cutter; the plan
+        aims for the request less this (at most a quarter of it).
+    planned_scallop_mm, planned_chord_tol_mm : float or None
+        What the plan aimed for.
     """
 
     cutter: str
@@ -187,6 +192,9 @@ class PlanningReport:
 
     gouge_tol_mm: float = 1e-4
     axis_rate_limit_deg_per_mm: float | None = None
+    rounding_reserve_mm: float = 0.0
+    planned_scallop_mm: float | None = None
+    planned_chord_tol_mm: float | None = None
 
     @property
     def within_request(self) -> bool:
@@ -216,6 +224,18 @@ class PlanningReport:
             f"concave radius    {_fmt(self.min_concave_radius_mm, digits=3)} smallest met "
             f"(cutter {self.cutter_radius_there_mm:.3f} mm there)",
         ]
+        if self.rounding_reserve_mm:
+            out.append(f"G-code grid       rounding moves the cutter up to "
+                       f"{self.rounding_reserve_mm:.5f} mm; planned for scallop "
+                       f"{_fmt(self.planned_scallop_mm)}, chord "
+                       f"{_fmt(self.planned_chord_tol_mm)}")
+            short = min(self.scallop_request_mm - (self.planned_scallop_mm or 0.0),
+                        self.chord_tol_mm - (self.planned_chord_tol_mm or 0.0))
+            if self.rounding_reserve_mm > short + 1e-12:
+                out.append(f"  the grid needs more than the quarter of the request kept for "
+                           f"it: the written program may exceed the request by up to "
+                           f"{self.rounding_reserve_mm - short:.5f} mm (write more decimals, "
+                           f"or ask for less)")
         if self.uncut_fraction is not None:
             out.append(f"uncut area        {100 * self.uncut_fraction:.2f} % of the surface")
         if self.n_lifted or self.n_retilted:

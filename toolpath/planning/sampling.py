@@ -18,7 +18,7 @@ the curvature changes along a move the largest gap is off its middle (near a lea
 edge, by 8 % of the tolerance at ``u = 0.4``), so the gap is measured at
 ``u = 1/4, 1/2, 3/4`` and modelled as ``g(u) = u (1 - u)(a + b u + c u^2)`` (zero at the
 contacts, exact for curvature varying quadratically along the move); the model's extreme
-``u*`` is where the move is judged (:func:`chord_peak`).
+``u*`` is where the move is judged (:func:`chord_extremes`: both the lowest and the highest).
 """
 
 from __future__ import annotations
@@ -32,8 +32,8 @@ from .local import PassFrame, point_normal, project_to_surface
 
 __all__ = [
     "CHORD_FRACTIONS",
+    "chord_extremes",
     "chord_length_mm",
-    "chord_peak",
     "cutter_gap",
     "equidistribute",
     "move_gaps",
@@ -223,9 +223,15 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     return gap.reshape(m, u.size), t.reshape(m, u.size), s.reshape(m, u.size)
 
 
-def chord_peak(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Extreme of ``g(u) = u (1 - u)(a + b u + c u^2)`` through three measured gaps.
+def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                              NDArray[np.float64], NDArray[np.float64]]:
+    """Lowest and highest values of ``g(u) = u (1 - u)(a + b u + c u^2)`` through three gaps.
+
+    A move can cut into the surface over one part and stand above it over another (an
+    inflection of the pass, or a 5-axis move whose axis turns), so both extremes are
+    returned: the first is checked against the chord tolerance, the second against the
+    undercut allowance.
 
     Parameters
     ----------
@@ -234,8 +240,8 @@ def chord_peak(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
 
     Returns
     -------
-    peak, u_star : ndarray, shape (m,)
-        The model's value of largest magnitude on [0, 1] and where it is.
+    low, u_low, high, u_high : ndarray, shape (m,)
+        The model's smallest value on [0, 1] and where it is; its largest and where.
     """
     u = np.asarray(fractions, dtype=float)
     basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
@@ -243,5 +249,6 @@ def chord_peak(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
     grid = np.linspace(0.0, 1.0, 101)
     model = (grid * (1.0 - grid))[None, :] * (coef[:, :1] + coef[:, 1:2] * grid
                                                + coef[:, 2:3] * grid * grid)
-    k = np.argmax(np.abs(model), axis=1)
-    return model[np.arange(len(model)), k], grid[k]
+    rows = np.arange(len(model))
+    lo, hi = np.argmin(model, axis=1), np.argmax(model, axis=1)
+    return model[rows, lo], grid[lo], model[rows, hi], grid[hi]

@@ -96,6 +96,16 @@ class PlacedSurface(ParametricSurface):
         out = self.base._partials(t, s, dt, ds) @ self.rotation.T
         return out + self.translation if (dt, ds) == (0, 0) else out
 
+    def _partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                       orders: tuple[tuple[int, int], ...]
+                       ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """The base surface's partials in one pass (it may share work), then placed."""
+        out = {order: d @ self.rotation.T
+               for order, d in self.base._partials_many(t, s, orders).items()}
+        if (0, 0) in out:
+            out[(0, 0)] += self.translation
+        return out
+
     def __repr__(self) -> str:
         return (f"PlacedSurface({self.base!r}, rotation={self.rotation.round(6).tolist()}, "
                 f"translation_mm={self.translation.tolist()})")
