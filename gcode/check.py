@@ -169,7 +169,9 @@ def _rate_issues(machine: Machine, seg: Segments) -> list[Issue]:
     if feed_rows.shape[0] == 0:
         return []
     seconds = seg.durations()[feed_rows]
-    step = joint_columns(machine, seg.end[feed_rows]) - joint_columns(machine, seg.start[feed_rows])
+    step = joint_columns(machine, seg.end[feed_rows]) - joint_columns(
+        machine, seg.start[feed_rows]
+    )
     issues = []
     lines = seg.line[feed_rows]
     for col, axis in enumerate(machine.axes):

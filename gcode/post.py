@@ -425,7 +425,9 @@ def _header(
     kin = machine.kinematics.value
     blocks.append(Comment(f"machine {machine.name}, kinematics {kin}, dialect {dialect.name}"))
     blocks.append(Comment(f"G{53 + opts.work_offset} must hold the work origin {origin} mm"))
-    blocks.extend(Comment(f"{k}: {v}") for k, v in sorted(toolpath.metadata.items()) if v != name)
+    blocks.extend(
+        Comment(f"{k}: {v}") for k, v in sorted(toolpath.metadata.items()) if v != name
+    )
     return blocks
 
 
