@@ -2,57 +2,66 @@
 
 :func:`scan` classifies every line of a file at once with numpy. A line is *fast* when it
 holds only upper-case words from ``G X Y Z A B C F N`` (axes limited to the dialect),
-each at most once, with well-formed fixed-point numbers (read by numpy's correctly
-rounded ``strtod``, so values equal ``float(text)``), spaces only between words, G only
-0 or 1, non-negative F, a valid N, and fits the dialect's line limit. Every other line
-(comments, M/S/T words, arcs,
-anything suspicious) is *slow* and goes through :class:`~gcode.blockparser.BlockParser`,
-which raises the exact error.
+each at most once, with well-formed fixed-point numbers (at most 16 characters, read
+exactly as ``float(text)`` by :mod:`gcode._digits`), spaces only between words, G only 0
+or 1, non-negative F, a valid N, and fits the dialect's line limit. Every other line
+(comments, M/S/T words, arcs, anything suspicious) is *slow* and goes through
+:class:`~gcode.blockparser.BlockParser`, which raises the exact error.
+
+The scan touches each byte a few times only: one ``bytes.translate`` into character
+classes, one pass for the positions of the non-number bytes (letters, spaces, newlines,
+others), and from then on works per word: a word's number is the run of bytes between
+its letter and the next such position.
 
 :func:`fast_run` applies a run of consecutive fast lines to the modal state with array
 operations: motion mode and feed are forward-filled from the state at the start of the
 run, and the first row that would be an error or an arc move stops the run, so that row
-is handed to the block parser. The result is identical to parsing each line with the
-block parser (tests check this).
+is handed to the block parser. The moves become a :class:`~gcode.block_sequence.MoveRun`
+(columns, no block objects). The result is identical to parsing each line with the block
+parser (tests check this on random and mutated programs).
 """
 
 from __future__ import annotations
 
-import warnings
 from dataclasses import dataclass, replace
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
 
+from gcode._digits import PAD, read_numbers, windows
+from gcode.block_sequence import MoveRun
 from gcode.blockparser import MAX_LINE_NUMBER, BlockParser
 from gcode.dialects import Dialect
 from gcode.numbers import MM_PER_INCH
-from gcode.program import AXES, DistanceMode, FeedMode, Linear, Rapid, Units, _build_many
+from gcode.program import AXES, DistanceMode, FeedMode, Units
 
 __all__ = ["Scan", "fast_run", "scan"]
 
 _COLS = "GXYZABCFN"
 _G, _F, _N = 0, 7, 8
 
-# character classes (digits and the point first: the scan splits on "> _DOT")
-_DIGIT, _DOT, _OTHER, _SPACE, _NL, _SIGN, _LETTER = range(7)
+# character classes: digits, point and signs make up numbers (class 0), the others
+# end them
+_NUM, _SPACE, _NL, _LETTER, _OTHER = range(5)
 
 
-def _classes(dialect: Dialect) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.int64]]:
-    cls = np.full(256, _OTHER, dtype=np.uint8)
-    for ch in " \t\r":
-        cls[ord(ch)] = _SPACE
+@lru_cache(maxsize=8)
+def _tables(axes: tuple[str, ...]) -> tuple[bytes, npt.NDArray[np.int64], npt.NDArray[np.float64]]:
+    """Byte -> class table, and for letters byte -> column of ``_COLS`` and 2**column."""
+    cls = bytearray([_OTHER]) * 256
+    for ch in b" \t\r":
+        cls[ch] = _SPACE
     cls[ord("\n")] = _NL
-    cls[ord("0") : ord("9") + 1] = _DIGIT
-    cls[ord(".")] = _DOT
-    cls[ord("+")] = cls[ord("-")] = _SIGN
-    col = np.full(256, -1, dtype=np.int64)
+    for ch in b"0123456789.+-":
+        cls[ch] = _NUM
+    col = np.zeros(256, dtype=np.int64)
     for n, ch in enumerate(_COLS):
-        if ch.lower() in AXES and ch.lower() not in dialect.axes:
+        if ch.lower() in AXES and ch.lower() not in axes:
             continue  # axis the dialect lacks: slow path reports it
         cls[ord(ch)] = _LETTER
         col[ord(ch)] = n
-    return cls, col
+    return bytes(cls), col, np.ldexp(1.0, col)
 
 
 @dataclass
@@ -68,7 +77,8 @@ class Scan:
     slow : ndarray of bool
         Lines the block parser must handle.
     values : ndarray of float64, shape (n_lines, 9)
-        Values of words ``G X Y Z A B C F N`` in text units; NaN where absent.
+        Values of words ``G X Y Z A B C F N`` in text units; NaN where absent (and
+        meaningless on slow lines).
     """
 
     data: bytes
@@ -90,6 +100,9 @@ class Scan:
 def scan(data: bytes, dialect: Dialect) -> Scan:
     """Classify and tokenize all lines of ``data`` at once.
 
+    The text is handled in pieces of about :data:`PIECE_BYTES` whole lines, so that the
+    per-word arrays stay in the processor caches.
+
     Parameters
     ----------
     data : bytes
@@ -102,81 +115,101 @@ def scan(data: bytes, dialect: Dialect) -> Scan:
     Scan
         Line offsets, slow-line mask and word values of the fast lines.
     """
-    raw = np.frombuffer(data, dtype=np.uint8)
-    n = raw.shape[0]
-    buf = np.concatenate((raw, np.full(3, ord("\n"), dtype=np.uint8)))  # look-ahead pad
-    cls_table, col_table = _classes(dialect)
-    nl = np.flatnonzero(raw == ord("\n"))
-    starts = np.concatenate(([0], nl + 1)).astype(np.int64)
-    ends = np.concatenate((nl, [n])).astype(np.int64)
-    if data.endswith(b"\n"):
-        starts, ends = starts[:-1], ends[:-1]
-    n_lines = starts.shape[0]
-    cls = cls_table[buf]
-    head = cls[:n]
-    slow = np.zeros(n_lines + 1, dtype=np.bool_)
+    table, col_table, bit_table = _tables(dialect.axes)
+    padded = bytes(PAD) + data + (b"" if data.endswith(b"\n") else b"\n")
+    text = _Text(
+        np.frombuffer(padded, dtype=np.uint8, offset=PAD),
+        np.frombuffer(padded.translate(table), dtype=np.uint8, offset=PAD),
+        windows(padded),
+        col_table,
+        bit_table,
+    )
+    size = len(padded) - PAD
+    pieces = []
+    a = 0
+    while a < size:
+        b = padded.find(b"\n", PAD + min(a + PIECE_BYTES, size - 1)) - PAD + 1
+        pieces.append(_scan_piece(text, a, b))
+        a = b
+    if not pieces:  # pragma: no cover - the padded text always holds a newline
+        raise AssertionError("scan of an empty text")
+    starts, ends, slow, values = (np.concatenate(p) for p in zip(*pieces, strict=True))
+    if dialect.max_line_length is not None:
+        slow |= (ends - starts) > dialect.max_line_length
+    return Scan(data, starts, ends, slow, values)
+
+
+#: Bytes of text scanned per piece (whole lines; a line longer than this is one piece).
+PIECE_BYTES = 1 << 19
+
+
+@dataclass(frozen=True)
+class _Text:
+    raw: npt.NDArray[np.uint8]  # the text (ends with a newline)
+    cls: npt.NDArray[np.uint8]  # character class of every byte
+    win: npt.NDArray[np.uint64]  # windows(padded)
+    col_table: npt.NDArray[np.int64]  # letter byte -> column of _COLS
+    bit_table: npt.NDArray[np.float64]  # letter byte -> 2.0**column
+
+
+def _scan_piece(
+    text: _Text, a: int, b: int
+) -> tuple[
+    npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.bool_], npt.NDArray[np.float64]
+]:
+    """Scan the lines in text bytes ``a .. b-1`` (``b - 1`` is a newline).
+
+    Returns the starts, ends, slow mask and (n, 9) values of those lines.
+    """
+    raw = text.raw[a:b]
+    cls = text.cls[a:b]
+    # positions of the bytes that are not part of numbers, and their classes
+    bnd = np.flatnonzero(cls)
+    bcls = cls[bnd]
+    is_nl = bcls == _NL
+    nl = bnd[is_nl]
+    n_lines = nl.shape[0]
+    starts = np.empty(n_lines, dtype=np.int64)
+    starts[:1] = 0
+    starts[1:] = nl[:-1] + 1
+    slow = np.zeros(n_lines, dtype=np.bool_)
 
     def mark(pos: npt.NDArray[np.int64]) -> None:
         slow[np.searchsorted(nl, pos)] = True
 
-    # one pass over the text for everything but digits and points (about a third of
-    # the bytes), then split that smaller set by class
-    special = np.flatnonzero(head > _DOT)
-    special_cls = head[special]
-    mark(special[special_cls == _OTHER])
-    letters = special[special_cls == _LETTER]
-    # every letter is followed by a number: [sign] digit..., or [sign] . digit...
-    p = letters + 1
-    p = p + (cls[p] == _SIGN)
-    ok = (cls[p] == _DIGIT) | ((cls[p] == _DOT) & (cls[p + 1] == _DIGIT))
-    mark(letters[~ok])
-    signs = special[special_cls == _SIGN]
-    mark(signs[cls[signs - 1] != _LETTER])  # signs only right after a letter
-    spaces = special[special_cls == _SPACE]
-    after = cls[spaces + 1]
-    mark(spaces[(after != _SPACE) & (after != _LETTER) & (after != _NL)])  # "X1 0" is slow
-    first = cls[starts]
-    slow[:n_lines] |= (first == _DIGIT) | (first == _DOT) | (first == _SIGN)
-    if dialect.max_line_length is not None:
-        slow[:n_lines] |= (ends - starts) > dialect.max_line_length
-    line_of = np.searchsorted(nl, letters)
-    col = col_table[buf[letters]]
-    # a letter twice on one line: the sum of one-hot bits differs from their OR
-    bits = np.left_shift(1, col)
-    if letters.shape[0]:
-        group = np.flatnonzero(np.diff(line_of, prepend=-1))
-        ored = np.bitwise_or.reduceat(bits, group)
-        summed = np.add.reduceat(bits, group)
-        slow[line_of[group[ored != summed]]] = True
-    # Numbers: blank letters, newlines and slow lines, then let numpy's strtod read them
-    # all (correctly rounded, like float()). Only "1.2.3" style tokens can still split
-    # into extra numbers; they are found, made slow, and the read repeated.
-    seg = np.diff(np.concatenate((starts, [n])))
-    trans = np.arange(256, dtype=np.uint8)
-    trans[cls_table == _LETTER] = ord(" ")
-    trans[[ord("\n"), ord("\r"), ord("\t")]] = ord(" ")
-    text = trans[raw]
-    for _ in range(2):
-        fast_tok = ~slow[line_of]
-        if slow[:n_lines].any():
-            text[np.repeat(slow[:n_lines], seg)] = ord(" ")
-        with warnings.catch_warnings():
-            warnings.simplefilter("ignore", DeprecationWarning)
-            nums = np.fromstring(text.tobytes().decode("ascii"), sep=" ")
-        if nums.shape[0] == int(fast_tok.sum()):
-            break
-        dots = np.flatnonzero(head == _DOT)
-        tok_of_dot = np.searchsorted(letters, dots, side="right") - 1
-        multi = np.bincount(tok_of_dot, minlength=letters.shape[0]) > 1
-        slow[line_of[multi]] = True
-    else:  # pragma: no cover - defensive: give everything to the block parser
-        slow[:] = True
-        fast_tok = np.zeros(letters.shape[0], dtype=np.bool_)
-        nums = np.empty(0)
-    values = np.full((n_lines + 1, len(_COLS)), np.nan)
-    values[line_of[fast_tok], col[fast_tok]] = nums
-    values = values[:n_lines]
-    slow = slow[:n_lines]
+    other = bcls == _OTHER
+    if other.any():
+        mark(bnd[other])
+    li = np.flatnonzero(bcls == _LETTER)  # letters, as indices into bnd
+    letters = bnd[li]
+    gap = np.diff(bnd)  # > 1: a number follows boundary k
+    word_len = gap[li]  # letter + number
+    # every number run must follow a letter (a letter without one is read as bad below)
+    if np.count_nonzero(gap > 1) != np.count_nonzero(word_len > 1):
+        # a number after a space or newline ("X1 0", a line starting with a digit)
+        loose = np.flatnonzero((gap > 1) & (bcls[:-1] != _LETTER))
+        mark(bnd[loose] + 1)
+    if cls[0] == _NUM:
+        slow[0] = True
+    line_of = np.cumsum(is_nl, dtype=np.int32)[li]  # newlines before each letter
+    letter = raw[letters]
+    col = text.col_table[letter]
+    # numbers: an optional sign right after the letter, then digits and one point
+    end = letters + word_len
+    first = raw[letters + 1]  # a letter is never last: the text ends with a newline
+    minus = first == ord("-")
+    signed = minus | (first == ord("+"))
+    nums, bad = read_numbers(text.win[a:], end, word_len - 1 - signed, minus)
+    if bad.any():
+        slow[line_of[bad]] = True
+    values = np.full(n_lines * len(_COLS), np.nan)
+    values[line_of * len(_COLS) + col] = nums
+    values = values.reshape(n_lines, len(_COLS))
+    # a letter twice on one line: adding the lines' 2**column values carries, so the
+    # sum has fewer one bits than the line has words
+    words = np.bincount(line_of, minlength=n_lines)
+    bits = np.bincount(line_of, weights=text.bit_table[letter], minlength=n_lines)
+    slow |= np.bitwise_count(bits.astype(np.uint16)) != words
     g = values[:, _G]
     f = values[:, _F]
     nw = values[:, _N]
@@ -184,7 +217,7 @@ def scan(data: bytes, dialect: Dialect) -> Scan:
         slow |= ~np.isnan(g) & (g != 0.0) & (g != 1.0)
         slow |= f < 0.0
         slow |= ~np.isnan(nw) & ((nw < 0.0) | (nw != np.floor(nw)) | (nw > MAX_LINE_NUMBER))
-    return Scan(data, starts, ends, slow, values)
+    return starts + a, nl + a, slow, values
 
 
 def _ffill(
@@ -196,22 +229,9 @@ def _ffill(
     return np.where(at >= 0, values[np.maximum(at, 0)], initial)
 
 
-def _column(
-    v: npt.NDArray[np.float64], present: npt.NDArray[np.bool_]
-) -> list[float | None] | None:
-    """Column values with None where absent (None alone: absent everywhere, broadcast)."""
-    if present.all():
-        return v.tolist()  # type: ignore[no-any-return]
-    if not present.any():
-        return None
-    obj = v.astype(object)
-    obj[~present] = None
-    return obj.tolist()  # type: ignore[no-any-return]
-
-
 def fast_run(
     sc: Scan, i: int, j: int, bp: BlockParser
-) -> tuple[int, list[Rapid | Linear], npt.NDArray[np.int64]]:
+) -> tuple[int, MoveRun, npt.NDArray[np.int64]]:
     """Apply fast lines ``i .. j-1`` to ``bp.state`` until one needs the block parser.
 
     Parameters
@@ -225,10 +245,11 @@ def fast_run(
 
     Returns
     -------
-    (k, blocks, lines)
+    (k, moves, lines)
         Lines ``i .. k-1`` were applied; ``k < j`` means line ``k`` must go through the
-        block parser (an error, or an arc move in modal G2/G3). ``blocks`` are the moves
-        and ``lines`` their 1-based line numbers.
+        block parser (an error, or an arc move in modal G2/G3). ``moves`` holds their
+        rapid and linear moves (mm, degrees, effective feed) and ``lines`` the 1-based
+        line of each move.
     """
     st = bp.state
     vals = sc.values[i:j]
@@ -253,43 +274,23 @@ def fast_run(
     bad |= has_axes & (motion >= 2.0)
     bad_at = np.flatnonzero(bad)
     k = int(bad_at[0]) if bad_at.shape[0] else m
-    if k == 0:
-        return i, [], np.empty(0, dtype=np.int64)
-
-    present = present[:k]
-    moves = has_axes[:k]
-    mm = axes[:k].copy()
+    rows = np.flatnonzero(has_axes[:k])
+    mm = axes[rows]  # a copy; NaN stays NaN
     if inch:
         mm[:, :3] *= MM_PER_INCH
-    rows = np.flatnonzero(moves)
-    kind = motion[:k][rows]
-    rapid_rows = rows[kind == 0.0]
-    lin_rows = rows[kind == 1.0]
-    out = np.empty(rows.shape[0], dtype=object)
-    for cls, sel, mask in (
-        (Rapid, rapid_rows, kind == 0.0),
-        (Linear, lin_rows, kind == 1.0),
-    ):
-        if sel.shape[0] == 0:
-            continue
-        cols: dict[str, object] = {
-            name: _column(mm[sel, n], present[sel, n]) for n, name in enumerate(AXES)
-        }
-        if cls is Linear:
-            cols["feed"] = feed[:k][sel].tolist()
-        objs = _build_many(cls, int(sel.shape[0]), cols)  # type: ignore[arg-type]
-        tmp = np.empty(len(objs), dtype=object)
-        tmp[:] = objs
-        out[mask] = tmp
+    kind = motion[rows].astype(np.int8)
+    moves = MoveRun(kind, mm, np.where(kind == 1, feed[rows], np.nan))
+    if k == 0:
+        return i, moves, rows + (i + 1)
 
     # commit: motion, feed and position after line k-1
     position = list(st.position)
     incremental = st.distance is DistanceMode.INCREMENTAL
     for n in range(6):
-        col_present = present[:, n]
-        if not col_present.any():
+        col = mm[:, n]
+        col = col[~np.isnan(col)]
+        if not col.shape[0]:
             continue
-        col = mm[col_present, n]
         if incremental:
             position[n] = float(np.cumsum(np.concatenate(([position[n]], col)))[-1])
         else:
@@ -303,4 +304,4 @@ def fast_run(
     )
     if rows.shape[0]:
         bp.motion_seen = True
-    return i + k, out.tolist(), rows + (i + 1)
+    return i + k, moves, rows + (i + 1)

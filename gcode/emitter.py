@@ -39,16 +39,16 @@ from __future__ import annotations
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from itertools import repeat
-from operator import attrgetter
 from pathlib import Path
 
 import numpy as np
 import numpy.typing as npt
 
+from gcode.block_sequence import KIND_LINEAR, MoveRun, block_runs
 from gcode.dialects import CommentStyle, Dialect
 from gcode.errors import ArcError, DialectError, ErrorCode, SyntaxGCodeError
 from gcode.modal import EXECUTION_ORDER, ModalState, MotionMode
-from gcode.numbers import MM_PER_INCH, format_matrix, format_number
+from gcode.numbers import MM_PER_INCH, format_number, format_slots
 from gcode.program import (
     AXES,
     ROTARY_AXES,
@@ -81,9 +81,7 @@ CHUNK = 65536
 _MIN_VECTOR_RUN = 32
 _STATE_TYPES = (SetFeedMode, SetPlane, SetUnits, SetWorkOffset, SetDistanceMode)
 _RANK = {t: n for n, t in enumerate(EXECUTION_ORDER)}
-_GETTERS = {name: attrgetter(name) for name in AXES}
 _MOVE_KIND = {Rapid: 0, Linear: 1}
-_NL = ord("\n")
 
 
 class _Emitter:
@@ -197,20 +195,32 @@ class _Emitter:
         return self.line_no
 
     def blocks(self, blocks: Sequence[Block]) -> None:
+        for _, part in block_runs(blocks):
+            if isinstance(part, MoveRun):
+                if self.vectorize and len(part) >= _MIN_VECTOR_RUN:
+                    for k in range(0, len(part), CHUNK):
+                        self.move_chunk(part[k : k + CHUNK])
+                else:
+                    self.scalar_chunk(part)
+            else:
+                self.block_tuple(part)
+
+    def block_tuple(self, blocks: tuple[Block, ...]) -> None:
         n = len(blocks)
         i = 0
-        # run ends: for every block, the index where its run of Rapid/Linear blocks ends
-        breaks = np.zeros(0, dtype=np.int64)  # blocks that are not Rapid/Linear, then n
-        if self.vectorize and n:
+        # blocks that are not Rapid/Linear, then n: runs of moves lie between them
+        breaks = np.zeros(0, dtype=np.int64)
+        kind = np.zeros(0, dtype=np.int8)
+        if self.vectorize and n >= _MIN_VECTOR_RUN:
             kind = np.fromiter(map(_MOVE_KIND.get, map(type, blocks), repeat(-1)), np.int8, n)
-            self.is_linear = kind == 1
             breaks = np.append(np.flatnonzero(kind < 0), n)
         while i < n:
             b = blocks[i]
             j = int(breaks[np.searchsorted(breaks, i)]) if breaks.shape[0] else i
             if j - i >= _MIN_VECTOR_RUN:
                 for k in range(i, j, CHUNK):
-                    self.motion_chunk(blocks[k : min(j, k + CHUNK)], k)
+                    stop = min(j, k + CHUNK)
+                    self.move_chunk(MoveRun.from_blocks(blocks[k:stop], kind[k:stop]))  # type: ignore[arg-type]
                 i = j
                 continue
             if isinstance(b, _STATE_TYPES):
@@ -370,55 +380,63 @@ class _Emitter:
         self.code_line(words)
 
     # ---------------------------------------------------------------- vector path
-    def motion_chunk(self, run: Sequence[Rapid | Linear], offset: int) -> None:
+    def move_chunk(self, run: MoveRun) -> None:
+        """Write a run of moves as one line matrix of 4-byte text slots (see module doc)."""
         m = len(run)
         d = self.d
-        is_lin = self.is_linear[offset : offset + m]
-        columns = _axis_columns(run)
+        is_lin = run.kind == KIND_LINEAR
         words: list[_Word] = []
 
         if d.line_numbers:
             start, step = d.line_number_start, d.line_number_step
             cycle = (d.line_number_max - start) // step + 1
             ns = start + step * ((self.n_index + np.arange(m)) % cycle)
-            res = format_matrix(ns.astype(np.float64), 0)
-            if res is None:
+            digits = format_slots(ns.astype(np.float64), 0)
+            if digits is None:
                 return self.scalar_chunk(run)
-            words.append(_Word("N", *res, np.ones(m, dtype=np.bool_)))
+            words.append(_Word((b"N",), None, None, digits))
 
-        code = is_lin.astype(np.int64)  # 0 = G0, 1 = G1
-        prev = np.empty(m, dtype=np.int64)
-        prev[0] = -1 if self.motion is None else int(self.motion)
-        prev[1:] = code[:-1]
+        present = [~np.isnan(run.axes[:, n]) for n in range(6)]
         any_axis = np.zeros(m, dtype=np.bool_)
-        for col in columns.values():
-            any_axis |= col[1]
-        write_g = (code != prev) | ~any_axis
-        if not d.suppress_modal:
-            write_g[:] = True
-        gtab = np.array([list(self.g[0][1:].encode()), list(self.g[1][1:].encode())], np.uint8)
-        gchars = gtab[code]
-        words.append(_Word("G", gchars, np.ones(gchars.shape, dtype=np.bool_), write_g))
+        for col in present:
+            any_axis |= col
+        code = is_lin.astype(np.intp)  # 0 = G0, 1 = G1
+        if d.suppress_modal:
+            prev = np.empty(m, dtype=np.intp)
+            prev[0] = -1 if self.motion is None else int(self.motion)
+            prev[1:] = code[:-1]
+            write_g = (code != prev) | ~any_axis
+        else:
+            write_g = None
+        words.append(_Word((self.g[0].encode(), self.g[1].encode()), write_g, code, []))
 
         inch = self.inch
-        for name, (vals, pres) in columns.items():
+        for n, name in enumerate(AXES):
+            axis_present = present[n]
+            if not axis_present.any():
+                continue
             if name not in d.axes:
                 raise DialectError(
                     ErrorCode.UNSUPPORTED_COMMAND, f"{d.name} has no {name.upper()} axis"
                 )
+            vals = run.axes[:, n]
+            every = bool(axis_present.all())
+            if not every:
+                vals = np.where(axis_present, vals, 0.0)
             if inch and name not in ROTARY_AXES:
                 vals = vals / MM_PER_INCH
-            res = format_matrix(vals, self.coord_decimals(name), **self.fmt_kw)
-            if res is None:
+            digits = format_slots(vals, self.coord_decimals(name), **self.fmt_kw)
+            if digits is None:
                 return self.scalar_chunk(run)
-            words.append(_Word(name.upper(), *res, pres))
+            words.append(
+                _Word((name.upper().encode(),), None if every else axis_present, None, digits)
+            )
 
         last_q = self.feed_q
-        if is_lin.any():
-            lin_idx = np.flatnonzero(is_lin)
-            all_feeds = np.fromiter(map(getattr, run, repeat("feed"), repeat(0.0)), np.float64, m)
-            feeds = all_feeds[lin_idx]
+        lin_idx = np.flatnonzero(is_lin)
+        if lin_idx.shape[0]:
             inverse = self.state.feed_mode is FeedMode.INVERSE_TIME
+            feeds = run.feed[lin_idx]
             if inch and not inverse:
                 feeds = feeds / MM_PER_INCH
             dec = self.feed_decimals()
@@ -428,115 +446,128 @@ class _Emitter:
             qi = q.astype(np.int64)
             if (qi <= 0).any():
                 return self.scalar_chunk(run)  # the scalar path raises at the right line
-            prev_q = np.empty_like(qi)
-            prev_q[0] = -1 if self.feed_q is None else self.feed_q
-            prev_q[1:] = qi[:-1]
             if d.suppress_modal and not inverse:
-                write_f_lin = qi != prev_q
+                prev_q = np.empty_like(qi)
+                prev_q[0] = -1 if self.feed_q is None else self.feed_q
+                prev_q[1:] = qi[:-1]
+                changed = qi != prev_q
             else:
-                write_f_lin = np.ones(qi.shape, dtype=np.bool_)
-            write_f = np.zeros(m, dtype=np.bool_)
-            write_f[lin_idx] = write_f_lin
-            f_rows = np.flatnonzero(write_f)  # format only the F words written
-            res = format_matrix(all_feeds[f_rows] / (MM_PER_INCH if inch and not inverse else 1.0),
-                                dec, **self.fmt_kw)  # fmt: skip
-            if res is None:
+                changed = np.ones(qi.shape, dtype=np.bool_)
+            digits = format_slots(feeds[changed], dec, **self.fmt_kw)  # written F only
+            if digits is None:
                 return self.scalar_chunk(run)
-            f_chars = np.zeros((m, res[0].shape[1]), dtype=np.uint8)
-            f_keep = np.zeros((m, res[0].shape[1]), dtype=np.bool_)
-            f_chars[f_rows], f_keep[f_rows] = res
-            words.append(_Word("F", f_chars, f_keep, write_f))
+            write_f = np.zeros(m, dtype=np.bool_)
+            f_rows = lin_idx[changed]
+            write_f[f_rows] = True
+            f_slots = []
+            for col in digits:
+                full = np.zeros(m, dtype=col.dtype)
+                full[f_rows] = col
+                f_slots.append(full)
+            words.append(_Word((b"F",), write_f, None, f_slots))
             last_q = int(qi[-1])
-            feed = run[int(lin_idx[-1])].feed  # type: ignore[union-attr]
+            feed = float(run.feed[lin_idx[-1]])
         else:
             feed = self.state.feed
 
-        chars, keep = _assemble(words, self.sep)
+        text, n_words = _line_matrix(words, self.sep.encode(), m)
         limit = d.max_line_length
-        count = np.zeros(m, dtype=np.int64)
-        longest = chars.shape[1] - 1 - (len(words) - 1 if self.sep else 0)
-        if limit is not None and longest > limit:  # some line may be too long: count
-            count = keep.sum(axis=1) - 1  # minus the newline
+        if limit is not None and text.shape[1] > limit:  # some line may be too long: count
+            count = np.count_nonzero(text, axis=1) - 1  # minus the newline
             if self.sep:  # separators are not counted (GRBL strips spaces)
-                n_words = sum(w.present.astype(np.int64) for w in words)
-                count -= np.maximum(n_words - 1, 0)
-        if limit is not None and int(count.max()) > limit:
-            bad = int(np.flatnonzero(count > limit)[0])
-            self.flush()
-            self.line_no += bad + 1
-            line = chars[bad][keep[bad]].tobytes().decode("ascii").rstrip("\n")
-            raise SyntaxGCodeError(
-                ErrorCode.LINE_OVERFLOW,
-                f"{int(count[bad])} characters exceed the {d.name} limit of {limit}",
-                line=self.line_no,
-                text=line,
-            )
+                count -= np.maximum(n_words - 1, 0) * len(self.sep)
+            if int(count.max()) > limit:
+                bad = int(np.flatnonzero(count > limit)[0])
+                self.flush()
+                self.line_no += bad + 1
+                line = bytes(text[bad][text[bad] != 0]).decode("ascii").rstrip("\n")
+                raise SyntaxGCodeError(
+                    ErrorCode.LINE_OVERFLOW,
+                    f"{int(count[bad])} characters exceed the {d.name} limit of {limit}",
+                    line=self.line_no,
+                    text=line,
+                )
         self.flush()
-        self.w.write(str(memoryview(chars[keep]), "ascii"))
+        self.w.write(str(text.tobytes().translate(None, b"\0"), "ascii"))
         self.line_no += m
         if d.line_numbers:
             self.n_index += m
-        last = run[-1]
-        self.motion = MotionMode.LINEAR if type(last) is Linear else MotionMode.RAPID
+        self.motion = MotionMode.LINEAR if is_lin[-1] else MotionMode.RAPID
         self.feed_q = last_q
         self.state = replace(self.state, motion=self.motion, feed=feed)
         return None
 
-    def scalar_chunk(self, run: Sequence[Rapid | Linear]) -> None:
-        for b in run:
+    def scalar_chunk(self, run: MoveRun) -> None:
+        for b in run.blocks():
             self.block(b)
-
-
-def _axis_columns(
-    run: Sequence[Rapid | Linear],
-) -> dict[str, tuple[npt.NDArray[np.float64], npt.NDArray[np.bool_]]]:
-    """Values (0 where absent) and presence of each axis used in ``run``, in word order.
-
-    IR values are finite, so NaN marks exactly the absent words (numpy turns ``None``
-    into NaN when it builds a float array).
-    """
-    m = len(run)
-    out = {}
-    for name, getter in _GETTERS.items():
-        col = list(map(getter, run))
-        if col[0] is None and col.count(None) == m:
-            continue
-        vals = np.array(col, dtype=np.float64)
-        present = ~np.isnan(vals)
-        if not present.all():
-            vals[~present] = 0.0
-        out[name] = (vals, present)
-    return out
 
 
 @dataclass(frozen=True)
 class _Word:
-    """One word of every line of a chunk: letter, value characters, which are written."""
+    """One word of every line of a chunk, as columns of text slots.
 
-    letter: str
-    chars: npt.NDArray[np.uint8]  # (m, w) value characters
-    keep: npt.NDArray[np.bool_]  # (m, w) characters written when the word is present
-    present: npt.NDArray[np.bool_]  # (m,) the word is on the line
+    ``heads[v]`` starts the word (its letter, or the whole G code) on rows of variant
+    ``v`` (``variant`` per row, None for 0); ``digits`` are the value's slot columns
+    from :func:`~gcode.numbers.format_slots` (empty for none); ``present`` says which
+    lines have the word (None: all).
+    """
+
+    heads: tuple[bytes, ...]
+    present: npt.NDArray[np.bool_] | None
+    variant: npt.NDArray[np.intp] | None
+    digits: list[npt.NDArray[np.uint32] | npt.NDArray[np.uint16]]
 
 
-def _assemble(words: list[_Word], sep: str) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]]:
-    """Place words side by side (separator, letter, value) with a final newline column."""
-    m = words[0].chars.shape[0]
-    parts_c: list[npt.NDArray[np.uint8]] = []
-    parts_k: list[npt.NDArray[np.bool_]] = []
-    seen = np.zeros(m, dtype=np.bool_)
+def _line_matrix(
+    words: list[_Word], sep: bytes, m: int
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.int64]]:
+    """Lines as rows of bytes: NUL-padded words, separators, a final newline.
+
+    Deleting every NUL byte of the matrix gives the text. Also returns the number of
+    words on each line. A word's head comes from a table indexed by whether the word is
+    present, whether an earlier word is (then the separator goes in front), and its
+    variant. Every slot column is written as one strided 2- or 4-byte column.
+    """
+    head_bytes = 2 * max(-(-(len(sep) + len(h)) // 2) for w in words for h in w.heads)
+    head_type = np.uint16 if head_bytes == 2 else np.uint32 if head_bytes == 4 else None
+    if head_type is None:
+        raise ValueError(f"word heads of {head_bytes} bytes (separator {sep!r}) are too long")
+    width = sum(head_bytes + sum(d.itemsize for d in w.digits) for w in words) + 2
+    matrix = np.empty((m, width), dtype=np.uint8)
+
+    def column(offset: int, dtype: type) -> npt.NDArray[np.generic]:
+        return np.ndarray((m,), dtype=dtype, buffer=matrix, offset=offset, strides=(width,))
+
+    seen = np.zeros(m, dtype=np.bool_)  # an earlier word is on the line
+    n_words = np.zeros(m, dtype=np.int64)
+    c = 0
     for w in words:
-        if sep:
-            parts_c.append(np.full((m, 1), ord(sep), dtype=np.uint8))
-            parts_k.append((w.present & seen)[:, None])
+        # rows: absent, then (no earlier word, earlier word) x variants
+        texts = [b"", *(s + h for s in (b"", sep) for h in w.heads)]
+        table = np.frombuffer(b"".join(t.ljust(head_bytes, b"\0") for t in texts), head_type)
+        index = seen * len(w.heads) if sep else np.zeros(m, dtype=np.intp)
+        if w.variant is not None:
+            index = index + w.variant
+        index += 1
+        if w.present is not None:
+            index *= w.present
+        column(c, head_type)[...] = table[index]
+        c += head_bytes
+        for digits in w.digits:
+            out = column(c, digits.dtype.type)
+            if w.present is None:
+                out[...] = digits
+            else:
+                np.multiply(digits, w.present, out=out)
+            c += digits.itemsize
+        if w.present is not None:
             seen |= w.present
-        parts_c.append(np.full((m, 1), ord(w.letter), dtype=np.uint8))
-        parts_k.append(w.present[:, None])
-        parts_c.append(w.chars)
-        parts_k.append(w.keep if w.present.all() else w.keep & w.present[:, None])
-    parts_c.append(np.full((m, 1), _NL, dtype=np.uint8))
-    parts_k.append(np.ones((m, 1), dtype=np.bool_))
-    return np.concatenate(parts_c, axis=1), np.concatenate(parts_k, axis=1)
+            n_words += w.present
+        else:
+            seen[:] = True
+            n_words += 1
+    column(c, np.uint16)[...] = ord("\n")  # one newline byte and one NUL, either order
+    return matrix, n_words
 
 
 def emit(program: Program, dialect: Dialect, writer: Writer, *, vectorize: bool = True) -> int:

@@ -4,7 +4,8 @@ Each rapid, linear or arc block becomes one segment with absolute start and end
 positions X Y Z A B C (mm, degrees) in machine coordinates (program coordinates plus the
 active work offset), its feed (mm/min, or 1/min in inverse time), kind, arc centre and
 plane, and the source line. Arcs stay arcs; :meth:`Segments.linearize` turns them into
-chords within a chord tolerance. Runs of rapid and linear moves are expanded with numpy;
+chords within a chord tolerance. Runs of rapid and linear moves are expanded with numpy,
+straight from the columns of parsed programs (:mod:`gcode.block_sequence`);
 modal bookkeeping uses :class:`gcode.modal.ModalState`, shared with parser and emitter.
 
 Examples
@@ -21,14 +22,14 @@ from __future__ import annotations
 import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, replace
-from operator import attrgetter
 
 import numpy as np
 import numpy.typing as npt
 
+from gcode.block_sequence import KIND_LINEAR, MoveRun, block_runs
 from gcode.errors import ArcError, ErrorCode
 from gcode.modal import ModalState, MotionMode
-from gcode.program import AXES, Arc, DistanceMode, Dwell, FeedMode, Linear, Program, Rapid
+from gcode.program import Arc, DistanceMode, Dwell, FeedMode, Linear, Program, Rapid
 
 __all__ = [
     "DEFAULT_CHORD_TOLERANCE_MM",
@@ -40,11 +41,10 @@ __all__ = [
     "interpret",
 ]
 
-KIND_RAPID, KIND_LINEAR, KIND_ARC_CW, KIND_ARC_CCW = 0, 1, 2, 3
+KIND_RAPID, KIND_ARC_CW, KIND_ARC_CCW = 0, 2, 3  # KIND_LINEAR = 1 as in MoveRun
 #: Default chord tolerance for :meth:`Segments.linearize` (mm): 1 um, the resolution of
 #: the coordinates we write, so linearizing adds no error visible in the text.
 DEFAULT_CHORD_TOLERANCE_MM = 0.001
-_GET_AXES = attrgetter(*AXES)
 _PLANE_IDX = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
 
 FloatArray = npt.NDArray[np.float64]
@@ -284,58 +284,68 @@ def interpret(
     st = state if state is not None else ModalState()
     offsets = {k: np.asarray(v, dtype=np.float64) for k, v in (work_offsets or {}).items()}
     zero = np.zeros(6)
-    blocks = program.blocks
-    lines = program.source_lines or tuple(range(1, len(blocks) + 1))
+    n = len(program.blocks)
+    if program.source_lines is None:
+        lines = np.arange(1, n + 1, dtype=np.int64)
+    else:
+        lines = np.asarray(program.source_lines, dtype=np.int64)
     out = _Out()
     dwell = 0.0
-    n = len(blocks)
-    i = 0
-    while i < n:
-        b = blocks[i]
-        if type(b) in (Rapid, Linear):
-            j = i + 1
-            while j < n and type(blocks[j]) in (Rapid, Linear):
-                j += 1
-            st = _motion_run(blocks[i:j], lines[i:j], st, offsets.get(st.wcs, zero), out)  # type: ignore[arg-type]
-            i = j
+    for first, part in block_runs(program.blocks):
+        if isinstance(part, MoveRun):
+            end = first + len(part)
+            st = _motion_run(part, lines[first:end], st, offsets.get(st.wcs, zero), out)
             continue
-        if isinstance(b, Arc):
-            off = offsets.get(st.wcs, zero)
-            start = np.asarray(st.position) + off
-            new = st.apply(b)
-            end = np.asarray(new.position) + off
-            centre = _arc_centre(b, start, end, lines[i])
-            out.add(
-                start=start[None],
-                end=end[None],
-                kind=np.array([KIND_ARC_CW if b.clockwise else KIND_ARC_CCW], dtype=np.int8),
-                feed=np.array([b.feed]),
-                inverse_time=np.array([st.feed_mode is FeedMode.INVERSE_TIME]),
-                centre=np.array([centre]),
-                plane=np.array([int(b.plane)], dtype=np.int8),
-                line=np.array([lines[i]], dtype=np.int64),
-            )
-            st = new
-        else:
-            if isinstance(b, Dwell):
-                dwell += b.seconds
-            st = st.apply(b)
-        i += 1
+        m = len(part)
+        i = 0
+        while i < m:
+            b = part[i]
+            if type(b) in (Rapid, Linear):
+                j = i + 1
+                while j < m and type(part[j]) in (Rapid, Linear):
+                    j += 1
+                run = MoveRun.from_blocks(part[i:j])  # type: ignore[arg-type]
+                rows = lines[first + i : first + j]
+                st = _motion_run(run, rows, st, offsets.get(st.wcs, zero), out)
+                i = j
+                continue
+            if isinstance(b, Arc):
+                off = offsets.get(st.wcs, zero)
+                start = np.asarray(st.position) + off
+                new = st.apply(b)
+                end_pos = np.asarray(new.position) + off
+                line = int(lines[first + i])
+                centre = _arc_centre(b, start, end_pos, line)
+                out.add(
+                    start=start[None],
+                    end=end_pos[None],
+                    kind=np.array([KIND_ARC_CW if b.clockwise else KIND_ARC_CCW], dtype=np.int8),
+                    feed=np.array([b.feed]),
+                    inverse_time=np.array([st.feed_mode is FeedMode.INVERSE_TIME]),
+                    centre=np.array([centre]),
+                    plane=np.array([int(b.plane)], dtype=np.int8),
+                    line=np.array([line], dtype=np.int64),
+                )
+                st = new
+            else:
+                if isinstance(b, Dwell):
+                    dwell += b.seconds
+                st = st.apply(b)
+            i += 1
     return _collect(out, dwell)
 
 
 def _motion_run(
-    run: Sequence[Rapid | Linear],
-    lines: Sequence[int],
+    run: MoveRun,
+    lines: npt.NDArray[np.int64],
     st: ModalState,
     offset: FloatArray,
     out: _Out,
 ) -> ModalState:
+    """Expand a run of rapid/linear moves (columns) from state ``st``; return the state after."""
     m = len(run)
-    table = np.array(list(map(_GET_AXES, run)), dtype=object).reshape(m, 6)
-    present = np.not_equal(table, None)
-    vals = np.zeros((m, 6))
-    vals[present] = table[present].astype(np.float64)
+    present = ~np.isnan(run.axes)
+    vals = np.where(present, run.axes, 0.0)
     pos0 = np.asarray(st.position, dtype=np.float64)
     if st.distance is DistanceMode.INCREMENTAL:
         ends = np.cumsum(np.concatenate((pos0[None], vals)), axis=0)[1:]
@@ -344,25 +354,22 @@ def _motion_run(
         np.maximum.accumulate(at, axis=0, out=at)
         ends = np.where(at >= 0, vals[np.maximum(at, 0), np.arange(6)[None, :]], pos0[None, :])
     starts = np.concatenate((pos0[None], ends[:-1]))
-    is_lin = np.fromiter((type(b) is Linear for b in run), dtype=np.bool_, count=m)
-    feed = np.full(m, np.nan)
-    lin_at = np.flatnonzero(is_lin)
-    feed[lin_at] = [run[k].feed for k in lin_at.tolist()]  # type: ignore[union-attr]
+    is_lin = run.kind == KIND_LINEAR
     out.add(
         start=starts + offset,
         end=ends + offset,
         kind=is_lin.astype(np.int8),
-        feed=feed,
+        feed=np.array(run.feed),
         inverse_time=np.full(m, st.feed_mode is FeedMode.INVERSE_TIME),
         centre=np.full((m, 3), np.nan),
         plane=np.full(m, int(st.plane), dtype=np.int8),
-        line=np.asarray(lines, dtype=np.int64),
+        line=np.array(lines, dtype=np.int64),
     )
-    last_lin = run[int(lin_at[-1])] if lin_at.shape[0] else None
+    lin_at = np.flatnonzero(is_lin)
     return replace(
         st,
         motion=MotionMode.LINEAR if is_lin[-1] else MotionMode.RAPID,
-        feed=last_lin.feed if last_lin is not None else st.feed,  # type: ignore[union-attr]
+        feed=float(run.feed[lin_at[-1]]) if lin_at.shape[0] else st.feed,
         position=tuple(ends[-1].tolist()),  # type: ignore[arg-type]
     )
 

@@ -1,7 +1,8 @@
 """The one number formatter and reader for all G-code text.
 
 Every number the emitter writes goes through :func:`format_number` (one value) or
-:func:`format_matrix` (a whole column, vectorized with numpy); the parser reads numbers
+:func:`format_slots` / :func:`format_matrix` (a whole column, vectorized with numpy,
+same text); the parser reads numbers
 with :func:`read_number` or the same grammar (:data:`NUMBER_PATTERN`). Rules:
 
 * fixed point with a number of decimals chosen by the kind of value (:class:`Decimals`);
@@ -32,6 +33,7 @@ import re
 from dataclasses import dataclass
 from enum import Enum
 from fractions import Fraction
+from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
@@ -46,6 +48,7 @@ __all__ = [
     "format_array",
     "format_matrix",
     "format_number",
+    "format_slots",
     "read_number",
 ]
 
@@ -190,13 +193,13 @@ _DIGITS4 = np.array([list(f"{i:04d}".encode()) for i in range(10_000)], dtype=np
 # the same rows as one uint32 each: a 1-D gather is far cheaper than a 2-D one
 _DIGITS4_U32 = np.ascontiguousarray(_DIGITS4).view(np.uint32).ravel()
 # keep masks of a right-aligned 4-digit field by digit count 0..4, as uint32 rows
-_KEEP4_U32 = np.array(
-    [[0] * (4 - k) + [1] * k for k in range(5)], dtype=np.uint8
-).view(np.uint32).ravel()
+_KEEP4_U32 = (
+    np.array([[0] * (4 - k) + [1] * k for k in range(5)], dtype=np.uint8).view(np.uint32).ravel()
+)
 # keep masks of a left-aligned 4-digit field by digit count 0..4 (fractions)
-_KEEP4_LEFT_U32 = np.array(
-    [[1] * k + [0] * (4 - k) for k in range(5)], dtype=np.uint8
-).view(np.uint32).ravel()
+_KEEP4_LEFT_U32 = (
+    np.array([[1] * k + [0] * (4 - k) for k in range(5)], dtype=np.uint8).view(np.uint32).ravel()
+)
 # fraction lengths left after trimming trailing zeros, for up to 4 decimals
 _FRAC_TRIMMED = {
     d: np.array([len(f"{i:0{d}d}".rstrip("0")) for i in range(10**d)], dtype=np.int8)
@@ -312,6 +315,144 @@ def format_matrix(
         chars[:, point + 1 :] = fchars
         keep[:, point + 1 :] = fkeep
     return chars, keep
+
+
+@lru_cache(maxsize=1)
+def _whole_tables() -> dict[str, npt.NDArray[np.uint32]]:
+    """Text slots of whole parts, four bytes each, NUL where nothing is written.
+
+    ``full``: 0..9999 zero padded; ``lead``: the same right-aligned without leading
+    zeros (one ``0`` for zero); ``blank``: like ``lead`` but empty for zero (leading
+    groups of large numbers); ``signed``: ``lead`` of 0..999, then ``-0``..``-999``.
+    """
+    full = [f"{i:04d}" for i in range(10_000)]
+    lead = [str(i) for i in range(10_000)]
+    blank = ["", *lead[1:]]
+    signed = [*lead[:1000], *("-" + t for t in lead[:1000])]
+    return {
+        name: np.frombuffer(b"".join(t.encode().rjust(4, b"\0") for t in texts), np.uint32)
+        for name, texts in (("full", full), ("lead", lead), ("blank", blank), ("signed", signed))
+    }
+
+
+@lru_cache(maxsize=32)
+def _fraction_tables(
+    decimals: int, trim: bool, keep_point: bool
+) -> tuple[npt.NDArray[np.uint32] | npt.NDArray[np.uint16], ...]:
+    """Point and fraction of 0 .. 10**decimals - 1 as 4- and 2-byte slot tables."""
+    width = 2 * -(-(decimals + 1) // 2)
+    rows = []
+    for i in range(10**decimals):
+        frac = f"{i:0{decimals}d}"
+        if trim:
+            frac = frac.rstrip("0")
+        text = "." + frac if frac or keep_point else ""
+        rows.append(text.encode().ljust(width, b"\0"))
+    table = np.frombuffer(b"".join(rows), dtype=np.uint8).reshape(10**decimals, width)
+    return tuple(
+        np.ascontiguousarray(table[:, c : c + 4 if width - c >= 4 else c + 2]).view(
+            np.uint32 if width - c >= 4 else np.uint16
+        )[:, 0]
+        for c in range(0, width, 4)
+    )
+
+
+def format_slots(
+    values: npt.ArrayLike, decimals: int = 3, *, trim: bool = True, keep_point: bool = False
+) -> list[npt.NDArray[np.uint32] | npt.NDArray[np.uint16]] | None:
+    """Format a column of values as columns of NUL-padded text slots.
+
+    Row ``n``'s text is the bytes of ``slot[n]`` for each returned slot column in order,
+    with their NUL bytes deleted: exactly ``format_number(values[n], ...)``. The emitter
+    writes such columns side by side into a line matrix and deletes all NUL bytes at
+    once. Sign and whole part below 1000 come from one table look-up, larger whole parts
+    four digits per look-up, the point and fraction (trimmed or not) from one more when
+    ``decimals <= 4``; more decimals go through :func:`format_matrix`.
+
+    Parameters
+    ----------
+    values : array_like of float, shape (n,)
+        Values in the output unit.
+    decimals : int
+        Digits after the point (0-9).
+    trim : bool
+        Drop trailing zeros of the fraction.
+    keep_point : bool
+        Keep a trailing point on integral values when ``decimals > 0``.
+
+    Returns
+    -------
+    list of ndarray of uint32 or uint16, each shape (n,), or None
+        The slot columns (4 or 2 bytes of text per row); None when some value is too
+        large for the vector path (callers then use :func:`format_number`).
+
+    Raises
+    ------
+    GCodeError
+        Code NOT_FINITE if any value is NaN or infinite.
+    """
+    v = np.asarray(values, dtype=np.float64)
+    n = v.shape[0]
+    if n == 0:
+        return []
+    if decimals > 4:
+        return _slots_of_matrix(format_matrix(v, decimals, trim=trim, keep_point=keep_point))
+    scale = float(10**decimals)
+    q = v * scale
+    np.rint(q, out=q)
+    negative = q < 0.0  # -0.0 is not below zero: never "-0"
+    np.abs(q, out=q)
+    top_q = float(q.max())
+    if not math.isfinite(top_q):
+        raise _not_finite(float(v[~np.isfinite(v)][0]))
+    if top_q >= _VECTOR_LIMIT or float(np.abs(v).max()) >= 1e15:
+        return None
+    if top_q < 2.0**52:  # exact in float64: floor division without int64 divmod
+        whole_f = q / scale
+        np.floor(whole_f, out=whole_f)
+        whole = whole_f.astype(np.intp)
+        whole_f *= scale
+        q -= whole_f
+        frac = q.astype(np.intp)
+    else:
+        whole, frac = np.divmod(q.astype(np.int64), 10**decimals)
+    tables = _whole_tables()
+    top_whole = int(top_q) // 10**decimals
+    slots: list[npt.NDArray[np.uint32] | npt.NDArray[np.uint16]] = []
+    if top_whole < 1000:  # sign and up to three digits in four bytes
+        whole += negative * 1000
+        slots.append(tables["signed"][whole])
+    else:
+        slots.append(np.where(negative, _MINUS_SLOT, _NUL_SLOT))
+        groups = -(-len(str(top_whole)) // 4)
+        above = np.zeros(n, dtype=np.bool_)  # a higher group is not zero
+        for g in range(groups):
+            unit = 10 ** (4 * (groups - 1 - g))
+            group = (whole // unit) % 10_000
+            first = tables["lead" if g == groups - 1 else "blank"][group]
+            slots.append(np.where(above, tables["full"][group], first))
+            above |= group > 0
+    if decimals:
+        slots.extend(table[frac] for table in _fraction_tables(decimals, trim, keep_point))
+    return slots
+
+
+_MINUS_SLOT = np.frombuffer(b"\0-", dtype=np.uint16)[0]
+_NUL_SLOT = np.uint16(0)
+
+
+def _slots_of_matrix(
+    res: tuple[npt.NDArray[np.uint8], npt.NDArray[np.bool_]] | None,
+) -> list[npt.NDArray[np.uint32] | npt.NDArray[np.uint16]] | None:
+    """Slot columns from :func:`format_matrix` output (kept characters, NUL elsewhere)."""
+    if res is None:
+        return None
+    chars, keep = res
+    n, w = chars.shape
+    text = np.zeros((n, w + w % 2), dtype=np.uint8)
+    text[:, :w] = np.where(keep, chars, 0)
+    pairs = text.view(np.uint16)
+    return [np.ascontiguousarray(pairs[:, c]) for c in range(pairs.shape[1])]
 
 
 def format_array(

@@ -12,8 +12,9 @@ in mm: a G20 program parses to the same millimetre IR as its G21 twin. Units wor
 before the first move set ``Program.units`` (no block); later ones become ``SetUnits``.
 
 Plain move lines (the bulk of real programs) are tokenized and applied with numpy
-(:mod:`gcode._scan`); everything else goes through the block parser, with identical
-results (``fast=False`` forces the block parser everywhere).
+(:mod:`gcode._scan`) and kept as columns (a :class:`~gcode.block_sequence.BlockSequence`
+of move runs, whose blocks are built when used); everything else goes through the block
+parser, with identical results (``fast=False`` forces the block parser everywhere).
 
 Examples
 --------
@@ -27,36 +28,19 @@ Linear(x=10.0, y=None, z=None, a=None, b=None, c=None, feed=500.0)
 
 from __future__ import annotations
 
-import gc
-from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
+import numpy.typing as npt
 
 from gcode._scan import fast_run, scan
+from gcode.block_sequence import BlockSequence, MoveRun
 from gcode.blockparser import BlockParser
 from gcode.dialects import GENERIC, Dialect
 from gcode.errors import GCodeError
 from gcode.program import Block, Program, Units
 
 __all__ = ["parse", "parse_file", "parse_with_errors"]
-
-
-@contextmanager
-def _no_gc() -> Iterator[None]:
-    """Pause the cyclic GC while building many small objects (restored afterwards).
-
-    Parsing allocates one object per block and creates no reference cycles; without
-    this, generation-0 collections triggered by the allocations take a third of the time.
-    """
-    was = gc.isenabled()
-    gc.disable()
-    try:
-        yield
-    finally:
-        if was:
-            gc.enable()
 
 
 def _parse(
@@ -73,8 +57,9 @@ def _parse(
     n = sc.n_lines
     slow = sc.slow if fast else np.ones(n, dtype=np.bool_)
     slow_at = np.flatnonzero(slow)
-    blocks: list[Block] = []
-    lines: list[np.ndarray] = []
+    parts: list[tuple[Block, ...] | MoveRun] = []
+    pending: list[Block] = []  # blocks of slow lines since the last move run
+    lines: list[npt.NDArray[np.int64]] = []
     errors: list[GCodeError] = []
 
     def one(k: int) -> None:
@@ -86,33 +71,37 @@ def _parse(
             errors.append(err)
             return
         if new:
-            blocks.extend(new)
+            pending.extend(new)
             lines.append(np.full(len(new), k + 1, dtype=np.int64))
 
     i = 0
-    with _no_gc():
-        while i < n and not bp.ended:
-            if slow[i]:
-                one(i)
-                i += 1
-                continue
-            at = int(np.searchsorted(slow_at, i))
-            j = int(slow_at[at]) if at < slow_at.shape[0] else n
-            k, moves, move_lines = fast_run(sc, i, j, bp)
-            blocks.extend(moves)
+    while i < n and not bp.ended:
+        if slow[i]:
+            one(i)
+            i += 1
+            continue
+        at = int(np.searchsorted(slow_at, i))
+        j = int(slow_at[at]) if at < slow_at.shape[0] else n
+        k, moves, move_lines = fast_run(sc, i, j, bp)
+        if len(moves):
+            parts.append(tuple(pending))
+            pending.clear()
+            parts.append(moves)
             lines.append(move_lines)
-            i = k
-            if k < j:  # this line needs the block parser (error or arc)
-                one(k)
-                i = k + 1
-        src = np.concatenate(lines).tolist() if lines else []
-        program = Program(
-            tuple(blocks),
-            name=bp.name,
-            number=bp.number,
-            units=bp.units if bp.units is not None else Units.MM,
-            source_lines=tuple(src),
-        )
+        i = k
+        if k < j:  # this line needs the block parser (error or arc)
+            one(k)
+            i = k + 1
+    parts.append(tuple(pending))
+    src = tuple(np.concatenate(lines).tolist()) if lines else ()
+    blocks = parts[0] if len(parts) == 1 else BlockSequence(parts)
+    program = Program(
+        blocks,
+        name=bp.name,
+        number=bp.number,
+        units=bp.units if bp.units is not None else Units.MM,
+        source_lines=src,
+    )
     return program, errors
 
 

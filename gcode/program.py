@@ -22,12 +22,11 @@ Examples
 from __future__ import annotations
 
 import math
-from collections import deque
-from collections.abc import Iterable, Iterator, Sequence
-from dataclasses import dataclass, field, fields
+from abc import abstractmethod
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass, field
 from enum import IntEnum
-from itertools import repeat
-from typing import Any, TypeAlias
+from typing import Any, TypeAlias, overload
 
 __all__ = [
     "AXES",
@@ -53,6 +52,7 @@ __all__ = [
     "SetWorkOffset",
     "Spindle",
     "SpindleDirection",
+    "StoredBlocks",
     "ToolChange",
     "Units",
 ]
@@ -314,14 +314,35 @@ Block: TypeAlias = (
 )
 
 
+class StoredBlocks(Sequence["Block"]):
+    """Base of immutable block sequences stored otherwise than as a tuple.
+
+    ``Program.blocks`` is a tuple or one of these (see :mod:`gcode.block_sequence`, where
+    parsed runs of plain moves stay numpy columns). Implementations are read-only, hold
+    the same values as ``tuple(self)``, and compare equal to that tuple.
+    """
+
+    __slots__ = ()
+
+    @overload
+    def __getitem__(self, index: int) -> Block: ...
+    @overload
+    def __getitem__(self, index: slice) -> Sequence[Block]: ...
+    @abstractmethod
+    def __getitem__(self, index: int | slice) -> Block | Sequence[Block]:
+        """Block ``index`` (or the blocks of a slice)."""
+
+
 @dataclass(frozen=True, slots=True)
 class Program:
     """A G-code program: a tuple of blocks plus metadata.
 
     Parameters
     ----------
-    blocks : tuple of Block
-        The blocks in execution order (lists are converted to tuples).
+    blocks : tuple of Block or StoredBlocks
+        The blocks in execution order (other sequences are converted to tuples). Parsed
+        programs hold a :class:`~gcode.block_sequence.BlockSequence`, equal to the tuple
+        of its blocks.
     name : str or None
         Program name (written as the O-line comment by dialects with program numbers).
     number : int or None
@@ -333,14 +354,14 @@ class Program:
         For parsed programs, the 1-based source line of each block (not compared).
     """
 
-    blocks: tuple[Block, ...] = ()
+    blocks: tuple[Block, ...] | StoredBlocks = ()
     name: str | None = None
     number: int | None = None
     units: Units = Units.MM
     source_lines: tuple[int, ...] | None = field(default=None, compare=False, repr=False)
 
     def __post_init__(self) -> None:
-        if not isinstance(self.blocks, tuple):
+        if not isinstance(self.blocks, tuple | StoredBlocks):
             object.__setattr__(self, "blocks", tuple(self.blocks))
         if self.source_lines is not None:
             if not isinstance(self.source_lines, tuple):
@@ -362,19 +383,3 @@ class Program:
     def line_of(self, index: int) -> int | None:
         """Return the 1-based source line of block ``index`` (None if not parsed)."""
         return None if self.source_lines is None else self.source_lines[index]
-
-
-def _build_many(cls: type, n: int, columns: dict[str, Sequence[Any] | Any]) -> list[Any]:
-    """Build ``n`` instances of a slotted frozen block class from columns, fast.
-
-    Equivalent to ``[cls(**{k: col[i] ...}) for i in range(n)]`` but sets the slots
-    directly (about 3x faster than calling ``__init__``), so it skips ``__post_init__``:
-    callers must pass values that already satisfy the class's checks (the parser does).
-    A non-sequence column value is broadcast to all rows.
-    """
-    objs = list(map(object.__new__, repeat(cls, n)))
-    for f in fields(cls):
-        col = columns.get(f.name, f.default)
-        values: Iterable[Any] = col if isinstance(col, list | tuple) else repeat(col, n)
-        deque(map(getattr(cls, f.name).__set__, objs, values), maxlen=0)
-    return objs
