@@ -50,6 +50,11 @@ from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, move_gaps
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
+#: Halvings of the normal's angle when finding the section boundary below a point: 16
+#: leave 5e-5 rad, and the height, interpolated between the last two boundary points, is
+#: then off by about ``R * 5e-5^2 / 8``, 1e-9 mm for R = 3 mm (exact on flat bottoms).
+SECTION_HALVINGS = 16
+
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -346,7 +351,8 @@ class _CutVolume:
         corner-circle disc projects to, offset by the corner radius ``r``. Its boundary with
         outward normal ``nu`` is ``c + A A^T nu / |A^T nu| + r nu`` (``A`` maps the unit
         circle onto ``E``); the point below ``q`` is found by bisection on the normal's
-        angle (the boundary's abscissa grows monotonically along the lower half), the
+        angle (the boundary's abscissa grows monotonically along the lower half;
+        :data:`SECTION_HALVINGS`), the
         height interpolated between the last two boundary points (exact on a flat bottom,
         which the boundary jumps across at one angle). Pieces that the plane does not
         cross give ``inf``.
@@ -395,7 +401,7 @@ class _CutVolume:
         x_lo, _ = boundary(lo)
         x_hi, _ = boundary(hi)
         under = (x_lo <= 0.0) & (x_hi >= 0.0) & crosses
-        for _ in range(40):
+        for _ in range(SECTION_HALVINGS):
             mid = 0.5 * (lo + hi)
             xm, _ = boundary(mid)
             right = xm > 0.0
