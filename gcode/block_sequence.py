@@ -41,7 +41,7 @@ import numpy.typing as npt
 
 from gcode.program import AXES, Block, Linear, Rapid, StoredBlocks
 
-__all__ = ["KIND_LINEAR", "KIND_RAPID", "BlockSequence", "MoveRun", "block_runs"]
+__all__ = ["KIND_LINEAR", "KIND_RAPID", "BlockSequence", "MoveRun", "Part", "block_runs"]
 
 #: Values of :attr:`MoveRun.kind`.
 KIND_RAPID, KIND_LINEAR = 0, 1
@@ -123,6 +123,30 @@ class MoveRun:
         feed = np.fromiter(map(getattr, blocks, repeat("feed"), repeat(np.nan)), np.float64, m)
         return cls(kind, axes, feed)
 
+    @classmethod
+    def checked(
+        cls,
+        kind: npt.NDArray[np.int8],
+        axes: npt.NDArray[np.float64],
+        feed: npt.NDArray[np.float64],
+    ) -> MoveRun:
+        """Columns from a producer, checked as the block classes check their values.
+
+        Axis values must be finite or NaN (absent) and linear feeds finite and > 0;
+        otherwise the ``ValueError`` of the first offending block is raised, as building
+        the blocks one by one would.
+        """
+        bad = np.isinf(axes).any(axis=1)
+        with np.errstate(invalid="ignore"):
+            bad |= (kind == KIND_LINEAR) & ~(np.isfinite(feed) & (feed > 0.0))
+        bad |= (kind != KIND_LINEAR) & (kind != KIND_RAPID)
+        at = np.flatnonzero(bad)
+        if at.shape[0]:
+            r = int(at[0])
+            _block_of(int(kind[r]), axes[r], float(feed[r]))  # raises the block's error
+            raise ValueError(f"MoveRun row {r} is not a valid move")  # pragma: no cover
+        return cls(kind, axes, feed)
+
     def blocks(self, start: int = 0, stop: int | None = None) -> list[Rapid | Linear]:
         """Build the frozen blocks of rows ``start .. stop-1``."""
         kind = self.kind[start:stop]
@@ -155,6 +179,16 @@ class MoveRun:
             and np.array_equal(self.axes, other.axes, equal_nan=True)
             and np.array_equal(self.feed, other.feed, equal_nan=True)
         )
+
+
+def _block_of(kind: int, row: npt.NDArray[np.float64], feed: float) -> Rapid | Linear:
+    """One block built through its class (with its checks) from a row of columns."""
+    words = {name: float(v) for name, v in zip(AXES, row.tolist(), strict=True) if v == v}
+    if kind == KIND_RAPID:
+        return Rapid(**words)
+    if kind == KIND_LINEAR:
+        return Linear(**words, feed=feed)
+    raise ValueError(f"MoveRun kind must be {KIND_RAPID} or {KIND_LINEAR}, got {kind}")
 
 
 def _column(v: npt.NDArray[np.float64], present: npt.NDArray[np.bool_]) -> list[Any] | None:

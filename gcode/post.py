@@ -27,12 +27,16 @@ Steps, each a plain array operation on the whole path:
 Axis words that do not change at the written resolution are left out, and moves that
 change nothing at that resolution are dropped.
 
+The stretches of rapid and linear moves between arcs and feed-mode switches are stored as
+:class:`~gcode.block_sequence.MoveRun` columns (no object per move), so the program's
+blocks are a :class:`~gcode.block_sequence.BlockSequence` that consumers such as the
+emitter read column-wise; its blocks are those the post would build one by one.
+
 Examples
 --------
 >>> import numpy as np
 >>> from machines import load_machine
 >>> from toolpath import MoveKind, Toolpath
-from toolpath.joint_refine import refine_for_joint_interpolation
 >>> from gcode import GRBL, emit_lines
 >>> tp = Toolpath(
 ...     positions_mm=[[0, 0, 5], [0, 0, -1], [10, 0, -1], [10, 0, 5]],
@@ -57,6 +61,7 @@ import numpy as np
 import numpy.typing as npt
 
 from gcode.arcfit import ARC_MIN_POINTS, DEFAULT_ARC_TOLERANCE_MM, arc_deviation_mm, fit_arcs
+from gcode.block_sequence import KIND_LINEAR, KIND_RAPID, BlockSequence, MoveRun, Part
 from gcode.dialects import Dialect, dialect_by_name
 from gcode.errors import ErrorCode, PostError
 from gcode.machine_frame import (
@@ -75,7 +80,6 @@ from gcode.program import (
     CoolantMode,
     DistanceMode,
     FeedMode,
-    Linear,
     Plane,
     Program,
     ProgramEnd,
@@ -104,6 +108,9 @@ DEFAULT_JOINT_TOLERANCE_MM = 0.002
 # Plane bits of a move: the plane's normal coordinate does not change.
 _PLANE_BITS = ((Plane.XY, 1, 2), (Plane.ZX, 2, 1), (Plane.YZ, 4, 0))  # plane, bit, normal
 _ROTARY_COLS = [AXES.index(a) for a in ("a", "b", "c")]
+# Stretches of moves shorter than this are stored as block objects (columns cost more
+# than they save there; the emitter formats such short runs one by one anyway).
+_MIN_COLUMN_RUN = 32
 
 
 @dataclass(frozen=True, slots=True, kw_only=True)
@@ -388,29 +395,121 @@ def _fit_run_arcs(
 
 
 class _Writer:
-    """Collects blocks and the modal state the post has set (feed mode, plane)."""
+    """Collects blocks and move runs, and the modal state the post has set (feed mode, plane)."""
 
     def __init__(self) -> None:
-        self.blocks: list[Block] = []
+        self.parts: list[Part] = []
+        self.pending: list[Block] = []  # blocks since the last move run
         self.feed_mode = FeedMode.UNITS_PER_MINUTE
         self.plane = Plane.XY
 
     def add(self, block: Block) -> None:
-        self.blocks.append(block)
+        self.pending.append(block)
+
+    def add_moves(self, run: MoveRun) -> None:
+        """Append a stretch of moves: as columns if long enough, else as blocks."""
+        if len(run) < _MIN_COLUMN_RUN:
+            self.pending.extend(run.blocks())
+            return
+        self.parts.append(tuple(self.pending))
+        self.pending.clear()
+        self.parts.append(run)
 
     def feed_mode_to(self, mode: FeedMode) -> None:
         if mode is not self.feed_mode:
-            self.blocks.append(SetFeedMode(mode))
+            self.add(SetFeedMode(mode))
             self.feed_mode = mode
 
     def plane_to(self, plane: Plane) -> None:
         if plane is not self.plane:
-            self.blocks.append(SetPlane(plane))
+            self.add(SetPlane(plane))
             self.plane = plane
 
+    def blocks(self) -> tuple[Block, ...] | BlockSequence:
+        """Everything added, in order: a tuple unless some moves are columns."""
+        if not self.parts:
+            return tuple(self.pending)
+        return BlockSequence([*self.parts, tuple(self.pending)])
 
-def _axis_kwargs(row: Sequence[float], changed: Sequence[bool]) -> dict[str, float]:
-    return {name: row[k] for k, name in enumerate(AXES) if changed[k]}
+
+@dataclass(frozen=True)
+class _MoveColumns:
+    """The moves the post writes as Rapid/Linear blocks, in order, as columns.
+
+    ``index`` are their move numbers (into :class:`_Moves`); row ``r`` of ``kind``,
+    ``axes`` (changed words, NaN elsewhere) and ``feed`` (NaN for rapids) is the block
+    of move ``index[r]``.
+    """
+
+    index: npt.NDArray[np.int64]
+    kind: npt.NDArray[np.int8]
+    axes: npt.NDArray[np.float64]
+    feed: npt.NDArray[np.float64]
+
+    def run(self, first_move: int, stop_move: int) -> MoveRun:
+        """The written moves among moves ``first_move .. stop_move-1``."""
+        lo, hi = np.searchsorted(self.index, (first_move, stop_move))
+        return MoveRun.checked(self.kind[lo:hi], self.axes[lo:hi], self.feed[lo:hi])
+
+
+def _written_moves(moves: _Moves, arcs: dict[int, tuple[int, Arc]]) -> _MoveColumns:
+    """Columns of the moves written as lines: not inside an arc, changing some word."""
+    keep = moves.changed.any(axis=1)
+    keep[0] = False  # the start point: reached by the approach
+    for first, (after, _) in arcs.items():
+        keep[first:after] = False
+    index = np.flatnonzero(keep)
+    changed = moves.changed[index]
+    rapid = moves.rapid[index]
+    return _MoveColumns(
+        index,
+        np.where(rapid, KIND_RAPID, KIND_LINEAR).astype(np.int8),
+        np.where(changed, moves.words[index], np.nan),
+        np.where(rapid, np.nan, moves.feed[index]),
+    )
+
+
+def _feed_mode_switches(
+    moves: _Moves, written: _MoveColumns, arcs: dict[int, tuple[int, Arc]]
+) -> npt.NDArray[np.int64]:
+    """Moves written as lines that need a feed-mode block (G93/G94) before them.
+
+    Linear moves set the mode they are written in, arcs G94, rapids keep it; the post
+    starts in G94.
+    """
+    n = moves.words.shape[0]
+    mode = np.full(n, -1, dtype=np.int8)  # mode set by the move, -1: unchanged
+    mode[0] = 0
+    lines = written.index[written.kind == KIND_LINEAR]
+    mode[lines] = moves.inverse[lines]
+    mode[np.fromiter(arcs, np.int64, len(arcs))] = 0
+    at = np.where(mode >= 0, np.arange(n), 0)
+    np.maximum.accumulate(at, out=at)
+    before = np.empty(n, dtype=np.int8)
+    before[0] = 0
+    before[1:] = mode[at[:-1]]
+    return lines[moves.inverse[lines] != before[lines].astype(np.bool_)]
+
+
+def _write_moves(w: _Writer, moves: _Moves, arcs: dict[int, tuple[int, Arc]]) -> None:
+    """Moves 1 .. n-1: arcs and feed-mode switches as blocks, the lines between as runs."""
+    written = _written_moves(moves, arcs)
+    switches = _feed_mode_switches(moves, written, arcs)
+    events = np.union1d(np.fromiter(arcs, np.int64, len(arcs)), switches).tolist()
+    inverse = moves.inverse
+    i = 1
+    for e in events:
+        w.add_moves(written.run(i, e))
+        if e in arcs:
+            after, arc = arcs[e]
+            w.feed_mode_to(FeedMode.UNITS_PER_MINUTE)
+            w.plane_to(arc.plane)
+            w.add(arc)
+            i = after
+        else:
+            w.feed_mode_to(FeedMode.INVERSE_TIME if inverse[e] else FeedMode.UNITS_PER_MINUTE)
+            i = e
+    w.add_moves(written.run(i, moves.words.shape[0]))
 
 
 def _header(
@@ -525,41 +624,16 @@ def post(
     w = _Writer()
     for b in (*_header(toolpath, machine, d, opts, name), *_safe_start(d, opts)):
         w.add(b)
-    words = moves.words.tolist()
     safe_z = _clearance_z(machine, moves.words, opts, grid)
-    _approach(w, words[0], safe_z)
-
-    changed = moves.changed.tolist()
-    rapid = moves.rapid.tolist()
-    inverse = moves.inverse.tolist()
-    feed = moves.feed.tolist()
-    n = len(words)
-    i = 1
-    while i < n:
-        if i in arcs:
-            after, arc = arcs[i]
-            w.feed_mode_to(FeedMode.UNITS_PER_MINUTE)
-            w.plane_to(arc.plane)
-            w.add(arc)
-            i = after
-            continue
-        if not any(changed[i]):
-            i += 1
-            continue
-        axes = _axis_kwargs(words[i], changed[i])
-        if rapid[i]:
-            w.add(Rapid(**axes))
-        else:
-            w.feed_mode_to(FeedMode.INVERSE_TIME if inverse[i] else FeedMode.UNITS_PER_MINUTE)
-            w.add(Linear(**axes, feed=feed[i]))
-        i += 1
+    _approach(w, moves.words[0].tolist(), safe_z)
+    _write_moves(w, moves, arcs)
 
     w.feed_mode_to(FeedMode.UNITS_PER_MINUTE)
     w.plane_to(Plane.XY)
-    if safe_z > words[-1][2]:
+    if safe_z > float(moves.words[-1, 2]):
         w.add(Rapid(z=safe_z))
     w.add(Spindle(SpindleDirection.OFF, opts.spindle_rpm))
     if opts.coolant is not None:
         w.add(Coolant(CoolantMode.OFF))
     w.add(ProgramEnd(rewind=True))
-    return Program(tuple(w.blocks), name=name, number=opts.number, units=opts.units)
+    return Program(w.blocks(), name=name, number=opts.number, units=opts.units)

@@ -21,6 +21,7 @@ from dataclasses import dataclass, replace
 import numpy as np
 
 from gcode import ModalState, Program
+from gcode.block_sequence import MoveRun, block_runs
 from gcode.interpreter import KIND_RAPID, interpret
 from gcode.program import Arc, Dwell, Linear, Rapid
 from simulator.controller import _SYNC_TYPES, Alarm, Controller
@@ -92,7 +93,8 @@ def run_program(controller: Controller, program: Program) -> ProgramRun:
     if moved.any():
         bad = "".join(a for a, m in zip("XYZABC", moved, strict=True) if m)
         raise ValueError(f"program moves axis {bad} that {c.mode} mode on {c.machine.name} lacks")
-    src = np.asarray(program.source_lines or range(1, len(program) + 1), dtype=np.int64)
+    block_lines = _source_lines(program)
+    src = block_lines  # the lines that run: cut short at a soft-limit stop
     # the first soft-limit violation stops the run before its line
     alarm = None
     n_rows = len(seg)
@@ -118,7 +120,7 @@ def run_program(controller: Controller, program: Program) -> ProgramRun:
     ends = end[rows][keep]
     n = int(length.shape[0])
     # synchronizing lines and their dwell
-    sync_lines, dwell_s = _sync_lines(program, src)
+    sync_lines, dwell_s = _sync_lines(program, src, block_lines)
     prev_unit = np.concatenate((np.asarray(c._prev_unit)[None, :], unit[:-1]))
     prev_speed = np.concatenate(([c._prev_speed], vn[:-1]))
     j2 = junction_speed_sq_array(prev_unit, unit, c.limits, c.settings.junction_deviation_mm)
@@ -160,23 +162,38 @@ def run_program(controller: Controller, program: Program) -> ProgramRun:
     if n:
         c._prev_unit = tuple(unit[-1].tolist())
         c._prev_speed = float(vn[-1])
-    c._bp.state = _end_state(program, st, final6, c.work_offsets, src)
+    c._bp.state = _end_state(program, st, final6, c.work_offsets, src, block_lines)
     if alarm is not None:
         c._alarm_now(alarm)
     return ProgramRun(int(jl.shape[0]), n, final_t - t0, None if alarm is None else int(alarm))
 
 
-def _sync_lines(program: Program, src: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Source lines that synchronize (sorted, unique) and the dwell of each, s."""
-    lines = program.source_lines or tuple(range(1, len(program) + 1))
+def _source_lines(program: Program) -> np.ndarray:
+    """Source line of every block (block index + 1 for programs that were not parsed)."""
+    if program.source_lines is None:
+        return np.arange(1, len(program) + 1, dtype=np.int64)
+    return np.asarray(program.source_lines, dtype=np.int64)
+
+
+def _sync_lines(
+    program: Program, src: np.ndarray, lines: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
+    """Source lines that synchronize (sorted, unique) and the dwell of each, s.
+
+    ``lines`` is the source line of every block. Move runs stored as columns are skipped
+    without building their blocks: plain moves never synchronize.
+    """
     found: dict[int, float] = {}
     limit = int(src.max()) if src.shape[0] else 0
-    for b, ln in zip(program.blocks, lines, strict=True):
-        t = type(b)
-        if t is Linear or t is Rapid or ln > limit:
+    for first, part in block_runs(program.blocks):
+        if isinstance(part, MoveRun):
             continue
-        if isinstance(b, _SYNC_TYPES):
-            found[ln] = found.get(ln, 0.0) + (b.seconds if t is Dwell else 0.0)
+        for b, ln in zip(part, lines[first : first + len(part)].tolist(), strict=True):
+            t = type(b)
+            if t is Linear or t is Rapid or ln > limit:
+                continue
+            if isinstance(b, _SYNC_TYPES):
+                found[ln] = found.get(ln, 0.0) + (b.seconds if t is Dwell else 0.0)
     keys = sorted(found)
     return np.asarray(keys, dtype=np.int64), np.asarray([found[k] for k in keys])
 
@@ -187,19 +204,31 @@ def _end_state(
     final6: tuple[float, ...],
     offsets: dict[int, tuple[float, ...]],
     src: np.ndarray,
+    lines: np.ndarray,
 ) -> ModalState:
-    """Modal state after the executed part of the program (non-motion blocks replayed)."""
-    lines = program.source_lines or tuple(range(1, len(program) + 1))
+    """Modal state after the executed part of the program (non-motion blocks replayed).
+
+    Blocks are taken in order up to the first whose source line (``lines``) lies beyond
+    the executed ones; of a move run stored as columns only its last such move is built.
+    """
     limit = int(src.max()) if src.shape[0] else 0
     last_motion = None
-    for b, ln in zip(program.blocks, lines, strict=True):
-        if ln > limit:
+    for first, part in block_runs(program.blocks):
+        rows = lines[first : first + len(part)]
+        beyond = np.flatnonzero(rows > limit)
+        stop = int(beyond[0]) if beyond.shape[0] else len(part)
+        if isinstance(part, MoveRun):
+            if stop:
+                last_motion = part.blocks(stop - 1, stop)[0]
+        else:
+            for b in part[:stop]:
+                t = type(b)
+                if t is Linear or t is Rapid or t is Arc:
+                    last_motion = b
+                    continue
+                st = st.apply(b)
+        if stop < len(part):
             break
-        t = type(b)
-        if t is Linear or t is Rapid or t is Arc:
-            last_motion = b
-            continue
-        st = st.apply(b)
     if last_motion is not None:
         st = st.apply(last_motion)
     off = offsets[st.wcs]

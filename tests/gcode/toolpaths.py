@@ -85,3 +85,68 @@ def random_5axis(rng: np.random.Generator, n: int = 60) -> Toolpath:
     kinds = [K.RAPID] + [K.CUT] * (n - 1)
     feeds = [0.0] + [1200.0] * (n - 1)
     return Toolpath(tips, axes, kinds, feeds, [0] * n, {})
+
+
+def random_mixed(rng: np.random.Generator, pieces: int = 30, *, five_axis: bool = True) -> Toolpath:
+    """A random path of mixed pieces: rapids, lines, sampled circles, repeated points and
+    (``five_axis``) sweeps that turn the tool axis while the tip moves.
+
+    Lines and circles keep the tool axis (G94, arc candidates on any plane); sweeps turn
+    it (G93 where the dialect has it). Pieces are 1 to 80 points long, so runs of moves
+    are both shorter and longer than the post's column threshold.
+    """
+    tip = np.array([0.0, 0.0, 20.0])
+    tilt, lean = 0.0, 0.0
+    pts, axes, kinds, feeds = [], [], [], []
+
+    def axis_of(t, le):
+        t, le = np.radians(t), np.radians(le)
+        return np.column_stack([np.sin(t) * np.cos(le), np.sin(t) * np.sin(le), np.cos(t)])
+
+    def add(p, ax, kind, feed):
+        pts.append(p)
+        axes.append(ax)
+        kinds.extend([kind] * len(p))
+        feeds.extend([feed] * len(p))
+
+    add(tip[None], axis_of(np.array([0.0]), np.array([0.0])), K.RAPID, 0.0)
+    for _ in range(pieces):
+        piece = rng.choice(["rapid", "line", "circle", "sweep", "repeat"] if five_axis
+                           else ["rapid", "line", "circle", "repeat"])  # fmt: skip
+        k = int(rng.integers(1, 81))
+        feed = float(rng.choice([300.0, 900.0, 1500.0]))
+        if piece == "rapid":
+            tip = tip + rng.uniform(-20, 20, 3)
+            add(tip[None], axis_of(np.array([tilt]), np.array([lean])), K.RAPID, 0.0)
+        elif piece == "line":
+            steps = np.outer(np.arange(1, k + 1), rng.uniform(-2, 2, 3))
+            p = tip + steps
+            add(p, axis_of(np.full(k, tilt), np.full(k, lean)), K.CUT, feed)
+            tip = p[-1]
+        elif piece == "circle":
+            u, v = [(0, 1), (2, 0), (1, 2)][int(rng.integers(3))]
+            r = float(rng.uniform(3, 20))
+            a0 = float(rng.uniform(0, 2 * np.pi))
+            a = a0 + np.linspace(0, rng.choice([-1, 1]) * rng.uniform(0.5, 3), k + 1)[1:]
+            centre = tip.copy()
+            centre[u] -= r * np.cos(a0)
+            centre[v] -= r * np.sin(a0)
+            p = np.repeat(tip[None], k, axis=0)
+            p[:, u] = centre[u] + r * np.cos(a)
+            p[:, v] = centre[v] + r * np.sin(a)
+            add(p, axis_of(np.full(k, tilt), np.full(k, lean)), K.CUT, feed)
+            tip = p[-1]
+        elif piece == "sweep":
+            new_tilt = float(rng.uniform(0, 40))
+            new_lean = lean + float(rng.uniform(-60, 60))
+            s = np.linspace(0, 1, k + 1)[1:]
+            p = tip + np.outer(s, rng.uniform(-10, 10, 3))
+            add(p, axis_of(tilt + s * (new_tilt - tilt), lean + s * (new_lean - lean)),
+                K.CUT, feed)  # fmt: skip
+            tip, tilt, lean = p[-1], new_tilt, new_lean
+        else:  # the same point again: a move that changes nothing
+            k = min(k, 3)
+            add(np.repeat(tip[None], k, axis=0),
+                axis_of(np.full(k, tilt), np.full(k, lean)), K.CUT, feed)  # fmt: skip
+    n = len(kinds)
+    return Toolpath(np.vstack(pts), np.vstack(axes), kinds, feeds, [0] * n, {"name": "mixed"})
