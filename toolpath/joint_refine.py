@@ -8,9 +8,16 @@ joint midpoint ``FK((q_i + q_{i+1}) / 2)`` is compared with the chord midpoint
 ``(p_i + p_{i+1}) / 2``; a move deviating by more than the tolerance gets a point on its chord
 (tool axis: the normalized mean of its ends), and the check repeats. The deviation of a
 segment shrinks about fourfold per halving, so a few rounds suffice.
+
+A planner that already checked its cutting moves under this machine's joint interpolation
+(against the surface, and sideways) marks the toolpath with :data:`JOINT_CHECKED` set to
+:func:`machine_key`; those moves (cutting, within one pass) are then left whole, and
+only the others (leads, links, plunges) are split here.
 """
 
 from __future__ import annotations
+
+import hashlib
 
 import numpy as np
 from numpy.typing import NDArray
@@ -21,10 +28,19 @@ from machines.kinematics import forward, solve_inverse
 from .errors import InvalidParameterError
 from .path import MoveKind, Toolpath
 
-__all__ = ["MAX_ROUNDS", "joint_path_deviation_mm", "refine_for_joint_interpolation"]
+__all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "joint_path_deviation_mm", "machine_key",
+           "refine_for_joint_interpolation"]
 
 #: Halvings at most (a move is split into at most 2**MAX_ROUNDS pieces).
 MAX_ROUNDS = 8
+#: Toolpath metadata key: the :func:`machine_key` whose joint interpolation the planner
+#: checked the cutting moves under.
+JOINT_CHECKED = "joint_checked_for"
+
+
+def machine_key(machine: Machine) -> str:
+    """A short fingerprint of every field of the machine definition (name, geometry, ...)."""
+    return f"{machine.name}:{hashlib.sha1(repr(machine).encode()).hexdigest()[:12]}"
 
 
 def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
@@ -53,10 +69,14 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
         return path
     tips, axes = path.positions_mm, path.tool_axes
     kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
+    checked = path.metadata.get(JOINT_CHECKED) == machine_key(machine)
     for _ in range(MAX_ROUNDS):
         joints = solve_inverse(machine, tips, axes).joints
         split = joint_path_deviation_mm(machine, tips, joints) > tol_mm
         split &= kinds[1:] != MoveKind.RAPID
+        if checked:
+            split &= ~((kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1])
+                       & (passes[1:] >= 0))
         if not split.any():
             break
         at = np.flatnonzero(split)  # move at -> at + 1 gets a middle point

@@ -30,6 +30,7 @@ from machines import Machine, load_machine
 from machines.errors import UnreachableOrientationError
 
 from ..errors import InvalidParameterError
+from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import gouge_depth_mm, local_depth_mm
@@ -438,7 +439,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     clock.stage("chords")
     pts, keep, planned_chord = refine_chords(surface, cutter, opts, res, layout, pts,
-                                             keep=keep)
+                                             keep=keep, machine=mach)
     faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
         np.zeros(len(pts), dtype=bool)
 
@@ -476,6 +477,11 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 "chord_tol_mm": f"{opts.chord_tol_mm:g}", "axis_mode": opts.axis_mode.value,
                 "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
                 "linking": opts.linking.value}
+    if mach is not None and mach.kinematics.is_five_axis and not (
+            gstats["n_lifted"] or gstats["n_retilted"]):
+        # the cutting moves were checked as this machine moves them (refine_chords): the
+        # post need not split them for joint interpolation
+        metadata[JOINT_CHECKED] = machine_key(mach)
     path = Toolpath(positions, axes, kinds, feeds, passes, metadata)
     check_links(path, cutter, samples, opts)
 

@@ -26,6 +26,9 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from machines import Machine
+from machines.kinematics import forward
+
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .local import PassFrame, point_normal, project_to_surface
@@ -190,16 +193,28 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     return out_d - r, out_t, out_s
 
 
+def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
+          ) -> NDArray[np.float64]:
+    """Rows ``a + u (b - a)`` for every move and fraction, flattened move by move."""
+    return (a[:, None, :] * (1.0 - u)[None, :, None]
+            + b[:, None, :] * u[None, :, None]).reshape(-1, a.shape[1])
+
+
 def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.float64],
               tips_b: NDArray[np.float64], axes_a: NDArray[np.float64],
               axes_b: NDArray[np.float64], ta: NDArray[np.float64], tb: NDArray[np.float64],
               sa: NDArray[np.float64], sb: NDArray[np.float64],
-              fractions: NDArray[np.float64], *, newton: int = 2
+              fractions: NDArray[np.float64], *, newton: int = 2,
+              joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """Gaps of the cutter at ``fractions`` of each move (tip linear, axis normalized-linear).
+    """Gaps of the cutter at ``fractions`` of each move.
 
-    The Newton search starts between the ends' contacts ``(ta, sa)`` and ``(tb, sb)``
-    (across the seam the short way on closed sections).
+    The cutter moves as the machine moves it: without ``joints``, tip linear and axis
+    normalized-linear (a control interpolating the tool tip); with ``joints = (machine,
+    q_a, q_b)``, the joints linear, the pose their forward kinematics (a 5-axis control
+    without tool-centre-point interpolation, whose tip bows off the chord where the
+    rotary axes turn). The Newton search starts between the ends' contacts ``(ta, sa)``
+    and ``(tb, sb)`` (across the seam the short way on closed sections).
 
     Returns
     -------
@@ -210,11 +225,13 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     closed = bool(surface.closed_t)
     if closed:
         tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
-    tips = (tips_a[:, None, :] * (1.0 - u)[None, :, None]
-            + tips_b[:, None, :] * u[None, :, None]).reshape(-1, 3)
-    axes = (axes_a[:, None, :] * (1.0 - u)[None, :, None]
-            + axes_b[:, None, :] * u[None, :, None]).reshape(-1, 3)
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    if joints is None:
+        tips = _lerp(tips_a, tips_b, u)
+        axes = _lerp(axes_a, axes_b, u)
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    else:
+        machine, q_a, q_b = joints
+        tips, axes = forward(machine, _lerp(q_a, q_b, u))
     t0 = (ta[:, None] * (1.0 - u) + tb[:, None] * u).ravel()
     s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
     if closed:
