@@ -1,6 +1,7 @@
 """Material-removal verification on the development blade (issue 9).
 
 Run:  python benchmarks/bench_verify.py [--blocks 1000000] [--skip-5axis] [--samples N]
+      [--bull bull:6:1] [--skip-bull]
 
 In one run:
 
@@ -16,7 +17,10 @@ In one run:
 4. turns the 3-axis program into one of ``--blocks`` blocks by splitting every move into
    equal joint-space sub-blocks (the very same path: what a post emitting short segments
    writes), and times parse + verify; its figures must equal the original's;
-5. baseline, measured in the same run: brute force (every swept piece against a random
+5. bull-nose row: the same 3-axis blade planned with ``--bull`` (default ``bull:6:1``),
+   verified (measured vs requested scallop and chord), then split to ``--blocks`` blocks
+   like step 4 and timed: seconds per million blocks;
+6. baseline, measured in the same run: brute force (every swept piece against a random
    subset of dexels, the same exact kernel), extrapolated to all dexels; the ratios are
    printed.
 
@@ -143,11 +147,11 @@ def show(report, label: str, seconds: float, planner=None) -> None:
               f"{report.max_scallop_mm / planner.max_scallop_mm:.3f}")
 
 
-def plan_and_post(surface, machine_name: str, dialect, five: bool):
+def plan_and_post(surface, machine_name: str, dialect, five: bool, cutter: str = CUTTER):
     machine = load_machine(machine_name)
     kw = {"axis_mode": "lead-tilt", "lead_deg": 10.0} if five else {}
     (tp, rep), t_plan = timed(lambda: plan_finishing(
-        surface, CUTTER, scallop_mm=SCALLOP_MM, chord_tol_mm=CHORD_MM, machine=machine, **kw))
+        surface, cutter, scallop_mm=SCALLOP_MM, chord_tol_mm=CHORD_MM, machine=machine, **kw))
     program = post(tp, machine, options=PostOptions(coolant=None))
     text = emit_text(program, dialect)
     return machine, tp, rep, parse(text, dialect), t_plan, len(text.splitlines())
@@ -168,11 +172,37 @@ def analytic_fallback(machine_name: str):
     return load_machine(machine_name), surface, Program(tuple(blocks))
 
 
+def bull_row(surface, spec: str, blocks: int, opts) -> None:
+    """Bull-nose: plan, post and verify the lying blade, then the program split to ``blocks``."""
+    print(f"bull-nose {spec} (grbl-router, blade lying on its side, x:90)")
+    cutter = parse_cutter(spec)
+    try:
+        machine, _, planner, program, t_plan, n_lines = plan_and_post(
+            surface, "grbl-router", GRBL, False, spec)
+    except Exception as exc:
+        print(f"  planner/post failed: {exc!r}")
+        return
+    print(f"  planned in {t_plan:.1f} s, posted: {n_lines} lines")
+    report, t = timed(lambda: verify_program(program, surface, machine, cutter, options=opts))
+    show(report, "bull-nose", t, planner)
+    dense = densify(program, blocks)
+    parsed, t_parse = timed(lambda: parse(emit_text(dense, GRBL), GRBL))
+    big, t_big = timed(lambda: verify_program(parsed, surface, machine, cutter, options=opts))
+    per_million = (t_parse + t_big) * 1e6 / len(dense)
+    print(f"  {len(dense):,} blocks: parse {t_parse:.1f} s + verify {t_big:.1f} s = "
+          f"{per_million:.1f} s per million blocks "
+          f"({', '.join(f'{k} {v:.1f}' for k, v in big.timings_s.items())}); scallop "
+          f"{big.max_scallop_mm:.5f} / {SCALLOP_MM} mm requested, gouge {big.max_gouge_mm:.5f} "
+          f"/ chord {CHORD_MM} mm")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--blocks", type=int, default=1_000_000)
     ap.add_argument("--samples", type=int, default=VerifyOptions().max_samples)
     ap.add_argument("--skip-5axis", action="store_true")
+    ap.add_argument("--bull", default="bull:6:1", help="bull-nose cutter of the bull row")
+    ap.add_argument("--skip-bull", action="store_true")
     args = ap.parse_args(argv)
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}")
     cutter = parse_cutter(CUTTER)
@@ -225,6 +255,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{report3.max_scallop_mm:.5f} mm (may differ by the text rounding of the split "
           f"points, 0.87 um, plus the merge tolerance, {opts.merge_tol_mm * 1000:g} um); "
           f"pieces {big.pieces:,} vs {report3.pieces:,}")
+
+    if not args.skip_bull:
+        bull_row(flat, args.bull, args.blocks, opts)
 
     print("baseline (same run): brute force, every piece against every dexel")
     per_dexel = brute_force_s(program3, surface3, machine, cutter, n_dexels=64)

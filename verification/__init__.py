@@ -20,8 +20,11 @@ samples
     convexity.
 capsule
     ``line_capsule_interval``: where a line enters and leaves a capsule (the kernel).
+torus
+    ``line_sweep_interval``: where a line enters and leaves a flat or bull-nose cutter
+    swept along a segment (the kernel for those cutters).
 pieces
-    ``ball_pieces``, ``shank_pieces`` -> ``Pieces``: the swept cutter as capsules.
+    ``ball_pieces``, ``cutter_pieces``, ``shank_pieces`` -> ``Pieces``: the swept cutter.
 grid
     ``PieceGrid``: uniform-grid bucketing of the pieces, candidate pairs in batches.
 dexels
@@ -39,7 +42,8 @@ verify
 plotting
     ``plot_deviation_map``: the PNG deviation map (the only matplotlib user).
 errors
-    ``VerificationError`` (a ``ToolpathError``), ``UnsupportedCutterError``.
+    ``VerificationError`` (a ``ToolpathError``), ``UnsupportedCutterError`` (kept for
+    callers; every cutter kind of :mod:`toolpath.planning.cutters` is verified now).
 
 Examples
 --------

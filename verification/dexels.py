@@ -28,6 +28,16 @@ Two searches keep the candidate pieces few:
   shank or came from behind, else (a ball gouging deeper than ``g`` from outside) with a
   near search sized for that depth, which holds far fewer candidates.
 
+**Flat and bull-nose cutters** (corner radius ``r < R``) are the points within ``r`` of a
+core disc of radius ``rho0 = R - r`` (:mod:`verification.torus`): every ball of radius
+``r`` centred on the core is one of the balls above, so the near search runs around
+``Q = P + r n`` with the ball radius for ``r`` (at least ``e + g``: a flat end mill's
+``r = 0`` balls are points) plus ``rho0`` for the pieces' core centres. The pieces'
+entries are no longer closed-form, so a batch is measured in two rounds: first, for each
+dexel, the piece whose cheap lower bound (the entry into a bounding capsule and slab) is
+lowest; then only the pieces whose bound is below the best found. A piece whose bound is
+not below the best cannot lower the minimum.
+
 Candidates come from :class:`~verification.grid.PieceGrid`; pairs are processed in
 batches of at most ``max_pairs``, so memory is bounded whatever the program's length.
 """
@@ -42,6 +52,7 @@ from numpy.typing import NDArray
 from .capsule import line_capsule_interval
 from .grid import PieceGrid
 from .pieces import Pieces
+from .torus import line_sweep_interval, sweep_entry_bound
 
 __all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "DexelResult", "SweepIndex",
            "near_search_radius_mm"]
@@ -59,29 +70,35 @@ IntArray = NDArray[np.int64]
 
 
 def near_search_radius_mm(radius_mm: float, horizon_mm: float, depth_mm: float,
-                          convexity_per_mm: FloatArray) -> FloatArray:
+                          convexity_per_mm: FloatArray, *, core_radius_mm: float = 0.0
+                          ) -> FloatArray:
     """Radius around ``P + R n`` holding every ball centre that matters (module formula).
 
     Parameters
     ----------
     radius_mm : float
-        Ball radius ``R``, mm.
+        Ball radius ``R``, mm (flat and bull-nose cutters: the corner radius ``r``, the
+        search then running around ``P + r n``).
     horizon_mm : float
         Excess horizon ``e``, mm.
     depth_mm : float
         Gouge search depth ``g``, mm.
     convexity_per_mm : ndarray
         ``1/rho`` at the samples (0 on flat or concave parts), 1/mm.
+    core_radius_mm : float
+        ``rho0 = R - r`` of a flat or bull-nose cutter, mm, added to the radius (0: ball).
 
     Returns
     -------
     ndarray
-        Search radii, mm, never above ``R + e + g``.
+        Search radii, mm: ``rho0`` plus the ball's, itself between ``e + g`` and
+        ``R + e + g``.
     """
     k = np.asarray(convexity_per_mm, dtype=float)
     factor = (1.0 + radius_mm * k) / (1.0 + horizon_mm * k)
     r = 1.1 * np.sqrt(2.0 * radius_mm * (horizon_mm + depth_mm) * factor) + depth_mm
-    return np.minimum(r, radius_mm + horizon_mm + depth_mm)
+    reach = np.maximum(r, horizon_mm + depth_mm)
+    return core_radius_mm + np.minimum(reach, radius_mm + horizon_mm + depth_mm)
 
 
 @dataclass(frozen=True, eq=False)
@@ -134,7 +151,8 @@ class SweepIndex:
     Parameters
     ----------
     ball, shank : Pieces
-        Ball pieces (near and collision searches) and shank pieces (collision only).
+        Ball (or flat/bull-nose) pieces (near and collision searches) and shank pieces
+        (collision only).
     radius_mm : float
         Cutter radius ``R``, mm.
     lo_mm, hi_mm : ndarray, shape (3,)
@@ -146,6 +164,9 @@ class SweepIndex:
         box cannot be candidates and are left out of the grids).
     max_pairs : int
         Candidate pairs per batch.
+    corner_radius_mm : float or None
+        Corner radius ``r`` of a flat or bull-nose cutter, mm (None: a ball, measured with
+        the capsule kernel).
     """
 
     ball: Pieces
@@ -156,6 +177,7 @@ class SweepIndex:
     base_cell_mm: float
     reach_limit_mm: float
     max_pairs: int = 2_000_000
+    corner_radius_mm: float | None = None
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
 
@@ -216,20 +238,62 @@ class SweepIndex:
                 pairs += int(qi.shape[0])
                 if qi.shape[0] == 0:
                     continue
-                lam_in, lam_out = line_capsule_interval(
-                    points[qi], dirs[qi], pieces.a[piece], pieces.e[piece], pieces.ee[piece],
-                    self.radius_mm)
-                behind = (lam_in < 0.0) & (np.einsum(
-                    "ij,ij->i", pieces.axis[piece], dirs[qi]) < BEHIND_COSINE)
-                value = np.where(behind, np.maximum(lam_in, -lam_out), lam_in)
-                value = np.where(lam_out > 0.0, value, np.inf)
-                _fold_min(qi, value, piece, behind, pieces, points, out)
+                if self.corner_radius_mm is None:
+                    self._capsules(qi, piece, pieces, points, dirs, out)
+                else:
+                    self._cutters(qi, piece, pieces, points, dirs, out)
         return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
 
+    def _capsules(self, qi: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,
+                  dirs: FloatArray, out: DexelResult) -> None:
+        """Ball pieces: every pair measured in closed form, folded into ``out``."""
+        lam_in, lam_out = line_capsule_interval(
+            points[qi], dirs[qi], pieces.a[piece], pieces.e[piece], pieces.ee[piece],
+            self.radius_mm)
+        _fold_min(qi, *_values(lam_in, lam_out, pieces.axis[piece], dirs[qi]), piece,
+                  pieces, points, out)
 
-def _fold_min(query: IntArray, value: FloatArray, piece: IntArray, behind: NDArray[np.bool_],
+    def _cutters(self, qi: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,
+                 dirs: FloatArray, out: DexelResult) -> None:
+        """Flat/bull-nose pieces: the lowest-bound pair per dexel, then the ones below."""
+        r = float(self.corner_radius_mm or 0.0)
+        rho0 = self.radius_mm - r
+        args = (pieces.a[piece], pieces.e[piece], pieces.axis[piece], pieces.height_mm[piece])
+        bound, _ = sweep_entry_bound(points[qi], dirs[qi], *args, core_radius_mm=rho0,
+                                     corner_radius_mm=r)
+        todo = np.flatnonzero(bound < out.lam_mm[qi])
+        if todo.shape[0] == 0:
+            return
+        # round 1: per dexel the pair of lowest bound (pairs are sorted by dexel)
+        key = np.lexsort((bound[todo], qi[todo]))
+        ordered = todo[key]
+        first = ordered[np.r_[True, qi[ordered][1:] != qi[ordered][:-1]]]
+        for rows in (first, None):
+            if rows is None:
+                rows = np.setdiff1d(todo, first, assume_unique=True)
+                rows = rows[bound[rows] < out.lam_mm[qi[rows]]]
+                if rows.shape[0] == 0:
+                    return
+            q, d = qi[rows], dirs[qi[rows]]
+            axis = pieces.axis[piece[rows]]
+            lam_in, lam_out = line_sweep_interval(
+                points[q], d, *(a[rows] for a in args), core_radius_mm=rho0,
+                corner_radius_mm=r, exit_wanted=np.einsum("ij,ij->i", axis, d) < BEHIND_COSINE)
+            _fold_min(q, *_values(lam_in, lam_out, axis, d), piece[rows], pieces, points,
+                      out)
+
+
+def _values(lam_in: FloatArray, lam_out: FloatArray, axis: FloatArray, dirs: FloatArray
+            ) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """Remaining material each pair leaves on its dexel, and whether it came from behind."""
+    behind = (lam_in < 0.0) & (np.einsum("ij,ij->i", axis, dirs) < BEHIND_COSINE)
+    value = np.where(behind, np.maximum(lam_in, -lam_out), lam_in)
+    return np.where(lam_out > 0.0, value, np.inf), behind
+
+
+def _fold_min(query: IntArray, value: FloatArray, behind: NDArray[np.bool_], piece: IntArray,
               pieces: Pieces, points: FloatArray, out: DexelResult) -> None:
-    """Fold per-pair values into per-query minima (pairs are sorted by query)."""
+    """Fold per-pair values into per-query minima (pairs are grouped by query)."""
     starts = np.flatnonzero(np.r_[True, query[1:] != query[:-1]])
     best = np.minimum.reduceat(value, starts)
     group = np.repeat(np.arange(starts.shape[0]), np.diff(np.r_[starts, query.shape[0]]))

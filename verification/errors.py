@@ -19,4 +19,7 @@ class VerificationError(ToolpathError):
 
 
 class UnsupportedCutterError(VerificationError):
-    """The cutter's shape has no material-removal kernel here (only ball-nose has one)."""
+    """The cutter's shape has no material-removal kernel here.
+
+    Ball, flat and bull-nose cutters all have one; kept for callers that catch it.
+    """

@@ -88,7 +88,8 @@ class VerifyOptions:
         measured excess.
     spacing_mm : float or None
         Largest distance between design samples along ``t`` and ``s``, mm. Default: from
-        ``scallop_mm``, else ``R / 20`` (0.15 mm for a 6 mm ball).
+        ``scallop_mm``, else ``R / 20`` (0.15 mm for a 6 mm ball; bull-nose ``r / 20``;
+        see :meth:`resolved`).
     spacing_s_mm : float or None
         Spacing across the passes (along ``s``) when it should differ from ``spacing_mm``.
     max_samples : int
@@ -200,17 +201,33 @@ class VerifyOptions:
             out.append(horizon)
         return tuple(out)
 
-    def resolved(self, radius_mm: float) -> dict[str, float]:
-        """Defaults that depend on the cutter radius ``R``, all in mm."""
+    def resolved(self, radius_mm: float, corner_radius_mm: float | None = None
+                 ) -> dict[str, float]:
+        """Defaults that depend on the cutter, all in mm.
+
+        Parameters
+        ----------
+        radius_mm : float
+            Cutter radius ``R``, mm.
+        corner_radius_mm : float, optional
+            Corner radius ``r``, mm (default ``R``: a ball). A bull-nose's cusps are those
+            of a ball of radius ``r`` (its flat bottoms leave none), so ``r`` sets the
+            default spacing and the near search; a flat end mill (``r = 0``) leaves no
+            cusp on a plane, and is sampled at ``R / 20``. Pieces may be ``(R - r) / 2``
+            longer: the core disc widens the near search by ``R - r`` anyway.
+        """
+        corner = radius_mm if corner_radius_mm is None else corner_radius_mm
+        shape = corner if corner > 0.0 else radius_mm
         if self.spacing_mm is not None:
             spacing = self.spacing_mm
-        elif self.scallop_mm is not None:
-            spacing = stepover_for_scallop_mm(self.scallop_mm, radius_mm) / 6.0
+        elif self.scallop_mm is not None and corner > 0.0:
+            spacing = stepover_for_scallop_mm(self.scallop_mm, corner) / 6.0
         else:
-            spacing = radius_mm / 20.0
+            spacing = shape / 20.0
         first = self.levels()[0]
         depth = self.gouge_search_mm if self.gouge_search_mm is not None else first
-        near = 1.1 * math.sqrt(2.0 * radius_mm * (first + depth)) + depth
+        near = (1.1 * math.sqrt(2.0 * corner * (first + depth)) + depth
+                + 0.5 * (radius_mm - corner))
         return {
             "spacing_t_mm": spacing,
             "spacing_s_mm": self.spacing_s_mm if self.spacing_s_mm is not None else spacing,

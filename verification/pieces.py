@@ -20,6 +20,20 @@ Every capsule longer than ``max_piece_mm`` is cut into equal pieces (a union of 
 on consecutive sub-segments is the same solid), which bounds the reach of a piece from its
 midpoint, and so the grid search radius.
 
+* **Flat and bull-nose pieces** (:func:`cutter_pieces`). The same chords, of the core
+  centre ``C = tip + r a`` (``r`` the corner radius; the ball centre when ``r = R``), each
+  carrying the cutter up to ``L + 2 r`` above its tip (``L`` the core height,
+  :mod:`verification.torus`). Such a cutter is not a sphere, so its axis matters: a piece
+  holds the normalised mean of the axes at its ends, and is cut so that the axis turns by
+  at most ``dtheta = 2 rot_tol_mm / reach_mm`` along it (``reach_mm`` the distance of the
+  farthest cutter point from ``C``). The true cutter at a point of the piece is the held
+  one turned by at most ``dtheta / 2`` about ``C`` (on the chord within the replay
+  tolerance), so the piece's sweep is within ``replay tolerance + merge tolerance +
+  rot_tol_mm`` of the true one. Merging works on the six-dimensional polyline
+  ``(C, reach a)``, so a vertex is dropped only where the axis, too, stays on the chord.
+  The shank of these cutters is :func:`shank_pieces` with the corner radius: the core
+  disc swept up the axis (``L = 0``, the chord along ``a``) is the core cylinder.
+
 A ball piece keeps the path length (along the ball-centre polyline of all instances) at its
 ends, so a hit is traced back to the block whose stretch of path lies nearest the dexel,
 even inside a merged piece.
@@ -34,7 +48,7 @@ from numpy.typing import NDArray
 
 from .replay import ToolMotion
 
-__all__ = ["Pieces", "ball_pieces", "shank_pieces", "simplify_polyline"]
+__all__ = ["Pieces", "ball_pieces", "cutter_pieces", "shank_pieces", "simplify_polyline"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -42,12 +56,16 @@ IntArray = NDArray[np.int64]
 
 @dataclass(frozen=True, eq=False)
 class Pieces:
-    """Capsule pieces of one radius, one row per piece.
+    """Pieces of one swept cutter, one row per piece.
+
+    A ball piece is a capsule of the ball's radius around the segment ``a -> a + e``
+    (``height_mm`` 0); a flat or bull-nose piece is the cutter whose core bottom centre
+    moves along that segment, its core ``height_mm`` tall (:mod:`verification.torus`).
 
     Attributes
     ----------
     a : ndarray, shape (m, 3)
-        Segment starts, mm.
+        Segment starts (ball or core bottom centres), mm.
     e : ndarray, shape (m, 3)
         Segment vectors (end minus start), mm.
     ee : ndarray, shape (m,)
@@ -61,14 +79,16 @@ class Pieces:
     shank : ndarray of bool, shape (m,)
         The piece is part of the shank (not the ball's sweep).
     axis : ndarray, shape (m, 3)
-        Unit tool axis (tip towards spindle) at the piece's start: where the rest of the
-        tool lies.
+        Unit tool axis (tip towards spindle): at the piece's start for a ball (where the
+        rest of the tool lies), the one the flat or bull-nose piece holds otherwise.
     arc0_mm, arc1_mm : ndarray, shape (m,)
         Ball pieces: path length at the ends, mm (NaN for shank pieces).
     path_arc_mm : ndarray, shape (n_instances,)
         Path length of the ball centre at every tool instance, mm.
     path_move : ndarray of int64, shape (n_instances,)
         Motion block arriving at every instance.
+    height_mm : ndarray, shape (m,)
+        Core height ``L`` of flat and bull-nose pieces, mm (0 for balls and shanks).
     """
 
     a: FloatArray
@@ -83,11 +103,17 @@ class Pieces:
     arc1_mm: FloatArray
     path_arc_mm: FloatArray
     path_move: IntArray
+    height_mm: FloatArray
 
     @property
     def size(self) -> int:
         """Number of pieces."""
         return int(self.move.shape[0])
+
+    @property
+    def max_height_mm(self) -> float:
+        """Largest core height, mm (0 when empty or for balls)."""
+        return float(self.height_mm.max()) if self.size else 0.0
 
     @property
     def max_half_mm(self) -> float:
@@ -101,7 +127,7 @@ class Pieces:
 
         return Pieces(cat("a"), cat("e"), cat("ee"), cat("mid"), cat("half_mm"), cat("move"),
                       cat("shank"), cat("axis"), cat("arc0_mm"), cat("arc1_mm"),
-                      self.path_arc_mm, self.path_move)
+                      self.path_arc_mm, self.path_move, cat("height_mm"))
 
     def moves_at(self, piece: IntArray, points_mm: FloatArray) -> IntArray:
         """Motion block nearest each point along its piece (ball: by path length).
@@ -192,10 +218,18 @@ def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
 
 def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0: FloatArray,
            arc1: FloatArray, max_piece_mm: float, shank: bool, path_arc: FloatArray,
-           path_move: IntArray) -> Pieces:
-    """Pieces of the segments ``a -> b`` (rows (n, 3)), none longer than ``max_piece_mm``."""
+           path_move: IntArray, *, height_mm: float = 0.0,
+           min_count: IntArray | None = None, axis_end: FloatArray | None = None) -> Pieces:
+    """Pieces of the segments ``a -> b`` (rows (n, 3)), none longer than ``max_piece_mm``.
+
+    ``min_count`` asks for at least that many pieces per segment. With ``axis_end`` (the
+    axes at ``b``) every piece holds the normalised interpolated axis at its middle;
+    otherwise the segment's ``axis``.
+    """
     length = np.linalg.norm(b - a, axis=1)
     count = np.maximum(np.ceil(length / max_piece_mm), 1).astype(np.int64)
+    if min_count is not None:
+        count = np.maximum(count, min_count)
     if int(count.max(initial=1)) > 1:
         rep = np.repeat(np.arange(a.shape[0]), count)
         first = np.cumsum(count) - count
@@ -206,12 +240,23 @@ def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0:
         da = arc1[rep] - arc0[rep]
         a, b = a[rep] + f0[:, None] * d, a[rep] + f1[:, None] * d
         arc0, arc1, move = arc0[rep] + f0 * da, arc0[rep] + f1 * da, move[rep]
-        axis = axis[rep]
+        if axis_end is not None:
+            f = 0.5 * (f0 + f1)[:, None]
+            axis, axis_end = axis[rep] + f * (axis_end[rep] - axis[rep]), None
+            axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+        else:
+            axis = axis[rep]
+    if axis_end is not None:
+        axis = axis + axis_end
+        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
     e = b - a
     ee = np.einsum("ij,ij->i", e, e)
+    axis = np.ascontiguousarray(axis)
+    height = np.full(move.shape[0], float(height_mm))
     return Pieces(np.ascontiguousarray(a), e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee),
-                  np.asarray(move, dtype=np.int64), np.full(move.shape[0], shank),
-                  np.ascontiguousarray(axis), arc0, arc1, path_arc, path_move)
+                  np.asarray(move, dtype=np.int64),
+                  np.full(move.shape[0], shank), axis, arc0, arc1, path_arc, path_move,
+                  height)
 
 
 def _path(motion: ToolMotion, radius_mm: float) -> tuple[FloatArray, FloatArray]:
@@ -263,10 +308,12 @@ def shank_pieces(motion: ToolMotion, radius_mm: float, flute_length_mm: float,
     motion : ToolMotion
         The replayed program.
     radius_mm : float
-        Cutter radius ``R``, mm.
+        Cutter radius ``R``, mm (for flat and bull-nose cutters: the corner radius ``r``,
+        the shank then being core discs swept up the axis).
     flute_length_mm : float
         Flute length ``H`` from the tip, mm; the shank capsule runs from the ball centre
-        to ``H - R`` above it.
+        to ``H - R`` above it (flat and bull-nose: pass ``H - r``, for a core ``H - 2 r``
+        tall).
     spacing_mm : float
         Largest path distance between shank instances (centre or top), mm.
     max_piece_mm : float
@@ -284,7 +331,8 @@ def shank_pieces(motion: ToolMotion, radius_mm: float, flute_length_mm: float,
         empty = np.zeros((0, 3))
         none = np.zeros(0)
         return Pieces(empty, empty, none, empty, none, np.zeros(0, dtype=np.int64),
-                      np.zeros(0, dtype=np.bool_), empty, none, none, path_arc, path_move)
+                      np.zeros(0, dtype=np.bool_), empty, none, none, path_arc, path_move,
+                      none)
     tops = centres + height * motion.axes
     step = np.maximum(np.linalg.norm(np.diff(centres, axis=0), axis=1),
                       np.linalg.norm(np.diff(tops, axis=0), axis=1))
@@ -305,3 +353,47 @@ def shank_pieces(motion: ToolMotion, radius_mm: float, flute_length_mm: float,
     nan = np.full(c.shape[0], np.nan)
     return _split(c, c + height * ax, ax, move, nan, nan, max_piece_mm, True, path_arc,
                   path_move)
+
+
+def cutter_pieces(motion: ToolMotion, corner_radius_mm: float, height_mm: float,
+                  max_piece_mm: float, *, reach_mm: float, rot_tol_mm: float,
+                  merge_tol_mm: float = 0.0) -> Pieces:
+    """Flat or bull-nose cutter pieces between consecutive instances (merged, then split).
+
+    Parameters
+    ----------
+    motion : ToolMotion
+        The replayed program.
+    corner_radius_mm : float
+        Corner radius ``r``, mm (0 for a flat end mill).
+    height_mm : float
+        Core height ``L`` of every piece, mm.
+    max_piece_mm : float
+        Longest piece (core centre travel), mm.
+    reach_mm : float
+        Distance of the farthest point of a piece's cutter from its core centre, mm.
+    rot_tol_mm : float
+        Largest displacement of a cutter point by the axis turning within a piece, mm
+        (module docstring).
+    merge_tol_mm : float
+        Merge tolerance on the polyline ``(C, reach a)``, mm (0: no merging).
+
+    Returns
+    -------
+    Pieces
+        Pieces with ``height_mm`` ``L``, each holding its mean axis.
+    """
+    centres, arc = _path(motion, corner_radius_mm)
+    moves, axes = motion.move_of_instance, motion.axes
+    if centres.shape[0] == 1:
+        return _split(centres, centres, axes, moves, arc, arc, max_piece_mm, False, arc, moves,
+                      height_mm=height_mm)
+    keep = (simplify_polyline(np.hstack((centres, reach_mm * axes)), merge_tol_mm,
+                              max_piece_mm) if merge_tol_mm > 0.0
+            else np.arange(centres.shape[0]))
+    i0, i1 = keep[:-1], keep[1:]
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", axes[i0], axes[i1]), -1.0, 1.0))
+    count = np.ceil(reach_mm * turn / (2.0 * rot_tol_mm)).astype(np.int64)
+    return _split(centres[i0], centres[i1], axes[i0], moves[i0 + 1], arc[i0], arc[i1],
+                  max_piece_mm, False, arc, moves, height_mm=height_mm, min_count=count,
+                  axis_end=axes[i1])

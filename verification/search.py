@@ -41,11 +41,16 @@ class Dexels:
         Gouge depth the near search is sized for, mm.
     method : DexelMethod
         ``normal`` or ``z``.
+    corner_radius : float, optional
+        Corner radius ``r`` of a flat or bull-nose cutter, mm (default: a ball, ``r = R``):
+        the near search runs around ``P + r n`` for the core centres.
     """
 
     def __init__(self, index: SweepIndex, radius: float, horizons: tuple[float, ...],
-                 depth: float, method: DexelMethod) -> None:
+                 depth: float, method: DexelMethod, *, corner_radius: float | None = None
+                 ) -> None:
         self.index, self.radius, self.depth = index, radius, depth
+        self.corner = radius if corner_radius is None else corner_radius
         self.horizons = horizons
         self.horizon = horizons[-1]
         self.method = method
@@ -92,17 +97,20 @@ class Dexels:
             # iterative deepening: a dexel whose remaining material is found within level
             # e_k is exact (every ball that could leave less lies within r(e_k)); the others
             # are searched again with the next, wider level
-            centres = points + self.radius * normals
+            centres = points + self.corner * normals
             todo = np.arange(points.shape[0])
             for level in self.horizons:
-                r = near_search_radius_mm(self.radius, level, g, convexity[todo])
+                r = near_search_radius_mm(self.corner, level, g, convexity[todo],
+                                          core_radius_mm=self.radius - self.corner)
                 part = self.index.search("near", points[todo], dirs[todo], centres[todo], r)
                 scatter(out, todo, part, merge=True)
                 todo = todo[~(part.lam_mm * cos[todo] <= level)]
                 if todo.shape[0] == 0:
                     break
         if far:
-            r = np.full(points.shape[0], self.radius + self.horizon)
+            # a flat/bull-nose piece's core stands up to its height above its segment
+            r = np.full(points.shape[0], self.radius + self.horizon
+                        + self.index.ball.max_height_mm)
             scatter(out, np.arange(points.shape[0]),
                      self.index.search("far", points, dirs, points, r), merge=True)
         return out

@@ -6,8 +6,9 @@ Stages (each timed in the report):
    machine's forward kinematics, joints interpolated within blocks as the controller does;
 2. **samples** (:mod:`verification.samples`): the design surface on a grid fine enough for
    the scallop asked for;
-3. **pieces** (:mod:`verification.pieces`): the swept ball as capsules, the shank at
-   resampled instances;
+3. **pieces** (:mod:`verification.pieces`): the swept ball as capsules (flat and
+   bull-nose cutters: swept cutter pieces measured by :mod:`verification.torus`), the
+   shank at resampled instances;
 4. **near** and **collision** searches (:mod:`verification.dexels`): the material left on
    every dexel, and the block that left it;
 5. **refine**: the largest excesses and deepest gouges re-measured on three levels of finer
@@ -40,10 +41,10 @@ from toolpath.planning.cutters import Cutter, CutterKind
 from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex, near_search_radius_mm
-from .errors import UnsupportedCutterError, VerificationError
+from .errors import VerificationError
 from .extremes import Extreme, border, extreme
 from .options import DexelMethod, VerifyOptions
-from .pieces import ball_pieces, shank_pieces
+from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
 from .replay import ToolMotion, replay
 from .report import (
     BlockGouge,
@@ -122,7 +123,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     machine : Machine
         The machine that runs the program (kinematics, work origin).
     cutter : Cutter
-        The cutter (:func:`toolpath.planning.cutters.parse_cutter`); ball-nose only.
+        The cutter (:func:`toolpath.planning.cutters.parse_cutter`): ball, flat or
+        bull-nose.
     options : VerifyOptions, optional
         Resolution, horizons, tolerances.
     offsets : dict, optional
@@ -136,21 +138,16 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
 
     Raises
     ------
-    UnsupportedCutterError
-        For flat and bull-nose cutters.
     VerificationError
         For a program without motion or invalid options.
     """
     opts = options if options is not None else VerifyOptions()
-    if cutter.kind is not CutterKind.BALL:
-        raise UnsupportedCutterError(
-            f"cutter {cutter.spec!r}: material removal is modelled for ball-nose cutters "
-            f"only (a ball sweeps exact capsules); flat and bull-nose need a torus kernel")
     if not isinstance(surface, ParametricSurface):
         raise VerificationError(f"surface must be a ParametricSurface, got "
                                 f"{type(surface).__name__}")
     radius = cutter.radius_mm
-    cfg = opts.resolved(radius)
+    corner = None if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
+    cfg = opts.resolved(radius, corner)
     clock = {"start": time.perf_counter()}
     timings: dict[str, float] = {}
 
@@ -168,18 +165,18 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     method = opts.method
     if method is DexelMethod.AUTO:
         method = DexelMethod.NORMAL
-    ball = ball_pieces(motion, radius, cfg["max_piece_mm"], merge_tol_mm=opts.merge_tol_mm)
-    shank = shank_pieces(motion, radius, cutter.flute_length_mm, cfg["shank_spacing_mm"],
-                         cfg["shank_piece_mm"])
+    ball, shank = _pieces(motion, cutter, cfg, opts)
     horizon, depth = cfg["horizon_mm"], cfg["gouge_search_mm"]
     levels = opts.levels()
-    near_cell = float(near_search_radius_mm(radius, levels[0], depth, np.zeros(1))[0])
+    shape = radius if corner is None else corner
+    near_cell = float(near_search_radius_mm(shape, levels[0], depth, np.zeros(1),
+                                            core_radius_mm=radius - shape)[0])
     pts = samples.points.reshape(-1, 3)
     index = SweepIndex(ball, shank, radius, pts.min(axis=0), pts.max(axis=0),
                        base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
                        reach_limit_mm=radius + horizon + depth,
-                       max_pairs=opts.max_pairs)
-    ev = Dexels(index, radius, levels, depth, method)
+                       max_pairs=opts.max_pairs, corner_radius_mm=corner)
+    ev = Dexels(index, radius, levels, depth, method, corner_radius=corner)
     lap("pieces")
     stride = None
     if opts.collision:
@@ -192,7 +189,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
 
     tol = opts.gouge_tol_mm
     cut = np.isfinite(dev_grid)
-    band = math.sqrt(2.0 * radius * horizon)  # a ball's profile rises by the horizon
+    # a ball's profile (a bull-nose's corner) rises by the horizon within this band
+    band = max(math.sqrt(2.0 * shape * horizon), samples.spacing_t_mm, samples.spacing_s_mm)
     interior = cut & ~border(~cut, math.ceil(band / samples.spacing_t_mm),
                               math.ceil(band / samples.spacing_s_mm))
     kw = {"refine": opts.refine, "collision": opts.collision}
@@ -219,6 +217,30 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
         stats=stats, joints=_joints(motion, tol), pairs=res.pairs, timings_s=timings,
         deviation_map=DeviationMap(samples.t, samples.s, samples.points, dev_grid,
                                    np.where(move_grid >= 0, motion.block_index[move_grid], -1)))
+
+
+def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions
+            ) -> tuple[Pieces, Pieces]:
+    """The swept cutter's near pieces and its shank pieces (:mod:`verification.pieces`).
+
+    A flat or bull-nose piece is the bottom ``max(R, 2 r)`` of the cutter (core height
+    ``max(R - 2 r, 0)``): a gouge deeper than that is the collision search's, as a ball's
+    deeper than ``2 R``. Its axis turns along it by at most what moves a cutter point by
+    the replay tolerance, so the number of pieces grows with ``reach x rotation``.
+    """
+    radius, flutes = cutter.radius_mm, cutter.flute_length_mm
+    if cutter.kind is CutterKind.BALL:
+        return (ball_pieces(motion, radius, cfg["max_piece_mm"], merge_tol_mm=opts.merge_tol_mm),
+                shank_pieces(motion, radius, flutes, cfg["shank_spacing_mm"],
+                             cfg["shank_piece_mm"]))
+    corner = cutter.corner_radius_mm
+    height = max(radius - 2.0 * corner, 0.0)
+    reach = math.hypot(radius - corner, height) + corner
+    near = cutter_pieces(motion, corner, height, cfg["max_piece_mm"], reach_mm=reach,
+                         rot_tol_mm=opts.replay_tol_mm, merge_tol_mm=opts.merge_tol_mm)
+    shank = shank_pieces(motion, corner, flutes - corner, cfg["shank_spacing_mm"],
+                         cfg["shank_piece_mm"])
+    return near, shank
 
 
 def load_surface(path: str | Path) -> ParametricSurface:

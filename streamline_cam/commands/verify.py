@@ -1,5 +1,7 @@
 """``toolpath verify PART.nc --surface S.json --machine NAME --cutter ball:6``: what it cuts.
 
+Every cutter kind is verified: ``ball:D``, ``flat:D`` and ``bull:D:r``.
+
 Parses the program strictly (the machine's dialect), replays it through the machine's
 kinematics with the joints interpolated within blocks, sweeps the cutter and compares the
 cut with the design surface. Prints the report (text or ``--json``) on stdout, one summary

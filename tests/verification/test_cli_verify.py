@@ -48,10 +48,20 @@ def test_a_gouge_deeper_than_the_limit_exits_1_and_names_the_line(tmp_path, caps
 def test_bad_input_is_one_stderr_line_and_exit_2(tmp_path, capsys):
     nc, surface = _files(tmp_path)
     base = ["verify", nc, "--surface", surface, "--machine", "grbl-router", "--cutter"]
-    for argv in ([*base, "bull:6:1"], [*base, "ball:six"],
+    for argv in ([*base, "bull:6:4"], [*base, "ball:six"],
                  ["verify", str(tmp_path / "missing.nc"), *base[2:], "ball:6"],
                  ["verify", nc, "--surface", nc, "--machine", "grbl-router", "--cutter",
                   "ball:6"]):
         assert main(argv) == 2
         err = capsys.readouterr().err
         assert err.count("\n") == 1 and err.startswith("toolpath: error: ")
+
+
+def test_flat_and_bull_nose_cutters_are_verified(tmp_path, capsys):
+    nc, surface = _files(tmp_path)
+    for spec in ("flat:6", "bull:6:1"):
+        argv = ["verify", nc, "--surface", surface, "--machine", "grbl-router", "--cutter",
+                spec, "--spacing", "0.2", "--json"]
+        assert main(argv) == 0
+        data = json.loads(capsys.readouterr().out)
+        assert data["cutter"] == spec and data["max_gouge"] is None
