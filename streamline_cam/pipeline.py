@@ -144,13 +144,11 @@ def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
 def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
             dialect: Any, plots: bool) -> dict[str, Any]:
     """Material-removal check of the written program against the design surface."""
-    from toolpath.planning.cutters import CutterKind, parse_cutter
+    from toolpath.planning.cutters import parse_cutter
     from verification.options import VerifyOptions
     from verification.verify import verify_file
 
     cutter = parse_cutter(request.cutter)
-    if cutter.kind is not CutterKind.BALL:
-        return {"skipped": f"verification measures ball-nose cutters only, not {cutter.kind}"}
     outcome = verify_file(files["gcode"], surface, machine, cutter,
                           dialect=dialect, options=VerifyOptions(scallop_mm=request.scallop_mm))
     if plots:

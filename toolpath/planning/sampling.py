@@ -23,6 +23,8 @@ contacts, exact for curvature varying quadratically along the move); the model's
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -135,10 +137,13 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     ``r`` on the axis (a point, the ball centre, for a ball), so the gap is
     ``min over the disc of (K - X(K)) . n - r`` with ``X(K)`` the closest surface point of
     ``K``: positive where the cutter stands clear (material left), negative where it cuts
-    into the surface. For a ball one projection; otherwise the disc's centre, 8 points at
-    half its radius and 24 on its rim are projected, and the rim minimum is refined by a
-    parabola through its neighbours (the minimum of a tilted disc lies on its rim, that of
-    a disc lying almost flat on a convex surface may lie inside).
+    into the surface. For a ball one projection. Otherwise the disc's centre is projected
+    first: where the surface normal there leans off the axis clearly (more than the normal
+    can turn under the disc), the lowest point is on the rim, facing down the surface, and
+    5 rim points within 30 deg of that direction are projected and the lowest refined by a
+    parabola. Elsewhere (a disc lying almost flat, whose minimum over a convex surface may
+    lie inside, or a window whose lowest sample is at its end) the centre, 8 points at half
+    its radius and 24 on its rim are projected, the rim minimum refined likewise.
 
     Returns
     -------
@@ -151,46 +156,137 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         t, s, _ = project_to_surface(surface, core, t0, s0, iterations=newton)
         x, normals = point_normal(surface, t, s)
         return np.einsum("ij,ij->i", core - x, normals) - r, t, s
-    m = len(tips_mm)
     centre = tips_mm + r * axes
-    b1, b2 = _disc_basis(axes)
-    rad = cutter.radius_mm - r
-    phi = np.arange(_RIM) * (2.0 * np.pi / _RIM)
-    inner = np.arange(8) * (np.pi / 4.0)
-    offs = np.concatenate([np.stack([np.cos(phi), np.sin(phi)], 1) * rad, [[0.0, 0.0]],
-                           np.stack([np.cos(inner), np.sin(inner)], 1) * 0.5 * rad])
-    k = len(offs)
-
-    def signed(points: NDArray[np.float64], tt: NDArray[np.float64], ss: NDArray[np.float64]
-               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        tt, ss, _ = project_to_surface(surface, points, tt, ss, iterations=newton + 1)
-        x, normals = point_normal(surface, tt, ss)
-        return np.einsum("ij,ij->i", points - x, normals), tt, ss
-
-    pts = (centre[:, None, :] + offs[None, :, 0, None] * b1[:, None, :]
-           + offs[None, :, 1, None] * b2[:, None, :]).reshape(-1, 3)
-    d, tt, ss = signed(pts, np.repeat(t0, k), np.repeat(s0, k))
-    d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
-    best = np.argmin(d, axis=1)
-    rows = np.arange(m)
-    out_d, out_t, out_s = d[rows, best], tt[rows, best], ss[rows, best]
-    on_rim = best < _RIM
-    if on_rim.any():
-        i = np.flatnonzero(on_rim)
-        j = best[i]
-        lo_, hi_ = d[i, (j - 1) % _RIM], d[i, (j + 1) % _RIM]
-        mid = d[i, j]
-        den = lo_ - 2.0 * mid + hi_
-        step = np.where(den > 1e-15, 0.5 * (lo_ - hi_) / np.where(den > 1e-15, den, 1.0), 0.0)
-        ang = phi[j] + np.clip(step, -1.0, 1.0) * (2.0 * np.pi / _RIM)
-        refined = (centre[i] + rad * (np.cos(ang)[:, None] * b1[i]
-                                      + np.sin(ang)[:, None] * b2[i]))
-        d2, t2, s2 = signed(refined, tt[i, j], ss[i, j])
-        better = d2 < out_d[i]
-        out_d[i] = np.where(better, d2, out_d[i])
-        out_t[i] = np.where(better, t2, out_t[i])
-        out_s[i] = np.where(better, s2, out_s[i])
+    disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1)
+    # the centre's foot point: its normal tells which rim point can touch
+    d_c, t_c, s_c, n_c, k_c = disc.signed(centre, t0, s0, curvature=True)
+    lateral = n_c - np.einsum("ij,ij->i", n_c, axes)[:, None] * axes
+    lean = np.linalg.norm(lateral, axis=1)
+    # the rim point facing down the surface is the lowest when the normal leans clearly
+    # everywhere under the disc: more than the normal can turn over it (curvature times
+    # the disc's reach, three times over) and than 2 deg
+    tilted = lean > np.maximum(3.0 * k_c * (disc.radius + r), np.sin(np.radians(2.0)))
+    out_d, out_t, out_s = d_c, t_c, s_c
+    full = ~tilted
+    rows = np.flatnonzero(tilted)
+    if rows.size:
+        phi0 = np.arctan2(-np.einsum("ij,ij->i", lateral[rows], disc.b2[rows]),
+                          -np.einsum("ij,ij->i", lateral[rows], disc.b1[rows]))
+        d5, t5, s5, inside = disc.rim_window(rows, phi0, t_c[rows], s_c[rows])
+        better = d5 < out_d[rows]
+        out_d[rows] = np.where(better, d5, out_d[rows])
+        out_t[rows] = np.where(better, t5, out_t[rows])
+        out_s[rows] = np.where(better, s5, out_s[rows])
+        full[rows[~inside]] = True  # the lowest sample at the window's end: scan it all
+    rows = np.flatnonzero(full)
+    if rows.size:
+        d_f, t_f, s_f = disc.scan(rows, t0[rows], s0[rows])
+        better = d_f < out_d[rows]
+        out_d[rows] = np.where(better, d_f, out_d[rows])
+        out_t[rows] = np.where(better, t_f, out_t[rows])
+        out_s[rows] = np.where(better, s_f, out_s[rows])
     return out_d - r, out_t, out_s
+
+
+class _Disc:
+    """The corner-circle disc of a flat or bull-nose cutter at many poses (rows)."""
+
+    def __init__(self, surface: ParametricSurface, centre: NDArray[np.float64],
+                 axes: NDArray[np.float64], radius_mm: float, iterations: int) -> None:
+        self.surface, self.centre, self.radius = surface, centre, radius_mm
+        self.iterations = iterations
+        self.b1, self.b2 = _disc_basis(axes)
+
+    def signed(self, points: NDArray[np.float64], tt: NDArray[np.float64],
+               ss: NDArray[np.float64], *, curvature: bool = False) -> tuple[Any, ...]:
+        """Signed distance of points to the surface and the foot's ``t, s``.
+
+        With ``curvature=True`` also the foot's normal and largest absolute principal
+        curvature (1/mm).
+        """
+        tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
+                                       iterations=self.iterations)
+        if not curvature:
+            x, normals = point_normal(self.surface, tt, ss)
+            return np.einsum("ij,ij->i", points - x, normals), tt, ss
+        f = self.surface.frame(tt, ss)
+        k_min, k_max = f.principal_curvatures()
+        bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
+        return np.einsum("ij,ij->i", points - f.point, f.normal), tt, ss, f.normal, bend
+
+    def rim(self, rows: NDArray[np.int64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Rim points at ``angle`` (rad, from ``b1`` towards ``b2``) of discs ``rows``."""
+        return self.centre[rows] + self.radius * (np.cos(angle)[:, None] * self.b1[rows]
+                                                  + np.sin(angle)[:, None] * self.b2[rows])
+
+    def rim_window(self, rows: NDArray[np.int64], phi0: NDArray[np.float64],
+                   tt: NDArray[np.float64], ss: NDArray[np.float64]) -> tuple[Any, ...]:
+        """Lowest rim point within 30 deg of ``phi0`` (5 samples, then a parabola).
+
+        Returns the distance, ``t``, ``s`` and whether the lowest sample was inside the
+        window (else the true minimum may lie beyond it).
+        """
+        offsets = np.radians([-30.0, -15.0, 0.0, 15.0, 30.0])
+        n, k = rows.size, offsets.size
+        angle = (phi0[:, None] + offsets[None, :]).ravel()
+        d, t5, s5 = self.signed(self.rim(np.repeat(rows, k), angle), np.repeat(tt, k),
+                                np.repeat(ss, k))
+        d, t5, s5 = d.reshape(n, k), t5.reshape(n, k), s5.reshape(n, k)
+        j = np.argmin(d, axis=1)
+        inside = (j > 0) & (j < k - 1)
+        i = np.arange(n)
+        out = d[i, j], t5[i, j], s5[i, j]
+        sel = np.flatnonzero(inside)
+        if sel.size:
+            js = j[sel]
+            ang = _parabola_angle(d[sel, js - 1], d[sel, js], d[sel, js + 1],
+                                  phi0[sel] + offsets[js], offsets[1] - offsets[0])
+            d2, t2, s2 = self.signed(self.rim(rows[sel], ang), t5[sel, js], s5[sel, js])
+            better = d2 < out[0][sel]
+            for arr, new in zip(out, (d2, t2, s2), strict=True):
+                arr[sel] = np.where(better, new, arr[sel])
+        return (*out, inside)
+
+    def scan(self, rows: NDArray[np.int64], tt: NDArray[np.float64], ss: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Lowest point of the whole disc, by samples.
+
+        Its centre, 8 points at half radius and 24 on the rim; the rim minimum is refined
+        by a parabola through its neighbours.
+        """
+        phi = np.arange(_RIM) * (2.0 * np.pi / _RIM)
+        inner = np.arange(8) * (np.pi / 4.0)
+        offs = np.concatenate([np.stack([np.cos(phi), np.sin(phi)], 1) * self.radius,
+                               [[0.0, 0.0]],
+                               np.stack([np.cos(inner), np.sin(inner)], 1) * 0.5 * self.radius])
+        m, k = rows.size, len(offs)
+        pts = (self.centre[rows][:, None, :] + offs[None, :, 0, None] * self.b1[rows][:, None, :]
+               + offs[None, :, 1, None] * self.b2[rows][:, None, :]).reshape(-1, 3)
+        d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k))
+        d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
+        best = np.argmin(d, axis=1)
+        i_all = np.arange(m)
+        out_d, out_t, out_s = d[i_all, best], tt[i_all, best], ss[i_all, best]
+        i = np.flatnonzero(best < _RIM)
+        if i.size:
+            j = best[i]
+            ang = _parabola_angle(d[i, (j - 1) % _RIM], d[i, j], d[i, (j + 1) % _RIM], phi[j],
+                                  2.0 * np.pi / _RIM)
+            d2, t2, s2 = self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j])
+            better = d2 < out_d[i]
+            out_d[i] = np.where(better, d2, out_d[i])
+            out_t[i] = np.where(better, t2, out_t[i])
+            out_s[i] = np.where(better, s2, out_s[i])
+        return out_d, out_t, out_s
+
+
+def _parabola_angle(before: NDArray[np.float64], here: NDArray[np.float64],
+                    after: NDArray[np.float64], angle: NDArray[np.float64], spacing: float
+                    ) -> NDArray[np.float64]:
+    """Where the parabola through three equally spaced samples is lowest (within one step)."""
+    den = before - 2.0 * here + after
+    step = np.where(den > 1e-15, 0.5 * (before - after) / np.where(den > 1e-15, den, 1.0), 0.0)
+    return angle + np.clip(step, -1.0, 1.0) * spacing
 
 
 def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
