@@ -37,9 +37,10 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
+from gcode.block_sequence import MoveRun, block_runs
 from gcode.interpreter import KIND_RAPID, interpret
 from gcode.machine_frame import joint_columns, work_offsets
-from gcode.program import Arc, Linear, Program, Rapid
+from gcode.program import AXES, Arc, Linear, Program, Rapid
 from machines import Machine, Wrap, forward
 
 from .errors import VerificationError
@@ -119,20 +120,40 @@ class ToolMotion:
 
 
 def _first_known(program: Program, machine: Machine) -> int:
-    """Motion-block number (motion order) by whose end every machine axis was programmed."""
+    """Motion-block number (motion order) by whose end every machine axis was programmed.
+
+    Runs of moves held as columns are read column-wise (no block objects built).
+    """
     letters = [a.letter.lower() for a in machine.axes]
-    seen: set[str] = set()
+    cols = [AXES.index(a) for a in letters]
+    seen = np.zeros(len(letters), dtype=np.bool_)
     k = 0
-    for b in program.blocks:
-        if type(b) in _MOTION:
-            seen.update(a for a in letters if getattr(b, a) is not None)
-            if len(seen) == len(letters):
-                return k
-            k += 1
-    missing = sorted(set(letters) - seen)
+    for _, part in block_runs(program.blocks):
+        if isinstance(part, MoveRun):
+            known = np.logical_or.accumulate(~np.isnan(part.axes[:, cols]), axis=0) | seen
+            full = np.flatnonzero(known.all(axis=1))
+            if full.size:
+                return k + int(full[0])
+            seen, k = known[-1], k + len(part)
+            continue
+        for b in part:
+            if type(b) in _MOTION:
+                seen |= np.array([getattr(b, a) is not None for a in letters])
+                if seen.all():
+                    return k
+                k += 1
+    missing = [a for a, ok in zip(letters, seen, strict=True) if not ok]
     raise VerificationError(
         f"no motion block programs axis {', '.join(a.upper() for a in missing)} of machine "
         f"{machine.name!r}: where the tool is cannot be known, so nothing can be verified")
+
+
+def _motion_mask(program: Program) -> NDArray[np.bool_]:
+    """Which blocks move the tool (columns of moves are all motion)."""
+    parts = [np.ones(len(part), dtype=np.bool_) if isinstance(part, MoveRun) else
+             np.fromiter((type(b) in _MOTION for b in part), dtype=np.bool_, count=len(part))
+             for _, part in block_runs(program.blocks)]
+    return np.concatenate(parts) if parts else np.zeros(0, dtype=np.bool_)
 
 
 def _wrap180(a: FloatArray) -> FloatArray:
@@ -292,8 +313,7 @@ def replay(program: Program, machine: Machine, *, chord_tol_mm: float, radius_mm
     rot = np.zeros(n_seg)
     np.maximum.at(rot, source, rotary)
     steps = np.bincount(source, weights=counts, minlength=n_seg).astype(np.int64)
-    is_motion = np.fromiter((type(b) in _MOTION for b in program.blocks), dtype=np.bool_,
-                            count=len(program.blocks))
+    is_motion = _motion_mask(program)
     return ToolMotion(
         tips_mm=tips, axes=axes,
         move_of_instance=np.concatenate(([known], source[move])).astype(np.int64),
