@@ -91,3 +91,29 @@ def test_signed_distance_of_known_points():
     pts = np.array([[0, 0, -1.0], [8.0, 0, 10.0], [0, 0, 5.0], [5.0, 0, 2.0]])
     np.testing.assert_allclose(cutter.signed_distance(pts, tip, axis),
                                [1.0, 3.0, -5.0, 0.0], atol=1e-12)
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1", "bull:10:2"])
+def test_flat_and_bull_gap_matches_a_scan_of_the_whole_disc(spec):
+    # the rim window facing down the surface finds what 33 samples of the disc find (or
+    # lower), tool axes upright and leaning, over a sphere of radius 20 mm
+    from toolpath.planning import SpherePatch
+    from toolpath.planning.sampling import _Disc, cutter_gap
+
+    rng = np.random.default_rng(3)
+    sphere = SpherePatch(radius_mm=20.0, longitude_deg=(-40.0, 40.0),
+                         colatitude_deg=(5.0, 60.0))
+    cutter = parse_cutter(spec)
+    t, s = rng.random(300), rng.random(300)
+    frame = sphere.frame(t, s)
+    axes = np.tile([0.0, 0.0, 1.0], (300, 1)) + 0.3 * rng.normal(size=(300, 3)) * (
+        rng.random(300) < 0.5)[:, None]
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
+    tips = tips + rng.normal(scale=0.01, size=tips.shape)
+    gap, _, _ = cutter_gap(sphere, cutter, tips, axes, t, s, newton=3)
+    r = cutter.corner_radius_mm
+    disc = _Disc(sphere, tips + r * axes, axes, cutter.radius_mm - r, 4)
+    scanned, _, _ = disc.scan(np.arange(300), t, s)
+    assert np.all(gap <= scanned - r + 5e-4)
+    assert np.median(np.abs(gap - (scanned - r))) < 1e-5

@@ -491,7 +491,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock.stage("measure")
     scallop = chord = None
     if opts.measure:
-        chord = measure_chord(path, surface, cutter, samples)
+        chord = measure_chord(path, surface, cutter, samples, machine=mach)
         scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord)
     clock.done()
 

@@ -7,7 +7,9 @@ toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 surface (Newton from the nearest of a grid of surface samples): its gap checks that it
 touches. Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
 axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
-it), and, on the moves that could hold the largest deviation (a model extreme at least
+it; for a toolpath checked under a 5-axis machine's joint interpolation, its joints
+linear, as that machine moves it), and, on the
+moves that could hold the largest deviation (a model extreme at least
 half the largest sample), once more where a smooth model through those gaps is lowest and
 where it is highest; its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
@@ -41,6 +43,10 @@ import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from machines import Machine
+from machines.kinematics import solve_inverse
+
+from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
@@ -78,8 +84,18 @@ class ChordMeasurement:
 
 
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
-                  samples: SurfaceSamples, *, chunk: int = 100_000) -> ChordMeasurement:
-    """Measure the chord error of ``toolpath`` (module docstring)."""
+                  samples: SurfaceSamples, *, machine: Machine | None = None,
+                  chunk: int = 100_000) -> ChordMeasurement:
+    """Measure the chord error of ``toolpath`` (module docstring).
+
+    With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
+    (``JOINT_CHECKED``: the post then leaves its cutting moves whole), the cutter inside
+    each move is placed as that interpolation places it (the tip bows off the chord
+    where rotary axes turn).
+    """
+    joints = None
+    if machine is not None and toolpath.metadata.get(JOINT_CHECKED) == machine_key(machine):
+        joints = solve_inverse(machine, toolpath.positions_mm, toolpath.tool_axes).joints
     kinds, passes = toolpath.kinds, toolpath.pass_index
     move = np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
     if not move.size:
@@ -111,10 +127,11 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         ia, ib = where[lo:lo + m], where[lo:lo + m] + 1
         args = (pos[seg], pos[seg + 1], ax_all[seg], ax_all[seg + 1], t_end[ia], t_end[ib],
                 s_end[ia], s_end[ib])
+        how = {} if joints is None else {"joints": (machine, joints[seg], joints[seg + 1])}
         # measured at three places, then once more where the gap model is lowest and
         # where it is highest (on the moves whose extreme could be the largest: within
         # half of the largest sample)
-        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2)
+        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2, **how)
         low, u_low, high, u_high = chord_extremes(np.clip(g3, -1e3, 1e3), u)
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
         g_star = np.zeros((m, 2))
@@ -122,8 +139,10 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             big = np.abs(value) >= 0.5 * top
             for k in np.unique(u_at[big]):  # few values (101-point grid)
                 sel = np.flatnonzero((u_at == k) & big)
+                sub = {} if joints is None else {
+                    "joints": (machine, joints[seg[sel]], joints[seg[sel] + 1])}
                 g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                             np.array([k]), newton=2)[0][:, 0]
+                                             np.array([k]), newton=2, **sub)[0][:, 0]
         gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
                              axis=1)
         worst[lo:lo + m] = np.abs(gap).max(axis=1)

@@ -173,18 +173,12 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         phi0 = np.arctan2(-np.einsum("ij,ij->i", lateral[rows], disc.b2[rows]),
                           -np.einsum("ij,ij->i", lateral[rows], disc.b1[rows]))
         d5, t5, s5, inside = disc.rim_window(rows, phi0, t_c[rows], s_c[rows])
-        better = d5 < out_d[rows]
-        out_d[rows] = np.where(better, d5, out_d[rows])
-        out_t[rows] = np.where(better, t5, out_t[rows])
-        out_s[rows] = np.where(better, s5, out_s[rows])
+        _keep_lower((out_d, out_t, out_s), rows, (d5, t5, s5))
         full[rows[~inside]] = True  # the lowest sample at the window's end: scan it all
     rows = np.flatnonzero(full)
     if rows.size:
         d_f, t_f, s_f = disc.scan(rows, t0[rows], s0[rows])
-        better = d_f < out_d[rows]
-        out_d[rows] = np.where(better, d_f, out_d[rows])
-        out_t[rows] = np.where(better, t_f, out_t[rows])
-        out_s[rows] = np.where(better, s_f, out_s[rows])
+        _keep_lower((out_d, out_t, out_s), rows, (d_f, t_f, s_f))
     return out_d - r, out_t, out_s
 
 
@@ -242,9 +236,7 @@ class _Disc:
             ang = _parabola_angle(d[sel, js - 1], d[sel, js], d[sel, js + 1],
                                   phi0[sel] + offsets[js], offsets[1] - offsets[0])
             d2, t2, s2 = self.signed(self.rim(rows[sel], ang), t5[sel, js], s5[sel, js])
-            better = d2 < out[0][sel]
-            for arr, new in zip(out, (d2, t2, s2), strict=True):
-                arr[sel] = np.where(better, new, arr[sel])
+            _keep_lower(out, sel, (d2, t2, s2))
         return (*out, inside)
 
     def scan(self, rows: NDArray[np.int64], tt: NDArray[np.float64], ss: NDArray[np.float64]
@@ -273,11 +265,16 @@ class _Disc:
             ang = _parabola_angle(d[i, (j - 1) % _RIM], d[i, j], d[i, (j + 1) % _RIM], phi[j],
                                   2.0 * np.pi / _RIM)
             d2, t2, s2 = self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j])
-            better = d2 < out_d[i]
-            out_d[i] = np.where(better, d2, out_d[i])
-            out_t[i] = np.where(better, t2, out_t[i])
-            out_s[i] = np.where(better, s2, out_s[i])
+            _keep_lower((out_d, out_t, out_s), i, (d2, t2, s2))
         return out_d, out_t, out_s
+
+
+def _keep_lower(best: tuple[NDArray[np.float64], ...], rows: NDArray[np.int64],
+                new: tuple[NDArray[np.float64], ...]) -> None:
+    """Where ``new`` distances (first arrays) are lower at ``rows``, take them (in place)."""
+    lower = new[0] < best[0][rows]
+    for arr, value in zip(best, new, strict=True):
+        arr[rows] = np.where(lower, value, arr[rows])
 
 
 def _parabola_angle(before: NDArray[np.float64], here: NDArray[np.float64],
