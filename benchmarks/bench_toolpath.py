@@ -77,8 +77,10 @@ def _cases(quick: bool) -> list[tuple[str, object, dict]]:
 
 def _sweep() -> None:
     cases = _cases(quick=False)[-2:]
+    print("scallop/req: the largest scallop away from uncut areas (what within_request judges;")
+    print("0 where every sample lies within a cutter diameter of an uncut area); max/req: anywhere")
     print(f"{'surface':<22}{'cutter':<10}{'scallop':>8}{'chord':>7}{'reserve':>9}"
-          f"{'scallop/req':>12}{'chord/req':>10}")
+          f"{'scallop/req':>12}{'max/req':>9}{'chord/req':>10}")
     over = 0
     for (name, surface, _), axis in zip(cases, ("lead-tilt", "3"), strict=True):
         more = {"lead_deg": 10.0} if axis == "lead-tilt" else {}
@@ -92,7 +94,8 @@ def _sweep() -> None:
                     bad = ratio_s > 1.0 or ratio_c > 1.0
                     over += bad
                     print(f"{name:<22}{cutter:<10}{scallop:>8g}{chord:>7g}"
-                          f"{rep.rounding_reserve_mm:>9.5f}{ratio_s:>12.3f}{ratio_c:>10.3f}"
+                          f"{rep.rounding_reserve_mm:>9.5f}{ratio_s:>12.3f}"
+                          f"{rep.max_scallop_mm / scallop:>9.3f}{ratio_c:>10.3f}"
                           + ("  OVER" if bad else ""), flush=True)
     print(f"{over} plan(s) measured over the request")
 
