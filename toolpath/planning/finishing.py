@@ -19,7 +19,6 @@ Stages (each timed in the report):
 
 from __future__ import annotations
 
-import dataclasses
 import time
 from typing import Any
 
@@ -495,11 +494,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord)
     clock.done()
 
-    report = _report(surface, cutter, opts, probe, pts, keep, runs, spans, path, gstats,
-                     planned_chord, mstats, scallop, chord, clock.seconds)
-    return path, dataclasses.replace(report, rounding_reserve_mm=reserve_mm,
-                                     planned_scallop_mm=res["scallop_mm"],
-                                     planned_chord_tol_mm=res["chord_tol_mm"])
+    report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, keep, runs, spans,
+                     path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
+    return path, report
 
 
 def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
@@ -522,7 +519,8 @@ def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutt
 
 
 def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-            probe: dict[str, Any], pts: PassPoints, keep: NDArray[np.bool_],
+            res: dict[str, float], reserve_mm: float, probe: dict[str, Any], pts: PassPoints,
+            keep: NDArray[np.bool_],
             runs: list[NDArray[np.int64]], spans: list[UnreachableSpan], path: Toolpath,
             gstats: dict[str, Any], planned_chord: float, mstats: dict[str, Any] | None,
             scallop: Any, chord: Any, seconds: dict[str, float]) -> PlanningReport:
@@ -574,4 +572,6 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         length_mm=path.length_mm, cutting_length_mm=path.cutting_length_mm,
         seconds=dict(seconds), gouge_tol_mm=opts.gouge_tol_mm,
         axis_rate_limit_deg_per_mm=(opts.max_axis_rate_deg_per_mm
-                                    if opts.axis_mode is AxisMode.LEAD_TILT else None))
+                                    if opts.axis_mode is AxisMode.LEAD_TILT else None),
+        rounding_reserve_mm=reserve_mm, planned_scallop_mm=res["scallop_mm"],
+        planned_chord_tol_mm=res["chord_tol_mm"])

@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..surface import ParametricSurface
 
-__all__ = ["PassFrame", "pass_frame", "point_normal", "project_to_surface", "wrap_t"]
+__all__ = ["PassFrame", "pass_frame", "project_to_surface", "wrap_t"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -87,12 +87,6 @@ def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFr
 def wrap_t(t: NDArray[np.float64], closed: bool) -> NDArray[np.float64]:
     """``t`` folded into [0, 1]: modulo 1 on closed sections, clipped otherwise."""
     return np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)
-
-
-def point_normal(surface: ParametricSurface, t: ArrayLike, s: ArrayLike
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Points and outward unit normals from three partials (cheaper than a frame)."""
-    return surface.points_and_normals(t, s)
 
 
 def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,

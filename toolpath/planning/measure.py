@@ -51,8 +51,7 @@ from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
-from .local import point_normal
-from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, move_gaps
+from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -127,11 +126,11 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         ia, ib = where[lo:lo + m], where[lo:lo + m] + 1
         args = (pos[seg], pos[seg + 1], ax_all[seg], ax_all[seg + 1], t_end[ia], t_end[ib],
                 s_end[ia], s_end[ib])
-        how = {} if joints is None else {"joints": (machine, joints[seg], joints[seg + 1])}
         # measured at three places, then once more where the gap model is lowest and
         # where it is highest (on the moves whose extreme could be the largest: within
         # half of the largest sample)
-        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2, **how)
+        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2,
+                               **joint_moves(machine, joints, seg))
         low, u_low, high, u_high = chord_extremes(np.clip(g3, -1e3, 1e3), u)
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
         g_star = np.zeros((m, 2))
@@ -139,10 +138,9 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             big = np.abs(value) >= 0.5 * top
             for k in np.unique(u_at[big]):  # few values (101-point grid)
                 sel = np.flatnonzero((u_at == k) & big)
-                sub = {} if joints is None else {
-                    "joints": (machine, joints[seg[sel]], joints[seg[sel] + 1])}
                 g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                             np.array([k]), newton=2, **sub)[0][:, 0]
+                                             np.array([k]), newton=2,
+                                             **joint_moves(machine, joints, seg[sel]))[0][:, 0]
         gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
                              axis=1)
         worst[lo:lo + m] = np.abs(gap).max(axis=1)
@@ -445,7 +443,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     than the horizon.
     """
     m = len(t)
-    mid, mid_n = point_normal(surface, t, 0.5 * (s0 + s1))
+    mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
     ends = surface(t, s1) - surface(t, s0)
     half = 0.5 * np.linalg.norm(ends, axis=1)
     # the pieces that matter have their centres on the sheet ``lift`` above the surface,
@@ -469,7 +467,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
         remap[active] = np.arange(active.size)
         sel = remap[owner] >= 0
         o, it, mi = remap[owner[sel]], item[sel], mine[sel]
-        x, nrm = point_normal(surface, t[active], sv)
+        x, nrm = surface.points_and_normals(t[active], sv)
         h_own = volume.height(x, nrm, o[mi], it[mi])
         h_other = volume.height(x, nrm, o[~mi], it[~mi])
         return np.minimum(h_own, big) - np.minimum(h_other, big), np.minimum(h_own, h_other)

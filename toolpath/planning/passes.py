@@ -10,7 +10,6 @@ inserted (chord splits, reach boundaries), so nothing already evaluated is recom
 from __future__ import annotations
 
 from dataclasses import dataclass, fields, replace
-from typing import Any
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,7 +22,7 @@ from .cutters import Cutter
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
-from .sampling import CHORD_FRACTIONS, chord_extremes, move_gaps
+from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps
 from .tool_axis import (
     AxisSmoothing,
     keep_out_of_cone,
@@ -220,14 +219,6 @@ def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
     return np.abs(np.einsum("ij,ij->i", off, side))
 
 
-def _joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
-                 idx: NDArray[np.int64]) -> dict[str, Any]:
-    """``move_gaps`` keywords for moves ``idx -> idx + 1`` interpolated in joints (if any)."""
-    if joints is None:
-        return {}
-    return {"joints": (machine, joints[idx], joints[idx + 1])}
-
-
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                   res: dict[str, float], layout: PassLayout, pts: PassPoints,
                   keep: NDArray[np.bool_] | None = None, machine: Machine | None = None
@@ -269,23 +260,24 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         gaps, _, _ = move_gaps(surface, cutter, pts.tips[idx], pts.tips[idx + 1],
                                pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
                                pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
-                               newton=1, **_joint_moves(machine, q, idx))
+                               newton=1, **joint_moves(machine, q, idx))
         low, u_low, high, u_high = chord_extremes(np.clip(gaps, -1e3, 1e3))
         low, high = np.minimum(low, gaps.min(axis=1)), np.maximum(high, gaps.max(axis=1))
         # the model is close, not exact: where an extreme is within 10 % of its limit,
         # measure there (a move can both cut in and stand above: both sides are checked)
-        for value, u_at, limit in ((low, u_low, tol), (high, u_high, res["undercut_mm"])):
+        sides = ((low, u_low, tol, -1.0, np.minimum),
+                 (high, u_high, res["undercut_mm"], 1.0, np.maximum))
+        for value, u_at, limit, sign, further in sides:
             close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
-                                   & (np.sign(value) == (-1.0 if value is low else 1.0)))
+                                   & (np.sign(value) == sign))
             for k in np.unique(u_at[close]):
                 sel = close[u_at[close] == k]
                 j = idx[sel]
                 exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
                                         pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
                                         pts.s[j], pts.s[j + 1], np.array([k]),
-                                        **_joint_moves(machine, q, j))
-                value[sel] = (np.minimum if value is low else np.maximum)(value[sel],
-                                                                          exact[:, 0])
+                                        **joint_moves(machine, q, j))
+                value[sel] = further(value[sel], exact[:, 0])
         worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])
         if q is not None:

@@ -33,7 +33,7 @@ from machines.kinematics import forward
 
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
-from .local import PassFrame, point_normal, project_to_surface
+from .local import PassFrame, project_to_surface
 
 __all__ = [
     "CHORD_FRACTIONS",
@@ -41,6 +41,7 @@ __all__ = [
     "chord_length_mm",
     "cutter_gap",
     "equidistribute",
+    "joint_moves",
     "move_gaps",
 ]
 
@@ -154,7 +155,7 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     if cutter.kind is CutterKind.BALL:
         core = tips_mm + r * axes
         t, s, _ = project_to_surface(surface, core, t0, s0, iterations=newton)
-        x, normals = point_normal(surface, t, s)
+        x, normals = surface.points_and_normals(t, s)
         return np.einsum("ij,ij->i", core - x, normals) - r, t, s
     centre = tips_mm + r * axes
     disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1)
@@ -201,7 +202,7 @@ class _Disc:
         tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
                                        iterations=self.iterations)
         if not curvature:
-            x, normals = point_normal(self.surface, tt, ss)
+            x, normals = self.surface.points_and_normals(tt, ss)
             return np.einsum("ij,ij->i", points - x, normals), tt, ss
         f = self.surface.frame(tt, ss)
         k_min, k_max = f.principal_curvatures()
@@ -291,6 +292,17 @@ def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
     """Rows ``a + u (b - a)`` for every move and fraction, flattened move by move."""
     return (a[:, None, :] * (1.0 - u)[None, :, None]
             + b[:, None, :] * u[None, :, None]).reshape(-1, a.shape[1])
+
+
+def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
+                idx: NDArray[np.int64]) -> dict[str, Any]:
+    """:func:`move_gaps` keywords for moves ``idx -> idx + 1`` interpolated in ``joints``.
+
+    Empty (tip-linear moves) when ``joints`` is None.
+    """
+    if joints is None:
+        return {}
+    return {"joints": (machine, joints[idx], joints[idx + 1])}
 
 
 def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.float64],
