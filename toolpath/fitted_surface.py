@@ -17,6 +17,7 @@ overstates the true in-between error of a cubic by up to about ``2^4``).
 
 from __future__ import annotations
 
+import functools
 from abc import abstractmethod
 from dataclasses import dataclass
 from typing import Any
@@ -123,7 +124,7 @@ class FittedSurface(ParametricSurface):
         """Leading entries of a row that are the tensor coefficients (``n_t * 3``)."""
         return n_coefficients(self.knots_t) * 3
 
-    @property
+    @functools.cached_property
     def tensor(self) -> TensorSpline:
         """The bicubic part: ``G(t, s)`` or ``X(t, s)`` (eq. 29)."""
         n_t, n_s = n_coefficients(self.knots_t), self.row_coef.shape[0]

@@ -42,6 +42,7 @@ from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
 from .sections import Sections, as_sections
 from .splinefit import DEGREE, end_interpolating_lsq
 from .streamline_curve import FRAME_METHODS, LogSpaceProblem
+from .tensor_spline import PiecewiseCubic
 
 __all__ = ["StreamlineSurface", "fit_streamline_surface"]
 
@@ -90,7 +91,12 @@ class StreamlineSurface(FittedSurface):
 
     def X0(self, s: Any, ds: int = 0) -> NDArray[np.float64]:
         """The boundary curve ``X_0(s)`` through the first points (or its derivative)."""
-        return self.rows_at(np.asarray(s, float), ds)[..., -3:]
+        s = np.asarray(s, float)
+        return self._x0_curve(s, ds).reshape((*s.shape, 3))
+
+    @functools.cached_property
+    def _x0_curve(self) -> PiecewiseCubic:
+        return PiecewiseCubic(self.knots_s, np.ascontiguousarray(self.row_coef[:, -3:]))
 
     def D(self, t: Any, s: Any) -> NDArray[np.float64]:
         """``D(t, s) = diag(∂G/∂t)`` (eq. 22), shape ``broadcast(t, s).shape + (3, 3)``."""
@@ -106,9 +112,8 @@ class StreamlineSurface(FittedSurface):
                         for b in range(ds + 1)})
         g = self.tensor.partials(t, s, needed)
         most_ds = max(ds for _, ds in orders)
-        rows = self.rows_at(s, 0)
-        z = [(rows[:, -3:] + self.c) @ self.T.T]
-        z += [self.rows_at(s, k)[:, -3:] @ self.T.T for k in range(1, most_ds + 1)]
+        z = [(self._x0_curve(s) + self.c) @ self.T.T]
+        z += [self._x0_curve(s, k) @ self.T.T for k in range(1, most_ds + 1)]
         e = np.exp(g[0, 0])
         w = z[0] * e
         w_s = e * (z[1] + z[0] * g[0, 1]) if most_ds else None

@@ -30,6 +30,8 @@ pass is within the request.
 
 from __future__ import annotations
 
+import bisect
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -163,14 +165,19 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
     # neighbours' intervals)
     lower = np.minimum(allowed[:-1], allowed[1:])
 
+    # scalar lookups in plain lists: the greedy walk below runs once per pass, about 20
+    # times over (the balancing bisection)
+    grid_list, allowed_list, lower_list = grid.tolist(), allowed.tolist(), lower.tolist()
+    last = len(lower_list) - 1
+
     def at(x: float) -> float:
-        j = int(np.clip(np.searchsorted(grid, x, side="right") - 1, 0, lower.size - 1))
-        return float(allowed[j]) if x == grid[j] else float(lower[j])
+        j = min(max(bisect.bisect_right(grid_list, x) - 1, 0), last)
+        return allowed_list[j] if x == grid_list[j] else lower_list[j]
 
     def window_min(lo: float, hi: float) -> float:
-        j0 = int(np.clip(np.searchsorted(grid, lo, side="right") - 1, 0, lower.size - 1))
-        j1 = int(np.clip(np.searchsorted(grid, hi, side="left") - 1, 0, lower.size - 1))
-        return float(lower[j0:j1 + 1].min())
+        j0 = min(max(bisect.bisect_right(grid_list, lo) - 1, 0), last)
+        j1 = min(max(bisect.bisect_left(grid_list, hi) - 1, 0), last)
+        return min(lower_list[j0:j1 + 1])
 
     def greedy(scale: float) -> list[float]:
         levels = [0.0]
