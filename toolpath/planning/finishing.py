@@ -45,7 +45,7 @@ from .passes import PassLayout, PassPoints, evaluate_points, refine_chords, spli
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
 from .sampling import chord_length_mm, cutter_gap, equidistribute
-from .scallop import pass_levels, stepover_mm
+from .scallop import pass_levels, shadow_stepover_mm, stepover_mm
 from .tool_axis import lead_tilt_axes
 
 __all__ = ["plan_finishing"]
@@ -160,6 +160,12 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         r = cutter.corner_radius_mm
         corner = np.where(r > h, 2.0 * np.sqrt(np.maximum(h * (2.0 * r - h), 0.0)), 0.0)
         width = np.minimum(width, cutter.flat_width_mm(axes, frame.e2) + corner)
+        # the osculating section underestimates the cusp once it forms far from the
+        # contact (coarse scallops): the true section decides
+        mirrored = opts.linking is Linking.ZIGZAG and opts.tilt_deg != 0.0
+        width = np.minimum(width, shadow_stepover_mm(
+            h, cutter.radius_mm, r, frame.normal, axes, frame.e1, frame.e2, frame.s22,
+            mirrored=mirrored))
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
     area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))

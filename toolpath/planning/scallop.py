@@ -37,7 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from .errors import PlanningError
 
-__all__ = ["pass_levels", "scallop_height_mm", "stepover_mm"]
+__all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm"]
 
 
 def _asin_ratio(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -119,6 +119,126 @@ def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_m
     curved = np.where(convex, x - radius, radius - x)
     plane = rho - np.sqrt(np.maximum(rho**2 - 0.25 * w**2, 0.0))
     return np.where(flat, plane, curved)
+
+
+#: Halvings of the boundary-normal angle in :func:`shadow_stepover_mm` (to 1e-9 rad), then
+#: regula falsi steps along the final bracket's chord.
+SHADOW_HALVINGS = 32
+SECANT_STEPS = 4
+
+
+def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Height of ``(y, z)`` above the surface's cross-section circle and arc to its foot.
+
+    The section through the contact (origin, normal ``+z``) has curvature ``k`` (positive
+    concave: centre at ``z = 1/k``). Height ``h = (2 z - k (y^2 + z^2)) / (1 + sqrt(k^2 y^2
+    + (1 - k z)^2))`` (the difference of radii, written without cancellation, ``z`` on a
+    plane); arc ``atan2(k y, 1 - k z) / k`` from the contact to the foot (``y`` on a
+    plane).
+    """
+    h = (2.0 * z - k * (y * y + z * z)) / (1.0 + np.sqrt((k * y) ** 2 + (1.0 - k * z) ** 2))
+    curved = np.abs(k) > 1e-12
+    k_safe = np.where(curved, k, 1.0)
+    arc = np.where(curved, np.arctan2(k_safe * y, 1.0 - k_safe * z) / k_safe, y)
+    return h, arc
+
+
+def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm: float,
+                       normals: ArrayLike, axes: ArrayLike, e1: ArrayLike, e2: ArrayLike,
+                       curvature_per_mm: ArrayLike, *, mirrored: bool = False
+                       ) -> NDArray[np.float64]:
+    """Stepover from the cutter's true section across the pass (flat and bull-nose).
+
+    Moving along the pass ``e1``, the cutter sweeps its shadow along ``e1``: in the plane
+    ``(e2, n)`` the projection of the core disc (an ellipse; radius ``R - r``, normal along
+    the axis ``a``) grown by the corner radius ``r``. Its boundary point with outward
+    normal ``d = sin(b) e2 - cos(b) n`` is the projection of
+    ``c + (R - r) (d - (d.a) a) / |d - (d.a) a| + r d`` (``c`` the core centre), exactly;
+    ``b = 0`` is the contact. On each side the angle ``b`` where that point stands
+    ``scallop_mm`` above the surface's cross-section circle (curvature ``S22``) is found
+    by bisection (then along the chord of the final bracket, which may span a straight
+    piece: a disc seen edge-on). The cusp between two passes stands there when each pass
+    reaches it: the stepover is the sum of the two sides' arcs when the neighbour's
+    section is the same (seen along the pass, a lead leaning either way casts the same
+    shadow), twice the smaller one when it is mirrored (a tilt on zig-zag passes). A
+    flat face on a slope thus gets its staircase, ``h / tan(slope)``, from its one
+    rising side.
+
+    Away from the contact the section curves more than its osculating circle (the
+    ellipse's ends), so at coarse scallops this is smaller than :func:`stepover_mm` with
+    the effective radius, which it equals in the limit of small ``h``.
+
+    Parameters
+    ----------
+    scallop_mm : float or array_like
+        Cusp height ``h``, mm.
+    radius_mm, corner_radius_mm : float
+        Cutter radius ``R`` and corner radius ``r``.
+    normals, axes, e1, e2 : array_like, shape (n, 3)
+        Unit surface normals, tool axes, pass and across directions at the contacts.
+    curvature_per_mm : array_like, shape (n,)
+        Surface normal curvature across the passes, 1/mm, positive concave.
+    mirrored : bool
+        The neighbouring pass's section is this one mirrored across the pass.
+
+    Returns
+    -------
+    ndarray, shape (n,)
+        Stepover along the surface, mm; where the whole side stays below ``h`` (a scallop
+        near the corner radius) the arc to the side's extreme point.
+    """
+    n = np.asarray(normals, dtype=float)
+    a = np.asarray(axes, dtype=float)
+    across = np.asarray(e2, dtype=float)
+    k = np.broadcast_to(np.asarray(curvature_per_mm, dtype=float), n.shape[:1])
+    h = np.broadcast_to(np.asarray(scallop_mm, dtype=float), n.shape[:1])
+    core = radius_mm - corner_radius_mm
+
+    def boundary(angle: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        d = np.sin(angle)[:, None] * across - np.cos(angle)[:, None] * n
+        radial = d - np.einsum("ij,ij->i", d, a)[:, None] * a
+        size = np.linalg.norm(radial, axis=1, keepdims=True)
+        radial = np.where(size > 1e-12, radial / np.where(size > 1e-12, size, 1.0), 0.0)
+        point = core * radial + corner_radius_mm * d
+        return (np.einsum("ij,ij->i", point, across), np.einsum("ij,ij->i", point, n))
+
+    y0, z0 = boundary(np.zeros(len(n)))
+    arcs = []
+    for side in (1.0, -1.0):
+        lo = np.zeros(len(n))
+        hi = np.full(len(n), side * 0.5 * np.pi)
+        y, z = boundary(hi)
+        h_end, arc_end = _height_and_arc(y - y0, z - z0, k)
+        for _ in range(SHADOW_HALVINGS):
+            mid = 0.5 * (lo + hi)
+            y, z = boundary(mid)
+            below = _height_and_arc(y - y0, z - z0, k)[0] < h
+            lo = np.where(below, mid, lo)
+            hi = np.where(below, hi, mid)
+        # the bracket is tiny, or straddles a straight piece of the boundary (a disc seen
+        # edge-on jumps from one end to the other): find the height along the chord
+        y_lo, z_lo = boundary(lo)
+        y_hi, z_hi = boundary(hi)
+        h_lo = _height_and_arc(y_lo - y0, z_lo - z0, k)[0]
+        h_hi = _height_and_arc(y_hi - y0, z_hi - z0, k)[0]
+        u_lo, u_hi = np.zeros(len(n)), np.ones(len(n))
+        u = u_lo
+        for _ in range(SECANT_STEPS):
+            u = np.clip(u_lo + (h - h_lo) / np.where(h_hi > h_lo, h_hi - h_lo, 1.0)
+                        * (u_hi - u_lo), u_lo, u_hi)
+            h_u = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0,
+                                  z_lo + u * (z_hi - z_lo) - z0, k)[0]
+            below = h_u < h
+            u_lo, h_lo = np.where(below, u, u_lo), np.where(below, h_u, h_lo)
+            u_hi, h_hi = np.where(below, u_hi, u), np.where(below, h_hi, h_u)
+        u = u_lo  # the side still below h: conservative
+        arc = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0, z_lo + u * (z_hi - z_lo) - z0,
+                              k)[1]
+        arcs.append(np.abs(np.where(h_end < h, arc_end, arc)))
+    if mirrored:
+        return 2.0 * np.minimum(arcs[0], arcs[1])
+    return arcs[0] + arcs[1]
 
 
 def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 1.0,

@@ -1,0 +1,84 @@
+"""Stepover of flat and bull-nose cutters from their true section across the pass."""
+
+import numpy as np
+import pytest
+
+from toolpath.planning import plan_finishing
+from toolpath.planning.analytic import PlaneSurface
+from toolpath.planning.cutters import parse_cutter
+from toolpath.planning.scallop import shadow_stepover_mm, stepover_mm
+
+E1, E2, UP = np.eye(3)[None, 0], np.eye(3)[None, 1], np.eye(3)[None, 2]
+
+
+def _leaning(lead_deg):
+    lead = np.radians(lead_deg)
+    return np.array([[np.sin(lead), 0.0, np.cos(lead)]])
+
+
+def _swept_cusp_mm(cutter, axis, w_mm):
+    """Oracle: the cusp between two straight passes ``w`` apart on the plane z = 0, by
+    bisection of the height at ``y = w / 2`` that some instance of the cutter (sliding
+    along x at every 0.0025 mm, the contact on z = 0) reaches: independent of the shadow."""
+    xs = np.linspace(-6.0, 6.0, 4801)
+    tips = np.stack([xs, np.zeros_like(xs), np.zeros_like(xs)], axis=1)
+    # the lowest point of the cutter: its core circle's point farthest down, less r
+    a = axis[0]
+    down = np.array([0.0, 0.0, -1.0])
+    radial = down - (down @ a) * a
+    lowest = (cutter.corner_radius_mm * a + (cutter.radius_mm - cutter.corner_radius_mm)
+              * radial / np.linalg.norm(radial) + cutter.corner_radius_mm * down)
+    tips[:, 2] -= lowest[2]
+    lo, hi = 0.0, 1.0
+    for _ in range(40):
+        mid = 0.5 * (lo + hi)
+        point = np.array([0.0, 0.5 * w_mm, mid])
+        covered = (cutter.signed_distance(point, tips, axis) <= 0.0).any()
+        lo, hi = (lo, mid) if covered else (mid, hi)
+    return hi
+
+
+def test_stadium_and_ball_sections_are_exact():
+    # a bull-nose standing on a plane: the section is a stadium, w = 2 (R - r) + corners
+    for h in (0.01, 0.1, 0.5):
+        w = shadow_stepover_mm(h, 4.0, 1.0, UP, UP, E1, E2, 0.0)
+        assert w[0] == pytest.approx(6.0 + 2.0 * np.sqrt(h * (2.0 - h)), rel=1e-9)
+    # r = R: a ball, whose section is its circle, on convex, flat and concave surfaces
+    for k in (-0.05, 0.0, 0.05):
+        w = shadow_stepover_mm(0.05, 3.0, 3.0, UP, UP, E1, E2, k)
+        assert w[0] == pytest.approx(float(stepover_mm(0.05, 3.0, k)), rel=1e-9)
+
+
+def test_flat_face_on_a_slope_gets_its_staircase():
+    slope = np.radians(30.0)
+    normal = np.array([[0.0, -np.sin(slope), np.cos(slope)]])
+    across = np.array([[0.0, np.cos(slope), np.sin(slope)]])
+    for h in (0.005, 0.05):
+        w = shadow_stepover_mm(h, 3.0, 0.0, normal, UP, E1, across, 0.0)
+        assert w[0] == pytest.approx(h / np.tan(slope), rel=1e-9)
+
+
+@pytest.mark.parametrize("h", [0.06, 0.25])
+def test_leaning_bull_nose_leaves_the_requested_cusp(h):
+    cutter = parse_cutter("bull:8:1")
+    axis = _leaning(10.0)
+    w = shadow_stepover_mm(h, 4.0, 1.0, UP, axis, E1, E2, 0.0)[0]
+    assert _swept_cusp_mm(cutter, axis, w) == pytest.approx(h, rel=2e-3)
+    # the osculating circle of the section, which the planner used alone before, gives a
+    # wider stepover and a deeper cusp at these heights
+    _, _, c22 = cutter.curvature_tensor(UP, axis, E1, E2)
+    assert float(stepover_mm(h, 1.0 / c22[0], 0.0)) > 1.02 * w
+
+
+def test_mirrored_neighbours_take_the_narrower_side():
+    tilted = np.array([[0.0, np.sin(np.radians(15.0)), np.cos(np.radians(15.0))]])
+    same = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E1, E2, 0.0)[0]
+    mirrored = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E1, E2, 0.0, mirrored=True)[0]
+    assert mirrored < same
+
+
+def test_coarse_bull_nose_plan_stays_within_the_request():
+    plane = PlaneSurface(t_vector_mm=(60.0, 0.0, 0.0), s_vector_mm=(0.0, 60.0, 0.0))
+    _, report = plan_finishing(plane, "bull:8:1", scallop_mm=0.25, chord_tol_mm=0.03,
+                               axis_mode="lead-tilt", lead_deg=10.0)
+    assert report.max_scallop_mm <= 0.25
