@@ -37,10 +37,11 @@ from .fit_report import SURFACE_METHODS, fit_surface_by_method
 __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
 
 #: A guard: where the planner's own measurement of its result exceeds what it was asked
-#: for (in benchmarks/bench_toolpath.py --sweep: bull-nose cutters at scallops of 0.06 mm
-#: and more, whose cusp the osculating-circle stepover underestimates), the job
-#: plans again (at most REPLANS times) with the tolerance tightened by the excess times
-#: REPLAN_MARGIN, so the program keeps the user's request.
+#: for (the planner's models are exact for circular sections; the measurement, which is
+#: independent and errs on the safe side, can still read a coarse bull-nose cusp a few
+#: tenths of a percent high), the job plans again (at most REPLANS times) with the
+#: tolerance tightened by the excess times REPLAN_MARGIN, so the program keeps the
+#: user's request.
 REPLANS = 2
 REPLAN_MARGIN = 0.97
 

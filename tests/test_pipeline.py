@@ -50,3 +50,31 @@ def test_coarse_5_axis_job_keeps_the_request_at_the_first_plan(tmp_path):
     assert plan["rounding_reserve_mm"] > 0.5 * np.sqrt(3.0) * 0.001  # rotary joints too
     assert plan["max_chord_error_mm"] <= plan["planned_chord_tol_mm"] < 0.05
     assert plan["max_scallop_mm"] <= plan["planned_scallop_mm"] < 0.1
+
+
+def test_a_plan_measured_over_the_request_is_planned_again_tighter(tmp_path, monkeypatch):
+    # the guard behind the planner: when its own independent measurement of the result
+    # exceeds the request (here made to, by 25 %, on the first attempt), the job asks
+    # again with the tolerance tightened by the excess and keeps the second plan
+    import dataclasses
+
+    import streamline_cam.pipeline as pipeline
+
+    real = pipeline.plan_finishing
+    asked = []
+
+    def over_at_first(surface, cutter, **kw):
+        path, report = real(surface, cutter, **kw)
+        asked.append(kw["scallop_mm"])
+        if len(asked) == 1:
+            report = dataclasses.replace(report, max_scallop_mm=1.25 * kw["scallop_mm"])
+        return path, report
+
+    monkeypatch.setattr(pipeline, "plan_finishing", over_at_first)
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=0.05,
+                         chord_tol_mm=0.03)
+    plan = run_job(request, tmp_path).report["plan"]
+    assert asked == [0.05, 0.05 * pipeline.REPLAN_MARGIN / 1.25]
+    assert [a["scallop_mm"] for a in plan["attempts"]] == asked
+    assert plan["planned_for_scallop_mm"] == asked[1]
+    assert plan["max_scallop_mm"] <= asked[1] < 0.05

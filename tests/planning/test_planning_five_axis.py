@@ -73,3 +73,18 @@ def test_lead_tilt_on_a_three_axis_machine_is_refused():
     with pytest.raises(UnreachableOrientationError, match="fixed_axis"):
         plan_finishing(PLANE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
                        fixed_axis=(0.0, 1.0, 1.0), machine="grbl-router")
+
+
+def test_traverses_go_over_an_open_part_not_under_it():
+    # one-way passes across a convex 120 deg cylinder patch: each traverse runs from one
+    # edge back to the other; the shorter great circle of the clearance sphere passes
+    # under the patch, through the material inside the cylinder
+    from toolpath.planning import CylinderPatch
+
+    cylinder = CylinderPatch(radius_mm=40.0)
+    path, _ = plan_finishing(cylinder, "ball:6", scallop_mm=0.05, chord_tol_mm=0.03,
+                             axis_mode="lead-tilt", lead_deg=10.0, linking="oneway",
+                             measure=False)
+    rapid = path.kinds == MoveKind.RAPID
+    off_axis = np.hypot(path.positions_mm[rapid, 1], path.positions_mm[rapid, 2])
+    assert rapid.sum() > 10 and off_axis.min() > 40.0

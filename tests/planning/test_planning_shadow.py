@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from toolpath.planning import plan_finishing
-from toolpath.planning.analytic import PlaneSurface
+from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
 from toolpath.planning.scallop import shadow_stepover_mm, stepover_mm
 
@@ -42,11 +42,11 @@ def test_stadium_and_ball_sections_are_exact():
     # a bull-nose standing on a plane: the section is a stadium, w = 2 (R - r) + corners
     for h in (0.01, 0.1, 0.5):
         w = shadow_stepover_mm(h, 4.0, 1.0, UP, UP, E1, E2, 0.0)
-        assert w[0] == pytest.approx(6.0 + 2.0 * np.sqrt(h * (2.0 - h)), rel=1e-9)
+        assert w[0] == pytest.approx(6.0 + 2.0 * np.sqrt(h * (2.0 - h)), rel=1e-6)
     # r = R: a ball, whose section is its circle, on convex, flat and concave surfaces
     for k in (-0.05, 0.0, 0.05):
         w = shadow_stepover_mm(0.05, 3.0, 3.0, UP, UP, E1, E2, k)
-        assert w[0] == pytest.approx(float(stepover_mm(0.05, 3.0, k)), rel=1e-9)
+        assert w[0] == pytest.approx(float(stepover_mm(0.05, 3.0, k)), rel=1e-6)
 
 
 def test_flat_face_on_a_slope_gets_its_staircase():
@@ -82,3 +82,19 @@ def test_coarse_bull_nose_plan_stays_within_the_request():
     _, report = plan_finishing(plane, "bull:8:1", scallop_mm=0.25, chord_tol_mm=0.03,
                                axis_mode="lead-tilt", lead_deg=10.0)
     assert report.max_scallop_mm <= 0.25
+
+
+def test_flat_end_mill_on_slopes_is_advised_to_change_cutter():
+    cap = SpherePatch(radius_mm=30.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(20.0, 40.0))
+    path, report = plan_finishing(cap, "flat:6", scallop_mm=0.02, chord_tol_mm=0.02,
+                                  measure=False)
+    assert len(report.advice) == 1 and "ball or bull-nose" in report.advice[0]
+    assert any(line.startswith("advice") for line in report.lines())
+    # the estimate in the advice is the pass count the plan has (within a few)
+    estimated = int(report.advice[0].split("(")[1].split()[0])
+    assert abs(estimated - path.n_passes) <= 0.05 * path.n_passes
+    _, bull = plan_finishing(cap, "bull:6:1", scallop_mm=0.02, chord_tol_mm=0.02,
+                             measure=False)
+    _, flat_on_plane = plan_finishing(PlaneSurface(), "flat:6", scallop_mm=0.01,
+                                      chord_tol_mm=0.01, measure=False)
+    assert bull.advice == () and flat_on_plane.advice == ()

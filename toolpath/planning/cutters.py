@@ -323,6 +323,59 @@ class Cutter:
         return outside + inside - r
 
 
+def disc_basis(axes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Two unit vectors spanning the plane perpendicular to each axis (rows)."""
+    helper = np.where(np.abs(axes[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
+                      np.array([[0.0, 1.0, 0.0]]))
+    b1 = np.cross(axes, helper)
+    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
+    return b1, np.cross(axes, b1)
+
+
+@dataclass(frozen=True, eq=False)
+class CutterShadow:
+    """The cutting end of flat or bull-nose cutters seen along directions ``d`` (rows).
+
+    Projected along ``d`` onto a plane with axes ``ex``, ``ez`` (orthonormal, both
+    perpendicular to ``d``), the core disc (radius ``R - r`` about the axis, centre ``c``)
+    is the ellipse ``c + A w``, ``|w| <= 1``, with ``A = (R - r) [[b1.ex, b2.ex],
+    [b1.ez, b2.ez]]`` (``b1``, ``b2`` spanning the disc); the cutting end is that ellipse
+    grown by the corner radius ``r``. Its boundary point with outward normal
+    ``nu = (sin th, -cos th)`` (``th = 0`` faces ``-ez``) is ``c + A A^T nu / |A^T nu| + r nu``
+    exactly (a disc seen edge-on jumps across its flat bottom at one angle). It is the
+    section of the cutter swept straight along ``d``.
+    """
+
+    centre_x: NDArray[np.float64]
+    centre_z: NDArray[np.float64]
+    matrix: tuple[NDArray[np.float64], ...]
+    corner_radius_mm: float
+
+    @classmethod
+    def seen_along(cls, core_radius_mm: float, corner_radius_mm: float,
+                   centre: NDArray[np.float64], axes: NDArray[np.float64],
+                   ex: NDArray[np.float64], ez: NDArray[np.float64]) -> CutterShadow:
+        """From the core disc centres (relative to the plane's origin), axes and plane axes."""
+        b1, b2 = disc_basis(axes)
+
+        def dot(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
+            return np.einsum("ij,ij->i", u, v)
+
+        matrix = tuple(core_radius_mm * dot(b, e) for e in (ex, ez) for b in (b1, b2))
+        return cls(dot(centre, ex), dot(centre, ez), matrix, corner_radius_mm)
+
+    def boundary(self, theta: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(x, z)`` of the boundary point with outward normal ``(sin th, -cos th)``."""
+        a11, a12, a21, a22 = self.matrix
+        nx, nz = np.sin(theta), -np.cos(theta)
+        w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
+        size = np.maximum(np.hypot(w1, w2), 1e-15)
+        r = self.corner_radius_mm
+        return (self.centre_x + (a11 * w1 + a12 * w2) / size + r * nx,
+                self.centre_z + (a21 * w1 + a22 * w2) / size + r * nz)
+
+
 def parse_cutter(spec: str, *, flute_length_mm: float | None = None) -> Cutter:
     """Read a cutter spec such as ``"ball:6"``, ``"flat:10"`` or ``"bull:10:2"``.
 

@@ -168,6 +168,10 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             mirrored=mirrored))
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
+    advice = ()
+    if cutter.kind is CutterKind.FLAT:
+        ball = np.where(reach & ~gouging, stepover_mm(h, cutter.radius_mm, frame.s22), np.inf)
+        advice = _flat_advice(allowed, (ball / frame.speed_s).reshape(allowed.shape), s)
     area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
     # chord density |X_t| / L (segments per unit t) for the points along the passes
     c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
@@ -180,7 +184,33 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     density = (frame.speed_t / length).reshape(len(t), len(s))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
-            "points": frame.point, "density": density}
+            "points": frame.point, "density": density, "advice": advice}
+
+
+#: A flat end mill needing this many times the passes of a ball of its diameter is told.
+FLAT_ADVICE_RATIO = 3.0
+
+
+def _flat_advice(allowed: NDArray[np.float64], ball_allowed: NDArray[np.float64],
+                 s: NDArray[np.float64]) -> tuple[str, ...]:
+    """Advice when a flat end mill needs far more passes than a ball of its diameter.
+
+    Passes are estimated as ``int ds / A(s)`` with ``A`` the allowed step of each probe
+    level (the smallest along it), for both cutters on the same probe grid.
+    """
+    def passes(a: NDArray[np.float64]) -> float:
+        step = a.min(axis=0)
+        step = np.where(np.isfinite(step) & (step > 0.0), step, np.nan)
+        lower = np.fmin(step[:-1], step[1:])
+        return float(np.nansum(np.diff(s) / lower))
+
+    flat, ball = passes(allowed), passes(ball_allowed)
+    if not (ball > 0.0 and flat > FLAT_ADVICE_RATIO * ball):
+        return ()
+    return (f"a flat end mill needs about {flat / ball:.0f}x the passes of a ball of the "
+            f"same diameter here ({flat:.0f} against {ball:.0f}): its face leaves a "
+            f"staircase where the surface slopes across the passes; use a ball or bull-nose "
+            f"cutter, or 5-axis to stand the face on the surface",)
 
 
 def _flat_stepover(cutter: Cutter, frame: Any, axes: NDArray[np.float64],
@@ -469,7 +499,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         lo, hi = corners.min(axis=0), corners.max(axis=0)
         centre = 0.5 * (lo + hi)
         radius = float(np.linalg.norm(corners - centre, axis=1).max())
-        clearance = ClearanceSphere(centre, radius + opts.clearance_mm)
+        clearance = ClearanceSphere(centre, radius + opts.clearance_mm,
+                                    up=_working_side(probe))
     link_opts = LinkOptions(
         clearance=clearance, feed_mm_per_min=opts.feed_mm_per_min,
         plunge_feed_mm_per_min=res["plunge_feed_mm_per_min"],
@@ -503,6 +534,19 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, keep, runs, spans,
                      path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
     return path, report
+
+
+#: The mean surface normal must be at least this long to tell the side a part is worked
+#: from (a closed blade's normals point all round and cancel).
+WORKING_SIDE_MIN = 0.3
+
+
+def _working_side(probe: dict[str, Any]) -> NDArray[np.float64] | None:
+    """Area-weighted mean normal of the probe grid (unit), or None when they cancel."""
+    weights = probe["area"].ravel()
+    mean = (probe["frame"].normal * weights[:, None]).sum(axis=0) / max(weights.sum(), 1e-300)
+    size = float(np.linalg.norm(mean))
+    return mean / size if size >= WORKING_SIDE_MIN else None
 
 
 def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
@@ -580,4 +624,4 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         axis_rate_limit_deg_per_mm=(opts.max_axis_rate_deg_per_mm
                                     if opts.axis_mode is AxisMode.LEAD_TILT else None),
         rounding_reserve_mm=reserve_mm, planned_scallop_mm=res["scallop_mm"],
-        planned_chord_tol_mm=res["chord_tol_mm"])
+        planned_chord_tol_mm=res["chord_tol_mm"], advice=probe["advice"])

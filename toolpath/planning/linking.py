@@ -58,12 +58,36 @@ class ClearancePlane:
         return np.zeros((0, 3)), np.zeros((0, 3))
 
 
+def _great_circle(u: NDArray[np.float64], v: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], float]:
+    """Directions from ``u`` to ``v`` on their great circle, and its angle (rad).
+
+    Unit vectors every :data:`_TRAVERSE_STEP_DEG` at most, both ends included.
+    """
+    ang = float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
+    steps = max(int(np.ceil(np.degrees(ang) / _TRAVERSE_STEP_DEG)), 1)
+    frac = np.arange(steps + 1) / steps
+    if ang > 1e-9:
+        dirs = (np.sin((1.0 - frac) * ang)[:, None] * u
+                + np.sin(frac * ang)[:, None] * v) / np.sin(ang)
+    else:
+        dirs = np.broadcast_to(u, (frac.size, 3))
+    return _unit(dirs), ang
+
+
 @dataclass(frozen=True)
 class ClearanceSphere:
-    """Sphere ``|p - centre| = radius_mm`` around the part (5-axis)."""
+    """Sphere ``|p - centre| = radius_mm`` around the part (5-axis).
+
+    ``up`` (unit, optional) is the side the tool works from (the mean surface normal of
+    an open part): a traverse whose shorter great circle would dip below its ends (under
+    the part, e.g. from one edge of a convex patch to the other) goes over the pole
+    ``centre + radius_mm * up`` instead.
+    """
 
     centre: NDArray[np.float64]
     radius_mm: float
+    up: NDArray[np.float64] | None = None
 
     def retract(self, p: NDArray[np.float64], a: NDArray[np.float64]) -> NDArray[np.float64]:
         """Where the ray ``p + l a`` (``l >= 0``) leaves the sphere."""
@@ -75,23 +99,31 @@ class ClearanceSphere:
 
     def traverse(self, p: NDArray[np.float64], a: NDArray[np.float64], q: NDArray[np.float64],
                  b: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """Points on the great circle from ``p`` to ``q`` every 10 deg, axes interpolated."""
+        """Points on the sphere from ``p`` to ``q`` every 10 deg, axes interpolated.
+
+        On the great circle through both, or over the ``up`` pole when that circle passes
+        under the part.
+        """
         u, v = _unit(p - self.centre), _unit(q - self.centre)
-        ang = float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
-        steps = int(np.ceil(np.degrees(ang) / _TRAVERSE_STEP_DEG))
-        if steps <= 1:
-            return np.zeros((0, 3)), np.zeros((0, 3))
-        frac = np.arange(1, steps) / steps
-        if ang > 1e-9:
-            w0 = np.sin((1.0 - frac) * ang) / np.sin(ang)
-            w1 = np.sin(frac * ang) / np.sin(ang)
-            dirs = w0[:, None] * u + w1[:, None] * v
+        dirs, _ = _great_circle(u, v)
+        if self.up is not None and (dirs @ self.up).min() < min(u @ self.up,
+                                                                v @ self.up) - 1e-9:
+            first, ang1 = _great_circle(u, self.up)
+            second, ang2 = _great_circle(self.up, v)
+            dirs = np.concatenate([first, second[1:]])
+            steps = [len(first) - 1, len(second) - 1]
+            frac = np.r_[np.arange(steps[0]) / steps[0] * ang1,
+                         ang1 + np.arange(steps[1] + 1) / steps[1] * ang2] / (ang1 + ang2)
         else:
-            dirs = np.broadcast_to(u, (frac.size, 3))
-        pts = self.centre + self.radius_mm * _unit(dirs)
-        axes = _unit((1.0 - frac)[:, None] * a + frac[:, None] * b)
-        bad = np.linalg.norm((1.0 - frac)[:, None] * a + frac[:, None] * b, axis=1) < 1e-6
-        axes[bad] = _unit(dirs[bad])
+            frac = np.linspace(0.0, 1.0, len(dirs))
+        if len(dirs) <= 2:
+            return np.zeros((0, 3)), np.zeros((0, 3))
+        dirs, frac = dirs[1:-1], frac[1:-1]
+        pts = self.centre + self.radius_mm * dirs
+        mix = (1.0 - frac)[:, None] * a + frac[:, None] * b
+        axes = _unit(mix)
+        bad = np.linalg.norm(mix, axis=1) < 1e-6
+        axes[bad] = dirs[bad]
         return pts, axes
 
 

@@ -152,6 +152,9 @@ class PlanningReport:
         aims for the request less this (at most a quarter of it).
     planned_scallop_mm, planned_chord_tol_mm : float or None
         What the plan aimed for.
+    advice : tuple of str
+        Suggestions for a better plan (e.g. a flat end mill whose stepover the staircase
+        of its face on slopes keeps tiny).
     """
 
     cutter: str
@@ -195,6 +198,7 @@ class PlanningReport:
     rounding_reserve_mm: float = 0.0
     planned_scallop_mm: float | None = None
     planned_chord_tol_mm: float | None = None
+    advice: tuple[str, ...] = ()
 
     @property
     def within_request(self) -> bool:
@@ -260,6 +264,7 @@ class PlanningReport:
             out.extend(f"  feed limited: {v.message()}" for v in self.rate_violations[:5])
             if self.estimated_time_s is not None:
                 out.append(f"estimated time    {self.estimated_time_s / 60.0:.2f} min")
+        out.extend(f"advice            {line}" for line in self.advice)
         out.append(f"length            {self.length_mm:.1f} mm "
                    f"({self.cutting_length_mm:.1f} mm feeding)")
         total = sum(self.seconds.values())

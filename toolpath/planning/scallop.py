@@ -121,9 +121,9 @@ def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_m
     return np.where(flat, plane, curved)
 
 
-#: Halvings of the boundary-normal angle in :func:`shadow_stepover_mm` (to 1e-9 rad), then
+#: Halvings of the boundary-normal angle in :func:`shadow_stepover_mm` (to 1.5e-6 rad), then
 #: regula falsi steps along the final bracket's chord.
-SHADOW_HALVINGS = 32
+SHADOW_HALVINGS = 20
 SECANT_STEPS = 4
 
 
