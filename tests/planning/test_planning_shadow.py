@@ -41,11 +41,11 @@ def _swept_cusp_mm(cutter, axis, w_mm):
 def test_stadium_and_ball_sections_are_exact():
     # a bull-nose standing on a plane: the section is a stadium, w = 2 (R - r) + corners
     for h in (0.01, 0.1, 0.5):
-        w = shadow_stepover_mm(h, 4.0, 1.0, UP, UP, E1, E2, 0.0)
+        w = shadow_stepover_mm(h, 4.0, 1.0, UP, UP, E2, 0.0)
         assert w[0] == pytest.approx(6.0 + 2.0 * np.sqrt(h * (2.0 - h)), rel=1e-6)
     # r = R: a ball, whose section is its circle, on convex, flat and concave surfaces
     for k in (-0.05, 0.0, 0.05):
-        w = shadow_stepover_mm(0.05, 3.0, 3.0, UP, UP, E1, E2, k)
+        w = shadow_stepover_mm(0.05, 3.0, 3.0, UP, UP, E2, k)
         assert w[0] == pytest.approx(float(stepover_mm(0.05, 3.0, k)), rel=1e-6)
 
 
@@ -54,7 +54,7 @@ def test_flat_face_on_a_slope_gets_its_staircase():
     normal = np.array([[0.0, -np.sin(slope), np.cos(slope)]])
     across = np.array([[0.0, np.cos(slope), np.sin(slope)]])
     for h in (0.005, 0.05):
-        w = shadow_stepover_mm(h, 3.0, 0.0, normal, UP, E1, across, 0.0)
+        w = shadow_stepover_mm(h, 3.0, 0.0, normal, UP, across, 0.0)
         assert w[0] == pytest.approx(h / np.tan(slope), rel=1e-9)
 
 
@@ -62,7 +62,7 @@ def test_flat_face_on_a_slope_gets_its_staircase():
 def test_leaning_bull_nose_leaves_the_requested_cusp(h):
     cutter = parse_cutter("bull:8:1")
     axis = _leaning(10.0)
-    w = shadow_stepover_mm(h, 4.0, 1.0, UP, axis, E1, E2, 0.0)[0]
+    w = shadow_stepover_mm(h, 4.0, 1.0, UP, axis, E2, 0.0)[0]
     assert _swept_cusp_mm(cutter, axis, w) == pytest.approx(h, rel=2e-3)
     # the osculating circle of the section, which the planner used alone before, gives a
     # wider stepover and a deeper cusp at these heights
@@ -72,8 +72,8 @@ def test_leaning_bull_nose_leaves_the_requested_cusp(h):
 
 def test_mirrored_neighbours_take_the_narrower_side():
     tilted = np.array([[0.0, np.sin(np.radians(15.0)), np.cos(np.radians(15.0))]])
-    same = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E1, E2, 0.0)[0]
-    mirrored = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E1, E2, 0.0, mirrored=True)[0]
+    same = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E2, 0.0)[0]
+    mirrored = shadow_stepover_mm(0.05, 4.0, 1.0, UP, tilted, E2, 0.0, mirrored=True)[0]
     assert mirrored < same
 
 

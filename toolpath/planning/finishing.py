@@ -164,7 +164,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         # contact (coarse scallops): the true section decides
         mirrored = opts.linking is Linking.ZIGZAG and opts.tilt_deg != 0.0
         width = np.minimum(width, shadow_stepover_mm(
-            h, cutter.radius_mm, r, frame.normal, axes, frame.e1, frame.e2, frame.s22,
+            h, cutter.radius_mm, r, frame.normal, axes, frame.e2, frame.s22,
             mirrored=mirrored))
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))

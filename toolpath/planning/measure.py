@@ -49,7 +49,7 @@ from machines.kinematics import solve_inverse
 from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
-from .cutters import Cutter, CutterKind
+from .cutters import Cutter, CutterKind, CutterShadow
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
 
@@ -395,23 +395,8 @@ class _CutVolume:
         ez = n - np.einsum("ij,ij->i", n, d)[:, None] * d
         ez /= np.maximum(np.linalg.norm(ez, axis=1, keepdims=True), 1e-300)
         ex = np.cross(ez, d)
-        helper = np.where(np.abs(axis[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
-                          np.array([[0.0, 1.0, 0.0]]))
-        b1 = np.cross(axis, helper)
-        b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-        b2 = np.cross(axis, b1)
-        rad = self.cutter.radius_mm - r
-        rel = centre - q
-        cx, cz = np.einsum("ij,ij->i", rel, ex), np.einsum("ij,ij->i", rel, ez)
-        a11, a12 = rad * np.einsum("ij,ij->i", b1, ex), rad * np.einsum("ij,ij->i", b2, ex)
-        a21, a22 = rad * np.einsum("ij,ij->i", b1, ez), rad * np.einsum("ij,ij->i", b2, ez)
-
-        def boundary(theta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-            nx, nz = np.sin(theta), -np.cos(theta)
-            w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
-            size = np.maximum(np.hypot(w1, w2), 1e-15)
-            return (cx + (a11 * w1 + a12 * w2) / size + r * nx,
-                    cz + (a21 * w1 + a22 * w2) / size + r * nz)
+        shadow = CutterShadow.seen_along(self.cutter.radius_mm - r, r, centre - q, axis, ex, ez)
+        boundary = shadow.boundary
 
         lo = np.full(len(q), -0.5 * np.pi)
         hi = np.full(len(q), 0.5 * np.pi)

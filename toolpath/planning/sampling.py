@@ -32,7 +32,7 @@ from machines import Machine
 from machines.kinematics import forward
 
 from ..surface import ParametricSurface
-from .cutters import Cutter, CutterKind
+from .cutters import Cutter, CutterKind, disc_basis
 from .local import PassFrame, project_to_surface
 
 __all__ = [
@@ -114,15 +114,6 @@ def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
     return t, pass_id
 
 
-def _disc_basis(axes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Two unit vectors spanning the plane perpendicular to each axis."""
-    helper = np.where(np.abs(axes[:, :1]) < 0.9, np.array([[1.0, 0.0, 0.0]]),
-                      np.array([[0.0, 1.0, 0.0]]))
-    b1 = np.cross(axes, helper)
-    b1 /= np.linalg.norm(b1, axis=1, keepdims=True)
-    return b1, np.cross(axes, b1)
-
-
 #: Points of the corner-circle disc tried by :func:`cutter_gap` for flat and bull-nose
 #: cutters: 24 on its rim (15 deg apart, then refined), its centre and 8 at half radius.
 _RIM = 24
@@ -190,7 +181,7 @@ class _Disc:
                  axes: NDArray[np.float64], radius_mm: float, iterations: int) -> None:
         self.surface, self.centre, self.radius = surface, centre, radius_mm
         self.iterations = iterations
-        self.b1, self.b2 = _disc_basis(axes)
+        self.b1, self.b2 = disc_basis(axes)
 
     def signed(self, points: NDArray[np.float64], tt: NDArray[np.float64],
                ss: NDArray[np.float64], *, curvature: bool = False) -> tuple[Any, ...]:

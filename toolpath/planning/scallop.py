@@ -35,6 +35,7 @@ import bisect
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .cutters import CutterShadow
 from .errors import PlanningError
 
 __all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm"]
@@ -145,25 +146,24 @@ def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[n
 
 
 def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm: float,
-                       normals: ArrayLike, axes: ArrayLike, e1: ArrayLike, e2: ArrayLike,
+                       normals: ArrayLike, axes: ArrayLike, e2: ArrayLike,
                        curvature_per_mm: ArrayLike, *, mirrored: bool = False
                        ) -> NDArray[np.float64]:
     """Stepover from the cutter's true section across the pass (flat and bull-nose).
 
     Moving along the pass ``e1``, the cutter sweeps its shadow along ``e1``: in the plane
     ``(e2, n)`` the projection of the core disc (an ellipse; radius ``R - r``, normal along
-    the axis ``a``) grown by the corner radius ``r``. Its boundary point with outward
-    normal ``d = sin(b) e2 - cos(b) n`` is the projection of
-    ``c + (R - r) (d - (d.a) a) / |d - (d.a) a| + r d`` (``c`` the core centre), exactly;
-    ``b = 0`` is the contact. On each side the angle ``b`` where that point stands
-    ``scallop_mm`` above the surface's cross-section circle (curvature ``S22``) is found
-    by bisection (then along the chord of the final bracket, which may span a straight
-    piece: a disc seen edge-on). The cusp between two passes stands there when each pass
-    reaches it: the stepover is the sum of the two sides' arcs when the neighbour's
-    section is the same (seen along the pass, a lead leaning either way casts the same
-    shadow), twice the smaller one when it is mirrored (a tilt on zig-zag passes). A
-    flat face on a slope thus gets its staircase, ``h / tan(slope)``, from its one
-    rising side.
+    the axis ``a``) grown by the corner radius ``r``
+    (:class:`~toolpath.planning.cutters.CutterShadow`); its boundary point with outward
+    normal ``sin(b) e2 - cos(b) n`` is known exactly, and ``b = 0`` is the contact. On each
+    side the angle ``b`` where that point stands ``scallop_mm`` above the surface's
+    cross-section circle (curvature ``S22``) is found by bisection (then along the chord of
+    the final bracket, which may span a straight piece: a disc seen edge-on). The cusp
+    between two passes stands there when each pass reaches it: the stepover is the sum of
+    the two sides' arcs when the neighbour's section is the same (seen along the pass, a
+    lead leaning either way casts the same shadow), twice the smaller one when it is
+    mirrored (a tilt on zig-zag passes). A flat face on a slope thus gets its staircase,
+    ``h / tan(slope)``, from its one rising side.
 
     Away from the contact the section curves more than its osculating circle (the
     ellipse's ends), so at coarse scallops this is smaller than :func:`stepover_mm` with
@@ -175,8 +175,9 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
         Cusp height ``h``, mm.
     radius_mm, corner_radius_mm : float
         Cutter radius ``R`` and corner radius ``r``.
-    normals, axes, e1, e2 : array_like, shape (n, 3)
-        Unit surface normals, tool axes, pass and across directions at the contacts.
+    normals, axes, e2 : array_like, shape (n, 3)
+        Unit surface normals, tool axes and across directions at the contacts (the pass
+        runs along ``e2 x normals``).
     curvature_per_mm : array_like, shape (n,)
         Surface normal curvature across the passes, 1/mm, positive concave.
     mirrored : bool
@@ -189,20 +190,12 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
         near the corner radius) the arc to the side's extreme point.
     """
     n = np.asarray(normals, dtype=float)
-    a = np.asarray(axes, dtype=float)
-    across = np.asarray(e2, dtype=float)
     k = np.broadcast_to(np.asarray(curvature_per_mm, dtype=float), n.shape[:1])
     h = np.broadcast_to(np.asarray(scallop_mm, dtype=float), n.shape[:1])
-    core = radius_mm - corner_radius_mm
-
-    def boundary(angle: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        d = np.sin(angle)[:, None] * across - np.cos(angle)[:, None] * n
-        radial = d - np.einsum("ij,ij->i", d, a)[:, None] * a
-        size = np.linalg.norm(radial, axis=1, keepdims=True)
-        radial = np.where(size > 1e-12, radial / np.where(size > 1e-12, size, 1.0), 0.0)
-        point = core * radial + corner_radius_mm * d
-        return (np.einsum("ij,ij->i", point, across), np.einsum("ij,ij->i", point, n))
-
+    # heights are taken from the contact, the boundary point at angle 0
+    boundary = CutterShadow.seen_along(radius_mm - corner_radius_mm, corner_radius_mm,
+                                       np.zeros_like(n), np.asarray(axes, dtype=float),
+                                       np.asarray(e2, dtype=float), n).boundary
     y0, z0 = boundary(np.zeros(len(n)))
     arcs = []
     for side in (1.0, -1.0):
