@@ -354,9 +354,48 @@ class _CutVolume:
             lam = _ray_capsule(q[owner], n[owner], self.a[item], self.b[item],
                                self.cutter.radius_mm)
         else:
+            # the cheap bound first: pieces whose cutters stay above the horizon are out
+            near = self._floor(q[owner], n[owner], item) <= self.horizon
+            owner, item = owner[near], item[near]
             lam = self._section(q[owner], n[owner], item)
         np.minimum.at(out, owner, lam)
         return np.where(out > self.horizon, np.inf, out)
+
+    def _floor(self, q: NDArray[np.float64], n: NDArray[np.float64], item: NDArray[np.int64]
+               ) -> NDArray[np.float64]:
+        """A lower bound of :meth:`_section`: where the ray meets the plane of the tip.
+
+        The cutter lies on the spindle side of the plane through its tip perpendicular to
+        its axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``,
+        linear in the tip along a piece with a fixed axis, so the smaller of the two ends
+        bounds the piece; a turning axis moves the cutting end by at most ``2 R`` times
+        the axis change. Rays not climbing towards the spindle get no bound (``-inf``).
+        """
+        bound = np.full(len(q), np.inf)
+        for tips, axes in ((self.tips0[item], self.axes0[item]),
+                           (self.tips1[item], self.axes1[item])):
+            rise = np.einsum("ij,ij->i", n, axes)
+            climbs = rise > 0.1
+            at = np.einsum("ij,ij->i", tips - q, axes) / np.where(climbs, rise, 1.0)
+            bound = np.minimum(bound, np.where(climbs, at, -np.inf))
+        turn = np.linalg.norm(self.axes1[item] - self.axes0[item], axis=1)
+        return bound - 20.0 * self.cutter.radius_mm * turn
+
+    def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
+                   item: NDArray[np.int64]) -> NDArray[np.float64]:
+        """A lower bound of :meth:`_section` for rays from anywhere near ``centre``.
+
+        Pairs of points with pieces ``item``; the rays start within ``radius`` of the
+        point. A point below the tip's plane by ``depth`` meets it at least ``depth`` up
+        any ray (``n.a <= 1``; a ray not climbing never does), and points within
+        ``radius`` of the centre lie at most ``radius`` deeper or shallower than it.
+        """
+        depth = np.full(len(centre), np.inf)
+        for tips, axes in ((self.tips0[item], self.axes0[item]),
+                           (self.tips1[item], self.axes1[item])):
+            depth = np.minimum(depth, np.einsum("ij,ij->i", tips - centre, axes))
+        turn = np.linalg.norm(self.axes1[item] - self.axes0[item], axis=1)
+        return depth - radius - 2.0 * self.cutter.radius_mm * turn
 
     def _section(self, q: NDArray[np.float64], n: NDArray[np.float64],
                  item: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -435,10 +474,14 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     # within ``lateral`` of the bracket
     owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
         half.max()) if m else 0.0)
-    # keep the pieces that can reach the rays over the bracket: within the cutter's reach
-    # of the bracket's chord on the surface (plus the chord's sag)
+    # keep the pieces that can reach the rays over the bracket: whose cutters come below
+    # the horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
+    # cutter's reach of the bracket's chord on the surface (plus the chord's sag)
     p0, p1 = surface(t, s0), surface(t, s1)
     sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
+    if not volume.ball:
+        near = volume.floor_over(mid[owner], half[owner] + sag[owner], item) <= volume.horizon
+        owner, item = owner[near], item[near]
     dist = _segment_distance(p0[owner], p1[owner], volume.piece_a[item], volume.piece_b[item])
     near = dist <= volume.segment_reach + 2.0 * sag[owner]
     owner, item = owner[near], item[near]
