@@ -78,8 +78,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     p.add_argument("--feed", type=float, default=DEFAULT_FEED_MM_PER_MIN,
                    help=f"cutting feed, mm/min ({DEFAULT_FEED_MM_PER_MIN:g})")
     p.add_argument("--clearance", type=float, default=5.0, help="clearance, mm (5)")
-    p.add_argument("--extend", type=float, default=0.0,
-                   help="extend passes past open edges, mm (0)")
+    p.add_argument("--extend", type=float, default=None,
+                   help="extend passes past open edges, mm (default: 0 for a ball, the "
+                        "core radius R - r for flat and bull-nose cutters)")
     p.add_argument("--min-cone", type=float, default=None,
                    help="keep the tool axis this far from +Z, deg (singular cone)")
     p.add_argument("--on-gouge", default="raise", choices=["raise", "lift", "retilt"])

@@ -21,7 +21,7 @@ from .cutters import Cutter
 from .errors import GougeError
 from .gouge import Clearance, SurfaceSamples, global_clearance, local_margin
 from .local import PassFrame, pass_frame
-from .passes import PassPoints, _frame_take
+from .passes import PassPoints, frame_take
 from .tool_axis import keep_out_of_cone, lead_tilt_axes
 
 __all__ = ["gouge_depth_mm", "gouge_error", "lift_gouges", "local_depth_mm", "retilt_gouges"]
@@ -131,7 +131,7 @@ def retilt_gouges(cutter: Cutter, pts: PassPoints, idx: NDArray[np.int64],
     for d_lead, d_tilt in offsets:
         if not todo.size:
             break
-        frame = _frame_take(pts.frame, todo)
+        frame = frame_take(pts.frame, todo)
         feed = pts.feed_dirs[todo]
         cand = lead_tilt_axes(frame.normal, feed, lead_deg + d_lead, tilt_deg + d_tilt)
         if min_cone_deg:
@@ -147,7 +147,7 @@ def retilt_gouges(cutter: Cutter, pts: PassPoints, idx: NDArray[np.int64],
         todo = todo[~ok]
     if todo.size:
         i = int(todo[0])
-        frame = _frame_take(pts.frame, todo[:1])
+        frame = frame_take(pts.frame, todo[:1])
         depth = float(local_depth_mm(frame, cutter, pts.axes[todo[:1]])[0])
         raise gouge_error(pts, i, cutter, depth,
                           "no lead/tilt change up to 30 deg clears it (a ball cannot "

@@ -34,14 +34,22 @@ from ..path import Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import gouge_depth_mm, local_depth_mm
 from .checks import check_links, gouge_stage, machine_stage
-from .cutters import Cutter, CutterKind, parse_cutter, radial_directions
+from .cutters import Cutter, CutterKind, parse_cutter
 from .errors import GougeError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
 from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, link_runs
 from .local import pass_frame
 from .measure import measure_chord, measure_scallop
 from .options import AxisMode, FinishingOptions, Linking, OnGouge
-from .passes import PassLayout, PassPoints, evaluate_points, refine_chords, split_reach
+from .passes import (
+    PassLayout,
+    PassPoints,
+    evaluate_points,
+    final_axes,
+    frame_take,
+    refine_chords,
+    split_reach,
+)
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
 from .sampling import chord_length_mm, cutter_gap, equidistribute
@@ -146,26 +154,30 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     tt, ss = np.meshgrid(t, s, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
     axes = _nominal(opts, frame.normal, frame.e1)
+    if cutter.kind is not CutterKind.BALL:
+        # a flat face's section depends on the axis it will have, not the nominal one:
+        # smoothing a zero lead on a convex surface leans the face sideways and moves the
+        # contact to its rim. The probe's columns (fixed s) are smoothed like passes.
+        by_pass = np.arange(t.size * s.size).reshape(t.size, s.size).T.ravel()
+        column = np.repeat(np.arange(s.size), t.size)
+        smoothed, _, _ = final_axes(cutter, opts, res, frame_take(frame, by_pass),
+                                    axes[by_pass], column, np.ones(column.size, np.int64))
+        axes = np.empty_like(axes)
+        axes[by_pass] = smoothed
     reach = _reach(opts, frame.normal)
     depth = local_depth_mm(frame, cutter, axes)
     gouging = reach & (depth > opts.gouge_tol_mm)
-    _, _, c22 = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
-    with np.errstate(divide="ignore"):
-        rho = np.where(c22 > 0.0, 1.0 / np.where(c22 > 0.0, c22, 1.0), np.inf)
     h = np.where(frame.s11 > 1e-12, res["scallop_mm"] - res["undercut_mm"], res["scallop_mm"])
-    width = stepover_mm(h, rho, frame.s22)
-    if cutter.kind is CutterKind.FLAT:
-        width = _flat_stepover(cutter, frame, axes, h)
-    if cutter.kind is not CutterKind.BALL:
-        r = cutter.corner_radius_mm
-        corner = np.where(r > h, 2.0 * np.sqrt(np.maximum(h * (2.0 * r - h), 0.0)), 0.0)
-        width = np.minimum(width, cutter.flat_width_mm(axes, frame.e2) + corner)
-        # the osculating section underestimates the cusp once it forms far from the
-        # contact (coarse scallops): the true section decides
+    if cutter.kind is CutterKind.BALL:
+        width = stepover_mm(h, cutter.radius_mm, frame.s22)
+    else:
+        # the cutter's true section across the pass: its osculating circle alone
+        # underestimates the cusp that forms far from the contact (coarse scallops), and
+        # a face leaning sideways puts the contact on its rim, a corner on one side and
+        # the face on the other; a flat face on a slope leaves a staircase
         mirrored = opts.linking is Linking.ZIGZAG and opts.tilt_deg != 0.0
-        width = np.minimum(width, shadow_stepover_mm(
-            h, cutter.radius_mm, r, frame.normal, axes, frame.e2, frame.s22,
-            mirrored=mirrored))
+        width = shadow_stepover_mm(h, cutter.radius_mm, cutter.corner_radius_mm,
+                                   frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored)
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
     advice = ()
@@ -211,27 +223,6 @@ def _flat_advice(allowed: NDArray[np.float64], ball_allowed: NDArray[np.float64]
             f"same diameter here ({flat:.0f} against {ball:.0f}): its face leaves a "
             f"staircase where the surface slopes across the passes; use a ball or bull-nose "
             f"cutter, or 5-axis to stand the face on the surface",)
-
-
-def _flat_stepover(cutter: Cutter, frame: Any, axes: NDArray[np.float64],
-                   h: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Flat end mill stepover: its section across, and the staircase of a leaning face.
-
-    The section's curvature is the parallel part only (the sharp edge has none to speak
-    of); the face leaning on the surface by the slope across leaves a staircase of height
-    ``w tan(slope)``, ``tan(slope) = |u.e2| tan(lean)``, so ``w <= h / tan(slope)``.
-    """
-    u, sin_lean = radial_directions(frame.normal, axes)
-    cos_lean = np.einsum("ij,ij->i", frame.normal, axes)
-    p = np.cross(axes, u)
-    k_par = sin_lean / cutter.radius_mm
-    k_across = k_par * np.einsum("ij,ij->i", p, frame.e2) ** 2
-    with np.errstate(divide="ignore"):
-        rho = np.where(k_across > 0.0, 1.0 / np.where(k_across > 0.0, k_across, 1.0), np.inf)
-        slope = np.abs(np.einsum("ij,ij->i", u, frame.e2)) * sin_lean / np.maximum(
-            cos_lean, 1e-12)
-        stair = np.where(slope > 0.0, h / np.where(slope > 0.0, slope, 1.0), np.inf)
-    return np.minimum(stepover_mm(h, rho, frame.s22), stair)
 
 
 def _layout(levels: NDArray[np.float64], linking: Linking) -> PassLayout:
@@ -505,7 +496,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         clearance=clearance, feed_mm_per_min=opts.feed_mm_per_min,
         plunge_feed_mm_per_min=res["plunge_feed_mm_per_min"],
         lead_radius_mm=res["lead_radius_mm"], lead_angle_deg=opts.lead_angle_deg,
-        approach_mm=opts.approach_mm, extend_mm=opts.extend_mm,
+        approach_mm=opts.approach_mm, extend_mm=res["extend_mm"],
         chord_tol_mm=res["chord_tol_mm"])
     positions, axes, kinds, feeds, passes = link_runs(run_list, link_opts)
     metadata = {"planner": "toolpath.planning.plan_finishing", "cutter": cutter.spec,

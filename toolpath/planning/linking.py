@@ -4,7 +4,7 @@ A *run* is a stretch of one pass cut without lifting. Between two runs the tool 
 
 * continues directly (spiral rings join end to start; zig-zag and one-way runs whose
   ends are within ``link_max_mm`` and whose straight link stays on the surface get one
-  ``LINK`` feed move), or
+  ``LINK`` feed move, between the extensions past open edges when there are any), or
 * lifts: lead-out arc, rapid retract to the clearance, rapid traverse, rapid down to
   ``approach_mm`` above the lead-in, ``PLUNGE`` at the plunge feed, lead-in arc.
 
@@ -291,7 +291,18 @@ def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], .
         elif run.joined:
             out.add(run.tips, run.axes, MoveKind.CUT, run.pass_index)
         else:
-            out.add(run.tips[:1], run.axes[:1], MoveKind.LINK, run.pass_index)
+            # a direct link keeps the extensions past open edges: without them the side
+            # of a flat or bull-nose cutter that leaves the cusps stops short of the edge
+            reach = opt.extend_mm > 0.0
+            if reach and prev.extend_end:
+                out.add(prev.tips[-1] + opt.extend_mm * prev.feed_end, prev.axes[-1],
+                        MoveKind.LEAD_OUT)
+            if reach and run.extend_start:
+                out.add(run.tips[0] - opt.extend_mm * run.feed_start, run.axes[0],
+                        MoveKind.LINK)
+                out.add(run.tips[:1], run.axes[:1], MoveKind.LEAD_IN, run.pass_index)
+            else:
+                out.add(run.tips[:1], run.axes[:1], MoveKind.LINK, run.pass_index)
             out.add(run.tips[1:], run.axes[1:], MoveKind.CUT, run.pass_index)
         prev = run
     if prev is not None:

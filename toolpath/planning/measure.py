@@ -401,8 +401,8 @@ class _CutVolume:
                  item: NDArray[np.int64]) -> NDArray[np.float64]:
         """Entry height along ``n`` into the cross-section of each piece's straight sweep.
 
-        In the plane through ``q`` perpendicular to the piece's direction ``d`` (that of the
-        path of the corner-circle centre facing ``q``'s normal), the swept cutter is the
+        In the plane through ``q`` perpendicular to the piece's direction ``d`` (the path
+        of the point that places the instance, below), the swept cutter is the
         projection along ``d`` of its cutting end: the ellipse ``E`` that the
         corner-circle disc projects to, offset by the corner radius ``r``. Its boundary with
         outward normal ``nu`` is ``c + A A^T nu / |A^T nu| + r nu`` (``A`` maps the unit
@@ -415,18 +415,40 @@ class _CutVolume:
         """
         p0, p1 = self.tips0[item], self.tips1[item]
         x0, x1 = self.axes0[item], self.axes1[item]
-        r = self.cutter.corner_radius_mm
-        # the instance that matters is the one whose side facing the surface (the corner
-        # circle's centre below it, K) lies in the plane: on a curved pass the tip runs
-        # up to R behind the contact
+        # the instance that matters is the one whose cutter point over q lies in the
+        # plane. Two candidates, the lower section kept: the corner circle's centre
+        # facing q's normal (K; on a curved pass the tip runs up to R behind the contact,
+        # and around an edge the axis turns under q), and the core disc's point nearest q
+        # (a face standing square on the surface, whose K the normal cannot place: under
+        # a face perpendicular to the move that point keeps q's place all along the
+        # piece, which then covers q throughout)
         k0 = self.cutter.core_points(p0, x0, n)
         k1 = self.cutter.core_points(p1, x1, n)
-        seg = k1 - k0
-        length = np.linalg.norm(seg, axis=1)
-        d = seg / np.maximum(length, 1e-300)[:, None]
+        length = np.linalg.norm(k1 - k0, axis=1)
+        d = (k1 - k0) / np.maximum(length, 1e-300)[:, None]
         u = np.einsum("ij,ij->i", q - k0, d) / np.maximum(length, 1e-300)
+        facing = self._section_at(q, n, p0, p1, x0, x1, d, u, length > 0.0)
+        r = self.cutter.corner_radius_mm
+        c0, c1 = p0 + r * x0, p1 + r * x1
+        length = np.linalg.norm(c1 - c0, axis=1)
+        d = (c1 - c0) / np.maximum(length, 1e-300)[:, None]
+        k0 = self.cutter.core_points_near(p0, x0, q)
+        k1 = self.cutter.core_points_near(p1, x1, q)
+        along = np.einsum("ij,ij->i", k1 - k0, d)
+        ahead = np.einsum("ij,ij->i", q - k0, d)
+        steady = np.abs(along) <= 1e-3 * length
+        u = np.where(steady, np.where(np.abs(ahead) <= 0.5 * length, 0.5, np.inf),
+                     ahead / np.where(steady, 1.0, along))
+        return np.minimum(facing, self._section_at(q, n, p0, p1, x0, x1, d, u, length > 0.0))
+
+    def _section_at(self, q: NDArray[np.float64], n: NDArray[np.float64],
+                    p0: NDArray[np.float64], p1: NDArray[np.float64], x0: NDArray[np.float64],
+                    x1: NDArray[np.float64], d: NDArray[np.float64], u: NDArray[np.float64],
+                    moves: NDArray[np.bool_]) -> NDArray[np.float64]:
+        """The section of :meth:`_section` with the piece at ``u``, seen along ``d``."""
+        r = self.cutter.corner_radius_mm
         # half a piece of slack: the ends of passes are covered by their end pieces
-        crosses = (u >= -0.5) & (u <= 1.5) & (length > 0.0)
+        crosses = (u >= -0.5) & (u <= 1.5) & moves
         u = np.clip(u, 0.0, 1.0)
         axis = x0 * (1.0 - u)[:, None] + x1 * u[:, None]
         axis /= np.linalg.norm(axis, axis=1, keepdims=True)

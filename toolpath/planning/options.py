@@ -14,7 +14,7 @@ from typing import Any, Final
 import numpy as np
 
 from ..errors import InvalidParameterError
-from .cutters import Cutter
+from .cutters import Cutter, CutterKind
 from .gouge import GOUGE_TOL_MM
 from .resolution import MAX_RESERVE_SHARE
 
@@ -138,8 +138,11 @@ class FinishingOptions:
         Rapid down to this height above the lead-in start, then plunge (2 mm).
     lead_radius_mm, lead_angle_deg : float
         Lead arcs (default: the cutter radius, 90 deg: a tangential quarter circle).
-    extend_mm : float
-        Straight extension of passes past open edges (0: none).
+    extend_mm : float or None
+        Straight extension of passes past open edges (0: none). Default: none for a ball;
+        the core radius ``R - r`` for flat and bull-nose cutters, whose side that leaves
+        the cusps trails or leads the contact along the pass by up to that (with a lead,
+        the cusp at the end of a pass that stops at the edge would stand 10 % higher).
     link_max_mm : float
         Longest direct zig-zag / one-way link move (default: the cutter diameter).
     on_gouge : OnGouge
@@ -201,7 +204,7 @@ class FinishingOptions:
     approach_mm: float = 2.0
     lead_radius_mm: float | None = None
     lead_angle_deg: float = 90.0
-    extend_mm: float = 0.0
+    extend_mm: float | None = None
     link_max_mm: float | None = None
     on_gouge: OnGouge = OnGouge.RAISE
     gouge_tol_mm: float = GOUGE_TOL_MM
@@ -252,8 +255,10 @@ class FinishingOptions:
         put(self, "fixed_axis", (float(axis[0]), float(axis[1]), float(axis[2])))
         for name in ("feed_mm_per_min", "clearance_mm"):
             put(self, name, _length(getattr(self, name), name))
-        for name in ("approach_mm", "extend_mm", "gouge_tol_mm", "coordinate_step_mm"):
+        for name in ("approach_mm", "gouge_tol_mm", "coordinate_step_mm"):
             put(self, name, _length(getattr(self, name), name, allow_zero=True))
+        if self.extend_mm is not None:
+            put(self, "extend_mm", _length(self.extend_mm, "extend_mm", allow_zero=True))
         for name in ("plunge_feed_mm_per_min", "lead_radius_mm", "link_max_mm",
                      "gouge_sample_mm", "axis_smoothing_mm", "max_segment_mm",
                      "max_axis_rate_deg_per_mm"):
@@ -324,6 +329,9 @@ class FinishingOptions:
             "max_segment_mm": (4.0 * big if self.max_segment_mm is None
                                else self.max_segment_mm),
             "undercut_mm": min(chord, CONCAVE_UNDERCUT_SHARE * scallop),
+            "extend_mm": ((0.0 if cutter.kind is CutterKind.BALL
+                           else big - cutter.corner_radius_mm)
+                          if self.extend_mm is None else self.extend_mm),
         }
 
     def summary(self) -> dict[str, str]:

@@ -35,6 +35,8 @@ __all__ = [
     "PassLayout",
     "PassPoints",
     "evaluate_points",
+    "final_axes",
+    "frame_take",
     "insert_points",
     "refine_chords",
     "split_reach",
@@ -122,7 +124,8 @@ class PassPoints:
         return self.frame.e1 * self.direction[:, None]
 
 
-def _frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
+def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
+    """The frame at points ``idx``."""
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
@@ -148,6 +151,33 @@ def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.f
     return total - total[starts][which]
 
 
+def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
+               frame: PassFrame, nominal: NDArray[np.float64], pid: NDArray[np.int64],
+               direction: NDArray[np.int64]
+               ) -> tuple[NDArray[np.float64], AxisSmoothing | None, int]:
+    """The axes the cutter will have, from the nominal ones.
+
+    In 5-axis, smoothed along each pass, rate and lean limited, kept off the singular cone
+    (unchanged in 3-axis). Points in pass order (``pid`` contiguous, ``t`` ascending).
+    Returns the axes, the smoothing record and how many axes were pushed off the cone.
+    """
+    if opts.axis_mode is not AxisMode.LEAD_TILT or len(pid) < 2:
+        return nominal, None, 0
+    # the rate is per mm of the corner-circle centre's path (a ball's centre): what the
+    # machine moves at the feed
+    core_path = _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
+    smoothing = smooth_axes(nominal, frame.normal, core_path, pid,
+                            smoothing_mm=res["axis_smoothing_mm"],
+                            max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
+                            max_lean_deg=opts.max_lean_deg)
+    axes, pushed = smoothing.axes, 0
+    if opts.min_cone_deg:
+        axes, pushed = keep_out_of_cone(axes, opts.min_cone_deg, frame.e1 * direction[:, None])
+        # pushing must not break the lean limit: where it would, the lean wins
+        axes, _ = limit_lean(axes, frame.normal, opts.max_lean_deg)
+    return axes, smoothing, pushed
+
+
 def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
             s: NDArray[np.float64], pid: NDArray[np.int64], frame: PassFrame,
@@ -155,23 +185,7 @@ def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     """Axes (smoothing, cone), tips and arc length for evaluated contacts."""
     direction = layout.direction[pid]
     arclen = _arclen(frame.point, pid)
-    smoothing = None
-    pushed = 0
-    axes = nominal
-    if opts.axis_mode is AxisMode.LEAD_TILT and len(t) > 1:
-        # the rate is per mm of the corner-circle centre's path (a ball's centre): what
-        # the machine moves at the feed
-        core_path = _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
-        smoothing = smooth_axes(nominal, frame.normal, core_path, pid,
-                                smoothing_mm=res["axis_smoothing_mm"],
-                                max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
-                                max_lean_deg=opts.max_lean_deg)
-        axes = smoothing.axes
-        if opts.min_cone_deg:
-            axes, pushed = keep_out_of_cone(axes, opts.min_cone_deg,
-                                            frame.e1 * direction[:, None])
-            # pushing must not break the lean limit: where it would, the lean wins
-            axes, _ = limit_lean(axes, frame.normal, opts.max_lean_deg)
+    axes, smoothing, pushed = final_axes(cutter, opts, res, frame, nominal, pid, direction)
     tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
     return PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
                       arclen=arclen, direction=direction, smoothing=smoothing,
@@ -199,7 +213,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     t = np.r_[pts.t, t_new]
     pid = np.r_[pts.pid, pid_new]
     order = np.lexsort((t, pid))
-    frame = _frame_take(_frame_concat(pts.frame, f_new), order)
+    frame = frame_take(_frame_concat(pts.frame, f_new), order)
     nominal = np.concatenate([pts.nominal, nom_new])[order]
     s = np.r_[pts.s, s_new][order]
     merged = _finish(surface, cutter, opts, res, layout, t[order], s, pid[order], frame,

@@ -83,17 +83,23 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
 
 def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
                  lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
-                 half_width: NDArray[np.float64]) -> NDArray[np.float64]:
+                 half_width: NDArray[np.float64], centred: NDArray[np.bool_]
+                 ) -> NDArray[np.float64]:
     """Mean of the piecewise-linear ``values(x)`` over ``[x - w, x + w]`` within its pass.
 
-    ``x`` is a strictly increasing global coordinate (passes separated by gaps), ``lo_x``,
+    Where ``centred``, ``w`` is at most the distance to the nearer pass end (no lag: a
+    window cut short on one side leans the axis towards the inside, 3 deg off the nominal
+    at the end of a pass over a sphere); elsewhere the window is clipped to the pass. ``x``
+    is a strictly increasing global coordinate (passes separated by gaps), ``lo_x``,
     ``hi_x`` the pass ends of each point. ``F`` is the cumulative trapezoid integral.
     """
     seg = np.diff(x)
     cum = np.concatenate([np.zeros((1, values.shape[1])),
                           np.cumsum(0.5 * (values[1:] + values[:-1]) * seg[:, None], axis=0)])
-    lo = np.maximum(x - half_width, lo_x)
-    hi = np.minimum(x + half_width, hi_x)
+    half = np.where(centred, np.minimum(half_width, np.minimum(x - lo_x, hi_x - x)),
+                    half_width)
+    lo = np.maximum(x - half, lo_x)
+    hi = np.minimum(x + half, hi_x)
     width = hi - lo
     out = np.empty_like(values)
     for k in range(values.shape[1]):
@@ -185,6 +191,8 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
     lo_x, hi_x = x[starts][which], x[ends][which]
     same = pass_id[1:] == pass_id[:-1]
     width = np.full(n_passes, float(smoothing_mm))
+    # centred windows until the rate limit needs them wider than the pass ends allow
+    centred = np.ones(n_passes, dtype=bool)
     if max_rate_deg_per_mm is not None:
         # the smallest window that can help: a few segments
         seg = np.diff(local)[same] if same.any() else np.array([1.0])
@@ -196,8 +204,9 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
     for _ in range(max_doublings + 1):
         w_pt = width[which]
         if (w_pt > 0.0).any():
-            once = _box_average(nominal, x, lo_x, hi_x, w_pt)
-            twice = _box_average(once, x, lo_x, hi_x, w_pt)
+            c_pt = centred[which]
+            once = _box_average(nominal, x, lo_x, hi_x, w_pt, c_pt)
+            twice = _box_average(once, x, lo_x, hi_x, w_pt, c_pt)
             # a window spanning opposite normals can average to nothing: keep the nominal
             weak = np.linalg.norm(twice, axis=1) < 0.2
             twice = np.where(weak[:, None], nominal, _unit(twice))
@@ -214,6 +223,7 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
         if not grow.any():
             break
         width = np.where(grow, np.maximum(2.0 * width, floor), width)
+        centred &= ~grow
     rates = segment_turn_rates(axes, x, same)
     worst = int(np.argmax(rates)) if rates.size else -1
     return AxisSmoothing(axes=axes, half_width_mm=width,
