@@ -11,11 +11,15 @@ cutter locations against the 2 s target, and, measured in the same run:
   normalizations, a machine-speed yardstick);
 * the independent measurement's time (``measure=True``), reported apart.
 
+With ``--fine``: the dev blade (standing, 5-axis) also at scallop 0.001 mm and chord
+0.002 mm, about 0.3 million CL points, where the fixed costs (probe, gouge samples) weigh
+less: the planner's rate per point.
+
 With ``--sweep``: the dev blade planned 3-axis (lying) and 5-axis (standing) over a grid
 of cutters, scallop heights and chord tolerances, each with the measured scallop and chord
 error over the request (``OVER`` where the measured result exceeds it).
 
-Run: ``python benchmarks/bench_toolpath.py [--quick | --sweep]``.
+Run: ``python benchmarks/bench_toolpath.py [--quick | --fine | --sweep]``.
 """
 
 from __future__ import annotations
@@ -103,6 +107,8 @@ def _sweep() -> None:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="analytic surfaces only")
+    parser.add_argument("--fine", action="store_true",
+                        help="also the dev blade at scallop 0.001 mm, chord 0.002 mm")
     parser.add_argument("--sweep", action="store_true",
                         help="measured over requested on the dev blade, many requests")
     args = parser.parse_args()
@@ -115,7 +121,13 @@ def main() -> None:
             f"{'target':>8}{'frame x':>9}{'numpy x':>9}{'measure s':>10}"
             f"{'scallop':>10}{'chord':>9}")
     print(head)
-    for name, surface, extra in _cases(args.quick):
+    cases = _cases(args.quick)
+    if args.fine and not args.quick:
+        name, surface, extra = cases[-2]
+        cases.append((name.replace("(standing)", "fine"), surface,
+                      {**extra, "scallop_mm": 0.001, "chord_tol_mm": 0.002,
+                       "skip_measure": True}))
+    for name, surface, extra in cases:
         modes = [("3", {}), ("lead-tilt", {"lead_deg": 10.0})]
         if extra.get("five_only"):
             modes = modes[1:]
@@ -123,7 +135,8 @@ def main() -> None:
             modes = modes[:1]
         linking = extra.get("linking", "zigzag")
         for axis, more in modes:
-            kw = dict(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis,
+            kw = dict(scallop_mm=extra.get("scallop_mm", 0.005),
+                      chord_tol_mm=extra.get("chord_tol_mm", 0.01), axis_mode=axis,
                       linking=linking, **more)
             if axis == "3" and linking == "spiral":
                 kw["linking"] = "zigzag"
@@ -133,12 +146,14 @@ def main() -> None:
             n_cl = int((path.pass_index >= 0).sum())
             per_m = plan_s / n_cl * 1e6
             frame_s = _frame_time(surface, n_cl)
-            _, rep = plan_finishing(surface, "ball:6", measure=True, **kw)
+            measured = ""
+            if not extra.get("skip_measure"):
+                _, rep = plan_finishing(surface, "ball:6", measure=True, **kw)
+                measured = (f"{rep.seconds.get('measure', 0.0):>10.2f}"
+                            f"{rep.max_scallop_mm:>10.5f}{rep.max_chord_error_mm:>9.5f}")
             print(f"{name:<22}{axis:<10}{path.n_passes:>7}{n_cl:>9}{plan_s:>8.2f}"
                   f"{per_m:>7.2f}{'ok' if per_m < TARGET_S_PER_MILLION else 'SLOW':>8}"
-                  f"{plan_s / frame_s:>9.1f}{per_m / yard:>9.1f}"
-                  f"{rep.seconds.get('measure', 0.0):>10.2f}"
-                  f"{rep.max_scallop_mm:>10.5f}{rep.max_chord_error_mm:>9.5f}")
+                  f"{plan_s / frame_s:>9.1f}{per_m / yard:>9.1f}" + measured, flush=True)
 
 
 if __name__ == "__main__":
