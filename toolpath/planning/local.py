@@ -136,7 +136,7 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
 
 #: A Newton step moving the foot by less than this (mm) ends the search for that point
 #: (the next would move it by about its square over the radius of curvature).
-CONVERGED_MM = 1e-4
+CONVERGED_MM = 1e-3
 #: Newton steps at most beyond the requested ones, for the points not yet converged.
 EXTRA_ITERATIONS = 8
 
