@@ -304,18 +304,6 @@ class Cutter:
         with np.errstate(divide="ignore"):
             return np.where(c11 > 0.0, 1.0 / np.where(c11 > 0.0, c11, 1.0), np.inf)
 
-    def flat_width_mm(self, axes: ArrayLike, across: ArrayLike) -> NDArray[np.float64]:
-        """Width across ``across`` of the flat bottom face (disc of radius ``R - r``).
-
-        ``2 (R - r) sqrt(1 - (a.d)^2)``: the face's extent seen along the feed. It bounds the
-        stepover of flat and bull-nose cutters where their curvature vanishes.
-        """
-        a = np.asarray(axes, dtype=float)
-        d = np.asarray(across, dtype=float)
-        ad = np.einsum("...k,...k->...", a, d)
-        return 2.0 * (self.radius_mm - self.corner_radius_mm) * np.sqrt(
-            np.maximum(1.0 - ad * ad, 0.0))
-
     # ------------------------------------------------------------------ solid
     def signed_distance(self, points_mm: ArrayLike, tips_mm: ArrayLike,
                         axes: ArrayLike) -> NDArray[np.float64]:

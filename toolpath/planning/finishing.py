@@ -154,7 +154,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     tt, ss = np.meshgrid(t, s, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
     axes = _nominal(opts, frame.normal, frame.e1)
-    if cutter.kind is not CutterKind.BALL:
+    if cutter.kind is not CutterKind.BALL and opts.axis_mode is AxisMode.LEAD_TILT:
         # a flat face's section depends on the axis it will have, not the nominal one:
         # smoothing a zero lead on a convex surface leans the face sideways and moves the
         # contact to its rim. The probe's columns (fixed s) are smoothed like passes.

@@ -1,13 +1,12 @@
 """Spacing between passes from the requested scallop height, exact for circular sections.
 
-Across the passes, the surface's normal section is a circle of signed curvature ``k``
-(positive concave, :mod:`toolpath.surface`) and the cutter's section a circle of radius
-``rho`` (the ball radius, or the effective radius of a flat or bull-nose cutter across the
-feed, :meth:`~toolpath.planning.cutters.Cutter.curvature_tensor`). The cutter centres
-then lie on the circle of radius ``1/|k| +/- rho`` and the cusp between two passes at
-height ``h`` above the surface (convex surfaces fall away under the cusp, so they need a
-smaller stepover than a plane; concave ones allow a larger one). In the triangle (centre
-of curvature, cutter centre, cusp) the law of cosines gives, for convex and concave alike,
+**Ball.** Across the passes, the surface's normal section is a circle of signed curvature
+``k`` (positive concave, :mod:`toolpath.surface`) and the ball's section a circle of
+radius ``rho``. The ball centres then lie on the circle of radius ``1/|k| +/- rho`` and the
+cusp between two passes at height ``h`` above the surface (convex surfaces fall away under
+the cusp, so they need a smaller stepover than a plane; concave ones allow a larger one).
+In the triangle (centre of curvature, cutter centre, cusp) the law of cosines gives, for
+convex and concave alike,
 
 ``sin(alpha / 4) = z = |k| sqrt(h (2 rho - h)) / (2 sqrt((1 - h k)(1 - rho k)))``
 
@@ -17,9 +16,13 @@ with ``alpha`` the angle between the two contacts, so the stepover along the sur
 
 which tends to the flat-surface ``2 sqrt(h (2 rho - h))`` as ``k -> 0``. It needs
 ``rho k < 1`` (a concave radius larger than the cutter's; otherwise the cutter gouges,
-see :mod:`toolpath.planning.gouge`). Where a flat or bull-nose face is almost parallel to
-the surface (``rho`` huge), the stepover is also bounded by the width of the face plus
-the corner arcs, ``w <= flat_width + 2 sqrt(h (2 r - h))``.
+see :mod:`toolpath.planning.gouge`).
+
+**Flat and bull-nose.** Their section across the pass is no circle: the core disc seen
+along the feed (an ellipse, a segment when seen edge-on) grown by the corner radius. Its
+osculating circle at the contact (the effective radius) holds only for small ``h``, so
+:func:`shadow_stepover_mm` walks the true section on each side of the contact to the
+height ``h`` over the same surface circle.
 
 Pass levels are placed greedily in ``s``: from a level ``s_k`` the next is ``s_k + ds``
 with ``ds = min A(s')`` over ``s' in [s_k, s_k + lookahead * ds]``, where
