@@ -126,9 +126,10 @@ def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_m
 
 
 #: Halvings of the boundary-normal angle in :func:`shadow_stepover_mm` (to 1.5e-6 rad), then
-#: regula falsi steps along the final bracket's chord.
+#: of the final bracket's chord (to 1e-9 of it: the chord may be a whole flat face, over
+#: which a convex surface's height grows quadratically).
 SHADOW_HALVINGS = 20
-SECANT_STEPS = 4
+CHORD_HALVINGS = 30
 
 
 def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[np.float64]
@@ -216,18 +217,12 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
         # edge-on jumps from one end to the other): find the height along the chord
         y_lo, z_lo = boundary(lo)
         y_hi, z_hi = boundary(hi)
-        h_lo = _height_and_arc(y_lo - y0, z_lo - z0, k)[0]
-        h_hi = _height_and_arc(y_hi - y0, z_hi - z0, k)[0]
         u_lo, u_hi = np.zeros(len(n)), np.ones(len(n))
-        u = u_lo
-        for _ in range(SECANT_STEPS):
-            u = np.clip(u_lo + (h - h_lo) / np.where(h_hi > h_lo, h_hi - h_lo, 1.0)
-                        * (u_hi - u_lo), u_lo, u_hi)
-            h_u = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0,
-                                  z_lo + u * (z_hi - z_lo) - z0, k)[0]
-            below = h_u < h
-            u_lo, h_lo = np.where(below, u, u_lo), np.where(below, h_u, h_lo)
-            u_hi, h_hi = np.where(below, u_hi, u), np.where(below, h_hi, h_u)
+        for _ in range(CHORD_HALVINGS):
+            u = 0.5 * (u_lo + u_hi)
+            below = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0,
+                                    z_lo + u * (z_hi - z_lo) - z0, k)[0] < h
+            u_lo, u_hi = np.where(below, u, u_lo), np.where(below, u_hi, u)
         u = u_lo  # the side still below h: conservative
         arc = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0, z_lo + u * (z_hi - z_lo) - z0,
                               k)[1]
