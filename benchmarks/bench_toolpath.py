@@ -15,11 +15,15 @@ With ``--fine``: the dev blade (standing, 5-axis) also at scallop 0.001 mm and c
 0.002 mm, about 0.3 million CL points, where the fixed costs (probe, gouge samples) weigh
 less: the planner's rate per point.
 
+With ``--faces``: flat and bull-nose cutters in 5-axis on analytic surfaces where the
+planner once overshot (a sphere cap near its pole, whose smoothed axes lean a face
+sideways; a cylinder patch with open edges), measured over the request.
+
 With ``--sweep``: the dev blade planned 3-axis (lying) and 5-axis (standing) over a grid
 of cutters, scallop heights and chord tolerances, each with the measured scallop and chord
 error over the request (``OVER`` where the measured result exceeds it).
 
-Run: ``python benchmarks/bench_toolpath.py [--quick | --fine | --sweep]``.
+Run: ``python benchmarks/bench_toolpath.py [--quick | --fine | --faces | --sweep]``.
 """
 
 from __future__ import annotations
@@ -104,16 +108,38 @@ def _sweep() -> None:
     print(f"{over} plan(s) measured over the request")
 
 
+def _faces() -> None:
+    from toolpath.planning import CylinderPatch
+
+    cap = SpherePatch(radius_mm=60.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(5.0, 25.0))
+    cases = [("sphere cap near pole", cap, "bull:8:1", lead, 0.01, 0.02) for lead in (0.0, 5.0)]
+    cases += [("cylinder R40 patch", CylinderPatch(radius_mm=40.0), cutter, 5.0, 0.05, 0.02)
+              for cutter in ("flat:6", "bull:8:1")]
+    print(f"{'surface':<22}{'cutter':<10}{'lead':>5}{'scallop':>8}{'chord':>7}{'passes':>7}"
+          f"{'scallop/req':>12}{'chord/req':>10}")
+    for name, surface, cutter, lead, scallop, chord in cases:
+        path, rep = plan_finishing(surface, cutter, scallop_mm=scallop, chord_tol_mm=chord,
+                                   axis_mode="lead-tilt", lead_deg=lead)
+        print(f"{name:<22}{cutter:<10}{lead:>5g}{scallop:>8g}{chord:>7g}{path.n_passes:>7}"
+              f"{rep.max_scallop_mm / scallop:>12.3f}{rep.max_chord_error_mm / chord:>10.3f}",
+              flush=True)
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--quick", action="store_true", help="analytic surfaces only")
     parser.add_argument("--fine", action="store_true",
                         help="also the dev blade at scallop 0.001 mm, chord 0.002 mm")
+    parser.add_argument("--faces", action="store_true",
+                        help="flat and bull-nose cutters on analytic surfaces, measured")
     parser.add_argument("--sweep", action="store_true",
                         help="measured over requested on the dev blade, many requests")
     args = parser.parse_args()
     if args.sweep:
         _sweep()
+        return
+    if args.faces:
+        _faces()
         return
     yard = _numpy_yardstick()
     print(f"numpy yardstick: {yard * 1e3:.1f} ms per 1e6 normalizations")

@@ -160,11 +160,6 @@ class FittedSurface(ParametricSurface):
             worst = max(worst, float(np.linalg.norm(points - sections.points[j], axis=1).max()))
         return worst
 
-    def rows_at(self, s: NDArray[np.float64], ds: int = 0) -> NDArray[np.float64]:
-        """The interpolated rows (or their ``s``-derivatives) at ``s``: ``(len(s), r)``."""
-        spline = scipy.interpolate.BSpline(self.knots_s, self.row_coef, DEGREE)
-        return spline(np.clip(s, 0.0, 1.0), nu=ds)
-
     # ------------------------------------------------------------------ JSON
     def _common_dict(self) -> dict[str, Any]:
         return {

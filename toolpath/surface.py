@@ -63,6 +63,12 @@ def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
     return v / np.where(norm > 0.0, norm, 1.0)
 
 
+def _outward(surface: ParametricSurface, xt: NDArray[np.float64], xs: NDArray[np.float64]
+             ) -> NDArray[np.float64]:
+    """Unit normals ``orientation * X_t x X_s``."""
+    return surface.orientation * _unit(np.cross(xt, xs))
+
+
 class SurfaceFrame:
     """First and second partials, unit normal and fundamental forms at many ``(t, s)``.
 
@@ -78,7 +84,7 @@ class SurfaceFrame:
         self.xt, self.xs = parts[1, 0].reshape(vec), parts[0, 1].reshape(vec)
         self.xtt, self.xts = parts[2, 0].reshape(vec), parts[1, 1].reshape(vec)
         self.xss = parts[0, 2].reshape(vec)
-        self.normal = surface.orientation * _unit(np.cross(self.xt, self.xs))
+        self.normal = _outward(surface, self.xt, self.xs)
         dot = np.einsum
         self.E = dot("...k,...k->...", self.xt, self.xt)
         self.F = dot("...k,...k->...", self.xt, self.xs)
@@ -150,7 +156,7 @@ class ParametricSurface(ABC):
         """Unit normals, oriented outward (``orientation * X_t x X_s``)."""
         flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
         parts = self._partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
-        normal = self.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+        normal = _outward(self, parts[1, 0], parts[0, 1])
         return normal.reshape((*shape, 3))
 
     def points_and_normals(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
@@ -158,7 +164,7 @@ class ParametricSurface(ABC):
         """Points and outward unit normals from one evaluation of the three partials."""
         flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
         parts = self._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
-        normal = self.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+        normal = _outward(self, parts[1, 0], parts[0, 1])
         return parts[0, 0].reshape((*shape, 3)), normal.reshape((*shape, 3))
 
     def principal_curvatures(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False

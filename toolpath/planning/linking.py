@@ -225,15 +225,27 @@ def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.f
     return pts[::-1] if lead_in else pts
 
 
+def _extension_before(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
+    """The extension's start past an open edge before the run (0 or 1 points)."""
+    if run.extend_start and opt.extend_mm > 0.0:
+        return (run.tips[0] - opt.extend_mm * run.feed_start)[None, :]
+    return np.zeros((0, 3))
+
+
+def _extension_after(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
+    """The extension's end past an open edge after the run (0 or 1 points)."""
+    if run.extend_end and opt.extend_mm > 0.0:
+        return (run.tips[-1] + opt.extend_mm * run.feed_end)[None, :]
+    return np.zeros((0, 3))
+
+
 def _approach(run: Run, opt: LinkOptions) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Lead-in points (extension and arc, travel order) and the point they start from."""
-    start, f, n = run.tips[0], run.feed_start, run.normal_start
-    line = np.zeros((0, 3))
-    if run.extend_start and opt.extend_mm > 0.0:
-        line = (start - opt.extend_mm * f)[None, :]
+    start = run.tips[0]
+    line = _extension_before(run, opt)
     base = line[0] if len(line) else start
-    arc = _arc(base, f, n, opt.lead_radius_mm, opt.lead_angle_deg, opt.chord_tol_mm,
-               lead_in=True)
+    arc = _arc(base, run.feed_start, run.normal_start, opt.lead_radius_mm,
+               opt.lead_angle_deg, opt.chord_tol_mm, lead_in=True)
     pts = np.concatenate([arc, line]) if len(arc) or len(line) else np.zeros((0, 3))
     first = pts[0] if len(pts) else start
     return pts, first
@@ -241,13 +253,10 @@ def _approach(run: Run, opt: LinkOptions) -> tuple[NDArray[np.float64], NDArray[
 
 def _departure(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
     """Lead-out points (extension and arc) in travel order."""
-    end, f, n = run.tips[-1], run.feed_end, run.normal_end
-    line = np.zeros((0, 3))
-    if run.extend_end and opt.extend_mm > 0.0:
-        line = (end + opt.extend_mm * f)[None, :]
-    base = line[0] if len(line) else end
-    arc = _arc(base, f, n, opt.lead_radius_mm, opt.lead_angle_deg, opt.chord_tol_mm,
-               lead_in=False)
+    line = _extension_after(run, opt)
+    base = line[0] if len(line) else run.tips[-1]
+    arc = _arc(base, run.feed_end, run.normal_end, opt.lead_radius_mm, opt.lead_angle_deg,
+               opt.chord_tol_mm, lead_in=False)
     return np.concatenate([line, arc])
 
 
@@ -293,13 +302,10 @@ def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], .
         else:
             # a direct link keeps the extensions past open edges: without them the side
             # of a flat or bull-nose cutter that leaves the cusps stops short of the edge
-            reach = opt.extend_mm > 0.0
-            if reach and prev.extend_end:
-                out.add(prev.tips[-1] + opt.extend_mm * prev.feed_end, prev.axes[-1],
-                        MoveKind.LEAD_OUT)
-            if reach and run.extend_start:
-                out.add(run.tips[0] - opt.extend_mm * run.feed_start, run.axes[0],
-                        MoveKind.LINK)
+            out.add(_extension_after(prev, opt), prev.axes[-1], MoveKind.LEAD_OUT)
+            before = _extension_before(run, opt)
+            if len(before):
+                out.add(before, run.axes[0], MoveKind.LINK)
                 out.add(run.tips[:1], run.axes[:1], MoveKind.LEAD_IN, run.pass_index)
             else:
                 out.add(run.tips[:1], run.axes[:1], MoveKind.LINK, run.pass_index)
