@@ -103,7 +103,7 @@ def register(commands: argparse._SubParsersAction) -> None:
     parser.add_argument("--plots", action="store_true",
                         help="write fit.png, toolpath.png, tool_axis.png (5-axis), deviation.png")
     parser.add_argument("--verify", action="store_true",
-                        help="replay the program and measure what it cuts (ball cutters)")
+                        help="replay the program and measure what it cuts")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=_run)
