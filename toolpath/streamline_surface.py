@@ -36,6 +36,7 @@ from numpy.typing import NDArray
 
 from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, knot_options
 from .bspline_surface import fit_bspline_surface
+from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import InvalidParameterError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
@@ -107,33 +108,19 @@ class StreamlineSurface(FittedSurface):
     def _partials(self, t, s, dt, ds) -> NDArray[np.float64]:
         return self._partials_many(t, s, ((dt, ds),))[dt, ds]
 
-    def _partials_many(self, t, s, orders):
-        needed = tuple({(a, b) for dt, ds in orders for a in range(dt + 1)
-                        for b in range(ds + 1)})
-        g = self.tensor.partials(t, s, needed)
-        most_ds = max(ds for _, ds in orders)
-        z = [(self._x0_curve(s) + self.c) @ self.T.T]
-        z += [self._x0_curve(s, k) @ self.T.T for k in range(1, most_ds + 1)]
-        e = np.exp(g[0, 0])
-        w = z[0] * e
-        w_s = e * (z[1] + z[0] * g[0, 1]) if most_ds else None
-        t_inv = np.linalg.inv(self.T).T
-        out = {}
-        for dt, ds in orders:
-            if (dt, ds) == (0, 0):
-                value = w
-            elif (dt, ds) == (1, 0):
-                value = w * g[1, 0]
-            elif (dt, ds) == (2, 0):
-                value = w * (g[2, 0] + g[1, 0] ** 2)
-            elif (dt, ds) == (0, 1):
-                value = w_s
-            elif (dt, ds) == (1, 1):
-                value = w_s * g[1, 0] + w * g[1, 1]
-            else:  # (0, 2)
-                value = e * (z[2] + 2.0 * z[1] * g[0, 1] + z[0] * (g[0, 2] + g[0, 1] ** 2))
-            out[dt, ds] = value @ t_inv - self.c if (dt, ds) == (0, 0) else value @ t_inv
-        return out
+    def kernel(self) -> StreamlineKernel:
+        """Eq. 25 and its partials, compiled (:mod:`toolpath.compiled`)."""
+        return self._compiled
+
+    @functools.cached_property
+    def _compiled(self) -> StreamlineKernel:
+        breaks_t, breaks_s, g_poly = self.tensor.patches
+        x0_breaks, x0_poly = self._x0_curve.pieces
+        T = np.ascontiguousarray(self.T, dtype=float)
+        return StreamlineKernel(
+            breaks_t, breaks_s, g_poly, x0_breaks, np.ascontiguousarray(x0_poly), T,
+            np.ascontiguousarray(np.linalg.inv(T)), np.ascontiguousarray(self.c, dtype=float),
+            np.eye(3), np.zeros(3), bool(self.closed_t))
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-serializable description; :meth:`from_dict` restores it exactly."""

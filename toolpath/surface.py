@@ -19,12 +19,15 @@ side gouges where ``k > 1/R_cutter``.
 from __future__ import annotations
 
 from abc import ABC, abstractmethod
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidParameterError
+
+if TYPE_CHECKING:
+    from .compiled import StreamlineKernel
 
 __all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame"]
 
@@ -129,8 +132,18 @@ class ParametricSurface(ABC):
     def _partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
                        orders: tuple[tuple[int, int], ...]
                        ) -> dict[tuple[int, int], NDArray[np.float64]]:
-        """Several partials at once; override to share work between them."""
+        """Several partials at once (compiled when :meth:`kernel` offers it).
+
+        Override to share work between the partials otherwise.
+        """
+        kernel = self.kernel()
+        if kernel is not None:
+            return kernel.partials(t, s, orders)
         return {order: self._partials(t, s, *order) for order in orders}
+
+    def kernel(self) -> StreamlineKernel | None:
+        """The surface's compiled form (:mod:`toolpath.compiled`), or None (numpy only)."""
+        return None
 
     def __call__(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> NDArray[np.float64]:
         """Points at the pairs ``(t, s)`` (broadcast) or, with ``grid=True``, on the grid."""

@@ -87,14 +87,15 @@ class PiecewiseCubic:
     coef: NDArray[np.float64]
 
     @functools.cached_property
-    def _pieces(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    def pieces(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``(breaks, P)``, ``P[l, p, k]`` the coefficient of ``u^p`` on interval ``l``."""
         breaks, first, table = _basis_table(self.knots)
         blocks = self.coef[first[:, None] + np.arange(_ORDER)]  # (l, i, k)
         return breaks, np.einsum("lip,lik->lpk", table, blocks)
 
     def __call__(self, x: NDArray[np.float64], nu: int = 0) -> NDArray[np.float64]:
         """The ``nu``-th derivative at flat ``x`` -> ``(n, k)``."""
-        breaks, poly = self._pieces
+        breaks, poly = self.pieces
         where, u = _locate(breaks, np.asarray(x, dtype=float).ravel())
         return np.einsum("np,npk->nk", _monomials(u, nu), poly[where])
 
@@ -116,7 +117,7 @@ class TensorSpline:
     coef: NDArray[np.float64]
 
     @functools.cached_property
-    def _patches(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    def patches(self) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """``(breaks_t, breaks_s, P)``, ``P[l * n_m + m, p, k, q]`` (ready for matmul)."""
         breaks_t, first_t, table_t = _basis_table(self.knots_t)
         breaks_s, first_s, table_s = _basis_table(self.knots_s)
@@ -136,7 +137,7 @@ class TensorSpline:
     def partials(self, t: NDArray[np.float64], s: NDArray[np.float64],
                  orders: tuple[tuple[int, int], ...]) -> dict[tuple[int, int], NDArray[np.float64]]:
         """Several partials at once, sharing the patch lookup: ``{(dt, ds): (n, k)}``."""
-        breaks_t, breaks_s, poly = self._patches
+        breaks_t, breaks_s, poly = self.patches
         t = np.asarray(t, dtype=float).ravel()
         s = np.asarray(s, dtype=float).ravel()
         k = poly.shape[2]

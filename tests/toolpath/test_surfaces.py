@@ -37,18 +37,6 @@ def cylinder_sections(radius=40.0, m=6, n=40):
                      for zj in z])
 
 
-def closed_sections(m=6, n=60):
-    """Twisted, tapering ellipses, first point repeated at the end."""
-    theta = np.linspace(0.0, 2 * np.pi, n)
-    out = []
-    for j, h in enumerate(np.linspace(0.0, 1.0, m)):
-        a, b, twist = 30.0 - 6 * h, 8.0 - 2 * h, 0.3 * h
-        x, y = a * np.cos(theta), b * np.sin(theta)
-        c, s = np.cos(twist), np.sin(twist)
-        out.append(np.c_[100 + c * x - s * y, 50 + s * x + c * y, np.full(n, 20.0 * j)])
-    return np.stack(out)
-
-
 def test_surface_of_a_known_diagonal_system_is_recovered_exactly():
     # X = Z0(s) * exp(G(t, s)) with T = I: Z0 cubic in s, G bicubic with G(0, s) = 0
     t = np.linspace(0.0, 1.0, 25)
@@ -143,8 +131,8 @@ def test_grid_and_scattered_evaluation_agree(blade):
     assert np.array_equal(grid, blade(tt, ss))
 
 
-def test_closed_sections_have_an_exact_seam_and_outward_normals():
-    sections = closed_sections()
+def test_closed_sections_have_an_exact_seam_and_outward_normals(closed_sections):
+    sections = closed_sections
     surf = fit_streamline_surface(sections, tol=0.005)
     assert surf.closed_t
     assert surf.max_error <= 0.005

@@ -117,6 +117,9 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
         ``|X(t, s) - p|``.
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    kernel = surface.kernel()
+    if kernel is not None:  # the same steps, compiled (toolpath.compiled.project)
+        return kernel.project(p, t0, s0, iterations, EXTRA_ITERATIONS, CONVERGED_MM)
     t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
     s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
     x = np.empty_like(p)

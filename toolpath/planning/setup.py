@@ -18,9 +18,12 @@ Examples
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..compiled import StreamlineKernel
 from ..errors import InvalidParameterError
 from ..surface import ParametricSurface
 
@@ -100,11 +103,22 @@ class PlacedSurface(ParametricSurface):
                        orders: tuple[tuple[int, int], ...]
                        ) -> dict[tuple[int, int], NDArray[np.float64]]:
         """The base surface's partials in one pass (it may share work), then placed."""
+        if self.kernel() is not None:
+            return super()._partials_many(t, s, orders)
         out = {order: d @ self.rotation.T
                for order, d in self.base._partials_many(t, s, orders).items()}
         if (0, 0) in out:
             out[(0, 0)] += self.translation
         return out
+
+    def kernel(self) -> StreamlineKernel | None:
+        """The base surface's compiled form, placed (None where the base has none)."""
+        return self._compiled
+
+    @functools.cached_property
+    def _compiled(self) -> StreamlineKernel | None:
+        base = self.base.kernel()
+        return None if base is None else base.placed(self.rotation, self.translation)
 
     def __repr__(self) -> str:
         return (f"PlacedSurface({self.base!r}, rotation={self.rotation.round(6).tolist()}, "

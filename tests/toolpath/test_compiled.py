@@ -1,0 +1,92 @@
+"""The compiled streamline kernels against independent evaluations and the numpy search."""
+
+import numpy as np
+import pytest
+import scipy.interpolate
+
+import toolpath
+from toolpath import fit_streamline_surface
+from toolpath.compiled import ORDERS
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning.local import project_to_surface
+from toolpath.planning.setup import PlacedSurface, rotation_from_spec
+from toolpath.surface import ParametricSurface
+
+
+@pytest.fixture(scope="module")
+def blade():
+    sections = toolpath.read_sections(bundled_data_path("dev_blade_15x142.csv"))
+    return fit_streamline_surface(sections, tol=0.01)
+
+
+def _eq25_partials(surface, t, s):
+    """Eq. 25 and its partials from scipy's B-splines (module docstring of the surface)."""
+    coef = surface.tensor.coef
+    g = {o: scipy.interpolate.NdBSpline((surface.knots_t, surface.knots_s), coef, 3)(
+        np.c_[t, s], nu=o) for o in ORDERS}
+    x0 = scipy.interpolate.BSpline(surface.knots_s, surface.row_coef[:, -3:], 3)
+    z0 = (x0(s) + surface.c) @ surface.T.T
+    z1, z2 = x0(s, 1) @ surface.T.T, x0(s, 2) @ surface.T.T
+    e = np.exp(g[0, 0])
+    w = z0 * e
+    w_s = e * (z1 + z0 * g[0, 1])
+    ws = {(0, 0): w, (1, 0): w * g[1, 0], (0, 1): w_s, (2, 0): w * (g[2, 0] + g[1, 0] ** 2),
+          (1, 1): w_s * g[1, 0] + w * g[1, 1],
+          (0, 2): e * (z2 + 2.0 * z1 * g[0, 1] + z0 * (g[0, 2] + g[0, 1] ** 2))}
+    t_inv = np.linalg.inv(surface.T)
+    return {o: v @ t_inv.T - (surface.c if o == (0, 0) else 0.0) for o, v in ws.items()}
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_compiled_partials_equal_eq25_from_scipy(blade, closed_sections, closed):
+    surface = fit_streamline_surface(closed_sections, tol=0.01) if closed else blade
+    rng = np.random.default_rng(3)
+    t, s = np.r_[rng.random(500), 0.0, 1.0, 1.0], np.r_[rng.random(500), 0.0, 1.0, 0.0]
+    got = surface.kernel().partials(t, s, ORDERS)
+    want = _eq25_partials(surface, t, s)
+    for order in ORDERS:
+        # round-off: near the leading edge X_ts is a difference of terms ~G_t large
+        scale = np.abs(want[order]).max()
+        assert np.abs(got[order] - want[order]).max() <= 1e-10 * scale, order
+
+
+def test_placed_kernel_is_the_rotated_and_shifted_surface(blade):
+    rotation = rotation_from_spec("y:-90,z:30")
+    placed = PlacedSurface(PlacedSurface(blade, rotation, (1.0, 2.0, 3.0)),
+                           rotation_from_spec("x:90"), (0.0, -5.0, 7.0))
+    rng = np.random.default_rng(4)
+    t, s = rng.random(200), rng.random(200)
+    outer = rotation_from_spec("x:90")
+    x = blade(t, s) @ rotation.T + [1.0, 2.0, 3.0]
+    want = x @ outer.T + [0.0, -5.0, 7.0]
+    assert np.allclose(placed(t, s), want, rtol=0, atol=1e-10)
+    want_t = blade.derivative(t, s, dt=1) @ rotation.T @ outer.T
+    assert np.allclose(placed.derivative(t, s, dt=1), want_t, rtol=0, atol=1e-10)
+
+
+class _NumpyOnly(ParametricSurface):
+    """The same surface with its kernel hidden: the numpy path of every routine."""
+
+    def __init__(self, base):
+        self.base, self.closed_t, self.orientation = base, base.closed_t, base.orientation
+
+    def _partials(self, t, s, dt, ds):
+        return self.base._partials(t, s, dt, ds)
+
+
+@pytest.mark.parametrize("iterations", [0, 1, 3])
+def test_compiled_projection_takes_the_numpy_steps(blade, iterations):
+    placed = PlacedSurface(blade, rotation_from_spec("y:-90"), (0.0, 0.0, 20.0))
+    rng = np.random.default_rng(5)
+    n = 3000
+    t, s = rng.random(n), rng.random(n)
+    height = rng.uniform(0.0, 1.5, n)  # outward along the normal: the foot is (t, s)
+    points = placed(t, s) + height[:, None] * placed.normal(t, s)
+    t0, s0 = np.clip(t + rng.normal(scale=0.003, size=n), 0, 1), np.clip(s + 0.02, 0, 1)
+    got = project_to_surface(placed, points, t0, s0, iterations=iterations)
+    want = project_to_surface(_NumpyOnly(placed), points, t0, s0, iterations=iterations)
+    assert np.allclose(got[0], want[0], rtol=0, atol=1e-7)
+    assert np.allclose(got[1], want[1], rtol=0, atol=1e-7)
+    assert np.allclose(got[2], want[2], rtol=0, atol=1e-8)
+    if iterations == 3:  # and it did find the closest points: the offset comes back
+        assert np.quantile(np.abs(got[2] - height), 0.99) < 1e-6

@@ -1,0 +1,303 @@
+"""Compiled evaluation and closest-point projection for streamline surfaces.
+
+The planner spends most of its time evaluating ``X(t, s)`` and its partials a few at a
+time inside Newton searches; in numpy every one of those steps costs a dozen temporary
+arrays. Here the same mathematics runs point by point in machine code (numba):
+
+* :func:`streamline_partials`: eq. 25, ``X = −c + T^{-1} [Z_0(s) ∘ exp(G(t, s))]`` and its
+  partials up to order 2, exactly as :class:`toolpath.streamline_surface.StreamlineSurface`
+  states them (``W_t = W G_t``, ``W_tt = W (G_tt + G_t²)``, ``W_s = e^G (Z_0' + Z_0 G_s)``,
+  ``W_ts = W_s G_t + W G_ts``, ``W_ss = e^G (Z_0'' + 2 Z_0' G_s + Z_0 (G_ss + G_s²))``),
+  ``G`` and ``X_0`` from their per-patch power forms (:mod:`toolpath.tensor_spline`), then
+  a rigid placement ``R X + d``;
+* :func:`project` : the damped Newton projection of
+  :func:`toolpath.planning.local.project_to_surface`, step for step (same Hessian, same
+  fall-back, clipping, halvings and convergence rule), one point at a time.
+
+A surface offers this through :class:`StreamlineKernel` (``surface._kernel()``); surfaces
+without one (analytic test surfaces, B-spline baselines) keep the numpy path.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["StreamlineKernel", "project", "streamline_partials"]
+
+#: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
+ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+
+
+@dataclass(frozen=True, eq=False)
+class StreamlineKernel:
+    """Everything the compiled evaluation needs, as contiguous float arrays.
+
+    Attributes
+    ----------
+    breaks_t, breaks_s : ndarray
+        Distinct knots of ``G`` along ``t`` and ``s``.
+    g_poly : ndarray, shape (n_l * n_m, 4, 3, 4)
+        ``G``'s patch coefficients ``P[l n_m + m, p, k, q]`` of ``u^p v^q``.
+    x0_breaks : ndarray
+        Distinct knots of ``X_0(s)``.
+    x0_poly : ndarray, shape (n_l, 4, 3)
+        ``X_0``'s piece coefficients of ``v^p``.
+    T, T_inv, c : ndarray
+        The diagonalizing matrix, its inverse and the translation (mm) of eq. 25.
+    rotation, translation_mm : ndarray
+        The placement ``R X + d`` (identity and zero for a surface as fitted).
+    closed_t : bool
+        Sections are closed loops (``t`` wraps).
+    """
+
+    breaks_t: NDArray[np.float64]
+    breaks_s: NDArray[np.float64]
+    g_poly: NDArray[np.float64]
+    x0_breaks: NDArray[np.float64]
+    x0_poly: NDArray[np.float64]
+    T: NDArray[np.float64]
+    T_inv: NDArray[np.float64]
+    c: NDArray[np.float64]
+    rotation: NDArray[np.float64]
+    translation_mm: NDArray[np.float64]
+    closed_t: bool
+
+    def placed(self, rotation: NDArray[np.float64], translation_mm: NDArray[np.float64]
+               ) -> StreamlineKernel:
+        """The kernel moved by a further ``X -> Q X + e``."""
+        q = np.asarray(rotation, dtype=float)
+        return StreamlineKernel(
+            self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly, self.T,
+            self.T_inv, self.c, np.ascontiguousarray(q @ self.rotation),
+            np.ascontiguousarray(q @ self.translation_mm + translation_mm), self.closed_t)
+
+    def _args(self) -> tuple:
+        return (self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly,
+                self.T, self.T_inv, self.c, self.rotation, self.translation_mm)
+
+    def partials(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                 orders: tuple[tuple[int, int], ...]
+                 ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """``{(dt, ds): (n, 3)}`` at flat ``t``, ``s``, total orders up to 2."""
+        top = max(dt + ds for dt, ds in orders)
+        t = np.ascontiguousarray(t, dtype=float).ravel()
+        s = np.ascontiguousarray(s, dtype=float).ravel()
+        out = np.empty((1 + 2 * top + (top == 2), t.size, 3))
+        streamline_partials(t, s, *self._args(), top, out)
+        return {order: out[ORDERS.index(order)] for order in orders}
+
+    def project(self, points_mm: NDArray[np.float64], t0: NDArray[np.float64],
+                s0: NDArray[np.float64], iterations: int, extra: int, converged_mm: float
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Closest points by Newton's method: ``t, s`` and the distance (mm)."""
+        p = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
+        t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
+        s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
+        dist = np.empty(len(p))
+        project(p, t, s, *self._args(), self.closed_t, iterations, extra, converged_mm, dist)
+        return t, s, dist
+
+
+@numba.njit(cache=True, inline="always")
+def _locate(breaks, x):
+    """Interval index of ``x`` (clamped to the domain) and the offset from its left end."""
+    n = breaks.size
+    if x < breaks[0]:
+        x = breaks[0]
+    elif x > breaks[n - 1]:
+        x = breaks[n - 1]
+    lo, hi = 0, n - 1
+    while hi - lo > 1:  # breaks[lo] <= x < breaks[hi], the last interval closed
+        mid = (lo + hi) // 2
+        if breaks[mid] <= x:
+            lo = mid
+        else:
+            hi = mid
+    return lo, x - breaks[lo]
+
+
+@numba.njit(cache=True, inline="always")
+def _monomials(u, out):
+    """``out[a, p] = d^a u^p / du^a`` for ``a = 0, 1, 2``."""
+    out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 1.0, u, u * u, u * u * u
+    out[1, 0], out[1, 1], out[1, 2], out[1, 3] = 0.0, 1.0, 2.0 * u, 3.0 * u * u
+    out[2, 0], out[2, 1], out[2, 2], out[2, 3] = 0.0, 0.0, 2.0, 6.0 * u
+
+
+@numba.njit(cache=True)
+def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out, i,
+                    mu, mv, g, z, w):
+    """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``."""
+    lt, u = _locate(bt, t)
+    ls, v = _locate(bs, s)
+    _monomials(u, mu)
+    _monomials(v, mv)
+    patch = lt * (bs.size - 1) + ls
+    # g[j, k]: G's partials in the order of ORDERS, as far as ``order`` needs
+    for k in range(3):
+        for j in range(6):
+            g[j, k] = 0.0
+        for p in range(4):
+            a0 = 0.0
+            a1 = 0.0
+            a2 = 0.0
+            for q in range(4):
+                coef = g_poly[patch, p, k, q]
+                a0 += coef * mv[0, q]
+                if order >= 1:
+                    a1 += coef * mv[1, q]
+                    if order == 2:
+                        a2 += coef * mv[2, q]
+            g[0, k] += mu[0, p] * a0
+            if order >= 1:
+                g[1, k] += mu[1, p] * a0
+                g[2, k] += mu[0, p] * a1
+                if order == 2:
+                    g[3, k] += mu[2, p] * a0
+                    g[4, k] += mu[1, p] * a1
+                    g[5, k] += mu[0, p] * a2
+    lx, vx = _locate(x0b, s)
+    _monomials(vx, mv)
+    # z[a]: T X_0^(a)(s) (+ T c for a = 0)
+    for a in range(order + 1):
+        for k in range(3):
+            acc = 0.0
+            for j in range(3):
+                x0 = c[j] if a == 0 else 0.0
+                for p in range(4):
+                    x0 += mv[a, p] * x0p[lx, p, j]
+                acc += T[k, j] * x0
+            z[a, k] = acc
+    n_out = 1 + 2 * order + (1 if order == 2 else 0)
+    for k in range(3):
+        e = math.exp(g[0, k])
+        wk = z[0, k] * e
+        w[0, k] = wk
+        if order >= 1:
+            w[1, k] = wk * g[1, k]
+            ws = e * (z[1, k] + z[0, k] * g[2, k])
+            w[2, k] = ws
+            if order == 2:
+                w[3, k] = wk * (g[3, k] + g[1, k] * g[1, k])
+                w[4, k] = ws * g[1, k] + wk * g[4, k]
+                w[5, k] = e * (z[2, k] + 2.0 * z[1, k] * g[2, k]
+                               + z[0, k] * (g[5, k] + g[2, k] * g[2, k]))
+    for j in range(n_out):
+        for k in range(3):
+            acc = 0.0
+            for m in range(3):
+                xm = 0.0
+                for n in range(3):
+                    xm += T_inv[m, n] * w[j, n]
+                if j == 0:
+                    xm -= c[m]
+                acc += R[k, m] * xm
+            out[j, i, k] = acc + (d[k] if j == 0 else 0.0)
+
+
+@numba.njit(cache=True)
+def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out):
+    """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``."""
+    mu = np.empty((3, 4))
+    mv = np.empty((3, 4))
+    g = np.empty((6, 3))
+    z = np.empty((3, 3))
+    w = np.empty((6, 3))
+    for i in range(t.size):
+        _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out,
+                        i, mu, mv, g, z, w)
+
+
+@numba.njit(cache=True, inline="always")
+def _wrap(t, closed):
+    if closed:
+        return t - math.floor(t)
+    return min(max(t, 0.0), 1.0)
+
+
+@numba.njit(cache=True)
+def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations, extra,
+            converged_mm, dist):
+    """Newton projection of every ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
+
+    The step of :func:`toolpath.planning.local._newton_step`: gradient and Hessian of
+    ``|X - p|^2 / 2``, the Gauss-Newton matrix where the Hessian is not positive definite,
+    steps clipped to 0.25, halved up to 8 times while they move away from ``p``;
+    ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
+    than ``converged_mm``.
+    """
+    mu = np.empty((3, 4))
+    mv = np.empty((3, 4))
+    g = np.empty((6, 3))
+    z = np.empty((3, 3))
+    w = np.empty((6, 3))
+    fr = np.empty((6, 1, 3))
+    pt = np.empty((1, 1, 3))
+    for i in range(p.shape[0]):
+        ti, si = t[i], s[i]
+        moved = np.inf
+        x0, x1, x2 = 0.0, 0.0, 0.0
+        have_x = False
+        for k in range(iterations + extra):
+            if k >= iterations and moved <= converged_mm:
+                break
+            _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
+                            mu, mv, g, z, w)
+            d0 = fr[0, 0, 0] - p[i, 0]
+            d1 = fr[0, 0, 1] - p[i, 1]
+            d2 = fr[0, 0, 2] - p[i, 2]
+            xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
+            xs0, xs1, xs2 = fr[2, 0, 0], fr[2, 0, 1], fr[2, 0, 2]
+            e_ = xt0 * xt0 + xt1 * xt1 + xt2 * xt2
+            f_ = xt0 * xs0 + xt1 * xs1 + xt2 * xs2
+            g_ = xs0 * xs0 + xs1 * xs1 + xs2 * xs2
+            g1 = d0 * xt0 + d1 * xt1 + d2 * xt2
+            g2 = d0 * xs0 + d1 * xs1 + d2 * xs2
+            h11 = e_ + d0 * fr[3, 0, 0] + d1 * fr[3, 0, 1] + d2 * fr[3, 0, 2]
+            h12 = f_ + d0 * fr[4, 0, 0] + d1 * fr[4, 0, 1] + d2 * fr[4, 0, 2]
+            h22 = g_ + d0 * fr[5, 0, 0] + d1 * fr[5, 0, 1] + d2 * fr[5, 0, 2]
+            det = h11 * h22 - h12 * h12
+            if det <= 1e-12 * (e_ * g_ + 1e-300) or h11 <= 0.0:
+                h11, h12, h22 = e_, f_, g_
+            det = max(h11 * h22 - h12 * h12, 1e-300)
+            step_t = min(max((h22 * g1 - h12 * g2) / det, -0.25), 0.25)
+            step_s = min(max((h11 * g2 - h12 * g1) / det, -0.25), 0.25)
+            here = d0 * d0 + d1 * d1 + d2 * d2
+            new_t = _wrap(ti - step_t, closed)
+            new_s = min(max(si - step_s, 0.0), 1.0)
+            closer = False
+            for _ in range(8):
+                _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                                0, pt, 0, mu, mv, g, z, w)
+                e0 = pt[0, 0, 0] - p[i, 0]
+                e1 = pt[0, 0, 1] - p[i, 1]
+                e2 = pt[0, 0, 2] - p[i, 2]
+                if e0 * e0 + e1 * e1 + e2 * e2 <= here * (1.0 + 1e-12):
+                    closer = True
+                    break
+                step_t *= 0.5
+                step_s *= 0.5
+                new_t = _wrap(ti - step_t, closed)
+                new_s = min(max(si - step_s, 0.0), 1.0)
+            if not closer:  # still farther after 8 halvings: the last step's point
+                _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                                0, pt, 0, mu, mv, g, z, w)
+            m0 = pt[0, 0, 0] - fr[0, 0, 0]
+            m1 = pt[0, 0, 1] - fr[0, 0, 1]
+            m2 = pt[0, 0, 2] - fr[0, 0, 2]
+            moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+            x0, x1, x2 = pt[0, 0, 0], pt[0, 0, 1], pt[0, 0, 2]
+            have_x = True
+            ti, si = new_t, new_s
+        if not have_x:
+            _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
+                            mu, mv, g, z, w)
+            x0, x1, x2 = pt[0, 0, 0], pt[0, 0, 1], pt[0, 0, 2]
+        t[i], s[i] = ti, si
+        e0, e1, e2 = x0 - p[i, 0], x1 - p[i, 1], x2 - p[i, 2]
+        dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
