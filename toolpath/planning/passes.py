@@ -21,13 +21,14 @@ from ..surface import ParametricSurface
 from .cutters import Cutter
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
-from .options import AxisMode, FinishingOptions
+from .options import AxisMode, FinishingOptions, Linking
 from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps
 from .tool_axis import (
     AxisSmoothing,
     keep_out_of_cone,
     lead_tilt_axes,
     limit_lean,
+    segment_turn_rates,
     smooth_axes,
 )
 
@@ -151,6 +152,29 @@ def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.f
     return total - total[starts][which]
 
 
+def _rate_path(cutter: Cutter, opts: FinishingOptions, frame: PassFrame,
+               pid: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The path the axis turn rate is measured on and the passes it runs along.
+
+    Per mm of the corner-circle centre's path (a ball's centre: what the machine moves at
+    the feed); a spiral's rings are one continuous cut (each ends where the next begins),
+    so they are one pass here and their axes agree where the rings join.
+    """
+    along = np.zeros_like(pid) if opts.linking is Linking.SPIRAL else pid
+    return _arclen(frame.point + cutter.corner_radius_mm * frame.normal, along), along
+
+
+def _off_cone(opts: FinishingOptions, axes: NDArray[np.float64], frame: PassFrame,
+              direction: NDArray[np.int64]) -> tuple[NDArray[np.float64], int]:
+    """Axes pushed out of the singular cone (when asked), the lean limit still kept."""
+    if not opts.min_cone_deg:
+        return axes, 0
+    axes, pushed = keep_out_of_cone(axes, opts.min_cone_deg, frame.e1 * direction[:, None])
+    # pushing must not break the lean limit: where it would, the lean wins
+    axes, _ = limit_lean(axes, frame.normal, opts.max_lean_deg)
+    return axes, pushed
+
+
 def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
                frame: PassFrame, nominal: NDArray[np.float64], pid: NDArray[np.int64],
                direction: NDArray[np.int64]
@@ -163,18 +187,12 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
     """
     if opts.axis_mode is not AxisMode.LEAD_TILT or len(pid) < 2:
         return nominal, None, 0
-    # the rate is per mm of the corner-circle centre's path (a ball's centre): what the
-    # machine moves at the feed
-    core_path = _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
-    smoothing = smooth_axes(nominal, frame.normal, core_path, pid,
+    path, along = _rate_path(cutter, opts, frame, pid)
+    smoothing = smooth_axes(nominal, frame.normal, path, along,
                             smoothing_mm=res["axis_smoothing_mm"],
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
                             max_lean_deg=opts.max_lean_deg)
-    axes, pushed = smoothing.axes, 0
-    if opts.min_cone_deg:
-        axes, pushed = keep_out_of_cone(axes, opts.min_cone_deg, frame.e1 * direction[:, None])
-        # pushing must not break the lean limit: where it would, the lean wins
-        axes, _ = limit_lean(axes, frame.normal, opts.max_lean_deg)
+    axes, pushed = _off_cone(opts, smoothing.axes, frame, direction)
     return axes, smoothing, pushed
 
 
@@ -206,7 +224,15 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                   res: dict[str, float], layout: PassLayout, pts: PassPoints,
                   t_new: NDArray[np.float64], pid_new: NDArray[np.int64]
                   ) -> tuple[PassPoints, NDArray[np.int64]]:
-    """Merge new contacts into ``pts``; returns the points and the new ones' indices."""
+    """Merge new contacts into ``pts``; returns the points and the new ones' indices.
+
+    In 5-axis the points already there keep their axes (and tips): a new point strictly
+    inside a move takes the axis interpolated between the move's ends by arc length,
+    lean-limited and kept off the cone like the others. The smoothed axes vary slowly over
+    the smoothing window, so this is what smoothing again would give, to the second order
+    of the move's length; smoothing everything again would move every other tip by a
+    little and make the chord check start over.
+    """
     s_new = layout.s_of(t_new, pid_new)
     f_new = pass_frame(surface, t_new, s_new)
     nom_new = _nominal_axes(opts, f_new, layout.direction[pid_new])
@@ -216,9 +242,40 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     frame = frame_take(_frame_concat(pts.frame, f_new), order)
     nominal = np.concatenate([pts.nominal, nom_new])[order]
     s = np.r_[pts.s, s_new][order]
-    merged = _finish(surface, cutter, opts, res, layout, t[order], s, pid[order], frame,
-                     nominal)
+    t, pid = t[order], pid[order]
     where_new = np.flatnonzero(order >= len(pts))
+    is_new = order >= len(pts)
+    before = np.clip(where_new - 1, 0, None)
+    after = np.clip(where_new + 1, None, len(t) - 1)
+    # each new point between two old ones of its pass (chord midpoints), else from scratch
+    between = ((where_new > 0) & (where_new < len(t) - 1) & ~is_new[before] & ~is_new[after]
+               & (pid[before] == pid[where_new]) & (pid[after] == pid[where_new]))
+    if pts.smoothing is None or not between.all():
+        return _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal), where_new
+    axes = np.empty_like(nominal)
+    axes[~is_new] = pts.axes
+    p = frame.point
+    d0 = np.linalg.norm(p[where_new] - p[before], axis=1)
+    d1 = np.linalg.norm(p[after] - p[where_new], axis=1)
+    w = (d0 / np.maximum(d0 + d1, 1e-300))[:, None]
+    mid = (1.0 - w) * axes[before] + w * axes[after]
+    mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+    direction = layout.direction[pid]
+    sub = frame_take(frame, where_new)
+    mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
+    mid, pushed = _off_cone(opts, mid, sub, direction[where_new])
+    axes[where_new] = mid
+    tips = np.empty_like(axes)
+    tips[~is_new] = pts.tips
+    tips[where_new] = cutter.tips_from_contacts(sub.point, sub.normal, mid)
+    path, along = _rate_path(cutter, opts, frame, pid)
+    rates = segment_turn_rates(axes, path, along[1:] == along[:-1])
+    smoothing = replace(pts.smoothing, axes=axes, max_rate_deg_per_mm=float(rates.max()),
+                        worst_point=int(np.argmax(rates)),
+                        limited_points=pts.smoothing.limited_points + int(limited.sum()))
+    merged = PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
+                        arclen=_arclen(p, pid), direction=direction, smoothing=smoothing,
+                        cone_pushed=pts.cone_pushed + pushed)
     return merged, where_new
 
 
@@ -311,9 +368,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             merged_keep[~is_new] = keep
             merged_keep[is_new] = True
             keep = merged_keep
-        # check again the chords next to the new points, and those whose ends moved: in
-        # 5-axis the axes are smoothed again with the new points, which shifts the tips
-        # and axes of their neighbours (a chord checked before is then another chord)
+        # check again the chords next to the new points, and those whose ends moved (where
+        # insert_points had to smooth the axes again, which shifts the tips and axes of
+        # their neighbours: a chord checked before is then another chord)
         moved = np.zeros(len(pts), dtype=bool)
         moved[where_new] = True
         old_at = np.flatnonzero(~moved)
