@@ -92,14 +92,20 @@ class StreamlineKernel:
         return {order: out[ORDERS.index(order)] for order in orders}
 
     def project(self, points_mm: NDArray[np.float64], t0: NDArray[np.float64],
-                s0: NDArray[np.float64], iterations: int, extra: int, converged_mm: float
+                s0: NDArray[np.float64], iterations: int, extra: int, converged_mm: float,
+                orientation: float = 0.0
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-        """Closest points by Newton's method: ``t, s`` and the distance (mm)."""
+        """Closest points by Newton's method: ``t, s`` and the distance (mm).
+
+        With ``orientation`` (the surface's, +-1) the distance is signed: positive on the
+        side the outward normal points to.
+        """
         p = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
         t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
         s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
         dist = np.empty(len(p))
-        project(p, t, s, *self._args(), self.closed_t, iterations, extra, converged_mm, dist)
+        project(p, t, s, *self._args(), self.closed_t, iterations, extra, converged_mm,
+                float(orientation), dist)
         return t, s, dist
 
 
@@ -222,8 +228,12 @@ def _wrap(t, closed):
 
 @numba.njit(cache=True)
 def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations, extra,
-            converged_mm, dist):
+            converged_mm, orientation, dist):
     """Newton projection of every ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
+
+    With ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
+    ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
+    the foot (one more evaluation of the first partials there).
 
     The step of :func:`toolpath.planning.local._newton_step`: gradient and Hessian of
     ``|X - p|^2 / 2``, the Gauss-Newton matrix where the Hessian is not positive definite,
@@ -299,5 +309,16 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
                             mu, mv, g, z, w)
             x0, x1, x2 = pt[0, 0, 0], pt[0, 0, 1], pt[0, 0, 2]
         t[i], s[i] = ti, si
-        e0, e1, e2 = x0 - p[i, 0], x1 - p[i, 1], x2 - p[i, 2]
-        dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        if orientation == 0.0:
+            e0, e1, e2 = x0 - p[i, 0], x1 - p[i, 1], x2 - p[i, 2]
+            dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+            continue
+        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
+                        mu, mv, g, z, w)
+        n0 = fr[1, 0, 1] * fr[2, 0, 2] - fr[1, 0, 2] * fr[2, 0, 1]
+        n1 = fr[1, 0, 2] * fr[2, 0, 0] - fr[1, 0, 0] * fr[2, 0, 2]
+        n2 = fr[1, 0, 0] * fr[2, 0, 1] - fr[1, 0, 1] * fr[2, 0, 0]
+        size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        scale = orientation / size if size > 0.0 else 0.0
+        dist[i] = scale * ((p[i, 0] - fr[0, 0, 0]) * n0 + (p[i, 1] - fr[0, 0, 1]) * n1
+                           + (p[i, 2] - fr[0, 0, 2]) * n2)

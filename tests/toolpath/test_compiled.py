@@ -8,7 +8,7 @@ import toolpath
 from toolpath import fit_streamline_surface
 from toolpath.compiled import ORDERS
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning.local import project_to_surface
+from toolpath.planning.local import project_to_surface, signed_distance_near
 from toolpath.planning.setup import PlacedSurface, rotation_from_spec
 from toolpath.surface import ParametricSurface
 
@@ -88,5 +88,15 @@ def test_compiled_projection_takes_the_numpy_steps(blade, iterations):
     assert np.allclose(got[0], want[0], rtol=0, atol=1e-7)
     assert np.allclose(got[1], want[1], rtol=0, atol=1e-7)
     assert np.allclose(got[2], want[2], rtol=0, atol=1e-8)
+    # signed along the outward normal at the foot, from the fused kernel as from numpy
+    signed = signed_distance_near(placed, points, t0, s0, iterations=iterations)
+    numpy_signed = signed_distance_near(_NumpyOnly(placed), points, t0, s0,
+                                        iterations=iterations)
+    assert np.allclose(signed[0], numpy_signed[0], rtol=0, atol=1e-8)
+    assert np.allclose(signed[1:], numpy_signed[1:], rtol=0, atol=1e-7)
     if iterations == 3:  # and it did find the closest points: the offset comes back
         assert np.quantile(np.abs(got[2] - height), 0.99) < 1e-6
+        assert np.quantile(np.abs(signed[0] - height), 0.99) < 1e-6
+        inside = signed_distance_near(placed, placed(t, s) - 0.01 * placed.normal(t, s),
+                                      t, s, iterations=iterations)[0]
+        assert np.allclose(inside, -0.01, rtol=0, atol=1e-6)

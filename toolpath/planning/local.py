@@ -24,7 +24,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..surface import ParametricSurface
 
-__all__ = ["PassFrame", "pass_frame", "project_to_surface", "wrap_t"]
+__all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near", "wrap_t"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -135,6 +135,26 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
     if not iterations:
         x = surface(t, s)
     return t, s, np.linalg.norm(x - p, axis=1)
+
+
+def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,
+                         s0: ArrayLike, *, iterations: int = 4
+                         ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                    NDArray[np.float64]]:
+    """Signed distance ``(p - X) . n`` to the closest point found from ``(t0, s0)``, mm.
+
+    Positive on the outward side. The foot by :func:`project_to_surface`; returns the
+    distance and the foot's ``t``, ``s``.
+    """
+    p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
+    kernel = surface.kernel()
+    if kernel is not None:  # the projection and the normal at its foot in one pass
+        t, s, signed = kernel.project(p, t0, s0, iterations, EXTRA_ITERATIONS, CONVERGED_MM,
+                                      orientation=surface.orientation)
+        return signed, t, s
+    t, s, _ = project_to_surface(surface, p, t0, s0, iterations=iterations)
+    x, normals = surface.points_and_normals(t, s)
+    return np.einsum("ij,ij->i", p - x, normals), t, s
 
 
 #: A Newton step moving the foot by less than this (mm) ends the search for that point

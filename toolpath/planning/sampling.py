@@ -33,7 +33,7 @@ from machines.kinematics import forward
 
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind, disc_basis
-from .local import PassFrame, project_to_surface
+from .local import PassFrame, project_to_surface, signed_distance_near
 
 __all__ = [
     "CHORD_FRACTIONS",
@@ -144,10 +144,9 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     """
     r = cutter.corner_radius_mm
     if cutter.kind is CutterKind.BALL:
-        core = tips_mm + r * axes
-        t, s, _ = project_to_surface(surface, core, t0, s0, iterations=newton)
-        x, normals = surface.points_and_normals(t, s)
-        return np.einsum("ij,ij->i", core - x, normals) - r, t, s
+        signed, t, s = signed_distance_near(surface, tips_mm + r * axes, t0, s0,
+                                            iterations=newton)
+        return signed - r, t, s
     centre = tips_mm + r * axes
     disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1)
     # the centre's foot point: its normal tells which rim point can touch
@@ -190,11 +189,12 @@ class _Disc:
         With ``curvature=True`` also the foot's normal and largest absolute principal
         curvature (1/mm).
         """
+        if not curvature:
+            signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
+                                                  iterations=self.iterations)
+            return signed, tt, ss
         tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
                                        iterations=self.iterations)
-        if not curvature:
-            x, normals = self.surface.points_and_normals(tt, ss)
-            return np.einsum("ij,ij->i", points - x, normals), tt, ss
         f = self.surface.frame(tt, ss)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
