@@ -3,8 +3,21 @@
 import numpy as np
 import pytest
 
-from toolpath.planning import GougeError, PlaneSurface, PocketSurface, parse_cutter, plan_finishing
-from toolpath.planning.gouge import global_clearance, local_margin, sample_surface
+from toolpath.planning import (
+    GougeError,
+    PlaneSurface,
+    PocketSurface,
+    SpherePatch,
+    parse_cutter,
+    plan_finishing,
+)
+from toolpath.planning.gouge import (
+    CLEARANCE_HORIZON_MM,
+    _probes,
+    global_clearance,
+    local_margin,
+    sample_surface,
+)
 from toolpath.planning.local import pass_frame
 
 POCKET = PocketSurface(size_mm=(16.0, 16.0), centre_mm=(8.0, 8.0), depth_mm=1.5, width_mm=2.0)
@@ -90,3 +103,32 @@ def test_projection_keeps_going_until_the_foot_point_is_found():
                                     np.array([0.5, 0.55]), iterations=1)
     assert t == pytest.approx(target_t, abs=1e-7) and s == pytest.approx(target_s, abs=1e-7)
     assert dist == pytest.approx([3.0, 3.0], abs=1e-9)
+
+
+@pytest.mark.parametrize("spec", ["ball:6", "bull:8:1:flute=20", "flat:4:flute=12"])
+def test_global_clearance_equals_brute_force_over_every_sample(spec):
+    # the binned search must find every sample inside a query sphere: compare with the
+    # signed distance to all samples, masked by the same spheres
+    surface = SpherePatch(radius_mm=30.0, longitude_deg=(-40.0, 40.0),
+                          colatitude_deg=(20.0, 70.0))
+    samples = sample_surface(surface, 0.4)
+    cutter = parse_cutter(spec)
+    rng = np.random.default_rng(7)
+    n = 300
+    t, s = rng.random(n), rng.random(n)
+    contacts = surface(t, s)
+    axes = surface.normal(t, s) + rng.normal(scale=0.4, size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tips = contacts + rng.normal(scale=1.5, size=(n, 3))  # some inside, some clear
+    got = global_clearance(cutter, tips, axes, samples, contacts_mm=contacts)
+    heights, radii = _probes(cutter, CLEARANCE_HORIZON_MM)
+    pts = samples.points
+    for i in range(n):
+        centres = tips[i] + heights[:, None] * axes[i]
+        inside = (np.linalg.norm(pts[:, None, :] - centres[None], axis=2) <= radii).any(axis=1)
+        dist = cutter.signed_distance(pts, tips[i], axes[i])
+        near = np.linalg.norm(pts - contacts[i], axis=1) <= 2.0 * cutter.radius_mm
+        for mask, value in ((inside & near, got.near_mm[i]), (inside & ~near, got.far_mm[i])):
+            want = dist[mask].min() if mask.any() else np.inf
+            want = np.inf if want > CLEARANCE_HORIZON_MM else want
+            assert value == pytest.approx(want, abs=1e-12), (i, spec)

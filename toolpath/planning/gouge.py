@@ -9,12 +9,12 @@ curving towards the cutter side). The margin is its smaller eigenvalue
 ``1/R - k_max``, negative where a concave radius ``1/k_max`` is smaller than the ball.
 
 **Global.** The surface is sampled on a grid no coarser than ``sample_mm`` in either
-direction; for every cutter location the samples near the cutter are found with a k-d tree
-(a ball of radius ``R + horizon`` around the corner-circle centre ``tip + r a``, which holds
-the whole cutting end, plus spheres along the flutes, each covering a slab of
-``3R`` of the shank; with more locations than samples the tree is built on these probe
-points and asked from every sample instead) and the exact signed distance of the cutter solid
-(:meth:`~toolpath.planning.cutters.Cutter.signed_distance`) is taken at each. The
+direction; for every cutter location the samples near the cutter are found in a grid of
+cells (a ball of radius ``R + horizon`` around the corner-circle centre ``tip + r a``,
+which holds the whole cutting end, plus spheres along the flutes, each covering a slab of
+``3R`` of the shank) and the exact signed distance of the cutter solid
+(:meth:`~toolpath.planning.cutters.Cutter.signed_distance`) is taken at each, compiled
+(:mod:`.clearance_kernel`). The
 clearance of a location is the smallest value (negative: the depth of a gouge); values
 above ``horizon_mm`` are not resolved and reported as ``inf``. Samples closer than the
 cutter diameter to the location's own contact point are the contact itself; they are
@@ -24,8 +24,7 @@ another part of the surface (the far clearance).
 
 from __future__ import annotations
 
-import itertools
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Final
 
 import numpy as np
@@ -33,6 +32,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ..surface import ParametricSurface
+from .clearance_kernel import SampleCells, bin_samples, clearances
 from .cutters import Cutter
 from .local import PassFrame
 
@@ -54,8 +54,6 @@ CLEARANCE_HORIZON_MM: Final[float] = 0.1
 """Clearances are resolved up to this distance, mm; larger ones read ``inf``. It keeps the
 neighbour search small (a disc of radius ``sqrt(2 R h)`` around each contact)."""
 
-_CHUNK: Final[int] = 400_000
-
 
 def local_margin(frame: PassFrame, cutter: Cutter, axes: NDArray[np.float64]
                  ) -> NDArray[np.float64]:
@@ -74,6 +72,13 @@ class SurfaceSamples:
     s: NDArray[np.float64]
     tree: cKDTree
     spacing_mm: float
+    _cells: dict[float, SampleCells] = field(default_factory=dict, repr=False)
+
+    def cells(self, reach_mm: float) -> SampleCells:
+        """The samples binned for queries of radius up to ``reach_mm`` (kept for reuse)."""
+        if reach_mm not in self._cells:
+            self._cells[reach_mm] = bin_samples(self.points, reach_mm)
+        return self._cells[reach_mm]
 
 
 def sample_surface(surface: ParametricSurface, sample_mm: float, *,
@@ -136,23 +141,9 @@ def _probes(cutter: Cutter, horizon_mm: float) -> tuple[NDArray[np.float64],
     return heights, radii
 
 
-def _min_by_group(group: NDArray[np.int64], value: NDArray[np.float64],
-                  item: NDArray[np.int64], n: int
-                  ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """Smallest ``value`` per ``group`` (``inf`` for empty groups) and an item attaining it."""
-    best = np.full(n, np.inf)
-    which = np.full(n, -1, dtype=np.int64)
-    if group.size:
-        np.minimum.at(best, group, value)
-        hit = value == best[group]
-        which[group[hit]] = item[hit]
-    return best, which
-
-
 def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
                      samples: SurfaceSamples, *, contacts_mm: NDArray[np.float64] | None = None,
-                     horizon_mm: float = CLEARANCE_HORIZON_MM, flutes: bool = True,
-                     chunk: int = _CHUNK) -> Clearance:
+                     horizon_mm: float = CLEARANCE_HORIZON_MM, flutes: bool = True) -> Clearance:
     """Signed clearance of the cutter at each location against the surface samples.
 
     Parameters
@@ -169,57 +160,14 @@ def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray
         Clearances beyond this are not resolved (``inf``).
     flutes : bool
         Check the whole flute length (default), not only the cutting end.
-    chunk : int
-        Locations per vectorized batch (bounds memory).
     """
-    n = len(tips_mm)
     heights, radii = _probes(cutter, horizon_mm)
     if not flutes:
         heights, radii = heights[:1], radii[:1]
-    near = np.full(n, np.inf)
-    far = np.full(n, np.inf)
-    near_i = np.full(n, -1, dtype=np.int64)
-    far_i = np.full(n, -1, dtype=np.int64)
-    near_radius2 = (2.0 * cutter.radius_mm) ** 2
-    n_samples = len(samples.points)
-    for lo in range(0, n, chunk):
-        hi = min(lo + chunk, n)
-        tips, ax = tips_mm[lo:hi], axes[lo:hi]
-        owners, items = [], []
-        for z, radius in zip(heights, radii, strict=True):
-            probes = tips + z * ax
-            if hi - lo > n_samples:
-                # more locations than samples: build the tree on the probes and ask it
-                # from every sample (one query per sample instead of per location)
-                lists = cKDTree(probes).query_ball_point(samples.points, radius, workers=-1)
-                lengths = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
-                if not lengths.sum():
-                    continue
-                items.append(np.repeat(np.arange(n_samples), lengths))
-                owners.append(np.fromiter(itertools.chain.from_iterable(lists),
-                                          dtype=np.int64, count=int(lengths.sum())))
-                continue
-            lists = samples.tree.query_ball_point(probes, radius, workers=-1)
-            lengths = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
-            if not lengths.sum():
-                continue
-            owners.append(np.repeat(np.arange(hi - lo), lengths))
-            items.append(np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
-                                     count=int(lengths.sum())))
-        if not owners:
-            continue
-        owner = np.concatenate(owners)
-        item = np.concatenate(items)
-        dist = cutter.signed_distance(samples.points[item], tips[owner], ax[owner])
-        if contacts_mm is None:
-            is_near = np.ones(owner.size, dtype=bool)
-        else:
-            d = samples.points[item] - contacts_mm[lo:hi][owner]
-            is_near = np.einsum("ij,ij->i", d, d) <= near_radius2
-        for mask, best, which in ((is_near, near, near_i), (~is_near, far, far_i)):
-            value, idx = _min_by_group(owner[mask], dist[mask], item[mask], hi - lo)
-            best[lo:hi] = np.minimum(best[lo:hi], value)
-            which[lo:hi] = np.where(value <= best[lo:hi], idx, which[lo:hi])
+    near, far, near_i, far_i = clearances(
+        samples.cells(float(radii.max())), tips_mm, axes, contacts_mm, heights, radii,
+        cutter.corner_radius_mm, cutter.radius_mm, cutter.flute_length_mm,
+        2.0 * cutter.radius_mm)
     near = np.where(near > horizon_mm, np.inf, near)
     far = np.where(far > horizon_mm, np.inf, far)
     return Clearance(near_mm=near, far_mm=far, near_sample=np.where(np.isinf(near), -1, near_i),
