@@ -18,7 +18,7 @@ from machines import Machine
 from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
-from .cutters import Cutter
+from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions, Linking
@@ -192,8 +192,28 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
                             smoothing_mm=res["axis_smoothing_mm"],
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
                             max_lean_deg=opts.max_lean_deg)
-    axes, pushed = _off_cone(opts, smoothing.axes, frame, direction)
+    axes = smoothing.axes
+    if cutter.kind is not CutterKind.BALL:
+        axes = _nominal_sideways(axes, nominal, frame, opts.max_lean_deg)
+    axes, pushed = _off_cone(opts, axes, frame, direction)
     return axes, smoothing, pushed
+
+
+def _nominal_sideways(axes: NDArray[np.float64], nominal: NDArray[np.float64],
+                      frame: PassFrame, max_lean_deg: float) -> NDArray[np.float64]:
+    """Smoothed axes given back the nominal component across the pass (``e2``).
+
+    A flat or bull-nose face cuts the section it casts along the pass: a sideways lean
+    moves the contact from the face to its rim, a corner of radius ``r`` on one side and
+    the face rising on the other, which halves the stepover of a square face on a convex
+    surface. Averaging normals along a curved pass leans them towards its inside (0.1 to
+    0.3 deg on a sphere cap near its pole) for no purpose: the smoothing is there for the
+    lead, which turns with the surface along the pass; the tilt is kept as asked.
+    """
+    side = np.einsum("ij,ij->i", axes - nominal, frame.e2)
+    back = axes - side[:, None] * frame.e2
+    back /= np.linalg.norm(back, axis=1, keepdims=True)
+    return limit_lean(back, frame.normal, max_lean_deg)[0]
 
 
 def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
