@@ -6,7 +6,7 @@ import pytest
 from machines.errors import UnreachableOrientationError
 from toolpath.path import MoveKind
 from toolpath.planning import PlaneSurface, SpherePatch, plan_finishing
-from toolpath.planning.tool_axis import angle_deg, keep_out_of_cone, lead_tilt_axes, smooth_axes
+from toolpath.planning.tool_axis import angle_deg, keep_out_of_cone, lead_tilt_axes
 
 PLANE = PlaneSurface(t_vector_mm=(20.0, 0.0, 0.0), s_vector_mm=(0.0, 6.0, 0.0))
 
@@ -88,25 +88,3 @@ def test_traverses_go_over_an_open_part_not_under_it():
     rapid = path.kinds == MoveKind.RAPID
     off_axis = np.hypot(path.positions_mm[rapid, 1], path.positions_mm[rapid, 2])
     assert rapid.sum() > 10 and off_axis.min() > 40.0
-
-
-def test_smoothing_stops_widening_where_it_no_longer_lowers_the_rate():
-    # a 100 mm pass over a 0.6 mm leading edge: the normal turns 180 deg in 2 mm. No
-    # window within the 60 deg lean limit gets the rate under 10 deg/mm; the widest ones
-    # only average the rest of the pass away from its nominal axes
-    x = np.linspace(0.0, 100.0, 2001)
-    turn = np.pi * np.clip((x - 49.0) / 2.0, 0.0, 1.0)
-    normals = np.c_[np.cos(turn), np.zeros_like(x), np.sin(turn)]
-    normals[:, 2] += 0.4 * np.sin(x / 7.0) * (x < 49.0)  # some shape on the flank
-    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    pid = np.zeros(x.size, dtype=np.int64)
-    got = smooth_axes(normals, normals, x, pid, smoothing_mm=1.0, max_rate_deg_per_mm=10.0,
-                      max_lean_deg=60.0)
-    widest = smooth_axes(normals, normals, x, pid, smoothing_mm=200.0,
-                         max_rate_deg_per_mm=None, max_lean_deg=60.0)
-    assert got.max_rate_deg_per_mm < widest.max_rate_deg_per_mm
-    assert got.half_width_mm[0] < 50.0
-    # the flank keeps axes near its own normals (a few mm of smoothing, not the pass's)
-    flank = x < 40.0
-    kept = np.median(angle_deg(got.axes[flank], normals[flank]))
-    assert kept < 3.0 and kept < 0.25 * np.median(angle_deg(widest.axes[flank], normals[flank]))

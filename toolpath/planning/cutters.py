@@ -368,6 +368,11 @@ class CutterShadow:
         matrix = tuple(core_radius_mm * dot(b, e) for e in (ex, ez) for b in (b1, b2))
         return cls(dot(centre, ex), dot(centre, ez), matrix, corner_radius_mm)
 
+    def rows(self, idx: NDArray[np.int64]) -> CutterShadow:
+        """The shadows of rows ``idx``."""
+        return CutterShadow(self.centre_x[idx], self.centre_z[idx],
+                            tuple(m[idx] for m in self.matrix), self.corner_radius_mm)
+
     def boundary(self, theta: NDArray[np.float64]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(x, z)`` of the boundary point with outward normal ``(sin th, -cos th)``."""

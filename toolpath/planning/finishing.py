@@ -155,9 +155,9 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
     axes = _nominal(opts, frame.normal, frame.e1)
     if cutter.kind is not CutterKind.BALL and opts.axis_mode is AxisMode.LEAD_TILT:
-        # a flat face's section depends on the axis it will have, not the nominal one
-        # (its lead smoothed along the pass; its sideways tilt kept as asked, see
-        # passes.final_axes). The probe's columns (fixed s) are smoothed like passes.
+        # a flat face's section depends on the axis it will have, not the nominal one:
+        # smoothing a zero lead on a convex surface leans the face sideways and moves the
+        # contact to its rim. The probe's columns (fixed s) are smoothed like passes.
         by_pass = np.arange(t.size * s.size).reshape(t.size, s.size).T.ravel()
         column = np.repeat(np.arange(s.size), t.size)
         smoothed, _, _ = final_axes(cutter, opts, res, frame_take(frame, by_pass),

@@ -20,8 +20,9 @@ is the distance along ``n`` at which the ray ``Q + l n`` enters the material rem
 cutter: for a ball, exactly, the union of capsules swept by the ball centre along each feed
 move (cut in pieces of ``R/8``); for flat and bull-nose cutters, each piece is swept
 straight with its axis interpolated, and the ray is met in the cross-section through ``Q``
-perpendicular to the piece (the corner-circle disc's projected ellipse offset by ``r``).
-Heights beyond the horizon (10 times the request, at least
+perpendicular to the piece (the corner-circle disc's projected ellipse offset by ``r``);
+a section lying wholly behind ``Q`` along its normal (the cutter on the other side of a
+thin part) is not ``Q``'s cut. Heights beyond the horizon (10 times the request, at least
 0.05 mm) count as *uncut*. The cusps are searched from every contact point and every
 mid-chord contact standing above the surface found by the chord measurement, at fixed
 ``t``, towards increasing ``s``, over 2.5 times the distance from the contact to the
@@ -31,7 +32,9 @@ the height ``h_own(s)`` left by the contact's own pass rises from 0 and the heig
 cross (a sign change found on 3 samples over the bracket, then 5 Illinois
 regula-falsi steps), its height ``min(h_own, h_other)``. A contact with no pass
 within that bracket borders an uncut area and has no cusp. A coarse grid (spacing half the
-cutter radius along ``t``, one stepover across) gives the uncut area.
+cutter radius along ``t``, one stepover across) gives the uncut area; distances from it are
+taken along the surface (shortest paths over the grid), round a thin part's edges rather
+than through it.
 """
 
 from __future__ import annotations
@@ -40,6 +43,8 @@ import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
@@ -174,8 +179,9 @@ class ScallopMeasurement:
     t, s : float
         Where it is.
     interior_max_mm : float
-        Largest height over samples more than a cutter diameter away from any uncut
-        sample (excludes the slivers along the border of unreachable regions).
+        Largest height over samples more than a cutter diameter away, along the surface,
+        from any uncut sample (excludes the slivers along the border of unreachable
+        regions).
     uncut_fraction : float
         Area fraction of the surface left uncut (coarse grid).
     n_samples : int
@@ -474,10 +480,33 @@ class _CutVolume:
         # angle: its ends must be interpolated, not taken)
         x0, z0 = boundary(lo)
         x1, z1 = boundary(hi)
-        span = x1 - x0
-        z = np.where(span > 1e-12, z0 + (0.0 - x0) * (z1 - z0) / np.where(span > 1e-12, span,
-                                                                         1.0), 0.5 * (z0 + z1))
+        z = _crossing_height(x0, z0, x1, z1)
+        # a bottom below q: q is inside the section (cut, height 0), unless the section's
+        # top is below q too: then the cutter passed behind q (the other side of a thin
+        # part, seen from a point whose normal faces away from it), and q is not its cut
+        behind = np.flatnonzero(under & (z < 0.0))
+        if behind.size:
+            top = shadow.rows(behind).boundary  # its upper half: x falls from pi/2 on
+            lo = np.full(behind.size, 0.5 * np.pi)
+            hi = np.full(behind.size, 1.5 * np.pi)
+            for _ in range(SECTION_HALVINGS):
+                mid = 0.5 * (lo + hi)
+                xm, _ = top(mid)
+                right = xm > 0.0
+                lo = np.where(right, mid, lo)
+                hi = np.where(right, hi, mid)
+            xa, za = top(lo)
+            xb, zb = top(hi)
+            under[behind[_crossing_height(xa, za, xb, zb) < 0.0]] = False
         return np.where(under, np.maximum(z, 0.0), np.inf)
+
+
+def _crossing_height(x0: NDArray[np.float64], z0: NDArray[np.float64],
+                     x1: NDArray[np.float64], z1: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Height where the segment between two boundary points crosses ``x = 0``."""
+    span = x1 - x0
+    wide = np.abs(span) > 1e-12
+    return np.where(wide, z0 - x0 * (z1 - z0) / np.where(wide, span, 1.0), 0.5 * (z0 + z1))
 
 
 def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
@@ -584,6 +613,42 @@ def _other_pass_distance(points: NDArray[np.float64], passes: NDArray[np.int64]
     return out
 
 
+def _distance_along_surface(grid: NDArray[np.float64], sources: NDArray[np.bool_],
+                            closed: bool, limit_mm: float, points: NDArray[np.float64],
+                            t: NDArray[np.float64], s: NDArray[np.float64]
+                            ) -> NDArray[np.float64]:
+    """Distance over the surface from ``points`` (at ``t, s``) to the nearest source, mm.
+
+    Shortest paths on the sample grid ``(n_t, n_s, 3)`` (its rows at ``t = i / (n_t - 1)``,
+    columns likewise in ``s``), edges to the 8 neighbours weighted by their chord (the
+    seam joined on closed sections), from every source node at once; a point then goes
+    through the best of the four nodes around it. Over a thin part this is the way round
+    its edge, not through its thickness. Beyond ``limit_mm`` the distance reads ``inf``.
+    """
+    n_t, n_s = sources.shape
+    node = np.arange(n_t * n_s).reshape(n_t, n_s)
+    pairs = [(node[1:, :], node[:-1, :]), (node[:, 1:], node[:, :-1]),
+             (node[1:, 1:], node[:-1, :-1]), (node[1:, :-1], node[:-1, 1:])]
+    if closed:
+        pairs.append((node[0, :], node[-1, :]))
+    a = np.concatenate([p[0].ravel() for p in pairs])
+    b = np.concatenate([p[1].ravel() for p in pairs])
+    flat = grid.reshape(-1, 3)
+    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), 1e-9)  # 0 is no edge
+    graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
+    reach = scipy.sparse.csgraph.dijkstra(graph, directed=False,
+                                          indices=np.flatnonzero(sources.ravel()),
+                                          min_only=True, limit=2.0 * limit_mm)
+    i0 = np.clip(np.floor(t * (n_t - 1)).astype(np.int64), 0, n_t - 2)
+    j0 = np.clip(np.floor(s * (n_s - 1)).astype(np.int64), 0, n_s - 2)
+    best = np.full(len(points), np.inf)
+    for di in (0, 1):
+        for dj in (0, 1):
+            k = node[i0 + di, j0 + dj]
+            best = np.minimum(best, reach[k] + np.linalg.norm(points - flat[k], axis=1))
+    return best
+
+
 def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                     scallop_mm: float, chord: ChordMeasurement, *, chunk: int = 20_000
                     ) -> ScallopMeasurement:
@@ -643,8 +708,10 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     k = int(np.argmax(ch))
     interior = ch
     if uncut.any():
-        tree = cKDTree(q[uncut])
-        dist, _ = tree.query(surface(ct, cs), k=1, workers=-1)
+        grid_points = frame.point.reshape(n_t, n_s, 3)
+        dist = _distance_along_surface(grid_points, uncut.reshape(n_t, n_s),
+                                       bool(surface.closed_t), 2.0 * big, surface(ct, cs),
+                                       ct, cs)
         interior = np.where(dist > 2.0 * big, ch, -np.inf)
     return ScallopMeasurement(max_mm=float(ch[k]), t=float(ct[k]), s=float(cs[k]),
                               interior_max_mm=max(float(interior.max()), 0.0),

@@ -18,10 +18,10 @@ from machines import Machine
 from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
-from .cutters import Cutter, CutterKind
+from .cutters import Cutter
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
-from .options import AxisMode, FinishingOptions, Linking
+from .options import AxisMode, FinishingOptions
 from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps
 from .tool_axis import (
     AxisSmoothing,
@@ -152,16 +152,14 @@ def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.f
     return total - total[starts][which]
 
 
-def _rate_path(cutter: Cutter, opts: FinishingOptions, frame: PassFrame,
-               pid: NDArray[np.int64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
-    """The path the axis turn rate is measured on and the passes it runs along.
+def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
+               ) -> NDArray[np.float64]:
+    """The path the axis turn rate is measured on.
 
-    Per mm of the corner-circle centre's path (a ball's centre: what the machine moves at
-    the feed); a spiral's rings are one continuous cut (each ends where the next begins),
-    so they are one pass here and their axes agree where the rings join.
+    Per mm of the corner-circle centre's path (a ball's centre): what the machine moves at
+    the feed.
     """
-    along = np.zeros_like(pid) if opts.linking is Linking.SPIRAL else pid
-    return _arclen(frame.point + cutter.corner_radius_mm * frame.normal, along), along
+    return _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
 
 
 def _off_cone(opts: FinishingOptions, axes: NDArray[np.float64], frame: PassFrame,
@@ -187,33 +185,12 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
     """
     if opts.axis_mode is not AxisMode.LEAD_TILT or len(pid) < 2:
         return nominal, None, 0
-    path, along = _rate_path(cutter, opts, frame, pid)
-    smoothing = smooth_axes(nominal, frame.normal, path, along,
+    smoothing = smooth_axes(nominal, frame.normal, _rate_path(cutter, frame, pid), pid,
                             smoothing_mm=res["axis_smoothing_mm"],
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
                             max_lean_deg=opts.max_lean_deg)
-    axes = smoothing.axes
-    if cutter.kind is not CutterKind.BALL:
-        axes = _nominal_sideways(axes, nominal, frame, opts.max_lean_deg)
-    axes, pushed = _off_cone(opts, axes, frame, direction)
+    axes, pushed = _off_cone(opts, smoothing.axes, frame, direction)
     return axes, smoothing, pushed
-
-
-def _nominal_sideways(axes: NDArray[np.float64], nominal: NDArray[np.float64],
-                      frame: PassFrame, max_lean_deg: float) -> NDArray[np.float64]:
-    """Smoothed axes given back the nominal component across the pass (``e2``).
-
-    A flat or bull-nose face cuts the section it casts along the pass: a sideways lean
-    moves the contact from the face to its rim, a corner of radius ``r`` on one side and
-    the face rising on the other, which halves the stepover of a square face on a convex
-    surface. Averaging normals along a curved pass leans them towards its inside (0.1 to
-    0.3 deg on a sphere cap near its pole) for no purpose: the smoothing is there for the
-    lead, which turns with the surface along the pass; the tilt is kept as asked.
-    """
-    side = np.einsum("ij,ij->i", axes - nominal, frame.e2)
-    back = axes - side[:, None] * frame.e2
-    back /= np.linalg.norm(back, axis=1, keepdims=True)
-    return limit_lean(back, frame.normal, max_lean_deg)[0]
 
 
 def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -288,8 +265,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     tips = np.empty_like(axes)
     tips[~is_new] = pts.tips
     tips[where_new] = cutter.tips_from_contacts(sub.point, sub.normal, mid)
-    path, along = _rate_path(cutter, opts, frame, pid)
-    rates = segment_turn_rates(axes, path, along[1:] == along[:-1])
+    rates = segment_turn_rates(axes, _rate_path(cutter, frame, pid), pid[1:] == pid[:-1])
     smoothing = replace(pts.smoothing, axes=axes, max_rate_deg_per_mm=float(rates.max()),
                         worst_point=int(np.argmax(rates)),
                         limited_points=pts.smoothing.limited_points + int(limited.sum()))

@@ -10,14 +10,11 @@ so a positive lead leans the tool forward, towards the feed, and a positive tilt
 to the left. The axes are then smoothed along each pass by a moving average over arc
 length (a box filter of half-width ``w`` applied twice, i.e. a triangular window of
 half-width ``2w``, computed from cumulative integrals, renormalized), the window of a pass
-doubling until its turn rate is within ``max_rate_deg_per_mm``, a wider window kept only
-while it lowers the pass's worst rate (at a leading edge where the lean limit binds, no
-window meets the limit, and the widest would only average the rest of the pass away).
-A smoothed axis leaning more than ``max_lean_deg`` from the surface normal is turned back
-towards the normal onto that cone (the contact must stay on the cutting end, well below
-the shank); where that leaves the rate above the limit it is reported. Finally axes can be
-pushed out of the singular cone (angle from the workpiece +Z) along the great circle
-through +Z.
+doubling until its turn rate is within ``max_rate_deg_per_mm``. A smoothed axis leaning
+more than ``max_lean_deg`` from the surface normal is turned back towards the normal onto
+that cone (the contact must stay on the cutting end, well below the shank); where that
+leaves the rate above the limit it is reported. Finally axes can be pushed out of the
+singular cone (angle from the workpiece +Z) along the great circle through +Z.
 """
 
 from __future__ import annotations
@@ -104,25 +101,12 @@ def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
     lo = np.maximum(x - half, lo_x)
     hi = np.minimum(x + half, hi_x)
     width = hi - lo
-    wide = width > 1e-12
     out = np.empty_like(values)
     for k in range(values.shape[1]):
-        integral = np.interp(hi, x, cum[:, k]) - np.interp(lo, x, cum[:, k])
-        out[:, k] = np.where(wide, integral / np.where(wide, width, 1.0), values[:, k])
-    return out
-
-
-def _pass_max(rates: NDArray[np.float64], which: NDArray[np.int64], n_passes: int
-              ) -> NDArray[np.float64]:
-    """Largest rate of each pass (0 for passes without a segment).
-
-    ``rates[i]`` (>= 0, 0 across passes) is on the segment from point ``i`` to ``i + 1``;
-    ``which`` gives the pass of each point, passes contiguous.
-    """
-    out = np.zeros(n_passes)
-    if rates.size:
-        starts = np.flatnonzero(np.r_[True, which[1:-1] != which[:-2]])
-        out[which[starts]] = np.maximum.reduceat(rates, starts)
+        f_hi = np.interp(hi, x, cum[:, k])
+        f_lo = np.interp(lo, x, cum[:, k])
+        out[:, k] = np.where(width > 1e-12, (f_hi - f_lo) / np.where(width > 1e-12, width, 1.0),
+                             values[:, k])
     return out
 
 
@@ -215,45 +199,34 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
         floor = 2.0 * float(np.median(seg)) if seg.size else 1.0
     else:
         floor = 0.0
-    axes = nominal.copy()
+    axes = nominal
     limited = np.zeros(n, dtype=bool)
-    rates = segment_turn_rates(axes, x, same)
-    best = _pass_max(rates, which, n_passes)  # the worst rate of each pass as it stands
-    kept = np.zeros(n_passes)  # the half-width that gave each pass its axes
-    redo = width > 0.0  # passes whose axes are tried again this round
-    for round_ in range(max_doublings + 1):
-        pts = np.flatnonzero(redo[which])
-        if pts.size:
-            sub = (x[pts], lo_x[pts], hi_x[pts], width[which[pts]], centred[which[pts]])
-            once = _box_average(nominal[pts], *sub)
-            twice = _box_average(once, *sub)
+    for _ in range(max_doublings + 1):
+        w_pt = width[which]
+        if (w_pt > 0.0).any():
+            c_pt = centred[which]
+            once = _box_average(nominal, x, lo_x, hi_x, w_pt, c_pt)
+            twice = _box_average(once, x, lo_x, hi_x, w_pt, c_pt)
             # a window spanning opposite normals can average to nothing: keep the nominal
             weak = np.linalg.norm(twice, axis=1) < 0.2
-            twice = np.where(weak[:, None], nominal[pts], _unit(twice))
-            tried, tried_limited = limit_lean(twice, normals[pts], max_lean_deg)
-            # the tried passes are whole and contiguous: their segments lie in place
-            tried_rates = segment_turn_rates(tried, x[pts], which[pts][1:] == which[pts][:-1])
-            worst = _pass_max(tried_rates, which[pts], n_passes)
-            # the asked window always; a wider one only where it lowers the pass's worst
-            # rate: past a point (a leading edge whose lean limit binds) it only smooths
-            # the rest of the pass away
-            better = redo & ((worst < best) | (round_ == 0))
-            take = better[which[pts]]
-            axes[pts[take]], limited[pts[take]] = tried[take], tried_limited[take]
-            seg = take[:-1] & (which[pts][1:] == which[pts][:-1])
-            rates[pts[:-1][seg]] = tried_rates[seg]
-            best = np.where(better, worst, best)
-            kept = np.where(better, width, kept)
-            redo = better
+            twice = np.where(weak[:, None], nominal, _unit(twice))
+            axes, limited = limit_lean(twice, normals, max_lean_deg)
+        rates = segment_turn_rates(axes, x, same)
         if max_rate_deg_per_mm is None:
             break
-        redo &= (best > max_rate_deg_per_mm) & (width < lengths)
-        if not redo.any():
+        bad_seg = rates > max_rate_deg_per_mm
+        bad_pass = np.zeros(n_passes, dtype=bool)
+        bad_pass[which[:-1][bad_seg]] = True
+        if not bad_pass.any():
             break
-        width = np.where(redo, np.maximum(2.0 * width, floor), width)
-        centred &= ~redo
+        grow = bad_pass & (width < lengths)
+        if not grow.any():
+            break
+        width = np.where(grow, np.maximum(2.0 * width, floor), width)
+        centred &= ~grow
+    rates = segment_turn_rates(axes, x, same)
     worst = int(np.argmax(rates)) if rates.size else -1
-    return AxisSmoothing(axes=axes, half_width_mm=kept,
+    return AxisSmoothing(axes=axes, half_width_mm=width,
                          max_rate_deg_per_mm=float(rates.max()) if rates.size else 0.0,
                          worst_point=worst, limited_points=int(limited.sum()))
 
