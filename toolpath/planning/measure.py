@@ -40,6 +40,7 @@ than through it.
 from __future__ import annotations
 
 import itertools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -470,35 +471,38 @@ class _CutVolume:
         x_lo, _ = boundary(lo)
         x_hi, _ = boundary(hi)
         under = (x_lo <= 0.0) & (x_hi >= 0.0) & crosses
-        for _ in range(SECTION_HALVINGS):
-            mid = 0.5 * (lo + hi)
-            xm, _ = boundary(mid)
-            right = xm > 0.0
-            hi = np.where(right, mid, hi)
-            lo = np.where(right, lo, mid)
         # between the last two boundary points (a flat bottom is traversed at a single
         # angle: its ends must be interpolated, not taken)
-        x0, z0 = boundary(lo)
-        x1, z1 = boundary(hi)
-        z = _crossing_height(x0, z0, x1, z1)
+        z = _crossing(boundary, lo, hi, x_grows=True)
         # a bottom below q: q is inside the section (cut, height 0), unless the section's
         # top is below q too: then the cutter passed behind q (the other side of a thin
         # part, seen from a point whose normal faces away from it), and q is not its cut
         behind = np.flatnonzero(under & (z < 0.0))
         if behind.size:
-            top = shadow.rows(behind).boundary  # its upper half: x falls from pi/2 on
-            lo = np.full(behind.size, 0.5 * np.pi)
-            hi = np.full(behind.size, 1.5 * np.pi)
-            for _ in range(SECTION_HALVINGS):
-                mid = 0.5 * (lo + hi)
-                xm, _ = top(mid)
-                right = xm > 0.0
-                lo = np.where(right, mid, lo)
-                hi = np.where(right, hi, mid)
-            xa, za = top(lo)
-            xb, zb = top(hi)
-            under[behind[_crossing_height(xa, za, xb, zb) < 0.0]] = False
+            top = _crossing(shadow.rows(behind).boundary, np.full(behind.size, 0.5 * np.pi),
+                            np.full(behind.size, 1.5 * np.pi), x_grows=False)
+            under[behind[top < 0.0]] = False
         return np.where(under, np.maximum(z, 0.0), np.inf)
+
+
+def _crossing(boundary: Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], ...]],
+              lo: NDArray[np.float64], hi: NDArray[np.float64], *, x_grows: bool
+              ) -> NDArray[np.float64]:
+    """Height where a section's boundary crosses ``x = 0`` between angles ``lo``, ``hi``.
+
+    ``boundary(angle) -> (x, z)``, ``x`` monotone over the bracket (growing on the lower
+    half, falling on the upper); bisection (:data:`SECTION_HALVINGS`), then the height
+    between the last two boundary points.
+    """
+    for _ in range(SECTION_HALVINGS):
+        mid = 0.5 * (lo + hi)
+        xm, _ = boundary(mid)
+        right = (xm > 0.0) == x_grows
+        hi = np.where(right, mid, hi)
+        lo = np.where(right, lo, mid)
+    x0, z0 = boundary(lo)
+    x1, z1 = boundary(hi)
+    return _crossing_height(x0, z0, x1, z1)
 
 
 def _crossing_height(x0: NDArray[np.float64], z0: NDArray[np.float64],
