@@ -14,12 +14,13 @@ arrays. Here the same mathematics runs point by point in machine code (numba):
   :func:`toolpath.planning.local.project_to_surface`, step for step (same Hessian, same
   fall-back, clipping, halvings and convergence rule), one point at a time.
 
-A surface offers this through :class:`StreamlineKernel` (``surface._kernel()``); surfaces
+A surface offers this through :class:`StreamlineKernel` (``surface.kernel()``); surfaces
 without one (analytic test surfaces, B-spline baselines) keep the numpy path.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -27,7 +28,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["StreamlineKernel", "project", "streamline_partials"]
+__all__ = ["StreamlineKernel", "n_partials", "project", "streamline_partials"]
 
 #: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
 ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -71,10 +72,9 @@ class StreamlineKernel:
                ) -> StreamlineKernel:
         """The kernel moved by a further ``X -> Q X + e``."""
         q = np.asarray(rotation, dtype=float)
-        return StreamlineKernel(
-            self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly, self.T,
-            self.T_inv, self.c, np.ascontiguousarray(q @ self.rotation),
-            np.ascontiguousarray(q @ self.translation_mm + translation_mm), self.closed_t)
+        return dataclasses.replace(
+            self, rotation=np.ascontiguousarray(q @ self.rotation),
+            translation_mm=np.ascontiguousarray(q @ self.translation_mm + translation_mm))
 
     def _args(self) -> tuple:
         return (self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly,
@@ -87,7 +87,7 @@ class StreamlineKernel:
         top = max(dt + ds for dt, ds in orders)
         t = np.ascontiguousarray(t, dtype=float).ravel()
         s = np.ascontiguousarray(s, dtype=float).ravel()
-        out = np.empty((1 + 2 * top + (top == 2), t.size, 3))
+        out = np.empty((n_partials(top), t.size, 3))
         streamline_partials(t, s, *self._args(), top, out)
         return {order: out[ORDERS.index(order)] for order in orders}
 
@@ -136,6 +136,12 @@ def _monomials(u, out):
 
 
 @numba.njit(cache=True)
+def n_partials(order):
+    """How many partials of total order up to ``order`` (the first of :data:`ORDERS`)."""
+    return (order + 1) * (order + 2) // 2
+
+
+@numba.njit(cache=True)
 def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out, i,
                     mu, mv, g, z, w):
     """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``."""
@@ -179,7 +185,6 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
                     x0 += mv[a, p] * x0p[lx, p, j]
                 acc += T[k, j] * x0
             z[a, k] = acc
-    n_out = 1 + 2 * order + (1 if order == 2 else 0)
     for k in range(3):
         e = math.exp(g[0, k])
         wk = z[0, k] * e
@@ -193,7 +198,7 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
                 w[4, k] = ws * g[1, k] + wk * g[4, k]
                 w[5, k] = e * (z[2, k] + 2.0 * z[1, k] * g[2, k]
                                + z[0, k] * (g[5, k] + g[2, k] * g[2, k]))
-    for j in range(n_out):
+    for j in range(n_partials(order)):
         for k in range(3):
             acc = 0.0
             for m in range(3):
@@ -251,8 +256,6 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
     for i in range(p.shape[0]):
         ti, si = t[i], s[i]
         moved = np.inf
-        x0, x1, x2 = 0.0, 0.0, 0.0
-        have_x = False
         for k in range(iterations + extra):
             if k >= iterations and moved <= converged_mm:
                 break
@@ -301,16 +304,13 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
             m1 = pt[0, 0, 1] - fr[0, 0, 1]
             m2 = pt[0, 0, 2] - fr[0, 0, 2]
             moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
-            x0, x1, x2 = pt[0, 0, 0], pt[0, 0, 1], pt[0, 0, 2]
-            have_x = True
             ti, si = new_t, new_s
-        if not have_x:
+        if iterations + extra == 0:  # no step: the foot is the start
             _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
                             mu, mv, g, z, w)
-            x0, x1, x2 = pt[0, 0, 0], pt[0, 0, 1], pt[0, 0, 2]
         t[i], s[i] = ti, si
-        if orientation == 0.0:
-            e0, e1, e2 = x0 - p[i, 0], x1 - p[i, 1], x2 - p[i, 2]
+        if orientation == 0.0:  # pt holds the last foot
+            e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
             dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
             continue
         _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,

@@ -65,7 +65,10 @@ def test_placed_kernel_is_the_rotated_and_shifted_surface(blade):
 
 
 class _NumpyOnly(ParametricSurface):
-    """The same surface with its kernel hidden: the numpy path of every routine."""
+    """The same surface with its kernel hidden, for the numpy Newton search.
+
+    Its points still come from the base surface's own (compiled) partials.
+    """
 
     def __init__(self, base):
         self.base, self.closed_t, self.orientation = base, base.closed_t, base.orientation

@@ -627,7 +627,8 @@ def _distance_along_surface(grid: NDArray[np.float64], sources: NDArray[np.bool_
     columns likewise in ``s``), edges to the 8 neighbours weighted by their chord (the
     seam joined on closed sections), from every source node at once; a point then goes
     through the best of the four nodes around it. Over a thin part this is the way round
-    its edge, not through its thickness. Beyond ``limit_mm`` the distance reads ``inf``.
+    its edge, not through its thickness. Paths are followed up to ``limit_mm``: a
+    distance beyond it may read ``inf``.
     """
     n_t, n_s = sources.shape
     node = np.arange(n_t * n_s).reshape(n_t, n_s)
@@ -642,7 +643,7 @@ def _distance_along_surface(grid: NDArray[np.float64], sources: NDArray[np.bool_
     graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
     reach = scipy.sparse.csgraph.dijkstra(graph, directed=False,
                                           indices=np.flatnonzero(sources.ravel()),
-                                          min_only=True, limit=2.0 * limit_mm)
+                                          min_only=True, limit=limit_mm)
     i0 = np.clip(np.floor(t * (n_t - 1)).astype(np.int64), 0, n_t - 2)
     j0 = np.clip(np.floor(s * (n_s - 1)).astype(np.int64), 0, n_s - 2)
     best = np.full(len(points), np.inf)

@@ -366,6 +366,12 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     return out[0], out[1], out[2], out[3]
 
 
+@numba.njit(cache=True, inline="always")
+def _gap_model(u, a, b, c):
+    """``g(u) = u (1 - u)(a + b u + c u^2)``."""
+    return u * (1.0 - u) * (a + b * u + c * u * u)
+
+
 @numba.njit(cache=True)
 def _model_extremes(coef, n_grid, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
@@ -380,8 +386,7 @@ def _model_extremes(coef, n_grid, out):
     for i in range(coef.shape[0]):
         a, b, c = coef[i, 0], coef[i, 1], coef[i, 2]
         for j in range(n_grid):
-            x = j * step
-            values[j] = x * (1.0 - x) * (a + b * x + c * x * x)
+            values[j] = _gap_model(j * step, a, b, c)
         for side in range(2):
             sign = 1.0 if side == 0 else -1.0
             j_best = 0
@@ -396,7 +401,7 @@ def _model_extremes(coef, n_grid, out):
                 den = before - 2.0 * here + after
                 shift = 0.5 * (before - after) / den if den > 1e-15 else 0.0
                 x = at + min(max(shift, -1.0), 1.0) * step
-                refined = x * (1.0 - x) * (a + b * x + c * x * x)
+                refined = _gap_model(x, a, b, c)
                 if sign * refined < sign * best:
                     best, at = refined, x
             out[2 * side, i] = best
