@@ -4,9 +4,8 @@ The surface samples are binned in a uniform grid of cubic cells (edge: the large
 radius), sorted by cell (``cell_start[c] .. cell_start[c + 1]`` are the samples of
 cell ``c``). A query sphere is compared with the cells its bounding box overlaps, those it
 misses are skipped, and for every sample inside it the exact signed distance of the cutter solid
-(:meth:`~toolpath.planning.cutters.Cutter.signed_distance`: points within ``r`` of the
-core cylinder ``{rho <= R - r, r <= z <= H - r}``) is taken on the spot, so no list of
-pairs is ever built. Each location keeps its smallest value among the samples near its
+(:func:`.cutter_kernel.cutter_distance`) is taken on the spot, so no list of pairs is ever
+built. Each location keeps its smallest value among the samples near its
 contact and among the others.
 """
 
@@ -18,6 +17,8 @@ from dataclasses import dataclass
 import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from .cutter_kernel import cutter_distance
 
 __all__ = ["SampleCells", "bin_samples", "clearances"]
 
@@ -145,15 +146,10 @@ def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, cont
                             e2 = points[j, 2] - c2
                             if e0 * e0 + e1 * e1 + e2 * e2 > rad2:
                                 continue
-                            p0 = points[j, 0] - tips[i, 0]
-                            p1 = points[j, 1] - tips[i, 1]
-                            p2 = points[j, 2] - tips[i, 2]
-                            z = p0 * axes[i, 0] + p1 * axes[i, 1] + p2 * axes[i, 2]
-                            rho = math.sqrt(max(p0 * p0 + p1 * p1 + p2 * p2 - z * z, 0.0))
-                            dx = rho - (big - r)
-                            dz = max(r - z, z - (h - r))
-                            outside = math.hypot(max(dx, 0.0), max(dz, 0.0))
-                            dist = outside + min(max(dx, dz), 0.0) - r
+                            dist = cutter_distance(
+                                points[j, 0] - tips[i, 0], points[j, 1] - tips[i, 1],
+                                points[j, 2] - tips[i, 2], axes[i, 0], axes[i, 1],
+                                axes[i, 2], r, big, h)
                             is_near = True
                             if has_contacts:
                                 q0 = points[j, 0] - contacts[i, 0]

@@ -354,35 +354,58 @@ class CutterShadow:
     centre_z: NDArray[np.float64]
     matrix: tuple[NDArray[np.float64], ...]
     corner_radius_mm: float
+    #: ``d . c`` and ``(R - r) (b1 . d, b2 . d)``: where along ``d`` the cutter points
+    #: casting the boundary lie (see :meth:`depth`)
+    depth_centre: NDArray[np.float64]
+    depth_matrix: tuple[NDArray[np.float64], ...]
 
     @classmethod
     def seen_along(cls, core_radius_mm: float, corner_radius_mm: float,
                    centre: NDArray[np.float64], axes: NDArray[np.float64],
                    ex: NDArray[np.float64], ez: NDArray[np.float64]) -> CutterShadow:
-        """From the core disc centres (relative to the plane's origin), axes and plane axes."""
+        """From the core disc centres (relative to the plane's origin), axes and plane axes.
+
+        The view direction is ``d = ex x ez``.
+        """
         b1, b2 = disc_basis(axes)
 
         def dot(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
             return np.einsum("ij,ij->i", u, v)
 
+        d = np.cross(ex, ez)
         matrix = tuple(core_radius_mm * dot(b, e) for e in (ex, ez) for b in (b1, b2))
-        return cls(dot(centre, ex), dot(centre, ez), matrix, corner_radius_mm)
+        depth = tuple(core_radius_mm * dot(b, d) for b in (b1, b2))
+        return cls(dot(centre, ex), dot(centre, ez), matrix, corner_radius_mm,
+                   dot(centre, d), depth)
 
-    def rows(self, idx: NDArray[np.int64]) -> CutterShadow:
-        """The shadows of rows ``idx``."""
-        return CutterShadow(self.centre_x[idx], self.centre_z[idx],
-                            tuple(m[idx] for m in self.matrix), self.corner_radius_mm)
+    def _disc_point(self, theta: NDArray[np.float64]
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
+                               NDArray[np.float64]]:
+        """``(nu_x, nu_z, u1, u2)``: the outward normal and the disc point ``u`` casting it."""
+        a11, a12, a21, a22 = self.matrix
+        nx, nz = np.sin(theta), -np.cos(theta)
+        w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
+        size = np.maximum(np.hypot(w1, w2), 1e-15)
+        return nx, nz, w1 / size, w2 / size
 
     def boundary(self, theta: NDArray[np.float64]
                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``(x, z)`` of the boundary point with outward normal ``(sin th, -cos th)``."""
         a11, a12, a21, a22 = self.matrix
-        nx, nz = np.sin(theta), -np.cos(theta)
-        w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
-        size = np.maximum(np.hypot(w1, w2), 1e-15)
+        nx, nz, u1, u2 = self._disc_point(theta)
         r = self.corner_radius_mm
-        return (self.centre_x + (a11 * w1 + a12 * w2) / size + r * nx,
-                self.centre_z + (a21 * w1 + a22 * w2) / size + r * nz)
+        return (self.centre_x + a11 * u1 + a12 * u2 + r * nx,
+                self.centre_z + a21 * u1 + a22 * u2 + r * nz)
+
+    def depth(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
+        """Coordinate along ``d`` of the cutter point casting boundary point ``theta``.
+
+        The torus point with a normal ``nu`` perpendicular to ``d`` lies at the disc point
+        ``u`` plus ``r nu``, so only the disc point moves it along ``d``.
+        """
+        _, _, u1, u2 = self._disc_point(theta)
+        d1, d2 = self.depth_matrix
+        return self.depth_centre + d1 * u1 + d2 * u2
 
 
 def parse_cutter(spec: str, *, flute_length_mm: float | None = None) -> Cutter:

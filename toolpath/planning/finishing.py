@@ -53,7 +53,7 @@ from .passes import (
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
 from .sampling import chord_length_mm, cutter_gap, equidistribute
-from .scallop import pass_levels, shadow_stepover_mm, stepover_mm
+from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
 from .tool_axis import lead_tilt_axes
 
 __all__ = ["plan_finishing"]
@@ -176,8 +176,17 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         # a face leaning sideways puts the contact on its rim, a corner on one side and
         # the face on the other; a flat face on a slope leaves a staircase
         mirrored = opts.linking is Linking.ZIGZAG and opts.tilt_deg != 0.0
+        turn = None
+        if opts.axis_mode is AxisMode.LEAD_TILT:
+            # the axis turning along the pass (round an edge) lifts the section's sides
+            grid = (len(t), len(s), 3)
+            turn = turn_radius_mm(*(v.reshape(grid) for v in (frame.point, frame.normal, frame.e1,
+                                                              axes)))
+        c11_along = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)[0]
         width = shadow_stepover_mm(h, cutter.radius_mm, cutter.corner_radius_mm,
-                                   frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored)
+                                   frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored,
+                                   turn_radius_mm=None if turn is None else turn.ravel(),
+                                   cutter_curvature_along_per_mm=c11_along)
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
     advice = ()

@@ -16,31 +16,29 @@ gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the co
 centre projected onto the surface.
 
 **Scallop.** At a surface point ``Q`` with normal ``n`` the height of the machined surface
-is the distance along ``n`` at which the ray ``Q + l n`` enters the material removed by the
-cutter: for a ball, exactly, the union of capsules swept by the ball centre along each feed
-move (cut in pieces of ``R/8``); for flat and bull-nose cutters, each piece is swept
-straight with its axis interpolated, and the ray is met in the cross-section through ``Q``
-perpendicular to the piece (the corner-circle disc's projected ellipse offset by ``r``);
-a section lying wholly behind ``Q`` along its normal (the cutter on the other side of a
-thin part) is not ``Q``'s cut. Heights beyond the horizon (10 times the request, at least
-0.05 mm) count as *uncut*. The cusps are searched from every contact point and every
-mid-chord contact standing above the surface found by the chord measurement, at fixed
-``t``, towards increasing ``s``, over 2.5 times the distance from the contact to the
-nearest contact of another pass:
-the height ``h_own(s)`` left by the contact's own pass rises from 0 and the height
-``h_other(s)`` left by the other passes falls to 0 at the next pass; the cusp is where they
-cross (a sign change found on 3 samples over the bracket, then 5 Illinois
-regula-falsi steps), its height ``min(h_own, h_other)``. A contact with no pass
-within that bracket borders an uncut area and has no cusp. A coarse grid (spacing half the
-cutter radius along ``t``, one stepover across) gives the uncut area; distances from it are
-taken along the surface (shortest paths over the grid), round a thin part's edges rather
-than through it.
+is the distance along ``n`` at which the ray ``Q + l n`` enters the material removed by
+the cutter: for a ball, exactly, the union of capsules swept by the ball centre along each
+feed move (cut in pieces of ``R/8``); for flat and bull-nose cutters, the union of the
+cutter solid over the poses of each piece (tip linear, axis normalized-linear), the ray
+met at each pose exactly and the earliest pose found by search (:mod:`.sweep_kernel`; a
+straight sweep of the cutter's cross-section would carry its points ahead of and behind
+the contact under ``Q`` even where the axis turns them away, round a tight leading edge).
+Heights beyond the horizon (10 times the request, at least 0.05 mm) count as *uncut*. The
+cusps are searched from every contact point and every mid-chord contact standing above the
+surface found by the chord measurement, at fixed ``t``, towards increasing ``s``, over 2.5
+times the distance from the contact to the nearest contact of another pass: the height
+``h_own(s)`` left by the contact's own pass rises from 0 and the height ``h_other(s)``
+left by the other passes falls to 0 at the next pass; the cusp is where they cross (a sign
+change found on 3 samples over the bracket, then 5 Illinois regula-falsi steps), its
+height ``min(h_own, h_other)``. A contact with no pass within that bracket borders an
+uncut area and has no cusp. A coarse grid (spacing half the cutter radius along ``t``, one
+stepover across) gives the uncut area; distances from it are taken along the surface
+(shortest paths over the grid), round a thin part's edges rather than through it.
 """
 
 from __future__ import annotations
 
 import itertools
-from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -55,17 +53,12 @@ from machines.kinematics import solve_inverse
 from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
-from .cutters import Cutter, CutterKind, CutterShadow
+from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
+from .sweep_kernel import ray_entries
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
-
-#: Halvings of the normal's angle when finding the section boundary below a point: 16
-#: leave 5e-5 rad, and the height, interpolated between the last two boundary points, is
-#: then off by about ``R * 5e-5^2 / 8``, 1e-9 mm for R = 3 mm (exact on flat bottoms).
-SECTION_HALVINGS = 16
-
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -364,13 +357,17 @@ class _CutVolume:
             # the cheap bound first: pieces whose cutters stay above the horizon are out
             near = self._floor(q[owner], n[owner], item) <= self.horizon
             owner, item = owner[near], item[near]
-            lam = self._section(q[owner], n[owner], item)
+            lam = ray_entries(q, n, owner, item, self.tips0, self.tips1, self.axes0,
+                              self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
+                              radius_mm=self.cutter.radius_mm,
+                              flute_length_mm=self.cutter.flute_length_mm,
+                              horizon_mm=self.horizon)
         np.minimum.at(out, owner, lam)
         return np.where(out > self.horizon, np.inf, out)
 
     def _floor(self, q: NDArray[np.float64], n: NDArray[np.float64], item: NDArray[np.int64]
                ) -> NDArray[np.float64]:
-        """A lower bound of :meth:`_section`: where the ray meets the plane of the tip.
+        """A lower bound of the entry (:mod:`.sweep_kernel`): the ray meets the tip's plane.
 
         The cutter lies on the spindle side of the plane through its tip perpendicular to
         its axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``,
@@ -390,7 +387,7 @@ class _CutVolume:
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
                    item: NDArray[np.int64]) -> NDArray[np.float64]:
-        """A lower bound of :meth:`_section` for rays from anywhere near ``centre``.
+        """A lower bound of the entry for rays from anywhere near ``centre``.
 
         Pairs of points with pieces ``item``; the rays start within ``radius`` of the
         point. A point below the tip's plane by ``depth`` meets it at least ``depth`` up
@@ -403,114 +400,6 @@ class _CutVolume:
             depth = np.minimum(depth, np.einsum("ij,ij->i", tips - centre, axes))
         turn = np.linalg.norm(self.axes1[item] - self.axes0[item], axis=1)
         return depth - radius - 2.0 * self.cutter.radius_mm * turn
-
-    def _section(self, q: NDArray[np.float64], n: NDArray[np.float64],
-                 item: NDArray[np.int64]) -> NDArray[np.float64]:
-        """Entry height along ``n`` into the cross-section of each piece's straight sweep.
-
-        In the plane through ``q`` perpendicular to the piece's direction ``d`` (the path
-        of the point that places the instance, below), the swept cutter is the
-        projection along ``d`` of its cutting end: the ellipse ``E`` that the
-        corner-circle disc projects to, offset by the corner radius ``r``. Its boundary with
-        outward normal ``nu`` is ``c + A A^T nu / |A^T nu| + r nu`` (``A`` maps the unit
-        circle onto ``E``); the point below ``q`` is found by bisection on the normal's
-        angle (the boundary's abscissa grows monotonically along the lower half;
-        :data:`SECTION_HALVINGS`), the
-        height interpolated between the last two boundary points (exact on a flat bottom,
-        which the boundary jumps across at one angle). Pieces that the plane does not
-        cross give ``inf``.
-        """
-        p0, p1 = self.tips0[item], self.tips1[item]
-        x0, x1 = self.axes0[item], self.axes1[item]
-        # the instance that matters is the one whose cutter point over q lies in the
-        # plane. Two candidates, the lower section kept: the corner circle's centre
-        # facing q's normal (K; on a curved pass the tip runs up to R behind the contact,
-        # and around an edge the axis turns under q), and the core disc's point nearest q
-        # (a face standing square on the surface, whose K the normal cannot place: under
-        # a face perpendicular to the move that point keeps q's place all along the
-        # piece, which then covers q throughout)
-        k0 = self.cutter.core_points(p0, x0, n)
-        k1 = self.cutter.core_points(p1, x1, n)
-        length = np.linalg.norm(k1 - k0, axis=1)
-        d = (k1 - k0) / np.maximum(length, 1e-300)[:, None]
-        u = np.einsum("ij,ij->i", q - k0, d) / np.maximum(length, 1e-300)
-        facing = self._section_at(q, n, p0, p1, x0, x1, d, u, length > 0.0)
-        r = self.cutter.corner_radius_mm
-        c0, c1 = p0 + r * x0, p1 + r * x1
-        length = np.linalg.norm(c1 - c0, axis=1)
-        d = (c1 - c0) / np.maximum(length, 1e-300)[:, None]
-        k0 = self.cutter.core_points_near(p0, x0, q)
-        k1 = self.cutter.core_points_near(p1, x1, q)
-        along = np.einsum("ij,ij->i", k1 - k0, d)
-        ahead = np.einsum("ij,ij->i", q - k0, d)
-        steady = np.abs(along) <= 1e-3 * length
-        u = np.where(steady, np.where(np.abs(ahead) <= 0.5 * length, 0.5, np.inf),
-                     ahead / np.where(steady, 1.0, along))
-        return np.minimum(facing, self._section_at(q, n, p0, p1, x0, x1, d, u, length > 0.0))
-
-    def _section_at(self, q: NDArray[np.float64], n: NDArray[np.float64],
-                    p0: NDArray[np.float64], p1: NDArray[np.float64], x0: NDArray[np.float64],
-                    x1: NDArray[np.float64], d: NDArray[np.float64], u: NDArray[np.float64],
-                    moves: NDArray[np.bool_]) -> NDArray[np.float64]:
-        """The section of :meth:`_section` with the piece at ``u``, seen along ``d``."""
-        r = self.cutter.corner_radius_mm
-        # half a piece of slack: the ends of passes are covered by their end pieces
-        crosses = (u >= -0.5) & (u <= 1.5) & moves
-        u = np.clip(u, 0.0, 1.0)
-        axis = x0 * (1.0 - u)[:, None] + x1 * u[:, None]
-        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        centre = p0 + u[:, None] * (p1 - p0) + r * axis
-        ez = n - np.einsum("ij,ij->i", n, d)[:, None] * d
-        ez /= np.maximum(np.linalg.norm(ez, axis=1, keepdims=True), 1e-300)
-        ex = np.cross(ez, d)
-        shadow = CutterShadow.seen_along(self.cutter.radius_mm - r, r, centre - q, axis, ex, ez)
-        boundary = shadow.boundary
-
-        lo = np.full(len(q), -0.5 * np.pi)
-        hi = np.full(len(q), 0.5 * np.pi)
-        x_lo, _ = boundary(lo)
-        x_hi, _ = boundary(hi)
-        under = (x_lo <= 0.0) & (x_hi >= 0.0) & crosses
-        # between the last two boundary points (a flat bottom is traversed at a single
-        # angle: its ends must be interpolated, not taken)
-        z = _crossing(boundary, lo, hi, x_grows=True)
-        # a bottom below q: q is inside the section (cut, height 0), unless the section's
-        # top is below q too: then the cutter passed behind q (the other side of a thin
-        # part, seen from a point whose normal faces away from it), and q is not its cut
-        behind = np.flatnonzero(under & (z < 0.0))
-        if behind.size:
-            top = _crossing(shadow.rows(behind).boundary, np.full(behind.size, 0.5 * np.pi),
-                            np.full(behind.size, 1.5 * np.pi), x_grows=False)
-            under[behind[top < 0.0]] = False
-        return np.where(under, np.maximum(z, 0.0), np.inf)
-
-
-def _crossing(boundary: Callable[[NDArray[np.float64]], tuple[NDArray[np.float64], ...]],
-              lo: NDArray[np.float64], hi: NDArray[np.float64], *, x_grows: bool
-              ) -> NDArray[np.float64]:
-    """Height where a section's boundary crosses ``x = 0`` between angles ``lo``, ``hi``.
-
-    ``boundary(angle) -> (x, z)``, ``x`` monotone over the bracket (growing on the lower
-    half, falling on the upper); bisection (:data:`SECTION_HALVINGS`), then the height
-    between the last two boundary points.
-    """
-    for _ in range(SECTION_HALVINGS):
-        mid = 0.5 * (lo + hi)
-        xm, _ = boundary(mid)
-        right = (xm > 0.0) == x_grows
-        hi = np.where(right, mid, hi)
-        lo = np.where(right, lo, mid)
-    x0, z0 = boundary(lo)
-    x1, z1 = boundary(hi)
-    return _crossing_height(x0, z0, x1, z1)
-
-
-def _crossing_height(x0: NDArray[np.float64], z0: NDArray[np.float64],
-                     x1: NDArray[np.float64], z1: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Height where the segment between two boundary points crosses ``x = 0``."""
-    span = x1 - x0
-    wide = np.abs(span) > 1e-12
-    return np.where(wide, z0 - x0 * (z1 - z0) / np.where(wide, span, 1.0), 0.5 * (z0 + z1))
 
 
 def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],

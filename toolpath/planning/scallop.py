@@ -22,7 +22,9 @@ see :mod:`toolpath.planning.gouge`).
 along the feed (an ellipse, a segment when seen edge-on) grown by the corner radius. Its
 osculating circle at the contact (the effective radius) holds only for small ``h``, so
 :func:`shadow_stepover_mm` walks the true section on each side of the contact to the
-height ``h`` over the same surface circle.
+height ``h`` over the same surface circle. In 5-axis, where the axis turns round a convex
+edge (:func:`turn_radius_mm`), the section's sides are lifted: the cutter's points beside
+the contact turn away from the surface instead of sweeping straight under the cusp.
 
 Pass levels are placed greedily in ``s``: from a level ``s_k`` the next is ``s_k + ds``
 with ``ds = min A(s')`` over ``s' in [s_k, s_k + lookahead * ds]``, where
@@ -41,7 +43,8 @@ from numpy.typing import ArrayLike, NDArray
 from .cutters import CutterShadow
 from .errors import PlanningError
 
-__all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm"]
+__all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm",
+           "turn_radius_mm"]
 
 
 def _asin_ratio(z: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -132,6 +135,15 @@ SHADOW_HALVINGS = 20
 CHORD_HALVINGS = 30
 
 
+def _turn_lift(x: NDArray[np.float64], z: NDArray[np.float64], lever: NDArray[np.float64]
+               ) -> NDArray[np.float64]:
+    """``x^2 / (sqrt(d^2 + x^2) + d)`` with ``d = lever + z`` (0 for an infinite lever)."""
+    d = lever + np.maximum(z, 0.0)
+    with np.errstate(invalid="ignore"):
+        lift = x * x / (np.sqrt(d * d + x * x) + d)
+    return np.where(np.isfinite(d), lift, 0.0)
+
+
 def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[np.float64]
                     ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Height of ``(y, z)`` above the surface's cross-section circle and arc to its foot.
@@ -151,7 +163,9 @@ def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[n
 
 def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm: float,
                        normals: ArrayLike, axes: ArrayLike, e2: ArrayLike,
-                       curvature_per_mm: ArrayLike, *, mirrored: bool = False
+                       curvature_per_mm: ArrayLike, *, mirrored: bool = False,
+                       turn_radius_mm: ArrayLike | None = None,
+                       cutter_curvature_along_per_mm: ArrayLike = 0.0
                        ) -> NDArray[np.float64]:
     """Stepover from the cutter's true section across the pass (flat and bull-nose).
 
@@ -173,6 +187,19 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
     ellipse's ends), so at coarse scallops this is smaller than :func:`stepover_mm` with
     the effective radius, which it equals in the limit of small ``h``.
 
+    **A turning axis.** The shadow is the section of a cutter swept straight. When the
+    axis turns as the cutter moves round a convex edge, the motion is, to first order, a
+    rotation about an axis along ``e2`` at the turn radius ``rho_t`` below the contact
+    (:func:`turn_radius_mm`; the cutter's point at the contact moves along the pass). A
+    cutter point ``x`` along the pass from the contact and ``z`` above it reaches the
+    section's plane on its circle, higher by ``x^2 / (2 (rho_t + z))``; the cutter's
+    neighbouring points (radius of curvature ``rho_c`` along the pass) let the lowest swept
+    point come from nearer ``x = 0``: with both curves quadratic the lift is
+    ``x^2 / (2 (rho_t + z + rho_c))`` (taken in the circle form
+    ``x^2 / (sqrt(d^2 + x^2) + d)``, ``d = rho_t + z + rho_c``). Round a leading edge
+    tighter than the cutter the straight shadow's cusp is far too low. A turn the other
+    way (concave) only lowers the swept points: the straight shadow is kept.
+
     Parameters
     ----------
     scallop_mm : float or array_like
@@ -186,6 +213,11 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
         Surface normal curvature across the passes, 1/mm, positive concave.
     mirrored : bool
         The neighbouring pass's section is this one mirrored across the pass.
+    turn_radius_mm : array_like, shape (n,), optional
+        ``rho_t``: the radius of the axis' convex turn along the pass, mm (``inf``: none).
+        Default: a straight sweep.
+    cutter_curvature_along_per_mm : float or array_like
+        The cutter's curvature along the pass at the contact (``rho_c = 1 / it``), 1/mm.
 
     Returns
     -------
@@ -197,39 +229,79 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
     k = np.broadcast_to(np.asarray(curvature_per_mm, dtype=float), n.shape[:1])
     h = np.broadcast_to(np.asarray(scallop_mm, dtype=float), n.shape[:1])
     # heights are taken from the contact, the boundary point at angle 0
-    boundary = CutterShadow.seen_along(radius_mm - corner_radius_mm, corner_radius_mm,
-                                       np.zeros_like(n), np.asarray(axes, dtype=float),
-                                       np.asarray(e2, dtype=float), n).boundary
-    y0, z0 = boundary(np.zeros(len(n)))
+    shadow = CutterShadow.seen_along(radius_mm - corner_radius_mm, corner_radius_mm,
+                                     np.zeros_like(n), np.asarray(axes, dtype=float),
+                                     np.asarray(e2, dtype=float), n)
+    zero = np.zeros(len(n))
+    x0, (y0, z0) = shadow.depth(zero), shadow.boundary(zero)
+    # the turn radius and the cutter's own radius along the pass, summed: the lift's lever
+    lever = np.full(len(n), np.inf)
+    if turn_radius_mm is not None:
+        c11 = np.broadcast_to(np.asarray(cutter_curvature_along_per_mm, dtype=float), lever.shape)
+        with np.errstate(divide="ignore"):
+            rho_c = np.where(c11 > 0.0, 1.0 / np.where(c11 > 0.0, c11, 1.0), np.inf)
+        lever = np.broadcast_to(np.asarray(turn_radius_mm, dtype=float), lever.shape) + rho_c
+
+    def cast(theta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        """The cutter point casting boundary point ``theta``, from the contact: y, z, x."""
+        y, z = shadow.boundary(theta)
+        return y - y0, z - z0, shadow.depth(theta) - x0
+
+    def height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64],
+                       x: NDArray[np.float64]
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return _height_and_arc(y, z + _turn_lift(x, z, lever), k)
+
     arcs = []
     for side in (1.0, -1.0):
         lo = np.zeros(len(n))
         hi = np.full(len(n), side * 0.5 * np.pi)
-        y, z = boundary(hi)
-        h_end, arc_end = _height_and_arc(y - y0, z - z0, k)
+        h_end, arc_end = height_and_arc(*cast(hi))
         for _ in range(SHADOW_HALVINGS):
             mid = 0.5 * (lo + hi)
-            y, z = boundary(mid)
-            below = _height_and_arc(y - y0, z - z0, k)[0] < h
+            below = height_and_arc(*cast(mid))[0] < h
             lo = np.where(below, mid, lo)
             hi = np.where(below, hi, mid)
         # the bracket is tiny, or straddles a straight piece of the boundary (a disc seen
-        # edge-on jumps from one end to the other): find the height along the chord
-        y_lo, z_lo = boundary(lo)
-        y_hi, z_hi = boundary(hi)
+        # edge-on jumps from one end to the other): find the height along the chord, whose
+        # points are cutter points too (of the flat bottom)
+        p_lo, p_hi = cast(lo), cast(hi)
+
+        def along(u: NDArray[np.float64], p_lo: tuple = p_lo, p_hi: tuple = p_hi
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+            return height_and_arc(*(a + u * (b - a) for a, b in zip(p_lo, p_hi, strict=True)))
+
         u_lo, u_hi = np.zeros(len(n)), np.ones(len(n))
         for _ in range(CHORD_HALVINGS):
             u = 0.5 * (u_lo + u_hi)
-            below = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0,
-                                    z_lo + u * (z_hi - z_lo) - z0, k)[0] < h
+            below = along(u)[0] < h
             u_lo, u_hi = np.where(below, u, u_lo), np.where(below, u_hi, u)
-        u = u_lo  # the side still below h: conservative
-        arc = _height_and_arc(y_lo + u * (y_hi - y_lo) - y0, z_lo + u * (z_hi - z_lo) - z0,
-                              k)[1]
+        arc = along(u_lo)[1]  # the side still below h: conservative
         arcs.append(np.abs(np.where(h_end < h, arc_end, arc)))
     if mirrored:
         return 2.0 * np.minimum(arcs[0], arcs[1])
     return arcs[0] + arcs[1]
+
+
+def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes: ArrayLike
+                   ) -> NDArray[np.float64]:
+    """Radius of the axis' convex turn along passes, mm (``inf`` where it turns concave or not).
+
+    Arrays of shape ``(m, p, 3)``: ``m`` points along each of ``p`` passes, in pass order,
+    ``e1`` along the pass. With ``'`` the derivative along the pass (central differences),
+    the axis turns at ``w = (a x a') . (n x e1) / |c'|`` per mm of contact path, positive
+    in the sense the normal of a convex surface turns (``n' = -S11 e1`` with ``S11 < 0``);
+    the cutter's point at the contact moves along the pass, so the turn is about the line
+    ``1 / w`` below the contact.
+    """
+    c, n, e1, a = (np.asarray(v, dtype=float) for v in (contacts, normals, e1, axes))
+    if a.shape[0] < 2:
+        return np.full(a.shape[:2], np.inf)
+    arc = np.linalg.norm(np.gradient(c, axis=0), axis=-1)
+    turn = np.einsum("ijk,ijk->ij", np.cross(a, np.gradient(a, axis=0)), np.cross(n, e1))
+    rate = turn / np.maximum(arc, 1e-300)
+    with np.errstate(divide="ignore"):
+        return np.where(rate > 1e-9, 1.0 / np.where(rate > 1e-9, rate, 1.0), np.inf)
 
 
 def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 1.0,
