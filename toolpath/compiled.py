@@ -211,17 +211,22 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
             out[j, i, k] = acc + (d[k] if j == 0 else 0.0)
 
 
-@numba.njit(cache=True)
+#: Points per block of the compiled loops run in parallel (each block its own scratch).
+BLOCK = 1024
+
+
+@numba.njit(cache=True, parallel=True)
 def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out):
     """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``."""
-    mu = np.empty((3, 4))
-    mv = np.empty((3, 4))
-    g = np.empty((6, 3))
-    z = np.empty((3, 3))
-    w = np.empty((6, 3))
-    for i in range(t.size):
-        _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out,
-                        i, mu, mv, g, z, w)
+    for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
+        mu = np.empty((3, 4))
+        mv = np.empty((3, 4))
+        g = np.empty((6, 3))
+        z = np.empty((3, 3))
+        w = np.empty((6, 3))
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, t.size)):
+            _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order,
+                            out, i, mu, mv, g, z, w)
 
 
 @numba.njit(cache=True, inline="always")
@@ -231,7 +236,7 @@ def _wrap(t, closed):
     return min(max(t, 0.0), 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations, extra,
             converged_mm, orientation, dist):
     """Newton projection of every ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
@@ -246,79 +251,89 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``.
     """
-    mu = np.empty((3, 4))
-    mv = np.empty((3, 4))
-    g = np.empty((6, 3))
-    z = np.empty((3, 3))
-    w = np.empty((6, 3))
-    fr = np.empty((6, 1, 3))
-    pt = np.empty((1, 1, 3))
-    for i in range(p.shape[0]):
-        ti, si = t[i], s[i]
-        moved = np.inf
-        for k in range(iterations + extra):
-            if k >= iterations and moved <= converged_mm:
+    for block in numba.prange((p.shape[0] + BLOCK - 1) // BLOCK):
+        mu = np.empty((3, 4))
+        mv = np.empty((3, 4))
+        g = np.empty((6, 3))
+        z = np.empty((3, 3))
+        w = np.empty((6, 3))
+        fr = np.empty((6, 1, 3))
+        pt = np.empty((1, 1, 3))
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, p.shape[0])):
+            _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed,
+                         iterations, extra, converged_mm, orientation, dist, mu, mv, g, z, w,
+                         fr, pt)
+
+
+@numba.njit(cache=True)
+def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations,
+                 extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
+    """:func:`project` of point ``i`` (the rest: scratch arrays)."""
+    ti, si = t[i], s[i]
+    moved = np.inf
+    for k in range(iterations + extra):
+        if k >= iterations and moved <= converged_mm:
+            break
+        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
+                        mu, mv, g, z, w)
+        d0 = fr[0, 0, 0] - p[i, 0]
+        d1 = fr[0, 0, 1] - p[i, 1]
+        d2 = fr[0, 0, 2] - p[i, 2]
+        xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
+        xs0, xs1, xs2 = fr[2, 0, 0], fr[2, 0, 1], fr[2, 0, 2]
+        e_ = xt0 * xt0 + xt1 * xt1 + xt2 * xt2
+        f_ = xt0 * xs0 + xt1 * xs1 + xt2 * xs2
+        g_ = xs0 * xs0 + xs1 * xs1 + xs2 * xs2
+        g1 = d0 * xt0 + d1 * xt1 + d2 * xt2
+        g2 = d0 * xs0 + d1 * xs1 + d2 * xs2
+        h11 = e_ + d0 * fr[3, 0, 0] + d1 * fr[3, 0, 1] + d2 * fr[3, 0, 2]
+        h12 = f_ + d0 * fr[4, 0, 0] + d1 * fr[4, 0, 1] + d2 * fr[4, 0, 2]
+        h22 = g_ + d0 * fr[5, 0, 0] + d1 * fr[5, 0, 1] + d2 * fr[5, 0, 2]
+        det = h11 * h22 - h12 * h12
+        if det <= 1e-12 * (e_ * g_ + 1e-300) or h11 <= 0.0:
+            h11, h12, h22 = e_, f_, g_
+        det = max(h11 * h22 - h12 * h12, 1e-300)
+        step_t = min(max((h22 * g1 - h12 * g2) / det, -0.25), 0.25)
+        step_s = min(max((h11 * g2 - h12 * g1) / det, -0.25), 0.25)
+        here = d0 * d0 + d1 * d1 + d2 * d2
+        new_t = _wrap(ti - step_t, closed)
+        new_s = min(max(si - step_s, 0.0), 1.0)
+        closer = False
+        for _ in range(8):
+            _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                            0, pt, 0, mu, mv, g, z, w)
+            e0 = pt[0, 0, 0] - p[i, 0]
+            e1 = pt[0, 0, 1] - p[i, 1]
+            e2 = pt[0, 0, 2] - p[i, 2]
+            if e0 * e0 + e1 * e1 + e2 * e2 <= here * (1.0 + 1e-12):
+                closer = True
                 break
-            _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
-                            mu, mv, g, z, w)
-            d0 = fr[0, 0, 0] - p[i, 0]
-            d1 = fr[0, 0, 1] - p[i, 1]
-            d2 = fr[0, 0, 2] - p[i, 2]
-            xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
-            xs0, xs1, xs2 = fr[2, 0, 0], fr[2, 0, 1], fr[2, 0, 2]
-            e_ = xt0 * xt0 + xt1 * xt1 + xt2 * xt2
-            f_ = xt0 * xs0 + xt1 * xs1 + xt2 * xs2
-            g_ = xs0 * xs0 + xs1 * xs1 + xs2 * xs2
-            g1 = d0 * xt0 + d1 * xt1 + d2 * xt2
-            g2 = d0 * xs0 + d1 * xs1 + d2 * xs2
-            h11 = e_ + d0 * fr[3, 0, 0] + d1 * fr[3, 0, 1] + d2 * fr[3, 0, 2]
-            h12 = f_ + d0 * fr[4, 0, 0] + d1 * fr[4, 0, 1] + d2 * fr[4, 0, 2]
-            h22 = g_ + d0 * fr[5, 0, 0] + d1 * fr[5, 0, 1] + d2 * fr[5, 0, 2]
-            det = h11 * h22 - h12 * h12
-            if det <= 1e-12 * (e_ * g_ + 1e-300) or h11 <= 0.0:
-                h11, h12, h22 = e_, f_, g_
-            det = max(h11 * h22 - h12 * h12, 1e-300)
-            step_t = min(max((h22 * g1 - h12 * g2) / det, -0.25), 0.25)
-            step_s = min(max((h11 * g2 - h12 * g1) / det, -0.25), 0.25)
-            here = d0 * d0 + d1 * d1 + d2 * d2
+            step_t *= 0.5
+            step_s *= 0.5
             new_t = _wrap(ti - step_t, closed)
             new_s = min(max(si - step_s, 0.0), 1.0)
-            closer = False
-            for _ in range(8):
-                _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                                0, pt, 0, mu, mv, g, z, w)
-                e0 = pt[0, 0, 0] - p[i, 0]
-                e1 = pt[0, 0, 1] - p[i, 1]
-                e2 = pt[0, 0, 2] - p[i, 2]
-                if e0 * e0 + e1 * e1 + e2 * e2 <= here * (1.0 + 1e-12):
-                    closer = True
-                    break
-                step_t *= 0.5
-                step_s *= 0.5
-                new_t = _wrap(ti - step_t, closed)
-                new_s = min(max(si - step_s, 0.0), 1.0)
-            if not closer:  # still farther after 8 halvings: the last step's point
-                _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                                0, pt, 0, mu, mv, g, z, w)
-            m0 = pt[0, 0, 0] - fr[0, 0, 0]
-            m1 = pt[0, 0, 1] - fr[0, 0, 1]
-            m2 = pt[0, 0, 2] - fr[0, 0, 2]
-            moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
-            ti, si = new_t, new_s
-        if iterations + extra == 0:  # no step: the foot is the start
-            _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
-                            mu, mv, g, z, w)
-        t[i], s[i] = ti, si
-        if orientation == 0.0:  # pt holds the last foot
-            e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
-            dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
-            continue
-        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
+        if not closer:  # still farther after 8 halvings: the last step's point
+            _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                            0, pt, 0, mu, mv, g, z, w)
+        m0 = pt[0, 0, 0] - fr[0, 0, 0]
+        m1 = pt[0, 0, 1] - fr[0, 0, 1]
+        m2 = pt[0, 0, 2] - fr[0, 0, 2]
+        moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
+        ti, si = new_t, new_s
+    if iterations + extra == 0:  # no step: the foot is the start
+        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
                         mu, mv, g, z, w)
-        n0 = fr[1, 0, 1] * fr[2, 0, 2] - fr[1, 0, 2] * fr[2, 0, 1]
-        n1 = fr[1, 0, 2] * fr[2, 0, 0] - fr[1, 0, 0] * fr[2, 0, 2]
-        n2 = fr[1, 0, 0] * fr[2, 0, 1] - fr[1, 0, 1] * fr[2, 0, 0]
-        size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-        scale = orientation / size if size > 0.0 else 0.0
-        dist[i] = scale * ((p[i, 0] - fr[0, 0, 0]) * n0 + (p[i, 1] - fr[0, 0, 1]) * n1
-                           + (p[i, 2] - fr[0, 0, 2]) * n2)
+    t[i], s[i] = ti, si
+    if orientation == 0.0:  # pt holds the last foot
+        e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
+        dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        return
+    _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
+                    mu, mv, g, z, w)
+    n0 = fr[1, 0, 1] * fr[2, 0, 2] - fr[1, 0, 2] * fr[2, 0, 1]
+    n1 = fr[1, 0, 2] * fr[2, 0, 0] - fr[1, 0, 0] * fr[2, 0, 2]
+    n2 = fr[1, 0, 0] * fr[2, 0, 1] - fr[1, 0, 1] * fr[2, 0, 0]
+    size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+    scale = orientation / size if size > 0.0 else 0.0
+    dist[i] = scale * ((p[i, 0] - fr[0, 0, 0]) * n0 + (p[i, 1] - fr[0, 0, 1]) * n1
+                       + (p[i, 2] - fr[0, 0, 2]) * n2)

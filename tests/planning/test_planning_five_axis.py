@@ -88,3 +88,29 @@ def test_traverses_go_over_an_open_part_not_under_it():
     rapid = path.kinds == MoveKind.RAPID
     off_axis = np.hypot(path.positions_mm[rapid, 1], path.positions_mm[rapid, 2])
     assert rapid.sum() > 10 and off_axis.min() > 40.0
+
+
+def test_window_means_are_the_interpolated_integral_over_each_window():
+    # the compiled moving average equals the mean from np.interp of the cumulative
+    # trapezoid integral, windows of any width clipped to their pass (walked or searched)
+    from toolpath.planning.tool_axis import _box_average
+
+    rng = np.random.default_rng(3)
+    x = np.cumsum(rng.random(3000) + 0.01)
+    values = rng.normal(size=(3000, 3))
+    pid = np.repeat(np.arange(6), 500)
+    lo_x, hi_x = x[pid * 500], x[pid * 500 + 499]
+    half = rng.random(3000) * 40.0
+    centred = rng.random(3000) < 0.5
+    got = _box_average(values, x, lo_x, hi_x, half, centred)
+    w = np.where(centred, np.minimum(half, np.minimum(x - lo_x, hi_x - x)), half)
+    lo, hi = np.maximum(x - w, lo_x), np.minimum(x + w, hi_x)
+    cum = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (values[1:] + values[:-1])
+                                            * np.diff(x)[:, None], axis=0)]
+    for k in range(3):
+        mean = (np.interp(hi, x, cum[:, k]) - np.interp(lo, x, cum[:, k])) / np.maximum(
+            hi - lo, 1e-300)
+        expected = np.where(hi - lo > 1e-12, mean, values[:, k])
+        np.testing.assert_allclose(got[:, k], expected, atol=1e-12)
+    assert angle_deg(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])) == \
+        pytest.approx(90.0)

@@ -114,11 +114,11 @@ def _gap(x, lo, size):
     return 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, contacts,
                 has_contacts, heights, radii, r, big, h, near2, near, far, near_i, far_i):
     nx, ny, nz = shape[0], shape[1], shape[2]
-    for i in range(tips.shape[0]):
+    for i in numba.prange(tips.shape[0]):
         for k in range(heights.size):
             c0 = tips[i, 0] + heights[k] * axes[i, 0]
             c1 = tips[i, 1] + heights[k] * axes[i, 1]

@@ -96,43 +96,54 @@ def _entry_at(u, q, n, p0, p1, a0, a1, r, big, h, horizon, tip, axis):
     return _entry(q, n, tip, axis, r, big, h, horizon)
 
 
-@numba.njit(cache=True)
+#: Pairs per block of the parallel loop (each block its own scratch).
+BLOCK = 256
+
+
+@numba.njit(cache=True, parallel=True)
 def _ray_entries(q, n, owner, item, p0, p1, a0, a1, r, big, h, horizon, out):
-    tip = np.empty(3)
-    axis = np.empty(3)
-    values = np.empty(POSES)
+    for block in numba.prange((owner.size + BLOCK - 1) // BLOCK):
+        tip = np.empty(3)
+        axis = np.empty(3)
+        values = np.empty(POSES)
+        for k in range(block * BLOCK, min((block + 1) * BLOCK, owner.size)):
+            out[k] = _pair_entry(q, n, owner[k], item[k], p0, p1, a0, a1, r, big, h,
+                                 horizon, tip, axis, values)
+
+
+@numba.njit(cache=True)
+def _pair_entry(q, n, i, j, p0, p1, a0, a1, r, big, h, horizon, tip, axis, values):
+    """The entry of ray ``i`` into piece ``j`` (the last three: scratch arrays)."""
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
-    for k in range(owner.size):
-        i, j = owner[k], item[k]
-        best = 0
-        for m in range(POSES):
-            values[m] = _entry_at(m / (POSES - 1), q[i], n[i], p0[j], p1[j], a0[j], a1[j],
-                                  r, big, h, horizon, tip, axis)
-            if values[m] < values[best]:
-                best = m
-        found = values[best]
-        if found > 0.0 and found < np.inf:
-            lo = max(best - 1, 0) / (POSES - 1)
-            hi = min(best + 1, POSES - 1) / (POSES - 1)
-            x1 = hi - inv_phi * (hi - lo)
-            x2 = lo + inv_phi * (hi - lo)
-            f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
-                           tip, axis)
-            f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
-                           tip, axis)
-            for _ in range(GOLDEN_STEPS):
-                if f1 <= f2:
-                    hi, x2, f2 = x2, x1, f1
-                    x1 = hi - inv_phi * (hi - lo)
-                    f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
-                                   horizon, tip, axis)
-                else:
-                    lo, x1, f1 = x1, x2, f2
-                    x2 = lo + inv_phi * (hi - lo)
-                    f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
-                                   horizon, tip, axis)
-            found = min(found, f1, f2)
-        out[k] = found
+    best = 0
+    for m in range(POSES):
+        values[m] = _entry_at(m / (POSES - 1), q[i], n[i], p0[j], p1[j], a0[j], a1[j],
+                              r, big, h, horizon, tip, axis)
+        if values[m] < values[best]:
+            best = m
+    found = values[best]
+    if found > 0.0 and found < np.inf:
+        lo = max(best - 1, 0) / (POSES - 1)
+        hi = min(best + 1, POSES - 1) / (POSES - 1)
+        x1 = hi - inv_phi * (hi - lo)
+        x2 = lo + inv_phi * (hi - lo)
+        f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
+                       tip, axis)
+        f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
+                       tip, axis)
+        for _ in range(GOLDEN_STEPS):
+            if f1 <= f2:
+                hi, x2, f2 = x2, x1, f1
+                x1 = hi - inv_phi * (hi - lo)
+                f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
+                               horizon, tip, axis)
+            else:
+                lo, x1, f1 = x1, x2, f2
+                x2 = lo + inv_phi * (hi - lo)
+                f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
+                               horizon, tip, axis)
+        found = min(found, f1, f2)
+    return found
 
 
 def ray_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],

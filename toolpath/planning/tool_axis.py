@@ -19,8 +19,10 @@ singular cone (angle from the workpiece +Z) along the great circle through +Z.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -44,10 +46,21 @@ def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     """Angle between unit vectors, deg (``atan2(|a x b|, a.b)``, accurate near 0)."""
-    a = np.asarray(a, dtype=float)
-    b = np.asarray(b, dtype=float)
-    cross = np.linalg.norm(np.cross(a, b), axis=-1)
-    return np.degrees(np.arctan2(cross, np.einsum("...k,...k->...", a, b)))
+    a, b = np.broadcast_arrays(np.asarray(a, dtype=float), np.asarray(b, dtype=float))
+    out = np.empty(a.shape[:-1])
+    _angles_deg(np.ascontiguousarray(a).reshape(-1, 3), np.ascontiguousarray(b).reshape(-1, 3),
+                out.reshape(-1))
+    return out
+
+
+@numba.njit(cache=True)
+def _angles_deg(a, b, out):
+    for i in range(a.shape[0]):
+        c0 = a[i, 1] * b[i, 2] - a[i, 2] * b[i, 1]
+        c1 = a[i, 2] * b[i, 0] - a[i, 0] * b[i, 2]
+        c2 = a[i, 0] * b[i, 1] - a[i, 1] * b[i, 0]
+        dot = a[i, 0] * b[i, 0] + a[i, 1] * b[i, 1] + a[i, 2] * b[i, 2]
+        out[i] = math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
 
 
 def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
@@ -91,23 +104,73 @@ def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
     window cut short on one side leans the axis towards the inside, 3 deg off the nominal
     at the end of a pass over a sphere); elsewhere the window is clipped to the pass. ``x``
     is a strictly increasing global coordinate (passes separated by gaps), ``lo_x``,
-    ``hi_x`` the pass ends of each point. ``F`` is the cumulative trapezoid integral.
+    ``hi_x`` the pass ends of each point. Means from the cumulative trapezoid integral
+    (:func:`_window_means`).
     """
-    seg = np.diff(x)
-    cum = np.concatenate([np.zeros((1, values.shape[1])),
-                          np.cumsum(0.5 * (values[1:] + values[:-1]) * seg[:, None], axis=0)])
     half = np.where(centred, np.minimum(half_width, np.minimum(x - lo_x, hi_x - x)),
                     half_width)
     lo = np.maximum(x - half, lo_x)
     hi = np.minimum(x + half, hi_x)
-    width = hi - lo
     out = np.empty_like(values)
-    for k in range(values.shape[1]):
-        f_hi = np.interp(hi, x, cum[:, k])
-        f_lo = np.interp(lo, x, cum[:, k])
-        out[:, k] = np.where(width > 1e-12, (f_hi - f_lo) / np.where(width > 1e-12, width, 1.0),
-                             values[:, k])
+    _window_means(np.ascontiguousarray(values, dtype=float), np.ascontiguousarray(x), lo, hi,
+                  out)
     return out
+
+
+@numba.njit(cache=True)
+def _segment(x, v):
+    """``j`` with ``x[j] <= v < x[j + 1]`` (clamped to ``[0, x.size - 2]``), by bisection."""
+    lo, hi = 0, x.size - 1
+    while hi - lo > 1:
+        mid = (lo + hi) // 2
+        if x[mid] <= v:
+            lo = mid
+        else:
+            hi = mid
+    return lo
+
+
+@numba.njit(cache=True)
+def _walk(x, v, j):
+    """:func:`_segment` from a guess ``j`` at or before it."""
+    if x[j] > v:
+        return _segment(x, v)
+    while j < x.size - 2 and x[j + 1] <= v:
+        j += 1
+    return j
+
+
+@numba.njit(cache=True)
+def _window_means(values, x, lo, hi, out):
+    """``out[i]``: mean of the piecewise-linear ``values(x)`` over ``[lo[i], hi[i]]``.
+
+    From the cumulative trapezoid integral, interpolated linearly (``np.interp``). The
+    window ends grow with ``i`` (within a pass they are ``x`` moved by a width that the
+    pass ends clip, and passes follow each other), so their segments are found by walking
+    on from the previous ones.
+    """
+    n, m = values.shape
+    if n < 2:
+        out[:] = values
+        return
+    cum = np.zeros((n, m))
+    for i in range(1, n):
+        for k in range(m):
+            cum[i, k] = cum[i - 1, k] + 0.5 * (values[i, k] + values[i - 1, k]) * (x[i]
+                                                                                   - x[i - 1])
+    j_lo = j_hi = 0
+    for i in range(n):
+        width = hi[i] - lo[i]
+        if width <= 1e-12:
+            out[i] = values[i]
+            continue
+        j_lo, j_hi = _walk(x, lo[i], j_lo), _walk(x, hi[i], j_hi)
+        f_hi = (hi[i] - x[j_hi]) / (x[j_hi + 1] - x[j_hi])
+        f_lo = (lo[i] - x[j_lo]) / (x[j_lo + 1] - x[j_lo])
+        for k in range(m):
+            top = cum[j_hi, k] + f_hi * (cum[j_hi + 1, k] - cum[j_hi, k])
+            bottom = cum[j_lo, k] + f_lo * (cum[j_lo + 1, k] - cum[j_lo, k])
+            out[i, k] = (top - bottom) / width
 
 
 @dataclass(frozen=True)
