@@ -201,7 +201,10 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
     # concave passes: the moves stand above the surface and lift the cusps; keep them low
     tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], res["chord_tol_mm"])
-    length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"])
+    # the axis turns with the normal along the pass (5-axis): |S11| rad per mm
+    turn = np.abs(frame.s11) if opts.axis_mode is AxisMode.LEAD_TILT else 0.0
+    length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"],
+                             lift_mm=cutter.corner_radius_mm, turn_per_mm=turn)
     density = (frame.speed_t / length).reshape(len(t), len(s))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,

@@ -8,7 +8,11 @@ normal curvature ``k`` along the pass and the cutter's section radius ``rho`` al
 concave ones). Adding the pass's geodesic curvature ``kg`` (sideways drift of the track),
 the allowed spacing is the chord of a circle of curvature
 ``kappa = sqrt((k (1 - rho k))^2 + kg^2)`` with sagitta ``tol``:
-``L = 2 sqrt(tol (2/kappa - tol))``.
+``L = 2 sqrt(tol (2/kappa - tol))``. In 5-axis the axis turns by ``theta = L w`` over the
+move (``w`` per mm); interpolated normalized-linearly it is longer than the linear mean by
+``1/cos(theta/2)``, which lifts the point ``c`` above the tip (the corner-circle centre)
+by ``c theta^2 / 8``: on concave parts, where the move stands above the surface, that adds
+``c w^2`` to ``k (1 - rho k)`` (on convex ones it lessens the cut: left out).
 
 The points of each pass equidistribute ``int |X_t| / L dt`` (so every chord gets the same
 share of the tolerance), and are then verified: :func:`cutter_gap` measures the signed
@@ -51,7 +55,8 @@ CHORD_FRACTIONS = (0.25, 0.5, 0.75)
 
 
 def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
-                    tol_mm: float | NDArray[np.float64], max_segment_mm: float
+                    tol_mm: float | NDArray[np.float64], max_segment_mm: float, *,
+                    lift_mm: float = 0.0, turn_per_mm: ArrayLike = 0.0
                     ) -> NDArray[np.float64]:
     """Allowed contact spacing along the pass, mm (formula in the module docstring).
 
@@ -65,9 +70,14 @@ def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
         Chord tolerance (per point: concave passes get the smaller undercut allowance).
     max_segment_mm : float
         Upper bound on any spacing.
+    lift_mm, turn_per_mm : float, float or ndarray
+        ``c`` and ``w``: the height of the corner-circle centre above the tip and the
+        axis' turn along the pass, rad/mm (5-axis; 0 in 3-axis).
     """
     k = frame.s11
-    kappa = np.hypot(k * (1.0 - feed_radius_mm * k), frame.kg)
+    bend = k * (1.0 - feed_radius_mm * k) + np.where(
+        k > 0.0, lift_mm * np.square(turn_per_mm), 0.0)
+    kappa = np.hypot(bend, frame.kg)
     radius = 1.0 / np.maximum(kappa, 1e-12)
     length = 2.0 * np.sqrt(np.maximum(tol_mm * (2.0 * radius - tol_mm), tol_mm * tol_mm))
     return np.minimum(length, max_segment_mm)

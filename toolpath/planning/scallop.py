@@ -35,8 +35,7 @@ pass is within the request.
 
 from __future__ import annotations
 
-import bisect
-
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
@@ -304,6 +303,43 @@ def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes:
         return np.where(rate > 1e-9, 1.0 / np.where(rate > 1e-9, rate, 1.0), np.inf)
 
 
+@numba.njit(cache=True)
+def _at(grid, allowed, lower, x):
+    """``A`` at ``x``: the probe's value on a probe level, else the smaller neighbour's."""
+    last = lower.size - 1
+    j = min(max(np.searchsorted(grid, x, side="right") - 1, 0), last)
+    return allowed[j] if x == grid[j] else lower[j]
+
+
+@numba.njit(cache=True)
+def _window_min(grid, lower, lo, hi):
+    last = lower.size - 1
+    j0 = min(max(np.searchsorted(grid, lo, side="right") - 1, 0), last)
+    j1 = min(max(np.searchsorted(grid, hi, side="left") - 1, 0), last)
+    return lower[j0:j1 + 1].min()
+
+
+@numba.njit(cache=True)
+def _greedy(grid, allowed, lower, scale, lookahead, levels):
+    """The greedy walk of :func:`pass_levels` into ``levels``; the count, -1 if too many."""
+    levels[0] = 0.0
+    count = 1
+    s = 0.0
+    while s < 1.0:
+        ds = scale * _at(grid, allowed, lower, s)
+        for _ in range(60):
+            new = min(ds, scale * _window_min(grid, lower, s, min(s + lookahead * ds, 1.0)))
+            if new >= ds * (1.0 - 1e-12):
+                break
+            ds = new
+        s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds
+        if count == levels.size:
+            return -1
+        levels[count] = s
+        count += 1
+    return count
+
+
 def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 1.0,
                 balance: bool = True, max_passes: int = 200_000) -> NDArray[np.float64]:
     """Greedy pass levels ``0 = s_0 < s_1 < ... < s_n = 1`` (see the module docstring).
@@ -348,37 +384,15 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
     # neighbours' intervals)
     lower = np.minimum(allowed[:-1], allowed[1:])
 
-    # scalar lookups in plain lists: the greedy walk below runs once per pass, about 20
-    # times over (the balancing bisection)
-    grid_list, allowed_list, lower_list = grid.tolist(), allowed.tolist(), lower.tolist()
-    last = len(lower_list) - 1
-
-    def at(x: float) -> float:
-        j = min(max(bisect.bisect_right(grid_list, x) - 1, 0), last)
-        return allowed_list[j] if x == grid_list[j] else lower_list[j]
-
-    def window_min(lo: float, hi: float) -> float:
-        j0 = min(max(bisect.bisect_right(grid_list, lo) - 1, 0), last)
-        j1 = min(max(bisect.bisect_left(grid_list, hi) - 1, 0), last)
-        return min(lower_list[j0:j1 + 1])
-
     def greedy(scale: float) -> list[float]:
-        levels = [0.0]
-        s = 0.0
-        while s < 1.0:
-            ds = scale * at(s)
-            for _ in range(60):
-                new = min(ds, scale * window_min(s, min(s + lookahead * ds, 1.0)))
-                if new >= ds * (1.0 - 1e-12):
-                    break
-                ds = new
-            s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds
-            levels.append(s)
-            if len(levels) > max_passes:
-                raise PlanningError(
-                    f"the scallop request needs more than max_passes={max_passes} passes "
-                    f"(step {ds:.3g} in s near s={s:.4g}); raise scallop_mm or max_passes")
-        return levels
+        levels = np.empty(max(max_passes, 2))
+        count = _greedy(grid, allowed, lower, scale, lookahead, levels)
+        if count < 0:
+            s, ds = levels[-1], levels[-1] - levels[-2]
+            raise PlanningError(
+                f"the scallop request needs more than max_passes={max_passes} passes "
+                f"(step {ds:.3g} in s near s={s:.4g}); raise scallop_mm or max_passes")
+        return levels[:count].tolist()
 
     levels = greedy(1.0)
     if balance and len(levels) > 2:
