@@ -168,6 +168,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     depth = local_depth_mm(frame, cutter, axes)
     gouging = reach & (depth > opts.gouge_tol_mm)
     h = np.where(frame.s11 > 1e-12, res["scallop_mm"] - res["undercut_mm"], res["scallop_mm"])
+    # the cutter's curvature along the pass at the contact
+    c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     if cutter.kind is CutterKind.BALL:
         width = stepover_mm(h, cutter.radius_mm, frame.s22)
     else:
@@ -176,17 +178,15 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         # a face leaning sideways puts the contact on its rim, a corner on one side and
         # the face on the other; a flat face on a slope leaves a staircase
         mirrored = opts.linking is Linking.ZIGZAG and opts.tilt_deg != 0.0
-        turn = None
+        turn_radius = None
         if opts.axis_mode is AxisMode.LEAD_TILT:
             # the axis turning along the pass (round an edge) lifts the section's sides
             grid = (len(t), len(s), 3)
-            turn = turn_radius_mm(*(v.reshape(grid) for v in (frame.point, frame.normal, frame.e1,
-                                                              axes)))
-        c11_along = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)[0]
+            turn_radius = turn_radius_mm(*(v.reshape(grid) for v in (
+                frame.point, frame.normal, frame.e1, axes))).ravel()
         width = shadow_stepover_mm(h, cutter.radius_mm, cutter.corner_radius_mm,
                                    frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored,
-                                   turn_radius_mm=None if turn is None else turn.ravel(),
-                                   cutter_curvature_along_per_mm=c11_along)
+                                   turn_radius_mm=turn_radius, cutter_curvature_along_per_mm=c11)
     width = np.where(reach & ~gouging, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
     advice = ()
@@ -195,16 +195,15 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         advice = _flat_advice(allowed, (ball / frame.speed_s).reshape(allowed.shape), s)
     area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
     # chord density |X_t| / L (segments per unit t) for the points along the passes
-    c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     big = cutter.radius_mm
     with np.errstate(divide="ignore"):
         rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
     # concave passes: the moves stand above the surface and lift the cusps; keep them low
     tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], res["chord_tol_mm"])
     # the axis turns with the normal along the pass (5-axis): |S11| rad per mm
-    turn = np.abs(frame.s11) if opts.axis_mode is AxisMode.LEAD_TILT else 0.0
+    axis_turn = np.abs(frame.s11) if opts.axis_mode is AxisMode.LEAD_TILT else 0.0
     length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"],
-                             lift_mm=cutter.corner_radius_mm, turn_per_mm=turn)
+                             lift_mm=cutter.corner_radius_mm, turn_per_mm=axis_turn)
     density = (frame.speed_t / length).reshape(len(t), len(s))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
