@@ -230,3 +230,34 @@ def test_bull_nose_rolling_round_a_tight_edge_keeps_the_scallop(scallop_mm):
     _, report = plan_finishing(thin, "bull:8:1", scallop_mm=scallop_mm, chord_tol_mm=0.03,
                                axis_mode="lead-tilt", lead_deg=10.0)
     assert 0.0 < report.max_scallop_mm <= scallop_mm
+
+
+def test_capsule_entries_and_segment_distances_equal_dense_samples():
+    from toolpath.planning.sweep_kernel import capsule_entries, segment_distances
+
+    rng = np.random.default_rng(8)
+    a, b = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
+    q = rng.normal(scale=2.0, size=(30, 3))
+    n = rng.normal(size=(30, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    pairs = np.arange(30)
+    got = capsule_entries(q, n, pairs, pairs, a, b, 0.7)
+    u = np.linspace(0.0, 1.0, 2001)
+    heights = np.linspace(0.0, 6.0, 6001)
+    for k in range(30):
+        axis = a[k] + u[:, None] * (b[k] - a[k])
+        ray = q[k] + heights[:, None] * n[k]
+        inside = (np.linalg.norm(ray[:, None] - axis[None], axis=2) <= 0.7).any(axis=1)
+        expected = heights[np.argmax(inside)] if inside.any() else np.inf
+        if np.isfinite(expected):
+            assert got[k] == pytest.approx(expected, abs=2e-3)
+        else:
+            assert got[k] > 5.99
+    c, d = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
+    dist = segment_distances(a, b, pairs, c, d, pairs)
+    for k in range(30):
+        on_first = a[k] + u[::4, None] * (b[k] - a[k])
+        on_second = c[k] + u[::4, None] * (d[k] - c[k])
+        sampled = np.linalg.norm(on_first[:, None] - on_second[None], axis=2).min()
+        assert dist[k] == pytest.approx(sampled, abs=1e-3)
+        assert dist[k] <= sampled + 1e-12

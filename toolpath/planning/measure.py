@@ -56,7 +56,7 @@ from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
-from .sweep_kernel import ray_entries
+from .sweep_kernel import capsule_entries, ray_entries, segment_distances
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -224,72 +224,6 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     return p0, p1, x0, x1, owner
 
 
-def _segment_distance(p0: NDArray[np.float64], p1: NDArray[np.float64],
-                      q0: NDArray[np.float64], q1: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Distance between segments ``p0 p1`` and ``q0 q1`` (rows; clamped closest points)."""
-    d1, d2, r = p1 - p0, q1 - q0, p0 - q0
-
-    def dot(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1] + u[:, 2] * v[:, 2]
-
-    a, e, f = dot(d1, d1), dot(d2, d2), dot(d2, r)
-    c, b = dot(d1, r), dot(d1, d2)
-    den = a * e - b * b
-    safe_a = np.where(a > 1e-300, a, 1.0)
-    sc = np.where(den > 1e-12 * (a * e + 1e-300),
-                  np.clip((b * f - c * e) / np.where(den > 0, den, 1.0), 0.0, 1.0), 0.0)
-    tc = (b * sc + f) / np.where(e > 1e-300, e, 1.0)
-    low, high = tc < 0.0, tc > 1.0
-    tc = np.clip(tc, 0.0, 1.0)
-    sc = np.where(low, np.clip(-c / safe_a, 0.0, 1.0), sc)
-    sc = np.where(high, np.clip((b - c) / safe_a, 0.0, 1.0), sc)
-    sc = np.where(a > 1e-300, sc, 0.0)
-    diff = r + sc[:, None] * d1 - tc[:, None] * d2
-    return np.sqrt(dot(diff, diff))
-
-
-def _ray_capsule(q: NDArray[np.float64], n: NDArray[np.float64], a: NDArray[np.float64],
-                 b: NDArray[np.float64], radius: float) -> NDArray[np.float64]:
-    """Distance along ``n`` from ``q`` to where the ray enters the capsule (0 inside, inf miss).
-
-    The capsule is every point within ``radius`` of segment ``ab``: a cylinder with two
-    spheres; the entry is the first non-negative root among the cylinder's side (with the
-    foot inside the segment) and the two spheres.
-    """
-    d = b - a
-    m = q - a
-
-    def dot(u: NDArray[np.float64], v: NDArray[np.float64]) -> NDArray[np.float64]:
-        return u[:, 0] * v[:, 0] + u[:, 1] * v[:, 1] + u[:, 2] * v[:, 2]
-
-    dd, md, nd, mn, mm = dot(d, d), dot(m, d), dot(n, d), dot(m, n), dot(m, m)
-    r2 = radius * radius
-    # inside?
-    foot = np.clip(md / np.where(dd > 0, dd, 1.0), 0.0, 1.0)
-    off = m - foot[:, None] * d
-    inside = dot(off, off) <= r2
-    best = np.full(len(q), np.inf)
-    # side of the cylinder
-    ka = dd - nd * nd
-    kb = dd * mn - nd * md
-    kc = dd * (mm - r2) - md * md
-    disc = kb * kb - ka * kc
-    ok = (ka > 1e-12 * np.maximum(dd, 1e-300)) & (disc >= 0.0)
-    lam = (-kb - np.sqrt(np.where(ok, disc, 0.0))) / np.where(ok, ka, 1.0)
-    y = md + lam * nd
-    ok &= (lam >= 0.0) & (y >= 0.0) & (y <= dd)
-    best = np.where(ok, lam, best)
-    # the two end spheres
-    for mc in (m, q - b):
-        bc = dot(mc, n)
-        cc = dot(mc, mc) - r2
-        dsc = bc * bc - cc
-        lam = -bc - np.sqrt(np.maximum(dsc, 0.0))
-        hit = (dsc >= 0.0) & (lam >= 0.0)
-        best = np.where(hit, np.minimum(best, lam), best)
-    return np.where(inside, 0.0, best)
-
-
 class _CutVolume:
     """The material the toolpath removes, queried along surface normals."""
 
@@ -351,8 +285,7 @@ class _CutVolume:
         if not owner.size:
             return out
         if self.ball:
-            lam = _ray_capsule(q[owner], n[owner], self.a[item], self.b[item],
-                               self.cutter.radius_mm)
+            lam = capsule_entries(q, n, owner, item, self.a, self.b, self.cutter.radius_mm)
         else:
             # the cheap bound first: pieces whose cutters stay above the horizon are out
             near = self._floor(q[owner], n[owner], item) <= self.horizon
@@ -362,7 +295,11 @@ class _CutVolume:
                               radius_mm=self.cutter.radius_mm,
                               flute_length_mm=self.cutter.flute_length_mm,
                               horizon_mm=self.horizon)
-        np.minimum.at(out, owner, lam)
+        if owner.size and (owner[1:] >= owner[:-1]).all():  # grouped by ray (pairs())
+            starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
+            out[owner[starts]] = np.minimum.reduceat(lam, starts)
+        else:
+            np.minimum.at(out, owner, lam)
         return np.where(out > self.horizon, np.inf, out)
 
     def _floor(self, q: NDArray[np.float64], n: NDArray[np.float64], item: NDArray[np.int64]
@@ -426,7 +363,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     if not volume.ball:
         near = volume.floor_over(mid[owner], half[owner] + sag[owner], item) <= volume.horizon
         owner, item = owner[near], item[near]
-    dist = _segment_distance(p0[owner], p1[owner], volume.piece_a[item], volume.piece_b[item])
+    dist = segment_distances(p0, p1, owner, volume.piece_a, volume.piece_b, item)
     near = dist <= volume.segment_reach + 2.0 * sag[owner]
     owner, item = owner[near], item[near]
     mine = volume.pass_of[item] == own[owner]

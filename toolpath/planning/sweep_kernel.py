@@ -1,9 +1,9 @@
-"""Compiled entry of rays into the material a flat or bull-nose cutter removes along a piece.
+"""Compiled queries of the material a toolpath's feed moves remove (the measurement).
 
-A piece of a feed move places the cutter at ``u in [0, 1]`` with its tip
-``p(u) = p0 + u (p1 - p0)`` and its axis ``a(u) = normalize(a0 + u (a1 - a0))`` (a 5-axis
-control's tool-centre-point interpolation). The material it removes is the union over
-``u`` of the cutter solid (:func:`.cutter_kernel.cutter_distance`). Along a ray
+**Flat and bull-nose.** A piece of a feed move places the cutter at ``u in [0, 1]`` with
+its tip ``p(u) = p0 + u (p1 - p0)`` and its axis ``a(u) = normalize(a0 + u (a1 - a0))``
+(a 5-axis control's tool-centre-point interpolation). The material it removes is the
+union over ``u`` of the cutter solid (:func:`.cutter_kernel.cutter_distance`). Along a ray
 ``q + l n`` (``l >= 0``) the entry into the solid at one pose is the first root of the
 signed distance ``g(l)``, convex in ``l`` (the solid is convex): sphere tracing (each step
 the exact distance, never past the root), then, for rays that only graze it, a ternary
@@ -15,6 +15,12 @@ Unlike a cross-section of the cutter swept straight along the piece, this holds 
 axis turns fast (a bull-nose rolling round a leading edge tighter than the cutter): there
 the cutter's points ahead of and behind the contact never pass under ``q`` at the height
 a straight sweep would carry them to.
+
+**Ball.** A piece sweeps the ball's centre along a segment: the removed material is a
+capsule, and the ray's entry is the first non-negative root among the cylinder's side
+(foot inside the segment) and the two end spheres (:func:`capsule_entries`).
+
+Queries come as pairs (ray ``owner[k]``, piece ``item[k]``), computed in parallel blocks.
 """
 
 from __future__ import annotations
@@ -27,7 +33,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "ray_entries"]
+__all__ = ["POSES", "capsule_entries", "ray_entries", "segment_distances"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -180,4 +186,113 @@ def ray_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[n
                      np.ascontiguousarray(item, dtype=np.int64), c(tips0), c(tips1), c(axes0),
                      c(axes1), float(corner_radius_mm), float(radius_mm),
                      float(flute_length_mm), float(horizon_mm), out)
+    return out
+
+
+@numba.njit(cache=True)
+def _capsule_entry(q, n, a, b, r2):
+    """Entry of the ray ``q + l n`` into the capsule round ``ab`` (0 inside, inf: misses)."""
+    d0, d1, d2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+    m0, m1, m2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
+    dd = d0 * d0 + d1 * d1 + d2 * d2
+    md = m0 * d0 + m1 * d1 + m2 * d2
+    nd = n[0] * d0 + n[1] * d1 + n[2] * d2
+    mn = m0 * n[0] + m1 * n[1] + m2 * n[2]
+    mm = m0 * m0 + m1 * m1 + m2 * m2
+    foot = min(max(md / (dd if dd > 0.0 else 1.0), 0.0), 1.0)
+    o0, o1, o2 = m0 - foot * d0, m1 - foot * d1, m2 - foot * d2
+    if o0 * o0 + o1 * o1 + o2 * o2 <= r2:
+        return 0.0
+    best = np.inf
+    # the cylinder's side, its foot inside the segment
+    ka = dd - nd * nd
+    kb = dd * mn - nd * md
+    kc = dd * (mm - r2) - md * md
+    disc = kb * kb - ka * kc
+    if ka > 1e-12 * max(dd, 1e-300) and disc >= 0.0:
+        lam = (-kb - math.sqrt(disc)) / ka
+        y = md + lam * nd
+        if lam >= 0.0 and 0.0 <= y <= dd:
+            best = lam
+    # the two end spheres
+    for end in range(2):
+        c0, c1, c2 = (m0, m1, m2) if end == 0 else (q[0] - b[0], q[1] - b[1], q[2] - b[2])
+        bc = c0 * n[0] + c1 * n[1] + c2 * n[2]
+        dsc = bc * bc - (c0 * c0 + c1 * c1 + c2 * c2 - r2)
+        if dsc >= 0.0:
+            lam = -bc - math.sqrt(dsc)
+            if lam >= 0.0:
+                best = min(best, lam)
+    return best
+
+
+@numba.njit(cache=True, parallel=True)
+def _capsule_entries(q, n, owner, item, a, b, r2, out):
+    for k in numba.prange(owner.size):
+        out[k] = _capsule_entry(q[owner[k]], n[owner[k]], a[item[k]], b[item[k]], r2)
+
+
+def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
+                    item: NDArray[np.int64], a: NDArray[np.float64], b: NDArray[np.float64],
+                    radius_mm: float) -> NDArray[np.float64]:
+    """Entry distance of ray ``owner[k]`` into the capsule round segment ``item[k]``, mm.
+
+    The capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
+    where the ray starts inside, ``inf`` where it misses.
+    """
+    out = np.empty(owner.size)
+    if owner.size:
+        c = np.ascontiguousarray
+        _capsule_entries(c(q, dtype=float), c(n, dtype=float), c(owner, dtype=np.int64),
+                         c(item, dtype=np.int64), c(a, dtype=float), c(b, dtype=float),
+                         float(radius_mm) ** 2, out)
+    return out
+
+
+@numba.njit(cache=True)
+def _segment_distance(p0, p1, q0, q1):
+    """Distance between segments ``p0 p1`` and ``q0 q1`` (clamped closest points)."""
+    d1 = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2])
+    d2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2])
+    r = (p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2])
+    a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
+    e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
+    f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
+    c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
+    b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
+    den = a * e - b * b
+    safe_a = a if a > 1e-300 else 1.0
+    sc = 0.0
+    if den > 1e-12 * (a * e + 1e-300):
+        sc = min(max((b * f - c * e) / den, 0.0), 1.0)
+    tc = (b * sc + f) / (e if e > 1e-300 else 1.0)
+    if tc < 0.0:
+        sc = min(max(-c / safe_a, 0.0), 1.0)
+    elif tc > 1.0:
+        sc = min(max((b - c) / safe_a, 0.0), 1.0)
+    tc = min(max(tc, 0.0), 1.0)
+    if not a > 1e-300:
+        sc = 0.0
+    total = 0.0
+    for k in range(3):
+        g = r[k] + sc * d1[k] - tc * d2[k]
+        total += g * g
+    return math.sqrt(total)
+
+
+@numba.njit(cache=True, parallel=True)
+def _segment_distances(p0, p1, owner, a, b, item, out):
+    for k in numba.prange(owner.size):
+        out[k] = _segment_distance(p0[owner[k]], p1[owner[k]], a[item[k]], b[item[k]])
+
+
+def segment_distances(p0: NDArray[np.float64], p1: NDArray[np.float64],
+                      owner: NDArray[np.int64], a: NDArray[np.float64],
+                      b: NDArray[np.float64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Distance between segment ``owner[k]`` (``p0 p1``) and segment ``item[k]`` (``a b``), mm."""
+    out = np.empty(owner.size)
+    if owner.size:
+        c = np.ascontiguousarray
+        _segment_distances(c(p0, dtype=float), c(p1, dtype=float), c(owner, dtype=np.int64),
+                           c(a, dtype=float), c(b, dtype=float), c(item, dtype=np.int64), out)
     return out
