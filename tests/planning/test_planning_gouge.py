@@ -132,3 +132,19 @@ def test_global_clearance_equals_brute_force_over_every_sample(spec):
             want = dist[mask].min() if mask.any() else np.inf
             want = np.inf if want > CLEARANCE_HORIZON_MM else want
             assert value == pytest.approx(want, abs=1e-12), (i, spec)
+
+
+@pytest.mark.parametrize("radius_mm", [0.3, 2.5])
+def test_pairs_within_equal_brute_force(radius_mm):
+    # binned in cells of 1 mm, queried with radii below and above the cell
+    from toolpath.planning.clearance_kernel import bin_samples, pairs_within
+
+    rng = np.random.default_rng(4)
+    points = rng.uniform(-5.0, 5.0, size=(3000, 3))
+    queries = rng.uniform(-6.0, 6.0, size=(200, 3))
+    owner, item = pairs_within(bin_samples(points, 1.0), queries, radius_mm)
+    assert (np.diff(owner) >= 0).all()
+    close = np.linalg.norm(queries[:, None] - points[None], axis=2) <= radius_mm
+    expected = set(zip(*np.nonzero(close), strict=True))
+    assert set(zip(owner.tolist(), item.tolist(), strict=True)) == expected
+    assert len(owner) == len(expected)

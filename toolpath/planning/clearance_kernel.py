@@ -1,12 +1,13 @@
-"""Compiled neighbour search for the global gouge check (:func:`.gouge.global_clearance`).
+"""Compiled neighbour searches over binned points.
 
-The surface samples are binned in a uniform grid of cubic cells (edge: the largest query
-radius), sorted by cell (``cell_start[c] .. cell_start[c + 1]`` are the samples of
-cell ``c``). A query sphere is compared with the cells its bounding box overlaps, those it
-misses are skipped, and for every sample inside it the exact signed distance of the cutter solid
-(:func:`.cutter_kernel.cutter_distance`) is taken on the spot, so no list of pairs is ever
-built. Each location keeps its smallest value among the samples near its
-contact and among the others.
+The points (surface samples for the global gouge check, :func:`.gouge.global_clearance`;
+the centres of a toolpath's pieces for the measurement, :func:`pairs_within`) are binned
+in a uniform grid of cubic cells, sorted by cell (``cell_start[c] .. cell_start[c + 1]``
+are the points of cell ``c``). A query sphere is compared with the cells its bounding box
+overlaps, those it misses are skipped. For the gouge check, for every sample inside it
+the exact signed distance of the cutter solid (:func:`.cutter_kernel.cutter_distance`) is
+taken on the spot, so no list of pairs is ever built; each location keeps its smallest
+value among the samples near its contact and among the others.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["SampleCells", "bin_samples", "clearances"]
+__all__ = ["SampleCells", "bin_samples", "clearances", "pairs_within"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -163,3 +164,69 @@ def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, cont
                             elif dist < far[i]:
                                 far[i] = dist
                                 far_i[i] = index[j]
+
+
+@numba.njit(cache=True)
+def _near_points(points, cell_start, origin, shape, cell, c0, c1, c2, radius, index, out,
+                 at):
+    """How many points lie within ``radius`` of ``c``; their ``index`` into ``out[at:]``.
+
+    Nothing is written when ``out`` is empty (the counting pass).
+    """
+    nx, ny, nz = shape[0], shape[1], shape[2]
+    rad2 = radius * radius
+    x_lo = max(math.floor((c0 - radius - origin[0]) / cell), 0)
+    x_hi = min(math.floor((c0 + radius - origin[0]) / cell) + 1, nx)
+    y_lo = max(math.floor((c1 - radius - origin[1]) / cell), 0)
+    y_hi = min(math.floor((c1 + radius - origin[1]) / cell) + 1, ny)
+    z_lo = max(math.floor((c2 - radius - origin[2]) / cell), 0)
+    z_hi = min(math.floor((c2 + radius - origin[2]) / cell) + 1, nz)
+    found = 0
+    for cz in range(z_lo, z_hi):
+        gz = _gap(c2, origin[2] + cz * cell, cell)
+        for cy in range(y_lo, y_hi):
+            gy = _gap(c1, origin[1] + cy * cell, cell)
+            for cx in range(x_lo, x_hi):
+                gx = _gap(c0, origin[0] + cx * cell, cell)
+                if gx * gx + gy * gy + gz * gz > rad2:
+                    continue
+                cid = cx + nx * (cy + ny * cz)
+                for j in range(cell_start[cid], cell_start[cid + 1]):
+                    e0 = points[j, 0] - c0
+                    e1 = points[j, 1] - c1
+                    e2 = points[j, 2] - c2
+                    if e0 * e0 + e1 * e1 + e2 * e2 <= rad2:
+                        if out.size:
+                            out[at + found] = index[j]
+                        found += 1
+    return found
+
+
+@numba.njit(cache=True, parallel=True)
+def _pairs_within(points, index, cell_start, origin, shape, cell, queries, radius, counts,
+                  starts, items):
+    """Count (``items`` empty) or list the points near each query."""
+    for i in numba.prange(queries.shape[0]):
+        at = starts[i] if items.size else 0
+        counts[i] = _near_points(points, cell_start, origin, shape, cell, queries[i, 0],
+                                 queries[i, 1], queries[i, 2], radius, index, items, at)
+
+
+def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
+                 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """Every (query, point) pair closer than ``radius_mm``, grouped by query in order.
+
+    Returns ``owner`` (query indices, ascending) and ``item`` (indices of the binned
+    points in the array given to :func:`bin_samples`).
+    """
+    q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
+    counts = np.zeros(len(q), dtype=np.int64)
+    starts = np.zeros(len(q), dtype=np.int64)
+    args = (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
+            cells.cell_mm, q, float(radius_mm))
+    _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64))
+    starts[1:] = np.cumsum(counts)[:-1]
+    items = np.empty(int(counts.sum()), dtype=np.int64)
+    if items.size:
+        _pairs_within(*args, counts, starts, items)
+    return np.repeat(np.arange(len(q)), counts), items

@@ -38,7 +38,6 @@ stepover across) gives the uncut area; distances from it are taken along the sur
 
 from __future__ import annotations
 
-import itertools
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -53,6 +52,7 @@ from machines.kinematics import solve_inverse
 from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
+from .clearance_kernel import bin_samples, pairs_within
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
@@ -260,7 +260,7 @@ class _CutVolume:
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
         self.centres = mid
-        self.tree = cKDTree(mid) if len(mid) else None
+        self.cells = bin_samples(mid, self.reach) if len(mid) else None
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None
               ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -268,14 +268,9 @@ class _CutVolume:
 
         The default radius is the cutter's reach.
         """
-        if self.tree is None:
+        if self.cells is None:
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        lists = self.tree.query_ball_point(q, self.reach if radius is None else radius,
-                                           workers=-1)
-        lengths = np.fromiter(map(len, lists), dtype=np.int64, count=len(lists))
-        owner = np.repeat(np.arange(len(q)), lengths)
-        item = np.fromiter(itertools.chain.from_iterable(lists), dtype=np.int64,
-                           count=int(lengths.sum()))
+        owner, item = pairs_within(self.cells, q, self.reach if radius is None else radius)
         return owner, item
 
     def height(self, q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
