@@ -56,7 +56,7 @@ from .clearance_kernel import bin_samples, pairs_within
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
-from .sweep_kernel import capsule_entries, ray_entries, segment_distances
+from .sweep_kernel import capsule_entries, nearest_entries, segment_distances
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -279,43 +279,20 @@ class _CutVolume:
         out = np.full(len(q), np.inf)
         if not owner.size:
             return out
-        if self.ball:
-            lam = capsule_entries(q, n, owner, item, self.a, self.b, self.cutter.radius_mm)
-        else:
-            # the cheap bound first: pieces whose cutters stay above the horizon are out
-            near = self._floor(q[owner], n[owner], item) <= self.horizon
-            owner, item = owner[near], item[near]
-            lam = ray_entries(q, n, owner, item, self.tips0, self.tips1, self.axes0,
-                              self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
-                              radius_mm=self.cutter.radius_mm,
-                              flute_length_mm=self.cutter.flute_length_mm,
-                              horizon_mm=self.horizon)
-        if owner.size and (owner[1:] >= owner[:-1]).all():  # grouped by ray (pairs())
+        if not self.ball:
+            out = nearest_entries(q, n, owner, item, self.tips0, self.tips1, self.axes0,
+                                  self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
+                                  radius_mm=self.cutter.radius_mm,
+                                  flute_length_mm=self.cutter.flute_length_mm,
+                                  horizon_mm=self.horizon)
+            return np.where(out > self.horizon, np.inf, out)
+        lam = capsule_entries(q, n, owner, item, self.a, self.b, self.cutter.radius_mm)
+        if (owner[1:] >= owner[:-1]).all():  # grouped by ray (pairs())
             starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
             out[owner[starts]] = np.minimum.reduceat(lam, starts)
         else:
             np.minimum.at(out, owner, lam)
         return np.where(out > self.horizon, np.inf, out)
-
-    def _floor(self, q: NDArray[np.float64], n: NDArray[np.float64], item: NDArray[np.int64]
-               ) -> NDArray[np.float64]:
-        """A lower bound of the entry (:mod:`.sweep_kernel`): the ray meets the tip's plane.
-
-        The cutter lies on the spindle side of the plane through its tip perpendicular to
-        its axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``,
-        linear in the tip along a piece with a fixed axis, so the smaller of the two ends
-        bounds the piece; a turning axis moves the cutting end by at most ``2 R`` times
-        the axis change. Rays not climbing towards the spindle get no bound (``-inf``).
-        """
-        bound = np.full(len(q), np.inf)
-        for tips, axes in ((self.tips0[item], self.axes0[item]),
-                           (self.tips1[item], self.axes1[item])):
-            rise = np.einsum("ij,ij->i", n, axes)
-            climbs = rise > 0.1
-            at = np.einsum("ij,ij->i", tips - q, axes) / np.where(climbs, rise, 1.0)
-            bound = np.minimum(bound, np.where(climbs, at, -np.inf))
-        turn = np.linalg.norm(self.axes1[item] - self.axes0[item], axis=1)
-        return bound - 20.0 * self.cutter.radius_mm * turn
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
                    item: NDArray[np.int64]) -> NDArray[np.float64]:

@@ -5,9 +5,11 @@ its tip ``p(u) = p0 + u (p1 - p0)`` and its axis ``a(u) = normalize(a0 + u (a1 -
 (a 5-axis control's tool-centre-point interpolation). The material it removes is the
 union over ``u`` of the cutter solid (:func:`.cutter_kernel.cutter_distance`). Along a ray
 ``q + l n`` (``l >= 0``) the entry into the solid at one pose is the first root of the
-signed distance ``g(l)``, convex in ``l`` (the solid is convex): sphere tracing (each step
-the exact distance, never past the root), then, for rays that only graze it, a ternary
-search for the minimum and a bisection for the root. The entry into the union is the
+signed distance ``g(l)``, convex in ``l`` (the solid is convex): from ``l = 0`` steps of
+the larger of ``g`` (sphere tracing) and the secant through the last two values (below the
+convex ``g`` ahead), neither passing the root; a step on which ``g`` stops falling has
+passed the closest approach of a ray that misses. Rays that converge slowly anyway get a
+ternary search for the minimum and a bisection for the root. The entry into the union is the
 smallest entry over ``u``: :data:`POSES` equally spaced poses, then a golden-section search
 between the neighbours of the best one.
 
@@ -21,6 +23,8 @@ capsule, and the ray's entry is the first non-negative root among the cylinder's
 (foot inside the segment) and the two end spheres (:func:`capsule_entries`).
 
 Queries come as pairs (ray ``owner[k]``, piece ``item[k]``), computed in parallel blocks.
+:func:`nearest_entries` keeps only each ray's first entry, and skips the pieces whose tip
+plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
 """
 
 from __future__ import annotations
@@ -33,7 +37,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "capsule_entries", "ray_entries", "segment_distances"]
+__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_entries", "segment_distances"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -59,13 +63,20 @@ def _entry(q, n, tip, axis, r, big, h, horizon):
     if g <= TOUCH_MM:
         return 0.0
     lam = 0.0
+    step = g
     for _ in range(SPHERE_STEPS):
-        lam += g
+        lam += step
         if lam > horizon:
             return np.inf
-        g = _distance(q, n, lam, tip, axis, r, big, h)
+        before, g = g, _distance(q, n, lam, tip, axis, r, big, h)
         if g <= TOUCH_MM:
             return lam
+        if g >= before:
+            # no root behind (no step passes one) and, g being convex, none ahead: the
+            # ray passes the cutter by
+            return np.inf
+        # the sphere step, or the secant's (below the convex g ahead: short of the root)
+        step = max(g, g * step / (before - g))
     # grazing: the minimum of the convex g on [lam, horizon], then the root before it
     lo, hi = lam, horizon
     for _ in range(TERNARY_STEPS):
@@ -188,6 +199,83 @@ def ray_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[n
                      float(flute_length_mm), float(horizon_mm), out)
     return out
 
+
+
+#: Slack of the tip-plane bound per unit of axis change across a piece, in cutter radii
+#: (a turning axis moves the cutting end by at most 2 R times the change; 10 times that).
+TURN_SLACK_RADII = 20.0
+
+
+@numba.njit(cache=True)
+def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
+    """A lower bound of the ray's entry into the piece: where it meets the tip's plane.
+
+    The cutter lies on the spindle side of the plane through its tip perpendicular to its
+    axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``, linear in
+    the tip along a piece with a fixed axis, so the smaller of the two ends bounds the
+    piece; a turning axis moves it by at most :data:`TURN_SLACK_RADII` ``R`` times the
+    axis change. Rays not climbing towards the spindle get no bound (``-inf``).
+    """
+    bound = np.inf
+    for end in range(2):
+        tip, axis = (p0, a0) if end == 0 else (p1, a1)
+        rise = n[0] * axis[0] + n[1] * axis[1] + n[2] * axis[2]
+        if rise <= 0.1:
+            return -np.inf
+        at = ((tip[0] - q[0]) * axis[0] + (tip[1] - q[1]) * axis[1]
+              + (tip[2] - q[2]) * axis[2]) / rise
+        bound = min(bound, at)
+    turn = math.sqrt((a1[0] - a0[0]) ** 2 + (a1[1] - a0[1]) ** 2 + (a1[2] - a0[2]) ** 2)
+    return bound - TURN_SLACK_RADII * big * turn
+
+
+@numba.njit(cache=True, parallel=True)
+def _nearest_entries(q, n, starts, item, p0, p1, a0, a1, r, big, h, horizon, out):
+    for i in numba.prange(starts.size - 1):
+        lo, hi = starts[i], starts[i + 1]
+        best = np.inf
+        if hi > lo:
+            tip = np.empty(3)
+            axis = np.empty(3)
+            values = np.empty(POSES)
+            bounds = np.empty(hi - lo)
+            for k in range(lo, hi):
+                j = item[k]
+                bounds[k - lo] = _tip_plane_bound(q[i], n[i], p0[j], p1[j], a0[j], a1[j], big)
+            for m in np.argsort(bounds):
+                if bounds[m] > min(best, horizon):
+                    break
+                best = min(best, _pair_entry(q, n, i, item[lo + m], p0, p1, a0, a1, r, big, h,
+                                             horizon, tip, axis, values))
+                if best == 0.0:
+                    break
+        out[i] = best
+
+
+def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
+                    item: NDArray[np.int64], tips0: NDArray[np.float64],
+                    tips1: NDArray[np.float64], axes0: NDArray[np.float64],
+                    axes1: NDArray[np.float64], *, corner_radius_mm: float, radius_mm: float,
+                    flute_length_mm: float, horizon_mm: float) -> NDArray[np.float64]:
+    """Each ray's first entry into the material removed by its pieces, mm (:func:`ray_entries`).
+
+    The pairs as in :func:`ray_entries`, ``owner`` ascending (grouped by ray); pieces are
+    tried in the order of their tip-plane bounds, up to the best entry found. Returns one
+    value per ray of ``q`` (``inf``: none within the horizon).
+    """
+    out = np.full(len(q), np.inf)
+    owner = np.asarray(owner, dtype=np.int64)
+    if owner.size:
+        order = np.argsort(owner, kind="stable")
+        owner, item = owner[order], np.asarray(item, dtype=np.int64)[order]
+        starts = np.searchsorted(owner, np.arange(len(q) + 1)).astype(np.int64)
+
+        def c(a: NDArray) -> NDArray:
+            return np.ascontiguousarray(a, dtype=float)
+        _nearest_entries(c(q), c(n), starts, item, c(tips0), c(tips1), c(axes0), c(axes1),
+                         float(corner_radius_mm), float(radius_mm), float(flute_length_mm),
+                         float(horizon_mm), out)
+    return out
 
 @numba.njit(cache=True)
 def _capsule_entry(q, n, a, b, r2):
