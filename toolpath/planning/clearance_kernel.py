@@ -101,7 +101,8 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
                 np.ascontiguousarray(axes, dtype=float), contacts, has_contacts,
                 np.ascontiguousarray(heights_mm, dtype=float),
                 np.ascontiguousarray(radii_mm, dtype=float), corner_mm, radius_mm, flute_mm,
-                near_radius_mm * near_radius_mm, near, far, near_i, far_i)
+                near_radius_mm * near_radius_mm, near, far, near_i, far_i,
+                _cell_scratch_size(float(np.max(radii_mm, initial=0.0)), cells.cell_mm))
     return near, far, near_i, far_i
 
 
@@ -115,101 +116,101 @@ def _gap(x, lo, size):
     return 0.0
 
 
-@numba.njit(cache=True, parallel=True)
-def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, contacts,
-                has_contacts, heights, radii, r, big, h, near2, near, far, near_i, far_i):
-    nx, ny, nz = shape[0], shape[1], shape[2]
-    for i in numba.prange(tips.shape[0]):
-        for k in range(heights.size):
-            c0 = tips[i, 0] + heights[k] * axes[i, 0]
-            c1 = tips[i, 1] + heights[k] * axes[i, 1]
-            c2 = tips[i, 2] + heights[k] * axes[i, 2]
-            rad2 = radii[k] * radii[k]
-            # the cells the sphere's bounding box overlaps, less those it misses
-            x_lo = max(math.floor((c0 - radii[k] - origin[0]) / cell), 0)
-            x_hi = min(math.floor((c0 + radii[k] - origin[0]) / cell) + 1, nx)
-            y_lo = max(math.floor((c1 - radii[k] - origin[1]) / cell), 0)
-            y_hi = min(math.floor((c1 + radii[k] - origin[1]) / cell) + 1, ny)
-            z_lo = max(math.floor((c2 - radii[k] - origin[2]) / cell), 0)
-            z_hi = min(math.floor((c2 + radii[k] - origin[2]) / cell) + 1, nz)
-            for cz in range(z_lo, z_hi):
-                gz = _gap(c2, origin[2] + cz * cell, cell)
-                for cy in range(y_lo, y_hi):
-                    gy = _gap(c1, origin[1] + cy * cell, cell)
-                    for cx in range(x_lo, x_hi):
-                        gx = _gap(c0, origin[0] + cx * cell, cell)
-                        if gx * gx + gy * gy + gz * gz > rad2:
-                            continue
-                        cid = cx + nx * (cy + ny * cz)
-                        for j in range(cell_start[cid], cell_start[cid + 1]):
-                            e0 = points[j, 0] - c0
-                            e1 = points[j, 1] - c1
-                            e2 = points[j, 2] - c2
-                            if e0 * e0 + e1 * e1 + e2 * e2 > rad2:
-                                continue
-                            dist = cutter_distance(
-                                points[j, 0] - tips[i, 0], points[j, 1] - tips[i, 1],
-                                points[j, 2] - tips[i, 2], axes[i, 0], axes[i, 1],
-                                axes[i, 2], r, big, h)
-                            is_near = True
-                            if has_contacts:
-                                q0 = points[j, 0] - contacts[i, 0]
-                                q1 = points[j, 1] - contacts[i, 1]
-                                q2 = points[j, 2] - contacts[i, 2]
-                                is_near = q0 * q0 + q1 * q1 + q2 * q2 <= near2
-                            if is_near:
-                                if dist < near[i]:
-                                    near[i] = dist
-                                    near_i[i] = index[j]
-                            elif dist < far[i]:
-                                far[i] = dist
-                                far_i[i] = index[j]
-
-
 @numba.njit(cache=True)
-def _near_points(points, cell_start, origin, shape, cell, c0, c1, c2, radius, index, out,
-                 at):
-    """How many points lie within ``radius`` of ``c``; their ``index`` into ``out[at:]``.
+def _cells_near(c0, c1, c2, radius, origin, shape, cell, out):
+    """The cells a sphere meets, into ``out``; how many.
 
-    Nothing is written when ``out`` is empty (the counting pass).
+    The cells its bounding box overlaps, less those farther than ``radius`` from ``c``.
     """
     nx, ny, nz = shape[0], shape[1], shape[2]
-    rad2 = radius * radius
     x_lo = max(math.floor((c0 - radius - origin[0]) / cell), 0)
     x_hi = min(math.floor((c0 + radius - origin[0]) / cell) + 1, nx)
     y_lo = max(math.floor((c1 - radius - origin[1]) / cell), 0)
     y_hi = min(math.floor((c1 + radius - origin[1]) / cell) + 1, ny)
     z_lo = max(math.floor((c2 - radius - origin[2]) / cell), 0)
     z_hi = min(math.floor((c2 + radius - origin[2]) / cell) + 1, nz)
-    found = 0
+    count = 0
     for cz in range(z_lo, z_hi):
         gz = _gap(c2, origin[2] + cz * cell, cell)
         for cy in range(y_lo, y_hi):
             gy = _gap(c1, origin[1] + cy * cell, cell)
             for cx in range(x_lo, x_hi):
                 gx = _gap(c0, origin[0] + cx * cell, cell)
-                if gx * gx + gy * gy + gz * gz > rad2:
-                    continue
-                cid = cx + nx * (cy + ny * cz)
-                for j in range(cell_start[cid], cell_start[cid + 1]):
-                    e0 = points[j, 0] - c0
-                    e1 = points[j, 1] - c1
-                    e2 = points[j, 2] - c2
-                    if e0 * e0 + e1 * e1 + e2 * e2 <= rad2:
-                        if out.size:
-                            out[at + found] = index[j]
-                        found += 1
-    return found
+                if gx * gx + gy * gy + gz * gz <= radius * radius:
+                    out[count] = cx + nx * (cy + ny * cz)
+                    count += 1
+    return count
+
+
+def _cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
+    """Room for the cells a sphere of ``radius_mm`` can meet."""
+    side = int(2.0 * radius_mm / cell_mm) + 3
+    return side * side * side
+
+
+#: Locations per block of the parallel gouge check (each block its own scratch).
+BLOCK = 256
+
+
+@numba.njit(cache=True, parallel=True)
+def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, contacts,
+                has_contacts, heights, radii, r, big, h, near2, near, far, near_i, far_i,
+                scratch_size):
+    for block in numba.prange((tips.shape[0] + BLOCK - 1) // BLOCK):
+        cells = np.empty(scratch_size, dtype=np.int64)
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, tips.shape[0])):
+            for k in range(heights.size):
+                c0 = tips[i, 0] + heights[k] * axes[i, 0]
+                c1 = tips[i, 1] + heights[k] * axes[i, 1]
+                c2 = tips[i, 2] + heights[k] * axes[i, 2]
+                rad2 = radii[k] * radii[k]
+                for m in range(_cells_near(c0, c1, c2, radii[k], origin, shape, cell, cells)):
+                    cid = cells[m]
+                    for j in range(cell_start[cid], cell_start[cid + 1]):
+                        e0 = points[j, 0] - c0
+                        e1 = points[j, 1] - c1
+                        e2 = points[j, 2] - c2
+                        if e0 * e0 + e1 * e1 + e2 * e2 > rad2:
+                            continue
+                        dist = cutter_distance(
+                            points[j, 0] - tips[i, 0], points[j, 1] - tips[i, 1],
+                            points[j, 2] - tips[i, 2], axes[i, 0], axes[i, 1], axes[i, 2],
+                            r, big, h)
+                        is_near = True
+                        if has_contacts:
+                            q0 = points[j, 0] - contacts[i, 0]
+                            q1 = points[j, 1] - contacts[i, 1]
+                            q2 = points[j, 2] - contacts[i, 2]
+                            is_near = q0 * q0 + q1 * q1 + q2 * q2 <= near2
+                        if is_near:
+                            if dist < near[i]:
+                                near[i] = dist
+                                near_i[i] = index[j]
+                        elif dist < far[i]:
+                            far[i] = dist
+                            far_i[i] = index[j]
 
 
 @numba.njit(cache=True, parallel=True)
 def _pairs_within(points, index, cell_start, origin, shape, cell, queries, radius, counts,
-                  starts, items):
-    """Count (``items`` empty) or list the points near each query."""
-    for i in numba.prange(queries.shape[0]):
-        at = starts[i] if items.size else 0
-        counts[i] = _near_points(points, cell_start, origin, shape, cell, queries[i, 0],
-                                 queries[i, 1], queries[i, 2], radius, index, items, at)
+                  starts, items, scratch_size):
+    """Count (``items`` empty) or list the points within ``radius`` of each query."""
+    for block in numba.prange((queries.shape[0] + BLOCK - 1) // BLOCK):
+        cells = np.empty(scratch_size, dtype=np.int64)
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, queries.shape[0])):
+            c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
+            found = 0
+            for m in range(_cells_near(c0, c1, c2, radius, origin, shape, cell, cells)):
+                cid = cells[m]
+                for j in range(cell_start[cid], cell_start[cid + 1]):
+                    e0 = points[j, 0] - c0
+                    e1 = points[j, 1] - c1
+                    e2 = points[j, 2] - c2
+                    if e0 * e0 + e1 * e1 + e2 * e2 <= radius * radius:
+                        if items.size:
+                            items[starts[i] + found] = index[j]
+                        found += 1
+            counts[i] = found
 
 
 def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
@@ -224,9 +225,10 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     starts = np.zeros(len(q), dtype=np.int64)
     args = (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
             cells.cell_mm, q, float(radius_mm))
-    _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64))
+    scratch = _cell_scratch_size(radius_mm, cells.cell_mm)
+    _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)
     if items.size:
-        _pairs_within(*args, counts, starts, items)
+        _pairs_within(*args, counts, starts, items, scratch)
     return np.repeat(np.arange(len(q)), counts), items
