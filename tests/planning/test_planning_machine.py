@@ -50,3 +50,24 @@ def test_unknown_machine():
     with pytest.raises(UnknownMachineError, match="'mill-9000'"):
         plan_finishing(PLATE, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
                        machine="mill-9000")
+
+
+def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
+    # a move turning the trunnion's rotary axes: its pieces' ends are the forward
+    # kinematics of the interpolated joints, off the straight chord between the tips
+    from machines.kinematics import forward
+    from toolpath.planning.measure import _split
+
+    machine = load_machine("trunnion-ac")
+    ends = np.array([[10.0, 5.0, 20.0, 10.0, 0.0], [12.0, 6.0, 20.0, 25.0, 40.0]])
+    order = [a.letter for a in machine.axes]
+    q = ends[:, [("XYZAC".index(letter)) for letter in order]]
+    tips, axes = forward(machine, q)
+    p0, p1, x0, x1, _ = _split(tips[:1], tips[1:], axes[:1], axes[1:], 0.5,
+                               (machine, q[:1], q[1:]))
+    u = np.linspace(0.0, 1.0, len(p0) + 1)[:, None]
+    expected_tips, expected_axes = forward(machine, q[0] * (1.0 - u) + q[1] * u)
+    np.testing.assert_allclose(np.r_[p0, p1[-1:]], expected_tips, atol=1e-9)
+    np.testing.assert_allclose(np.r_[x0, x1[-1:]], expected_axes, atol=1e-12)
+    straight = tips[0] + u * (tips[1] - tips[0])
+    assert np.linalg.norm(expected_tips - straight, axis=1).max() > 0.1

@@ -530,7 +530,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     scallop = chord = None
     if opts.measure:
         chord = measure_chord(path, surface, cutter, samples, machine=mach)
-        scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord)
+        scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord, machine=mach)
     clock.done()
 
     report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, keep, runs, spans,

@@ -18,22 +18,24 @@ centre projected onto the surface.
 **Scallop.** At a surface point ``Q`` with normal ``n`` the height of the machined surface
 is the distance along ``n`` at which the ray ``Q + l n`` enters the material removed by
 the cutter: for a ball, exactly, the union of capsules swept by the ball centre along each
-feed move (cut in pieces of ``R/8``); for flat and bull-nose cutters, the union of the
-cutter solid over the poses of each piece (tip linear, axis normalized-linear), the ray
-met at each pose exactly and the earliest pose found by search (:mod:`.sweep_kernel`; a
-straight sweep of the cutter's cross-section would carry its points ahead of and behind
-the contact under ``Q`` even where the axis turns them away, round a tight leading edge).
-Heights beyond the horizon (10 times the request, at least 0.05 mm) count as *uncut*. The
-cusps are searched from every contact point and every mid-chord contact standing above the
-surface found by the chord measurement, at fixed ``t``, towards increasing ``s``, over 2.5
-times the distance from the contact to the nearest contact of another pass: the height
-``h_own(s)`` left by the contact's own pass rises from 0 and the height ``h_other(s)``
-left by the other passes falls to 0 at the next pass; the cusp is where they cross (a sign
-change found on 3 samples over the bracket, then 5 Illinois regula-falsi steps), its
-height ``min(h_own, h_other)``. A contact with no pass within that bracket borders an
-uncut area and has no cusp. A coarse grid (spacing half the cutter radius along ``t``, one
-stepover across) gives the uncut area; distances from it are taken along the surface
-(shortest paths over the grid), round a thin part's edges rather than through it.
+feed move (cut in pieces of ``R/8``, their ends placed as the control places them: under a
+5-axis machine's joint interpolation, by its forward kinematics); for flat and bull-nose
+cutters, the union of the cutter solid over the poses of each piece (tip linear, axis
+normalized-linear), the ray met at each pose exactly and the earliest pose found by search
+(:mod:`.sweep_kernel`; a straight sweep of the cutter's cross-section would carry its
+points ahead of and behind the contact under ``Q`` even where the axis turns them away,
+round a tight leading edge). Heights beyond the horizon (10 times the request, at least
+0.05 mm) count as *uncut*. The cusps are searched from every contact point and every
+mid-chord contact standing above the surface found by the chord measurement, at fixed
+``t``, towards increasing ``s``, over 2.5 times the distance from the contact to the
+nearest contact of another pass: the height ``h_own(s)`` left by the contact's own pass
+rises from 0 and the height ``h_other(s)`` left by the other passes falls to 0 at the next
+pass; the cusp is where they cross (a sign change found on 3 samples over the bracket,
+then 5 Illinois regula-falsi steps), its height ``min(h_own, h_other)``. A contact with no
+pass within that bracket borders an uncut area and has no cusp. A coarse grid (spacing
+half the cutter radius along ``t``, one stepover across) gives the uncut area; distances
+from it are taken along the surface (shortest paths over the grid), round a thin part's
+edges rather than through it.
 """
 
 from __future__ import annotations
@@ -47,7 +49,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from machines import Machine
-from machines.kinematics import solve_inverse
+from machines.kinematics import forward, solve_inverse
 
 from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
@@ -81,6 +83,17 @@ class ChordMeasurement:
                                           repr=False)
 
 
+def _checked_joints(toolpath: Toolpath, machine: Machine | None
+                    ) -> NDArray[np.float64] | None:
+    """Joints of every point if ``toolpath`` was checked under ``machine``'s interpolation.
+
+    ``JOINT_CHECKED``: the post then leaves its cutting moves whole. None otherwise.
+    """
+    if machine is None or toolpath.metadata.get(JOINT_CHECKED) != machine_key(machine):
+        return None
+    return solve_inverse(machine, toolpath.positions_mm, toolpath.tool_axes).joints
+
+
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, *, machine: Machine | None = None,
                   chunk: int = 100_000) -> ChordMeasurement:
@@ -91,9 +104,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     each move is placed as that interpolation places it (the tip bows off the chord
     where rotary axes turn).
     """
-    joints = None
-    if machine is not None and toolpath.metadata.get(JOINT_CHECKED) == machine_key(machine):
-        joints = solve_inverse(machine, toolpath.positions_mm, toolpath.tool_axes).joints
+    joints = _checked_joints(toolpath, machine)
     kinds, passes = toolpath.kinds, toolpath.pass_index
     move = np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
     if not move.size:
@@ -190,8 +201,9 @@ class ScallopMeasurement:
     n_samples: int
 
 
-def _feed_segments(toolpath: Toolpath) -> tuple[NDArray[np.float64], ...]:
-    """Start/end tips and axes of the feed moves that cut, and the pass of each move.
+def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
+                   ) -> tuple[NDArray[np.float64] | None, ...]:
+    """Ends of the feed moves that cut: tips, axes, pass, joints (None: tip-linear).
 
     Rapids and plunges do not cut; a move's pass is its start's (else its end's, else -1).
     """
@@ -202,25 +214,37 @@ def _feed_segments(toolpath: Toolpath) -> tuple[NDArray[np.float64], ...]:
     p, a = toolpath.positions_mm, toolpath.tool_axes
     owner = np.where(toolpath.pass_index[i] >= 0, toolpath.pass_index[i],
                      toolpath.pass_index[i + 1])
-    return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64)
+    ends = (None, None) if joints is None else (joints[i], joints[i + 1])
+    return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64), *ends
 
 
 def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
-           ab: NDArray[np.float64], step: float) -> tuple[NDArray[np.float64], ...]:
-    """Split moves into pieces no longer than ``step`` (tips linear, axes renormalized)."""
+           ab: NDArray[np.float64], step: float,
+           joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
+           ) -> tuple[NDArray[np.float64], ...]:
+    """Split moves into pieces no longer than ``step``.
+
+    The piece ends as the control places them: tips linear and axes renormalized, or,
+    with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
+    kinematics (the tip bows off the chord where the rotary axes turn).
+    """
     length = np.linalg.norm(b - a, axis=1)
     pieces = np.maximum(np.ceil(length / step).astype(np.int64), 1)
     owner = np.repeat(np.arange(len(a)), pieces)
     first = np.r_[0, np.cumsum(pieces)[:-1]]
     j = np.arange(pieces.sum()) - first[owner]
-    u0 = (j / pieces[owner])[:, None]
-    u1 = ((j + 1) / pieces[owner])[:, None]
-    p0 = a[owner] * (1 - u0) + b[owner] * u0
-    p1 = a[owner] * (1 - u1) + b[owner] * u1
-    x0 = aa[owner] * (1 - u0) + ab[owner] * u0
-    x1 = aa[owner] * (1 - u1) + ab[owner] * u1
-    x0 /= np.linalg.norm(x0, axis=1, keepdims=True)
-    x1 /= np.linalg.norm(x1, axis=1, keepdims=True)
+    ends = []
+    for u in (j / pieces[owner], (j + 1) / pieces[owner]):
+        u = u[:, None]
+        if joints is None:
+            tips = a[owner] * (1 - u) + b[owner] * u
+            axes = aa[owner] * (1 - u) + ab[owner] * u
+            axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        else:
+            machine, q_a, q_b = joints
+            tips, axes = forward(machine, q_a[owner] * (1 - u) + q_b[owner] * u)
+        ends.append((tips, axes))
+    (p0, x0), (p1, x1) = ends
     return p0, p1, x0, x1, owner
 
 
@@ -228,15 +252,17 @@ class _CutVolume:
     """The material the toolpath removes, queried along surface normals."""
 
     def __init__(self, toolpath: Toolpath, cutter: Cutter, horizon_mm: float,
-                 scallop_mm: float) -> None:
+                 scallop_mm: float, machine: Machine | None = None) -> None:
         self.cutter = cutter
         self.horizon = horizon_mm
-        a, b, xa, xb, owner = _feed_segments(toolpath)
+        joints = _checked_joints(toolpath, machine)
+        a, b, xa, xb, owner, q_a, q_b = _feed_segments(toolpath, joints)
+        interpolation = None if joints is None else (machine, q_a, q_b)
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         if self.ball:
             step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step)
+            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, interpolation)
             self.a, self.b = p0 + big * x0, p1 + big * x1  # centres
             mid = 0.5 * (self.a + self.b)
             self.reach = big + horizon_mm + 0.5 * step
@@ -250,7 +276,7 @@ class _CutVolume:
         else:
             # pieces with their end tips and axes; each is swept straight
             step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step)
+            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, interpolation)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
             self.reach = big + horizon_mm + 0.5 * step
@@ -453,9 +479,13 @@ def _distance_along_surface(grid: NDArray[np.float64], sources: NDArray[np.bool_
 
 
 def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
-                    scallop_mm: float, chord: ChordMeasurement, *, chunk: int = 20_000
+                    scallop_mm: float, chord: ChordMeasurement, *,
+                    machine: Machine | None = None, chunk: int = 20_000
                     ) -> ScallopMeasurement:
     """Measure the material left between passes (module docstring).
+
+    With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under,
+    the cutter moves as that interpolation moves it (as in :func:`measure_chord`).
 
     Parameters
     ----------
@@ -473,7 +503,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     horizon = max(10.0 * h, 0.05)
     rho = r if r > h else big
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
-    volume = _CutVolume(toolpath, cutter, horizon, h)
+    volume = _CutVolume(toolpath, cutter, horizon, h, machine)
     # uncut area on a coarse grid
     g = np.linspace(0.0, 1.0, 33)
     pts = surface(g, g, grid=True)
