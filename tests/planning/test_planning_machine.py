@@ -54,7 +54,8 @@ def test_unknown_machine():
 
 def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     # a move turning the trunnion's rotary axes: its pieces' ends are the forward
-    # kinematics of the interpolated joints, off the straight chord between the tips
+    # kinematics of the interpolated joints, off the straight chord between the tips, and
+    # there are enough of them for the straight pieces to follow the bowed path
     from machines.kinematics import forward
     from toolpath.planning.measure import _split
 
@@ -63,7 +64,7 @@ def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     order = [a.letter for a in machine.axes]
     q = ends[:, [("XYZAC".index(letter)) for letter in order]]
     tips, axes = forward(machine, q)
-    p0, p1, x0, x1, _ = _split(tips[:1], tips[1:], axes[:1], axes[1:], 0.5,
+    p0, p1, x0, x1, _ = _split(tips[:1], tips[1:], axes[:1], axes[1:], 0.5, 3.0, 1e-4,
                                (machine, q[:1], q[1:]))
     u = np.linspace(0.0, 1.0, len(p0) + 1)[:, None]
     expected_tips, expected_axes = forward(machine, q[0] * (1.0 - u) + q[1] * u)
@@ -71,3 +72,9 @@ def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     np.testing.assert_allclose(np.r_[x0, x1[-1:]], expected_axes, atol=1e-12)
     straight = tips[0] + u * (tips[1] - tips[0])
     assert np.linalg.norm(expected_tips - straight, axis=1).max() > 0.1
+    fine_u = np.linspace(0.0, 1.0, 2001)[:, None]
+    fine_tips, _ = forward(machine, q[0] * (1.0 - fine_u) + q[1] * fine_u)
+    piece = np.searchsorted(u[1:, 0], fine_u[:, 0], side="left").clip(0, len(p0) - 1)
+    w = ((fine_u[:, 0] - u[piece, 0]) / (u[piece + 1, 0] - u[piece, 0]))[:, None]
+    chords = p0[piece] * (1.0 - w) + p1[piece] * w
+    assert np.linalg.norm(fine_tips - chords, axis=1).max() < 2e-4

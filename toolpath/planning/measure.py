@@ -218,18 +218,38 @@ def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
     return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64), *ends
 
 
+def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                  ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                  joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                  ) -> NDArray[np.int64]:
+    """Pieces per move, so that the tip and the point ``reach_mm`` up the axis travel <= ``step``.
+
+    Under joint interpolation also so that the straight pieces stay within about ``sag_mm``
+    of the bowed path (the bow at mid-move, ``d``, falls as ``d / n^2`` over ``n`` pieces).
+    """
+    c_a, c_b = a + reach_mm * aa, b + reach_mm * ab
+    length = np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c_b - c_a, axis=1))
+    count = np.ceil(length / step)
+    if joints is not None:
+        machine, q_a, q_b = joints
+        tip, axis = forward(machine, 0.5 * (q_a + q_b))
+        bow = np.maximum(np.linalg.norm(tip - 0.5 * (a + b), axis=1),
+                         np.linalg.norm(tip + reach_mm * axis - 0.5 * (c_a + c_b), axis=1))
+        count = np.maximum(count, np.ceil(np.sqrt(bow / sag_mm)))
+    return np.maximum(count, 1).astype(np.int64)
+
+
 def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
-           ab: NDArray[np.float64], step: float,
+           ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
            joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
            ) -> tuple[NDArray[np.float64], ...]:
-    """Split moves into pieces no longer than ``step``.
+    """Split moves into pieces (:func:`_piece_counts`).
 
     The piece ends as the control places them: tips linear and axes renormalized, or,
     with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
     kinematics (the tip bows off the chord where the rotary axes turn).
     """
-    length = np.linalg.norm(b - a, axis=1)
-    pieces = np.maximum(np.ceil(length / step).astype(np.int64), 1)
+    pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     owner = np.repeat(np.arange(len(a)), pieces)
     first = np.r_[0, np.cumsum(pieces)[:-1]]
     j = np.arange(pieces.sum()) - first[owner]
@@ -248,6 +268,11 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     return p0, p1, x0, x1, owner
 
 
+#: Straight pieces of a joint-interpolated move stay within this share of the requested
+#: scallop of the bowed path.
+PIECE_SAG_SHARE = 0.01
+
+
 class _CutVolume:
     """The material the toolpath removes, queried along surface normals."""
 
@@ -258,11 +283,12 @@ class _CutVolume:
         joints = _checked_joints(toolpath, machine)
         a, b, xa, xb, owner, q_a, q_b = _feed_segments(toolpath, joints)
         interpolation = None if joints is None else (machine, q_a, q_b)
+        sag = PIECE_SAG_SHARE * scallop_mm  # straight pieces on a bowed (joint) path
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         if self.ball:
             step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, interpolation)
+            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
             self.a, self.b = p0 + big * x0, p1 + big * x1  # centres
             mid = 0.5 * (self.a + self.b)
             self.reach = big + horizon_mm + 0.5 * step
@@ -276,7 +302,7 @@ class _CutVolume:
         else:
             # pieces with their end tips and axes; each is swept straight
             step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, interpolation)
+            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
             self.reach = big + horizon_mm + 0.5 * step
