@@ -270,7 +270,7 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
 
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
 #: scallop of the bowed path.
-PIECE_SAG_SHARE = 0.01
+PIECE_SAG_SHARE = 0.03
 
 
 class _CutVolume:
