@@ -190,7 +190,7 @@ def test_ray_entry_into_a_turning_cutter_equals_dense_poses():
     # a bull-nose rolling 40 deg round an edge in one piece: the entry of rays into the
     # removed material equals the first height at which some of 2001 poses (tip linear,
     # axis normalized-linear) holds the ray's point
-    from toolpath.planning.sweep_kernel import ray_entries
+    from toolpath.planning.sweep_kernel import nearest_entries
 
     cutter = parse_cutter("bull:8:1")
     turn = np.radians(40.0)
@@ -201,9 +201,9 @@ def test_ray_entry_into_a_turning_cutter_equals_dense_poses():
     rng = np.random.default_rng(2)
     q = np.c_[rng.uniform(-2.0, 2.0, 40), rng.uniform(-4.0, 4.0, 40), np.full(40, -0.5)]
     n = np.tile([0.0, 0.0, 1.0], (40, 1))
-    got = ray_entries(q, n, np.arange(40), np.zeros(40, dtype=np.int64), p0[None], p1[None],
-                      a0[None], a1[None], corner_radius_mm=1.0, radius_mm=4.0,
-                      flute_length_mm=cutter.flute_length_mm, horizon_mm=3.0)
+    got = nearest_entries(q, n, np.arange(40), np.zeros(40, dtype=np.int64), p0[None],
+                          p1[None], a0[None], a1[None], corner_radius_mm=1.0, radius_mm=4.0,
+                          flute_length_mm=cutter.flute_length_mm, horizon_mm=3.0)
     u = np.linspace(0.0, 1.0, 2001)[:, None]
     tips = p0 + u * (p1 - p0)
     axes = a0 + u * (a1 - a0)

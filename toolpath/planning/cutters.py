@@ -213,38 +213,6 @@ class Cutter:
         u, _ = radial_directions(n, a)
         return p + r * n - r * a + (big - r) * u
 
-    def core_points(self, tips_mm: ArrayLike, axes: ArrayLike, normals: ArrayLike
-                    ) -> NDArray[np.float64]:
-        """Centres ``K = tip + r a - (R - r) u`` of the corner circle facing ``-n``.
-
-        For a ball, the ball centre. The cutter surface lies at distance ``r`` from ``K``
-        in the direction ``-n``, so the gap between cutter and surface is
-        ``dist(K, surface) - r``.
-        """
-        tips = np.asarray(tips_mm, dtype=float)
-        a = np.asarray(axes, dtype=float)
-        r, big = self.corner_radius_mm, self.radius_mm
-        if self.kind is CutterKind.BALL:
-            return tips + r * a
-        u, _ = radial_directions(normals, a)
-        return tips + r * a - (big - r) * u
-
-    def core_points_near(self, tips_mm: ArrayLike, axes: ArrayLike, points_mm: ArrayLike
-                         ) -> NDArray[np.float64]:
-        """The point of the core disc nearest each point, seen along the axis.
-
-        ``c + clip((p - c)_perp, R - r)``: the core disc's point over ``p`` when ``p`` is
-        under the flat face, else the corner circle's centre in ``p``'s direction; the
-        cutter point covering ``p`` lies within ``r`` of it. For a ball, its centre.
-        """
-        a = np.asarray(axes, dtype=float)
-        centre = np.asarray(tips_mm, dtype=float) + self.corner_radius_mm * a
-        rel = np.asarray(points_mm, dtype=float) - centre
-        lateral = rel - np.einsum("...k,...k->...", rel, a)[..., None] * a
-        size = np.linalg.norm(lateral, axis=-1, keepdims=True)
-        core = self.radius_mm - self.corner_radius_mm
-        return centre + lateral * np.minimum(1.0, core / np.maximum(size, 1e-300))
-
     # ------------------------------------------------------------------ curvature
     def curvature_tensor(self, normals: ArrayLike, axes: ArrayLike, e1: ArrayLike,
                          e2: ArrayLike) -> tuple[NDArray[np.float64], ...]:

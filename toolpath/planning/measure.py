@@ -286,32 +286,27 @@ class _CutVolume:
         sag = PIECE_SAG_SHARE * scallop_mm  # straight pieces on a bowed (joint) path
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
+        step = 0.125 * big
+        p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
+        self.reach = big + horizon_mm + 0.5 * step
+        self.segment_reach = big + horizon_mm
         if self.ball:
-            step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
             self.a, self.b = p0 + big * x0, p1 + big * x1  # centres
             mid = 0.5 * (self.a + self.b)
-            self.reach = big + horizon_mm + 0.5 * step
             self.piece_a, self.piece_b = self.a, self.b
-            self.segment_reach = big + horizon_mm
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
             # point R above it (plus a piece's half length and a margin for curvature)
             self.lift = big
             self.lateral = (np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + 0.5 * step
                             + 0.05 * big)
         else:
-            # pieces with their end tips and axes; each is swept straight
-            step = 0.125 * big
-            p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
+            # pieces with their end tips and axes (the cutter solid over their poses)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
-            self.reach = big + horizon_mm + 0.5 * step
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
-            self.segment_reach = big + horizon_mm
             self.lift = r
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
-        self.centres = mid
         self.cells = bin_samples(mid, self.reach) if len(mid) else None
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None

@@ -384,8 +384,10 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
     # neighbours' intervals)
     lower = np.minimum(allowed[:-1], allowed[1:])
 
+    levels_buffer = np.empty(max(max_passes, 2))
+
     def greedy(scale: float) -> list[float]:
-        levels = np.empty(max(max_passes, 2))
+        levels = levels_buffer
         count = _greedy(grid, allowed, lower, scale, lookahead, levels)
         if count < 0:
             s, ds = levels[-1], levels[-1] - levels[-2]

@@ -22,7 +22,7 @@ a straight sweep would carry them to.
 capsule, and the ray's entry is the first non-negative root among the cylinder's side
 (foot inside the segment) and the two end spheres (:func:`capsule_entries`).
 
-Queries come as pairs (ray ``owner[k]``, piece ``item[k]``), computed in parallel blocks.
+Queries come as pairs (ray ``owner[k]``, piece ``item[k]``), computed in parallel.
 :func:`nearest_entries` keeps only each ray's first entry, and skips the pieces whose tip
 plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
 """
@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_entries", "segment_distances"]
+__all__ = ["POSES", "capsule_entries", "nearest_entries", "segment_distances"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -48,6 +48,14 @@ TOUCH_MM = 1e-8
 SPHERE_STEPS = 48
 TERNARY_STEPS = 60
 BISECTION_STEPS = 50
+
+
+def _floats(a: NDArray) -> NDArray[np.float64]:
+    return np.ascontiguousarray(a, dtype=float)
+
+
+def _ints(a: NDArray) -> NDArray[np.int64]:
+    return np.ascontiguousarray(a, dtype=np.int64)
 
 
 @numba.njit(cache=True, inline="always")
@@ -113,21 +121,6 @@ def _entry_at(u, q, n, p0, p1, a0, a1, r, big, h, horizon, tip, axis):
     return _entry(q, n, tip, axis, r, big, h, horizon)
 
 
-#: Pairs per block of the parallel loop (each block its own scratch).
-BLOCK = 256
-
-
-@numba.njit(cache=True, parallel=True)
-def _ray_entries(q, n, owner, item, p0, p1, a0, a1, r, big, h, horizon, out):
-    for block in numba.prange((owner.size + BLOCK - 1) // BLOCK):
-        tip = np.empty(3)
-        axis = np.empty(3)
-        values = np.empty(POSES)
-        for k in range(block * BLOCK, min((block + 1) * BLOCK, owner.size)):
-            out[k] = _pair_entry(q, n, owner[k], item[k], p0, p1, a0, a1, r, big, h,
-                                 horizon, tip, axis, values)
-
-
 @numba.njit(cache=True)
 def _pair_entry(q, n, i, j, p0, p1, a0, a1, r, big, h, horizon, tip, axis, values):
     """The entry of ray ``i`` into piece ``j`` (the last three: scratch arrays)."""
@@ -161,44 +154,6 @@ def _pair_entry(q, n, i, j, p0, p1, a0, a1, r, big, h, horizon, tip, axis, value
                                horizon, tip, axis)
         found = min(found, f1, f2)
     return found
-
-
-def ray_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
-                item: NDArray[np.int64], tips0: NDArray[np.float64], tips1: NDArray[np.float64],
-                axes0: NDArray[np.float64], axes1: NDArray[np.float64], *,
-                corner_radius_mm: float, radius_mm: float, flute_length_mm: float,
-                horizon_mm: float) -> NDArray[np.float64]:
-    """Entry distance of ray ``owner[k]`` into the material removed by piece ``item[k]``.
-
-    Parameters
-    ----------
-    q, n : ndarray, shape (m, 3)
-        Ray origins (mm) and unit directions.
-    owner, item : ndarray of int, shape (k,)
-        The pairs: a ray and a piece.
-    tips0, tips1, axes0, axes1 : ndarray, shape (p, 3)
-        The pieces: tips (mm) and unit axes at their ends.
-    corner_radius_mm, radius_mm, flute_length_mm : float
-        The cutter.
-    horizon_mm : float
-        Entries farther than this are ``inf``.
-
-    Returns
-    -------
-    ndarray, shape (k,)
-        ``l >= 0`` (0: ``q`` itself inside the cutter), mm; ``inf`` when the ray does not
-        enter within the horizon.
-    """
-    out = np.empty(owner.size)
-    if owner.size:
-        def c(a: NDArray) -> NDArray:
-            return np.ascontiguousarray(a, dtype=float)
-        _ray_entries(c(q), c(n), np.ascontiguousarray(owner, dtype=np.int64),
-                     np.ascontiguousarray(item, dtype=np.int64), c(tips0), c(tips1), c(axes0),
-                     c(axes1), float(corner_radius_mm), float(radius_mm),
-                     float(flute_length_mm), float(horizon_mm), out)
-    return out
-
 
 
 #: Slack of the tip-plane bound per unit of axis change across a piece, in cutter radii
@@ -257,25 +212,40 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArr
                     tips1: NDArray[np.float64], axes0: NDArray[np.float64],
                     axes1: NDArray[np.float64], *, corner_radius_mm: float, radius_mm: float,
                     flute_length_mm: float, horizon_mm: float) -> NDArray[np.float64]:
-    """Each ray's first entry into the material removed by its pieces, mm (:func:`ray_entries`).
+    """Each ray's first entry into the material removed by its pieces, mm.
 
-    The pairs as in :func:`ray_entries`, ``owner`` ascending (grouped by ray); pieces are
-    tried in the order of their tip-plane bounds, up to the best entry found. Returns one
-    value per ray of ``q`` (``inf``: none within the horizon).
+    Pieces are tried in the order of their tip-plane bounds, up to the best entry found.
+
+    Parameters
+    ----------
+    q, n : ndarray, shape (m, 3)
+        Ray origins (mm) and unit directions.
+    owner, item : ndarray of int, shape (k,)
+        The pairs: a ray and a piece.
+    tips0, tips1, axes0, axes1 : ndarray, shape (p, 3)
+        The pieces: tips (mm) and unit axes at their ends.
+    corner_radius_mm, radius_mm, flute_length_mm : float
+        The cutter.
+    horizon_mm : float
+        Entries farther than this need not be found.
+
+    Returns
+    -------
+    ndarray, shape (m,)
+        ``l >= 0`` per ray (0: ``q`` itself inside the cutter), mm; ``inf`` when it enters
+        none of its pieces within the horizon.
     """
     out = np.full(len(q), np.inf)
     owner = np.asarray(owner, dtype=np.int64)
     if owner.size:
         order = np.argsort(owner, kind="stable")
-        owner, item = owner[order], np.asarray(item, dtype=np.int64)[order]
+        owner, item = owner[order], _ints(item)[order]
         starts = np.searchsorted(owner, np.arange(len(q) + 1)).astype(np.int64)
-
-        def c(a: NDArray) -> NDArray:
-            return np.ascontiguousarray(a, dtype=float)
-        _nearest_entries(c(q), c(n), starts, item, c(tips0), c(tips1), c(axes0), c(axes1),
-                         float(corner_radius_mm), float(radius_mm), float(flute_length_mm),
-                         float(horizon_mm), out)
+        _nearest_entries(_floats(q), _floats(n), starts, item, _floats(tips0), _floats(tips1),
+                         _floats(axes0), _floats(axes1), float(corner_radius_mm),
+                         float(radius_mm), float(flute_length_mm), float(horizon_mm), out)
     return out
+
 
 @numba.njit(cache=True)
 def _capsule_entry(q, n, a, b, r2):
@@ -328,12 +298,10 @@ def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArr
     The capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
     where the ray starts inside, ``inf`` where it misses.
     """
-    out = np.empty(owner.size)
-    if owner.size:
-        c = np.ascontiguousarray
-        _capsule_entries(c(q, dtype=float), c(n, dtype=float), c(owner, dtype=np.int64),
-                         c(item, dtype=np.int64), c(a, dtype=float), c(b, dtype=float),
-                         float(radius_mm) ** 2, out)
+    out = np.empty(len(owner))
+    if out.size:
+        _capsule_entries(_floats(q), _floats(n), _ints(owner), _ints(item), _floats(a),
+                         _floats(b), float(radius_mm) ** 2, out)
     return out
 
 
@@ -378,9 +346,8 @@ def segment_distances(p0: NDArray[np.float64], p1: NDArray[np.float64],
                       owner: NDArray[np.int64], a: NDArray[np.float64],
                       b: NDArray[np.float64], item: NDArray[np.int64]) -> NDArray[np.float64]:
     """Distance between segment ``owner[k]`` (``p0 p1``) and segment ``item[k]`` (``a b``), mm."""
-    out = np.empty(owner.size)
-    if owner.size:
-        c = np.ascontiguousarray
-        _segment_distances(c(p0, dtype=float), c(p1, dtype=float), c(owner, dtype=np.int64),
-                           c(a, dtype=float), c(b, dtype=float), c(item, dtype=np.int64), out)
+    out = np.empty(len(owner))
+    if out.size:
+        _segment_distances(_floats(p0), _floats(p1), _ints(owner), _floats(a), _floats(b),
+                           _ints(item), out)
     return out

@@ -287,7 +287,7 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
             break
         width = np.where(grow, np.maximum(2.0 * width, floor), width)
         centred &= ~grow
-    rates = segment_turn_rates(axes, x, same)
+    # the last round's rates are those of the final axes
     worst = int(np.argmax(rates)) if rates.size else -1
     return AxisSmoothing(axes=axes, half_width_mm=width,
                          max_rate_deg_per_mm=float(rates.max()) if rates.size else 0.0,
