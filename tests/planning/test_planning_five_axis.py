@@ -114,3 +114,69 @@ def test_window_means_are_the_interpolated_integral_over_each_window():
         np.testing.assert_allclose(got[:, k], expected, atol=1e-12)
     assert angle_deg(np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])) == \
         pytest.approx(90.0)
+
+
+def _round_nose(radius_mm=2.0, flat_mm=20.0, step_mm=0.05):
+    """A pass along a flat, round a half-circle nose and back along the other flat.
+
+    In the x-z plane: normals +z, turning through +x to -z on the nose; feed along the
+    path. Returns normals, feed directions and arc length.
+    """
+    flat = np.arange(0.0, flat_mm, step_mm)
+    nose = np.arange(0.0, np.pi * radius_mm, step_mm) / radius_mm
+    n = np.concatenate([np.tile([0.0, 0.0, 1.0], (flat.size, 1)),
+                        np.stack([np.sin(nose), 0 * nose, np.cos(nose)], 1),
+                        np.tile([0.0, 0.0, -1.0], (flat.size, 1))])
+    f = np.concatenate([np.tile([1.0, 0.0, 0.0], (flat.size, 1)),
+                        np.stack([np.cos(nose), 0 * nose, -np.sin(nose)], 1),
+                        np.tile([-1.0, 0.0, 0.0], (flat.size, 1))])
+    arclen = np.arange(len(n)) * step_mm
+    return n, f, arclen
+
+
+@pytest.mark.parametrize("limit_share", [1.5, 0.5])
+def test_rate_limit_round_a_nose_leans_ahead_within_the_lean_limit(limit_share):
+    # the normal turns 180 deg over the nose (pi * 2 mm); within a 60 deg lean the axis
+    # must turn at least (180 - 2 * 60) / (2 pi) = 9.55 deg/mm. A limit above that is
+    # kept, leaning ahead of the nose; one below it gives the smallest rate that fits
+    from toolpath.planning.tool_axis import smooth_axes
+
+    n, f, arclen = _round_nose()
+    needed = 60.0 / (2.0 * np.pi)
+    limit = limit_share * needed
+    nominal = lead_tilt_axes(n, f, 0.0, 0.0)
+    pid = np.zeros(len(n), dtype=np.int64)
+    free = smooth_axes(nominal, n, f, arclen, pid, smoothing_mm=0.0,
+                       max_rate_deg_per_mm=None, max_lean_deg=60.0)
+    assert free.max_rate_deg_per_mm > 25.0  # the nominal axes follow the normal
+    out = smooth_axes(nominal, n, f, arclen, pid, smoothing_mm=0.0,
+                      max_rate_deg_per_mm=limit, max_lean_deg=60.0)
+    assert out.rate_limited_passes == 1
+    assert angle_deg(out.axes, n).max() <= 60.0 + 1e-6
+    if limit_share > 1.0:
+        assert out.max_rate_deg_per_mm <= limit + 1e-9
+    else:
+        assert out.max_rate_deg_per_mm == pytest.approx(needed, rel=0.01)
+    # far from the nose and at the ends the axes are the nominal ones
+    np.testing.assert_allclose(out.axes[[0, -1]], nominal[[0, -1]], atol=1e-9)
+    assert angle_deg(out.axes[:100], nominal[:100]).max() < 1e-6
+
+
+def test_rate_limit_keeps_the_lead_of_a_flat_or_bull_nose_face():
+    # a face must not cross the normal: the axis leans ahead round the nose but never
+    # less than the lead (it then turns faster than a ball's axis could)
+    from toolpath.planning.tool_axis import smooth_axes
+
+    n, f, arclen = _round_nose()
+    nominal = lead_tilt_axes(n, f, 10.0, 0.0)
+    pid = np.zeros(len(n), dtype=np.int64)
+    kw = dict(smoothing_mm=0.0, max_rate_deg_per_mm=10.0, max_lean_deg=60.0)
+    ball = smooth_axes(nominal, n, f, arclen, pid, **kw)
+    face = smooth_axes(nominal, n, f, arclen, pid, keep_lead=True, **kw)
+    lead_ball = np.degrees(np.arctan2(np.einsum("ij,ij->i", ball.axes, f),
+                                      np.einsum("ij,ij->i", ball.axes, n)))
+    lead_face = np.degrees(np.arctan2(np.einsum("ij,ij->i", face.axes, f),
+                                      np.einsum("ij,ij->i", face.axes, n)))
+    assert lead_ball.min() < 0.0 < 10.0 - 1e-6 <= lead_face.min()
+    assert ball.max_rate_deg_per_mm <= 10.0 + 1e-9 < face.max_rate_deg_per_mm
+    assert angle_deg(face.axes, n).max() <= 60.0 + 1e-6

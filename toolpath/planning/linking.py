@@ -176,39 +176,41 @@ class LinkOptions:
 
 
 class _Builder:
-    """Accumulates points, axes, kinds, feeds and pass indices."""
+    """Accumulates points, axes, kinds, feeds and pass indices.
+
+    Blocks are kept as added and joined once (:meth:`arrays`), where points repeating the
+    position before them (zero-length moves) are dropped.
+    """
 
     def __init__(self, feed: float, plunge: float) -> None:
         self.pts: list[NDArray[np.float64]] = []
         self.axes: list[NDArray[np.float64]] = []
-        self.kinds: list[NDArray[np.uint8]] = []
-        self.passes: list[NDArray[np.int32]] = []
+        self.kinds: list[int] = []
+        self.passes: list[int] = []
         self.feed, self.plunge = feed, plunge
         self.last: NDArray[np.float64] | None = None
 
     def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
             pass_index: int = -1) -> None:
         pts = np.atleast_2d(pts)
-        axes = np.broadcast_to(np.atleast_2d(axes), pts.shape)
-        if self.last is not None and len(pts):
-            # drop points repeating the current position (zero-length moves)
-            keep = np.r_[np.linalg.norm(pts[0] - self.last) > 1e-9,
-                         np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
-            pts, axes = pts[keep], axes[keep]
         if not len(pts):
             return
         self.pts.append(pts)
-        self.axes.append(np.array(axes))
-        self.kinds.append(np.full(len(pts), int(kind), dtype=np.uint8))
-        self.passes.append(np.full(len(pts), pass_index, dtype=np.int32))
+        self.axes.append(np.broadcast_to(np.atleast_2d(axes), pts.shape))
+        self.kinds.append(int(kind))
+        self.passes.append(pass_index)
         self.last = pts[-1]
 
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         pts = np.concatenate(self.pts)
-        kinds = np.concatenate(self.kinds)
+        counts = [len(p) for p in self.pts]
+        kinds = np.repeat(np.array(self.kinds, dtype=np.uint8), counts)
+        passes = np.repeat(np.array(self.passes, dtype=np.int32), counts)
+        keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
+        pts, kinds, passes = pts[keep], kinds[keep], passes[keep]
         feeds = np.where(kinds == MoveKind.RAPID, 0.0,
                          np.where(kinds == MoveKind.PLUNGE, self.plunge, self.feed))
-        return pts, _unit(np.concatenate(self.axes)), kinds, feeds, np.concatenate(self.passes)
+        return pts, _unit(np.concatenate(self.axes)[keep]), kinds, feeds, passes
 
 
 def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.float64],

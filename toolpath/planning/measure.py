@@ -145,11 +145,10 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
         g_star = np.zeros((m, 2))
         for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
-            big = np.abs(value) >= 0.5 * top
-            for k in np.unique(u_at[big]):  # few values (101-point grid)
-                sel = np.flatnonzero((u_at == k) & big)
+            sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
+            if sel.size:
                 g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                             np.array([k]), newton=2,
+                                             u_at[sel, None], newton=2,
                                              **joint_moves(machine, joints, seg[sel]))[0][:, 0]
         gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
                              axis=1)

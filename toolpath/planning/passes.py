@@ -18,7 +18,7 @@ from machines import Machine
 from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
-from .cutters import Cutter
+from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
@@ -29,6 +29,7 @@ from .tool_axis import (
     lead_tilt_axes,
     limit_lean,
     segment_turn_rates,
+    slerp,
     smooth_axes,
 )
 
@@ -185,10 +186,12 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
     """
     if opts.axis_mode is not AxisMode.LEAD_TILT or len(pid) < 2:
         return nominal, None, 0
-    smoothing = smooth_axes(nominal, frame.normal, _rate_path(cutter, frame, pid), pid,
+    smoothing = smooth_axes(nominal, frame.normal, frame.e1 * direction[:, None],
+                            _rate_path(cutter, frame, pid), pid,
                             smoothing_mm=res["axis_smoothing_mm"],
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
-                            max_lean_deg=opts.max_lean_deg)
+                            max_lean_deg=opts.max_lean_deg,
+                            keep_lead=cutter.kind is not CutterKind.BALL)
     axes, pushed = _off_cone(opts, smoothing.axes, frame, direction)
     return axes, smoothing, pushed
 
@@ -252,11 +255,12 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     axes = np.empty_like(nominal)
     axes[~is_new] = pts.axes
     p = frame.point
-    d0 = np.linalg.norm(p[where_new] - p[before], axis=1)
-    d1 = np.linalg.norm(p[after] - p[where_new], axis=1)
-    w = (d0 / np.maximum(d0 + d1, 1e-300))[:, None]
-    mid = (1.0 - w) * axes[before] + w * axes[after]
-    mid /= np.linalg.norm(mid, axis=1, keepdims=True)
+    # by arc length of the path the turn rate is measured on, turning at a uniform rate
+    # (spherical interpolation): the halves of a move then turn no faster than the move
+    c = p + cutter.corner_radius_mm * frame.normal
+    d0 = np.linalg.norm(c[where_new] - c[before], axis=1)
+    d1 = np.linalg.norm(c[after] - c[where_new], axis=1)
+    mid = slerp(axes[before], axes[after], d0 / np.maximum(d0 + d1, 1e-300))
     direction = layout.direction[pid]
     sub = frame_take(frame, where_new)
     mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
@@ -337,14 +341,13 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         for value, u_at, limit, sign, further in sides:
             close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
                                    & (np.sign(value) == sign))
-            for k in np.unique(u_at[close]):
-                sel = close[u_at[close] == k]
-                j = idx[sel]
+            if close.size:
+                j = idx[close]
                 exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
                                         pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
-                                        pts.s[j], pts.s[j + 1], np.array([k]),
+                                        pts.s[j], pts.s[j + 1], u_at[close, None],
                                         **joint_moves(machine, q, j))
-                value[sel] = further(value[sel], exact[:, 0])
+                value[close] = further(value[close], exact[:, 0])
         worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])
         if q is not None:

@@ -291,9 +291,38 @@ def _parabola_angle(before: NDArray[np.float64], here: NDArray[np.float64],
 
 def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
           ) -> NDArray[np.float64]:
-    """Rows ``a + u (b - a)`` for every move and fraction, flattened move by move."""
-    return (a[:, None, :] * (1.0 - u)[None, :, None]
-            + b[:, None, :] * u[None, :, None]).reshape(-1, a.shape[1])
+    """Rows ``a + u (b - a)``, every move with its fractions ``u`` (m, k), move by move."""
+    out = np.empty((u.size, a.shape[1]))
+    _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
+               np.ascontiguousarray(u), False, out)
+    return out
+
+
+def _nlerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
+           ) -> NDArray[np.float64]:
+    """:func:`_lerp` of unit vectors, normalized (the axis of a tip-linear move)."""
+    out = np.empty((u.size, 3))
+    _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
+               np.ascontiguousarray(u), True, out)
+    return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _lerp_rows(a, b, u, unit, out):
+    m, k = u.shape
+    for i in numba.prange(m):
+        for j in range(k):
+            w = u[i, j]
+            row = i * k + j
+            size = 0.0
+            for c in range(a.shape[1]):
+                v = a[i, c] + w * (b[i, c] - a[i, c])
+                out[row, c] = v
+                size += v * v
+            if unit:
+                size = np.sqrt(size)
+                for c in range(a.shape[1]):
+                    out[row, c] /= size
 
 
 def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
@@ -323,19 +352,21 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     rotary axes turn). The Newton search starts between the ends' contacts ``(ta, sa)``
     and ``(tb, sb)`` (across the seam the short way on closed sections).
 
+    ``fractions`` are the same for every move (shape (k,)) or each move's own (m, k).
+
     Returns
     -------
-    gap, t, s : ndarray, shape (m, len(fractions))
+    gap, t, s : ndarray, shape (m, k)
     """
-    u = np.asarray(fractions, dtype=float)
     m = len(tips_a)
+    u = np.asarray(fractions, dtype=float)
+    u = np.broadcast_to(u, (m, u.shape[-1]))
     closed = bool(surface.closed_t)
     if closed:
         tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
     if joints is None:
         tips = _lerp(tips_a, tips_b, u)
-        axes = _lerp(axes_a, axes_b, u)
-        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        axes = _nlerp(axes_a, axes_b, u)
     else:
         machine, q_a, q_b = joints
         tips, axes = forward(machine, _lerp(q_a, q_b, u))
@@ -344,7 +375,7 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     if closed:
         t0 = np.mod(t0, 1.0)
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton)
-    return gap.reshape(m, u.size), t.reshape(m, u.size), s.reshape(m, u.size)
+    return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
 
 
 def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
@@ -365,8 +396,7 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     Returns
     -------
     low, u_low, high, u_high : ndarray, shape (m,)
-        The model's smallest value on [0, 1] and where it is; its largest and where (to
-        0.01: moves measured again there are grouped by these few values).
+        The model's smallest value on [0, 1] and where it is; its largest and where.
     """
     u = np.asarray(fractions, dtype=float)
     basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
@@ -388,8 +418,7 @@ def _model_extremes(coef, n_grid, out):
 
     A grid of ``n_grid`` points on [0, 1], then the vertex of the parabola through the
     extreme and its neighbours (the quartic is smooth on that step: the value is then
-    exact to ~1e-6 of the gap); ``u`` rounded to 0.01 (moves measured again there are
-    grouped by these few values).
+    exact to ~1e-6 of the gap).
     """
     step = 1.0 / (n_grid - 1)
     values = np.empty(n_grid)
@@ -415,7 +444,7 @@ def _model_extremes(coef, n_grid, out):
                 if sign * refined < sign * best:
                     best, at = refined, x
             out[2 * side, i] = best
-            out[2 * side + 1, i] = round(at * 100.0) / 100.0
+            out[2 * side + 1, i] = at
 
 
 #: Samples of the gap model of :func:`chord_extremes` on [0, 1] before refinement.

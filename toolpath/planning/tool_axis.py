@@ -9,12 +9,15 @@ the feed, seen from the spindle). The nominal axis is
 so a positive lead leans the tool forward, towards the feed, and a positive tilt leans it
 to the left. The axes are then smoothed along each pass by a moving average over arc
 length (a box filter of half-width ``w`` applied twice, i.e. a triangular window of
-half-width ``2w``, computed from cumulative integrals, renormalized), the window of a pass
-doubling until its turn rate is within ``max_rate_deg_per_mm``. A smoothed axis leaning
-more than ``max_lean_deg`` from the surface normal is turned back towards the normal onto
-that cone (the contact must stay on the cutting end, well below the shank); where that
-leaves the rate above the limit it is reported. Finally axes can be pushed out of the
-singular cone (angle from the workpiece +Z) along the great circle through +Z.
+half-width ``2w``, computed from cumulative integrals, renormalized, centred so that the
+ends keep their nominal axes); a smoothed axis leaning more than ``max_lean_deg`` from the
+surface normal is turned back towards the normal onto that cone (the contact must stay on
+the cutting end, well below the shank). On passes still turning faster than
+``max_axis_rate_deg_per_mm`` (round a leading edge tighter than the rate allows) the
+axis is rate limited within the lean cone (:func:`rate_limited_axes`): it starts turning
+before the edge and finishes after it; where even that cannot keep the rate, the smallest
+rate that fits is used and reported. Finally axes can be pushed out of the singular cone
+(angle from the workpiece +Z) along the great circle through +Z.
 """
 
 from __future__ import annotations
@@ -32,7 +35,9 @@ __all__ = [
     "keep_out_of_cone",
     "lead_tilt_axes",
     "limit_lean",
+    "rate_limited_axes",
     "segment_turn_rates",
+    "slerp",
     "smooth_axes",
 ]
 
@@ -81,6 +86,19 @@ def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
     b = np.cross(n, f)
     lead, tilt = np.radians(lead_deg), np.radians(tilt_deg)
     return _unit(np.cos(lead) * (np.cos(tilt) * n + np.sin(tilt) * b) + np.sin(lead) * f)
+
+
+def slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
+          ) -> NDArray[np.float64]:
+    """Unit vectors a fraction ``w`` of the angle from unit ``a`` to ``b`` (rows)."""
+    theta = np.radians(angle_deg(a, b))[:, None]
+    w = np.asarray(w, dtype=float).reshape(-1, 1)
+    sin = np.sin(theta)
+    small = sin < 1e-9
+    safe = np.where(small, 1.0, sin)
+    out = np.where(small, (1.0 - w) * a + w * b,
+                   (np.sin((1.0 - w) * theta) * a + np.sin(w * theta) * b) / safe)
+    return _unit(out)
 
 
 def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64],
@@ -181,21 +199,21 @@ class AxisSmoothing:
     ----------
     axes : ndarray, shape (n, 3)
         Smoothed unit axes.
-    half_width_mm : ndarray, shape (n_passes,)
-        Box half-width used on each pass, mm.
     max_rate_deg_per_mm : float
         Largest turn rate left on any segment.
     worst_point : int
         Index of the first point of that segment (``-1`` if there are none).
     limited_points : int
         Points whose smoothed axis was turned back onto the ``max_lean_deg`` cone.
+    rate_limited_passes : int
+        Passes whose axes were turned ahead of the surface to keep the rate limit.
     """
 
     axes: NDArray[np.float64]
-    half_width_mm: NDArray[np.float64]
     max_rate_deg_per_mm: float
     worst_point: int
     limited_points: int
+    rate_limited_passes: int = 0
 
 
 def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean_deg: float
@@ -217,28 +235,32 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
 
 
 def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
-                arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64], *,
-                smoothing_mm: float, max_rate_deg_per_mm: float | None, max_lean_deg: float,
-                max_doublings: int = 12) -> AxisSmoothing:
+                feed_dirs: NDArray[np.float64], arclen_mm: NDArray[np.float64],
+                pass_id: NDArray[np.int64], *, smoothing_mm: float,
+                max_rate_deg_per_mm: float | None, max_lean_deg: float,
+                keep_lead: bool = False) -> AxisSmoothing:
     """Smooth nominal axes along each pass and limit their turn rate (module docstring).
 
     Parameters
     ----------
     nominal : ndarray, shape (n, 3)
         Unit nominal axes, in pass order (passes contiguous, ascending ``pass_id``).
-    normals : ndarray, shape (n, 3)
-        Unit surface normals at the contacts.
+    normals, feed_dirs : ndarray, shape (n, 3)
+        Unit surface normals at the contacts and unit feed directions.
     arclen_mm : ndarray, shape (n,)
         Arc length along each pass (restarting anywhere; only differences within a pass
         are used), mm: the path the rate is measured on.
     pass_id : ndarray, shape (n,)
         Pass of each point (contiguous runs).
     smoothing_mm : float
-        Initial box half-width, mm (0: no smoothing unless the rate needs it).
+        Box half-width, mm (0: no smoothing).
     max_rate_deg_per_mm : float or None
         Turn-rate limit, deg/mm; ``None`` for none.
     max_lean_deg : float
         Largest angle allowed between an axis and the normal (see :func:`limit_lean`).
+    keep_lead : bool
+        The rate limit may lean the axis further ahead than the nominal one, not less
+        (flat and bull-nose cutters; :func:`rate_limited_axes`).
     """
     n = len(nominal)
     starts = np.flatnonzero(np.r_[True, pass_id[1:] != pass_id[:-1]])
@@ -251,47 +273,236 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
     offsets = np.concatenate([[0.0], np.cumsum(lengths + 1.0)[:-1]])
     x = local + offsets[which]
     x = x + np.arange(n) * 1e-12  # strictly increasing even with repeated points
-    lo_x, hi_x = x[starts][which], x[ends][which]
     same = pass_id[1:] == pass_id[:-1]
-    width = np.full(n_passes, float(smoothing_mm))
-    # centred windows until the rate limit needs them wider than the pass ends allow
-    centred = np.ones(n_passes, dtype=bool)
-    if max_rate_deg_per_mm is not None:
-        # the smallest window that can help: a few segments
-        seg = np.diff(local)[same] if same.any() else np.array([1.0])
-        floor = 2.0 * float(np.median(seg)) if seg.size else 1.0
-    else:
-        floor = 0.0
     axes = nominal
     limited = np.zeros(n, dtype=bool)
-    for _ in range(max_doublings + 1):
-        w_pt = width[which]
-        if (w_pt > 0.0).any():
-            c_pt = centred[which]
-            once = _box_average(nominal, x, lo_x, hi_x, w_pt, c_pt)
-            twice = _box_average(once, x, lo_x, hi_x, w_pt, c_pt)
-            # a window spanning opposite normals can average to nothing: keep the nominal
-            weak = np.linalg.norm(twice, axis=1) < 0.2
-            twice = np.where(weak[:, None], nominal, _unit(twice))
-            axes, limited = limit_lean(twice, normals, max_lean_deg)
-        rates = segment_turn_rates(axes, x, same)
-        if max_rate_deg_per_mm is None:
-            break
-        bad_seg = rates > max_rate_deg_per_mm
+    if smoothing_mm > 0.0:
+        lo_x, hi_x = x[starts][which], x[ends][which]
+        w_pt = np.full(n, float(smoothing_mm))
+        c_pt = np.ones(n, dtype=bool)
+        once = _box_average(nominal, x, lo_x, hi_x, w_pt, c_pt)
+        twice = _box_average(once, x, lo_x, hi_x, w_pt, c_pt)
+        # a window spanning opposite normals can average to nothing: keep the nominal
+        weak = np.linalg.norm(twice, axis=1) < 0.2
+        twice = np.where(weak[:, None], nominal, _unit(twice))
+        axes, limited = limit_lean(twice, normals, max_lean_deg)
+    rates = segment_turn_rates(axes, x, same)
+    n_limited = 0
+    if max_rate_deg_per_mm is not None and (rates > max_rate_deg_per_mm).any():
         bad_pass = np.zeros(n_passes, dtype=bool)
-        bad_pass[which[:-1][bad_seg]] = True
-        if not bad_pass.any():
-            break
-        grow = bad_pass & (width < lengths)
-        if not grow.any():
-            break
-        width = np.where(grow, np.maximum(2.0 * width, floor), width)
-        centred &= ~grow
-    # the last round's rates are those of the final axes
+        bad_pass[which[:-1][rates > max_rate_deg_per_mm]] = True
+        rows = np.flatnonzero(bad_pass[which])
+        sub_starts = np.flatnonzero(np.r_[True, which[rows][1:] != which[rows][:-1]])
+        axes = axes.copy()
+        axes[rows] = rate_limited_axes(axes[rows], normals[rows], feed_dirs[rows], x[rows],
+                                       sub_starts, max_rate_deg_per_mm=max_rate_deg_per_mm,
+                                       max_lean_deg=max_lean_deg,
+                                       nominal=nominal[rows] if keep_lead else None)
+        limited[rows] = False
+        rates = segment_turn_rates(axes, x, same)
+        n_limited = int(bad_pass.sum())
     worst = int(np.argmax(rates)) if rates.size else -1
-    return AxisSmoothing(axes=axes, half_width_mm=width,
-                         max_rate_deg_per_mm=float(rates.max()) if rates.size else 0.0,
-                         worst_point=worst, limited_points=int(limited.sum()))
+    return AxisSmoothing(axes=axes, max_rate_deg_per_mm=float(rates.max()) if rates.size
+                         else 0.0, worst_point=worst, limited_points=int(limited.sum()),
+                         rate_limited_passes=n_limited)
+
+
+#: Rounds of :func:`rate_limited_axes` that tighten a pass's in-plane rate where the axis'
+#: sideways turn (the frame's own twist) puts the true rate over the limit.
+RATE_ROUNDS = 6
+#: The in-plane rate aimed at, as a share of the limit (room for the sideways turn).
+RATE_MARGIN = 0.98
+
+
+def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
+                      feed_dirs: NDArray[np.float64], x_mm: NDArray[np.float64],
+                      starts: NDArray[np.int64], *, max_rate_deg_per_mm: float,
+                      max_lean_deg: float, nominal: NDArray[np.float64] | None = None
+                      ) -> NDArray[np.float64]:
+    """Axes turning at most ``max_rate_deg_per_mm``, within ``max_lean_deg`` of the normal.
+
+    Along a pass the normals turn about an axis ``B`` (that of the plane their tips fit
+    best: the span of a blade round its leading edge, the pole of a latitude circle).
+    About ``B`` a unit vector has an azimuth ``phi`` and an elevation ``beta``; the
+    wanted axes (``axes``) keep their elevation and the azimuth is rate limited: the
+    turn rate is ``sqrt(cos(beta)^2 phi'^2 + beta'^2)``, so each segment allows
+    ``|phi'| <= sqrt(rho^2 - beta'^2) / cos(beta)``. The lean limit is a tube
+    ``|phi - phi_n| <= h`` round the normal's azimuth, ``cos(h) = (cos(max_lean) -
+    sin(beta) sin(beta_n)) / (cos(beta) cos(beta_n))``. Per pass (compiled,
+    :func:`_rate_tube`) the tube is narrowed to what a path within the rate can reach
+    (forward and backward sweeps), then ``phi`` follows the wanted azimuth as closely as
+    the rate allows, slewing forward and backward, and the mean of the two is taken (both
+    feasible, so their mean is). Round a leading edge the axis starts turning before the
+    edge and finishes after it. Where no path meets the rate within the tube, the
+    smallest rate that fits is used. The result is measured; a pass still over (its
+    normals not quite on a circle) is done again with its rate lowered by the excess
+    (:data:`RATE_ROUNDS`).
+
+    Parameters
+    ----------
+    axes : ndarray, shape (n, 3)
+        The wanted axes (smoothed nominal), passes contiguous from ``starts``.
+    normals, feed_dirs : ndarray, shape (n, 3)
+        Unit normals and feed directions.
+    x_mm : ndarray, shape (n,)
+        Increasing arc length along the passes (the rate's path), mm.
+    starts : ndarray of int
+        First row of each pass.
+    nominal : ndarray, shape (n, 3), optional
+        Leads to keep: the axis may lean further ahead of the normal than these, not
+        less. A flat or bull-nose face must not cross the normal: where it stands square
+        on a convex edge its contact jumps across the face, and lying flat on a concave
+        stretch it gouges.
+    """
+    n = len(normals)
+    ends = np.r_[starts[1:], n]
+    which = np.repeat(np.arange(len(starts)), ends - starts)
+    pole = _turn_axes(normals, starts)[which]
+    ex = _unit(np.cross(pole, np.where(np.abs(pole[:, :1]) < 0.9, [[1.0, 0.0, 0.0]],
+                                       [[0.0, 1.0, 0.0]])))
+    ey = np.cross(pole, ex)
+    first = np.zeros(n, dtype=bool)
+    first[starts] = True
+
+    def polar(v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        az = np.arctan2(np.einsum("ij,ij->i", v, ey), np.einsum("ij,ij->i", v, ex))
+        return az, np.arcsin(np.clip(np.einsum("ij,ij->i", v, pole), -1.0, 1.0))
+
+    def near(az: NDArray[np.float64], ref: NDArray[np.float64]) -> NDArray[np.float64]:
+        return ref + np.angle(np.exp(1j * (az - ref)))
+
+    az_n, beta_n = polar(normals)
+    step = np.angle(np.exp(1j * np.diff(az_n)))  # unwrapped within each pass
+    phi_n = az_n[0] + np.r_[0.0, np.cumsum(step)]
+    phi_n += np.repeat(az_n[starts] - phi_n[starts], ends - starts)
+    az_w, beta = polar(axes)
+    want = near(az_w, phi_n)
+    cos_b = np.maximum(np.cos(beta), 1e-3)
+    c = ((np.cos(np.radians(max_lean_deg)) - np.sin(beta) * np.sin(beta_n))
+         / (cos_b * np.maximum(np.cos(beta_n), 1e-3)))
+    half = np.arccos(np.clip(c, -1.0, 1.0))
+    lo, hi = phi_n - half, phi_n + half
+    if nominal is not None:
+        az_l, _ = polar(nominal)
+        lead = near(az_l, phi_n)
+        # the way the feed runs round the pole: ahead is increasing azimuth when > 0
+        ahead = np.einsum("ij,ij->i", feed_dirs, np.cross(pole, normals))
+        lo = np.where(ahead > 0.3, np.maximum(lo, np.minimum(lead, hi)), lo)
+        hi = np.where(ahead < -0.3, np.minimum(hi, np.maximum(lead, lo)), hi)
+    want = np.clip(want, lo, hi)
+    # each segment's azimuth rate at the limit: a path where that is 1 per mm
+    rho = np.radians(max_rate_deg_per_mm)
+    dx = np.diff(x_mm)
+    slope = np.diff(beta) / np.maximum(dx, 1e-12)
+    room = np.sqrt(np.maximum(rho * rho - slope * slope, (0.1 * rho) ** 2))
+    cos_mid = np.maximum(np.cos(0.5 * (beta[1:] + beta[:-1])), 0.1)
+    x_phi = np.r_[0.0, np.cumsum(np.where(first[1:], 1.0, dx * room / cos_mid))]
+    scale = np.ones(len(starts))
+    out = np.empty_like(axes)
+    best = np.full(len(starts), np.inf)  # each pass keeps its best round
+    todo = np.arange(len(starts))
+    phi = np.empty(n)
+    for _ in range(RATE_ROUNDS):
+        _rate_tubes(x_phi, lo, hi, want, scale, starts[todo], ends[todo], phi)
+        rows = np.isin(which, todo)
+        trial = np.cos(beta)[:, None] * (np.cos(phi)[:, None] * ex + np.sin(phi)[:, None] * ey) \
+            + np.sin(beta)[:, None] * pole
+        rates = segment_turn_rates(trial, x_mm, ~first[1:])
+        worst = np.maximum.reduceat(np.r_[rates, 0.0], starts)
+        better = np.zeros(len(starts), dtype=bool)
+        better[todo] = worst[todo] < best[todo]
+        take = better[which] & rows
+        out[take] = trial[take]
+        best = np.where(better, worst, best)
+        todo = todo[worst[todo] > max_rate_deg_per_mm * (1.0 + 1e-9)]
+        if not todo.size:
+            break
+        scale[todo] *= RATE_MARGIN * max_rate_deg_per_mm / worst[todo]
+    return _unit(out)
+
+
+def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Per pass, the unit axis its normals turn about.
+
+    The normal of the plane that fits their tips best (least eigenvector of their
+    covariance).
+    """
+    counts = np.diff(np.r_[starts, len(normals)])[:, None]
+    mean = np.add.reduceat(normals, starts) / counts
+    outer = np.add.reduceat(normals[:, :, None] * normals[:, None, :], starts)
+    outer /= counts[:, :, None]
+    cov = outer - mean[:, :, None] * mean[:, None, :]
+    _, vectors = np.linalg.eigh(cov)
+    return vectors[:, :, 0]
+
+
+@numba.njit(cache=True)
+def _rate_tubes(x, lo, hi, want, rho, starts, ends, phi):
+    """:func:`_rate_tube` on each pass ``starts[k]:ends[k]`` (``phi`` filled there).
+
+    The ends keep the wanted axis where the rate allows it (as centred windows do: spiral
+    rings join there), else they are free; where no path keeps the rate in the tube, the
+    smallest rate that does is used.
+    """
+    for k in range(starts.size):
+        a, b = starts[k], ends[k]
+        rate = rho[k]
+        xs, los, his, wants, out = x[a:b], lo[a:b], hi[a:b], want[a:b], phi[a:b]
+        if _rate_tube(xs, los, his, wants, rate, True, out):
+            continue
+        if _rate_tube(xs, los, his, wants, rate, False, out):
+            continue
+        low, high = rate, rate
+        while True:
+            high *= 2.0
+            if _rate_tube(xs, los, his, wants, high, False, out):
+                break
+        for _ in range(40):
+            mid = 0.5 * (low + high)
+            if _rate_tube(xs, los, his, wants, mid, False, out):
+                high = mid
+            else:
+                low = mid
+        _rate_tube(xs, los, his, wants, high, False, out)
+
+
+@numba.njit(cache=True)
+def _rate_tube(x, lo, hi, want, rate, pin_ends, phi):
+    """One pass: ``phi`` in the tube ``[lo, hi]``, turning at most ``rate``; False if none.
+
+    ``|phi[i] - phi[i-1]| <= rate (x[i] - x[i-1])``; ``phi`` follows ``want`` (the mean of
+    a forward and a backward slew), equal to it at both ends with ``pin_ends``.
+    """
+    n = x.size
+    low = lo.copy()
+    high = hi.copy()
+    if pin_ends:
+        low[0] = high[0] = min(max(want[0], lo[0]), hi[0])
+        low[n - 1] = high[n - 1] = min(max(want[n - 1], lo[n - 1]), hi[n - 1])
+    for i in range(1, n):
+        d = rate * (x[i] - x[i - 1])
+        high[i] = min(high[i], high[i - 1] + d)
+        low[i] = max(low[i], low[i - 1] - d)
+    for i in range(n - 2, -1, -1):
+        d = rate * (x[i + 1] - x[i])
+        high[i] = min(high[i], high[i + 1] + d)
+        low[i] = max(low[i], low[i + 1] - d)
+    for i in range(n):
+        if low[i] > high[i] + 1e-12:
+            return False
+    fwd = np.empty(n)
+    fwd[0] = min(max(want[0], low[0]), high[0])
+    for i in range(1, n):
+        d = rate * (x[i] - x[i - 1])
+        fwd[i] = min(max(want[i], max(low[i], fwd[i - 1] - d)), min(high[i], fwd[i - 1] + d))
+    bwd = np.empty(n)
+    bwd[n - 1] = min(max(want[n - 1], low[n - 1]), high[n - 1])
+    for i in range(n - 2, -1, -1):
+        d = rate * (x[i + 1] - x[i])
+        bwd[i] = min(max(want[i], max(low[i], bwd[i + 1] - d)), min(high[i], bwd[i + 1] + d))
+    for i in range(n):
+        phi[i] = 0.5 * (fwd[i] + bwd[i])
+    return True
 
 
 def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
