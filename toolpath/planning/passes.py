@@ -9,8 +9,10 @@ inserted (chord splits, reach boundaries), so nothing already evaluated is recom
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, fields, replace
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -131,9 +133,16 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _frame_concat(a: PassFrame, b: PassFrame) -> PassFrame:
-    return PassFrame(**{f.name: np.concatenate([getattr(a, f.name), getattr(b, f.name)])
+def _frame_merge(a: PassFrame, b: PassFrame, is_new: NDArray[np.bool_]) -> PassFrame:
+    """Frames ``a`` and ``b`` merged: ``b``'s rows where ``is_new``, ``a``'s elsewhere."""
+    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), is_new)
                         for f in fields(a)})
+
+
+def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[np.bool_]
+           ) -> NDArray[np.float64]:
+    """``new``'s rows where ``is_new``, ``old``'s elsewhere (both in order)."""
+    return np.insert(old, np.flatnonzero(is_new) - np.arange(len(new)), new, axis=0)
 
 
 def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[np.int64]
@@ -145,12 +154,22 @@ def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[n
 
 
 def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
-    step = np.linalg.norm(np.diff(points, axis=0), axis=1)
-    step = np.where(pid[1:] == pid[:-1], step, 0.0)
-    total = np.r_[0.0, np.cumsum(step)]
-    starts = np.flatnonzero(np.r_[True, pid[1:] != pid[:-1]])
-    which = np.repeat(np.arange(starts.size), np.diff(np.r_[starts, pid.size]))
-    return total - total[starts][which]
+    """Polyline length from the start of each pass (passes contiguous in ``pid``)."""
+    out = np.empty(len(points))
+    _arclen_rows(np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(pid), out)
+    return out
+
+
+@numba.njit(cache=True)
+def _arclen_rows(points, pid, out):
+    for i in range(points.shape[0]):
+        if i == 0 or pid[i] != pid[i - 1]:
+            out[i] = 0.0
+            continue
+        d0 = points[i, 0] - points[i - 1, 0]
+        d1 = points[i, 1] - points[i - 1, 1]
+        d2 = points[i, 2] - points[i - 1, 2]
+        out[i] = out[i - 1] + math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
 
 
 def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
@@ -223,8 +242,11 @@ def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingO
 def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                   res: dict[str, float], layout: PassLayout, pts: PassPoints,
                   t_new: NDArray[np.float64], pid_new: NDArray[np.int64]
-                  ) -> tuple[PassPoints, NDArray[np.int64]]:
-    """Merge new contacts into ``pts``; returns the points and the new ones' indices.
+                  ) -> tuple[PassPoints, NDArray[np.int64], bool]:
+    """Merge new contacts into ``pts``.
+
+    Returns the points, the new ones' indices and whether the old points kept their axes
+    and tips.
 
     In 5-axis the points already there keep their axes (and tips): a new point strictly
     inside a move takes the axis interpolated between the move's ends by arc length,
@@ -236,22 +258,30 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     s_new = layout.s_of(t_new, pid_new)
     f_new = pass_frame(surface, t_new, s_new)
     nom_new = _nominal_axes(opts, f_new, layout.direction[pid_new])
-    t = np.r_[pts.t, t_new]
-    pid = np.r_[pts.pid, pid_new]
-    order = np.lexsort((t, pid))
-    frame = frame_take(_frame_concat(pts.frame, f_new), order)
-    nominal = np.concatenate([pts.nominal, nom_new])[order]
-    s = np.r_[pts.s, s_new][order]
-    t, pid = t[order], pid[order]
-    where_new = np.flatnonzero(order >= len(pts))
-    is_new = order >= len(pts)
+    # both sorted by pass then t: where each new point goes (t < 2 orders within a pass)
+    key_new = 2.0 * pid_new + t_new
+    sort_new = np.argsort(key_new, kind="stable")
+    where_new = np.searchsorted(2.0 * pts.pid + pts.t, key_new[sort_new], side="right") \
+        + np.arange(t_new.size)
+    is_new = np.zeros(len(pts) + t_new.size, dtype=bool)
+    is_new[where_new] = True
+    inverse = np.empty_like(sort_new)
+    inverse[sort_new] = np.arange(sort_new.size)
+    where_new = where_new[inverse]  # in the caller's order
+    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), is_new)
+    nominal = _merge(pts.nominal, nom_new[sort_new], is_new)
+    s = _merge(pts.s, s_new[sort_new], is_new)
+    t = _merge(pts.t, t_new[sort_new], is_new)
+    pid = _merge(pts.pid, pid_new[sort_new], is_new)
     before = np.clip(where_new - 1, 0, None)
     after = np.clip(where_new + 1, None, len(t) - 1)
     # each new point between two old ones of its pass (chord midpoints), else from scratch
     between = ((where_new > 0) & (where_new < len(t) - 1) & ~is_new[before] & ~is_new[after]
                & (pid[before] == pid[where_new]) & (pid[after] == pid[where_new]))
     if pts.smoothing is None or not between.all():
-        return _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal), where_new
+        # (fixed axes, or smoothed again: the old points' axes may move)
+        merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
+        return merged, where_new, pts.smoothing is None
     axes = np.empty_like(nominal)
     axes[~is_new] = pts.axes
     p = frame.point
@@ -276,7 +306,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     merged = PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
                         arclen=_arclen(p, pid), direction=direction, smoothing=smoothing,
                         cone_pushed=pts.cone_pushed + pushed)
-    return merged, where_new
+    return merged, where_new, True
 
 
 def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
@@ -357,7 +387,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         t_mid = 0.5 * (pts.t[idx] + pts.t[idx + 1])
         new_t, new_pid = t_mid[bad], pts.pid[idx[bad]]
         old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
-        pts, where_new = insert_points(surface, cutter, opts, res, layout, pts, new_t, new_pid)
+        pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
+                                             new_pid)
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
         if keep is not None:
@@ -372,10 +403,11 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # their neighbours: a chord checked before is then another chord)
         moved = np.zeros(len(pts), dtype=bool)
         moved[where_new] = True
-        old_at = np.flatnonzero(~moved)
-        shift = (np.linalg.norm(pts.tips[old_at] - old_tips, axis=1)
-                 + cutter.radius_mm * np.linalg.norm(pts.axes[old_at] - old_axes, axis=1))
-        moved[old_at[shift > MOVED_SHARE * tol]] = True
+        if not kept:
+            old_at = np.flatnonzero(~moved)
+            shift = (np.linalg.norm(pts.tips[old_at] - old_tips, axis=1)
+                     + cutter.radius_mm * np.linalg.norm(pts.axes[old_at] - old_axes, axis=1))
+            moved[old_at[shift > MOVED_SHARE * tol]] = True
         at = np.flatnonzero(moved)
         check = np.zeros(len(pts) - 1, dtype=bool)
         check[np.clip(at - 1, 0, None)] = True
@@ -410,7 +442,7 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
             m_ok = reach(surface.normal(mid, layout.s_of(mid, pid)))
             good_t = np.where(m_ok, mid, good_t)
             bad_t = np.where(m_ok, bad_t, mid)
-        pts, where_new = insert_points(surface, cutter, opts, res, layout, pts, good_t, pid)
+        pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts, good_t, pid)
         merged = np.zeros(len(pts), dtype=bool)
         is_new = np.zeros(len(pts), dtype=bool)
         is_new[where_new] = True

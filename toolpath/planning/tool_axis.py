@@ -354,71 +354,15 @@ def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
         on a convex edge its contact jumps across the face, and lying flat on a concave
         stretch it gouges.
     """
-    n = len(normals)
-    ends = np.r_[starts[1:], n]
-    which = np.repeat(np.arange(len(starts)), ends - starts)
-    pole = _turn_axes(normals, starts)[which]
-    ex = _unit(np.cross(pole, np.where(np.abs(pole[:, :1]) < 0.9, [[1.0, 0.0, 0.0]],
-                                       [[0.0, 1.0, 0.0]])))
-    ey = np.cross(pole, ex)
-    first = np.zeros(n, dtype=bool)
-    first[starts] = True
-
-    def polar(v: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        az = np.arctan2(np.einsum("ij,ij->i", v, ey), np.einsum("ij,ij->i", v, ex))
-        return az, np.arcsin(np.clip(np.einsum("ij,ij->i", v, pole), -1.0, 1.0))
-
-    def near(az: NDArray[np.float64], ref: NDArray[np.float64]) -> NDArray[np.float64]:
-        return ref + np.angle(np.exp(1j * (az - ref)))
-
-    az_n, beta_n = polar(normals)
-    step = np.angle(np.exp(1j * np.diff(az_n)))  # unwrapped within each pass
-    phi_n = az_n[0] + np.r_[0.0, np.cumsum(step)]
-    phi_n += np.repeat(az_n[starts] - phi_n[starts], ends - starts)
-    az_w, beta = polar(axes)
-    want = near(az_w, phi_n)
-    cos_b = np.maximum(np.cos(beta), 1e-3)
-    c = ((np.cos(np.radians(max_lean_deg)) - np.sin(beta) * np.sin(beta_n))
-         / (cos_b * np.maximum(np.cos(beta_n), 1e-3)))
-    half = np.arccos(np.clip(c, -1.0, 1.0))
-    lo, hi = phi_n - half, phi_n + half
-    if nominal is not None:
-        az_l, _ = polar(nominal)
-        lead = near(az_l, phi_n)
-        # the way the feed runs round the pole: ahead is increasing azimuth when > 0
-        ahead = np.einsum("ij,ij->i", feed_dirs, np.cross(pole, normals))
-        lo = np.where(ahead > 0.3, np.maximum(lo, np.minimum(lead, hi)), lo)
-        hi = np.where(ahead < -0.3, np.minimum(hi, np.maximum(lead, lo)), hi)
-    want = np.clip(want, lo, hi)
-    # each segment's azimuth rate at the limit: a path where that is 1 per mm
-    rho = np.radians(max_rate_deg_per_mm)
-    dx = np.diff(x_mm)
-    slope = np.diff(beta) / np.maximum(dx, 1e-12)
-    room = np.sqrt(np.maximum(rho * rho - slope * slope, (0.1 * rho) ** 2))
-    cos_mid = np.maximum(np.cos(0.5 * (beta[1:] + beta[:-1])), 0.1)
-    x_phi = np.r_[0.0, np.cumsum(np.where(first[1:], 1.0, dx * room / cos_mid))]
-    scale = np.ones(len(starts))
+    bounds = np.r_[starts, len(normals)].astype(np.int64)
+    poles = _turn_axes(normals, starts)
+    has_lead = nominal is not None
     out = np.empty_like(axes)
-    best = np.full(len(starts), np.inf)  # each pass keeps its best round
-    todo = np.arange(len(starts))
-    phi = np.empty(n)
-    for _ in range(RATE_ROUNDS):
-        _rate_tubes(x_phi, lo, hi, want, scale, starts[todo], ends[todo], phi)
-        rows = np.isin(which, todo)
-        trial = np.cos(beta)[:, None] * (np.cos(phi)[:, None] * ex + np.sin(phi)[:, None] * ey) \
-            + np.sin(beta)[:, None] * pole
-        rates = segment_turn_rates(trial, x_mm, ~first[1:])
-        worst = np.maximum.reduceat(np.r_[rates, 0.0], starts)
-        better = np.zeros(len(starts), dtype=bool)
-        better[todo] = worst[todo] < best[todo]
-        take = better[which] & rows
-        out[take] = trial[take]
-        best = np.where(better, worst, best)
-        todo = todo[worst[todo] > max_rate_deg_per_mm * (1.0 + 1e-9)]
-        if not todo.size:
-            break
-        scale[todo] *= RATE_MARGIN * max_rate_deg_per_mm / worst[todo]
-    return _unit(out)
+    _limit_passes(*(np.ascontiguousarray(v, dtype=float) for v in (
+        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm, poles)), bounds,
+        has_lead, math.cos(math.radians(max_lean_deg)), math.radians(max_rate_deg_per_mm),
+        RATE_ROUNDS, RATE_MARGIN, out)
+    return out
 
 
 def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArray[np.float64]:
@@ -427,43 +371,157 @@ def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArr
     The normal of the plane that fits their tips best (least eigenvector of their
     covariance).
     """
-    counts = np.diff(np.r_[starts, len(normals)])[:, None]
-    mean = np.add.reduceat(normals, starts) / counts
-    outer = np.add.reduceat(normals[:, :, None] * normals[:, None, :], starts)
-    outer /= counts[:, :, None]
-    cov = outer - mean[:, :, None] * mean[:, None, :]
+    cov = np.empty((len(starts), 3, 3))
+    _covariances(np.ascontiguousarray(normals), np.r_[starts, len(normals)], cov)
     _, vectors = np.linalg.eigh(cov)
     return vectors[:, :, 0]
 
 
 @numba.njit(cache=True)
-def _rate_tubes(x, lo, hi, want, rho, starts, ends, phi):
-    """:func:`_rate_tube` on each pass ``starts[k]:ends[k]`` (``phi`` filled there).
+def _covariances(v, bounds, out):
+    """``out[k]``: covariance of the rows ``bounds[k]:bounds[k + 1]`` of ``v``."""
+    for k in range(bounds.size - 1):
+        a, b = bounds[k], bounds[k + 1]
+        mean = np.zeros(3)
+        for i in range(a, b):
+            for c in range(3):
+                mean[c] += v[i, c]
+        mean /= b - a
+        for c in range(3):
+            for d in range(3):
+                acc = 0.0
+                for i in range(a, b):
+                    acc += (v[i, c] - mean[c]) * (v[i, d] - mean[d])
+                out[k, c, d] = acc / (b - a)
+
+
+@numba.njit(cache=True, parallel=True)
+def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_lean, rho,
+                  rounds, margin, out):
+    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel)."""
+    limit_deg = math.degrees(rho)
+    for k in numba.prange(bounds.size - 1):
+        a, b = bounds[k], bounds[k + 1]
+        m = b - a
+        pole = poles[k]
+        # a basis (ex, ey) of the plane normal to the pole
+        ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+        ex = np.cross(pole, ref)
+        ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
+        ey = np.cross(pole, ex)
+        phi_n = np.empty(m)
+        lo = np.empty(m)
+        hi = np.empty(m)
+        want = np.empty(m)
+        beta = np.empty(m)
+        for j in range(m):
+            i = a + j
+            az_n, beta_n = _polar(normals[i], pole, ex, ey)
+            if j == 0:
+                phi_n[j] = az_n
+            else:  # unwrapped along the pass
+                phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
+            az_w, beta_w = _polar(axes[i], pole, ex, ey)
+            beta[j] = beta_w
+            c = ((cos_lean - math.sin(beta_w) * math.sin(beta_n))
+                 / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
+            half = math.acos(min(max(c, -1.0), 1.0))
+            lo[j] = phi_n[j] - half
+            hi[j] = phi_n[j] + half
+            if has_lead:
+                az_l, _ = _polar(nominal[i], pole, ex, ey)
+                lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
+                # the way the feed runs round the pole: ahead is increasing azimuth if > 0
+                side = np.cross(pole, normals[i])
+                ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
+                if ahead > 0.3:
+                    lo[j] = max(lo[j], min(lead, hi[j]))
+                elif ahead < -0.3:
+                    hi[j] = min(hi[j], max(lead, lo[j]))
+            want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
+        # a path along which the azimuth may turn 1 per unit at the rate limit
+        x_phi = np.empty(m)
+        x_phi[0] = 0.0
+        for j in range(1, m):
+            dx = x[a + j] - x[a + j - 1]
+            slope = (beta[j] - beta[j - 1]) / max(dx, 1e-12)
+            room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
+            cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
+            x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
+        scale = 1.0
+        best = np.inf
+        phi = np.empty(m)
+        trial = np.empty((m, 3))
+        for _ in range(rounds):
+            _fit_tube(x_phi, lo, hi, want, scale, phi)
+            for j in range(m):
+                cb, sb = math.cos(beta[j]), math.sin(beta[j])
+                cp, sp = math.cos(phi[j]), math.sin(phi[j])
+                for c in range(3):
+                    trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
+            worst = 0.0
+            for j in range(1, m):
+                worst = max(worst, _turn_rate(trial[j - 1], trial[j], x[a + j] - x[a + j - 1]))
+            if worst < best:
+                best = worst
+                out[a:b] = trial
+            if worst <= limit_deg * (1.0 + 1e-9):
+                break
+            scale *= margin * limit_deg / worst
+
+
+@numba.njit(cache=True)
+def _polar(v, pole, ex, ey):
+    """Azimuth and elevation of ``v`` about ``pole`` (rad)."""
+    up = v[0] * pole[0] + v[1] * pole[1] + v[2] * pole[2]
+    az = math.atan2(v[0] * ey[0] + v[1] * ey[1] + v[2] * ey[2],
+                    v[0] * ex[0] + v[1] * ex[1] + v[2] * ex[2])
+    return az, math.asin(min(max(up, -1.0), 1.0))
+
+
+@numba.njit(cache=True)
+def _wrap_pi(angle):
+    """``angle`` folded into [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
+def _turn_rate(u, v, length):
+    """Angle between unit ``u`` and ``v`` per ``length``, deg (as segment_turn_rates)."""
+    c0 = u[1] * v[2] - u[2] * v[1]
+    c1 = u[2] * v[0] - u[0] * v[2]
+    c2 = u[0] * v[1] - u[1] * v[0]
+    turn = math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2),
+                                   u[0] * v[0] + u[1] * v[1] + u[2] * v[2]))
+    if length > 1e-12:
+        return turn / length
+    return np.inf if turn > 1e-9 else 0.0
+
+
+@numba.njit(cache=True)
+def _fit_tube(x, lo, hi, want, rate, phi):
+    """:func:`_rate_tube` on one pass, its ends pinned if the rate allows it.
 
     The ends keep the wanted axis where the rate allows it (as centred windows do: spiral
     rings join there), else they are free; where no path keeps the rate in the tube, the
     smallest rate that does is used.
     """
-    for k in range(starts.size):
-        a, b = starts[k], ends[k]
-        rate = rho[k]
-        xs, los, his, wants, out = x[a:b], lo[a:b], hi[a:b], want[a:b], phi[a:b]
-        if _rate_tube(xs, los, his, wants, rate, True, out):
-            continue
-        if _rate_tube(xs, los, his, wants, rate, False, out):
-            continue
-        low, high = rate, rate
-        while True:
-            high *= 2.0
-            if _rate_tube(xs, los, his, wants, high, False, out):
-                break
-        for _ in range(40):
-            mid = 0.5 * (low + high)
-            if _rate_tube(xs, los, his, wants, mid, False, out):
-                high = mid
-            else:
-                low = mid
-        _rate_tube(xs, los, his, wants, high, False, out)
+    if _rate_tube(x, lo, hi, want, rate, True, phi):
+        return
+    if _rate_tube(x, lo, hi, want, rate, False, phi):
+        return
+    low, high = rate, rate
+    while True:
+        high *= 2.0
+        if _rate_tube(x, lo, hi, want, high, False, phi):
+            break
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        if _rate_tube(x, lo, hi, want, mid, False, phi):
+            high = mid
+        else:
+            low = mid
+    _rate_tube(x, lo, hi, want, high, False, phi)
 
 
 @numba.njit(cache=True)
