@@ -201,7 +201,8 @@ def test_ray_entry_into_a_turning_cutter_equals_dense_poses():
     rng = np.random.default_rng(2)
     q = np.c_[rng.uniform(-2.0, 2.0, 40), rng.uniform(-4.0, 4.0, 40), np.full(40, -0.5)]
     n = np.tile([0.0, 0.0, 1.0], (40, 1))
-    got = nearest_entries(q, n, np.arange(40), np.zeros(40, dtype=np.int64), p0[None],
+    got = nearest_entries(q, n, np.arange(40), np.arange(1, 41), np.zeros(40, dtype=np.int64),
+                          p0[None],
                           p1[None], a0[None], a1[None], corner_radius_mm=1.0, radius_mm=4.0,
                           flute_length_mm=cutter.flute_length_mm, horizon_mm=3.0)
     u = np.linspace(0.0, 1.0, 2001)[:, None]
@@ -241,7 +242,7 @@ def test_capsule_entries_and_segment_distances_equal_dense_samples():
     n = rng.normal(size=(30, 3))
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     pairs = np.arange(30)
-    got = capsule_entries(q, n, pairs, pairs, a, b, 0.7)
+    got = capsule_entries(q, n, pairs, pairs + 1, pairs, a, b, 0.7)
     u = np.linspace(0.0, 1.0, 2001)
     heights = np.linspace(0.0, 6.0, 6001)
     for k in range(30):

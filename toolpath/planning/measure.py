@@ -58,7 +58,7 @@ from .clearance_kernel import bin_samples, pairs_within
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
-from .sweep_kernel import capsule_entries, nearest_entries, segment_distances
+from .sweep_kernel import capsule_entries, nearest_entries, ray_ranges, segment_distances
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -319,25 +319,20 @@ class _CutVolume:
         owner, item = pairs_within(self.cells, q, self.reach if radius is None else radius)
         return owner, item
 
-    def height(self, q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
-               item: NDArray[np.int64]) -> NDArray[np.float64]:
-        """Entry distance along ``n`` into the removed material (inf: beyond the horizon)."""
-        out = np.full(len(q), np.inf)
-        if not owner.size:
-            return out
+    def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
+               hi: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Entry distance along ``n`` into the removed material (inf: beyond the horizon).
+
+        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``.
+        """
         if not self.ball:
-            out = nearest_entries(q, n, owner, item, self.tips0, self.tips1, self.axes0,
+            out = nearest_entries(q, n, lo, hi, item, self.tips0, self.tips1, self.axes0,
                                   self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
                                   radius_mm=self.cutter.radius_mm,
                                   flute_length_mm=self.cutter.flute_length_mm,
                                   horizon_mm=self.horizon)
-            return np.where(out > self.horizon, np.inf, out)
-        lam = capsule_entries(q, n, owner, item, self.a, self.b, self.cutter.radius_mm)
-        if (owner[1:] >= owner[:-1]).all():  # grouped by ray (pairs())
-            starts = np.flatnonzero(np.r_[True, owner[1:] != owner[:-1]])
-            out[owner[starts]] = np.minimum.reduceat(lam, starts)
         else:
-            np.minimum.at(out, owner, lam)
+            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm)
         return np.where(out > self.horizon, np.inf, out)
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
@@ -385,18 +380,17 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     near = dist <= volume.segment_reach + 2.0 * sag[owner]
     owner, item = owner[near], item[near]
     mine = volume.pass_of[item] == own[owner]
+    # each seed's pieces of its own pass and of the others
+    own_lo, own_hi, own_item = ray_ranges(owner[mine], item[mine], m)
+    other_lo, other_hi, other_item = ray_ranges(owner[~mine], item[~mine], m)
     big = 10.0 * volume.horizon + 1.0
 
     def f(sv: NDArray[np.float64], active: NDArray[np.int64]
           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """``h_own - h_other`` (clipped) and ``min(h_own, h_other)`` at seeds ``active``."""
-        remap = np.full(m, -1)
-        remap[active] = np.arange(active.size)
-        sel = remap[owner] >= 0
-        o, it, mi = remap[owner[sel]], item[sel], mine[sel]
         x, nrm = surface.points_and_normals(t[active], sv)
-        h_own = volume.height(x, nrm, o[mi], it[mi])
-        h_other = volume.height(x, nrm, o[~mi], it[~mi])
+        h_own = volume.height(x, nrm, own_lo[active], own_hi[active], own_item)
+        h_other = volume.height(x, nrm, other_lo[active], other_hi[active], other_item)
         return np.minimum(h_own, big) - np.minimum(h_other, big), np.minimum(h_own, h_other)
 
     # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0
@@ -534,7 +528,8 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     frame = surface.frame(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), grid=True)
     q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
     heights = np.concatenate([
-        volume.height(q[i:i + 100_000], n[i:i + 100_000], *volume.pairs(q[i:i + 100_000]))
+        volume.height(q[i:i + 100_000], n[i:i + 100_000],
+                      *ray_ranges(*volume.pairs(q[i:i + 100_000]), len(q[i:i + 100_000])))
         for i in range(0, len(q), 100_000)])
     area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
     uncut = ~np.isfinite(heights)

@@ -22,9 +22,9 @@ a straight sweep would carry them to.
 capsule, and the ray's entry is the first non-negative root among the cylinder's side
 (foot inside the segment) and the two end spheres (:func:`capsule_entries`).
 
-Queries come as pairs (ray ``owner[k]``, piece ``item[k]``), computed in parallel.
-:func:`nearest_entries` keeps only each ray's first entry, and skips the pieces whose tip
-plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
+Each ray comes with its pieces (``item[lo:hi]``, :func:`ray_ranges`); rays are computed in
+parallel and keep only their first entry. :func:`nearest_entries` skips the pieces whose
+tip plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "capsule_entries", "nearest_entries", "segment_distances"]
+__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_ranges", "segment_distances"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -185,9 +185,9 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
 
 
 @numba.njit(cache=True, parallel=True)
-def _nearest_entries(q, n, starts, item, p0, p1, a0, a1, r, big, h, horizon, out):
-    for i in numba.prange(starts.size - 1):
-        lo, hi = starts[i], starts[i + 1]
+def _nearest_entries(q, n, lo_k, hi_k, item, p0, p1, a0, a1, r, big, h, horizon, out):
+    for i in numba.prange(lo_k.size):
+        lo, hi = lo_k[i], hi_k[i]
         best = np.inf
         if hi > lo:
             tip = np.empty(3)
@@ -207,8 +207,19 @@ def _nearest_entries(q, n, starts, item, p0, p1, a0, a1, r, big, h, horizon, out
         out[i] = best
 
 
-def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
-                    item: NDArray[np.int64], tips0: NDArray[np.float64],
+def ray_ranges(owner: NDArray[np.int64], item: NDArray[np.int64], n_rays: int
+               ) -> tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]:
+    """Pairs grouped by ray: ``lo, hi`` per ray (its pieces are ``item[lo:hi]``), ``item``."""
+    owner = np.asarray(owner, dtype=np.int64)
+    if owner.size and not (owner[1:] >= owner[:-1]).all():
+        order = np.argsort(owner, kind="stable")
+        owner, item = owner[order], np.asarray(item)[order]
+    starts = np.searchsorted(owner, np.arange(n_rays + 1)).astype(np.int64)
+    return starts[:-1], starts[1:], _ints(item)
+
+
+def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
+                    hi: NDArray[np.int64], item: NDArray[np.int64], tips0: NDArray[np.float64],
                     tips1: NDArray[np.float64], axes0: NDArray[np.float64],
                     axes1: NDArray[np.float64], *, corner_radius_mm: float, radius_mm: float,
                     flute_length_mm: float, horizon_mm: float) -> NDArray[np.float64]:
@@ -220,8 +231,8 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArr
     ----------
     q, n : ndarray, shape (m, 3)
         Ray origins (mm) and unit directions.
-    owner, item : ndarray of int, shape (k,)
-        The pairs: a ray and a piece.
+    lo, hi, item : ndarray of int
+        Ray ``i``'s pieces are ``item[lo[i]:hi[i]]`` (:func:`ray_ranges`).
     tips0, tips1, axes0, axes1 : ndarray, shape (p, 3)
         The pieces: tips (mm) and unit axes at their ends.
     corner_radius_mm, radius_mm, flute_length_mm : float
@@ -236,14 +247,11 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArr
         none of its pieces within the horizon.
     """
     out = np.full(len(q), np.inf)
-    owner = np.asarray(owner, dtype=np.int64)
-    if owner.size:
-        order = np.argsort(owner, kind="stable")
-        owner, item = owner[order], _ints(item)[order]
-        starts = np.searchsorted(owner, np.arange(len(q) + 1)).astype(np.int64)
-        _nearest_entries(_floats(q), _floats(n), starts, item, _floats(tips0), _floats(tips1),
-                         _floats(axes0), _floats(axes1), float(corner_radius_mm),
-                         float(radius_mm), float(flute_length_mm), float(horizon_mm), out)
+    if len(q):
+        _nearest_entries(_floats(q), _floats(n), _ints(lo), _ints(hi), _ints(item),
+                         _floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1),
+                         float(corner_radius_mm), float(radius_mm), float(flute_length_mm),
+                         float(horizon_mm), out)
     return out
 
 
@@ -285,23 +293,28 @@ def _capsule_entry(q, n, a, b, r2):
 
 
 @numba.njit(cache=True, parallel=True)
-def _capsule_entries(q, n, owner, item, a, b, r2, out):
-    for k in numba.prange(owner.size):
-        out[k] = _capsule_entry(q[owner[k]], n[owner[k]], a[item[k]], b[item[k]], r2)
+def _capsule_entries(q, n, lo, hi, item, a, b, r2, out):
+    for i in numba.prange(lo.size):
+        best = np.inf
+        for k in range(lo[i], hi[i]):
+            best = min(best, _capsule_entry(q[i], n[i], a[item[k]], b[item[k]], r2))
+            if best == 0.0:
+                break
+        out[i] = best
 
 
-def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], owner: NDArray[np.int64],
-                    item: NDArray[np.int64], a: NDArray[np.float64], b: NDArray[np.float64],
-                    radius_mm: float) -> NDArray[np.float64]:
-    """Entry distance of ray ``owner[k]`` into the capsule round segment ``item[k]``, mm.
+def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
+                    hi: NDArray[np.int64], item: NDArray[np.int64], a: NDArray[np.float64],
+                    b: NDArray[np.float64], radius_mm: float) -> NDArray[np.float64]:
+    """Each ray's first entry into the capsules round its segments ``item[lo:hi]``, mm.
 
-    The capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
-    where the ray starts inside, ``inf`` where it misses.
+    A capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
+    where the ray starts inside one, ``inf`` where it misses them all.
     """
-    out = np.empty(len(owner))
-    if out.size:
-        _capsule_entries(_floats(q), _floats(n), _ints(owner), _ints(item), _floats(a),
-                         _floats(b), float(radius_mm) ** 2, out)
+    out = np.full(len(q), np.inf)
+    if len(q):
+        _capsule_entries(_floats(q), _floats(n), _ints(lo), _ints(hi), _ints(item),
+                         _floats(a), _floats(b), float(radius_mm) ** 2, out)
     return out
 
 
