@@ -54,7 +54,7 @@ from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
 from .sampling import chord_length_mm, cutter_gap, equidistribute
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
-from .tool_axis import lead_tilt_axes
+from .tool_axis import angle_deg, lead_tilt_axes
 
 __all__ = ["plan_finishing"]
 
@@ -208,6 +208,38 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
             "points": frame.point, "density": density, "advice": advice}
+
+
+#: Probe columns added where the normal turns along the passes, as a share of ``probe_t``.
+TURN_PROBES_SHARE = 0.5
+#: Levels of ``s`` and columns per ``probe_t`` of the pilot grid that finds them.
+PILOT_LEVELS, PILOT_REFINE = 9, 4
+
+
+def _probe_t(surface: ParametricSurface, n: int) -> NDArray[np.float64]:
+    """Probe parameters along the passes: ``n`` uniform, and more where the normal turns.
+
+    A leading edge turns the normal by half a turn over a fraction of a millimetre: there
+    uniform probes would see it at a few points, and the chord density, the stepover and
+    the axis' turn read from them would be coarse. ``TURN_PROBES_SHARE * n`` further
+    parameters are spread evenly in the normal's turn (the largest over
+    :data:`PILOT_LEVELS` levels of ``s``, on a pilot grid of ``PILOT_REFINE * n`` columns).
+    """
+    uniform = np.linspace(0.0, 1.0, n)
+    extra = int(TURN_PROBES_SHARE * n)
+    if extra < 2:
+        return uniform
+    pilot = np.linspace(0.0, 1.0, PILOT_REFINE * n)
+    normals = surface.normal(*(v.ravel() for v in np.meshgrid(
+        pilot, np.linspace(0.0, 1.0, PILOT_LEVELS), indexing="ij"))).reshape(
+            pilot.size, PILOT_LEVELS, 3)
+    turn = np.radians(angle_deg(normals[1:], normals[:-1])).max(axis=1)
+    total = np.r_[0.0, np.cumsum(turn)]
+    if not total[-1] > 1e-9:
+        return uniform
+    at = np.interp(np.linspace(0.0, total[-1], extra), total + np.arange(total.size) * 1e-15,
+                   pilot)
+    return np.unique(np.r_[uniform, at])
 
 
 #: A flat end mill needing this many times the passes of a ball of its diameter is told.
@@ -439,7 +471,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
-    t_probe = np.linspace(0.0, 1.0, opts.probe_t)
+    t_probe = _probe_t(surface, opts.probe_t)
     s_probe = np.linspace(0.0, 1.0, 65)
     probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
     finite = probe["allowed"][np.isfinite(probe["allowed"])]

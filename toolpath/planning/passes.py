@@ -53,6 +53,10 @@ MAX_CHORD_ROUNDS = 12
 #: sideways, across the pass (it widens the stepover: 0.002 mm on a 0.35 mm stepover raises
 #: the cusp by 1 %); along the normal the gap check sees it, along the feed it is harmless.
 JOINT_SIDEWAYS_MM = 0.002
+#: An offending move is split into parts whose gap, scaling with the square of the
+#: length, is this share of its limit (at least 2 parts, at most :data:`MAX_PARTS`).
+SPLIT_TARGET = 0.8
+MAX_PARTS = 8
 #: A checked chord is checked again when its ends move (tip, plus the cutter radius times
 #: the axis change) by more than this share of the chord tolerance.
 MOVED_SHARE = 0.01
@@ -248,8 +252,8 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     Returns the points, the new ones' indices and whether the old points kept their axes
     and tips.
 
-    In 5-axis the points already there keep their axes (and tips): a new point strictly
-    inside a move takes the axis interpolated between the move's ends by arc length,
+    In 5-axis the points already there keep their axes (and tips): new points strictly
+    inside a move take the axis interpolated between the move's ends by arc length,
     lean-limited and kept off the cone like the others. The smoothed axes vary slowly over
     the smoothing window, so this is what smoothing again would give, to the second order
     of the move's length; smoothing everything again would move every other tip by a
@@ -273,11 +277,13 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     s = _merge(pts.s, s_new[sort_new], is_new)
     t = _merge(pts.t, t_new[sort_new], is_new)
     pid = _merge(pts.pid, pid_new[sort_new], is_new)
-    before = np.clip(where_new - 1, 0, None)
-    after = np.clip(where_new + 1, None, len(t) - 1)
-    # each new point between two old ones of its pass (chord midpoints), else from scratch
-    between = ((where_new > 0) & (where_new < len(t) - 1) & ~is_new[before] & ~is_new[after]
-               & (pid[before] == pid[where_new]) & (pid[after] == pid[where_new]))
+    # the old points on either side of each new one (several new ones may share a move)
+    old_at = np.flatnonzero(~is_new)
+    rank = np.searchsorted(old_at, where_new)
+    before = old_at[np.clip(rank - 1, 0, None)]
+    after = old_at[np.clip(rank, None, old_at.size - 1)]
+    between = ((rank > 0) & (rank < old_at.size) & (pid[before] == pid[where_new])
+               & (pid[after] == pid[where_new]))
     if pts.smoothing is None or not between.all():
         # (fixed axes, or smoothed again: the old points' axes may move)
         merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
@@ -286,11 +292,10 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     axes[~is_new] = pts.axes
     p = frame.point
     # by arc length of the path the turn rate is measured on, turning at a uniform rate
-    # (spherical interpolation): the halves of a move then turn no faster than the move
-    c = p + cutter.corner_radius_mm * frame.normal
-    d0 = np.linalg.norm(c[where_new] - c[before], axis=1)
-    d1 = np.linalg.norm(c[after] - c[where_new], axis=1)
-    mid = slerp(axes[before], axes[after], d0 / np.maximum(d0 + d1, 1e-300))
+    # (spherical interpolation): the pieces of a move then turn no faster than the move
+    along = _rate_path(cutter, frame, pid)
+    w = (along[where_new] - along[before]) / np.maximum(along[after] - along[before], 1e-300)
+    mid = slerp(axes[before], axes[after], w)
     direction = layout.direction[pid]
     sub = frame_take(frame, where_new)
     mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
@@ -299,7 +304,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     tips = np.empty_like(axes)
     tips[~is_new] = pts.tips
     tips[where_new] = cutter.tips_from_contacts(sub.point, sub.normal, mid)
-    rates = segment_turn_rates(axes, _rate_path(cutter, frame, pid), pid[1:] == pid[:-1])
+    rates = segment_turn_rates(axes, along, pid[1:] == pid[:-1])
     smoothing = replace(pts.smoothing, axes=axes, max_rate_deg_per_mm=float(rates.max()),
                         worst_point=int(np.argmax(rates)),
                         limited_points=pts.smoothing.limited_points + int(limited.sum()))
@@ -337,9 +342,10 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     (:func:`~toolpath.planning.sampling.chord_extremes`); chords cutting deeper
     than ``chord_tol_mm`` or standing higher than the undercut allowance
     (``res["undercut_mm"]``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
-    get a contact at their parameter midpoint. Only new chords
-    are checked again. ``keep`` (reachable points) travels along: a chord between two
-    kept points is checked; an inserted point is kept.
+    are split into equal parameter steps, as many as the gap's excess needs
+    (:data:`SPLIT_TARGET`). Only new chords are checked again. ``keep`` (reachable
+    points) travels along: a chord between two kept points is checked; an inserted point
+    is kept.
 
     Returns
     -------
@@ -384,8 +390,15 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
         if not bad.any():
             break
-        t_mid = 0.5 * (pts.t[idx] + pts.t[idx + 1])
-        new_t, new_pid = t_mid[bad], pts.pid[idx[bad]]
+        # each offending move in as many equal parts (in t) as its gap needs: the gap
+        # shrinks with the square of the length
+        over = np.maximum(-low / tol, high / res["undercut_mm"])[bad]
+        parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
+        j = np.repeat(idx[bad], parts - 1)
+        first = np.r_[0, np.cumsum(parts - 1)[:-1]]
+        k = np.arange(j.size) - np.repeat(first, parts - 1) + 1
+        new_t = pts.t[j] + (pts.t[j + 1] - pts.t[j]) * k / np.repeat(parts, parts - 1)
+        new_pid = pts.pid[j]
         old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
         pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
                                              new_pid)

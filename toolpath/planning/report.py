@@ -252,7 +252,8 @@ class PlanningReport:
         if self.max_axis_rate_deg_per_mm is not None:
             limit = ("" if self.axis_rate_limit_deg_per_mm is None
                      else f" (limit {self.axis_rate_limit_deg_per_mm:g}"
-                     + ("; exceeded where the lean limit keeps the axis near the normal)"
+                     + ("; exceeded: the slowest turn within max_lean_deg of the normal, a "
+                        "flat or bull-nose face never leaning less than the lead)"
                         if self.max_axis_rate_deg_per_mm > self.axis_rate_limit_deg_per_mm
                         else ")"))
             out.append(f"axis turn rate    {self.max_axis_rate_deg_per_mm:.3f} deg/mm max"
