@@ -211,6 +211,10 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
             out[j, i, k] = acc + (d[k] if j == 0 else 0.0)
 
 
+#: A Newton step predicted to move the foot by less than this share of ``converged_mm``
+#: ends the search without a check of its point (the signed distance evaluates it).
+SMALL_STEP_SHARE = 0.1
+
 #: Points per block of the compiled loops run in parallel (each block its own scratch).
 BLOCK = 1024
 
@@ -298,6 +302,16 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         here = d0 * d0 + d1 * d1 + d2 * d2
         new_t = _wrap(ti - step_t, closed)
         new_s = min(max(si - step_s, 0.0), 1.0)
+        # a last step that moves the foot by far less than converged_mm (to first order)
+        # cannot overshoot: taken without evaluating the surface there first
+        lin0 = xt0 * (new_t - ti) + xs0 * (new_s - si)
+        lin1 = xt1 * (new_t - ti) + xs1 * (new_s - si)
+        lin2 = xt2 * (new_t - ti) + xs2 * (new_s - si)
+        if (orientation != 0.0 and k + 1 >= iterations and abs(new_t - ti) < 0.25
+                and lin0 * lin0 + lin1 * lin1 + lin2 * lin2
+                < (SMALL_STEP_SHARE * converged_mm) ** 2):
+            ti, si = new_t, new_s
+            break
         closer = False
         for _ in range(8):
             _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
