@@ -9,6 +9,7 @@ cutter locations against the 2 s target, and, measured in the same run:
   second partials) once at as many points: how many surface frames the plan costs;
 * ``numpy x``: seconds per million CL points over a fixed numpy workload (1e6 unit-vector
   normalizations, a machine-speed yardstick);
+* ``deg/mm``: the largest tool-axis turn rate along a pass (5-axis; the limit is 10);
 * the independent measurement's time (``measure=True``), reported apart.
 
 With ``--fine``: the dev blade (standing, 5-axis) also at scallop 0.001 mm and chord
@@ -144,7 +145,7 @@ def main() -> None:
     yard = _numpy_yardstick()
     print(f"numpy yardstick: {yard * 1e3:.1f} ms per 1e6 normalizations")
     head = (f"{'case':<22}{'axis':<10}{'passes':>7}{'CL pts':>9}{'plan s':>8}{'s/1M':>7}"
-            f"{'target':>8}{'frame x':>9}{'numpy x':>9}{'measure s':>10}"
+            f"{'target':>8}{'frame x':>9}{'numpy x':>9}{'deg/mm':>7}{'measure s':>10}"
             f"{'scallop':>10}{'chord':>9}")
     print(head)
     cases = _cases(args.quick)
@@ -167,7 +168,7 @@ def main() -> None:
             if axis == "3" and linking == "spiral":
                 kw["linking"] = "zigzag"
             t0 = time.perf_counter()
-            path, _ = plan_finishing(surface, "ball:6", measure=False, **kw)
+            path, planned = plan_finishing(surface, "ball:6", measure=False, **kw)
             plan_s = time.perf_counter() - t0
             n_cl = int((path.pass_index >= 0).sum())
             per_m = plan_s / n_cl * 1e6
@@ -177,9 +178,11 @@ def main() -> None:
                 _, rep = plan_finishing(surface, "ball:6", measure=True, **kw)
                 measured = (f"{rep.seconds.get('measure', 0.0):>10.2f}"
                             f"{rep.max_scallop_mm:>10.5f}{rep.max_chord_error_mm:>9.5f}")
+            rate = planned.max_axis_rate_deg_per_mm
             print(f"{name:<22}{axis:<10}{path.n_passes:>7}{n_cl:>9}{plan_s:>8.2f}"
                   f"{per_m:>7.2f}{'ok' if per_m < TARGET_S_PER_MILLION else 'SLOW':>8}"
-                  f"{plan_s / frame_s:>9.1f}{per_m / yard:>9.1f}" + measured, flush=True)
+                  f"{plan_s / frame_s:>9.1f}{per_m / yard:>9.1f}"
+                  f"{'-' if rate is None else f'{rate:.1f}':>7}" + measured, flush=True)
 
 
 if __name__ == "__main__":

@@ -472,19 +472,21 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     clock.stage("probe")
     t_probe = _probe_t(surface, opts.probe_t)
-    s_probe = np.linspace(0.0, 1.0, 65)
+    n_s = opts.probe_s
+    if n_s is None:
+        # three levels per pass: the passes estimated from every fourth column
+        coarse = _probe(surface, cutter, opts, res, np.unique(np.r_[t_probe[::4], 1.0]),
+                        np.linspace(0.0, 1.0, 65))["allowed"]
+        coarse = coarse[np.isfinite(coarse)]
+        n_s = int(np.clip(3.0 / max(float(coarse.min()), 1e-6) + 1, 65, 129)) \
+            if coarse.size else 65
+    s_probe = np.linspace(0.0, 1.0, n_s)
     probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
-    finite = probe["allowed"][np.isfinite(probe["allowed"])]
-    if not finite.size and not probe["gouging"].any():
+    if not np.isfinite(probe["allowed"]).any() and not probe["gouging"].any():
         raise UnreachableRegionError(
             f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
             f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
             "fixed_axis or axis_mode='lead-tilt'")
-    if opts.probe_s is not None or finite.size:
-        n_s = opts.probe_s or int(np.clip(3.0 / max(float(finite.min()), 1e-6) + 1, 65, 129))
-        if n_s != 65:
-            s_probe = np.linspace(0.0, 1.0, n_s)
-            probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
     if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
         raise _probe_gouge(surface, probe, cutter, t_probe, s_probe)
 
