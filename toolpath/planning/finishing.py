@@ -210,36 +210,35 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             "points": frame.point, "density": density, "advice": advice}
 
 
-#: Probe columns added where the normal turns along the passes, as a share of ``probe_t``.
-TURN_PROBES_SHARE = 0.5
-#: Levels of ``s`` and columns per ``probe_t`` of the pilot grid that finds them.
-PILOT_LEVELS, PILOT_REFINE = 9, 4
+#: Largest turn of the normal between neighbouring probe columns (at any of
+#: :data:`PROBE_LEVELS` levels of ``s``), rad: 2 deg.
+MAX_PROBE_TURN = np.radians(2.0)
+PROBE_LEVELS = 9
 
 
 def _probe_t(surface: ParametricSurface, n: int) -> NDArray[np.float64]:
-    """Probe parameters along the passes: ``n`` uniform, and more where the normal turns.
+    """Probe parameters along the passes: ``n`` uniform, more where the normal turns.
 
     A leading edge turns the normal by half a turn over a fraction of a millimetre: there
     uniform probes would see it at a few points, and the chord density, the stepover and
-    the axis' turn read from them would be coarse. ``TURN_PROBES_SHARE * n`` further
-    parameters are spread evenly in the normal's turn (the largest over
-    :data:`PILOT_LEVELS` levels of ``s``, on a pilot grid of ``PILOT_REFINE * n`` columns).
+    the axis' turn read from them would be coarse. Each interval whose normal turns more
+    than :data:`MAX_PROBE_TURN` (the largest over :data:`PROBE_LEVELS` levels of ``s``)
+    is divided evenly until no piece does.
     """
     uniform = np.linspace(0.0, 1.0, n)
-    extra = int(TURN_PROBES_SHARE * n)
-    if extra < 2:
-        return uniform
-    pilot = np.linspace(0.0, 1.0, PILOT_REFINE * n)
     normals = surface.normal(*(v.ravel() for v in np.meshgrid(
-        pilot, np.linspace(0.0, 1.0, PILOT_LEVELS), indexing="ij"))).reshape(
-            pilot.size, PILOT_LEVELS, 3)
+        uniform, np.linspace(0.0, 1.0, PROBE_LEVELS), indexing="ij"))).reshape(
+            n, PROBE_LEVELS, 3)
     turn = np.radians(angle_deg(normals[1:], normals[:-1])).max(axis=1)
-    total = np.r_[0.0, np.cumsum(turn)]
-    if not total[-1] > 1e-9:
+    parts = np.ceil(turn / MAX_PROBE_TURN).astype(np.int64)
+    split = np.flatnonzero(parts > 1)
+    if not split.size:
         return uniform
-    at = np.interp(np.linspace(0.0, total[-1], extra), total + np.arange(total.size) * 1e-15,
-                   pilot)
-    return np.unique(np.r_[uniform, at])
+    k = parts[split]
+    at = np.repeat(split, k - 1)
+    step = np.arange(at.size) - np.repeat(np.r_[0, np.cumsum(k - 1)[:-1]], k - 1) + 1
+    inner = uniform[at] + (uniform[at + 1] - uniform[at]) * step / np.repeat(k, k - 1)
+    return np.sort(np.r_[uniform, inner])
 
 
 #: A flat end mill needing this many times the passes of a ball of its diameter is told.

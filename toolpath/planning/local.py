@@ -160,8 +160,10 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
 #: A Newton step moving the foot by less than this (mm) ends the search for that point
 #: (the next would move it by about its square over the radius of curvature).
 CONVERGED_MM = 1e-3
-#: Newton steps at most beyond the requested ones, for the points not yet converged.
-EXTRA_ITERATIONS = 8
+#: Newton steps at most beyond the requested ones, for the points not yet converged (a
+#: point beside a leading edge, started a few hundredths of ``t`` away, can take over a
+#: dozen; only those pay for them).
+EXTRA_ITERATIONS = 24
 
 
 def _newton_step(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],
