@@ -253,7 +253,10 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
     ``|X - p|^2 / 2``, the Gauss-Newton matrix where the Hessian is not positive definite,
     steps clipped to 0.25, halved up to 8 times while they move away from ``p``;
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
-    than ``converged_mm``.
+    than ``converged_mm``. For a signed distance, a last step predicted (to first order)
+    to move the foot by under :data:`SMALL_STEP_SHARE` of ``converged_mm`` is taken
+    without evaluating its point first (the numpy path checks it: the same foot to
+    within that distance).
     """
     for block in numba.prange((p.shape[0] + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))

@@ -180,3 +180,34 @@ def test_rate_limit_keeps_the_lead_of_a_flat_or_bull_nose_face():
     assert lead_ball.min() < 0.0 < 10.0 - 1e-6 <= lead_face.min()
     assert ball.max_rate_deg_per_mm <= 10.0 + 1e-9 < face.max_rate_deg_per_mm
     assert angle_deg(face.axes, n).max() <= 60.0 + 1e-6
+
+
+def test_rate_limit_finds_the_bend_of_a_slightly_twisted_pass():
+    # a 30 deg bend over 1 mm between long flats, the pass twisting 3 deg along its
+    # length: the axis the normals turn about is the bend's (their turn vectors), not
+    # the mean normal (the least spread of the normals themselves); and a segment of no
+    # length where the axis must turn ends the search instead of looping
+    from toolpath.planning.tool_axis import rate_limited_axes, smooth_axes
+
+    m = 600
+    x = np.linspace(0.0, 12.0, m)
+    bend = np.clip((x - 5.5) / 1.0, 0.0, 1.0) * np.radians(30.0)
+    twist = np.radians(3.0) * x / 12.0
+    n = np.stack([np.sin(bend), np.sin(twist) * np.cos(bend),
+                  np.cos(bend) * np.cos(twist)], 1)
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    f = np.tile([1.0, 0.0, 0.0], (m, 1))
+    f -= np.einsum("ij,ij->i", f, n)[:, None] * n
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+    nominal = lead_tilt_axes(n, f, 0.0, 0.0)
+    out = smooth_axes(nominal, n, f, x, np.zeros(m, dtype=np.int64), smoothing_mm=0.0,
+                      max_rate_deg_per_mm=10.0, max_lean_deg=60.0)
+    assert out.max_rate_deg_per_mm <= 10.0 + 1e-9
+    stuck = x.copy()
+    stuck[301] = stuck[300]
+    tilted = nominal.copy()
+    tilted[301:] = lead_tilt_axes(n[301:], f[301:], 0.0, 20.0)
+    axes = rate_limited_axes(tilted, n, f, stuck, np.array([0]), max_rate_deg_per_mm=10.0,
+                             max_lean_deg=60.0)
+    assert np.isfinite(axes).all()
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)

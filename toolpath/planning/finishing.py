@@ -2,7 +2,8 @@
 
 Stages (each timed in the report):
 
-1. **probe**: the surface frame on a ``probe_t x n_s`` grid: nominal tool axes, reach
+1. **probe**: the surface frame on a grid of ``probe_t`` columns (more where the normal
+   turns fast) by ``n_s`` levels (from a probe of every fourth column): tool axes, reach
    (3-axis), local gouge margin, and the allowed step in ``s`` from the scallop formula
    (:mod:`~toolpath.planning.scallop`);
 2. **spacing**: pass levels in ``s``, worst case along each pass;
@@ -214,6 +215,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
 #: :data:`PROBE_LEVELS` levels of ``s``), rad: 2 deg.
 MAX_PROBE_TURN = np.radians(2.0)
 PROBE_LEVELS = 9
+#: The most pieces one probe interval is divided into.
+MAX_PROBE_PARTS = 64
 
 
 def _probe_t(surface: ParametricSurface, n: int) -> NDArray[np.float64]:
@@ -221,16 +224,18 @@ def _probe_t(surface: ParametricSurface, n: int) -> NDArray[np.float64]:
 
     A leading edge turns the normal by half a turn over a fraction of a millimetre: there
     uniform probes would see it at a few points, and the chord density, the stepover and
-    the axis' turn read from them would be coarse. Each interval whose normal turns more
-    than :data:`MAX_PROBE_TURN` (the largest over :data:`PROBE_LEVELS` levels of ``s``)
-    is divided evenly until no piece does.
+    the axis' turn read from them would be coarse. Each interval whose normal turns by
+    more than :data:`MAX_PROBE_TURN` (the largest over :data:`PROBE_LEVELS` levels of
+    ``s``) is divided evenly in ``t`` into ``ceil(turn / MAX_PROBE_TURN)`` pieces (at most
+    :data:`MAX_PROBE_PARTS`); where the turn is uneven inside it, a piece can still turn
+    more.
     """
     uniform = np.linspace(0.0, 1.0, n)
     normals = surface.normal(*(v.ravel() for v in np.meshgrid(
         uniform, np.linspace(0.0, 1.0, PROBE_LEVELS), indexing="ij"))).reshape(
             n, PROBE_LEVELS, 3)
     turn = np.radians(angle_deg(normals[1:], normals[:-1])).max(axis=1)
-    parts = np.ceil(turn / MAX_PROBE_TURN).astype(np.int64)
+    parts = np.minimum(np.ceil(turn / MAX_PROBE_TURN), MAX_PROBE_PARTS).astype(np.int64)
     split = np.flatnonzero(parts > 1)
     if not split.size:
         return uniform

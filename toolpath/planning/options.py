@@ -158,7 +158,8 @@ class FinishingOptions:
         Keep tool axes at least this far from the workpiece +Z (the singular cone of
         table-table and head-table machines).
     axis_smoothing_mm : float
-        Initial half-width of the axis smoothing window (default: the cutter radius).
+        Half-width of the axis smoothing window (default: the cutter radius); passes still
+        turning faster than ``max_axis_rate_deg_per_mm`` are then rate limited.
     max_axis_rate_deg_per_mm : float or None
         Turn-rate limit of the tool axis along a pass (default 10 deg/mm: a 90 deg turn
         over 9 mm of travel, which a 5-axis rotary follows at full feed).
@@ -172,8 +173,10 @@ class FinishingOptions:
         Longest move along a pass (default two cutter diameters: keeps 5-axis
         interpolation and gouge sampling faithful on flat stretches).
     probe_t : int
-        Probe count along ``t`` for the spacing and the chord density (513: a sample every
-        0.25 mm on a 130 mm blade section; the chord check adds points the probes miss).
+        Uniform probe count along ``t`` for the spacing and the chord density (513: a
+        sample every 0.25 mm on a 130 mm blade section); intervals where the normal turns
+        more than 2 deg get more, evenly (a leading edge); the chord check adds points the
+        probes miss.
     probe_s : int or None
         Probe levels along ``s`` (default: three per pass, at least 65, at most 129; the
         allowed step varies slowly across the span).

@@ -253,11 +253,11 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     and tips.
 
     In 5-axis the points already there keep their axes (and tips): new points strictly
-    inside a move take the axis interpolated between the move's ends by arc length,
-    lean-limited and kept off the cone like the others. The smoothed axes vary slowly over
-    the smoothing window, so this is what smoothing again would give, to the second order
-    of the move's length; smoothing everything again would move every other tip by a
-    little and make the chord check start over.
+    inside a move take the axis slerped between the move's ends in proportion to the
+    corner-circle centre's path (the rate's path, so no piece turns faster than the move),
+    lean-limited and kept off the cone like the others. Smoothing and rate limiting
+    everything again would move every other tip by a little and make the chord check
+    start over.
     """
     s_new = layout.s_of(t_new, pid_new)
     f_new = pass_frame(surface, t_new, s_new)
@@ -287,7 +287,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     if pts.smoothing is None or not between.all():
         # (fixed axes, or smoothed again: the old points' axes may move)
         merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
-        return merged, where_new, pts.smoothing is None
+        return merged, where_new, opts.axis_mode is not AxisMode.LEAD_TILT
     axes = np.empty_like(nominal)
     axes[~is_new] = pts.axes
     p = frame.point

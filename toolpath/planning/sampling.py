@@ -125,6 +125,9 @@ def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
     return t, pass_id
 
 
+#: How many times over the normal's turn under the disc it must lean for the lowest point
+#: to be sought near the rim point facing down the surface only (:func:`cutter_gap`).
+TURN_MARGIN = 3.0
 #: Points of the corner-circle disc tried by :func:`cutter_gap` for flat and bull-nose
 #: cutters: 24 on its rim (15 deg apart, then refined), its centre and 8 at half radius.
 _RIM = 24
@@ -167,7 +170,8 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     # the rim point facing down the surface is the lowest when the normal leans clearly
     # everywhere under the disc: more than the normal can turn over it (curvature times
     # the disc's reach, three times over) and than 2 deg
-    tilted = lean > np.maximum(3.0 * k_c * (disc.radius + r), np.sin(np.radians(2.0)))
+    tilted = lean > np.maximum(TURN_MARGIN * k_c * (disc.radius + r),
+                               np.sin(np.radians(2.0)))
     out_d, out_t, out_s = d_c, t_c, s_c
     full = ~tilted
     rows = np.flatnonzero(tilted)

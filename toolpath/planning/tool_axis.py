@@ -321,8 +321,9 @@ def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
                       ) -> NDArray[np.float64]:
     """Axes turning at most ``max_rate_deg_per_mm``, within ``max_lean_deg`` of the normal.
 
-    Along a pass the normals turn about an axis ``B`` (that of the plane their tips fit
-    best: the span of a blade round its leading edge, the pole of a latitude circle).
+    Along a pass the normals turn about an axis ``B`` (the span of a blade round its
+    leading edge, the pole of a latitude circle; two candidates, :func:`_turn_axes`, the
+    second tried where the first misses the rate, the slower result kept).
     About ``B`` a unit vector has an azimuth ``phi`` and an elevation ``beta``; the
     wanted axes (``axes``) keep their elevation and the azimuth is rate limited: the
     turn rate is ``sqrt(cos(beta)^2 phi'^2 + beta'^2)``, so each segment allows
@@ -366,15 +367,42 @@ def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
 
 
 def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Per pass, the unit axis its normals turn about.
+    """Per pass, two candidates for the axis its normals turn about, shape (n_pass, 2, 3).
 
     The normal of the plane that fits their tips best (least eigenvector of their
-    covariance).
+    covariance: the pole of a latitude circle, whose normals keep their elevation), and
+    the dominant direction of the segments' turn vectors ``c = n_i x n_(i+1)`` (largest
+    eigenvector of the sum of ``c c^T``, signs irrelevant: the axis of a short bend
+    between long flats, which the plane fit mistakes for the mean normal when the pass
+    twists a little).
     """
+    bounds = np.r_[starts, len(normals)]
+    v = np.ascontiguousarray(normals)
     cov = np.empty((len(starts), 3, 3))
-    _covariances(np.ascontiguousarray(normals), np.r_[starts, len(normals)], cov)
-    _, vectors = np.linalg.eigh(cov)
-    return vectors[:, :, 0]
+    _covariances(v, bounds, cov)
+    turns = np.empty((len(starts), 3, 3))
+    _turn_moments(v, bounds, turns)
+    poles = np.empty((len(starts), 2, 3))
+    poles[:, 0] = np.linalg.eigh(cov)[1][:, :, 0]
+    poles[:, 1] = np.linalg.eigh(turns)[1][:, :, 2]
+    return poles
+
+
+@numba.njit(cache=True)
+def _turn_moments(v, bounds, out):
+    """``out[k]``: sum of ``c c^T`` over ``c = v_i x v_(i+1)`` in ``bounds[k]:bounds[k+1]``."""
+    for k in range(bounds.size - 1):
+        for c in range(3):
+            for d in range(3):
+                out[k, c, d] = 0.0
+        for i in range(bounds[k], bounds[k + 1] - 1):
+            c0 = v[i, 1] * v[i + 1, 2] - v[i, 2] * v[i + 1, 1]
+            c1 = v[i, 2] * v[i + 1, 0] - v[i, 0] * v[i + 1, 2]
+            c2 = v[i, 0] * v[i + 1, 1] - v[i, 1] * v[i + 1, 0]
+            cv = (c0, c1, c2)
+            for c in range(3):
+                for d in range(3):
+                    out[k, c, d] += cv[c] * cv[d]
 
 
 @numba.njit(cache=True)
@@ -398,76 +426,97 @@ def _covariances(v, bounds, out):
 @numba.njit(cache=True, parallel=True)
 def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_lean, rho,
                   rounds, margin, out):
-    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel)."""
+    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel).
+
+    ``poles[k]`` holds the pass's candidate turning axes: the next is tried while the
+    rate is not met, and the pass keeps the slowest result.
+    """
     limit_deg = math.degrees(rho)
     for k in numba.prange(bounds.size - 1):
         a, b = bounds[k], bounds[k + 1]
-        m = b - a
-        pole = poles[k]
-        # a basis (ex, ey) of the plane normal to the pole
-        ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-        ex = np.cross(pole, ref)
-        ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
-        ey = np.cross(pole, ex)
-        phi_n = np.empty(m)
-        lo = np.empty(m)
-        hi = np.empty(m)
-        want = np.empty(m)
-        beta = np.empty(m)
-        for j in range(m):
-            i = a + j
-            az_n, beta_n = _polar(normals[i], pole, ex, ey)
-            if j == 0:
-                phi_n[j] = az_n
-            else:  # unwrapped along the pass
-                phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
-            az_w, beta_w = _polar(axes[i], pole, ex, ey)
-            beta[j] = beta_w
-            c = ((cos_lean - math.sin(beta_w) * math.sin(beta_n))
-                 / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
-            half = math.acos(min(max(c, -1.0), 1.0))
-            lo[j] = phi_n[j] - half
-            hi[j] = phi_n[j] + half
-            if has_lead:
-                az_l, _ = _polar(nominal[i], pole, ex, ey)
-                lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
-                # the way the feed runs round the pole: ahead is increasing azimuth if > 0
-                side = np.cross(pole, normals[i])
-                ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
-                if ahead > 0.3:
-                    lo[j] = max(lo[j], min(lead, hi[j]))
-                elif ahead < -0.3:
-                    hi[j] = min(hi[j], max(lead, lo[j]))
-            want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
-        # a path along which the azimuth may turn 1 per unit at the rate limit
-        x_phi = np.empty(m)
-        x_phi[0] = 0.0
-        for j in range(1, m):
-            dx = x[a + j] - x[a + j - 1]
-            slope = (beta[j] - beta[j - 1]) / max(dx, 1e-12)
-            room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
-            cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
-            x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
-        scale = 1.0
         best = np.inf
-        phi = np.empty(m)
-        trial = np.empty((m, 3))
-        for _ in range(rounds):
-            _fit_tube(x_phi, lo, hi, want, scale, phi)
-            for j in range(m):
-                cb, sb = math.cos(beta[j]), math.sin(beta[j])
-                cp, sp = math.cos(phi[j]), math.sin(phi[j])
-                for c in range(3):
-                    trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
-            worst = 0.0
-            for j in range(1, m):
-                worst = max(worst, _turn_rate(trial[j - 1], trial[j], x[a + j] - x[a + j - 1]))
-            if worst < best:
-                best = worst
+        trial = np.empty((b - a, 3))
+        for c in range(poles.shape[1]):
+            rate = _limit_pass(normals, axes, feed, nominal, x, poles[k, c], a, b, has_lead,
+                               cos_lean, rho, rounds, margin, trial)
+            if rate < best or best == np.inf:
+                best = rate
                 out[a:b] = trial
-            if worst <= limit_deg * (1.0 + 1e-9):
+            if best <= limit_deg * (1.0 + 1e-9):
                 break
-            scale *= margin * limit_deg / worst
+
+
+@numba.njit(cache=True)
+def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean, rho, rounds,
+                margin, out):
+    """One pass about one pole into ``out`` (``b - a`` rows); returns its largest rate."""
+    limit_deg = math.degrees(rho)
+    m = b - a
+    # a basis (ex, ey) of the plane normal to the pole
+    ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ex = np.cross(pole, ref)
+    ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
+    ey = np.cross(pole, ex)
+    phi_n = np.empty(m)
+    lo = np.empty(m)
+    hi = np.empty(m)
+    want = np.empty(m)
+    beta = np.empty(m)
+    for j in range(m):
+        i = a + j
+        az_n, beta_n = _polar(normals[i], pole, ex, ey)
+        if j == 0:
+            phi_n[j] = az_n
+        else:  # unwrapped along the pass
+            phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
+        az_w, beta_w = _polar(axes[i], pole, ex, ey)
+        beta[j] = beta_w
+        c = ((cos_lean - math.sin(beta_w) * math.sin(beta_n))
+             / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
+        half = math.acos(min(max(c, -1.0), 1.0))
+        lo[j] = phi_n[j] - half
+        hi[j] = phi_n[j] + half
+        if has_lead:
+            az_l, _ = _polar(nominal[i], pole, ex, ey)
+            lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
+            # the way the feed runs round the pole: ahead is increasing azimuth if > 0
+            side = np.cross(pole, normals[i])
+            ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
+            if ahead > 0.3:
+                lo[j] = max(lo[j], min(lead, hi[j]))
+            elif ahead < -0.3:
+                hi[j] = min(hi[j], max(lead, lo[j]))
+        want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
+    # a path along which the azimuth may turn 1 per unit at the rate limit
+    x_phi = np.empty(m)
+    x_phi[0] = 0.0
+    for j in range(1, m):
+        dx = x[a + j] - x[a + j - 1]
+        slope = (beta[j] - beta[j - 1]) / max(dx, 1e-12)
+        room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
+        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
+        x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
+    scale = 1.0
+    best = np.inf
+    phi = np.empty(m)
+    trial = np.empty((m, 3))
+    for _ in range(rounds):
+        _fit_tube(x_phi, lo, hi, want, scale, phi)
+        for j in range(m):
+            cb, sb = math.cos(beta[j]), math.sin(beta[j])
+            cp, sp = math.cos(phi[j]), math.sin(phi[j])
+            for c in range(3):
+                trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
+        worst = 0.0
+        for j in range(1, m):
+            worst = max(worst, _turn_rate(trial[j - 1], trial[j], x[a + j] - x[a + j - 1]))
+        if worst < best or best == np.inf:
+            best = worst
+            out[:] = trial
+        if worst <= limit_deg * (1.0 + 1e-9) or not np.isfinite(worst):
+            break  # met, or a segment of no length turns: lowering cannot help
+        scale *= margin * limit_deg / worst
+    return best
 
 
 @numba.njit(cache=True)
@@ -510,11 +559,17 @@ def _fit_tube(x, lo, hi, want, rate, phi):
         return
     if _rate_tube(x, lo, hi, want, rate, False, phi):
         return
-    low, high = rate, rate
-    while True:
+    low, high = rate, max(rate, 1e-9)
+    fits = False
+    for _ in range(80):
         high *= 2.0
         if _rate_tube(x, lo, hi, want, high, False, phi):
+            fits = True
             break
+    if not fits:  # no rate fits (a segment of no length): the wanted axes, in the tube
+        for i in range(x.size):
+            phi[i] = min(max(want[i], lo[i]), hi[i])
+        return
     for _ in range(40):
         mid = 0.5 * (low + high)
         if _rate_tube(x, lo, hi, want, mid, False, phi):
