@@ -157,6 +157,11 @@ def test_rate_limit_round_a_nose_leans_ahead_within_the_lean_limit(limit_share):
         assert out.max_rate_deg_per_mm <= limit + 1e-9
     else:
         assert out.max_rate_deg_per_mm == pytest.approx(needed, rel=0.01)
+    # the axis leans ahead (towards the feed, where the normal will turn) before the nose
+    # and still lags behind after it
+    before, after = 399, len(n) - 400
+    assert out.axes[before] @ f[before] > np.sin(np.radians(5.0))
+    assert out.axes[after] @ f[after] < -np.sin(np.radians(5.0))
     # far from the nose and at the ends the axes are the nominal ones
     np.testing.assert_allclose(out.axes[[0, -1]], nominal[[0, -1]], atol=1e-9)
     assert angle_deg(out.axes[:100], nominal[:100]).max() < 1e-6
