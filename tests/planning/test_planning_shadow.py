@@ -262,3 +262,26 @@ def test_capsule_entries_and_segment_distances_equal_dense_samples():
         sampled = np.linalg.norm(on_first[:, None] - on_second[None], axis=2).min()
         assert dist[k] == pytest.approx(sampled, abs=1e-3)
         assert dist[k] <= sampled + 1e-12
+
+
+def test_each_ray_takes_the_nearest_of_its_own_pieces():
+    # pairs listed in any order, rays with no piece, one, or several: ray_ranges groups
+    # them, and a ray's entry is the smallest over its own pieces (inf with none)
+    from toolpath.planning.sweep_kernel import capsule_entries, ray_ranges
+
+    rng = np.random.default_rng(9)
+    a, b = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
+    q = rng.normal(scale=2.0, size=(12, 3))
+    n = rng.normal(size=(12, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    owner = rng.integers(0, 10, 60)  # rays 10 and 11 get no piece
+    item = rng.integers(0, 40, 60)
+    shuffle = rng.permutation(60)
+    lo, hi, grouped = ray_ranges(owner[shuffle], item[shuffle], len(q))
+    got = capsule_entries(q, n, lo, hi, grouped, a, b, 0.7)
+    one = np.arange(60)
+    single = capsule_entries(q[owner], n[owner], one, one + 1, item, a, b, 0.7)
+    for ray in range(len(q)):
+        mine = single[owner == ray]
+        assert got[ray] == (mine.min() if mine.size else np.inf)
+    assert np.isinf(got[10:]).all() and (hi - lo)[:10].sum() == 60
