@@ -192,7 +192,8 @@ def test_rate_limit_finds_the_bend_of_a_slightly_twisted_pass():
     # length: the axis the normals turn about is the bend's (their turn vectors), not
     # the mean normal (the least spread of the normals themselves); and a segment of no
     # length where the axis must turn ends the search instead of looping
-    from toolpath.planning.tool_axis import rate_limited_axes, smooth_axes
+    from toolpath.planning.rate_limit import rate_limited_axes
+    from toolpath.planning.tool_axis import smooth_axes
 
     m = 600
     x = np.linspace(0.0, 12.0, m)

@@ -1,0 +1,329 @@
+"""The tool axis' turn rate limited within the lean cone (5-axis passes).
+
+Round a leading edge tighter than the rate allows, the nominal axes (the normal, led and
+tilted) turn too fast, and a moving average cannot help: averaged over both faces of a
+thin blade the normals cancel. :func:`rate_limited_axes` treats each pass as a turn about
+an axis ``B`` and limits the axis' azimuth about ``B`` inside a tube round the normal's
+(the lean limit): the axis starts turning before the edge and finishes after it. Compiled
+per pass (numba, in parallel).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["RATE_MARGIN", "RATE_ROUNDS", "rate_limited_axes"]
+
+#: Rounds of :func:`rate_limited_axes` that tighten a pass's in-plane rate where the axis'
+#: sideways turn (the frame's own twist) puts the true rate over the limit.
+RATE_ROUNDS = 6
+#: The in-plane rate aimed at, as a share of the limit (room for the sideways turn).
+RATE_MARGIN = 0.98
+
+
+def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
+                      feed_dirs: NDArray[np.float64], x_mm: NDArray[np.float64],
+                      starts: NDArray[np.int64], *, max_rate_deg_per_mm: float,
+                      max_lean_deg: float, nominal: NDArray[np.float64] | None = None
+                      ) -> NDArray[np.float64]:
+    """Axes turning at most ``max_rate_deg_per_mm``, within ``max_lean_deg`` of the normal.
+
+    Along a pass the normals turn about an axis ``B`` (the span of a blade round its
+    leading edge, the pole of a latitude circle; two candidates, :func:`_turn_axes`, the
+    second tried where the first misses the rate, the slower result kept).
+    About ``B`` a unit vector has an azimuth ``phi`` and an elevation ``beta``; the
+    wanted axes (``axes``) keep their elevation and the azimuth is rate limited: the
+    turn rate is ``sqrt(cos(beta)^2 phi'^2 + beta'^2)``, so each segment allows
+    ``|phi'| <= sqrt(rho^2 - beta'^2) / cos(beta)``. The lean limit is a tube
+    ``|phi - phi_n| <= h`` round the normal's azimuth, ``cos(h) = (cos(max_lean) -
+    sin(beta) sin(beta_n)) / (cos(beta) cos(beta_n))``. Per pass (compiled,
+    :func:`_rate_tube`) the tube is narrowed to what a path within the rate can reach
+    (forward and backward sweeps), then ``phi`` follows the wanted azimuth as closely as
+    the rate allows, slewing forward and backward, and the mean of the two is taken (both
+    feasible, so their mean is). Round a leading edge the axis starts turning before the
+    edge and finishes after it. Where no path meets the rate within the tube, the
+    smallest rate that fits is used. The result is measured; a pass still over (its
+    normals not quite on a circle) is done again with its rate lowered by the excess
+    (:data:`RATE_ROUNDS`).
+
+    Parameters
+    ----------
+    axes : ndarray, shape (n, 3)
+        The wanted axes (smoothed nominal), passes contiguous from ``starts``.
+    normals, feed_dirs : ndarray, shape (n, 3)
+        Unit normals and feed directions.
+    x_mm : ndarray, shape (n,)
+        Increasing arc length along the passes (the rate's path), mm.
+    starts : ndarray of int
+        First row of each pass.
+    nominal : ndarray, shape (n, 3), optional
+        Leads to keep: the axis may lean further ahead of the normal than these, not
+        less. A flat or bull-nose face must not cross the normal: where it stands square
+        on a convex edge its contact jumps across the face, and lying flat on a concave
+        stretch it gouges.
+    """
+    bounds = np.r_[starts, len(normals)].astype(np.int64)
+    poles = _turn_axes(normals, starts)
+    has_lead = nominal is not None
+    out = np.empty_like(axes)
+    _limit_passes(*(np.ascontiguousarray(v, dtype=float) for v in (
+        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm, poles)), bounds,
+        has_lead, math.cos(math.radians(max_lean_deg)), math.radians(max_rate_deg_per_mm),
+        RATE_ROUNDS, RATE_MARGIN, out)
+    return out
+
+
+def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Per pass, two candidates for the axis its normals turn about, shape (n_pass, 2, 3).
+
+    The normal of the plane that fits their tips best (least eigenvector of their
+    covariance: the pole of a latitude circle, whose normals keep their elevation), and
+    the dominant direction of the segments' turn vectors ``c = n_i x n_(i+1)`` (largest
+    eigenvector of the sum of ``c c^T``, signs irrelevant: the axis of a short bend
+    between long flats, which the plane fit mistakes for the mean normal when the pass
+    twists a little).
+    """
+    bounds = np.r_[starts, len(normals)]
+    v = np.ascontiguousarray(normals)
+    cov = np.empty((len(starts), 3, 3))
+    _covariances(v, bounds, cov)
+    turns = np.empty((len(starts), 3, 3))
+    _turn_moments(v, bounds, turns)
+    poles = np.empty((len(starts), 2, 3))
+    poles[:, 0] = np.linalg.eigh(cov)[1][:, :, 0]
+    poles[:, 1] = np.linalg.eigh(turns)[1][:, :, 2]
+    return poles
+
+
+@numba.njit(cache=True)
+def _turn_moments(v, bounds, out):
+    """``out[k]``: sum of ``c c^T`` over ``c = v_i x v_(i+1)`` in ``bounds[k]:bounds[k+1]``."""
+    for k in range(bounds.size - 1):
+        for c in range(3):
+            for d in range(3):
+                out[k, c, d] = 0.0
+        for i in range(bounds[k], bounds[k + 1] - 1):
+            c0 = v[i, 1] * v[i + 1, 2] - v[i, 2] * v[i + 1, 1]
+            c1 = v[i, 2] * v[i + 1, 0] - v[i, 0] * v[i + 1, 2]
+            c2 = v[i, 0] * v[i + 1, 1] - v[i, 1] * v[i + 1, 0]
+            cv = (c0, c1, c2)
+            for c in range(3):
+                for d in range(3):
+                    out[k, c, d] += cv[c] * cv[d]
+
+
+@numba.njit(cache=True)
+def _covariances(v, bounds, out):
+    """``out[k]``: covariance of the rows ``bounds[k]:bounds[k + 1]`` of ``v``."""
+    for k in range(bounds.size - 1):
+        a, b = bounds[k], bounds[k + 1]
+        mean = np.zeros(3)
+        for i in range(a, b):
+            for c in range(3):
+                mean[c] += v[i, c]
+        mean /= b - a
+        for c in range(3):
+            for d in range(3):
+                acc = 0.0
+                for i in range(a, b):
+                    acc += (v[i, c] - mean[c]) * (v[i, d] - mean[d])
+                out[k, c, d] = acc / (b - a)
+
+
+@numba.njit(cache=True, parallel=True)
+def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_lean, rho,
+                  rounds, margin, out):
+    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel).
+
+    ``poles[k]`` holds the pass's candidate turning axes: the next is tried while the
+    rate is not met, and the pass keeps the slowest result.
+    """
+    limit_deg = math.degrees(rho)
+    for k in numba.prange(bounds.size - 1):
+        a, b = bounds[k], bounds[k + 1]
+        best = np.inf
+        trial = np.empty((b - a, 3))
+        for c in range(poles.shape[1]):
+            rate = _limit_pass(normals, axes, feed, nominal, x, poles[k, c], a, b, has_lead,
+                               cos_lean, rho, rounds, margin, trial)
+            if rate < best or best == np.inf:
+                best = rate
+                out[a:b] = trial
+            if best <= limit_deg * (1.0 + 1e-9):
+                break
+
+
+@numba.njit(cache=True)
+def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean, rho, rounds,
+                margin, out):
+    """One pass about one pole into ``out`` (``b - a`` rows); returns its largest rate."""
+    limit_deg = math.degrees(rho)
+    m = b - a
+    # a basis (ex, ey) of the plane normal to the pole
+    ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    ex = np.cross(pole, ref)
+    ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
+    ey = np.cross(pole, ex)
+    phi_n = np.empty(m)
+    lo = np.empty(m)
+    hi = np.empty(m)
+    want = np.empty(m)
+    beta = np.empty(m)
+    for j in range(m):
+        i = a + j
+        az_n, beta_n = _polar(normals[i], pole, ex, ey)
+        if j == 0:
+            phi_n[j] = az_n
+        else:  # unwrapped along the pass
+            phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
+        az_w, beta_w = _polar(axes[i], pole, ex, ey)
+        beta[j] = beta_w
+        c = ((cos_lean - math.sin(beta_w) * math.sin(beta_n))
+             / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
+        half = math.acos(min(max(c, -1.0), 1.0))
+        lo[j] = phi_n[j] - half
+        hi[j] = phi_n[j] + half
+        if has_lead:
+            az_l, _ = _polar(nominal[i], pole, ex, ey)
+            lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
+            # the way the feed runs round the pole: ahead is increasing azimuth if > 0
+            side = np.cross(pole, normals[i])
+            ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
+            if ahead > 0.3:
+                lo[j] = max(lo[j], min(lead, hi[j]))
+            elif ahead < -0.3:
+                hi[j] = min(hi[j], max(lead, lo[j]))
+        want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
+    # a path along which the azimuth may turn 1 per unit at the rate limit
+    x_phi = np.empty(m)
+    x_phi[0] = 0.0
+    for j in range(1, m):
+        dx = x[a + j] - x[a + j - 1]
+        slope = (beta[j] - beta[j - 1]) / max(dx, 1e-12)
+        room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
+        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
+        x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
+    scale = 1.0
+    best = np.inf
+    phi = np.empty(m)
+    trial = np.empty((m, 3))
+    for _ in range(rounds):
+        _fit_tube(x_phi, lo, hi, want, scale, phi)
+        for j in range(m):
+            cb, sb = math.cos(beta[j]), math.sin(beta[j])
+            cp, sp = math.cos(phi[j]), math.sin(phi[j])
+            for c in range(3):
+                trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
+        worst = 0.0
+        for j in range(1, m):
+            worst = max(worst, _turn_rate(trial[j - 1], trial[j], x[a + j] - x[a + j - 1]))
+        if worst < best or best == np.inf:
+            best = worst
+            out[:] = trial
+        if worst <= limit_deg * (1.0 + 1e-9) or not np.isfinite(worst):
+            break  # met, or a segment of no length turns: lowering cannot help
+        scale *= margin * limit_deg / worst
+    return best
+
+
+@numba.njit(cache=True)
+def _polar(v, pole, ex, ey):
+    """Azimuth and elevation of ``v`` about ``pole`` (rad)."""
+    up = v[0] * pole[0] + v[1] * pole[1] + v[2] * pole[2]
+    az = math.atan2(v[0] * ey[0] + v[1] * ey[1] + v[2] * ey[2],
+                    v[0] * ex[0] + v[1] * ex[1] + v[2] * ex[2])
+    return az, math.asin(min(max(up, -1.0), 1.0))
+
+
+@numba.njit(cache=True)
+def _wrap_pi(angle):
+    """``angle`` folded into [-pi, pi)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi
+
+
+@numba.njit(cache=True)
+def _turn_rate(u, v, length):
+    """Angle between unit ``u`` and ``v`` per ``length``, deg (as segment_turn_rates)."""
+    c0 = u[1] * v[2] - u[2] * v[1]
+    c1 = u[2] * v[0] - u[0] * v[2]
+    c2 = u[0] * v[1] - u[1] * v[0]
+    turn = math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2),
+                                   u[0] * v[0] + u[1] * v[1] + u[2] * v[2]))
+    if length > 1e-12:
+        return turn / length
+    return np.inf if turn > 1e-9 else 0.0
+
+
+@numba.njit(cache=True)
+def _fit_tube(x, lo, hi, want, rate, phi):
+    """:func:`_rate_tube` on one pass, its ends pinned if the rate allows it.
+
+    The ends keep the wanted axis where the rate allows it (as centred windows do: spiral
+    rings join there), else they are free; where no path keeps the rate in the tube, the
+    smallest rate that does is used.
+    """
+    if _rate_tube(x, lo, hi, want, rate, True, phi):
+        return
+    if _rate_tube(x, lo, hi, want, rate, False, phi):
+        return
+    low, high = rate, max(rate, 1e-9)
+    fits = False
+    for _ in range(80):
+        high *= 2.0
+        if _rate_tube(x, lo, hi, want, high, False, phi):
+            fits = True
+            break
+    if not fits:  # no rate fits (a segment of no length): the wanted axes, in the tube
+        for i in range(x.size):
+            phi[i] = min(max(want[i], lo[i]), hi[i])
+        return
+    for _ in range(40):
+        mid = 0.5 * (low + high)
+        if _rate_tube(x, lo, hi, want, mid, False, phi):
+            high = mid
+        else:
+            low = mid
+    _rate_tube(x, lo, hi, want, high, False, phi)
+
+
+@numba.njit(cache=True)
+def _rate_tube(x, lo, hi, want, rate, pin_ends, phi):
+    """One pass: ``phi`` in the tube ``[lo, hi]``, turning at most ``rate``; False if none.
+
+    ``|phi[i] - phi[i-1]| <= rate (x[i] - x[i-1])``; ``phi`` follows ``want`` (the mean of
+    a forward and a backward slew), equal to it at both ends with ``pin_ends``.
+    """
+    n = x.size
+    low = lo.copy()
+    high = hi.copy()
+    if pin_ends:
+        low[0] = high[0] = min(max(want[0], lo[0]), hi[0])
+        low[n - 1] = high[n - 1] = min(max(want[n - 1], lo[n - 1]), hi[n - 1])
+    for i in range(1, n):
+        d = rate * (x[i] - x[i - 1])
+        high[i] = min(high[i], high[i - 1] + d)
+        low[i] = max(low[i], low[i - 1] - d)
+    for i in range(n - 2, -1, -1):
+        d = rate * (x[i + 1] - x[i])
+        high[i] = min(high[i], high[i + 1] + d)
+        low[i] = max(low[i], low[i + 1] - d)
+    for i in range(n):
+        if low[i] > high[i] + 1e-12:
+            return False
+    fwd = np.empty(n)
+    fwd[0] = min(max(want[0], low[0]), high[0])
+    for i in range(1, n):
+        d = rate * (x[i] - x[i - 1])
+        fwd[i] = min(max(want[i], max(low[i], fwd[i - 1] - d)), min(high[i], fwd[i - 1] + d))
+    bwd = np.empty(n)
+    bwd[n - 1] = min(max(want[n - 1], low[n - 1]), high[n - 1])
+    for i in range(n - 2, -1, -1):
+        d = rate * (x[i + 1] - x[i])
+        bwd[i] = min(max(want[i], max(low[i], bwd[i + 1] - d)), min(high[i], bwd[i + 1] + d))
+    for i in range(n):
+        phi[i] = 0.5 * (fwd[i] + bwd[i])
+    return True
