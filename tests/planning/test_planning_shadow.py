@@ -233,14 +233,19 @@ def test_bull_nose_rolling_round_a_tight_edge_keeps_the_scallop(scallop_mm):
     assert 0.0 < report.max_scallop_mm <= scallop_mm
 
 
+def _segments_and_rays(rng, n_segments, n_rays):
+    """Random segments ``a b`` and rays ``q + l n`` (unit ``n``) round the origin."""
+    a, b = rng.normal(size=(n_segments, 3)), rng.normal(size=(n_segments, 3))
+    q = rng.normal(scale=2.0, size=(n_rays, 3))
+    n = rng.normal(size=(n_rays, 3))
+    return a, b, q, n / np.linalg.norm(n, axis=1, keepdims=True)
+
+
 def test_capsule_entries_and_segment_distances_equal_dense_samples():
     from toolpath.planning.sweep_kernel import capsule_entries, segment_distances
 
     rng = np.random.default_rng(8)
-    a, b = rng.normal(size=(30, 3)), rng.normal(size=(30, 3))
-    q = rng.normal(scale=2.0, size=(30, 3))
-    n = rng.normal(size=(30, 3))
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    a, b, q, n = _segments_and_rays(rng, 30, 30)
     pairs = np.arange(30)
     got = capsule_entries(q, n, pairs, pairs + 1, pairs, a, b, 0.7)
     u = np.linspace(0.0, 1.0, 2001)
@@ -270,10 +275,7 @@ def test_each_ray_takes_the_nearest_of_its_own_pieces():
     from toolpath.planning.sweep_kernel import capsule_entries, ray_ranges
 
     rng = np.random.default_rng(9)
-    a, b = rng.normal(size=(40, 3)), rng.normal(size=(40, 3))
-    q = rng.normal(scale=2.0, size=(12, 3))
-    n = rng.normal(size=(12, 3))
-    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    a, b, q, n = _segments_and_rays(rng, 40, 12)
     owner = rng.integers(0, 10, 60)  # rays 10 and 11 get no piece
     item = rng.integers(0, 40, 60)
     shuffle = rng.permutation(60)
