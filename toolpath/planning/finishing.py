@@ -53,7 +53,7 @@ from .passes import (
 )
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
-from .sampling import chord_length_mm, cutter_gap, equidistribute
+from .sampling import chord_length_mm, cutter_gap, equidistribute, split_evenly
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
 from .tool_axis import angle_deg, lead_tilt_axes
 
@@ -236,13 +236,9 @@ def _probe_t(surface: ParametricSurface, n: int) -> NDArray[np.float64]:
             n, PROBE_LEVELS, 3)
     turn = np.radians(angle_deg(normals[1:], normals[:-1])).max(axis=1)
     parts = np.minimum(np.ceil(turn / MAX_PROBE_TURN), MAX_PROBE_PARTS).astype(np.int64)
-    split = np.flatnonzero(parts > 1)
-    if not split.size:
+    if not (parts > 1).any():
         return uniform
-    k = parts[split]
-    at = np.repeat(split, k - 1)
-    step = np.arange(at.size) - np.repeat(np.r_[0, np.cumsum(k - 1)[:-1]], k - 1) + 1
-    inner = uniform[at] + (uniform[at + 1] - uniform[at]) * step / np.repeat(k, k - 1)
+    inner, _ = split_evenly(uniform[:-1], uniform[1:], np.maximum(parts, 1))
     return np.sort(np.r_[uniform, inner])
 
 

@@ -24,7 +24,7 @@ from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
-from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps
+from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps, split_evenly
 from .tool_axis import (
     AxisSmoothing,
     keep_out_of_cone,
@@ -147,6 +147,16 @@ def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[n
            ) -> NDArray[np.float64]:
     """``new``'s rows where ``is_new``, ``old``'s elsewhere (both in order)."""
     return np.insert(old, np.flatnonzero(is_new) - np.arange(len(new)), new, axis=0)
+
+
+def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
+                   ) -> NDArray[np.bool_]:
+    """``mask`` of the points before an insertion, on the merged points: new ones kept."""
+    out = np.ones(len(mask) + len(where_new), dtype=bool)
+    old = np.ones(out.size, dtype=bool)
+    old[where_new] = False
+    out[old] = mask
+    return out
 
 
 def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[np.int64]
@@ -394,23 +404,16 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # shrinks with the square of the length
         over = np.maximum(-low / tol, high / res["undercut_mm"])[bad]
         parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
-        j = np.repeat(idx[bad], parts - 1)
-        first = np.r_[0, np.cumsum(parts - 1)[:-1]]
-        k = np.arange(j.size) - np.repeat(first, parts - 1) + 1
-        new_t = pts.t[j] + (pts.t[j + 1] - pts.t[j]) * k / np.repeat(parts, parts - 1)
-        new_pid = pts.pid[j]
+        j = idx[bad]
+        new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)
+        new_pid = pts.pid[j][which]
         old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
         pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
                                              new_pid)
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
         if keep is not None:
-            merged_keep = np.zeros(len(pts), dtype=bool)
-            is_new = np.zeros(len(pts), dtype=bool)
-            is_new[where_new] = True
-            merged_keep[~is_new] = keep
-            merged_keep[is_new] = True
-            keep = merged_keep
+            keep = _kept_with_new(keep, where_new)
         # check again the chords next to the new points, and those whose ends moved (where
         # insert_points had to smooth the axes again, which shifts the tips and axes of
         # their neighbours: a chord checked before is then another chord)
@@ -456,12 +459,7 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
             good_t = np.where(m_ok, mid, good_t)
             bad_t = np.where(m_ok, bad_t, mid)
         pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts, good_t, pid)
-        merged = np.zeros(len(pts), dtype=bool)
-        is_new = np.zeros(len(pts), dtype=bool)
-        is_new[where_new] = True
-        merged[~is_new] = ok
-        merged[is_new] = True
-        ok = merged
+        ok = _kept_with_new(ok, where_new)
     return pts, ok
 
 

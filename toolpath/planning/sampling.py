@@ -48,6 +48,7 @@ __all__ = [
     "equidistribute",
     "joint_moves",
     "move_gaps",
+    "split_evenly",
 ]
 
 #: Where inside a move the gap is measured; with the ends (gap 0) they fix the model below.
@@ -123,6 +124,19 @@ def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
     t[first] = t_grid[0]
     t[first + counts - 1] = t_grid[-1]
     return t, pass_id
+
+
+def split_evenly(lo: NDArray[np.float64], hi: NDArray[np.float64], parts: NDArray[np.int64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """The points dividing each ``[lo[i], hi[i]]`` into ``parts[i]`` equal pieces.
+
+    Returns the ``parts[i] - 1`` interior points of every interval, in order, and the
+    interval each belongs to.
+    """
+    inner = np.asarray(parts, dtype=np.int64) - 1
+    which = np.repeat(np.arange(inner.size), inner)
+    k = np.arange(which.size) - np.repeat(np.cumsum(inner) - inner, inner) + 1
+    return lo[which] + (hi[which] - lo[which]) * k / (inner[which] + 1), which
 
 
 #: How many times over the normal's turn under the disc it must lean for the lowest point
