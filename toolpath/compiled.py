@@ -211,6 +211,11 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
             out[j, i, k] = acc + (d[k] if j == 0 else 0.0)
 
 
+#: :func:`_point_partials` as a call, not inlined: the Newton search calls it from five
+#: places, and inlining it there (10 % faster) made the first compile take a minute.
+_partials_at = numba.njit(cache=True)(_point_partials.py_func)
+
+
 #: A Newton step predicted to move the foot by less than this share of ``converged_mm``
 #: ends the search without a check of its point (the signed distance evaluates it).
 SMALL_STEP_SHARE = 0.1
@@ -314,8 +319,8 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
-                        mu, mv, g, z, w)
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
+                     mu, mv, g, z, w)
         d0 = fr[0, 0, 0] - p[i, 0]
         d1 = fr[0, 0, 1] - p[i, 1]
         d2 = fr[0, 0, 2] - p[i, 2]
@@ -351,8 +356,8 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
             return
         closer = False
         for _ in range(8):
-            _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                            0, pt, 0, mu, mv, g, z, w)
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                         0, pt, 0, mu, mv, g, z, w)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
@@ -364,23 +369,23 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
             new_t = _wrap(ti - step_t, closed)
             new_s = min(max(si - step_s, 0.0), 1.0)
         if not closer:  # still farther after 8 halvings: the last step's point
-            _point_partials(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                            0, pt, 0, mu, mv, g, z, w)
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                         0, pt, 0, mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
         moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
         ti, si = new_t, new_s
     if iterations + extra == 0:  # no step: the foot is the start
-        _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
-                        mu, mv, g, z, w)
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
+                     mu, mv, g, z, w)
     t[i], s[i] = ti, si
     if orientation == 0.0:  # pt holds the last foot
         e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
-    _point_partials(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
-                    mu, mv, g, z, w)
+    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
+                 mu, mv, g, z, w)
     n0 = fr[1, 0, 1] * fr[2, 0, 2] - fr[1, 0, 2] * fr[2, 0, 1]
     n1 = fr[1, 0, 2] * fr[2, 0, 0] - fr[1, 0, 0] * fr[2, 0, 2]
     n2 = fr[1, 0, 0] * fr[2, 0, 1] - fr[1, 0, 1] * fr[2, 0, 0]
