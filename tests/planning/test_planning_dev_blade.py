@@ -67,3 +67,20 @@ def test_projection_converges_round_the_leading_edge(blade):
     short, _, _ = signed_distance_near(blade, p, t0, s, iterations=2)
     long, _, _ = signed_distance_near(blade, p, t0, s, iterations=60)
     assert np.abs(short - long).max() < 0.02
+
+
+def test_flat_end_mill_round_the_leading_edge_in_five_axis(blade):
+    # a flat face keeps its lead at split points, and the gap check looks for the rim
+    # point facing down the surface at the contact itself: round the 0.2 mm nose the
+    # disc's samples used to miss it, the contacts read as standing 0.05 mm off, and the
+    # splitting never ended (491,000 points, 2 GB arrays); the measurement seeded on the
+    # far side of the nose read a 2.2 mm cut through the blade
+    from toolpath.planning.finishing import _as_cutter
+    from toolpath.planning.measure import measure_chord
+
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    path, rep = plan_finishing(standing, "flat:8", scallop_mm=0.03, chord_tol_mm=0.03,
+                               axis_mode="lead-tilt", lead_deg=10.0, measure=False)
+    assert rep.n_points < 10_000 and rep.planned_chord_error_mm <= 0.03
+    chord = measure_chord(path, standing, _as_cutter("flat:8"), sample_surface(standing, 1.0))
+    assert chord.overcut_mm <= 0.03

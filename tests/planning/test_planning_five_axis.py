@@ -217,3 +217,19 @@ def test_rate_limit_finds_the_bend_of_a_slightly_twisted_pass():
                              max_lean_deg=60.0)
     assert np.isfinite(axes).all()
     np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
+
+
+def test_axes_lean_at_least_as_far_as_a_minimum():
+    # an axis leaning less than its floor turns away from the normal in its own plane;
+    # one along the normal takes the floor's azimuth; one leaning more is left alone
+    from toolpath.planning.tool_axis import keep_min_lean
+
+    n = np.tile([0.0, 0.0, 1.0], (3, 1))
+    floor = lead_tilt_axes(n, np.tile([1.0, 0.0, 0.0], (3, 1)), 10.0, 0.0)
+    axes = np.array([[np.sin(0.05), 0.0, np.cos(0.05)], [0.0, 0.0, 1.0],
+                     [0.0, np.sin(0.5), np.cos(0.5)]])
+    out, moved = keep_min_lean(axes, n, floor)
+    assert moved.tolist() == [True, True, False]
+    np.testing.assert_allclose(angle_deg(out, n), [10.0, 10.0, np.degrees(0.5)], atol=1e-9)
+    np.testing.assert_allclose(out[:2], floor[:2], atol=1e-12)
+    np.testing.assert_allclose(out[2], axes[2])

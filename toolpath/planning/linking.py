@@ -283,8 +283,8 @@ def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], .
             here = dep[-1] if len(dep) else prev.tips[-1]
             up = clear.retract(here, a_end)
             out.add(up, a_end, MoveKind.RAPID)
-        lead, first = _approach(run, opt)
         if prev is None or not linked:
+            lead, first = _approach(run, opt)
             above = first + opt.approach_mm * a0
             top = clear.retract(above, a0)
             if prev is not None:

@@ -125,9 +125,8 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     s_end = np.empty(ends.size)
     for lo in range(0, ends.size, chunk):
         sl = slice(lo, lo + chunk)
-        g_end[sl], t_end[sl], s_end[sl] = cutter_gap(
-            surface, cutter, pos[ends[sl]], ax_all[ends[sl]], samples.t[nearest[sl]],
-            samples.s[nearest[sl]], newton=6)
+        g_end[sl], t_end[sl], s_end[sl] = _contact_gaps(
+            surface, cutter, samples, pos[ends[sl]], ax_all[ends[sl]], nearest[sl])
     contact = float(np.abs(g_end).max())
     where = np.searchsorted(ends, move)
     for lo in range(0, move.size, chunk):
@@ -170,6 +169,36 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                             contact_mm=contact, n_moves=int(move.size),
                             seeds_t=np.concatenate(seeds_t), seeds_s=np.concatenate(seeds_s),
                             seeds_pass=np.concatenate(seeds_p).astype(np.int64))
+
+
+def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
+                  tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                  seeds: NDArray[np.int64]) -> tuple[NDArray[np.float64], ...]:
+    """Gap, ``t`` and ``s`` of the cutter at each location, searched from sample ``seeds``.
+
+    A foot found farther from its cutter point ``K = X + (gap + r) n`` than the sample
+    nearest to ``K`` is not its closest point (that sample is a surface point nearer to
+    ``K``): round a thin edge a search started on the
+    far side ends there, and a flat cutter's rim just clear of the near side then reads
+    as cutting through the part. Those locations are searched again from the sample
+    nearest to ``K`` (twice at most).
+    """
+    r = cutter.corner_radius_mm
+    gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, samples.t[seeds], samples.s[seeds],
+                           newton=6)
+    if cutter.kind is CutterKind.BALL:
+        return gap, t, s
+    for _ in range(2):
+        x, n = surface.points_and_normals(t, s)
+        k = x + (gap + r)[:, None] * n
+        near_mm, near = samples.tree.query(k, workers=-1)
+        wrong = np.flatnonzero(np.abs(gap + r) > near_mm + 1e-6)
+        if not wrong.size:
+            break
+        g2, t2, s2 = cutter_gap(surface, cutter, tips_mm[wrong], axes[wrong],
+                                samples.t[near[wrong]], samples.s[near[wrong]], newton=6)
+        gap[wrong], t[wrong], s[wrong] = g2, t2, s2
+    return gap, t, s
 
 
 @dataclass(frozen=True)

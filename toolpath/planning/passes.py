@@ -27,6 +27,7 @@ from .options import AxisMode, FinishingOptions
 from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps, split_evenly
 from .tool_axis import (
     AxisSmoothing,
+    keep_min_lean,
     keep_out_of_cone,
     lead_tilt_axes,
     limit_lean,
@@ -57,6 +58,8 @@ JOINT_SIDEWAYS_MM = 0.002
 #: length, is this share of its limit (at least 2 parts, at most :data:`MAX_PARTS`).
 SPLIT_TARGET = 0.8
 MAX_PARTS = 8
+#: Moves shorter than this (mm, a G-code program's 3-decimal resolution) are not split.
+MIN_SPLIT_MM = 1e-3
 #: A checked chord is checked again when its ends move (tip, plus the cutter radius times
 #: the axis change) by more than this share of the chord tolerance.
 MOVED_SHARE = 0.01
@@ -309,6 +312,10 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     direction = layout.direction[pid]
     sub = frame_take(frame, where_new)
     mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
+    if cutter.kind is not CutterKind.BALL:
+        # a flat face keeps its lead: where the normal turns faster than the axes (a
+        # leading edge), the slerp may lean less, and the contact then leaves the heel
+        mid, _ = keep_min_lean(mid, sub.normal, nominal[where_new])
     mid, pushed = _off_cone(opts, mid, sub, direction[where_new])
     axes[where_new] = mid
     tips = np.empty_like(axes)
@@ -398,6 +405,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         bad = (low < -tol) | (high > res["undercut_mm"])
         if q is not None:
             bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
+        # a move shorter than the program's resolution is not split: its gap is not the
+        # chord's (its ends themselves stand off), and the report carries it
+        bad &= np.linalg.norm(pts.tips[idx + 1] - pts.tips[idx], axis=1) > MIN_SPLIT_MM
         if not bad.any():
             break
         # each offending move in as many equal parts (in t) as its gap needs: the gap

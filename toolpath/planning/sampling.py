@@ -142,6 +142,9 @@ def split_evenly(lo: NDArray[np.float64], hi: NDArray[np.float64], parts: NDArra
 #: How many times over the normal's turn under the disc it must lean for the lowest point
 #: to be sought near the rim point facing down the surface only (:func:`cutter_gap`).
 TURN_MARGIN = 3.0
+#: Poses per call of the disc search in :func:`cutter_gap` (its 33 samples per pose and
+#: their Newton searches stay within a few hundred MB).
+GAP_CHUNK = 100_000
 #: Points of the corner-circle disc tried by :func:`cutter_gap` for flat and bull-nose
 #: cutters: 24 on its rim (15 deg apart, then refined), its centre and 8 at half radius.
 _RIM = 24
@@ -175,6 +178,12 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         signed, t, s = signed_distance_near(surface, tips_mm + r * axes, t0, s0,
                                             iterations=newton)
         return signed - r, t, s
+    if len(tips_mm) > GAP_CHUNK:  # the disc's samples, a chunk of poses at a time
+        parts = [cutter_gap(surface, cutter, tips_mm[i:i + GAP_CHUNK],
+                            axes[i:i + GAP_CHUNK], t0[i:i + GAP_CHUNK], s0[i:i + GAP_CHUNK],
+                            newton=newton) for i in range(0, len(tips_mm), GAP_CHUNK)]
+        gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
+        return gap, t, s
     centre = tips_mm + r * axes
     disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1)
     # the centre's foot point: its normal tells which rim point can touch
@@ -199,6 +208,16 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     if rows.size:
         d_f, t_f, s_f = disc.scan(rows, t0[rows], s0[rows])
         _keep_lower((out_d, out_t, out_s), rows, (d_f, t_f, s_f))
+    # the rim point facing down the surface at the expected contact (t0, s0): round a
+    # leading edge tighter than the disc, the distance along the rim dips there sharply,
+    # between the samples above, and the centre's foot faces another way
+    n_0 = surface.normal(t0, s0)
+    lat_0 = n_0 - np.einsum("ij,ij->i", n_0, axes)[:, None] * axes
+    phi_0 = np.arctan2(-np.einsum("ij,ij->i", lat_0, disc.b2),
+                       -np.einsum("ij,ij->i", lat_0, disc.b1))
+    all_rows = np.arange(len(tips_mm))
+    _keep_lower((out_d, out_t, out_s), all_rows,
+                disc.signed(disc.rim(all_rows, phi_0), t0, s0))
     return out_d - r, out_t, out_s
 
 
