@@ -4,8 +4,11 @@ Nothing here uses the planner's curvature formulas or its internal parameters: o
 toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 
 **Chord error.** Every cutter location on a cutting move is first projected onto the
-surface (Newton from the nearest of a grid of surface samples): its gap checks that it
-touches. Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
+surface (Newton from the nearest of a grid of surface samples; a foot farther than the
+sample nearest its point is searched again from there): its gap checks that it
+touches. A flat or bull-nose cutter's lowest rim point is sought finely everywhere
+(``refine_rim`` of :func:`~toolpath.planning.sampling.cutter_gap`). Then the cutter is
+placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
 axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
 it; for a toolpath checked under a 5-axis machine's joint interpolation, its joints
 linear, as that machine moves it), and, on the
@@ -138,7 +141,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         # measured at three places, then once more where the gap model is lowest and
         # where it is highest (on the moves whose extreme could be the largest: within
         # half of the largest sample)
-        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2,
+        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2, refine_rim=True,
                                **joint_moves(machine, joints, seg))
         low, u_low, high, u_high = chord_extremes(np.clip(g3, -1e3, 1e3), u)
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
@@ -147,7 +150,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
             if sel.size:
                 g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                             u_at[sel, None], newton=2,
+                                             u_at[sel, None], newton=2, refine_rim=True,
                                              **joint_moves(machine, joints, seg[sel]))[0][:, 0]
         gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
                              axis=1)
@@ -185,7 +188,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     """
     r = cutter.corner_radius_mm
     gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, samples.t[seeds], samples.s[seeds],
-                           newton=6)
+                           newton=6, refine_rim=True)
     if cutter.kind is CutterKind.BALL:
         return gap, t, s
     for _ in range(2):
@@ -196,7 +199,8 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
         if not wrong.size:
             break
         g2, t2, s2 = cutter_gap(surface, cutter, tips_mm[wrong], axes[wrong],
-                                samples.t[near[wrong]], samples.s[near[wrong]], newton=6)
+                                samples.t[near[wrong]], samples.s[near[wrong]], newton=6,
+                                refine_rim=True)
         gap[wrong], t[wrong], s[wrong] = g2, t2, s2
     return gap, t, s
 

@@ -388,7 +388,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         low, u_low, high, u_high = chord_extremes(np.clip(gaps, -1e3, 1e3))
         low, high = np.minimum(low, gaps.min(axis=1)), np.maximum(high, gaps.max(axis=1))
         # the model is close, not exact: where an extreme is within 10 % of its limit,
-        # measure there (a move can both cut in and stand above: both sides are checked)
+        # measure there (a move can both cut in and stand above: both sides are checked;
+        # a flat or bull-nose rim's lowest point sought finely: :func:`cutter_gap`)
         sides = ((low, u_low, tol, -1.0, np.minimum),
                  (high, u_high, res["undercut_mm"], 1.0, np.maximum))
         for value, u_at, limit, sign, further in sides:
@@ -399,7 +400,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                 exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
                                         pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
                                         pts.s[j], pts.s[j + 1], u_at[close, None],
-                                        **joint_moves(machine, q, j))
+                                        refine_rim=True, **joint_moves(machine, q, j))
                 value[close] = further(value[close], exact[:, 0])
         worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])

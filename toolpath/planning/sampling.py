@@ -145,6 +145,9 @@ TURN_MARGIN = 3.0
 #: Poses per call of the disc search in :func:`cutter_gap` (its 33 samples per pose and
 #: their Newton searches stay within a few hundred MB).
 GAP_CHUNK = 100_000
+#: Projections of the golden-section search along the rim (``refine_rim``): the bracket
+#: of two sample steps shrinks to 0.618^10 of itself, under 0.3 deg.
+RIM_REFINE_STEPS = 12
 #: Points of the corner-circle disc tried by :func:`cutter_gap` for flat and bull-nose
 #: cutters: 24 on its rim (15 deg apart, then refined), its centre and 8 at half radius.
 _RIM = 24
@@ -152,8 +155,8 @@ _RIM = 24
 
 def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
                axes: NDArray[np.float64], t0: NDArray[np.float64], s0: NDArray[np.float64],
-               *, newton: int = 3) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                                             NDArray[np.float64]]:
+               *, newton: int = 3, refine_rim: bool = False
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Signed gap between the cutter and the surface near ``(t0, s0)``, mm.
 
     The cutting end is every point within ``r`` of the disc of radius ``R - r`` at height
@@ -166,7 +169,12 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     5 rim points within 30 deg of that direction are projected and the lowest refined by a
     parabola. Elsewhere (a disc lying almost flat, whose minimum over a convex surface may
     lie inside, or a window whose lowest sample is at its end) the centre, 8 points at half
-    its radius and 24 on its rim are projected, the rim minimum refined likewise.
+    its radius and 24 on its rim are projected, the rim minimum refined likewise. Last,
+    the rim point facing down the surface at ``(t0, s0)`` (the expected contact) is
+    tried. With ``refine_rim``, the lowest rim point is then sought by golden section
+    within one sample step either side (:data:`RIM_REFINE_STEPS` projections more):
+    round an edge much tighter than the disc the distance dips over a few degrees of the
+    rim, which neither the samples nor a parabola through them resolve.
 
     Returns
     -------
@@ -181,7 +189,8 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     if len(tips_mm) > GAP_CHUNK:  # the disc's samples, a chunk of poses at a time
         parts = [cutter_gap(surface, cutter, tips_mm[i:i + GAP_CHUNK],
                             axes[i:i + GAP_CHUNK], t0[i:i + GAP_CHUNK], s0[i:i + GAP_CHUNK],
-                            newton=newton) for i in range(0, len(tips_mm), GAP_CHUNK)]
+                            newton=newton, refine_rim=refine_rim)
+                 for i in range(0, len(tips_mm), GAP_CHUNK)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
     centre = tips_mm + r * axes
@@ -195,19 +204,18 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     # the disc's reach, three times over) and than 2 deg
     tilted = lean > np.maximum(TURN_MARGIN * k_c * (disc.radius + r),
                                np.sin(np.radians(2.0)))
-    out_d, out_t, out_s = d_c, t_c, s_c
+    out = (d_c, t_c, s_c, np.full(len(tips_mm), np.nan))  # and the rim angle
     full = ~tilted
     rows = np.flatnonzero(tilted)
     if rows.size:
         phi0 = np.arctan2(-np.einsum("ij,ij->i", lateral[rows], disc.b2[rows]),
                           -np.einsum("ij,ij->i", lateral[rows], disc.b1[rows]))
-        d5, t5, s5, inside = disc.rim_window(rows, phi0, t_c[rows], s_c[rows])
-        _keep_lower((out_d, out_t, out_s), rows, (d5, t5, s5))
+        *found, inside = disc.rim_window(rows, phi0, t_c[rows], s_c[rows])
+        _keep_lower(out, rows, found)
         full[rows[~inside]] = True  # the lowest sample at the window's end: scan it all
     rows = np.flatnonzero(full)
     if rows.size:
-        d_f, t_f, s_f = disc.scan(rows, t0[rows], s0[rows])
-        _keep_lower((out_d, out_t, out_s), rows, (d_f, t_f, s_f))
+        _keep_lower(out, rows, disc.scan(rows, t0[rows], s0[rows]))
     # the rim point facing down the surface at the expected contact (t0, s0): round a
     # leading edge tighter than the disc, the distance along the rim dips there sharply,
     # between the samples above, and the centre's foot faces another way
@@ -216,9 +224,12 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     phi_0 = np.arctan2(-np.einsum("ij,ij->i", lat_0, disc.b2),
                        -np.einsum("ij,ij->i", lat_0, disc.b1))
     all_rows = np.arange(len(tips_mm))
-    _keep_lower((out_d, out_t, out_s), all_rows,
-                disc.signed(disc.rim(all_rows, phi_0), t0, s0))
-    return out_d - r, out_t, out_s
+    _keep_lower(out, all_rows, (*disc.signed(disc.rim(all_rows, phi_0), t0, s0), phi_0))
+    rows = np.flatnonzero(np.isfinite(out[3]))
+    if refine_rim and rows.size:
+        _keep_lower(out, rows, disc.golden_rim(rows, out[3][rows], out[1][rows],
+                                               out[2][rows], 2.0 * np.pi / _RIM))
+    return out[0] - r, out[1], out[2]
 
 
 class _Disc:
@@ -269,14 +280,14 @@ class _Disc:
         j = np.argmin(d, axis=1)
         inside = (j > 0) & (j < k - 1)
         i = np.arange(n)
-        out = d[i, j], t5[i, j], s5[i, j]
+        out = d[i, j], t5[i, j], s5[i, j], phi0 + offsets[j]
         sel = np.flatnonzero(inside)
         if sel.size:
             js = j[sel]
             ang = _parabola_angle(d[sel, js - 1], d[sel, js], d[sel, js + 1],
                                   phi0[sel] + offsets[js], offsets[1] - offsets[0])
-            d2, t2, s2 = self.signed(self.rim(rows[sel], ang), t5[sel, js], s5[sel, js])
-            _keep_lower(out, sel, (d2, t2, s2))
+            _keep_lower(out, sel, (*self.signed(self.rim(rows[sel], ang), t5[sel, js],
+                                                 s5[sel, js]), ang))
         return (*out, inside)
 
     def scan(self, rows: NDArray[np.int64], tt: NDArray[np.float64], ss: NDArray[np.float64]
@@ -298,15 +309,43 @@ class _Disc:
         d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
         best = np.argmin(d, axis=1)
         i_all = np.arange(m)
-        out_d, out_t, out_s = d[i_all, best], tt[i_all, best], ss[i_all, best]
+        out = (d[i_all, best], tt[i_all, best], ss[i_all, best],
+               np.where(best < _RIM, phi[np.minimum(best, _RIM - 1)], np.nan))
         i = np.flatnonzero(best < _RIM)
         if i.size:
             j = best[i]
             ang = _parabola_angle(d[i, (j - 1) % _RIM], d[i, j], d[i, (j + 1) % _RIM], phi[j],
                                   2.0 * np.pi / _RIM)
-            d2, t2, s2 = self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j])
-            _keep_lower((out_d, out_t, out_s), i, (d2, t2, s2))
-        return out_d, out_t, out_s
+            _keep_lower(out, i, (*self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j]), ang))
+        return out
+
+    def golden_rim(self, rows: NDArray[np.int64], phi: NDArray[np.float64],
+                   tt: NDArray[np.float64], ss: NDArray[np.float64], half_width: float
+                   ) -> tuple[NDArray[np.float64], ...]:
+        """Lowest rim point within ``half_width`` (rad) of ``phi``, by golden section.
+
+        Returns the distance, ``t``, ``s`` and angle of the lowest point tried.
+        """
+        ratio = (np.sqrt(5.0) - 1.0) / 2.0
+        lo, hi = phi - half_width, phi + half_width
+        a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
+        fa, fb = (self.signed(self.rim(rows, x), tt, ss) for x in (a, b))
+        best = tuple(np.where(fa[0] <= fb[0], u, v) for u, v in zip((*fa, a), (*fb, b),
+                                                                     strict=True))
+        for _ in range(RIM_REFINE_STEPS - 2):
+            left = fa[0] <= fb[0]  # the minimum lies in [lo, b]: drop (b, hi]
+            hi = np.where(left, b, hi)
+            lo = np.where(left, lo, a)
+            new = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))
+            f_new = self.signed(self.rim(rows, new), *best[1:3])
+            # left: (a, b) <- (new, a); right: (a, b) <- (b, new)
+            fa, fb = (tuple(np.where(left, u, v) for u, v in zip(f_new, fb, strict=True)),
+                      tuple(np.where(left, u, v) for u, v in zip(fa, f_new, strict=True)))
+            a, b = np.where(left, new, b), np.where(left, a, new)
+            lower = f_new[0] < best[0]
+            best = tuple(np.where(lower, u, v) for u, v in zip((*f_new, new), best,
+                                                               strict=True))
+        return best
 
 
 def _keep_lower(best: tuple[NDArray[np.float64], ...], rows: NDArray[np.int64],
@@ -377,7 +416,7 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
               tips_b: NDArray[np.float64], axes_a: NDArray[np.float64],
               axes_b: NDArray[np.float64], ta: NDArray[np.float64], tb: NDArray[np.float64],
               sa: NDArray[np.float64], sb: NDArray[np.float64],
-              fractions: NDArray[np.float64], *, newton: int = 2,
+              fractions: NDArray[np.float64], *, newton: int = 2, refine_rim: bool = False,
               joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Gaps of the cutter at ``fractions`` of each move.
@@ -390,6 +429,7 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     and ``(tb, sb)`` (across the seam the short way on closed sections).
 
     ``fractions`` are the same for every move (shape (k,)) or each move's own (m, k).
+    ``newton`` and ``refine_rim`` go to :func:`cutter_gap`.
 
     Returns
     -------
@@ -411,7 +451,8 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
     if closed:
         t0 = np.mod(t0, 1.0)
-    gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton)
+    gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
+                           refine_rim=refine_rim)
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
 
 
