@@ -139,7 +139,7 @@ def main() -> None:
     parser.add_argument("--fine", action="store_true",
                         help="also the dev blade at scallop 0.001 mm, chord 0.002 mm")
     parser.add_argument("--faces", action="store_true",
-                        help="flat and bull-nose cutters on analytic surfaces, measured")
+                        help="flat and bull-nose cutters in 5-axis, measured")
     parser.add_argument("--sweep", action="store_true",
                         help="measured over requested on the dev blade, many requests")
     args = parser.parse_args()

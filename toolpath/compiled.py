@@ -213,11 +213,13 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
 
 #: :func:`_point_partials` as a call, not inlined: the Newton search calls it from five
 #: places, and inlining it there (10 % faster) made the first compile take a minute.
+#: (The same source: numba's cache keeps both under the one function's name.)
 _partials_at = numba.njit(cache=True)(_point_partials.py_func)
 
 
 #: A Newton step predicted to move the foot by less than this share of ``converged_mm``
-#: ends the search without a check of its point (the signed distance evaluates it).
+#: ends the search without a check of its point (the signed distance there comes from the
+#: partials already at hand, to second order: :func:`_taylor_signed`).
 SMALL_STEP_SHARE = 0.1
 
 #: Points per block of the compiled loops run in parallel (each block its own scratch).
@@ -260,8 +262,9 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``. For a signed distance, a last step predicted (to first order)
     to move the foot by under :data:`SMALL_STEP_SHARE` of ``converged_mm`` is taken
-    without evaluating its point first (the numpy path checks it: the same foot to
-    within that distance).
+    without evaluating its point, and the distance there is the second-order expansion
+    from the partials at hand (the numpy path evaluates both: the same foot to within
+    that distance, the same distance to a nanometre).
     """
     for block in numba.prange((p.shape[0] + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))

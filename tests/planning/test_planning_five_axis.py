@@ -220,8 +220,8 @@ def test_rate_limit_finds_the_bend_of_a_slightly_twisted_pass():
 
 
 def test_axes_lean_at_least_as_far_as_a_minimum():
-    # an axis leaning less than its floor turns away from the normal in its own plane;
-    # one along the normal takes the floor's azimuth; one leaning more is left alone
+    # an axis leaning less than its floor (a little, or not at all) takes the floor: its
+    # own small lean's direction means little; one leaning more is left alone
     from toolpath.planning.tool_axis import keep_min_lean
 
     n = np.tile([0.0, 0.0, 1.0], (3, 1))

@@ -191,17 +191,18 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
                            newton=6, refine_rim=True)
     if cutter.kind is CutterKind.BALL:
         return gap, t, s
+    rows = np.arange(len(tips_mm))
     for _ in range(2):
-        x, n = surface.points_and_normals(t, s)
-        k = x + (gap + r)[:, None] * n
+        x, n = surface.points_and_normals(t[rows], s[rows])
+        k = x + (gap[rows] + r)[:, None] * n
         near_mm, near = samples.tree.query(k, workers=-1)
-        wrong = np.flatnonzero(np.abs(gap + r) > near_mm + 1e-6)
-        if not wrong.size:
+        wrong = np.abs(gap[rows] + r) > near_mm + 1e-6
+        rows, near = rows[wrong], near[wrong]
+        if not rows.size:
             break
-        g2, t2, s2 = cutter_gap(surface, cutter, tips_mm[wrong], axes[wrong],
-                                samples.t[near[wrong]], samples.s[near[wrong]], newton=6,
-                                refine_rim=True)
-        gap[wrong], t[wrong], s[wrong] = g2, t2, s2
+        gap[rows], t[rows], s[rows] = cutter_gap(
+            surface, cutter, tips_mm[rows], axes[rows], samples.t[near], samples.s[near],
+            newton=6, refine_rim=True)
     return gap, t, s
 
 

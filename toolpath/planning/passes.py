@@ -58,7 +58,8 @@ JOINT_SIDEWAYS_MM = 0.002
 #: length, is this share of its limit (at least 2 parts, at most :data:`MAX_PARTS`).
 SPLIT_TARGET = 0.8
 MAX_PARTS = 8
-#: Moves shorter than this (mm, a G-code program's 3-decimal resolution) are not split.
+#: Moves shorter than this (mm, a G-code program's 3-decimal resolution; the tip's travel
+#: plus the cutter radius times the axis turn) are not split.
 MIN_SPLIT_MM = 1e-3
 #: A checked chord is checked again when its ends move (tip, plus the cutter radius times
 #: the axis change) by more than this share of the chord tolerance.
@@ -140,16 +141,21 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _frame_merge(a: PassFrame, b: PassFrame, is_new: NDArray[np.bool_]) -> PassFrame:
-    """Frames ``a`` and ``b`` merged: ``b``'s rows where ``is_new``, ``a``'s elsewhere."""
-    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), is_new)
+def _frame_merge(a: PassFrame, b: PassFrame,
+                 slots: tuple[NDArray[np.int64], NDArray[np.int64]]) -> PassFrame:
+    """Frames ``a`` and ``b`` merged into ``slots`` (:func:`_merge`)."""
+    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), slots)
                         for f in fields(a)})
 
 
-def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[np.bool_]
-           ) -> NDArray[np.float64]:
-    """``new``'s rows where ``is_new``, ``old``'s elsewhere (both in order)."""
-    return np.insert(old, np.flatnonzero(is_new) - np.arange(len(new)), new, axis=0)
+def _merge(old: NDArray[np.float64], new: NDArray[np.float64],
+           slots: tuple[NDArray[np.int64], NDArray[np.int64]]) -> NDArray[np.float64]:
+    """``old``'s rows at ``slots[0]`` and ``new``'s at ``slots[1]`` (both in order)."""
+    old_at, new_at = slots
+    out = np.empty((old_at.size + new_at.size, *old.shape[1:]), dtype=old.dtype)
+    out[old_at] = old
+    out[new_at] = new
+    return out
 
 
 def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
@@ -285,13 +291,14 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     inverse = np.empty_like(sort_new)
     inverse[sort_new] = np.arange(sort_new.size)
     where_new = where_new[inverse]  # in the caller's order
-    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), is_new)
-    nominal = _merge(pts.nominal, nom_new[sort_new], is_new)
-    s = _merge(pts.s, s_new[sort_new], is_new)
-    t = _merge(pts.t, t_new[sort_new], is_new)
-    pid = _merge(pts.pid, pid_new[sort_new], is_new)
+    slots = (np.flatnonzero(~is_new), np.flatnonzero(is_new))
+    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), slots)
+    nominal = _merge(pts.nominal, nom_new[sort_new], slots)
+    s = _merge(pts.s, s_new[sort_new], slots)
+    t = _merge(pts.t, t_new[sort_new], slots)
+    pid = _merge(pts.pid, pid_new[sort_new], slots)
     # the old points on either side of each new one (several new ones may share a move)
-    old_at = np.flatnonzero(~is_new)
+    old_at = slots[0]
     rank = np.searchsorted(old_at, where_new)
     before = old_at[np.clip(rank - 1, 0, None)]
     after = old_at[np.clip(rank, None, old_at.size - 1)]
@@ -384,12 +391,11 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         gaps, _, _ = move_gaps(surface, cutter, pts.tips[idx], pts.tips[idx + 1],
                                pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
                                pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
-                               newton=1, **joint_moves(machine, q, idx))
+                               newton=1, refine_rim=True, **joint_moves(machine, q, idx))
         low, u_low, high, u_high = chord_extremes(np.clip(gaps, -1e3, 1e3))
         low, high = np.minimum(low, gaps.min(axis=1)), np.maximum(high, gaps.max(axis=1))
         # the model is close, not exact: where an extreme is within 10 % of its limit,
-        # measure there (a move can both cut in and stand above: both sides are checked;
-        # a flat or bull-nose rim's lowest point sought finely: :func:`cutter_gap`)
+        # measure there (a move can both cut in and stand above: both sides are checked)
         sides = ((low, u_low, tol, -1.0, np.minimum),
                  (high, u_high, res["undercut_mm"], 1.0, np.maximum))
         for value, u_at, limit, sign, further in sides:
@@ -406,9 +412,12 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         bad = (low < -tol) | (high > res["undercut_mm"])
         if q is not None:
             bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
-        # a move shorter than the program's resolution is not split: its gap is not the
-        # chord's (its ends themselves stand off), and the report carries it
-        bad &= np.linalg.norm(pts.tips[idx + 1] - pts.tips[idx], axis=1) > MIN_SPLIT_MM
+        # a move shorter than the program's resolution (tip, plus the cutter radius times
+        # the axis turn) is not split: its gap is not the chord's (its ends themselves
+        # stand off), and the report carries it
+        bad &= (np.linalg.norm(pts.tips[idx + 1] - pts.tips[idx], axis=1)
+                + cutter.radius_mm * np.linalg.norm(pts.axes[idx + 1] - pts.axes[idx], axis=1)
+                > MIN_SPLIT_MM)
         if not bad.any():
             break
         # each offending move in as many equal parts (in t) as its gap needs: the gap

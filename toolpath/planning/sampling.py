@@ -268,8 +268,8 @@ class _Disc:
                    tt: NDArray[np.float64], ss: NDArray[np.float64]) -> tuple[Any, ...]:
         """Lowest rim point within 30 deg of ``phi0`` (5 samples, then a parabola).
 
-        Returns the distance, ``t``, ``s`` and whether the lowest sample was inside the
-        window (else the true minimum may lie beyond it).
+        Returns the distance, ``t``, ``s``, the rim angle and whether the lowest sample
+        was inside the window (else the true minimum may lie beyond it).
         """
         offsets = np.radians([-30.0, -15.0, 0.0, 15.0, 30.0])
         n, k = rows.size, offsets.size
@@ -291,11 +291,12 @@ class _Disc:
         return (*out, inside)
 
     def scan(self, rows: NDArray[np.int64], tt: NDArray[np.float64], ss: NDArray[np.float64]
-             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+             ) -> tuple[NDArray[np.float64], ...]:
         """Lowest point of the whole disc, by samples.
 
         Its centre, 8 points at half radius and 24 on the rim; the rim minimum is refined
-        by a parabola through its neighbours.
+        by a parabola through its neighbours. Returns the distance, ``t``, ``s`` and the
+        rim angle (NaN where the lowest point is inside the disc).
         """
         phi = np.arange(_RIM) * (2.0 * np.pi / _RIM)
         inner = np.arange(8) * (np.pi / 4.0)

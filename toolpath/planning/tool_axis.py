@@ -229,38 +229,24 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
     over = lean > max_lean_deg
     if not over.any():
         return axes, over
-    return _onto_cone(axes, normals, np.radians(max_lean_deg), over, axes), over
+    perp = axes - np.einsum("ij,ij->i", axes, normals)[:, None] * normals
+    h = _unit(perp)
+    c = np.radians(max_lean_deg)
+    turned = np.cos(c) * normals + np.sin(c) * h
+    return np.where(over[:, None], turned, axes), over
 
 
 def keep_min_lean(axes: NDArray[np.float64], normals: NDArray[np.float64],
                   min_axes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Lean axes at least as far from the normal as ``min_axes`` do (a flat face's lead).
+    """Axes leaning less from the normal than ``min_axes`` do replaced by ``min_axes``.
 
-    An axis leaning less is turned away from the normal, in the plane of ``a`` and ``n``,
-    to the lean of its ``min_axes`` row (towards that row where ``a`` is the normal
-    itself). Returns the axes and which were moved.
+    For a flat face's lead: an axis slerped between two leaning ones, where the normal
+    turns faster than they do, may lean a little in any direction; scaling that lean up
+    would lean the face sideways or back, so the nominal axis is taken instead. Returns
+    the axes and which were replaced.
     """
-    want = angle_deg(min_axes, normals)
-    under = angle_deg(axes, normals) < want - 1e-9
-    if not under.any():
-        return axes, under
-    return _onto_cone(axes, normals, np.radians(want), under, min_axes), under
-
-
-def _onto_cone(axes: NDArray[np.float64], normals: NDArray[np.float64],
-               lean_rad: float | NDArray[np.float64], rows: NDArray[np.bool_],
-               fallback: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``rows`` of ``axes`` turned to ``lean_rad`` from the normal, keeping their azimuth.
-
-    The azimuth of ``fallback`` where an axis lies along its normal.
-    """
-    perp = axes - np.einsum("ij,ij->i", axes, normals)[:, None] * normals
-    alt = fallback - np.einsum("ij,ij->i", fallback, normals)[:, None] * normals
-    flat = np.linalg.norm(perp, axis=1) < 1e-9
-    h = _unit(np.where(flat[:, None], alt, perp))
-    lean = np.broadcast_to(np.asarray(lean_rad, dtype=float), rows.shape)[:, None]
-    turned = np.cos(lean) * normals + np.sin(lean) * h
-    return np.where(rows[:, None], turned, axes)
+    under = angle_deg(axes, normals) < angle_deg(min_axes, normals) - 1e-9
+    return np.where(under[:, None], min_axes, axes), under
 
 
 def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
