@@ -171,10 +171,11 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     lie inside, or a window whose lowest sample is at its end) the centre, 8 points at half
     its radius and 24 on its rim are projected, the rim minimum refined likewise. Last,
     the rim point facing down the surface at ``(t0, s0)`` (the expected contact) is
-    tried. With ``refine_rim``, the lowest rim point is then sought by golden section
-    within one sample step either side (:data:`RIM_REFINE_STEPS` projections more):
-    round an edge much tighter than the disc the distance dips over a few degrees of the
-    rim, which neither the samples nor a parabola through them resolve.
+    tried. With ``refine_rim``, where the disc was scanned whole, the lowest rim point is
+    then sought by golden section within one sample step either side
+    (:data:`RIM_REFINE_STEPS` projections more): round an edge much tighter than the disc
+    the distance dips over a few degrees of the rim, which neither the samples nor a
+    parabola through them resolve.
 
     Returns
     -------
@@ -225,7 +226,9 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
                        -np.einsum("ij,ij->i", lat_0, disc.b1))
     all_rows = np.arange(len(tips_mm))
     _keep_lower(out, all_rows, (*disc.signed(disc.rim(all_rows, phi_0), t0, s0), phi_0))
-    rows = np.flatnonzero(np.isfinite(out[3]))
+    # only where the normal turns under the disc (the scanned rows): elsewhere the rim's
+    # distance is smooth over a sample step and the parabola has it
+    rows = np.flatnonzero(np.isfinite(out[3]) & full)
     if refine_rim and rows.size:
         _keep_lower(out, rows, disc.golden_rim(rows, out[3][rows], out[1][rows],
                                                out[2][rows], 2.0 * np.pi / _RIM))
