@@ -82,6 +82,19 @@ def test_five_axis_spiral_on_closed_sections_is_one_cut():
     assert z[:5].max() < 0.1 and z[-5:].min() > 3.9
 
 
+def test_oneway_passes_round_closed_sections_link_across_the_seam():
+    # each ring ends at t = 1 where the next starts at t = 0: the link is checked half-way
+    # between the two (the short way across the seam; averaging t once checked the far
+    # side of the blade, and every pass retracted and plunged again)
+    surf = EllipticBladeSurface(semi_axes_hub_mm=(15.0, 4.0), semi_axes_tip_mm=(14.0, 3.5),
+                                z_range_mm=(0.0, 4.0))
+    path, rep = plan_finishing(surf, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                               axis_mode="lead-tilt", lead_deg=10.0, linking="oneway")
+    assert rep.within_request
+    assert np.sum(path.kinds == MoveKind.PLUNGE) == 1
+    assert np.sum(path.kinds == MoveKind.LINK) == path.n_passes - 1
+
+
 def test_three_axis_reports_the_far_side_as_unreachable():
     surf = CylinderPatch(radius_mm=12.0, angle_deg=(0.0, 360.0), length_mm=(0.0, 4.0))
     path, rep = plan_finishing(surf, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01)

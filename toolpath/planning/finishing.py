@@ -53,7 +53,7 @@ from .passes import (
 )
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
-from .sampling import chord_length_mm, cutter_gap, equidistribute, split_evenly
+from .sampling import chord_length_mm, equidistribute, move_gaps, split_evenly
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
 from .tool_axis import angle_deg, lead_tilt_axes
 
@@ -393,11 +393,11 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
             cand.append((k, a, b))
     if cand:
         ks, a, b = (np.array(x) for x in zip(*cand, strict=True))
-        tips = 0.5 * (pts.tips[a] + pts.tips[b])
-        axes = pts.axes[a] + pts.axes[b]
-        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-        gap, _, _ = cutter_gap(surface, cutter, tips, axes, 0.5 * (pts.t[a] + pts.t[b]),
-                               0.5 * (pts.s[a] + pts.s[b]))
+        # the cutter half-way along the link (its search started between the ends'
+        # contacts, the short way across a closed section's seam)
+        gap = move_gaps(surface, cutter, pts.tips[a], pts.tips[b], pts.axes[a], pts.axes[b],
+                        pts.t[a], pts.t[b], pts.s[a], pts.s[b], np.array([0.5]),
+                        newton=3)[0][:, 0]
         for k, ok in zip(ks, gap >= -res["chord_tol_mm"], strict=True):
             out[int(k)].direct_link = bool(ok)
     return out
