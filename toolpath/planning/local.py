@@ -17,12 +17,15 @@ increasing ``s``), with ``q = sqrt(G - F^2 / E)`` the distance across passes per
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..surface import ParametricSurface
+from ..errors import InvalidParameterError
+from ..surface import FRAME_ORDERS, ParametricSurface
 
 __all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near", "wrap_t"]
 
@@ -66,22 +69,62 @@ class PassFrame:
 
 
 def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFrame:
-    """Evaluate :class:`PassFrame` at flat (broadcast) parameter arrays ``t``, ``s``."""
+    """Evaluate :class:`PassFrame` at flat (broadcast) parameter arrays ``t``, ``s``.
+
+    The partials from the surface (compiled where it has a kernel), the frame from them in
+    one compiled pass (:func:`_frame_rows`, the formulas of the module docstring).
+    """
     tt, ss = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(s, dtype=float))
-    f = surface.frame(tt.ravel(), ss.ravel())
-    e_len = np.sqrt(np.maximum(f.E, 1e-300))
-    ratio = f.F / np.maximum(f.E, 1e-300)
-    q2 = np.maximum(f.G - f.F * ratio, 1e-300)
-    q = np.sqrt(q2)
-    e1 = f.xt / e_len[:, None]
-    e2 = (f.xs - ratio[:, None] * f.xt) / q[:, None]
-    s11 = f.L / np.maximum(f.E, 1e-300)
-    s12 = (f.M - ratio * f.L) / (e_len * q)
-    s22 = (f.N - 2.0 * ratio * f.M + ratio**2 * f.L) / q2
-    side = np.cross(f.normal, e1)
-    kg = np.einsum("ij,ij->i", f.xtt, side) / np.maximum(f.E, 1e-300)
-    return PassFrame(point=f.point, normal=f.normal, e1=e1, e2=e2, speed_t=e_len,
-                     speed_s=q, s11=s11, s12=s12, s22=s22, kg=kg)
+    tt, ss = tt.ravel(), ss.ravel()
+    if not (np.isfinite(tt).all() and np.isfinite(ss).all()):
+        raise InvalidParameterError("surface parameters t and s must be finite")
+    parts = surface._partials_many(tt, ss, FRAME_ORDERS)
+    n = tt.size
+    vectors = np.empty((3, n, 3))  # normal, e1, e2
+    scalars = np.empty((6, n))  # speed_t, speed_s, s11, s12, s22, kg
+    _frame_rows(*(np.ascontiguousarray(parts[o], dtype=float) for o in FRAME_ORDERS),
+                float(surface.orientation), vectors, scalars)
+    return PassFrame(point=parts[0, 0], normal=vectors[0], e1=vectors[1], e2=vectors[2],
+                     speed_t=scalars[0], speed_s=scalars[1], s11=scalars[2], s12=scalars[3],
+                     s22=scalars[4], kg=scalars[5])
+
+
+@numba.njit(cache=True, parallel=True)
+def _frame_rows(x, xt, xs, xtt, xts, xss, orientation, vectors, scalars):
+    """:class:`PassFrame`'s vectors and scalars at each row from the partials."""
+    for i in numba.prange(x.shape[0]):
+        e = xt[i, 0] * xt[i, 0] + xt[i, 1] * xt[i, 1] + xt[i, 2] * xt[i, 2]
+        f = xt[i, 0] * xs[i, 0] + xt[i, 1] * xs[i, 1] + xt[i, 2] * xs[i, 2]
+        g = xs[i, 0] * xs[i, 0] + xs[i, 1] * xs[i, 1] + xs[i, 2] * xs[i, 2]
+        n0 = xt[i, 1] * xs[i, 2] - xt[i, 2] * xs[i, 1]
+        n1 = xt[i, 2] * xs[i, 0] - xt[i, 0] * xs[i, 2]
+        n2 = xt[i, 0] * xs[i, 1] - xt[i, 1] * xs[i, 0]
+        size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
+        scale = orientation / size if size > 0.0 else orientation
+        n0, n1, n2 = n0 * scale, n1 * scale, n2 * scale
+        big_l = xtt[i, 0] * n0 + xtt[i, 1] * n1 + xtt[i, 2] * n2
+        big_m = xts[i, 0] * n0 + xts[i, 1] * n1 + xts[i, 2] * n2
+        big_n = xss[i, 0] * n0 + xss[i, 1] * n1 + xss[i, 2] * n2
+        e_safe = max(e, 1e-300)
+        e_len = math.sqrt(e_safe)
+        ratio = f / e_safe
+        q2 = max(g - f * ratio, 1e-300)
+        q = math.sqrt(q2)
+        e1 = (xt[i, 0] / e_len, xt[i, 1] / e_len, xt[i, 2] / e_len)
+        for k in range(3):
+            vectors[0, i, k] = (n0, n1, n2)[k]
+            vectors[1, i, k] = e1[k]
+            vectors[2, i, k] = (xs[i, k] - ratio * xt[i, k]) / q
+        # kg: X_tt . (n x e1) / E
+        side0 = n1 * e1[2] - n2 * e1[1]
+        side1 = n2 * e1[0] - n0 * e1[2]
+        side2 = n0 * e1[1] - n1 * e1[0]
+        scalars[0, i] = e_len
+        scalars[1, i] = q
+        scalars[2, i] = big_l / e_safe
+        scalars[3, i] = (big_m - ratio * big_l) / (e_len * q)
+        scalars[4, i] = (big_n - 2.0 * ratio * big_m + ratio * ratio * big_l) / q2
+        scalars[5, i] = (xtt[i, 0] * side0 + xtt[i, 1] * side1 + xtt[i, 2] * side2) / e_safe
 
 
 def wrap_t(t: NDArray[np.float64], closed: bool) -> NDArray[np.float64]:
