@@ -148,3 +148,23 @@ def test_pairs_within_equal_brute_force(radius_mm):
     expected = set(zip(*np.nonzero(close), strict=True))
     assert set(zip(owner.tolist(), item.tolist(), strict=True)) == expected
     assert len(owner) == len(expected)
+
+
+def test_pass_frame_on_a_sphere():
+    # every normal curvature -1/R (convex), none twisted; a latitude circle's geodesic
+    # curvature cot(colatitude) / R; the frame orthonormal, the normal outward
+    from toolpath.planning import SpherePatch
+
+    sphere = SpherePatch(radius_mm=20.0, longitude_deg=(-40.0, 40.0),
+                         colatitude_deg=(5.0, 60.0))
+    rng = np.random.default_rng(2)
+    frame = pass_frame(sphere, rng.random(500), rng.random(500))
+    np.testing.assert_allclose(frame.s11, -0.05, atol=1e-12)
+    np.testing.assert_allclose(frame.s22, -0.05, atol=1e-12)
+    np.testing.assert_allclose(frame.s12, 0.0, atol=1e-12)
+    colatitude = np.arccos(frame.point[:, 2] / 20.0)
+    np.testing.assert_allclose(frame.kg, 1.0 / np.tan(colatitude) / 20.0, rtol=1e-9)
+    basis = np.stack([frame.e1, frame.e2, frame.normal], axis=1)
+    np.testing.assert_allclose(basis @ basis.transpose(0, 2, 1), np.broadcast_to(
+        np.eye(3), basis.shape), atol=1e-12)
+    np.testing.assert_allclose(frame.normal, frame.point / 20.0, atol=1e-12)
