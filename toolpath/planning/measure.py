@@ -61,7 +61,13 @@ from .clearance_kernel import bin_samples, pairs_within
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
-from .sweep_kernel import capsule_entries, nearest_entries, ray_ranges, segment_distances
+from .sweep_kernel import (
+    capsule_entries,
+    nearest_entries,
+    ray_ranges,
+    segment_distances,
+    tip_plane_floors,
+)
 
 __all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
 
@@ -370,20 +376,17 @@ class _CutVolume:
         return np.where(out > self.horizon, np.inf, out)
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
-                   item: NDArray[np.int64]) -> NDArray[np.float64]:
-        """A lower bound of the entry for rays from anywhere near ``centre``.
+                   owner: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+        """A lower bound of the entry for rays from anywhere near ``centre[owner]``.
 
-        Pairs of points with pieces ``item``; the rays start within ``radius`` of the
-        point. A point below the tip's plane by ``depth`` meets it at least ``depth`` up
-        any ray (``n.a <= 1``; a ray not climbing never does), and points within
-        ``radius`` of the centre lie at most ``radius`` deeper or shallower than it.
+        Pairs of points ``owner`` with pieces ``item``; the rays start within
+        ``radius[owner]`` of the point. A point below the tip's plane by ``depth`` meets
+        it at least ``depth`` up any ray (``n.a <= 1``; a ray not climbing never does),
+        and points within ``radius`` of the centre lie at most ``radius`` deeper or
+        shallower than it (compiled: :func:`.sweep_kernel.tip_plane_floors`).
         """
-        depth = np.full(len(centre), np.inf)
-        for tips, axes in ((self.tips0[item], self.axes0[item]),
-                           (self.tips1[item], self.axes1[item])):
-            depth = np.minimum(depth, np.einsum("ij,ij->i", tips - centre, axes))
-        turn = np.linalg.norm(self.axes1[item] - self.axes0[item], axis=1)
-        return depth - radius - 2.0 * self.cutter.radius_mm * turn
+        return tip_plane_floors(centre, radius, owner, item, self.tips0, self.tips1,
+                                self.axes0, self.axes1, self.cutter.radius_mm)
 
 
 def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
@@ -408,7 +411,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     p0, p1 = surface(t, s0), surface(t, s1)
     sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
     if not volume.ball:
-        near = volume.floor_over(mid[owner], half[owner] + sag[owner], item) <= volume.horizon
+        near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon
         owner, item = owner[near], item[near]
     dist = segment_distances(p0, p1, owner, volume.piece_a, volume.piece_b, item)
     near = dist <= volume.segment_reach + 2.0 * sag[owner]

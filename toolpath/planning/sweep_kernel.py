@@ -37,7 +37,8 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_ranges", "segment_distances"]
+__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_ranges", "segment_distances",
+           "tip_plane_floors"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -363,4 +364,36 @@ def segment_distances(p0: NDArray[np.float64], p1: NDArray[np.float64],
     if out.size:
         _segment_distances(_floats(p0), _floats(p1), _ints(owner), _floats(a), _floats(b),
                            _ints(item), out)
+    return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _tip_plane_floors(centre, radius, owner, item, p0, p1, a0, a1, big, out):
+    for k in numba.prange(owner.size):
+        c, j = owner[k], item[k]
+        depth = np.inf
+        for end in range(2):
+            tip, axis = (p0[j], a0[j]) if end == 0 else (p1[j], a1[j])
+            depth = min(depth, (tip[0] - centre[c, 0]) * axis[0]
+                        + (tip[1] - centre[c, 1]) * axis[1] + (tip[2] - centre[c, 2]) * axis[2])
+        turn = math.sqrt((a1[j, 0] - a0[j, 0]) ** 2 + (a1[j, 1] - a0[j, 1]) ** 2
+                         + (a1[j, 2] - a0[j, 2]) ** 2)
+        out[k] = depth - radius[c] - 2.0 * big * turn
+
+
+def tip_plane_floors(centre: NDArray[np.float64], radius: NDArray[np.float64],
+                     owner: NDArray[np.int64], item: NDArray[np.int64],
+                     tips0: NDArray[np.float64], tips1: NDArray[np.float64],
+                     axes0: NDArray[np.float64], axes1: NDArray[np.float64],
+                     radius_mm: float) -> NDArray[np.float64]:
+    """Per pair ``k``: how far below piece ``item[k]``'s tip planes ``centre[owner[k]]`` lies.
+
+    ``min over its ends of (tip - c).a``, less ``radius[owner[k]]`` and ``2 R`` times the
+    axis change (a turning axis moves the cutting end by at most that).
+    """
+    out = np.empty(len(owner))
+    if out.size:
+        _tip_plane_floors(_floats(centre), _floats(radius), _ints(owner), _ints(item),
+                          _floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1),
+                          float(radius_mm), out)
     return out
