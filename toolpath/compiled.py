@@ -292,6 +292,8 @@ def _second_order(fr, k, dt, ds):
 def _taylor_signed(p, i, fr, dt, ds, orientation):
     """Signed distance ``(p - X) . n`` at ``(t + dt, s + ds)`` from the partials at ``(t, s)``.
 
+    With ``dt = ds = 0`` the signed distance at ``(t, s)`` itself.
+
     ``X`` to second order, the tangents ``X_t, X_s`` to first: for a step moving the foot
     by ``h`` the distance is off by ``O(h^3)`` (the foot) plus ``|p - X| O(h^2 k')`` (the
     normal), far below a nanometre for the steps :data:`SMALL_STEP_SHARE` admits.
@@ -387,12 +389,6 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
-    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, fr, 0,
+    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
                  mu, mv, g, z, w)
-    n0 = fr[1, 0, 1] * fr[2, 0, 2] - fr[1, 0, 2] * fr[2, 0, 1]
-    n1 = fr[1, 0, 2] * fr[2, 0, 0] - fr[1, 0, 0] * fr[2, 0, 2]
-    n2 = fr[1, 0, 0] * fr[2, 0, 1] - fr[1, 0, 1] * fr[2, 0, 0]
-    size = math.sqrt(n0 * n0 + n1 * n1 + n2 * n2)
-    scale = orientation / size if size > 0.0 else 0.0
-    dist[i] = scale * ((p[i, 0] - fr[0, 0, 0]) * n0 + (p[i, 1] - fr[0, 0, 1]) * n1
-                       + (p[i, 2] - fr[0, 0, 2]) * n2)
+    dist[i] = _taylor_signed(p, i, fr, 0.0, 0.0, orientation)  # at the foot itself

@@ -29,7 +29,7 @@ from .errors import InvalidParameterError
 if TYPE_CHECKING:
     from .compiled import StreamlineKernel
 
-__all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame"]
+__all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame", "parameter_pairs"]
 
 #: The highest total derivative order a surface must provide.
 MAX_ORDER = 2
@@ -37,7 +37,7 @@ MAX_ORDER = 2
 FRAME_ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
 
-def _parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
+def parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple[int, ...]]:
     """Flatten ``(t, s)`` (broadcast, or the outer grid) and return the output shape."""
     t_arr = np.asarray(t, dtype=float)
@@ -80,7 +80,7 @@ class SurfaceFrame:
     """
 
     def __init__(self, surface: ParametricSurface, t: ArrayLike, s: ArrayLike, grid: bool):
-        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         parts = surface._partials_many(flat_t, flat_s, FRAME_ORDERS)
         vec = (*shape, 3)
         self.point = parts[0, 0].reshape(vec)
@@ -158,7 +158,7 @@ class ParametricSurface(ABC):
         if dt + ds > MAX_ORDER:
             raise InvalidParameterError(
                 f"derivatives up to total order {MAX_ORDER} are available, asked dt={dt}, ds={ds}")
-        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         return self._partials(flat_t, flat_s, int(dt), int(ds)).reshape((*shape, 3))
 
     def frame(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> SurfaceFrame:
@@ -167,7 +167,7 @@ class ParametricSurface(ABC):
 
     def normal(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> NDArray[np.float64]:
         """Unit normals, oriented outward (``orientation * X_t x X_s``)."""
-        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         parts = self._partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
         normal = _outward(self, parts[1, 0], parts[0, 1])
         return normal.reshape((*shape, 3))
@@ -175,7 +175,7 @@ class ParametricSurface(ABC):
     def points_and_normals(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Points and outward unit normals from one evaluation of the three partials."""
-        flat_t, flat_s, shape = _parameter_pairs(t, s, grid)
+        flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         parts = self._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
         normal = _outward(self, parts[1, 0], parts[0, 1])
         return parts[0, 0].reshape((*shape, 3)), normal.reshape((*shape, 3))

@@ -24,8 +24,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..errors import InvalidParameterError
-from ..surface import FRAME_ORDERS, ParametricSurface
+from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
 
 __all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near", "wrap_t"]
 
@@ -74,10 +73,7 @@ def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFr
     The partials from the surface (compiled where it has a kernel), the frame from them in
     one compiled pass (:func:`_frame_rows`, the formulas of the module docstring).
     """
-    tt, ss = np.broadcast_arrays(np.asarray(t, dtype=float), np.asarray(s, dtype=float))
-    tt, ss = tt.ravel(), ss.ravel()
-    if not (np.isfinite(tt).all() and np.isfinite(ss).all()):
-        raise InvalidParameterError("surface parameters t and s must be finite")
+    tt, ss, _ = parameter_pairs(t, s, grid=False)
     parts = surface._partials_many(tt, ss, FRAME_ORDERS)
     n = tt.size
     vectors = np.empty((3, n, 3))  # normal, e1, e2

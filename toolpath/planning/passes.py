@@ -338,6 +338,13 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     return merged, where_new, True
 
 
+def _travel_mm(cutter: Cutter, tips_a: NDArray[np.float64], tips_b: NDArray[np.float64],
+               axes_a: NDArray[np.float64], axes_b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """How far the cutter goes from pose ``a`` to ``b``: the tip, plus ``R`` times the axis."""
+    return (np.linalg.norm(tips_b - tips_a, axis=1)
+            + cutter.radius_mm * np.linalg.norm(axes_b - axes_a, axis=1))
+
+
 def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
                  idx: NDArray[np.int64]) -> NDArray[np.float64]:
     """How far joint interpolation moves the tip sideways (across the pass) at mid-move."""
@@ -415,9 +422,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # a move shorter than the program's resolution (tip, plus the cutter radius times
         # the axis turn) is not split: its gap is not the chord's (its ends themselves
         # stand off), and the report carries it
-        bad &= (np.linalg.norm(pts.tips[idx + 1] - pts.tips[idx], axis=1)
-                + cutter.radius_mm * np.linalg.norm(pts.axes[idx + 1] - pts.axes[idx], axis=1)
-                > MIN_SPLIT_MM)
+        bad &= _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
+                          pts.axes[idx + 1]) > MIN_SPLIT_MM
         if not bad.any():
             break
         # each offending move in as many equal parts (in t) as its gap needs: the gap
@@ -441,8 +447,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         moved[where_new] = True
         if not kept:
             old_at = np.flatnonzero(~moved)
-            shift = (np.linalg.norm(pts.tips[old_at] - old_tips, axis=1)
-                     + cutter.radius_mm * np.linalg.norm(pts.axes[old_at] - old_axes, axis=1))
+            shift = _travel_mm(cutter, old_tips, pts.tips[old_at], old_axes, pts.axes[old_at])
             moved[old_at[shift > MOVED_SHARE * tol]] = True
         at = np.flatnonzero(moved)
         check = np.zeros(len(pts) - 1, dtype=bool)

@@ -228,8 +228,8 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     _keep_lower(out, all_rows, (*disc.signed(disc.rim(all_rows, phi_0), t0, s0), phi_0))
     # only where the normal turns under the disc (the scanned rows): elsewhere the rim's
     # distance is smooth over a sample step and the parabola has it
-    rows = np.flatnonzero(np.isfinite(out[3]) & full)
-    if refine_rim and rows.size:
+    rows = np.flatnonzero(np.isfinite(out[3]) & full) if refine_rim else all_rows[:0]
+    if rows.size:
         _keep_lower(out, rows, disc.golden_rim(rows, out[3][rows], out[1][rows],
                                                out[2][rows], 2.0 * np.pi / _RIM))
     return out[0] - r, out[1], out[2]
