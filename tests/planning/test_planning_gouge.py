@@ -134,6 +134,33 @@ def test_global_clearance_equals_brute_force_over_every_sample(spec):
             assert value == pytest.approx(want, abs=1e-12), (i, spec)
 
 
+def test_clearance_kernel_skips_a_flute_sphere_only_while_no_sample_can_be_inside():
+    # a flute sphere skips its search while it has not moved by the spare distance last
+    # found; a lying cutter coming straight down onto a plane of samples in 0.02 mm steps
+    # (the spare shrinks exactly as the sphere moves) must find every sample entering its
+    # flute sphere at once
+    from toolpath.planning.clearance_kernel import bin_samples, clearances
+
+    g = np.arange(-20.0, 40.0, 0.25)
+    x, y = np.meshgrid(g, g[(g > -10.0) & (g < 10.0)])
+    pts = np.column_stack([x.ravel(), y.ravel(), np.zeros(x.size)])
+    cutter = parse_cutter("ball:6")
+    n = 400
+    tips = np.column_stack([np.zeros(n), np.zeros(n), np.linspace(12.0, 4.0, n)])
+    axes = np.tile([1.0, 0.0, 0.0], (n, 1))
+    contacts = tips + np.array([0.0, 0.0, 100.0])  # every sample is far
+    heights, radii = np.array([3.0, 16.5]), np.array([3.1, 5.0])
+    near, far, _, _ = clearances(bin_samples(pts, 3.1), bin_samples(pts, 5.0), tips, axes,
+                                 contacts, heights, radii, 3.0, 3.0, 18.0, 6.0)
+    for i in range(n):
+        centres = tips[i] + heights[:, None] * axes[i]
+        inside = (np.linalg.norm(pts[:, None, :] - centres[None], axis=2) <= radii).any(axis=1)
+        want = cutter.signed_distance(pts, tips[i], axes[i])[inside].min() if inside.any() \
+            else np.inf
+        assert far[i] == pytest.approx(want, abs=1e-12), i
+    assert np.isinf(near).all() and np.isinf(far[:100]).all() and np.isfinite(far[-50:]).all()
+
+
 @pytest.mark.parametrize("radius_mm", [0.3, 2.5])
 def test_pairs_within_equal_brute_force(radius_mm):
     # binned in cells of 1 mm, queried with radii below and above the cell

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from typing import Any
 
 import numba
 import numpy as np
@@ -61,22 +62,55 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     A query sphere then overlaps at most 3 x 3 x 3 cells (finer cells cost more in cell
     visits than they save in samples on a blade's thin sheet of samples).
     """
-    lo = points_mm.min(axis=0) - 1e-9
-    extent = points_mm.max(axis=0) + 1e-9 - lo
+    points = np.ascontiguousarray(points_mm, dtype=float)
+    bounds = np.empty((2, 3))
+    _bounds(points, bounds)  # (numpy's min over axis 0 of (n, 3) is strided: slow)
+    lo = bounds[0] - 1e-9
+    extent = bounds[1] + 1e-9 - lo
     cell = max(float(reach_mm), 1e-9)
     while np.prod(np.floor(extent / cell) + 1.0) > MAX_CELLS:
         cell *= 1.5
     shape = (np.floor(extent / cell) + 1).astype(np.int64)
-    ijk = np.minimum(((points_mm - lo) / cell).astype(np.int64), shape - 1)
-    cell_id = ijk[:, 0] + shape[0] * (ijk[:, 1] + shape[1] * ijk[:, 2])
-    order = np.argsort(cell_id, kind="stable")
-    start = np.searchsorted(cell_id[order], np.arange(int(np.prod(shape)) + 1))
-    return SampleCells(points=np.ascontiguousarray(points_mm[order]), index=order,
-                       cell_start=start.astype(np.int64), origin=lo, shape=shape,
-                       cell_mm=cell)
+    order = np.empty(len(points), dtype=np.int64)
+    start = np.zeros(int(np.prod(shape)) + 1, dtype=np.int64)
+    _counting_sort(points, lo, cell, shape, order, start)
+    return SampleCells(points=points[order], index=order, cell_start=start, origin=lo,
+                       shape=shape, cell_mm=cell)
 
 
-def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+@numba.njit(cache=True)
+def _bounds(points, out):
+    """``out[0]``, ``out[1]``: the smallest and largest coordinates of the points."""
+    out[0, :] = np.inf
+    out[1, :] = -np.inf
+    for i in range(points.shape[0]):
+        for k in range(3):
+            out[0, k] = min(out[0, k], points[i, k])
+            out[1, k] = max(out[1, k], points[i, k])
+
+
+@numba.njit(cache=True)
+def _counting_sort(points, origin, cell, shape, order, start):
+    """``order``: the points sorted by cell (stable); ``start``: where each cell begins."""
+    n = points.shape[0]
+    cell_id = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        c = 0
+        for k in range(2, -1, -1):
+            j = min(int((points[i, k] - origin[k]) / cell), shape[k] - 1)
+            c = c * shape[k] + j
+        cell_id[i] = c
+        start[c + 1] += 1
+    for c in range(1, start.size):
+        start[c] += start[c - 1]
+    fill = start[:-1].copy()
+    for i in range(n):
+        order[fill[cell_id[i]]] = i
+        fill[cell_id[i]] += 1
+
+
+def clearances(end_cells: SampleCells, flute_cells: SampleCells,
+               tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
                contacts_mm: NDArray[np.float64] | None, heights_mm: NDArray[np.float64],
                radii_mm: NDArray[np.float64], corner_mm: float, radius_mm: float,
                flute_mm: float, near_radius_mm: float
@@ -86,7 +120,11 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
 
     Query spheres of ``radii_mm`` at ``heights_mm`` along each axis from its tip; a
     sample within ``near_radius_mm`` of the location's contact (every sample without
-    contacts) counts as near.
+    contacts) counts as near. The first sphere (the cutting end) is searched in
+    ``end_cells`` (binned for ``radii_mm[0]``), the others (the flutes, searched
+    :data:`SKIP_MARGIN_MM` wider where consecutive locations are close: see
+    :func:`_skip_margin`) in ``flute_cells`` (binned for their radius): cells as large
+    as the query, so few samples outside it are visited.
     """
     n = len(tips_mm)
     near = np.full(n, np.inf)
@@ -96,14 +134,37 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
     has_contacts = contacts_mm is not None
     contacts = np.ascontiguousarray(tips_mm if contacts_mm is None else contacts_mm,
                                     dtype=float)
-    _clearances(cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
-                cells.cell_mm, np.ascontiguousarray(tips_mm, dtype=float),
+    radii = np.ascontiguousarray(radii_mm, dtype=float)
+    margin = _skip_margin(tips_mm)
+    scratch = max(_cell_scratch_size(float(radii[0]), end_cells.cell_mm),
+                  _cell_scratch_size(float(np.max(radii)) + margin, flute_cells.cell_mm))
+    _clearances(_grid(end_cells), _grid(flute_cells), np.ascontiguousarray(tips_mm, dtype=float),
                 np.ascontiguousarray(axes, dtype=float), contacts, has_contacts,
-                np.ascontiguousarray(heights_mm, dtype=float),
-                np.ascontiguousarray(radii_mm, dtype=float), corner_mm, radius_mm, flute_mm,
-                near_radius_mm * near_radius_mm, near, far, near_i, far_i,
-                _cell_scratch_size(float(np.max(radii_mm, initial=0.0)), cells.cell_mm))
+                np.ascontiguousarray(heights_mm, dtype=float), radii, corner_mm, radius_mm,
+                flute_mm, near_radius_mm * near_radius_mm, near, far, near_i, far_i,
+                margin, scratch)
     return near, far, near_i, far_i
+
+
+def _skip_margin(tips_mm: NDArray[np.float64]) -> float:
+    """:data:`SKIP_MARGIN_MM` where it pays, else 0 (no skipping).
+
+    The wider search costs more than the locations it spares unless consecutive
+    locations lie close together: at least :data:`SKIPS_PER_SEARCH` of them within the
+    margin (the median step of a sample of them, to be cheap).
+    """
+    if len(tips_mm) < 2:
+        return 0.0
+    stride = max(len(tips_mm) // 512, 1)
+    step = np.linalg.norm(tips_mm[1:][::stride] - tips_mm[:-1][::stride], axis=1)
+    return SKIP_MARGIN_MM if SKIPS_PER_SEARCH * float(np.median(step)) <= SKIP_MARGIN_MM \
+        else 0.0
+
+
+def _grid(cells: SampleCells) -> tuple[Any, ...]:
+    """The arrays of ``cells`` as the compiled loops take them."""
+    return (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
+            cells.cell_mm)
 
 
 @numba.njit(cache=True, inline="always")
@@ -151,44 +212,90 @@ def _cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
 #: Locations per block of the parallel gouge check (each block its own scratch).
 BLOCK = 256
 
+#: The flute spheres (all but the first, which holds the contact) are searched this much
+#: wider (mm) to learn how far the nearest sample is; the next locations of the block whose
+#: sphere has not moved by the spare distance skip the search (no sample can be inside).
+SKIP_MARGIN_MM = 2.0
+#: Locations that must fit, one step after another, within the margin for it to pay
+#: (measured: at steps of 0.46 mm the gouge check of a fine plan takes 15 % less; at
+#: 1.1 mm, 15 % more).
+SKIPS_PER_SEARCH = 4
+
+
+@numba.njit(cache=True, inline="always")
+def _search_sphere(grid, c0, c1, c2, reach, radius, i, tips, axes, contacts, has_contacts, r,
+                   big, h, near2, near, far, near_i, far_i, cells):
+    """Samples within ``radius`` of ``c`` into location ``i``'s clearances.
+
+    The cells within ``reach`` (>= ``radius``) are visited; returns the squared distance
+    of the nearest sample seen, at most ``reach**2`` (none is nearer than that).
+    """
+    points, index, cell_start, origin, shape, cell = grid
+    nearest2 = reach * reach
+    rad2 = radius * radius
+    for m in range(_cells_near(c0, c1, c2, reach, origin, shape, cell, cells)):
+        cid = cells[m]
+        for j in range(cell_start[cid], cell_start[cid + 1]):
+            e0 = points[j, 0] - c0
+            e1 = points[j, 1] - c1
+            e2 = points[j, 2] - c2
+            dd = e0 * e0 + e1 * e1 + e2 * e2
+            if dd < nearest2:
+                nearest2 = dd
+            if dd > rad2:
+                continue
+            dist = cutter_distance(
+                points[j, 0] - tips[i, 0], points[j, 1] - tips[i, 1],
+                points[j, 2] - tips[i, 2], axes[i, 0], axes[i, 1], axes[i, 2], r, big, h)
+            is_near = True
+            if has_contacts:
+                q0 = points[j, 0] - contacts[i, 0]
+                q1 = points[j, 1] - contacts[i, 1]
+                q2 = points[j, 2] - contacts[i, 2]
+                is_near = q0 * q0 + q1 * q1 + q2 * q2 <= near2
+            if is_near:
+                if dist < near[i]:
+                    near[i] = dist
+                    near_i[i] = index[j]
+            elif dist < far[i]:
+                far[i] = dist
+                far_i[i] = index[j]
+    return nearest2
+
 
 @numba.njit(cache=True, parallel=True)
-def _clearances(points, index, cell_start, origin, shape, cell, tips, axes, contacts,
-                has_contacts, heights, radii, r, big, h, near2, near, far, near_i, far_i,
-                scratch_size):
+def _clearances(end_grid, flute_grid, tips, axes, contacts, has_contacts, heights, radii, r,
+                big, h, near2, near, far, near_i, far_i, margin, scratch_size):
+    """The loop of :func:`clearances`, blocks of locations in parallel.
+
+    A flute sphere ``k >= 1`` of location ``i`` whose centre lies within
+    ``d - radii[k]`` of where that sphere was last searched (``d``: the distance found
+    then to the nearest sample, at least) has no sample inside: it is skipped, with the
+    same result. (Along a pass the shank stands clear for many locations in a row.)
+    """
+    n_spheres = heights.size
     for block in numba.prange((tips.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
+        last = np.empty((n_spheres, 3))
+        spare = np.full(n_spheres, -1.0)  # nearest-sample distance minus the radius
         for i in range(block * BLOCK, min((block + 1) * BLOCK, tips.shape[0])):
-            for k in range(heights.size):
+            for k in range(n_spheres):
                 c0 = tips[i, 0] + heights[k] * axes[i, 0]
                 c1 = tips[i, 1] + heights[k] * axes[i, 1]
                 c2 = tips[i, 2] + heights[k] * axes[i, 2]
-                rad2 = radii[k] * radii[k]
-                for m in range(_cells_near(c0, c1, c2, radii[k], origin, shape, cell, cells)):
-                    cid = cells[m]
-                    for j in range(cell_start[cid], cell_start[cid + 1]):
-                        e0 = points[j, 0] - c0
-                        e1 = points[j, 1] - c1
-                        e2 = points[j, 2] - c2
-                        if e0 * e0 + e1 * e1 + e2 * e2 > rad2:
-                            continue
-                        dist = cutter_distance(
-                            points[j, 0] - tips[i, 0], points[j, 1] - tips[i, 1],
-                            points[j, 2] - tips[i, 2], axes[i, 0], axes[i, 1], axes[i, 2],
-                            r, big, h)
-                        is_near = True
-                        if has_contacts:
-                            q0 = points[j, 0] - contacts[i, 0]
-                            q1 = points[j, 1] - contacts[i, 1]
-                            q2 = points[j, 2] - contacts[i, 2]
-                            is_near = q0 * q0 + q1 * q1 + q2 * q2 <= near2
-                        if is_near:
-                            if dist < near[i]:
-                                near[i] = dist
-                                near_i[i] = index[j]
-                        elif dist < far[i]:
-                            far[i] = dist
-                            far_i[i] = index[j]
+                if k == 0:
+                    _search_sphere(end_grid, c0, c1, c2, radii[0], radii[0], i, tips, axes,
+                                   contacts, has_contacts, r, big, h, near2, near, far,
+                                   near_i, far_i, cells)
+                    continue
+                m0, m1, m2 = c0 - last[k, 0], c1 - last[k, 1], c2 - last[k, 2]
+                if spare[k] > 0.0 and m0 * m0 + m1 * m1 + m2 * m2 < spare[k] * spare[k]:
+                    continue
+                nearest2 = _search_sphere(flute_grid, c0, c1, c2, radii[k] + margin,
+                                          radii[k], i, tips, axes, contacts, has_contacts,
+                                          r, big, h, near2, near, far, near_i, far_i, cells)
+                last[k, 0], last[k, 1], last[k, 2] = c0, c1, c2
+                spare[k] = math.sqrt(nearest2) - radii[k]
 
 
 @numba.njit(cache=True, parallel=True)

@@ -25,6 +25,7 @@ another part of the surface (the far clearance).
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import cached_property
 from typing import Final
 
 import numpy as np
@@ -65,14 +66,18 @@ def local_margin(frame: PassFrame, cutter: Cutter, axes: NDArray[np.float64]
 
 @dataclass(frozen=True, eq=False)
 class SurfaceSamples:
-    """A grid of surface points with their parameters and a k-d tree over them."""
+    """A grid of surface points with their parameters (binned and a k-d tree on demand)."""
 
     points: NDArray[np.float64]
     t: NDArray[np.float64]
     s: NDArray[np.float64]
-    tree: cKDTree
     spacing_mm: float
     _cells: dict[float, SampleCells] = field(default_factory=dict, repr=False)
+
+    @cached_property
+    def tree(self) -> cKDTree:
+        """A k-d tree over the points (built on first use: only the measurement asks)."""
+        return cKDTree(self.points)
 
     def cells(self, reach_mm: float) -> SampleCells:
         """The samples binned for queries of radius up to ``reach_mm`` (kept for reuse)."""
@@ -101,7 +106,7 @@ def sample_surface(surface: ParametricSurface, sample_mm: float, *,
     t, s = t.ravel(), s.ravel()
     points = surface(t, s)
     spacing = float(max(len_t / (n_t - 1), len_s / (n_s - 1)))
-    return SurfaceSamples(points=points, t=t, s=s, tree=cKDTree(points), spacing_mm=spacing)
+    return SurfaceSamples(points=points, t=t, s=s, spacing_mm=spacing)
 
 
 @dataclass(frozen=True, eq=False)
@@ -165,7 +170,8 @@ def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray
     if not flutes:
         heights, radii = heights[:1], radii[:1]
     near, far, near_i, far_i = clearances(
-        samples.cells(float(radii.max())), tips_mm, axes, contacts_mm, heights, radii,
+        samples.cells(float(radii[0])), samples.cells(float(radii.max())), tips_mm, axes,
+        contacts_mm, heights, radii,
         cutter.corner_radius_mm, cutter.radius_mm, cutter.flute_length_mm,
         2.0 * cutter.radius_mm)
     near = np.where(near > horizon_mm, np.inf, near)

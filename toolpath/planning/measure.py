@@ -149,7 +149,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         # half of the largest sample)
         g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2, refine_rim=True,
                                **joint_moves(machine, joints, seg))
-        low, u_low, high, u_high = chord_extremes(np.clip(g3, -1e3, 1e3), u)
+        low, u_low, high, u_high = chord_extremes(g3, u)
         top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
         g_star = np.zeros((m, 2))
         for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):

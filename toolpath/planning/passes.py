@@ -142,20 +142,43 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
 
 
 def _frame_merge(a: PassFrame, b: PassFrame,
-                 slots: tuple[NDArray[np.int64], NDArray[np.int64]]) -> PassFrame:
+                 slots: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
+                 ) -> PassFrame:
     """Frames ``a`` and ``b`` merged into ``slots`` (:func:`_merge`)."""
     return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), slots)
                         for f in fields(a)})
 
 
 def _merge(old: NDArray[np.float64], new: NDArray[np.float64],
-           slots: tuple[NDArray[np.int64], NDArray[np.int64]]) -> NDArray[np.float64]:
-    """``old``'s rows at ``slots[0]`` and ``new``'s at ``slots[1]`` (both in order)."""
-    old_at, new_at = slots
+           slots: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
+           ) -> NDArray[np.float64]:
+    """``old``'s rows at ``slots[0]`` and ``new``'s at ``slots[1]`` (both in order).
+
+    ``slots[2]`` marks the new rows. Rows of vectors are merged in one compiled pass
+    (numpy's scatter of (n, 3) rows is four times slower); single values by numpy.
+    """
+    old_at, new_at, is_new = slots
     out = np.empty((old_at.size + new_at.size, *old.shape[1:]), dtype=old.dtype)
+    if old.ndim == 2:
+        _merge_rows(np.ascontiguousarray(old), np.ascontiguousarray(new), is_new, out)
+        return out
     out[old_at] = old
     out[new_at] = new
     return out
+
+
+@numba.njit(cache=True)
+def _merge_rows(old, new, is_new, out):
+    j_old = j_new = 0
+    for i in range(is_new.size):
+        if is_new[i]:
+            for k in range(out.shape[1]):
+                out[i, k] = new[j_new, k]
+            j_new += 1
+        else:
+            for k in range(out.shape[1]):
+                out[i, k] = old[j_old, k]
+            j_old += 1
 
 
 def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
@@ -176,23 +199,32 @@ def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[n
                           opts.tilt_deg)
 
 
-def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
-    """Polyline length from the start of each pass (passes contiguous in ``pid``)."""
+def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64],
+            normals: NDArray[np.float64] | None = None, lift_mm: float = 0.0
+            ) -> NDArray[np.float64]:
+    """Polyline length from the start of each pass (passes contiguous in ``pid``).
+
+    Of the points moved ``lift_mm`` along ``normals``, when given.
+    """
     out = np.empty(len(points))
-    _arclen_rows(np.ascontiguousarray(points, dtype=float), np.ascontiguousarray(pid), out)
+    p = np.ascontiguousarray(points, dtype=float)
+    _arclen_rows(p, p if normals is None else np.ascontiguousarray(normals, dtype=float),
+                 lift_mm if normals is not None else 0.0, np.ascontiguousarray(pid), out)
     return out
 
 
 @numba.njit(cache=True)
-def _arclen_rows(points, pid, out):
+def _arclen_rows(points, normals, lift, pid, out):
     for i in range(points.shape[0]):
         if i == 0 or pid[i] != pid[i - 1]:
             out[i] = 0.0
             continue
-        d0 = points[i, 0] - points[i - 1, 0]
-        d1 = points[i, 1] - points[i - 1, 1]
-        d2 = points[i, 2] - points[i - 1, 2]
-        out[i] = out[i - 1] + math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+        size2 = 0.0
+        for k in range(3):
+            d = (points[i, k] + lift * normals[i, k]) - (points[i - 1, k]
+                                                          + lift * normals[i - 1, k])
+            size2 += d * d
+        out[i] = out[i - 1] + math.sqrt(size2)
 
 
 def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
@@ -202,7 +234,7 @@ def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
     Per mm of the corner-circle centre's path (a ball's centre): what the machine moves at
     the feed.
     """
-    return _arclen(frame.point + cutter.corner_radius_mm * frame.normal, pid)
+    return _arclen(frame.point, pid, frame.normal, cutter.corner_radius_mm)
 
 
 def _off_cone(opts: FinishingOptions, axes: NDArray[np.float64], frame: PassFrame,
@@ -291,7 +323,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     inverse = np.empty_like(sort_new)
     inverse[sort_new] = np.arange(sort_new.size)
     where_new = where_new[inverse]  # in the caller's order
-    slots = (np.flatnonzero(~is_new), np.flatnonzero(is_new))
+    slots = (np.flatnonzero(~is_new), np.flatnonzero(is_new), is_new)
     frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), slots)
     nominal = _merge(pts.nominal, nom_new[sort_new], slots)
     s = _merge(pts.s, s_new[sort_new], slots)
@@ -300,22 +332,20 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     # the old points on either side of each new one (several new ones may share a move)
     old_at = slots[0]
     rank = np.searchsorted(old_at, where_new)
-    before = old_at[np.clip(rank - 1, 0, None)]
-    after = old_at[np.clip(rank, None, old_at.size - 1)]
+    row_before, row_after = np.clip(rank - 1, 0, None), np.clip(rank, None, old_at.size - 1)
+    before, after = old_at[row_before], old_at[row_after]  # (rows of pts, slots merged)
     between = ((rank > 0) & (rank < old_at.size) & (pid[before] == pid[where_new])
                & (pid[after] == pid[where_new]))
     if pts.smoothing is None or not between.all():
         # (fixed axes, or smoothed again: the old points' axes may move)
         merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
         return merged, where_new, opts.axis_mode is not AxisMode.LEAD_TILT
-    axes = np.empty_like(nominal)
-    axes[~is_new] = pts.axes
     p = frame.point
     # by arc length of the path the turn rate is measured on, turning at a uniform rate
     # (spherical interpolation): the pieces of a move then turn no faster than the move
     along = _rate_path(cutter, frame, pid)
     w = (along[where_new] - along[before]) / np.maximum(along[after] - along[before], 1e-300)
-    mid = slerp(axes[before], axes[after], w)
+    mid = slerp(pts.axes[row_before], pts.axes[row_after], w)
     direction = layout.direction[pid]
     sub = frame_take(frame, where_new)
     mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
@@ -324,10 +354,9 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # leading edge), the slerp may lean less, and the contact then leaves the heel
         mid, _ = keep_min_lean(mid, sub.normal, nominal[where_new])
     mid, pushed = _off_cone(opts, mid, sub, direction[where_new])
-    axes[where_new] = mid
-    tips = np.empty_like(axes)
-    tips[~is_new] = pts.tips
-    tips[where_new] = cutter.tips_from_contacts(sub.point, sub.normal, mid)
+    axes = _merge(pts.axes, mid[sort_new], slots)
+    tips = _merge(pts.tips, cutter.tips_from_contacts(sub.point, sub.normal, mid)[sort_new],
+                  slots)
     rates = segment_turn_rates(axes, along, pid[1:] == pid[:-1])
     smoothing = replace(pts.smoothing, axes=axes, max_rate_deg_per_mm=float(rates.max()),
                         worst_point=int(np.argmax(rates)),
@@ -399,8 +428,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                                pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
                                pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
                                newton=1, refine_rim=True, **joint_moves(machine, q, idx))
-        low, u_low, high, u_high = chord_extremes(np.clip(gaps, -1e3, 1e3))
-        low, high = np.minimum(low, gaps.min(axis=1)), np.maximum(high, gaps.max(axis=1))
+        low, u_low, high, u_high = chord_extremes(gaps, with_samples=True)
         # the model is close, not exact: where an extreme is within 10 % of its limit,
         # measure there (a move can both cut in and stand above: both sides are checked)
         sides = ((low, u_low, tol, -1.0, np.minimum),
@@ -422,8 +450,10 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # a move shorter than the program's resolution (tip, plus the cutter radius times
         # the axis turn) is not split: its gap is not the chord's (its ends themselves
         # stand off), and the report carries it
-        bad &= _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
-                          pts.axes[idx + 1]) > MIN_SPLIT_MM
+        at = np.flatnonzero(bad)
+        j = idx[at]
+        bad[at] = _travel_mm(cutter, pts.tips[j], pts.tips[j + 1], pts.axes[j],
+                             pts.axes[j + 1]) > MIN_SPLIT_MM
         if not bad.any():
             break
         # each offending move in as many equal parts (in t) as its gap needs: the gap

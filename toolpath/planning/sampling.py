@@ -460,7 +460,8 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
 
 
-def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS
+def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS, *,
+                   with_samples: bool = False
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64],
                               NDArray[np.float64], NDArray[np.float64]]:
     """Lowest and highest values of ``g(u) = u (1 - u)(a + b u + c u^2)`` through three gaps.
@@ -473,7 +474,11 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     Parameters
     ----------
     gaps : ndarray, shape (m, 3)
-        Gaps measured at the three ``fractions`` of each move.
+        Gaps measured at the three ``fractions`` of each move (clipped to +-1e3 mm for
+        the model: a failed projection must not make it overflow).
+    with_samples : bool
+        The extremes also over the measured gaps themselves (where the model misses one;
+        its ``u`` stays the model's).
 
     Returns
     -------
@@ -482,9 +487,9 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     """
     u = np.asarray(fractions, dtype=float)
     basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
-    coef = np.ascontiguousarray(np.linalg.solve(basis, gaps.T).T)  # (m, 3)
-    out = np.empty((4, len(coef)))
-    _model_extremes(coef, _GRID, out)
+    out = np.empty((4, len(gaps)))
+    _model_extremes(np.ascontiguousarray(gaps, dtype=float), np.linalg.inv(basis), _GRID,
+                    with_samples, out)
     return out[0], out[1], out[2], out[3]
 
 
@@ -495,17 +500,24 @@ def _gap_model(u, a, b, c):
 
 
 @numba.njit(cache=True)
-def _model_extremes(coef, n_grid, out):
+def _model_extremes(gaps, inverse, n_grid, with_samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
-    A grid of ``n_grid`` points on [0, 1], then the vertex of the parabola through the
+    The model's coefficients are ``inverse @ gaps[i]`` (the gaps clipped to +-1e3). A
+    grid of ``n_grid`` points on [0, 1], then the vertex of the parabola through the
     extreme and its neighbours (the quartic is smooth on that step: the value is then
-    exact to ~1e-6 of the gap).
+    exact to ~1e-6 of the gap). ``with_samples``: the values also over ``gaps[i]``.
     """
     step = 1.0 / (n_grid - 1)
     values = np.empty(n_grid)
-    for i in range(coef.shape[0]):
-        a, b, c = coef[i, 0], coef[i, 1], coef[i, 2]
+    coef = np.empty(3)
+    for i in range(gaps.shape[0]):
+        for r in range(3):
+            acc = 0.0
+            for k in range(3):
+                acc += inverse[r, k] * min(max(gaps[i, k], -1e3), 1e3)
+            coef[r] = acc
+        a, b, c = coef[0], coef[1], coef[2]
         for j in range(n_grid):
             values[j] = _gap_model(j * step, a, b, c)
         for side in range(2):
@@ -525,6 +537,10 @@ def _model_extremes(coef, n_grid, out):
                 refined = _gap_model(x, a, b, c)
                 if sign * refined < sign * best:
                     best, at = refined, x
+            if with_samples:
+                for k in range(gaps.shape[1]):
+                    if sign * gaps[i, k] < sign * best:
+                        best = gaps[i, k]
             out[2 * side, i] = best
             out[2 * side + 1, i] = at
 

@@ -63,11 +63,17 @@ def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
 @numba.njit(cache=True)
 def _angles_deg(a, b, out):
     for i in range(a.shape[0]):
-        c0 = a[i, 1] * b[i, 2] - a[i, 2] * b[i, 1]
-        c1 = a[i, 2] * b[i, 0] - a[i, 0] * b[i, 2]
-        c2 = a[i, 0] * b[i, 1] - a[i, 1] * b[i, 0]
-        dot = a[i, 0] * b[i, 0] + a[i, 1] * b[i, 1] + a[i, 2] * b[i, 2]
-        out[i] = math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
+        out[i] = _angle_deg_at(a, b, i, i)
+
+
+@numba.njit(cache=True, inline="always")
+def _angle_deg_at(a, b, i, j):
+    """The angle between ``a[i]`` and ``b[j]``, deg."""
+    c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
+    c1 = a[i, 2] * b[j, 0] - a[i, 0] * b[j, 2]
+    c2 = a[i, 0] * b[j, 1] - a[i, 1] * b[j, 0]
+    dot = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
+    return math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
 
 
 def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
@@ -105,13 +111,29 @@ def slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
 
 def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64],
                        same_pass: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Turn rate of the axis on each segment, deg per mm along the pass (0 across passes)."""
-    turn = angle_deg(axes[:-1], axes[1:])
-    length = np.diff(arclen_mm)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        rate = np.where(length > 1e-12, turn / np.maximum(length, 1e-12),
-                        np.where(turn > 1e-9, np.inf, 0.0))
-    return np.where(same_pass, rate, 0.0)
+    """Turn rate of the axis on each segment, deg per mm along the pass (0 across passes).
+
+    A segment shorter than 1e-12 mm turning by more than 1e-9 deg turns at ``inf``.
+    """
+    out = np.empty(max(len(axes) - 1, 0))
+    _turn_rates(np.ascontiguousarray(axes, dtype=float),
+                np.ascontiguousarray(arclen_mm, dtype=float), np.ascontiguousarray(same_pass),
+                out)
+    return out
+
+
+@numba.njit(cache=True)
+def _turn_rates(axes, arclen, same, out):
+    for i in range(out.size):
+        if not same[i]:
+            out[i] = 0.0
+            continue
+        turn = _angle_deg_at(axes, axes, i, i + 1)
+        length = arclen[i + 1] - arclen[i]
+        if length > 1e-12:
+            out[i] = turn / length
+        else:
+            out[i] = np.inf if turn > 1e-9 else 0.0
 
 
 def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
