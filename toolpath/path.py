@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 from enum import IntEnum
+from functools import cached_property
 from pathlib import Path
 from typing import Any
 
@@ -39,6 +40,11 @@ class MoveKind(IntEnum):
     LEAD_OUT = 4  #: departing arc or line off the surface
     LINK = 5  #: feed move between passes without retracting (zig-zag, spiral step)
     RETRACT = 6  #: feeding up to clearance
+
+
+#: Which small non-negative integers are move kinds (a lookup, not a search, per point).
+_KNOWN_KINDS = np.zeros(256, dtype=bool)
+_KNOWN_KINDS[[k.value for k in MoveKind]] = True
 
 
 def _frozen(array: ArrayLike, dtype: Any) -> NDArray[Any]:
@@ -93,19 +99,20 @@ class Toolpath:
                 raise InvalidParameterError(f"{name} must have shape {shape}, got {value.shape}")
         for name, value in (("positions_mm", pos), ("tool_axes", axes),
                             ("feeds_mm_per_min", checks["feeds_mm_per_min"][0])):
-            bad = (~np.isfinite(value).reshape(n, -1).all(axis=1) if n
-                   else np.zeros(0, dtype=bool))
-            if bad.any():
+            if not np.isfinite(value).all():
+                bad = ~np.isfinite(value).reshape(n, -1).all(axis=1)
                 raise InvalidParameterError(
                     f"{name} has a non-finite value at point {int(np.argmax(bad))}")
-        norms = np.linalg.norm(axes, axis=1)
+        norms = np.sqrt(np.einsum("ij,ij->i", axes, axes))
         bad = np.abs(norms - 1.0) > 1e-6
         if bad.any():
             i = int(np.argmax(bad))
             raise InvalidParameterError(
                 f"tool_axes must be unit vectors; point {i} has length {norms[i]:.6g}")
         kinds = checks["kinds"][0]
-        known = np.isin(kinds, [k.value for k in MoveKind])
+        known = (_KNOWN_KINDS[kinds] if kinds.dtype.kind in "ui" and kinds.size
+                 and kinds.min() >= 0 and kinds.max() < _KNOWN_KINDS.size
+                 else np.isin(kinds, [k.value for k in MoveKind]))
         if not known.all():
             i = int(np.argmax(~known))
             raise InvalidParameterError(f"unknown move kind {kinds[i]!r} at point {i}")
@@ -126,10 +133,11 @@ class Toolpath:
     def __len__(self) -> int:
         return len(self.positions_mm)
 
-    @property
+    @cached_property
     def segment_lengths_mm(self) -> NDArray[np.float64]:
         """Tool-tip length of each move (``n - 1`` values; move ``i`` arrives at ``i + 1``)."""
-        return np.linalg.norm(np.diff(self.positions_mm, axis=0), axis=1)
+        step = np.diff(self.positions_mm, axis=0)
+        return _frozen(np.sqrt(np.einsum("ij,ij->i", step, step)), float)
 
     @property
     def length_mm(self) -> float:

@@ -93,7 +93,7 @@ def test_traverses_go_over_an_open_part_not_under_it():
 def test_window_means_are_the_interpolated_integral_over_each_window():
     # the compiled moving average equals the mean from np.interp of the cumulative
     # trapezoid integral, windows of any width clipped to their pass (walked or searched)
-    from toolpath.planning.tool_axis import _box_average
+    from toolpath.planning.tool_axis import _box_window, _window_average
 
     rng = np.random.default_rng(3)
     x = np.cumsum(rng.random(3000) + 0.01)
@@ -102,7 +102,7 @@ def test_window_means_are_the_interpolated_integral_over_each_window():
     lo_x, hi_x = x[pid * 500], x[pid * 500 + 499]
     half = rng.random(3000) * 40.0
     centred = rng.random(3000) < 0.5
-    got = _box_average(values, x, lo_x, hi_x, half, centred)
+    got = _window_average(values, x, _box_window(x, lo_x, hi_x, half, centred))
     w = np.where(centred, np.minimum(half, np.minimum(x - lo_x, hi_x - x)), half)
     lo, hi = np.maximum(x - w, lo_x), np.minimum(x + w, hi_x)
     cum = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (values[1:] + values[:-1])
@@ -233,3 +233,22 @@ def test_axes_lean_at_least_as_far_as_a_minimum():
     np.testing.assert_allclose(angle_deg(out, n), [10.0, 10.0, np.degrees(0.5)], atol=1e-9)
     np.testing.assert_allclose(out[:2], floor[:2], atol=1e-12)
     np.testing.assert_allclose(out[2], axes[2])
+
+
+def test_axes_leaning_too_far_turn_back_onto_the_lean_cone_in_their_own_plane():
+    # an axis leaning more than the limit turns towards the normal, in the plane of the
+    # two, until it leans exactly the limit; one within the limit is left alone
+    from toolpath.planning.tool_axis import limit_lean
+
+    rng = np.random.default_rng(11)
+    n = rng.normal(size=(200, 3))
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    axes = rng.normal(size=(200, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    out, over = limit_lean(axes, n, 30.0)
+    lean = angle_deg(axes, n)
+    assert over.tolist() == (lean > 30.0).tolist() and 0 < over.sum() < 200
+    np.testing.assert_allclose(angle_deg(out[over], n[over]), 30.0, atol=1e-9)
+    np.testing.assert_allclose(angle_deg(out[over], axes[over]), lean[over] - 30.0, atol=1e-9)
+    np.testing.assert_array_equal(out[~over], axes[~over])
+    np.testing.assert_allclose(np.linalg.norm(out, axis=1), 1.0, atol=1e-12)

@@ -616,14 +616,18 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     # the smallest concave radius the cutter meets: at its locations and on the probe
     # grid where it cuts (the grid holds the extremes the locations may step over)
     reach = probe["reach"]
-    kmax = np.r_[pts.frame.max_concave_curvature[cut],
-                 probe["frame"].max_concave_curvature[reach]]
-    margin = np.r_[local_margin(pts.frame, cutter, pts.axes)[cut],
-                   local_margin(probe["frame"], cutter, probe["axes"])[reach]]
+    cut_at, reach_at = np.flatnonzero(cut), np.flatnonzero(reach)
+    kmax = np.r_[pts.frame.max_concave_curvature[cut_at],
+                 probe["frame"].max_concave_curvature[reach_at]]
     if kmax.size and kmax.max() > 0.0:
         i = int(np.argmax(kmax))
+        # the cutter's curvature there (the local margin plus the surface's)
+        frame, axes, at = ((pts.frame, pts.axes, cut_at[i]) if i < cut_at.size else
+                           (probe["frame"], probe["axes"], reach_at[i - cut_at.size]))
+        margin = float(local_margin(frame_take(frame, np.array([at])), cutter,
+                                    axes[at][None])[0])
         min_radius = 1.0 / float(kmax[i])
-        c_there = 1.0 / max(float(margin[i] + kmax[i]), 1e-12)
+        c_there = 1.0 / max(margin + float(kmax[i]), 1e-12)
     else:
         min_radius, c_there = float("inf"), cutter.radius_mm
     area = probe["area"].ravel()

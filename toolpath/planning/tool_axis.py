@@ -136,27 +136,48 @@ def _turn_rates(axes, arclen, same, out):
             out[i] = np.inf if turn > 1e-9 else 0.0
 
 
-def _box_average(values: NDArray[np.float64], x: NDArray[np.float64],
-                 lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
-                 half_width: NDArray[np.float64], centred: NDArray[np.bool_]
-                 ) -> NDArray[np.float64]:
-    """Mean of the piecewise-linear ``values(x)`` over ``[x - w, x + w]`` within its pass.
+def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
+                half_width: NDArray[np.float64], centred: NDArray[np.bool_]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The window ``[x - w, x + w]`` of each point, within its pass.
 
     Where ``centred``, ``w`` is at most the distance to the nearer pass end (no lag: a
     window cut short on one side leans the axis towards the inside, 3 deg off the nominal
     at the end of a pass over a sphere); elsewhere the window is clipped to the pass. ``x``
     is a strictly increasing global coordinate (passes separated by gaps), ``lo_x``,
-    ``hi_x`` the pass ends of each point. Means from the cumulative trapezoid integral
-    (:func:`_window_means`).
+    ``hi_x`` the pass ends of each point.
     """
     half = np.where(centred, np.minimum(half_width, np.minimum(x - lo_x, hi_x - x)),
                     half_width)
-    lo = np.maximum(x - half, lo_x)
-    hi = np.minimum(x + half, hi_x)
+    return np.maximum(x - half, lo_x), np.minimum(x + half, hi_x)
+
+
+def _window_average(values: NDArray[np.float64], x: NDArray[np.float64],
+                    window: tuple[NDArray[np.float64], NDArray[np.float64]]
+                    ) -> NDArray[np.float64]:
+    """Mean of the piecewise-linear ``values(x)`` over each point's window (a box filter).
+
+    From the cumulative trapezoid integral (:func:`_window_means`).
+    """
     out = np.empty_like(values)
-    _window_means(np.ascontiguousarray(values, dtype=float), np.ascontiguousarray(x), lo, hi,
-                  out)
+    _window_means(np.ascontiguousarray(values, dtype=float), np.ascontiguousarray(x),
+                  window[0], window[1], out)
     return out
+
+
+#: A box-averaged axis shorter than this (its window spans opposite normals) is not
+#: normalized: the nominal axis is kept.
+WEAK_AVERAGE = 0.2
+
+
+@numba.njit(cache=True)
+def _unit_or_nominal(averaged, nominal, weak):
+    """``averaged`` normalized in place; rows shorter than ``weak`` take ``nominal``."""
+    for i in range(averaged.shape[0]):
+        size = math.sqrt(averaged[i, 0] * averaged[i, 0] + averaged[i, 1] * averaged[i, 1]
+                         + averaged[i, 2] * averaged[i, 2])
+        for k in range(3):
+            averaged[i, k] = nominal[i, k] if size < weak else averaged[i, k] / size
 
 
 @numba.njit(cache=True)
@@ -247,15 +268,34 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
     ``a' = cos(L) n + sin(L) h`` with ``h`` the unit part of ``a`` perpendicular to ``n``
     (in the plane of ``a`` and ``n``). Returns the axes and which were moved.
     """
-    lean = angle_deg(axes, normals)
-    over = lean > max_lean_deg
-    if not over.any():
-        return axes, over
-    perp = axes - np.einsum("ij,ij->i", axes, normals)[:, None] * normals
-    h = _unit(perp)
+    a = np.ascontiguousarray(axes, dtype=float)
+    out = np.empty_like(a)
+    over = np.empty(len(a), dtype=bool)
     c = np.radians(max_lean_deg)
-    turned = np.cos(c) * normals + np.sin(c) * h
-    return np.where(over[:, None], turned, axes), over
+    _limit_lean_rows(a, np.ascontiguousarray(normals, dtype=float), float(max_lean_deg),
+                     float(np.cos(c)), float(np.sin(c)), out, over)
+    return out, over
+
+
+@numba.njit(cache=True)
+def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over):
+    """:func:`limit_lean` row by row."""
+    for i in range(axes.shape[0]):
+        over[i] = _angle_deg_at(axes, normals, i, i) > max_lean_deg
+        if not over[i]:
+            out[i, :] = axes[i, :]
+            continue
+        dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
+        size2 = 0.0
+        for k in range(3):
+            perp = axes[i, k] - dot * normals[i, k]
+            out[i, k] = perp
+            size2 += perp * perp
+        size = math.sqrt(size2)
+        if size <= 0.0:
+            size = 1.0
+        for k in range(3):
+            out[i, k] = cos_lean * normals[i, k] + sin_lean * (out[i, k] / size)
 
 
 def keep_min_lean(axes: NDArray[np.float64], normals: NDArray[np.float64],
@@ -317,19 +357,20 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
         lo_x, hi_x = x[starts][which], x[ends][which]
         w_pt = np.full(n, float(smoothing_mm))
         c_pt = np.ones(n, dtype=bool)
-        once = _box_average(nominal, x, lo_x, hi_x, w_pt, c_pt)
-        twice = _box_average(once, x, lo_x, hi_x, w_pt, c_pt)
+        window = _box_window(x, lo_x, hi_x, w_pt, c_pt)
+        twice = _window_average(_window_average(nominal, x, window), x, window)
         # a window spanning opposite normals can average to nothing: keep the nominal
-        weak = np.linalg.norm(twice, axis=1) < 0.2
-        twice = np.where(weak[:, None], nominal, _unit(twice))
+        _unit_or_nominal(twice, nominal, WEAK_AVERAGE)
         axes, limited = limit_lean(twice, normals, max_lean_deg)
     rates = segment_turn_rates(axes, x, same)
     n_limited = 0
     if max_rate_deg_per_mm is not None and (rates > max_rate_deg_per_mm).any():
         bad_pass = np.zeros(n_passes, dtype=bool)
         bad_pass[which[:-1][rates > max_rate_deg_per_mm]] = True
-        rows = np.flatnonzero(bad_pass[which])
+        rows: NDArray[np.int64] | slice = np.flatnonzero(bad_pass[which])
         sub_starts = np.flatnonzero(np.r_[True, which[rows][1:] != which[rows][:-1]])
+        if bad_pass.all():
+            rows = slice(None)  # (views, not copies: round a blade every pass is limited)
         axes = axes.copy()
         axes[rows] = rate_limited_axes(axes[rows], normals[rows], feed_dirs[rows], x[rows],
                                        sub_starts, max_rate_deg_per_mm=max_rate_deg_per_mm,
