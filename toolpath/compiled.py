@@ -273,7 +273,7 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
         z = np.empty((3, 3))
         w = np.empty((6, 3))
         fr = np.empty((6, 1, 3))
-        pt = np.empty((1, 1, 3))
+        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, p.shape[0])):
             _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed,
                          iterations, extra, converged_mm, orientation, dist, mu, mv, g, z, w,
@@ -321,6 +321,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
     """:func:`project` of point ``i`` (the rest: scratch arrays)."""
     ti, si = t[i], s[i]
     moved = np.inf
+    have_tangents = False  # pt holds the first partials at (ti, si)
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
@@ -360,9 +361,12 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
             dist[i] = _taylor_signed(p, i, fr, new_t - ti, new_s - si, orientation)
             return
         closer = False
+        # where this may be the last step, the first partials there too: the signed
+        # distance at the foot needs no other evaluation
+        tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
         for _ in range(8):
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                         0, pt, 0, mu, mv, g, z, w)
+                         tangents, pt, 0, mu, mv, g, z, w)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
@@ -375,12 +379,13 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
             new_s = min(max(si - step_s, 0.0), 1.0)
         if not closer:  # still farther after 8 halvings: the last step's point
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
-                         0, pt, 0, mu, mv, g, z, w)
+                         tangents, pt, 0, mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
         moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
         ti, si = new_t, new_s
+        have_tangents = tangents == 1
     if iterations + extra == 0:  # no step: the foot is the start
         _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
                      mu, mv, g, z, w)
@@ -389,6 +394,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
-    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
-                 mu, mv, g, z, w)
-    dist[i] = _taylor_signed(p, i, fr, 0.0, 0.0, orientation)  # at the foot itself
+    if not have_tangents:
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, pt, 0,
+                     mu, mv, g, z, w)
+    dist[i] = _taylor_signed(p, i, pt, 0.0, 0.0, orientation)  # at the foot itself

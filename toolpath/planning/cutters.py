@@ -210,6 +210,8 @@ class Cutter:
         n = np.asarray(normals, dtype=float)
         a = np.asarray(axes, dtype=float)
         r, big = self.corner_radius_mm, self.radius_mm
+        if big == r:  # a ball: no flat part
+            return p + r * n - r * a
         u, _ = radial_directions(n, a)
         return p + r * n - r * a + (big - r) * u
 

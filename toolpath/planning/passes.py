@@ -357,9 +357,8 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     axes = _merge(pts.axes, mid[sort_new], slots)
     tips = _merge(pts.tips, cutter.tips_from_contacts(sub.point, sub.normal, mid)[sort_new],
                   slots)
-    rates = segment_turn_rates(axes, along, pid[1:] == pid[:-1])
-    smoothing = replace(pts.smoothing, axes=axes, max_rate_deg_per_mm=float(rates.max()),
-                        worst_point=int(np.argmax(rates)),
+    # (the rate figures are measured once the insertions are done: with_rate_record)
+    smoothing = replace(pts.smoothing, axes=axes,
                         limited_points=pts.smoothing.limited_points + int(limited.sum()))
     merged = PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
                         arclen=_arclen(p, pid), direction=direction, smoothing=smoothing,
@@ -413,6 +412,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         The refined points, the mask and the largest ``|gap|`` seen on the last check.
     """
     tol = res["chord_tol_mm"]
+    n_start = len(pts)
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = 0.0
     for _ in range(MAX_CHORD_ROUNDS):
@@ -484,7 +484,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         check[np.clip(at - 1, 0, None)] = True
         check[np.clip(at, None, len(pts) - 2)] = True
         assert len(pts) > old_len
-    return pts, keep, worst
+    return (with_rate_record(cutter, pts) if len(pts) > n_start else pts), keep, worst
 
 
 def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -515,7 +515,21 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
             bad_t = np.where(m_ok, bad_t, mid)
         pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts, good_t, pid)
         ok = _kept_with_new(ok, where_new)
-    return pts, ok
+    return with_rate_record(cutter, pts), ok
+
+
+def with_rate_record(cutter: Cutter, pts: PassPoints) -> PassPoints:
+    """``pts`` with the largest turn rate (and where) of its axes in the smoothing record.
+
+    Per mm of the rate's path (:func:`_rate_path`); :func:`insert_points` leaves them to
+    this, once all its insertions are done.
+    """
+    if pts.smoothing is None or len(pts) < 2:
+        return pts
+    rates = segment_turn_rates(pts.axes, _rate_path(cutter, pts.frame, pts.pid),
+                               pts.same_pass)
+    return replace(pts, smoothing=replace(pts.smoothing, max_rate_deg_per_mm=float(rates.max()),
+                                          worst_point=int(np.argmax(rates))))
 
 
 def with_tips(pts: PassPoints, axes: NDArray[np.float64], tips: NDArray[np.float64]

@@ -89,11 +89,29 @@ def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
     lead_deg, tilt_deg : float
         Lead (forward lean) and tilt (lean to the left), deg.
     """
-    n = np.asarray(normals, dtype=float)
-    f = np.asarray(feed_dirs, dtype=float)
-    b = np.cross(n, f)
+    n, f = np.broadcast_arrays(np.asarray(normals, dtype=float),
+                               np.asarray(feed_dirs, dtype=float))
     lead, tilt = np.radians(lead_deg), np.radians(tilt_deg)
-    return _unit(np.cos(lead) * (np.cos(tilt) * n + np.sin(tilt) * b) + np.sin(lead) * f)
+    out = np.empty(n.shape)
+    _lead_tilt_rows(np.ascontiguousarray(n).reshape(-1, 3), np.ascontiguousarray(f).reshape(-1, 3),
+                    np.cos(lead), np.sin(lead), np.cos(tilt), np.sin(tilt), out.reshape(-1, 3))
+    return out
+
+
+@numba.njit(cache=True)
+def _lead_tilt_rows(n, f, cos_lead, sin_lead, cos_tilt, sin_tilt, out):
+    """:func:`lead_tilt_axes` row by row."""
+    for i in range(n.shape[0]):
+        b0 = n[i, 1] * f[i, 2] - n[i, 2] * f[i, 1]
+        b1 = n[i, 2] * f[i, 0] - n[i, 0] * f[i, 2]
+        b2 = n[i, 0] * f[i, 1] - n[i, 1] * f[i, 0]
+        v0 = cos_lead * (cos_tilt * n[i, 0] + sin_tilt * b0) + sin_lead * f[i, 0]
+        v1 = cos_lead * (cos_tilt * n[i, 1] + sin_tilt * b1) + sin_lead * f[i, 1]
+        v2 = cos_lead * (cos_tilt * n[i, 2] + sin_tilt * b2) + sin_lead * f[i, 2]
+        size = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if size <= 0.0:
+            size = 1.0
+        out[i, 0], out[i, 1], out[i, 2] = v0 / size, v1 / size, v2 / size
 
 
 def slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
@@ -263,7 +281,7 @@ class AxisSmoothing:
 
 def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean_deg: float
                ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Turn axes leaning more than ``max_lean_deg`` from the normal back onto that cone.
+    """Turn unit axes leaning more than ``max_lean_deg`` from the unit normals back onto that cone.
 
     ``a' = cos(L) n + sin(L) h`` with ``h`` the unit part of ``a`` perpendicular to ``n``
     (in the plane of ``a`` and ``n``). Returns the axes and which were moved.
@@ -280,12 +298,17 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
 @numba.njit(cache=True)
 def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over):
     """:func:`limit_lean` row by row."""
+    cos_max = math.cos(math.radians(max_lean_deg))
     for i in range(axes.shape[0]):
-        over[i] = _angle_deg_at(axes, normals, i, i) > max_lean_deg
+        dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
+        # (unit vectors: the cosine decides unless it is within round-off of the limit's)
+        if abs(dot - cos_max) > 1e-9:
+            over[i] = dot < cos_max
+        else:
+            over[i] = _angle_deg_at(axes, normals, i, i) > max_lean_deg
         if not over[i]:
             out[i, :] = axes[i, :]
             continue
-        dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
         size2 = 0.0
         for k in range(3):
             perp = axes[i, k] - dot * normals[i, k]
