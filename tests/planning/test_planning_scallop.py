@@ -87,3 +87,27 @@ def test_chord_extremes_see_both_sides_of_an_inflected_move():
     assert u_low[0] == pytest.approx(grid[exact.argmin()], abs=0.01)
     assert u_high[0] == pytest.approx(grid[exact.argmax()], abs=0.01)
     assert 0.006 < high[0] < -low[0]
+
+
+def test_points_equidistribute_the_density_pass_by_pass():
+    # each pass gets ceil(total) equal shares (at least one) of the density's trapezoid
+    # integral, the points where the integral (interpolated linearly) reaches each share;
+    # ends exact
+    from toolpath.planning.sampling import equidistribute, pass_densities
+
+    t_grid = np.r_[0.0, np.sort(np.random.default_rng(2).random(50)), 1.0]
+    density = np.vstack([np.full(t_grid.size, 7.5), 3.0 + 40.0 * t_grid ** 2,
+                         np.full(t_grid.size, 1e-6)])
+    t, pid = equidistribute(t_grid, density)
+    for p in range(3):
+        cum = np.r_[0.0, np.cumsum(0.5 * (density[p, 1:] + density[p, :-1]) * np.diff(t_grid))]
+        n = max(int(np.ceil(cum[-1] - 1e-9)), 1)
+        want = np.interp(np.arange(n + 1) * (cum[-1] / n), cum, t_grid)
+        want[0], want[-1] = 0.0, 1.0
+        np.testing.assert_allclose(t[pid == p], want, rtol=0.0, atol=1e-12)
+    assert np.bincount(pid).tolist() == [9, 18, 2]
+    # a spiral ring's density follows its climbing s
+    s_grid = np.linspace(0.0, 1.0, 5)
+    grid = np.outer(np.ones(t_grid.size), 1.0 + s_grid)  # density 1 + s
+    got = pass_densities(t_grid, s_grid, grid, np.array([0.25, 0.0]), np.array([0.25, 1.0]))
+    np.testing.assert_allclose(got, [np.full(t_grid.size, 1.25), 1.0 + t_grid], rtol=1e-12)

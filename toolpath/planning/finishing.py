@@ -53,7 +53,13 @@ from .passes import (
 )
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
-from .sampling import chord_length_mm, equidistribute, move_gaps, split_evenly
+from .sampling import (
+    chord_length_mm,
+    equidistribute,
+    move_gaps,
+    pass_densities,
+    split_evenly,
+)
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
 from .tool_axis import angle_deg, lead_tilt_axes
 
@@ -289,15 +295,8 @@ def _initial_points(layout: PassLayout, t_probe: NDArray[np.float64],
     The density (segments per unit ``t``) is interpolated linearly in ``s`` to each pass
     (to each point of a spiral ring); the chord check then adds what this misses.
     """
-    n_pass = layout.n_passes
-    pid = np.repeat(np.arange(n_pass), t_probe.size)
-    tt = np.tile(t_probe, n_pass)
-    ss = layout.s_of(tt, pid)
-    j = np.clip(np.searchsorted(s_probe, ss, side="right"), 1, s_probe.size - 1)
-    w = (ss - s_probe[j - 1]) / (s_probe[j] - s_probe[j - 1])
-    ti = np.tile(np.arange(t_probe.size), n_pass)
-    dens = (1.0 - w) * density[ti, j - 1] + w * density[ti, j]
-    return equidistribute(t_probe, dens.reshape(n_pass, t_probe.size))
+    return equidistribute(t_probe, pass_densities(t_probe, s_probe, density, layout.s_start,
+                                                  layout.s_end))
 
 
 def _runs_of(keep: NDArray[np.bool_], pts: PassPoints, closed: bool

@@ -24,8 +24,10 @@ traverse on the great circle between the two points (axis interpolated, a point 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass, field
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -203,14 +205,45 @@ class _Builder:
 
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         pts = np.concatenate(self.pts)
+        axes = np.concatenate(self.axes)
         counts = [len(p) for p in self.pts]
         kinds = np.repeat(np.array(self.kinds, dtype=np.uint8), counts)
         passes = np.repeat(np.array(self.passes, dtype=np.int32), counts)
-        keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
-        pts, kinds, passes = pts[keep], kinds[keep], passes[keep]
+        kept = np.empty(len(pts), dtype=np.int64)
+        m = _distinct_rows(pts, axes, kept)
+        pts, axes, kinds, passes = pts[:m], axes[:m], kinds[kept[:m]], passes[kept[:m]]
         feeds = np.where(kinds == MoveKind.RAPID, 0.0,
                          np.where(kinds == MoveKind.PLUNGE, self.plunge, self.feed))
-        return pts, _unit(np.concatenate(self.axes)[keep]), kinds, feeds, passes
+        return pts, axes, kinds, feeds, passes
+
+
+@numba.njit(cache=True)
+def _distinct_rows(pts, axes, kept):
+    """Drop points repeating the one before (within 1 nm), in place; axes made unit.
+
+    ``kept[:m]``: the indices of the ``m`` points left (returned), moved to the front.
+    """
+    m = 0
+    for i in range(pts.shape[0]):
+        if i > 0:
+            d2 = 0.0
+            for k in range(3):
+                d2 += (pts[i, k] - pts[i - 1, k]) ** 2
+            if d2 <= 1e-18:
+                continue
+        size = math.sqrt(axes[i, 0] * axes[i, 0] + axes[i, 1] * axes[i, 1]
+                         + axes[i, 2] * axes[i, 2])
+        if size <= 0.0:
+            size = 1.0
+        for k in range(3):
+            axes[m, k] = axes[i, k] / size
+        kept[m] = i
+        m += 1
+    for j in range(m):
+        if kept[j] != j:
+            for k in range(3):
+                pts[j, k] = pts[kept[j], k]
+    return m
 
 
 def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.float64],

@@ -27,6 +27,7 @@ contacts, exact for curvature varying quadratically along the move); the model's
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numba
@@ -47,6 +48,7 @@ __all__ = [
     "cutter_gap",
     "equidistribute",
     "joint_moves",
+    "pass_densities",
     "move_gaps",
     "split_evenly",
 ]
@@ -88,6 +90,10 @@ def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
                    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
     """Points per pass where the cumulative density reaches whole numbers.
 
+    The density's integral by trapezoids on the grid, ``n = ceil(total)`` equal segments
+    (at least one), the points where the integral reaches ``k total / n`` by linear
+    interpolation (compiled, pass by pass).
+
     Parameters
     ----------
     t_grid : ndarray, shape (m,)
@@ -102,28 +108,83 @@ def equidistribute(t_grid: NDArray[np.float64], density: NDArray[np.float64]
     pass_id : ndarray of int
         The pass of each point.
     """
-    n_pass = density.shape[0]
-    dt = np.diff(t_grid)
-    cum = np.concatenate([np.zeros((n_pass, 1)),
-                          np.cumsum(0.5 * (density[:, 1:] + density[:, :-1]) * dt, axis=1)],
-                         axis=1)
-    total = cum[:, -1]
-    n_seg = np.maximum(np.ceil(total - 1e-9).astype(np.int64), 1)
+    grid = np.ascontiguousarray(t_grid, dtype=float)
+    dens = np.ascontiguousarray(density, dtype=float)
+    cum = np.empty(dens.shape)
+    n_seg = np.empty(dens.shape[0], dtype=np.int64)
+    _cumulate(grid, dens, cum, n_seg)
     counts = n_seg + 1
-    pass_id = np.repeat(np.arange(n_pass), counts)
-    first = np.r_[0, np.cumsum(counts)[:-1]]
-    j = np.arange(counts.sum()) - first[pass_id]
-    target = j * (total / n_seg)[pass_id]
-    # one global monotone abscissa: each pass shifted above the previous one
-    shift = np.r_[0.0, np.cumsum(total + 1.0)[:-1]]
-    xp = (cum + shift[:, None]).ravel()
-    xp = xp + np.arange(xp.size) * 1e-12
-    fp = np.tile(t_grid, n_pass)
-    t = np.interp(target + shift[pass_id], xp, fp)
-    # the ends exactly
-    t[first] = t_grid[0]
-    t[first + counts - 1] = t_grid[-1]
+    pass_id = np.repeat(np.arange(dens.shape[0]), counts)
+    t = np.empty(int(counts.sum()))
+    _place(grid, cum, n_seg, t)
     return t, pass_id
+
+
+@numba.njit(cache=True)
+def _cumulate(t_grid, density, cum, n_seg):
+    """Per pass the trapezoid integral of the density and its whole segments (at least 1)."""
+    for p in range(density.shape[0]):
+        cum[p, 0] = 0.0
+        for i in range(1, t_grid.size):
+            cum[p, i] = cum[p, i - 1] + 0.5 * (density[p, i] + density[p, i - 1]) * (
+                t_grid[i] - t_grid[i - 1])
+        n_seg[p] = max(math.ceil(cum[p, -1] - 1e-9), 1)
+
+
+@numba.njit(cache=True)
+def _place(t_grid, cum, n_seg, out):
+    """The ``n_seg[p] + 1`` points of each pass, ends exact, into ``out`` (passes in order)."""
+    at = 0
+    for p in range(cum.shape[0]):
+        total = cum[p, -1]
+        k = 0
+        for j in range(n_seg[p] + 1):
+            x = j * (total / n_seg[p])
+            while k < t_grid.size - 2 and cum[p, k + 1] <= x:
+                k += 1
+            span = cum[p, k + 1] - cum[p, k]
+            slope = (t_grid[k + 1] - t_grid[k]) / span if span > 0.0 else 0.0
+            out[at + j] = slope * (x - cum[p, k]) + t_grid[k]
+        out[at] = t_grid[0]
+        out[at + n_seg[p]] = t_grid[-1]
+        at += n_seg[p] + 1
+
+
+def pass_densities(t_grid: NDArray[np.float64], s_grid: NDArray[np.float64],
+                   density: NDArray[np.float64], s_start: NDArray[np.float64],
+                   s_end: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The grid's chord density along each pass, interpolated linearly in ``s``.
+
+    Pass ``p`` runs from ``s_start[p]`` to ``s_end[p]`` as ``t`` goes from 0 to 1 (a
+    spiral ring climbs). ``density`` has shape ``(t_grid.size, s_grid.size)``; returns
+    ``(n_passes, t_grid.size)``.
+    """
+    out = np.empty((len(s_start), len(t_grid)))
+    _pass_densities(np.ascontiguousarray(t_grid, dtype=float),
+                    np.ascontiguousarray(s_grid, dtype=float),
+                    np.ascontiguousarray(density, dtype=float),
+                    np.ascontiguousarray(s_start, dtype=float),
+                    np.ascontiguousarray(s_end, dtype=float), out)
+    return out
+
+
+@numba.njit(cache=True)
+def _pass_densities(t_grid, s_grid, density, s_start, s_end, out):
+    n_s = s_grid.size
+    for p in range(out.shape[0]):
+        for i in range(t_grid.size):
+            ss = s_start[p] + (s_end[p] - s_start[p]) * t_grid[i]
+            # the first s_grid[j] above ss (as searchsorted, side="right"), within [1, n_s - 1]
+            lo, hi = 0, n_s
+            while lo < hi:
+                mid = (lo + hi) // 2
+                if s_grid[mid] <= ss:
+                    lo = mid + 1
+                else:
+                    hi = mid
+            j = min(max(lo, 1), n_s - 1)
+            w = (ss - s_grid[j - 1]) / (s_grid[j] - s_grid[j - 1])
+            out[p, i] = (1.0 - w) * density[i, j - 1] + w * density[i, j]
 
 
 def split_evenly(lo: NDArray[np.float64], hi: NDArray[np.float64], parts: NDArray[np.int64]
