@@ -104,9 +104,36 @@ class StreamlineKernel:
         t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
         s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
         dist = np.empty(len(p))
-        project(p, t, s, *self._args(), self.closed_t, iterations, extra, converged_mm,
-                float(orientation), dist)
+        none3, none1 = np.empty((0, 3)), np.empty(0)
+        project(p, none3, none3, none1, none1, np.empty(0, dtype=np.int64),
+                np.empty((0, 1)), 0.0, *self._args(), self.closed_t, iterations, extra,
+                converged_mm, float(orientation), t[:, None], s[:, None], dist[:, None])
         return t, s, dist
+
+    def project_moves(self, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                      t: NDArray[np.float64], s: NDArray[np.float64], first: NDArray[np.int64],
+                      fractions: NDArray[np.float64], lift_mm: float, iterations: int,
+                      extra: int, converged_mm: float, orientation: float
+                      ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+        """Signed distances, less ``lift_mm``, of points inside moves, projected.
+
+        Move ``j`` goes from point ``first[j]`` to the next (tip linear, axis
+        normalized-linear); at each of its ``fractions[j]`` the point ``lift_mm`` up the
+        axis from the tip is projected (:meth:`project`) from the ends' parameters
+        interpolated alike (the short way across the seam of closed sections). The poses
+        are never stored. Returns ``t, s`` of the feet and the distances, shape (m, k).
+        """
+        u = np.ascontiguousarray(fractions, dtype=float)
+        t_out, s_out, dist = np.empty(u.shape), np.empty(u.shape), np.empty(u.shape)
+        if not len(first):
+            return t_out, s_out, dist
+        project(np.empty((0, 3)), np.ascontiguousarray(tips_mm, dtype=float),
+                np.ascontiguousarray(axes, dtype=float), np.ascontiguousarray(t, dtype=float),
+                np.ascontiguousarray(s, dtype=float),
+                np.ascontiguousarray(first, dtype=np.int64), u, float(lift_mm),
+                *self._args(), self.closed_t, iterations, extra, converged_mm,
+                float(orientation), t_out, s_out, dist)
+        return t_out, s_out, dist
 
 
 @numba.njit(cache=True, inline="always")
@@ -248,8 +275,8 @@ def _wrap(t, closed):
 
 
 @numba.njit(cache=True, parallel=True)
-def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations, extra,
-            converged_mm, orientation, dist):
+def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R,
+            d, closed, iterations, extra, converged_mm, orientation, t, s, dist):
     """Newton projection of every ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
 
     With ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
@@ -265,8 +292,17 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
     without evaluating its point, and the distance there is the second-order expansion
     from the partials at hand (the numpy path evaluates both: the same foot to within
     that distance, the same distance to a nanometre).
+
+    Points: ``p[i]`` from ``(t[i, 0], s[i, 0])``, in place, ``dist[i, 0]`` (``first``
+    empty). Moves (:meth:`StreamlineKernel.project_moves`): move ``j`` from point
+    ``first[j]`` of ``tips, axes, tt, ss`` to the next, at its fractions ``u[j]``, the
+    point ``lift`` up the interpolated axis; ``dist[j, q]`` less ``lift``. (One kernel
+    for both: the Newton search is inlined once, and compiles once.)
     """
-    for block in numba.prange((p.shape[0] + BLOCK - 1) // BLOCK):
+    moves = first.size > 0
+    m = first.size if moves else p.shape[0]
+    k = u.shape[1] if moves else 1
+    for block in numba.prange((m + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))
         mv = np.empty((3, 4))
         g = np.empty((6, 3))
@@ -274,10 +310,47 @@ def project(p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterat
         w = np.empty((6, 3))
         fr = np.empty((6, 1, 3))
         pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, p.shape[0])):
-            _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed,
-                         iterations, extra, converged_mm, orientation, dist, mu, mv, g, z, w,
-                         fr, pt)
+        q1 = np.empty((1, 3))
+        t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
+        for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
+            for q in range(k):
+                if moves:
+                    _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, q1, t1,
+                                s1)
+                else:
+                    q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
+                    t1[0], s1[0] = t[j, 0], s[j, 0]
+                _project_one(0, q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                             closed, iterations, extra, converged_mm, orientation, d1, mu, mv,
+                             g, z, w, fr, pt)
+                t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - lift
+
+
+@numba.njit(cache=True, inline="always")
+def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1):
+    """The point ``lift`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
+
+    Into ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear) and the
+    parameters to start from (the ends' interpolated, the short way across the seam).
+    """
+    b = a + 1
+    ta, tb = tt[a], tt[b]
+    if closed:
+        if tb - ta > 0.5:
+            tb -= 1.0
+        elif ta - tb > 0.5:
+            tb += 1.0
+    size2 = 0.0
+    for col in range(3):
+        v = axes[a, col] + f * (axes[b, col] - axes[a, col])
+        p[0, col] = v
+        size2 += v * v
+    size = math.sqrt(size2)
+    for col in range(3):
+        p[0, col] = tips[a, col] + f * (tips[b, col] - tips[a, col]) + lift * (p[0, col] / size)
+    t0 = ta * (1.0 - f) + tb * f
+    t1[0] = t0 - math.floor(t0) if closed else t0
+    s1[0] = ss[a] * (1.0 - f) + ss[b] * f
 
 
 @numba.njit(cache=True, inline="always")

@@ -110,3 +110,40 @@ def test_compiled_projection_takes_the_numpy_steps(blade, iterations):
         inside = signed_distance_near(placed, placed(t, s) - 0.01 * placed.normal(t, s),
                                       t, s, iterations=iterations)[0]
         assert np.allclose(inside, -0.01, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, closed_sections,
+                                                                      closed):
+    # the chord check's fused path (the moves' poses made inside the kernel, never stored)
+    # gives the very numbers of move_gaps on the gathered ends, across a closed seam too
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import move_gaps, point_move_gaps
+
+    surface = fit_streamline_surface(closed_sections, tol=0.01) if closed else blade
+    placed = PlacedSurface(surface, rotation_from_spec("y:-90"), (0.0, 0.0, 20.0))
+    cutter = parse_cutter("ball:6")
+    rng = np.random.default_rng(8)
+    n = 400
+    t = np.sort(rng.random(n))
+    if closed:
+        t[1] = 0.999  # moves across the seam, both ways
+    s = np.full(n, 0.4) + 0.01 * rng.random(n)
+    normal = placed.normal(t, s)
+    axes = normal + rng.normal(scale=0.1, size=(n, 3))
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tips = placed(t, s) + 3.0 * normal - 3.0 * axes + rng.normal(scale=0.01, size=(n, 3))
+    first = np.arange(n - 1)
+    fractions = np.array([0.25, 0.5, 0.75])
+    fused = point_move_gaps(placed, cutter, tips, axes, t, s, first, fractions, newton=1)
+    gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
+                         axes[first + 1], t[first], t[first + 1], s[first], s[first + 1],
+                         fractions, newton=1)
+    for got, want in zip(fused, gathered, strict=True):
+        np.testing.assert_array_equal(got, want)
+    # the moves' own fractions (one each), the default Newton steps
+    own = rng.random((n - 1, 1))
+    fused = point_move_gaps(placed, cutter, tips, axes, t, s, first, own)
+    gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
+                         axes[first + 1], t[first], t[first + 1], s[first], s[first + 1], own)
+    np.testing.assert_array_equal(fused[0], gathered[0])

@@ -24,7 +24,13 @@ from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
-from .sampling import CHORD_FRACTIONS, chord_extremes, joint_moves, move_gaps, split_evenly
+from .sampling import (
+    CHORD_FRACTIONS,
+    chord_extremes,
+    joint_moves,
+    point_move_gaps,
+    split_evenly,
+)
 from .tool_axis import (
     AxisSmoothing,
     keep_min_lean,
@@ -154,16 +160,16 @@ def _merge(old: NDArray[np.float64], new: NDArray[np.float64],
            ) -> NDArray[np.float64]:
     """``old``'s rows at ``slots[0]`` and ``new``'s at ``slots[1]`` (both in order).
 
-    ``slots[2]`` marks the new rows. Rows of vectors are merged in one compiled pass
-    (numpy's scatter of (n, 3) rows is four times slower); single values by numpy.
+    ``slots[2]`` marks the new rows (merged in one compiled pass: numpy's scatter of
+    (n, 3) rows is four times slower).
     """
     old_at, new_at, is_new = slots
     out = np.empty((old_at.size + new_at.size, *old.shape[1:]), dtype=old.dtype)
     if old.ndim == 2:
         _merge_rows(np.ascontiguousarray(old), np.ascontiguousarray(new), is_new, out)
-        return out
-    out[old_at] = old
-    out[new_at] = new
+    else:
+        _merge_values(np.ascontiguousarray(old), np.ascontiguousarray(new, dtype=old.dtype),
+                      is_new, out)
     return out
 
 
@@ -178,6 +184,18 @@ def _merge_rows(old, new, is_new, out):
         else:
             for k in range(out.shape[1]):
                 out[i, k] = old[j_old, k]
+            j_old += 1
+
+
+@numba.njit(cache=True)
+def _merge_values(old, new, is_new, out):
+    j_old = j_new = 0
+    for i in range(is_new.size):
+        if is_new[i]:
+            out[i] = new[j_new]
+            j_new += 1
+        else:
+            out[i] = old[j_old]
             j_old += 1
 
 
@@ -424,10 +442,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             break
         q = (solve_inverse(machine, pts.tips, pts.axes).joints
              if machine is not None and machine.kinematics.is_five_axis else None)
-        gaps, _, _ = move_gaps(surface, cutter, pts.tips[idx], pts.tips[idx + 1],
-                               pts.axes[idx], pts.axes[idx + 1], pts.t[idx], pts.t[idx + 1],
-                               pts.s[idx], pts.s[idx + 1], np.asarray(CHORD_FRACTIONS),
-                               newton=1, refine_rim=True, **joint_moves(machine, q, idx))
+        gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
+                                     np.asarray(CHORD_FRACTIONS), newton=1, refine_rim=True,
+                                     **joint_moves(machine, q, idx))
         low, u_low, high, u_high = chord_extremes(gaps, with_samples=True)
         # the model is close, not exact: where an extreme is within 10 % of its limit,
         # measure there (a move can both cut in and stand above: both sides are checked)
@@ -438,10 +455,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                                    & (np.sign(value) == sign))
             if close.size:
                 j = idx[close]
-                exact, _, _ = move_gaps(surface, cutter, pts.tips[j], pts.tips[j + 1],
-                                        pts.axes[j], pts.axes[j + 1], pts.t[j], pts.t[j + 1],
-                                        pts.s[j], pts.s[j + 1], u_at[close, None],
-                                        refine_rim=True, **joint_moves(machine, q, j))
+                exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,
+                                              pts.s, j, u_at[close, None], refine_rim=True,
+                                              **joint_moves(machine, q, j))
                 value[close] = further(value[close], exact[:, 0])
         worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])

@@ -39,7 +39,13 @@ from machines.kinematics import forward
 
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind, disc_basis
-from .local import PassFrame, project_to_surface, signed_distance_near
+from .local import (
+    CONVERGED_MM,
+    EXTRA_ITERATIONS,
+    PassFrame,
+    project_to_surface,
+    signed_distance_near,
+)
 
 __all__ = [
     "CHORD_FRACTIONS",
@@ -519,6 +525,35 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
                            refine_rim=refine_rim)
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
+
+
+def point_move_gaps(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
+                    axes: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64],
+                    first: NDArray[np.int64], fractions: NDArray[np.float64], *,
+                    newton: int = 2, refine_rim: bool = False,
+                    joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                    = None) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                                     NDArray[np.float64]]:
+    """:func:`move_gaps` of the moves ``first -> first + 1`` of a sequence of points.
+
+    ``tips_mm``, ``axes``, ``t``, ``s`` are the points' (all of them); ``joints`` the
+    moves' ends, as for :func:`move_gaps`. A ball moving tip-linear over a compiled
+    surface is done in one compiled pass that never stores the poses
+    (:meth:`~toolpath.compiled.StreamlineKernel.project_moves`: the same numbers);
+    anything else by :func:`move_gaps` on the moves' ends.
+    """
+    kernel = surface.kernel()
+    if kernel is not None and joints is None and cutter.kind is CutterKind.BALL:
+        u = np.broadcast_to(np.asarray(fractions, dtype=float),
+                            (len(first), np.shape(fractions)[-1]))
+        t_out, s_out, gap = kernel.project_moves(
+            tips_mm, axes, t, s, first, u, cutter.corner_radius_mm, newton, EXTRA_ITERATIONS,
+            CONVERGED_MM, surface.orientation)
+        return gap, t_out, s_out
+    nxt = first + 1
+    return move_gaps(surface, cutter, tips_mm[first], tips_mm[nxt], axes[first], axes[nxt],
+                     t[first], t[nxt], s[first], s[nxt], fractions, newton=newton,
+                     refine_rim=refine_rim, joints=joints)
 
 
 def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS, *,
