@@ -39,8 +39,9 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     """Local and global gouge checks on the kept points, then ``on_gouge``."""
     tol = opts.gouge_tol_mm
     idx = np.flatnonzero(keep)
-    clr = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
-                           contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
+    rows = slice(None) if idx.size == len(pts) else idx  # (every point kept: no copies)
+    clr = global_clearance(cutter, pts.tips[rows], pts.axes[rows], samples,
+                           contacts_mm=pts.frame.point[rows], flutes=opts.check_flutes)
     depth = local_depth_mm(pts.frame, cutter, pts.axes)
     stats: dict[str, Any] = {"n_lifted": 0, "max_lift_mm": 0.0, "n_retilted": 0}
     far_bad = clr.far_mm < -tol

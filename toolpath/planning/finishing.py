@@ -374,18 +374,23 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     out: list[Run] = []
     for run in order:
         first, last = run[0], run[-1]
+        rows = _as_slice(run)
         out.append(Run(
-            tips=pts.tips[run], axes=pts.axes[run], pass_index=int(pts.pid[first]),
+            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pts.pid[first]),
             normal_start=pts.frame.normal[first], normal_end=pts.frame.normal[last],
             feed_start=feed[first], feed_end=feed[last],
             extend_start=not closed and pts.t[first] in (0.0, 1.0),
             extend_end=not closed and pts.t[last] in (0.0, 1.0)))
     # how consecutive runs link
+    ends = np.array([run[-1] for run in order], dtype=np.int64)
+    starts = np.array([run[0] for run in order], dtype=np.int64)
+    step = pts.tips[starts[1:]] - pts.tips[ends[:-1]]
+    gaps_mm = np.sqrt(np.einsum("ij,ij->i", step, step))
     cand = []
     for k in range(1, len(out)):
         prev, run = out[k - 1], out[k]
-        a, b = order[k - 1][-1], order[k][0]
-        gap_mm = float(np.linalg.norm(prev.tips[-1] - run.tips[0]))
+        a, b = ends[k - 1], starts[k]
+        gap_mm = float(gaps_mm[k - 1])
         if opts.linking is Linking.SPIRAL:
             run.joined = (gap_mm < 1e-6 and run.pass_index == prev.pass_index + 1)
         elif gap_mm <= res["link_max_mm"] and run.pass_index != prev.pass_index:
@@ -400,6 +405,23 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         for k, ok in zip(ks, gap >= -res["chord_tol_mm"], strict=True):
             out[int(k)].direct_link = bool(ok)
     return out
+
+
+def _as_slice(rows: NDArray[np.int64]) -> NDArray[np.int64] | slice:
+    """``rows`` as a slice where they are consecutive (either way): a view, not a copy.
+
+    The runs are stretches of a pass, or (closed sections) two stretches joined across
+    the seam, whose ends or steps give them away: the span, first and last step are
+    checked.
+    """
+    n = len(rows)
+    if n < 2:
+        return rows
+    step = int(rows[1] - rows[0])
+    if step in (1, -1) and rows[-1] - rows[-2] == step and rows[-1] - rows[0] == step * (n - 1):
+        stop = int(rows[-1]) + step
+        return slice(int(rows[0]), stop if stop >= 0 else None, step)
+    return rows
 
 
 def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_mm: float,

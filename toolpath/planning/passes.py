@@ -106,8 +106,6 @@ class PassPoints:
         Lead/tilt (or fixed) axes, and the final ones after smoothing and the cone.
     tips : ndarray, shape (n, 3)
         Cutter locations, mm.
-    arclen : ndarray, shape (n,)
-        Contact arc length along each pass from its start, mm (polyline).
     direction : ndarray of int, shape (n,)
         Travel direction of each point's pass (+1: increasing ``t``).
     smoothing : AxisSmoothing or None
@@ -123,7 +121,6 @@ class PassPoints:
     nominal: NDArray[np.float64]
     axes: NDArray[np.float64]
     tips: NDArray[np.float64]
-    arclen: NDArray[np.float64]
     direction: NDArray[np.int64]
     smoothing: AxisSmoothing | None = None
     cone_pushed: int = 0
@@ -245,6 +242,49 @@ def _arclen_rows(points, normals, lift, pid, out):
         out[i] = out[i - 1] + math.sqrt(size2)
 
 
+def _split_fractions(points: NDArray[np.float64], normals: NDArray[np.float64],
+                     lift_mm: float, is_new: NDArray[np.bool_]) -> NDArray[np.float64]:
+    """Where each new point lies along its move, as a share of the rate's path.
+
+    The path of the points moved ``lift_mm`` along the normals (:func:`_rate_path`), from
+    the old point before a run of new ones to the old point after it; 0 at old points.
+    """
+    out = np.zeros(len(points))
+    _split_fraction_rows(np.ascontiguousarray(points, dtype=float),
+                         np.ascontiguousarray(normals, dtype=float), float(lift_mm), is_new,
+                         out)
+    return out
+
+
+@numba.njit(cache=True)
+def _split_fraction_rows(points, normals, lift, is_new, out):
+    n = is_new.size
+    i = 0
+    while i < n:
+        if not is_new[i]:
+            i += 1
+            continue
+        end = i  # the run of new points i .. end - 1, between old points i - 1 and end
+        while end < n and is_new[end]:
+            end += 1
+        if i == 0 or end == n:  # (not between two points: callers avoid it)
+            i = end
+            continue
+        total = 0.0
+        for j in range(i, end + 1):
+            size2 = 0.0
+            for k in range(3):
+                d = (points[j, k] + lift * normals[j, k]) - (points[j - 1, k]
+                                                             + lift * normals[j - 1, k])
+                size2 += d * d
+            total += math.sqrt(size2)
+            if j < end:
+                out[j] = total
+        for j in range(i, end):
+            out[j] /= max(total, 1e-300)
+        i = end
+
+
 def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
                ) -> NDArray[np.float64]:
     """The path the axis turn rate is measured on.
@@ -294,11 +334,10 @@ def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             nominal: NDArray[np.float64]) -> PassPoints:
     """Axes (smoothing, cone), tips and arc length for evaluated contacts."""
     direction = layout.direction[pid]
-    arclen = _arclen(frame.point, pid)
     axes, smoothing, pushed = final_axes(cutter, opts, res, frame, nominal, pid, direction)
     tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
     return PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
-                      arclen=arclen, direction=direction, smoothing=smoothing,
+                      direction=direction, smoothing=smoothing,
                       cone_pushed=pushed)
 
 
@@ -358,11 +397,9 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # (fixed axes, or smoothed again: the old points' axes may move)
         merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
         return merged, where_new, opts.axis_mode is not AxisMode.LEAD_TILT
-    p = frame.point
     # by arc length of the path the turn rate is measured on, turning at a uniform rate
     # (spherical interpolation): the pieces of a move then turn no faster than the move
-    along = _rate_path(cutter, frame, pid)
-    w = (along[where_new] - along[before]) / np.maximum(along[after] - along[before], 1e-300)
+    w = _split_fractions(frame.point, frame.normal, cutter.corner_radius_mm, is_new)[where_new]
     mid = slerp(pts.axes[row_before], pts.axes[row_after], w)
     direction = layout.direction[pid]
     sub = frame_take(frame, where_new)
@@ -379,7 +416,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     smoothing = replace(pts.smoothing, axes=axes,
                         limited_points=pts.smoothing.limited_points + int(limited.sum()))
     merged = PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
-                        arclen=_arclen(p, pid), direction=direction, smoothing=smoothing,
+                        direction=direction, smoothing=smoothing,
                         cone_pushed=pts.cone_pushed + pushed)
     return merged, where_new, True
 

@@ -595,7 +595,7 @@ def _gap_model(u, a, b, c):
     return u * (1.0 - u) * (a + b * u + c * u * u)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _model_extremes(gaps, inverse, n_grid, with_samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
@@ -604,10 +604,22 @@ def _model_extremes(gaps, inverse, n_grid, with_samples, out):
     extreme and its neighbours (the quartic is smooth on that step: the value is then
     exact to ~1e-6 of the gap). ``with_samples``: the values also over ``gaps[i]``.
     """
+    for block in numba.prange((gaps.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
+        _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, block * _EXTREMES_BLOCK,
+                             min((block + 1) * _EXTREMES_BLOCK, gaps.shape[0]))
+
+
+#: Rows per block of :func:`_model_extremes` run in parallel.
+_EXTREMES_BLOCK = 4096
+
+
+@numba.njit(cache=True)
+def _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, first, stop):
+    """:func:`_model_extremes` of rows ``first .. stop - 1``."""
     step = 1.0 / (n_grid - 1)
     values = np.empty(n_grid)
     coef = np.empty(3)
-    for i in range(gaps.shape[0]):
+    for i in range(first, stop):
         for r in range(3):
             acc = 0.0
             for k in range(3):
