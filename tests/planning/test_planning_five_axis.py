@@ -95,13 +95,15 @@ def test_window_means_are_the_interpolated_integral_over_each_window():
     # trapezoid integral, windows of any width clipped to their pass (walked or searched)
     from toolpath.planning.tool_axis import _box_window, _window_average
 
+    # (20,000 points: several of the blocks run in parallel, passes across their edges)
     rng = np.random.default_rng(3)
-    x = np.cumsum(rng.random(3000) + 0.01)
-    values = rng.normal(size=(3000, 3))
-    pid = np.repeat(np.arange(6), 500)
-    lo_x, hi_x = x[pid * 500], x[pid * 500 + 499]
-    half = rng.random(3000) * 40.0
-    centred = rng.random(3000) < 0.5
+    n, per_pass = 20_000, 2_500
+    x = np.cumsum(rng.random(n) + 0.01)
+    values = rng.normal(size=(n, 3))
+    pid = np.repeat(np.arange(n // per_pass), per_pass)
+    lo_x, hi_x = x[pid * per_pass], x[pid * per_pass + per_pass - 1]
+    half = rng.random(n) * 40.0
+    centred = rng.random(n) < 0.5
     got = _window_average(values, x, _box_window(x, lo_x, hi_x, half, centred))
     w = np.where(centred, np.minimum(half, np.minimum(x - lo_x, hi_x - x)), half)
     lo, hi = np.maximum(x - w, lo_x), np.minimum(x + w, hi_x)

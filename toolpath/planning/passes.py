@@ -493,8 +493,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             if close.size:
                 j = idx[close]
                 exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,
-                                              pts.s, j, u_at[close, None], refine_rim=True,
-                                              **joint_moves(machine, q, j))
+                                              pts.s, j, u_at[close, None], newton=1,
+                                              refine_rim=True, **joint_moves(machine, q, j))
                 value[close] = further(value[close], exact[:, 0])
         worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])

@@ -221,37 +221,46 @@ def _walk(x, v, j):
     return j
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _window_means(values, x, lo, hi, out):
     """``out[i]``: mean of the piecewise-linear ``values(x)`` over ``[lo[i], hi[i]]``.
 
     From the cumulative trapezoid integral, interpolated linearly (``np.interp``). The
     window ends grow with ``i`` (within a pass they are ``x`` moved by a width that the
     pass ends clip, and passes follow each other), so their segments are found by walking
-    on from the previous ones.
+    on from the previous ones (blocks of points in parallel, each starting by bisection).
     """
     n, m = values.shape
     if n < 2:
-        out[:] = values
+        for i in range(n):
+            for k in range(m):
+                out[i, k] = values[i, k]
         return
     cum = np.zeros((n, m))
     for i in range(1, n):
         for k in range(m):
             cum[i, k] = cum[i - 1, k] + 0.5 * (values[i, k] + values[i - 1, k]) * (x[i]
                                                                                    - x[i - 1])
-    j_lo = j_hi = 0
-    for i in range(n):
-        width = hi[i] - lo[i]
-        if width <= 1e-12:
-            out[i] = values[i]
-            continue
-        j_lo, j_hi = _walk(x, lo[i], j_lo), _walk(x, hi[i], j_hi)
-        f_hi = (hi[i] - x[j_hi]) / (x[j_hi + 1] - x[j_hi])
-        f_lo = (lo[i] - x[j_lo]) / (x[j_lo + 1] - x[j_lo])
-        for k in range(m):
-            top = cum[j_hi, k] + f_hi * (cum[j_hi + 1, k] - cum[j_hi, k])
-            bottom = cum[j_lo, k] + f_lo * (cum[j_lo + 1, k] - cum[j_lo, k])
-            out[i, k] = (top - bottom) / width
+    for block in numba.prange((n + _WINDOW_BLOCK - 1) // _WINDOW_BLOCK):
+        first = block * _WINDOW_BLOCK
+        j_lo, j_hi = _segment(x, lo[first]), _segment(x, hi[first])
+        for i in range(first, min(first + _WINDOW_BLOCK, n)):
+            width = hi[i] - lo[i]
+            if width <= 1e-12:
+                for k in range(m):
+                    out[i, k] = values[i, k]
+                continue
+            j_lo, j_hi = _walk(x, lo[i], j_lo), _walk(x, hi[i], j_hi)
+            f_hi = (hi[i] - x[j_hi]) / (x[j_hi + 1] - x[j_hi])
+            f_lo = (lo[i] - x[j_lo]) / (x[j_lo + 1] - x[j_lo])
+            for k in range(m):
+                top = cum[j_hi, k] + f_hi * (cum[j_hi + 1, k] - cum[j_hi, k])
+                bottom = cum[j_lo, k] + f_lo * (cum[j_lo + 1, k] - cum[j_lo, k])
+                out[i, k] = (top - bottom) / width
+
+
+#: Points per block of :func:`_window_means` run in parallel.
+_WINDOW_BLOCK = 8192
 
 
 @dataclass(frozen=True)
