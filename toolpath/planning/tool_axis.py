@@ -60,9 +60,9 @@ def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _angles_deg(a, b, out):
-    for i in range(a.shape[0]):
+    for i in numba.prange(a.shape[0]):
         out[i] = _angle_deg_at(a, b, i, i)
 
 
@@ -98,10 +98,10 @@ def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _lead_tilt_rows(n, f, cos_lead, sin_lead, cos_tilt, sin_tilt, out):
     """:func:`lead_tilt_axes` row by row."""
-    for i in range(n.shape[0]):
+    for i in numba.prange(n.shape[0]):
         b0 = n[i, 1] * f[i, 2] - n[i, 2] * f[i, 1]
         b1 = n[i, 2] * f[i, 0] - n[i, 0] * f[i, 2]
         b2 = n[i, 0] * f[i, 1] - n[i, 1] * f[i, 0]
@@ -140,9 +140,9 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _turn_rates(axes, arclen, same, out):
-    for i in range(out.size):
+    for i in numba.prange(out.size):
         if not same[i]:
             out[i] = 0.0
             continue
@@ -188,10 +188,10 @@ def _window_average(values: NDArray[np.float64], x: NDArray[np.float64],
 WEAK_AVERAGE = 0.2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _unit_or_nominal(averaged, nominal, weak):
     """``averaged`` normalized in place; rows shorter than ``weak`` take ``nominal``."""
-    for i in range(averaged.shape[0]):
+    for i in numba.prange(averaged.shape[0]):
         size = math.sqrt(averaged[i, 0] * averaged[i, 0] + averaged[i, 1] * averaged[i, 1]
                          + averaged[i, 2] * averaged[i, 2])
         for k in range(3):
@@ -304,11 +304,11 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
     return out, over
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, parallel=True)
 def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over):
     """:func:`limit_lean` row by row."""
     cos_max = math.cos(math.radians(max_lean_deg))
-    for i in range(axes.shape[0]):
+    for i in numba.prange(axes.shape[0]):
         dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
         # (unit vectors: the cosine decides unless it is within round-off of the limit's)
         if abs(dot - cos_max) > 1e-9:
