@@ -277,7 +277,7 @@ def _wrap(t, closed):
 @numba.njit(cache=True, parallel=True)
 def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R,
             d, closed, iterations, extra, converged_mm, orientation, t, s, dist):
-    """Newton projection of every ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
+    """Newton projection of points from their start parameters, in place; their distances.
 
     With ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
     ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at

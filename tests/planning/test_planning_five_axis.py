@@ -247,6 +247,11 @@ def test_axes_leaning_too_far_turn_back_onto_the_lean_cone_in_their_own_plane():
     n /= np.linalg.norm(n, axis=1, keepdims=True)
     axes = rng.normal(size=(200, 3))
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    # and some exactly on the cone or within round-off of it (decided by the angle)
+    perp = axes[:30] - np.einsum("ij,ij->i", axes[:30], n[:30])[:, None] * n[:30]
+    perp /= np.linalg.norm(perp, axis=1, keepdims=True)
+    lean_rad = np.radians(30.0) + np.repeat([0.0, 1e-12, -1e-12], 10)
+    axes[:30] = np.cos(lean_rad)[:, None] * n[:30] + np.sin(lean_rad)[:, None] * perp
     out, over = limit_lean(axes, n, 30.0)
     lean = angle_deg(axes, n)
     assert over.tolist() == (lean > 30.0).tolist() and 0 < over.sum() < 200

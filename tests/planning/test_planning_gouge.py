@@ -139,7 +139,7 @@ def test_clearance_kernel_skips_a_flute_sphere_only_while_no_sample_can_be_insid
     # found; a lying cutter coming straight down onto a plane of samples in 0.02 mm steps
     # (the spare shrinks exactly as the sphere moves) must find every sample entering its
     # flute sphere at once
-    from toolpath.planning.clearance_kernel import bin_samples, clearances
+    from toolpath.planning.clearance_kernel import _skip_margin, bin_samples, clearances
 
     g = np.arange(-20.0, 40.0, 0.25)
     x, y = np.meshgrid(g, g[(g > -10.0) & (g < 10.0)])
@@ -148,17 +148,26 @@ def test_clearance_kernel_skips_a_flute_sphere_only_while_no_sample_can_be_insid
     n = 400
     tips = np.column_stack([np.zeros(n), np.zeros(n), np.linspace(12.0, 4.0, n)])
     axes = np.tile([1.0, 0.0, 0.0], (n, 1))
-    contacts = tips + np.array([0.0, 0.0, 100.0])  # every sample is far
+    assert _skip_margin(tips) > 0.0  # (the steps are short enough for skipping to pay)
     heights, radii = np.array([3.0, 16.5]), np.array([3.1, 5.0])
-    near, far, _, _ = clearances(bin_samples(pts, 3.1), bin_samples(pts, 5.0), tips, axes,
-                                 contacts, heights, radii, 3.0, 3.0, 18.0, 6.0)
-    for i in range(n):
-        centres = tips[i] + heights[:, None] * axes[i]
-        inside = (np.linalg.norm(pts[:, None, :] - centres[None], axis=2) <= radii).any(axis=1)
-        want = cutter.signed_distance(pts, tips[i], axes[i])[inside].min() if inside.any() \
-            else np.inf
-        assert far[i] == pytest.approx(want, abs=1e-12), i
-    assert np.isinf(near).all() and np.isinf(far[:100]).all() and np.isfinite(far[-50:]).all()
+    # every sample far (contacts high above), then near (contacts at the flute sphere's
+    # foot: the samples it meets are within the near radius of 6 mm)
+    for contacts in (tips + np.array([0.0, 0.0, 100.0]),
+                     tips * np.array([0.0, 1.0, 0.0]) + np.array([16.5, 0.0, 0.0])):
+        near, far, _, _ = clearances(bin_samples(pts, 3.1), bin_samples(pts, 5.0), tips,
+                                     axes, contacts, heights, radii, 3.0, 3.0, 18.0, 6.0)
+        for i in range(n):
+            centres = tips[i] + heights[:, None] * axes[i]
+            inside = (np.linalg.norm(pts[:, None, :] - centres[None], axis=2)
+                      <= radii).any(axis=1)
+            dist = cutter.signed_distance(pts, tips[i], axes[i])
+            close = np.linalg.norm(pts - contacts[i], axis=1) <= 6.0
+            for mask, value in ((inside & close, near[i]), (inside & ~close, far[i])):
+                assert value == pytest.approx(dist[mask].min() if mask.any() else np.inf,
+                                              abs=1e-12), i
+        assert np.isfinite(np.minimum(near, far)[-50:]).all()
+        assert np.isinf(np.minimum(near, far)[:100]).all()
+    assert np.isfinite(near).any()  # (the second: every sample it meets is near)
 
 
 @pytest.mark.parametrize("radius_mm", [0.3, 2.5])

@@ -62,7 +62,11 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     A query sphere then overlaps at most 3 x 3 x 3 cells (finer cells cost more in cell
     visits than they save in samples on a blade's thin sheet of samples).
     """
-    points = np.ascontiguousarray(points_mm, dtype=float)
+    points = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
+    if not len(points):  # nothing to find: one empty cell
+        return SampleCells(points=points, index=np.zeros(0, dtype=np.int64),
+                           cell_start=np.zeros(2, dtype=np.int64), origin=np.zeros(3),
+                           shape=np.ones(3, dtype=np.int64), cell_mm=max(float(reach_mm), 1e-9))
     bounds = np.empty((2, 3))
     _bounds(points, bounds)  # (numpy's min over axis 0 of (n, 3) is strided: slow)
     lo = bounds[0] - 1e-9

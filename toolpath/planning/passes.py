@@ -144,24 +144,21 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _frame_merge(a: PassFrame, b: PassFrame,
-                 slots: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
-                 ) -> PassFrame:
-    """Frames ``a`` and ``b`` merged into ``slots`` (:func:`_merge`)."""
-    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), slots)
+def _frame_merge(a: PassFrame, b: PassFrame, is_new: NDArray[np.bool_]) -> PassFrame:
+    """Frames ``a`` and ``b`` merged (:func:`_merge`)."""
+    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), is_new)
                         for f in fields(a)})
 
 
-def _merge(old: NDArray[np.float64], new: NDArray[np.float64],
-           slots: tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.bool_]]
+def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[np.bool_]
            ) -> NDArray[np.float64]:
-    """``old``'s rows at ``slots[0]`` and ``new``'s at ``slots[1]`` (both in order).
+    """``old``'s rows in order where ``is_new`` is False, ``new``'s where it is True.
 
-    ``slots[2]`` marks the new rows (merged in one compiled pass: numpy's scatter of
-    (n, 3) rows is four times slower).
+    In one compiled pass (numpy's scatter of (n, 3) rows is four times slower).
     """
-    old_at, new_at, is_new = slots
-    out = np.empty((old_at.size + new_at.size, *old.shape[1:]), dtype=old.dtype)
+    if old.shape[0] + new.shape[0] != is_new.size:
+        raise ValueError(f"{old.shape[0]} + {new.shape[0]} rows into {is_new.size} slots")
+    out = np.empty((is_new.size, *old.shape[1:]), dtype=old.dtype)
     if old.ndim == 2:
         _merge_rows(np.ascontiguousarray(old), np.ascontiguousarray(new), is_new, out)
     else:
@@ -332,7 +329,7 @@ def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
             s: NDArray[np.float64], pid: NDArray[np.int64], frame: PassFrame,
             nominal: NDArray[np.float64]) -> PassPoints:
-    """Axes (smoothing, cone), tips and arc length for evaluated contacts."""
+    """Axes (smoothing, cone) and tips for evaluated contacts."""
     direction = layout.direction[pid]
     axes, smoothing, pushed = final_axes(cutter, opts, res, frame, nominal, pid, direction)
     tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
@@ -366,6 +363,10 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     lean-limited and kept off the cone like the others. Smoothing and rate limiting
     everything again would move every other tip by a little and make the chord check
     start over.
+
+    The smoothing record's rate figures (``max_rate_deg_per_mm``, ``worst_point``) are
+    then stale: callers measure them once their insertions are done
+    (:func:`with_rate_record`).
     """
     s_new = layout.s_of(t_new, pid_new)
     f_new = pass_frame(surface, t_new, s_new)
@@ -380,17 +381,16 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     inverse = np.empty_like(sort_new)
     inverse[sort_new] = np.arange(sort_new.size)
     where_new = where_new[inverse]  # in the caller's order
-    slots = (np.flatnonzero(~is_new), np.flatnonzero(is_new), is_new)
-    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), slots)
-    nominal = _merge(pts.nominal, nom_new[sort_new], slots)
-    s = _merge(pts.s, s_new[sort_new], slots)
-    t = _merge(pts.t, t_new[sort_new], slots)
-    pid = _merge(pts.pid, pid_new[sort_new], slots)
+    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), is_new)
+    nominal = _merge(pts.nominal, nom_new[sort_new], is_new)
+    s = _merge(pts.s, s_new[sort_new], is_new)
+    t = _merge(pts.t, t_new[sort_new], is_new)
+    pid = _merge(pts.pid, pid_new[sort_new], is_new)
     # the old points on either side of each new one (several new ones may share a move)
-    old_at = slots[0]
+    old_at = np.flatnonzero(~is_new)
     rank = np.searchsorted(old_at, where_new)
     row_before, row_after = np.clip(rank - 1, 0, None), np.clip(rank, None, old_at.size - 1)
-    before, after = old_at[row_before], old_at[row_after]  # (rows of pts, slots merged)
+    before, after = old_at[row_before], old_at[row_after]  # (rows of pts, and merged)
     between = ((rank > 0) & (rank < old_at.size) & (pid[before] == pid[where_new])
                & (pid[after] == pid[where_new]))
     if pts.smoothing is None or not between.all():
@@ -409,9 +409,9 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # leading edge), the slerp may lean less, and the contact then leaves the heel
         mid, _ = keep_min_lean(mid, sub.normal, nominal[where_new])
     mid, pushed = _off_cone(opts, mid, sub, direction[where_new])
-    axes = _merge(pts.axes, mid[sort_new], slots)
+    axes = _merge(pts.axes, mid[sort_new], is_new)
     tips = _merge(pts.tips, cutter.tips_from_contacts(sub.point, sub.normal, mid)[sort_new],
-                  slots)
+                  is_new)
     # (the rate figures are measured once the insertions are done: with_rate_record)
     smoothing = replace(pts.smoothing, axes=axes,
                         limited_points=pts.smoothing.limited_points + int(limited.sum()))

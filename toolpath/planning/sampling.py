@@ -146,7 +146,7 @@ def _place(t_grid, cum, n_seg, out):
         k = 0
         for j in range(n_seg[p] + 1):
             x = j * (total / n_seg[p])
-            while k < t_grid.size - 2 and cum[p, k + 1] <= x:
+            while k < t_grid.size - 2 and cum[p, k + 1] < x:
                 k += 1
             span = cum[p, k + 1] - cum[p, k]
             slope = (t_grid[k + 1] - t_grid[k]) / span if span > 0.0 else 0.0
@@ -599,10 +599,11 @@ def _gap_model(u, a, b, c):
 def _model_extremes(gaps, inverse, n_grid, with_samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
-    The model's coefficients are ``inverse @ gaps[i]`` (the gaps clipped to +-1e3). A
-    grid of ``n_grid`` points on [0, 1], then the vertex of the parabola through the
-    extreme and its neighbours (the quartic is smooth on that step: the value is then
-    exact to ~1e-6 of the gap). ``with_samples``: the values also over ``gaps[i]``.
+    The model's coefficients are ``inverse @ gaps[i]`` (the gaps clipped to +-1e3). Its
+    extremes are at the ends (0) or where ``g'`` (a cubic) vanishes: ``g'`` is sampled at
+    ``n_grid`` points on [0, 1] and each sign change solved by bracketed Newton steps
+    (every bump and dip, beside an end too; two roots within one step, a wiggle of no
+    depth, would cancel). ``with_samples``: the values also over ``gaps[i]``.
     """
     for block in numba.prange((gaps.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
         _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, block * _EXTREMES_BLOCK,
@@ -617,41 +618,67 @@ _EXTREMES_BLOCK = 4096
 def _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, first, stop):
     """:func:`_model_extremes` of rows ``first .. stop - 1``."""
     step = 1.0 / (n_grid - 1)
-    values = np.empty(n_grid)
-    coef = np.empty(3)
     for i in range(first, stop):
-        for r in range(3):
-            acc = 0.0
-            for k in range(3):
-                acc += inverse[r, k] * min(max(gaps[i, k], -1e3), 1e3)
-            coef[r] = acc
-        a, b, c = coef[0], coef[1], coef[2]
-        for j in range(n_grid):
-            values[j] = _gap_model(j * step, a, b, c)
-        for side in range(2):
-            sign = 1.0 if side == 0 else -1.0
-            j_best = 0
-            for j in range(1, n_grid):
-                if sign * values[j] < sign * values[j_best]:
-                    j_best = j
-            best, at = values[j_best], j_best * step
-            if 0 < j_best < n_grid - 1:
-                before = sign * values[j_best - 1]
-                here = sign * values[j_best]
-                after = sign * values[j_best + 1]
-                den = before - 2.0 * here + after
-                shift = 0.5 * (before - after) / den if den > 1e-15 else 0.0
-                x = at + min(max(shift, -1.0), 1.0) * step
-                refined = _gap_model(x, a, b, c)
-                if sign * refined < sign * best:
-                    best, at = refined, x
-            if with_samples:
-                for k in range(gaps.shape[1]):
-                    if sign * gaps[i, k] < sign * best:
-                        best = gaps[i, k]
-            out[2 * side, i] = best
-            out[2 * side + 1, i] = at
+        a = b = c = 0.0
+        for k in range(3):
+            g = min(max(gaps[i, k], -1e3), 1e3)
+            a += inverse[0, k] * g
+            b += inverse[1, k] * g
+            c += inverse[2, k] * g
+        low = high = at_low = at_high = 0.0  # the ends: g(0) = g(1) = 0
+        before = _gap_slope(0.0, a, b, c)
+        # (a model of nothing but round-off has no extremes worth a search)
+        for j in range(1 if max(abs(a), abs(b), abs(c)) > 1e-15 else n_grid, n_grid):
+            x = j * step
+            after = _gap_slope(x, a, b, c)
+            if (before < 0.0) != (after < 0.0) or before == 0.0:
+                u = _stationary(x - step, x, before, after, a, b, c)
+                value = _gap_model(u, a, b, c)
+                if value < low:
+                    low, at_low = value, u
+                if value > high:
+                    high, at_high = value, u
+            before = after
+        if with_samples:
+            for k in range(gaps.shape[1]):
+                low = min(low, gaps[i, k])
+                high = max(high, gaps[i, k])
+        out[0, i], out[1, i], out[2, i], out[3, i] = low, at_low, high, at_high
 
 
-#: Samples of the gap model of :func:`chord_extremes` on [0, 1] before refinement.
+@numba.njit(cache=True, inline="always")
+def _gap_slope(u, a, b, c):
+    """``g'(u) = (1 - 2u) p + (u - u^2) p'`` with ``p = a + b u + c u^2``."""
+    return (1.0 - 2.0 * u) * (a + b * u + c * u * u) + (u - u * u) * (b + 2.0 * c * u)
+
+
+@numba.njit(cache=True, inline="always")
+def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
+    """The root of ``g'`` in ``[lo, hi]``, where it changes sign (Newton, kept bracketed).
+
+    From the secant's root.
+    A Newton step leaving the bracket is replaced by halving it; done when a step moves
+    ``u`` by under 1e-12 (the value is then exact to round-off).
+    """
+    den = slope_lo - slope_hi
+    x = lo + (hi - lo) * slope_lo / den if den != 0.0 else 0.5 * (lo + hi)
+    for _ in range(40):
+        slope = _gap_slope(x, a, b, c)
+        if slope == 0.0 or hi - lo < 1e-12:
+            break
+        if (slope < 0.0) == (slope_lo < 0.0):
+            lo, slope_lo = x, slope
+        else:
+            hi = x
+        p = a + b * x + c * x * x
+        dp = b + 2.0 * c * x
+        curve = -2.0 * p + 2.0 * (1.0 - 2.0 * x) * dp + 2.0 * c * (x - x * x)
+        nxt = x - slope / curve if curve != 0.0 else 0.5 * (lo + hi)
+        if abs(nxt - x) < 1e-12:
+            return nxt
+        x = nxt if lo < nxt < hi else 0.5 * (lo + hi)
+    return x
+
+
+#: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
 _GRID = 21

@@ -1,0 +1,105 @@
+"""Compiled helpers of the planner against straightforward numpy (the same numbers)."""
+
+import numpy as np
+import pytest
+
+from toolpath.planning.clearance_kernel import bin_samples, clearances
+from toolpath.planning.finishing import _as_slice
+from toolpath.planning.linking import _distinct_rows
+from toolpath.planning.passes import _merge
+from toolpath.planning.sampling import CHORD_FRACTIONS, chord_extremes
+
+
+@pytest.mark.parametrize("shape", [(), (3,)])
+@pytest.mark.parametrize("dtype", [float, np.int64])
+def test_merge_places_old_and_new_rows_where_the_mask_says(shape, dtype):
+    rng = np.random.default_rng(1)
+    is_new = rng.random(500) < 0.3
+    old = rng.integers(0, 1000, size=((~is_new).sum(), *shape)).astype(dtype)
+    new = rng.integers(0, 1000, size=(is_new.sum(), *shape)).astype(dtype)
+    want = np.empty((500, *shape), dtype=dtype)
+    want[~is_new], want[is_new] = old, new
+    np.testing.assert_array_equal(_merge(old, new, is_new), want)
+    with pytest.raises(ValueError, match="rows into"):
+        _merge(old[1:], new, is_new)
+
+
+def test_samples_binned_by_cell_in_a_stable_order():
+    # the counting sort equals a stable argsort of the cell ids; no samples, no cells hit
+    rng = np.random.default_rng(2)
+    points = np.round(rng.uniform(-20.0, 20.0, size=(5000, 3)), 1)  # ties in every cell
+    cells = bin_samples(points, 3.0)
+    ijk = np.minimum(((points - cells.origin) / cells.cell_mm).astype(np.int64),
+                     cells.shape - 1)
+    cell_id = ijk[:, 0] + cells.shape[0] * (ijk[:, 1] + cells.shape[1] * ijk[:, 2])
+    order = np.argsort(cell_id, kind="stable")
+    np.testing.assert_array_equal(cells.index, order)
+    np.testing.assert_array_equal(cells.points, points[order])
+    np.testing.assert_array_equal(
+        cells.cell_start, np.searchsorted(cell_id[order], np.arange(cells.shape.prod() + 1)))
+    empty = bin_samples(np.zeros((0, 3)), 3.0)
+    tips = rng.normal(size=(4, 3))
+    near, far, _, _ = clearances(empty, empty, tips, np.tile([0.0, 0.0, 1.0], (4, 1)), None,
+                                 np.array([3.0, 9.0]), np.array([3.1, 5.5]), 3.0, 3.0, 18.0,
+                                 6.0)
+    assert np.isinf(near).all() and np.isinf(far).all()
+
+
+def test_repeated_toolpath_points_dropped_and_axes_made_unit():
+    rng = np.random.default_rng(3)
+    pts = np.repeat(rng.normal(size=(50, 3)), rng.integers(1, 4, size=50), axis=0)
+    pts[5] = pts[4] + 1e-10  # within a nanometre: a repeat
+    axes = rng.normal(size=pts.shape)
+    keep = np.r_[True, np.linalg.norm(np.diff(pts, axis=0), axis=1) > 1e-9]
+    want_pts = pts[keep]
+    want_axes = axes[keep] / np.linalg.norm(axes[keep], axis=1, keepdims=True)
+    kept = np.empty(len(pts), dtype=np.int64)
+    m = _distinct_rows(pts, axes, kept)
+    assert m == keep.sum()
+    np.testing.assert_array_equal(kept[:m], np.flatnonzero(keep))
+    np.testing.assert_array_equal(pts[:m], want_pts)
+    np.testing.assert_allclose(axes[:m], want_axes, rtol=0.0, atol=1e-15)
+
+
+@pytest.mark.parametrize("rows", [np.arange(3, 9), np.arange(3, 9)[::-1], np.arange(5)[::-1],
+                                  np.r_[5, 6, 7, 0, 1], np.r_[1, 0, 7, 6, 5], np.r_[4],
+                                  np.r_[5, 6, 7, 0], np.r_[0, 2, 1, 3]])
+def test_runs_as_slices_only_where_consecutive(rows):
+    # a stretch of a pass (either way) becomes a view; runs joined across a closed
+    # section's seam stay index arrays
+    data = np.arange(20.0)
+    taken = _as_slice(rows)
+    np.testing.assert_array_equal(data[taken], data[rows])
+    consecutive = len(rows) > 1 and (np.abs(np.diff(rows)) == 1).all() and \
+        len(set(np.diff(rows))) == 1
+    assert isinstance(taken, slice) == consecutive
+
+
+def test_chord_extremes_over_the_model_and_the_samples_in_parallel_blocks():
+    # more rows than one parallel block; the model's extremes on a dense grid (dips within
+    # the first or last twentieth of the move, which the coarse grid's ends hide, and bumps
+    # between two of its samples too), and with the samples the measured gaps too (their
+    # place stays the model's)
+    rng = np.random.default_rng(4)
+    gaps = rng.normal(scale=0.01, size=(10_000, 3))
+    u = np.asarray(CHORD_FRACTIONS)
+    basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
+    coef = np.linalg.solve(basis, gaps.T).T
+    grid = np.linspace(0.0, 1.0, 20_001)
+    model = grid * (1.0 - grid) * (coef[:, :1] + coef[:, 1:2] * grid
+                                   + coef[:, 2:] * grid ** 2)
+    low, u_low, high, u_high = chord_extremes(gaps)
+    # never above the dense grid's lowest, below it by its resolution at most
+    assert (low <= model.min(axis=1) + 1e-12).all() and (low > model.min(axis=1) - 1e-8).all()
+    assert (high >= model.max(axis=1) - 1e-12).all() and (high < model.max(axis=1) + 1e-8).all()
+    def at(x):
+        return x * (1.0 - x) * (coef[:, 0] + coef[:, 1] * x + coef[:, 2] * x * x)
+
+    np.testing.assert_allclose(at(u_low), low, rtol=0.0, atol=1e-15)
+    np.testing.assert_allclose(at(u_high), high, rtol=0.0, atol=1e-15)
+    assert ((model.argmin(axis=1) < 1000) & (low < -1e-6)).sum() > 20  # dips near the ends
+    low_s, u_low_s, high_s, u_high_s = chord_extremes(gaps, with_samples=True)
+    np.testing.assert_array_equal(low_s, np.minimum(low, gaps.min(axis=1)))
+    np.testing.assert_array_equal(high_s, np.maximum(high, gaps.max(axis=1)))
+    np.testing.assert_array_equal(u_low_s, u_low)
+    np.testing.assert_array_equal(u_high_s, u_high)
