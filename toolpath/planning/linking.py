@@ -194,11 +194,14 @@ class _Builder:
 
     def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
             pass_index: int = -1) -> None:
-        pts = np.atleast_2d(pts)
+        if pts.ndim == 1:
+            pts = pts[None, :]
         if not len(pts):
             return
         self.pts.append(pts)
-        self.axes.append(np.broadcast_to(np.atleast_2d(axes), pts.shape))
+        # (a run's own axes as they are; one axis for the block repeated, as a view)
+        self.axes.append(axes if axes.shape == pts.shape else
+                         np.broadcast_to(axes.reshape(-1, 3), pts.shape))
         self.kinds.append(int(kind))
         self.passes.append(pass_index)
         self.last = pts[-1]
