@@ -25,7 +25,8 @@ def test_merge_places_old_and_new_rows_where_the_mask_says(shape, dtype):
 
 
 def test_samples_binned_by_cell_in_a_stable_order():
-    # the counting sort equals a stable argsort of the cell ids; no samples, no cells hit
+    # the counting sort equals a stable argsort of the cell ids, with each cell's box of
+    # samples; no samples, no cells hit
     rng = np.random.default_rng(2)
     points = np.round(rng.uniform(-20.0, 20.0, size=(5000, 3)), 1)  # ties in every cell
     cells = bin_samples(points, 3.0)
@@ -37,6 +38,12 @@ def test_samples_binned_by_cell_in_a_stable_order():
     np.testing.assert_array_equal(cells.points, points[order])
     np.testing.assert_array_equal(
         cells.cell_start, np.searchsorted(cell_id[order], np.arange(cells.shape.prod() + 1)))
+    for cid in np.unique(cell_id)[::7]:  # each cell's samples' box; empty cells none
+        inside = points[cell_id == cid]
+        np.testing.assert_array_equal(cells.box[cid], np.r_[inside.min(0), inside.max(0)])
+    empty_cells = np.setdiff1d(np.arange(cells.shape.prod()), cell_id)
+    assert (cells.box[empty_cells, :3] == np.inf).all()
+    assert (cells.box[empty_cells, 3:] == -np.inf).all()
     empty = bin_samples(np.zeros((0, 3)), 3.0)
     tips = rng.normal(size=(4, 3))
     near, far, _, _ = clearances(empty, empty, tips, np.tile([0.0, 0.0, 1.0], (4, 1)), None,

@@ -46,6 +46,10 @@ class SampleCells:
         Cells along x, y, z.
     cell_mm : float
         Edge of a cell, mm.
+    box : ndarray, shape (n_cells, 6)
+        The bounding box of each cell's samples (``lo``, ``hi``; ``+inf``, ``-inf`` when
+        empty): a sheet of samples fills a thin part of its cells, and a sphere that
+        misses it skips the cell.
     """
 
     points: NDArray[np.float64]
@@ -54,6 +58,7 @@ class SampleCells:
     origin: NDArray[np.float64]
     shape: NDArray[np.int64]
     cell_mm: float
+    box: NDArray[np.float64]
 
 
 def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
@@ -66,7 +71,8 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     if not len(points):  # nothing to find: one empty cell
         return SampleCells(points=points, index=np.zeros(0, dtype=np.int64),
                            cell_start=np.zeros(2, dtype=np.int64), origin=np.zeros(3),
-                           shape=np.ones(3, dtype=np.int64), cell_mm=max(float(reach_mm), 1e-9))
+                           shape=np.ones(3, dtype=np.int64), cell_mm=max(float(reach_mm), 1e-9),
+                           box=np.array([[np.inf] * 3 + [-np.inf] * 3]))
     bounds = np.empty((2, 3))
     _bounds(points, bounds)  # (numpy's min over axis 0 of (n, 3) is strided: slow)
     lo = bounds[0] - 1e-9
@@ -78,8 +84,24 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     order = np.empty(len(points), dtype=np.int64)
     start = np.zeros(int(np.prod(shape)) + 1, dtype=np.int64)
     _counting_sort(points, lo, cell, shape, order, start)
-    return SampleCells(points=points[order], index=order, cell_start=start, origin=lo,
-                       shape=shape, cell_mm=cell)
+    binned = points[order]
+    box = np.empty((start.size - 1, 6))
+    _cell_boxes(binned, start, box)
+    return SampleCells(points=binned, index=order, cell_start=start, origin=lo, shape=shape,
+                       cell_mm=cell, box=box)
+
+
+@numba.njit(cache=True)
+def _cell_boxes(points, start, box):
+    """Each cell's samples' bounding box (empty: ``+inf``, ``-inf``)."""
+    for cid in range(start.size - 1):
+        for k in range(3):
+            box[cid, k] = np.inf
+            box[cid, 3 + k] = -np.inf
+        for j in range(start[cid], start[cid + 1]):
+            for k in range(3):
+                box[cid, k] = min(box[cid, k], points[j, k])
+                box[cid, 3 + k] = max(box[cid, 3 + k], points[j, k])
 
 
 @numba.njit(cache=True)
@@ -168,7 +190,7 @@ def _skip_margin(tips_mm: NDArray[np.float64]) -> float:
 def _grid(cells: SampleCells) -> tuple[Any, ...]:
     """The arrays of ``cells`` as the compiled loops take them."""
     return (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
-            cells.cell_mm)
+            cells.cell_mm, cells.box)
 
 
 @numba.njit(cache=True, inline="always")
@@ -182,10 +204,11 @@ def _gap(x, lo, size):
 
 
 @numba.njit(cache=True)
-def _cells_near(c0, c1, c2, radius, origin, shape, cell, out):
+def _cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
     """The cells a sphere meets, into ``out``; how many.
 
-    The cells its bounding box overlaps, less those farther than ``radius`` from ``c``.
+    The cells its bounding box overlaps, less those farther than ``radius`` from ``c``
+    and those whose samples' box is (so empty ones too).
     """
     nx, ny, nz = shape[0], shape[1], shape[2]
     x_lo = max(math.floor((c0 - radius - origin[0]) / cell), 0)
@@ -201,10 +224,28 @@ def _cells_near(c0, c1, c2, radius, origin, shape, cell, out):
             gy = _gap(c1, origin[1] + cy * cell, cell)
             for cx in range(x_lo, x_hi):
                 gx = _gap(c0, origin[0] + cx * cell, cell)
-                if gx * gx + gy * gy + gz * gz <= radius * radius:
-                    out[count] = cx + nx * (cy + ny * cz)
+                if gx * gx + gy * gy + gz * gz > radius * radius:
+                    continue
+                cid = cx + nx * (cy + ny * cz)
+                bx = _span_gap(c0, box[cid, 0], box[cid, 3])
+                by = _span_gap(c1, box[cid, 1], box[cid, 4])
+                bz = _span_gap(c2, box[cid, 2], box[cid, 5])
+                if bx * bx + by * by + bz * bz <= radius * radius:
+                    out[count] = cid
                     count += 1
     return count
+
+
+@numba.njit(cache=True, inline="always")
+def _span_gap(x, lo, hi):
+    """Distance from ``x`` to ``[lo, hi]`` (``inf`` for an empty span, ``lo > hi``)."""
+    if lo > hi:
+        return np.inf
+    if x < lo:
+        return lo - x
+    if x > hi:
+        return x - hi
+    return 0.0
 
 
 def _cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
@@ -234,10 +275,10 @@ def _search_sphere(grid, c0, c1, c2, reach, radius, i, tips, axes, contacts, has
     The cells within ``reach`` (>= ``radius``) are visited; returns the squared distance
     of the nearest sample seen, at most ``reach**2`` (none is nearer than that).
     """
-    points, index, cell_start, origin, shape, cell = grid
+    points, index, cell_start, origin, shape, cell, box = grid
     nearest2 = reach * reach
     rad2 = radius * radius
-    for m in range(_cells_near(c0, c1, c2, reach, origin, shape, cell, cells)):
+    for m in range(_cells_near(c0, c1, c2, reach, origin, shape, cell, box, cells)):
         cid = cells[m]
         for j in range(cell_start[cid], cell_start[cid + 1]):
             e0 = points[j, 0] - c0
@@ -303,15 +344,15 @@ def _clearances(end_grid, flute_grid, tips, axes, contacts, has_contacts, height
 
 
 @numba.njit(cache=True, parallel=True)
-def _pairs_within(points, index, cell_start, origin, shape, cell, queries, radius, counts,
-                  starts, items, scratch_size):
+def _pairs_within(points, index, cell_start, origin, shape, cell, box, queries, radius,
+                  counts, starts, items, scratch_size):
     """Count (``items`` empty) or list the points within ``radius`` of each query."""
     for block in numba.prange((queries.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, queries.shape[0])):
             c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
             found = 0
-            for m in range(_cells_near(c0, c1, c2, radius, origin, shape, cell, cells)):
+            for m in range(_cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
                 cid = cells[m]
                 for j in range(cell_start[cid], cell_start[cid + 1]):
                     e0 = points[j, 0] - c0
@@ -334,8 +375,7 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     counts = np.zeros(len(q), dtype=np.int64)
     starts = np.zeros(len(q), dtype=np.int64)
-    args = (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
-            cells.cell_mm, q, float(radius_mm))
+    args = (*_grid(cells), q, float(radius_mm))
     scratch = _cell_scratch_size(radius_mm, cells.cell_mm)
     _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
     starts[1:] = np.cumsum(counts)[:-1]
