@@ -38,7 +38,7 @@ FRAME_ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
 
 
 def parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
-                     ) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple[int, ...]]:
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], tuple[int, ...]]:
     """Flatten ``(t, s)`` (broadcast, or the outer grid) and return the output shape."""
     t_arr = np.asarray(t, dtype=float)
     s_arr = np.asarray(s, dtype=float)

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["SampleCells", "bin_samples", "clearances", "pairs_within"]
+__all__ = ["SampleCells", "bin_samples", "clearances", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -73,10 +73,9 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
                            cell_start=np.zeros(2, dtype=np.int64), origin=np.zeros(3),
                            shape=np.ones(3, dtype=np.int64), cell_mm=max(float(reach_mm), 1e-9),
                            box=np.array([[np.inf] * 3 + [-np.inf] * 3]))
-    bounds = np.empty((2, 3))
-    _bounds(points, bounds)  # (numpy's min over axis 0 of (n, 3) is strided: slow)
-    lo = bounds[0] - 1e-9
-    extent = bounds[1] + 1e-9 - lo
+    lo, hi = points_box(points)
+    lo = lo - 1e-9
+    extent = hi + 1e-9 - lo
     cell = max(float(reach_mm), 1e-9)
     while np.prod(np.floor(extent / cell) + 1.0) > MAX_CELLS:
         cell *= 1.5
@@ -104,15 +103,17 @@ def _cell_boxes(points, start, box):
                 box[cid, 3 + k] = max(box[cid, 3 + k], points[j, k])
 
 
-@numba.njit(cache=True)
-def _bounds(points, out):
-    """``out[0]``, ``out[1]``: the smallest and largest coordinates of the points."""
-    out[0, :] = np.inf
-    out[1, :] = -np.inf
-    for i in range(points.shape[0]):
-        for k in range(3):
-            out[0, k] = min(out[0, k], points[i, k])
-            out[1, k] = max(out[1, k], points[i, k])
+def points_box(points_mm: NDArray[np.float64]) -> tuple[NDArray[np.float64],
+                                                        NDArray[np.float64]]:
+    """The smallest and largest coordinates of ``(n, 3)`` points (``+-inf`` for none).
+
+    Compiled (:func:`_cell_boxes` over one cell of them all): numpy's ``min(axis=0)`` of
+    an ``(n, 3)`` array runs ten times slower.
+    """
+    points = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
+    box = np.empty((1, 6))
+    _cell_boxes(points, np.array([0, len(points)]), box)
+    return box[0, :3], box[0, 3:]
 
 
 @numba.njit(cache=True)

@@ -35,6 +35,7 @@ from ..path import Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import gouge_depth_mm, local_depth_mm
 from .checks import check_links, gouge_stage, machine_stage
+from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
 from .errors import GougeError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
@@ -553,9 +554,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         clearance: ClearancePlane | ClearanceSphere = ClearancePlane(
             axis, float((corners @ axis).max()) + opts.clearance_mm)
     else:
-        # (column by column: numpy reduces an (n, 3) array over its rows ten times slower)
-        lo = np.array([corners[:, k].min() for k in range(3)])
-        hi = np.array([corners[:, k].max() for k in range(3)])
+        lo, hi = points_box(corners)
         centre = 0.5 * (lo + hi)
         off = corners - centre
         radius = float(np.sqrt(np.einsum("ij,ij->i", off, off).max()))

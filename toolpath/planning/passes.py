@@ -159,11 +159,10 @@ def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[n
     if old.shape[0] + new.shape[0] != is_new.size:
         raise ValueError(f"{old.shape[0]} + {new.shape[0]} rows into {is_new.size} slots")
     out = np.empty((is_new.size, *old.shape[1:]), dtype=old.dtype)
-    if old.ndim == 2:
-        _merge_rows(np.ascontiguousarray(old), np.ascontiguousarray(new), is_new, out)
-    else:
-        _merge_values(np.ascontiguousarray(old), np.ascontiguousarray(new, dtype=old.dtype),
-                      is_new, out)
+    width = int(np.prod(old.shape[1:]))  # (single values: rows of one)
+    _merge_rows(np.ascontiguousarray(old).reshape(len(old), width),
+                np.ascontiguousarray(new, dtype=old.dtype).reshape(len(new), width), is_new,
+                out.reshape(is_new.size, width))
     return out
 
 
@@ -178,18 +177,6 @@ def _merge_rows(old, new, is_new, out):
         else:
             for k in range(out.shape[1]):
                 out[i, k] = old[j_old, k]
-            j_old += 1
-
-
-@numba.njit(cache=True)
-def _merge_values(old, new, is_new, out):
-    j_old = j_new = 0
-    for i in range(is_new.size):
-        if is_new[i]:
-            out[i] = new[j_new]
-            j_new += 1
-        else:
-            out[i] = old[j_old]
             j_old += 1
 
 
@@ -211,32 +198,24 @@ def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[n
                           opts.tilt_deg)
 
 
-def _arclen(points: NDArray[np.float64], pid: NDArray[np.int64],
-            normals: NDArray[np.float64] | None = None, lift_mm: float = 0.0
-            ) -> NDArray[np.float64]:
-    """Polyline length from the start of each pass (passes contiguous in ``pid``).
-
-    Of the points moved ``lift_mm`` along ``normals``, when given.
-    """
-    out = np.empty(len(points))
-    p = np.ascontiguousarray(points, dtype=float)
-    _arclen_rows(p, p if normals is None else np.ascontiguousarray(normals, dtype=float),
-                 lift_mm if normals is not None else 0.0, np.ascontiguousarray(pid), out)
-    return out
-
-
 @numba.njit(cache=True)
 def _arclen_rows(points, normals, lift, pid, out):
+    """Polyline length from the start of each pass of the points lifted along the normals."""
     for i in range(points.shape[0]):
         if i == 0 or pid[i] != pid[i - 1]:
             out[i] = 0.0
             continue
-        size2 = 0.0
-        for k in range(3):
-            d = (points[i, k] + lift * normals[i, k]) - (points[i - 1, k]
-                                                          + lift * normals[i - 1, k])
-            size2 += d * d
-        out[i] = out[i - 1] + math.sqrt(size2)
+        out[i] = out[i - 1] + _lifted_step(points, normals, lift, i)
+
+
+@numba.njit(cache=True, inline="always")
+def _lifted_step(points, normals, lift, i):
+    """Distance from row ``i - 1`` to row ``i`` of the points moved ``lift`` along the normals."""
+    size2 = 0.0
+    for k in range(3):
+        d = (points[i, k] + lift * normals[i, k]) - (points[i - 1, k] + lift * normals[i - 1, k])
+        size2 += d * d
+    return math.sqrt(size2)
 
 
 def _split_fractions(points: NDArray[np.float64], normals: NDArray[np.float64],
@@ -269,12 +248,7 @@ def _split_fraction_rows(points, normals, lift, is_new, out):
             continue
         total = 0.0
         for j in range(i, end + 1):
-            size2 = 0.0
-            for k in range(3):
-                d = (points[j, k] + lift * normals[j, k]) - (points[j - 1, k]
-                                                             + lift * normals[j - 1, k])
-                size2 += d * d
-            total += math.sqrt(size2)
+            total += _lifted_step(points, normals, lift, j)
             if j < end:
                 out[j] = total
         for j in range(i, end):
@@ -289,7 +263,11 @@ def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
     Per mm of the corner-circle centre's path (a ball's centre): what the machine moves at
     the feed.
     """
-    return _arclen(frame.point, pid, frame.normal, cutter.corner_radius_mm)
+    out = np.empty(len(pid))
+    _arclen_rows(np.ascontiguousarray(frame.point, dtype=float),
+                 np.ascontiguousarray(frame.normal, dtype=float),
+                 float(cutter.corner_radius_mm), np.ascontiguousarray(pid), out)
+    return out
 
 
 def _off_cone(opts: FinishingOptions, axes: NDArray[np.float64], frame: PassFrame,

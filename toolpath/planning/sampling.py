@@ -46,6 +46,7 @@ from .local import (
     project_to_surface,
     signed_distance_near,
 )
+from .tool_axis import _segment
 
 __all__ = [
     "CHORD_FRACTIONS",
@@ -176,21 +177,12 @@ def pass_densities(t_grid: NDArray[np.float64], s_grid: NDArray[np.float64],
 
 @numba.njit(cache=True)
 def _pass_densities(t_grid, s_grid, density, s_start, s_end, out):
-    n_s = s_grid.size
     for p in range(out.shape[0]):
         for i in range(t_grid.size):
             ss = s_start[p] + (s_end[p] - s_start[p]) * t_grid[i]
-            # the first s_grid[j] above ss (as searchsorted, side="right"), within [1, n_s - 1]
-            lo, hi = 0, n_s
-            while lo < hi:
-                mid = (lo + hi) // 2
-                if s_grid[mid] <= ss:
-                    lo = mid + 1
-                else:
-                    hi = mid
-            j = min(max(lo, 1), n_s - 1)
-            w = (ss - s_grid[j - 1]) / (s_grid[j] - s_grid[j - 1])
-            out[p, i] = (1.0 - w) * density[i, j - 1] + w * density[i, j]
+            j = _segment(s_grid, ss)  # s_grid[j] <= ss < s_grid[j + 1], clamped
+            w = (ss - s_grid[j]) / (s_grid[j + 1] - s_grid[j])
+            out[p, i] = (1.0 - w) * density[i, j] + w * density[i, j + 1]
 
 
 def split_evenly(lo: NDArray[np.float64], hi: NDArray[np.float64], parts: NDArray[np.int64]
