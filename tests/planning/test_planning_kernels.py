@@ -1,27 +1,42 @@
 """Compiled helpers of the planner against straightforward numpy (the same numbers)."""
 
+from dataclasses import fields
+
 import numpy as np
 import pytest
 
+from toolpath.planning import EllipticBladeSurface, passes
 from toolpath.planning.clearance_kernel import bin_samples, clearances
+from toolpath.planning.cutters import parse_cutter
 from toolpath.planning.finishing import _as_slice
 from toolpath.planning.linking import _distinct_rows
-from toolpath.planning.passes import _merge
+from toolpath.planning.options import FinishingOptions
+from toolpath.planning.passes import MERGE_BLOCK, _merge
 from toolpath.planning.sampling import CHORD_FRACTIONS, chord_extremes
 
 
 @pytest.mark.parametrize("shape", [(), (3,)])
 @pytest.mark.parametrize("dtype", [float, np.int64])
-def test_merge_places_old_and_new_rows_where_the_mask_says(shape, dtype):
+@pytest.mark.parametrize("share", [0.0, 0.003, 0.3, 1.0])
+@pytest.mark.parametrize("size", [500, 3 * MERGE_BLOCK + 7])
+def test_merge_places_new_rows_where_asked_and_old_ones_between(shape, dtype, share, size):
+    # runs of old rows are copied whole: none, a few new rows, many, all new (and new
+    # rows first and last); in one parallel block and in several
     rng = np.random.default_rng(1)
-    is_new = rng.random(500) < 0.3
+    is_new = rng.random(size) < share
+    if 0.0 < share < 1.0:
+        is_new[[0, -1]] = True
     old = rng.integers(0, 1000, size=((~is_new).sum(), *shape)).astype(dtype)
-    new = rng.integers(0, 1000, size=(is_new.sum(), *shape)).astype(dtype)
-    want = np.empty((500, *shape), dtype=dtype)
+    new = rng.integers(1000, 2000, size=(is_new.sum(), *shape)).astype(dtype)
+    want = np.empty((size, *shape), dtype=dtype)
     want[~is_new], want[is_new] = old, new
-    np.testing.assert_array_equal(_merge(old, new, is_new), want)
-    with pytest.raises(ValueError, match="rows into"):
-        _merge(old[1:], new, is_new)
+    new_at = np.flatnonzero(is_new)
+    np.testing.assert_array_equal(_merge(old, new, new_at), want)
+    with pytest.raises(ValueError, match="increasing places"):  # one place too many
+        _merge(old, new, np.r_[new_at, size - 1])
+    if new_at.size > 1:
+        with pytest.raises(ValueError, match="increasing places"):
+            _merge(old, new, new_at[::-1])
 
 
 def test_samples_binned_by_cell_in_a_stable_order():
@@ -110,3 +125,41 @@ def test_chord_extremes_over_the_model_and_the_samples_in_parallel_blocks():
     np.testing.assert_array_equal(high_s, np.maximum(high, gaps.max(axis=1)))
     np.testing.assert_array_equal(u_low_s, u_low)
     np.testing.assert_array_equal(u_high_s, u_high)
+
+
+@pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])
+def test_chord_check_the_same_with_split_moves_merged_once_or_every_round(
+        monkeypatch, axis_mode):
+    # after the first round the split moves go on alone and are merged at the end: the
+    # points, axes, records and mask are those of merging every round
+    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis_mode,
+                            lead_deg=10.0 if axis_mode == "lead-tilt" else 0.0)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    keep = (start.t < 0.45) | (start.t > 0.55) if axis_mode == "3" else None
+    calls = []
+    insert = passes.insert_points
+    monkeypatch.setattr(passes, "insert_points", lambda *a: calls.append(1) or insert(*a))
+    results = []
+    for defer in (True, False):
+        monkeypatch.setattr(passes, "DEFER_SPLIT_MOVES", defer)
+        results.append(passes.refine_chords(surface, cutter, opts, res, layout, start,
+                                            keep=keep))
+    assert len(calls) >= 4  # (at least two rounds insert points, each way)
+    (a, keep_a, worst_a), (b, keep_b, worst_b) = results
+    assert len(a) > len(start) + 100 and worst_a == worst_b
+    if keep is not None:
+        np.testing.assert_array_equal(keep_a, keep_b)
+    for name in ("t", "s", "pid", "nominal", "axes", "tips", "direction"):
+        np.testing.assert_array_equal(getattr(a, name), getattr(b, name))
+    for f in fields(a.frame):
+        np.testing.assert_array_equal(getattr(a.frame, f.name), getattr(b.frame, f.name))
+    assert a.cone_pushed == b.cone_pushed
+    if axis_mode == "lead-tilt":
+        for f in fields(a.smoothing):
+            np.testing.assert_array_equal(getattr(a.smoothing, f.name),
+                                          getattr(b.smoothing, f.name))

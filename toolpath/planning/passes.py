@@ -67,6 +67,9 @@ MAX_PARTS = 8
 #: Moves shorter than this (mm, a G-code program's 3-decimal resolution; the tip's travel
 #: plus the cutter radius times the axis turn) are not split.
 MIN_SPLIT_MM = 1e-3
+#: After the first round of the chord check, the split moves go on alone and are merged
+#: into the other points once, at the end (:func:`refine_chords`; a switch for its test).
+DEFER_SPLIT_MOVES = True
 #: A checked chord is checked again when its ends move (tip, plus the cutter radius times
 #: the axis change) by more than this share of the chord tolerance.
 MOVED_SHARE = 0.01
@@ -144,40 +147,52 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _frame_merge(a: PassFrame, b: PassFrame, is_new: NDArray[np.bool_]) -> PassFrame:
+def _frame_merge(a: PassFrame, b: PassFrame, new_at: NDArray[np.int64]) -> PassFrame:
     """Frames ``a`` and ``b`` merged (:func:`_merge`)."""
-    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), is_new)
+    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), new_at)
                         for f in fields(a)})
 
 
-def _merge(old: NDArray[np.float64], new: NDArray[np.float64], is_new: NDArray[np.bool_]
+def _merge(old: NDArray[np.float64], new: NDArray[np.float64], new_at: NDArray[np.int64]
            ) -> NDArray[np.float64]:
-    """``old``'s rows in order where ``is_new`` is False, ``new``'s where it is True.
+    """``new``'s rows at the (increasing) rows ``new_at`` of the result, ``old``'s between.
 
-    In one compiled pass (numpy's scatter of (n, 3) rows is four times slower).
+    In one compiled pass copying the runs of old rows whole: a few new rows among many
+    cost about a copy (numpy's scatter of (n, 3) rows is four times slower).
     """
-    if old.shape[0] + new.shape[0] != is_new.size:
-        raise ValueError(f"{old.shape[0]} + {new.shape[0]} rows into {is_new.size} slots")
-    out = np.empty((is_new.size, *old.shape[1:]), dtype=old.dtype)
+    size = old.shape[0] + new.shape[0]
+    if new_at.size != new.shape[0] or (new_at.size and not (
+            new_at[0] >= 0 and new_at[-1] < size and (np.diff(new_at) > 0).all())):
+        raise ValueError(f"{new.shape[0]} new rows at {new_at.size} increasing places "
+                         f"among {size} rows")
+    out = np.empty((size, *old.shape[1:]), dtype=old.dtype)
     width = int(np.prod(old.shape[1:]))  # (single values: rows of one)
     _merge_rows(np.ascontiguousarray(old).reshape(len(old), width),
-                np.ascontiguousarray(new, dtype=old.dtype).reshape(len(new), width), is_new,
-                out.reshape(is_new.size, width))
+                np.ascontiguousarray(new, dtype=old.dtype).reshape(len(new), width),
+                np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(size, width))
     return out
 
 
-@numba.njit(cache=True)
-def _merge_rows(old, new, is_new, out):
-    j_old = j_new = 0
-    for i in range(is_new.size):
-        if is_new[i]:
-            for k in range(out.shape[1]):
-                out[i, k] = new[j_new, k]
-            j_new += 1
-        else:
-            for k in range(out.shape[1]):
-                out[i, k] = old[j_old, k]
-            j_old += 1
+#: Merged rows per parallel block of :func:`_merge_rows`.
+MERGE_BLOCK = 16384
+
+
+@numba.njit(cache=True, parallel=True)
+def _merge_rows(old, new, new_at, out):
+    n_blocks = (out.shape[0] + MERGE_BLOCK - 1) // MERGE_BLOCK
+    for block in numba.prange(n_blocks):
+        lo = block * MERGE_BLOCK
+        hi = min(lo + MERGE_BLOCK, out.shape[0])
+        j = np.searchsorted(new_at, lo)  # the first new row at or after lo
+        row, j_old = lo, lo - j
+        while j < new_at.size and new_at[j] < hi:
+            run = new_at[j] - row  # old rows before new row j
+            out[row:row + run] = old[j_old:j_old + run]
+            j_old += run
+            out[new_at[j]] = new[j]
+            row = new_at[j] + 1
+            j += 1
+        out[row:hi] = old[j_old:j_old + hi - row]
 
 
 def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
@@ -211,49 +226,77 @@ def _arclen_rows(points, normals, lift, pid, out):
 @numba.njit(cache=True, inline="always")
 def _lifted_step(points, normals, lift, i):
     """Distance from row ``i - 1`` to row ``i`` of the points moved ``lift`` along the normals."""
+    return _lifted_distance(points, normals, i - 1, points, normals, i, lift)
+
+
+@numba.njit(cache=True, inline="always")
+def _lifted_distance(points_a, normals_a, i, points_b, normals_b, j, lift):
+    """Distance from row ``i`` of one set to row ``j`` of another, both lifted ``lift``."""
     size2 = 0.0
     for k in range(3):
-        d = (points[i, k] + lift * normals[i, k]) - (points[i - 1, k] + lift * normals[i - 1, k])
+        d = ((points_b[j, k] + lift * normals_b[j, k])
+             - (points_a[i, k] + lift * normals_a[i, k]))
         size2 += d * d
     return math.sqrt(size2)
 
 
-def _split_fractions(points: NDArray[np.float64], normals: NDArray[np.float64],
-                     lift_mm: float, is_new: NDArray[np.bool_]) -> NDArray[np.float64]:
-    """Where each new point lies along its move, as a share of the rate's path.
+def _split_fractions(old: PassFrame, new: PassFrame, after_old: NDArray[np.int64],
+                     lift_mm: float) -> NDArray[np.float64]:
+    """Where each new point lies along the move it splits, as a share of the rate's path.
 
-    The path of the points moved ``lift_mm`` along the normals (:func:`_rate_path`), from
-    the old point before a run of new ones to the old point after it; 0 at old points.
+    New points (sorted) go before the old rows ``after_old``; those sharing one split the
+    move from old row ``after_old - 1`` to it. The path is that of the points moved
+    ``lift_mm`` along the normals (:func:`_rate_path`), through the new points in order
+    (0 for new points before the first or after the last old row).
     """
-    out = np.zeros(len(points))
-    _split_fraction_rows(np.ascontiguousarray(points, dtype=float),
-                         np.ascontiguousarray(normals, dtype=float), float(lift_mm), is_new,
-                         out)
+    out = np.zeros(len(after_old))
+    _split_fraction_rows(*(np.ascontiguousarray(v, dtype=float) for v in (
+        old.point, old.normal, new.point, new.normal)), float(lift_mm),
+        np.ascontiguousarray(after_old, dtype=np.int64), out)
     return out
 
 
 @numba.njit(cache=True)
-def _split_fraction_rows(points, normals, lift, is_new, out):
-    n = is_new.size
-    i = 0
-    while i < n:
-        if not is_new[i]:
-            i += 1
-            continue
-        end = i  # the run of new points i .. end - 1, between old points i - 1 and end
-        while end < n and is_new[end]:
+def _split_fraction_rows(old_points, old_normals, new_points, new_normals, lift, after_old,
+                         out):
+    j = 0
+    while j < after_old.size:
+        end = j  # new points j .. end split the move ending at old row after_old[j]
+        while end + 1 < after_old.size and after_old[end + 1] == after_old[j]:
             end += 1
-        if i == 0 or end == n:  # (not between two points: callers avoid it)
-            i = end
-            continue
-        total = 0.0
-        for j in range(i, end + 1):
-            total += _lifted_step(points, normals, lift, j)
-            if j < end:
-                out[j] = total
-        for j in range(i, end):
-            out[j] /= max(total, 1e-300)
-        i = end
+        a = after_old[j]
+        if 0 < a < old_points.shape[0]:  # (not between two points: callers avoid it)
+            total = _lifted_distance(old_points, old_normals, a - 1, new_points, new_normals,
+                                     j, lift)
+            out[j] = total
+            for q in range(j + 1, end + 1):
+                total += _lifted_distance(new_points, new_normals, q - 1, new_points,
+                                          new_normals, q, lift)
+                out[q] = total
+            total += _lifted_distance(new_points, new_normals, end, old_points, old_normals,
+                                      a, lift)
+            for q in range(j, end + 1):
+                out[q] /= max(total, 1e-300)
+        j = end + 1
+
+
+@numba.njit(cache=True)
+def _insertion_rows(pid, t, pid_new, t_new):
+    """For each new point, the old points ordered before it: (pass, t) no greater.
+
+    Both sorted by pass then ``t``; a binary search per new point.
+    """
+    out = np.empty(pid_new.size, dtype=np.int64)
+    for j in range(pid_new.size):
+        lo, hi = 0, pid.size
+        while lo < hi:
+            mid = (lo + hi) // 2
+            if pid[mid] < pid_new[j] or (pid[mid] == pid_new[j] and t[mid] <= t_new[j]):
+                lo = mid + 1
+            else:
+                hi = mid
+        out[j] = lo
+    return out
 
 
 def _rate_path(cutter: Cutter, frame: PassFrame, pid: NDArray[np.int64]
@@ -346,57 +389,77 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     then stale: callers measure them once their insertions are done
     (:func:`with_rate_record`).
     """
+    order = np.lexsort((t_new, pid_new))
+    t_new, pid_new = t_new[order], pid_new[order]  # sorted by pass then t, like pts
     s_new = layout.s_of(t_new, pid_new)
-    f_new = pass_frame(surface, t_new, s_new)
-    nom_new = _nominal_axes(opts, f_new, layout.direction[pid_new])
-    # both sorted by pass then t: where each new point goes (t < 2 orders within a pass)
-    key_new = 2.0 * pid_new + t_new
-    sort_new = np.argsort(key_new, kind="stable")
-    where_new = np.searchsorted(2.0 * pts.pid + pts.t, key_new[sort_new], side="right") \
-        + np.arange(t_new.size)
-    is_new = np.zeros(len(pts) + t_new.size, dtype=bool)
-    is_new[where_new] = True
-    inverse = np.empty_like(sort_new)
-    inverse[sort_new] = np.arange(sort_new.size)
-    where_new = where_new[inverse]  # in the caller's order
-    frame = _frame_merge(pts.frame, frame_take(f_new, sort_new), is_new)
-    nominal = _merge(pts.nominal, nom_new[sort_new], is_new)
-    s = _merge(pts.s, s_new[sort_new], is_new)
-    t = _merge(pts.t, t_new[sort_new], is_new)
-    pid = _merge(pts.pid, pid_new[sort_new], is_new)
+    frame = pass_frame(surface, t_new, s_new)
+    direction = layout.direction[pid_new]
+    nominal = _nominal_axes(opts, frame, direction)
+    # where each new point goes: after the old points of its pass up to its t
+    after_old = _insertion_rows(pts.pid, pts.t, pid_new, t_new)
+    new_at = after_old + np.arange(t_new.size)  # (in the merged points, increasing)
+    where_new = np.empty_like(new_at)
+    where_new[order] = new_at  # in the caller's order
     # the old points on either side of each new one (several new ones may share a move)
-    old_at = np.flatnonzero(~is_new)
-    rank = np.searchsorted(old_at, where_new)
-    row_before, row_after = np.clip(rank - 1, 0, None), np.clip(rank, None, old_at.size - 1)
-    before, after = old_at[row_before], old_at[row_after]  # (rows of pts, and merged)
-    between = ((rank > 0) & (rank < old_at.size) & (pid[before] == pid[where_new])
-               & (pid[after] == pid[where_new]))
-    if pts.smoothing is None or not between.all():
-        # (fixed axes, or smoothed again: the old points' axes may move)
-        merged = _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
-        return merged, where_new, opts.axis_mode is not AxisMode.LEAD_TILT
-    # by arc length of the path the turn rate is measured on, turning at a uniform rate
-    # (spherical interpolation): the pieces of a move then turn no faster than the move
-    w = _split_fractions(frame.point, frame.normal, cutter.corner_radius_mm, is_new)[where_new]
-    mid = slerp(pts.axes[row_before], pts.axes[row_after], w)
-    direction = layout.direction[pid]
-    sub = frame_take(frame, where_new)
-    mid, limited = limit_lean(mid, sub.normal, opts.max_lean_deg)
-    if cutter.kind is not CutterKind.BALL:
-        # a flat face keeps its lead: where the normal turns faster than the axes (a
-        # leading edge), the slerp may lean less, and the contact then leaves the heel
-        mid, _ = keep_min_lean(mid, sub.normal, nominal[where_new])
-    mid, pushed = _off_cone(opts, mid, sub, direction[where_new])
-    axes = _merge(pts.axes, mid[sort_new], is_new)
-    tips = _merge(pts.tips, cutter.tips_from_contacts(sub.point, sub.normal, mid)[sort_new],
-                  is_new)
-    # (the rate figures are measured once the insertions are done: with_rate_record)
-    smoothing = replace(pts.smoothing, axes=axes,
-                        limited_points=pts.smoothing.limited_points + int(limited.sum()))
-    merged = PassPoints(t=t, s=s, pid=pid, frame=frame, nominal=nominal, axes=axes, tips=tips,
-                        direction=direction, smoothing=smoothing,
-                        cone_pushed=pts.cone_pushed + pushed)
-    return merged, where_new, True
+    before, after = np.maximum(after_old - 1, 0), np.minimum(after_old, len(pts) - 1)
+    between = ((after_old > 0) & (after_old < len(pts)) & (pts.pid[before] == pid_new)
+               & (pts.pid[after] == pid_new))
+    smoothing, pushed = pts.smoothing, 0
+    if opts.axis_mode is not AxisMode.LEAD_TILT:
+        axes = nominal  # fixed axes: the old points keep theirs and their tips
+    elif pts.smoothing is None or not between.all():
+        # smoothed again: the old points' axes may move (the tips are replaced)
+        merged = _merge_points(pts, PassPoints(
+            t=t_new, s=s_new, pid=pid_new, frame=frame, nominal=nominal, axes=nominal,
+            tips=frame.point, direction=direction), new_at)
+        return (_finish(surface, cutter, opts, res, layout, merged.t, merged.s, merged.pid,
+                        merged.frame, merged.nominal), where_new, False)
+    else:
+        # by arc length of the path the turn rate is measured on, turning at a uniform
+        # rate (spherical interpolation): the pieces of a move then turn no faster than it
+        w = _split_fractions(pts.frame, frame, after_old, cutter.corner_radius_mm)
+        axes = slerp(pts.axes[before], pts.axes[after], w)
+        axes, limited = limit_lean(axes, frame.normal, opts.max_lean_deg)
+        if cutter.kind is not CutterKind.BALL:
+            # a flat face keeps its lead: where the normal turns faster than the axes (a
+            # leading edge), the slerp may lean less, and the contact then leaves the heel
+            axes, _ = keep_min_lean(axes, frame.normal, nominal)
+        axes, pushed = _off_cone(opts, axes, frame, direction)
+        # (the rate figures are measured once the insertions are done: with_rate_record)
+        smoothing = replace(pts.smoothing,
+                            limited_points=pts.smoothing.limited_points + int(limited.sum()))
+    tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
+    new = PassPoints(t=t_new, s=s_new, pid=pid_new, frame=frame, nominal=nominal, axes=axes,
+                     tips=tips, direction=direction, smoothing=smoothing,
+                     cone_pushed=pts.cone_pushed + pushed)
+    return _merge_points(pts, new, new_at), where_new, True
+
+
+#: The per-point fields of :class:`PassPoints` (the frame apart).
+_ROW_FIELDS = ("t", "s", "pid", "nominal", "axes", "tips", "direction")
+
+
+def _merge_points(pts: PassPoints, new: PassPoints, new_at: NDArray[np.int64]
+                  ) -> PassPoints:
+    """``new``'s points at rows ``new_at`` (increasing) of the result, ``pts``' between.
+
+    The smoothing record and the cone count are ``new``'s (they hold the totals), the
+    record's axes the merged ones.
+    """
+    rows = {name: _merge(getattr(pts, name), getattr(new, name), new_at)
+            for name in _ROW_FIELDS}
+    smoothing = None if new.smoothing is None else replace(new.smoothing, axes=rows["axes"])
+    return PassPoints(frame=_frame_merge(pts.frame, new.frame, new_at), smoothing=smoothing,
+                      cone_pushed=new.cone_pushed, **rows)
+
+
+def _take_points(pts: PassPoints, rows: NDArray[np.int64]) -> PassPoints:
+    """The points ``rows`` (increasing), with the smoothing record and cone count."""
+    taken = {name: getattr(pts, name)[rows] for name in _ROW_FIELDS}
+    smoothing = (None if pts.smoothing is None
+                 else replace(pts.smoothing, axes=taken["axes"]))
+    return PassPoints(frame=frame_take(pts.frame, rows), smoothing=smoothing,
+                      cone_pushed=pts.cone_pushed, **taken)
 
 
 def _travel_mm(cutter: Cutter, tips_a: NDArray[np.float64], tips_b: NDArray[np.float64],
@@ -448,6 +511,14 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     n_start = len(pts)
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = 0.0
+    # after the first round only the split moves are checked again: they go on alone
+    # (``pts`` then holds their ends and new points, ``origin`` the rows of ``everything``
+    # the ends are, -1 for new points) and are merged into the others once, at the end.
+    # Merging each round copies every point (memory-bound, 0.1 us a point). Joints along
+    # a 5-axis machine's path are solved along the whole path, so not there.
+    everything, keep_all = pts, keep
+    defer = DEFER_SPLIT_MOVES and (machine is None or not machine.kinematics.is_five_axis)
+    origin: NDArray[np.int64] | None = None
     for _ in range(MAX_CHORD_ROUNDS):
         seg_ok = pts.same_pass & check
         if keep is not None:
@@ -494,11 +565,18 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         j = idx[bad]
         new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)
         new_pid = pts.pid[j][which]
+        if defer and origin is None:
+            origin = np.unique(np.r_[j, j + 1])
+            pts = _take_points(pts, origin)
+            keep = None if keep is None else keep[origin]
         old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
         pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
                                              new_pid)
-        if len(pts) > opts.max_points:
-            raise too_many_points(opts, len(pts))
+        if origin is not None:
+            origin = _merge(origin, np.full(where_new.size, -1), np.sort(where_new))
+        n_points = len(pts) if origin is None else len(everything) + int((origin < 0).sum())
+        if n_points > opts.max_points:
+            raise too_many_points(opts, n_points)
         if keep is not None:
             keep = _kept_with_new(keep, where_new)
         # check again the chords next to the new points, and those whose ends moved (where
@@ -515,6 +593,13 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         check[np.clip(at - 1, 0, None)] = True
         check[np.clip(at, None, len(pts) - 2)] = True
         assert len(pts) > old_len
+    if origin is not None:
+        added = np.flatnonzero(origin < 0)
+        new = _take_points(pts, added)  # (with the totals of the smoothing record)
+        new_at = _insertion_rows(everything.pid, everything.t, new.pid, new.t) \
+            + np.arange(added.size)
+        pts = _merge_points(everything, new, new_at)
+        keep = None if keep_all is None else _kept_with_new(keep_all, new_at)
     return (with_rate_record(cutter, pts) if len(pts) > n_start else pts), keep, worst
 
 
