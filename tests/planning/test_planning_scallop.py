@@ -1,5 +1,7 @@
 """Stepover from the scallop height: exact circle geometry, and the pass levels."""
 
+import warnings
+
 import numpy as np
 import pytest
 
@@ -48,6 +50,23 @@ def test_convex_needs_a_smaller_stepover_than_a_plane_and_concave_a_larger_one()
     # a flat face on a convex surface: point contacts, the bulge between them
     assert float(stepover_mm(0.01, np.inf, -1 / 40.0)) == pytest.approx(
         2 * np.sqrt(2 * 0.01 * 40.0), rel=1e-3)
+
+
+def test_stepover_broadcasts_and_has_its_limits_without_warnings():
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        k = np.array([-1 / 5.0, -1e-9, 0.0, 1e-9, 1 / 50.0, 1 / 2.5, np.nan])
+        w = stepover_mm(0.005, np.array([[3.0], [np.inf]]), k)
+        assert w.shape == (2, 7)
+        for i, rho in enumerate((3.0, np.inf)):
+            for j, kj in enumerate(k):
+                assert w[i, j] == float(stepover_mm(0.005, rho, kj))
+        flat = 2 * np.sqrt(0.005 * (6.0 - 0.005))
+        assert w[0, 1] == pytest.approx(flat, rel=1e-8)  # (the series at tiny curvature)
+        assert w[0, 5] == 0.0 and w[0, 6] == 0.0  # too hollow for R 3; no curvature
+        assert w[1, 2] == np.inf and w[1, 4] == 0.0 and w[1, 6] == 0.0  # a flat face
+        # a hollow the cutter nearly fills, under a tall cusp: half the hollow's circle
+        assert float(stepover_mm(1.0, 3.0, 1 / 3.05)) == pytest.approx(np.pi * 3.05)
 
 
 def test_pass_levels_respect_the_window_minimum():

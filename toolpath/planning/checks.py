@@ -89,16 +89,18 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 min_cone_deg=opts.min_cone_deg, tol_mm=tol, flutes=opts.check_flutes)
             pts = with_tips(pts, axes, tips)
             stats["n_retilted"] = moved
-    # clearance for the report, after the fixes (the first check stands if none)
-    kept = np.flatnonzero(keep)
-    if bad.any() or kept.size != idx.size:
-        idx = kept
+    # clearance for the report, after the fixes (without any, the first check stands for
+    # the points still kept)
+    if bad.any():
+        idx = np.flatnonzero(keep)
         final = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
                                  contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
+        far_mm, near_mm = final.far_mm, final.near_mm
     else:
-        final = clr
-    stats["min_clearance_mm"] = float(final.far_mm.min()) if idx.size else float("inf")
-    stats["min_contact_clearance_mm"] = float(final.near_mm.min()) if idx.size else 0.0
+        still = keep[idx]
+        far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
+    stats["min_clearance_mm"] = float(far_mm.min()) if far_mm.size else float("inf")
+    stats["min_contact_clearance_mm"] = float(near_mm.min()) if near_mm.size else 0.0
     return pts, keep, stats
 
 

@@ -333,28 +333,31 @@ def _runs_of(keep: NDArray[np.bool_], pts: PassPoints, closed: bool
 
 def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool_],
            runs: list[NDArray[np.int64]], layout: PassLayout) -> list[UnreachableSpan]:
-    """Uncut stretches of each pass, between the cut runs."""
-    cut = np.zeros(len(pts), dtype=bool)
+    """Uncut stretches of each pass, between the cut runs.
+
+    A stretch runs from the last cut point before it (or its pass's ``t = 0``) to the
+    first cut point after it (or ``t = 1``).
+    """
+    uncut = np.ones(len(pts), dtype=bool)
     for run in runs:
-        cut[run] = True
-    spans = []
-    starts = np.flatnonzero(np.r_[True, pts.pid[1:] != pts.pid[:-1]])
-    ends = np.r_[starts[1:], len(pts)]
-    for a, b in zip(starts, ends, strict=True):
-        c = cut[a:b]
-        if c.all():
-            continue
-        p = int(pts.pid[a])
-        s_mid = float(0.5 * (layout.s_start[p] + layout.s_end[p]))
-        gaps = np.flatnonzero(np.diff(np.r_[0, (~c).astype(int), 0]))
-        for g0, g1 in zip(gaps[::2], gaps[1::2], strict=True):
-            lo = pts.t[a + g0 - 1] if g0 > 0 else 0.0
-            hi = pts.t[a + g1] if a + g1 < b else 1.0
-            seg = slice(a + g0, a + g1)
-            reason = ("faces away" if faces_away[seg].any()
-                      else "shadowed" if (~keep[seg]).any() else "too short")
-            spans.append(UnreachableSpan(p, s_mid, float(lo), float(hi), reason))
-    return spans
+        uncut[run] = False
+    first = np.r_[True, pts.pid[1:] != pts.pid[:-1]]  # first and last point of each pass
+    last = np.r_[first[1:], True]
+    starts = np.flatnonzero(uncut & (first | ~np.r_[False, uncut[:-1]]))
+    ends = np.flatnonzero(uncut & (last | ~np.r_[uncut[1:], False]))  # (inclusive)
+    lo = np.where(first[starts], 0.0, pts.t[starts - 1])
+    hi = np.where(last[ends], 1.0, pts.t[np.minimum(ends + 1, len(pts) - 1)])
+
+    def any_in(mask: NDArray[np.bool_]) -> NDArray[np.bool_]:
+        count = np.r_[0, np.cumsum(mask)]
+        return count[ends + 1] > count[starts]
+
+    reason = np.where(any_in(faces_away), "faces away",
+                      np.where(any_in(~keep), "shadowed", "too short"))
+    p = pts.pid[starts]
+    s_mid = 0.5 * (layout.s_start[p] + layout.s_end[p])
+    return [UnreachableSpan(*row) for row in zip(
+        p.tolist(), s_mid.tolist(), lo.tolist(), hi.tolist(), reason.tolist(), strict=True)]
 
 
 def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,

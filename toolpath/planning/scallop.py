@@ -35,6 +35,8 @@ pass is within the request.
 
 from __future__ import annotations
 
+import math
+
 import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
@@ -44,14 +46,6 @@ from .errors import PlanningError
 
 __all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm",
            "turn_radius_mm"]
-
-
-def _asin_ratio(z: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``asin(z) / z`` with its limit 1 at 0 (series below 1e-4)."""
-    z = np.minimum(np.abs(z), 1.0)
-    small = z < 1e-4
-    safe = np.where(small, 1.0, z)
-    return np.where(small, 1.0 + z * z / 6.0, np.arcsin(safe) / safe)
 
 
 def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
@@ -74,29 +68,36 @@ def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: A
         infinite ``rho`` (a flat face) gives the limit: point contacts, whose cusp is the
         bulge of a convex surface between them; ``inf`` on a plane, ``0`` when concave.
     """
-    h = np.asarray(scallop_mm, dtype=float)
-    rho = np.asarray(radius_mm, dtype=float)
-    k = np.asarray(curvature_per_mm, dtype=float)
-    h, rho, k = np.broadcast_arrays(h, rho, k)
-    finite = np.isfinite(rho)
-    rho_f = np.where(finite, rho, 1.0)
-    chord = np.sqrt(np.maximum(h * (2.0 * rho_f - h), 0.0))
-    denom = (1.0 - h * k) * (1.0 - rho_f * k)
-    fits = denom > 0.0
-    root = np.sqrt(np.where(fits, denom, 1.0))
-    z = np.abs(k) * chord / (2.0 * root)
-    # z > 1 only on a convex surface so curved that one contact sees past the other:
-    # there the cusp never reaches h and the stepover is half the circle
-    w = np.where(z >= 1.0, np.pi / np.maximum(np.abs(k), 1e-300),
-                 2.0 * chord / root * _asin_ratio(z))
-    w = np.where(fits, w, 0.0)
-    # a flat profile (rho -> inf): point contacts; on a convex surface the cusp is the
-    # surface's own bulge, z -> sqrt(2 h |k|) / (2 sqrt(1 + h |k|)); on a plane unbounded
-    z_flat = np.sqrt(2.0 * h * np.abs(k)) / (2.0 * np.sqrt(np.maximum(1.0 - h * k, 1e-300)))
-    w_flat = np.where(k < 0.0, np.where(z_flat >= 1.0, np.pi, 4.0 * np.arcsin(
-        np.minimum(z_flat, 1.0))) / np.maximum(np.abs(k), 1e-300), np.where(k == 0.0, np.inf,
-                                                                         0.0))
-    return np.where(finite, w, w_flat)
+    return _stepover(np.asarray(scallop_mm, dtype=float), np.asarray(radius_mm, dtype=float),
+                     np.asarray(curvature_per_mm, dtype=float))
+
+
+@numba.vectorize(["float64(float64, float64, float64)"], cache=True)
+def _stepover(h, rho, k):
+    """:func:`stepover_mm` at one point (a compiled ufunc: it broadcasts)."""
+    if math.isnan(k):
+        return 0.0  # (as where the cutter does not fit)
+    if not abs(rho) < math.inf:  # (not math.isfinite: it flags an invalid operation)
+        # a flat profile (rho -> inf): point contacts; on a convex surface the cusp is the
+        # surface's own bulge, z -> sqrt(2 h |k|) / (2 sqrt(1 + h |k|)); on a plane unbounded
+        if k < 0.0:
+            z = math.sqrt(2.0 * h * abs(k)) / (2.0 * math.sqrt(max(1.0 - h * k, 1e-300)))
+            angle = math.pi if z >= 1.0 else 4.0 * math.asin(min(z, 1.0))
+            return angle / max(abs(k), 1e-300)
+        return math.inf if k == 0.0 else 0.0
+    chord = math.sqrt(max(h * (2.0 * rho - h), 0.0))
+    denom = (1.0 - h * k) * (1.0 - rho * k)
+    if not denom > 0.0:
+        return 0.0  # the cutter does not fit
+    root = math.sqrt(denom)
+    z = abs(k) * chord / (2.0 * root)
+    if z >= 1.0:
+        # only in a hollow the cutter nearly fills (rho k -> 1) under a tall cusp: there
+        # the cusp never reaches h and the stepover is half the hollow's circle
+        return math.pi / max(abs(k), 1e-300)
+    # asin(z) / z, with its limit 1 at 0 (series below 1e-4)
+    ratio = 1.0 + z * z / 6.0 if z < 1e-4 else math.asin(z) / z
+    return 2.0 * chord / root * ratio
 
 
 def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
