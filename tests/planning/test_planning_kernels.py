@@ -163,3 +163,23 @@ def test_chord_check_the_same_with_split_moves_merged_once_or_every_round(
         for f in fields(a.smoothing):
             np.testing.assert_array_equal(getattr(a.smoothing, f.name),
                                           getattr(b.smoothing, f.name))
+
+
+def test_reach_boundary_is_the_last_reachable_parameter_to_the_precision_of_bisection():
+    # n . a less its limit along t: crossing 0 at known places, gently and steeply (a
+    # leading edge turns the normal by half a turn between two points)
+    roots = np.array([0.3, 0.52, 0.7071, 0.9])
+    steep = np.array([1.0, 40.0, 1.0, 400.0])
+
+    def height(t, rows):
+        return np.tanh(steep[rows] * (roots[rows] - t))  # reachable below the root
+
+    good, bad = np.array([0.2, 0.5, 0.6, 0.85]), np.array([0.4, 0.6, 0.8, 0.95])
+    t = passes._reach_boundary(height, good, bad, height(good, np.arange(4)),
+                               height(bad, np.arange(4)))
+    assert (height(t, np.arange(4)) >= 0.0).all()
+    assert np.all(t <= roots) and np.all(roots - t < 1e-12 + 1e-12 / steep)
+    # (the other way round: reachable above the root)
+    t = passes._reach_boundary(lambda t, rows: -height(t, rows), bad, good,
+                               -height(bad, np.arange(4)), -height(good, np.arange(4)))
+    assert np.all(t >= roots) and np.all(t - roots < 1e-12 + 1e-12 / steep)
