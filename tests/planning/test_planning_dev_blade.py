@@ -26,6 +26,8 @@ def test_five_axis_blade_within_request(blade):
                                machine="trunnion-ac", on_limit="report")
     assert rep.max_scallop_mm <= 0.02 and rep.max_chord_error_mm <= 0.02
     assert rep.uncut_fraction == 0.0 and rep.travel_violations == ()
+    # the planner's own estimate covers every move it kept, not only its last round's
+    assert rep.planned_chord_error_mm == pytest.approx(rep.max_chord_error_mm, rel=0.02)
     # around the leading edge (radius below 1 mm) the axis turns with the surface but
     # stays within max_lean_deg (60) of the normal at the ball's contact
     cut = path.pass_index >= 0
@@ -46,6 +48,7 @@ def test_three_axis_blade_leaves_the_far_side(blade):
     assert 0.3 < rep.unreachable_fraction < 0.7
     assert {r.reason for r in rep.unreachable_regions} >= {"faces away"}
     assert rep.scallop_interior_mm <= 0.02 and rep.max_chord_error_mm <= 0.02
+    assert rep.planned_chord_error_mm == pytest.approx(rep.max_chord_error_mm, rel=0.02)
 
 
 def test_projection_converges_round_the_leading_edge(blade):

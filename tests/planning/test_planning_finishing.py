@@ -61,6 +61,8 @@ def test_chord_error_is_measured_where_the_moves_dip():
                                chord_tol_mm=0.004)
     assert 0.002 < rep.chord_overcut_mm <= 0.004
     assert rep.chord_undercut_mm < 1e-9
+    # the planner's own estimate covers every move it kept (not only its last round's)
+    assert rep.planned_chord_error_mm == pytest.approx(rep.max_chord_error_mm, rel=0.01)
     tight, rep2 = plan_finishing(SURFACES["cylinder-around"], "ball:6", scallop_mm=0.01,
                                  chord_tol_mm=0.001)
     assert rep2.max_chord_error_mm <= 0.001 and len(tight) > 1.5 * len(path)

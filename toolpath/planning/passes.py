@@ -506,7 +506,10 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     Returns
     -------
     pts, keep, worst_mm
-        The refined points, the mask and the largest ``|gap|`` seen on the last check.
+        The refined points, the mask and the largest ``|gap|`` (the model's extreme,
+        measured where near a limit) over the moves left whole, in whichever round they
+        were checked: every final move (an upper bound where an insertion smoothed the
+        axes again and moved a checked move's ends).
     """
     tol = res["chord_tol_mm"]
     n_start = len(pts)
@@ -546,7 +549,6 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                                               pts.s, j, u_at[close, None], newton=1,
                                               refine_rim=True, **joint_moves(machine, q, j))
                 value[close] = further(value[close], exact[:, 0])
-        worst = float(max(np.abs(low).max(), np.abs(high).max()))
         bad = (low < -tol) | (high > res["undercut_mm"])
         if q is not None:
             bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
@@ -557,6 +559,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         j = idx[at]
         bad[at] = _travel_mm(cutter, pts.tips[j], pts.tips[j + 1], pts.axes[j],
                              pts.axes[j + 1]) > MIN_SPLIT_MM
+        # the moves left whole are final: the worst of them all is reported
+        if not bad.all():
+            worst = max(worst, float(np.maximum(-low, high)[~bad].max()))
         if not bad.any():
             break
         # each offending move in as many equal parts (in t) as its gap needs: the gap

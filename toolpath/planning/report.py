@@ -116,7 +116,8 @@ class PlanningReport:
     chord_worst_point : int or None
         Toolpath point the worst move arrives at.
     planned_chord_error_mm : float
-        Largest mid-chord deviation seen by the planner's own check.
+        Largest cutter-to-surface gap the planner's own chord check estimates on any
+        cutting move it kept (the model through three points per move).
     min_clearance_mm : float
         Smallest distance from the cutter to any surface sample away from its contact
         (the global gouge check); ``inf`` beyond the check's horizon; negative is a gouge.
