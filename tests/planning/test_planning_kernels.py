@@ -5,7 +5,7 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from toolpath.planning import EllipticBladeSurface, passes
+from toolpath.planning import EllipticBladeSurface, passes, rate_limit
 from toolpath.planning.clearance_kernel import bin_samples, clearances
 from toolpath.planning.cutters import parse_cutter
 from toolpath.planning.finishing import _as_slice
@@ -183,3 +183,27 @@ def test_reach_boundary_is_the_last_reachable_parameter_to_the_precision_of_bise
     t = passes._reach_boundary(lambda t, rows: -height(t, rows), bad, good,
                                -height(bad, np.arange(4)), -height(good, np.arange(4)))
     assert np.all(t >= roots) and np.all(t - roots < 1e-12 + 1e-12 / steep)
+
+
+def test_least_rate_of_a_tube_is_the_steepest_pair_and_fits_it():
+    # the least rate at which a path fits [lo, hi]: the largest (lo[k] - hi[j]) / |x[k] -
+    # x[j]| over all pairs (brute force here); a path fits at it, none a little below
+    rng = np.random.default_rng(4)
+    for _ in range(500):
+        n = int(rng.integers(2, 60))
+        x = np.cumsum(rng.uniform(0.01, 1.0, n))
+        centre = np.cumsum(rng.normal(0.0, 1.0, n))
+        half = rng.uniform(0.0, 0.5, n)
+        lo, hi = centre - half, centre + half
+        rate = rate_limit._least_rate(x, lo, hi)
+        apart = np.abs(x[:, None] - x[None, :])
+        np.fill_diagonal(apart, np.inf)
+        want = max(0.0, float(((lo[:, None] - 1e-12 - hi[None, :]) / apart).max()))
+        assert rate == pytest.approx(want, rel=1e-12, abs=1e-15)
+        phi = np.empty(n)
+        assert rate_limit._rate_tube(x, lo, hi, centre, rate * (1.0 + 1e-12), False, phi)
+        if rate > 1e-6:
+            assert not rate_limit._rate_tube(x, lo, hi, centre, rate * (1.0 - 1e-6), False,
+                                             phi)
+    # a repeated x: left to the bisection
+    assert rate_limit._least_rate(np.array([0.0, 1.0, 1.0]), np.zeros(3), np.ones(3)) == np.inf

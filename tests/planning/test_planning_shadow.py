@@ -5,7 +5,8 @@ import pytest
 
 from toolpath.planning import plan_finishing
 from toolpath.planning.analytic import CylinderPatch, PlaneSurface, SpherePatch
-from toolpath.planning.cutters import parse_cutter
+from toolpath.planning.cutter_kernel import shadow_point
+from toolpath.planning.cutters import CutterShadow, disc_basis, parse_cutter
 from toolpath.planning.scallop import shadow_stepover_mm, stepover_mm
 
 E1, E2, UP = np.eye(3)[None, 0], np.eye(3)[None, 1], np.eye(3)[None, 2]
@@ -287,3 +288,36 @@ def test_each_ray_takes_the_nearest_of_its_own_pieces():
         mine = single[owner == ray]
         assert got[ray] == (mine.min() if mine.size else np.inf)
     assert np.isinf(got[10:]).all() and (hi - lo)[:10].sum() == 60
+
+
+def test_shadow_boundary_point_is_the_torus_support_point_and_its_depth():
+    # the compiled boundary point with outward normal nu = (sin th, -cos th) of the cutting
+    # end seen along d = ex x ez is the point of the projected torus farthest along nu;
+    # its depth is where along d the torus point casting it lies (dense torus samples)
+    rng = np.random.default_rng(3)
+    big, r = 4.0, 1.0
+    around = np.linspace(0.0, 2 * np.pi, 721)
+    u, v = np.meshgrid(np.linspace(0.0, 2 * np.pi, 121), np.linspace(-np.pi / 2, np.pi / 2, 61))
+    ball = r * np.stack([np.cos(v) * np.cos(u), np.cos(v) * np.sin(u), np.sin(v)], -1)
+    for _ in range(5):
+        axis = rng.normal(size=3)
+        axis /= np.linalg.norm(axis)
+        ez = rng.normal(size=3)
+        ez /= np.linalg.norm(ez)
+        ex = np.cross(ez, rng.normal(size=3))
+        ex /= np.linalg.norm(ex)
+        d = np.cross(ex, ez)
+        shadow = CutterShadow.seen_along(big - r, r, np.zeros((1, 3)), axis[None], ex[None],
+                                         ez[None])
+        b1, b2 = disc_basis(axis[None])
+        rim = (big - r) * (np.cos(around)[:, None] * b1 + np.sin(around)[:, None] * b2)
+        torus = (rim[:, None] + ball.reshape(1, -1, 3)).reshape(-1, 3)
+        for theta in np.linspace(-np.pi, np.pi, 9):
+            x, z, depth = shadow_point(*(c[0] for c in shadow.matrix),
+                                       *(c[0] for c in shadow.depth_matrix), r, theta)
+            nu = np.sin(theta) * ex - np.cos(theta) * ez
+            far = torus[np.argmax(torus @ nu)]
+            assert np.sin(theta) * x - np.cos(theta) * z == pytest.approx(far @ nu, abs=1e-3)
+            assert x == pytest.approx(far @ ex, abs=0.05)
+            assert z == pytest.approx(far @ ez, abs=0.05)
+            assert depth == pytest.approx(far @ d, abs=0.05)

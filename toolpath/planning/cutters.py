@@ -317,7 +317,8 @@ class CutterShadow:
     grown by the corner radius ``r``. Its boundary point with outward normal
     ``nu = (sin th, -cos th)`` (``th = 0`` faces ``-ez``) is ``c + A A^T nu / |A^T nu| + r nu``
     exactly (a disc seen edge-on jumps across its flat bottom at one angle). It is the
-    section of the cutter swept straight along ``d``.
+    section of the cutter swept straight along ``d``. The point itself, and where along
+    ``d`` its cutter point lies: :func:`~toolpath.planning.cutter_kernel.shadow_point`.
     """
 
     centre_x: NDArray[np.float64]
@@ -347,36 +348,6 @@ class CutterShadow:
         depth = tuple(core_radius_mm * dot(b, d) for b in (b1, b2))
         return cls(dot(centre, ex), dot(centre, ez), matrix, corner_radius_mm,
                    dot(centre, d), depth)
-
-    def _disc_point(self, theta: NDArray[np.float64]
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64],
-                               NDArray[np.float64]]:
-        """``(nu_x, nu_z, u1, u2)``: the outward normal and the disc point ``u`` casting it."""
-        a11, a12, a21, a22 = self.matrix
-        nx, nz = np.sin(theta), -np.cos(theta)
-        w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
-        size = np.maximum(np.hypot(w1, w2), 1e-15)
-        return nx, nz, w1 / size, w2 / size
-
-    def boundary(self, theta: NDArray[np.float64]
-                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``(x, z)`` of the boundary point with outward normal ``(sin th, -cos th)``."""
-        a11, a12, a21, a22 = self.matrix
-        nx, nz, u1, u2 = self._disc_point(theta)
-        r = self.corner_radius_mm
-        return (self.centre_x + a11 * u1 + a12 * u2 + r * nx,
-                self.centre_z + a21 * u1 + a22 * u2 + r * nz)
-
-    def depth(self, theta: NDArray[np.float64]) -> NDArray[np.float64]:
-        """Coordinate along ``d`` of the cutter point casting boundary point ``theta``.
-
-        The torus point with a normal ``nu`` perpendicular to ``d`` lies at the disc point
-        ``u`` plus ``r nu``, so only the disc point moves it along ``d``.
-        """
-        _, _, u1, u2 = self._disc_point(theta)
-        d1, d2 = self.depth_matrix
-        return self.depth_centre + d1 * u1 + d2 * u2
-
 
 def parse_cutter(spec: str, *, flute_length_mm: float | None = None) -> Cutter:
     """Read a cutter spec such as ``"ball:6"``, ``"flat:10"`` or ``"bull:10:2"``.

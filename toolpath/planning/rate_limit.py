@@ -264,12 +264,17 @@ def _fit_tube(x, lo, hi, want, rate, phi):
 
     The ends keep the wanted axis where the rate allows it (as centred windows do: spiral
     rings join there), else they are free; where no path keeps the rate in the tube, the
-    smallest rate that does is used.
+    smallest rate that does is used (:func:`_least_rate`; bisected where it cannot tell).
     """
     if _rate_tube(x, lo, hi, want, rate, True, phi):
         return
     if _rate_tube(x, lo, hi, want, rate, False, phi):
         return
+    need = _least_rate(x, lo, hi)
+    if need < np.inf and _rate_tube(x, lo, hi, want, max(need * (1.0 + LEAST_RATE_SLACK), rate),
+                                    False, phi):
+        return
+    # (x repeats, or round-off: bisect for it)
     low, high = rate, max(rate, 1e-9)
     fits = False
     for _ in range(80):
@@ -288,6 +293,61 @@ def _fit_tube(x, lo, hi, want, rate, phi):
         else:
             low = mid
     _rate_tube(x, lo, hi, want, high, False, phi)
+
+
+#: The least rate that fits a tube is taken this much larger (relative), for the
+#: round-off of the slews' sums.
+LEAST_RATE_SLACK = 1e-12
+
+
+@numba.njit(cache=True)
+def _least_rate(x, lo, hi):
+    """The least rate at which a path fits the tube ``[lo, hi]`` (ends free).
+
+    A path exists iff ``lo[k] - hi[j] <= rate |x[k] - x[j]|`` for every pair (what the
+    slews of :func:`_rate_tube` propagate, with its 1e-12 slack): the largest of those
+    slopes, each way (:func:`_max_slope`). ``inf`` where ``x`` does not increase (a
+    segment of no length: the caller bisects).
+    """
+    for i in range(1, x.size):
+        if not x[i] > x[i - 1]:
+            return np.inf
+    forward = _max_slope(x, hi, lo - 1e-12, 1.0)
+    backward = _max_slope(x[::-1], hi[::-1], lo[::-1] - 1e-12, -1.0)
+    return max(0.0, forward, backward)
+
+
+@numba.njit(cache=True)
+def _max_slope(x, top, bottom, sense):
+    """Largest ``(bottom[k] - top[j]) / (sense (x[k] - x[j]))`` over ``j`` before ``k``.
+
+    ``sense * x`` increasing; ``-inf`` for fewer than two points. The ``(x, top)`` before
+    ``k`` are kept as their lower convex hull; the slopes from its vertices to
+    ``(x[k], bottom[k])`` rise, then fall: a binary search finds the tangent.
+    """
+    n = x.size
+    hx = np.empty(n)
+    hy = np.empty(n)
+    h = 0
+    best = -np.inf
+    for k in range(n):
+        xk, yk = sense * x[k], bottom[k]
+        if h:
+            a, b = 0, h - 1
+            while a < b:
+                m = (a + b) // 2
+                if (yk - hy[m + 1]) * (xk - hx[m]) >= (yk - hy[m]) * (xk - hx[m + 1]):
+                    a = m + 1
+                else:
+                    b = m
+            best = max(best, (yk - hy[a]) / (xk - hx[a]))
+        while h >= 2 and ((hx[h - 1] - hx[h - 2]) * (top[k] - hy[h - 2])
+                          - (hy[h - 1] - hy[h - 2]) * (xk - hx[h - 2])) <= 0.0:
+            h -= 1
+        hx[h] = xk
+        hy[h] = top[k]
+        h += 1
+    return best
 
 
 @numba.njit(cache=True)

@@ -41,6 +41,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from .cutter_kernel import shadow_point
 from .cutters import CutterShadow
 from .errors import PlanningError
 
@@ -135,30 +136,38 @@ SHADOW_HALVINGS = 20
 CHORD_HALVINGS = 30
 
 
-def _turn_lift(x: NDArray[np.float64], z: NDArray[np.float64], lever: NDArray[np.float64]
-               ) -> NDArray[np.float64]:
-    """``x^2 / (sqrt(d^2 + x^2) + d)`` with ``d = lever + z`` (0 for an infinite lever)."""
-    d = lever + np.maximum(z, 0.0)
-    with np.errstate(invalid="ignore"):
-        lift = x * x / (np.sqrt(d * d + x * x) + d)
-    return np.where(np.isfinite(d), lift, 0.0)
-
-
-def _height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64], k: NDArray[np.float64]
-                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Height of ``(y, z)`` above the surface's cross-section circle and arc to its foot.
+@numba.njit(cache=True, inline="always")
+def _section_height(y, z, x, k, lever):
+    """Height of the cutter point ``(y, z)`` (``x`` along the pass) above the section circle.
 
     The section through the contact (origin, normal ``+z``) has curvature ``k`` (positive
-    concave: centre at ``z = 1/k``). Height ``h = (2 z - k (y^2 + z^2)) / (1 + sqrt(k^2 y^2
-    + (1 - k z)^2))`` (the difference of radii, written without cancellation, ``z`` on a
-    plane); arc ``atan2(k y, 1 - k z) / k`` from the contact to the foot (``y`` on a
-    plane).
+    concave: centre at ``z = 1/k``). The point is first lifted by the turn,
+    ``x^2 / (sqrt(d^2 + x^2) + d)`` with ``d = lever + z`` (0 for an infinite lever);
+    then ``h = (2 z - k (y^2 + z^2)) / (1 + sqrt(k^2 y^2 + (1 - k z)^2))`` (the difference
+    of radii, written without cancellation, ``z`` on a plane).
     """
-    h = (2.0 * z - k * (y * y + z * z)) / (1.0 + np.sqrt((k * y) ** 2 + (1.0 - k * z) ** 2))
-    curved = np.abs(k) > 1e-12
-    k_safe = np.where(curved, k, 1.0)
-    arc = np.where(curved, np.arctan2(k_safe * y, 1.0 - k_safe * z) / k_safe, y)
-    return h, arc
+    z = _lifted(z, x, lever)
+    return (2.0 * z - k * (y * y + z * z)) / (1.0 + math.sqrt((k * y) ** 2 + (1.0 - k * z) ** 2))
+
+
+@numba.njit(cache=True, inline="always")
+def _section_arc(y, z, x, k, lever):
+    """Arc from the contact to the foot of the (lifted) point.
+
+    ``atan2(k y, 1 - k z) / k`` (``y`` on a plane).
+    """
+    z = _lifted(z, x, lever)
+    if abs(k) > 1e-12:
+        return math.atan2(k * y, 1.0 - k * z) / k
+    return y
+
+
+@numba.njit(cache=True, inline="always")
+def _lifted(z, x, lever):
+    d = lever + max(z, 0.0)
+    if d < math.inf:
+        return z + x * x / (math.sqrt(d * d + x * x) + d)
+    return z
 
 
 def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm: float,
@@ -232,8 +241,6 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
     shadow = CutterShadow.seen_along(radius_mm - corner_radius_mm, corner_radius_mm,
                                      np.zeros_like(n), np.asarray(axes, dtype=float),
                                      np.asarray(e2, dtype=float), n)
-    zero = np.zeros(len(n))
-    x0, (y0, z0) = shadow.depth(zero), shadow.boundary(zero)
     # the turn radius and the cutter's own radius along the pass, summed: the lift's lever
     lever = np.full(len(n), np.inf)
     if turn_radius_mm is not None:
@@ -241,46 +248,57 @@ def shadow_stepover_mm(scallop_mm: ArrayLike, radius_mm: float, corner_radius_mm
         with np.errstate(divide="ignore"):
             rho_c = np.where(c11 > 0.0, 1.0 / np.where(c11 > 0.0, c11, 1.0), np.inf)
         lever = np.broadcast_to(np.asarray(turn_radius_mm, dtype=float), lever.shape) + rho_c
-
-    def cast(theta: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        """The cutter point casting boundary point ``theta``, from the contact: y, z, x."""
-        y, z = shadow.boundary(theta)
-        return y - y0, z - z0, shadow.depth(theta) - x0
-
-    def height_and_arc(y: NDArray[np.float64], z: NDArray[np.float64],
-                       x: NDArray[np.float64]
-                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        return _height_and_arc(y, z + _turn_lift(x, z, lever), k)
-
-    arcs = []
-    for side in (1.0, -1.0):
-        lo = np.zeros(len(n))
-        hi = np.full(len(n), side * 0.5 * np.pi)
-        h_end, arc_end = height_and_arc(*cast(hi))
-        for _ in range(SHADOW_HALVINGS):
-            mid = 0.5 * (lo + hi)
-            below = height_and_arc(*cast(mid))[0] < h
-            lo = np.where(below, mid, lo)
-            hi = np.where(below, hi, mid)
-        # the bracket is tiny, or straddles a straight piece of the boundary (a disc seen
-        # edge-on jumps from one end to the other): find the height along the chord, whose
-        # points are cutter points too (of the flat bottom)
-        p_lo, p_hi = cast(lo), cast(hi)
-
-        def along(u: NDArray[np.float64], p_lo: tuple = p_lo, p_hi: tuple = p_hi
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-            return height_and_arc(*(a + u * (b - a) for a, b in zip(p_lo, p_hi, strict=True)))
-
-        u_lo, u_hi = np.zeros(len(n)), np.ones(len(n))
-        for _ in range(CHORD_HALVINGS):
-            u = 0.5 * (u_lo + u_hi)
-            below = along(u)[0] < h
-            u_lo, u_hi = np.where(below, u, u_lo), np.where(below, u_hi, u)
-        arc = along(u_lo)[1]  # the side still below h: conservative
-        arcs.append(np.abs(np.where(h_end < h, arc_end, arc)))
+    arcs = np.empty((2, len(n)))
+    _shadow_arcs(*(np.ascontiguousarray(v, dtype=float) for v in (
+        *shadow.matrix, *shadow.depth_matrix, h, k, lever)), float(corner_radius_mm), arcs)
     if mirrored:
         return 2.0 * np.minimum(arcs[0], arcs[1])
     return arcs[0] + arcs[1]
+
+
+@numba.njit(cache=True, parallel=True)
+def _shadow_arcs(a11, a12, a21, a22, d1, d2, h, k, lever, r, out):
+    """Each side's arc of :func:`shadow_stepover_mm` at each point, into ``out[side]``."""
+    for i in numba.prange(h.size):
+        shadow = (a11[i], a12[i], a21[i], a22[i], d1[i], d2[i], r)
+        origin = shadow_point(a11[i], a12[i], a21[i], a22[i], d1[i], d2[i], r, 0.0)
+        for side in range(2):
+            lo, hi = 0.0, (0.5 if side == 0 else -0.5) * math.pi
+            y, z, x = _cast(shadow, origin, hi)
+            if _section_height(y, z, x, k[i], lever[i]) < h[i]:  # the whole side is below
+                out[side, i] = abs(_section_arc(y, z, x, k[i], lever[i]))
+                continue
+            for _ in range(SHADOW_HALVINGS):
+                mid = 0.5 * (lo + hi)
+                y, z, x = _cast(shadow, origin, mid)
+                if _section_height(y, z, x, k[i], lever[i]) < h[i]:
+                    lo = mid
+                else:
+                    hi = mid
+            # the bracket is tiny, or straddles a straight piece of the boundary (a disc
+            # seen edge-on jumps from one end to the other): find the height along the
+            # chord, whose points are cutter points too (of the flat bottom)
+            ya, za, xa = _cast(shadow, origin, lo)
+            yb, zb, xb = _cast(shadow, origin, hi)
+            u_lo, u_hi = 0.0, 1.0
+            for _ in range(CHORD_HALVINGS):
+                u = 0.5 * (u_lo + u_hi)
+                if _section_height(ya + u * (yb - ya), za + u * (zb - za), xa + u * (xb - xa),
+                                   k[i], lever[i]) < h[i]:
+                    u_lo = u
+                else:
+                    u_hi = u
+            # the side still below h: conservative
+            out[side, i] = abs(_section_arc(ya + u_lo * (yb - ya), za + u_lo * (zb - za),
+                                            xa + u_lo * (xb - xa), k[i], lever[i]))
+
+
+@numba.njit(cache=True, inline="always")
+def _cast(shadow, origin, theta):
+    """The cutter point casting boundary point ``theta``, from the contact: ``y, z, x``."""
+    a11, a12, a21, a22, d1, d2, r = shadow
+    y, z, x = shadow_point(a11, a12, a21, a22, d1, d2, r, theta)
+    return y - origin[0], z - origin[1], x - origin[2]
 
 
 def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes: ArrayLike
