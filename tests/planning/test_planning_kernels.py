@@ -185,6 +185,28 @@ def test_reach_boundary_is_the_last_reachable_parameter_to_the_precision_of_bise
     assert np.all(t >= roots) and np.all(t - roots < 1e-12 + 1e-12 / steep)
 
 
+@pytest.mark.parametrize("shape", ["step", "crease", "flat zero", "on the boundary"])
+def test_reach_boundary_where_the_secant_stalls(shape):
+    # a step (a crease between a face and a wall at the margin), a kink, a cubic zero, and
+    # a reachable end exactly on the boundary: the bracket still closes in (bisection
+    # takes over), or the height is within its tolerance at a point evaluated, never an end
+    root = 0.3 + 1e-3 * np.pi
+    heights = {"step": lambda t: np.where(t < root, 1.0, -1e-6),
+               "crease": lambda t: np.where(t < root, 1e-3 * (root - t), 10.0 * (root - t)),
+               "flat zero": lambda t: (root - t) ** 3,
+               "on the boundary": lambda t: root - t}
+    height = heights[shape]
+    good = np.array([root if shape == "on the boundary" else 0.2])
+    bad = np.array([0.4])
+    t = passes._reach_boundary(lambda t, rows: height(t), good, bad, height(good),
+                               height(bad))
+    h = height(t)
+    assert h[0] >= 0.0
+    assert root - t[0] <= 2.0 ** -40 * 0.2 + 1e-15 or h[0] <= passes.REACH_HEIGHT_TOL
+    # (a reachable end on the boundary is the boundary: split_reach adds no point there)
+    assert (t[0] == good[0]) == (shape == "on the boundary")
+
+
 def test_least_rate_of_a_tube_is_the_steepest_pair_and_fits_it():
     # the least rate at which a path fits [lo, hi]: the largest (lo[k] - hi[j]) / |x[k] -
     # x[j]| over all pairs (brute force here); a path fits at it, none a little below
@@ -207,3 +229,22 @@ def test_least_rate_of_a_tube_is_the_steepest_pair_and_fits_it():
                                              phi)
     # a repeated x: left to the bisection
     assert rate_limit._least_rate(np.array([0.0, 1.0, 1.0]), np.zeros(3), np.ones(3)) == np.inf
+
+
+def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out(
+        monkeypatch):
+    # with one round only, the split moves' parts are never checked: the estimate keeps
+    # their whole moves' gaps (over the tolerance), not only the moves left whole
+    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode="lead-tilt",
+                            lead_deg=10.0)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    _, _, settled = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    assert 0.9 * res["chord_tol_mm"] < settled <= res["chord_tol_mm"]
+    monkeypatch.setattr(passes, "MAX_CHORD_ROUNDS", 1)
+    _, _, cut_short = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    assert cut_short > res["chord_tol_mm"]

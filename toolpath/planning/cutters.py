@@ -326,7 +326,7 @@ class CutterShadow:
     matrix: tuple[NDArray[np.float64], ...]
     corner_radius_mm: float
     #: ``d . c`` and ``(R - r) (b1 . d, b2 . d)``: where along ``d`` the cutter points
-    #: casting the boundary lie (see :meth:`depth`)
+    #: casting the boundary lie (see :func:`~toolpath.planning.cutter_kernel.shadow_point`)
     depth_centre: NDArray[np.float64]
     depth_matrix: tuple[NDArray[np.float64], ...]
 

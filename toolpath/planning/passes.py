@@ -564,6 +564,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             worst = max(worst, float(np.maximum(-low, high)[~bad].max()))
         if not bad.any():
             break
+        # (if the rounds run out, the last split moves' parts go unchecked: their
+        # whole moves' gaps, larger, stand for them)
+        unchecked = float(np.maximum(-low, high)[bad].max())
         # each offending move in as many equal parts (in t) as its gap needs: the gap
         # shrinks with the square of the length
         over = np.maximum(-low / tol, high / res["undercut_mm"])[bad]
@@ -578,6 +581,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
         pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
                                              new_pid)
+        # (split points lie strictly inside their moves: the others keep their axes, so
+        # the split moves can go on alone)
+        assert kept or origin is None, "insert_points smoothed the axes of deferred moves"
         if origin is not None:
             origin = _merge(origin, np.full(where_new.size, -1), np.sort(where_new))
         n_points = len(pts) if origin is None else len(everything) + int((origin < 0).sum())
@@ -599,6 +605,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         check[np.clip(at - 1, 0, None)] = True
         check[np.clip(at, None, len(pts) - 2)] = True
         assert len(pts) > old_len
+    else:
+        worst = max(worst, unchecked)
     if origin is not None:
         added = np.flatnonzero(origin < 0)
         new = _take_points(pts, added)  # (with the totals of the smoothing record)
@@ -634,8 +642,11 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
         pid = pts.pid[edge]
         t = _reach_boundary(lambda t, rows: height(t, pid[rows]), pts.t[good], pts.t[bad],
                             up[good], up[bad])
-        pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts, t, pid)
-        ok = _kept_with_new(ok, where_new)
+        moved = t != pts.t[good]  # (a reachable point on the boundary is the boundary)
+        if moved.any():
+            pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts,
+                                              t[moved], pid[moved])
+            ok = _kept_with_new(ok, where_new)
     return with_rate_record(cutter, pts), ok
 
 
@@ -656,13 +667,15 @@ def _reach_boundary(height: Callable[[NDArray[np.float64], NDArray[np.int64]],
 
     ``height(t, rows)`` is ``n . a`` less its limit at parameters ``t`` of brackets
     ``rows``; ``good_h >= 0 > bad_h`` at the ends. Regula falsi with the Illinois rule (an
-    end kept twice has its height halved, so the other closes in too), bisection where the
-    secant leaves the bracket, until :data:`REACH_T_SHARE` or :data:`REACH_HEIGHT_TOL`:
-    a few evaluations instead of bisection's 40.
+    end kept twice has its height halved, so the other closes in too; bisection where the
+    secant leaves the bracket) for :data:`SECANT_STEPS`, a few evaluations where the
+    height is smooth; then bisection, which no crease or flat zero slows, until
+    :data:`REACH_T_SHARE` of the bracket or :data:`REACH_HEIGHT_TOL` of the height (at a
+    point evaluated here: never an end itself).
     """
     good, bad = good_t.astype(float), bad_t.astype(float)
     h_good, h_bad = good_h.astype(float), bad_h.astype(float)
-    above = h_good.copy()  # (h_good unhalved)
+    above = np.full(good.size, np.inf)  # the height at the last reachable step taken
     tol = REACH_T_SHARE * np.abs(bad - good)
     last = np.zeros(good.size, dtype=np.int64)  # the end replaced last: +1 good, -1 bad
 
@@ -671,13 +684,14 @@ def _reach_boundary(height: Callable[[NDArray[np.float64], NDArray[np.int64]],
                     & (above[rows] > REACH_HEIGHT_TOL)]
 
     rows = open_rows(np.arange(good.size))
-    for _ in range(MAX_REACH_STEPS):
+    for step in range(SECANT_STEPS + 40):
         if not rows.size:
             break
         g, b, hg, hb = good[rows], bad[rows], h_good[rows], h_bad[rows]
-        x = b - hb * (b - g) / (hb - hg)
-        inside = (x - g) * (b - x) > 0.0
-        x = np.where(inside, x, 0.5 * (g + b))
+        x = 0.5 * (g + b)
+        if step < SECANT_STEPS:
+            secant = b - hb * (b - g) / (hb - hg)
+            x = np.where((secant - g) * (b - secant) > 0.0, secant, x)
         hx = height(x, rows)
         up = hx >= 0.0
         on_good, on_bad = rows[up], rows[~up]
@@ -690,8 +704,8 @@ def _reach_boundary(height: Callable[[NDArray[np.float64], NDArray[np.int64]],
     return good
 
 
-#: Most steps of :func:`_reach_boundary` (bisection alone needs 40).
-MAX_REACH_STEPS = 80
+#: Regula falsi steps of :func:`_reach_boundary` before it bisects (at most 40 more).
+SECANT_STEPS = 12
 
 
 def with_rate_record(cutter: Cutter, pts: PassPoints) -> PassPoints:
