@@ -49,6 +49,7 @@ from .passes import (
     evaluate_points,
     final_axes,
     frame_take,
+    reach_height,
     refine_chords,
     split_reach,
 )
@@ -133,8 +134,7 @@ def _nominal(opts: FinishingOptions, normal: NDArray[np.float64], e1: NDArray[np
 def _reach(opts: FinishingOptions, normal: NDArray[np.float64]) -> NDArray[np.bool_]:
     if opts.axis_mode is not AxisMode.FIXED:
         return np.ones(normal.shape[0], dtype=bool)
-    limit = np.sin(np.radians(opts.reach_margin_deg)) - 1e-12
-    return normal @ np.asarray(opts.fixed_axis) >= limit
+    return reach_height(opts, normal) >= 0.0
 
 
 def _rounding_reserve(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -331,16 +331,22 @@ def _runs_of(keep: NDArray[np.bool_], pts: PassPoints, closed: bool
     return out
 
 
+def _cut_mask(runs: list[NDArray[np.int64]], n: int) -> NDArray[np.bool_]:
+    """Which of ``n`` points the runs cut."""
+    cut = np.zeros(n, dtype=bool)
+    for run in runs:
+        cut[run] = True
+    return cut
+
+
 def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool_],
-           runs: list[NDArray[np.int64]], layout: PassLayout) -> list[UnreachableSpan]:
-    """Uncut stretches of each pass, between the cut runs.
+           cut: NDArray[np.bool_], layout: PassLayout) -> list[UnreachableSpan]:
+    """Uncut stretches of each pass, between the cut runs (``cut``: the points they cut).
 
     A stretch runs from the last cut point before it (or its pass's ``t = 0``) to the
     first cut point after it (or ``t = 1``).
     """
-    uncut = np.ones(len(pts), dtype=bool)
-    for run in runs:
-        uncut[run] = False
+    uncut = ~cut
     first = np.r_[True, pts.pid[1:] != pts.pid[:-1]]  # first and last point of each pass
     last = np.r_[first[1:], True]
     starts = np.flatnonzero(uncut & (first | ~np.r_[False, uncut[:-1]]))
@@ -547,7 +553,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         raise UnreachableRegionError(
             "no stretch of any pass can be cut (every point faces away from the tool axis "
             "or is shadowed by the part)")
-    spans = _spans(pts, keep, faces_away, runs, layout)
+    cut = _cut_mask(runs, len(pts))
+    spans = _spans(pts, keep, faces_away, cut, layout)
 
     clock.stage("linking")
     run_list = _make_runs(surface, cutter, opts, res, pts, runs)
@@ -593,7 +600,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord, machine=mach)
     clock.done()
 
-    report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, keep, runs, spans,
+    report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, cut, spans,
                      path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
     return path, report
 
@@ -632,13 +639,9 @@ def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutt
 
 def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             res: dict[str, float], reserve_mm: float, probe: dict[str, Any], pts: PassPoints,
-            keep: NDArray[np.bool_],
-            runs: list[NDArray[np.int64]], spans: list[UnreachableSpan], path: Toolpath,
+            cut: NDArray[np.bool_], spans: list[UnreachableSpan], path: Toolpath,
             gstats: dict[str, Any], planned_chord: float, mstats: dict[str, Any] | None,
             scallop: Any, chord: Any, seconds: dict[str, float]) -> PlanningReport:
-    cut = np.zeros(len(pts), dtype=bool)
-    for run in runs:
-        cut[run] = True
     # the smallest concave radius the cutter meets: at its locations and on the probe
     # grid where it cuts (the grid holds the extremes the locations may step over)
     reach = probe["reach"]

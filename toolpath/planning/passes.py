@@ -50,6 +50,7 @@ __all__ = [
     "final_axes",
     "frame_take",
     "insert_points",
+    "reach_height",
     "refine_chords",
     "split_reach",
     "with_tips",
@@ -436,8 +437,9 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     return _merge_points(pts, new, new_at), where_new, True
 
 
-#: The per-point fields of :class:`PassPoints` (the frame apart).
-_ROW_FIELDS = ("t", "s", "pid", "nominal", "axes", "tips", "direction")
+#: The per-point arrays of :class:`PassPoints` (the frame apart).
+_ROW_FIELDS = tuple(f.name for f in fields(PassPoints)
+                    if f.name not in ("frame", "smoothing", "cone_pushed"))
 
 
 def _merge_points(pts: PassPoints, new: PassPoints, new_at: NDArray[np.int64]
@@ -523,6 +525,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     everything, keep_all = pts, keep
     defer = DEFER_SPLIT_MOVES and (machine is None or not machine.kinematics.is_five_axis)
     origin: NDArray[np.int64] | None = None
+    unchecked = 0.0
     for _ in range(MAX_CHORD_ROUNDS):
         seg_ok = pts.same_pass & check
         if keep is not None:
@@ -627,13 +630,10 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     the boundary ``t`` (to :data:`REACH_T_SHARE` of their distance) is added as a
     reachable point (:func:`_reach_boundary`).
     """
-    axis = np.asarray(opts.fixed_axis)
-    limit = np.sin(np.radians(opts.reach_margin_deg)) - 1e-12
-
     def height(t: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
-        return surface.normal(t, layout.s_of(t, pid)) @ axis - limit
+        return reach_height(opts, surface.normal(t, layout.s_of(t, pid)))
 
-    up = pts.frame.normal @ axis - limit
+    up = reach_height(opts, pts.frame.normal)
     ok = up >= 0.0
     edge = np.flatnonzero(pts.same_pass & (ok[:-1] != ok[1:]))
     if edge.size:
@@ -648,6 +648,15 @@ def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                                               t[moved], pid[moved])
             ok = _kept_with_new(ok, where_new)
     return with_rate_record(cutter, pts), ok
+
+
+def reach_height(opts: FinishingOptions, normals: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``n . a - sin(reach_margin_deg)`` of the fixed axis ``a`` (less 1e-12 of slack).
+
+    At least 0 where the cutting end reaches the contact (3-axis).
+    """
+    return normals @ np.asarray(opts.fixed_axis) - (np.sin(np.radians(opts.reach_margin_deg))
+                                                    - 1e-12)
 
 
 #: The reach boundary is found to this share of the distance (in ``t``) between the

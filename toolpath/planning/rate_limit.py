@@ -220,7 +220,7 @@ def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean,
                 trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
         worst = 0.0
         for j in range(1, m):
-            worst = max(worst, _turn_rate(trial[j - 1], trial[j], x[a + j] - x[a + j - 1]))
+            worst = max(worst, _segment_rate(trial, j - 1, x[a + j] - x[a + j - 1]))
         if worst < best or best == np.inf:
             best = worst
             out[:] = trial
@@ -245,14 +245,23 @@ def _wrap_pi(angle):
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True)
-def _turn_rate(u, v, length):
-    """Angle between unit ``u`` and ``v`` per ``length``, deg (as segment_turn_rates)."""
-    c0 = u[1] * v[2] - u[2] * v[1]
-    c1 = u[2] * v[0] - u[0] * v[2]
-    c2 = u[0] * v[1] - u[1] * v[0]
-    turn = math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2),
-                                   u[0] * v[0] + u[1] * v[1] + u[2] * v[2]))
+@numba.njit(cache=True, inline="always")
+def _angle_deg_at(a, b, i, j):
+    """The angle between unit rows ``a[i]`` and ``b[j]``, deg (``atan2(|a x b|, a . b)``)."""
+    c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
+    c1 = a[i, 2] * b[j, 0] - a[i, 0] * b[j, 2]
+    c2 = a[i, 0] * b[j, 1] - a[i, 1] * b[j, 0]
+    dot = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
+    return math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
+
+
+@numba.njit(cache=True, inline="always")
+def _segment_rate(axes, i, length):
+    """Turn of the axis from row ``i`` to ``i + 1`` per ``length``, deg/mm.
+
+    A segment shorter than 1e-12 mm turning by more than 1e-9 deg turns at ``inf``.
+    """
+    turn = _angle_deg_at(axes, axes, i, i + 1)
     if length > 1e-12:
         return turn / length
     return np.inf if turn > 1e-9 else 0.0

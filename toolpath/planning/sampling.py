@@ -648,9 +648,8 @@ def _gap_slope(u, a, b, c):
 def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
     """The root of ``g'`` in ``[lo, hi]``, where it changes sign (Newton, kept bracketed).
 
-    From the secant's root.
-    A Newton step leaving the bracket is replaced by halving it; done when a step moves
-    ``u`` by under 1e-12 (the value is then exact to round-off).
+    From the secant's root; a Newton step leaving the bracket is replaced by halving it;
+    done when a step moves ``u`` by under 1e-12 (the value is then exact to round-off).
     """
     den = slope_lo - slope_hi
     x = lo + (hi - lo) * slope_lo / den if den != 0.0 else 0.5 * (lo + hi)

@@ -29,7 +29,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .rate_limit import rate_limited_axes
+from .rate_limit import _angle_deg_at, _segment_rate, rate_limited_axes
 
 __all__ = [
     "AxisSmoothing",
@@ -64,16 +64,6 @@ def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
 def _angles_deg(a, b, out):
     for i in numba.prange(a.shape[0]):
         out[i] = _angle_deg_at(a, b, i, i)
-
-
-@numba.njit(cache=True, inline="always")
-def _angle_deg_at(a, b, i, j):
-    """The angle between ``a[i]`` and ``b[j]``, deg."""
-    c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
-    c1 = a[i, 2] * b[j, 0] - a[i, 0] * b[j, 2]
-    c2 = a[i, 0] * b[j, 1] - a[i, 1] * b[j, 0]
-    dot = a[i, 0] * b[j, 0] + a[i, 1] * b[j, 1] + a[i, 2] * b[j, 2]
-    return math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
 
 
 def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
@@ -143,15 +133,7 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
 @numba.njit(cache=True, parallel=True)
 def _turn_rates(axes, arclen, same, out):
     for i in numba.prange(out.size):
-        if not same[i]:
-            out[i] = 0.0
-            continue
-        turn = _angle_deg_at(axes, axes, i, i + 1)
-        length = arclen[i + 1] - arclen[i]
-        if length > 1e-12:
-            out[i] = turn / length
-        else:
-            out[i] = np.inf if turn > 1e-9 else 0.0
+        out[i] = _segment_rate(axes, i, arclen[i + 1] - arclen[i]) if same[i] else 0.0
 
 
 def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
@@ -307,12 +289,11 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
 @numba.njit(cache=True, parallel=True)
 def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over):
     """:func:`limit_lean` row by row."""
-    cos_max = math.cos(math.radians(max_lean_deg))
     for i in numba.prange(axes.shape[0]):
         dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
         # (unit vectors: the cosine decides unless it is within round-off of the limit's)
-        if abs(dot - cos_max) > 1e-9:
-            over[i] = dot < cos_max
+        if abs(dot - cos_lean) > 1e-9:
+            over[i] = dot < cos_lean
         else:
             over[i] = _angle_deg_at(axes, normals, i, i) > max_lean_deg
         if not over[i]:
