@@ -10,6 +10,7 @@ from toolpath.planning import (
     EllipticBladeSurface,
     PlaneSurface,
     SpherePatch,
+    finishing,
     plan_finishing,
 )
 from toolpath.planning.scallop import scallop_height_mm
@@ -109,6 +110,36 @@ def test_three_axis_reports_the_far_side_as_unreachable():
     z_tips = path.positions_mm[path.pass_index >= 0, 2]
     assert z_tips.min() > -1e-6 - 3.0 + 0.0
     assert rep.scallop_interior_mm <= 0.02 and rep.max_chord_error_mm <= 0.01
+
+
+def test_far_side_gets_few_points_and_the_same_cut(monkeypatch):
+    # the probe's unreachable nodes (away from reachable ones) get the longest moves:
+    # the far side of a cylinder round its axis; the same passes, reach boundaries and
+    # finish as at full density
+    surf = CylinderPatch(radius_mm=12.0, angle_deg=(0.0, 360.0), length_mm=(0.0, 4.0))
+    kw = dict(scallop_mm=0.02, chord_tol_mm=0.01)
+    evaluated = []  # points on the passes, reachable or not
+    split_reach = finishing.split_reach
+    monkeypatch.setattr(finishing, "split_reach", lambda *a: evaluated.append(len(a[-1]))
+                        or split_reach(*a))
+    _, rep = plan_finishing(surf, "ball:6", **kw)
+    monkeypatch.setattr(finishing, "_next_to", lambda mask, closed: np.ones_like(mask))
+    _, rep_dense = plan_finishing(surf, "ball:6", **kw)
+    assert evaluated[0] < 0.6 * evaluated[1]  # (the far side: half the surface)
+    assert rep.n_passes == rep_dense.n_passes and rep.within_request
+    assert rep.unreachable_fraction == rep_dense.unreachable_fraction
+    (a,), (b,) = rep.unreachable_regions, rep_dense.unreachable_regions
+    assert (a.t_min, a.t_max) == pytest.approx((b.t_min, b.t_max), abs=1e-9)
+
+
+def test_next_to_grows_a_mask_by_one_node_across_the_seam_when_closed():
+    mask = np.zeros((6, 5), dtype=bool)
+    mask[1, 2] = True
+    want = np.zeros_like(mask)
+    want[0:3, 1:4] = True
+    np.testing.assert_array_equal(finishing._next_to(mask, closed_t=False), want)
+    want[5, 1:4] = True  # row 5 (t = 1) is row 0 (t = 0), next to row 1
+    np.testing.assert_array_equal(finishing._next_to(mask, closed_t=True), want)
 
 
 def test_oneway_and_zigzag_link_differently():

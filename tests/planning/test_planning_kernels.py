@@ -12,7 +12,12 @@ from toolpath.planning.finishing import _as_slice
 from toolpath.planning.linking import _distinct_rows
 from toolpath.planning.options import FinishingOptions
 from toolpath.planning.passes import MERGE_BLOCK, _merge
-from toolpath.planning.sampling import CHORD_FRACTIONS, chord_extremes
+from toolpath.planning.sampling import (
+    CHORD_FRACTIONS,
+    ball_end_slopes,
+    chord_extremes,
+    point_move_gaps,
+)
 
 
 @pytest.mark.parametrize("shape", [(), (3,)])
@@ -125,6 +130,48 @@ def test_chord_extremes_over_the_model_and_the_samples_in_parallel_blocks():
     np.testing.assert_array_equal(high_s, np.maximum(high, gaps.max(axis=1)))
     np.testing.assert_array_equal(u_low_s, u_low)
     np.testing.assert_array_equal(u_high_s, u_high)
+
+
+def test_chord_extremes_from_end_slopes_and_one_gap_are_the_same_model():
+    # g'(0) = a, g'(1) = -(a + b + c) and g(1/2) fix the model the three gaps fix
+    rng = np.random.default_rng(5)
+    coef = rng.normal(scale=0.01, size=(5_000, 3))
+    def at(x):
+        return x * (1.0 - x) * (coef[:, 0] + coef[:, 1] * x + coef[:, 2] * x * x)
+
+    three = np.stack([at(x) for x in CHORD_FRACTIONS], axis=1)
+    slopes = np.stack([coef[:, 0], -coef.sum(axis=1)], axis=1)
+    mid = at(0.5)[:, None]
+    from_slopes = chord_extremes(mid, (0.5,), end_slopes=slopes)
+    for a, b in zip(chord_extremes(three), from_slopes, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
+    low, _, high, _ = chord_extremes(mid, (0.5,), end_slopes=slopes, with_samples=True)
+    assert (low <= mid[:, 0]).all() and (high >= mid[:, 0]).all()  # the slopes are no samples
+    with pytest.raises(ValueError, match="three conditions, got 5"):
+        chord_extremes(three, end_slopes=slopes)
+
+
+@pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])
+def test_ball_end_slopes_are_the_gap_slopes_at_the_ends(axis_mode):
+    # the ball's gap measured just inside each end of real moves (3-axis, and lead-tilt
+    # whose axis turns along the move) against the slope from the ends alone
+    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis_mode,
+                            lead_deg=10.0 if axis_mode == "lead-tilt" else 0.0)
+    res = opts.resolved(cutter, 0.0)
+    layout = passes.PassLayout(np.array([0.3, 0.6]), np.array([0.3, 0.6]), np.array([1, 1]))
+    t, pid = np.tile(np.linspace(0.2, 0.8, 40), 2), np.repeat(np.arange(2), 40)
+    pts = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    first = np.flatnonzero(pts.same_pass)
+    slopes = ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, first)
+    h = 1e-4
+    gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, first,
+                                 np.array([h, 1.0 - h]), newton=8)
+    measured = np.stack([gaps[:, 0] / h, -gaps[:, 1] / h], axis=1)
+    scale = np.abs(slopes).max()
+    assert scale > 1e-3  # (moves that bend, in and out)
+    np.testing.assert_allclose(slopes, measured, rtol=0.0, atol=5e-4 * scale)
+    assert (slopes[:, 0] < 0).any() and (slopes[:, 1] > 0).any()
 
 
 @pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])

@@ -213,9 +213,33 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"],
                              lift_mm=cutter.corner_radius_mm, turn_per_mm=axis_turn)
     density = (frame.speed_t / length).reshape(len(t), len(s))
+    if opts.axis_mode is AxisMode.FIXED:
+        # the far side only needs points enough to end the passes' cut runs: the longest
+        # moves there, but the full density next to anything reachable
+        near = _next_to(reach.reshape(len(t), len(s)), bool(surface.closed_t))
+        density = np.where(near, density, (frame.speed_t / res["max_segment_mm"]).reshape(
+            len(t), len(s)))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
             "points": frame.point, "density": density, "advice": advice}
+
+
+def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
+    """``mask`` grown by one node along both grid directions, diagonals too.
+
+    With ``closed_t`` the first and last rows (``t = 0`` and ``t = 1``, one seam) are
+    neighbours of each other's neighbours.
+    """
+    grown = mask.copy()
+    grown[1:] |= mask[:-1]
+    grown[:-1] |= mask[1:]
+    if closed_t and len(mask) > 2:
+        grown[0] |= mask[-2]
+        grown[-1] |= mask[1]
+    out = grown.copy()
+    out[:, 1:] |= grown[:, :-1]
+    out[:, :-1] |= grown[:, 1:]
+    return out
 
 
 #: Largest turn of the normal between neighbouring probe columns (at any of

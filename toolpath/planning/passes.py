@@ -27,6 +27,7 @@ from .local import PassFrame, pass_frame
 from .options import AxisMode, FinishingOptions
 from .sampling import (
     CHORD_FRACTIONS,
+    ball_end_slopes,
     chord_extremes,
     joint_moves,
     point_move_gaps,
@@ -55,6 +56,15 @@ __all__ = [
     "split_reach",
     "with_tips",
 ]
+
+#: Where the chord check measures a ball's gap when the end slopes complete the model
+#: (:func:`~toolpath.planning.sampling.ball_end_slopes`).
+BALL_FRACTIONS = (0.5,)
+
+#: A model's extreme this close (in ``u``) to a measured gap is not measured again: the
+#: gap there differs from the one measured by about ``|g''| du^2 / 2``, 1 % of a
+#: parabola's depth, and the model, through the measurement, carries even that.
+MEASURED_NEAR_U = 0.05
 
 #: Refinement rounds; each halves the offending chords, so 12 rounds shrink one 4096-fold.
 MAX_CHORD_ROUNDS = 12
@@ -495,8 +505,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     :data:`JOINT_SIDEWAYS_MM` across the pass, and the post then leaves it whole) is
     measured against the
     surface at three places (one Newton step from the parameters between the move's ends:
-    the foot point is then off by the fourth order of the move's length) and its largest
-    gap estimated
+    the foot point is then off by the fourth order of the move's length; a ball moved
+    linearly in the middle only, its gap's slopes at the ends known:
+    :func:`~toolpath.planning.sampling.ball_end_slopes`) and its largest gap estimated
     (:func:`~toolpath.planning.sampling.chord_extremes`); chords cutting deeper
     than ``chord_tol_mm`` or standing higher than the undercut allowance
     (``res["undercut_mm"]``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
@@ -535,17 +546,25 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             break
         q = (solve_inverse(machine, pts.tips, pts.axes).joints
              if machine is not None and machine.kinematics.is_five_axis else None)
+        # a ball moved tip- and axis-linear: the gap's slopes at the ends are known
+        # exactly, one gap in the middle completes the model (a third of the projections)
+        slopes = (ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, idx)
+                  if cutter.kind is CutterKind.BALL and q is None else None)
+        fractions = np.asarray(CHORD_FRACTIONS if slopes is None else BALL_FRACTIONS)
         gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
-                                     np.asarray(CHORD_FRACTIONS), newton=1, refine_rim=True,
+                                     fractions, newton=1, refine_rim=True,
                                      **joint_moves(machine, q, idx))
-        low, u_low, high, u_high = chord_extremes(gaps, with_samples=True)
+        low, u_low, high, u_high = chord_extremes(gaps, fractions, end_slopes=slopes,
+                                                  with_samples=True)
         # the model is close, not exact: where an extreme is within 10 % of its limit,
         # measure there (a move can both cut in and stand above: both sides are checked)
         sides = ((low, u_low, tol, -1.0, np.minimum),
                  (high, u_high, res["undercut_mm"], 1.0, np.maximum))
         for value, u_at, limit, sign, further in sides:
+            # (next to a measured place the model is pinned to the measurement)
+            off_sample = np.abs(u_at[:, None] - fractions).min(axis=1) > MEASURED_NEAR_U
             close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
-                                   & (np.sign(value) == sign))
+                                   & (np.sign(value) == sign) & off_sample)
             if close.size:
                 j = idx[close]
                 exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,

@@ -50,6 +50,7 @@ from .tool_axis import _segment
 
 __all__ = [
     "CHORD_FRACTIONS",
+    "ball_end_slopes",
     "chord_extremes",
     "chord_length_mm",
     "cutter_gap",
@@ -549,21 +550,27 @@ def point_move_gaps(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray
 
 
 def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS, *,
-                   with_samples: bool = False
+                   end_slopes: NDArray[np.float64] | None = None, with_samples: bool = False
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64],
                               NDArray[np.float64], NDArray[np.float64]]:
-    """Lowest and highest values of ``g(u) = u (1 - u)(a + b u + c u^2)`` through three gaps.
+    """Lowest and highest values of ``g(u) = u (1 - u)(a + b u + c u^2)`` on each move.
 
-    A move can cut into the surface over one part and stand above it over another (an
-    inflection of the pass, or a 5-axis move whose axis turns), so both extremes are
-    returned: the first is checked against the chord tolerance, the second against the
-    undercut allowance.
+    The gap model vanishes at the move's ends (where the cutter touches the surface);
+    three conditions fix its coefficients: the gaps measured at three ``fractions``, or,
+    with ``end_slopes``, its slopes ``g'(0) = a`` and ``g'(1) = -(a + b + c)`` at the ends
+    and one gap between them (:func:`ball_end_slopes`: no projection needed). A move can
+    cut into the surface over one part and stand above it over another (an inflection of
+    the pass, or a 5-axis move whose axis turns), so both extremes are returned: the first
+    is checked against the chord tolerance, the second against the undercut allowance.
 
     Parameters
     ----------
-    gaps : ndarray, shape (m, 3)
-        Gaps measured at the three ``fractions`` of each move (clipped to +-1e3 mm for
-        the model: a failed projection must not make it overflow).
+    gaps : ndarray, shape (m, k)
+        Gaps measured at the ``k`` ``fractions`` of each move (3, or 1 with
+        ``end_slopes``; clipped to +-1e3 mm for the model: a failed projection must not
+        make it overflow).
+    end_slopes : ndarray, shape (m, 2), optional
+        ``g'(0)`` and ``g'(1)``, mm per unit ``u``.
     with_samples : bool
         The extremes also over the measured gaps themselves (where the model misses one;
         its ``u`` stays the model's).
@@ -573,12 +580,57 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     low, u_low, high, u_high : ndarray, shape (m,)
         The model's smallest value on [0, 1] and where it is; its largest and where.
     """
-    u = np.asarray(fractions, dtype=float)
+    gaps = np.asarray(gaps, dtype=float).reshape(len(gaps), -1)
+    u = np.asarray(fractions, dtype=float).ravel()
     basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
+    values = gaps
+    if end_slopes is not None:
+        basis = np.vstack([[1.0, 0.0, 0.0], basis, [-1.0, -1.0, -1.0]])
+        values = np.column_stack([end_slopes[:, 0], gaps, end_slopes[:, 1]])
+    if basis.shape != (3, 3):
+        slopes = " and two end slopes" if end_slopes is not None else ""
+        raise ValueError(f"the gap model takes three conditions, got {basis.shape[0]} "
+                         f"({u.size} fractions{slopes})")
     out = np.empty((4, len(gaps)))
-    _model_extremes(np.ascontiguousarray(gaps, dtype=float), np.linalg.inv(basis), _GRID,
-                    with_samples, out)
+    _model_extremes(np.ascontiguousarray(values), np.linalg.inv(basis), _GRID,
+                    np.ascontiguousarray(gaps if with_samples else gaps[:, :0]), out)
     return out[0], out[1], out[2], out[3]
+
+
+def ball_end_slopes(radius_mm: float, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                    normals: NDArray[np.float64], first: NDArray[np.int64]
+                    ) -> NDArray[np.float64]:
+    """``g'(0)``, ``g'(1)`` of a ball's gap along the moves ``first -> first + 1``.
+
+    The ball's centre ``C(u) = P(u) + R a(u) / |a(u)|`` (tip ``P`` and axis ``a`` linear
+    in ``u``) stands ``R`` off the surface at the ends, over the contacts; its gap is the
+    signed distance of ``C(u)`` less ``R``, whose gradient at an end is the surface's unit
+    normal ``n`` there. So ``g' = n . C'`` with ``C' = dP + R (da - (a . da) a)`` at each
+    end (``dP``, ``da``: the move's differences; ``|a| = 1`` at the ends).
+    """
+    out = np.empty((len(first), 2))
+    _ball_end_slopes(float(radius_mm), np.ascontiguousarray(tips_mm, dtype=float),
+                     np.ascontiguousarray(axes, dtype=float),
+                     np.ascontiguousarray(normals, dtype=float),
+                     np.ascontiguousarray(first, dtype=np.int64), out)
+    return out
+
+
+@numba.njit(cache=True, parallel=True)
+def _ball_end_slopes(radius, tips, axes, normals, first, out):
+    for j in numba.prange(first.size):
+        i = first[j]
+        for col in range(2):
+            end = i + col
+            along = 0.0
+            for k in range(3):
+                along += axes[end, k] * (axes[i + 1, k] - axes[i, k])
+            slope = 0.0
+            for k in range(3):
+                d_axis = axes[i + 1, k] - axes[i, k]
+                velocity = tips[i + 1, k] - tips[i, k] + radius * (d_axis - along * axes[end, k])
+                slope += velocity * normals[end, k]
+            out[j, col] = slope
 
 
 @numba.njit(cache=True, inline="always")
@@ -588,18 +640,18 @@ def _gap_model(u, a, b, c):
 
 
 @numba.njit(cache=True, parallel=True)
-def _model_extremes(gaps, inverse, n_grid, with_samples, out):
+def _model_extremes(values, inverse, n_grid, samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
-    The model's coefficients are ``inverse @ gaps[i]`` (the gaps clipped to +-1e3). Its
+    The model's coefficients are ``inverse @ values[i]`` (clipped to +-1e3). Its
     extremes are at the ends (0) or where ``g'`` (a cubic) vanishes: ``g'`` is sampled at
     ``n_grid`` points on [0, 1] and each sign change solved by bracketed Newton steps
     (every bump and dip, beside an end too; two roots within one step, a wiggle of no
-    depth, would cancel). ``with_samples``: the values also over ``gaps[i]``.
+    depth, would cancel). The extremes also over ``samples[i]`` (none: no columns).
     """
-    for block in numba.prange((gaps.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
-        _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, block * _EXTREMES_BLOCK,
-                             min((block + 1) * _EXTREMES_BLOCK, gaps.shape[0]))
+    for block in numba.prange((values.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
+        _model_extremes_rows(values, inverse, n_grid, samples, out, block * _EXTREMES_BLOCK,
+                             min((block + 1) * _EXTREMES_BLOCK, values.shape[0]))
 
 
 #: Rows per block of :func:`_model_extremes` run in parallel.
@@ -607,13 +659,13 @@ _EXTREMES_BLOCK = 4096
 
 
 @numba.njit(cache=True)
-def _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, first, stop):
+def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
     """:func:`_model_extremes` of rows ``first .. stop - 1``."""
     step = 1.0 / (n_grid - 1)
     for i in range(first, stop):
         a = b = c = 0.0
         for k in range(3):
-            g = min(max(gaps[i, k], -1e3), 1e3)
+            g = min(max(values[i, k], -1e3), 1e3)
             a += inverse[0, k] * g
             b += inverse[1, k] * g
             c += inverse[2, k] * g
@@ -631,10 +683,9 @@ def _model_extremes_rows(gaps, inverse, n_grid, with_samples, out, first, stop):
                 if value > high:
                     high, at_high = value, u
             before = after
-        if with_samples:
-            for k in range(gaps.shape[1]):
-                low = min(low, gaps[i, k])
-                high = max(high, gaps[i, k])
+        for k in range(samples.shape[1]):
+            low = min(low, samples[i, k])
+            high = max(high, samples[i, k])
         out[0, i], out[1, i], out[2, i], out[3, i] = low, at_low, high, at_high
 
 
