@@ -117,7 +117,7 @@ def test_far_side_gets_few_points_and_the_same_cut(monkeypatch):
     # the far side of a cylinder round its axis; the same passes, reach boundaries and
     # finish as at full density
     surf = CylinderPatch(radius_mm=12.0, angle_deg=(0.0, 360.0), length_mm=(0.0, 4.0))
-    kw = dict(scallop_mm=0.02, chord_tol_mm=0.01)
+    kw = dict(scallop_mm=0.02, chord_tol_mm=0.01, probe_t=257)  # (the same probe grid)
     evaluated = []  # points on the passes, reachable or not
     split_reach = finishing.split_reach
     monkeypatch.setattr(finishing, "split_reach", lambda *a: evaluated.append(len(a[-1]))
@@ -130,6 +130,16 @@ def test_far_side_gets_few_points_and_the_same_cut(monkeypatch):
     assert rep.unreachable_fraction == rep_dense.unreachable_fraction
     (a,), (b,) = rep.unreachable_regions, rep_dense.unreachable_regions
     assert (a.t_min, a.t_max) == pytest.approx((b.t_min, b.t_max), abs=1e-9)
+
+
+def test_probe_columns_three_per_point_of_the_densest_pass_within_bounds():
+    t = np.r_[0.0, np.sort(np.random.default_rng(3).random(40)), 1.0]
+    def columns(*points_per_level):
+        return finishing._probe_columns(t, np.tile(np.array(points_per_level), (t.size, 1)))
+
+    assert columns(50.0, 99.9, 70.0) == 300  # (ceil of 3 x 99.9)
+    assert columns(10.0, 20.0) == finishing.MIN_PROBE_T
+    assert columns(400.0) == finishing.MAX_PROBE_T
 
 
 def test_next_to_grows_a_mask_by_one_node_across_the_seam_when_closed():

@@ -242,6 +242,29 @@ def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
     return out
 
 
+#: Uniform columns of the coarse probe (:func:`_probe_columns`), and the fewest and most
+#: of the probe itself.
+COARSE_PROBE_T = 129
+MIN_PROBE_T = 129
+MAX_PROBE_T = 513
+#: Uniform probe columns per point of the densest pass.
+PROBE_PER_POINT = 3.0
+
+
+def _probe_columns(t: NDArray[np.float64], density: NDArray[np.float64]) -> int:
+    """Uniform probe columns for a plan whose densest pass gets ``n`` points: ``3 n``.
+
+    ``n`` is the chord density (segments per unit ``t``, probe columns ``t`` by levels)
+    integrated along each level, the largest; the probe is then several times finer
+    along the passes than the points it places, between :data:`MIN_PROBE_T` (1 mm on a
+    130 mm blade section) and :data:`MAX_PROBE_T` (0.25 mm). The columns where the normal
+    turns fast come on top (:func:`_probe_t`).
+    """
+    mid = 0.5 * (density[1:] + density[:-1])
+    points = float((mid * np.diff(t)[:, None]).sum(axis=0).max())
+    return int(np.clip(np.ceil(PROBE_PER_POINT * points), MIN_PROBE_T, MAX_PROBE_T))
+
+
 #: Largest turn of the normal between neighbouring probe columns (at any of
 #: :data:`PROBE_LEVELS` levels of ``s``), rad: 2 deg.
 MAX_PROBE_TURN = np.radians(2.0)
@@ -526,15 +549,19 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
-    t_probe = _probe_t(surface, opts.probe_t)
-    n_s = opts.probe_s
-    if n_s is None:
-        # three levels per pass: the passes estimated from every fourth column
-        coarse = _probe(surface, cutter, opts, res, np.unique(np.r_[t_probe[::4], 1.0]),
-                        np.linspace(0.0, 1.0, 65))["allowed"]
-        coarse = coarse[np.isfinite(coarse)]
-        n_s = int(np.clip(3.0 / max(float(coarse.min()), 1e-6) + 1, 65, 129)) \
-            if coarse.size else 65
+    n_t, n_s = opts.probe_t, opts.probe_s
+    if n_t is None or n_s is None:
+        # a coarse probe tells how fine the plan will be
+        coarse_t = _probe_t(surface, COARSE_PROBE_T)
+        coarse = _probe(surface, cutter, opts, res, coarse_t, np.linspace(0.0, 1.0, 65))
+        if n_s is None:
+            # three levels per pass
+            allowed = coarse["allowed"][np.isfinite(coarse["allowed"])]
+            n_s = int(np.clip(3.0 / max(float(allowed.min()), 1e-6) + 1, 65, 129)) \
+                if allowed.size else 65
+        if n_t is None:
+            n_t = _probe_columns(coarse_t, coarse["density"])
+    t_probe = _probe_t(surface, n_t)
     s_probe = np.linspace(0.0, 1.0, n_s)
     probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
     if not np.isfinite(probe["allowed"]).any() and not probe["gouging"].any():

@@ -172,11 +172,12 @@ class FinishingOptions:
     max_segment_mm : float
         Longest move along a pass (default two cutter diameters: keeps 5-axis
         interpolation and gouge sampling faithful on flat stretches).
-    probe_t : int
-        Uniform probe count along ``t`` for the spacing and the chord density (513: a
-        sample every 0.25 mm on a 130 mm blade section); intervals where the normal turns
-        more than 2 deg get more, evenly (a leading edge); the chord check adds points the
-        probes miss.
+    probe_t : int or None
+        Uniform probe count along ``t`` for the spacing and the chord density (default:
+        three per point of the densest pass, from a coarse probe, at least 129 and at most
+        513: a sample every 1 to 0.25 mm on a 130 mm blade section); intervals where the
+        normal turns more than 2 deg get more, evenly (a leading edge); the chord check
+        adds points the probes miss.
     probe_s : int or None
         Probe levels along ``s`` (default: three per pass, at least 65, at most 129; the
         allowed step varies slowly across the span).
@@ -219,7 +220,7 @@ class FinishingOptions:
     max_lean_deg: float = 60.0
     reach_margin_deg: float = 0.0
     max_segment_mm: float | None = None
-    probe_t: int = 513
+    probe_t: int | None = None
     probe_s: int | None = None
     on_limit: OnLimit = OnLimit.RAISE
     coordinate_step_mm: float = 0.001
@@ -278,7 +279,8 @@ class FinishingOptions:
             if self.min_cone_deg < 0.0:
                 raise InvalidParameterError(
                     f"min_cone_deg must be >= 0 deg, got {self.min_cone_deg!r}")
-        if not isinstance(self.probe_t, int) or self.probe_t < 17:
+        if self.probe_t is not None and (not isinstance(self.probe_t, int)
+                                         or self.probe_t < 17):
             raise InvalidParameterError(f"probe_t must be an integer >= 17, got "
                                         f"{self.probe_t!r}")
         if self.probe_s is not None and (not isinstance(self.probe_s, int)
