@@ -128,6 +128,8 @@ class WorkerPool:
         if isinstance(executor, ProcessPoolExecutor) and not wait:
             _terminate_workers(executor)
         executor.shutdown(wait=wait, cancel_futures=True)
+        if isinstance(executor, ProcessPoolExecutor) and not wait:
+            _join_manager(executor)
 
 
 def _init_worker_process() -> None:
@@ -138,6 +140,22 @@ def _init_worker_process() -> None:
 
 def _ready() -> None:
     """Nothing: submitted once so that a worker process starts loading at start-up."""
+
+
+#: How long a stop waits for the executor's manager thread once its workers are gone, s.
+MANAGER_JOIN_S = 5.0
+
+
+def _join_manager(executor: ProcessPoolExecutor) -> None:
+    """Let the executor's manager thread end (its workers stopped) before the process does.
+
+    Python 3.11's exit hook wakes every manager thread through a pipe the thread closes as
+    it ends: a thread still ending then makes the hook write to a closed pipe ("Bad file
+    descriptor" at exit; CPython 3.12 holds a lock there). The wait is bounded.
+    """
+    thread = getattr(executor, "_executor_manager_thread", None)
+    if thread is not None and thread.is_alive():
+        thread.join(timeout=MANAGER_JOIN_S)
 
 
 def _terminate_workers(executor: ProcessPoolExecutor) -> None:

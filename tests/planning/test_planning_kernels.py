@@ -5,10 +5,9 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from toolpath.planning import EllipticBladeSurface, passes, rate_limit
+from toolpath.planning import EllipticBladeSurface, finishing, passes, rate_limit
 from toolpath.planning.clearance_kernel import bin_samples, clearances
 from toolpath.planning.cutters import parse_cutter
-from toolpath.planning.finishing import _as_slice
 from toolpath.planning.linking import _distinct_rows
 from toolpath.planning.options import FinishingOptions
 from toolpath.planning.passes import MERGE_BLOCK, _merge
@@ -88,18 +87,38 @@ def test_repeated_toolpath_points_dropped_and_axes_made_unit():
     np.testing.assert_allclose(axes[:m], want_axes, rtol=0.0, atol=1e-15)
 
 
-@pytest.mark.parametrize("rows", [np.arange(3, 9), np.arange(3, 9)[::-1], np.arange(5)[::-1],
-                                  np.r_[5, 6, 7, 0, 1], np.r_[1, 0, 7, 6, 5], np.r_[4],
-                                  np.r_[5, 6, 7, 0], np.r_[0, 2, 1, 3]])
-def test_runs_as_slices_only_where_consecutive(rows):
-    # a stretch of a pass (either way) becomes a view; runs joined across a closed
-    # section's seam stay index arrays
-    data = np.arange(20.0)
-    taken = _as_slice(rows)
-    np.testing.assert_array_equal(data[taken], data[rows])
-    consecutive = len(rows) > 1 and (np.abs(np.diff(rows)) == 1).all() and \
-        len(set(np.diff(rows))) == 1
-    assert isinstance(taken, slice) == consecutive
+@pytest.mark.parametrize("linking", ["zigzag", "oneway"])
+def test_runs_in_cutting_order_as_views_where_consecutive(linking):
+    # runs on a closed section: gaps in the kept points, one run joined across the seam;
+    # passes cut backwards take their runs last to first, each reversed; a run of
+    # consecutive rows is a view of the points
+    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, linking=linking)
+    res = opts.resolved(cutter, 0.0)
+    direction = np.array([1, -1, 1]) if linking == "zigzag" else np.ones(3, dtype=np.int64)
+    layout = passes.PassLayout(np.array([0.3, 0.5, 0.7]), np.array([0.3, 0.5, 0.7]),
+                               direction)
+    t, pid = np.tile(np.linspace(0.0, 1.0, 21), 3), np.repeat(np.arange(3), 21)
+    pts = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    keep = np.ones(len(pts), dtype=bool)
+    # passes 0 and 2 wrap round the seam, pass 1 (not kept at t = 0) does not
+    keep[[5, 6, 21 + 0, 21 + 10, 42 + 8, 42 + 15]] = False
+    runs = finishing._runs_of(keep, pts, closed=True)
+    made = finishing._make_runs(surface, cutter, opts, res, pts, runs)
+    want = []
+    for p in range(3):
+        mine = [r for r in runs if pts.pid[r[0]] == p]
+        want += [r[::-1] for r in mine[::-1]] if direction[p] < 0 else mine
+    assert len(made) == len(want) == 5
+    for run, rows in zip(made, want, strict=True):
+        np.testing.assert_array_equal(run.tips, pts.tips[rows])
+        np.testing.assert_array_equal(run.axes, pts.axes[rows])
+        assert run.pass_index == pts.pid[rows[0]]
+        np.testing.assert_array_equal(run.feed_end, pts.feed_dirs[rows[-1]])
+        np.testing.assert_array_equal(run.normal_start, pts.frame.normal[rows[0]])
+        consecutive = (np.abs(np.diff(rows)) == 1).all()
+        assert np.shares_memory(run.tips, pts.tips) == consecutive
+    assert sum(not (np.abs(np.diff(rows)) == 1).all() for rows in want) == 2  # the seams
 
 
 def test_chord_extremes_over_the_model_and_the_samples_in_parallel_blocks():

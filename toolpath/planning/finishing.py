@@ -416,44 +416,51 @@ def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool
 def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                res: dict[str, float], pts: PassPoints, runs: list[NDArray[np.int64]]
                ) -> list[Run]:
-    """Runs in cutting order with their lead data and how they link."""
-    order = []
-    by_pass: dict[int, list[NDArray[np.int64]]] = {}
-    for run in runs:
-        by_pass.setdefault(int(pts.pid[run[0]]), []).append(run)
-    for p in sorted(by_pass):
-        group = by_pass[p]
-        if pts.direction[group[0][0]] < 0:
-            group = [g[::-1] for g in group[::-1]]
-        order.extend(group)
+    """Runs in cutting order with their lead data and how they link.
+
+    By pass; a pass cut backwards (``direction < 0``) takes its runs last to first, each
+    reversed. A run of consecutive rows is handed over as a view.
+    """
+    heads = np.array([run[0] for run in runs], dtype=np.int64)
+    tails = np.array([run[-1] for run in runs], dtype=np.int64)
+    sizes = np.array([len(run) for run in runs], dtype=np.int64)
+    back = pts.direction[heads] < 0
+    k = np.arange(len(runs))
+    order = np.lexsort((np.where(back, -k, k), pts.pid[heads]))
+    first = np.where(back, tails, heads)[order]
+    last = np.where(back, heads, tails)[order]
     closed = bool(surface.closed_t)
-    feed = pts.feed_dirs
+    normal_first, normal_last = pts.frame.normal[first], pts.frame.normal[last]
+    feed_first = pts.frame.e1[first] * pts.direction[first, None]
+    feed_last = pts.frame.e1[last] * pts.direction[last, None]
+    t_first, t_last = pts.t[first], pts.t[last]
+    extend_first = ~closed & ((t_first == 0.0) | (t_first == 1.0))
+    extend_last = ~closed & ((t_last == 0.0) | (t_last == 1.0))
+    pass_index = pts.pid[first]
     out: list[Run] = []
-    for run in order:
-        first, last = run[0], run[-1]
-        rows = _as_slice(run)
+    for j, i in enumerate(order.tolist()):
+        if tails[i] - heads[i] == sizes[i] - 1:  # consecutive rows: a view
+            a, b = int(first[j]), int(last[j])
+            rows: slice | NDArray[np.int64] = (slice(a, b + 1) if a <= b else
+                                               slice(a, b - 1 if b > 0 else None, -1))
+        else:  # two stretches joined across a closed section's seam
+            rows = runs[i][::-1] if back[i] else runs[i]
         out.append(Run(
-            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pts.pid[first]),
-            normal_start=pts.frame.normal[first], normal_end=pts.frame.normal[last],
-            feed_start=feed[first], feed_end=feed[last],
-            extend_start=not closed and pts.t[first] in (0.0, 1.0),
-            extend_end=not closed and pts.t[last] in (0.0, 1.0)))
+            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pass_index[j]),
+            normal_start=normal_first[j], normal_end=normal_last[j],
+            feed_start=feed_first[j], feed_end=feed_last[j],
+            extend_start=bool(extend_first[j]), extend_end=bool(extend_last[j])))
     # how consecutive runs link
-    ends = np.array([run[-1] for run in order], dtype=np.int64)
-    starts = np.array([run[0] for run in order], dtype=np.int64)
-    step = pts.tips[starts[1:]] - pts.tips[ends[:-1]]
+    step = pts.tips[first[1:]] - pts.tips[last[:-1]]
     gaps_mm = np.sqrt(np.einsum("ij,ij->i", step, step))
-    cand = []
-    for k in range(1, len(out)):
-        prev, run = out[k - 1], out[k]
-        a, b = ends[k - 1], starts[k]
-        gap_mm = float(gaps_mm[k - 1])
-        if opts.linking is Linking.SPIRAL:
-            run.joined = (gap_mm < 1e-6 and run.pass_index == prev.pass_index + 1)
-        elif gap_mm <= res["link_max_mm"] and run.pass_index != prev.pass_index:
-            cand.append((k, a, b))
-    if cand:
-        ks, a, b = (np.array(x) for x in zip(*cand, strict=True))
+    if opts.linking is Linking.SPIRAL:
+        for k in np.flatnonzero((gaps_mm < 1e-6) & (pass_index[1:] == pass_index[:-1] + 1)):
+            out[int(k) + 1].joined = True
+        return out
+    ks = np.flatnonzero((gaps_mm <= res["link_max_mm"])
+                        & (pass_index[1:] != pass_index[:-1])) + 1
+    if ks.size:
+        a, b = last[ks - 1], first[ks]
         # the cutter half-way along the link (its search started between the ends'
         # contacts, the short way across a closed section's seam)
         gap = move_gaps(surface, cutter, pts.tips[a], pts.tips[b], pts.axes[a], pts.axes[b],
@@ -462,23 +469,6 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         for k, ok in zip(ks, gap >= -res["chord_tol_mm"], strict=True):
             out[int(k)].direct_link = bool(ok)
     return out
-
-
-def _as_slice(rows: NDArray[np.int64]) -> NDArray[np.int64] | slice:
-    """``rows`` as a slice where they are consecutive (either way): a view, not a copy.
-
-    The runs are stretches of a pass, or (closed sections) two stretches joined across
-    the seam, whose ends or steps give them away: the span, first and last step are
-    checked.
-    """
-    n = len(rows)
-    if n < 2:
-        return rows
-    step = int(rows[1] - rows[0])
-    if step in (1, -1) and rows[-1] - rows[-2] == step and rows[-1] - rows[0] == step * (n - 1):
-        stop = int(rows[-1]) + step
-        return slice(int(rows[0]), stop if stop >= 0 else None, step)
-    return rows
 
 
 def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_mm: float,
