@@ -125,11 +125,13 @@ class WorkerPool:
             executor, self._executor = self._executor, None
         if executor is None:
             return
+        # (shutdown forgets the manager thread: taken first)
+        manager = getattr(executor, "_executor_manager_thread", None)
         if isinstance(executor, ProcessPoolExecutor) and not wait:
             _terminate_workers(executor)
         executor.shutdown(wait=wait, cancel_futures=True)
-        if isinstance(executor, ProcessPoolExecutor) and not wait:
-            _join_manager(executor)
+        if manager is not None and manager.is_alive():
+            _join_manager(manager)
 
 
 def _init_worker_process() -> None:
@@ -146,16 +148,14 @@ def _ready() -> None:
 MANAGER_JOIN_S = 5.0
 
 
-def _join_manager(executor: ProcessPoolExecutor) -> None:
-    """Let the executor's manager thread end (its workers stopped) before the process does.
+def _join_manager(thread: threading.Thread) -> None:
+    """Let a process pool's manager thread end (its workers stopped) before the process does.
 
     Python 3.11's exit hook wakes every manager thread through a pipe the thread closes as
     it ends: a thread still ending then makes the hook write to a closed pipe ("Bad file
     descriptor" at exit; CPython 3.12 holds a lock there). The wait is bounded.
     """
-    thread = getattr(executor, "_executor_manager_thread", None)
-    if thread is not None and thread.is_alive():
-        thread.join(timeout=MANAGER_JOIN_S)
+    thread.join(timeout=MANAGER_JOIN_S)
 
 
 def _terminate_workers(executor: ProcessPoolExecutor) -> None:

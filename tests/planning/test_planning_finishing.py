@@ -140,6 +140,7 @@ def test_probe_columns_three_per_point_of_the_densest_pass_within_bounds():
     assert columns(50.0, 99.9, 70.0) == 300  # (ceil of 3 x 99.9)
     assert columns(10.0, 20.0) == finishing.MIN_PROBE_T
     assert columns(400.0) == finishing.MAX_PROBE_T
+    assert columns(50.0, np.nan) == finishing.MAX_PROBE_T  # (a degenerate frame)
 
 
 def test_next_to_grows_a_mask_by_one_node_across_the_seam_when_closed():

@@ -168,6 +168,9 @@ def test_chord_extremes_from_end_slopes_and_one_gap_are_the_same_model():
     assert (low <= mid[:, 0]).all() and (high >= mid[:, 0]).all()  # the slopes are no samples
     with pytest.raises(ValueError, match="three conditions, got 5"):
         chord_extremes(three, end_slopes=slopes)
+    for empty in (chord_extremes(np.zeros((0, 3))),
+                  chord_extremes(np.zeros((0, 1)), (0.5,), end_slopes=np.zeros((0, 2)))):
+        assert all(x.shape == (0,) for x in empty)
 
 
 @pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])

@@ -96,3 +96,18 @@ def test_a_worker_process_that_dies_is_replaced(tmp_path):
         pool.shutdown()
     assert (record.state, record.attempts) == (JobState.DONE, 2)
     assert later.state is JobState.DONE and later.report["pid"] != os.getpid()
+
+
+def test_a_stop_ends_the_process_pools_manager_thread(tmp_path):
+    # the workers are stopped and the executor's manager thread has ended when shutdown
+    # returns: Python 3.11's exit hook would otherwise write to its closed wakeup pipe
+    store, pool = _pool(tmp_path, _exit_now, executor="process")
+    job = store.add({}, input_name="b.csv").id
+    pool.start()
+    try:
+        _wait_states(store, [job], timeout=45.0)
+        manager = pool._executor._executor_manager_thread
+        assert manager is not None and manager.is_alive()
+    finally:
+        pool.shutdown()
+    assert not manager.is_alive()

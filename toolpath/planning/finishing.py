@@ -242,9 +242,10 @@ def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
     return out
 
 
-#: Uniform columns of the coarse probe (:func:`_probe_columns`), and the fewest and most
-#: of the probe itself.
+#: Uniform columns and levels of the coarse probe (:func:`_probe_columns`, and the
+#: levels of the probe: three per pass), and the fewest and most columns of the probe.
 COARSE_PROBE_T = 129
+COARSE_PROBE_S = 33
 MIN_PROBE_T = 129
 MAX_PROBE_T = 513
 #: Uniform probe columns per point of the densest pass.
@@ -262,6 +263,8 @@ def _probe_columns(t: NDArray[np.float64], density: NDArray[np.float64]) -> int:
     """
     mid = 0.5 * (density[1:] + density[:-1])
     points = float((mid * np.diff(t)[:, None]).sum(axis=0).max())
+    if not np.isfinite(points):  # (a degenerate frame somewhere: the finest probe)
+        return MAX_PROBE_T
     return int(np.clip(np.ceil(PROBE_PER_POINT * points), MIN_PROBE_T, MAX_PROBE_T))
 
 
@@ -434,8 +437,8 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     feed_first = pts.frame.e1[first] * pts.direction[first, None]
     feed_last = pts.frame.e1[last] * pts.direction[last, None]
     t_first, t_last = pts.t[first], pts.t[last]
-    extend_first = ~closed & ((t_first == 0.0) | (t_first == 1.0))
-    extend_last = ~closed & ((t_last == 0.0) | (t_last == 1.0))
+    extend_first = (not closed) & ((t_first == 0.0) | (t_first == 1.0))
+    extend_last = (not closed) & ((t_last == 0.0) | (t_last == 1.0))
     pass_index = pts.pid[first]
     out: list[Run] = []
     for j, i in enumerate(order.tolist()):
@@ -543,7 +546,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     if n_t is None or n_s is None:
         # a coarse probe tells how fine the plan will be
         coarse_t = _probe_t(surface, COARSE_PROBE_T)
-        coarse = _probe(surface, cutter, opts, res, coarse_t, np.linspace(0.0, 1.0, 65))
+        coarse = _probe(surface, cutter, opts, res, coarse_t,
+                        np.linspace(0.0, 1.0, COARSE_PROBE_S))
         if n_s is None:
             # three levels per pass
             allowed = coarse["allowed"][np.isfinite(coarse["allowed"])]

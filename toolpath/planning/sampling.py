@@ -580,8 +580,8 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     low, u_low, high, u_high : ndarray, shape (m,)
         The model's smallest value on [0, 1] and where it is; its largest and where.
     """
-    gaps = np.asarray(gaps, dtype=float).reshape(len(gaps), -1)
     u = np.asarray(fractions, dtype=float).ravel()
+    gaps = np.asarray(gaps, dtype=float).reshape(len(gaps), -1 if len(gaps) else u.size)
     basis = (u * (1.0 - u))[:, None] * np.stack([np.ones_like(u), u, u * u], axis=1)
     values = gaps
     if end_slopes is not None:
