@@ -30,6 +30,8 @@ PLATE = PlaneSurface(t_vector_mm=(20.0, 0.0, 0.0), s_vector_mm=(0.0, 6.0, 0.0))
     ({"on_gouge": "retilt"}, "on_gouge='retilt' needs axis_mode='lead-tilt'"),
     ({"feed_mm_per_min": -5}, "feed_mm_per_min"),
     ({"colour": "red"}, "unknown option(s) ['colour']"),
+    ({"probe_t": 5}, "probe_t must be an integer >= 17 or None (from the plan), got 5"),
+    ({"probe_t": 100.5}, "probe_t must be an integer >= 17"),
 ])
 def test_bad_options(kwargs, words):
     args = {"scallop_mm": 0.01, "chord_tol_mm": 0.01, **kwargs}

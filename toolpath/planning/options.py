@@ -281,8 +281,8 @@ class FinishingOptions:
                     f"min_cone_deg must be >= 0 deg, got {self.min_cone_deg!r}")
         if self.probe_t is not None and (not isinstance(self.probe_t, int)
                                          or self.probe_t < 17):
-            raise InvalidParameterError(f"probe_t must be an integer >= 17, got "
-                                        f"{self.probe_t!r}")
+            raise InvalidParameterError(f"probe_t must be an integer >= 17 or None (from the "
+                                        f"plan), got {self.probe_t!r}")
         if self.probe_s is not None and (not isinstance(self.probe_s, int)
                                          or self.probe_s < 9):
             raise InvalidParameterError(f"probe_s must be an integer >= 9, got "
