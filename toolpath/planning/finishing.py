@@ -543,6 +543,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     clock.stage("probe")
     n_t, n_s = opts.probe_t, opts.probe_s
+    coarse_t: NDArray[np.float64] | None = None
     if n_t is None or n_s is None:
         # a coarse probe tells how fine the plan will be
         coarse_t = _probe_t(surface, COARSE_PROBE_T)
@@ -555,7 +556,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 if allowed.size else 65
         if n_t is None:
             n_t = _probe_columns(coarse_t, coarse["density"])
-    t_probe = _probe_t(surface, n_t)
+    t_probe = coarse_t if n_t == COARSE_PROBE_T and coarse_t is not None else \
+        _probe_t(surface, n_t)
     s_probe = np.linspace(0.0, 1.0, n_s)
     probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
     if not np.isfinite(probe["allowed"]).any() and not probe["gouging"].any():
