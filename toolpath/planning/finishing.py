@@ -2,10 +2,10 @@
 
 Stages (each timed in the report):
 
-1. **probe**: the surface frame on a grid of ``probe_t`` columns (more where the normal
-   turns fast) by ``n_s`` levels (from a probe of every fourth column): tool axes, reach
-   (3-axis), local gouge margin, and the allowed step in ``s`` from the scallop formula
-   (:mod:`~toolpath.planning.scallop`);
+1. **probe**: the surface frame on a grid of columns (more where the normal turns fast)
+   by levels, as many as a coarse probe shows the plan needs (:func:`_probe_columns`):
+   tool axes, reach (3-axis), local gouge margin, the allowed step in ``s`` from the
+   scallop formula (:mod:`~toolpath.planning.scallop`) and the chord density;
 2. **spacing**: pass levels in ``s``, worst case along each pass;
 3. **passes**: points along each pass from the chord tolerance
    (:mod:`~toolpath.planning.sampling`), axes, tips; 3-axis reach boundaries;
@@ -253,10 +253,11 @@ PROBE_PER_POINT = 3.0
 
 
 def _probe_columns(t: NDArray[np.float64], density: NDArray[np.float64]) -> int:
-    """Uniform probe columns for a plan whose densest pass gets ``n`` points: ``3 n``.
+    """Uniform probe columns for a plan whose densest pass gets ``n`` points.
 
-    ``n`` is the chord density (segments per unit ``t``, probe columns ``t`` by levels)
-    integrated along each level, the largest; the probe is then several times finer
+    :data:`PROBE_PER_POINT` times ``n``, where ``n`` is the chord density (segments per
+    unit ``t``, probe columns ``t`` by levels) integrated along each level, the largest:
+    the probe is then several times finer
     along the passes than the points it places, between :data:`MIN_PROBE_T` (1 mm on a
     130 mm blade section) and :data:`MAX_PROBE_T` (0.25 mm). The columns where the normal
     turns fast come on top (:func:`_probe_t`).

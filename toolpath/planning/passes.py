@@ -159,12 +159,6 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _frame_merge(a: PassFrame, b: PassFrame, new_at: NDArray[np.int64]) -> PassFrame:
-    """Frames ``a`` and ``b`` merged (:func:`_merge`)."""
-    return PassFrame(**{f.name: _merge(getattr(a, f.name), getattr(b, f.name), new_at)
-                        for f in fields(a)})
-
-
 def _merge(old: NDArray[np.float64], new: NDArray[np.float64], new_at: NDArray[np.int64]
            ) -> NDArray[np.float64]:
     """``new``'s rows at the (increasing) rows ``new_at`` of the result, ``old``'s between.
@@ -172,11 +166,22 @@ def _merge(old: NDArray[np.float64], new: NDArray[np.float64], new_at: NDArray[n
     In one compiled pass copying the runs of old rows whole: a few new rows among many
     cost about a copy (numpy's scatter of (n, 3) rows is four times slower).
     """
-    size = old.shape[0] + new.shape[0]
-    if new_at.size != new.shape[0] or (new_at.size and not (
+    _check_places(new_at, new.shape[0], old.shape[0] + new.shape[0])
+    return _merge_checked(old, new, new_at)
+
+
+def _check_places(new_at: NDArray[np.int64], n_new: int, size: int) -> None:
+    """``new_at``: ``n_new`` increasing rows among ``size``, or a ValueError."""
+    if new_at.size != n_new or (new_at.size and not (
             new_at[0] >= 0 and new_at[-1] < size and (np.diff(new_at) > 0).all())):
-        raise ValueError(f"{new.shape[0]} new rows at {new_at.size} increasing places "
+        raise ValueError(f"{n_new} new rows at {new_at.size} increasing places "
                          f"among {size} rows")
+
+
+def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
+                   new_at: NDArray[np.int64]) -> NDArray[np.float64]:
+    """:func:`_merge` of places already checked."""
+    size = old.shape[0] + new.shape[0]
     out = np.empty((size, *old.shape[1:]), dtype=old.dtype)
     width = int(np.prod(old.shape[1:]))  # (single values: rows of one)
     _merge_rows(np.ascontiguousarray(old).reshape(len(old), width),
@@ -459,11 +464,14 @@ def _merge_points(pts: PassPoints, new: PassPoints, new_at: NDArray[np.int64]
     The smoothing record and the cone count are ``new``'s (they hold the totals), the
     record's axes the merged ones.
     """
-    rows = {name: _merge(getattr(pts, name), getattr(new, name), new_at)
+    _check_places(new_at, len(new), len(pts) + len(new))
+    rows = {name: _merge_checked(getattr(pts, name), getattr(new, name), new_at)
             for name in _ROW_FIELDS}
+    frame = PassFrame(**{f.name: _merge_checked(getattr(pts.frame, f.name),
+                                                getattr(new.frame, f.name), new_at)
+                         for f in fields(pts.frame)})
     smoothing = None if new.smoothing is None else replace(new.smoothing, axes=rows["axes"])
-    return PassPoints(frame=_frame_merge(pts.frame, new.frame, new_at), smoothing=smoothing,
-                      cone_pushed=new.cone_pushed, **rows)
+    return PassPoints(frame=frame, smoothing=smoothing, cone_pushed=new.cone_pushed, **rows)
 
 
 def _take_points(pts: PassPoints, rows: NDArray[np.int64]) -> PassPoints:

@@ -117,7 +117,8 @@ class PlanningReport:
         Toolpath point the worst move arrives at.
     planned_chord_error_mm : float
         Largest cutter-to-surface gap the planner's own chord check estimates on any
-        cutting move it kept (the model through three points per move).
+        cutting move it kept (the gap model through three gaps per move, or a ball's
+        end slopes and one gap).
     min_clearance_mm : float
         Smallest distance from the cutter to any surface sample away from its contact
         (the global gouge check); ``inf`` beyond the check's horizon; negative is a gouge.

@@ -620,16 +620,14 @@ def ball_end_slopes(radius_mm: float, tips_mm: NDArray[np.float64], axes: NDArra
 def _ball_end_slopes(radius, tips, axes, normals, first, out):
     for j in numba.prange(first.size):
         i = first[j]
+        d_tip = tips[i + 1] - tips[i]
+        d_axis = axes[i + 1] - axes[i]
         for col in range(2):
-            end = i + col
-            along = 0.0
-            for k in range(3):
-                along += axes[end, k] * (axes[i + 1, k] - axes[i, k])
+            a, n = axes[i + col], normals[i + col]
+            along = a[0] * d_axis[0] + a[1] * d_axis[1] + a[2] * d_axis[2]
             slope = 0.0
             for k in range(3):
-                d_axis = axes[i + 1, k] - axes[i, k]
-                velocity = tips[i + 1, k] - tips[i, k] + radius * (d_axis - along * axes[end, k])
-                slope += velocity * normals[end, k]
+                slope += (d_tip[k] + radius * (d_axis[k] - along * a[k])) * n[k]
             out[j, col] = slope
 
 
