@@ -63,11 +63,16 @@ def test_samples_binned_by_cell_in_a_stable_order():
     empty_cells = np.setdiff1d(np.arange(cells.shape.prod()), cell_id)
     assert (cells.box[empty_cells, :3] == np.inf).all()
     assert (cells.box[empty_cells, 3:] == -np.inf).all()
+    # each column's lowest and highest occupied z index
+    column = ijk[:, 0] + cells.shape[0] * ijk[:, 1]
+    for col in range(cells.shape[0] * cells.shape[1]):
+        z = ijk[column == col, 2]
+        want = [z.min(), z.max()] if z.size else [1, 0]
+        np.testing.assert_array_equal(cells.column[col], want)
     empty = bin_samples(np.zeros((0, 3)), 3.0)
     tips = rng.normal(size=(4, 3))
-    near, far, _, _ = clearances(empty, empty, tips, np.tile([0.0, 0.0, 1.0], (4, 1)), None,
-                                 np.array([3.0, 9.0]), np.array([3.1, 5.5]), 3.0, 3.0, 18.0,
-                                 6.0)
+    near, far, _, _ = clearances(empty, tips, np.tile([0.0, 0.0, 1.0], (4, 1)), None, 3.0,
+                                 15.0, 3.1, 3.0, 3.0, 18.0, 6.0)
     assert np.isinf(near).all() and np.isinf(far).all()
 
 

@@ -10,16 +10,14 @@ curving towards the cutter side). The margin is its smaller eigenvalue
 
 **Global.** The surface is sampled on a grid no coarser than ``sample_mm`` in either
 direction; for every cutter location the samples near the cutter are found in a grid of
-cells (a ball of radius ``R + horizon`` around the corner-circle centre ``tip + r a``,
-which holds the whole cutting end, plus spheres along the flutes, each covering a slab of
-``3R`` of the shank) and the exact signed distance of the cutter solid
-(:meth:`~toolpath.planning.cutters.Cutter.signed_distance`) is taken at each, compiled
-(:mod:`.clearance_kernel`). The
-clearance of a location is the smallest value (negative: the depth of a gouge); values
-above ``horizon_mm`` are not resolved and reported as ``inf``. Samples closer than the
-cutter diameter to the location's own contact point are the contact itself; they are
-kept apart so the report can tell a curvature gouge near the contact from a collision with
-another part of the surface (the far clearance).
+cells (those within ``R + horizon`` of the axis from ``r`` to ``H - r`` above the tip: a
+capsule holding the whole cutter, :func:`query_capsule`) and the exact signed distance of
+the cutter solid (:meth:`~toolpath.planning.cutters.Cutter.signed_distance`) is taken at
+each, compiled (:mod:`.clearance_kernel`). The clearance of a location is the smallest
+value (negative: the depth of a gouge); values above ``horizon_mm`` are not resolved and
+reported as ``inf``. Samples closer than the cutter diameter to the location's own contact
+point are the contact itself; they are kept apart so the report can tell a curvature gouge
+near the contact from a collision with another part of the surface (the far clearance).
 """
 
 from __future__ import annotations
@@ -44,6 +42,7 @@ __all__ = [
     "SurfaceSamples",
     "global_clearance",
     "local_margin",
+    "query_capsule",
     "sample_surface",
 ]
 
@@ -135,15 +134,17 @@ class Clearance:
         return np.minimum(self.near_mm, self.far_mm)
 
 
-def _probes(cutter: Cutter, horizon_mm: float) -> tuple[NDArray[np.float64],
-                                                        NDArray[np.float64]]:
-    """Heights along the axis (from the tip) and radii of the query spheres."""
+def query_capsule(cutter: Cutter, horizon_mm: float, flutes: bool = True
+                  ) -> tuple[float, float, float]:
+    """The axis segment (``low, high`` mm up from the tip) and reach (mm) of the query.
+
+    Their capsule holds every point within ``horizon_mm`` of the cutter. The solid is the
+    points within ``r`` of the core cylinder ``rho <= R - r``, ``r <= z <= H - r``, so
+    within ``R`` of its axis segment; without ``flutes``, the cutting end only: the ball
+    round the corner circle's centre.
+    """
     big, r, h = cutter.radius_mm, cutter.corner_radius_mm, cutter.flute_length_mm
-    step = 3.0 * big
-    n_shank = int(np.ceil(max(h - r, 0.0) / step))
-    heights = np.r_[r, r + (np.arange(1, n_shank + 1) - 0.5) * step]
-    radii = np.r_[big, np.full(n_shank, np.hypot(big, 0.5 * step))] + horizon_mm
-    return heights, radii
+    return r, (max(h - r, r) if flutes else r), big + horizon_mm
 
 
 def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
@@ -166,12 +167,9 @@ def global_clearance(cutter: Cutter, tips_mm: NDArray[np.float64], axes: NDArray
     flutes : bool
         Check the whole flute length (default), not only the cutting end.
     """
-    heights, radii = _probes(cutter, horizon_mm)
-    if not flutes:
-        heights, radii = heights[:1], radii[:1]
+    low, high, reach = query_capsule(cutter, horizon_mm, flutes)
     near, far, near_i, far_i = clearances(
-        samples.cells(float(radii[0])), samples.cells(float(radii.max())), tips_mm, axes,
-        contacts_mm, heights, radii,
+        samples.cells(reach), tips_mm, axes, contacts_mm, low, high, reach,
         cutter.corner_radius_mm, cutter.radius_mm, cutter.flute_length_mm,
         2.0 * cutter.radius_mm)
     near = np.where(near > horizon_mm, np.inf, near)
