@@ -282,6 +282,37 @@ def _clip(start, step, lo, hi, u0, u1):
 
 
 @numba.njit(cache=True, inline="always")
+def _box_distance(p0, p1, p2, d0, d1, d2, u, box, cid):
+    """Distance from ``p + u d`` to cell ``cid``'s box, and its derivative in ``u``."""
+    e0 = p0 + u * d0
+    e1 = p1 + u * d1
+    e2 = p2 + u * d2
+    e0 -= min(max(e0, box[cid, 0]), box[cid, 3])
+    e1 -= min(max(e1, box[cid, 1]), box[cid, 4])
+    e2 -= min(max(e2, box[cid, 2]), box[cid, 5])
+    size = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+    if size == 0.0:
+        return 0.0, 0.0
+    return size, (e0 * d0 + e1 * d1 + e2 * d2) / size
+
+
+@numba.njit(cache=True, inline="always")
+def _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box, cid):
+    """A lower bound of the distance from cell ``cid``'s box to ``p + u d``, ``w0 <= u <= w1``.
+
+    The distance to a convex set is convex along a line and lies above its tangents: the
+    tangents at both ends meet at the bound (an end itself where its slope points inwards).
+    """
+    f0, g0 = _box_distance(p0, p1, p2, d0, d1, d2, w0, box, cid)
+    if g0 >= 0.0:
+        return f0
+    f1, g1 = _box_distance(p0, p1, p2, d0, d1, d2, w1, box, cid)
+    if g1 <= 0.0:
+        return f1
+    return f0 + g0 * ((f1 - f0 + g0 * w0 - g1 * w1) / (g0 - g1) - w0)
+
+
+@numba.njit(cache=True, inline="always")
 def _index_range(x0, x1, pad, origin, cell, n):
     """The cells ``lo .. hi - 1`` (within ``0 .. n``) meeting ``[x0, x1]`` widened by ``pad``.
 
@@ -342,7 +373,8 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
                                        w1)
                         w0, w1 = _clip(p2, d2, box[cid, 2] - reach, box[cid, 5] + reach, w0,
                                        w1)
-                        if w0 > w1:
+                        if w0 > w1 or _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box,
+                                                  cid) > reach:
                             continue
                         for j in range(cell_start[cid], cell_start[cid + 1]):
                             e0 = points[j, 0] - tips[i, 0]

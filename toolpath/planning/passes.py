@@ -688,10 +688,11 @@ def reach_height(opts: FinishingOptions, normals: NDArray[np.float64]) -> NDArra
 
 #: The reach boundary is found to this share of the distance (in ``t``) between the
 #: reachable and the unreachable point it lies between, or where ``n . a`` is within
-#: :data:`REACH_HEIGHT_TOL` above its limit (1e-12 rad of the normal's turn: far under a
-#: nanometre along any surface the planner takes).
+#: :data:`REACH_HEIGHT_TOL` above its limit: 1e-9 rad of the normal's turn, under a
+#: nanometre along any surface curving with a radius under a metre (and round-off, some
+#: 1e-15 of ``n . a``, stalls the secant well above 1e-12: bisection would then take over).
 REACH_T_SHARE = 2.0 ** -40
-REACH_HEIGHT_TOL = 1e-12
+REACH_HEIGHT_TOL = 1e-9
 
 
 def _reach_boundary(height: Callable[[NDArray[np.float64], NDArray[np.int64]],
