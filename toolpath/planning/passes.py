@@ -183,10 +183,12 @@ def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
     """:func:`_merge` of places already checked."""
     size = old.shape[0] + new.shape[0]
     out = np.empty((size, *old.shape[1:]), dtype=old.dtype)
-    width = int(np.prod(old.shape[1:]))  # (single values: rows of one)
-    _merge_rows(np.ascontiguousarray(old).reshape(len(old), width),
-                np.ascontiguousarray(new, dtype=old.dtype).reshape(len(new), width),
-                np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(size, width))
+    width = 1
+    for extent in old.shape[1:]:  # (single values: rows of one)
+        width *= extent
+    _merge_rows(np.ascontiguousarray(old).reshape(-1),
+                np.ascontiguousarray(new, dtype=old.dtype).reshape(-1),
+                np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(-1), width)
     return out
 
 
@@ -195,21 +197,22 @@ MERGE_BLOCK = 16384
 
 
 @numba.njit(cache=True, parallel=True)
-def _merge_rows(old, new, new_at, out):
-    n_blocks = (out.shape[0] + MERGE_BLOCK - 1) // MERGE_BLOCK
-    for block in numba.prange(n_blocks):
+def _merge_rows(old, new, new_at, out, width):
+    """The rows of ``width`` values of flat arrays: runs of old rows copied whole."""
+    size = out.size // width
+    for block in numba.prange((size + MERGE_BLOCK - 1) // MERGE_BLOCK):
         lo = block * MERGE_BLOCK
-        hi = min(lo + MERGE_BLOCK, out.shape[0])
+        hi = min(lo + MERGE_BLOCK, size)
         j = np.searchsorted(new_at, lo)  # the first new row at or after lo
         row, j_old = lo, lo - j
         while j < new_at.size and new_at[j] < hi:
             run = new_at[j] - row  # old rows before new row j
-            out[row:row + run] = old[j_old:j_old + run]
+            out[row * width:(row + run) * width] = old[j_old * width:(j_old + run) * width]
             j_old += run
-            out[new_at[j]] = new[j]
+            out[new_at[j] * width:(new_at[j] + 1) * width] = new[j * width:(j + 1) * width]
             row = new_at[j] + 1
             j += 1
-        out[row:hi] = old[j_old:j_old + hi - row]
+        out[row * width:hi * width] = old[j_old * width:(j_old + hi - row) * width]
 
 
 def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
