@@ -188,12 +188,14 @@ class _Builder:
         self.pts: list[NDArray[np.float64]] = []
         self.axes: list[NDArray[np.float64]] = []
         self.kinds: list[int] = []
+        self.first_kinds: list[int] = []
         self.passes: list[int] = []
         self.feed, self.plunge = feed, plunge
         self.last: NDArray[np.float64] | None = None
 
     def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
-            pass_index: int = -1) -> None:
+            pass_index: int = -1, first_kind: MoveKind | None = None) -> None:
+        """A block of points of one ``kind`` (its first point ``first_kind``, if given)."""
         if pts.ndim == 1:
             pts = pts[None, :]
         if not len(pts):
@@ -203,14 +205,20 @@ class _Builder:
         self.axes.append(axes if axes.shape == pts.shape else
                          np.broadcast_to(axes.reshape(-1, 3), pts.shape))
         self.kinds.append(int(kind))
+        self.first_kinds.append(int(kind if first_kind is None else first_kind))
         self.passes.append(pass_index)
         self.last = pts[-1]
+
+    def add_run(self, run: Run, first_kind: MoveKind) -> None:
+        """A run's points: the first one ``first_kind`` (how the cutter gets there), cuts."""
+        self.add(run.tips, run.axes, MoveKind.CUT, run.pass_index, first_kind)
 
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         pts = np.concatenate(self.pts)
         axes = np.concatenate(self.axes)
-        counts = [len(p) for p in self.pts]
+        counts = np.array([len(p) for p in self.pts], dtype=np.int64)
         kinds = np.repeat(np.array(self.kinds, dtype=np.uint8), counts)
+        kinds[np.cumsum(counts) - counts] = self.first_kinds
         passes = np.repeat(np.array(self.passes, dtype=np.int32), counts)
         kept = np.empty(len(pts), dtype=np.int64)
         m = _distinct_rows(pts, axes, kept)
@@ -332,11 +340,9 @@ def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], .
             out.add(first, a0, MoveKind.PLUNGE)
             if len(lead) > 1:
                 out.add(lead[1:], a0, MoveKind.LEAD_IN)
-            out.add(run.tips[:1], run.axes[:1], MoveKind.LEAD_IN if len(lead) else
-                    MoveKind.PLUNGE, run.pass_index)
-            out.add(run.tips[1:], run.axes[1:], MoveKind.CUT, run.pass_index)
+            out.add_run(run, MoveKind.LEAD_IN if len(lead) else MoveKind.PLUNGE)
         elif run.joined:
-            out.add(run.tips, run.axes, MoveKind.CUT, run.pass_index)
+            out.add_run(run, MoveKind.CUT)
         else:
             # a direct link keeps the extensions past open edges: without them the side
             # of a flat or bull-nose cutter that leaves the cusps stops short of the edge
@@ -344,10 +350,9 @@ def link_runs(runs: list[Run], opt: LinkOptions) -> tuple[NDArray[np.float64], .
             before = _extension_before(run, opt)
             if len(before):
                 out.add(before, run.axes[0], MoveKind.LINK)
-                out.add(run.tips[:1], run.axes[:1], MoveKind.LEAD_IN, run.pass_index)
+                out.add_run(run, MoveKind.LEAD_IN)
             else:
-                out.add(run.tips[:1], run.axes[:1], MoveKind.LINK, run.pass_index)
-            out.add(run.tips[1:], run.axes[1:], MoveKind.CUT, run.pass_index)
+                out.add_run(run, MoveKind.LINK)
         prev = run
     if prev is not None:
         dep = _departure(prev, opt)
