@@ -341,10 +341,11 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
     for block in numba.prange((tips.shape[0] + BLOCK - 1) // BLOCK):
         for i in range(block * BLOCK, min((block + 1) * BLOCK, tips.shape[0])):
             a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
-            p0 = tips[i, 0] + low * a0
-            p1 = tips[i, 1] + low * a1
-            p2 = tips[i, 2] + low * a2
+            t0, t1, t2 = tips[i, 0], tips[i, 1], tips[i, 2]
+            k0, k1, k2 = contacts[i, 0], contacts[i, 1], contacts[i, 2]
+            p0, p1, p2 = t0 + low * a0, t1 + low * a1, t2 + low * a2
             d0, d1, d2 = span * a0, span * a1, span * a2
+            near_mm, far_mm, near_at, far_at = near[i], far[i], near_i[i], far_i[i]
             y_lo, y_hi = _index_range(p1, p1 + d1, reach, origin[1], cell, ny)
             for cy in range(y_lo, y_hi):
                 y0 = origin[1] + cy * cell
@@ -377,27 +378,19 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
                                                   cid) > reach:
                             continue
                         for j in range(cell_start[cid], cell_start[cid + 1]):
-                            e0 = points[j, 0] - tips[i, 0]
-                            e1 = points[j, 1] - tips[i, 1]
-                            e2 = points[j, 2] - tips[i, 2]
+                            e0, e1, e2 = points[j, 0] - t0, points[j, 1] - t1, points[j, 2] - t2
                             z = e0 * a0 + e1 * a1 + e2 * a2
                             zc = min(max(z, low), high)
                             if e0 * e0 + e1 * e1 + e2 * e2 - (2.0 * z - zc) * zc > reach2:
                                 continue  # outside the capsule
                             dist = cutter_distance(e0, e1, e2, a0, a1, a2, r, big, h)
-                            is_near = True
-                            if has_contacts:
-                                q0 = points[j, 0] - contacts[i, 0]
-                                q1 = points[j, 1] - contacts[i, 1]
-                                q2 = points[j, 2] - contacts[i, 2]
-                                is_near = q0 * q0 + q1 * q1 + q2 * q2 <= near2
-                            if is_near:
-                                if dist < near[i]:
-                                    near[i] = dist
-                                    near_i[i] = index[j]
-                            elif dist < far[i]:
-                                far[i] = dist
-                                far_i[i] = index[j]
+                            q0, q1, q2 = points[j, 0] - k0, points[j, 1] - k1, points[j, 2] - k2
+                            if not has_contacts or q0 * q0 + q1 * q1 + q2 * q2 <= near2:
+                                if dist < near_mm:
+                                    near_mm, near_at = dist, index[j]
+                            elif dist < far_mm:
+                                far_mm, far_at = dist, index[j]
+            near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
 
 
 @numba.njit(cache=True, parallel=True)
