@@ -442,18 +442,22 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     extend_last = (not closed) & ((t_last == 0.0) | (t_last == 1.0))
     pass_index = pts.pid[first]
     out: list[Run] = []
-    for j, i in enumerate(order.tolist()):
-        if tails[i] - heads[i] == sizes[i] - 1:  # consecutive rows: a view
-            a, b = int(first[j]), int(last[j])
+    # (Python values for the loop: numpy scalars cost more than the run's own views)
+    consecutive = (tails - heads == sizes - 1).tolist()
+    ends = zip(order.tolist(), first.tolist(), last.tolist(), pass_index.tolist(),
+               np.broadcast_to(extend_first, first.shape).tolist(),
+               np.broadcast_to(extend_last, last.shape).tolist(), strict=True)
+    for j, (i, a, b, pid, extend_a, extend_b) in enumerate(ends):
+        if consecutive[i]:  # consecutive rows: a view
             rows: slice | NDArray[np.int64] = (slice(a, b + 1) if a <= b else
                                                slice(a, b - 1 if b > 0 else None, -1))
         else:  # two stretches joined across a closed section's seam
             rows = runs[i][::-1] if back[i] else runs[i]
         out.append(Run(
-            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pass_index[j]),
+            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=pid,
             normal_start=normal_first[j], normal_end=normal_last[j],
             feed_start=feed_first[j], feed_end=feed_last[j],
-            extend_start=bool(extend_first[j]), extend_end=bool(extend_last[j])))
+            extend_start=extend_a, extend_end=extend_b))
     # how consecutive runs link
     step = pts.tips[first[1:]] - pts.tips[last[:-1]]
     gaps_mm = np.sqrt(np.einsum("ij,ij->i", step, step))

@@ -271,18 +271,23 @@ def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.f
     return pts[::-1] if lead_in else pts
 
 
+#: No points (read-only: shared by every run without an extension).
+_NO_POINTS = np.zeros((0, 3))
+_NO_POINTS.setflags(write=False)
+
+
 def _extension_before(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
     """The extension's start past an open edge before the run (0 or 1 points)."""
     if run.extend_start and opt.extend_mm > 0.0:
         return (run.tips[0] - opt.extend_mm * run.feed_start)[None, :]
-    return np.zeros((0, 3))
+    return _NO_POINTS
 
 
 def _extension_after(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
     """The extension's end past an open edge after the run (0 or 1 points)."""
     if run.extend_end and opt.extend_mm > 0.0:
         return (run.tips[-1] + opt.extend_mm * run.feed_end)[None, :]
-    return np.zeros((0, 3))
+    return _NO_POINTS
 
 
 def _approach(run: Run, opt: LinkOptions) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
