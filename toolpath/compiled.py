@@ -9,7 +9,7 @@ arrays. Here the same mathematics runs point by point in machine code (numba):
   states them (``W_t = W G_t``, ``W_tt = W (G_tt + G_t²)``, ``W_s = e^G (Z_0' + Z_0 G_s)``,
   ``W_ts = W_s G_t + W G_ts``, ``W_ss = e^G (Z_0'' + 2 Z_0' G_s + Z_0 (G_ss + G_s²))``),
   ``G`` and ``X_0`` from their per-patch power forms (:mod:`toolpath.tensor_spline`), then
-  a rigid placement ``R X + d``;
+  a rigid placement ``R X + d`` (folded into the last step: ``M W + off``);
 * :func:`project` : the damped Newton projection of
   :func:`toolpath.planning.local.project_to_surface`, step for step (same Hessian, same
   fall-back, clipping, halvings and convergence rule), one point at a time.
@@ -23,6 +23,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numba
 import numpy as np
@@ -76,9 +77,15 @@ class StreamlineKernel:
             self, rotation=np.ascontiguousarray(q @ self.rotation),
             translation_mm=np.ascontiguousarray(q @ self.translation_mm + translation_mm))
 
+    @cached_property
+    def _output(self) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        """``M = R T^-1`` and ``off = d - R c``: ``R (-c + T^-1 W) + d = M W + off``."""
+        return (np.ascontiguousarray(self.rotation @ self.T_inv),
+                np.ascontiguousarray(self.translation_mm - self.rotation @ self.c))
+
     def _args(self) -> tuple:
         return (self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly,
-                self.T, self.T_inv, self.c, self.rotation, self.translation_mm)
+                self.T, self.c, *self._output)
 
     def partials(self, t: NDArray[np.float64], s: NDArray[np.float64],
                  orders: tuple[tuple[int, int], ...]
@@ -169,7 +176,7 @@ def n_partials(order):
 
 
 @numba.njit(cache=True, inline="always")
-def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out, i,
+def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out, i,
                     mu, mv, g, z, w):
     """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``."""
     lt, u = _locate(bt, t)
@@ -204,14 +211,15 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
     _monomials(vx, mv)
     # z[a]: T X_0^(a)(s) (+ T c for a = 0)
     for a in range(order + 1):
+        x00 = c[0] if a == 0 else 0.0
+        x01 = c[1] if a == 0 else 0.0
+        x02 = c[2] if a == 0 else 0.0
+        for p in range(4):
+            x00 += mv[a, p] * x0p[lx, p, 0]
+            x01 += mv[a, p] * x0p[lx, p, 1]
+            x02 += mv[a, p] * x0p[lx, p, 2]
         for k in range(3):
-            acc = 0.0
-            for j in range(3):
-                x0 = c[j] if a == 0 else 0.0
-                for p in range(4):
-                    x0 += mv[a, p] * x0p[lx, p, j]
-                acc += T[k, j] * x0
-            z[a, k] = acc
+            z[a, k] = T[k, 0] * x00 + T[k, 1] * x01 + T[k, 2] * x02
     for k in range(3):
         e = math.exp(g[0, k])
         wk = z[0, k] * e
@@ -225,17 +233,10 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, ou
                 w[4, k] = ws * g[1, k] + wk * g[4, k]
                 w[5, k] = e * (z[2, k] + 2.0 * z[1, k] * g[2, k]
                                + z[0, k] * (g[5, k] + g[2, k] * g[2, k]))
-    for j in range(n_partials(order)):
+    for j in range(n_partials(order)):  # placed: M W + off (off for X alone)
         for k in range(3):
-            acc = 0.0
-            for m in range(3):
-                xm = 0.0
-                for n in range(3):
-                    xm += T_inv[m, n] * w[j, n]
-                if j == 0:
-                    xm -= c[m]
-                acc += R[k, m] * xm
-            out[j, i, k] = acc + (d[k] if j == 0 else 0.0)
+            acc = M[k, 0] * w[j, 0] + M[k, 1] * w[j, 1] + M[k, 2] * w[j, 2]
+            out[j, i, k] = acc + off[k] if j == 0 else acc
 
 
 #: :func:`_point_partials` as a call, not inlined: the Newton search calls it from five
@@ -254,7 +255,7 @@ BLOCK = 1024
 
 
 @numba.njit(cache=True, parallel=True)
-def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order, out):
+def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out):
     """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``."""
     for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))
@@ -263,7 +264,7 @@ def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order
         z = np.empty((3, 3))
         w = np.empty((6, 3))
         for i in range(block * BLOCK, min((block + 1) * BLOCK, t.size)):
-            _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, order,
+            _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, c, M, off, order,
                             out, i, mu, mv, g, z, w)
 
 
@@ -275,8 +276,8 @@ def _wrap(t, closed):
 
 
 @numba.njit(cache=True, parallel=True)
-def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R,
-            d, closed, iterations, extra, converged_mm, orientation, t, s, dist):
+def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, c, M,
+            off, closed, iterations, extra, converged_mm, orientation, t, s, dist):
     """Newton projection of points from their start parameters, in place; their distances.
 
     With ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
@@ -320,7 +321,7 @@ def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, 
                 else:
                     q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
                     t1[0], s1[0] = t[j, 0], s[j, 0]
-                _project_one(0, q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+                _project_one(0, q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                              closed, iterations, extra, converged_mm, orientation, d1, mu, mv,
                              g, z, w, fr, pt)
                 t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - lift
@@ -389,7 +390,7 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
 
 
 @numba.njit(cache=True, inline="always")
-def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed, iterations,
+def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
                  extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
     """:func:`project` of point ``i`` (the rest: scratch arrays)."""
     ti, si = t[i], s[i]
@@ -398,7 +399,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 2, fr, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 2, fr, 0,
                      mu, mv, g, z, w)
         d0 = fr[0, 0, 0] - p[i, 0]
         d1 = fr[0, 0, 1] - p[i, 1]
@@ -438,7 +439,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         # distance at the foot needs no other evaluation
         tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
         for _ in range(8):
-            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                          tangents, pt, 0, mu, mv, g, z, w)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
@@ -451,7 +452,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
             new_t = _wrap(ti - step_t, closed)
             new_s = min(max(si - step_s, 0.0), 1.0)
         if not closer:  # still farther after 8 halvings: the last step's point
-            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d,
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                          tangents, pt, 0, mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
@@ -460,7 +461,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         ti, si = new_t, new_s
         have_tangents = tangents == 1
     if iterations + extra == 0:  # no step: the foot is the start
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 0, pt, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 0, pt, 0,
                      mu, mv, g, z, w)
     t[i], s[i] = ti, si
     if orientation == 0.0:  # pt holds the last foot
@@ -468,6 +469,6 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, closed
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
     if not have_tangents:
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, T_inv, c, R, d, 1, pt, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 1, pt, 0,
                      mu, mv, g, z, w)
     dist[i] = _taylor_signed(p, i, pt, 0.0, 0.0, orientation)  # at the foot itself
