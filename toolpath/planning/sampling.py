@@ -179,10 +179,12 @@ def pass_densities(t_grid: NDArray[np.float64], s_grid: NDArray[np.float64],
 @numba.njit(cache=True)
 def _pass_densities(t_grid, s_grid, density, s_start, s_end, out):
     for p in range(out.shape[0]):
+        level = s_start[p] == s_end[p]  # (a pass at one s: one segment for all of it)
         for i in range(t_grid.size):
-            ss = s_start[p] + (s_end[p] - s_start[p]) * t_grid[i]
-            j = _segment(s_grid, ss)  # s_grid[j] <= ss < s_grid[j + 1], clamped
-            w = (ss - s_grid[j]) / (s_grid[j + 1] - s_grid[j])
+            if i == 0 or not level:
+                ss = s_start[p] + (s_end[p] - s_start[p]) * t_grid[i]
+                j = _segment(s_grid, ss)  # s_grid[j] <= ss < s_grid[j + 1], clamped
+                w = (ss - s_grid[j]) / (s_grid[j + 1] - s_grid[j])
             out[p, i] = (1.0 - w) * density[i, j] + w * density[i, j + 1]
 
 
