@@ -119,9 +119,9 @@ def test_far_side_gets_few_points_and_the_same_cut(monkeypatch):
     surf = CylinderPatch(radius_mm=12.0, angle_deg=(0.0, 360.0), length_mm=(0.0, 4.0))
     kw = dict(scallop_mm=0.02, chord_tol_mm=0.01, probe_t=257)  # (the same probe grid)
     evaluated = []  # points on the passes, reachable or not
-    split_reach = finishing.split_reach
-    monkeypatch.setattr(finishing, "split_reach", lambda *a: evaluated.append(len(a[-1]))
-                        or split_reach(*a))
+    evaluate_points = finishing.evaluate_points
+    monkeypatch.setattr(finishing, "evaluate_points",
+                        lambda *a: evaluated.append(len(a[-2])) or evaluate_points(*a))
     _, rep = plan_finishing(surf, "ball:6", **kw)
     monkeypatch.setattr(finishing, "_next_to", lambda mask, closed: np.ones_like(mask))
     _, rep_dense = plan_finishing(surf, "ball:6", **kw)

@@ -278,7 +278,7 @@ def test_reach_boundary_where_the_secant_stalls(shape):
     h = height(t)
     assert h[0] >= 0.0
     assert root - t[0] <= 2.0 ** -40 * 0.2 + 1e-15 or h[0] <= passes.REACH_HEIGHT_TOL
-    # (a reachable end on the boundary is the boundary: split_reach adds no point there)
+    # (a reachable end on the boundary is the boundary: reach_split adds no point there)
     assert (t[0] == good[0]) == (shape == "on the boundary")
 
 

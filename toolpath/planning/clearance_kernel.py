@@ -74,8 +74,9 @@ class SampleCells:
 def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     """Bin samples in cells of edge ``reach_mm`` (the largest query radius).
 
-    A query sphere then overlaps at most 3 x 3 x 3 cells (finer cells cost more in cell
-    visits than they save in samples on a blade's thin sheet of samples).
+    A query sphere then overlaps at most 3 x 3 x 3 cells, a capsule a few across its axis
+    (finer cells, or cells a fifth larger, cost more in cell visits than they save in
+    samples on a blade's thin sheet of samples).
     """
     points = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
     if not len(points):  # nothing to find: one empty cell

@@ -50,8 +50,8 @@ from .passes import (
     final_axes,
     frame_take,
     reach_height,
+    reach_split,
     refine_chords,
-    split_reach,
 )
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
@@ -584,11 +584,11 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     t, pid = _initial_points(layout, t_probe, s_probe, probe["density"])
     if t.size > opts.max_points:
         raise too_many_points(opts, t.size)
-    pts = evaluate_points(surface, cutter, opts, res, layout, t, pid)
     if opts.axis_mode is AxisMode.FIXED:
-        pts, keep = split_reach(surface, cutter, opts, res, layout, pts)
+        t, pid, keep = reach_split(surface, opts, layout, t, pid)
     else:
-        keep = np.ones(len(pts), dtype=bool)
+        keep = np.ones(t.size, dtype=bool)
+    pts = evaluate_points(surface, cutter, opts, res, layout, t, pid)
     faces_away = ~keep
 
     clock.stage("chords")

@@ -26,7 +26,8 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
 
-__all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near", "wrap_t"]
+__all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near",
+           "tangent_frame", "wrap_t"]
 
 
 @dataclass(frozen=True, eq=False)
@@ -73,13 +74,30 @@ def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFr
     The partials from the surface (compiled where it has a kernel), the frame from them in
     one compiled pass (:func:`_frame_rows`, the formulas of the module docstring).
     """
+    return _frame(surface, t, s, FRAME_ORDERS)
+
+
+def tangent_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFrame:
+    """:func:`pass_frame` from the first partials only: the curvatures are NaN.
+
+    Point, normal, ``e1``, ``e2`` and the speeds are the same numbers as
+    :func:`pass_frame`'s.
+    """
+    return _frame(surface, t, s, FRAME_ORDERS[:3])
+
+
+def _frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike,
+           orders: tuple[tuple[int, int], ...]) -> PassFrame:
     tt, ss, _ = parameter_pairs(t, s, grid=False)
-    parts = surface._partials_many(tt, ss, FRAME_ORDERS)
+    parts = surface._partials_many(tt, ss, orders)
     n = tt.size
     vectors = np.empty((3, n, 3))  # normal, e1, e2
     scalars = np.empty((6, n))  # speed_t, speed_s, s11, s12, s22, kg
-    _frame_rows(*(np.ascontiguousarray(parts[o], dtype=float) for o in FRAME_ORDERS),
-                float(surface.orientation), vectors, scalars)
+    zeros = np.zeros((n, 3))  # (second partials not asked for)
+    _frame_rows(*(np.ascontiguousarray(parts[o], dtype=float) if o in parts else zeros
+                  for o in FRAME_ORDERS), float(surface.orientation), vectors, scalars)
+    if len(orders) < len(FRAME_ORDERS):
+        scalars[2:] = np.nan
     return PassFrame(point=parts[0, 0], normal=vectors[0], e1=vectors[1], e2=vectors[2],
                      speed_t=scalars[0], speed_s=scalars[1], s11=scalars[2], s12=scalars[3],
                      s22=scalars[4], kg=scalars[5])

@@ -23,7 +23,7 @@ from machines.kinematics import forward, solve_inverse
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .errors import too_many_points
-from .local import PassFrame, pass_frame
+from .local import PassFrame, pass_frame, tangent_frame
 from .options import AxisMode, FinishingOptions
 from .sampling import (
     CHORD_FRACTIONS,
@@ -53,7 +53,7 @@ __all__ = [
     "insert_points",
     "reach_height",
     "refine_chords",
-    "split_reach",
+    "reach_split",
     "with_tips",
 ]
 
@@ -650,34 +650,34 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     return (with_rate_record(cutter, pts) if len(pts) > n_start else pts), keep, worst
 
 
-def split_reach(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-                res: dict[str, float], layout: PassLayout, pts: PassPoints
-                ) -> tuple[PassPoints, NDArray[np.bool_]]:
-    """3-axis: mark contacts the fixed axis can reach and add the exact boundary points.
+def reach_split(surface: ParametricSurface, opts: FinishingOptions, layout: PassLayout,
+                t: NDArray[np.float64], pid: NDArray[np.int64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.bool_]]:
+    """3-axis: the contacts ``(t, pid)`` and their reach boundaries; which are reachable.
 
     A contact is reachable when ``n . a >= sin(reach_margin_deg)``: the cutter touches it
     with its cutting end, not its shank. Between a reachable and an unreachable neighbour
     the boundary ``t`` (to :data:`REACH_T_SHARE` of their distance) is added as a
-    reachable point (:func:`_reach_boundary`).
+    reachable point (:func:`_reach_boundary`). Normals are all it takes (the tangent
+    frame): the contacts are evaluated once, afterwards, boundaries included.
     """
     def height(t: NDArray[np.float64], pid: NDArray[np.int64]) -> NDArray[np.float64]:
         return reach_height(opts, surface.normal(t, layout.s_of(t, pid)))
 
-    up = reach_height(opts, pts.frame.normal)
+    up = reach_height(opts, tangent_frame(surface, t, layout.s_of(t, pid)).normal)
     ok = up >= 0.0
-    edge = np.flatnonzero(pts.same_pass & (ok[:-1] != ok[1:]))
-    if edge.size:
-        good = np.where(ok[edge], edge, edge + 1)
-        bad = np.where(ok[edge], edge + 1, edge)
-        pid = pts.pid[edge]
-        t = _reach_boundary(lambda t, rows: height(t, pid[rows]), pts.t[good], pts.t[bad],
-                            up[good], up[bad])
-        moved = t != pts.t[good]  # (a reachable point on the boundary is the boundary)
-        if moved.any():
-            pts, where_new, _ = insert_points(surface, cutter, opts, res, layout, pts,
-                                              t[moved], pid[moved])
-            ok = _kept_with_new(ok, where_new)
-    return with_rate_record(cutter, pts), ok
+    edge = np.flatnonzero((pid[1:] == pid[:-1]) & (ok[:-1] != ok[1:]))
+    if not edge.size:
+        return t, pid, ok
+    good = np.where(ok[edge], edge, edge + 1)
+    bad = np.where(ok[edge], edge + 1, edge)
+    edge_pid = pid[edge]
+    boundary = _reach_boundary(lambda t, rows: height(t, edge_pid[rows]), t[good], t[bad],
+                               up[good], up[bad])
+    moved = boundary != t[good]  # (a reachable point on the boundary is the boundary)
+    at = edge[moved] + 1  # strictly between the edge's two points
+    return (np.insert(t, at, boundary[moved]), np.insert(pid, at, edge_pid[moved]),
+            np.insert(ok, at, True))
 
 
 def reach_height(opts: FinishingOptions, normals: NDArray[np.float64]) -> NDArray[np.float64]:
