@@ -31,7 +31,7 @@ from machines.errors import UnreachableOrientationError
 
 from ..errors import InvalidParameterError
 from ..joint_refine import JOINT_CHECKED, machine_key
-from ..path import Toolpath
+from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import gouge_depth_mm, local_depth_mm
 from .checks import check_links, gouge_stage, machine_stage
@@ -423,7 +423,9 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     """Runs in cutting order with their lead data and how they link.
 
     By pass; a pass cut backwards (``direction < 0``) takes its runs last to first, each
-    reversed. A run of consecutive rows is handed over as a view.
+    reversed. A run of consecutive rows is handed over as a view; runs that follow on one
+    another (joined, or linked directly with no extension between) as one chain, with a
+    kind and pass per point (:class:`~toolpath.planning.linking.Run`).
     """
     heads = np.array([run[0] for run in runs], dtype=np.int64)
     tails = np.array([run[-1] for run in runs], dtype=np.int64)
@@ -433,38 +435,72 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     order = np.lexsort((np.where(back, -k, k), pts.pid[heads]))
     first = np.where(back, tails, heads)[order]
     last = np.where(back, heads, tails)[order]
+    consecutive = (tails - heads == sizes - 1)[order]
     closed = bool(surface.closed_t)
-    normal_first, normal_last = pts.frame.normal[first], pts.frame.normal[last]
-    feed_first = pts.frame.e1[first] * pts.direction[first, None]
-    feed_last = pts.frame.e1[last] * pts.direction[last, None]
     t_first, t_last = pts.t[first], pts.t[last]
     extend_first = (not closed) & ((t_first == 0.0) | (t_first == 1.0))
     extend_last = (not closed) & ((t_last == 0.0) | (t_last == 1.0))
     pass_index = pts.pid[first]
+    joined, direct = _run_links(surface, cutter, opts, res, pts, first, last, pass_index)
+    # a run follows on in the chain of the one before: both consecutive rows, and joined
+    # or linked directly with no extension past an edge between them
+    extends = res["extend_mm"] > 0.0
+    follows = np.r_[False, consecutive[1:] & consecutive[:-1] & (joined[1:] | (
+        direct[1:] & ~(extends & (extend_last[:-1] | extend_first[1:]))))]
+    chain_start = np.flatnonzero(~follows)
+    chain_end = np.r_[chain_start[1:], len(runs)]  # (exclusive)
+    # the rows of every consecutive run in cutting order, end to end
+    length = np.abs(last - first) + 1
+    offset = np.cumsum(length) - length
+    step = np.where(last >= first, 1, -1)
+    rows_all = (np.repeat(first - step * offset, length)
+                + np.repeat(step, length) * np.arange(int(length.sum())))
+    normal_first, normal_last = pts.frame.normal[first], pts.frame.normal[last]
+    feed_first = pts.frame.e1[first] * pts.direction[first, None]
+    feed_last = pts.frame.e1[last] * pts.direction[last, None]
     out: list[Run] = []
-    # (Python values for the loop: numpy scalars cost more than the run's own views)
-    consecutive = (tails - heads == sizes - 1).tolist()
-    ends = zip(order.tolist(), first.tolist(), last.tolist(), pass_index.tolist(),
-               np.broadcast_to(extend_first, first.shape).tolist(),
-               np.broadcast_to(extend_last, last.shape).tolist(), strict=True)
-    for j, (i, a, b, pid, extend_a, extend_b) in enumerate(ends):
-        if consecutive[i]:  # consecutive rows: a view
-            rows: slice | NDArray[np.int64] = (slice(a, b + 1) if a <= b else
-                                               slice(a, b - 1 if b > 0 else None, -1))
+    for j, end in zip(chain_start.tolist(), chain_end.tolist(), strict=True):
+        i = int(order[j])
+        point_kinds = point_passes = None
+        if end - j > 1:  # a chain: its runs' rows end to end
+            rows: slice | NDArray[np.int64] = rows_all[offset[j]:offset[end - 1]
+                                                      + length[end - 1]]
+            point_kinds = np.full(rows.size, MoveKind.CUT, dtype=np.uint8)
+            point_kinds[offset[j + 1:end] - offset[j]] = np.where(
+                joined[j + 1:end], MoveKind.CUT, MoveKind.LINK)
+            point_passes = np.repeat(pass_index[j:end], length[j:end])
+        elif consecutive[j]:  # consecutive rows: a view
+            a, b = int(first[j]), int(last[j])
+            rows = slice(a, b + 1) if a <= b else slice(a, b - 1 if b > 0 else None, -1)
         else:  # two stretches joined across a closed section's seam
             rows = runs[i][::-1] if back[i] else runs[i]
         out.append(Run(
-            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=pid,
-            normal_start=normal_first[j], normal_end=normal_last[j],
-            feed_start=feed_first[j], feed_end=feed_last[j],
-            extend_start=extend_a, extend_end=extend_b))
-    # how consecutive runs link
+            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pass_index[j]),
+            normal_start=normal_first[j], normal_end=normal_last[end - 1],
+            feed_start=feed_first[j], feed_end=feed_last[end - 1],
+            extend_start=bool(extend_first[j]), extend_end=bool(extend_last[end - 1]),
+            joined=bool(joined[j]), direct_link=bool(direct[j]), point_kinds=point_kinds,
+            point_passes=point_passes))
+    return out
+
+
+def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+               res: dict[str, float], pts: PassPoints, first: NDArray[np.int64],
+               last: NDArray[np.int64], pass_index: NDArray[np.int64]
+               ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+    """How each run links to the one before: ``joined`` (spiral), ``direct`` (a move).
+
+    A spiral's run starting where the one before ended, on the next pass, is joined; other
+    runs on another pass within ``link_max_mm`` link directly unless the cutter half-way
+    along the link would cut deeper than the chord tolerance.
+    """
+    joined = np.zeros(len(first), dtype=bool)
+    direct = np.zeros(len(first), dtype=bool)
     step = pts.tips[first[1:]] - pts.tips[last[:-1]]
     gaps_mm = np.sqrt(np.einsum("ij,ij->i", step, step))
     if opts.linking is Linking.SPIRAL:
-        for k in np.flatnonzero((gaps_mm < 1e-6) & (pass_index[1:] == pass_index[:-1] + 1)):
-            out[int(k) + 1].joined = True
-        return out
+        joined[1:] = (gaps_mm < 1e-6) & (pass_index[1:] == pass_index[:-1] + 1)
+        return joined, direct
     ks = np.flatnonzero((gaps_mm <= res["link_max_mm"])
                         & (pass_index[1:] != pass_index[:-1])) + 1
     if ks.size:
@@ -474,9 +510,8 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         gap = move_gaps(surface, cutter, pts.tips[a], pts.tips[b], pts.axes[a], pts.axes[b],
                         pts.t[a], pts.t[b], pts.s[a], pts.s[b], np.array([0.5]),
                         newton=3)[0][:, 0]
-        for k, ok in zip(ks, gap >= -res["chord_tol_mm"], strict=True):
-            out[int(k)].direct_link = bool(ok)
-    return out
+        direct[ks] = gap >= -res["chord_tol_mm"]
+    return joined, direct
 
 
 def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_mm: float,

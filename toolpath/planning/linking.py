@@ -147,6 +147,11 @@ class Run:
         The run starts where the previous one ended (spiral): no link move.
     direct_link : bool
         The previous run may link to this one by a straight ``LINK`` move.
+    point_kinds, point_passes : ndarray or None
+        A chain of runs that follow on one another (joined, or linked directly with no
+        extension between): each point's kind (``CUT``, ``LINK`` where a run begins; the
+        first point's is the linking's) and pass. ``None`` for a single run: cuts of
+        ``pass_index``.
     """
 
     tips: NDArray[np.float64]
@@ -160,6 +165,8 @@ class Run:
     extend_end: bool = False
     joined: bool = False
     direct_link: bool = False
+    point_kinds: NDArray[np.uint8] | None = None
+    point_passes: NDArray[np.int64] | None = None
 
 
 @dataclass(frozen=True)
@@ -192,6 +199,8 @@ class _Builder:
         self.passes: list[int] = []
         self.feed, self.plunge = feed, plunge
         self.last: NDArray[np.float64] | None = None
+        # blocks with a kind and pass per point: block -> (kinds, passes)
+        self.per_point: dict[int, tuple[NDArray[np.uint8], NDArray[np.int64] | None]] = {}
 
     def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
             pass_index: int = -1, first_kind: MoveKind | None = None) -> None:
@@ -211,15 +220,22 @@ class _Builder:
 
     def add_run(self, run: Run, first_kind: MoveKind) -> None:
         """A run's points: the first one ``first_kind`` (how the cutter gets there), cuts."""
+        if run.point_kinds is not None:  # a chain: its own kinds and passes
+            self.per_point[len(self.pts)] = (run.point_kinds, run.point_passes)
         self.add(run.tips, run.axes, MoveKind.CUT, run.pass_index, first_kind)
 
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         pts = np.concatenate(self.pts)
         axes = np.concatenate(self.axes)
         counts = np.array([len(p) for p in self.pts], dtype=np.int64)
+        starts = np.cumsum(counts) - counts
         kinds = np.repeat(np.array(self.kinds, dtype=np.uint8), counts)
-        kinds[np.cumsum(counts) - counts] = self.first_kinds
         passes = np.repeat(np.array(self.passes, dtype=np.int32), counts)
+        for block, (block_kinds, block_passes) in self.per_point.items():
+            at = slice(starts[block], starts[block] + counts[block])
+            kinds[at] = block_kinds
+            passes[at] = block_passes
+        kinds[starts] = self.first_kinds
         kept = np.empty(len(pts), dtype=np.int64)
         m = _distinct_rows(pts, axes, kept)
         pts, axes, kinds, passes = pts[:m], axes[:m], kinds[kept[:m]], passes[kept[:m]]
