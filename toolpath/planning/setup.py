@@ -96,6 +96,8 @@ class PlacedSurface(ParametricSurface):
 
     def _partials(self, t: NDArray[np.float64], s: NDArray[np.float64], dt: int, ds: int
                   ) -> NDArray[np.float64]:
+        if self.kernel() is not None:  # (placed in the compiled pass)
+            return self._partials_many(t, s, ((dt, ds),))[dt, ds]
         out = self.base._partials(t, s, dt, ds) @ self.rotation.T
         return out + self.translation if (dt, ds) == (0, 0) else out
 
