@@ -93,9 +93,9 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
         cell *= 1.5
     shape = (np.floor(extent / cell) + 1).astype(np.int64)
     order = np.empty(len(points), dtype=np.int64)
+    binned = np.empty_like(points)
     start = np.zeros(int(np.prod(shape)) + 1, dtype=np.int64)
-    _counting_sort(points, lo, cell, shape, order, start)
-    binned = points[order]
+    _counting_sort(points, lo, cell, shape, order, start, binned)
     box = np.empty((start.size - 1, 6))
     _cell_boxes(binned, start, box)
     column = np.empty((int(shape[0] * shape[1]), 2), dtype=np.int64)
@@ -145,8 +145,11 @@ def points_box(points_mm: NDArray[np.float64]) -> tuple[NDArray[np.float64],
 
 
 @numba.njit(cache=True)
-def _counting_sort(points, origin, cell, shape, order, start):
-    """``order``: the points sorted by cell (stable); ``start``: where each cell begins."""
+def _counting_sort(points, origin, cell, shape, order, start, binned):
+    """``order``: the points sorted by cell (stable); ``start``: where each cell begins.
+
+    ``binned``: the points in that order.
+    """
     n = points.shape[0]
     cell_id = np.empty(n, dtype=np.int64)
     for i in range(n):
@@ -160,7 +163,9 @@ def _counting_sort(points, origin, cell, shape, order, start):
         start[c] += start[c - 1]
     fill = start[:-1].copy()
     for i in range(n):
-        order[fill[cell_id[i]]] = i
+        at = fill[cell_id[i]]
+        order[at] = i
+        binned[at, 0], binned[at, 1], binned[at, 2] = points[i, 0], points[i, 1], points[i, 2]
         fill[cell_id[i]] += 1
 
 
