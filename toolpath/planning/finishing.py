@@ -733,8 +733,8 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     # grid where it cuts (the grid holds the extremes the locations may step over)
     reach = probe["reach"]
     cut_at, reach_at = np.flatnonzero(cut), np.flatnonzero(reach)
-    kmax = np.r_[pts.frame.max_concave_curvature[cut_at],
-                 probe["frame"].max_concave_curvature[reach_at]]
+    kmax = np.r_[pts.frame.max_concave_curvature_at(cut_at),
+                 probe["frame"].max_concave_curvature_at(reach_at)]
     if kmax.size and kmax.max() > 0.0:
         i = int(np.argmax(kmax))
         # the cutter's curvature there (the local margin plus the surface's)

@@ -63,9 +63,12 @@ class PassFrame:
     @property
     def max_concave_curvature(self) -> NDArray[np.float64]:
         """Largest principal curvature ``k_max`` (1/mm; > 0 where concave)."""
-        mean = 0.5 * (self.s11 + self.s22)
-        root = np.sqrt(0.25 * (self.s11 - self.s22) ** 2 + self.s12**2)
-        return mean + root
+        return self.max_concave_curvature_at(slice(None))
+
+    def max_concave_curvature_at(self, rows: NDArray[np.int64] | slice) -> NDArray[np.float64]:
+        """:attr:`max_concave_curvature` at ``rows`` only."""
+        s11, s12, s22 = self.s11[rows], self.s12[rows], self.s22[rows]
+        return 0.5 * (s11 + s22) + np.sqrt(0.25 * (s11 - s22) ** 2 + s12**2)
 
 
 def pass_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> PassFrame:
