@@ -41,6 +41,8 @@ def test_merge_places_new_rows_where_asked_and_old_ones_between(shape, dtype, sh
     if new_at.size > 1:
         with pytest.raises(ValueError, match="increasing places"):
             _merge(old, new, new_at[::-1])
+    with pytest.raises(ValueError, match="cannot go among rows"):  # rows of another shape
+        _merge(old, new[..., None], new_at)
 
 
 def test_samples_binned_by_cell_in_a_stable_order():

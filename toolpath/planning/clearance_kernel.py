@@ -54,8 +54,8 @@ class SampleCells:
         Edge of a cell, mm.
     box : ndarray, shape (n_cells, 6)
         The bounding box of each cell's samples (``lo``, ``hi``; ``+inf``, ``-inf`` when
-        empty): a sheet of samples fills a thin part of its cells, and a sphere that
-        misses it skips the cell.
+        empty): a sheet of samples fills a thin part of its cells, and a query (sphere
+        or capsule) that misses it skips the cell.
     column : ndarray of int, shape (shape[0] * shape[1], 2)
         The lowest and highest ``z`` index of a cell holding samples in each column
         (``x + shape[0] * y``; ``1, 0`` when empty).
@@ -307,7 +307,8 @@ def _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box, cid):
     """A lower bound of the distance from cell ``cid``'s box to ``p + u d``, ``w0 <= u <= w1``.
 
     The distance to a convex set is convex along a line and lies above its tangents: the
-    tangents at both ends meet at the bound (an end itself where its slope points inwards).
+    bound is ``f(w0)`` where ``f`` rises from ``w0``, ``f(w1)`` where it falls to ``w1``,
+    else where the tangents at both ends meet.
     """
     f0, g0 = _box_distance(p0, p1, p2, d0, d1, d2, w0, box, cid)
     if g0 >= 0.0:

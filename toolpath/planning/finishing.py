@@ -39,7 +39,7 @@ from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
 from .errors import GougeError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
-from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, link_runs
+from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, extends, link_runs
 from .local import pass_frame
 from .measure import measure_chord, measure_scallop
 from .options import AxisMode, FinishingOptions, Linking, OnGouge
@@ -444,9 +444,10 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     joined, direct = _run_links(surface, cutter, opts, res, pts, first, last, pass_index)
     # a run follows on in the chain of the one before: both consecutive rows, and joined
     # or linked directly with no extension past an edge between them
-    extends = res["extend_mm"] > 0.0
+    extended = extends(extend_last[:-1], res["extend_mm"]) | extends(extend_first[1:],
+                                                                      res["extend_mm"])
     follows = np.r_[False, consecutive[1:] & consecutive[:-1] & (joined[1:] | (
-        direct[1:] & ~(extends & (extend_last[:-1] | extend_first[1:]))))]
+        direct[1:] & ~extended))]
     chain_start = np.flatnonzero(~follows)
     chain_end = np.r_[chain_start[1:], len(runs)]  # (exclusive)
     # the rows of every consecutive run in cutting order, end to end

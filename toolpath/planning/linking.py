@@ -1,6 +1,7 @@
 """Linking cut runs into one toolpath: lead arcs, extensions, clearance, rapids, plunges.
 
-A *run* is a stretch of one pass cut without lifting. Between two runs the tool either
+A *run* is a stretch of one pass cut without lifting (or a chain of them that follow on
+one another with no lift between: :class:`Run`). Between two runs the tool either
 
 * continues directly (spiral rings join end to start; zig-zag and one-way runs whose
   ends are within ``link_max_mm`` and whose straight link stays on the surface get one
@@ -29,11 +30,11 @@ from dataclasses import dataclass, field
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
 from ..path import MoveKind
 
-__all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "link_runs"]
+__all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "extends", "link_runs"]
 
 _TRAVERSE_STEP_DEG = 10.0
 
@@ -131,14 +132,14 @@ class ClearanceSphere:
 
 @dataclass
 class Run:
-    """One stretch of a pass, in cutting order.
+    """One stretch of a pass in cutting order, or a chain of stretches that follow on.
 
     Attributes
     ----------
     tips, axes : ndarray, shape (m, 3)
         Cutter locations and unit tool axes.
     pass_index : int
-        The pass it belongs to.
+        The pass it belongs to (a chain: its first stretch's).
     normal_start, normal_end, feed_start, feed_end : ndarray, shape (3,)
         Surface normal and unit feed direction at the two ends (for the lead arcs).
     extend_start, extend_end : bool
@@ -200,7 +201,7 @@ class _Builder:
         self.feed, self.plunge = feed, plunge
         self.last: NDArray[np.float64] | None = None
         # blocks with a kind and pass per point: block -> (kinds, passes)
-        self.per_point: dict[int, tuple[NDArray[np.uint8], NDArray[np.int64] | None]] = {}
+        self.per_point: dict[int, tuple[NDArray[np.uint8], NDArray[np.int64]]] = {}
 
     def add(self, pts: NDArray[np.float64], axes: NDArray[np.float64], kind: MoveKind,
             pass_index: int = -1, first_kind: MoveKind | None = None) -> None:
@@ -220,9 +221,13 @@ class _Builder:
 
     def add_run(self, run: Run, first_kind: MoveKind) -> None:
         """A run's points: the first one ``first_kind`` (how the cutter gets there), cuts."""
-        if run.point_kinds is not None:  # a chain: its own kinds and passes
-            self.per_point[len(self.pts)] = (run.point_kinds, run.point_passes)
+        blocks = len(self.pts)
         self.add(run.tips, run.axes, MoveKind.CUT, run.pass_index, first_kind)
+        if run.point_kinds is not None and len(self.pts) > blocks:
+            # a chain: its own kinds and passes
+            passes = run.point_passes if run.point_passes is not None else np.full(
+                len(run.tips), run.pass_index)
+            self.per_point[blocks] = (run.point_kinds, passes)
 
     def arrays(self) -> tuple[NDArray[np.float64], ...]:
         pts = np.concatenate(self.pts)
@@ -292,16 +297,25 @@ _NO_POINTS = np.zeros((0, 3))
 _NO_POINTS.setflags(write=False)
 
 
+def extends(at_edge: ArrayLike, extend_mm: float) -> NDArray[np.bool_]:
+    """Whether run ends ``at_edge`` (on an open edge) get an extension ``extend_mm`` long.
+
+    A direct link between two runs adds nothing else: runs that link directly with no
+    extension between them follow on as one block (a chain, :class:`Run`).
+    """
+    return np.logical_and(at_edge, extend_mm > 0.0)
+
+
 def _extension_before(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
     """The extension's start past an open edge before the run (0 or 1 points)."""
-    if run.extend_start and opt.extend_mm > 0.0:
+    if extends(run.extend_start, opt.extend_mm):
         return (run.tips[0] - opt.extend_mm * run.feed_start)[None, :]
     return _NO_POINTS
 
 
 def _extension_after(run: Run, opt: LinkOptions) -> NDArray[np.float64]:
     """The extension's end past an open edge after the run (0 or 1 points)."""
-    if run.extend_end and opt.extend_mm > 0.0:
+    if extends(run.extend_end, opt.extend_mm):
         return (run.tips[-1] + opt.extend_mm * run.feed_end)[None, :]
     return _NO_POINTS
 

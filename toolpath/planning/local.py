@@ -96,7 +96,7 @@ def _frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike,
     n = tt.size
     vectors = np.empty((3, n, 3))  # normal, e1, e2
     scalars = np.empty((6, n))  # speed_t, speed_s, s11, s12, s22, kg
-    zeros = np.zeros((n, 3))  # (second partials not asked for)
+    zeros = None if len(orders) == len(FRAME_ORDERS) else np.zeros((n, 3))  # (not asked)
     _frame_rows(*(np.ascontiguousarray(parts[o], dtype=float) if o in parts else zeros
                   for o in FRAME_ORDERS), float(surface.orientation), vectors, scalars)
     if len(orders) < len(FRAME_ORDERS):

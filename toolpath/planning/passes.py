@@ -181,11 +181,16 @@ def _check_places(new_at: NDArray[np.int64], n_new: int, size: int) -> None:
 def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
                    new_at: NDArray[np.int64]) -> NDArray[np.float64]:
     """:func:`_merge` of places already checked."""
+    if new.shape[1:] != old.shape[1:]:
+        raise ValueError(f"rows of shape {new.shape[1:]} cannot go among rows of shape "
+                         f"{old.shape[1:]}")
     size = old.shape[0] + new.shape[0]
     out = np.empty((size, *old.shape[1:]), dtype=old.dtype)
     width = 1
     for extent in old.shape[1:]:  # (single values: rows of one)
         width *= extent
+    if width == 0:
+        return out
     _merge_rows(np.ascontiguousarray(old).reshape(-1),
                 np.ascontiguousarray(new, dtype=old.dtype).reshape(-1),
                 np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(-1), width)
