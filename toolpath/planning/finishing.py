@@ -58,8 +58,8 @@ from .resolution import rounding_reserve_mm
 from .sampling import (
     chord_length_mm,
     equidistribute,
-    move_gaps,
     pass_densities,
+    point_move_gaps,
     split_evenly,
 )
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
@@ -505,12 +505,13 @@ def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     ks = np.flatnonzero((gaps_mm <= res["link_max_mm"])
                         & (pass_index[1:] != pass_index[:-1])) + 1
     if ks.size:
-        a, b = last[ks - 1], first[ks]
         # the cutter half-way along the link (its search started between the ends'
-        # contacts, the short way across a closed section's seam)
-        gap = move_gaps(surface, cutter, pts.tips[a], pts.tips[b], pts.axes[a], pts.axes[b],
-                        pts.t[a], pts.t[b], pts.s[a], pts.s[b], np.array([0.5]),
-                        newton=3)[0][:, 0]
+        # contacts, the short way across a closed section's seam): the links as moves
+        # 2j -> 2j + 1 of their ends
+        ends = np.column_stack([last[ks - 1], first[ks]]).ravel()
+        gap = point_move_gaps(surface, cutter, pts.tips[ends], pts.axes[ends], pts.t[ends],
+                              pts.s[ends], np.arange(0, ends.size, 2), np.array([0.5]),
+                              newton=3)[0][:, 0]
         direct[ks] = gap >= -res["chord_tol_mm"]
     return joined, direct
 
