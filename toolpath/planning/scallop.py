@@ -322,32 +322,43 @@ def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes:
         return np.where(rate > 1e-9, 1.0 / np.where(rate > 1e-9, rate, 1.0), np.inf)
 
 
-@numba.njit(cache=True)
-def _at(grid, allowed, lower, x):
-    """``A`` at ``x``: the probe's value on a probe level, else the smaller neighbour's."""
-    last = lower.size - 1
-    j = min(max(np.searchsorted(grid, x, side="right") - 1, 0), last)
-    return allowed[j] if x == grid[j] else lower[j]
+@numba.njit(cache=True, inline="always")
+def _count_at_most(grid, x, j):
+    """``searchsorted(grid, x, side="right")``, walking forward from ``j`` (at most that)."""
+    while j < grid.size and grid[j] <= x:
+        j += 1
+    return j
 
 
-@numba.njit(cache=True)
-def _window_min(grid, lower, lo, hi):
-    last = lower.size - 1
-    j0 = min(max(np.searchsorted(grid, lo, side="right") - 1, 0), last)
-    j1 = min(max(np.searchsorted(grid, hi, side="left") - 1, 0), last)
-    return lower[j0:j1 + 1].min()
+@numba.njit(cache=True, inline="always")
+def _count_below(grid, x, j):
+    """``searchsorted(grid, x, side="left")``, walking forward from ``j`` (at most that)."""
+    while j < grid.size and grid[j] < x:
+        j += 1
+    return j
 
 
 @numba.njit(cache=True)
 def _greedy(grid, allowed, lower, scale, lookahead, levels):
-    """The greedy walk of :func:`pass_levels` into ``levels``; the count, -1 if too many."""
+    """The greedy walk of :func:`pass_levels` into ``levels``; the count, -1 if too many.
+
+    At ``s``: ``A(s)`` (the probe's value on a probe level, else the smaller neighbour's),
+    shrunk to the least ``A`` over the window ``[s, s + lookahead ds]`` until it holds.
+    The probe levels are found walking forward (``s`` only grows), as a search would.
+    """
+    last = lower.size - 1
     levels[0] = 0.0
     count = 1
     s = 0.0
+    at_most = 0  # probe levels <= s
     while s < 1.0:
-        ds = scale * _at(grid, allowed, lower, s)
+        at_most = _count_at_most(grid, s, at_most)
+        j0 = min(max(at_most - 1, 0), last)
+        ds = scale * (allowed[j0] if s == grid[j0] else lower[j0])
         for _ in range(60):
-            new = min(ds, scale * _window_min(grid, lower, s, min(s + lookahead * ds, 1.0)))
+            hi = min(s + lookahead * ds, 1.0)  # (> s: the window's last level from s's)
+            j1 = min(max(_count_below(grid, hi, max(at_most - 1, 0)) - 1, 0), last)
+            new = min(ds, scale * lower[j0:j1 + 1].min())
             if new >= ds * (1.0 - 1e-12):
                 break
             ds = new
@@ -405,7 +416,8 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
 
     levels_buffer = np.empty(max(max_passes, 2))
 
-    def greedy(scale: float) -> list[float]:
+    def greedy(scale: float) -> int:
+        """The walk at ``scale`` into ``levels_buffer``; how many levels."""
         levels = levels_buffer
         count = _greedy(grid, allowed, lower, scale, lookahead, levels)
         if count < 0:
@@ -413,18 +425,18 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
             raise PlanningError(
                 f"the scallop request needs more than max_passes={max_passes} passes "
                 f"(step {ds:.3g} in s near s={s:.4g}); raise scallop_mm or max_passes")
-        return levels[:count].tolist()
+        return count
 
-    levels = greedy(1.0)
-    if balance and len(levels) > 2:
+    count = greedy(1.0)
+    if balance and count > 2:
         # the count is rounded up: spread the slack over every gap by the smallest uniform
         # scale that still needs no more passes
         lo, hi = 0.5, 1.0
         for _ in range(20):  # scale to 5e-7
             mid = 0.5 * (lo + hi)
-            if len(greedy(mid)) <= len(levels):
+            if greedy(mid) <= count:
                 hi = mid
             else:
                 lo = mid
-        levels = greedy(hi)
-    return np.asarray(levels)
+        count = greedy(hi)
+    return levels_buffer[:count].copy()
