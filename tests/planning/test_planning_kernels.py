@@ -5,7 +5,7 @@ from dataclasses import fields
 import numpy as np
 import pytest
 
-from toolpath.planning import EllipticBladeSurface, finishing, passes, rate_limit
+from toolpath.planning import EllipticBladeSurface, finishing, passes, rate_limit, scallop
 from toolpath.planning.clearance_kernel import bin_samples, clearances
 from toolpath.planning.cutters import parse_cutter
 from toolpath.planning.linking import _distinct_rows
@@ -325,3 +325,38 @@ def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out
     monkeypatch.setattr(passes, "MAX_CHORD_ROUNDS", 1)
     _, _, cut_short = passes.refine_chords(surface, cutter, opts, res, layout, start)
     assert cut_short > res["chord_tol_mm"]
+
+
+def _greedy_by_search(grid, allowed, lower, scale, lookahead):
+    """The greedy walk of pass_levels with np.searchsorted at every step."""
+    last = lower.size - 1
+    levels, s = [0.0], 0.0
+    while s < 1.0:
+        j0 = min(max(np.searchsorted(grid, s, side="right") - 1, 0), last)
+        ds = scale * (allowed[j0] if s == grid[j0] else lower[j0])
+        for _ in range(60):
+            hi = min(s + lookahead * ds, 1.0)
+            j1 = min(max(np.searchsorted(grid, hi, side="left") - 1, 0), last)
+            new = min(ds, scale * lower[j0:j1 + 1].min())
+            if new >= ds * (1.0 - 1e-12):
+                break
+            ds = new
+        s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds
+        levels.append(s)
+    return levels
+
+
+def test_greedy_walk_finds_the_probe_levels_a_search_finds():
+    # the compiled walk finds probe levels walking forward: the same levels as searching
+    rng = np.random.default_rng(11)
+    for _ in range(60):
+        m = int(rng.integers(2, 40))
+        grid = (np.linspace(0.0, 1.0, m) if rng.random() < 0.5
+                else np.sort(np.r_[0.0, rng.random(m - 2), 1.0]))
+        allowed = rng.uniform(0.003, 0.3, m)
+        lower = np.minimum(allowed[:-1], allowed[1:])
+        scale, lookahead = float(rng.uniform(0.5, 1.0)), float(rng.choice([1.0, 2.0]))
+        levels = np.empty(10_000)
+        count = scallop._greedy(grid, allowed, lower, scale, lookahead, levels)
+        assert levels[:count].tolist() == _greedy_by_search(grid, allowed, lower, scale,
+                                                            lookahead)
