@@ -338,8 +338,10 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
     The segment ``p0 + u d`` (``u`` in ``[0, 1]``) is clipped to each row of cells (in
     ``y``, widened by ``reach``), the piece left to each column of the row (in ``x``),
     and what is left of that gives the column's cells to visit (in ``z``, among the
-    occupied ones); a cell whose samples' box widened by ``reach`` the piece misses is
-    skipped (boxes widened as cubes: a few cells more than the capsule meets, none less).
+    occupied ones); a cell is skipped where the piece misses its samples' box widened by
+    ``reach`` (as a cube), or where a lower bound of the box's distance to the piece
+    (:func:`_box_bound`) exceeds ``reach``; the samples of the others are each tested
+    (:func:`_cell_clearances`).
     """
     points, index, cell_start, origin, shape, cell, box = grid
     nx, ny = shape[0], shape[1]
@@ -384,20 +386,37 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
                         if w0 > w1 or _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box,
                                                   cid) > reach:
                             continue
-                        for j in range(cell_start[cid], cell_start[cid + 1]):
-                            e0, e1, e2 = points[j, 0] - t0, points[j, 1] - t1, points[j, 2] - t2
-                            z = e0 * a0 + e1 * a1 + e2 * a2
-                            zc = min(max(z, low), high)
-                            if e0 * e0 + e1 * e1 + e2 * e2 - (2.0 * z - zc) * zc > reach2:
-                                continue  # outside the capsule
-                            dist = cutter_distance(e0, e1, e2, a0, a1, a2, r, big, h)
-                            q0, q1, q2 = points[j, 0] - k0, points[j, 1] - k1, points[j, 2] - k2
-                            if not has_contacts or q0 * q0 + q1 * q1 + q2 * q2 <= near2:
-                                if dist < near_mm:
-                                    near_mm, near_at = dist, index[j]
-                            elif dist < far_mm:
-                                far_mm, far_at = dist, index[j]
+                        near_mm, near_at, far_mm, far_at = _cell_clearances(
+                            points, index, cell_start[cid], cell_start[cid + 1], t0, t1, t2,
+                            a0, a1, a2, k0, k1, k2, has_contacts, low, high, reach2, r, big, h,
+                            near2, near_mm, near_at, far_mm, far_at)
             near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
+
+
+@numba.njit(cache=True, inline="always")
+def _cell_clearances(points, index, first, stop, t0, t1, t2, a0, a1, a2, k0, k1, k2,
+                     has_contacts, low, high, reach2, r, big, h, near2, near_mm, near_at,
+                     far_mm, far_at):
+    """The smallest clearances so far, near and far, with samples ``first .. stop - 1``.
+
+    A sample in the capsule (within ``sqrt(reach2)`` of the axis from ``low`` to ``high``
+    above the tip ``t``, axis ``a``) gets the cutter's signed distance; it is near within
+    ``sqrt(near2)`` of the contact ``k`` (every sample without contacts).
+    """
+    for j in range(first, stop):
+        e0, e1, e2 = points[j, 0] - t0, points[j, 1] - t1, points[j, 2] - t2
+        z = e0 * a0 + e1 * a1 + e2 * a2
+        zc = min(max(z, low), high)
+        if e0 * e0 + e1 * e1 + e2 * e2 - (2.0 * z - zc) * zc > reach2:
+            continue  # outside the capsule
+        dist = cutter_distance(e0, e1, e2, a0, a1, a2, r, big, h)
+        q0, q1, q2 = points[j, 0] - k0, points[j, 1] - k1, points[j, 2] - k2
+        if not has_contacts or q0 * q0 + q1 * q1 + q2 * q2 <= near2:
+            if dist < near_mm:
+                near_mm, near_at = dist, index[j]
+        elif dist < far_mm:
+            far_mm, far_at = dist, index[j]
+    return near_mm, near_at, far_mm, far_at
 
 
 @numba.njit(cache=True, parallel=True)
