@@ -10,9 +10,10 @@ knots:
   either side.
 - **Density** inside smooth pieces: for a cubic spline the local error on a span of length
   ``h`` is about ``c h^4 |f''''|``, so knots equidistributing ``|f''''|^{1/4}`` are
-  asymptotically optimal (de Boor, *A Practical Guide to Splines*, ch. XII). The first
-  density comes from the jumps of ``S'''`` of a preliminary fit; later sweeps use the
-  measured error per span, ``ρ_j = e_j^{1/4} / h_j``.
+  asymptotically optimal (de Boor, *A Practical Guide to Splines*, ch. XII). The smooth
+  pieces between corners share the knots by their mass ``∫ |f''''|^{1/4}``. The first
+  density comes from the jumps of ``S'''`` of preliminary fits; later sweeps use the
+  measured error per span, ``ρ_j = e_j^{1/4} / h_j`` (``e_j`` the span's RMS error).
 - **Dominant points** (Park & Lee 2007, the paper's Algorithm 3): curvature maxima plus
   points added in the worst segment; knots are averages of ``DEGREE`` consecutive
   dominant-point parameters.
@@ -252,6 +253,9 @@ def error_density(knots: NDArray[np.float64], t: NDArray[np.float64],
     ``e_j^{1/4}`` is held within ``SWEEP_REACH`` of its median over the spans, so a span the
     fit happens to interpolate (error 0) is not emptied in one sweep.
     """
+    finite = np.isfinite(errors)
+    if not finite.all():  # an overflowed fit: its worst spans count as the worst finite one
+        errors = np.where(finite, errors, errors[finite].max() if finite.any() else 1.0)
     edges = np.unique(knots)
     span = np.clip(np.searchsorted(edges, t, side="right") - 1, 0, len(edges) - 2)
     cells = len(edges) - 1
