@@ -203,17 +203,25 @@ def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
 
 def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: FitAt,
           options: KnotOptions, fair_check: FairCheck) -> _Trial:
-    """Tighten the tolerance over the unfair stretches of a chosen fit until there are none.
+    """Mend the unfair stretches of a chosen fit until there are none.
 
     A fit within ``tol`` at the data may dent between them by about as much as its error
     swings from point to point: on a nose of radius 0.2 mm an error of 7 um alternating in
     sign bends the fit concave, and after a jump of the data's curvature (a nose circle
-    meeting a flank tangentially) the least-squares cubic rings with the error's amplitude.
-    So the errors of the points around each stretch (from the knot before it to the knot
-    after, one span more either side) count :data:`MEND_TIGHTEN` times more in the knot
-    search, which is run again from the current knots: knots gather there until those
-    points are within ``tol / factor``. Repeated up to :data:`MEND_ROUNDS` times; what is
-    left of the fairest fit is named in a :class:`ConvergenceWarning`.
+    meeting a flank tangentially, G1 but not G2) the least-squares cubic rings with the
+    error's amplitude on the flank side. Each round tries three mends and keeps the
+    fairest that stays within ``tol`` (fewest stretches, then the shallowest deepest,
+    then the fewest control points):
+
+    - the knot search again from the current knots, the errors of the points around each
+      stretch counting :data:`MEND_TIGHTEN` times more (cumulative over rounds): knots
+      gather there until those points are that much closer;
+    - the knot spans over the stretches halved (the ring's depth falls with the span²);
+    - one knot fewer at each stretch: knots as dense as the data, or a corner's piece
+      with fewer points than coefficients, let the spline swing between the points.
+
+    At most :data:`MEND_ROUNDS` rounds and :data:`MEND_GROWTH` times the control points;
+    what is left of the fairest fit is named in a :class:`ConvergenceWarning`.
     """
     assert options.tol is not None
     most = min(_limit(options, t.size), MEND_GROWTH * n_coefficients(trial.knots))
@@ -224,23 +232,22 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     for _ in range(MEND_ROUNDS):
         if not stretches:
             return trial
-        thin = [s for s in stretches if _span_points(trial.knots, t, s) < 2]
-        mended = None
-        if thin:
-            # knots as dense as the data there (or a corner's piece with fewer points than
-            # coefficients): the spline swings between the points; thin the knots there
-            mended = _refit(trial, _thin_spans(trial.knots, thin), t, fit_at, options)
-        if mended is None:
-            scale = np.maximum(scale, _stretch_scale(trial.knots, t, stretches, scale))
-            mended = _tightened(trial, points, t, seed_values, fit_at, options, scale)
-            if mended is not None and np.array_equal(mended.knots, trial.knots):
-                # the points there are already that close: split the spans instead
-                mended = _refit(trial, _split_spans(trial.knots, t, stretches), t, fit_at,
-                                options)
-        if mended is None:
-            continue
-        trial = mended
-        stretches = fair_check(trial.fit, trial.knots)
+        scale = np.maximum(scale, _stretch_scale(trial.knots, t, stretches, scale))
+        candidates = [
+            # the points around the stretches asked closer: knots gather there
+            _tightened(trial, points, t, seed_values, fit_at, options, scale),
+            # the spans over the stretches halved
+            _refit(trial, _split_spans(trial.knots, t, stretches), t, fit_at, options),
+            # knots as dense as the data (or a corner's piece with fewer points than
+            # coefficients) let the spline swing between the points: fewer knots there
+            _refit(trial, _thin_spans(trial.knots, stretches), t, fit_at, options),
+        ]
+        tried = [(_unfairness(found), n_coefficients(c.knots), k, c, found)
+                 for k, c in enumerate(candidates) if c is not None
+                 for found in [fair_check(c.fit, c.knots)]]
+        if not tried:
+            break
+        *_, trial, stretches = min(tried, key=lambda item: item[:3])
         if _unfairness(stretches) < best[0]:
             best = (_unfairness(stretches), trial, stretches)
     _, trial, stretches = best

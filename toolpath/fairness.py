@@ -12,14 +12,16 @@ data's best-fit plane and ``σ`` the sign of the data polygon's net turning abou
 (so the data's dominant turning is convex); for a surface, its outward unit normal (the
 sections' turning then reads as normal curvature along ``t``, what a cutter sees). The
 fit is *concave* at a sample where ``X'' · N > 0`` (it curves towards the outside); a data
-point ``P_i`` is *convex* where ``(e_i − e_{i−1}) · N(t_i) < 0``, with ``e`` the unit
-chords (the discrete turning of the data polygon). A concave stretch is a maximal run of
-concave samples between two convex data points. Its **depth** is the material a cutter
-following the convex data would leave: in the plane ``(X', N)`` at the stretch, the
-distance from the fitted curve to the bridge of its outer convex hull spanning the
-stretch (the hull taken over the samples within :data:`WINDOW_TURN_DEG` of turn either
-side). Depth is zero for a convex fit and grows like ``κ L^2 / 8`` for a dent of curvature
-``κ`` and length ``L``.
+point ``P_i`` is *convex* where ``(e_i − e_{i−1}) · N(t_i)`` over the mean chord is below
+``−``:data:`FLAT_CURVATURE_PER_MM`, with ``e`` the unit chords (the discrete turning of
+the data polygon). A concave stretch is a maximal run of concave samples between two
+convex data points. Its **depth** is the material a cutter following the convex data
+would leave: the section is unrolled into the plane keeping only its normal curvature
+(:func:`_development`; a plane curve stays itself), and the depth is the distance from it
+to the bridge of its outer convex hull spanning the stretch (the hull over the samples
+within :data:`WINDOW_TURN_DEG` of turn either side, and at most
+:data:`WINDOW_STRETCHES` stretch lengths). Depth is zero for a convex fit and about
+``κ L^2 / 8`` for a dent of curvature ``κ`` and length ``L``.
 
 **Nose deviation.** On each nose (a local peak of the data's turning whose circle through
 three consecutive points, ``P_{i−1} P_i P_{i+1}``, is under
@@ -61,8 +63,11 @@ CONCAVE_DEPTH_MM = 1e-3
 FLAT_CURVATURE_PER_MM = 1e-3
 #: The hull bridging a concave stretch is taken over the samples whose tangent turns at
 #: most this much (deg) from the stretch's: wide enough to reach the bridge's tangent
-#: points of any ripple, narrow enough that the window stays a graph over the tangent.
+#: points of any ripple, narrow enough that the window stays a graph over the tangent ...
 WINDOW_TURN_DEG = 45.0
+#: ... and over at most this many stretch lengths either side (a ripple's bridge rests
+#: within a ripple's length or two of it; a flat flank would make the window the flank).
+WINDOW_STRETCHES = 4
 #: A nose: a turning peak whose data circle's radius is below this fraction of the
 #: section's length (blade noses are 0.2-2 % of the contour; flanks 50 % and more).
 NOSE_MAX_LENGTH_FRACTION = 0.05
@@ -302,6 +307,8 @@ def _bridge_depth(x, tangents, m, a, b, lo_region, hi_region
     t_m = tangents[m]
     n_m = np.array([-t_m[1], t_m[0]])
     cos_limit = np.cos(np.radians(WINDOW_TURN_DEG))
+    reach = max(WINDOW_STRETCHES * (b - a + 1), 2 * SAMPLES_PER_INTERVAL)
+    lo_region, hi_region = max(lo_region, a - reach), min(hi_region, b + reach)
     facing = tangents[lo_region:hi_region + 1] @ t_m >= cos_limit
     left = facing[:a - lo_region][::-1]
     lo = a - (int(np.argmin(left)) if not left.all() else left.size)
@@ -347,7 +354,16 @@ def _development(tt, xt, xtt, normal) -> tuple[NDArray[np.float64], NDArray[np.f
 
 def _concave_stretches(section: float, tt, xt, xtt, normal, convex_dense
                        ) -> list[ConcaveStretch]:
-    """Every concave stretch (any depth) inside the runs of convex data."""
+    """Every concave stretch (any depth) inside the runs of convex data.
+
+    A fit that is not finite everywhere (an exponential beyond range) is one stretch of
+    infinite depth where it first fails.
+    """
+    bad = ~(np.isfinite(xt).all(axis=1) & np.isfinite(xtt).all(axis=1)
+            & np.isfinite(normal).all(axis=1))
+    if bad.any():
+        k = int(np.argmax(bad))
+        return [ConcaveStretch(section, float(tt[k]), np.inf, float(tt[k]), float(tt[k]))]
     concave = np.einsum("ij,ij->i", xtt, normal) > 0.0
     x, tangents = _development(tt, xt, xtt, normal)
     found: dict[tuple[int, int], ConcaveStretch] = {}
