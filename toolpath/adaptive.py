@@ -173,8 +173,9 @@ def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
                 ) -> tuple[FitT, NDArray[np.float64], NDArray[np.float64]]:
     """Run a method with the knots the options ask for.
 
-    With ``fair_check`` and a tolerance, the chosen fit is then mended (:func:`_mend`):
-    knots are added over its unfair stretches until there are none.
+    With ``fair_check`` and a tolerance, the chosen fit is then mended (:func:`_mend`)
+    until it has no unfair stretch; fits on given knots or a given count are left as they
+    are (the request fixes the knots).
 
     Returns
     -------
@@ -290,14 +291,6 @@ def _refit(trial: _Trial, knots: NDArray[np.float64], t, fit_at: FitAt,
         return None
     found = _polish(_Trial(*fit_at(knots, None), knots), fit_at, options)
     return found if found.max_error <= options.tol else None
-
-
-def _span_points(knots: NDArray[np.float64], t: NDArray[np.float64], stretch) -> int:
-    """Data parameters inside the knot span holding the middle of ``stretch``."""
-    edges = np.unique(knots)
-    middle = 0.5 * (stretch[0] + stretch[1])
-    j = int(np.clip(np.searchsorted(edges, middle, side="right") - 1, 0, edges.size - 2))
-    return int(np.count_nonzero((t > edges[j]) & (t < edges[j + 1])))
 
 
 def _split_spans(knots: NDArray[np.float64], t: NDArray[np.float64], stretches

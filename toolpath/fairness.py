@@ -34,7 +34,7 @@ micrometre, so this is the fit's error between the data there.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -98,10 +98,6 @@ class ConcaveStretch:
     t_start: float
     t_end: float
 
-    def where(self) -> str:
-        """``section 3 t=0.4812`` (or ``t=0.4812`` for a curve)."""
-        return _where(self.section, self.t)
-
 
 def _where(section: float | None, t: float) -> str:
     if section is None:
@@ -136,7 +132,6 @@ class Fairness:
     nose_t: float | None
     min_depth_mm: float = CONCAVE_DEPTH_MM
     surface: bool = False
-    notes: tuple[str, ...] = field(default=())
 
     @property
     def n_concave(self) -> int:
@@ -217,7 +212,6 @@ class Fairness:
             "nose_error_mm": self.nose_error_mm,
             "nose_where": (None if self.nose_t is None
                            else {"section": self.nose_section, "t": self.nose_t}),
-            "notes": list(self.notes),
         }
 
 
