@@ -56,6 +56,8 @@ __all__ = [
 SAMPLES_PER_INTERVAL = 24
 #: Concave stretches shallower than this (mm) are below what a finish cut can leave.
 CONCAVE_DEPTH_MM = 1e-3
+#: Concave stretches that cannot be this deep (mm) are not measured at all.
+NEGLIGIBLE_DEPTH_MM = 1e-6
 #: Data turning less than this (1/mm: a radius above 1 m) is flat, neither convex nor
 #: concave: there the sign of the turning is the blade's twist and the stream surface's
 #: cone as much as the profile (a tip pressure flank: 1e-4/mm), and a fit within 10 um
@@ -278,7 +280,22 @@ def _runs(mask: NDArray[np.bool_]) -> list[tuple[int, int]]:
 
 
 def _upper_hull(u: NDArray[np.float64], v: NDArray[np.float64]) -> list[int]:
-    """Indices of the upper convex hull of points sorted by ``u`` (monotone chain)."""
+    """Indices of the upper convex hull of points sorted by ``u``, left to right.
+
+    Qhull for many points (its 2-D vertices run counter-clockwise, so the upper chain runs
+    from the rightmost vertex to the leftmost); a monotone chain for few or degenerate ones.
+    """
+    if u.size > 32:
+        import scipy.spatial  # local: scipy stays a toolpath dependency only
+
+        try:
+            ring = scipy.spatial.ConvexHull(np.c_[u, v]).vertices
+        except scipy.spatial.QhullError:
+            pass
+        else:
+            start, stop = int(np.argmax(u[ring])), int(np.argmin(u[ring]))
+            chain = np.roll(ring, -start)[:(stop - start) % ring.size + 1]
+            return [int(k) for k in chain[::-1]]
     hull: list[int] = []
     for k in range(u.size):
         while len(hull) >= 2:
@@ -327,14 +344,14 @@ def _bridge_depth(x, tangents, m, a, b, lo_region, hi_region
     return max(float(depth[k]), 0.0), lo + p + k, lo + p, lo + q
 
 
-def _development(tt, xt, xtt, normal) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def _development(tt, xt, xtt, normal) -> tuple[NDArray[np.float64], ...]:
     """The curve unrolled into the plane keeping only its normal curvature.
 
     With speed ``|X'|``, normal curvature ``k = X'' · N / |X'|^2`` (positive: concave) and
     arc length ``σ``, the plane curve of turning angle ``θ = ∫ k dσ`` is
     ``(∫ cos θ dσ, ∫ sin θ dσ)``: for a plane curve the curve itself (up to a motion),
     for a section in 3-D the profile a cutter moving along it meets.
-    Returns the points (n, 2) and unit tangents (n, 2).
+    Returns the points (n, 2), unit tangents (n, 2), ``k`` (n,) and ``σ`` (n,).
     """
     speed = np.linalg.norm(xt, axis=1)
     kappa = np.einsum("ij,ij->i", xtt, normal) / np.maximum(speed, 1e-300) ** 2
@@ -343,7 +360,8 @@ def _development(tt, xt, xtt, normal) -> tuple[NDArray[np.float64], NDArray[np.f
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * dsigma)))
     tangents = np.stack((np.cos(theta), np.sin(theta)), axis=1)
     steps = 0.5 * (tangents[1:] + tangents[:-1]) * dsigma[:, None]
-    return np.vstack((np.zeros((1, 2)), np.cumsum(steps, axis=0))), tangents
+    sigma = np.concatenate(([0.0], np.cumsum(dsigma)))
+    return np.vstack((np.zeros((1, 2)), np.cumsum(steps, axis=0))), tangents, kappa, sigma
 
 
 def _concave_stretches(section: float, tt, xt, xtt, normal, convex_dense
@@ -358,13 +376,18 @@ def _concave_stretches(section: float, tt, xt, xtt, normal, convex_dense
     if bad.any():
         k = int(np.argmax(bad))
         return [ConcaveStretch(section, float(tt[k]), np.inf, float(tt[k]), float(tt[k]))]
-    concave = np.einsum("ij,ij->i", xtt, normal) > 0.0
-    x, tangents = _development(tt, xt, xtt, normal)
+    x, tangents, kappa, sigma = _development(tt, xt, xtt, normal)
     found: dict[tuple[int, int], ConcaveStretch] = {}
     for lo_region, hi_region in _runs(convex_dense):
-        inside = concave[lo_region:hi_region + 1]
+        inside = kappa[lo_region:hi_region + 1] > 0.0
         for a, b in _runs(inside):
             a, b = a + lo_region, b + lo_region
+            # a dent under a bridge of length L with concave curvature <= k is at most
+            # k L^2 / 8 deep: skip the hull where even the widest window's bound is nil
+            reach = max(WINDOW_STRETCHES * (b - a + 1), 2 * SAMPLES_PER_INTERVAL)
+            span = sigma[min(b + reach, hi_region)] - sigma[max(a - reach, lo_region)]
+            if kappa[a:b + 1].max() * span**2 / 8.0 < NEGLIGIBLE_DEPTH_MM:
+                continue
             depth, deepest, p, q = _bridge_depth(x, tangents, (a + b) // 2, a, b,
                                                  lo_region, hi_region)
             key = (p, q)
@@ -506,7 +529,8 @@ def surface_fairness(surface: Any, points: Any, *, min_depth_mm: float = CONCAVE
     Parameters
     ----------
     surface
-        A fitted surface (``t_params``, ``s_params``, ``closed_t``, ``frame``).
+        A fitted :class:`toolpath.surface.ParametricSurface` (``t_params``, ``s_params``,
+        ``closed_t``; its batched partials and outward ``orientation``).
     points : array_like, shape (m, n, 3)
         Its sections (mm) on the grid of ``t_params`` (closed: last column = first).
     """
@@ -523,13 +547,18 @@ def surface_fairness(surface: Any, points: Any, *, min_depth_mm: float = CONCAVE
     levels = [(float(j), s[j], convex[j]) for j in range(len(s))]
     levels += [(j + 0.5, 0.5 * (s[j] + s[j + 1]), convex[j] & convex[j + 1])
                for j in range(len(s) - 1)]
-    for label, s_value, convex_here in levels:
-        frame = surface.frame(tt, np.full(tt.size, s_value))
-        stretches += _concave_stretches(label, tt, frame.xt, frame.xtt,
-                                        frame.normal, _dense_mask(convex_here, per_interval))
+    # one evaluation for every level (a compiled kernel's call costs more than its points)
+    parts = surface._partials_many(
+        np.tile(tt, len(levels)), np.repeat([s_value for _, s_value, _ in levels], tt.size),
+        ((0, 0), (1, 0), (0, 1), (2, 0)))
+    normal = surface.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+    for k, (label, _, convex_here) in enumerate(levels):
+        rows = slice(k * tt.size, (k + 1) * tt.size)
+        stretches += _concave_stretches(label, tt, parts[1, 0][rows], parts[2, 0][rows],
+                                        normal[rows], _dense_mask(convex_here, per_interval))
         if label == int(label):
             j = int(label)
-            error, where = _nose_error(data[j], convex[j], closed, tt, frame.point,
+            error, where = _nose_error(data[j], convex[j], closed, tt, parts[0, 0][rows],
                                        per_interval)
             noses.append((error, label, where))
     return _summary(stretches, noses, min_depth_mm, surface=True)
