@@ -18,6 +18,8 @@ from toolpath import (
     fit_streamline_surface,
 )
 from toolpath.errors import InvalidParameterError
+from toolpath.fairness import curve_fairness, surface_fairness
+from toolpath.sections import as_sections
 
 __all__ = [
     "CURVE_METHODS",
@@ -46,6 +48,8 @@ class CurveFitReport:
     c_mm: list[float] | None = None
     A: list[list[float]] | None = None
     notes: list[str] = field(default_factory=list)
+    #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit (concave stretches, noses).
+    fairness: dict[str, Any] | None = None
 
     @property
     def within_tol(self) -> bool:
@@ -76,6 +80,7 @@ class CurveFitReport:
                 out.extend(" " * 18 + r for r in rows[1:])
         if self.c_mm is not None:
             out.append("c                 [" + ", ".join(f"{v:.6g}" for v in self.c_mm) + "] mm")
+        out.extend(_fairness_lines(self.fairness))
         out.extend(f"note              {n}" for n in self.notes)
         return out
 
@@ -100,6 +105,9 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
     elif method in LINEAR_MODELS:
         extra = {"A": curve.A.tolist(),
                  "notes": ["constant-coefficient model: tol is reported, not enforced"]}
+    fairness = curve_fairness(curve, points)
+    extra["fairness"] = fairness.as_dict()
+    extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),
                             n_control_points=curve.n_control_points,
                             max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
@@ -125,6 +133,8 @@ class SurfaceFitReport:
     tol_mm: float
     seconds: float
     notes: list[str] = field(default_factory=list)
+    #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit, on every section and midway.
+    fairness: dict[str, Any] | None = None
 
     @property
     def within_tol(self) -> bool:
@@ -150,8 +160,16 @@ class SurfaceFitReport:
             f"between sections  {self.between_sections_mm:.6f} mm (leave-one-out, upper bound)",
             f"time              {self.seconds:.3f} s",
         ]
+        out.extend(_fairness_lines(self.fairness))
         out.extend(f"note              {n}" for n in self.notes)
         return out
+
+
+def _fairness_lines(fairness: dict[str, Any] | None) -> list[str]:
+    """``fairness  0 concave stretches > 1 um (deepest 0.0000 mm)`` and the noses' line."""
+    if fairness is None:
+        return []
+    return [f"fairness          {fairness['summary']}", f"noses             {fairness['noses']}"]
 
 
 def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: bool | None = None
@@ -165,10 +183,13 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     surface = fit(sections, tol=tol, closed=closed)
     seconds = time.perf_counter() - start
     notes = [f"frame: {surface.frame_label}"] if method == "streamline" else []
+    fairness = surface_fairness(surface, as_sections(sections, closed=surface.closed_t).points)
+    notes += fairness.warnings(tol)
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params),
         points_per_section=len(surface.t_params) - int(surface.closed_t),
         closed=surface.closed_t, n_control_points=surface.n_control_points,
         max_error_mm=surface.max_error, rms_error_mm=surface.rms_error,
-        between_sections_mm=surface.loo_error, tol_mm=tol, seconds=seconds, notes=notes)
+        between_sections_mm=surface.loo_error, tol_mm=tol, seconds=seconds, notes=notes,
+        fairness=fairness.as_dict())
     return surface, report

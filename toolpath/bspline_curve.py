@@ -16,6 +16,7 @@ from numpy.typing import NDArray
 
 from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
 from .arrays import as_curve_points
+from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, error_figures
 from .parametrize import unit_curve_parameters
 from .splinefit import DEGREE, end_interpolating_lsq
@@ -73,6 +74,7 @@ def fit_bspline_curve(
     corner_angle_deg: float | None = DEFAULT_CORNER_ANGLE_DEG,
     sweeps: int = DEFAULT_SWEEPS,
     minimax: bool = True,
+    fair: bool = True,
 ) -> BSplineCurve:
     """Fit an end-interpolating cubic B-spline to ordered points.
 
@@ -100,6 +102,9 @@ def fit_bspline_curve(
     minimax : bool
         Polish each knot vector's least-squares fit towards the smallest max error
         (Lawson's reweighting); False gives the plain least-squares fit of eq. 19.
+    fair : bool
+        With ``tol``: tighten the fit where it turns concave between data that turn convex
+        (:mod:`toolpath.fairness`) until it no longer does; a warning names what is left.
 
     Returns
     -------
@@ -124,7 +129,12 @@ def fit_bspline_curve(
         spline = end_interpolating_lsq(t, x, knot_vector, weights)
         return spline.c, np.linalg.norm(spline(t) - x, axis=1)
 
-    coef, errors, knot_vector = adapt_knots(x, t, x, fit_at, options)
+    def make_curve(coef, knot_vector):
+        return BSplineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
+                            control_points=np.asarray(coef))
+
+    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
+    coef, errors, knot_vector = adapt_knots(x, t, x, fit_at, options, fair_check)
     max_error, rms_error = error_figures(errors)
     return BSplineCurve(knots=knot_vector, params=t, max_error=max_error, rms_error=rms_error,
                         control_points=np.asarray(coef))

@@ -27,6 +27,7 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .adaptive import KnotOptions, adapt_knots
+from .fairness import surface_fair_check
 from .fitted_curve import error_figures
 from .sections import Sections
 from .splinefit import DEGREE, n_coefficients
@@ -54,18 +55,25 @@ class GridFit:
 
 
 def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
-             options: KnotOptions) -> GridFit:
+             options: KnotOptions, make_surface=None) -> GridFit:
     """Run the knot driver on the sections seen as one curve in ``R^(3m)``.
 
     ``fit_at(knots, weights) -> (rows (m, r), errors (m, n))`` fits every section on
-    ``knots``; the driver sees the per-column worst error.
+    ``knots``; the driver sees the per-column worst error. With ``make_surface(grid)``
+    (a :class:`GridFit` to its surface) and a tolerance, the chosen fit is mended until it
+    is fair on every section and midway between (:mod:`toolpath.fairness`).
     """
+    fair_check = None
+    if make_surface is not None and options.tol is not None:
+        fair_check = surface_fair_check(
+            lambda fit, knots: make_surface(GridFit(knots, *fit)), sections.points,
+            options.tol)
     def driver_fit(knots, weights):
         rows, errors = fit_at(knots, weights)
         return (rows, errors), errors.max(axis=0)
 
     (rows, errors), _, knots = adapt_knots(sections.stacked, sections.t, seed_values,
-                                           driver_fit, options)
+                                           driver_fit, options, fair_check)
     return GridFit(knots_t=knots, rows=rows, errors=errors)
 
 

@@ -34,6 +34,7 @@ from .arrays import as_curve_points
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import InvalidParameterError
+from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, error_figures
 from .parametrize import unit_curve_parameters
 from .splinefit import DEGREE, end_interpolating_lsq
@@ -208,6 +209,7 @@ def fit_streamline_curve(
     frame: str = "best",
     refine: bool = False,
     minimax: bool = True,
+    fair: bool = True,
 ) -> StreamlineCurve:
     """Fit a streamline curve of a diagonalizable system to ordered points (Algorithm 3).
 
@@ -243,6 +245,9 @@ def fit_streamline_curve(
     minimax : bool
         Polish each knot vector's fit towards the smallest max error (Lawson's
         reweighting); False gives the plain least-squares fit of eq. 19.
+    fair : bool
+        With ``tol``: tighten the fit where it turns concave between data that turn convex
+        (:mod:`toolpath.fairness`) until it no longer does; a warning names what is left.
 
     Returns
     -------
@@ -273,14 +278,21 @@ def fit_streamline_curve(
                                       max_control_points=max_control_points, params=t,
                                       knot_method=knot_method,
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                                      minimax=False).knots
+                                      minimax=False, fair=False).knots
         chosen = _choose_frame(x, t, probe)
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
     problem = LogSpaceProblem(x, t, chosen)
+
+    def make_curve(coef, knot_vector):
+        return StreamlineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
+                               T=chosen.T, c=chosen.c, x0=x[0].copy(),
+                               g_coefficients=np.asarray(coef))
+
+    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
     coef, errors, knot_vector = adapt_knots(
-        x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)
+        x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options, fair_check)
     max_error, rms_error = error_figures(errors)
     return StreamlineCurve(knots=knot_vector, params=t, max_error=max_error,
                            rms_error=rms_error, T=problem.frame.T, c=problem.frame.c,

@@ -213,6 +213,7 @@ def fit_streamline_surface(
     frame: str = "best",
     refine: bool = False,
     minimax: bool = True,
+    fair: bool = True,
 ) -> StreamlineSurface:
     """Fit a streamline surface through blade sections (Algorithm 4).
 
@@ -234,9 +235,9 @@ def fit_streamline_surface(
         Closed sections (default: detected from a repeated first point).
     params, section_params
         Grid parameters ``t`` and ``s`` (see :func:`toolpath.as_sections`).
-    knot_method, corner_angle_deg, sweeps, minimax
+    knot_method, corner_angle_deg, sweeps, minimax, fair
         As for :func:`toolpath.fit_streamline_curve`; ``"dominant"`` gives the paper's
-        dominant columns.
+        dominant columns; fairness is checked on every section and midway between.
     frame : {"best", "paper"}
         ``"best"``: among the candidate frames (translations ``c`` included), the one with
         the smallest max error on the knots the baseline needs; ``"paper"``: the paper's.
@@ -275,12 +276,14 @@ def fit_streamline_surface(
                 max_control_points=max_control_points, closed=grid.closed, params=grid.t,
                 section_params=grid.s,
                 knot_method=knot_method, corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                minimax=False).knots_t
+                minimax=False, fair=False).knots_t
         chosen = _choose_frame(grid, probe)
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
     problem = _GridLogProblem(grid, chosen)
-    fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options)
-    return StreamlineSurface._from_grid(grid, fitted, T=chosen.T, c=chosen.c,
-                                        frame_label=chosen.label)
+    fields = {"T": chosen.T, "c": chosen.c, "frame_label": chosen.label}
+    fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options,
+                      (lambda fit: StreamlineSurface._from_grid(grid, fit, **fields))
+                      if fair else None)
+    return StreamlineSurface._from_grid(grid, fitted, **fields)

@@ -48,6 +48,7 @@ def report_lines(report: dict) -> list[str]:
     lines = [
         f"fit        {fit['method']} surface {n_t}x{n_s} CPs, max error "
         f"{fit['max_error_mm']:.4f} mm (between sections {fit['between_sections_mm']:.4f})",
+        *([f"fairness   {fit['fairness']['summary']}"] if fit.get("fairness") else []),
         f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
