@@ -158,7 +158,8 @@ def test_real_like_surfaces_fit_fair_on_and_between_sections(name, fit):
 
 def test_unfair_fit_without_the_mend_is_reported_by_section_and_t():
     grid = as_sections(read_sections(bundled_data_path("dev_rotor_dca_11x181.csv")))
-    surface = fit_bspline_surface(grid.points, tol=0.01, fair=False)
+    # the density seed alone (no error sweeps, no mend) ripples beside the noses
+    surface = fit_bspline_surface(grid.points, tol=0.01, fair=False, sweeps=0)
     fairness = surface_fairness(surface, grid.points)
     assert fairness.n_concave > 0
     [note] = [w for w in fairness.warnings(0.01) if w.startswith("unfair")]
