@@ -25,8 +25,8 @@ periodic). Solved as the KKT system ``[[BᵀWB + εΔᵀΔ, a], [aᵀ, 0]] [c; �
 with ``a = Ñ(0)`` and ``Δ`` the cyclic first differences of the coefficients at a tiny
 weight ``ε`` (:data:`TIE_BREAK`: it only decides between fits the data cannot tell apart,
 such as a piece between two corner knots with no sample inside); the normal matrix is
-cyclic banded, solved dense (``N`` is at most a few hundred: well under a millisecond), a
-least-squares solve if singular.
+cyclic banded, built in O(n) from the sparse design matrix and solved dense (``N`` is at
+most a few hundred control points: about a millisecond), a least-squares solve if singular.
 
 **Knots.** The knot driver of :mod:`toolpath.adaptive` works unchanged on the clamped view
 of the same knots (the period's interior knots between clamped ends at 0 and 1): because the
@@ -44,6 +44,7 @@ import dataclasses
 import numpy as np
 import scipy.interpolate
 import scipy.linalg
+import scipy.sparse
 from numpy.typing import NDArray
 
 from .adaptive import adapt_knots
@@ -127,12 +128,15 @@ def periodic_violation(t: NDArray[np.float64], knots: NDArray[np.float64]) -> st
     return None
 
 
-def _folded_basis(t: NDArray[np.float64], knots: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Dense ``(len(t), N)`` matrix of the periodic basis ``Ñ_j(t_i)``."""
+def _folded_basis(t: NDArray[np.float64], knots: NDArray[np.float64]):
+    """Sparse ``(len(t), N)`` matrix of the periodic basis ``Ñ_j(t_i)`` (CSR)."""
     n_free = free_coefficients(knots)
-    full = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).toarray()
-    full[:, :DEGREE] += full[:, n_free:]
-    return full[:, :n_free]
+    full = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).tocsr()
+    full.indices = np.mod(full.indices, n_free)  # columns N.. fold onto 0..
+    folded = scipy.sparse.csr_matrix((full.data, full.indices, full.indptr),
+                                     shape=(len(t), n_free))
+    folded.sum_duplicates()
+    return folded
 
 
 def periodic_lsq(t: NDArray[np.float64], values: NDArray[np.float64],
@@ -164,16 +168,17 @@ def periodic_lsq(t: NDArray[np.float64], values: NDArray[np.float64],
     v = np.asarray(values, dtype=float)[fitted]
     w = np.ones(basis.shape[0]) if weights is None else np.asarray(weights, float)[fitted]
     n_free = basis.shape[1]
-    seam = _folded_basis(np.zeros(1), knots)[0]
+    seam = _folded_basis(np.zeros(1), knots).toarray()[0]
     kkt = np.zeros((n_free + 1, n_free + 1))
-    normal = basis.T @ (basis * w[:, None])
+    weighted = basis.multiply(w[:, None]).tocsr()
+    normal = (basis.T @ weighted).toarray()  # O(n) to build: four basis values a row
     # the shortest control polygon among fits the data cannot tell apart (a piece between
     # two corner knots with no data inside, e.g. a blunt base closed by --closed: straight)
     ring = np.roll(np.eye(n_free), 1, axis=1) - np.eye(n_free)
     normal += TIE_BREAK * np.trace(normal) / n_free * (ring.T @ ring)
     kkt[:n_free, :n_free] = normal
     kkt[:n_free, n_free] = kkt[n_free, :n_free] = seam
-    rhs = np.vstack((basis.T @ (v * w[:, None]), values[:1]))
+    rhs = np.vstack((weighted.T @ v, values[:1]))
     try:
         solution = scipy.linalg.solve(kkt, rhs, assume_a="sym")
     except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
