@@ -40,6 +40,7 @@ parameter and there are at least ``N`` of them (:func:`periodic_violation`).
 from __future__ import annotations
 
 import dataclasses
+import re
 
 import numpy as np
 import scipy.interpolate
@@ -261,5 +262,10 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     def wrapped(knots: NDArray[np.float64], weights: NDArray[np.float64] | None):
         return fit_at(from_clamped(knots, seam), weights)
 
-    fit, errors, knots = adapt_knots(points, t, seed_values, wrapped, driver)
+    try:
+        fit, errors, knots = adapt_knots(points, t, seed_values, wrapped, driver)
+    except FitError as exc:  # counts in the message are the driver's (clamped) ones
+        raise FitError(re.sub(r"with (\d+) control points",
+                              lambda m: f"with {int(m.group(1)) - offset} control points",
+                              str(exc))) from None
     return fit, errors, from_clamped(knots, seam)

@@ -217,6 +217,8 @@ def test_periodic_knots_that_cannot_be_fitted_are_refused():
     assert "base interval" in periodic_violation(np.linspace(0, 1, 9), crowded + 0.1)
     with pytest.raises(InvalidParameterError, match="open curves only"):
         fit_streamline_curve(section, tol=0.01, closed=True, refine=True)
+    with pytest.raises(FitError, match="not reached with 12 control points"):
+        fit_bspline_curve(section, tol=1e-6, closed=True, max_control_points=12)
 
 
 def test_a_piece_with_no_data_between_two_corner_knots_is_straight():
