@@ -61,8 +61,9 @@ CLOSURE_GAP_MM = 1e-3
 #: The closing step may be this many times the longer step beside it (a missing sample or
 #: two; nose spacing of real exports is 0.01-0.03 mm and their gaps 0.002-0.02 mm).
 GAP_SPACING_FACTOR = 3.0
-#: ... and this fraction of the contour's length (1 mm on a 100 mm section at most).
-GAP_LENGTH_FRACTION = 0.01
+#: ... and this fraction of the contour's length (5 mm on a 100 mm section at most: a seam
+#: on a flank sampled 2.5 mm apart closes with a step of 1-2.5% of the contour).
+GAP_LENGTH_FRACTION = 0.05
 #: A closing step turning this much (deg) at both ends is a blunt base between two corners.
 BLUNT_TURN_DEG = 45.0
 #: ... unless it is shorter than this fraction of both steps beside it (a sharp edge whose

@@ -98,6 +98,14 @@ def test_seam_rule_on_the_development_blades(name, closed):
     assert as_sections(sections).closed is closed
 
 
+@pytest.mark.parametrize("roll", [40, 90, 140])
+def test_a_seam_on_a_coarse_flank_closes_too(roll):
+    # the DCA rotor's sections started elsewhere: the closing step is then a flank step of
+    # 0.5-2.5 mm (up to 2.7 % of the contour), still a step like its neighbours
+    sections = [np.roll(p, roll, axis=0) for p in _sections("dev_rotor_dca_11x181.csv")]
+    assert as_sections(sections).closed
+
+
 @pytest.mark.parametrize("gap_mm", [0.002, 0.005, 0.01, 0.02])
 @pytest.mark.parametrize("nose_step_mm", [0.01, 0.03, 0.1])
 def test_real_style_gaps_close_on_any_spacing(gap_mm, nose_step_mm):
