@@ -228,7 +228,8 @@ def fit_streamline_curve(
     max_control_points : int, optional
         Upper bound while searching for ``tol``.
     knots : array_like, optional
-        A clamped cubic knot vector on [0, 1] to use exactly (e.g. a B-spline fit's).
+        A clamped cubic knot vector on [0, 1] to use exactly (e.g. a B-spline fit's);
+        closed: a periodic one, or a clamped one whose interior knots are used.
     params : {"chord", "centripetal", "uniform"} or array_like
         Parameters of the points, mapped to [0, 1].
     knot_method : {"density", "dominant"}
