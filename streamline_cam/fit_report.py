@@ -50,6 +50,7 @@ class CurveFitReport:
     notes: list[str] = field(default_factory=list)
     #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit (concave stretches, noses).
     fairness: dict[str, Any] | None = None
+    closed: bool = False
 
     @property
     def within_tol(self) -> bool:
@@ -66,7 +67,7 @@ class CurveFitReport:
         """Human-readable report lines."""
         out = [
             f"method            {self.method}",
-            f"points            {self.n_points}",
+            f"points            {self.n_points}" + (" (closed)" if self.closed else " (open)"),
             f"control points    {self.n_control_points}",
             f"max error         {self.max_error_mm:.6f} mm"
             + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
@@ -85,17 +86,25 @@ class CurveFitReport:
         return out
 
 
-def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
-                        ) -> tuple[Any, CurveFitReport]:
-    """Fit ``points`` with ``method`` (see ``CURVE_METHODS``) and report on it."""
+def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
+                        closed: bool | None = None) -> tuple[Any, CurveFitReport]:
+    """Fit ``points`` with ``method`` (see ``CURVE_METHODS``) and report on it.
+
+    ``closed`` (None: read from the points) applies to the spline methods; the
+    constant-coefficient models fit open curves only.
+    """
     if method not in CURVE_METHODS:
         raise InvalidParameterError(f"method must be one of {CURVE_METHODS}, got {method!r}")
     start = time.perf_counter()
     if method == "streamline":
-        curve = fit_streamline_curve(points, tol=tol)
+        curve = fit_streamline_curve(points, tol=tol, closed=closed)
     elif method == "bspline":
-        curve = fit_bspline_curve(points, tol=tol)
+        curve = fit_bspline_curve(points, tol=tol, closed=closed)
     else:
+        if closed:
+            raise InvalidParameterError(
+                f"--closed needs a spline method (streamline or bspline); {method} fits "
+                "open curves only")
         curve = fit_linear_system(points, model=method)
     seconds = time.perf_counter() - start
     extra: dict[str, Any] = {}
@@ -109,6 +118,7 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
     extra["fairness"] = fairness.as_dict()
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),
+                            closed=bool(getattr(curve, "closed", False)),
                             n_control_points=curve.n_control_points,
                             max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
                             tol_mm=tol, seconds=seconds, **extra)

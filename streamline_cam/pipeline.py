@@ -74,6 +74,9 @@ class JobRequest:
         ``auto`` (flat for 3-axis, upright for 5-axis), ``flat``, ``upright`` or ``none``.
     dialect : str or None
         Override the machine's dialect.
+    closed : bool or None
+        Closed sections (``--closed``/``--open``); None reads them from how they end
+        (:mod:`toolpath.closure`).
     planning_options : dict
         Extra options for :func:`toolpath.planning.finishing.plan_finishing`.
     """
@@ -93,6 +96,7 @@ class JobRequest:
     base_mm: float = 5.0
     dialect: str | None = None
     spindle_rpm: float = 12000.0
+    closed: bool | None = None
     planning_options: dict[str, Any] = field(default_factory=dict)
 
     def validated(self) -> JobRequest:
@@ -206,7 +210,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
 
     start = time.perf_counter()
     report_progress("fit", 0.0)
-    raw = as_sections(read_sections(request.sections_path))
+    raw = as_sections(read_sections(request.sections_path), closed=request.closed)
     mode = request.placement
     if mode == "auto":
         mode = "flat" if request.axis_mode == "3" else "upright"

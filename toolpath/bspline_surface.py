@@ -78,7 +78,8 @@ def fit_bspline_surface(
     knots : array_like, optional
         The clamped cubic ``t``-knot vector to use exactly.
     closed : bool, optional
-        Closed sections (default: detected from a repeated first point).
+        Closed sections, fitted periodic in ``t`` (default: read from how the sections end,
+        :mod:`toolpath.closure`).
     params, section_params
         Grid parameters ``t`` and ``s`` (see :func:`toolpath.as_sections`).
     knot_method, corner_angle_deg, sweeps, minimax, fair

@@ -77,11 +77,17 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     A sample (or two adjacent samples whose turns add up, when the true corner lies
     between them) is a corner when its turn is at least ``min_angle_deg`` and at least
     ``CORNER_CONTRAST`` times the largest turn at the samples two to five steps away.
+    A closed loop (the last point equal to the first, as closed curves and sections are
+    stored) is read round its seam: the samples beside the seam have neighbours on both
+    sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
     """
     turn = _turning_angles(points)  # turn[i] is at sample i + 1
     n = turn.size
     if n < 5:
         return []
+    ring = None  # closed: the turns round the loop, ring[n] at the seam
+    if np.array_equal(points[0], points[-1]):
+        ring = np.append(turn, _turning_angles(points[[-2, 0, 1]]))
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
     i = 0
@@ -90,7 +96,10 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
         if turn[i] < 0.25 * threshold or pair < threshold:
             i += 1
             continue
-        around = np.concatenate((turn[max(0, i - 5):max(0, i - 1)], turn[i + 3:i + 7]))
+        if ring is None:
+            around = np.concatenate((turn[max(0, i - 5):max(0, i - 1)], turn[i + 3:i + 7]))
+        else:
+            around = ring[np.r_[i - 5:i - 1, i + 3:i + 7] % ring.size]
         background = float(around.max()) if around.size else 0.0
         single = turn[i] >= threshold and turn[i] >= 0.85 * pair
         if single and turn[i] >= CORNER_CONTRAST * background:

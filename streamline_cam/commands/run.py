@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from ..cli import add_closure_arguments
 from ..pipeline import JobRequest, run_job
 from ..progress import StageBars
 from ..streaming import make_streamer
@@ -30,6 +31,7 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--placement", choices=("auto", "flat", "upright", "none"),
                         default="auto", help="how the part sits on the table")
     parser.add_argument("--dialect", help="override the machine's G-code dialect")
+    add_closure_arguments(parser)
 
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
@@ -38,7 +40,8 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         sections_path=points, machine=args.machine, cutter=args.cutter,
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
-        linking=args.linking, placement=args.placement, dialect=args.dialect)
+        linking=args.linking, placement=args.placement, dialect=args.dialect,
+        closed=getattr(args, "closed", None))
 
 
 def report_lines(report: dict) -> list[str]:
