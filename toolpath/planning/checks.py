@@ -182,7 +182,8 @@ def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
 
 def _travel_remedy(path: Toolpath, mach: Machine) -> str:
     """What to do about a travel violation: where the part fits, or which limit binds."""
-    fit = fit_travel(mach, path.positions_mm, path.tool_axes)
+    fit = fit_travel(mach, path.positions_mm, path.tool_axes,
+                     split_moves=path.kinds[1:] != MoveKind.RAPID)
     if fit.fits:
         d = fit.offset_mm
         return (f"the path fits with the part {fit.describe_offset()}: add "

@@ -387,8 +387,8 @@ def _within_tilt(opts: FinishingOptions, res: dict[str, float], axes: NDArray[np
     """Axes leaned back within the machine's tilt reach (``res["max_tilt_deg"]``), if any.
 
     Smoothed along the passes (:func:`~toolpath.planning.tool_axis.lean_within_tilt`)
-    when ``smooth``; else each point leans by its own need (points inserted between two
-    axes within the reach need little or none).
+    when ``smooth`` (the points are whole passes); else each point leans by its own need
+    (points inserted between two axes within the reach need little or none).
     """
     cap = res.get("max_tilt_deg", math.inf)
     if not math.isfinite(cap) or not (angle_deg(axes, _Z_AXIS) > cap).any():
@@ -396,7 +396,8 @@ def _within_tilt(opts: FinishingOptions, res: dict[str, float], axes: NDArray[np
     lean = lean_within_tilt(axes, frame.normal, _rate_path(cutter, frame, pid), pid,
                             max_tilt_deg=cap, max_lean_deg=opts.max_lean_deg,
                             smoothing_mm=res["axis_smoothing_mm"] if smooth else 0.0,
-                            max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm)
+                            max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
+                            moves=smooth)
     return lean
 
 

@@ -506,6 +506,42 @@ def _running_max(values, arclen, pass_id, half_width, out):
         out[i] = best
 
 
+def _leaned(axes: NDArray[np.float64], lean_deg: NDArray[np.float64],
+            normals: NDArray[np.float64], max_lean_deg: float) -> NDArray[np.float64]:
+    """Axes leaned ``lean_deg`` toward +Z, kept within ``max_lean_deg`` of the normals.
+
+    Each axis goes to the angle ``T = th - lean`` from +Z (:func:`_toward_z`). Where that
+    leans it more than ``L = max_lean_deg`` from the normal, it stays on the circle
+    ``a(phi) = (sin T cos phi, sin T sin phi, cos T)`` and its azimuth is clamped to those
+    within ``L``: ``a . n >= cos L`` is ``cos(phi - phi_n) >= k`` with
+    ``k = (cos L - cos T cos th_n) / (sin T sin th_n)``, so ``phi`` goes into
+    ``phi_n +/- acos(k)``. Where the circle does not come within ``L`` of the normal
+    (``k > 1``), the axis is the normal leaned ``L`` toward +Z, the nearest to +Z within
+    ``L``. Each case meets the next where they touch: the axes stay continuous along a
+    pass.
+    """
+    out = _toward_z(axes, lean_deg)
+    cos_lean = np.cos(np.radians(max_lean_deg))
+    over = np.einsum("ij,ij->i", out, normals) < cos_lean - 1e-12
+    if not over.any():
+        return out
+    a, n = out[over], normals[over]
+    tilt = np.radians(angle_deg(a, _Z))
+    th_n = np.radians(angle_deg(n, _Z))
+    phi_n = np.arctan2(n[:, 1], n[:, 0])
+    phi = np.arctan2(a[:, 1], a[:, 0])
+    denominator = np.sin(tilt) * np.sin(th_n)
+    k = (cos_lean - np.cos(tilt) * np.cos(th_n)) / np.where(
+        np.abs(denominator) > 1e-12, denominator, 1e-12)
+    half = np.arccos(np.clip(k, -1.0, 1.0))
+    phi = phi_n + np.clip(np.mod(phi - phi_n + np.pi, 2.0 * np.pi) - np.pi, -half, half)
+    on_circle = np.column_stack([np.sin(tilt) * np.cos(phi), np.sin(tilt) * np.sin(phi),
+                                 np.cos(tilt)])
+    nearest = _toward_z(n, np.full(len(n), float(max_lean_deg)))
+    out[over] = np.where((k > 1.0)[:, None], nearest, on_circle)
+    return out
+
+
 #: Rounds of :func:`lean_within_tilt` leaning the ends of moves whose middle axis is over.
 MID_ROUNDS = 4
 
@@ -531,7 +567,7 @@ def _spread(need: NDArray[np.float64], arclen_mm: NDArray[np.float64],
 def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
                      arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64], *,
                      max_tilt_deg: float, max_lean_deg: float, smoothing_mm: float,
-                     max_rate_deg_per_mm: float | None) -> TiltLean:
+                     max_rate_deg_per_mm: float | None, moves: bool = True) -> TiltLean:
     """Axes more than ``max_tilt_deg`` from +Z leaned back toward +Z, smoothly along each pass.
 
     The tilt joint of a 5-axis machine turns the tool axis away from the workpiece +Z by
@@ -570,6 +606,9 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
         Least half-width of the lean's window, mm (0: each point leans by its own need).
     max_rate_deg_per_mm : float or None
         The axis turn-rate limit the lean's ramps keep a share of.
+    moves : bool
+        Consecutive rows of a pass are consecutive points, joined by moves whose middle
+        axes are checked too (False for points scattered along their passes).
     """
     axes = np.ascontiguousarray(axes, dtype=float)
     n = len(axes)
@@ -578,11 +617,11 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
     if not (need > 0.0).any():
         return TiltLean(axes, np.zeros(n), np.zeros(n, dtype=bool), theta)
     pid = np.ascontiguousarray(pass_id, dtype=np.int64)
-    same = pid[1:] == pid[:-1]
+    same = (pid[1:] == pid[:-1]) & moves
     for _ in range(MID_ROUNDS):
-        out = limit_lean(_toward_z(axes, np.minimum(_spread(
-            need, arclen_mm, pid, smoothing_mm, max_rate_deg_per_mm), theta)), normals,
-            max_lean_deg)[0]
+        lean = np.minimum(_spread(need, arclen_mm, pid, smoothing_mm, max_rate_deg_per_mm),
+                          theta)
+        out = _leaned(axes, lean, normals, max_lean_deg)
         # a move's axes in between (the normalized mean of its ends: the post's split
         # points) lie off the circle th = max_tilt_deg, further from +Z beyond 90 deg:
         # its ends lean further by the excess
@@ -593,13 +632,6 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
         grow = np.maximum(np.r_[excess, 0.0], np.r_[0.0, excess])
         need = need + 1.5 * np.maximum(grow, 0.0)
     theta_out = angle_deg(out, _Z)
-    theta_n = angle_deg(normals, _Z)
-    impossible = theta_n - max_lean_deg > max_tilt_deg + 1e-9
-    still = (theta_out > max_tilt_deg + 1e-9) | impossible
-    if still.any():
-        best = _toward_z(normals[still], np.minimum(np.maximum(theta_n[still] - max_tilt_deg,
-                                                               0.0), max_lean_deg))
-        out[still] = best
-        theta_out[still] = angle_deg(best, _Z)
+    impossible = angle_deg(normals, _Z) - max_lean_deg > max_tilt_deg + 1e-9
     moved = angle_deg(out, axes)
     return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible, theta_out)

@@ -26,6 +26,7 @@ solution breaks are added until none is (constraint generation, exact).
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Final
 
@@ -87,7 +88,8 @@ class TravelFit:
     ranges : tuple of AxisRange
         Per limited linear axis, the joints' range after the shift against the travel.
     violations : tuple of Violation
-        Travel violations left after the shift (rotary ones included).
+        Travel violations left after the shift (rotary ones included); a middle of a move
+        counts as the point the move arrives at.
     uniform : bool
         Every point's linear joints move by the same vector (a 3-axis machine, or a shift
         along the C axis of a rotary table under a swivel head): moves between the points
@@ -127,9 +129,35 @@ def _linear_joints(machine: Machine, tips: NDArray[np.float64], axes: NDArray[np
     return joints, g, jac
 
 
+def _with_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
+                  split: NDArray[np.bool_] | None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """The poses with the middle poses of the moves ``split`` added, in path order.
+
+    Returns the tips, the axes and the path point each row stands for (a middle: the point
+    its move arrives at). The post splits 5-axis moves for joint interpolation at their
+    middle (the tip's chord midpoint, the normalized mean of the ends' axes,
+    :mod:`toolpath.joint_refine`): beyond 90 deg from +Z that axis lies further down than
+    either end, and a swivel head's pivot lever turns that into Z below both ends.
+    """
+    n = len(tips)
+    if split is None or n < 2:
+        return tips, axes, np.arange(n)
+    mean = axes[1:] + axes[:-1]
+    size = np.linalg.norm(mean, axis=1)
+    take = np.flatnonzero(np.asarray(split, dtype=bool) & (size > 1e-6))
+    mid_tips = 0.5 * (tips[take] + tips[take + 1])
+    mid_axes = mean[take] / size[take, None]
+    # in path order, each middle before the point its move arrives at
+    order = np.argsort(np.r_[np.arange(n), take + 0.5], kind="stable")
+    owner = np.r_[np.arange(n), take + 1][order]
+    return np.vstack([tips, mid_tips])[order], np.vstack([axes, mid_axes])[order], owner
+
+
 def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
                raise_only: bool = True, lateral: bool = True,
-               margin_mm: float = TRAVEL_MARGIN_MM) -> TravelFit:
+               margin_mm: float = TRAVEL_MARGIN_MM,
+               split_moves: ArrayLike | None = None) -> TravelFit:
     """The smallest shift of the part that keeps a path inside the linear travel.
 
     Parameters
@@ -145,6 +173,9 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
         The part may move in X and Y too (else only along Z).
     margin_mm : float
         Room kept inside each limit (:data:`TRAVEL_MARGIN_MM`).
+    split_moves : array_like of bool, shape (n - 1,), optional
+        Moves the post splits for the machine's joint interpolation (every one but the
+        rapids): their middle poses must fit too (:func:`_with_middles`).
 
     Returns
     -------
@@ -152,6 +183,10 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     """
     tips = np.asarray(tips_mm, dtype=float)
     w = np.asarray(axes, dtype=float)
+    owner = np.arange(len(tips))
+    if machine.kinematics.is_five_axis:
+        tips, w, owner = _with_middles(tips, w, None if split_moves is None
+                                       else np.asarray(split_moves, dtype=bool))
     joints, g, jac = _linear_joints(machine, tips, w)
     letters = "XYZ"
     limits = [machine.axis(letter) for letter in letters]
@@ -195,7 +230,8 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     moved = g + step
     shifted = joints.copy()
     shifted[:, [machine.index(letter) for letter in letters]] = moved
-    violations = tuple(check_travel(machine, shifted))
+    violations = tuple(dataclasses.replace(v, index=int(owner[v.index]))
+                       for v in check_travel(machine, shifted))
     ranges = tuple(AxisRange(letter, (float(moved[:, k].min()), float(moved[:, k].max())),
                              (ax.min, ax.max))
                    for k, (letter, ax) in enumerate(zip(letters, limits, strict=True))
