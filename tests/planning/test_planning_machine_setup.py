@@ -87,6 +87,10 @@ def test_head_table_job_raises_the_blade_into_the_z_travel(tmp_path):
     assert shift[2] > 0.0 and shift[:2] == pytest.approx([0.0, 0.0])
     assert result.report["check"]["errors"] == 0
     assert result.report["plan"]["travel_violations"] == []
+    from streamline_cam.commands.run import _setup_lines
+
+    assert any(line.startswith("setup      part moved by (0.000, 0.000, ")
+               for line in _setup_lines(result.report))
     # the saved surface, the placement and the path are in the same (shifted) frame
     surface = surface_from_dict(json.loads(result.files["surface"].read_text()))
     place = result.report["placement"]

@@ -116,13 +116,14 @@ def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
     if not mach.kinematics.is_five_axis:
         if opts.axis_mode is AxisMode.LEAD_TILT:
             raise UnreachableOrientationError(
-                f"axis_mode='lead-tilt' needs a 5-axis machine: machine {mach.name!r} is "
-                f"3-axis and holds the tool along +Z only; use axis_mode='3'", indices=[])
+                f"--axis lead-tilt (axis_mode='lead-tilt') needs a 5-axis machine: machine "
+                f"{mach.name!r} is 3-axis and holds the tool along +Z only; use --axis 3 or "
+                f"--machine trunnion-ac / head-table-bc", indices=[])
         if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=1e-9):
             raise UnreachableOrientationError(
-                f"fixed_axis={opts.fixed_axis!r} is not +Z: the 3-axis machine {mach.name!r} "
-                f"holds the tool along +Z only; set the part up so that axis is +Z (rotate "
-                f"the surface) or use a 5-axis machine", indices=[])
+                f"--fixed-axis {','.join(f'{v:g}' for v in opts.fixed_axis)} is not +Z: the "
+                f"3-axis machine {mach.name!r} holds the tool along +Z only; set the part up "
+                f"so that axis is +Z (--rotate) or use a 5-axis machine", indices=[])
     return mach
 
 
