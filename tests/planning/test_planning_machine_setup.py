@@ -15,8 +15,9 @@ from toolpath.placement import Placement
 from toolpath.planning import PlaneSurface, PlanTravelLimitError, plan_finishing
 from toolpath.planning.analytic import CylinderPatch
 from toolpath.planning.cutters import parse_cutter
+from toolpath.planning.options import TILT_MARGIN_DEG
 from toolpath.planning.tool_axis import angle_deg, lean_within_tilt
-from toolpath.planning.travel import fit_travel
+from toolpath.planning.travel import TRAVEL_MARGIN_MM, fit_travel
 from verification import VerifyOptions, verify_program
 
 BLADE = Path(__file__).resolve().parents[2] / "toolpath" / "data" / "dev_blade_15x142.csv"
@@ -41,7 +42,7 @@ def test_router_part_past_the_bed_edge_is_moved_onto_it():
     assert fit.fits and fit.uniform and not fit.binding
     # the smallest shift: back in X by the overrun and the margin, nothing else
     overrun = machine.work_origin[0] + path.positions_mm[:, 0].max()
-    assert fit.offset_mm[0] == pytest.approx(-overrun - 0.01, abs=1e-6)
+    assert fit.offset_mm[0] == pytest.approx(-overrun - TRAVEL_MARGIN_MM, abs=1e-6)
     assert fit.offset_mm[1:] == pytest.approx([0.0, 0.0], abs=1e-9)
     moved = path.positions_mm + fit.offset_mm
     joints = solve_inverse(machine, moved, path.tool_axes).joints
@@ -116,8 +117,8 @@ def test_trunnion_leans_the_tool_axis_to_keep_a_in_travel_without_gouging():
     assert rep.travel_violations == () and _within_travel(machine, path)
     # the lower edge's axis (140 + 10 deg lead) leans back 30 deg to the reach
     assert rep.tilt_leaned_points > 0
-    assert rep.max_tilt_lean_deg == pytest.approx(30.0 + 0.01, abs=0.05)
-    assert rep.max_tilt_deg == pytest.approx(tilt_reach_deg(machine) - 0.01)
+    assert rep.max_tilt_deg == pytest.approx(tilt_reach_deg(machine) - TILT_MARGIN_DEG)
+    assert rep.max_tilt_lean_deg == pytest.approx(30.0 + TILT_MARGIN_DEG, abs=0.05)
     assert "points leaned toward +Z" in "\n".join(rep.lines())
     cut = path.pass_index >= 0
     assert angle_deg(path.tool_axes[cut], Z).max() <= 120.0

@@ -48,9 +48,12 @@ for ``scallop_mm`` minus that, keeping the material left anywhere within ``scall
 A quarter costs about 13 % more passes on concave areas and nothing elsewhere."""
 
 
-TILT_MARGIN_DEG: Final[float] = 0.01
-"""Room kept inside the tilt joint's travel when axes are leaned back, deg: ten steps of
-the G-code's 0.001 deg grid, so rounding the written angle cannot push one over."""
+TILT_MARGIN_DEG: Final[float] = 0.05
+"""Room kept inside the tilt joint's travel when axes are leaned back, deg: for rounding to
+the G-code's 0.001 deg grid, and for the axes the post puts inside moves (the normalized
+mean of the ends' axes; between two axes ``d`` apart at the limit ``th`` beyond 90 deg it
+bows out by ``|cot th| d^2 / 8``: 0.03 deg for axes 5 deg apart at 120 deg; moves along a
+pass turning further are corrected by leaning their ends, links between passes are not)."""
 
 
 class AxisMode(StrEnum):
