@@ -56,6 +56,7 @@ def report_lines(report: dict) -> list[str]:
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
+        *_setup_lines(report),
         f"program    {program['lines']} lines, estimated {program['time_s'] / 60:.1f} min",
         f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
     ]
@@ -67,6 +68,24 @@ def report_lines(report: dict) -> list[str]:
                      f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})")
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
+    return lines
+
+
+def _setup_lines(report: dict) -> list[str]:
+    """How the part was moved into the travel and the tool axis leaned, when they were."""
+    lines = []
+    shift = report.get("placement", {}).get("travel_shift_mm")
+    if shift and any(shift):
+        lines.append(f"setup      part moved by ({shift[0]:.3f}, {shift[1]:.3f}, "
+                     f"{shift[2]:.3f}) mm to keep the path inside the travel of "
+                     f"{report['machine']} (placement offset "
+                     + ", ".join(f"{v:.3f}" for v in report["placement"]["offset_mm"])
+                     + " mm)")
+    plan = report["plan"]
+    if plan.get("tilt_leaned_points"):
+        lines.append(f"tool axis  {plan['tilt_leaned_points']} points leaned toward +Z by up "
+                     f"to {plan['max_tilt_lean_deg']:.2f} deg to keep the tilt joint in "
+                     f"travel ({plan['max_tilt_deg']:.2f} deg from +Z at most)")
     return lines
 
 
