@@ -322,7 +322,7 @@ class GrblRecovery:
         )
 
     def _generic_failure(self, ev: Event, *, stop_machine: bool = False) -> SenderError:
-        if stop_machine and not (isinstance(ev, TimedOut) and ev.what == "status"):
+        if stop_machine:
             try:
                 self.stream.drop_pending()
                 self._hold_and_reset()

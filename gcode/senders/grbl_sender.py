@@ -55,6 +55,7 @@ from gcode.senders.errors import (
     AlarmError,
     HandshakeError,
     LineRejectedError,
+    LineTooLongError,
     LinkLostError,
     LinkTimeoutError,
     SenderError,
@@ -74,7 +75,6 @@ from gcode.senders.grbl_stream import (
     Pushed,
     StatusUpdate,
     StreamMode,
-    TimedOut,
     Timeouts,
     Unexpected,
 )
@@ -149,6 +149,11 @@ class JobResult:
     streaming_s : float
         From the first line written to the last answer received, s (what the link
         throughput is measured over; ``elapsed_s`` adds the wait for Idle).
+    last_line : int
+        Source line of the last block answered (where the program stopped).
+    status_queries, status_missed : int
+        ``?`` sent during the run, and of those left unanswered (grbl does not promise a
+        report; the job never depends on them).
     """
 
     lines_sent: int
@@ -158,6 +163,9 @@ class JobResult:
     final_status: StatusReport | None
     start_line: int
     streaming_s: float = 0.0
+    last_line: int = 0
+    status_queries: int = 0
+    status_missed: int = 0
 
 
 @dataclass(frozen=True)
@@ -242,7 +250,6 @@ class GrblSender(GrblRecovery):
         self._hold_request = threading.Event()
         self._journal: JobJournal | None = None
         self._collect: list[tuple[JobLine, int]] | None = None
-        self._tolerate_status_timeout = False
         self._stale_answers_ok = False
         self._stale_answers = 0
         self._job: Job | None = None
@@ -348,10 +355,6 @@ class GrblSender(GrblRecovery):
                     if self.on_message is not None:
                         self.on_message(f"[MSG:{msg.text}]")
             return
-        tolerate = self._tolerate_status_timeout
-        if t is TimedOut and tolerate and ev.what == "status":  # type: ignore[union-attr]
-            self.stream.polling = True
-            return
         if t is Unexpected and self._stale_answers_ok:
             # answers to lines sent before a reset (an earlier session's, or ours in transit
             # when the controller restarted): nothing of ours is outstanding for them
@@ -382,7 +385,7 @@ class GrblSender(GrblRecovery):
         self.stream.query_status(asked)
         self._pump(
             lambda: self._status_at >= asked,
-            limit_s=limit_s or self.timeouts.status_reply_s + 0.5,
+            limit_s=limit_s or self.timeouts.status_wait_s,
             what="status report",
         )
         assert self.status is not None
@@ -441,7 +444,6 @@ class GrblSender(GrblRecovery):
         """
         name = getattr(self.link, "name", "the link")
         t0 = self.clock()
-        self._tolerate_status_timeout = True
         self._stale_answers_ok = True
         try:
             try:
@@ -478,7 +480,6 @@ class GrblSender(GrblRecovery):
                 f"{name}: unexpected {stop.event!r} during the handshake"
             ) from None
         finally:
-            self._tolerate_status_timeout = False
             self._stale_answers_ok = False
         if s.state == "Alarm":
             if not unlock:
@@ -501,6 +502,7 @@ class GrblSender(GrblRecovery):
                 except (IndexError, ValueError):
                     pass
         self.stream.rx_buffer_bytes = rx
+        self.stream.planner_blocks = planner
         self._feedback.clear()
         offsets: dict[int, tuple[float, ...]] = {}
         if not self._command("$#", tolerate=True):
@@ -638,6 +640,12 @@ class GrblSender(GrblRecovery):
         self._start_line = start
         bytes0 = self.stream.bytes_sent
         stream = self.stream
+        queries0, missed0 = stream.status_queries, stream.status_missed
+        try:
+            self._check_fits(lines)
+        except LineTooLongError as err:
+            self._end(err)
+            raise
         stream.add_lines(lines)
         stream.resume_sending()
         stream.polling = True
@@ -665,38 +673,55 @@ class GrblSender(GrblRecovery):
             self._done,
             self.clock() - self._t0,
             stream.bytes_sent - bytes0,
-            self.status,
+            stream.end_status or self.status,
             start,
             max(self._last_ack_s - self._first_sent_s, 0.0),
+            self._last_line,
+            stream.status_queries - queries0,
+            stream.status_missed - missed0,
         )
+
+    def _check_fits(self, lines: tuple[JobLine, ...]) -> None:
+        """Refuse, before sending anything, a line the receive buffer can never hold.
+
+        A character-counting sender can never send a line longer than the controller's
+        receive buffer (it would wait forever), and grbl drops the bytes of one that
+        overflows it in send-response too.
+
+        Raises
+        ------
+        LineTooLongError
+            Naming the first such line and its size.
+        """
+        rx = self.stream.rx_buffer_bytes
+        for ln in lines:
+            if ln.size > rx:
+                raise LineTooLongError(
+                    f"line {ln.number or '(preamble)'} needs {ln.size} bytes with its "
+                    f"newline after removing spaces and comments, more than the "
+                    f"controller's {rx}-byte receive buffer: it can never be sent "
+                    f"({ln.text[:40]!r}...); nothing was sent",
+                    line=ln.number or None,
+                )
 
     def _end(self, err: SenderError) -> None:
         if self._journal is not None:
             self._journal.end(err.outcome, resume_line=err.resume_line, message=str(err))
 
     def _job_done(self) -> bool:
+        """Every line answered and a later report shows Idle/Check, planner empty.
+
+        No M2/M30 needed; the stream polls (at most 5 Hz) and reports the controller's
+        silence (``stall_s``) while it waits.
+        """
         stream = self.stream
         if not stream.finished:
             return False
         if self._finish_asked < self._t0:
             self._finish_asked = self.clock()
-            stream.query_status(self._finish_asked)
+            stream.expect_end(self._finish_asked)
             return False
-        s = self.status
-        if s is not None and self._status_at >= self._finish_asked:
-            if s.state == "Idle":
-                return True
-            if s.state in ("Run", "Hold"):  # still executing: ask again
-                self._finish_asked = self.clock()
-                stream.query_status(self._finish_asked)
-        progress_at = stream.last_progress_s
-        now = self.clock()
-        if progress_at is not None and now - progress_at > self.timeouts.stall_s:
-            raise LinkTimeoutError(
-                f"the machine has not moved for {self.timeouts.stall_s:g} s "
-                f"after the last line was answered"
-            )
-        return False
+        return stream.end_status is not None
 
     def close(self) -> None:
         """Close the link."""
