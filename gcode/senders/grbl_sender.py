@@ -50,6 +50,8 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from gcode.dialects import GENERIC, Dialect
 from gcode.senders.errors import (
     AlarmError,
@@ -82,9 +84,7 @@ from gcode.senders.job import Job, JobLine
 from gcode.senders.journal import JobJournal
 from gcode.senders.link import Link
 from gcode.senders.progress import PROGRESS_INTERVAL_S, Progress
-from gcode.senders.resume import (
-    ResumePlan,
-)
+from gcode.senders.resume import ResumePlan, planned_line_ends
 
 __all__ = [
     "BOOT_WAIT_S",
@@ -101,6 +101,9 @@ __all__ = [
 BOOT_WAIT_S = 3.0
 #: Longest wait for a machine found moving at connection to stop by itself, s.
 BUSY_WAIT_S = 300.0
+#: A status report older than this no longer gives the progress position, s (then the
+#: planned end of the last acknowledged line does).
+STALE_REPORT_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -267,6 +270,7 @@ class GrblSender(GrblRecovery):
         self._on_hold: Callable[[Progress], HoldChoice | str] | None = None
         self._finish_asked = -1.0
         self._start_line = 0
+        self._planned: tuple[Job, np.ndarray, np.ndarray] | None = None
 
     # ------------------------------------------------------------------ pumping
     def request_hold(self) -> None:
@@ -373,10 +377,34 @@ class GrblSender(GrblRecovery):
         self.on_progress(self.progress(now))
 
     def progress(self, now: float | None = None) -> Progress:
-        """The current job's progress."""
+        """The current job's progress (from acknowledgements; reports only add to it)."""
         t = self.clock() if now is None else now
         state = self.status.state if self.status is not None else ""
-        return Progress(self._done, self._total, max(t - self._t0, 0.0), self._last_line, state)
+        position, source = self._position_for_progress(t)
+        return Progress(
+            self._done, self._total, max(t - self._t0, 0.0), self._last_line, state,
+            position, source,
+        )  # fmt: skip
+
+    def _position_for_progress(self, now: float) -> tuple[tuple[float, ...] | None, str]:
+        s = self.status
+        if s is not None and now - self._status_at <= STALE_REPORT_S:
+            if s.work_position is not None:
+                return s.work_position, "report"
+            offsets = self.info.work_offsets if self.info is not None else {}
+            wco = self._wco or offsets.get(1)
+            if s.machine_position is not None and wco is not None:
+                pos = tuple(m - o for m, o in zip(s.machine_position, wco, strict=False))
+                return pos, "report"
+        if not self._last_line or self._job is None:
+            return None, ""
+        if self._planned is None or self._planned[0] is not self._job:
+            self._planned = (self._job, *planned_line_ends(self._job, self.dialect))
+        _, lines, ends = self._planned
+        i = int(np.searchsorted(lines, self._last_line, side="right")) - 1
+        if i < 0:
+            return None, ""
+        return tuple(float(v) for v in ends[i, :3]), "planned"
 
     def _fresh_status(self, *, limit_s: float | None = None) -> StatusReport:
         """Ask for a status report and wait for it (bounded)."""

@@ -7,7 +7,7 @@ import socket
 
 import numpy as np
 import pytest
-from _senders_support import assert_exactly_once, end_position, zigzag_program
+from _senders_support import WORK_OFFSET, assert_exactly_once, end_position, zigzag_program
 
 from gcode.senders.errors import LineTooLongError, LinkLostError
 from gcode.senders.grbl_sender import GrblSender
@@ -48,7 +48,9 @@ def test_firmware_status_habits_every_block_runs_exactly_once(
     text = _no_m2_program(150)
     job = Job.from_text(text, "no-m2.nc")
     with simulator_factory(serial=serial, faults=[fault]) as sim:
-        sender = GrblSender(open_serial_link(sim.serial_url), mode=mode, timeouts=TIMEOUTS)
+        progress = []
+        sender = GrblSender(open_serial_link(sim.serial_url), mode=mode, timeouts=TIMEOUTS,
+                            on_progress=progress.append)  # fmt: skip
         sender.connect()
         result = sender.run(job)
         sender.close()
@@ -65,6 +67,14 @@ def test_firmware_status_habits_every_block_runs_exactly_once(
     elif fault != "status-when-full=defer":
         assert snap["status_ignored"] > 0 and result.status_missed > 0
     assert result.status_missed <= result.status_queries
+    # progress comes from the acknowledgements: complete, with a position
+    assert progress[-1].done == progress[-1].total == len(job.lines)
+    assert progress[-1].position is not None
+    # with no recent report the position is the planned end of the last answered line
+    later = sender.progress(sender.clock() + 5.0)
+    assert later.position_source == "planned" and later.line == job.last_line_number
+    work_end = end_position(text) - np.asarray(WORK_OFFSET[:3])
+    assert np.allclose(later.position, work_end, atol=1e-9)
 
 
 def test_a_program_without_m2_ends_when_the_controller_is_idle(simulator_factory, tmp_path, capsys):
