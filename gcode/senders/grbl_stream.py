@@ -621,8 +621,21 @@ class GrblStream:
             self._hold_asked_at = None
         if not self._inflight and self._end_asked_at is not None and self.end_status is None:
             heard = max(self._heard_at or -math.inf, self._end_asked_at)
+            moved = max(self._progress_at or -math.inf, self._end_asked_at)
+            last = self.last_status
+            holding = last is not None and last.state == "Hold"
             if now_s - heard > t.stall_s:
                 events.append(TimedOut("silent", self._silence(t.stall_s, None)))
+                self._end_asked_at = now_s
+            elif not holding and now_s - moved > t.stall_s:
+                state = last.state if last is not None else "?"
+                events.append(
+                    TimedOut(
+                        "stall",
+                        f"every line was answered but the controller reports {state} and "
+                        f"has not moved for {t.stall_s:g} s: the job did not end",
+                    )
+                )
                 self._end_asked_at = now_s
         if self._inflight:
             oldest, sent_at = self._inflight[0]
@@ -696,6 +709,7 @@ class GrblStream:
             times.append(self._progress_at + t.stall_s + self._inflight[0][0].dwell_s)
         if not self._inflight and self._end_asked_at is not None and self.end_status is None:
             times.append(max(self._heard_at or -math.inf, self._end_asked_at) + t.stall_s)
+            times.append(max(self._progress_at or -math.inf, self._end_asked_at) + t.stall_s)
         if self._rt:
             times.append(now_s)
         return max(min(times), now_s)

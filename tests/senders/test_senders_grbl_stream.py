@@ -247,6 +247,18 @@ def test_end_of_job_is_idle_with_an_empty_planner_after_the_last_answer_no_m2_ne
     assert s.ended and s.end_status.machine_position == (2.0, 0.0, 0.0)
 
 
+def test_end_of_job_wait_is_bounded_when_reports_show_no_motion():
+    s = GrblStream(_lines("G1X1F100"), status_interval_s=0.2, timeouts=T)
+    s.outgoing(0.0)
+    s.receive(b"ok\r\n", 0.1)
+    s.expect_end(0.1)
+    for k in range(1, 25):  # a controller stuck in Door: it answers, it never ends
+        s.receive(b"<Door:0|MPos:1.000,0.000,0.000|FS:0,0>\r\n", k * 0.5)
+        s.check(k * 0.5)
+    (ev,) = [e for e in s.pop_events() if isinstance(e, TimedOut)]
+    assert ev.what == "stall" and "reports Door" in ev.detail and not s.ended
+
+
 def test_end_of_job_wait_is_bounded_by_the_controllers_silence():
     s = GrblStream(_lines("G1X1F100"), status_interval_s=0.2, timeouts=T)
     s.outgoing(0.0)
