@@ -181,9 +181,7 @@ class FaultPlan:
     @property
     def status_habits(self) -> bool:
         """Any status fault is set."""
-        return bool(
-            self.status_when_full or self.ignore_status_fraction or self.status_delay_s
-        )
+        return bool(self.status_when_full or self.ignore_status_fraction or self.status_delay_s)
 
     def ignores_status(self, query: int) -> bool:
         """Whether the ``query``-th ``?`` (1-based) is one of the ignored fraction."""

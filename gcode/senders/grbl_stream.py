@@ -116,7 +116,6 @@ STATUS_INTERVAL_S = 0.2
 RT_STATUS, RT_HOLD, RT_RESUME, RT_RESET = b"?", b"!", b"~", b"\x18"
 
 
-
 class StreamMode(StrEnum):
     """How lines are paced."""
 
