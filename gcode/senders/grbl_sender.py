@@ -581,9 +581,12 @@ class GrblSender(GrblRecovery):
         AlarmError
             The controller raised an alarm while checking (soft limits are checked too);
             the controller is reset before raising.
+        LineTooLongError
+            A line can never fit the receive buffer (nothing is sent).
         LinkLostError, LinkTimeoutError
             The link failed or an answer never came.
         """
+        self._check_fits(tuple(job.lines))
         self._command("$C")
         collected: list[tuple[JobLine, int]] = []
         self._collect = collected

@@ -109,6 +109,8 @@ def test_a_line_longer_than_the_receive_buffer_is_refused_with_its_number():
     with pytest.raises(LineTooLongError, match=r"line 3 needs \d+ bytes") as info:
         GrblSender(NoLink()).run(job)
     assert info.value.line == 3 and "nothing was sent" in str(info.value)
+    with pytest.raises(LineTooLongError, match="line 3"):
+        GrblSender(NoLink()).check(job)
     assert JobLine.of(1, "(" + "x" * 300 + ")").text == ""  # comments are never sent
 
 
