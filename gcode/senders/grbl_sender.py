@@ -269,6 +269,7 @@ class GrblSender(GrblRecovery):
         self._wco: tuple[float, ...] | None = None
         self._on_hold: Callable[[Progress], HoldChoice | str] | None = None
         self._finish_asked = -1.0
+        self._hold_unconfirmed = False
         self._start_line = 0
         self._planned: tuple[Job, np.ndarray, np.ndarray] | None = None
 
@@ -666,6 +667,7 @@ class GrblSender(GrblRecovery):
         self._total = sum(1 for ln in lines if ln.number > 0)
         self._last_line = 0
         self._last_acked = None
+        self._hold_unconfirmed = False
         self._sent_lines = 0
         self._t0 = self.clock()
         self._start_line = start

@@ -7,9 +7,16 @@ import socket
 
 import numpy as np
 import pytest
-from _senders_support import WORK_OFFSET, assert_exactly_once, end_position, zigzag_program
+from _senders_support import (
+    WORK_OFFSET,
+    assert_exactly_once,
+    end_position,
+    expected_after_resume,
+    texts,
+    zigzag_program,
+)
 
-from gcode.senders.errors import LineTooLongError, LinkLostError
+from gcode.senders.errors import LineRejectedError, LineTooLongError, LinkLostError
 from gcode.senders.grbl_sender import GrblSender
 from gcode.senders.grbl_stream import StreamMode, Timeouts
 from gcode.senders.job import Job, JobLine
@@ -145,3 +152,31 @@ def test_bad_ports_give_one_line_naming_the_port(tmp_path, capsys, port, expecte
     if port.startswith("socket://127.0.0.1:") and exit_code == 2:
         with pytest.raises(LinkLostError, match=expected):
             open_serial_link(port)
+
+
+def test_error_mid_job_with_firmware_silent_in_a_hold_names_the_line(simulator_factory):
+    # the hold keeps the planner full, so this firmware never confirms it: the sender
+    # resets after hold_s anyway and still reports the rejected line, then resumes
+    job = Job.from_text(zigzag_program(80, feed=3000.0))
+    bad = job.lines[29]
+    timeouts = Timeouts(status_reply_s=0.3, status_wait_s=5.0, lost_line_s=1.0, stall_s=10.0,
+                        hold_s=1.5, reset_s=3.0)  # fmt: skip
+    faults = ["error-at-line=32:20", "status-when-full=ignore"]  # 2 handshake lines first
+    with simulator_factory(serial="tcp", speed="x20", faults=faults) as sim:
+        sender = GrblSender(open_serial_link(sim.serial_url), timeouts=timeouts)
+        sender.connect()
+        with pytest.raises(LineRejectedError) as info:
+            sender.run(job)
+        err = info.value
+        assert err.line == bad.number and err.code == 20
+        assert "feed hold could not be confirmed" in str(err)
+        executed = texts(sim.journal())
+        later = {ln.text for ln in job.lines[30:]} - {ln.text for ln in job.lines[:30]}
+        assert not later & set(executed), "a line after the rejected one ran"
+        assert err.resume_line is not None and err.resume_line <= bad.number
+        plan = sender.plan_resume(job, err.resume_line)
+        sender.run(job, resume=plan)
+        sender.close()
+        assert_exactly_once(
+            sim.journal(), expected_after_resume(job, executed, err.resume_line, plan.preamble)
+        )
