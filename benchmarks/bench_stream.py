@@ -5,7 +5,14 @@ Prints, for one program (mean line length shown):
 * character counting: link use = line bytes written / (streaming time x 11,520 B/s), the
   share of the serial link's capacity the sender keeps busy (target >= 97 %);
 * send-response on the same link, beside it;
-* Modbus TCP blocks per second (credit flow control, 8 slots) and RTU over a pty.
+* Modbus TCP blocks per second (credit flow control, 8 slots) and RTU over a pty;
+* issue 25: the program without any synchronizing end (no M2/M30, no M5: it ends on a
+  move) and with the firmware's status habits as simulator faults (no reply while the
+  planner is full, half the ``?`` ignored, a 500 ms report that answers two ``?``), each
+  by character counting and send-response: link use, blocks executed exactly once (the
+  simulator's journal against the program), status queries left unanswered, and the wait
+  from the last answer to the end report. These run the simulator in this process (its
+  journal is read), so their link use is a little below the rows above.
 
 The simulator runs in ``instant`` mode (the machine never makes the link wait), so the
 link is the only limit; sender and simulator share the CPU, so a loaded machine shows as
@@ -26,7 +33,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1]))
 
 from gcode.senders.grbl_sender import GrblSender
-from gcode.senders.grbl_stream import StreamMode
+from gcode.senders.grbl_stream import StreamMode, Timeouts
 from gcode.senders.job import Job
 from gcode.senders.modbus_sender import ModbusLink, ModbusSender
 from gcode.senders.serial_link import open_serial_link
@@ -93,6 +100,51 @@ def grbl(job: Job, mode: StreamMode, serial: str, separate: bool) -> tuple[float
     return result.bytes_sent / t / LINK_BYTES_PER_S, result.blocks_done / t, t
 
 
+#: Simulator fault sets of the issue-25 rows (None: no fault).
+HABITS = (
+    None,
+    "status-when-full=ignore",
+    "ignore-status=0.5",
+    "status-delay=500",
+)
+
+
+def without_end(text: str) -> str:
+    """The program without its synchronizing last line (M5): it ends on a move, no M2."""
+    lines = text.splitlines()
+    while lines and lines[-1].startswith(("M2", "M30", "M5")):
+        lines.pop()
+    return "\n".join(lines) + "\n"
+
+
+def grbl_habit(job: Job, mode: StreamMode, serial: str, fault: str | None) -> dict[str, float]:
+    """Stream ``job`` into an in-process simulator with ``fault``; count exactly-once blocks."""
+    faults = [fault] if fault else []
+    with run_simulator("grbl-router", serial=serial, speed="instant", baud=BAUD,
+                       faults=faults) as sim:  # fmt: skip
+        sender = GrblSender(open_serial_link(sim.serial_url), mode=mode,
+                            timeouts=Timeouts(status_reply_s=0.3))  # fmt: skip
+        sender.connect()
+        result = sender.run(job)
+        sender.close()
+        journal = [e.text for e in sim.journal()]
+    expected = [ln.text for ln in job.lines]
+    # exactly once: the journal is the program, line for line (nothing lost, repeated
+    # or reordered); otherwise the number of blocks before the first difference
+    same = len(journal) == len(expected) and journal == expected
+    prefix = next((k for k, (a, b) in enumerate(zip(journal, expected, strict=False)) if a != b),
+                  min(len(journal), len(expected)))  # fmt: skip
+    t = result.streaming_s
+    return {
+        "use": result.bytes_sent / t / LINK_BYTES_PER_S,
+        "once": len(expected) if same else -prefix,
+        "missed": result.status_missed,
+        "queries": result.status_queries,
+        "end_wait": result.elapsed_s - t,
+        "time": result.elapsed_s,
+    }
+
+
 def modbus(job: Job, kind: str) -> tuple[float, float]:
     with run_simulator("grbl-router", serial=None, modbus=kind, speed="instant") as sim:
         ep = sim.endpoints
@@ -116,6 +168,12 @@ def main(argv: list[str] | None = None) -> int:
         dest="process",
         action="store_false",
         help="run the GRBL simulator in this process (shares the interpreter lock)",
+    )
+    ap.add_argument(
+        "--no-habits",
+        dest="habits",
+        action="store_false",
+        help="skip the issue-25 rows (no M2, status replies dropped)",
     )
     args = ap.parse_args(argv)
     job = Job.from_text(program(args.lines), "bench.nc")
@@ -141,7 +199,26 @@ def main(argv: list[str] | None = None) -> int:
     for kind in ("tcp", "rtu"):
         rate, t = modbus(job, kind)
         print(f"modbus {kind:21s} {'':>9s} {rate:9.0f} {t:8.2f}  blocks/s")
+    if args.habits:
+        habits(args)
     return 0
+
+
+def habits(args: argparse.Namespace) -> None:
+    """The issue-25 rows: no M2, and status replies dropped (simulator fault options)."""
+    job = Job.from_text(without_end(program(args.lines)), "no-m2.nc")
+    print()
+    print(f"no M2/M30/M5 ({len(job.lines)} blocks, last line {job.lines[-1].text!r}), "
+          f"simulator {args.serial} in this process")  # fmt: skip
+    print(f"{'mode':14s} {'status fault':24s} {'link use':>9s} {'exactly once':>14s} "
+          f"{'? missed':>10s} {'end wait s':>10s} {'time s':>7s}")  # fmt: skip
+    for mode in (StreamMode.CHAR_COUNT, StreamMode.SEND_RESPONSE):
+        for fault in HABITS:
+            r = grbl_habit(job, mode, args.serial, fault)
+            once = f"{abs(int(r['once']))}/{len(job.lines)}" + ("" if r["once"] >= 0 else " !")
+            print(f"{mode.value:14s} {fault or 'none':24s} {r['use'] * 100:8.1f}% {once:>14s} "
+                  f"{int(r['missed']):>4d}/{int(r['queries']):<5d} {r['end_wait']:10.2f} "
+                  f"{r['time']:7.2f}")  # fmt: skip
 
 
 if __name__ == "__main__":

@@ -11,7 +11,10 @@ would) and reports, each with its 1-based line:
   rotary axes, on the interpreter's motion with arcs followed within
   :data:`CHECK_CHORD_TOLERANCE_MM` (arcs bulging past a limit are found);
 * feed moves that ask an axis for more than its maximum rate (a warning: controllers
-  slow down, so the program runs but takes longer than planned).
+  slow down, so the program runs but takes longer than planned);
+* lines longer than the dialect's limit only with their comments and spaces (a warning:
+  the controller strips them, but a sender that forwards comments counts them in its
+  receive buffer, and one longer than the buffer can never be sent by character counting).
 
 Positions are machine coordinates: program values plus the work offset, by default the
 machine's work origin in every work system (:mod:`gcode.machine_frame`).
@@ -135,6 +138,41 @@ def _runs(mask: npt.NDArray[np.bool_]) -> list[tuple[int, int]]:
 def _line_span(lines: npt.NDArray[np.int64], first: int, last: int) -> str:
     a, b = int(lines[first]), int(lines[last])
     return "" if a == b else f" (lines {a}-{b})"
+
+
+def _long_line_issues(text: str, dialect: Dialect, flagged: set[int]) -> list[Issue]:
+    """Lines longer than ``dialect.max_line_length`` with comments and spaces (warnings).
+
+    Lines in ``flagged`` (already over the limit without them) are left to the parser's
+    error.
+    """
+    limit = dialect.max_line_length
+    if limit is None or not text:
+        return []
+    data = np.frombuffer(text.encode("utf-8", "replace"), dtype=np.uint8)
+    ends = np.flatnonzero(data == 10)
+    if data[-1] != 10:
+        ends = np.append(ends, data.shape[0])
+    starts = np.concatenate(([0], ends[:-1] + 1))
+    long_rows = np.flatnonzero(ends - starts > limit)
+    issues = []
+    for row in long_rows.tolist():
+        line = row + 1
+        raw = bytes(data[starts[row] : ends[row]]).decode("utf-8", "replace").rstrip()
+        length = len(raw)
+        if line in flagged or length <= limit:
+            continue
+        issues.append(
+            Issue(
+                line,
+                IssueCode.LINE_TOO_LONG,
+                f"{length} characters with comments and spaces, over the {dialect.name} "
+                f"limit of {limit}: a sender that forwards comments counts them in the "
+                f"controller's receive buffer ({raw[:30]!r}...)",
+                Severity.WARNING,
+            )
+        )
+    return issues
 
 
 def _travel_issues(machine: Machine, seg: Segments) -> list[Issue]:
@@ -267,6 +305,8 @@ def check_text(
     d = dialect if dialect is not None else dialect_by_name(machine.dialect)
     program, errors = parse_with_errors(text, machine_dialect(machine, d))
     issues = [_issue_of_error(e) for e in errors]
+    flagged = {i.line for i in issues if i.code is IssueCode.LINE_TOO_LONG}
+    issues += _long_line_issues(text, d, flagged)
     try:
         seg = interpret(program, work_offsets=offsets or work_offsets(machine))
         seg = seg.linearize(CHECK_CHORD_TOLERANCE_MM)

@@ -78,7 +78,8 @@ class Dialect:
         point-less numbers in least-input increments (Fanuc).
     max_line_length : int or None
         Longest block in characters, counted as GRBL counts them (spaces and comments
-        excluded); None for no limit.
+        excluded); None for no limit. The emitter also keeps comment lines within it
+        (wrapped), and ``check_program`` warns about longer lines, comments included.
     word_separator : str
         Text between words (``""`` for compact GRBL streaming).
     comment_style : CommentStyle

@@ -11,6 +11,11 @@ Layout of the output::
     <dialect postamble>
     %
 
+A comment longer than the dialect's ``max_line_length`` (its delimiters included) is
+wrapped at spaces into as many comment lines as it needs, so no line of a program exceeds
+the limit (GRBL: a sender that forwards comments counts them in the 128-byte receive
+buffer); a parse of such a program reads one comment per line.
+
 Modal words are written only when they change (motion G word, F, S), except that F is
 written on every feed move in inverse time (G93), where controllers require it. Lengths
 and feeds are converted to inches (``mm / MM_PER_INCH``) when ``Program.units`` is inch;
@@ -36,6 +41,7 @@ G1X10F500
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from dataclasses import dataclass, replace
 from itertools import repeat
@@ -170,9 +176,23 @@ class _Emitter:
     def comment_text(self, text: str) -> str:
         text = " ".join(text.split())  # newlines and tabs become single spaces
         clean = "".join(ch if " " <= ch <= "~" else "?" for ch in text).strip()
+        return self._delimit(clean)
+
+    def _delimit(self, clean: str) -> str:
         if self.d.comment_style is CommentStyle.PARENS:
             return "(" + clean.replace("(", "[").replace(")", "]") + ")"
         return "; " + clean
+
+    def comment_lines(self, text: str) -> list[str]:
+        """The comment as lines within ``max_line_length`` (wrapped at spaces)."""
+        line = self.comment_text(text)
+        limit = self.d.max_line_length
+        if limit is None or len(line) <= limit:
+            return [line]
+        width = limit - (len(self._delimit("")))
+        body = line[1:-1] if self.d.comment_style is CommentStyle.PARENS else line[2:]
+        parts = textwrap.wrap(body, width, break_long_words=True, break_on_hyphens=False)
+        return [self._delimit(p) for p in parts]
 
     # ---------------------------------------------------------------- program
     def run(self, program: Program) -> int:
@@ -322,7 +342,8 @@ class _Emitter:
         elif isinstance(b, Arc):
             self.arc(b)
         elif isinstance(b, Comment):
-            self.raw_line(self.comment_text(b.text))
+            for line in self.comment_lines(b.text):
+                self.raw_line(line)
             return
         elif isinstance(b, Dwell):
             if d.dwell_ms:

@@ -19,7 +19,20 @@ A fault is written ``name=value`` (command line ``--fault``, API ``faults=[...]`
 ``latency=MS``
     Delay every answer by MS milliseconds (added to the link latency).
 
-Each fault fires once. Lines are counted from 1 over the simulator's life.
+Status habits of real firmware (grbl's interface document: "Every '?' command sent by a
+GUI is not guaranteed with a response"); each holds for the simulator's life:
+
+``status-when-full=ignore|defer``
+    No status reply while the planner is full: ``ignore`` forgets the query (as a grbl
+    build seen on Linux does), ``defer`` answers it once the planner has room.
+``ignore-status=F``
+    Ignore a fraction F (0 < F <= 1) of the ``?`` queries, spread evenly (F = 0.25:
+    every fourth).
+``status-delay=MS``
+    Send the report MS milliseconds after its ``?``; more ``?`` before it is sent are
+    answered by that one report (grbl's status flag is set once).
+
+Line and link faults fire once. Lines are counted from 1 over the simulator's life.
 
 Examples
 --------
@@ -44,6 +57,9 @@ FAULT_NAMES = (
     "alarm-at-line",
     "restart-at-line",
     "latency",
+    "status-when-full",
+    "ignore-status",
+    "status-delay",
 )
 
 
@@ -69,6 +85,12 @@ class FaultPlan:
         Line number -> (``"error"`` | ``"alarm"`` | ``"restart"``, code).
     latency_s : float
         Extra answer delay, s.
+    status_when_full : str or None
+        ``"ignore"`` or ``"defer"``: no status reply while the planner is full.
+    ignore_status_fraction : float
+        Share of ``?`` queries ignored, spread evenly (0 = none).
+    status_delay_s : float
+        Delay from ``?`` to its report, s (queries before it are merged).
     fired : list of str
         Faults that have fired, in order (for tests and the status line).
     """
@@ -77,6 +99,9 @@ class FaultPlan:
     drop_after_lines: int | None = None
     line_faults: dict[int, tuple[str, int]] = field(default_factory=dict)
     latency_s: float = 0.0
+    status_when_full: str | None = None
+    ignore_status_fraction: float = 0.0
+    status_delay_s: float = 0.0
     fired: list[str] = field(default_factory=list)
 
     @classmethod
@@ -101,6 +126,31 @@ class FaultPlan:
                 plan.drop_after_bytes = _int(name, value, 1, "N")
             elif name == "drop-after-lines":
                 plan.drop_after_lines = _int(name, value, 1, "N")
+            elif name == "status-when-full":
+                mode = value.strip().lower()
+                if mode not in ("ignore", "defer"):
+                    raise ValueError(
+                        f"fault 'status-when-full': use 'ignore' or 'defer', got {value!r}"
+                    )
+                plan.status_when_full = mode
+            elif name == "ignore-status":
+                try:
+                    share = float(value)
+                except ValueError:
+                    share = -1.0
+                if not 0.0 < share <= 1.0:
+                    raise ValueError(
+                        f"fault 'ignore-status': F must be a fraction 0 < F <= 1, got {value!r}"
+                    )
+                plan.ignore_status_fraction = share
+            elif name == "status-delay":
+                try:
+                    ms = float(value)
+                except ValueError:
+                    ms = -1.0
+                if not 0.0 <= ms <= 10_000.0:
+                    raise ValueError(f"fault 'status-delay': MS must be 0..10000 ms, got {value!r}")
+                plan.status_delay_s = ms / 1000.0
             elif name == "latency":
                 try:
                     ms = float(value)
@@ -127,6 +177,16 @@ class FaultPlan:
                     raise ValueError(f"two faults at line {line}: {spec!r}")
                 plan.line_faults[line] = (kind, code)
         return plan
+
+    @property
+    def status_habits(self) -> bool:
+        """Any status fault is set."""
+        return bool(self.status_when_full or self.ignore_status_fraction or self.status_delay_s)
+
+    def ignores_status(self, query: int) -> bool:
+        """Whether the ``query``-th ``?`` (1-based) is one of the ignored fraction."""
+        f = self.ignore_status_fraction
+        return f > 0.0 and int(query * f + 1e-9) > int((query - 1) * f + 1e-9)
 
     def line_fault(self, line: int) -> tuple[str, int] | None:
         """The fault due at ``line`` (fired and forgotten), or None."""

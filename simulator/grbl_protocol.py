@@ -17,6 +17,11 @@ of a serial link, around a :class:`~simulator.controller.Controller`:
 * ``$`` commands: ``$`` ``$$`` ``$#`` ``$G`` ``$I`` ``$N`` ``$C`` ``$X`` ``$H`` ``$n=v``;
   pushes: ``<...>`` status reports, ``ALARM:N``, ``[MSG:...]``, the welcome banner
   after every reset.
+* ``?`` is answered at once, unless the fault plan gives the firmware's status habits
+  (:mod:`simulator.faults`: no reply while the planner is full, a share of queries
+  ignored, a delayed report that answers every ``?`` before it once, like grbl's status
+  flag); :attr:`GrblProtocol.counters` counts ``status`` (reports), ``status_ignored``
+  and ``status_merged``. A delay needs the wall time passed to :meth:`feed`/:meth:`poll`.
 
 With ``instant=True`` the controller's virtual time jumps whenever the protocol would
 wait for the machine; otherwise the owner moves time (``controller.advance_to``) and
@@ -134,7 +139,19 @@ class GrblProtocol:
         self.rx_dropped_bytes = 0
         self.rx_bytes = 0
         self.lines_received = 0
-        self.counters = {"ok": 0, "error": 0, "alarm": 0, "status": 0, "reset": 0, "restart": 0}
+        self.counters = {
+            "ok": 0,
+            "error": 0,
+            "alarm": 0,
+            "status": 0,
+            "status_ignored": 0,
+            "status_merged": 0,
+            "reset": 0,
+            "restart": 0,
+        }
+        self.status_queries = 0
+        self._status_due_s: float | None = None  # a report owed (grbl's status flag)
+        self._now_s: float | None = None
 
     # ------------------------------------------------------------------ public
     @property
@@ -149,8 +166,13 @@ class GrblProtocol:
             self._out.append(b"[MSG:'$H'|'$X' to unlock]\r\n")
         return self._take()
 
-    def feed(self, data: bytes) -> bytes:
-        """Receive bytes from the host; return the bytes the controller sends back."""
+    def feed(self, data: bytes, now_s: float | None = None) -> bytes:
+        """Receive bytes from the host; return the bytes the controller sends back.
+
+        ``now_s`` is the wall time (s), used only by the ``status-delay`` fault.
+        """
+        if now_s is not None:
+            self._now_s = now_s
         if data.translate(None, _NEEDS_SLOW) == data:
             self._receive(data)
         else:
@@ -165,8 +187,10 @@ class GrblProtocol:
                 self._receive(data[start:])
         return self._take()
 
-    def poll(self) -> bytes:
+    def poll(self, now_s: float | None = None) -> bytes:
         """Serve whatever the controller's progress allows (call after moving time)."""
+        if now_s is not None:
+            self._now_s = now_s
         self._process()
         return self._take()
 
@@ -241,8 +265,7 @@ class GrblProtocol:
         if c == _RT_STATUS:
             if ctl.alarm_critical:
                 return  # grbl sends nothing after a critical alarm until a reset
-            self.counters["status"] += 1
-            self._out.append(self.status_report().encode() + _EOL)
+            self._status_query()
         elif c == _RT_HOLD:
             ctl.feed_hold()
             if self.instant:
@@ -252,7 +275,40 @@ class GrblProtocol:
         # other extended real-time bytes (door, jog cancel, overrides) are accepted and ignored
         self._process()
 
+    def _status_query(self) -> None:
+        """A ``?``: report now, or as the fault plan's status habits say."""
+        f = self.faults
+        self.status_queries += 1
+        if not f.status_habits:
+            self._report()
+            return
+        if self._status_due_s is not None:  # the flag is already set: one report for both
+            self.counters["status_merged"] += 1
+            return
+        full = self.controller.planner.full
+        if f.ignores_status(self.status_queries) or (f.status_when_full == "ignore" and full):
+            self.counters["status_ignored"] += 1
+            return
+        self._status_due_s = (self._now_s or 0.0) + f.status_delay_s
+        self._serve_status()
+
+    def _serve_status(self) -> None:
+        due = self._status_due_s
+        if due is None:
+            return
+        if self._now_s is not None and self._now_s < due:
+            return
+        if self.faults.status_when_full == "defer" and self.controller.planner.full:
+            return
+        self._status_due_s = None
+        self._report()
+
+    def _report(self) -> None:
+        self.counters["status"] += 1
+        self._out.append(self.status_report().encode() + _EOL)
+
     def _flush_input(self) -> None:
+        self._status_due_s = None  # a reset clears grbl's pending status flag
         self._rx.clear()
         self._held = None
         self._await_ok = False
@@ -275,6 +331,11 @@ class GrblProtocol:
         self._out.append(f"error:{code}\r\n".encode())
 
     def _process(self) -> None:
+        self._lines()
+        if self._status_due_s is not None:
+            self._serve_status()
+
+    def _lines(self) -> None:
         ctl = self.controller
         rx = self._rx
         instant = self.instant

@@ -5,7 +5,8 @@
 TCP on 127.0.0.1) and/or a Modbus server (TCP or RTU on a pseudo-terminal), run by an
 asyncio loop in a daemon thread. Virtual time follows the speed: ``instant`` jumps
 whenever the machine would make someone wait (planner full, a synchronizing line, a
-hold) and runs the queue out once the links have been quiet for ``drain_after_s``;
+hold) and runs the queue out once no line bytes (status polls do not count) have come
+for ``drain_after_s``;
 ``realtime`` and ``xN`` move it with the wall clock.
 
 Every access to the controller from another thread must hold :attr:`Simulator.lock`;
@@ -182,6 +183,7 @@ class Simulator:
         self._wall0 = 0.0
         self._virtual0 = 0.0
         self._last_activity = -math.inf
+        self._last_line_activity = -math.inf
 
     # ------------------------------------------------------------------ life cycle
     def start(self, timeout_s: float = _START_TIMEOUT_S) -> Simulator:
@@ -275,6 +277,10 @@ class Simulator:
                 "ok": p.counters["ok"],
                 "error": p.counters["error"],
                 "alarms": p.counters["alarm"],
+                "status_queries": p.status_queries,
+                "status_reports": p.counters["status"],
+                "status_ignored": p.counters["status_ignored"],
+                "status_merged": p.counters["status_merged"],
                 "resets": c.resets,
                 "restarts": c.restarts,
                 "bytes_in": s.bytes_in if s else 0,
@@ -378,18 +384,22 @@ class Simulator:
             s.service(wall)
             if s.last_input_s > self._last_activity:
                 self._last_activity = s.last_input_s
+            self._last_line_activity = max(self._last_line_activity, s.last_line_input_s)
         if self.modbus is not None:
             self.modbus.service(wall)
             self._last_activity = max(self._last_activity, self.modbus.last_write_s)
+            self._last_line_activity = max(self._last_line_activity, self.modbus.last_write_s)
             if self._modbus_endpoint is not None:
                 self._modbus_endpoint.bridge()
-        if self.speed.instant and wall - self._last_activity > self.drain_after_s:
+        # status polls are no line traffic: a sender polling at 5 Hz must not keep the
+        # queue from running out
+        if self.speed.instant and wall - self._last_line_activity > self.drain_after_s:
             if (c.planner or c.line_pending) and not c.hold:
                 c.run_until_idle()
                 if self.modbus is not None:
                     self.modbus.service(wall)
         if s is not None:
-            out = self.protocol.poll()
+            out = self.protocol.poll(wall)
             if out:
                 s.send_output(out, wall)
         busy = bool(c.planner or c.line_pending) or (s is not None and s.busy)

@@ -21,6 +21,9 @@ from simulator.transports import PtyEndpoint, TcpEndpoint
 
 __all__ = ["SerialSession"]
 
+#: Bytes grbl acts on at once, never buffered: a status poll is no line traffic.
+_REALTIME_BYTES = b"?!~\x18" + bytes(range(0x80, 0x100))
+
 
 class SerialSession:
     """A GRBL serial link served on a pty or a TCP port.
@@ -79,6 +82,7 @@ class SerialSession:
         self.connects = 0
         self.drops = 0
         self.last_input_s = -math.inf
+        self.last_line_input_s = -math.inf
 
     @property
     def url(self) -> str:
@@ -107,7 +111,7 @@ class SerialSession:
                 break
         arrived = self.inbound.pop(now_s)
         if arrived:
-            self._send(self.protocol.feed(arrived), now_s)
+            self._send(self.protocol.feed(arrived, now_s), now_s)
         self.flush(now_s)
 
     def send_output(self, data: bytes, now_s: float) -> None:
@@ -160,6 +164,8 @@ class SerialSession:
 
     def _received(self, data: bytes, now_s: float) -> None:
         self.last_input_s = now_s
+        if data.translate(None, _REALTIME_BYTES):  # not only '?', '!', '~', 0x18, 0x80-0xFF
+            self.last_line_input_s = now_s
         cut = self.faults.drop_cut(data, self.bytes_in, self.line_ends_in)
         if cut is not None:
             data = data[:cut]

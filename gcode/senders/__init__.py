@@ -4,9 +4,10 @@ Modules
 -------
 job
     Program -> compacted lines, each keeping its source line number; sync ($, EEPROM) lines.
-grbl_messages, grbl_stream
+grbl_messages, grbl_stream, grbl_events
     GRBL 1.1 replies; sans-IO streaming by character counting (128-byte buffer) or
-    send-response, real-time bytes, status polling at <= 5 Hz, bounded waits.
+    send-response, real-time bytes, status polling at <= 5 Hz (a report is never relied
+    on), the end of a job, bounded waits; the events the stream reports.
 grbl_sender, grbl_recovery
     The blocking driver over a link: handshake, ``$C`` dry run, run; safe stops (hold,
     reset) and where to resume.

@@ -28,6 +28,7 @@ __all__ = [
     "LinkLostError",
     "LinkTimeoutError",
     "LineRejectedError",
+    "LineTooLongError",
     "PreflightError",
     "ProtocolError",
     "ResumeError",
@@ -97,6 +98,12 @@ class LinkLostError(SenderError):
     """The link closed or failed (cable, socket, pty); never resumed automatically."""
 
     outcome = "link-lost"
+
+
+class LineTooLongError(SenderError):
+    """A line can never fit the controller's receive buffer: refused before sending."""
+
+    outcome = "refused"
 
 
 class LinkTimeoutError(SenderError):

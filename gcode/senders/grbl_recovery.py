@@ -167,14 +167,47 @@ class GrblRecovery:
         return job.lines[i].number if i < len(job.lines) else start_line
 
     # ------------------------------------------------------------------ stops
+    def _hold_stopped(self) -> bool:
+        """Feed hold and wait for a report that the axes stopped (bounded by ``hold_s``).
+
+        Returns False when no report at all came in that time (firmware that does not
+        answer ``?`` while its planner is full, as it is in a hold): the hold could not
+        be confirmed, and the caller goes on as if it were (a reset then keeps the
+        position if the axes had stopped, and raises ALARM:3 if they had not). A report
+        that shows the axes still moving after ``hold_s`` is a time-out.
+        """
+        asked = self.clock()
+        self.stream.feed_hold(asked)
+        try:
+            self._wait_stopped(self.timeouts.hold_s + 0.5)
+        except _Stop as stop:
+            ev = stop.event
+            if not (isinstance(ev, TimedOut) and ev.what == "hold" and self._status_at < asked):
+                raise
+        except LinkTimeoutError:
+            if self._status_at >= asked:
+                raise
+        else:
+            return True
+        self._hold_unconfirmed = True
+        return False
+
+    def _hold_note(self) -> str:
+        if not self._hold_unconfirmed:
+            return ""
+        return (
+            f"; the feed hold could not be confirmed (no status report within "
+            f"{self.timeouts.hold_s:g} s): the controller was reset anyway"
+        )
+
     def _interactive_hold(self) -> None:
         """Feed hold, wait for Hold:0, ask ``on_hold``, then resume or cancel."""
         stream = self.stream
-        now = self.clock()
-        stream.feed_hold(now)
-        self._wait_stopped(self.timeouts.hold_s + 0.5)
+        confirmed = self._hold_stopped()
         if self._journal is not None:
-            self._journal.message("feed hold (requested)")
+            self._journal.message(
+                "feed hold (requested)" + ("" if confirmed else ", not confirmed by a report")
+            )
             self._journal.flush()
         assert self._on_hold is not None
         choice = HoldChoice(self._on_hold(self.progress()))
@@ -188,17 +221,12 @@ class GrblRecovery:
 
     def _cancel(self, why: str) -> None:
         """Hold, wait for the stop, reset (position kept), locate; raise JobCancelledError."""
-        stream = self.stream
-        stream.drop_pending()
-        stream.feed_hold(self.clock())
-        try:
-            self._wait_stopped(self.timeouts.hold_s + 0.5)
-        finally:
-            self._reset()
+        self._hold_and_reset()
         resume_line = self._suggest_after_reset()
         raise JobCancelledError(
             f"job {why}; last line answered: {self._last_line or 'none'}"
-            + (f"; resume with --resume-from {resume_line}" if resume_line else ""),
+            + (f"; resume with --resume-from {resume_line}" if resume_line else "")
+            + self._hold_note(),
             line=self._last_line or None,
             resume_line=resume_line,
         )
@@ -226,9 +254,8 @@ class GrblRecovery:
         stream = self.stream
         stream.stop_sending()
         stream.drop_pending()
-        stream.feed_hold(self.clock())
         try:
-            self._wait_stopped(self.timeouts.hold_s + 0.5)
+            self._hold_stopped()
         except _Stop as stop:  # an alarm while stopping: reset anyway
             if not isinstance(stop.event, AlarmRaised):
                 raise
@@ -266,7 +293,8 @@ class GrblRecovery:
                 return ControllerResetError(
                     f"the controller restarted during the job (banner 'Grbl {ev.version}'): "
                     f"{len(ev.lost)} line(s) it had not answered were lost; last line answered: "
-                    f"{last}; the job stopped (the machine was held and reset){stale}",
+                    f"{last}; the job stopped (the machine was held and reset){stale}"
+                    f"{self._hold_note()}",
                     line=self._last_line or None,
                     resume_line=line,
                 )
@@ -297,6 +325,7 @@ class GrblRecovery:
             note = "the lines before it ran"
         if what:
             note = f"{what}; {note}"
+        note += self._hold_note()
         return LineRejectedError(
             ev.code, line=line.number or None, text=line.text, resume_line=resume_line, note=note
         )
@@ -322,7 +351,7 @@ class GrblRecovery:
         )
 
     def _generic_failure(self, ev: Event, *, stop_machine: bool = False) -> SenderError:
-        if stop_machine and not (isinstance(ev, TimedOut) and ev.what == "status"):
+        if stop_machine:
             try:
                 self.stream.drop_pending()
                 self._hold_and_reset()

@@ -50,11 +50,14 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass, field
 
+import numpy as np
+
 from gcode.dialects import GENERIC, Dialect
 from gcode.senders.errors import (
     AlarmError,
     HandshakeError,
     LineRejectedError,
+    LineTooLongError,
     LinkLostError,
     LinkTimeoutError,
     SenderError,
@@ -74,7 +77,6 @@ from gcode.senders.grbl_stream import (
     Pushed,
     StatusUpdate,
     StreamMode,
-    TimedOut,
     Timeouts,
     Unexpected,
 )
@@ -82,9 +84,7 @@ from gcode.senders.job import Job, JobLine
 from gcode.senders.journal import JobJournal
 from gcode.senders.link import Link
 from gcode.senders.progress import PROGRESS_INTERVAL_S, Progress
-from gcode.senders.resume import (
-    ResumePlan,
-)
+from gcode.senders.resume import ResumePlan, planned_line_ends
 
 __all__ = [
     "BOOT_WAIT_S",
@@ -101,6 +101,9 @@ __all__ = [
 BOOT_WAIT_S = 3.0
 #: Longest wait for a machine found moving at connection to stop by itself, s.
 BUSY_WAIT_S = 300.0
+#: A status report older than this no longer gives the progress position, s (then the
+#: planned end of the last acknowledged line does).
+STALE_REPORT_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -149,6 +152,11 @@ class JobResult:
     streaming_s : float
         From the first line written to the last answer received, s (what the link
         throughput is measured over; ``elapsed_s`` adds the wait for Idle).
+    last_line : int
+        Source line of the last block answered (where the program stopped).
+    status_queries, status_missed : int
+        ``?`` sent during the run, and of those left unanswered (grbl does not promise a
+        report; the job never depends on them).
     """
 
     lines_sent: int
@@ -158,6 +166,9 @@ class JobResult:
     final_status: StatusReport | None
     start_line: int
     streaming_s: float = 0.0
+    last_line: int = 0
+    status_queries: int = 0
+    status_missed: int = 0
 
 
 @dataclass(frozen=True)
@@ -242,7 +253,6 @@ class GrblSender(GrblRecovery):
         self._hold_request = threading.Event()
         self._journal: JobJournal | None = None
         self._collect: list[tuple[JobLine, int]] | None = None
-        self._tolerate_status_timeout = False
         self._stale_answers_ok = False
         self._stale_answers = 0
         self._job: Job | None = None
@@ -259,7 +269,9 @@ class GrblSender(GrblRecovery):
         self._wco: tuple[float, ...] | None = None
         self._on_hold: Callable[[Progress], HoldChoice | str] | None = None
         self._finish_asked = -1.0
+        self._hold_unconfirmed = False
         self._start_line = 0
+        self._planned: tuple[Job, np.ndarray, np.ndarray] | None = None
 
     # ------------------------------------------------------------------ pumping
     def request_hold(self) -> None:
@@ -348,10 +360,6 @@ class GrblSender(GrblRecovery):
                     if self.on_message is not None:
                         self.on_message(f"[MSG:{msg.text}]")
             return
-        tolerate = self._tolerate_status_timeout
-        if t is TimedOut and tolerate and ev.what == "status":  # type: ignore[union-attr]
-            self.stream.polling = True
-            return
         if t is Unexpected and self._stale_answers_ok:
             # answers to lines sent before a reset (an earlier session's, or ours in transit
             # when the controller restarted): nothing of ours is outstanding for them
@@ -370,10 +378,34 @@ class GrblSender(GrblRecovery):
         self.on_progress(self.progress(now))
 
     def progress(self, now: float | None = None) -> Progress:
-        """The current job's progress."""
+        """The current job's progress (from acknowledgements; reports only add to it)."""
         t = self.clock() if now is None else now
         state = self.status.state if self.status is not None else ""
-        return Progress(self._done, self._total, max(t - self._t0, 0.0), self._last_line, state)
+        position, source = self._position_for_progress(t)
+        return Progress(
+            self._done, self._total, max(t - self._t0, 0.0), self._last_line, state,
+            position, source,
+        )  # fmt: skip
+
+    def _position_for_progress(self, now: float) -> tuple[tuple[float, ...] | None, str]:
+        s = self.status
+        if s is not None and now - self._status_at <= STALE_REPORT_S:
+            if s.work_position is not None:
+                return s.work_position, "report"
+            offsets = self.info.work_offsets if self.info is not None else {}
+            wco = self._wco or offsets.get(1)
+            if s.machine_position is not None and wco is not None:
+                pos = tuple(m - o for m, o in zip(s.machine_position, wco, strict=False))
+                return pos, "report"
+        if not self._last_line or self._job is None:
+            return None, ""
+        if self._planned is None or self._planned[0] is not self._job:
+            self._planned = (self._job, *planned_line_ends(self._job, self.dialect))
+        _, lines, ends = self._planned
+        i = int(np.searchsorted(lines, self._last_line, side="right")) - 1
+        if i < 0:
+            return None, ""
+        return tuple(float(v) for v in ends[i, :3]), "planned"
 
     def _fresh_status(self, *, limit_s: float | None = None) -> StatusReport:
         """Ask for a status report and wait for it (bounded)."""
@@ -382,7 +414,7 @@ class GrblSender(GrblRecovery):
         self.stream.query_status(asked)
         self._pump(
             lambda: self._status_at >= asked,
-            limit_s=limit_s or self.timeouts.status_reply_s + 0.5,
+            limit_s=limit_s or self.timeouts.status_wait_s,
             what="status report",
         )
         assert self.status is not None
@@ -441,7 +473,6 @@ class GrblSender(GrblRecovery):
         """
         name = getattr(self.link, "name", "the link")
         t0 = self.clock()
-        self._tolerate_status_timeout = True
         self._stale_answers_ok = True
         try:
             try:
@@ -478,7 +509,6 @@ class GrblSender(GrblRecovery):
                 f"{name}: unexpected {stop.event!r} during the handshake"
             ) from None
         finally:
-            self._tolerate_status_timeout = False
             self._stale_answers_ok = False
         if s.state == "Alarm":
             if not unlock:
@@ -501,6 +531,7 @@ class GrblSender(GrblRecovery):
                 except (IndexError, ValueError):
                     pass
         self.stream.rx_buffer_bytes = rx
+        self.stream.planner_blocks = planner
         self._feedback.clear()
         offsets: dict[int, tuple[float, ...]] = {}
         if not self._command("$#", tolerate=True):
@@ -551,9 +582,12 @@ class GrblSender(GrblRecovery):
         AlarmError
             The controller raised an alarm while checking (soft limits are checked too);
             the controller is reset before raising.
+        LineTooLongError
+            A line can never fit the receive buffer (nothing is sent).
         LinkLostError, LinkTimeoutError
             The link failed or an answer never came.
         """
+        self._check_fits(tuple(job.lines))
         self._command("$C")
         collected: list[tuple[JobLine, int]] = []
         self._collect = collected
@@ -633,11 +667,18 @@ class GrblSender(GrblRecovery):
         self._total = sum(1 for ln in lines if ln.number > 0)
         self._last_line = 0
         self._last_acked = None
+        self._hold_unconfirmed = False
         self._sent_lines = 0
         self._t0 = self.clock()
         self._start_line = start
         bytes0 = self.stream.bytes_sent
         stream = self.stream
+        queries0, missed0 = stream.status_queries, stream.status_missed
+        try:
+            self._check_fits(lines)
+        except LineTooLongError as err:
+            self._end(err)
+            raise
         stream.add_lines(lines)
         stream.resume_sending()
         stream.polling = True
@@ -665,38 +706,55 @@ class GrblSender(GrblRecovery):
             self._done,
             self.clock() - self._t0,
             stream.bytes_sent - bytes0,
-            self.status,
+            stream.end_status or self.status,
             start,
             max(self._last_ack_s - self._first_sent_s, 0.0),
+            self._last_line,
+            stream.status_queries - queries0,
+            stream.status_missed - missed0,
         )
+
+    def _check_fits(self, lines: tuple[JobLine, ...]) -> None:
+        """Refuse, before sending anything, a line the receive buffer can never hold.
+
+        A character-counting sender can never send a line longer than the controller's
+        receive buffer (it would wait forever), and grbl drops the bytes of one that
+        overflows it in send-response too.
+
+        Raises
+        ------
+        LineTooLongError
+            Naming the first such line and its size.
+        """
+        rx = self.stream.rx_buffer_bytes
+        for ln in lines:
+            if ln.size > rx:
+                raise LineTooLongError(
+                    f"line {ln.number or '(preamble)'} needs {ln.size} bytes with its "
+                    f"newline after removing spaces and comments, more than the "
+                    f"controller's {rx}-byte receive buffer: it can never be sent "
+                    f"({ln.text[:40]!r}...); nothing was sent",
+                    line=ln.number or None,
+                )
 
     def _end(self, err: SenderError) -> None:
         if self._journal is not None:
             self._journal.end(err.outcome, resume_line=err.resume_line, message=str(err))
 
     def _job_done(self) -> bool:
+        """Every line answered and a later report shows Idle/Check, planner empty.
+
+        No M2/M30 needed; the stream polls (at most 5 Hz) and reports the controller's
+        silence (``stall_s``) while it waits.
+        """
         stream = self.stream
         if not stream.finished:
             return False
         if self._finish_asked < self._t0:
             self._finish_asked = self.clock()
-            stream.query_status(self._finish_asked)
+            stream.expect_end(self._finish_asked)
             return False
-        s = self.status
-        if s is not None and self._status_at >= self._finish_asked:
-            if s.state == "Idle":
-                return True
-            if s.state in ("Run", "Hold"):  # still executing: ask again
-                self._finish_asked = self.clock()
-                stream.query_status(self._finish_asked)
-        progress_at = stream.last_progress_s
-        now = self.clock()
-        if progress_at is not None and now - progress_at > self.timeouts.stall_s:
-            raise LinkTimeoutError(
-                f"the machine has not moved for {self.timeouts.stall_s:g} s "
-                f"after the last line was answered"
-            )
-        return False
+        return stream.end_status is not None
 
     def close(self) -> None:
         """Close the link."""

@@ -17,7 +17,12 @@ Real-time bytes
     ``?`` ``!`` ``~`` and 0x18 go out ahead of any line and are never counted.
 Status
     One ``?`` at most every ``status_interval_s`` (0.2 s = 5 Hz, grbl's advice), and never
-    a second one while a report is outstanding (grbl ignores it).
+    a second one while a report is outstanding (grbl ignores it). A report is not
+    guaranteed (grbl's interface document: two ``?`` before a report get one, none comes
+    during homing or after a critical alarm, and some builds skip ``?`` while the planner
+    is full): a query unanswered after ``status_reply_s`` is counted
+    (:attr:`GrblStream.status_missed`) and the next one goes out; progress never depends
+    on reports, only on answers.
 Pushes
     ``ALARM:N``: the controller dropped every unanswered line (none will be answered);
     sending stops, polling stops (a critical alarm silences status reports) and
@@ -25,12 +30,20 @@ Pushes
     soft-limit alarm. The banner: the controller was reset and lost every unanswered line
     (:class:`ControllerReset`, ``expected`` when we asked for it).
 
-Every wait is bounded (:class:`Timeouts`): a status report must come within
-``status_reply_s``; a line still unanswered while the controller reports Idle (it has
-nothing of ours left: the bytes were lost) for ``lost_line_s`` plus the line's dwell is
-reported lost; no answer and no motion for ``stall_s`` is a stall; a feed hold must
-complete within ``hold_s`` and a reset must bring the banner within ``reset_s``. Each
-becomes a :class:`TimedOut` event: nothing waits forever.
+The end of a job
+    :meth:`GrblStream.expect_end` once every line is answered: the stream polls (still at
+    most every ``status_interval_s``) until a report received after the last answer shows
+    ``Idle`` or ``Check`` with an empty planner (``Bf:`` when reported); then
+    :attr:`GrblStream.end_status` holds it. No M2/M30 is needed.
+
+Every wait is bounded (:class:`Timeouts`): a line still unanswered while the controller
+reports Idle (it has nothing of ours left: the bytes were lost) for ``lost_line_s`` plus
+the line's dwell is reported lost; with work outstanding (unanswered lines, or the end
+awaited), nothing at all from the controller (no answer, report or message) for
+``stall_s`` is ``silent``, and reports that show no motion and no answer for ``stall_s``
+a ``stall``; a feed hold must complete within ``hold_s`` and a reset must bring the
+banner within ``reset_s``. Each becomes a :class:`TimedOut` event: nothing waits
+forever. A missing status report is not one of them (see Status).
 
 Examples
 --------
@@ -53,6 +66,18 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from enum import StrEnum
 
+from gcode.senders.grbl_events import (
+    AlarmRaised,
+    ControllerReset,
+    Event,
+    LineAcked,
+    LineRejected,
+    LineSent,
+    Pushed,
+    StatusUpdate,
+    TimedOut,
+    Unexpected,
+)
 from gcode.senders.grbl_messages import (
     AlarmPush,
     ErrorResponse,
@@ -100,99 +125,20 @@ class StreamMode(StrEnum):
 
 @dataclass(frozen=True, slots=True)
 class Timeouts:
-    """Bounds on every wait, s (see the module docstring)."""
+    """Bounds on every wait, s (see the module docstring).
 
-    status_reply_s: float = 2.0
+    ``status_reply_s`` is how long one ``?`` may stay unanswered before it counts as
+    missing and the next query goes out (grbl answers within 5-20 ms; a report is not
+    guaranteed); ``status_wait_s`` bounds a wait for a report the sender needs (after a
+    hold or a reset, at the end of a job), over as many queries as fit in it.
+    """
+
+    status_reply_s: float = 0.5
+    status_wait_s: float = 5.0
     lost_line_s: float = 1.0
     stall_s: float = 60.0
     hold_s: float = 30.0
     reset_s: float = 5.0
-
-
-# ---------------------------------------------------------------------------- events
-@dataclass(frozen=True, slots=True)
-class LineSent:
-    """``line`` was handed to the link (its bytes are in :meth:`GrblStream.outgoing`)."""
-
-    line: JobLine
-
-
-@dataclass(frozen=True, slots=True)
-class LineAcked:
-    """``ok`` for ``line``."""
-
-    line: JobLine
-
-
-@dataclass(frozen=True, slots=True)
-class LineRejected:
-    """``error:code`` for ``line``."""
-
-    line: JobLine
-    code: int
-
-
-@dataclass(frozen=True, slots=True)
-class AlarmRaised:
-    """``ALARM:code``; ``suspect`` is the oldest unanswered line, ``lost`` all of them."""
-
-    code: int
-    suspect: JobLine | None
-    lost: tuple[JobLine, ...]
-
-
-@dataclass(frozen=True, slots=True)
-class ControllerReset:
-    """The welcome banner: the controller restarted and dropped the ``lost`` lines."""
-
-    version: str
-    lost: tuple[JobLine, ...]
-    expected: bool
-
-
-@dataclass(frozen=True, slots=True)
-class StatusUpdate:
-    """A status report arrived."""
-
-    report: StatusReport
-
-
-@dataclass(frozen=True, slots=True)
-class Pushed:
-    """Any other push (``[MSG:...]``, ``$n=v``, ...)."""
-
-    message: Message
-
-
-@dataclass(frozen=True, slots=True)
-class Unexpected:
-    """An answer with no line outstanding: the count is broken, stop at once."""
-
-    text: str
-
-
-@dataclass(frozen=True, slots=True)
-class TimedOut:
-    """A bounded wait ran out.
-
-    ``what`` is ``status``, ``lost-line``, ``stall``, ``hold`` or ``reset``.
-    """
-
-    what: str
-    detail: str
-
-
-Event = (
-    LineSent
-    | LineAcked
-    | LineRejected
-    | AlarmRaised
-    | ControllerReset
-    | StatusUpdate
-    | Pushed
-    | Unexpected
-    | TimedOut
-)
 
 
 class GrblStream:
@@ -222,6 +168,12 @@ class GrblStream:
         :meth:`resume_sending`).
     polling : bool
         Status queries are sent.
+    status_queries, status_missed : int
+        ``?`` sent, and of those left unanswered for ``status_reply_s``.
+    planner_blocks : int or None
+        The controller's planner size (``$I``), to tell an empty planner from ``Bf:``.
+    end_status : StatusReport or None
+        The report that ended the job (after :meth:`expect_end`).
     """
 
     def __init__(
@@ -259,6 +211,13 @@ class GrblStream:
         self._reset_asked_at: float | None = None
         self._banner_expected_at: float | None = None
         self._last_sent_at = -math.inf
+        self.status_queries = 0
+        self.status_missed = 0
+        self.planner_blocks: int | None = None
+        self.end_status: StatusReport | None = None
+        self._end_asked_at: float | None = None
+        self._heard_at: float | None = None
+        self._last_query_at = -math.inf
 
     # ------------------------------------------------------------------ queries
     @property
@@ -280,6 +239,11 @@ class GrblStream:
     def finished(self) -> bool:
         """Every queued line was sent and answered."""
         return not self._pending and not self._inflight
+
+    @property
+    def ended(self) -> bool:
+        """Every line answered and a later report showed the controller done."""
+        return self.finished and self.end_status is not None
 
     @property
     def awaiting_reset(self) -> bool:
@@ -352,11 +316,27 @@ class GrblStream:
         self._idle_since = None
         if self._progress_at is not None:
             self._progress_at = now_s
+        if self._heard_at is not None:
+            self._heard_at = now_s
         self._next_status_at = now_s
 
     def query_status(self, now_s: float) -> None:
         """Ask for a status report at the next :meth:`outgoing` (if none is outstanding)."""
         self._next_status_at = now_s
+
+    def expect_end(self, now_s: float) -> None:
+        """Wait for the end of the job: every line answered and a report that shows it.
+
+        The end is a report received after the last answer with state ``Idle`` or
+        ``Check`` and, when it carries ``Bf:`` and :attr:`planner_blocks` is known, an
+        empty planner (:attr:`end_status`). Polling goes on at most every
+        ``status_interval_s``; while it is awaited, the controller's silence for
+        ``stall_s`` is reported (:class:`TimedOut` ``silent``).
+        """
+        self.end_status = None
+        self._end_asked_at = now_s
+        self.polling = True  # a report is what ends the job
+        self._next_status_at = min(self._next_status_at, now_s)
 
     # ------------------------------------------------------------------ I/O
     def outgoing(self, now_s: float) -> bytes:
@@ -378,14 +358,20 @@ class GrblStream:
             self.polling
             and self._status_sent_at is None
             and self._reset_asked_at is None
-            and now_s >= self._next_status_at
+            and now_s >= self._next_query_s()
         ):
             out += RT_STATUS
+            self.status_queries += 1
             self._status_sent_at = now_s
+            self._last_query_at = now_s
             self._next_status_at = now_s + self.status_interval_s
         if self.sending and self._pending and self._reset_asked_at is None:
             self._fill(out, now_s)
         return bytes(out)
+
+    def _next_query_s(self) -> float:
+        """When the next ``?`` may go: as scheduled or asked, never within 0.2 s (5 Hz)."""
+        return max(self._next_status_at, self._last_query_at + STATUS_INTERVAL_S)
 
     def _fill(self, out: bytearray, now_s: float) -> None:
         pending = self._pending
@@ -415,6 +401,8 @@ class GrblStream:
             self._last_sent_at = now_s
             if len(inflight) == 1:  # the controller had nothing of ours: start the clock
                 self._progress_at = now_s
+                if self._heard_at is None or self._heard_at < now_s:
+                    self._heard_at = now_s
 
     def receive(self, data: bytes, now_s: float) -> None:
         """Take bytes from the controller (any chunking) and turn them into events.
@@ -435,6 +423,7 @@ class GrblStream:
             raw = bytes(rx[:i]).rstrip(b"\r")
             del rx[: i + 1]
             if raw:
+                self._heard_at = now_s
                 self._message(parse_message(raw.decode("ascii", "replace")), now_s)
 
     def _answer(self) -> JobLine | None:
@@ -523,6 +512,19 @@ class GrblStream:
                 self._idle_since = now_s
         else:
             self._idle_since = None
+        if (
+            self._end_asked_at is not None
+            and not self._inflight
+            and not self._pending
+            and report.state in ("Idle", "Check")
+            and (
+                report.planner_free is None
+                or self.planner_blocks is None
+                or report.planner_free >= self.planner_blocks
+            )
+        ):
+            self.end_status = report
+            self._end_asked_at = None
         self._events.append(StatusUpdate(report))
 
     # ------------------------------------------------------------------ time
@@ -531,9 +533,9 @@ class GrblStream:
         t = self.timeouts
         events = self._events
         if self._status_sent_at is not None and now_s - self._status_sent_at > t.status_reply_s:
-            events.append(TimedOut("status", f"no status report {t.status_reply_s:g} s after '?'"))
+            # not an error: grbl does not promise a report; count it and ask again
+            self.status_missed += 1
             self._status_sent_at = None
-            self.polling = False
         for name in ("_reset_asked_at", "_banner_expected_at"):
             asked = getattr(self, name)
             if asked is not None and now_s - asked > t.reset_s:
@@ -542,6 +544,24 @@ class GrblStream:
         if self._hold_asked_at is not None and now_s - self._hold_asked_at > t.hold_s:
             events.append(TimedOut("hold", f"feed hold not complete after {t.hold_s:g} s"))
             self._hold_asked_at = None
+        if not self._inflight and self._end_asked_at is not None and self.end_status is None:
+            heard = max(self._heard_at or -math.inf, self._end_asked_at)
+            moved = max(self._progress_at or -math.inf, self._end_asked_at)
+            last = self.last_status
+            holding = last is not None and last.state == "Hold"
+            if now_s - heard > t.stall_s:
+                events.append(TimedOut("silent", self._silence(t.stall_s, None)))
+                self._end_asked_at = now_s
+            elif not holding and now_s - moved > t.stall_s:
+                state = last.state if last is not None else "?"
+                events.append(
+                    TimedOut(
+                        "stall",
+                        f"every line was answered but the controller reports {state} and "
+                        f"has not moved for {t.stall_s:g} s: the job did not end",
+                    )
+                )
+                self._end_asked_at = now_s
         if self._inflight:
             oldest, sent_at = self._inflight[0]
             if (
@@ -563,23 +583,44 @@ class GrblStream:
                 and self._progress_at is not None
                 and now_s - self._progress_at > t.stall_s + oldest.dwell_s
             ):
-                events.append(
-                    TimedOut(
-                        "stall",
-                        f"no answer to line {oldest.number} ({oldest.text!r}) and no motion "
-                        f"for {t.stall_s:g} s",
+                heard = self._heard_at
+                if heard is None or now_s - heard > t.stall_s + oldest.dwell_s:
+                    events.append(TimedOut("silent", self._silence(t.stall_s, oldest)))
+                else:
+                    events.append(
+                        TimedOut(
+                            "stall",
+                            f"no answer to line {oldest.number} ({oldest.text!r}) and no "
+                            f"motion for {t.stall_s:g} s (status reports show the machine "
+                            "standing still)",
+                        )
                     )
-                )
                 self._progress_at = now_s
                 self.sending = False
+
+    def _silence(self, seconds: float, oldest: JobLine | None) -> str:
+        what = (
+            f"while line {oldest.number} ({oldest.text!r}) is unanswered"
+            if oldest is not None
+            else "while waiting for the end of the job (every line was answered)"
+        )
+        missed = (
+            f"; {self.status_missed} of {self.status_queries} status queries went unanswered"
+            if self.status_missed
+            else ""
+        )
+        return (
+            f"the controller is silent: no answer, report or message for {seconds:g} s "
+            f"{what}{missed}"
+        )
 
     def deadline(self, now_s: float) -> float:
         """The next time :meth:`outgoing` or :meth:`check` has something to do, s."""
         t = self.timeouts
         times = [now_s + 1.0]
-        if self.polling:
+        if self.polling and self._reset_asked_at is None:
             if self._status_sent_at is None:
-                times.append(self._next_status_at)
+                times.append(self._next_query_s())
             else:
                 times.append(self._status_sent_at + t.status_reply_s)
         for asked in (self._reset_asked_at, self._banner_expected_at):
@@ -589,6 +630,11 @@ class GrblStream:
             times.append(self._hold_asked_at + t.hold_s)
         if self._inflight and self._idle_since is not None:
             times.append(self._idle_since + t.lost_line_s + self._inflight[0][0].dwell_s)
+        if self._inflight and self._progress_at is not None:
+            times.append(self._progress_at + t.stall_s + self._inflight[0][0].dwell_s)
+        if not self._inflight and self._end_asked_at is not None and self.end_status is None:
+            times.append(max(self._heard_at or -math.inf, self._end_asked_at) + t.stall_s)
+            times.append(max(self._progress_at or -math.inf, self._end_asked_at) + t.stall_s)
         if self._rt:
             times.append(now_s)
         return max(min(times), now_s)

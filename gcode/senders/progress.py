@@ -44,6 +44,12 @@ class Progress:
         Source line of the last acknowledged block (0 before the first).
     state : str
         Controller state from the last status report (``Run``, ``Hold``, ...).
+    position : tuple of float or None
+        Work position, X Y Z mm: the latest status report's when it is recent, otherwise
+        (a controller that answers few ``?``) the planned end of the last acknowledged
+        line (the machine is at most a planner's worth of blocks behind it).
+    position_source : str
+        ``"report"``, ``"planned"`` or ``""`` (no position).
     """
 
     done: int
@@ -51,6 +57,8 @@ class Progress:
     elapsed_s: float
     line: int = 0
     state: str = ""
+    position: tuple[float, ...] | None = None
+    position_source: str = ""
 
     @property
     def percent(self) -> float:
@@ -88,7 +96,11 @@ def format_progress(p: Progress, width: int = 30) -> str:
         f"[{bar}] {p.percent:3.0f}%  {p.done}/{p.total} blocks  {p.rate_per_s:.0f} blocks/s"
         f"  ETA {_clock(p.eta_s)}  line {p.line}"
     )
-    return text + (f"  {p.state}" if p.state else "")
+    text += f"  {p.state}" if p.state else ""
+    if p.position is not None:
+        xyz = " ".join(f"{a}{v:.3f}" for a, v in zip("XYZ", p.position, strict=False))
+        text += f"  {xyz}" + (" (planned)" if p.position_source == "planned" else "")
+    return text
 
 
 class ProgressBar:

@@ -72,6 +72,7 @@ __all__ = [
     "locate_resume_line",
     "modal_state_before",
     "plan_resume",
+    "planned_line_ends",
     "safe_resume_line",
 ]
 
@@ -198,6 +199,28 @@ def safe_resume_line(job: Job, line: int, dialect: Dialect = GENERIC) -> int:
 
 def _program_segments(job: Job, dialect: Dialect) -> Segments:
     return interpret(parse(job.source, dialect))
+
+
+def planned_line_ends(job: Job, dialect: Dialect = GENERIC) -> tuple[np.ndarray, np.ndarray]:
+    """Where each source line's motion ends, in program (work) coordinates.
+
+    Returns
+    -------
+    (ndarray of int, ndarray of float)
+        Source line numbers of the program's motion segments, ascending, and the
+        ``(n, 6)`` end points (X Y Z mm, A B C degrees) of each line's last segment;
+        empty arrays for a program that cannot be read. The planned position after a
+        line ``L`` is the end of the last row with a line number ``<= L``.
+    """
+    try:
+        seg = _program_segments(job, dialect)
+    except GCodeError:
+        return np.zeros(0, dtype=np.int64), np.zeros((0, 6))
+    lines = np.asarray(seg.line, dtype=np.int64)
+    if lines.shape[0] == 0:
+        return lines, np.zeros((0, 6))
+    last = np.flatnonzero(np.append(lines[1:] != lines[:-1], True))
+    return lines[last], np.asarray(seg.end, dtype=float)[last]
 
 
 def _highest_z(job: Job, dialect: Dialect) -> float | None:

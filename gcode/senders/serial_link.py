@@ -13,6 +13,7 @@ bootloader before the banner): the driver's handshake waits for the banner for t
 
 from __future__ import annotations
 
+import errno
 import select
 import time
 
@@ -20,7 +21,7 @@ import serial
 
 from gcode.senders.errors import LinkLostError
 
-__all__ = ["DEFAULT_BAUD", "SerialLink", "open_serial_link"]
+__all__ = ["DEFAULT_BAUD", "SerialLink", "open_serial_link", "port_problem"]
 
 #: GRBL 1.1's default baud rate (8N1).
 DEFAULT_BAUD = 115200
@@ -101,6 +102,58 @@ class SerialLink:
             pass
 
 
+_NET_SCHEMES = ("socket://", "rfc2217://")
+_OPEN_REASONS = {
+    errno.ECONNREFUSED: "connection refused: nothing listens on that port",
+    errno.ENOENT: "no such device",
+    errno.EACCES: "permission denied (is the user in the 'dialout' group?)",
+    errno.EBUSY: "the device is busy (another program has it open)",
+    errno.EHOSTUNREACH: "host unreachable",
+    errno.ETIMEDOUT: "connection timed out",
+}
+
+
+def port_problem(url: str) -> str | None:
+    """What is wrong with a port's text before trying to open it, or None.
+
+    Checks that something is given and that a ``socket://`` / ``rfc2217://`` URL has a
+    host and a TCP port number 1-65535 (pyserial itself fails on a missing port with a
+    ``TypeError`` text, and on a bad one with an unrelated message).
+    """
+    text = url.strip()
+    if not text:
+        return (
+            "no port given: use a serial device (/dev/ttyUSB0, COM3), a pty path or "
+            "socket://HOST:PORT"
+        )
+    low = text.lower()
+    for scheme in _NET_SCHEMES:
+        if low.startswith(scheme):
+            where = text[len(scheme) :].split("/", 1)[0].split("?", 1)[0]
+            host, colon, port = where.rpartition(":")
+            if not colon:
+                host, port = where, ""
+            if not host:
+                return f"no host before the port (use {scheme}HOST:PORT)"
+            if not port:
+                return f"no TCP port number after the host (use {scheme}{host}:PORT, 1-65535)"
+            if not port.isdigit() or not 1 <= int(port) <= 65535:
+                return f"the TCP port {port!r} is not a number 1-65535"
+    return None
+
+
+def _open_reason(exc: BaseException) -> str:
+    """One line saying why opening failed (the errno's meaning when known)."""
+    code = getattr(exc, "errno", None)
+    cause = exc.__cause__ or exc.__context__
+    if code not in _OPEN_REASONS and cause is not None:
+        code = getattr(cause, "errno", None)
+    if code in _OPEN_REASONS:
+        return _OPEN_REASONS[code]
+    text = " ".join(str(exc).split())
+    return text or type(exc).__name__
+
+
 def open_serial_link(
     url: str, *, baud: int = DEFAULT_BAUD, write_timeout_s: float = 5.0
 ) -> SerialLink:
@@ -127,8 +180,11 @@ def open_serial_link(
     """
     if baud <= 0:
         raise ValueError(f"baud must be a positive integer, got {baud!r}")
+    problem = port_problem(url)
+    if problem is not None:
+        raise LinkLostError(f"cannot open port {url!r}: {problem}")
     try:
         port = serial.serial_for_url(url, baudrate=baud, timeout=0, write_timeout=write_timeout_s)
-    except (serial.SerialException, OSError, ValueError) as exc:
-        raise LinkLostError(f"cannot open {url!r}: {exc}") from exc
+    except (serial.SerialException, OSError, ValueError, TypeError) as exc:
+        raise LinkLostError(f"cannot open port {url!r}: {_open_reason(exc)}") from exc
     return SerialLink(port, url)

@@ -25,7 +25,7 @@ from gcode.senders.journal import JobJournal, read_journal
 from gcode.senders.preflight import preflight
 from gcode.senders.progress import Progress, ProgressBar, format_progress
 from gcode.senders.resume import ResumePlan, plan_resume
-from gcode.senders.serial_link import DEFAULT_BAUD, open_serial_link
+from gcode.senders.serial_link import DEFAULT_BAUD, open_serial_link, port_problem
 from machines import list_machines, load_machine
 
 __all__ = ["register", "run"]
@@ -120,6 +120,11 @@ def _resume_hint(args: argparse.Namespace, line: int | None) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``toolpath send``; returns the exit status."""
+    if args.port is not None:
+        problem = port_problem(args.port)
+        if problem is not None:
+            _say(f"toolpath: error: --port {args.port!r}: {problem}")
+            return EXIT_USAGE
     try:
         job = Job.from_file(args.program)
     except OSError as exc:
@@ -255,13 +260,25 @@ def _finish(result, bar: ProgressBar | None) -> int:
     if bar is not None:
         bar.close()
     rate = result.blocks_done / result.elapsed_s if result.elapsed_s > 0 else 0.0
+    status = result.final_status
     where = ""
-    if result.final_status is not None and result.final_status.machine_position is not None:
-        where = " at MPos " + ",".join(f"{v:.3f}" for v in result.final_status.machine_position)
+    if status is not None:
+        for label, pos in (("MPos", status.machine_position), ("WPos", status.work_position)):
+            if pos is not None:
+                where += f" {label} " + ",".join(f"{v:.3f}" for v in pos)
+        where = f", {status.state}{where}"
+    last = getattr(result, "last_line", 0)
+    stopped = f"; stopped after line {last}{where}" if last else where
     _say(
         f"done: {result.blocks_done} blocks in {result.elapsed_s:.1f} s ({rate:.0f} blocks/s)"
-        f"{where}"
+        f"{stopped}"
     )
+    missed = getattr(result, "status_missed", 0)
+    if missed:
+        _say(
+            f"note: {missed} of {result.status_queries} status queries went unanswered "
+            "(grbl does not promise a report; progress came from the acknowledgements)"
+        )
     return EXIT_DONE
 
 

@@ -187,15 +187,92 @@ def test_ok_with_nothing_outstanding_is_reported():
 T = Timeouts(status_reply_s=2.0, lost_line_s=1.0, stall_s=10.0, hold_s=5.0, reset_s=3.0)
 
 
-def test_unanswered_status_query_times_out():
+def test_unanswered_status_query_is_counted_and_asked_again_not_an_error():
+    # grbl does not promise a report (issue 25): a missing one is counted, polling goes on
     s = GrblStream(_lines(), status_interval_s=0.2, timeouts=T)
-    s.outgoing(0.0)
+    assert s.outgoing(0.0) == b"?"
     s.check(1.9)
-    assert s.pop_events() == []
+    assert s.outgoing(1.9) == b""  # still outstanding: never a second '?'
     assert s.deadline(1.9) == pytest.approx(2.0)
     s.check(2.1)
-    (ev,) = s.pop_events()
-    assert isinstance(ev, TimedOut) and ev.what == "status"
+    assert s.pop_events() == [] and s.status_missed == 1 and s.polling
+    assert s.outgoing(2.1) == b"?"
+    s.receive(b"<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n", 2.15)
+    assert s.status_queries == 2 and s.status_missed == 1
+
+
+def test_asking_at_once_still_polls_at_most_5_hz():
+    s = GrblStream(_lines(), status_interval_s=0.0)
+    s.polling = True  # as the sender does when it needs a report
+    s.query_status(0.0)
+    assert s.outgoing(0.0) == b"?"
+    s.receive(b"<Idle|MPos:0.000,0.000,0.000|FS:0,0>\r\n", 0.01)
+    s.query_status(0.02)
+    assert s.outgoing(0.1) == b""
+    assert s.outgoing(0.2) == b"?"
+
+
+def test_silence_with_lines_outstanding_is_reported_but_answers_keep_it_alive():
+    s = GrblStream(_lines(*[f"G1X{i}F100" for i in range(1, 40)]), status_interval_s=0.2,
+                   timeouts=T)  # fmt: skip
+    s.outgoing(0.0)
+    for k in range(1, 25):  # answers trickle in, no report ever comes
+        s.receive(b"ok\r\n", k * 1.0)
+        s.outgoing(k * 1.0)
+        s.check(k * 1.0)
+    assert not any(isinstance(e, TimedOut) for e in s.pop_events())
+    assert s.status_missed >= 5
+    s.check(24.0 + 10.5)
+    (ev,) = [e for e in s.pop_events() if isinstance(e, TimedOut)]
+    assert ev.what == "silent" and "no answer, report or message for 10 s" in ev.detail
+    assert "status queries went unanswered" in ev.detail
+
+
+def test_end_of_job_is_idle_with_an_empty_planner_after_the_last_answer_no_m2_needed():
+    s = GrblStream(_lines("G1X1F100", "G1X2"), status_interval_s=0.2, timeouts=T)
+    s.planner_blocks = 15
+    s.outgoing(0.0)
+    s.receive(b"<Idle|MPos:0.000,0.000,0.000|Bf:15,128|FS:0,0>\r\nok\r\nok\r\n", 0.01)
+    assert s.finished and not s.ended  # the report came before the answers
+    s.expect_end(0.02)
+    assert s.outgoing(0.1) == b""  # at most 5 Hz
+    assert s.outgoing(0.21) == b"?"
+    s.receive(b"<Run|MPos:1.500,0.000,0.000|Bf:14,128|FS:100,0>\r\n", 0.22)
+    assert not s.ended
+    assert s.outgoing(0.42) == b"?"
+    s.receive(b"<Idle|MPos:2.000,0.000,0.000|Bf:14,128|FS:0,0>\r\n", 0.43)
+    assert not s.ended  # a block still queued
+    s.outgoing(0.63)
+    s.receive(b"<Check|MPos:2.000,0.000,0.000|Bf:15,128|FS:0,0>\r\n", 0.64)
+    assert s.ended and s.end_status.machine_position == (2.0, 0.0, 0.0)
+
+
+def test_end_of_job_wait_is_bounded_when_reports_show_no_motion():
+    s = GrblStream(_lines("G1X1F100"), status_interval_s=0.2, timeouts=T)
+    s.outgoing(0.0)
+    s.receive(b"ok\r\n", 0.1)
+    s.expect_end(0.1)
+    for k in range(1, 25):  # a controller stuck in Door: it answers, it never ends
+        s.receive(b"<Door:0|MPos:1.000,0.000,0.000|FS:0,0>\r\n", k * 0.5)
+        s.check(k * 0.5)
+    (ev,) = [e for e in s.pop_events() if isinstance(e, TimedOut)]
+    assert ev.what == "stall" and "reports Door" in ev.detail and not s.ended
+
+
+def test_end_of_job_wait_is_bounded_by_the_controllers_silence():
+    s = GrblStream(_lines("G1X1F100"), status_interval_s=0.2, timeouts=T)
+    s.outgoing(0.0)
+    s.receive(b"ok\r\n", 0.1)
+    s.expect_end(0.1)
+    t = 0.1
+    while t < 10.0:
+        s.outgoing(t)
+        s.check(t)
+        t += 0.1
+    assert not any(isinstance(e, TimedOut) for e in s.pop_events())
+    s.check(10.3)
+    (ev,) = [e for e in s.pop_events() if isinstance(e, TimedOut)]
+    assert ev.what == "silent" and "end of the job" in ev.detail
 
 
 def test_line_lost_when_idle_with_empty_buffer():
@@ -226,7 +303,8 @@ def test_no_answer_and_no_motion_is_a_stall_but_motion_is_progress():
         s.receive(f"<Run|MPos:{k * 0.1:.3f},0.000,0.000|Bf:14,128|FS:10,0>\r\n".encode(), k * 1.0)
         s.check(k * 1.0)
     assert not any(isinstance(e, TimedOut) for e in s.pop_events())
-    s.receive(b"<Run|MPos:2.900,0.000,0.000|Bf:14,128|FS:10,0>\r\n", 30.0)
+    for k in range(30, 41):  # reports keep coming, the position no longer changes
+        s.receive(b"<Run|MPos:2.900,0.000,0.000|Bf:14,128|FS:10,0>\r\n", float(k))
     s.check(40.5)
     stalls = [e for e in s.pop_events() if isinstance(e, TimedOut)]
     assert stalls and stalls[0].what == "stall"

@@ -132,3 +132,48 @@ def test_faults_through_modbus_seq(router):
     st = mm.decode_status(dev.read(*mm.STATUS_BLOCK))
     assert (st["STATE"], st["ERROR_SEQ"], st["ERROR_CODE"]) == (mm.MachineState.ERROR, 2, 33)
     assert (st["ACCEPTED_SEQ"], st["DONE_SEQ"]) == (2, 1)
+
+
+# ---------------------------------------------------------------- status habits (issue 25)
+def _full(router, faults):
+    p = GrblProtocol(Controller(router), faults=FaultPlan.parse(faults))
+    out = lines_of(p.feed("".join(line + "\n" for line in _lines(20)).encode()))
+    assert out == ["ok"] * 20 and p.controller.planner_free == 0
+    return p
+
+
+def test_status_habit_specs_are_checked():
+    for bad in ["status-when-full=never", "ignore-status=0", "ignore-status=1.5",
+                "status-delay=-3", "status-delay=x"]:  # fmt: skip
+        with pytest.raises(ValueError, match="fault"):
+            FaultPlan.parse([bad])
+    plan = FaultPlan.parse(["ignore-status=0.25"])
+    assert [k for k in range(1, 13) if plan.ignores_status(k)] == [4, 8, 12]
+
+
+def test_no_status_reply_while_the_planner_is_full_ignored(router):
+    p = _full(router, ["status-when-full=ignore"])
+    assert p.feed(b"?") == b""
+    p.controller.run_until_idle()
+    assert lines_of(p.poll()) == []  # forgotten: the host must ask again
+    assert lines_of(p.feed(b"?"))[0].startswith("<Idle|")
+    assert p.counters["status_ignored"] == 1 and p.counters["status"] == 1
+
+
+def test_no_status_reply_while_the_planner_is_full_deferred_and_merged(router):
+    p = _full(router, ["status-when-full=defer"])
+    assert p.feed(b"?") == b"" and p.feed(b"?") == b""
+    p.controller.run_until_idle()
+    (report,) = lines_of(p.poll())  # one report answers both queries
+    assert report.startswith("<Idle|") and p.counters["status_merged"] == 1
+
+
+def test_a_share_of_status_queries_ignored_and_a_delayed_report_answers_two(router):
+    p = GrblProtocol(Controller(router), faults=FaultPlan.parse(["ignore-status=0.5"]))
+    answered = [bool(p.feed(b"?")) for _ in range(6)]
+    assert answered == [True, False, True, False, True, False]
+    p = GrblProtocol(Controller(router), faults=FaultPlan.parse(["status-delay=500"]))
+    assert p.feed(b"?", now_s=10.0) == b"" and p.feed(b"?", now_s=10.3) == b""
+    assert p.poll(now_s=10.4) == b""
+    (report,) = lines_of(p.poll(now_s=10.5))
+    assert report.startswith("<Idle|") and p.counters["status_merged"] == 1
