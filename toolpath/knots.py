@@ -29,7 +29,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .splinefit import DEGREE, clamped_knots
+from .splinefit import DEGREE, admissible_knots, clamped_knots
 
 __all__ = [
     "Corner",
@@ -163,7 +163,7 @@ def place_knots(t: NDArray[np.float64], corners: list[Corner], edges: NDArray[np
         inner.extend(_respect_data(mine, t, lo_i, hi_i))
         if hi < 1.0:
             inner.extend([hi] * DEGREE)
-    return clamped_knots(np.asarray(inner))
+    return admissible_knots(t, clamped_knots(np.asarray(inner)))
 
 
 def third_derivative_density(spline_knots: NDArray[np.float64],
@@ -284,4 +284,4 @@ def dominant_point_knots(t: NDArray[np.float64], dominant: NDArray[np.int64],
         inner.extend(ends[j:j + DEGREE].mean() for j in range(1, n_inner + 1))
         if p < len(pieces) - 1:
             inner.extend([float(td[piece[-1] + 1])] * DEGREE)
-    return clamped_knots(np.asarray(inner))
+    return admissible_knots(t, clamped_knots(np.asarray(inner)))

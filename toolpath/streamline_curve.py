@@ -29,11 +29,17 @@ import numpy as np
 import scipy.interpolate
 from numpy.typing import NDArray
 
-from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
+from .adaptive import (
+    DEFAULT_CORNER_ANGLE_DEG,
+    DEFAULT_SWEEPS,
+    adapt_knots,
+    check_given_knots,
+    knot_options,
+)
 from .arrays import as_curve_points
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError
+from .errors import FitError, InvalidParameterError
 from .fitted_curve import FittedCurve, check_order, error_figures
 from .parametrize import unit_curve_parameters
 from .splinefit import DEGREE, end_interpolating_lsq
@@ -43,6 +49,12 @@ __all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_streamline_curve"]
 FRAME_METHODS = ("best", "paper")
 #: Gauss-Newton steps of the true-error refinement; each one costs one dense lstsq.
 REFINE_STEPS = 6
+#: Halvings of a Gauss-Newton step that raises the cost before the refinement stops.
+REFINE_HALVINGS = 5
+#: How far (in natural log units) ``G``'s control points may leave the data's log range:
+#: ``e^2.3 ≈ 10``, a fitted point ten times farther from the cone's apex (or closer to it)
+#: than any data point is no fit; the fits of real sections stay within 0.1.
+LOG_MARGIN = float(np.log(10.0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -144,6 +156,7 @@ class LogSpaceProblem:
             weights: NDArray[np.float64] | None = None):
         spline = end_interpolating_lsq(self.t, self.y, knots, weights)
         coef = spline.c
+        check_log_range(coef, self.y, knots)
         if refine:
             coef = self._refine(knots, coef, weights)
         g_values = scipy.interpolate.BSpline(knots, coef, DEGREE)(self.t)
@@ -153,28 +166,69 @@ class LogSpaceProblem:
                 weights: NDArray[np.float64] | None) -> NDArray[np.float64]:
         """Gauss-Newton on ``Σ w_i ||X(t_i) − X_i||²`` over interior coefficients of G.
 
-        ``∂X_i/∂P_{jk} = T^{-1}[:, k] Z_{0k} e^{G_k(t_i)} N_j(t_i)``.
+        ``∂X_i/∂P_{jk} = T^{-1}[:, k] Z_{0k} e^{G_k(t_i)} N_j(t_i)``. A step is halved
+        until it lowers the cost and keeps ``G`` within :data:`LOG_MARGIN` of the data (at
+        most :data:`REFINE_HALVINGS` times); the best coefficients are returned, so the
+        refinement never leaves the log-space fit for a worse or unbounded one.
         """
         basis = scipy.interpolate.BSpline.design_matrix(self.t, knots, DEGREE).toarray()
         inner = basis[:, 1:-1]
         t_inv = np.linalg.inv(self.frame.T)
         z0 = self.z[0]
-        coef = coef.copy()
         d = coef.shape[1]
         root = np.ones(self.t.size) if weights is None else np.sqrt(weights)
-        best = np.inf
+        lo, hi = _log_bounds(self.y)
+
+        def residual_of(c: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray]:
+            w = z0 * np.exp(basis @ c)  # (n, d)
+            return (w @ t_inv.T - self.frame.c - self.x) * root[:, None], w
+
+        best = coef.copy()
+        residual, w = residual_of(best)
+        cost = float(np.sum(residual**2))
         for _ in range(REFINE_STEPS):
-            w = z0 * np.exp(basis @ coef)  # (n, d)
-            residual = (w @ t_inv.T - self.frame.c - self.x) * root[:, None]
-            cost = float(np.sum(residual**2))
-            if cost >= best * (1 - 1e-9):
-                break
-            best = cost
             jac = np.einsum("ak,ik,ij->iajk", t_inv, w * root[:, None], inner)
             jac = jac.reshape(-1, inner.shape[1] * d)
             step = np.linalg.lstsq(jac, -residual.ravel(), rcond=None)[0]
-            coef[1:-1] += step.reshape(inner.shape[1], d)
-        return coef
+            step = step.reshape(inner.shape[1], d)
+            for halving in range(REFINE_HALVINGS + 1):
+                trial = best.copy()
+                trial[1:-1] += step * 0.5**halving
+                if np.all((trial >= lo) & (trial <= hi)):
+                    trial_residual, trial_w = residual_of(trial)
+                    trial_cost = float(np.sum(trial_residual**2))
+                    if trial_cost < cost * (1 - 1e-9):
+                        best, residual, w, cost = trial, trial_residual, trial_w, trial_cost
+                        break
+            else:
+                break  # no step lowers the cost: converged
+        return best
+
+
+def _log_bounds(y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per component, the range ``G``'s control points may take: the data's, ± LOG_MARGIN."""
+    return y.min(axis=0) - LOG_MARGIN, y.max(axis=0) + LOG_MARGIN
+
+
+def check_log_range(coef: NDArray[np.float64], y: NDArray[np.float64],
+                    knots: NDArray[np.float64]) -> None:
+    """Raise :class:`FitError` if ``G``'s control points leave the data's log range.
+
+    ``G`` lies in the convex hull of its control points, so bounding them bounds
+    ``exp(G)`` everywhere on [0, 1]: the fitted curve then stays within a factor
+    ``e^LOG_MARGIN`` of the data's extent in the cone frame and ``exp`` cannot overflow.
+    ``y`` holds the log-space data ``(n, d)``; ``coef`` the control points ``(m, d)``
+    (both may stack several sections side by side).
+    """
+    lo, hi = _log_bounds(y)
+    outside = np.maximum(lo - coef, coef - hi).max(axis=1)
+    if outside.max() > 0:
+        j = int(np.argmax(outside))
+        raise FitError(
+            f"the streamline fit swings out of the data's range near t = "
+            f"{knots[j + 2]:.4g} (log-space control point {j} is {outside[j]:.3g} beyond "
+            f"the data's log range widened by {LOG_MARGIN:.3g}): the knots are too dense "
+            "for the data there, or the cone frame is near-singular; use fewer knots there")
 
 
 def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
@@ -182,16 +236,28 @@ def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
     """The candidate frame whose log-space fit on ``knots`` has the smallest max error.
 
     ``knots`` should be about as many as the final fit will have (the best margin depends on
-    it): the caller passes the B-spline baseline's knots for the same request.
+    it): the caller passes the B-spline baseline's knots for the same request. Frames whose
+    fit leaves the log range (:func:`check_log_range`) are passed over.
+
+    Raises
+    ------
+    FitError
+        When no candidate frame fits on ``knots``, with the last candidate's reason.
     """
-    best, best_err = None, np.inf
+    best, best_err, failure = None, np.inf, None
     for candidate in candidate_frames(x):
-        _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
+        try:
+            _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
+        except FitError as exc:
+            failure = exc
+            continue
         if errors.max() < best_err:
             best, best_err = candidate, float(errors.max())
-    if best is None:  # candidate_frames always yields translated frames for sane data
-        return paper_frame(x)
-    return best
+    if best is not None:
+        return best
+    if failure is not None:
+        raise FitError(f"no cone frame gives a streamline fit on these knots: {failure}")
+    return paper_frame(x)  # candidate_frames always yields translated frames for sane data
 
 
 def fit_streamline_curve(
@@ -268,7 +334,9 @@ def fit_streamline_curve(
         chosen = paper_frame(x)
     else:
         probe = options.knots
-        if probe is None:
+        if probe is not None:
+            check_given_knots(t, probe)  # before the frames are tried on them
+        else:
             probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
                                       max_control_points=max_control_points, params=t,
                                       knot_method=knot_method,
