@@ -39,16 +39,19 @@ from .adaptive import (
 from .arrays import as_curve_points
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import FitError, InvalidParameterError
+from .errors import InvalidParameterError, LogRangeError
 from .fitted_curve import FittedCurve, check_order, error_figures
 from .parametrize import unit_curve_parameters
-from .splinefit import DEGREE, end_interpolating_lsq
+from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 
 __all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_streamline_curve"]
 
 FRAME_METHODS = ("best", "paper")
 #: Gauss-Newton steps of the true-error refinement; each one costs one dense lstsq.
 REFINE_STEPS = 6
+#: Cone frames tried, best first, when the knots the fit settles on make G leave the log
+#: range in a frame chosen on the baseline's knots (:class:`LogRangeError`).
+FRAME_TRIES = 3
 #: Halvings of a Gauss-Newton step that raises the cost before the refinement stops.
 REFINE_HALVINGS = 5
 #: How far (in natural log units) ``G``'s control points may leave the data's log range:
@@ -213,7 +216,7 @@ def _log_bounds(y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np
 
 def check_log_range(coef: NDArray[np.float64], y: NDArray[np.float64],
                     knots: NDArray[np.float64]) -> None:
-    """Raise :class:`FitError` if ``G``'s control points leave the data's log range.
+    """Raise :class:`LogRangeError` if ``G``'s control points leave the data's log range.
 
     ``G`` lies in the convex hull of its control points, so bounding them bounds
     ``exp(G)`` everywhere on [0, 1]: the fitted curve then stays within a factor
@@ -225,40 +228,46 @@ def check_log_range(coef: NDArray[np.float64], y: NDArray[np.float64],
     outside = np.maximum(lo - coef, coef - hi).max(axis=1)
     if outside.max() > 0:
         j = int(np.argmax(outside))
-        raise FitError(
+        raise LogRangeError(
             f"the streamline fit swings out of the data's range near t = "
             f"{knots[j + 2]:.4g} (log-space control point {j} is {outside[j]:.3g} beyond "
             f"the data's log range widened by {LOG_MARGIN:.3g}): the knots are too dense "
             "for the data there, or the cone frame is near-singular; use fewer knots there")
 
 
-def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
-                  knots: NDArray[np.float64]) -> ConeFrame:
-    """The candidate frame whose log-space fit on ``knots`` has the smallest max error.
+def _ranked_frames(x: NDArray[np.float64], t: NDArray[np.float64],
+                   knots: NDArray[np.float64]) -> list[ConeFrame]:
+    """The candidate frames, best first by the max error of their log-space fit on ``knots``.
 
     ``knots`` should be about as many as the final fit will have (the best margin depends on
     it): the caller passes the B-spline baseline's knots for the same request. Frames whose
-    fit leaves the log range (:func:`check_log_range`) are passed over.
+    fit leaves the log range (:func:`check_log_range`) are left out.
 
     Raises
     ------
-    FitError
+    LogRangeError
         When no candidate frame fits on ``knots``, with the last candidate's reason.
     """
-    best, best_err, failure = None, np.inf, None
+    scored, failure = [], None
     for candidate in candidate_frames(x):
         try:
             _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
-        except FitError as exc:
+        except LogRangeError as exc:
             failure = exc
             continue
-        if errors.max() < best_err:
-            best, best_err = candidate, float(errors.max())
-    if best is not None:
-        return best
+        scored.append((float(errors.max()), len(scored), candidate))
+    if scored:
+        return [frame for *_, frame in sorted(scored, key=lambda item: item[:2])]
     if failure is not None:
-        raise FitError(f"no cone frame gives a streamline fit on these knots: {failure}")
-    return paper_frame(x)  # candidate_frames always yields translated frames for sane data
+        raise LogRangeError(f"no cone frame gives a streamline fit on {n_coefficients(knots)} "
+                            f"control points: {failure}")
+    return [paper_frame(x)]  # candidate_frames always yields translated frames for sane data
+
+
+def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
+                  knots: NDArray[np.float64]) -> ConeFrame:
+    """The best of :func:`_ranked_frames`."""
+    return _ranked_frames(x, t, knots)[0]
 
 
 def fit_streamline_curve(
@@ -332,7 +341,7 @@ def fit_streamline_curve(
     x = as_curve_points(points)
     t = unit_curve_parameters(x, params)
     if frame == "paper":
-        chosen = paper_frame(x)
+        frames = [paper_frame(x)]
     else:
         probe = options.knots
         if probe is not None:
@@ -343,13 +352,19 @@ def fit_streamline_curve(
                                       knot_method=knot_method,
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
                                       minimax=False).knots
-        chosen = _choose_frame(x, t, probe)
+        frames = _ranked_frames(x, t, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
-    problem = LogSpaceProblem(x, t, chosen)
-    coef, errors, knot_vector = adapt_knots(
-        x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)
+    for tried, chosen in enumerate(frames, start=1):
+        problem = LogSpaceProblem(x, t, chosen)
+        try:
+            coef, errors, knot_vector = adapt_knots(
+                x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options)
+            break
+        except LogRangeError:
+            if tried == len(frames):
+                raise  # no frame left: the reason names the stretch
     max_error, rms_error = error_figures(errors)
     return StreamlineCurve(knots=knot_vector, params=t, max_error=max_error,
                            rms_error=rms_error, T=problem.frame.T, c=problem.frame.c,

@@ -43,10 +43,10 @@ from .adaptive import (
 from .bspline_surface import fit_bspline_surface
 from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import FitError, InvalidParameterError
+from .errors import InvalidParameterError, LogRangeError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
 from .sections import Sections, as_sections
-from .splinefit import DEGREE, end_interpolating_lsq
+from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 from .streamline_curve import FRAME_METHODS, LogSpaceProblem, check_log_range
 from .tensor_spline import PiecewiseCubic
 
@@ -191,12 +191,13 @@ def _choose_frame(sections: Sections, knots) -> ConeFrame:
                                       kappas=SURFACE_KAPPAS):
         try:
             rows, errors = _GridLogProblem(sections, candidate).fit(knots, refine=False)
-        except FitError as exc:  # out of the log range (check_log_range): the next frame
+        except LogRangeError as exc:  # out of the log range (check_log_range): the next frame
             failure = exc
             continue
         ranked.append((float(errors.max()), len(ranked), candidate, rows, errors))
     if not ranked and failure is not None:
-        raise FitError(f"no cone frame gives a streamline fit on these knots: {failure}")
+        raise LogRangeError("no cone frame gives a streamline fit on "
+                            f"{n_coefficients(knots)} control points along t: {failure}")
     if not ranked:
         return paper_frame(sections.points.reshape(-1, 3))
     ranked.sort(key=lambda item: item[:2])
