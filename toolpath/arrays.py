@@ -74,8 +74,9 @@ def _check_jumps(steps: NDArray[np.float64]) -> None:
     A jump is one of at most :data:`MAX_JUMPS` steps that each exceed
     :data:`OUTLIER_RATIO` times the length of all the other steps together. A spike out to
     a bad point and back makes two such steps around it, a bad end point one; on a sampled
-    contour no step is near ten times the rest of it, however unevenly it is sampled (a
-    0.01 mm nose beside 8 mm flanks is fine). Such a point is not a shape to fit: the fit
+    contour no step is near ten times the rest of it, however unevenly it is sampled (on the
+    development blades, 0.01 mm noses beside 8 mm flanks, the longest step is at most 0.03
+    times the rest). Such a point is not a shape to fit: the fit
     would bend far out of its way or take seconds failing to.
     """
     if steps.size < 3:
