@@ -27,6 +27,7 @@ from typing import Any
 
 import numpy as np
 import scipy.interpolate
+import scipy.linalg
 from numpy.typing import NDArray
 
 from .adaptive import (
@@ -173,13 +174,16 @@ class LogSpaceProblem:
         ``∂X_i/∂P_{jk} = T^{-1}[:, k] Z_{0k} e^{G_k(t_i)} N_j(t_i)``. A step is halved
         until it lowers the cost and keeps ``G`` within :data:`LOG_MARGIN` of the data (at
         most :data:`REFINE_HALVINGS` times); the best coefficients are returned, so the
-        refinement never leaves the log-space fit for a worse or unbounded one.
+        refinement never leaves the log-space fit for a worse or unbounded one. Each step
+        solves the banded normal equations (:func:`_gauss_newton_step`): O(m), not a dense
+        least squares of the whole Jacobian.
         """
-        basis = scipy.interpolate.BSpline.design_matrix(self.t, knots, DEGREE).toarray()
-        inner = basis[:, 1:-1]
+        design = scipy.interpolate.BSpline.design_matrix(self.t, knots, DEGREE)
+        basis = design.toarray()
+        local = design.data.reshape(self.t.size, DEGREE + 1)
+        first = design.indices.reshape(self.t.size, DEGREE + 1)[:, 0]
         t_inv = np.linalg.inv(self.frame.T)
         z0 = self.z[0]
-        d = coef.shape[1]
         root = np.ones(self.t.size) if weights is None else np.sqrt(weights)
         lo, hi = _log_bounds(self.y)
 
@@ -191,10 +195,11 @@ class LogSpaceProblem:
         residual, w = residual_of(best)
         cost = float(np.sum(residual**2))
         for _ in range(REFINE_STEPS):
-            jac = np.einsum("ak,ik,ij->iajk", t_inv, w * root[:, None], inner)
-            jac = jac.reshape(-1, inner.shape[1] * d)
-            step = np.linalg.lstsq(jac, -residual.ravel(), rcond=None)[0]
-            step = step.reshape(inner.shape[1], d)
+            try:
+                step = _gauss_newton_step(local, first, best.shape[0], t_inv,
+                                          w * root[:, None], residual)
+            except np.linalg.LinAlgError:
+                break
             for halving in range(REFINE_HALVINGS + 1):
                 trial = best.copy()
                 trial[1:-1] += step * 0.5**halving
@@ -207,6 +212,42 @@ class LogSpaceProblem:
             else:
                 break  # no step lowers the cost: converged
         return best
+
+
+def _gauss_newton_step(local: NDArray[np.float64], first: NDArray[np.int64], m: int,
+                       t_inv: NDArray[np.float64], w: NDArray[np.float64],
+                       residual: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The Gauss-Newton step ``δ`` (m − 2, d) of the interior control points of ``G``.
+
+    With ``J[(i, a), (j, k)] = T^{-1}[a, k] w_ik N_j(t_i)`` (``w`` the weighted
+    ``Z_0 e^G``), ``J^T J δ = −J^T r`` where ``(J^T J)[(j, k), (j', k')] =
+    Σ_i N_j N_j' w_ik w_ik' (T^{-T} T^{-1})[k, k']`` is banded: unknowns ordered
+    ``u = (j − 1) d + k`` couple only within ``4d − 1``. ``local``/``first``: each data
+    point's ``DEGREE + 1`` basis values and the index of the first. A relative 1e-12 on
+    the diagonal keeps the solve defined where a direction has no data.
+    """
+    d = w.shape[1]
+    size = (m - 2) * d
+    band = (DEGREE + 1) * d - 1
+    gram = t_inv.T @ t_inv
+    along = residual @ t_inv  # (J^T r) before the basis: Σ_a T^{-1}[a, k] r_ia
+    upper = np.zeros((band + 1, size))
+    rhs = np.zeros(size)
+    for a in range(DEGREE + 1):
+        j = first + a
+        inside_a = (j >= 1) & (j <= m - 2)
+        for k in range(d):
+            u = (j - 1) * d + k
+            np.add.at(rhs, u[inside_a], -(local[:, a] * w[:, k] * along[:, k])[inside_a])
+            for b in range(DEGREE + 1):
+                jb = first + b
+                for kb in range(d):
+                    ub = (jb - 1) * d + kb
+                    keep = inside_a & (jb >= 1) & (jb <= m - 2) & (u <= ub)
+                    value = local[:, a] * local[:, b] * w[:, k] * w[:, kb] * gram[k, kb]
+                    np.add.at(upper, (band + u[keep] - ub[keep], ub[keep]), value[keep])
+    upper[band] += 1e-12 * upper[band].max()
+    return scipy.linalg.solveh_banded(upper, rhs).reshape(m - 2, d)
 
 
 def _log_bounds(y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:

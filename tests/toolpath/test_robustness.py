@@ -203,6 +203,25 @@ def test_gauss_newton_never_worsens_the_fit(kind, rng):
     assert refined.rms_error <= plain.rms_error * (1 + 1e-9)
 
 
+def test_gauss_newton_step_matches_the_dense_least_squares(half, rng):
+    from toolpath.cone_frame import ConeFrame
+    from toolpath.streamline_curve import LogSpaceProblem, _gauss_newton_step
+
+    curve = fit_streamline_curve(half, n_control_points=20, minimax=False)
+    problem = LogSpaceProblem(half, curve.params, ConeFrame(curve.T, curve.c))
+    design = scipy.interpolate.BSpline.design_matrix(problem.t, curve.knots, 3)
+    t_inv = np.linalg.inv(curve.T)
+    w = problem.z[0] * np.exp(design.toarray() @ curve.g_coefficients)
+    w = w * rng.uniform(0.5, 1.5, size=(half.shape[0], 1))  # as a weighted polish has it
+    residual = w @ t_inv.T - curve.c - half + rng.normal(scale=0.01, size=half.shape)
+    jac = np.einsum("ak,ik,ij->iajk", t_inv, w, design.toarray()[:, 1:-1])
+    dense = np.linalg.lstsq(jac.reshape(3 * half.shape[0], -1), -residual.ravel(),
+                            rcond=None)[0].reshape(-1, 3)
+    step = _gauss_newton_step(design.data.reshape(-1, 4), design.indices.reshape(-1, 4)[:, 0],
+                              curve.g_coefficients.shape[0], t_inv, w, residual)
+    np.testing.assert_allclose(step, dense, atol=1e-9 * np.abs(dense).max())
+
+
 # ---------------------------------------------------------------- surfaces
 def test_surface_refit_on_its_own_knots_is_finite():
     blade = read_sections(bundled_data_path("dev_blade_15x142.csv"))
