@@ -24,6 +24,7 @@ from toolpath import (
 from toolpath.adaptive import KnotOptions, _polish, _Trial
 from toolpath.errors import InvalidParameterError, InvalidPointsError, ToolpathError
 from toolpath.paper_examples import bundled_data_path
+from toolpath.parametrize import unit_curve_parameters
 from toolpath.splinefit import admissible_knots, clamped_knots, schoenberg_whitney_violation
 
 DENSE = np.linspace(0.0, 1.0, 4001)
@@ -130,11 +131,17 @@ def test_admissible_knots_pins_every_control_point():
 
 @settings(max_examples=40, deadline=None, derandomize=True)
 @given(st.lists(st.floats(0.001, 0.999), min_size=0, max_size=14),
-       st.integers(0, 3), st.integers(8, 40))
-def test_schoenberg_whitney_check_matches_the_rank(inner, repeat, n):
+       st.integers(0, 3), st.integers(8, 40), st.booleans())
+def test_schoenberg_whitney_check_matches_the_rank(inner, repeat, n, airfoil):
     """A refused knot vector leaves the least squares rank-deficient; an accepted one
-    gives a finite fit of either kind."""
-    t = np.linspace(0.0, 1.0, n)
+    gives a finite fit of either kind (on a helix, or a closed airfoil's chord-length
+    parameters: dense at the nose)."""
+    if airfoil:
+        points = _airfoil(n // 2 + 2, closed=True)
+        t = unit_curve_parameters(points, "chord")
+    else:
+        t = np.linspace(0.0, 1.0, n)
+        points = np.c_[80.0 * np.cos(2.0 * t), 50.0 * np.sin(2.0 * t), 20.0 * t]
     inner = sorted(inner + inner[:1] * min(repeat, 2))
     knots = clamped_knots(np.array(inner))
     _, counts = np.unique(np.r_[inner, 2.0], return_counts=True)
@@ -142,7 +149,6 @@ def test_schoenberg_whitney_check_matches_the_rank(inner, repeat, n):
     design = scipy.interpolate.BSpline.design_matrix(t, knots, 3).toarray()[:, 1:-1]
     if reason is not None and "control point" in reason:
         assert np.linalg.matrix_rank(design) < design.shape[1]
-    points = np.c_[80.0 * np.cos(2.0 * t), 50.0 * np.sin(2.0 * t), 20.0 * t]
     for fitter in (fit_bspline_curve, fit_streamline_curve):
         try:
             curve = fitter(points, knots=knots, params=t)
