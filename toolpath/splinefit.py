@@ -197,6 +197,8 @@ def end_interpolating_lsq(
         np.add.at(rhs, first + a, weighted[:, a, None] * rhs_values)
     try:
         coef[1:-1] = _solve_banded_normal(bands[:, 1:-1], rhs[1:-1])
+        if _far_outside(coef, values):  # a near-null direction the pivots did not show
+            raise np.linalg.LinAlgError("control points far outside the data")
     except np.linalg.LinAlgError:
         # (nearly) rank-deficient: among the fits the data can hardly tell apart, the fairest
         _add_tie_break(bands, rhs, coef[[0, -1]])
@@ -207,6 +209,19 @@ def end_interpolating_lsq(
             root = np.sqrt(w)[:, None]
             coef[1:-1] = np.linalg.lstsq(inner * root, rhs_values * root, rcond=None)[0]
     return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
+
+
+def _far_outside(coef: NDArray[np.float64], values: NDArray[np.float64]) -> bool:
+    """Whether a control point lies farther outside the data's bounding box than its size.
+
+    A least-squares cubic's control polygon stays within a fraction of the box; one this
+    far out means the normal equations were nearly singular along a direction the
+    Cholesky pivots need not reveal (a decaying chain of control points near a clamped
+    end: singular value 1.6e-10, least pivot ratio 2e-4, control points 5e3 out).
+    """
+    lo, hi = values.min(axis=0), values.max(axis=0)
+    size = float((hi - lo).max())
+    return bool(np.any(coef < lo - size) or np.any(coef > hi + size))
 
 
 def _add_tie_break(bands: NDArray[np.float64], rhs: NDArray[np.float64],

@@ -239,6 +239,18 @@ def test_surface_refit_on_its_own_knots_is_finite():
         assert np.isfinite(surface(t, s)).all() and surface.max_error < 0.05
 
 
+def test_zigzag_section_near_a_clamped_end_fits_tamely():
+    """A chain of control points the data barely see (singular value 1e-10, pivots no
+    smaller than 2e-4) swung G to 5e3 beyond the data: now the tie-break takes it."""
+    blade = np.array(read_sections(bundled_data_path("dev_blade_15x142.csv")))
+    points = blade[[1, 4, 8, 11, 14]][:, ::2].copy()
+    points[2, ::2, 1] += 1.0
+    for fitter in (fit_streamline_surface, fit_bspline_surface):
+        surface = fitter(points, n_control_points=26)
+        assert surface.max_error < 1.0
+        assert np.abs(surface.row_coef).max() < 10 * np.abs(points).max()
+
+
 def test_four_sections_fit_with_a_between_sections_figure():
     """Leave-one-out of four sections leaves three: too few for not-a-knot (was a
     scipy ValueError)."""
