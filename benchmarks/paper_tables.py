@@ -10,9 +10,17 @@ our development half profile (the paper's measured blade is not public); and a f
 with both methods on identical knots and equal control-point counts; Table 7 (Example 7:
 Algorithm 4 vs the bicubic B-spline) on the development blade, with the true error between
 the sections measured against the blade's analytic definition (``blade_truth.py``).
+
+    python benchmarks/paper_tables.py --quick
+
+prints every table with less work (no P0, whose nonlinear least squares dominates Tables
+1-2; no fewest-control-points searches for the surfaces; fewer same-knots counts): the
+end-to-end check of ``tests/test_paper_tables.py``.
 """
 
 from __future__ import annotations
+
+import argparse
 
 import numpy as np
 from blade_truth import between
@@ -29,6 +37,8 @@ from toolpath import (
 from toolpath.paper_examples import bundled_data_path, example1, example2, example4, example5
 
 MODELS = ("P1-1", "P1-2", "P2", "P0")
+#: Set by ``--quick``: every table, less work in each (see the module docstring).
+QUICK = False
 
 
 def _row(label: str, ours: float, paper: float | None, extra: str = "") -> str:
@@ -48,17 +58,18 @@ def tables_1_and_2() -> None:
         ("Table 2 (Ex 2)", example2, {"P1-1": 0.1760, "P1-2": 0.0031, "P2": 0.0031},
          {4: 0.3704, 11: 0.0031}),
     ]
+    models = MODELS[:-1] if QUICK else MODELS
     for title, example, paper, paper_bspline in cases:
         points, t, _ = example()
         _header(f"{title}: max error, paper-matching reading (chord-length parameters)")
-        for model in MODELS:
+        for model in models:
             ours = fit_linear_system(points, model=model).max_error
             print(_row(model, ours, paper.get(model)))
         for count, value in paper_bspline.items():
             ours = fit_bspline_curve(points, n_control_points=count, minimax=False).max_error
             print(_row(f"cubic B-spline, {count} control points", ours, value))
         print("  true-time reading (the ODE's own t):")
-        for model in MODELS:
+        for model in models:
             ours = fit_linear_system(points, model=model, params=t).max_error
             print(_row(model, ours, None))
     print("  note: Table 2 prints P2 = P1-2; for uniform samples of a rotation P2's error is"
@@ -70,7 +81,7 @@ def table_3() -> None:
     _header("Table 3 analogue: constant coefficients on a blade half profile "
             "(ours: dev_half_profile_71; paper: its measured profile)")
     paper = {"P1-1": 0.9825, "P1-2": 0.6016, "P2": 0.4107}
-    for model in MODELS:
+    for model in MODELS[:-1] if QUICK else MODELS:
         print(_row(model, fit_linear_system(points, model=model).max_error, paper.get(model)))
     ours = fit_bspline_curve(points, n_control_points=10, minimax=False).max_error
     print(_row("cubic B-spline, 10 control points", ours, 0.0698))
@@ -168,10 +179,11 @@ def table_7() -> None:
     sl = fit_streamline_surface(blade, n_control_points=32)
     print(_surface_row("bicubic B-spline, 26 CPs along", bs, 0.0457))
     print(_surface_row("Algorithm 4, 32 CPs along", sl, 0.0318))
-    bs_need = fit_bspline_surface(blade, tol=0.0457)
-    sl_need = fit_streamline_surface(blade, tol=0.0318)
-    print(_surface_row("B-spline, fewest CPs for 0.0457", bs_need, 0.0457))
-    print(_surface_row("Algorithm 4, fewest CPs for 0.0318", sl_need, 0.0318))
+    if not QUICK:
+        bs_need = fit_bspline_surface(blade, tol=0.0457)
+        sl_need = fit_streamline_surface(blade, tol=0.0318)
+        print(_surface_row("B-spline, fewest CPs for 0.0457", bs_need, 0.0457))
+        print(_surface_row("Algorithm 4, fewest CPs for 0.0318", sl_need, 0.0318))
     paper_rule = fit_streamline_surface(blade, n_control_points=32, knot_method="dominant",
                                         frame="paper", corner_angle_deg=None, minimax=False)
     print(_surface_row("Alg. 4, paper's rule (dominant)", paper_rule, 0.0318))
@@ -179,7 +191,7 @@ def table_7() -> None:
           " CPs; the paper's 17 = 15 + 2 end conditions)")
     print(f"\n  same knots along t  {'CPs':>5}{'knots from':>12}{'B-spline':>12}"
           f"{'streamline':>12}{'SL/BS':>8}")
-    for count in (10, 14, 20, 26, 32):
+    for count in (10, 20) if QUICK else (10, 14, 20, 26, 32):
         for source in ("B-spline", "streamline"):
             fitter = fit_bspline_surface if source == "B-spline" else fit_streamline_surface
             knots = fitter(blade, n_control_points=count).knots_t
@@ -219,7 +231,12 @@ def cylinder_between_sections() -> None:
         print(f"  {label:<32}{errors.max():>10.2e}{np.abs(radius - 40).max():>22.2e}")
 
 
-def main() -> int:
+def main(argv: list[str] | None = None) -> int:
+    global QUICK
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="every table with less work (the test's end-to-end run)")
+    QUICK = parser.parse_args(argv).quick
     np.set_printoptions(precision=4)
     tables_1_and_2()
     table_3()

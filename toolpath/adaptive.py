@@ -36,7 +36,7 @@ from .knots import (
 )
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients, schoenberg_whitney_violation
 
-__all__ = ["KNOT_METHODS", "KnotOptions", "adapt_knots", "knot_options"]
+__all__ = ["KNOT_METHODS", "KnotOptions", "adapt_knots", "check_given_knots", "knot_options"]
 
 KNOT_METHODS = ("density", "dominant")
 #: Error-equidistribution sweeps per knot count; the tolerance search carries the learned
@@ -72,6 +72,10 @@ FairCheck = Callable[[Any, NDArray[np.float64]], list[tuple[float, float, float,
 #: The minimax polish lowers the least-squares max error by well under this factor
 #: (measured: 15-35% on the paper's examples), so attempts further from tol skip it.
 POLISH_REACH = 1.6
+#: Least weight (relative to the mean, 1) of a point in the minimax polish; small enough
+#: not to slow the polish (the max error is the same to 3 digits on the paper's examples),
+#: large enough to keep the weighted normal equations well conditioned.
+WEIGHT_FLOOR = 1e-3
 
 
 @dataclass(frozen=True)
@@ -133,10 +137,38 @@ class _Trial(Generic[FitT]):
     fit: FitT
     errors: NDArray[np.float64]
     knots: NDArray[np.float64]
+    #: Why the method could not fit these knots (the errors are then infinite).
+    failure: FitError | None = None
 
     @property
     def max_error(self) -> float:
         return float(self.errors.max())
+
+
+def _try(fit_at: FitAt, knots: NDArray[np.float64], weights: NDArray[np.float64] | None,
+         n_points: int) -> _Trial:
+    """``fit_at`` on ``knots`` as a trial, or as a failure a search moves past.
+
+    A fit the method refuses (:class:`FitError`), or one that is not finite, is a trial of
+    infinite error carrying the reason.
+    """
+    try:
+        fit, errors = fit_at(knots, weights)
+    except FitError as exc:
+        return _Trial(None, np.full(n_points, np.inf), knots, exc)
+    errors = np.asarray(errors, dtype=float)
+    if not np.isfinite(errors).all():
+        failure = FitError(f"the fit on {n_coefficients(knots)} control points is not "
+                           "finite at every data point")
+        return _Trial(fit, np.full(errors.shape, np.inf), knots, failure)
+    return _Trial(fit, errors, knots)
+
+
+def _checked(trial: _Trial) -> _Trial:
+    """The trial if it is a fit, else its failure raised."""
+    if trial.failure is not None:
+        raise trial.failure
+    return trial
 
 
 def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
@@ -144,8 +176,12 @@ def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
 
     ``w_i ← w_i e_i / Σ_j w_j e_j`` drives the weighted least-squares solution towards the
     minimax one (Lawson 1961); the best iterate is kept, so the max error never rises.
+    Weights are kept above :data:`WEIGHT_FLOOR` times their mean: points the fit already
+    meets (the interpolated ends have ``e = 0``) would otherwise reach weight 0, leave a
+    basis function with no weighted data and make the normal equations singular (on the
+    half profile that gave control points of 1e6 and ``exp`` overflow).
     """
-    if not options.minimax:
+    if not options.minimax or trial.failure is not None:
         return trial
     best = trial
     weights = np.ones_like(trial.errors)
@@ -155,12 +191,16 @@ def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
             break  # a reweighted fit overflowed: keep the best finite one
         weights = weights * errors
         total = weights.sum()
-        if total <= 0:
+        if not np.isfinite(total) or total <= 0:
             break
         weights = weights / total * weights.size
-        fit, errors = fit_at(trial.knots, weights)
-        if errors.max() < best.max_error:
-            best = _Trial(fit, errors, trial.knots)
+        weights = np.maximum(weights, WEIGHT_FLOOR)
+        current = _try(fit_at, trial.knots, weights, errors.size)
+        if current.failure is not None:
+            break
+        errors = current.errors
+        if current.max_error < best.max_error:
+            best = current
     return best
 
 
@@ -179,6 +219,13 @@ def _seed_density(t: NDArray[np.float64], values: NDArray[np.float64], corners: 
         spline = end_interpolating_lsq(t, values, knots)
         density = fourth_derivative_density(spline.t, spline.c)
     return density
+
+
+def check_given_knots(t: NDArray[np.float64], knots: NDArray[np.float64]) -> None:
+    """Raise :class:`InvalidParameterError` naming why ``knots`` cannot fit data at ``t``."""
+    problem = schoenberg_whitney_violation(t, knots)
+    if problem is not None:
+        raise InvalidParameterError(f"knots cannot be fitted: {problem}")
 
 
 def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
@@ -202,15 +249,15 @@ def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
         When ``tol`` cannot be reached within ``max_control_points`` (or the data's count).
     """
     if options.knots is not None:
-        problem = schoenberg_whitney_violation(t, options.knots)
-        if problem is not None:
-            raise InvalidParameterError(f"knots cannot be fitted: {problem}")
-        trial = _polish(_Trial(*fit_at(options.knots, None), options.knots), fit_at, options)
+        check_given_knots(t, options.knots)
+        trial = _checked(_try(fit_at, options.knots, None, t.size))
+        trial = _polish(trial, fit_at, options)
         return trial.fit, trial.errors, trial.knots
     if options.method == "dominant":
         trial = _dominant(points, t, fit_at, options)
     else:
         trial = _density(points, t, seed_values, fit_at, options)
+    trial = _checked(trial)
     if fair_check is not None and options.tol is not None:
         trial = _mend(trial, points, t, seed_values, fit_at, options, fair_check)
     return trial.fit, trial.errors, trial.knots
@@ -303,7 +350,10 @@ def _refit(trial: _Trial, knots: NDArray[np.float64], t, fit_at: FitAt,
     if np.array_equal(knots, trial.knots) or n_coefficients(knots) > _limit(options, t.size) \
             or schoenberg_whitney_violation(t, knots) is not None:
         return None
-    found = _polish(_Trial(*fit_at(knots, None), knots), fit_at, options)
+    first = _try(fit_at, knots, None, t.size)
+    if first.failure is not None:
+        return None
+    found = _polish(first, fit_at, options)
     return found if found.max_error <= options.tol else None
 
 
@@ -384,12 +434,14 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
         """Fit with ``n_free`` free knots: seed from the latest density, then sweeps."""
         density = learned[-1]
         knots = place_knots(t, corners, *density, n_free)
-        best = current = _Trial(*fit_at(knots, None), knots)
+        best = current = _try(fit_at, knots, None, t.size)
         best_density, stale = density, 0
         for _ in range(options.sweeps):
+            if current.failure is not None:
+                break  # no error density to learn from
             density = error_density(current.knots, t, current.errors)
             knots = place_knots(t, corners, *density, n_free)
-            current = _Trial(*fit_at(knots, None), knots)
+            current = _try(fit_at, knots, None, t.size)
             if current.max_error < best.max_error * (1.0 - SWEEP_GAIN):
                 best, best_density, stale = current, density, 0
             else:
@@ -431,6 +483,7 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
 
 
 def _raise_not_reached(tol: float, best_fail: _Trial) -> None:
+    _checked(best_fail)
     raise FitError(
         f"tol={tol!r} mm not reached with {n_coefficients(best_fail.knots)} control "
         f"points (best max error {best_fail.max_error:.6g} mm); raise "
@@ -489,7 +542,7 @@ def _dominant(points, t, fit_at, options: KnotOptions) -> _Trial:
         dominant = dominant[keep]
     while True:
         knots = dominant_point_knots(t, dominant, corners)
-        trial = _polish(_Trial(*fit_at(knots, None), knots), fit_at, options)
+        trial = _polish(_checked(_try(fit_at, knots, None, t.size)), fit_at, options)
         count = n_coefficients(knots)
         if target is not None and count >= target:
             return trial

@@ -14,13 +14,18 @@ __all__ = ["MIN_CURVE_POINTS", "as_curve_points", "as_positive_length"]
 
 #: A cubic needs four points to be determined; fewer cannot be fitted.
 MIN_CURVE_POINTS = 4
+#: A step longer than this many times all the other steps together is a jump to an outlier.
+OUTLIER_RATIO = 10.0
+#: Most steps examined as jumps: out to a bad point and back, twice.
+MAX_JUMPS = 4
 
 
 def as_curve_points(points: Any, *, min_points: int = MIN_CURVE_POINTS) -> NDArray[np.float64]:
     """Return ordered curve points as a float ``(n, d)`` array, ``d`` in {2, 3}, or raise.
 
     Checks, in order: numeric, 2-D with 2 or 3 columns, at least ``min_points`` rows, all
-    finite, no two consecutive points equal, non-zero length.
+    finite, no two consecutive points equal, non-zero length, no far outlier (a step longer
+    than :data:`OUTLIER_RATIO` times all the other steps together).
 
     Raises
     ------
@@ -59,7 +64,51 @@ def as_curve_points(points: Any, *, min_points: int = MIN_CURVE_POINTS) -> NDArr
             "remove consecutive duplicates",
             index=i + 1,
         )
+    _check_jumps(steps)
     return arr
+
+
+def _check_jumps(steps: NDArray[np.float64]) -> None:
+    """Refuse a curve with a far outlier (a jump: a step much longer than all the rest).
+
+    A jump is one of at most :data:`MAX_JUMPS` steps that each exceed
+    :data:`OUTLIER_RATIO` times the length of all the other steps together. A spike out to
+    a bad point and back makes two such steps around it, a bad end point one; on a sampled
+    contour no step is near ten times the rest of it, however unevenly it is sampled (on the
+    development blades, 0.01 mm noses beside 8 mm flanks, the longest step is at most 0.03
+    times the rest). Such a point is not a shape to fit: the fit
+    would bend far out of its way or take seconds failing to.
+    """
+    if steps.size < 3:
+        return
+    order = np.argsort(steps)[::-1]
+    sorted_steps = steps[order]
+    rest = np.cumsum(sorted_steps[::-1])[::-1]  # rest[k] = sum of sorted_steps[k:]
+    for k in range(1, min(MAX_JUMPS, steps.size - 1) + 1):
+        if sorted_steps[k - 1] > OUTLIER_RATIO * rest[k]:
+            jumps = np.sort(order[:k])
+            _raise_jump(steps, jumps, float(rest[k]))
+
+
+def _raise_jump(steps: NDArray[np.float64], jumps: NDArray[np.int64], rest: float) -> None:
+    n = steps.size + 1
+    if jumps.size >= 2:
+        first, last = int(jumps[0]) + 1, int(jumps[1])
+        which = f"point {first}" if first == last else f"points {first} to {last}"
+    elif jumps[0] == 0 or jumps[0] == n - 2:
+        first = 0 if jumps[0] == 0 else n - 1
+        which = f"point {first}"
+    else:
+        first = int(jumps[0]) + 1
+        raise InvalidPointsError(
+            f"the curve jumps {steps[jumps[0]]:.6g} mm between points {first - 1} and {first} "
+            f"while all its other steps add up to {rest:.6g} mm: two curves in one input, or "
+            "a measuring error?", index=first)
+    far = ", ".join(f"{steps[j]:.6g}" for j in jumps)
+    raise InvalidPointsError(
+        f"{which} lies far off the curve (steps of {far} mm to it, while all the other "
+        f"steps add up to {rest:.6g} mm): a measuring error? remove or correct it",
+        index=first)
 
 
 def as_positive_length(value: Any, *, name: str) -> float:

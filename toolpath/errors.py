@@ -12,6 +12,7 @@ __all__ = [
     "FitError",
     "InvalidParameterError",
     "InvalidPointsError",
+    "LogRangeError",
     "ToolpathError",
 ]
 
@@ -58,6 +59,14 @@ class DataFileError(ToolpathError):
 
 class FitError(ToolpathError):
     """A fit that cannot be carried out or cannot reach the requested tolerance."""
+
+
+class LogRangeError(FitError):
+    """A streamline fit whose ``G`` would leave the data's log range (``exp`` out of range).
+
+    Raised for a knot vector too dense for the data in some stretch, or a near-singular cone
+    frame; the fitter tries its next cone frame before giving up.
+    """
 
 
 class ConvergenceWarning(UserWarning):

@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .splinefit import DEGREE, clamped_knots
+from .splinefit import DEGREE, admissible_knots, clamped_knots
 
 __all__ = [
     "Corner",
@@ -210,7 +210,7 @@ def place_knots(t: NDArray[np.float64], corners: list[Corner], edges: NDArray[np
         inner.extend(_respect_data(mine[(mine > lo) & (mine < hi)], t, lo_i, hi_i))
         if hi < 1.0:
             inner.extend([float(hi)] * DEGREE)
-    return clamped_knots(np.asarray(inner))
+    return admissible_knots(t, clamped_knots(np.asarray(inner)))
 
 
 def fourth_derivative_density(spline_knots: NDArray[np.float64],
@@ -356,4 +356,4 @@ def dominant_point_knots(t: NDArray[np.float64], dominant: NDArray[np.int64],
         inner.extend(ends[j:j + DEGREE].mean() for j in range(1, n_inner + 1))
         if p < len(pieces) - 1:
             inner.extend([float(td[piece[-1] + 1])] * DEGREE)
-    return clamped_knots(np.asarray(inner))
+    return admissible_knots(t, clamped_knots(np.asarray(inner)))

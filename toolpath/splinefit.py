@@ -18,6 +18,7 @@ from .errors import FitError
 
 __all__ = [
     "DEGREE",
+    "admissible_knots",
     "clamped_knots",
     "end_interpolating_lsq",
     "interior_knots",
@@ -27,6 +28,12 @@ __all__ = [
 
 #: Cubic splines throughout (the paper's eq. 21 and the baseline).
 DEGREE = 3
+#: Weight of the control points' second differences in the least squares, relative to the
+#: normal matrix's mean diagonal (see :func:`_add_tie_break`).
+TIE_BREAK = 1e-9
+#: Least Cholesky pivot, relative to its diagonal entry, of a well-posed least squares; a
+#: smaller one means a control point the data barely see, and the tie-break takes over.
+MIN_PIVOT = 1e-10
 
 
 def clamped_knots(interior: NDArray[np.float64], lo: float = 0.0, hi: float = 1.0
@@ -78,7 +85,64 @@ def schoenberg_whitney_violation(t: NDArray[np.float64], knots: NDArray[np.float
     n_coef = n_coefficients(knots)
     if t.size < n_coef:
         return f"{n_coef} control points need at least as many points, got {t.size}"
-    return None
+    return _interlacing_violation(t, knots)
+
+
+def _interlacing_violation(t: NDArray[np.float64], knots: NDArray[np.float64]) -> str | None:
+    """The Schoenberg-Whitney condition proper, for the end-interpolating fit.
+
+    The least squares is uniquely solvable iff data parameters ``t_{i_0} < ... < t_{i_{m-1}}``
+    can be matched to the basis functions with ``N_j(t_{i_j}) > 0``, i.e.
+    ``k_j < t_{i_j} < k_{j+4}`` for the interior ``j`` (``t_0`` and ``t_n`` go to the ends).
+    Both bounds grow with ``j``, so taking for each ``j`` the first free parameter past
+    ``k_j`` finds a matching whenever one exists. Every span holding a point is not enough:
+    a corner knot of multiplicity 3 beside one sample leaves a control point free.
+    """
+    j = _unpinned(t, knots)
+    if j is None:
+        return None
+    return (f"control point {j} is not pinned down by the data: its knot span "
+            f"[{knots[j]:.6g}, {knots[j + DEGREE + 1]:.6g}] holds too few points "
+            "(Schoenberg-Whitney condition); use fewer knots there")
+
+
+def admissible_knots(t: NDArray[np.float64], knots: NDArray[np.float64]
+                     ) -> NDArray[np.float64]:
+    """``knots`` less the interior knots that leave a control point without data.
+
+    Where the Schoenberg-Whitney matching (see :func:`_interlacing_violation`) fails at
+    control point ``j``, the interior knot nearest the middle of ``j``'s support is dropped,
+    widening it, until every control point is pinned down (a corner knot beside one sample
+    loses one of its copies). Knot vectors that already satisfy the condition come back
+    unchanged.
+    """
+    knots = np.asarray(knots, float)
+    k = DEGREE + 1
+    while len(knots) > 2 * k:
+        j = _unpinned(t, knots)
+        if j is None:
+            break
+        inner = np.arange(k, len(knots) - k)
+        middle = 0.5 * (knots[j] + knots[j + k])
+        drop = inner[np.argmin(np.abs(knots[inner] - middle) + 1e-12 * np.abs(inner - j - 2))]
+        knots = np.delete(knots, drop)
+    return knots
+
+
+def _unpinned(t: NDArray[np.float64], knots: NDArray[np.float64]) -> int | None:
+    """The first control point the interlacing matching cannot give a data parameter.
+
+    The greedy matching ``i_j = max(i_{j-1} + 1, first i with t_i > k_j)``, ``i_0 = 0``,
+    is ``i_j = j + max_{l <= j} (s_l − l)``: one cumulative maximum.
+    """
+    m = n_coefficients(knots)
+    j = np.arange(m - 1)
+    first = np.searchsorted(t, knots[:m - 1], side="right")
+    first[0] = 0
+    i = j + np.maximum.accumulate(first - j)
+    bad = (i >= t.size - 1) | (t[np.minimum(i, t.size - 1)] >= knots[j + DEGREE + 1])
+    bad[0] = False
+    return int(np.argmax(bad)) if bad.any() else None
 
 
 def end_interpolating_lsq(
@@ -140,27 +204,80 @@ def end_interpolating_lsq(
         np.add.at(rhs, first + a, weighted[:, a, None] * rhs_values)
     try:
         coef[1:-1] = _solve_banded_normal(bands[:, 1:-1], rhs[1:-1])
+        if _far_outside(coef, values):  # a near-null direction the pivots did not show
+            raise np.linalg.LinAlgError("control points far outside the data")
     except np.linalg.LinAlgError:
-        # rank-deficient (data too thin for some basis function): QR gives the min-norm fit
-        inner = basis.toarray()[:, 1:-1]
-        root = np.sqrt(w)[:, None]
-        coef[1:-1] = np.linalg.lstsq(inner * root, rhs_values * root, rcond=None)[0]
+        # (nearly) rank-deficient: among the fits the data can hardly tell apart, the fairest
+        _add_tie_break(bands, rhs, coef[[0, -1]])
+        try:
+            coef[1:-1] = _solve_banded_normal(bands[:, 1:-1], rhs[1:-1], min_pivot=0.0)
+        except np.linalg.LinAlgError:  # data too thin for some basis function: min-norm fit
+            inner = basis.toarray()[:, 1:-1]
+            root = np.sqrt(w)[:, None]
+            coef[1:-1] = np.linalg.lstsq(inner * root, rhs_values * root, rcond=None)[0]
     return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
 
 
-def _solve_banded_normal(bands: NDArray[np.float64], rhs: NDArray[np.float64]
-                         ) -> NDArray[np.float64]:
+def _far_outside(coef: NDArray[np.float64], values: NDArray[np.float64]) -> bool:
+    """Whether a control point lies farther outside the data's bounding box than its size.
+
+    A least-squares cubic's control polygon stays within a fraction of the box; one this
+    far out means the normal equations were nearly singular along a direction the
+    Cholesky pivots need not reveal (a decaying chain of control points near a clamped
+    end: singular value 1.6e-10, least pivot ratio 2e-4, control points 5e3 out).
+    """
+    lo, hi = values.min(axis=0), values.max(axis=0)
+    size = float((hi - lo).max())
+    return bool(np.any(coef < lo - size) or np.any(coef > hi + size))
+
+
+def _add_tie_break(bands: NDArray[np.float64], rhs: NDArray[np.float64],
+                   ends: NDArray[np.float64]) -> None:
+    """Add ``λ ||Δ² P||²`` (second differences of the control points) to the normal equations.
+
+    ``λ = TIE_BREAK`` times the mean diagonal of ``B^T W B``: far below every well-determined
+    direction, so a fit the data pin down moves by round-off, while a direction the data
+    barely see (knots as dense as the samples, sites near the ends of their basis
+    functions: singular values of 1e-17 on the half profile) takes the fairest control
+    points instead of swinging by hundreds of mm between the samples. In place; the fixed
+    end control points ``ends`` (2, d) move their terms to ``rhs``.
+    """
+    m = bands.shape[1]
+    if m < 3:
+        return
+    lam = TIE_BREAK * float(bands[0, 1:-1].mean())
+    r = np.arange(m - 2)  # row r of Δ² is P_r − 2 P_{r+1} + P_{r+2}
+    diag = np.bincount(np.r_[r, r + 1, r + 2], weights=np.r_[np.ones(m - 2), np.full(m - 2, 4.0),
+                                                               np.ones(m - 2)], minlength=m)
+    off1 = np.bincount(np.r_[r, r + 1], weights=np.full(2 * (m - 2), -2.0), minlength=m)
+    off2 = np.bincount(r, minlength=m).astype(float)
+    bands[0] += lam * diag
+    bands[1] += lam * off1
+    bands[2] += lam * off2
+    # interior rows coupled to the fixed ends: P[1, 0] = -2, P[2, 0] = 1 and mirrored
+    rhs[1] -= lam * off1[0] * ends[0]
+    rhs[2] -= lam * off2[0] * ends[0]
+    rhs[m - 2] -= lam * off1[m - 2] * ends[1]
+    rhs[m - 3] -= lam * off2[m - 3] * ends[1]
+
+
+def _solve_banded_normal(bands: NDArray[np.float64], rhs: NDArray[np.float64], *,
+                         min_pivot: float = MIN_PIVOT) -> NDArray[np.float64]:
     """Solve ``N c = r`` for the symmetric ``N`` given by its bands (``bands[o, j] = N[j, j+o]``).
 
     B-spline normal matrices are banded and, under the Schoenberg-Whitney condition,
     positive definite: a banded Cholesky solve costs O(m) instead of a dense QR. Raises
-    ``LinAlgError`` when the matrix is not positive definite.
+    ``LinAlgError`` when the matrix is not positive definite, or nearly not: a pivot
+    ``u_jj² < min_pivot · N_jj`` (the control point is barely seen by the data).
     """
     m = bands.shape[1]
     if m == 0:
         return np.empty((0, rhs.shape[1]))
     upper = np.zeros((DEGREE + 1, m))
     for offset in range(min(DEGREE, m - 1) + 1):
-        # upper form for solveh_banded: ab[u + i - j, j] = a[i, j], i.e. N[j-o, j]
+        # upper form for cholesky_banded: ab[u + i - j, j] = a[i, j], i.e. N[j-o, j]
         upper[DEGREE - offset, offset:] = bands[offset, :m - offset]
-    return scipy.linalg.solveh_banded(upper, rhs)
+    factor = scipy.linalg.cholesky_banded(upper)
+    if np.any(factor[DEGREE] ** 2 < min_pivot * bands[0]):
+        raise np.linalg.LinAlgError("nearly singular normal equations")
+    return scipy.linalg.cho_solve_banded((factor, False), rhs)

@@ -31,22 +31,39 @@ from typing import Any
 
 import numpy as np
 import scipy.interpolate
+import scipy.linalg
 from numpy.typing import NDArray
 
-from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
+from .adaptive import (
+    DEFAULT_CORNER_ANGLE_DEG,
+    DEFAULT_SWEEPS,
+    adapt_knots,
+    check_given_knots,
+    knot_options,
+)
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, LogRangeError
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
 from .periodic import adapt_closed_knots, seam_multiplicity
-from .splinefit import DEGREE, end_interpolating_lsq
+from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 
 __all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_streamline_curve"]
 
 FRAME_METHODS = ("best", "paper")
 #: Gauss-Newton steps of the true-error refinement; each one costs one dense lstsq.
 REFINE_STEPS = 6
+#: Cone frames tried, best first, when the knots the fit settles on make G leave the log
+#: range in a frame chosen on the baseline's knots (:class:`LogRangeError`).
+FRAME_TRIES = 3
+#: Halvings of a Gauss-Newton step that raises the cost before the refinement stops.
+REFINE_HALVINGS = 5
+#: How far (in natural log units) ``G``'s control points may leave the data's log range:
+#: ``e^2.3 ≈ 10``, a fitted point ten times farther from the cone's apex (or closer to it)
+#: than any data point is no fit; the fits of the paper's examples and the half profile
+#: at 10-44 control points leave it by at most 0.25 (Ex 4 at 10), mostly by under 0.05.
+LOG_MARGIN = float(np.log(10.0))
 
 
 @dataclass(frozen=True, eq=False)
@@ -148,6 +165,7 @@ class LogSpaceProblem:
             weights: NDArray[np.float64] | None = None):
         spline = end_interpolating_lsq(self.t, self.y, knots, weights)
         coef = spline.c
+        check_log_range(coef, self.y, knots)
         if refine:
             coef = self._refine(knots, coef, weights)
         g_values = scipy.interpolate.BSpline(knots, coef, DEGREE)(self.t)
@@ -157,45 +175,144 @@ class LogSpaceProblem:
                 weights: NDArray[np.float64] | None) -> NDArray[np.float64]:
         """Gauss-Newton on ``Σ w_i ||X(t_i) − X_i||²`` over interior coefficients of G.
 
-        ``∂X_i/∂P_{jk} = T^{-1}[:, k] Z_{0k} e^{G_k(t_i)} N_j(t_i)``.
+        ``∂X_i/∂P_{jk} = T^{-1}[:, k] Z_{0k} e^{G_k(t_i)} N_j(t_i)``. A step is halved
+        until it lowers the cost and keeps ``G`` within :data:`LOG_MARGIN` of the data (at
+        most :data:`REFINE_HALVINGS` times); the best coefficients are returned, so the
+        refinement never leaves the log-space fit for a worse or unbounded one. Each step
+        solves the banded normal equations (:func:`_gauss_newton_step`): O(m), not a dense
+        least squares of the whole Jacobian.
         """
-        basis = scipy.interpolate.BSpline.design_matrix(self.t, knots, DEGREE).toarray()
-        inner = basis[:, 1:-1]
+        design = scipy.interpolate.BSpline.design_matrix(self.t, knots, DEGREE)
+        basis = design.toarray()
+        local = design.data.reshape(self.t.size, DEGREE + 1)
+        first = design.indices.reshape(self.t.size, DEGREE + 1)[:, 0]
         t_inv = np.linalg.inv(self.frame.T)
         z0 = self.z[0]
-        coef = coef.copy()
-        d = coef.shape[1]
         root = np.ones(self.t.size) if weights is None else np.sqrt(weights)
-        best = np.inf
+        lo, hi = _log_bounds(self.y)
+
+        def residual_of(c: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray]:
+            w = z0 * np.exp(basis @ c)  # (n, d)
+            return (w @ t_inv.T - self.frame.c - self.x) * root[:, None], w
+
+        best = coef.copy()
+        residual, w = residual_of(best)
+        cost = float(np.sum(residual**2))
         for _ in range(REFINE_STEPS):
-            w = z0 * np.exp(basis @ coef)  # (n, d)
-            residual = (w @ t_inv.T - self.frame.c - self.x) * root[:, None]
-            cost = float(np.sum(residual**2))
-            if cost >= best * (1 - 1e-9):
+            try:
+                step = _gauss_newton_step(local, first, best.shape[0], t_inv,
+                                          w * root[:, None], residual)
+            except np.linalg.LinAlgError:
                 break
-            best = cost
-            jac = np.einsum("ak,ik,ij->iajk", t_inv, w * root[:, None], inner)
-            jac = jac.reshape(-1, inner.shape[1] * d)
-            step = np.linalg.lstsq(jac, -residual.ravel(), rcond=None)[0]
-            coef[1:-1] += step.reshape(inner.shape[1], d)
-        return coef
+            for halving in range(REFINE_HALVINGS + 1):
+                trial = best.copy()
+                trial[1:-1] += step * 0.5**halving
+                if np.all((trial >= lo) & (trial <= hi)):
+                    trial_residual, trial_w = residual_of(trial)
+                    trial_cost = float(np.sum(trial_residual**2))
+                    if trial_cost < cost * (1 - 1e-9):
+                        best, residual, w, cost = trial, trial_residual, trial_w, trial_cost
+                        break
+            else:
+                break  # no step lowers the cost: converged
+        return best
+
+
+def _gauss_newton_step(local: NDArray[np.float64], first: NDArray[np.int64], m: int,
+                       t_inv: NDArray[np.float64], w: NDArray[np.float64],
+                       residual: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The Gauss-Newton step ``δ`` (m − 2, d) of the interior control points of ``G``.
+
+    With ``J[(i, a), (j, k)] = T^{-1}[a, k] w_ik N_j(t_i)`` (``w`` the weighted
+    ``Z_0 e^G``), ``J^T J δ = −J^T r`` where ``(J^T J)[(j, k), (j', k')] =
+    Σ_i N_j N_j' w_ik w_ik' (T^{-T} T^{-1})[k, k']`` is banded: unknowns ordered
+    ``u = (j − 1) d + k`` couple only within ``4d − 1``. ``local``/``first``: each data
+    point's ``DEGREE + 1`` basis values and the index of the first. A relative 1e-12 on
+    the diagonal keeps the solve defined where a direction has no data.
+    """
+    d = w.shape[1]
+    size = (m - 2) * d
+    band = (DEGREE + 1) * d - 1
+    gram = t_inv.T @ t_inv
+    along = residual @ t_inv  # (J^T r) before the basis: Σ_a T^{-1}[a, k] r_ia
+    upper = np.zeros((band + 1, size))
+    rhs = np.zeros(size)
+    for a in range(DEGREE + 1):
+        j = first + a
+        inside_a = (j >= 1) & (j <= m - 2)
+        for k in range(d):
+            u = (j - 1) * d + k
+            np.add.at(rhs, u[inside_a], -(local[:, a] * w[:, k] * along[:, k])[inside_a])
+            for b in range(DEGREE + 1):
+                jb = first + b
+                for kb in range(d):
+                    ub = (jb - 1) * d + kb
+                    keep = inside_a & (jb >= 1) & (jb <= m - 2) & (u <= ub)
+                    value = local[:, a] * local[:, b] * w[:, k] * w[:, kb] * gram[k, kb]
+                    np.add.at(upper, (band + u[keep] - ub[keep], ub[keep]), value[keep])
+    upper[band] += 1e-12 * upper[band].max()
+    return scipy.linalg.solveh_banded(upper, rhs).reshape(m - 2, d)
+
+
+def _log_bounds(y: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Per component, the range ``G``'s control points may take: the data's, ± LOG_MARGIN."""
+    return y.min(axis=0) - LOG_MARGIN, y.max(axis=0) + LOG_MARGIN
+
+
+def check_log_range(coef: NDArray[np.float64], y: NDArray[np.float64],
+                    knots: NDArray[np.float64]) -> None:
+    """Raise :class:`LogRangeError` if ``G``'s control points leave the data's log range.
+
+    ``G`` lies in the convex hull of its control points, so bounding them bounds
+    ``exp(G)`` everywhere on [0, 1]: the fitted curve then stays within a factor
+    ``e^LOG_MARGIN`` of the data's extent in the cone frame and ``exp`` cannot overflow.
+    ``y`` holds the log-space data ``(n, d)``; ``coef`` the control points ``(m, d)``
+    (both may stack several sections side by side).
+    """
+    lo, hi = _log_bounds(y)
+    outside = np.maximum(lo - coef, coef - hi).max(axis=1)
+    if outside.max() > 0:
+        j = int(np.argmax(outside))
+        raise LogRangeError(
+            f"the streamline fit swings out of the data's range near t = "
+            f"{knots[j + 2]:.4g} (log-space control point {j} is {outside[j]:.3g} beyond "
+            f"the data's log range widened by {LOG_MARGIN:.3g}): the knots are too dense "
+            "for the data there, or the cone frame is near-singular; use fewer knots there")
+
+
+def _ranked_frames(x: NDArray[np.float64], t: NDArray[np.float64],
+                   knots: NDArray[np.float64]) -> list[ConeFrame]:
+    """The candidate frames, best first by the max error of their log-space fit on ``knots``.
+
+    ``knots`` should be about as many as the final fit will have (the best margin depends on
+    it): the caller passes the B-spline baseline's knots for the same request. Frames whose
+    fit leaves the log range (:func:`check_log_range`) are left out.
+
+    Raises
+    ------
+    LogRangeError
+        When no candidate frame fits on ``knots``, with the last candidate's reason.
+    """
+    scored, failure = [], None
+    for candidate in candidate_frames(x):
+        try:
+            _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
+        except LogRangeError as exc:
+            failure = exc
+            continue
+        scored.append((float(errors.max()), len(scored), candidate))
+    if scored:
+        return [frame for *_, frame in sorted(scored, key=lambda item: item[:2])]
+    if failure is not None:
+        raise LogRangeError(f"no cone frame gives a streamline fit on {n_coefficients(knots)} "
+                            f"control points: {failure}")
+    return [paper_frame(x)]  # candidate_frames always yields translated frames for sane data
 
 
 def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
                   knots: NDArray[np.float64]) -> ConeFrame:
-    """The candidate frame whose log-space fit on ``knots`` has the smallest max error.
-
-    ``knots`` should be about as many as the final fit will have (the best margin depends on
-    it): the caller passes the B-spline baseline's knots for the same request.
-    """
-    best, best_err = None, np.inf
-    for candidate in candidate_frames(x):
-        _, errors = LogSpaceProblem(x, t, candidate).fit(knots, refine=False)
-        if errors.max() < best_err:
-            best, best_err = candidate, float(errors.max())
-    if best is None:  # candidate_frames always yields translated frames for sane data
-        return paper_frame(x)
-    return best
+    """The best of :func:`_ranked_frames`."""
+    return _ranked_frames(x, t, knots)[0]
 
 
 def fit_streamline_curve(
@@ -281,35 +398,47 @@ def fit_streamline_curve(
     if is_closed and refine:
         raise InvalidParameterError("refine is available for open curves only, not closed ones")
     if frame == "paper":
-        chosen = paper_frame(x)
+        frames = [paper_frame(x)]
     else:
         probe = options.knots
-        if probe is None:
+        if probe is not None:
+            if not is_closed:  # a closed fit checks its periodic knots itself
+                check_given_knots(t, probe)  # before the frames are tried on them
+        else:
             probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
                                       max_control_points=max_control_points, params=t,
                                       knot_method=knot_method,
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
                                       minimax=False, fair=False, closed=is_closed).knots
-        chosen = _choose_frame(x, t, probe)
+        frames = _ranked_frames(x, t, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
-    problem = LogSpaceProblem(x, t, chosen)
+    for tried, chosen in enumerate(frames, start=1):
+        problem = LogSpaceProblem(x, t, chosen)
 
-    def make_curve(coef, knot_vector):
-        return StreamlineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
-                               T=chosen.T, c=chosen.c, x0=x[0].copy(),
-                               g_coefficients=np.asarray(coef), closed=is_closed)
+        def make_curve(coef, knot_vector, frame=chosen):
+            return StreamlineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
+                                   T=frame.T, c=frame.c, x0=x[0].copy(),
+                                   g_coefficients=np.asarray(coef), closed=is_closed)
 
-    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
+        fair_check = (curve_fair_check(make_curve, x, options.tol) if fair and options.tol
+                      else None)
+        try:
+            if is_closed:
+                coef, errors, knot_vector = adapt_closed_knots(
+                    x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,
+                    seam=seam_multiplicity(x, corner_angle_deg), fair_check=fair_check)
+            else:
+                coef, errors, knot_vector = adapt_knots(
+                    x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,
+                    fair_check)
+            break
+        except LogRangeError:
+            if tried == len(frames):
+                raise  # no frame left: the reason names the stretch
     if is_closed:
-        coef, errors, knot_vector = adapt_closed_knots(
-            x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options,
-            seam=seam_multiplicity(x, corner_angle_deg), fair_check=fair_check)
         t, errors = t[:-1], errors[:-1]  # the seam point is the first again
-    else:
-        coef, errors, knot_vector = adapt_knots(
-            x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options, fair_check)
     max_error, rms_error = error_figures(errors)
     return StreamlineCurve(knots=knot_vector, params=t, max_error=max_error,
                            rms_error=rms_error, T=problem.frame.T, c=problem.frame.c,

@@ -35,15 +35,20 @@ import numpy as np
 import scipy.interpolate
 from numpy.typing import NDArray
 
-from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, knot_options
+from .adaptive import (
+    DEFAULT_CORNER_ANGLE_DEG,
+    DEFAULT_SWEEPS,
+    check_given_knots,
+    knot_options,
+)
 from .bspline_surface import fit_bspline_surface
 from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError
+from .errors import InvalidParameterError, LogRangeError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
 from .sections import Sections, as_sections
-from .splinefit import DEGREE, end_interpolating_lsq
-from .streamline_curve import FRAME_METHODS, LogSpaceProblem
+from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
+from .streamline_curve import FRAME_METHODS, LogSpaceProblem, check_log_range
 from .tensor_spline import PiecewiseCubic
 
 __all__ = ["StreamlineSurface", "fit_streamline_surface"]
@@ -157,6 +162,7 @@ class _GridLogProblem:
         grid = self.sections
         m, n = grid.n_sections, grid.n_columns
         coef = np.asarray(end_interpolating_lsq(grid.t, self.y_stacked, knots, weights).c)
+        check_log_range(coef, self.y_stacked, knots)
         coef = coef.reshape(-1, m, 3)
         if refine:
             for j in range(m):
@@ -181,11 +187,18 @@ def _choose_frame(sections: Sections, knots) -> ConeFrame:
     :data:`FINALISTS` with the smallest max error at the data are then judged by
     ``max(data error, leave-one-out error)``.
     """
-    ranked = []
+    ranked, failure = [], None
     for candidate in candidate_frames(sections.points.reshape(-1, 3), margins=SURFACE_MARGINS,
                                       kappas=SURFACE_KAPPAS):
-        rows, errors = _GridLogProblem(sections, candidate).fit(knots, refine=False)
+        try:
+            rows, errors = _GridLogProblem(sections, candidate).fit(knots, refine=False)
+        except LogRangeError as exc:  # out of the log range (check_log_range): the next frame
+            failure = exc
+            continue
         ranked.append((float(errors.max()), len(ranked), candidate, rows, errors))
+    if not ranked and failure is not None:
+        raise LogRangeError("no cone frame gives a streamline fit on "
+                            f"{n_coefficients(knots)} control points along t: {failure}")
     if not ranked:
         return paper_frame(sections.points.reshape(-1, 3))
     ranked.sort(key=lambda item: item[:2])
@@ -274,7 +287,9 @@ def fit_streamline_surface(
         chosen = paper_frame(grid.points.reshape(-1, 3))
     else:
         probe = options.knots
-        if probe is None:
+        if probe is not None:
+            check_given_knots(grid.t, probe)  # before the frames are tried on them
+        else:
             probe = fit_bspline_surface(
                 grid.points, tol=tol, n_control_points=n_control_points,
                 max_control_points=max_control_points, closed=grid.closed, params=grid.t,

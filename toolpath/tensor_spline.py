@@ -171,7 +171,10 @@ def interpolate_across(s: NDArray[np.float64], rows: NDArray[np.float64]
 
     Not-a-knot end conditions (knots at the interior ``s_j`` except the second and the
     last but one) follow a blade at hub and tip far better than natural ones (see
-    ``paper.md`` §3), and give as many control points as sections.
+    ``paper.md`` §3), and give as many control points as sections. Three rows (the
+    leave-one-out of a four-section surface) are too few for not-a-knot: a natural cubic
+    through them is used.
     """
-    spline = scipy.interpolate.make_interp_spline(s, rows, k=DEGREE)
+    bc_type = None if len(s) > DEGREE else "natural"
+    spline = scipy.interpolate.make_interp_spline(s, rows, k=DEGREE, bc_type=bc_type)
     return np.asarray(spline.t), np.asarray(spline.c)
