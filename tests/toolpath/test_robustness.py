@@ -246,7 +246,8 @@ def test_zigzag_section_near_a_clamped_end_fits_tamely():
     points = blade[[1, 4, 8, 11, 14]][:, ::2].copy()
     points[2, ::2, 1] += 1.0
     for fitter in (fit_streamline_surface, fit_bspline_surface):
-        surface = fitter(points, n_control_points=26)
+        # the zig-zag steps are as long as the gap at the blunt TE: say it is open
+        surface = fitter(points, n_control_points=26, closed=False)
         assert surface.max_error < 1.0
         assert np.abs(surface.row_coef).max() < 10 * np.abs(points).max()
 
