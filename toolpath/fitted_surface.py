@@ -142,7 +142,7 @@ class FittedSurface(ParametricSurface):
         """Interpolate the rows across ``s`` and measure the result."""
         knots_s, row_coef = interpolate_across(sections.s, grid.rows)
         loo = cls._leave_one_out(sections, grid, fields)
-        max_error, rms_error = error_figures(grid.errors.ravel())
+        max_error, rms_error = error_figures(grid.errors[sections.data_mask])
         surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
                       t_params=sections.t, s_params=sections.s, max_error=max_error,
                       rms_error=rms_error, loo_error=loo, closed_t=sections.closed, **fields)
