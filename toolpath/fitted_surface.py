@@ -12,7 +12,14 @@ A model describes section ``j`` by a **row** of numbers (its ``t``-coefficients,
 else it needs); the surface interpolates the rows across ``s``. Interpolating all rows but
 row ``j`` and comparing the result at ``s_j`` with the data measures how well the surface
 follows the blade *between* sections (leave-one-out; with twice the section spacing it
-overstates the true in-between error of a cubic by up to about ``2^4``).
+overstates the true in-between error of a cubic by up to about ``2^4``: kept for judging
+frames). The figure reported between sections is the estimate of
+:mod:`toolpath.between_sections` (data error plus cubic interpolation error across ``s``).
+
+Sections on a union grid (:mod:`toolpath.section_matching`) carry interpolated entries:
+they are fitted with the data (the knot driver keeps every entry within the tolerance,
+so each section follows its interpolating cubic between its points too), and
+``max_error``/``rms_error`` are measured at the data entries only.
 """
 
 from __future__ import annotations
@@ -27,6 +34,7 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .adaptive import KnotOptions, adapt_knots
+from .between_sections import between_sections_estimate
 from .fitted_curve import error_figures
 from .sections import Sections
 from .splinefit import DEGREE, n_coefficients
@@ -93,8 +101,11 @@ class FittedSurface(ParametricSurface):
     max_error, rms_error : float
         Distance (mm) from the data points to ``X(t_i, s_j)``.
     loo_error : float
-        Largest leave-one-out error over the interior sections (mm), the measure of the
-        fit *between* sections.
+        Largest leave-one-out error over the interior sections (mm): an upper bound of the
+        error between sections, up to ``2^4`` times too large.
+    between_error : float
+        Estimated error between sections (mm): ``max_error`` plus the cubic interpolation
+        error across ``s`` (:func:`toolpath.between_sections.between_sections_estimate`).
     closed_t : bool
         Closed sections: ``X(0, s) = X(1, s)`` (the seam, continuous in position).
     orientation : float
@@ -109,6 +120,7 @@ class FittedSurface(ParametricSurface):
     max_error: float
     rms_error: float
     loo_error: float
+    between_error: float
     closed_t: bool = False
     orientation: float = 1.0
 
@@ -143,9 +155,11 @@ class FittedSurface(ParametricSurface):
         knots_s, row_coef = interpolate_across(sections.s, grid.rows)
         loo = cls._leave_one_out(sections, grid, fields)
         max_error, rms_error = error_figures(grid.errors[sections.data_mask])
+        between = between_sections_estimate(sections.s, sections.points, max_error)
         surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
                       t_params=sections.t, s_params=sections.s, max_error=max_error,
-                      rms_error=rms_error, loo_error=loo, closed_t=sections.closed, **fields)
+                      rms_error=rms_error, loo_error=loo, between_error=between,
+                      closed_t=sections.closed, **fields)
         object.__setattr__(surface, "orientation", _outward_sign(surface, sections))
         return surface
 
@@ -168,7 +182,8 @@ class FittedSurface(ParametricSurface):
             "row_coef": self.row_coef.tolist(), "t_params": self.t_params.tolist(),
             "s_params": self.s_params.tolist(), "max_error": self.max_error,
             "rms_error": self.rms_error, "loo_error": self.loo_error,
-            "closed_t": self.closed_t, "orientation": self.orientation,
+            "between_error": self.between_error, "closed_t": self.closed_t,
+            "orientation": self.orientation,
         }
 
     @staticmethod
@@ -180,6 +195,9 @@ class FittedSurface(ParametricSurface):
             "t_params": np.asarray(data["t_params"], float),
             "s_params": np.asarray(data["s_params"], float),
             "max_error": float(data["max_error"]), "rms_error": float(data["rms_error"]),
-            "loo_error": float(data["loo_error"]), "closed_t": bool(data["closed_t"]),
+            "loo_error": float(data["loo_error"]),
+            # surfaces saved before the estimate existed: their leave-one-out upper bound
+            "between_error": float(data.get("between_error", data["loo_error"])),
+            "closed_t": bool(data["closed_t"]),
             "orientation": float(data["orientation"]),
         }
