@@ -23,13 +23,14 @@ linearly onto **common landmark parameters**, the mean over the sections of each
 fraction of the section's length. Points at the same ``t`` are then at the same place
 relative to the edges on every section.
 
-The surface grid needs every section at every column: when the sections already correspond
-(same point counts, the leading edges within :data:`CORRESPOND_SPREAD` points of each
-other, closed seams at the trailing edges) the columns are the mean of the sections' own
-parameters per index, as before matching existed; otherwise the columns are the union of all
-sections' matched parameters (near-duplicates within :data:`MERGE_FRACTION` of the local
-spacing merged), and a section's entries at the other sections' columns come from its
-interpolating cubic in the matched parametrization. A mask marks the entries that are data.
+The surface grid needs every section at every column. When the sections already
+correspond (same point counts, the leading edges within :data:`CORRESPOND_SPREAD` points of
+each other, closed seams on the trailing edges' closing steps) the columns are the mean of
+the sections' own parameters per index, as before matching existed. Otherwise the columns
+are the union of all sections' matched parameters (near-duplicates within
+:data:`MERGE_FRACTION` of the local spacing merged), and a section's entries at the other
+sections' columns come from its interpolating cubic in the matched parametrization. A
+mask marks the entries that are data.
 """
 
 from __future__ import annotations
@@ -291,7 +292,8 @@ def _correspond(sections: list[NDArray[np.float64]], us: list[NDArray[np.float64
     """Whether point ``i`` is already at the same place on every section.
 
     Same point counts, every leading edge within :data:`CORRESPOND_SPREAD` points (by
-    fractional index) of the others, and closed sections' seams at their trailing edges.
+    fractional index) of the others, and closed sections' trailing edges on their closing
+    step (or at their first point): the seams stay where they are.
     """
     if len({len(p) for p in sections}) != 1:
         return False
@@ -299,10 +301,9 @@ def _correspond(sections: list[NDArray[np.float64]], us: list[NDArray[np.float64
     at_le = [np.interp(mk.u_le, u, index) for u, mk in zip(us, marks, strict=True)]
     if max(at_le) - min(at_le) > CORRESPOND_SPREAD:
         return False
-    if closed:
+    if closed:  # the seam (the closing step) at the trailing edge, or next to it
         for u, mk in zip(us, marks, strict=True):
-            step = min(u[1] - u[0], u[-1] - u[-2])
-            if min(mk.u_te, mk.length - mk.u_te) > SNAP_FRACTION * step:
+            if SNAP_FRACTION * (u[1] - u[0]) < mk.u_te < u[-2]:
                 return False
     return True
 
