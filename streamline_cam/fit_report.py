@@ -110,7 +110,7 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
 
 SURFACE_METHODS = ("streamline", "bspline")
 #: What ``between_sections_mm`` is (``toolpath.between_sections``).
-BETWEEN_SECTIONS_BASIS = "estimate: data error + cubic interpolation error across sections"
+BETWEEN_SECTIONS_BASIS = "estimate: fit vs data interpolated across sections + interpolation error"
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,8 @@ row ``j`` and comparing the result at ``s_j`` with the data measures how well th
 follows the blade *between* sections (leave-one-out; with twice the section spacing it
 overstates the true in-between error of a cubic by up to about ``2^4``: kept for judging
 frames). The figure reported between sections is the estimate of
-:mod:`toolpath.between_sections` (data error plus cubic interpolation error across ``s``).
+:mod:`toolpath.between_sections` (the fit against the data interpolated across ``s``,
+midway, plus the cubic interpolation error across ``s``).
 
 Sections on a union grid (:mod:`toolpath.section_matching`) carry interpolated entries:
 they are fitted with the data (the knot driver keeps every entry within the tolerance,
@@ -104,8 +105,9 @@ class FittedSurface(ParametricSurface):
         Largest leave-one-out error over the interior sections (mm): an upper bound of the
         error between sections, up to ``2^4`` times too large.
     between_error : float
-        Estimated error between sections (mm): ``max_error`` plus the cubic interpolation
-        error across ``s`` (:func:`toolpath.between_sections.between_sections_estimate`).
+        Estimated error between sections (mm): the surface against the data interpolated
+        across ``s``, midway, plus the cubic interpolation error across ``s``
+        (:func:`toolpath.between_sections.between_sections_estimate`).
     closed_t : bool
         Closed sections: ``X(0, s) = X(1, s)`` (the seam, continuous in position).
     orientation : float
@@ -155,12 +157,12 @@ class FittedSurface(ParametricSurface):
         knots_s, row_coef = interpolate_across(sections.s, grid.rows)
         loo = cls._leave_one_out(sections, grid, fields)
         max_error, rms_error = error_figures(grid.errors[sections.data_mask])
-        between = between_sections_estimate(sections.s, sections.points, max_error)
         surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
                       t_params=sections.t, s_params=sections.s, max_error=max_error,
-                      rms_error=rms_error, loo_error=loo, between_error=between,
+                      rms_error=rms_error, loo_error=loo, between_error=np.nan,
                       closed_t=sections.closed, **fields)
         object.__setattr__(surface, "orientation", _outward_sign(surface, sections))
+        object.__setattr__(surface, "between_error", between_sections_estimate(surface, sections))
         return surface
 
     @classmethod
