@@ -60,6 +60,9 @@ SNAP_FRACTION = 0.25
 #: Sections whose leading edges lie within this many points of each other (by fractional
 #: index), with the same counts (and closed seams at the trailing edge), correspond by index.
 CORRESPOND_SPREAD = 1.0
+#: A section whose vector area is below this fraction of its squared length is next to
+#: straight: its direction round is not judged (a thin blade: about 1e-2).
+FLAT_AREA_FRACTION = 1e-4
 #: Samples of a local window when a landmark is refined on the interpolating cubic.
 REFINE_SAMPLES = 41
 #: Dense samples per section for the edge-width rule.
@@ -270,16 +273,25 @@ def _matched(points: NDArray[np.float64], u: NDArray[np.float64], marks: Section
     return _MatchedSection(pts, t, is_data, _interpolant(t, pts, closed))
 
 
-def _check_direction(matched: list[_MatchedSection], t_le: float) -> None:
-    """Every section must run the same way round: its first side beside the previous one's."""
-    for j in range(1, len(matched)):
-        prev, this = matched[j - 1].curve, matched[j].curve
-        first, second = 0.5 * t_le, 0.5 * (1.0 + t_le)
-        same = np.linalg.norm(this(first) - prev(first)) + np.linalg.norm(
-            this(second) - prev(second))
-        swapped = np.linalg.norm(this(first) - prev(second)) + np.linalg.norm(
-            this(second) - prev(first))
-        if swapped < same:
+def _vector_area(points: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``1/2 sum (p_i - c) x (p_{i+1} - c)`` round the loop closed by its last step (mm^2)."""
+    rel = points - points.mean(axis=0)
+    return 0.5 * np.cross(rel, np.roll(rel, -1, axis=0)).sum(axis=0)
+
+
+def _check_direction(sections: list[NDArray[np.float64]]) -> None:
+    """Every section must run the same way round: its vector area along the previous one's.
+
+    The vector area of a loop turns over when the loop is run backwards, whatever the
+    sections' offsets and twist; loops of next to no area (straight sections) are not
+    judged.
+    """
+    areas = [_vector_area(p) for p in sections]
+    for j in range(1, len(sections)):
+        a, b = areas[j - 1], areas[j]
+        length = np.linalg.norm(np.diff(sections[j], axis=0), axis=1).sum()
+        scale = FLAT_AREA_FRACTION * length**2
+        if min(np.linalg.norm(a), np.linalg.norm(b)) > scale and float(a @ b) < 0.0:
             raise InvalidPointsError(
                 f"section {j} runs the other way round the profile from section {j - 1}: "
                 "give every section's points in the same direction (e.g. suction side "
@@ -324,6 +336,7 @@ def match_sections(sections: list[NDArray[np.float64]], closed: bool, params: st
     InvalidPointsError
         A section running the other way round from its neighbour.
     """
+    _check_direction(sections)
     marks = section_landmarks(sections, closed, params)
     us = [_cumulative(p, params) for p in sections]
     blade_like = marks is not None
@@ -333,7 +346,6 @@ def match_sections(sections: list[NDArray[np.float64]], closed: bool, params: st
     t_le = float(np.mean(fractions))
     matched = [_matched(p, u, mk, t_le, closed)
                for p, u, mk in zip(sections, us, marks, strict=True)]
-    _check_direction(matched, t_le)
     m = len(matched)
     if len({len(p) for p in sections}) == 1 and (
             not blade_like or _correspond(sections, us, marks, closed)):
