@@ -89,7 +89,10 @@ class Sections:
 
     @property
     def n_columns(self) -> int:
-        """``n``, points per section (with the repeated seam point when closed)."""
+        """``n``, grid columns: points per section (with the repeated seam point when closed).
+
+        Ragged sections: the union of the matched parameters.
+        """
         return self.points.shape[1]
 
     @property
