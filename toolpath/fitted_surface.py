@@ -104,10 +104,8 @@ class FittedSurface(ParametricSurface):
     loo_error : float
         Largest leave-one-out error over the interior sections (mm): an upper bound of the
         error between sections, up to ``2^4`` times too large.
-    between_error : float
-        Estimated error between sections (mm): the surface against the data interpolated
-        across ``s``, midway, plus the cubic interpolation error across ``s``
-        (:func:`toolpath.between_sections.between_sections_estimate`).
+    saved_between_error : float, optional
+        :attr:`between_error` as saved (JSON); ``None``: estimated from the sections fitted.
     closed_t : bool
         Closed sections: ``X(0, s) = X(1, s)`` (the seam, continuous in position).
     orientation : float
@@ -122,7 +120,7 @@ class FittedSurface(ParametricSurface):
     max_error: float
     rms_error: float
     loo_error: float
-    between_error: float
+    saved_between_error: float | None = None
     closed_t: bool = False
     orientation: float = 1.0
 
@@ -145,6 +143,23 @@ class FittedSurface(ParametricSurface):
         coef = self.row_coef[:, :self._n_tensor].reshape(n_s, n_t, 3).transpose(1, 0, 2)
         return TensorSpline(self.knots_t, self.knots_s, np.ascontiguousarray(coef))
 
+    @functools.cached_property
+    def between_error(self) -> float:
+        """Estimated error between sections (mm).
+
+        The surface against the data interpolated across ``s``, midway, plus the cubic
+        interpolation error across ``s``
+        (:func:`toolpath.between_sections.between_sections_estimate`). Estimated on first
+        use (the report, JSON), so the fits tried while knots are chosen do not pay for it;
+        NaN for a surface built neither by a fit nor from JSON that holds it.
+        """
+        if self.saved_between_error is not None:
+            return self.saved_between_error
+        sections = self.__dict__.get("_fitted_sections")
+        if sections is None:
+            return float("nan")
+        return between_sections_estimate(self, sections)
+
     @property
     def n_control_points(self) -> tuple[int, int]:
         """Control points ``(along t, across s)`` per coordinate."""
@@ -159,10 +174,9 @@ class FittedSurface(ParametricSurface):
         max_error, rms_error = error_figures(grid.errors[sections.data_mask])
         surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
                       t_params=sections.t, s_params=sections.s, max_error=max_error,
-                      rms_error=rms_error, loo_error=loo, between_error=np.nan,
-                      closed_t=sections.closed, **fields)
+                      rms_error=rms_error, loo_error=loo, closed_t=sections.closed, **fields)
         object.__setattr__(surface, "orientation", _outward_sign(surface, sections))
-        object.__setattr__(surface, "between_error", between_sections_estimate(surface, sections))
+        surface.__dict__["_fitted_sections"] = sections  # for between_error, on demand
         return surface
 
     @classmethod
@@ -199,7 +213,7 @@ class FittedSurface(ParametricSurface):
             "max_error": float(data["max_error"]), "rms_error": float(data["rms_error"]),
             "loo_error": float(data["loo_error"]),
             # surfaces saved before the estimate existed: their leave-one-out upper bound
-            "between_error": float(data.get("between_error", data["loo_error"])),
+            "saved_between_error": float(data.get("between_error", data["loo_error"])),
             "closed_t": bool(data["closed_t"]),
             "orientation": float(data["orientation"]),
         }
