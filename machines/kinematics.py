@@ -87,6 +87,7 @@ __all__ = [
     "forward",
     "inverse",
     "solve_inverse",
+    "tilt_reach_deg",
 ]
 
 SINGULAR_CONE_DEG: Final[float] = 0.1
@@ -260,6 +261,28 @@ def forward(machine: Machine, joints: ArrayLike) -> tuple[NDArray[np.float64], N
 # --------------------------------------------------------------------------------------
 # inverse
 # --------------------------------------------------------------------------------------
+
+
+def tilt_reach_deg(machine: Machine) -> float:
+    """Largest angle of the tool axis from the workpiece +Z the tilt joint can make, deg.
+
+    The tilt joint sets that angle ``th`` on one branch (``t = th``) or the other
+    (``t = -th``, C turned half a turn): the reach is ``max(t_max, -t_min)`` of its travel
+    (180 for an unlimited tilt axis, 0 on a 3-axis machine).
+
+    Examples
+    --------
+    >>> from machines.machine import load_machine
+    >>> tilt_reach_deg(load_machine("trunnion-ac")), tilt_reach_deg(load_machine("head-table-bc"))
+    (120.0, 110.0)
+    """
+    letter = machine.kinematics.tilt_letter
+    if letter is None:
+        return 0.0
+    axis = machine.axis(letter)
+    if not axis.is_limited:
+        return 180.0
+    return float(min(max(axis.max, -axis.min), 180.0))
 
 
 def _fit_turns(c: NDArray[np.float64], axis: Axis) -> NDArray[np.float64]:

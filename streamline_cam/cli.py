@@ -25,6 +25,16 @@ from .fit_report import (
 __all__ = ["main"]
 
 
+def add_closure_arguments(parser: argparse.ArgumentParser, what: str = "sections") -> None:
+    """``--closed`` / ``--open`` (default: read from how the points end, toolpath.closure)."""
+    closure = parser.add_mutually_exclusive_group()
+    closure.add_argument("--closed", dest="closed", action="store_true", default=None,
+                         help=f"the {what} are closed loops, fitted smooth across the seam "
+                              "(default: read from how the points end)")
+    closure.add_argument("--open", dest="closed", action="store_false",
+                         help=f"the {what} are open even if the ends nearly meet")
+
+
 def _parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="toolpath", description="Streamline fitting and CNC toolpaths for blades.")
@@ -35,6 +45,7 @@ def _parser() -> argparse.ArgumentParser:
     curve.add_argument("points", help="CSV with header x,y[,z], or whitespace columns (mm)")
     curve.add_argument("--tol", type=float, default=0.01, help="max error in mm (0.01)")
     curve.add_argument("--method", choices=CURVE_METHODS, default="streamline")
+    add_closure_arguments(curve, "points")
     curve.add_argument("-o", "--output", help="write the fitted curve as JSON")
     curve.add_argument("--plot", help="write a PNG of points, curve and error")
     curve.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -42,11 +53,7 @@ def _parser() -> argparse.ArgumentParser:
     surface.add_argument("points", help="CSV with header section,x,y,z (mm), sections hub to tip")
     surface.add_argument("--tol", type=float, default=0.01, help="max error in mm (0.01)")
     surface.add_argument("--method", choices=SURFACE_METHODS, default="streamline")
-    closure = surface.add_mutually_exclusive_group()
-    closure.add_argument("--closed", dest="closed", action="store_true", default=None,
-                         help="the sections are closed loops (default: detected)")
-    closure.add_argument("--open", dest="closed", action="store_false",
-                         help="the sections are open even if the ends meet")
+    add_closure_arguments(surface)
     surface.add_argument("-o", "--output", help="write the fitted surface as JSON")
     surface.add_argument("--plot", help="write a PNG of sections, streamlines and error")
     surface.add_argument("--json", action="store_true", help="print the report as JSON")
@@ -70,7 +77,8 @@ def _register_command_modules(commands: argparse._SubParsersAction) -> None:
 def _fit_curve(args: argparse.Namespace) -> int:
     tol = as_positive_length(args.tol, name="--tol")
     points = as_curve_points(read_points(args.points))
-    curve, report = fit_curve_by_method(points, method=args.method, tol=tol)
+    curve, report = fit_curve_by_method(points, method=args.method, tol=tol,
+                                        closed=args.closed)
     if args.output:
         payload = curve.to_dict()
         Path(args.output).write_text(json.dumps(payload), encoding="utf-8")

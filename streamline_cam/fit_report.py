@@ -11,7 +11,6 @@ from numpy.typing import NDArray
 
 from toolpath import (
     LINEAR_MODELS,
-    as_sections,
     fit_bspline_curve,
     fit_bspline_surface,
     fit_linear_system,
@@ -19,6 +18,8 @@ from toolpath import (
     fit_streamline_surface,
 )
 from toolpath.errors import InvalidParameterError
+from toolpath.fairness import curve_fairness, surface_fairness
+from toolpath.sections import as_sections
 
 __all__ = [
     "CURVE_METHODS",
@@ -47,6 +48,9 @@ class CurveFitReport:
     c_mm: list[float] | None = None
     A: list[list[float]] | None = None
     notes: list[str] = field(default_factory=list)
+    #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit (concave stretches, noses).
+    fairness: dict[str, Any] | None = None
+    closed: bool = False
 
     @property
     def within_tol(self) -> bool:
@@ -63,7 +67,7 @@ class CurveFitReport:
         """Human-readable report lines."""
         out = [
             f"method            {self.method}",
-            f"points            {self.n_points}",
+            f"points            {self.n_points}" + (" (closed)" if self.closed else " (open)"),
             f"control points    {self.n_control_points}",
             f"max error         {self.max_error_mm:.6f} mm"
             + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
@@ -77,21 +81,30 @@ class CurveFitReport:
                 out.extend(" " * 18 + r for r in rows[1:])
         if self.c_mm is not None:
             out.append("c                 [" + ", ".join(f"{v:.6g}" for v in self.c_mm) + "] mm")
+        out.extend(_fairness_lines(self.fairness))
         out.extend(f"note              {n}" for n in self.notes)
         return out
 
 
-def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
-                        ) -> tuple[Any, CurveFitReport]:
-    """Fit ``points`` with ``method`` (see ``CURVE_METHODS``) and report on it."""
+def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
+                        closed: bool | None = None) -> tuple[Any, CurveFitReport]:
+    """Fit ``points`` with ``method`` (see ``CURVE_METHODS``) and report on it.
+
+    ``closed`` (None: read from the points) applies to the spline methods; the
+    constant-coefficient models fit open curves only.
+    """
     if method not in CURVE_METHODS:
         raise InvalidParameterError(f"method must be one of {CURVE_METHODS}, got {method!r}")
     start = time.perf_counter()
     if method == "streamline":
-        curve = fit_streamline_curve(points, tol=tol)
+        curve = fit_streamline_curve(points, tol=tol, closed=closed)
     elif method == "bspline":
-        curve = fit_bspline_curve(points, tol=tol)
+        curve = fit_bspline_curve(points, tol=tol, closed=closed)
     else:
+        if closed:
+            raise InvalidParameterError(
+                f"--closed needs a spline method (streamline or bspline); {method} fits "
+                "open curves only")
         curve = fit_linear_system(points, model=method)
     seconds = time.perf_counter() - start
     extra: dict[str, Any] = {}
@@ -101,7 +114,11 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float
     elif method in LINEAR_MODELS:
         extra = {"A": curve.A.tolist(),
                  "notes": ["constant-coefficient model: tol is reported, not enforced"]}
+    fairness = curve_fairness(curve, points)
+    extra["fairness"] = fairness.as_dict()
+    extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),
+                            closed=bool(getattr(curve, "closed", False)),
                             n_control_points=curve.n_control_points,
                             max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
                             tol_mm=tol, seconds=seconds, **extra)
@@ -133,6 +150,8 @@ class SurfaceFitReport:
     tol_mm: float
     seconds: float
     notes: list[str] = field(default_factory=list)
+    #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit, on every section and midway.
+    fairness: dict[str, Any] | None = None
     section_point_counts: list[int] = field(default_factory=list)
     leave_one_out_mm: float | None = None
     between_sections_basis: str = BETWEEN_SECTIONS_BASIS
@@ -164,8 +183,16 @@ class SurfaceFitReport:
             f"between sections  {self.between_sections_mm:.6f} mm ({self.between_sections_basis})",
             f"time              {self.seconds:.3f} s",
         ]
+        out.extend(_fairness_lines(self.fairness))
         out.extend(f"note              {n}" for n in self.notes)
         return out
+
+
+def _fairness_lines(fairness: dict[str, Any] | None) -> list[str]:
+    """``fairness  0 concave stretches > 1 um (deepest 0.0000 mm)`` and the noses' line."""
+    if fairness is None:
+        return []
+    return [f"fairness          {fairness['summary']}", f"noses             {fairness['noses']}"]
 
 
 def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: bool | None = None
@@ -181,10 +208,13 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     seconds = time.perf_counter() - start
     notes = [f"frame: {surface.frame_label}"] if method == "streamline" else []
     counts = grid.data_counts
+    fairness = surface_fairness(surface, grid.points)
+    notes += fairness.warnings(tol)
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),
         closed=surface.closed_t, n_control_points=surface.n_control_points,
         max_error_mm=surface.max_error, rms_error_mm=surface.rms_error,
         between_sections_mm=surface.between_error, tol_mm=tol, seconds=seconds, notes=notes,
-        section_point_counts=counts, leave_one_out_mm=surface.loo_error)
+        fairness=fairness.as_dict(), section_point_counts=counts,
+        leave_one_out_mm=surface.loo_error)
     return surface, report

@@ -29,8 +29,12 @@ from machines import load_machine
 from toolpath import as_sections, read_sections
 from toolpath.arrays import as_positive_length
 from toolpath.errors import InvalidParameterError
-from toolpath.placement import place_points
+from toolpath.joint_refine import JOINT_CHECKED
+from toolpath.path import MoveKind
+from toolpath.placement import place_points, translated_surface
+from toolpath.planning.errors import PlanTravelLimitError
 from toolpath.planning.finishing import plan_finishing
+from toolpath.planning.travel import fit_travel
 
 from .fit_report import SURFACE_METHODS, fit_surface_by_method
 
@@ -74,6 +78,9 @@ class JobRequest:
         ``auto`` (flat for 3-axis, upright for 5-axis), ``flat``, ``upright`` or ``none``.
     dialect : str or None
         Override the machine's dialect.
+    closed : bool or None
+        Closed sections (``--closed``/``--open``); None reads them from how they end
+        (:mod:`toolpath.closure`).
     planning_options : dict
         Extra options for :func:`toolpath.planning.finishing.plan_finishing`.
     """
@@ -93,6 +100,7 @@ class JobRequest:
     base_mm: float = 5.0
     dialect: str | None = None
     spindle_rpm: float = 12000.0
+    closed: bool | None = None
     planning_options: dict[str, Any] = field(default_factory=dict)
 
     def validated(self) -> JobRequest:
@@ -161,6 +169,47 @@ def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequ
     return outcome.to_dict()
 
 
+def _fit_to_travel(path: Any, surface: Any, placement: Any, plan_report: Any, machine: Any,
+                   mode: str) -> tuple[Any, Any, Any, Any, np.ndarray]:
+    """The part moved so that the planned path stays inside the machine's travel.
+
+    The smallest shift (:func:`toolpath.planning.travel.fit_travel`: up onto a riser, and
+    across the table; not at all with placement ``none``; none when the path fits, the
+    middles of the moves the post splits included) moves the path, the surface and the
+    placement alike. Where no shift fits, a
+    :class:`~toolpath.planning.errors.PlanTravelLimitError` names the binding limits.
+    """
+    fit = fit_travel(machine, path.positions_mm, path.tool_axes, lateral=mode != "none",
+                     split_moves=path.kinds[1:] != MoveKind.RAPID)
+    if not fit.fits or (mode == "none" and fit.offset_mm.any()):
+        if fit.binding:
+            cause = ("no placement of the part keeps the path inside the travel: "
+                     + "; ".join(r.describe() for r in fit.binding)
+                     + f" (with the part {fit.describe_offset()}, the least overrun)")
+        else:
+            cause = ("the tool axis cannot stay within the tilt joint's travel there, even "
+                     "leaned back as far as the plan allows from the surface normal (the "
+                     "value named is the best one), and moving the part cannot change a "
+                     "rotary joint: set the part up another way (--placement) or use a "
+                     "machine whose tilt reaches further")
+        if mode == "none":
+            cause += ("; --placement none keeps the part where its points are: use "
+                      "--placement auto to let the job place it")
+        raise PlanTravelLimitError(list(fit.violations or plan_report.travel_violations),
+                                   f"on machine {machine.name!r}: {cause}")
+    if not fit.offset_mm.any():
+        return path, surface, placement, plan_report, fit.offset_mm
+    metadata = dict(path.metadata)
+    if not fit.uniform:
+        # the joints move by different amounts at different rotary angles: the moves'
+        # check under the machine's joint interpolation no longer holds (the post splits)
+        metadata.pop(JOINT_CHECKED, None)
+    path = dataclasses.replace(path, positions_mm=path.positions_mm + fit.offset_mm,
+                               metadata=metadata)
+    return (path, translated_surface(surface, fit.offset_mm), placement.shifted(fit.offset_mm),
+            dataclasses.replace(plan_report, travel_violations=()), fit.offset_mm)
+
+
 def _no_progress(stage: str, fraction: float) -> None:
     del stage, fraction
 
@@ -206,7 +255,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
 
     start = time.perf_counter()
     report_progress("fit", 0.0)
-    raw = as_sections(read_sections(request.sections_path))
+    raw = as_sections(read_sections(request.sections_path), closed=request.closed)
     mode = request.placement
     if mode == "auto":
         mode = "flat" if request.axis_mode == "3" else "upright"
@@ -240,8 +289,8 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
             lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
             tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
             linking=request.linking, machine=machine,
-            **({"progress": lambda _name, fraction: report_progress("plan", fraction)}
-               | request.planning_options))
+            **({"progress": lambda _name, fraction: report_progress("plan", fraction),
+                "on_limit": "report"} | request.planning_options))
         attempts.append({"scallop_mm": scallop_mm, "chord_tol_mm": chord_mm,
                          "measured_scallop_mm": plan_report.max_scallop_mm,
                          "measured_chord_mm": plan_report.max_chord_error_mm})
@@ -252,6 +301,12 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         # the measured result exceeds what was asked: ask again, tighter by the excess
         scallop_mm *= REPLAN_MARGIN / over_scallop if over_scallop > 1.0 else 1.0
         chord_mm *= REPLAN_MARGIN / over_chord if over_chord > 1.0 else 1.0
+    path, surface, placement, plan_report, shift = _fit_to_travel(
+        path, surface, placement, plan_report, machine, mode)
+    report["placement"] = placement.as_dict() | {"text": placement.describe(),
+                                                 "travel_shift_mm": shift.tolist()}
+    if shift.any():
+        files["surface"].write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     path = dataclasses.replace(path, metadata={**path.metadata,
                                                "placement": placement.describe()})
     files["toolpath"] = out_dir / "toolpath.npz"

@@ -2,7 +2,8 @@
 
 ``X(t) = Σ_j P_j N_j(t)`` with ``P_0 = X_0`` and ``P_{m−1} = X_n`` (end interpolation), the
 interior control points by least squares, and the knots from :mod:`toolpath.adaptive`,
-so it can run on exactly the knots the streamline fit uses.
+so it can run on exactly the knots the streamline fit uses. A closed curve is a periodic
+cubic through ``X_0`` at the seam (:mod:`toolpath.periodic`).
 """
 
 from __future__ import annotations
@@ -15,9 +16,9 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
-from .arrays import as_curve_points
-from .fitted_curve import FittedCurve, check_order, error_figures
-from .parametrize import unit_curve_parameters
+from .fairness import curve_fair_check
+from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
+from .periodic import adapt_closed_knots, seam_multiplicity
 from .splinefit import DEGREE, end_interpolating_lsq
 
 __all__ = ["BSplineCurve", "fit_bspline_curve"]
@@ -25,12 +26,13 @@ __all__ = ["BSplineCurve", "fit_bspline_curve"]
 
 @dataclass(frozen=True, eq=False)
 class BSplineCurve(FittedCurve):
-    """A clamped cubic B-spline curve ``X(t)`` on [0, 1].
+    """A clamped cubic B-spline curve ``X(t)`` on [0, 1] (periodic when closed).
 
     Attributes
     ----------
     control_points : ndarray, shape (m, d)
-        Control points (mm); the first and last are the first and last data points.
+        Control points (mm); the first and last are the first and last data points (closed:
+        ``m = N + 3``, the last three repeating the first three).
     """
 
     control_points: NDArray[np.float64]
@@ -73,6 +75,8 @@ def fit_bspline_curve(
     corner_angle_deg: float | None = DEFAULT_CORNER_ANGLE_DEG,
     sweeps: int = DEFAULT_SWEEPS,
     minimax: bool = True,
+    fair: bool = True,
+    closed: bool | None = False,
 ) -> BSplineCurve:
     """Fit an end-interpolating cubic B-spline to ordered points.
 
@@ -88,9 +92,11 @@ def fit_bspline_curve(
     max_control_points : int, optional
         Upper bound while searching for ``tol``.
     knots : array_like, optional
-        A clamped cubic knot vector on [0, 1] to use exactly.
+        A clamped cubic knot vector on [0, 1] to use exactly (closed: a periodic one, or a
+        clamped one whose interior knots are used with a knot at the seam).
     params : {"chord", "centripetal", "uniform"} or array_like
-        Parameters of the points in [0, 1].
+        Parameters of the points in [0, 1] (closed: with one more for the return to the
+        first point).
     knot_method : {"density", "dominant"}
         Knot placement (see :mod:`toolpath.knots`).
     corner_angle_deg : float or None
@@ -100,6 +106,13 @@ def fit_bspline_curve(
     minimax : bool
         Polish each knot vector's least-squares fit towards the smallest max error
         (Lawson's reweighting); False gives the plain least-squares fit of eq. 19.
+    fair : bool
+        With ``tol``: tighten the fit where it turns concave between data that turn convex
+        (:mod:`toolpath.fairness`) until it no longer does; a warning names what is left.
+    closed : bool or None
+        ``True``: a closed curve, fitted periodic (smooth across the seam); ``None``: read
+        from how the points end (:mod:`toolpath.closure`, as ``toolpath fit curve`` does);
+        ``False`` (default): open, through both end points (the paper's end conditions).
 
     Returns
     -------
@@ -117,15 +130,25 @@ def fit_bspline_curve(
                            max_control_points=max_control_points, knots=knots,
                            knot_method=knot_method, corner_angle_deg=corner_angle_deg,
                            sweeps=sweeps, minimax=minimax)
-    x = as_curve_points(points)
-    t = unit_curve_parameters(x, params)
+    x, t, is_closed = curve_data(points, params, closed)
 
     def fit_at(knot_vector: NDArray[np.float64], weights: NDArray[np.float64] | None):
         spline = end_interpolating_lsq(t, x, knot_vector, weights)
         return spline.c, np.linalg.norm(spline(t) - x, axis=1)
 
-    coef, errors, knot_vector = adapt_knots(x, t, x, fit_at, options)
+    def make_curve(coef, knot_vector):
+        return BSplineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
+                            control_points=np.asarray(coef), closed=is_closed)
+
+    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
+    if is_closed:
+        coef, errors, knot_vector = adapt_closed_knots(
+            x, t, x, fit_at, options, seam=seam_multiplicity(x, corner_angle_deg),
+            fair_check=fair_check)
+        t, errors = t[:-1], errors[:-1]  # the seam point is the first again
+    else:
+        coef, errors, knot_vector = adapt_knots(x, t, x, fit_at, options, fair_check)
     max_error, rms_error = error_figures(errors)
     return BSplineCurve(knots=knot_vector, params=t, max_error=max_error, rms_error=rms_error,
-                        control_points=np.asarray(coef))
+                        control_points=np.asarray(coef), closed=is_closed)
 

@@ -60,6 +60,7 @@ def fit_bspline_surface(
     corner_angle_deg: float | None = DEFAULT_CORNER_ANGLE_DEG,
     sweeps: int = DEFAULT_SWEEPS,
     minimax: bool = True,
+    fair: bool = True,
 ) -> BSplineSurface:
     """Fit a bicubic B-spline surface through blade sections (the baseline).
 
@@ -77,11 +78,13 @@ def fit_bspline_surface(
     knots : array_like, optional
         The clamped cubic ``t``-knot vector to use exactly.
     closed : bool, optional
-        Closed sections (default: detected from a repeated first point).
+        Closed sections, fitted periodic in ``t`` (default: read from how the sections end,
+        :mod:`toolpath.closure`).
     params, section_params
         Grid parameters ``t`` and ``s`` (see :func:`toolpath.as_sections`).
-    knot_method, corner_angle_deg, sweeps, minimax
-        As for :func:`toolpath.fit_bspline_curve`.
+    knot_method, corner_angle_deg, sweeps, minimax, fair
+        As for :func:`toolpath.fit_bspline_curve`; fairness is checked on every section and
+        midway between sections.
 
     Returns
     -------
@@ -102,4 +105,6 @@ def fit_bspline_surface(
         rows = np.asarray(spline.c).reshape(-1, m, 3).transpose(1, 0, 2).reshape(m, -1)
         return rows, column_errors(fitted, grid.points)
 
-    return BSplineSurface._from_grid(grid, fit_grid(grid, stacked, fit_at, options))
+    fitted = fit_grid(grid, stacked, fit_at, options,
+                      (lambda fit: BSplineSurface._from_grid(grid, fit)) if fair else None)
+    return BSplineSurface._from_grid(grid, fitted)

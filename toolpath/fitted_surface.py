@@ -36,7 +36,9 @@ from numpy.typing import NDArray
 
 from .adaptive import KnotOptions, adapt_knots
 from .between_sections import between_sections_estimate
+from .fairness import surface_fair_check
 from .fitted_curve import error_figures
+from .periodic import adapt_closed_knots, free_coefficients, seam_multiplicity
 from .sections import Sections
 from .splinefit import DEGREE, n_coefficients
 from .surface import ParametricSurface
@@ -63,18 +65,32 @@ class GridFit:
 
 
 def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
-             options: KnotOptions) -> GridFit:
+             options: KnotOptions, make_surface=None) -> GridFit:
     """Run the knot driver on the sections seen as one curve in ``R^(3m)``.
 
     ``fit_at(knots, weights) -> (rows (m, r), errors (m, n))`` fits every section on
-    ``knots``; the driver sees the per-column worst error.
+    ``knots``; the driver sees the per-column worst error. With ``make_surface(grid)``
+    (a :class:`GridFit` to its surface) and a tolerance, the chosen fit is mended until it
+    is fair on every section and midway between (:mod:`toolpath.fairness`).
     """
+    fair_check = None
+    if make_surface is not None and options.tol is not None:
+        fair_check = surface_fair_check(
+            lambda fit, knots: make_surface(GridFit(knots, *fit)), sections.points,
+            options.tol)
+
     def driver_fit(knots, weights):
         rows, errors = fit_at(knots, weights)
         return (rows, errors), errors.max(axis=0)
 
-    (rows, errors), _, knots = adapt_knots(sections.stacked, sections.t, seed_values,
-                                           driver_fit, options)
+    if sections.closed:  # periodic along t (toolpath.periodic)
+        seam = seam_multiplicity(sections.stacked, options.corner_angle_deg)
+        (rows, errors), _, knots = adapt_closed_knots(sections.stacked, sections.t,
+                                                      seed_values, driver_fit, options,
+                                                      seam=seam, fair_check=fair_check)
+    else:
+        (rows, errors), _, knots = adapt_knots(sections.stacked, sections.t, seed_values,
+                                               driver_fit, options, fair_check)
     return GridFit(knots_t=knots, rows=rows, errors=errors)
 
 
@@ -92,7 +108,9 @@ class FittedSurface(ParametricSurface):
     Attributes
     ----------
     knots_t : ndarray
-        Clamped cubic knots along the sections (common to all sections).
+        Clamped cubic knots along the sections (common to all sections); closed sections:
+        the extended periodic vector of :mod:`toolpath.periodic` (``t`` periodic on [0, 1),
+        the rows' coefficients wrapped).
     knots_s : ndarray
         Not-a-knot cubic knots across the sections.
     row_coef : ndarray, shape (n_s, r)
@@ -107,7 +125,8 @@ class FittedSurface(ParametricSurface):
     saved_between_error : float, optional
         :attr:`between_error` as saved (JSON); ``None``: estimated from the sections fitted.
     closed_t : bool
-        Closed sections: ``X(0, s) = X(1, s)`` (the seam, continuous in position).
+        Closed sections: ``X`` periodic in ``t``, position, tangent and curvature continuous
+        across the seam ``t = 0 ≡ 1`` (C0 only where the data have a corner there).
     orientation : float
         ``+1`` or ``-1``, making ``orientation * X_t x X_s`` point outward.
     """
@@ -162,8 +181,8 @@ class FittedSurface(ParametricSurface):
 
     @property
     def n_control_points(self) -> tuple[int, int]:
-        """Control points ``(along t, across s)`` per coordinate."""
-        return self.tensor.shape
+        """Control points ``(along t, across s)`` per coordinate (free ones when periodic)."""
+        return free_coefficients(self.knots_t), self.tensor.shape[1]
 
     # ------------------------------------------------------------------ building
     @classmethod

@@ -14,19 +14,25 @@ smallest = thickness):
   around the airfoil from the side).
 
 The placed part's bounding box is centred on the origin in X and Y, and its lowest point
-sits ``base_mm`` above the table (room for a fixture under a blade root).
+sits ``base_mm`` above the table (room for a fixture under a blade root). Whether the path
+planned on it then stays inside the machine's travel is known only once it is planned:
+:func:`toolpath.planning.travel.fit_travel` finds the smallest shift that makes it, and
+:meth:`Placement.shifted` and :func:`translated_surface` apply it to the placement and to the
+fitted surface (exactly: a rigid shift moves the planned path by the same vector).
 """
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InvalidParameterError
+from .surface import ParametricSurface
 
-__all__ = ["PLACEMENT_MODES", "Placement", "place_points"]
+__all__ = ["PLACEMENT_MODES", "Placement", "place_points", "translated_surface"]
 
 PLACEMENT_MODES = ("flat", "upright", "none")
 
@@ -42,6 +48,11 @@ class Placement:
     def apply(self, points: NDArray[np.float64]) -> NDArray[np.float64]:
         """Placed points (any leading shape, last axis 3)."""
         return points @ self.rotation.T + self.offset_mm
+
+    def shifted(self, shift_mm: NDArray[np.float64]) -> Placement:
+        """The same setup moved by ``shift_mm`` (workpiece frame, mm)."""
+        return Placement(self.rotation, self.offset_mm + np.asarray(shift_mm, dtype=float),
+                         self.mode)
 
     def describe(self) -> str:
         """One line for reports and program headers."""
@@ -114,3 +125,31 @@ def place_points(points: NDArray[np.float64], *, mode: str = "flat", side: str =
     offset = np.array([-(lo[0] + hi[0]) / 2, -(lo[1] + hi[1]) / 2, float(base_mm) - lo[2]])
     placement = Placement(rotation, offset, mode if mode == "upright" else f"flat/{side}")
     return placement.apply(pts), placement
+
+
+def translated_surface(surface: ParametricSurface, shift_mm: NDArray[np.float64]
+                       ) -> ParametricSurface:
+    """``X(t, s) + d``: the surface moved by ``shift_mm`` (mm), the same kind where possible.
+
+    A fitted surface stays a fitted surface (it saves to the same JSON): a B-spline's
+    section rows are control points, each moved by ``d`` (a clamped B-spline's basis sums
+    to one); a streamline surface ``X = -c + T^{-1}[Z_0 exp G]`` with ``Z_0 = T (X_0 + c)``
+    keeps ``Z_0`` and ``G`` when ``X_0`` moves by ``d`` and ``c`` by ``-d``. Any other
+    surface is wrapped in a :class:`~toolpath.planning.setup.PlacedSurface`.
+    """
+    from .bspline_surface import BSplineSurface
+    from .planning.setup import PlacedSurface
+    from .streamline_surface import StreamlineSurface
+
+    d = np.asarray(shift_mm, dtype=float)
+    if d.shape != (3,) or not np.isfinite(d).all():
+        raise InvalidParameterError(f"shift_mm must be 3 finite numbers, got {shift_mm!r}")
+    if isinstance(surface, StreamlineSurface):
+        rows = surface.row_coef.copy()
+        rows[:, -3:] += d
+        return dataclasses.replace(surface, row_coef=rows, c=surface.c - d)
+    if isinstance(surface, BSplineSurface):
+        rows = (surface.row_coef.reshape(len(surface.row_coef), -1, 3) + d).reshape(
+            surface.row_coef.shape)
+        return dataclasses.replace(surface, row_coef=rows)
+    return PlacedSurface(surface, np.eye(3), d)

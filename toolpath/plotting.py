@@ -24,7 +24,9 @@ def plot_curve_fit(points: NDArray[np.float64], curve: Any, path: str | Path, *,
     is ``|X(t_i) − X_i|`` in mm.
     """
     t = curve.params
-    fine = np.linspace(t[0], t[-1], max(2000, 4 * t.size))
+    points = points[:t.size]  # a closed curve's repeated last point is its first
+    end = 1.0 if getattr(curve, "closed", False) else t[-1]  # closed: round the seam
+    fine = np.linspace(t[0], end, max(2000, 4 * t.size))
     xs = curve(fine)
     errors = np.linalg.norm(curve(t) - points, axis=1)
     fig = plt.figure(figsize=(8, 9))

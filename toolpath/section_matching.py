@@ -24,9 +24,9 @@ fraction of the section's length. Points at the same ``t`` are then at the same 
 relative to the edges on every section.
 
 The surface grid needs every section at every column. When the sections already
-correspond (same point counts, the leading edges within :data:`CORRESPOND_SPREAD` points of
-each other, closed seams on the trailing edges' closing steps) the columns are the mean of
-the sections' own parameters per index, as before matching existed. Otherwise the columns
+correspond (same point counts, the edges within :data:`CORRESPOND_SPREAD` points of each
+other, closed seams left where they are) the columns are the mean of the sections' own
+parameters per index, as before matching existed. Otherwise the columns
 are the union of all sections' matched parameters, and a section's entries at the other
 sections' columns come from its interpolating cubic in the matched parametrization. A
 mask marks the entries that are data. Near-duplicate parameters are *not* merged: moving a
@@ -57,8 +57,8 @@ MAX_PERIMETER_PER_CHORD = 2.6
 #: A closed section's trailing edge within this fraction of the local spacing of a data
 #: point is that point (the seam is then a data point, not an interpolated one).
 SNAP_FRACTION = 0.25
-#: Sections whose leading edges lie within this many points of each other (by fractional
-#: index), with the same counts (and closed seams at the trailing edge), correspond by index.
+#: Sections whose edges lie within this many points of each other (by fractional index),
+#: with the same counts, correspond by index.
 CORRESPOND_SPREAD = 1.0
 #: A section whose vector area is below this fraction of its squared length is next to
 #: straight: its direction round is not judged (a thin blade: about 1e-2).
@@ -302,9 +302,9 @@ def _correspond(sections: list[NDArray[np.float64]], us: list[NDArray[np.float64
                 marks: list[SectionLandmarks], closed: bool) -> bool:
     """Whether point ``i`` is already at the same place on every section.
 
-    Same point counts, every leading edge within :data:`CORRESPOND_SPREAD` points (by
-    fractional index) of the others, and closed sections' trailing edges on their closing
-    step (or at their first point): the seams stay where they are.
+    Same point counts, and every leading edge (and a closed section's trailing edge, round
+    the loop) within :data:`CORRESPOND_SPREAD` points (by fractional index) of the others:
+    the points and the seams stay where they are.
     """
     if len({len(p) for p in sections}) != 1:
         return False
@@ -312,10 +312,12 @@ def _correspond(sections: list[NDArray[np.float64]], us: list[NDArray[np.float64
     at_le = [np.interp(mk.u_le, u, index) for u, mk in zip(us, marks, strict=True)]
     if max(at_le) - min(at_le) > CORRESPOND_SPREAD:
         return False
-    if closed:  # the seam (the closing step) at the trailing edge, or next to it
-        for u, mk in zip(us, marks, strict=True):
-            if SNAP_FRACTION * (u[1] - u[0]) < mk.u_te < u[-2]:
-                return False
+    if closed:  # the trailing edges at one place too (round the loop): the seams stay
+        ring = len(sections[0]) - 1
+        at_te = np.array([np.interp(mk.u_te, u, index) for u, mk in zip(us, marks, strict=True)])
+        off = np.mod(at_te - at_te[0] + 0.5 * ring, ring) - 0.5 * ring
+        if np.ptp(off) > CORRESPOND_SPREAD:
+            return False
     return True
 
 

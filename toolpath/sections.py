@@ -17,7 +17,9 @@ section ``j`` with one ``s_j``:
 
 A **closed** section (a profile wrapped all around) is stored with its first point repeated
 at the end, so ``t = 0`` and ``t = 1`` are the same point (the seam); matched closed
-sections have their seam moved to the trailing edge.
+sections have their seam moved to the trailing edge. Whether sections are closed is read
+from how each one ends by the seam rule of :mod:`toolpath.closure` (a repeated first
+point, or a closing step like its neighbours that is not a blunt base).
 """
 
 from __future__ import annotations
@@ -29,6 +31,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .arrays import MIN_CURVE_POINTS, as_curve_points
+from .closure import CLOSURE_GAP_MM, close_loop, read_seam
 from .errors import InvalidParameterError, InvalidPointsError
 from .parametrize import PARAM_METHODS, unit_curve_parameters
 from .section_matching import match_sections
@@ -37,10 +40,6 @@ __all__ = ["CLOSURE_GAP_MM", "MIN_SECTIONS", "Sections", "as_sections"]
 
 #: A cubic across the sections needs four of them.
 MIN_SECTIONS = 4
-#: With ``closed=None``, a section whose last point lies this close to its first (mm) is a
-#: closed loop whose first point was repeated; give ``closed=True`` for a loop left open by
-#: a larger gap (a blunt trailing edge is an open section unless you say otherwise).
-CLOSURE_GAP_MM = 1e-3
 
 
 @dataclass(frozen=True, eq=False)
@@ -109,16 +108,22 @@ def _section(j: int, raw: Any) -> NDArray[np.float64]:
 
 
 def _is_closed(points: list[NDArray[np.float64]], closed: bool | None) -> bool:
-    gaps = np.array([np.linalg.norm(p[-1] - p[0]) for p in points])
-    repeated = gaps <= CLOSURE_GAP_MM
-    if closed is None:
-        if repeated.any() and not repeated.all():
-            j = int(np.argmax(repeated != repeated[0]))
-            raise InvalidPointsError(
-                f"section {j} is {'closed' if repeated[j] else 'open'} but section 0 is "
-                f"{'closed' if repeated[0] else 'open'}: all sections must be one or the other")
-        return bool(repeated.all())
-    return bool(closed)
+    """``closed`` if given, else every section's seam read by :func:`toolpath.closure.read_seam`.
+
+    Sections read differently (some closed, some open) are refused, naming the first odd
+    one and why: the caller says which with ``--closed``/``--open``.
+    """
+    if closed is not None:
+        return bool(closed)
+    seams = [read_seam(p) for p in points]
+    verdicts = np.array([seam.closed for seam in seams])
+    if verdicts.any() and not verdicts.all():
+        j = int(np.argmax(verdicts != verdicts[0]))
+        raise InvalidPointsError(
+            f"section {j} reads {'closed' if verdicts[j] else 'open'} ({seams[j].reason}) "
+            f"but section 0 reads {'closed' if verdicts[0] else 'open'} ({seams[0].reason}): "
+            "say which with --closed or --open (closed=True/False)", index=j)
+    return bool(verdicts.all())
 
 
 def _column_parameters(points: NDArray[np.float64], params: Any) -> NDArray[np.float64]:
@@ -164,9 +169,10 @@ def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "cho
         Sections hub to tip, points in order within each, every section the same way
         round (point counts may differ). A :class:`Sections` is returned as it is.
     closed : bool, optional
-        Whether the sections are closed loops. ``None`` (default): closed when every
-        section's last point repeats its first (within :data:`CLOSURE_GAP_MM`). With
-        ``True`` an unrepeated first point is appended to close the loop.
+        Whether the sections are closed loops. ``None`` (default): read from how each
+        section ends (:mod:`toolpath.closure`: a repeated first point, or a last point a
+        step like its neighbours short of the first, not a blunt base). With ``True`` an
+        unrepeated first point is appended to close the loop.
     params : {"chord", "centripetal", "uniform"} or array_like, shape (n,)
         Column parameters ``t``: each section's own parameters by that method between its
         matched edges (module docstring), or one array for all (mapped onto [0, 1]; the
@@ -214,9 +220,7 @@ def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "cho
             "corresponding order", index=j)
     is_closed = _is_closed(checked, closed)
     if is_closed:
-        checked = [p if np.linalg.norm(p[-1] - p[0]) <= CLOSURE_GAP_MM
-                   else np.vstack((p, p[:1])) for p in checked]
-        checked = [np.vstack((p[:-1], p[:1])) for p in checked]  # an exact seam
+        checked = [close_loop(p) for p in checked]
         if len(checked[0]) - 1 < MIN_CURVE_POINTS:
             raise InvalidPointsError(
                 f"a closed section needs at least {MIN_CURVE_POINTS} distinct points")

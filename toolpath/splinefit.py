@@ -105,7 +105,14 @@ def end_interpolating_lsq(
     scipy.interpolate.BSpline
         With vector coefficients of shape ``(n_coef, d)``; ``S(t_0) = values[0]`` and
         ``S(t_n) = values[-1]`` hold exactly.
+
+    A periodic ``knots`` (a closed curve, :mod:`toolpath.periodic`) gives the periodic fit
+    through ``values[0]`` at the seam instead.
     """
+    from .periodic import is_periodic, periodic_lsq  # periodic builds on this module
+
+    if is_periodic(knots):
+        return periodic_lsq(t, values, knots, weights)
     problem = schoenberg_whitney_violation(t, knots)
     if problem is not None:
         raise FitError(problem)

@@ -16,6 +16,10 @@ so componentwise ``Z_k(t) = Z_{0,k} e^{G_k(t)}`` with ``Z = T (X + c)``. The fit
    control points of ``G`` (not in the paper: the log-space fit does not minimize it).
 
 ``D(t) = diag(G'(t))`` (eq. 22).
+
+A closed curve has ``Y_n = 0`` (the last point is the first again), so ``G`` is a periodic
+cubic with ``G(0) = 0`` kept exactly (:mod:`toolpath.periodic`): ``X`` is then periodic,
+smooth across the seam, and ``X(0) = X_0``.
 """
 
 from __future__ import annotations
@@ -30,12 +34,12 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, adapt_knots, knot_options
-from .arrays import as_curve_points
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import InvalidParameterError
-from .fitted_curve import FittedCurve, check_order, error_figures
-from .parametrize import unit_curve_parameters
+from .fairness import curve_fair_check
+from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
+from .periodic import adapt_closed_knots, seam_multiplicity
 from .splinefit import DEGREE, end_interpolating_lsq
 
 __all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_streamline_curve"]
@@ -208,6 +212,8 @@ def fit_streamline_curve(
     frame: str = "best",
     refine: bool = False,
     minimax: bool = True,
+    fair: bool = True,
+    closed: bool | None = False,
 ) -> StreamlineCurve:
     """Fit a streamline curve of a diagonalizable system to ordered points (Algorithm 3).
 
@@ -224,7 +230,8 @@ def fit_streamline_curve(
     max_control_points : int, optional
         Upper bound while searching for ``tol``.
     knots : array_like, optional
-        A clamped cubic knot vector on [0, 1] to use exactly (e.g. a B-spline fit's).
+        A clamped cubic knot vector on [0, 1] to use exactly (e.g. a B-spline fit's);
+        closed: a periodic one, or a clamped one whose interior knots are used.
     params : {"chord", "centripetal", "uniform"} or array_like
         Parameters of the points, mapped to [0, 1].
     knot_method : {"density", "dominant"}
@@ -243,6 +250,14 @@ def fit_streamline_curve(
     minimax : bool
         Polish each knot vector's fit towards the smallest max error (Lawson's
         reweighting); False gives the plain least-squares fit of eq. 19.
+    fair : bool
+        With ``tol``: tighten the fit where it turns concave between data that turn convex
+        (:mod:`toolpath.fairness`) until it no longer does; a warning names what is left.
+    closed : bool or None
+        ``True``: a closed curve, ``G`` periodic, the fit smooth across the seam; ``None``:
+        read from how the points end (:mod:`toolpath.closure`, as ``toolpath fit curve``
+        does); ``False`` (default): open, eq. 20's end conditions. Closed, ``knots`` and
+        ``params`` follow :func:`toolpath.fit_bspline_curve`'s closed form.
 
     Returns
     -------
@@ -262,8 +277,9 @@ def fit_streamline_curve(
                            max_control_points=max_control_points, knots=knots,
                            knot_method=knot_method, corner_angle_deg=corner_angle_deg,
                            sweeps=sweeps, minimax=minimax)
-    x = as_curve_points(points)
-    t = unit_curve_parameters(x, params)
+    x, t, is_closed = curve_data(points, params, closed)
+    if is_closed and refine:
+        raise InvalidParameterError("refine is available for open curves only, not closed ones")
     if frame == "paper":
         chosen = paper_frame(x)
     else:
@@ -273,16 +289,29 @@ def fit_streamline_curve(
                                       max_control_points=max_control_points, params=t,
                                       knot_method=knot_method,
                                       corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                                      minimax=False).knots
+                                      minimax=False, fair=False, closed=is_closed).knots
         chosen = _choose_frame(x, t, probe)
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
     problem = LogSpaceProblem(x, t, chosen)
-    coef, errors, knot_vector = adapt_knots(
-        x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options)
+
+    def make_curve(coef, knot_vector):
+        return StreamlineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
+                               T=chosen.T, c=chosen.c, x0=x[0].copy(),
+                               g_coefficients=np.asarray(coef), closed=is_closed)
+
+    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
+    if is_closed:
+        coef, errors, knot_vector = adapt_closed_knots(
+            x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options,
+            seam=seam_multiplicity(x, corner_angle_deg), fair_check=fair_check)
+        t, errors = t[:-1], errors[:-1]  # the seam point is the first again
+    else:
+        coef, errors, knot_vector = adapt_knots(
+            x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options, fair_check)
     max_error, rms_error = error_figures(errors)
     return StreamlineCurve(knots=knot_vector, params=t, max_error=max_error,
                            rms_error=rms_error, T=problem.frame.T, c=problem.frame.c,
                            x0=x[0].copy(), g_coefficients=np.asarray(coef),
-                           frame_label=problem.frame.label)
+                           frame_label=problem.frame.label, closed=is_closed)

@@ -17,10 +17,11 @@ along ``t`` from the system itself, ``W_t = W G_t`` (``D = diag G_t``, eq. 22) a
 ``W_s = e^G (Z_0' + Z_0 G_s)``, ``W_ts = W_s G_t + W G_ts`` and
 ``W_ss = e^G (Z_0'' + 2 Z_0' G_s + Z_0 (G_ss + G_s²))``.
 
-Closed sections: ``Y_n = 0``, so ``G(1, s) = 0`` and the seam ``t = 0 ≡ 1`` is exact in
-position for every ``s``; the tangent there is continuous only within the fit tolerance (the
-``t``-spline is clamped, not periodic): put the seam where the section has a sharp edge
-(e.g. a blunt trailing edge) by choosing the first point.
+Closed sections: ``Y_n = 0``, so ``G`` is periodic in ``t`` (:mod:`toolpath.periodic`)
+with ``G(0, s_j) = 0`` kept exactly, hence ``G(0, s) = 0`` for every ``s`` (the rows are
+interpolated linearly in their coefficients): ``X(0, s) = X_0(s)`` and ``X`` is periodic in
+``t``, position, tangent and curvature continuous across the seam ``t = 0 ≡ 1`` (a corner
+only where the data have one at the seam).
 """
 
 from __future__ import annotations
@@ -213,6 +214,7 @@ def fit_streamline_surface(
     frame: str = "best",
     refine: bool = False,
     minimax: bool = True,
+    fair: bool = True,
 ) -> StreamlineSurface:
     """Fit a streamline surface through blade sections (Algorithm 4).
 
@@ -231,12 +233,13 @@ def fit_streamline_surface(
         The clamped cubic ``t``-knot vector to use exactly (e.g. the baseline's
         ``knots_t``, for a same-knots comparison).
     closed : bool, optional
-        Closed sections (default: detected from a repeated first point).
+        Closed sections, fitted periodic in ``t`` (default: read from how the sections end,
+        :mod:`toolpath.closure`).
     params, section_params
         Grid parameters ``t`` and ``s`` (see :func:`toolpath.as_sections`).
-    knot_method, corner_angle_deg, sweeps, minimax
+    knot_method, corner_angle_deg, sweeps, minimax, fair
         As for :func:`toolpath.fit_streamline_curve`; ``"dominant"`` gives the paper's
-        dominant columns.
+        dominant columns; fairness is checked on every section and midway between.
     frame : {"best", "paper"}
         ``"best"``: among the candidate frames (translations ``c`` included), the one with
         the smallest max error on the knots the baseline needs; ``"paper"``: the paper's.
@@ -265,6 +268,8 @@ def fit_streamline_surface(
                            sweeps=sweeps, minimax=minimax)
     grid = as_sections(sections, closed=closed, params=params,
                        section_params=section_params)
+    if grid.closed and refine:
+        raise InvalidParameterError("refine is available for open sections only, not closed ones")
     if frame == "paper":
         chosen = paper_frame(grid.points.reshape(-1, 3))
     else:
@@ -275,12 +280,14 @@ def fit_streamline_surface(
                 max_control_points=max_control_points, closed=grid.closed, params=grid.t,
                 section_params=grid.s,
                 knot_method=knot_method, corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                minimax=False).knots_t
+                minimax=False, fair=False).knots_t
         chosen = _choose_frame(grid, probe)
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
     problem = _GridLogProblem(grid, chosen)
-    fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options)
-    return StreamlineSurface._from_grid(grid, fitted, T=chosen.T, c=chosen.c,
-                                        frame_label=chosen.label)
+    fields = {"T": chosen.T, "c": chosen.c, "frame_label": chosen.label}
+    fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options,
+                      (lambda fit: StreamlineSurface._from_grid(grid, fit, **fields))
+                      if fair else None)
+    return StreamlineSurface._from_grid(grid, fitted, **fields)

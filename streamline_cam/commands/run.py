@@ -6,6 +6,7 @@ import argparse
 import json
 from pathlib import Path
 
+from ..cli import add_closure_arguments
 from ..pipeline import JobRequest, run_job
 from ..progress import StageBars
 from ..streaming import make_streamer
@@ -30,6 +31,7 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--placement", choices=("auto", "flat", "upright", "none"),
                         default="auto", help="how the part sits on the table")
     parser.add_argument("--dialect", help="override the machine's G-code dialect")
+    add_closure_arguments(parser)
 
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
@@ -38,7 +40,8 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         sections_path=points, machine=args.machine, cutter=args.cutter,
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
-        linking=args.linking, placement=args.placement, dialect=args.dialect)
+        linking=args.linking, placement=args.placement, dialect=args.dialect,
+        closed=getattr(args, "closed", None))
 
 
 def report_lines(report: dict) -> list[str]:
@@ -48,10 +51,12 @@ def report_lines(report: dict) -> list[str]:
     lines = [
         f"fit        {fit['method']} surface {n_t}x{n_s} CPs, max error "
         f"{fit['max_error_mm']:.4f} mm (between sections {fit['between_sections_mm']:.4f})",
+        *([f"fairness   {fit['fairness']['summary']}"] if fit.get("fairness") else []),
         f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
+        *_setup_lines(report),
         f"program    {program['lines']} lines, estimated {program['time_s'] / 60:.1f} min",
         f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
     ]
@@ -63,6 +68,24 @@ def report_lines(report: dict) -> list[str]:
                      f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})")
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
+    return lines
+
+
+def _setup_lines(report: dict) -> list[str]:
+    """How the part was moved into the travel and the tool axis leaned, when they were."""
+    lines = []
+    shift = report.get("placement", {}).get("travel_shift_mm")
+    if shift and any(shift):
+        lines.append(f"setup      part moved by ({shift[0]:.3f}, {shift[1]:.3f}, "
+                     f"{shift[2]:.3f}) mm to keep the path inside the travel of "
+                     f"{report['machine']} (placement offset "
+                     + ", ".join(f"{v:.3f}" for v in report["placement"]["offset_mm"])
+                     + " mm)")
+    plan = report["plan"]
+    if plan.get("tilt_leaned_points"):
+        lines.append(f"tool axis  {plan['tilt_leaned_points']} points leaned toward +Z by up "
+                     f"to {plan['max_tilt_lean_deg']:.2f} deg to keep the tilt joint in "
+                     f"travel ({plan['max_tilt_deg']:.2f} deg from +Z at most)")
     return lines
 
 

@@ -48,6 +48,9 @@ class JobParameters(BaseModel):
     base_mm: float = Field(5.0, description="height of the part's lowest point above the table, mm")
     dialect: str | None = Field(None, description="override the machine's G-code dialect")
     spindle_rpm: float = Field(12000.0, description="spindle speed, rev/min")
+    closed: bool | None = Field(
+        None, description="closed sections (true), open (false), or null: read from how "
+        "the sections end")
     planning_options: dict[str, Any] = Field(
         default_factory=dict,
         description="more FinishingOptions fields (e.g. feed_mm_per_min, on_gouge, probe_t)")

@@ -73,4 +73,4 @@ def test_fit_surface_of_ragged_sections_reports_each_count(tmp_path, capsys):
     assert surface.between_error == report["between_sections_mm"] > 0.0
     assert main(["fit", "surface", str(path), "--method", "bspline", "--tol", "0.02"]) == 0
     text = capsys.readouterr().out
-    assert "6 x 153-181 points (open)" in text and "(estimate:" in text
+    assert "6 x 153-181 points (closed)" in text and "(estimate:" in text

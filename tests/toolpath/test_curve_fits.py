@@ -1,4 +1,6 @@
+import importlib
 import json
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -13,7 +15,7 @@ from toolpath import (
     fit_bspline_curve,
     fit_streamline_curve,
 )
-from toolpath.knots import detect_corners
+from toolpath.knots import detect_corners, fourth_derivative_density, place_knots
 from toolpath.paper_examples import bundled_data_path, example4, example5
 from toolpath.parametrize import unit_curve_parameters
 from toolpath.pointio import read_points
@@ -211,3 +213,69 @@ def test_random_corners_are_detected_and_fit(seed, n_corners):
     assert len(detect_corners(points, t)) == n_corners
     for fit in FITTERS:
         assert fit(points, tol=0.01).max_error <= 0.01
+
+
+# Issue 23: the streamline fit within 0.015 / 0.010 mm at the paper's counts (paper: 0.0508 /
+# 0.0289). The B-spline's figures before the per-piece knot shares, the corner-free f''''
+# seed and the RMS sweeps were 0.0406 mm (Ex 4, 44 CPs) and 0.0201 mm (Ex 5, 30 CPs); the
+# same machinery must not make them worse.
+BSPLINE_BEFORE_MM = {"Ex 4": 0.0406, "Ex 5": 0.0201}
+
+
+def test_paper_targets_met_and_printed_beside_the_bspline(monkeypatch, capsys):
+    benchmarks = Path(__file__).resolve().parents[2] / "benchmarks"
+    monkeypatch.syspath_prepend(str(benchmarks))
+    tables = importlib.import_module("paper_tables")
+    rows = tables.paper_target_rows()
+    assert [row[0] for row in rows] == ["Ex 4", "Ex 5"]
+    for label, count, streamline, target, paper, bspline in rows:
+        assert (count, target) == {"Ex 4": (44, 0.015), "Ex 5": (30, 0.010)}[label]
+        assert streamline <= target < paper
+        assert bspline <= BSPLINE_BEFORE_MM[label]
+    for example, count in ((example4, 44), (example5, 30)):
+        assert fit_streamline_curve(example(), n_control_points=count).n_control_points == count
+    tables.paper_targets()
+    out = capsys.readouterr().out
+    assert "Ex 4 @44 CPs: streamline" in out and "B-spline" in out and "NOT MET" not in out
+
+
+def _arcs_with_corner():
+    """Two arcs (R 50 mm, R 15 mm) meeting at a 40 degree corner, 200 samples."""
+    s = np.linspace(0.0, 1.0, 100)
+    first = 50.0 * np.c_[np.sin(s), 1.0 - np.cos(s)]
+    heading = 1.0 + np.radians(40.0)
+    centre = first[-1] + 15.0 * np.array([-np.sin(heading), np.cos(heading)])
+    angle = heading - np.pi / 2 + 1.5 * s[1:]
+    second = centre + 15.0 * np.c_[np.cos(angle), np.sin(angle)]
+    return np.vstack((first, second))
+
+
+def test_corner_jump_does_not_crowd_the_spans_beside_it():
+    points = _arcs_with_corner()
+    t = unit_curve_parameters(points)
+    corners = detect_corners(points, t)
+    assert len(corners) == 1
+    flat = (np.array([0.0, 1.0]), np.ones(1))
+    knots = place_knots(t, corners, *flat, 20)
+    spline = scipy.interpolate.make_lsq_spline(t, points, knots, k=3)
+    edges, density = fourth_derivative_density(spline.t, spline.c)
+    j = int(np.searchsorted(edges, corners[0].t))  # edges[j] is the corner
+    beside = density[[j - 1, j]]
+    away = np.r_[density[j - 3:j - 1], density[j + 1:j + 3]]
+    assert beside.max() <= 2.0 * away.max()
+
+
+def test_knots_are_shared_among_pieces_by_mass_and_counted_exactly():
+    points = _arcs_with_corner()
+    t = unit_curve_parameters(points)
+    corners = detect_corners(points, t)
+    # a density twice as heavy on the second piece: it gets about twice the spans
+    edges = np.array([0.0, corners[0].t, 1.0])
+    density = np.array([1.0, 2.0 * corners[0].t / (1.0 - corners[0].t)])
+    knots = place_knots(t, corners, edges, density, 22)
+    inner = knots[4:-4]
+    assert inner.size == 22 + 3
+    assert np.count_nonzero(inner == corners[0].t) == 3
+    first = np.count_nonzero(inner < corners[0].t) + 1
+    second = np.count_nonzero(inner > corners[0].t) + 1
+    assert (first, second) == (8, 16)

@@ -28,6 +28,7 @@ from .errors import GougeError, PlanTravelLimitError
 from .gouge import SurfaceSamples, global_clearance
 from .options import AxisMode, FinishingOptions, OnGouge, OnLimit
 from .passes import PassPoints, with_tips
+from .travel import fit_travel
 
 __all__ = ["check_links", "gouge_stage", "machine_stage"]
 
@@ -172,8 +173,28 @@ def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
         where = (f"toolpath point {i} ({MoveKind(int(path.kinds[i])).name}"
                  + (f", pass {int(path.pass_index[i])}" if path.pass_index[i] >= 0 else "")
                  + f", tip {np.round(path.positions_mm[i], 3).tolist()} mm in the workpiece "
-                 f"frame); move the part (work offset) or use on_limit='report'")
+                 f"frame); {_travel_remedy(path, mach)}")
         raise PlanTravelLimitError(travel, where)
     time_s = float(np.maximum(durations, limit_s).sum())
     return {"travel": tuple(travel), "rates": tuple(rates), "time_s": time_s,
             "name": mach.name}
+
+
+def _travel_remedy(path: Toolpath, mach: Machine) -> str:
+    """What to do about a travel violation: where the part fits, or which limit binds."""
+    fit = fit_travel(mach, path.positions_mm, path.tool_axes,
+                     split_moves=path.kinds[1:] != MoveKind.RAPID)
+    if fit.fits:
+        d = fit.offset_mm
+        return (f"the path fits with the part {fit.describe_offset()}: add "
+                f"--translate {d[0]:.3f},{d[1]:.3f},{d[2]:.3f} to 'toolpath plan' and "
+                "'toolpath verify' ('toolpath run' places the part itself), or plan with "
+                "--on-limit report")
+    if fit.binding:
+        return ("no position of the part on the table keeps the path inside the travel: "
+                + "; ".join(r.describe() for r in fit.binding)
+                + f" (at the least overrun, the part {fit.describe_offset()}); plan with "
+                "--on-limit report to see the whole path")
+    return ("a rotary axis leaves its travel, which moving the part cannot change: set the "
+            "part up another way (--rotate), change --lead/--tilt, or plan with "
+            "--on-limit report")

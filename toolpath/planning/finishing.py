@@ -28,6 +28,8 @@ from numpy.typing import NDArray
 
 from machines import Machine, load_machine
 from machines.errors import UnreachableOrientationError
+from machines.kinematics import tilt_reach_deg
+from machines.limits import Side, Violation
 
 from ..errors import InvalidParameterError
 from ..joint_refine import JOINT_CHECKED, machine_key
@@ -37,12 +39,12 @@ from .avoid import gouge_depth_mm, local_depth_mm
 from .checks import check_links, gouge_stage, machine_stage
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
-from .errors import GougeError, UnreachableRegionError, too_many_points
+from .errors import GougeError, PlanTravelLimitError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
 from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, extends, link_runs
 from .local import pass_frame
 from .measure import measure_chord, measure_scallop
-from .options import AxisMode, FinishingOptions, Linking, OnGouge
+from .options import TILT_MARGIN_DEG, AxisMode, FinishingOptions, Linking, OnGouge, OnLimit
 from .passes import (
     PassLayout,
     PassPoints,
@@ -114,13 +116,14 @@ def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
     if not mach.kinematics.is_five_axis:
         if opts.axis_mode is AxisMode.LEAD_TILT:
             raise UnreachableOrientationError(
-                f"axis_mode='lead-tilt' needs a 5-axis machine: machine {mach.name!r} is "
-                f"3-axis and holds the tool along +Z only; use axis_mode='3'", indices=[])
+                f"--axis lead-tilt (axis_mode='lead-tilt') needs a 5-axis machine: machine "
+                f"{mach.name!r} is 3-axis and holds the tool along +Z only; use --axis 3 or "
+                f"--machine trunnion-ac / head-table-bc", indices=[])
         if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=1e-9):
             raise UnreachableOrientationError(
-                f"fixed_axis={opts.fixed_axis!r} is not +Z: the 3-axis machine {mach.name!r} "
-                f"holds the tool along +Z only; set the part up so that axis is +Z (rotate "
-                f"the surface) or use a 5-axis machine", indices=[])
+                f"--fixed-axis {','.join(f'{v:g}' for v in opts.fixed_axis)} is not +Z: the "
+                f"3-axis machine {mach.name!r} holds the tool along +Z only; set the part up "
+                f"so that axis is +Z (--rotate) or use a 5-axis machine", indices=[])
     return mach
 
 
@@ -577,6 +580,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     mach = _as_machine(machine, opts)
     reserve_mm = _rounding_reserve(surface, cutter, opts, mach)
     res = opts.resolved(cutter, reserve_mm)
+    res["max_tilt_deg"] = _tilt_limit_deg(opts, mach)
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
             "linking='spiral' needs closed sections (surface.closed_t): this surface's "
@@ -633,6 +637,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                                              keep=keep, machine=mach)
     faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
         np.zeros(len(pts), dtype=bool)
+
+    if opts.on_limit is OnLimit.RAISE:
+        _check_tilt_reach(pts, keep, opts, res, mach)
 
     clock.stage("gouge")
     samples = sample_surface(surface, res["gouge_sample_mm"])
@@ -692,6 +699,57 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, cut, spans,
                      path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
     return path, report
+
+
+def _tilt_limit_deg(opts: FinishingOptions, mach: Machine | None) -> float:
+    """Largest angle of a tool axis from +Z, deg (``inf``: none; 3-axis axes are fixed)."""
+    if opts.axis_mode is not AxisMode.LEAD_TILT:
+        return float("inf")
+    if opts.max_tilt_deg is not None:
+        return opts.max_tilt_deg
+    if mach is None or not mach.kinematics.is_five_axis:
+        return float("inf")
+    reach = tilt_reach_deg(mach)
+    return float("inf") if reach >= 180.0 else reach - TILT_MARGIN_DEG
+
+
+def _check_tilt_reach(pts: PassPoints, keep: NDArray[np.bool_], opts: FinishingOptions,
+                      res: dict[str, float], mach: Machine | None) -> None:
+    """Refuse a plan with cutter locations no allowed tool axis reaches.
+
+    There the surface normal is further from +Z than the tilt joint reaches plus the lean
+    the tool may take from the normal (``max_lean_deg``): the axes were leaned as far as
+    allowed (:func:`~toolpath.planning.tool_axis.lean_within_tilt`) and the tilt joint
+    still leaves its travel. The error names the first such point, the joint and the best
+    value it could take.
+    """
+    cap = res["max_tilt_deg"]
+    if not np.isfinite(cap) or mach is None or not mach.kinematics.is_five_axis:
+        return
+    reach_n = angle_deg(pts.frame.normal, np.array([0.0, 0.0, 1.0])) - opts.max_lean_deg
+    bad = np.flatnonzero(keep & (reach_n > cap + 1e-9))
+    if not bad.size:
+        return
+    i = int(bad[0])
+    letter = mach.kinematics.tilt_letter or ""
+    axis = mach.axis(letter)
+    negative = -axis.min >= axis.max
+    best = float(reach_n[i])
+    violation = Violation(index=i, axis=letter, value=-best if negative else best,
+                          limit=axis.min if negative else axis.max,
+                          side=Side.MIN if negative else Side.MAX, unit=axis.unit,
+                          count=int(bad.size),
+                          worst=float(-reach_n[bad].max() if negative else reach_n[bad].max()))
+    j = int(i - np.flatnonzero(pts.pid == pts.pid[i])[0])
+    p = pts.frame.point[i]
+    raise PlanTravelLimitError([violation], (
+        f"cutter location {i} is pass {int(pts.pid[i])} point {j} (t={pts.t[i]:.5f}, "
+        f"s={pts.s[i]:.5f}, contact ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm): the surface "
+        f"normal there is {best + opts.max_lean_deg:.2f} deg from +Z, and even leaned "
+        f"{opts.max_lean_deg:g} deg toward +Z (the most the tool may lean from the normal) "
+        f"the tool axis needs axis {letter!r} = {violation.value:.3f} deg at best; set the "
+        "part up another way (--placement, or --rotate for toolpath plan), or plan with "
+        "--on-limit report"))
 
 
 #: The mean surface normal must be at least this long to tell the side a part is worked
@@ -781,5 +839,8 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         seconds=dict(seconds), gouge_tol_mm=opts.gouge_tol_mm,
         axis_rate_limit_deg_per_mm=(opts.max_axis_rate_deg_per_mm
                                     if opts.axis_mode is AxisMode.LEAD_TILT else None),
+        tilt_leaned_points=0 if pts.smoothing is None else pts.smoothing.tilt_leaned_points,
+        max_tilt_lean_deg=0.0 if pts.smoothing is None else pts.smoothing.max_tilt_lean_deg,
+        max_tilt_deg=res["max_tilt_deg"] if np.isfinite(res["max_tilt_deg"]) else None,
         rounding_reserve_mm=reserve_mm, planned_scallop_mm=res["scallop_mm"],
         planned_chord_tol_mm=res["chord_tol_mm"], advice=probe["advice"])

@@ -21,6 +21,7 @@ from .resolution import MAX_RESERVE_SHARE
 __all__ = [
     "CONCAVE_UNDERCUT_SHARE",
     "DEFAULT_FEED_MM_PER_MIN",
+    "TILT_MARGIN_DEG",
     "AxisMode",
     "FinishingOptions",
     "Linking",
@@ -45,6 +46,14 @@ deviation) and lift the cusps beside them by as much; so there the moves may sta
 most ``min(chord_tol_mm, share * scallop_mm)`` above the surface and the passes are spaced
 for ``scallop_mm`` minus that, keeping the material left anywhere within ``scallop_mm``.
 A quarter costs about 13 % more passes on concave areas and nothing elsewhere."""
+
+
+TILT_MARGIN_DEG: Final[float] = 0.05
+"""Room kept inside the tilt joint's travel when axes are leaned back, deg: for rounding to
+the G-code's 0.001 deg grid, and for the axes the post puts inside moves (the normalized
+mean of the ends' axes; between two axes ``d`` apart at the limit ``th`` beyond 90 deg it
+bows out by ``|cot th| d^2 / 8``: 0.03 deg for axes 5 deg apart at 120 deg; moves along a
+pass turning further are corrected by leaning their ends, links between passes are not)."""
 
 
 class AxisMode(StrEnum):
@@ -166,6 +175,12 @@ class FinishingOptions:
     max_lean_deg : float
         Largest angle between the tool axis and the surface normal after smoothing
         (60 deg: a ball's contact then stays 30 deg below its equator, clear of the shank).
+    max_tilt_deg : float or None
+        Largest angle of the tool axis from the workpiece +Z (5-axis): axes further out are
+        leaned back toward +Z, smoothly and within ``max_lean_deg`` of the normal
+        (:func:`~toolpath.planning.tool_axis.lean_within_tilt`). Default: what the
+        machine's tilt joint reaches (:func:`machines.kinematics.tilt_reach_deg`) less
+        :data:`TILT_MARGIN_DEG`; no limit without a machine.
     reach_margin_deg : float
         3-axis: a surface point is reachable when its normal is at least this far above
         the plane perpendicular to the fixed axis (0: up to vertical walls).
@@ -218,6 +233,7 @@ class FinishingOptions:
     axis_smoothing_mm: float | None = None
     max_axis_rate_deg_per_mm: float | None = 10.0
     max_lean_deg: float = 60.0
+    max_tilt_deg: float | None = None
     reach_margin_deg: float = 0.0
     max_segment_mm: float | None = None
     probe_t: int | None = None
@@ -251,6 +267,11 @@ class FinishingOptions:
                 f"lead_deg={self.lead_deg!r} and tilt_deg={self.tilt_deg!r} lean the tool "
                 f"more than max_lean_deg={self.max_lean_deg!r} from the normal")
         put(self, "reach_margin_deg", _angle(self.reach_margin_deg, "reach_margin_deg", 89.0))
+        if self.max_tilt_deg is not None:
+            put(self, "max_tilt_deg", _angle(self.max_tilt_deg, "max_tilt_deg", 180.0))
+            if self.max_tilt_deg <= 0.0:
+                raise InvalidParameterError(
+                    f"max_tilt_deg must be > 0 deg, got {self.max_tilt_deg!r}")
         axis = np.asarray(self.fixed_axis, dtype=float)
         if axis.shape != (3,) or not np.isfinite(axis).all() or np.linalg.norm(axis) < 1e-9:
             raise InvalidParameterError(

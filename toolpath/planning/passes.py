@@ -35,9 +35,12 @@ from .sampling import (
 )
 from .tool_axis import (
     AxisSmoothing,
+    TiltLean,
+    angle_deg,
     keep_min_lean,
     keep_out_of_cone,
     lead_tilt_axes,
+    lean_within_tilt,
     limit_lean,
     segment_turn_rates,
     slerp,
@@ -56,6 +59,8 @@ __all__ = [
     "reach_split",
     "with_tips",
 ]
+
+_Z_AXIS = np.array([0.0, 0.0, 1.0])
 
 #: Where the chord check measures a ball's gap when the end slopes complete the model
 #: (:func:`~toolpath.planning.sampling.ball_end_slopes`).
@@ -368,7 +373,32 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
                             max_lean_deg=opts.max_lean_deg,
                             keep_lead=cutter.kind is not CutterKind.BALL)
     axes, pushed = _off_cone(opts, smoothing.axes, frame, direction)
+    lean = _within_tilt(opts, res, axes, frame, pid, cutter, smooth=True)
+    if lean is not None:
+        axes = lean.axes
+        smoothing = replace(smoothing, tilt_leaned_points=int((lean.lean_deg > 0.0).sum()),
+                            max_tilt_lean_deg=float(lean.lean_deg.max()))
     return axes, smoothing, pushed
+
+
+def _within_tilt(opts: FinishingOptions, res: dict[str, float], axes: NDArray[np.float64],
+                 frame: PassFrame, pid: NDArray[np.int64], cutter: Cutter, *, smooth: bool
+                 ) -> TiltLean | None:
+    """Axes leaned back within the machine's tilt reach (``res["max_tilt_deg"]``), if any.
+
+    Smoothed along the passes (:func:`~toolpath.planning.tool_axis.lean_within_tilt`)
+    when ``smooth`` (the points are whole passes); else each point leans by its own need
+    (points inserted between two axes within the reach need little or none).
+    """
+    cap = res.get("max_tilt_deg", math.inf)
+    if not math.isfinite(cap) or not (angle_deg(axes, _Z_AXIS) > cap).any():
+        return None
+    lean = lean_within_tilt(axes, frame.normal, _rate_path(cutter, frame, pid), pid,
+                            max_tilt_deg=cap, max_lean_deg=opts.max_lean_deg,
+                            smoothing_mm=res["axis_smoothing_mm"] if smooth else 0.0,
+                            max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
+                            moves=smooth)
+    return lean
 
 
 def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -453,6 +483,13 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # (the rate figures are measured once the insertions are done: with_rate_record)
         smoothing = replace(pts.smoothing,
                             limited_points=pts.smoothing.limited_points + int(limited.sum()))
+        lean = _within_tilt(opts, res, axes, frame, pid_new, cutter, smooth=False)
+        if lean is not None:
+            axes = lean.axes
+            smoothing = replace(
+                smoothing, tilt_leaned_points=smoothing.tilt_leaned_points
+                + int((lean.lean_deg > 0.0).sum()), max_tilt_lean_deg=max(
+                    smoothing.max_tilt_lean_deg, float(lean.lean_deg.max())))
     tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
     new = PassPoints(t=t_new, s=s_new, pid=pid_new, frame=frame, nominal=nominal, axes=axes,
                      tips=tips, direction=direction, smoothing=smoothing,

@@ -154,6 +154,12 @@ class PlanningReport:
         aims for the request less this (at most a quarter of it).
     planned_scallop_mm, planned_chord_tol_mm : float or None
         What the plan aimed for.
+    tilt_leaned_points : int
+        5-axis: cutter locations whose tool axis was leaned toward +Z to keep the tilt
+        joint within its travel; ``max_tilt_lean_deg`` the largest lean, deg.
+    max_tilt_deg : float or None
+        The largest angle of a tool axis from +Z the plan allowed (the machine's tilt
+        reach), deg.
     advice : tuple of str
         Suggestions for a better plan (e.g. a flat end mill whose stepover the staircase
         of its face on slopes keeps tiny).
@@ -201,6 +207,9 @@ class PlanningReport:
     planned_scallop_mm: float | None = None
     planned_chord_tol_mm: float | None = None
     advice: tuple[str, ...] = ()
+    tilt_leaned_points: int = 0
+    max_tilt_lean_deg: float = 0.0
+    max_tilt_deg: float | None = None
 
     @property
     def within_request(self) -> bool:
@@ -261,6 +270,10 @@ class PlanningReport:
             out.append(f"axis turn rate    {self.max_axis_rate_deg_per_mm:.3f} deg/mm max"
                        + limit + (f", {self.cone_pushed} axes kept off the singular cone"
                                   if self.cone_pushed else ""))
+        if self.tilt_leaned_points:
+            out.append(f"tool-axis lean    {self.tilt_leaned_points} points leaned toward +Z "
+                       f"by up to {self.max_tilt_lean_deg:.3f} deg (the tilt joint reaches "
+                       f"{_fmt(self.max_tilt_deg, unit='deg', digits=2)} from +Z)")
         if self.machine is not None:
             out.append(f"machine           {self.machine}")
             out.extend(f"  travel: {v.message()}" for v in self.travel_violations)

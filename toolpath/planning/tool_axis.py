@@ -17,7 +17,10 @@ the cutting end, well below the shank). On passes still turning faster than
 axis is rate limited within the lean cone (:func:`rate_limited_axes`): it starts turning
 before the edge and finishes after it; where even that cannot keep the rate, the smallest
 rate that fits is used and reported. Finally axes can be pushed out of the singular cone
-(angle from the workpiece +Z) along the great circle through +Z.
+(angle from the workpiece +Z) along the great circle through +Z, and axes further from +Z
+than the machine's tilt joint reaches are leaned back toward +Z (:func:`lean_within_tilt`,
+PowerMill's tool-axis limits, NX's tilt avoidance): by a lean smoothed along the pass,
+bounded by the lean from the normal.
 """
 
 from __future__ import annotations
@@ -32,11 +35,14 @@ from numpy.typing import ArrayLike, NDArray
 from .rate_limit import _angle_deg_at, _segment_rate, rate_limited_axes
 
 __all__ = [
+    "LEAN_RATE_SHARE",
     "AxisSmoothing",
+    "TiltLean",
     "angle_deg",
     "keep_out_of_cone",
     "lead_tilt_axes",
     "keep_min_lean",
+    "lean_within_tilt",
     "limit_lean",
     "segment_turn_rates",
     "slerp",
@@ -134,6 +140,24 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
 def _turn_rates(axes, arclen, same, out):
     for i in numba.prange(out.size):
         out[i] = _segment_rate(axes, i, arclen[i + 1] - arclen[i]) if same[i] else 0.0
+
+
+def _pass_coordinate(arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64]
+                     ) -> tuple[NDArray[np.float64], NDArray[np.int64], NDArray[np.int64],
+                                NDArray[np.int64]]:
+    """A strictly increasing coordinate over the passes, mm, and their first and last rows.
+
+    Each pass's arc length shifted past the previous pass plus a 1 mm gap (windows never
+    reach across), plus ``1e-12`` mm per row (repeated points). Returns ``x``, the first
+    and last row of each pass and the pass of each row (0-based, in order).
+    """
+    n = len(pass_id)
+    starts = np.flatnonzero(np.r_[True, pass_id[1:] != pass_id[:-1]])
+    ends = np.r_[starts[1:], n] - 1
+    which = np.repeat(np.arange(len(starts)), ends - starts + 1)
+    local = arclen_mm - arclen_mm[starts][which]
+    offsets = np.concatenate([[0.0], np.cumsum(local[ends] + 1.0)[:-1]])
+    return local + offsets[which] + np.arange(n) * 1e-12, starts, ends, which
 
 
 def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
@@ -261,6 +285,11 @@ class AxisSmoothing:
         Points whose smoothed axis was turned back onto the ``max_lean_deg`` cone.
     rate_limited_passes : int
         Passes whose axes were turned ahead of the surface to keep the rate limit.
+    tilt_leaned_points : int
+        Points whose axis was leaned toward +Z to keep the tilt joint in its travel
+        (:func:`lean_within_tilt`).
+    max_tilt_lean_deg : float
+        The largest such lean, deg.
     """
 
     axes: NDArray[np.float64]
@@ -268,6 +297,8 @@ class AxisSmoothing:
     worst_point: int
     limited_points: int
     rate_limited_passes: int = 0
+    tilt_leaned_points: int = 0
+    max_tilt_lean_deg: float = 0.0
 
 
 def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean_deg: float
@@ -353,16 +384,8 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
         (flat and bull-nose cutters; :func:`rate_limited_axes`).
     """
     n = len(nominal)
-    starts = np.flatnonzero(np.r_[True, pass_id[1:] != pass_id[:-1]])
-    ends = np.r_[starts[1:], n] - 1
+    x, starts, ends, which = _pass_coordinate(arclen_mm, pass_id)
     n_passes = len(starts)
-    which = np.repeat(np.arange(n_passes), ends - starts + 1)
-    # global increasing coordinate: each pass shifted past the previous one plus a gap
-    local = arclen_mm - arclen_mm[starts][which]
-    lengths = local[ends]
-    offsets = np.concatenate([[0.0], np.cumsum(lengths + 1.0)[:-1]])
-    x = local + offsets[which]
-    x = x + np.arange(n) * 1e-12  # strictly increasing even with repeated points
     same = pass_id[1:] == pass_id[:-1]
     axes = nominal
     limited = np.zeros(n, dtype=bool)
@@ -421,3 +444,194 @@ def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
     c = np.radians(min_cone_deg)
     pushed = np.cos(c) * _Z + np.sin(c) * h
     return np.where(inside[:, None], pushed, axes), int(inside.sum())
+
+
+#: The tilt lean ramps in and out at most this share of the axis turn-rate limit.
+LEAN_RATE_SHARE = 0.25
+
+
+@dataclass(frozen=True)
+class TiltLean:
+    """Result of :func:`lean_within_tilt`.
+
+    Attributes
+    ----------
+    axes : ndarray, shape (n, 3)
+        The axes, leaned where needed.
+    lean_deg : ndarray, shape (n,)
+        Angle each axis was turned by, deg (0 where it was not).
+    impossible : ndarray of bool, shape (n,)
+        No axis within ``max_lean_deg`` of the normal is within ``max_tilt_deg`` of +Z:
+        the axis there is the best one (the normal leaned ``max_lean_deg`` toward +Z).
+    best_tilt_deg : ndarray, shape (n,)
+        The angle from +Z of the final axes, deg.
+    """
+
+    axes: NDArray[np.float64]
+    lean_deg: NDArray[np.float64]
+    impossible: NDArray[np.bool_]
+    best_tilt_deg: NDArray[np.float64]
+
+
+def _toward_z(v: NDArray[np.float64], lean_deg: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Unit axes turned ``lean_deg`` toward +Z along their great circle through +Z.
+
+    ``v = cos(th) Z + sin(th) h`` (``h`` the unit horizontal part) becomes
+    ``cos(th - L) Z + sin(th - L) h``: the azimuth is kept.
+    """
+    theta = np.radians(angle_deg(v, _Z))
+    horiz = v.copy()
+    horiz[:, 2] = 0.0
+    size = np.linalg.norm(horiz, axis=1)
+    h = horiz / np.where(size > 1e-12, size, 1.0)[:, None]
+    th = theta - np.radians(lean_deg)
+    out = np.cos(th)[:, None] * _Z + np.sin(th)[:, None] * h
+    return np.where((size > 1e-12)[:, None], out, v)
+
+
+@numba.njit(cache=True)
+def _running_max(values, arclen, pass_id, half_width, out):
+    """``out[i]``: largest ``values[j]`` of the same pass with ``|arclen[j] - arclen[i]| <= w``."""
+    n = values.size
+    for i in range(n):
+        best = values[i]
+        j = i - 1
+        while j >= 0 and pass_id[j] == pass_id[i] and arclen[i] - arclen[j] <= half_width:
+            best = max(best, values[j])
+            j -= 1
+        j = i + 1
+        while j < n and pass_id[j] == pass_id[i] and arclen[j] - arclen[i] <= half_width:
+            best = max(best, values[j])
+            j += 1
+        out[i] = best
+
+
+def _leaned(axes: NDArray[np.float64], lean_deg: NDArray[np.float64],
+            normals: NDArray[np.float64], max_lean_deg: float) -> NDArray[np.float64]:
+    """Axes leaned ``lean_deg`` toward +Z, kept within ``max_lean_deg`` of the normals.
+
+    Each axis goes to the angle ``T = th - lean`` from +Z (:func:`_toward_z`). Where that
+    leans it more than ``L = max_lean_deg`` from the normal, it stays on the circle
+    ``a(phi) = (sin T cos phi, sin T sin phi, cos T)`` and its azimuth is clamped to those
+    within ``L``: ``a . n >= cos L`` is ``cos(phi - phi_n) >= k`` with
+    ``k = (cos L - cos T cos th_n) / (sin T sin th_n)``, so ``phi`` goes into
+    ``phi_n +/- acos(k)``. Where the circle does not come within ``L`` of the normal
+    (``k > 1``), the axis is the normal leaned ``L`` toward +Z, the nearest to +Z within
+    ``L``. Each case meets the next where they touch: the axes stay continuous along a
+    pass.
+    """
+    out = _toward_z(axes, lean_deg)
+    cos_lean = np.cos(np.radians(max_lean_deg))
+    over = np.einsum("ij,ij->i", out, normals) < cos_lean - 1e-12
+    if not over.any():
+        return out
+    a, n = out[over], normals[over]
+    tilt = np.radians(angle_deg(a, _Z))
+    th_n = np.radians(angle_deg(n, _Z))
+    phi_n = np.arctan2(n[:, 1], n[:, 0])
+    phi = np.arctan2(a[:, 1], a[:, 0])
+    denominator = np.sin(tilt) * np.sin(th_n)
+    k = (cos_lean - np.cos(tilt) * np.cos(th_n)) / np.where(
+        np.abs(denominator) > 1e-12, denominator, 1e-12)
+    half = np.arccos(np.clip(k, -1.0, 1.0))
+    phi = phi_n + np.clip(np.mod(phi - phi_n + np.pi, 2.0 * np.pi) - np.pi, -half, half)
+    on_circle = np.column_stack([np.sin(tilt) * np.cos(phi), np.sin(tilt) * np.sin(phi),
+                                 np.cos(tilt)])
+    nearest = _toward_z(n, np.full(len(n), float(max_lean_deg)))
+    out[over] = np.where((k > 1.0)[:, None], nearest, on_circle)
+    return out
+
+
+#: Rounds of :func:`lean_within_tilt` leaning the ends of moves whose middle axis is over.
+MID_ROUNDS = 4
+
+
+def _spread(need: NDArray[np.float64], arclen_mm: NDArray[np.float64],
+            pass_id: NDArray[np.int64], smoothing_mm: float,
+            max_rate_deg_per_mm: float | None) -> NDArray[np.float64]:
+    """Leans at least ``need`` that change slowly along each pass (:func:`lean_within_tilt`)."""
+    n = len(need)
+    if smoothing_mm <= 0.0 or n < 2:
+        return need
+    rate = max_rate_deg_per_mm if max_rate_deg_per_mm else 10.0
+    w = max(smoothing_mm, float(need.max()) / (2.0 * LEAN_RATE_SHARE * rate))
+    arclen = np.ascontiguousarray(arclen_mm, dtype=float)
+    widest = np.empty(n)
+    _running_max(need, arclen, pass_id, w, widest)
+    x, starts, ends, which = _pass_coordinate(arclen, pass_id)
+    window = _box_window(x, x[starts][which], x[ends][which], np.full(n, w),
+                         np.zeros(n, dtype=bool))
+    return np.maximum(_window_average(widest[:, None], x, window)[:, 0], need)
+
+
+def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
+                     arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64], *,
+                     max_tilt_deg: float, max_lean_deg: float, smoothing_mm: float,
+                     max_rate_deg_per_mm: float | None, moves: bool = True) -> TiltLean:
+    """Axes more than ``max_tilt_deg`` from +Z leaned back toward +Z, smoothly along each pass.
+
+    The tilt joint of a 5-axis machine turns the tool axis away from the workpiece +Z by
+    the angle ``th`` of the axis from +Z (on either branch, :mod:`machines.kinematics`), so
+    ``th <= max_tilt_deg`` is the whole joint limit. Each axis needs a lean
+    ``n_i = max(th_i - max_tilt_deg, 0)`` toward +Z along its great circle through +Z (the
+    azimuth, hence C, unchanged). The leans are spread along the pass: the largest need
+    within ``w`` of each point (same pass, by ``arclen_mm``), then its mean over the same
+    window (a box filter), which is at least the need everywhere (every point of a
+    window within ``w`` of ``x`` sees ``x``'s need) and changes by at most
+    ``max(n) / 2w`` per mm; ``w`` is ``smoothing_mm`` or more, so that the lean turns
+    the axis at most :data:`LEAN_RATE_SHARE` of ``max_rate_deg_per_mm``. A leaned axis
+    further than ``max_lean_deg`` from the normal is turned back onto that cone
+    (:func:`limit_lean`); where that puts it over ``max_tilt_deg`` again, the axis is the
+    normal leaned toward +Z by ``min(th_n - max_tilt_deg, max_lean_deg)`` (``th_n`` the
+    normal's angle from +Z): within both limits where any axis is, else the best
+    (``impossible``, its tilt ``th_n - max_lean_deg``). Between two axes at
+    ``max_tilt_deg`` (beyond 90 deg) the great circle bows further from +Z (by about
+    ``|cot th| d^2 / 8`` for axes ``d`` apart): where the normalized mean of a move's ends
+    is over, the ends' needs grow by the excess and the leans are found again
+    (:data:`MID_ROUNDS`).
+
+    Parameters
+    ----------
+    axes, normals : ndarray, shape (n, 3)
+        Unit tool axes and surface normals, passes contiguous.
+    arclen_mm : ndarray, shape (n,)
+        Arc length along each pass (differences within a pass are used), mm.
+    pass_id : ndarray of int, shape (n,)
+        Pass of each point.
+    max_tilt_deg : float
+        Largest angle of an axis from +Z, deg.
+    max_lean_deg : float
+        Largest angle of an axis from the normal, deg.
+    smoothing_mm : float
+        Least half-width of the lean's window, mm (0: each point leans by its own need).
+    max_rate_deg_per_mm : float or None
+        The axis turn-rate limit the lean's ramps keep a share of.
+    moves : bool
+        Consecutive rows of a pass are consecutive points, joined by moves whose middle
+        axes are checked too (False for points scattered along their passes).
+    """
+    axes = np.ascontiguousarray(axes, dtype=float)
+    n = len(axes)
+    theta = angle_deg(axes, _Z)
+    need = np.maximum(theta - max_tilt_deg, 0.0)
+    if not (need > 0.0).any():
+        return TiltLean(axes, np.zeros(n), np.zeros(n, dtype=bool), theta)
+    pid = np.ascontiguousarray(pass_id, dtype=np.int64)
+    same = (pid[1:] == pid[:-1]) & moves
+    for _ in range(MID_ROUNDS):
+        lean = np.minimum(_spread(need, arclen_mm, pid, smoothing_mm, max_rate_deg_per_mm),
+                          theta)
+        out = _leaned(axes, lean, normals, max_lean_deg)
+        # a move's axes in between (the normalized mean of its ends: the post's split
+        # points) lie off the circle th = max_tilt_deg, further from +Z beyond 90 deg:
+        # its ends lean further by the excess
+        mid = _unit(out[1:] + out[:-1])
+        excess = np.where(same, angle_deg(mid, _Z) - max_tilt_deg, 0.0)
+        if not (excess > 1e-9).any():
+            break
+        grow = np.maximum(np.r_[excess, 0.0], np.r_[0.0, excess])
+        need = need + 1.5 * np.maximum(grow, 0.0)
+    theta_out = angle_deg(out, _Z)
+    impossible = angle_deg(normals, _Z) - max_lean_deg > max_tilt_deg + 1e-9
+    moved = angle_deg(out, axes)
+    return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible, theta_out)

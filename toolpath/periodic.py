@@ -1,0 +1,273 @@
+"""Periodic cubic B-splines on [0, 1): the fits of closed curves and closed sections.
+
+A closed fit must be smooth across its seam (``t = 0 ≡ 1``): position, tangent and
+curvature. It is a periodic cubic spline, stored as an ordinary scipy ``BSpline`` so every
+evaluator (scipy, the power-form patches of :mod:`toolpath.tensor_spline`, the compiled
+kernels of :mod:`toolpath.compiled`) reads it unchanged on its base interval [0, 1]:
+
+- **knots of one period** ``0 = κ_0 <= κ_1 <= ... <= κ_(N-1) < 1``: the seam is always a
+  knot (multiplicity 1, or ``DEGREE`` where the data have a corner at the seam), the others
+  interior knots as for an open fit;
+- **extended knot vector**, the period knots continued by period 1 on both sides:
+  ``κ_(N-3) − 1, κ_(N-2) − 1, κ_(N-1) − 1, κ_0, ..., κ_(N-1), 1 + κ_0, ..., 1 + κ_3``
+  (``N + 7`` knots, base interval ``[knots[3], knots[N+3]] = [0, 1]``);
+- **coefficients wrapped**: ``N + 3`` of them with ``c_(N+i) = c_i`` (``i < 3``); ``N`` are free.
+
+Then ``S`` and its derivatives agree at ``t → 0+`` and ``t → 1−`` to the order the seam
+knot allows (C2 for a simple seam knot, C0 at a seam corner).
+
+**Least squares** (eq. 19 on a periodic basis): with the ``N`` periodic basis functions
+``Ñ_j`` (the B-splines of the extended vector, the last three folded onto the first three),
+``min Σ_i w_i ||S(t_i) − V_i||²`` subject to ``S(0) = V_0``: the seam passes through the
+first data point exactly, as an open fit passes through both ends (the paper's
+``G(0) = 0``, eq. 20, for the streamline model; for a closed section ``Y_n = 0``, so ``G`` is
+periodic). Solved as the KKT system ``[[BᵀWB + εΔᵀΔ, a], [aᵀ, 0]] [c; λ] = [BᵀWV; V_0]``
+with ``a = Ñ(0)`` and ``Δ`` the cyclic first differences of the coefficients at a tiny
+weight ``ε`` (:data:`TIE_BREAK`: it only decides between fits the data cannot tell apart,
+such as a piece between two corner knots with no sample inside); the normal matrix is
+cyclic banded, built in O(n) from the sparse design matrix and solved dense (``N`` is at
+most a few hundred control points: about a millisecond), a least-squares solve if singular.
+
+**Knots.** The knot driver of :mod:`toolpath.adaptive` works unchanged on the clamped view
+of the same knots (the period's interior knots between clamped ends at 0 and 1): because the
+seam is always a knot, the spans of the periodic spline in [0, 1) *are* the clamped spans,
+so corners, the ``|f''''|^{1/4}`` density, error sweeps, the tolerance search and the Lawson
+polish apply as they are; :func:`adapt_closed_knots` translates counts and knot vectors
+both ways. Schoenberg-Whitney for a periodic spline: every span in [0, 1) holds a data
+parameter and there are at least ``N`` of them (:func:`periodic_violation`).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+import scipy.interpolate
+import scipy.linalg
+import scipy.sparse
+from numpy.typing import NDArray
+
+from .adaptive import adapt_knots
+from .errors import FitError, InvalidParameterError
+from .knots import detect_corners
+from .splinefit import DEGREE, clamped_knots, interior_knots
+
+__all__ = [
+    "TIE_BREAK",
+    "adapt_closed_knots",
+    "free_coefficients",
+    "from_clamped",
+    "is_periodic",
+    "periodic_knots",
+    "periodic_lsq",
+    "period_of",
+    "periodic_violation",
+    "seam_multiplicity",
+    "to_clamped",
+]
+
+
+#: Weight (relative to the normal matrix's mean diagonal) of the cyclic first differences
+#: of the coefficients added to the least squares: it picks the shortest control polygon
+#: among fits the data cannot tell apart and moves a determined fit by about this fraction
+#: (1e-9 of a 100 mm coefficient is 1e-7 mm).
+TIE_BREAK = 1e-9
+
+
+def is_periodic(knots: NDArray[np.float64]) -> bool:
+    """Whether ``knots`` is an extended periodic vector (it starts below its base interval)."""
+    knots = np.asarray(knots, dtype=float)
+    return knots.size >= 2 * DEGREE + 2 and bool(knots[0] < knots[DEGREE])
+
+
+def period_of(knots: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The knots of one period, ``κ_0 = 0 ... κ_(N-1)``."""
+    return np.asarray(knots[DEGREE:-(DEGREE + 1)], dtype=float)
+
+
+def periodic_knots(period: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The extended vector from the knots of one period (``κ_0 = 0``, ``N >= DEGREE + 1``)."""
+    k = np.sort(np.asarray(period, dtype=float))
+    return np.concatenate((k[-DEGREE:] - 1.0, k, 1.0 + k[:DEGREE + 1]))
+
+
+def free_coefficients(knots: NDArray[np.float64]) -> int:
+    """Control points of a cubic on ``knots``: ``N`` for a periodic vector, else ``len − 4``."""
+    extra = DEGREE if is_periodic(knots) else 0
+    return len(knots) - DEGREE - 1 - extra
+
+
+def periodic_violation(t: NDArray[np.float64], knots: NDArray[np.float64]) -> str | None:
+    """Why the data parameters ``t`` cannot determine a periodic cubic on ``knots``, or None.
+
+    ``t`` lies in [0, 1]; ``t = 1`` is the seam again (not counted as a sample).
+    """
+    knots = np.asarray(knots, dtype=float)
+    if knots.size < 3 * DEGREE + 2:
+        return (f"a periodic cubic knot vector needs at least {3 * DEGREE + 2} knots (4 in "
+                f"a period), got {knots.size}")
+    if np.any(np.diff(knots) < 0):
+        return "knots must be non-decreasing"
+    period = period_of(knots)
+    if period[0] != 0.0 or knots[-(DEGREE + 1)] != 1.0:
+        return "a periodic knot vector's base interval must be [0, 1] (knots[3] = 0)"
+    if not np.allclose(knots, periodic_knots(period), rtol=0.0, atol=1e-12):
+        return "knots must continue by period 1 on both sides of [0, 1]"
+    _, counts = np.unique(period, return_counts=True)
+    if counts.max() > DEGREE:
+        return f"a knot repeats {counts.max()} times; at most {DEGREE} allowed"
+    inside = t[t < 1.0]
+    edges = np.append(np.unique(period), 1.0)
+    held = np.histogram(inside, bins=edges)[0]
+    if (held == 0).any():
+        j = int(np.argmax(held == 0))
+        return (f"knot span [{edges[j]:.6g}, {edges[j + 1]:.6g}] holds no data point "
+                "(Schoenberg-Whitney condition); use fewer knots there")
+    if inside.size < period.size:
+        return f"{period.size} control points need at least as many points, got {inside.size}"
+    return None
+
+
+def _folded_basis(t: NDArray[np.float64], knots: NDArray[np.float64]):
+    """Sparse ``(len(t), N)`` matrix of the periodic basis ``Ñ_j(t_i)`` (CSR)."""
+    n_free = free_coefficients(knots)
+    full = scipy.interpolate.BSpline.design_matrix(t, knots, DEGREE).tocsr()
+    full.indices = np.mod(full.indices, n_free)  # columns N.. fold onto 0..
+    folded = scipy.sparse.csr_matrix((full.data, full.indices, full.indptr),
+                                     shape=(len(t), n_free))
+    folded.sum_duplicates()
+    return folded
+
+
+def periodic_lsq(t: NDArray[np.float64], values: NDArray[np.float64],
+                 knots: NDArray[np.float64], weights: NDArray[np.float64] | None = None
+                 ) -> scipy.interpolate.BSpline:
+    """Periodic least-squares cubic on ``knots`` through ``values[0]`` at the seam.
+
+    Parameters
+    ----------
+    t : ndarray, shape (n,)
+        Increasing parameters, ``t[0] = 0``; samples at ``t = 1`` (the first point again,
+        closing the loop) are not fitted (they are the seam, ``S(1) = S(0)``).
+    values : ndarray, shape (n, d)
+    knots : ndarray
+        Extended periodic knot vector (:func:`periodic_knots`).
+    weights : ndarray, shape (n,), optional
+        Non-negative weights of the squared residuals.
+
+    Returns
+    -------
+    scipy.interpolate.BSpline
+        Coefficients ``(N + 3, d)``, wrapped; ``S(0) = S(1) = values[0]`` exactly.
+    """
+    problem = periodic_violation(t, knots)
+    if problem is not None:
+        raise FitError(problem)
+    fitted = t < 1.0
+    basis = _folded_basis(t[fitted], knots)
+    v = np.asarray(values, dtype=float)[fitted]
+    w = np.ones(basis.shape[0]) if weights is None else np.asarray(weights, float)[fitted]
+    n_free = basis.shape[1]
+    seam = _folded_basis(np.zeros(1), knots).toarray()[0]
+    kkt = np.zeros((n_free + 1, n_free + 1))
+    weighted = basis.multiply(w[:, None]).tocsr()
+    normal = (basis.T @ weighted).toarray()  # O(n) to build: four basis values a row
+    # the shortest control polygon among fits the data cannot tell apart (a piece between
+    # two corner knots with no data inside, e.g. a blunt base closed by --closed: straight)
+    ring = np.roll(np.eye(n_free), 1, axis=1) - np.eye(n_free)
+    normal += TIE_BREAK * np.trace(normal) / n_free * (ring.T @ ring)
+    kkt[:n_free, :n_free] = normal
+    kkt[:n_free, n_free] = kkt[n_free, :n_free] = seam
+    rhs = np.vstack((weighted.T @ v, values[:1]))
+    try:
+        solution = scipy.linalg.solve(kkt, rhs, assume_a="sym")
+    except (np.linalg.LinAlgError, scipy.linalg.LinAlgWarning):
+        solution = np.linalg.lstsq(kkt, rhs, rcond=None)[0]
+    free = solution[:n_free]
+    coef = np.vstack((free, free[:DEGREE]))
+    return scipy.interpolate.BSpline(knots, coef, DEGREE, extrapolate=False)
+
+
+def to_clamped(knots: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The clamped view of a periodic vector: its interior knots between clamped 0 and 1."""
+    period = period_of(knots)
+    return clamped_knots(period[period > 0.0])
+
+
+def from_clamped(knots: NDArray[np.float64], seam: int = 1) -> NDArray[np.float64]:
+    """The periodic vector of a clamped ``knots``' interior knots and a seam knot.
+
+    The seam knot at 0 has multiplicity ``seam``. Fewer than ``DEGREE + 1`` knots in the
+    period (a periodic cubic needs four) are made up by halving the longest span.
+    """
+    period = np.concatenate((np.zeros(seam), interior_knots(np.asarray(knots, float))))
+    while period.size < DEGREE + 1:
+        edges = np.append(period, 1.0)
+        j = int(np.argmax(np.diff(edges)))
+        period = np.sort(np.append(period, 0.5 * (edges[j] + edges[j + 1])))
+    return periodic_knots(period)
+
+
+def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: float | None
+                      ) -> int:
+    """``DEGREE`` when the data have a corner at the seam, else 1.
+
+    ``closed_points`` ``(n + 1, d)`` end with the first point again. The polygon is rolled
+    so the seam sits mid-way and :func:`toolpath.knots.detect_corners` judges it with the
+    same rule as any other sample (turn and contrast with its neighbours); a corner found
+    just beside the seam, between it and the next sample, is put on the seam.
+    """
+    if corner_angle_deg is None:
+        return 1
+    loop = np.asarray(closed_points[:-1], dtype=float)
+    half = len(loop) // 2
+    rolled = np.roll(loop, half, axis=0)
+    t = np.linspace(0.0, 1.0, len(rolled))
+    corners = detect_corners(rolled, t, min_angle_deg=corner_angle_deg)
+    # a corner at the seam sample, or between it and a neighbour (the pair reading of two
+    # sharp turns side by side, e.g. the two ends of a blunt base closed by ``--closed``)
+    at_seam = any(c.index == half or (c.index == half - 1 and c.t > t[half - 1])
+                  for c in corners)
+    return DEGREE if at_seam else 1
+
+
+def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
+                       seed_values: NDArray[np.float64], fit_at, options, *,
+                       seam: int = 1, fair_check=None):
+    """:func:`toolpath.adaptive.adapt_knots` for a periodic fit (``fair_check`` as there).
+
+    ``points`` ``(n + 1, d)`` and ``t`` end at the seam (the first point again, ``t = 1``);
+    ``fit_at(periodic_knots, weights)`` fits on a periodic vector. The driver works on the
+    clamped view (module docstring); counts are translated (``N`` periodic control points
+    are ``N + DEGREE + 1 − seam`` clamped ones) and the chosen knots returned periodic.
+    """
+    given = options.knots
+    if given is not None and is_periodic(given):  # a periodic vector to use as it is
+        problem = periodic_violation(t, given)
+        if problem is not None:
+            raise InvalidParameterError(f"knots cannot be fitted: {problem}")
+        seam = int(np.sum(period_of(given) == 0.0))
+        given = to_clamped(given)
+    offset = DEGREE + 1 - seam
+    start = options.start_knots
+    driver = dataclasses.replace(
+        options, knots=given,
+        n_control_points=(None if options.n_control_points is None
+                          else options.n_control_points + offset),
+        max_control_points=(None if options.max_control_points is None
+                            else options.max_control_points + offset),
+        start_knots=to_clamped(start) if start is not None and is_periodic(start) else start)
+
+    def wrapped(knots: NDArray[np.float64], weights: NDArray[np.float64] | None):
+        return fit_at(from_clamped(knots, seam), weights)
+
+    wrapped_check = None if fair_check is None else (
+        lambda fit, knots: fair_check(fit, from_clamped(knots, seam)))
+    try:
+        fit, errors, knots = adapt_knots(points, t, seed_values, wrapped, driver, wrapped_check)
+    except FitError as exc:  # counts in the message are the driver's (clamped) ones
+        raise FitError(re.sub(r"with (\d+) control points",
+                              lambda m: f"with {int(m.group(1)) - offset} control points",
+                              str(exc))) from None
+    return fit, errors, from_clamped(knots, seam)
