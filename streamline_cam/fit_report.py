@@ -18,7 +18,7 @@ from toolpath import (
     fit_streamline_surface,
 )
 from toolpath.errors import InvalidParameterError
-from toolpath.fairness import curve_fairness, surface_fairness
+from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.sections import as_sections
 
 __all__ = [
@@ -208,7 +208,8 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     seconds = time.perf_counter() - start
     notes = [f"frame: {surface.frame_label}"] if method == "streamline" else []
     counts = grid.data_counts
-    fairness = surface_fairness(surface, grid.points)
+    fairness = surface_fairness(surface, grid.points,
+                                per_interval=grid.samples_per_column(SAMPLES_PER_INTERVAL))
     notes += fairness.warnings(tol)
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),

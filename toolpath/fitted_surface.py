@@ -36,7 +36,7 @@ from numpy.typing import NDArray
 
 from .adaptive import KnotOptions, adapt_knots
 from .between_sections import between_sections_estimate
-from .fairness import surface_fair_check
+from .fairness import SAMPLES_PER_INTERVAL, surface_fair_check
 from .fitted_curve import error_figures
 from .periodic import adapt_closed_knots, free_coefficients, seam_multiplicity
 from .sections import Sections
@@ -77,7 +77,7 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
     if make_surface is not None and options.tol is not None:
         fair_check = surface_fair_check(
             lambda fit, knots: make_surface(GridFit(knots, *fit)), sections.points,
-            options.tol)
+            options.tol, per_interval=sections.samples_per_column(SAMPLES_PER_INTERVAL))
 
     def driver_fit(knots, weights):
         rows, errors = fit_at(knots, weights)

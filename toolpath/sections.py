@@ -73,6 +73,15 @@ class Sections:
         """``mask``, all True when every entry is data."""
         return np.ones(self.points.shape[:2], bool) if self.mask is None else self.mask
 
+    def samples_per_column(self, per_data_interval: int) -> int:
+        """Samples per grid column giving about ``per_data_interval`` per data interval.
+
+        A union grid (ragged or shifted sections) has several columns per data interval of
+        any one section; dense checks (fairness) need their density per data interval.
+        """
+        per_section = max(self.data_counts)
+        return max(2, int(np.ceil(per_data_interval * per_section / self.n_columns)))
+
     @property
     def data_counts(self) -> list[int]:
         """Data points per section (a closed seam counted once)."""
