@@ -18,7 +18,7 @@ columns: where the fit's own error, carried across the sections, goes.
 Measured against the truth (``tests/toolpath/test_section_matching.py``: the DCA rotor's
 truth contours midway between its sections; ``benchmarks/blade_truth.py``: the dev
 blade's analytic surface), tol 0.003, 0.01 and 0.03 mm, both methods, open and closed:
-estimate / true error 1.03-1.41. Sections that are not matched (column ``i`` joining a
+estimate / true error 0.98-1.41. Sections that are not matched (column ``i`` joining a
 nose point to a flank point) show as a large fourth difference. The leave-one-out error
 (a section left out and interpolated from the others, twice the spacing) overstates all
 this by up to ``2^4``, and far more where sections are not matched.
