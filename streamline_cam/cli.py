@@ -96,8 +96,7 @@ def _fit_curve(args: argparse.Namespace) -> int:
 def _fit_surface(args: argparse.Namespace) -> int:
     tol = as_positive_length(args.tol, name="--tol")
     sections = as_sections(read_sections(args.points), closed=args.closed)
-    surface, report = fit_surface_by_method(sections.points, method=args.method, tol=tol,
-                                            closed=sections.closed)
+    surface, report = fit_surface_by_method(sections, method=args.method, tol=tol)
     if args.output:
         Path(args.output).write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     if args.plot:

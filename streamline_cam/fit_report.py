@@ -18,7 +18,7 @@ from toolpath import (
     fit_streamline_surface,
 )
 from toolpath.errors import InvalidParameterError
-from toolpath.fairness import curve_fairness, surface_fairness
+from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.sections import as_sections
 
 __all__ = [
@@ -126,11 +126,18 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
 
 
 SURFACE_METHODS = ("streamline", "bspline")
+#: What ``between_sections_mm`` is (``toolpath.between_sections``).
+BETWEEN_SECTIONS_BASIS = "estimate: fit vs data interpolated across sections + interpolation error"
 
 
 @dataclass(frozen=True)
 class SurfaceFitReport:
-    """What a user reads after a surface fit: sizes, errors (mm), frame, time (s)."""
+    """What a user reads after a surface fit: sizes, errors (mm), frame, time (s).
+
+    ``points_per_section`` is the largest count; ``section_point_counts`` every section's
+    (they may differ). ``between_sections_mm`` is an estimate of the error between the
+    sections (``between_sections_basis``), ``leave_one_out_mm`` the old upper bound.
+    """
 
     method: str
     n_sections: int
@@ -145,6 +152,9 @@ class SurfaceFitReport:
     notes: list[str] = field(default_factory=list)
     #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit, on every section and midway.
     fairness: dict[str, Any] | None = None
+    section_point_counts: list[int] = field(default_factory=list)
+    leave_one_out_mm: float | None = None
+    between_sections_basis: str = BETWEEN_SECTIONS_BASIS
 
     @property
     def within_tol(self) -> bool:
@@ -159,15 +169,18 @@ class SurfaceFitReport:
     def lines(self) -> list[str]:
         """Human-readable report lines."""
         n_t, n_s = self.n_control_points
+        counts = self.section_point_counts or [self.points_per_section]
+        points = (f"{counts[0]}" if min(counts) == max(counts)
+                  else f"{min(counts)}-{max(counts)}")
         out = [
             f"method            {self.method} surface",
-            f"sections          {self.n_sections} x {self.points_per_section} points"
+            f"sections          {self.n_sections} x {points} points"
             + (" (closed)" if self.closed else " (open)"),
             f"control points    {n_t} x {n_s} (along x across)",
             f"max error         {self.max_error_mm:.6f} mm"
             + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
             f"rms error         {self.rms_error_mm:.6f} mm",
-            f"between sections  {self.between_sections_mm:.6f} mm (leave-one-out, upper bound)",
+            f"between sections  {self.between_sections_mm:.6f} mm ({self.between_sections_basis})",
             f"time              {self.seconds:.3f} s",
         ]
         out.extend(_fairness_lines(self.fairness))
@@ -189,17 +202,20 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
         raise InvalidParameterError(
             f"method must be one of {SURFACE_METHODS}, got {method!r}")
     start = time.perf_counter()
+    grid = as_sections(sections, closed=closed)  # matched once, fitted as matched
     fit = fit_streamline_surface if method == "streamline" else fit_bspline_surface
-    surface = fit(sections, tol=tol, closed=closed)
+    surface = fit(grid, tol=tol)
     seconds = time.perf_counter() - start
     notes = [f"frame: {surface.frame_label}"] if method == "streamline" else []
-    fairness = surface_fairness(surface, as_sections(sections, closed=surface.closed_t).points)
+    counts = grid.data_counts
+    fairness = surface_fairness(surface, grid.points,
+                                per_interval=grid.samples_per_column(SAMPLES_PER_INTERVAL))
     notes += fairness.warnings(tol)
     report = SurfaceFitReport(
-        method=method, n_sections=len(surface.s_params),
-        points_per_section=len(surface.t_params) - int(surface.closed_t),
+        method=method, n_sections=len(surface.s_params), points_per_section=max(counts),
         closed=surface.closed_t, n_control_points=surface.n_control_points,
         max_error_mm=surface.max_error, rms_error_mm=surface.rms_error,
-        between_sections_mm=surface.loo_error, tol_mm=tol, seconds=seconds, notes=notes,
-        fairness=fairness.as_dict())
+        between_sections_mm=surface.between_error, tol_mm=tol, seconds=seconds, notes=notes,
+        fairness=fairness.as_dict(), section_point_counts=counts,
+        leave_one_out_mm=surface.loo_error)
     return surface, report

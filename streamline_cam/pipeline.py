@@ -260,8 +260,10 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     if mode == "auto":
         mode = "flat" if request.axis_mode == "3" else "upright"
     placed, placement = place_points(raw.points, mode=mode, base_mm=request.base_mm)
-    surface, fit_report = fit_surface_by_method(placed, method=request.method,
-                                                tol=request.fit_tol_mm, closed=raw.closed)
+    # a rigid move: the matched grid keeps its parameters and its mask of data entries
+    placed_sections = dataclasses.replace(raw, points=placed)
+    surface, fit_report = fit_surface_by_method(placed_sections, method=request.method,
+                                                tol=request.fit_tol_mm)
     files["surface"] = out_dir / "surface.json"
     files["surface"].write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     report["placement"] = placement.as_dict() | {"text": placement.describe()}
@@ -270,7 +272,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         from toolpath.plotting import plot_surface_fit
 
         files["fit_plot"] = plot_surface_fit(
-            as_sections(placed, closed=raw.closed).points, surface, out_dir / "fit.png",
+            placed_sections.points, surface, out_dir / "fit.png",
             title=f"{request.method} fit of {request.sections_path.name}")
     seconds["fit"] = time.perf_counter() - start
     report_progress("fit", 1.0)

@@ -575,9 +575,11 @@ def curve_fair_check(make_curve: Any, points: Any, tol_mm: float, *, closed: boo
     return check
 
 
-def surface_fair_check(make_surface: Any, points: Any, tol_mm: float):
+def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
+                       per_interval: int = SAMPLES_PER_INTERVAL):
     """``fair_check`` for a surface fit: ``make_surface(fit, knots)`` builds the surface."""
     def check(fit: Any, knots: NDArray[np.float64]) -> list[tuple[float, float, float, str]]:
-        return surface_fairness(make_surface(fit, knots), points).unfair(tol_mm)
+        return surface_fairness(make_surface(fit, knots), points,
+                                per_interval=per_interval).unfair(tol_mm)
 
     return check

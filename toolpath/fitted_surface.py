@@ -12,7 +12,15 @@ A model describes section ``j`` by a **row** of numbers (its ``t``-coefficients,
 else it needs); the surface interpolates the rows across ``s``. Interpolating all rows but
 row ``j`` and comparing the result at ``s_j`` with the data measures how well the surface
 follows the blade *between* sections (leave-one-out; with twice the section spacing it
-overstates the true in-between error of a cubic by up to about ``2^4``).
+overstates the true in-between error of a cubic by up to about ``2^4``: kept for judging
+frames). The figure reported between sections is the estimate of
+:mod:`toolpath.between_sections` (the fit against the data interpolated across ``s``,
+midway, plus the cubic interpolation error across ``s``).
+
+Sections on a union grid (:mod:`toolpath.section_matching`) carry interpolated entries:
+they are fitted with the data (the knot driver keeps every entry within the tolerance,
+so each section follows its interpolating cubic between its points too), and
+``max_error``/``rms_error`` are measured at the data entries only.
 """
 
 from __future__ import annotations
@@ -27,7 +35,8 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .adaptive import KnotOptions, adapt_knots
-from .fairness import surface_fair_check
+from .between_sections import between_sections_estimate
+from .fairness import SAMPLES_PER_INTERVAL, surface_fair_check
 from .fitted_curve import error_figures
 from .periodic import adapt_closed_knots, free_coefficients, seam_multiplicity
 from .sections import Sections
@@ -68,7 +77,7 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
     if make_surface is not None and options.tol is not None:
         fair_check = surface_fair_check(
             lambda fit, knots: make_surface(GridFit(knots, *fit)), sections.points,
-            options.tol)
+            options.tol, per_interval=sections.samples_per_column(SAMPLES_PER_INTERVAL))
 
     def driver_fit(knots, weights):
         rows, errors = fit_at(knots, weights)
@@ -111,8 +120,10 @@ class FittedSurface(ParametricSurface):
     max_error, rms_error : float
         Distance (mm) from the data points to ``X(t_i, s_j)``.
     loo_error : float
-        Largest leave-one-out error over the interior sections (mm), the measure of the
-        fit *between* sections.
+        Largest leave-one-out error over the interior sections (mm): an upper bound of the
+        error between sections, up to ``2^4`` times too large.
+    saved_between_error : float, optional
+        :attr:`between_error` as saved (JSON); ``None``: estimated from the sections fitted.
     closed_t : bool
         Closed sections: ``X`` periodic in ``t``, position, tangent and curvature continuous
         across the seam ``t = 0 ≡ 1`` (C0 only where the data have a corner there).
@@ -128,6 +139,7 @@ class FittedSurface(ParametricSurface):
     max_error: float
     rms_error: float
     loo_error: float
+    saved_between_error: float | None = None
     closed_t: bool = False
     orientation: float = 1.0
 
@@ -150,6 +162,23 @@ class FittedSurface(ParametricSurface):
         coef = self.row_coef[:, :self._n_tensor].reshape(n_s, n_t, 3).transpose(1, 0, 2)
         return TensorSpline(self.knots_t, self.knots_s, np.ascontiguousarray(coef))
 
+    @functools.cached_property
+    def between_error(self) -> float:
+        """Estimated error between sections (mm).
+
+        The surface against the data interpolated across ``s``, midway, plus the cubic
+        interpolation error across ``s``
+        (:func:`toolpath.between_sections.between_sections_estimate`). Estimated on first
+        use (the report, JSON), so the fits tried while knots are chosen do not pay for it;
+        NaN for a surface built neither by a fit nor from JSON that holds it.
+        """
+        if self.saved_between_error is not None:
+            return self.saved_between_error
+        sections = self.__dict__.get("_fitted_sections")
+        if sections is None:
+            return float("nan")
+        return between_sections_estimate(self, sections)
+
     @property
     def n_control_points(self) -> tuple[int, int]:
         """Control points ``(along t, across s)`` per coordinate (free ones when periodic)."""
@@ -161,11 +190,12 @@ class FittedSurface(ParametricSurface):
         """Interpolate the rows across ``s`` and measure the result."""
         knots_s, row_coef = interpolate_across(sections.s, grid.rows)
         loo = cls._leave_one_out(sections, grid, fields)
-        max_error, rms_error = error_figures(grid.errors.ravel())
+        max_error, rms_error = error_figures(grid.errors[sections.data_mask])
         surface = cls(knots_t=grid.knots_t, knots_s=knots_s, row_coef=row_coef,
                       t_params=sections.t, s_params=sections.s, max_error=max_error,
                       rms_error=rms_error, loo_error=loo, closed_t=sections.closed, **fields)
         object.__setattr__(surface, "orientation", _outward_sign(surface, sections))
+        surface.__dict__["_fitted_sections"] = sections  # for between_error, on demand
         return surface
 
     @classmethod
@@ -187,7 +217,8 @@ class FittedSurface(ParametricSurface):
             "row_coef": self.row_coef.tolist(), "t_params": self.t_params.tolist(),
             "s_params": self.s_params.tolist(), "max_error": self.max_error,
             "rms_error": self.rms_error, "loo_error": self.loo_error,
-            "closed_t": self.closed_t, "orientation": self.orientation,
+            "between_error": self.between_error, "closed_t": self.closed_t,
+            "orientation": self.orientation,
         }
 
     @staticmethod
@@ -199,6 +230,9 @@ class FittedSurface(ParametricSurface):
             "t_params": np.asarray(data["t_params"], float),
             "s_params": np.asarray(data["s_params"], float),
             "max_error": float(data["max_error"]), "rms_error": float(data["rms_error"]),
-            "loo_error": float(data["loo_error"]), "closed_t": bool(data["closed_t"]),
+            "loo_error": float(data["loo_error"]),
+            # surfaces saved before the estimate existed: their leave-one-out upper bound
+            "saved_between_error": float(data.get("between_error", data["loo_error"])),
+            "closed_t": bool(data["closed_t"]),
             "orientation": float(data["orientation"]),
         }

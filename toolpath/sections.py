@@ -1,19 +1,25 @@
 """Blade sections: validation and the grid parameters of a surface fit (Algorithm 4, step 1).
 
-A blade is ``m`` sections (profiles) stacked hub to tip, each ``n`` ordered points. The
-surface fit needs them on a grid: the same point count per section, so that column ``i``
-(the ``i``-th point of every section) gets one parameter ``t_i`` and section ``j`` one
-``s_j``:
+A blade is ``m`` sections (profiles) stacked hub to tip, each ordered points (counts may
+differ). The surface fit needs them on a grid, column ``i`` with one parameter ``t_i`` and
+section ``j`` with one ``s_j``:
 
-- ``t_i`` is the mean over the sections of the chord-length parameter of point ``i``
-  (each section's own chord lengths, normalized to [0, 1]);
+- ``t`` pairs like with like: the sections are matched first
+  (:mod:`toolpath.section_matching`: leading and trailing edges found in the geometry, the
+  section's own chord length between them mapped onto common edge parameters). Sections
+  that already correspond (same counts, edges between the same points) keep one column per
+  point, ``t_i`` the mean of the matched parameters of point ``i``; otherwise the columns
+  are the union of all sections' matched parameters and each section is interpolated at
+  the others' (``mask`` tells the data entries). Given ``params`` as an array, ``t`` is
+  that array and the points correspond by index;
 - ``s_j`` is the cumulative mean distance between corresponding points of consecutive
   sections, normalized to [0, 1] (chord length across the sections).
 
 A **closed** section (a profile wrapped all around) is stored with its first point repeated
-at the end, so ``t = 0`` and ``t = 1`` are the same point (the seam). Whether sections are
-closed is read from how each one ends by the seam rule of :mod:`toolpath.closure` (a
-repeated first point, or a closing step like its neighbours that is not a blunt base).
+at the end, so ``t = 0`` and ``t = 1`` are the same point (the seam); matched closed
+sections have their seam moved to the trailing edge. Whether sections are closed is read
+from how each one ends by the seam rule of :mod:`toolpath.closure` (a repeated first
+point, or a closing step like its neighbours that is not a blunt base).
 """
 
 from __future__ import annotations
@@ -27,7 +33,8 @@ from numpy.typing import NDArray
 from .arrays import MIN_CURVE_POINTS, as_curve_points
 from .closure import CLOSURE_GAP_MM, close_loop, read_seam
 from .errors import InvalidParameterError, InvalidPointsError
-from .parametrize import unit_curve_parameters
+from .parametrize import PARAM_METHODS, unit_curve_parameters
+from .section_matching import match_sections
 
 __all__ = ["CLOSURE_GAP_MM", "MIN_SECTIONS", "Sections", "as_sections"]
 
@@ -50,12 +57,38 @@ class Sections:
         Parameter of each column along the sections, 0 to 1.
     s : ndarray, shape (m,)
         Parameter of each section across the blade, 0 to 1.
+    mask : ndarray of bool, shape (m, n), optional
+        True where ``points`` holds a data point; False where it was interpolated along its
+        section (ragged or shifted sections, a closed seam moved). ``None``: all data.
     """
 
     points: NDArray[np.float64]
     closed: bool
     t: NDArray[np.float64]
     s: NDArray[np.float64]
+    mask: NDArray[np.bool_] | None = None
+
+    @property
+    def data_mask(self) -> NDArray[np.bool_]:
+        """``mask``, all True when every entry is data."""
+        return np.ones(self.points.shape[:2], bool) if self.mask is None else self.mask
+
+    def samples_per_column(self, per_data_interval: int) -> int:
+        """Samples per grid column giving about ``per_data_interval`` per data interval.
+
+        A union grid (ragged or shifted sections) has several columns per data interval of
+        any one section; dense checks (fairness) need their density per data interval.
+        """
+        per_section = max(self.data_counts)
+        return max(2, int(np.ceil(per_data_interval * per_section / self.n_columns)))
+
+    @property
+    def data_counts(self) -> list[int]:
+        """Data points per section (a closed seam counted once)."""
+        counts = self.data_mask.sum(axis=1)
+        if self.closed and self.mask is None:
+            counts = counts - 1
+        return [int(c) for c in counts]
 
     @property
     def n_sections(self) -> int:
@@ -64,7 +97,10 @@ class Sections:
 
     @property
     def n_columns(self) -> int:
-        """``n``, points per section (with the repeated seam point when closed)."""
+        """``n``, grid columns: points per section (with the repeated seam point when closed).
+
+        Ragged sections: the union of the matched parameters.
+        """
         return self.points.shape[1]
 
     @property
@@ -100,11 +136,8 @@ def _is_closed(points: list[NDArray[np.float64]], closed: bool | None) -> bool:
 
 
 def _column_parameters(points: NDArray[np.float64], params: Any) -> NDArray[np.float64]:
-    if not isinstance(params, str):  # one array for every section
-        return unit_curve_parameters(points[0], params)
-    t = np.mean([unit_curve_parameters(p, params) for p in points], axis=0)
-    t[0], t[-1] = 0.0, 1.0
-    return t
+    """``params`` given as one array for every section, mapped onto [0, 1]."""
+    return unit_curve_parameters(points[0], params)
 
 
 def _section_parameters(points: NDArray[np.float64], section_params: Any
@@ -141,16 +174,18 @@ def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "cho
 
     Parameters
     ----------
-    sections : array_like, shape (m, n, 3), or a sequence of (n, 3) arrays
-        Sections hub to tip, points in order within each.
+    sections : array_like, shape (m, n, 3), a sequence of (n_j, 3) arrays, or Sections
+        Sections hub to tip, points in order within each, every section the same way
+        round (point counts may differ). A :class:`Sections` is returned as it is.
     closed : bool, optional
         Whether the sections are closed loops. ``None`` (default): read from how each
         section ends (:mod:`toolpath.closure`: a repeated first point, or a last point a
         step like its neighbours short of the first, not a blunt base). With ``True`` an
         unrepeated first point is appended to close the loop.
     params : {"chord", "centripetal", "uniform"} or array_like, shape (n,)
-        Column parameters ``t``: the mean over the sections of each one's parameters by
-        that method, or one array for all (mapped onto [0, 1]).
+        Column parameters ``t``: each section's own parameters by that method between its
+        matched edges (module docstring), or one array for all (mapped onto [0, 1]; the
+        sections then correspond by index and need one point count).
     section_params : array_like, shape (m,), optional
         Section parameters ``s`` (mapped onto [0, 1]); default: chord length across.
 
@@ -161,10 +196,13 @@ def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "cho
     Raises
     ------
     InvalidPointsError
-        Fewer than four sections, sections with different point counts (resample them to
-        one count first: the message names the first odd section), a non-finite value or a
-        repeated point (naming the section and point), sections out of order.
+        Fewer than four sections, sections with different point counts under array
+        ``params`` (the message names the first odd section), a non-finite value or a
+        repeated point (naming the section and point), sections out of order or running
+        the other way round.
     """
+    if isinstance(sections, Sections):
+        return sections
     try:
         raw = list(sections)
     except TypeError:
@@ -179,19 +217,29 @@ def as_sections(sections: Any, *, closed: bool | None = None, params: Any = "cho
         if p.shape[1] != 3:
             raise InvalidPointsError(f"section {j} has {p.shape[1]}-D points; sections are 3-D")
     counts = [len(p) for p in checked]
-    if len(set(counts)) > 1:
+    matching = isinstance(params, str)
+    if matching and params not in PARAM_METHODS:
+        raise InvalidParameterError(
+            f"params must be one of {PARAM_METHODS} or an array, got {params!r}")
+    if not matching and len(set(counts)) > 1:
         j = next(j for j, c in enumerate(counts) if c != counts[0])
         raise InvalidPointsError(
-            f"section {j} has {counts[j]} points but section 0 has {counts[0]}: every section "
-            "needs the same number of points, in corresponding order (resample the sections "
-            "to one count, e.g. at the same chord fractions)", index=j)
+            f"section {j} has {counts[j]} points but section 0 has {counts[0]}: with "
+            "params given as an array every section needs the same number of points, in "
+            "corresponding order", index=j)
     is_closed = _is_closed(checked, closed)
     if is_closed:
         checked = [close_loop(p) for p in checked]
         if len(checked[0]) - 1 < MIN_CURVE_POINTS:
             raise InvalidPointsError(
                 f"a closed section needs at least {MIN_CURVE_POINTS} distinct points")
-    points = np.stack(checked)
+    if matching:
+        matched = match_sections(checked, is_closed, params)
+        points, t = matched.points, matched.t
+        mask = None if matched.mask.all() else matched.mask
+    else:
+        points, mask = np.stack(checked), None
+        t = _column_parameters(points, params)
     _check_order(points)
-    return Sections(points=points, closed=is_closed, t=_column_parameters(points, params),
-                    s=_section_parameters(points, section_params))
+    return Sections(points=points, closed=is_closed, t=t,
+                    s=_section_parameters(points, section_params), mask=mask)

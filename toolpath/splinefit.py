@@ -199,9 +199,7 @@ def end_interpolating_lsq(
         for a in range(DEGREE + 1 - offset):
             bands[offset] += np.bincount(first + a, weights=weighted[:, a] * local[:, a + offset],
                                          minlength=n_coef)
-    rhs = np.zeros((n_coef, values.shape[1]))
-    for a in range(DEGREE + 1):
-        np.add.at(rhs, first + a, weighted[:, a, None] * rhs_values)
+    rhs = basis.T @ (w[:, None] * rhs_values)  # B^T W v, the sparse product
     try:
         coef[1:-1] = _solve_banded_normal(bands[:, 1:-1], rhs[1:-1])
         if _far_outside(coef, values):  # a near-null direction the pivots did not show

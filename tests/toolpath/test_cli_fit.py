@@ -52,3 +52,25 @@ def test_fit_surface_bad_file_is_one_line_and_exit_2(tmp_path, capsys):
     assert main(["fit", "surface", str(bad)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "lacks column(s) z" in err
+
+
+def test_fit_surface_of_ragged_sections_reports_each_count(tmp_path, capsys):
+    from toolpath import read_sections
+
+    sections = read_sections(bundled_data_path("dev_rotor_dca_11x181.csv"))[:6]
+    sections[2] = np.delete(sections[2], np.arange(5, 60, 2), axis=0)  # 28 flank points fewer
+    path = tmp_path / "ragged.csv"
+    rows = ["section,x,y,z"] + [f"{j},{x:.6f},{y:.6f},{z:.6f}" for j, p in enumerate(sections)
+                                for x, y, z in p]
+    path.write_text("\n".join(rows) + "\n", encoding="utf-8")
+    out = tmp_path / "ragged.json"
+    assert main(["fit", "surface", str(path), "--method", "bspline", "--tol", "0.02",
+                 "-o", str(out), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert report["section_point_counts"] == [181, 181, 153, 181, 181, 181]
+    assert report["within_tol"] and report["between_sections_basis"].startswith("estimate")
+    surface = surface_from_dict(json.loads(out.read_text()))
+    assert surface.between_error == report["between_sections_mm"] > 0.0
+    assert main(["fit", "surface", str(path), "--method", "bspline", "--tol", "0.02"]) == 0
+    text = capsys.readouterr().out
+    assert "6 x 153-181 points (closed)" in text and "(estimate:" in text

@@ -182,11 +182,13 @@ def test_refine_does_not_raise_the_error(blade_sections):
 
 
 # ---------------------------------------------------------------------- bad input
-def test_ragged_sections_name_the_section():
+def test_ragged_sections_under_array_params_name_the_section():
+    # ragged sections are matched (tests/toolpath/test_section_matching.py) unless the
+    # parameters are given as one array, which needs one point count
     sections = list(cylinder_sections())
     sections[3] = sections[3][:-1]
     with pytest.raises(InvalidPointsError, match="section 3 has 39 points but section 0 has 40"):
-        fit_streamline_surface(sections, tol=0.01)
+        fit_streamline_surface(sections, tol=0.01, params=np.linspace(0.0, 1.0, 40))
 
 
 def test_too_few_sections():

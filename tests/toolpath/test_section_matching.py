@@ -1,0 +1,155 @@
+"""Sections matched before a surface is built; the error between sections, true and estimated.
+
+The DCA rotor (``dev_rotor_dca_11x181.csv``) has nose point counts that vary and a start
+point that moves along the trailing-edge nose; its true surface between sections is
+``tests/data/blades/dev_rotor_dca_truth_10x1000.csv`` (10 contours midway between them).
+"""
+
+from pathlib import Path
+
+import numpy as np
+import pytest
+from scipy.spatial import cKDTree
+
+from toolpath import as_sections, fit_bspline_surface, fit_streamline_surface, read_sections
+from toolpath.between_sections import interpolation_errors
+from toolpath.errors import InvalidPointsError
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning.local import project_to_surface
+
+TRUTH = Path(__file__).parent.parent / "data" / "blades" / "dev_rotor_dca_truth_10x1000.csv"
+TOL_MM = 0.01
+
+
+@pytest.fixture(scope="module")
+def dca():
+    return read_sections(bundled_data_path("dev_rotor_dca_11x181.csv"))
+
+
+@pytest.fixture(scope="module")
+def truth():
+    return np.concatenate(read_sections(TRUTH))
+
+
+def distances_to_surface(surface, points):
+    """Distance (mm) from each point to the surface: Newton projection from the nearest
+    sample of a start grid (the data columns halved, and uniform for the points the first
+    left farther than half the tolerance), the smaller result."""
+    tp = surface.t_params
+    refined = np.unique(np.concatenate((tp, 0.5 * (tp[1:] + tp[:-1]))))
+    best = np.full(len(points), np.inf)
+    todo = np.arange(len(points))
+    for t_grid in (refined, np.linspace(0.0, 1.0, 2001)):
+        t, s = np.meshgrid(t_grid, np.linspace(0.0, 1.0, 41))
+        _, nearest = cKDTree(surface(t.ravel(), s.ravel())).query(points[todo])
+        _, _, d = project_to_surface(surface, points[todo], t.ravel()[nearest],
+                                     s.ravel()[nearest], iterations=8)
+        best[todo] = np.minimum(best[todo], d)
+        todo = todo[best[todo] > 0.5 * TOL_MM]
+    return best
+
+
+def data_t(grid, j):
+    """Matched parameters of section ``j``'s data points, in the grid's order."""
+    return grid.t[grid.mask[j]] if grid.mask is not None else grid.t
+
+
+def farthest_from_first(points):
+    """Index of the point farthest from the first (on the DCA: a point of the LE nose)."""
+    return int(np.argmax(np.linalg.norm(points - points[0], axis=1)))
+
+
+# ---------------------------------------------------------------------- matching
+@pytest.mark.parametrize("closed", [False, True])
+def test_leading_edges_share_one_parameter_whatever_the_start_point(dca, closed):
+    rng = np.random.default_rng(7)
+    shifted = [np.roll(p, int(rng.integers(-40, 40)), axis=0) for p in dca]
+    if not closed:  # an open section keeps its ends: shift only where the loop is closed
+        shifted = dca
+    for sections in (dca, shifted):
+        grid = as_sections(sections, closed=closed)
+        t_le = []
+        for j, p in enumerate(sections):
+            nose = p[farthest_from_first(p)] if not closed else None
+            if closed:  # the LE nose point farthest from the section's TE (grid column 0)
+                data = grid.points[j][grid.mask[j]]
+                nose = data[farthest_from_first(np.vstack((grid.points[j, :1], data)))
+                            - 1]
+            column = np.flatnonzero(grid.mask[j] & np.all(grid.points[j] == nose, axis=1))
+            assert column.size == 1
+            t_le.append(grid.t[column[0]])
+        # the nose is about 0.0004 apart in t: the same nose place on every section
+        assert np.ptp(t_le) < 0.0015, t_le
+
+
+def test_shuffled_start_gives_the_same_matched_sections(dca):
+    rng = np.random.default_rng(3)
+    shifted = [np.roll(p, int(rng.integers(1, 180)), axis=0) for p in dca]
+    a, b = as_sections(dca, closed=True), as_sections(shifted, closed=True)
+    assert a.points.shape == b.points.shape
+    assert np.abs(a.t - b.t).max() < 1e-9
+    assert np.abs(a.points - b.points).max() < 1e-9
+    assert (a.mask == b.mask).all()
+
+
+def test_a_section_running_the_other_way_is_named(dca):
+    sections = list(dca)
+    sections[4] = sections[4][::-1]
+    with pytest.raises(InvalidPointsError, match="section 4 runs the other way round"):
+        as_sections(sections, closed=False)
+
+
+def test_ragged_sections_are_fitted_and_measured_at_their_own_points(dca):
+    sections = [p.copy() for p in dca]
+    sections[2] = np.delete(sections[2], np.arange(5, 60, 3), axis=0)  # thinner flank
+    sections[6] = np.delete(sections[6], [84, 86, 88], axis=0)  # fewer LE nose points
+    sections[9] = sections[9][:-7]  # shorter at the end
+    counts = [len(p) for p in sections]
+    grid = as_sections(sections, closed=False)
+    assert grid.data_counts == counts
+    for j, p in enumerate(sections):  # every data point is a grid entry, exactly
+        assert np.array_equal(grid.points[j][grid.mask[j]], p)
+    surface = fit_bspline_surface(grid, tol=TOL_MM)
+    own = [np.linalg.norm(surface(data_t(grid, j), np.full(counts[j], grid.s[j])) - p, axis=1)
+           for j, p in enumerate(sections)]
+    worst = max(e.max() for e in own)
+    assert surface.max_error <= TOL_MM
+    assert worst == pytest.approx(surface.max_error, abs=1e-9)
+    rms = np.sqrt(np.mean(np.concatenate(own) ** 2))
+    assert surface.rms_error == pytest.approx(rms, rel=1e-6)
+
+
+# ---------------------------------------------------------------------- between sections
+@pytest.fixture(scope="module")
+def dca_fits(dca, truth):
+    out = {}
+    for closed in (False, True):
+        for name, fit in (("streamline", fit_streamline_surface),
+                          ("bspline", fit_bspline_surface)):
+            surface = fit(dca, tol=TOL_MM, closed=closed)
+            out[name, closed] = surface, float(distances_to_surface(surface, truth).max())
+    return out
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("method", ["streamline", "bspline"])
+def test_dca_rotor_is_faithful_between_sections(dca_fits, method, closed):
+    surface, true_mm = dca_fits[method, closed]
+    assert surface.max_error <= TOL_MM
+    assert true_mm <= 2.0 * TOL_MM  # 0.043-0.048 mm before the sections were matched
+
+
+@pytest.mark.parametrize("closed", [False, True])
+@pytest.mark.parametrize("method", ["streamline", "bspline"])
+def test_between_sections_estimate_is_within_2x_of_the_truth(dca_fits, method, closed):
+    surface, true_mm = dca_fits[method, closed]
+    assert 0.5 * true_mm <= surface.between_error <= 2.0 * true_mm
+    assert surface.loo_error > surface.between_error  # the old figure: an upper bound
+
+
+def test_unmatched_sections_show_in_the_interpolation_estimate(dca):
+    # index-wise columns (params as one array) join nose points to flank points
+    matched = as_sections(dca, closed=False)
+    by_index = as_sections(dca, closed=False, params=np.linspace(0.0, 1.0, 181))
+    assert interpolation_errors(matched.s, matched.points).max() < 0.002
+    assert interpolation_errors(by_index.s, by_index.points).max() > 0.05
