@@ -497,7 +497,8 @@ def curve_fairness(curve: Any, points: Any, *, closed: bool = False,
     points : array_like, shape (n, 2) or (n, 3)
         The data it was fitted to (mm), in order, at ``curve.params``.
     closed : bool
-        The last point repeats the first (the turning there wraps round).
+        A closed curve: the turning wraps round the seam and the samples cover [0, 1]
+        (``points`` may end with the first point again, at ``t = 1``, or not).
     min_depth_mm : float
         Depth (mm) from which a concave stretch counts.
     per_interval : int
@@ -505,6 +506,10 @@ def curve_fairness(curve: Any, points: Any, *, closed: bool = False,
     """
     data = _as_3d(points)
     t = np.asarray(curve.params, dtype=float)
+    if closed and t[-1] < 1.0:  # a closed fit's parameters stop short of the seam t = 1:
+        t = np.append(t, 1.0)  # sample the last interval too, round to the first point
+        if len(data) < t.size:
+            data = np.vstack((data, data[:1]))
     tt = dense_parameters(t, per_interval)
     x, xt, xtt = (_as_3d(np.asarray(v).reshape(tt.size, -1))
                   for v in (curve(tt), curve.derivative(tt, 1), curve.derivative(tt, 2)))

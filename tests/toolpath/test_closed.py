@@ -210,8 +210,11 @@ def test_closed_curve_json_and_given_knots(fit):
     assert np.array_equal(again(t), curve(t))
     # the same knots, given periodic, give the same fit; a clamped vector's interior knots
     # are used with a seam knot
+    # (a streamline fit picks its frame on the knots it is given, the first fit on its
+    # B-spline probe's: the frames' margins may differ, the error by a few per cent)
     same = fit(section, knots=curve.knots, closed=True)
-    assert np.array_equal(same.knots, curve.knots) and np.isclose(same.max_error, curve.max_error)
+    assert np.array_equal(same.knots, curve.knots)
+    assert np.isclose(same.max_error, curve.max_error, rtol=0.05)
     clamped = fit(section, knots=np.r_[[0.0] * 4, np.linspace(0, 1, 12)[1:-1], [1.0] * 4],
                   closed=True)
     assert clamped.n_control_points == 11 and is_periodic(clamped.knots)
