@@ -33,8 +33,11 @@ of the same knots (the period's interior knots between clamped ends at 0 and 1):
 seam is always a knot, the spans of the periodic spline in [0, 1) *are* the clamped spans,
 so corners, the ``|f''''|^{1/4}`` density, error sweeps, the tolerance search and the Lawson
 polish apply as they are; :func:`adapt_closed_knots` translates counts and knot vectors
-both ways. Schoenberg-Whitney for a periodic spline: every span in [0, 1) holds a data
-parameter and there are at least ``N`` of them (:func:`periodic_violation`).
+both ways. A seam on a densely sampled nose would make the view's ends (a fixed knot, the
+ends of the seed, sweeps and mend) split the nose: the view is then cut open where the
+data are sparsest instead, and the view's knot nearest the seam is moved onto it
+(:func:`closed_cut`). Schoenberg-Whitney for a periodic spline: every span in [0, 1) holds
+a data parameter and there are at least ``N`` of them (:func:`periodic_violation`).
 """
 
 from __future__ import annotations
@@ -257,9 +260,9 @@ def closed_cut(t: NDArray[np.float64], seam: int = 1) -> int:
     return int(np.argmax(pairs))
 
 
-def _cut_view(period_interior: NDArray[np.float64], cut_t: float) -> NDArray[np.float64]:
+def _cut_view(period: NDArray[np.float64], cut_t: float) -> NDArray[np.float64]:
     """Clamped knots of the driver's view cut at ``cut_t``: ``(κ − cut_t) mod 1``."""
-    moved = np.mod(np.asarray(period_interior, dtype=float) - cut_t, 1.0)
+    moved = np.mod(np.asarray(period, dtype=float) - cut_t, 1.0)
     return clamped_knots(np.sort(moved[moved > 0.0]))
 
 
@@ -272,10 +275,10 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     ``fit_at(periodic_knots, weights)`` fits on a periodic vector. The driver works on the
     clamped view (module docstring), cut open at :func:`closed_cut`: at the seam, or, when
     the seam lies on a dense nose, at the sparsest sample ``t_k`` (the view's ``t`` is
-    ``(t − t_k) mod 1``, its knots are the periodic ones less ``t_k``, and the seam keeps a
-    knot of its own). Counts are translated (``N`` periodic control points are
-    ``N + DEGREE + 1 − seam`` clamped ones at the seam cut, ``N + DEGREE − 1`` elsewhere)
-    and the chosen knots returned periodic.
+    ``(t − t_k) mod 1``, its interior knots are the periodic ones less ``t_k``; of the
+    view's knots the one nearest the seam is moved onto it, the seam staying a knot).
+    Counts are translated (``N`` periodic control points are ``N + DEGREE + 1 − seam``
+    clamped ones) and the chosen knots returned periodic.
     """
     t = np.asarray(t, dtype=float)
     given = options.knots
@@ -310,6 +313,8 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
             return knots
         if k == 0:
             return to_clamped(knots)
+        # the seam's knot is one the view moved there: left out (measured on the DCA
+        # rotor, a search started from the view's knots with it ended unfair at one seam)
         return _cut_view(period_of(knots)[period_of(knots) > 0.0], cut_t)
 
     offset = DEGREE + 1 - seam
