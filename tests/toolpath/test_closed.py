@@ -19,6 +19,7 @@ from toolpath import (
 )
 from toolpath.closure import read_seam
 from toolpath.errors import FitError, InvalidParameterError, InvalidPointsError
+from toolpath.fairness import curve_fairness
 from toolpath.paper_examples import bundled_data_path
 from toolpath.periodic import (
     from_clamped,
@@ -327,6 +328,16 @@ def test_fit_curve_closed_and_open_flags(tmp_path, capsys):
     assert curve_from_dict(json.loads(out.read_text())).closed
     assert main(["fit", "curve", str(blunt), "--method", "P0", "--closed"]) == 2
     assert "--closed needs a spline method" in capsys.readouterr().err
+
+
+def test_a_blunt_base_closed_on_request_reads_no_nose_round_its_seam():
+    # the base's two corners read as tight data circles; the fit's straight base between
+    # them is no nose error (fairness samples the closing interval of a closed fit)
+    blunt = _naca_section(120, base_mm=0.4)
+    curve = fit_bspline_curve(blunt, tol=0.01, closed=True)
+    fairness = curve_fairness(curve, blunt, closed=True)
+    assert curve.max_error <= 0.01
+    assert fairness.nose_error_mm <= 0.01 and fairness.n_concave == 0
 
 
 def test_fit_surface_closed_and_open_flags(tmp_path, capsys):
