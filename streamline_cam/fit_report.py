@@ -114,7 +114,7 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     elif method in LINEAR_MODELS:
         extra = {"A": curve.A.tolist(),
                  "notes": ["constant-coefficient model: tol is reported, not enforced"]}
-    fairness = curve_fairness(curve, points)
+    fairness = curve_fairness(curve, points, closed=bool(getattr(curve, "closed", False)))
     extra["fairness"] = fairness.as_dict()
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),

@@ -140,7 +140,8 @@ def fit_bspline_curve(
         return BSplineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
                             control_points=np.asarray(coef), closed=is_closed)
 
-    fair_check = curve_fair_check(make_curve, x, options.tol) if fair and options.tol else None
+    fair_check = (curve_fair_check(make_curve, x, options.tol, closed=is_closed)
+                  if fair and options.tol else None)
     if is_closed:
         coef, errors, knot_vector = adapt_closed_knots(
             x, t, x, fit_at, options, seam=seam_multiplicity(x, corner_angle_deg),

@@ -28,8 +28,10 @@ three consecutive points, ``P_{i−1} P_i P_{i+1}``, is under
 :data:`NOSE_MAX_LENGTH_FRACTION` of the section's length, with the points around it whose
 circle is within :data:`NOSE_RADIUS_FACTOR` of the peak's), the dense samples between
 consecutive nose points are compared with the two data circles at the interval's ends; the
-deviation is the smaller distance. Dense nose data define the nose circle to well under a
-micrometre, so this is the fit's error between the data there.
+deviation is the smaller distance (a circle on which the step spans more than
+:data:`NOSE_STEP_ARC_DEG` is no model of the curve between the points and is skipped).
+Dense nose data define the nose circle to well under a micrometre, so this is the fit's
+error between the data there.
 """
 
 from __future__ import annotations
@@ -75,6 +77,11 @@ WINDOW_STRETCHES = 4
 NOSE_MAX_LENGTH_FRACTION = 0.05
 #: The nose extends over the convex points whose circle is within this factor of the peak's.
 NOSE_RADIUS_FACTOR = 4.0
+#: A data circle models the curve between two points only where the step spans at most
+#: this arc of it (deg): dense nose samples span 4-15°; three points of a 60-point ellipse
+#: 23° apart on its 2.1 mm vertex circle miss the ellipse between them by 0.008 mm, and the
+#: two corners of a blunt base closed by ``--closed`` span about 90° over the base.
+NOSE_STEP_ARC_DEG = 20.0
 
 
 @dataclass(frozen=True)
@@ -449,8 +456,10 @@ def _nose_error(points, convex, closed, tt, x, per_interval) -> tuple[float, flo
     for i in np.flatnonzero(nose[:-1] & nose[1:]):
         sl = slice(i * per_interval, (i + 1) * per_interval + 1)
         dist = np.full(sl.stop - sl.start, np.inf)
+        step = np.linalg.norm(points[i + 1] - points[i])
         for j in (i, i + 1):
-            if not np.isfinite(radii[j]):
+            if not np.isfinite(radii[j]) or step > 2.0 * radii[j] * np.sin(
+                    np.radians(0.5 * NOSE_STEP_ARC_DEG)):
                 continue
             rel = x[sl] - centres[j]
             height = rel @ axes[j]
@@ -497,7 +506,8 @@ def curve_fairness(curve: Any, points: Any, *, closed: bool = False,
     points : array_like, shape (n, 2) or (n, 3)
         The data it was fitted to (mm), in order, at ``curve.params``.
     closed : bool
-        The last point repeats the first (the turning there wraps round).
+        A closed curve: the turning wraps round the seam and the samples cover [0, 1]
+        (``points`` may end with the first point again, at ``t = 1``, or not).
     min_depth_mm : float
         Depth (mm) from which a concave stretch counts.
     per_interval : int
@@ -505,6 +515,10 @@ def curve_fairness(curve: Any, points: Any, *, closed: bool = False,
     """
     data = _as_3d(points)
     t = np.asarray(curve.params, dtype=float)
+    if closed and t[-1] < 1.0:  # a closed fit's parameters stop short of the seam t = 1:
+        t = np.append(t, 1.0)  # sample the last interval too, round to the first point
+        if len(data) < t.size:
+            data = np.vstack((data, data[:1]))
     tt = dense_parameters(t, per_interval)
     x, xt, xtt = (_as_3d(np.asarray(v).reshape(tt.size, -1))
                   for v in (curve(tt), curve.derivative(tt, 1), curve.derivative(tt, 2)))

@@ -33,8 +33,11 @@ of the same knots (the period's interior knots between clamped ends at 0 and 1):
 seam is always a knot, the spans of the periodic spline in [0, 1) *are* the clamped spans,
 so corners, the ``|f''''|^{1/4}`` density, error sweeps, the tolerance search and the Lawson
 polish apply as they are; :func:`adapt_closed_knots` translates counts and knot vectors
-both ways. Schoenberg-Whitney for a periodic spline: every span in [0, 1) holds a data
-parameter and there are at least ``N`` of them (:func:`periodic_violation`).
+both ways. A seam on a densely sampled nose would make the view's ends (a fixed knot, the
+ends of the seed, sweeps and mend) split the nose: the view is then cut open where the
+data are sparsest instead, and the view's knot nearest the seam is moved onto it
+(:func:`closed_cut`). Schoenberg-Whitney for a periodic spline: every span in [0, 1) holds
+a data parameter and there are at least ``N`` of them (:func:`periodic_violation`).
 """
 
 from __future__ import annotations
@@ -56,6 +59,7 @@ from .splinefit import DEGREE, clamped_knots, interior_knots
 __all__ = [
     "TIE_BREAK",
     "adapt_closed_knots",
+    "closed_cut",
     "free_coefficients",
     "from_clamped",
     "is_periodic",
@@ -232,6 +236,36 @@ def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: floa
     return DEGREE if at_seam else 1
 
 
+#: The driver's cut moves off the seam when the seam's steps (in ``t``) are under this
+#: fraction of the mean pair of steps round the loop (the seam is on a dense nose).
+CUT_SPARSE_FRACTION = 0.5
+
+
+def closed_cut(t: NDArray[np.float64], seam: int = 1) -> int:
+    """Index of the sample where the knot driver cuts a closed loop open (0: at the seam).
+
+    The driver places knots on an interval; its two ends are a fixed knot and the ends of
+    its density seed, sweeps and mend. A seam on a nose sampled 100x denser than the flanks
+    (a trailing edge whose nose circle meets the flanks G1 only) would fix a knot there and
+    split the nose's knots, errors and repairs in two. So when the seam's two steps
+    (``t_1 − t_(n−1) + 1``) are under :data:`CUT_SPARSE_FRACTION` of the mean pair (the
+    seam is on densely sampled data) the loop is cut where its data are sparsest, at the
+    sample whose two steps are longest; else, and at a corner (``seam > 1``: a corner is
+    where a cut costs nothing), at the seam. ``t`` ends at the seam (``1``).
+    """
+    steps = np.diff(np.asarray(t, dtype=float))
+    pairs = steps + np.roll(steps, 1)  # pairs[k]: the steps either side of sample k
+    if seam > 1 or pairs[0] >= CUT_SPARSE_FRACTION * np.mean(pairs):
+        return 0
+    return int(np.argmax(pairs))
+
+
+def _cut_view(period: NDArray[np.float64], cut_t: float) -> NDArray[np.float64]:
+    """Clamped knots of the driver's view cut at ``cut_t``: ``(κ − cut_t) mod 1``."""
+    moved = np.mod(np.asarray(period, dtype=float) - cut_t, 1.0)
+    return clamped_knots(np.sort(moved[moved > 0.0]))
+
+
 def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
                        seed_values: NDArray[np.float64], fit_at, options, *,
                        seam: int = 1, fair_check=None):
@@ -239,9 +273,14 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
 
     ``points`` ``(n + 1, d)`` and ``t`` end at the seam (the first point again, ``t = 1``);
     ``fit_at(periodic_knots, weights)`` fits on a periodic vector. The driver works on the
-    clamped view (module docstring); counts are translated (``N`` periodic control points
-    are ``N + DEGREE + 1 − seam`` clamped ones) and the chosen knots returned periodic.
+    clamped view (module docstring), cut open at :func:`closed_cut`: at the seam, or, when
+    the seam lies on a dense nose, at the sparsest sample ``t_k`` (the view's ``t`` is
+    ``(t − t_k) mod 1``, its interior knots are the periodic ones less ``t_k``; of the
+    view's knots the one nearest the seam is moved onto it, the seam staying a knot).
+    Counts are translated (``N`` periodic control points are ``N + DEGREE + 1 − seam``
+    clamped ones) and the chosen knots returned periodic.
     """
+    t = np.asarray(t, dtype=float)
     given = options.knots
     if given is not None and is_periodic(given):  # a periodic vector to use as it is
         problem = periodic_violation(t, given)
@@ -249,6 +288,35 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
             raise InvalidParameterError(f"knots cannot be fitted: {problem}")
         seam = int(np.sum(period_of(given) == 0.0))
         given = to_clamped(given)
+    n = t.size - 1
+    k = 0 if given is not None else closed_cut(t, seam)
+    cut_t = float(t[k])
+    order = np.r_[k:n, 0:k, k]  # the view's samples, from the cut round to it again
+    view_t = np.r_[t[k:n] - cut_t, t[0:k] + 1.0 - cut_t, 1.0] if k else t
+    back = np.argsort(order[:-1], kind="stable")  # view row of each original sample
+
+    def to_period(knots: NDArray[np.float64]) -> NDArray[np.float64]:
+        if k == 0:
+            return from_clamped(knots, seam)
+        inner = np.sort(np.r_[np.mod(interior_knots(np.asarray(knots, float)) + cut_t, 1.0),
+                              cut_t])
+        # the seam must be a knot (the stored vector's base interval starts there): the
+        # view's knot nearest to it moves there, so the count stays the view's
+        for j in np.argsort(np.minimum(inner, 1.0 - inner))[:2]:
+            moved = from_clamped(clamped_knots(np.delete(inner, j)), seam)
+            if periodic_violation(t, moved) is None:
+                return moved
+        return from_clamped(clamped_knots(inner), seam)
+
+    def to_view(knots: NDArray[np.float64]) -> NDArray[np.float64]:
+        if not is_periodic(knots):
+            return knots
+        if k == 0:
+            return to_clamped(knots)
+        # the seam's knot is one the view moved there: left out (measured on the DCA
+        # rotor, a search started from the view's knots with it ended unfair at one seam)
+        return _cut_view(period_of(knots)[period_of(knots) > 0.0], cut_t)
+
     offset = DEGREE + 1 - seam
     start = options.start_knots
     driver = dataclasses.replace(
@@ -257,17 +325,34 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
                           else options.n_control_points + offset),
         max_control_points=(None if options.max_control_points is None
                             else options.max_control_points + offset),
-        start_knots=to_clamped(start) if start is not None and is_periodic(start) else start)
+        start_knots=None if start is None else to_view(start))
+
+    def in_view(errors: NDArray[np.float64]) -> NDArray[np.float64]:
+        return errors if k == 0 else np.asarray(errors)[order]
 
     def wrapped(knots: NDArray[np.float64], weights: NDArray[np.float64] | None):
-        return fit_at(from_clamped(knots, seam), weights)
+        if weights is not None and k:
+            weights = np.asarray(weights)[np.r_[back, back[0]]]  # original order
+        fit, errors = fit_at(to_period(knots), weights)
+        return fit, in_view(errors)
+
+    def view_stretch(stretch):
+        lo, hi, *rest = stretch
+        lo, hi = (float(np.mod(v - cut_t, 1.0)) for v in (lo, hi))
+        return (lo, hi if hi >= lo else 1.0, *rest)
 
     wrapped_check = None if fair_check is None else (
-        lambda fit, knots: fair_check(fit, from_clamped(knots, seam)))
+        lambda fit, knots: [view_stretch(s) if k else s
+                            for s in fair_check(fit, to_period(knots))])
+    view_points = np.asarray(points)[order] if k else points
+    view_seed = np.asarray(seed_values)[order] if k else seed_values
     try:
-        fit, errors, knots = adapt_knots(points, t, seed_values, wrapped, driver, wrapped_check)
+        fit, errors, knots = adapt_knots(view_points, view_t, view_seed, wrapped, driver,
+                                         wrapped_check)
     except FitError as exc:  # counts in the message are the driver's (clamped) ones
         raise FitError(re.sub(r"with (\d+) control points",
                               lambda m: f"with {int(m.group(1)) - offset} control points",
                               str(exc))) from None
-    return fit, errors, from_clamped(knots, seam)
+    if k:
+        errors = np.asarray(errors)[np.r_[back, back[0]]]
+    return fit, errors, to_period(knots)

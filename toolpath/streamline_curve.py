@@ -422,8 +422,8 @@ def fit_streamline_curve(
                                    T=frame.T, c=frame.c, x0=x[0].copy(),
                                    g_coefficients=np.asarray(coef), closed=is_closed)
 
-        fair_check = (curve_fair_check(make_curve, x, options.tol) if fair and options.tol
-                      else None)
+        fair_check = (curve_fair_check(make_curve, x, options.tol, closed=is_closed)
+                      if fair and options.tol else None)
         try:
             if is_closed:
                 coef, errors, knot_vector = adapt_closed_knots(

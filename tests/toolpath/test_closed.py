@@ -19,6 +19,7 @@ from toolpath import (
 )
 from toolpath.closure import read_seam
 from toolpath.errors import FitError, InvalidParameterError, InvalidPointsError
+from toolpath.fairness import curve_fairness
 from toolpath.paper_examples import bundled_data_path
 from toolpath.periodic import (
     from_clamped,
@@ -210,8 +211,11 @@ def test_closed_curve_json_and_given_knots(fit):
     assert np.array_equal(again(t), curve(t))
     # the same knots, given periodic, give the same fit; a clamped vector's interior knots
     # are used with a seam knot
+    # (a streamline fit picks its frame on the knots it is given, the first fit on its
+    # B-spline probe's: the frames' margins may differ, the error by a few per cent)
     same = fit(section, knots=curve.knots, closed=True)
-    assert np.array_equal(same.knots, curve.knots) and np.isclose(same.max_error, curve.max_error)
+    assert np.array_equal(same.knots, curve.knots)
+    assert np.isclose(same.max_error, curve.max_error, rtol=0.05)
     clamped = fit(section, knots=np.r_[[0.0] * 4, np.linspace(0, 1, 12)[1:-1], [1.0] * 4],
                   closed=True)
     assert clamped.n_control_points == 11 and is_periodic(clamped.knots)
@@ -325,6 +329,16 @@ def test_fit_curve_closed_and_open_flags(tmp_path, capsys):
     assert curve_from_dict(json.loads(out.read_text())).closed
     assert main(["fit", "curve", str(blunt), "--method", "P0", "--closed"]) == 2
     assert "--closed needs a spline method" in capsys.readouterr().err
+
+
+def test_a_blunt_base_closed_on_request_reads_no_nose_round_its_seam():
+    # the base's two corners read as tight data circles; the fit's straight base between
+    # them is no nose error (fairness samples the closing interval of a closed fit)
+    blunt = _naca_section(120, base_mm=0.4)
+    curve = fit_bspline_curve(blunt, tol=0.01, closed=True)
+    fairness = curve_fairness(curve, blunt, closed=True)
+    assert curve.max_error <= 0.01
+    assert fairness.nose_error_mm <= 0.01 and fairness.n_concave == 0
 
 
 def test_fit_surface_closed_and_open_flags(tmp_path, capsys):
