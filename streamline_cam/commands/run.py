@@ -9,6 +9,7 @@ from pathlib import Path
 from ..pipeline import JobRequest, run_job
 from ..progress import StageBars
 from ..streaming import make_streamer
+from .plan import add_gouge_arguments, gouge_options
 
 __all__ = ["register"]
 
@@ -30,6 +31,9 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--placement", choices=("auto", "flat", "upright", "none"),
                         default="auto", help="how the part sits on the table")
     parser.add_argument("--dialect", help="override the machine's G-code dialect")
+    parser.add_argument("--clearance", type=float, default=5.0,
+                        help="clearance above the part for rapids, mm (5)")
+    add_gouge_arguments(parser)
 
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
@@ -38,7 +42,8 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         sections_path=points, machine=args.machine, cutter=args.cutter,
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
-        linking=args.linking, placement=args.placement, dialect=args.dialect)
+        linking=args.linking, placement=args.placement, dialect=args.dialect,
+        planning_options={"clearance_mm": args.clearance} | gouge_options(args))
 
 
 def report_lines(report: dict) -> list[str]:

@@ -46,9 +46,11 @@ __all__ = [
     "sample_surface",
 ]
 
-GOUGE_TOL_MM: Final[float] = 1e-4
-"""Penetration counted as a gouge, mm: far below a machine's 1 um resolution, far above the
-1e-12 mm round-off of exact contacts."""
+GOUGE_TOL_MM: Final[float] = 1e-3
+"""Penetration counted as a gouge, mm: the 1 um grid the G-code writes coordinates to
+(rounding to it moves the cutter by up to about that: a shallower cut is not one a program
+can avoid), far above the 1e-12 mm round-off of exact contacts, and a tenth of a finishing
+chord tolerance (chords dip into convex surfaces by up to that by design)."""
 
 CLEARANCE_HORIZON_MM: Final[float] = 0.1
 """Clearances are resolved up to this distance, mm; larger ones read ``inf``. It keeps the
