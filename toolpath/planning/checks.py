@@ -64,8 +64,8 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
         stats["shadowed"] = int(far_bad.sum())
         far_bad = np.zeros_like(far_bad)
     depth = np.maximum(-clr.near_mm, 0.0)
-    maybe = np.flatnonzero((depth <= tol) & keep[idx] & (local_depth_mm(
-        frame_take(pts.frame, idx), cutter, pts.axes[idx]) > tol))
+    curved = local_depth_mm(frame_take(pts.frame, idx), cutter, pts.axes[idx]) > tol
+    maybe = np.flatnonzero((depth <= tol) & keep[idx] & curved)
     if maybe.size:  # the curvature says it may sink in: measure how deep
         at = idx[maybe]
         depth[maybe] = measured_depth(surface, cutter, pts, at, pts.tips[at], pts.axes[at],
@@ -81,8 +81,11 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
         if opts.on_gouge is OnGouge.LIFT:
             found = _scatter(np.maximum(depth, -clr.far_mm), idx, len(pts))
             fixed = opts.axis_mode is AxisMode.FIXED
+            curved_all = np.zeros(len(pts), dtype=bool)
+            curved_all[idx] = curved
             tips, lift, stuck = lift_gouges(surface, cutter, pts, where, found, samples,
-                                            tol_mm=tol, flutes=opts.check_flutes, drop=fixed)
+                                            tol_mm=tol, flutes=opts.check_flutes, drop=fixed,
+                                            curved=curved_all)
             pts = with_tips(pts, pts.axes, tips)
             if stuck.size:
                 # a wall along the fixed axis: no lift clears it, the tool cannot cut there
@@ -246,8 +249,8 @@ def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
         where = (f"toolpath point {i} ({MoveKind(int(path.kinds[i])).name}"
                  + (f", pass {int(path.pass_index[i])}" if path.pass_index[i] >= 0 else "")
                  + f", tip {np.round(path.positions_mm[i], 3).tolist()} mm in the workpiece "
-                 f"frame); move the part (work offset, --translate), or --on-limit report to plan "
-                 "anyway and only report it")
+                 "frame); move the part (the work offset: --translate with plan, --placement "
+                 "with run), or --on-limit report to plan anyway and only report it")
         raise PlanTravelLimitError(travel, where)
     time_s = float(np.maximum(durations, limit_s).sum())
     return {"travel": tuple(travel), "rates": tuple(rates), "time_s": time_s,

@@ -114,8 +114,9 @@ def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
     if not mach.kinematics.is_five_axis:
         if opts.axis_mode is AxisMode.LEAD_TILT:
             raise UnreachableOrientationError(
-                f"axis_mode='lead-tilt' needs a 5-axis machine: machine {mach.name!r} is "
-                f"3-axis and holds the tool along +Z only; use axis_mode='3'", indices=[])
+                f"--axis lead-tilt (axis_mode='lead-tilt') needs a 5-axis machine: machine "
+                f"{mach.name!r} is 3-axis and holds the tool along +Z only; use --axis 3",
+                indices=[])
         if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=1e-9):
             raise UnreachableOrientationError(
                 f"fixed_axis={opts.fixed_axis!r} is not +Z: the 3-axis machine {mach.name!r} "
@@ -595,7 +596,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
             "linking='spiral' needs closed sections (surface.closed_t): this surface's "
-            "passes are open; use linking='zigzag' or 'oneway'")
+            "passes are open; use --linking zigzag or oneway")
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
@@ -621,7 +622,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         raise UnreachableRegionError(
             f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
             f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
-            "fixed_axis or axis_mode='lead-tilt'")
+            "--fixed-axis or --axis lead-tilt")
     if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
         raise _probe_gouge(surface, probe, cutter, t_probe, s_probe, opts.gouge_tol_mm)
 
