@@ -57,6 +57,9 @@ def report_lines(report: dict) -> list[str]:
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
+        *([f"gouge      {plan['n_lifted']} point(s) lifted clear (max {plan['max_lift_mm']:.4f} "
+            f"mm, material left there), {plan['n_retilted']} re-tilted"]
+          if plan.get("n_lifted") or plan.get("n_retilted") else []),
         f"program    {program['lines']} lines, estimated {program['time_s'] / 60:.1f} min",
         f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
     ]

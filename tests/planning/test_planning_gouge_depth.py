@@ -117,3 +117,20 @@ def test_plan_cli_refuses_a_notch_then_lifts_it_clear(tmp_path, capsys):
     # dips into a convex surface (the request) and the rounding
     assert deepest["--gouge-tol"] > 0.05
     assert deepest["--on-gouge"] <= 0.01 + 0.001
+
+
+def test_run_hands_the_gouge_flags_to_the_planner():
+    import argparse
+    from pathlib import Path
+
+    from streamline_cam.commands.run import add_job_arguments, request_from_args
+
+    parser = argparse.ArgumentParser()
+    add_job_arguments(parser)
+    args = parser.parse_args(["--on-gouge", "lift", "--gouge-tol", "0.002", "--on-limit",
+                              "report", "--lead-radius", "0", "--clearance", "8"])
+    options = request_from_args(Path("blade.csv"), args).planning_options
+    assert options == {"on_gouge": "lift", "gouge_tol_mm": 0.002, "on_limit": "report",
+                       "lead_radius_mm": 0.0, "approach_mm": 2.0, "clearance_mm": 8.0}
+    defaults = request_from_args(Path("blade.csv"), parser.parse_args([])).planning_options
+    assert defaults["on_gouge"] == "raise" and defaults["gouge_tol_mm"] == GOUGE_TOL_MM
