@@ -92,7 +92,11 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 keep = keep.copy()
                 keep[stuck] = False
                 stats["shadowed"] = stats.get("shadowed", 0) + int(stuck.size)
-            stats["n_lifted"] = int(where.size - stuck.size)
+            lifted = np.setdiff1d(where, stuck)
+            keep, dropped = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
+            if dropped:
+                stats["shadowed"] = stats.get("shadowed", 0) + dropped
+            stats["n_lifted"] = int(keep[lifted].sum())
             stats["max_lift_mm"] = float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
@@ -179,6 +183,59 @@ def _gouge_error(surface: ParametricSurface, cutter: Cutter, pts: PassPoints, i:
                  f"({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) mm, {gap:.3f} mm from the contact), "
                  f"{what}; use " + remedy)
     return gouge_error(pts, i, cutter, depth, cause)
+
+
+#: Rounds of :func:`_lifted_moves` (each drops the ends of the moves that still gouge).
+LIFTED_MOVE_ROUNDS = 8
+
+
+def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
+                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions
+                  ) -> tuple[NDArray[np.bool_], int]:
+    """Check the cutting moves once points were lifted; returns ``keep`` and drops.
+
+    A lifted location is clear, but the straight move from it to a neighbour (chosen
+    before the lift) may still cut through what the lift avoided, and where the surface
+    folds (a fit's fold at a sharp edge) the chord check, which measures the gap to the
+    surface next to the move, may not see the fold's other side. Points a cutter radius
+    apart along every cutting move must clear the surface samples by the chord tolerance
+    (a move along a pass may dip that much). 3-axis: both ends of such a move are dropped
+    (left uncut, as shadowed), until none is left; 5-axis: a GougeError naming it.
+    """
+    keep = keep.copy()
+    dropped = 0
+    if not lifted.size:
+        return keep, dropped
+    for _ in range(LIFTED_MOVE_ROUNDS):
+        a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
+        b_i = a_i + 1
+        if not a_i.size:
+            break
+        a, b = pts.tips[a_i], pts.tips[b_i]
+        pieces = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1)
+                                    / cutter.radius_mm).astype(np.int64), 1) + 1
+        owner = np.repeat(np.arange(a_i.size), pieces)
+        first = np.r_[0, np.cumsum(pieces)[:-1]]
+        u = ((np.arange(pieces.sum()) - first[owner] + 1) / (pieces[owner] + 1))[:, None]
+        along = a[owner] * (1 - u) + b[owner] * u
+        axes = pts.axes[a_i][owner] * (1 - u) + pts.axes[b_i][owner] * u
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        clr = global_clearance(cutter, along, axes, samples, flutes=opts.check_flutes)
+        worst = np.full(a_i.size, np.inf)
+        np.minimum.at(worst, owner, clr.min_mm)
+        bad = worst < -opts.chord_tol_mm
+        if not bad.any():
+            break
+        if opts.axis_mode is not AxisMode.FIXED:
+            k = int(np.flatnonzero(bad)[0])
+            raise gouge_error(pts, int(a_i[k]), cutter, -float(worst[k]),
+                              "with the gouges lifted clear, the cutting move from there to "
+                              "the next point still cuts that deep (a fold of the surface, or "
+                              "a lifted neighbour); use --on-gouge retilt or a smaller cutter")
+        out = np.unique(np.r_[a_i[bad], b_i[bad]])
+        keep[out] = False
+        dropped += int(out.size)
+    return keep, dropped
 
 
 def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
