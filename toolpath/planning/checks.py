@@ -187,6 +187,10 @@ def _gouge_error(surface: ParametricSurface, cutter: Cutter, pts: PassPoints, i:
 
 #: Rounds of :func:`_lifted_moves` (each drops the ends of the moves that still gouge).
 LIFTED_MOVE_ROUNDS = 8
+#: Points checked inside each cutting move after a lift: every 0.1 mm, at least 4 (a move
+#: grazing a fold or a sharp nose digs in over a stretch of about the nose's size).
+LIFTED_MOVE_POINTS_PER_MM = 10.0
+LIFTED_MOVE_MIN_POINTS = 4
 
 
 def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
@@ -197,10 +201,11 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
     A lifted location is clear, but the straight move from it to a neighbour (chosen
     before the lift) may still cut through what the lift avoided, and where the surface
     folds (a fit's fold at a sharp edge) the chord check, which measures the gap to the
-    surface next to the move, may not see the fold's other side. Points a cutter radius
-    apart along every cutting move must clear the surface samples by the chord tolerance
-    (a move along a pass may dip that much). 3-axis: both ends of such a move are dropped
-    (left uncut, as shadowed), until none is left; 5-axis: a GougeError naming it.
+    surface next to the move, may not see the fold's other side. Points along every
+    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by the
+    chord tolerance (a move along a pass may dip that much). 3-axis: both ends of such a
+    move are dropped (left uncut, as shadowed), until none is left; 5-axis: a GougeError
+    naming it.
     """
     keep = keep.copy()
     dropped = 0
@@ -212,8 +217,8 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
         if not a_i.size:
             break
         a, b = pts.tips[a_i], pts.tips[b_i]
-        pieces = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1)
-                                    / cutter.radius_mm).astype(np.int64), 1) + 1
+        pieces = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) * LIFTED_MOVE_POINTS_PER_MM)
+                            .astype(np.int64), LIFTED_MOVE_MIN_POINTS)
         owner = np.repeat(np.arange(a_i.size), pieces)
         first = np.r_[0, np.cumsum(pieces)[:-1]]
         u = ((np.arange(pieces.sum()) - first[owner] + 1) / (pieces[owner] + 1))[:, None]
