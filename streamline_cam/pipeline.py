@@ -296,7 +296,9 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
                          "measured_chord_mm": plan_report.max_chord_error_mm})
         over_scallop = (plan_report.max_scallop_mm or 0.0) / scallop_mm
         over_chord = (plan_report.max_chord_error_mm or 0.0) / chord_mm
-        if max(over_scallop, over_chord) <= 1.0:
+        if max(over_scallop, over_chord) <= 1.0 or plan_report.n_lifted:
+            # (lifted clear of a gouge, the cutter leaves material the measurement counts;
+            # no tighter request removes it)
             break
         # the measured result exceeds what was asked: ask again, tighter by the excess
         scallop_mm *= REPLAN_MARGIN / over_scallop if over_scallop > 1.0 else 1.0

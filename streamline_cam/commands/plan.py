@@ -22,12 +22,13 @@ from machines import list_machines
 from toolpath.errors import DataFileError, ToolpathError
 from toolpath.planning import analytic_surface_from_dict, plan_finishing
 from toolpath.planning.cutters import CUTTER_SPEC_HELP
+from toolpath.planning.gouge import GOUGE_TOL_MM
 from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
 from toolpath.surface import ParametricSurface
 
 from ..surface_args import add_placement_arguments, parse_vector, placed_surface
 
-__all__ = ["load_surface", "register", "run_plan"]
+__all__ = ["add_gouge_arguments", "gouge_options", "load_surface", "register", "run_plan"]
 
 
 def load_surface(path: str | Path) -> ParametricSurface:
@@ -57,6 +58,36 @@ def load_surface(path: str | Path) -> ParametricSurface:
         raise DataFileError(str(exc), path=str(path)) from None
 
 
+def add_gouge_arguments(parser: argparse.ArgumentParser) -> None:
+    """``--on-gouge``, ``--gouge-tol``, ``--on-limit``, ``--lead-radius``, ``--approach``.
+
+    Shared by ``plan`` and ``run``: the flags planner messages name as remedies.
+    """
+    parser.add_argument(
+        "--on-gouge", default="raise", choices=["raise", "lift", "retilt"],
+        help="where the cutter would cut deeper than --gouge-tol into the surface: stop "
+             "naming the place (raise), lift it clear along its axis, leaving material "
+             "(lift), or try other lead/tilt angles (retilt, 5-axis) (raise)")
+    parser.add_argument(
+        "--gouge-tol", type=float, default=GOUGE_TOL_MM,
+        help=f"deepest cut into the surface not counted as a gouge, mm ({GOUGE_TOL_MM:g}); "
+             "a concave radius smaller than the cutter costing less (a fit's ripple) passes")
+    parser.add_argument("--on-limit", default="raise", choices=["raise", "report"],
+                        help="machine travel exceeded: stop (raise) or only report")
+    parser.add_argument("--lead-radius", type=float, default=None,
+                        help="radius of the lead-in/out arcs, mm (0: none; default the "
+                             "cutter radius)")
+    parser.add_argument("--approach", type=float, default=2.0,
+                        help="rapid down to this height above a lead-in, then plunge, mm (2)")
+
+
+def gouge_options(args: argparse.Namespace) -> dict[str, Any]:
+    """The planner's options set by :func:`add_gouge_arguments`."""
+    return {"on_gouge": args.on_gouge, "gouge_tol_mm": args.gouge_tol,
+            "on_limit": args.on_limit, "lead_radius_mm": args.lead_radius,
+            "approach_mm": args.approach}
+
+
 def register(commands: argparse._SubParsersAction) -> None:
     """Add ``plan`` to the ``toolpath`` sub-commands."""
     p = commands.add_parser(
@@ -83,9 +114,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                         "core radius R - r for flat and bull-nose cutters)")
     p.add_argument("--min-cone", type=float, default=None,
                    help="keep the tool axis this far from +Z, deg (singular cone)")
-    p.add_argument("--on-gouge", default="raise", choices=["raise", "lift", "retilt"])
-    p.add_argument("--on-limit", default="raise", choices=["raise", "report"],
-                   help="machine travel exceeded: stop (raise) or only report")
+    add_gouge_arguments(p)
     add_placement_arguments(p)
     p.add_argument("--no-measure", action="store_true",
                    help="skip measuring scallop and chord error on the result")
@@ -101,8 +130,8 @@ def run_plan(args: argparse.Namespace) -> int:
     options: dict[str, Any] = {
         "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
         "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
-        "extend_mm": args.extend, "min_cone_deg": args.min_cone, "on_gouge": args.on_gouge,
-        "on_limit": args.on_limit, "measure": not args.no_measure}
+        "extend_mm": args.extend, "min_cone_deg": args.min_cone,
+        "measure": not args.no_measure} | gouge_options(args)
     with tqdm(total=100, desc="planning", unit="%", file=sys.stderr, leave=False,
               bar_format="{desc:<22}{bar}| {percentage:3.0f}% {elapsed}") as bar:
         def progress(stage: str, fraction: float) -> None:

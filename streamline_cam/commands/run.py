@@ -10,6 +10,7 @@ from ..cli import add_closure_arguments
 from ..pipeline import JobRequest, run_job
 from ..progress import StageBars
 from ..streaming import make_streamer
+from .plan import add_gouge_arguments, gouge_options
 
 __all__ = ["register"]
 
@@ -32,6 +33,9 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
                         default="auto", help="how the part sits on the table")
     parser.add_argument("--dialect", help="override the machine's G-code dialect")
     add_closure_arguments(parser)
+    parser.add_argument("--clearance", type=float, default=5.0,
+                        help="clearance above the part for rapids, mm (5)")
+    add_gouge_arguments(parser)
 
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
@@ -41,7 +45,8 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
         linking=args.linking, placement=args.placement, dialect=args.dialect,
-        closed=getattr(args, "closed", None))
+        closed=getattr(args, "closed", None),
+        planning_options={"clearance_mm": args.clearance} | gouge_options(args))
 
 
 def report_lines(report: dict) -> list[str]:
@@ -57,6 +62,9 @@ def report_lines(report: dict) -> list[str]:
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
         *_setup_lines(report),
+        *([f"gouge      {plan['n_lifted']} point(s) lifted clear (max {plan['max_lift_mm']:.4f} "
+            f"mm, material left there), {plan['n_retilted']} re-tilted"]
+          if plan.get("n_lifted") or plan.get("n_retilted") else []),
         f"program    {program['lines']} lines, estimated {program['time_s'] / 60:.1f} min",
         f"check      {check['errors']} error(s), {check['warnings']} warning(s)",
     ]

@@ -7,6 +7,7 @@ so the HTTP side reads it from SQLite whatever the executor.
 
 from __future__ import annotations
 
+import re
 import time
 import traceback
 from pathlib import Path
@@ -19,7 +20,7 @@ from toolpath.errors import ToolpathError
 from ..pipeline import JobRequest, run_job
 from .store import JobStore
 
-__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "run_stored_job"]
+__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "as_job_fields", "run_stored_job"]
 
 PROGRESS_INTERVAL_S: Final[float] = 0.25
 """Least time between two progress writes of one stage (s): a poll every second or so
@@ -27,6 +28,34 @@ sees movement, and the planner's fine-grained callbacks cost no disk traffic."""
 
 #: The library's own error families: bad input or a request the library refuses.
 USER_ERRORS: Final = (ToolpathError, MachineError, GCodeError)
+
+
+#: Command-line flags that library messages name as remedies, and the job's JSON field
+#: each sets (``planning_options`` holds the planner's own options).
+FLAG_FIELDS: Final[dict[str, str]] = {
+    "--on-gouge": "planning_options.on_gouge", "--gouge-tol": "planning_options.gouge_tol_mm",
+    "--on-limit": "planning_options.on_limit", "--clearance": "planning_options.clearance_mm",
+    "--approach": "planning_options.approach_mm",
+    "--lead-radius": "planning_options.lead_radius_mm", "--lead": "lead_deg",
+    "--tilt": "tilt_deg", "--fit-tol": "fit_tol_mm", "--cutter": "cutter",
+    "--scallop": "scallop_mm", "--chord-tol": "chord_tol_mm", "--machine": "machine",
+}
+_FLAG = re.compile(r"(--[a-z][a-z-]*)(?: (raise|lift|retilt|report)\b)?")
+
+
+def as_job_fields(message: str) -> str:
+    """A library message for a job's client: command-line flags named as JSON fields.
+
+    ``use --on-gouge lift`` reads ``use planning_options.on_gouge="lift"``; flags with no
+    field stay as they are.
+    """
+    def field(match: re.Match[str]) -> str:
+        flag, choice = match.group(1), match.group(2)
+        if flag not in FLAG_FIELDS:
+            return match.group(0)
+        return FLAG_FIELDS[flag] + (f'="{choice}"' if choice else "")
+
+    return _FLAG.sub(field, message)
 
 
 class _Progress:
@@ -68,7 +97,7 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> s
         result = run_job(request, job_dir, progress=_Progress(store, job_id, attempt),
                          verify=True)
     except USER_ERRORS as exc:
-        kept = store.fail(job_id, attempt, str(exc), type(exc).__name__)
+        kept = store.fail(job_id, attempt, as_job_fields(str(exc)), type(exc).__name__)
     except Exception as exc:  # a bug: keep the service up, the traceback on disk
         (job_dir / "traceback.txt").write_text(traceback.format_exc(), encoding="utf-8")
         kept = store.fail(job_id, attempt, f"internal error ({type(exc).__name__}: {exc}); "

@@ -35,11 +35,23 @@ def test_cutter_larger_than_the_pocket_radius_is_refused_naming_the_place():
     with pytest.raises(GougeError) as err:
         plan_finishing(POCKET, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01)
     text = str(err.value)
-    assert "ball:6" in text and "2.6667 mm" in text and "t=0.50000, s=0.50000" in text
-    assert "radius < 2.667" in text
-    assert err.value.t == pytest.approx(0.5)
-    # the depth reported is measured: a dense local sample of the pocket
-    assert err.value.depth_mm == pytest.approx(0.0064, abs=0.0005)
+    # the smallest concave radius where it gouges (the bottom), the largest cutter that fits
+    assert "ball:6" in text and "2.6667 mm at t=0.50000, s=0.50000" in text
+    assert "radius < 2.667" in text and "--on-gouge lift" in text and "--gouge-tol" in text
+    # the depth reported is the deepest measured, where it is: a dense sample of the
+    # pocket round that contact finds the same
+    err_t, err_s = err.value.t, err.value.s
+    assert f"would cut {err.value.depth_mm:.4f} mm" in text
+    assert f"t={err_t:.5f}, s={err_s:.5f}" in text
+    cutter = parse_cutter("ball:6")
+    contact, normal = POCKET(err_t, err_s), POCKET.normal(err_t, err_s)
+    up = np.array([0.0, 0.0, 1.0])
+    tip = cutter.tips_from_contacts(contact[None], normal[None], up[None])
+    g = np.linspace(0.0, 1.0, 801)
+    dense = POCKET(g, g, grid=True).reshape(-1, 3)
+    brute = -cutter.signed_distance(dense, tip, up[None]).min()
+    assert err.value.depth_mm == pytest.approx(brute, rel=0.02)
+    assert err.value.depth_mm > 0.005
     # a cutter that fits plans without complaint
     _, rep = plan_finishing(POCKET, "ball:5", scallop_mm=0.02, chord_tol_mm=0.01,
                             measure=False)

@@ -2,7 +2,7 @@
 
 * :func:`gouge_stage`: the local (curvature) and global (samples) gouge checks of the cut
   points, then ``on_gouge`` (3-axis: points whose tool would hit another part of the
-  surface are not reachable, they are dropped and reported as shadowed);
+  surface, or that no lift clears, are not reachable: dropped and reported as shadowed);
 * :func:`check_links`: every non-cutting position, and points a cutter radius apart along
   the linking moves, must clear the surface;
 * :func:`machine_stage`: inverse kinematics, travel (raise or report) and rate limits,
@@ -22,12 +22,19 @@ from machines.limits import check_rates, check_travel, min_segment_times
 
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
-from .avoid import gouge_depth_mm, gouge_error, lift_gouges, local_depth_mm, retilt_gouges
+from .avoid import (
+    depth_text,
+    gouge_error,
+    lift_gouges,
+    local_depth_mm,
+    measured_depth,
+    retilt_gouges,
+)
 from .cutters import Cutter
 from .errors import GougeError, PlanTravelLimitError
-from .gouge import SurfaceSamples, global_clearance
+from .gouge import Clearance, SurfaceSamples, global_clearance, local_margin
 from .options import AxisMode, FinishingOptions, OnGouge, OnLimit
-from .passes import PassPoints, with_tips
+from .passes import PassPoints, frame_take, with_tips
 from .travel import fit_travel
 
 __all__ = ["check_links", "gouge_stage", "machine_stage"]
@@ -37,13 +44,18 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                  res: dict[str, float], pts: PassPoints, keep: NDArray[np.bool_],
                  samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_],
                                                    dict[str, Any]]:
-    """Local and global gouge checks on the kept points, then ``on_gouge``."""
+    """Gouge checks on the kept points, then ``on_gouge``.
+
+    A location gouges where it sinks deeper than ``gouge_tol_mm`` into the surface: by the
+    sample check, or, where the curvature at its contact out-curves the cutter (the local
+    check), by the depth measured round the contact (:func:`~.avoid.gouge_depth_mm`); a
+    concave radius smaller than the cutter that costs less is no gouge (a ripple of a fit).
+    """
     tol = opts.gouge_tol_mm
     idx = np.flatnonzero(keep)
     rows = slice(None) if idx.size == len(pts) else idx  # (every point kept: no copies)
     clr = global_clearance(cutter, pts.tips[rows], pts.axes[rows], samples,
                            contacts_mm=pts.frame.point[rows], flutes=opts.check_flutes)
-    depth = local_depth_mm(pts.frame, cutter, pts.axes)
     stats: dict[str, Any] = {"n_lifted": 0, "max_lift_mm": 0.0, "n_retilted": 0}
     far_bad = clr.far_mm < -tol
     if opts.axis_mode is AxisMode.FIXED and far_bad.any():
@@ -52,42 +64,46 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
         keep[idx[far_bad]] = False
         stats["shadowed"] = int(far_bad.sum())
         far_bad = np.zeros_like(far_bad)
-    near_bad = (clr.near_mm < -tol) | (depth[idx] > tol)
+    depth = np.maximum(-clr.near_mm, 0.0)
+    curved = local_depth_mm(frame_take(pts.frame, idx), cutter, pts.axes[idx]) > tol
+    maybe = np.flatnonzero((depth <= tol) & keep[idx] & curved)
+    if maybe.size:  # the curvature says it may sink in: measure how deep
+        at = idx[maybe]
+        depth[maybe] = measured_depth(surface, cutter, pts, at, pts.tips[at], pts.axes[at],
+                                 stop_mm=tol).depth_mm
+    near_bad = depth > tol
     bad = (near_bad | far_bad) & keep[idx]
     if bad.any():
         where = idx[bad]
         if opts.on_gouge is OnGouge.RAISE:
-            i = int(where[0])
             k = int(np.flatnonzero(bad)[0])
-            sample = clr.far_sample[k] if far_bad[k] else clr.near_sample[k]
-            kmax = float(pts.frame.max_concave_curvature[i])
-            if far_bad[k]:
-                cause = (f"the cutter hits the surface at t={samples.t[sample]:.5f}, "
-                         f"s={samples.s[sample]:.5f} (another part of the surface); "
-                         "re-tilt (on_gouge='retilt') or change lead/tilt")
-                amount = -float(clr.far_mm[k])
-            else:
-                radius = 1.0 / kmax if kmax > 0 else float("inf")
-                cause = (f"the surface's concave radius there is {radius:.4f} mm, smaller "
-                         f"than the cutter (radius {cutter.radius_mm:g} mm); use a cutter "
-                         f"of radius < {radius:.3f} mm, or on_gouge='lift'")
-                amount = gouge_depth_mm(surface, cutter, float(pts.t[i]), float(pts.s[i]),
-                                        pts.axes[i])
-            raise gouge_error(pts, i, cutter, amount, cause)
-        clr_all = type(clr)(
-            near_mm=_scatter(clr.near_mm, idx, len(pts)), far_mm=_scatter(clr.far_mm, idx,
-                                                                          len(pts)),
-            near_sample=np.zeros(len(pts), dtype=np.int64),
-            far_sample=np.zeros(len(pts), dtype=np.int64))
+            raise _gouge_error(surface, cutter, pts, int(idx[k]), clr, k, samples,
+                               far=bool(far_bad[k]))
         if opts.on_gouge is OnGouge.LIFT:
-            tips, lift = lift_gouges(cutter, pts, where, clr_all, depth, samples, tol_mm=tol,
-                                     flutes=opts.check_flutes)
+            found = _scatter(np.maximum(depth, -clr.far_mm), idx, len(pts))
+            fixed = opts.axis_mode is AxisMode.FIXED
+            curved_all = np.zeros(len(pts), dtype=bool)
+            curved_all[idx] = curved
+            tips, lift, stuck = lift_gouges(surface, cutter, pts, where, found, samples,
+                                            tol_mm=tol, flutes=opts.check_flutes, drop=fixed,
+                                            curved=curved_all)
             pts = with_tips(pts, pts.axes, tips)
-            stats["n_lifted"], stats["max_lift_mm"] = int(where.size), float(lift.max())
+            if stuck.size:
+                # a wall along the fixed axis: no lift clears it, the tool cannot cut there
+                keep = keep.copy()
+                keep[stuck] = False
+                stats["shadowed"] = stats.get("shadowed", 0) + int(stuck.size)
+            lifted = np.setdiff1d(where, stuck)
+            keep, dropped = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
+            if dropped:
+                stats["shadowed"] = stats.get("shadowed", 0) + dropped
+            stats["n_lifted"] = int(keep[lifted].sum())
+            stats["max_lift_mm"] = float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
-                cutter, pts, where, samples, lead_deg=opts.lead_deg, tilt_deg=opts.tilt_deg,
-                min_cone_deg=opts.min_cone_deg, tol_mm=tol, flutes=opts.check_flutes)
+                surface, cutter, pts, where, samples, lead_deg=opts.lead_deg,
+                tilt_deg=opts.tilt_deg, min_cone_deg=opts.min_cone_deg, tol_mm=tol,
+                flutes=opts.check_flutes)
             pts = with_tips(pts, axes, tips)
             stats["n_retilted"] = moved
     # clearance for the report, after the fixes (without any, the first check stands for
@@ -103,6 +119,129 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     stats["min_clearance_mm"] = float(far_mm.min()) if far_mm.size else float("inf")
     stats["min_contact_clearance_mm"] = float(near_mm.min()) if near_mm.size else 0.0
     return pts, keep, stats
+
+
+#: Normals sampled between a contact and the deepest point of its gouge (to tell a fold).
+FOLD_SAMPLES = 257
+
+#: Remedies named in gouge messages (command-line flags; the API's ``on_gouge`` and
+#: ``gouge_tol_mm`` take the same values).
+LIFT_REMEDY = "--on-gouge lift (lifts the cutter clear, leaving material there)"
+
+
+def _gouge_error(surface: ParametricSurface, cutter: Cutter, pts: PassPoints, i: int,
+                 clr: Clearance, k: int, samples: SurfaceSamples, *, far: bool
+                 ) -> GougeError:
+    """The GougeError for point ``i`` (row ``k`` of the checks): depth, place and cause.
+
+    The depth is the deepest found, by the sample check or measured round the contact;
+    the cause names a concave radius only where the contact has one smaller than the
+    cutter and the gouge is there, else the place where the surface meets the cutter.
+    """
+    tips, axes = pts.tips[i:i + 1], pts.axes[i:i + 1]
+    if far:
+        sample = int(clr.far_sample[k])
+        q = samples.points[sample]
+        cause = (f"the cutter hits another part of the surface at t={samples.t[sample]:.5f}, "
+                 f"s={samples.s[sample]:.5f} (point ({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) mm); "
+                 "use --on-gouge retilt, another --lead or --tilt, or " + LIFT_REMEDY)
+        return gouge_error(pts, i, cutter, -float(clr.far_mm[k]), cause)
+    found = measured_depth(surface, cutter, pts, np.array([i]), tips, axes)
+    depth, t_at, s_at = float(found.depth_mm[0]), float(found.t[0]), float(found.s[0])
+    sample = int(clr.near_sample[k])
+    if sample >= 0 and -float(clr.near_mm[k]) > depth:
+        depth, t_at, s_at = -float(clr.near_mm[k]), float(samples.t[sample]), \
+            float(samples.s[sample])
+    remedy = f"{LIFT_REMEDY}, or --gouge-tol above {depth:.4f} mm if that is acceptable"
+    frame = frame_take(pts.frame, np.array([i]))
+    margin = float(local_margin(frame, cutter, axes)[0])
+    kmax = float(frame.max_concave_curvature[0])
+    q = surface(t_at, s_at)
+    gap = float(np.linalg.norm(q - frame.point[0]))
+    if margin < 0.0 and kmax > 0.0 and gap <= 1.0 / kmax + cutter.radius_mm:
+        radius = 1.0 / kmax
+        cause = (f"the surface's concave radius there is {radius:.4f} mm, smaller than the "
+                 f"cutter (radius {cutter.radius_mm:g} mm); use a cutter of radius < "
+                 f"{radius:.3f} mm, " + remedy)
+    else:
+        # the largest turn of the normal from the contact's on the way there (parameters
+        # straight from the contact's: a fold between them turns it past 90 deg)
+        u = np.linspace(0.0, 1.0, FOLD_SAMPLES)
+        way_t = float(pts.t[i]) + u * (t_at - float(pts.t[i]))
+        way_s = float(pts.s[i]) + u * (s_at - float(pts.s[i]))
+        turn = float(np.degrees(np.arccos(np.clip(
+            surface.normal(way_t, way_s) @ frame.normal[0], -1.0, 1.0))).max())
+        if not surface.closed_t and abs(t_at - float(pts.t[i])) > 0.5:
+            what = "the other end of the open sections (a closed contour fitted open?)"
+        elif turn > 90.0:
+            what = (f"beyond a fold of the surface, its normal turning {turn:.0f} deg from the "
+                    "contact's on the way (a fit folding over itself at a sharp edge: refit "
+                    "it, e.g. with another --fit-tol)")
+        else:
+            what = (f"its normal turning up to {turn:.0f} deg from the contact's on the way "
+                    "(a concave crease, a ripple or a gap narrower than the cutter)")
+        cause = (f"the surface meets the cutter at t={t_at:.5f}, s={s_at:.5f} (point "
+                 f"({q[0]:.3f}, {q[1]:.3f}, {q[2]:.3f}) mm, {gap:.3f} mm from the contact), "
+                 f"{what}; use " + remedy)
+    return gouge_error(pts, i, cutter, depth, cause)
+
+
+#: Rounds of :func:`_lifted_moves` (each drops the ends of the moves that still gouge).
+LIFTED_MOVE_ROUNDS = 8
+#: Points checked inside each cutting move after a lift: every 0.1 mm, at least 4 (a move
+#: grazing a fold or a sharp nose digs in over a stretch of about the nose's size).
+LIFTED_MOVE_POINTS_PER_MM = 10.0
+LIFTED_MOVE_MIN_POINTS = 4
+
+
+def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
+                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions
+                  ) -> tuple[NDArray[np.bool_], int]:
+    """Check the cutting moves once points were lifted; returns ``keep`` and drops.
+
+    A lifted location is clear, but the straight move from it to a neighbour (chosen
+    before the lift) may still cut through what the lift avoided, and where the surface
+    folds (a fit's fold at a sharp edge) the chord check, which measures the gap to the
+    surface next to the move, may not see the fold's other side. Points along every
+    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by the
+    chord tolerance (a move along a pass may dip that much). 3-axis: both ends of such a
+    move are dropped (left uncut, as shadowed), until none is left; 5-axis: a GougeError
+    naming it.
+    """
+    keep = keep.copy()
+    dropped = 0
+    if not lifted.size:
+        return keep, dropped
+    for _ in range(LIFTED_MOVE_ROUNDS):
+        a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
+        b_i = a_i + 1
+        if not a_i.size:
+            break
+        a, b = pts.tips[a_i], pts.tips[b_i]
+        pieces = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) * LIFTED_MOVE_POINTS_PER_MM)
+                            .astype(np.int64), LIFTED_MOVE_MIN_POINTS)
+        owner = np.repeat(np.arange(a_i.size), pieces)
+        first = np.r_[0, np.cumsum(pieces)[:-1]]
+        u = ((np.arange(pieces.sum()) - first[owner] + 1) / (pieces[owner] + 1))[:, None]
+        along = a[owner] * (1 - u) + b[owner] * u
+        axes = pts.axes[a_i][owner] * (1 - u) + pts.axes[b_i][owner] * u
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        clr = global_clearance(cutter, along, axes, samples, flutes=opts.check_flutes)
+        worst = np.full(a_i.size, np.inf)
+        np.minimum.at(worst, owner, clr.min_mm)
+        bad = worst < -opts.chord_tol_mm
+        if not bad.any():
+            break
+        if opts.axis_mode is not AxisMode.FIXED:
+            k = int(np.flatnonzero(bad)[0])
+            raise gouge_error(pts, int(a_i[k]), cutter, -float(worst[k]),
+                              "with the gouges lifted clear, the cutting move from there to "
+                              "the next point still cuts that deep (a fold of the surface, or "
+                              "a lifted neighbour); use --on-gouge retilt or a smaller cutter")
+        out = np.unique(np.r_[a_i[bad], b_i[bad]])
+        keep[out] = False
+        dropped += int(out.size)
+    return keep, dropped
 
 
 def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
@@ -150,9 +289,9 @@ def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
 def gouge_error_link(i: int, kind: str, depth: float, where: NDArray[np.float64]) -> Exception:
     """A GougeError for a linking move (names the toolpath point and the move kind)."""
     return GougeError(
-        f"the {kind} move arriving at toolpath point {i} would cut {depth:.4f} mm into the "
-        f"surface near ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm; increase "
-        "clearance_mm or approach_mm, or reduce lead_radius_mm", point_index=i,
+        f"the {kind} move arriving at toolpath point {i} would cut {depth_text(depth)} into "
+        f"the surface near ({where[0]:.3f}, {where[1]:.3f}, {where[2]:.3f}) mm; increase "
+        "--clearance or --approach, or reduce --lead-radius", point_index=i,
         depth_mm=depth)
 
 

@@ -74,5 +74,5 @@ def too_many_points(opts: Any, n: int) -> PlanningError:
     """The error for a plan beyond ``opts.max_points`` cutter locations (names the knobs)."""
     return PlanningError(
         f"the plan needs more than max_points={opts.max_points} cutter locations "
-        f"({n} so far): raise scallop_mm={opts.scallop_mm!r} or chord_tol_mm="
-        f"{opts.chord_tol_mm!r}, or max_points")
+        f"({n} so far): raise --scallop (scallop_mm={opts.scallop_mm!r}) or --chord-tol "
+        f"(chord_tol_mm={opts.chord_tol_mm!r}), or max_points")

@@ -35,7 +35,7 @@ from ..errors import InvalidParameterError
 from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
-from .avoid import gouge_depth_mm, local_depth_mm
+from .avoid import depth_text, gouge_depth_mm, local_depth_mm
 from .checks import check_links, gouge_stage, machine_stage
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
@@ -176,8 +176,21 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         axes = np.empty_like(axes)
         axes[by_pass] = smoothed
     reach = _reach(opts, frame.normal)
-    depth = local_depth_mm(frame, cutter, axes)
-    gouging = reach & (depth > opts.gouge_tol_mm)
+    # where the curvature out-curves the cutter, measure how deep it actually sinks in: a
+    # gouge is a depth beyond the tolerance, not a radius (a fit's ripple costs nothing)
+    estimate = local_depth_mm(frame, cutter, axes)
+    flagged = reach & (estimate > opts.gouge_tol_mm)
+    # where the surface out-curves the cutter the cusp formula has no meaning (the cutter
+    # bridges the hollow): those nodes do not set the spacing
+    outcurved = reach & (estimate > 0.0)
+    depth = np.zeros(flagged.size)
+    at = np.flatnonzero(flagged)
+    if at.size:
+        depth[at] = gouge_depth_mm(
+            surface, cutter, tt.ravel()[at], ss.ravel()[at],
+            cutter.tips_from_contacts(frame.point[at], frame.normal[at], axes[at]), axes[at],
+            speed_t=frame.speed_t[at], speed_s=frame.speed_s[at]).depth_mm
+    gouging = flagged & (depth > opts.gouge_tol_mm)
     h = np.where(frame.s11 > 1e-12, res["scallop_mm"] - res["undercut_mm"], res["scallop_mm"])
     # the cutter's curvature along the pass at the contact
     c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
@@ -198,11 +211,12 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         width = shadow_stepover_mm(h, cutter.radius_mm, cutter.corner_radius_mm,
                                    frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored,
                                    turn_radius_mm=turn_radius, cutter_curvature_along_per_mm=c11)
-    width = np.where(reach & ~gouging, width, np.inf)
+    width = np.where(reach & ~outcurved, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
     advice = ()
     if cutter.kind is CutterKind.FLAT:
-        ball = np.where(reach & ~gouging, stepover_mm(h, cutter.radius_mm, frame.s22), np.inf)
+        ball = np.where(reach & ~outcurved, stepover_mm(h, cutter.radius_mm, frame.s22),
+                        np.inf)
         advice = _flat_advice(allowed, (ball / frame.speed_s).reshape(allowed.shape), s)
     area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
     # chord density |X_t| / L (segments per unit t) for the points along the passes
@@ -223,8 +237,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         density = np.where(near, density, (frame.speed_t / res["max_segment_mm"]).reshape(
             len(t), len(s)))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
-            "gouging": gouging, "allowed": allowed.min(axis=0), "area": area,
-            "points": frame.point, "density": density, "advice": advice}
+            "outcurved": outcurved, "gouging": gouging, "allowed": allowed.min(axis=0),
+            "area": area, "points": frame.point, "density": density, "advice": advice}
 
 
 def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
@@ -558,8 +572,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         Bad or unknown options, tolerances <= 0 or not below the cutter radius, spiral on
         open sections.
     GougeError
-        A gouge with ``on_gouge="raise"`` (the cutter larger than a concave radius), or a
-        linking move that would gouge; names pass and point.
+        A gouge deeper than ``gouge_tol_mm`` with ``on_gouge="raise"`` (where a concave
+        radius smaller than the cutter, a fold or another part of the surface costs that
+        much, measured), or a linking move that would gouge; names pass and point.
     UnreachableRegionError
         Nothing of the surface can be reached.
     machines.MachineError
@@ -584,7 +599,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
             "linking='spiral' needs closed sections (surface.closed_t): this surface's "
-            "passes are open; use linking='zigzag' or 'oneway'")
+            "passes are open; use --linking zigzag or oneway")
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
@@ -606,13 +621,13 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         _probe_t(surface, n_t)
     s_probe = np.linspace(0.0, 1.0, n_s)
     probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
-    if not np.isfinite(probe["allowed"]).any() and not probe["gouging"].any():
+    if not np.isfinite(probe["allowed"]).any() and not probe["outcurved"].any():
         raise UnreachableRegionError(
             f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
             f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
-            "fixed_axis or axis_mode='lead-tilt'")
+            "--fixed-axis or --axis lead-tilt")
     if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
-        raise _probe_gouge(surface, probe, cutter, t_probe, s_probe)
+        raise _probe_gouge(surface, probe, cutter, t_probe, s_probe, opts.gouge_tol_mm)
 
     clock.stage("spacing")
     allowed = probe["allowed"]
@@ -766,22 +781,33 @@ def _working_side(probe: dict[str, Any]) -> NDArray[np.float64] | None:
 
 
 def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
-                 t: NDArray[np.float64], s: NDArray[np.float64]) -> Exception:
-    """The GougeError for a cutter larger than a concave radius (probe grid)."""
-    depth = np.where(probe["gouging"], probe["depth"], -1.0)
-    i = int(np.argmax(depth))
-    ti, si = np.unravel_index(i, (t.size, s.size))
+                 t: NDArray[np.float64], s: NDArray[np.float64], tol_mm: float) -> Exception:
+    """The GougeError for the deepest gouge on the probe grid (a measured depth).
+
+    It names the depth and its place, and the smallest concave radius among the probe
+    points that gouge (the largest cutter that fits there).
+    """
+    gouging = probe["gouging"]
     frame = probe["frame"]
-    kmax = float(frame.max_concave_curvature[i])
+    i = int(np.argmax(np.where(gouging, probe["depth"], -1.0)))
+    kmax = frame.max_concave_curvature
+    j = int(np.argmax(np.where(gouging, kmax, -np.inf)))
+    ti, si = np.unravel_index(i, (t.size, s.size))
+    tj, sj = np.unravel_index(j, (t.size, s.size))
     p = frame.point[i]
-    radius = 1.0 / kmax if kmax > 0 else float("inf")
-    depth = gouge_depth_mm(surface, cutter, float(t[ti]), float(s[si]), probe["axes"][i])
+    depth_mm = float(probe["depth"][i])
+    smallest = 1.0 / float(kmax[j])
     return GougeError(
-        f"cutter {cutter.spec} (radius {cutter.radius_mm:g} mm) is larger than the smallest "
-        f"concave radius of the surface, {radius:.4f} mm at t={t[ti]:.5f}, s={s[si]:.5f} "
-        f"(point ({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm): it would cut {depth:.4f} mm into "
-        f"the surface there; use a cutter of radius < {radius:.3f} mm, or on_gouge='lift'",
-        t=float(t[ti]), s=float(s[si]), depth_mm=depth)
+        f"cutter {cutter.spec} (radius {cutter.radius_mm:g} mm) would cut "
+        f"{depth_text(depth_mm)} into the surface at t={t[ti]:.5f}, s={s[si]:.5f} (point "
+        f"({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm), where the surface's concave radius is "
+        f"{1.0 / float(kmax[i]):.4f} mm; it cuts deeper than the gouge tolerance "
+        f"{tol_mm:g} mm at {int(gouging.sum())} of {gouging.size} probe points, the smallest "
+        f"concave radius among them {smallest:.4f} mm at t={t[tj]:.5f}, s={s[sj]:.5f}; use "
+        f"a cutter of radius < {smallest:.3f} mm, --on-gouge lift (lifts the cutter clear, "
+        f"leaving material there), or --gouge-tol above {depth_mm:.4f} mm if that is "
+        "acceptable",
+        t=float(t[ti]), s=float(s[si]), depth_mm=depth_mm)
 
 
 def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,

@@ -46,9 +46,11 @@ __all__ = [
     "sample_surface",
 ]
 
-GOUGE_TOL_MM: Final[float] = 1e-4
-"""Penetration counted as a gouge, mm: far below a machine's 1 um resolution, far above the
-1e-12 mm round-off of exact contacts."""
+GOUGE_TOL_MM: Final[float] = 1e-3
+"""Penetration counted as a gouge, mm: the 1 um grid the G-code writes coordinates to
+(rounding to it moves the cutter by up to about that: a shallower cut is not one a program
+can avoid), far above the 1e-12 mm round-off of exact contacts, and a tenth of a finishing
+chord tolerance (chords dip into convex surfaces by up to that by design)."""
 
 CLEARANCE_HORIZON_MM: Final[float] = 0.1
 """Clearances are resolved up to this distance, mm; larger ones read ``inf``. It keeps the
@@ -85,12 +87,21 @@ class SurfaceSamples:
         return self._cells[reach_mm]
 
 
+#: Largest turn of the normal between neighbouring sample columns (deg): a ``t`` interval
+#: where the normal turns more (at any of the probe's ``s`` levels) is divided evenly, into
+#: at most :data:`SAMPLE_MAX_SPLIT` parts, so a sharp edge (a nose of a few hundredths of
+#: a mm, thinner than ``sample_mm``) is sampled round its turn, not stepped over.
+SAMPLE_TURN_DEG = 10.0
+SAMPLE_MAX_SPLIT = 64
+
+
 def sample_surface(surface: ParametricSurface, sample_mm: float, *,
                    probe: int = 33, max_samples: int = 4_000_000) -> SurfaceSamples:
     """Grid samples with 3-D spacing at most ``sample_mm`` along ``t`` and ``s``.
 
     The counts come from the longest iso-curves measured on a ``probe x probe`` grid
-    (polyline length, then 1.02 margin for the chords' shortfall).
+    (polyline length, then 1.02 margin for the chords' shortfall); columns (``t``) are
+    added where the normal turns faster (:data:`SAMPLE_TURN_DEG`).
     """
     g = np.linspace(0.0, 1.0, probe)
     pts = surface(g, g, grid=True)
@@ -101,7 +112,16 @@ def sample_surface(surface: ParametricSurface, sample_mm: float, *,
     if n_t * n_s > max_samples:
         scale = np.sqrt(n_t * n_s / max_samples)
         n_t, n_s = int(n_t / scale) + 1, int(n_s / scale) + 1
-    t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), indexing="ij")
+    columns = np.linspace(0.0, 1.0, n_t)
+    normals = surface.normal(columns, g, grid=True)
+    cos_turn = np.einsum("ijk,ijk->ij", normals[1:], normals[:-1]).min(axis=1)
+    turn = np.degrees(np.arccos(np.clip(cos_turn, -1.0, 1.0)))
+    parts = np.clip(np.ceil(turn / SAMPLE_TURN_DEG), 1, SAMPLE_MAX_SPLIT).astype(np.int64)
+    if (parts > 1).any() and (n_t + int((parts - 1).sum())) * n_s <= max_samples:
+        pieces = [columns[:1]] + [np.linspace(a, b, k + 1)[1:] for a, b, k in
+                                  zip(columns[:-1], columns[1:], parts, strict=True)]
+        columns = np.concatenate(pieces)
+    t, s = np.meshgrid(columns, np.linspace(0.0, 1.0, n_s), indexing="ij")
     t, s = t.ravel(), s.ravel()
     points = surface(t, s)
     spacing = float(max(len_t / (n_t - 1), len_s / (n_s - 1)))

@@ -13,6 +13,8 @@ from typing import Any
 
 from machines.limits import Violation
 
+from .gouge import GOUGE_TOL_MM
+
 __all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
 
 
@@ -201,7 +203,7 @@ class PlanningReport:
     cutting_length_mm: float
     seconds: dict[str, float] = field(default_factory=dict)
 
-    gouge_tol_mm: float = 1e-4
+    gouge_tol_mm: float = GOUGE_TOL_MM
     axis_rate_limit_deg_per_mm: float | None = None
     rounding_reserve_mm: float = 0.0
     planned_scallop_mm: float | None = None
