@@ -72,8 +72,9 @@ def add_gouge_arguments(parser: argparse.ArgumentParser) -> None:
         "--gouge-tol", type=float, default=GOUGE_TOL_MM,
         help=f"deepest cut into the surface not counted as a gouge, mm ({GOUGE_TOL_MM:g}); "
              "a concave radius smaller than the cutter costing less (a fit's ripple) passes")
-    parser.add_argument("--on-limit", default="raise", choices=["raise", "report"],
-                        help="machine travel exceeded: stop (raise) or only report")
+    parser.add_argument("--on-limit", default=None, choices=["raise", "report"],
+                        help="machine travel exceeded: stop (raise) or only report (raise; "
+                             "'toolpath run' first moves the part into the travel)")
     parser.add_argument("--lead-radius", type=float, default=None,
                         help="radius of the lead-in/out arcs, mm (0: none; default the "
                              "cutter radius)")
@@ -82,10 +83,14 @@ def add_gouge_arguments(parser: argparse.ArgumentParser) -> None:
 
 
 def gouge_options(args: argparse.Namespace) -> dict[str, Any]:
-    """The planner's options set by :func:`add_gouge_arguments`."""
-    return {"on_gouge": args.on_gouge, "gouge_tol_mm": args.gouge_tol,
-            "on_limit": args.on_limit, "lead_radius_mm": args.lead_radius,
-            "approach_mm": args.approach}
+    """The planner's options set by :func:`add_gouge_arguments`.
+
+    Unset ones are left out, so the planner's or the pipeline's defaults hold.
+    """
+    given = {"on_gouge": args.on_gouge, "gouge_tol_mm": args.gouge_tol,
+             "on_limit": args.on_limit, "lead_radius_mm": args.lead_radius,
+             "approach_mm": args.approach}
+    return {name: value for name, value in given.items() if value is not None}
 
 
 def register(commands: argparse._SubParsersAction) -> None:

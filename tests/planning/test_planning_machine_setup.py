@@ -163,3 +163,16 @@ def test_lean_covers_the_need_and_ramps_along_the_pass():
     rate = np.abs(np.diff(lean.lean_deg)) / np.diff(x)
     assert rate.max() <= 2.5 + 1e-6
     assert lean.lean_deg[np.argmax(theta > 100.0) - 5] > 0.0
+
+
+def test_run_command_leaves_the_travel_to_the_placement_unless_told():
+    """`toolpath run` plans with on_limit="report" and then moves the part into the travel;
+    the shared gouge flags must not pass --on-limit's default over that (they did: the
+    dev blade stopped at Z -802.7 mm on head-table-bc)."""
+    from streamline_cam.cli import _parser
+    from streamline_cam.commands.run import request_from_args
+
+    args = _parser().parse_args(["run", "blade.csv", "--machine", "head-table-bc"])
+    assert "on_limit" not in request_from_args(Path("blade.csv"), args).planning_options
+    args = _parser().parse_args(["run", "blade.csv", "--on-limit", "raise"])
+    assert request_from_args(Path("blade.csv"), args).planning_options["on_limit"] == "raise"
