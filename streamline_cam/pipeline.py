@@ -48,6 +48,10 @@ __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
 #: user's request.
 REPLANS = 2
 REPLAN_MARGIN = 0.97
+#: Beyond this excess the measurement reads something no tighter request removes (a ball
+#: rolling round a C0 edge, a 3-axis cutter on an overhang): the plan is kept and its
+#: figures reported as measured, instead of tightening the request toward zero.
+REPLAN_REACH = 1.5
 
 #: Stage names, in order, as passed to the progress callback.
 STAGES = ("fit", "plan", "post", "check", "verify", "stream")
@@ -296,9 +300,10 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
                          "measured_chord_mm": plan_report.max_chord_error_mm})
         over_scallop = (plan_report.max_scallop_mm or 0.0) / scallop_mm
         over_chord = (plan_report.max_chord_error_mm or 0.0) / chord_mm
-        if max(over_scallop, over_chord) <= 1.0 or plan_report.n_lifted:
+        excess = max(over_scallop, over_chord)
+        if excess <= 1.0 or excess > REPLAN_REACH or plan_report.n_lifted:
             # (lifted clear of a gouge, the cutter leaves material the measurement counts;
-            # no tighter request removes it)
+            # no tighter request removes it, nor one of a far larger excess)
             break
         # the measured result exceeds what was asked: ask again, tighter by the excess
         scallop_mm *= REPLAN_MARGIN / over_scallop if over_scallop > 1.0 else 1.0
