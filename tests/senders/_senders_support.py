@@ -84,6 +84,21 @@ def expected_after_resume(
     return list(executed) + journaled(preamble) + journaled(job.from_line(resume_line))
 
 
+def assert_stopped_then_resumed_once(sender, sim, job: Job, err, *, good_lines: int) -> None:
+    """After a line rejected past the first ``good_lines``: no later line ran, and resuming
+    from the suggested line completes the job with every block executed exactly once."""
+    executed = texts(sim.journal())
+    later = ({ln.text for ln in job.lines[good_lines:]}
+             - {ln.text for ln in job.lines[:good_lines]})
+    assert not later & set(executed), "a line after the rejected one ran"
+    assert err.resume_line is not None and err.resume_line <= err.line
+    plan = sender.plan_resume(job, err.resume_line)
+    sender.run(job, resume=plan)
+    sender.close()
+    assert_exactly_once(
+        sim.journal(), expected_after_resume(job, executed, err.resume_line, plan.preamble))
+
+
 class ModbusProxy:
     """A TCP proxy on 127.0.0.1 between a Modbus client and the simulator, for faults.
 

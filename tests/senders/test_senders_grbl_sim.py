@@ -7,6 +7,7 @@ import pytest
 from _senders_support import (
     FAST_TIMEOUTS,
     assert_exactly_once,
+    assert_stopped_then_resumed_once,
     end_position,
     expected_after_resume,
     machine,
@@ -134,17 +135,8 @@ def test_error_stops_at_that_line_and_names_it(simulator_factory):
             and "error:20" in str(err)
             and "unsupported" in str(err)
         )
-        executed = texts(sim.journal())
-        later = {ln.text for ln in job.lines[30:]} - {ln.text for ln in job.lines[:30]}
-        assert not later & set(executed), "a line after the rejected one ran"
-        assert err.resume_line is not None and err.resume_line <= bad.number
         # the fault fired once: resuming from the suggested line completes the job exactly once
-        plan = sender.plan_resume(job, err.resume_line)
-        sender.run(job, resume=plan)
-        sender.close()
-        assert_exactly_once(
-            sim.journal(), expected_after_resume(job, executed, err.resume_line, plan.preamble)
-        )
+        assert_stopped_then_resumed_once(sender, sim, job, err, good_lines=30)
 
 
 def test_alarm_mid_job_no_hang_clear_report(simulator_factory):
