@@ -116,3 +116,21 @@ def test_open_blunt_blade_extended_zigzag_verifies_and_reports_the_face(tmp_path
     assert 60.0 < face["span_mm"] < 120.0
     assert any(line.startswith("uncut ") and "blunt edge face" in line
                for line in report_lines(report))
+
+
+def test_blunt_face_is_the_gap_between_an_open_sections_ends_not_an_open_sheet():
+    from toolpath import fit_streamline_surface
+    from toolpath.planning.analytic import PlaneSurface
+    from toolpath.planning.blunt_edge import blunt_face
+
+    # elliptic sections opened by 2 delta about the x = a end: ends 2 b sin(delta) apart
+    delta, b = 0.05, 4.0
+    theta = np.linspace(delta, 2 * np.pi - delta, 80)
+    sections = [np.c_[15.0 * np.cos(theta), b * np.sin(theta), np.full(theta.size, z)]
+                for z in (0.0, 10.0, 20.0, 30.0)]
+    surface = fit_streamline_surface(sections, tol=0.005, closed=False)
+    face = blunt_face(surface, min_width_mm=0.01)
+    assert face.min_width_mm == pytest.approx(2 * b * np.sin(delta), abs=0.005)
+    assert face.span_mm == pytest.approx(30.0, abs=0.05)
+    assert blunt_face(surface, min_width_mm=0.5) is None  # narrower than the tolerance
+    assert blunt_face(PlaneSurface(), min_width_mm=0.01) is None  # a sheet's far edges
