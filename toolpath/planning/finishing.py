@@ -598,8 +598,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     opts = replace(opts, linking=chosen)
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
-            "linking='spiral' needs closed sections (surface.closed_t): this surface's "
-            "passes are open; use linking='zigzag' or 'oneway'")
+            "--linking spiral needs closed sections (surface.closed_t): this surface's "
+            "passes are open (fit with --closed if its sections close); use --linking "
+            "auto, zigzag or oneway")
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
