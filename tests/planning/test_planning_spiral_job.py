@@ -134,3 +134,25 @@ def test_blunt_face_is_the_gap_between_an_open_sections_ends_not_an_open_sheet()
     assert face.span_mm == pytest.approx(30.0, abs=0.05)
     assert blunt_face(surface, min_width_mm=0.5) is None  # narrower than the tolerance
     assert blunt_face(PlaneSurface(), min_width_mm=0.01) is None  # a sheet's far edges
+
+
+def test_one_way_azimuth_holds_the_table_through_a_back_turn():
+    from toolpath.planning.one_way import one_way_azimuth
+
+    # horizontal axes turning two turns round +Z, turning back twice a turn (a concave
+    # pressure side); the normals are the axes themselves
+    x = np.linspace(0.0, 4 * np.pi, 721)
+    phi = x - 0.7 * np.sin(2 * x)
+    axes = np.c_[np.cos(phi), np.sin(phi), np.zeros_like(phi)]
+    assert (np.diff(np.unwrap(phi)) < 0).any()
+    done = one_way_azimuth(axes, axes, max_lean_deg=60.0)
+    turned = np.unwrap(np.arctan2(done.axes[:, 1], done.axes[:, 0]))
+    assert (np.diff(turned) >= -1e-12).all()
+    assert np.allclose(np.linalg.norm(done.axes, axis=1), 1.0)
+    back = np.max(np.maximum.accumulate(phi) - phi)
+    assert 0.0 < done.max_turn_deg <= np.degrees(back) / 2 + 1e-9
+    # already monotone where phi was: untouched far from the back-turns
+    far = np.cos(2 * x) < -0.5
+    assert np.allclose(turned[far], phi[far], atol=1e-9)
+    # a lean limit the turn would break: the axes stay as they were
+    assert one_way_azimuth(axes, axes, max_lean_deg=done.max_turn_deg / 2).turned_points == 0
