@@ -3,8 +3,9 @@
 Run ``python benchmarks/bench_blades.py`` (coarse passes: scallop 0.02 mm, chord 0.01 mm;
 ``--fine`` for the defaults, scallop 0.005 mm). Blades: every ``section,x,y,z`` file in
 ``toolpath/data/`` (the dev blade and the real-like sets). Machines: ``grbl-router`` (3-axis,
-zigzag: the reachable side), ``trunnion-ac`` and ``head-table-bc`` (5-axis lead/tilt, spiral
-linking round a closed blade, zigzag on an open one). One row per case:
+zigzag: the reachable side), ``trunnion-ac`` and ``head-table-bc`` (5-axis lead/tilt). Every
+case runs with the default ``--linking auto`` (spiral round a closed blade under 5-axis,
+zigzag otherwise); the row names the linking the plan chose. One row per case:
 
 - ``exit``: the command's exit status, and its last error line when it failed;
 - ``passes``, ``points``: of the plan;
@@ -46,9 +47,8 @@ def blade_files() -> list[Path]:
 def run_case(blade: Path, machine: str, axis: str, closed: bool, scallop_mm: float,
              chord_mm: float, out: Path) -> dict:
     """One ``toolpath run --verify``; the report (or the error) and the wall time."""
-    linking = "spiral" if closed and axis != "3" else "zigzag"
     command = [sys.executable, "-m", "streamline_cam.cli", "run", str(blade),
-               "--machine", machine, "--axis", axis, "--linking", linking,
+               "--machine", machine, "--axis", axis,
                "--scallop", str(scallop_mm), "--chord-tol", str(chord_mm),
                "-o", str(out / "part.nc"), "--verify", "--quiet"]
     start = time.perf_counter()
@@ -58,6 +58,9 @@ def run_case(blade: Path, machine: str, axis: str, closed: bool, scallop_mm: flo
     report = json.loads(report_path.read_text()) if done.returncode in (0, 1) \
         and report_path.exists() else None
     error = (done.stderr.strip().splitlines() or [""])[-1] if done.returncode else ""
+    # the default linking ("auto"): spiral round a closed blade under 5-axis, else zigzag
+    linking = report["plan"]["linking"] if report else ("spiral?" if closed and axis != "3"
+                                                        else "zigzag?")
     return {"exit": done.returncode, "error": error, "report": report, "wall_s": wall_s,
             "linking": linking}
 

@@ -77,6 +77,7 @@ class JobRequest:
     axis_mode : str
         ``"3"`` or ``"lead-tilt"``; ``lead_deg``/``tilt_deg`` for the latter.
     linking : str
+        ``auto`` (spiral round closed sections under 5-axis, zigzag otherwise),
         ``zigzag``, ``oneway`` or ``spiral``.
     placement : str
         ``auto`` (flat for 3-axis, upright for 5-axis), ``flat``, ``upright`` or ``none``.
@@ -99,7 +100,7 @@ class JobRequest:
     axis_mode: str = "3"
     lead_deg: float = 10.0
     tilt_deg: float = 0.0
-    linking: str = "zigzag"
+    linking: str = "auto"
     placement: str = "auto"
     base_mm: float = 5.0
     dialect: str | None = None

@@ -109,7 +109,9 @@ def register(commands: argparse._SubParsersAction) -> None:
                    help="3: fixed tool axis; lead-tilt: 5-axis from the surface frame")
     p.add_argument("--lead", type=float, default=0.0, help="lead angle, deg (lead-tilt)")
     p.add_argument("--tilt", type=float, default=0.0, help="tilt angle, deg (lead-tilt)")
-    p.add_argument("--linking", default="zigzag", choices=["spiral", "zigzag", "oneway"])
+    p.add_argument("--linking", default="auto", choices=["auto", "spiral", "zigzag", "oneway"],
+                   help="auto (default): spiral round closed sections under --axis "
+                        "lead-tilt, zigzag otherwise")
     p.add_argument("--fixed-axis", default="0,0,1", help="tool axis for --axis 3 (0,0,1)")
     p.add_argument("--feed", type=float, default=DEFAULT_FEED_MM_PER_MIN,
                    help=f"cutting feed, mm/min ({DEFAULT_FEED_MM_PER_MIN:g})")
@@ -154,7 +156,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
         plot_toolpath(surface, path, args.plot, report=report,
                       title=f"{Path(args.surface).name}: {args.cutter}, {args.axis}, "
-                            f"{args.linking}")
+                            f"{report.linking}")
     if args.json:
         print(json.dumps(report.as_dict(), indent=2))
     else:

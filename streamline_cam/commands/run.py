@@ -28,7 +28,13 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
     parser.add_argument("--axis", choices=("3", "lead-tilt"), default="3")
     parser.add_argument("--lead", type=float, default=10.0, help="lead angle, deg (5-axis)")
     parser.add_argument("--tilt", type=float, default=0.0, help="tilt angle, deg (5-axis)")
-    parser.add_argument("--linking", choices=("zigzag", "oneway", "spiral"), default="zigzag")
+    parser.add_argument("--linking", choices=("auto", "zigzag", "oneway", "spiral"),
+                        default="auto",
+                        help="auto (default): spiral round a closed blade under --axis "
+                             "lead-tilt, zigzag otherwise")
+    parser.add_argument("--extend", type=float, default=None,
+                        help="extend passes past open edges, mm (default: 0 for a ball, the "
+                             "core radius R - r for flat and bull-nose cutters)")
     parser.add_argument("--placement", choices=("auto", "flat", "upright", "none"),
                         default="auto", help="how the part sits on the table")
     parser.add_argument("--dialect", help="override the machine's G-code dialect")
@@ -46,7 +52,8 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
         linking=args.linking, placement=args.placement, dialect=args.dialect,
         closed=getattr(args, "closed", None),
-        planning_options={"clearance_mm": args.clearance} | gouge_options(args))
+        planning_options={"clearance_mm": args.clearance} | gouge_options(args)
+        | ({} if getattr(args, "extend", None) is None else {"extend_mm": args.extend}))
 
 
 def report_lines(report: dict) -> list[str]:
@@ -61,6 +68,9 @@ def report_lines(report: dict) -> list[str]:
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
+        f"linking    {plan['linking']}"
+        + (f" ({plan['linking_reason']})" if plan.get("linking_reason") else ""),
+        *_rotary_lines(plan),
         *_setup_lines(report),
         *([f"gouge      {plan['n_lifted']} point(s) lifted clear (max {plan['max_lift_mm']:.4f} "
             f"mm, material left there), {plan['n_retilted']} re-tilted"]
@@ -76,6 +86,31 @@ def report_lines(report: dict) -> list[str]:
                      f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})")
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
+    return lines
+
+
+def _rotary_lines(plan: dict) -> list[str]:
+    """The rotary joints' fastest turn and C's sense, and the edge face left uncut."""
+    lines = []
+    rot = plan.get("rotary_rates")
+    if rot:
+        over = rot["max_deg_per_s"] > rot["limit_deg_per_s"] * (1.0 + 1e-9)
+        lines.append(
+            f"rotary     {rot['axis']} {rot['max_deg_per_mm']:.3f} deg/mm of path max, "
+            f"{rot['axis_at_s']} {rot['max_deg_per_s']:.1f} deg/s at the programmed "
+            f"{rot['feed_mm_per_min']:g} mm/min (limit {rot['limit_deg_per_s']:.1f} deg/s"
+            + (f"; {rot['n_slowed']} moves slowed to keep it, down to "
+               f"{rot['slowest_feed_mm_per_min']:.0f} mm/min)" if over else ")")
+            + ("" if rot["c_one_way"] is None else
+               f"; C turns {'one way' if rot['c_one_way'] else 'back and forth'}, "
+               f"{rot['c_turn_deg']:+.1f} deg in all"))
+    face = plan.get("blunt_face")
+    if face:
+        lines.append(f"uncut      blunt edge face {face['min_width_mm']:.3f}-"
+                     f"{face['max_width_mm']:.3f} mm wide over {face['span_mm']:.1f} mm of "
+                     f"span ({face['area_mm2']:.1f} mm^2) between the sections' last and "
+                     "first points: not on the fitted surface, left uncut (--closed fits "
+                     "round it)")
     return lines
 
 

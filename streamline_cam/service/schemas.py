@@ -43,7 +43,8 @@ class JobParameters(BaseModel):
     axis_mode: Literal["3", "lead-tilt"] = Field("3", description="fixed axis or 5-axis")
     lead_deg: float = Field(10.0, description="lead angle, deg (lead-tilt only)")
     tilt_deg: float = Field(0.0, description="tilt angle, deg (lead-tilt only)")
-    linking: Literal["zigzag", "oneway", "spiral"] = "zigzag"
+    linking: Literal["auto", "zigzag", "oneway", "spiral"] = Field(
+        "auto", description="auto: spiral round closed sections under lead-tilt, else zigzag")
     placement: Literal["auto", "flat", "upright", "none"] = "auto"
     base_mm: float = Field(5.0, description="height of the part's lowest point above the table, mm")
     dialect: str | None = Field(None, description="override the machine's G-code dialect")

@@ -22,7 +22,7 @@ PLATE = PlaneSurface(t_vector_mm=(20.0, 0.0, 0.0), s_vector_mm=(0.0, 6.0, 0.0))
     ({"chord_tol_mm": 0}, "chord_tol_mm must be a finite length > 0 mm, got 0"),
     ({"scallop_mm": 3.0}, "scallop_mm=3.0 mm is not smaller than the cutter radius 3 mm"),
     ({"chord_tol_mm": 5.0}, "chord_tol_mm=5.0 mm is not smaller than the cutter radius"),
-    ({"linking": "spiral"}, "linking='spiral' needs closed sections"),
+    ({"linking": "spiral"}, "--linking spiral needs closed sections"),
     ({"linking": "snake"}, "linking must be one of"),
     ({"axis_mode": "4"}, "axis_mode must be one of"),
     ({"lead_deg": 10.0}, "need axis_mode='lead-tilt'"),

@@ -21,6 +21,7 @@ Stages (each timed in the report):
 from __future__ import annotations
 
 import time
+from dataclasses import replace
 from typing import Any
 
 import numpy as np
@@ -36,6 +37,7 @@ from ..joint_refine import JOINT_CHECKED, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
+from .blunt_edge import blunt_face
 from .checks import check_links, gouge_stage, machine_stage
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
@@ -44,7 +46,15 @@ from .gouge import local_margin, sample_surface
 from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, extends, link_runs
 from .local import pass_frame
 from .measure import measure_chord, measure_scallop
-from .options import TILT_MARGIN_DEG, AxisMode, FinishingOptions, Linking, OnGouge, OnLimit
+from .options import (
+    TILT_MARGIN_DEG,
+    AxisMode,
+    FinishingOptions,
+    Linking,
+    OnGouge,
+    OnLimit,
+    chosen_linking,
+)
 from .passes import (
     PassLayout,
     PassPoints,
@@ -57,6 +67,7 @@ from .passes import (
 )
 from .report import PlanningReport, UnreachableSpan, merge_spans
 from .resolution import rounding_reserve_mm
+from .rotary_rate import rotary_rates
 from .sampling import (
     chord_length_mm,
     equidistribute,
@@ -535,7 +546,7 @@ def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
 
 def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_mm: float,
                    chord_tol_mm: float, axis_mode: str = "3", lead_deg: float = 0.0,
-                   tilt_deg: float = 0.0, linking: str = "zigzag",
+                   tilt_deg: float = 0.0, linking: str = "auto",
                    machine: Machine | str | None = None, **options: Any
                    ) -> tuple[Toolpath, PlanningReport]:
     """Plan streamline finishing passes on ``surface`` and report what they achieve.
@@ -554,8 +565,10 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         Fixed tool axis (``fixed_axis``, default +Z) or 5-axis lead/tilt.
     lead_deg, tilt_deg : float
         Lead and tilt angles for ``"lead-tilt"``, deg.
-    linking : {"zigzag", "oneway", "spiral"}
-        How passes follow each other (``spiral`` needs closed sections).
+    linking : {"auto", "zigzag", "oneway", "spiral"}
+        How passes follow each other (``spiral`` needs closed sections; ``auto`` takes
+        spiral round closed sections under ``lead-tilt``, zigzag otherwise, and says so
+        in the report's ``linking_reason``).
     machine : Machine or str, optional
         Check reach, travel and rates on this machine and estimate the time.
     **options
@@ -596,10 +609,13 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     reserve_mm = _rounding_reserve(surface, cutter, opts, mach)
     res = opts.resolved(cutter, reserve_mm)
     res["max_tilt_deg"] = _tilt_limit_deg(opts, mach)
+    chosen, why = chosen_linking(opts.linking, bool(surface.closed_t), opts.axis_mode)
+    opts = replace(opts, linking=chosen)
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
         raise InvalidParameterError(
-            "linking='spiral' needs closed sections (surface.closed_t): this surface's "
-            "passes are open; use --linking zigzag or oneway")
+            "--linking spiral needs closed sections (surface.closed_t): this surface's "
+            "passes are open (fit with --closed if its sections close); use --linking "
+            "auto, zigzag or oneway")
     clock = _Clock(opts.progress)
 
     clock.stage("probe")
@@ -713,7 +729,10 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, cut, spans,
                      path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
-    return path, report
+    rotary = (rotary_rates(path, mach)
+              if mach is not None and mach.kinematics.is_five_axis else None)
+    return path, replace(report, linking_reason=why, rotary_rates=rotary,
+                         blunt_face=blunt_face(surface, opts.chord_tol_mm))
 
 
 def _tilt_limit_deg(opts: FinishingOptions, mach: Machine | None) -> float:

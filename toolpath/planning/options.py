@@ -28,6 +28,7 @@ __all__ = [
     "OnGouge",
     "OnLimit",
     "ProgressCallback",
+    "chosen_linking",
 ]
 
 ProgressCallback = Callable[[str, float], None]
@@ -66,6 +67,7 @@ class AxisMode(StrEnum):
 class Linking(StrEnum):
     """How passes follow each other."""
 
+    AUTO = "auto"  #: spiral round closed sections under a 5-axis tool axis, else zigzag
     SPIRAL = "spiral"  #: closed sections: one continuous cut climbing in s
     ZIGZAG = "zigzag"  #: alternate directions, short links at the ends
     ONEWAY = "oneway"  #: every pass in the same direction, retract between
@@ -84,6 +86,24 @@ class OnLimit(StrEnum):
 
     RAISE = "raise"
     REPORT = "report"
+
+
+def chosen_linking(linking: Linking, closed_t: bool, axis_mode: AxisMode
+                   ) -> tuple[Linking, str]:
+    """The linking a plan uses and why (``auto`` resolved).
+
+    ``auto`` is what blade shops do: round a closed blade a 5-axis tool axis can follow
+    the whole section, so one continuous cut climbs in s (spiral: the rotary table turns
+    one way, no retracts); an open surface, or a fixed (3-axis) axis that reaches only one
+    side, is cut pass by pass (zigzag).
+    """
+    if linking is not Linking.AUTO:
+        return linking, "as asked (--linking)"
+    if closed_t and axis_mode is AxisMode.LEAD_TILT:
+        return Linking.SPIRAL, "auto: closed sections under a 5-axis tool axis"
+    if closed_t:
+        return Linking.ZIGZAG, "auto: a fixed (3-axis) tool axis reaches one side only"
+    return Linking.ZIGZAG, "auto: open sections"
 
 
 def _choice(enum: type[StrEnum], value: Any, name: str) -> Any:
@@ -133,7 +153,9 @@ class FinishingOptions:
     lead_deg, tilt_deg : float
         Lead (forward lean) and tilt (left lean) in the pass frame, within +/-80 deg.
     linking : Linking
-        ``spiral`` (closed sections only), ``zigzag`` or ``oneway``.
+        ``auto`` (default: ``spiral`` for closed sections under ``axis_mode="lead-tilt"``,
+        ``zigzag`` otherwise; :func:`chosen_linking`), ``spiral`` (closed sections only),
+        ``zigzag`` or ``oneway``.
     fixed_axis : tuple of 3 float
         The tool axis in 3-axis mode (unit; default +Z of the workpiece).
     feed_mm_per_min, plunge_feed_mm_per_min : float
@@ -215,7 +237,7 @@ class FinishingOptions:
     axis_mode: AxisMode = AxisMode.FIXED
     lead_deg: float = 0.0
     tilt_deg: float = 0.0
-    linking: Linking = Linking.ZIGZAG
+    linking: Linking = Linking.AUTO
     fixed_axis: tuple[float, float, float] = (0.0, 0.0, 1.0)
     feed_mm_per_min: float = DEFAULT_FEED_MM_PER_MIN
     plunge_feed_mm_per_min: float | None = None

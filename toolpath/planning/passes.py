@@ -24,7 +24,8 @@ from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
-from .options import AxisMode, FinishingOptions
+from .one_way import one_way_azimuth
+from .options import AxisMode, FinishingOptions, Linking
 from .sampling import (
     CHORD_FRACTIONS,
     ball_end_slopes,
@@ -360,7 +361,8 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
                ) -> tuple[NDArray[np.float64], AxisSmoothing | None, int]:
     """The axes the cutter will have, from the nominal ones.
 
-    In 5-axis, smoothed along each pass, rate and lean limited, kept off the singular cone
+    In 5-axis, smoothed along each pass, rate and lean limited, kept off the singular cone,
+    and for a spiral turned about +Z one way only (:mod:`~toolpath.planning.one_way`)
     (unchanged in 3-axis). Points in pass order (``pid`` contiguous, ``t`` ascending).
     Returns the axes, the smoothing record and how many axes were pushed off the cone.
     """
@@ -378,6 +380,9 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
         axes = lean.axes
         smoothing = replace(smoothing, tilt_leaned_points=int((lean.lean_deg > 0.0).sum()),
                             max_tilt_lean_deg=float(lean.lean_deg.max()))
+    if opts.linking is Linking.SPIRAL:
+        # one continuous cut: the table turns one way (the points are in cutting order)
+        axes = one_way_azimuth(axes, frame.normal, opts.max_lean_deg).axes
     return axes, smoothing, pushed
 
 

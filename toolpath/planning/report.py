@@ -13,7 +13,9 @@ from typing import Any
 
 from machines.limits import Violation
 
+from .blunt_edge import BluntFace
 from .gouge import GOUGE_TOL_MM
+from .rotary_rate import RotaryRates
 
 __all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
 
@@ -162,6 +164,15 @@ class PlanningReport:
     max_tilt_deg : float or None
         The largest angle of a tool axis from +Z the plan allowed (the machine's tilt
         reach), deg.
+    linking_reason : str
+        Why the plan links its passes the way it does (``auto`` resolved).
+    rotary_rates : RotaryRates or None
+        The machine's rotary joints along the cut: the largest rate (deg/mm of path, deg/s
+        at the programmed feed, against the axis' limit) and whether C turns one way
+        (5-axis machines; :mod:`~toolpath.planning.rotary_rate`).
+    blunt_face : BluntFace or None
+        An open blade's unfitted edge face between the sections' last and first points,
+        left uncut (:mod:`~toolpath.planning.blunt_edge`).
     advice : tuple of str
         Suggestions for a better plan (e.g. a flat end mill whose stepover the staircase
         of its face on slopes keeps tiny).
@@ -212,6 +223,9 @@ class PlanningReport:
     tilt_leaned_points: int = 0
     max_tilt_lean_deg: float = 0.0
     max_tilt_deg: float | None = None
+    linking_reason: str = ""
+    rotary_rates: RotaryRates | None = None
+    blunt_face: BluntFace | None = None
 
     @property
     def within_request(self) -> bool:
@@ -227,7 +241,8 @@ class PlanningReport:
         """The report as text lines."""
         out = [
             f"cutter            {self.cutter}",
-            f"axis / linking    {self.axis_mode} / {self.linking}",
+            f"axis / linking    {self.axis_mode} / {self.linking}"
+            + (f" ({self.linking_reason})" if self.linking_reason else ""),
             f"passes            {self.n_passes}",
             f"points            {self.n_points} ({self.n_cut_points} on passes)",
             f"scallop           {_fmt(self.max_scallop_mm)} "
@@ -272,6 +287,10 @@ class PlanningReport:
             out.append(f"axis turn rate    {self.max_axis_rate_deg_per_mm:.3f} deg/mm max"
                        + limit + (f", {self.cone_pushed} axes kept off the singular cone"
                                   if self.cone_pushed else ""))
+        if self.rotary_rates is not None:
+            out.append(f"rotary joints     {self.rotary_rates.describe()}")
+        if self.blunt_face is not None:
+            out.append(f"uncut edge face   {self.blunt_face.describe()}")
         if self.tilt_leaned_points:
             out.append(f"tool-axis lean    {self.tilt_leaned_points} points leaned toward +Z "
                        f"by up to {self.max_tilt_lean_deg:.3f} deg (the tilt joint reaches "
