@@ -324,7 +324,70 @@ def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, 
                 _project_one(0, q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                              closed, iterations, extra, converged_mm, orientation, d1, mu, mv,
                              g, z, w, fr, pt)
+                if closed and orientation != 0.0:
+                    _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                                 orientation, d1, mu, mv, g, z, w, pt)
                 t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - lift
+
+
+#: ``t`` just before a closed surface's seam: its normal there is the one from below.
+SEAM_BEFORE_T = 1.0 - 1e-12
+#: A foot found within this of a closed surface's seam (in ``t``) is compared with the
+#: seam point (:func:`_seam_signed`).
+SEAM_WINDOW_T = 1e-3
+#: The seam point is taken where no farther than the foot found by more than this (mm).
+SEAM_SLACK_MM = 1e-6
+
+
+@numba.njit(cache=True)
+def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
+                 w, pt, n):
+    """Point and outward unit normal at ``(t, s)``: the point into ``pt[0, 0]``, ``n``."""
+    _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, 1, pt, 0, mu, mv, g, z, w)
+    a0, a1, a2 = pt[1, 0, 0], pt[1, 0, 1], pt[1, 0, 2]
+    b0, b1, b2 = pt[2, 0, 0], pt[2, 0, 1], pt[2, 0, 2]
+    n[0], n[1], n[2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
+    size = math.sqrt(n[0] * n[0] + n[1] * n[1] + n[2] * n[2])
+    scale = orientation / size if size > 0.0 else 0.0
+    for k in range(3):
+        n[k] *= scale
+
+
+@numba.njit(cache=True)
+def _seam_signed(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, dist, mu, mv,
+                 g, z, w, pt):
+    """The foot and signed distance of a point near a closed surface's seam, in place.
+
+    A closed section may have a corner at its seam (a sharp trailing edge: the periodic
+    fit keeps a seam knot of full multiplicity, the surface only ``C0`` there), where the
+    normal jumps between its one-sided values ``n-`` (``t -> 1``) and ``n+`` (``t -> 0``),
+    by up to 180 deg round a knife edge. A point beside the edge whose closest point is the
+    corner itself (a cutter resting on the edge) has no orthogonal foot: the Newton search
+    stalls beside the corner, and the normal of one side read it as cut into the part. For
+    a foot ``X`` within :data:`SEAM_WINDOW_T` of the seam the seam point ``X(0, s)`` is
+    taken instead where it is no farther; there the distance is ``|p - X|`` signed by
+    ``(p - X) . (n- + n+)`` (outside a convex corner exactly when ``p - X`` is in the
+    normals' cone; on a smooth seam, ``n- = n+``, the usual ``(p - X) . n``).
+    """
+    ti = t[0]
+    if min(ti, 1.0 - ti) > SEAM_WINDOW_T:
+        return
+    _partials_at(ti, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, 0, pt, 0, mu, mv, g, z, w)
+    f0, f1, f2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
+    n_before = np.empty(3)
+    n_after = np.empty(3)
+    _seam_normal(0.0, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g,
+                 z, w, pt, n_after)
+    d0, d1, d2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
+    size = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if size > math.sqrt(f0 * f0 + f1 * f1 + f2 * f2) + SEAM_SLACK_MM:
+        return  # a foot off the seam, nearer: on a face
+    _seam_normal(SEAM_BEFORE_T, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation,
+                 mu, mv, g, z, w, pt, n_before)
+    side = (d0 * (n_before[0] + n_after[0]) + d1 * (n_before[1] + n_after[1])
+            + d2 * (n_before[2] + n_after[2]))
+    t[0] = 0.0
+    dist[0] = size if side >= 0.0 else -size
 
 
 @numba.njit(cache=True, inline="always")

@@ -28,9 +28,13 @@ from machines.kinematics import forward, solve_inverse
 from .errors import InvalidParameterError
 from .path import MoveKind, Toolpath
 
-__all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "joint_path_deviation_mm", "machine_key",
-           "refine_for_joint_interpolation"]
+__all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm",
+           "machine_key", "refine_for_joint_interpolation"]
 
+#: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
+#: sphere) under joint interpolation, mm: a rotary swing otherwise sweeps the tool far off
+#: the clearance, through the part.
+RAPID_TOLERANCE_MM = 1.0
 #: Halvings at most (a move is split into at most 2**MAX_ROUNDS pieces).
 MAX_ROUNDS = 8
 #: Toolpath metadata key: the :func:`machine_key` whose joint interpolation the planner
@@ -60,8 +64,11 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
                                    ) -> Toolpath:
     """``path`` with feed moves split until joint interpolation stays within ``tol_mm``.
 
-    Rapids are left alone (their path is clear of the part by construction). On a 3-axis
-    machine joint and tip interpolation agree and ``path`` is returned unchanged.
+    Rapids are split until they stay within :data:`RAPID_TOLERANCE_MM` of their planned
+    chords (on the clearance plane or sphere, clear of the part): a rapid that turns the
+    rotary axes otherwise sweeps the tool far off it (hundreds of mm when a joint swings
+    round), through the part. On a 3-axis machine joint and tip interpolation agree and
+    ``path`` is returned unchanged.
     """
     if not (np.isfinite(tol_mm) and tol_mm > 0.0):
         raise InvalidParameterError(f"joint tolerance must be > 0 mm, got {tol_mm!r}")
@@ -72,8 +79,9 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     checked = path.metadata.get(JOINT_CHECKED) == machine_key(machine)
     for _ in range(MAX_ROUNDS):
         joints = solve_inverse(machine, tips, axes).joints
-        split = joint_path_deviation_mm(machine, tips, joints) > tol_mm
-        split &= kinds[1:] != MoveKind.RAPID
+        deviation = joint_path_deviation_mm(machine, tips, joints)
+        rapid = kinds[1:] == MoveKind.RAPID
+        split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)
         if checked:
             split &= ~((kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1])
                        & (passes[1:] >= 0))

@@ -249,3 +249,29 @@ def test_joint_interpolation_keeps_the_tip_on_the_planned_chords(machine_name):
     plain = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=None))
     split = post(tp, machine, options=PostOptions(arcs=False, joint_tolerance_mm=0.002))
     assert len(split.blocks) - len(plain.blocks) == len(refined) - len(tp) + 1
+
+
+@pytest.mark.parametrize("machine_name", ["trunnion-ac", "head-table-bc"])
+def test_joint_interpolated_rapids_keep_near_their_planned_chords(machine_name):
+    """A rapid that turns the rotary axes strays off its chord (over the clearance) under
+    joint interpolation, through the part: it is split too, to within a millimetre."""
+    from toolpath.joint_refine import (
+        RAPID_TOLERANCE_MM,
+        joint_path_deviation_mm,
+        refine_for_joint_interpolation,
+    )
+
+    machine = load_machine(machine_name)
+    tilt = np.radians(50.0)
+    tips = np.array([[0.0, 0.0, 60.0], [60.0, 0.0, 40.0], [80.0, 30.0, 20.0]])
+    axes = np.array([[0.0, 0.0, 1.0], [np.sin(tilt), 0.0, np.cos(tilt)],
+                     [0.0, np.sin(tilt), np.cos(tilt)]])
+    kinds = [MoveKind.RAPID, MoveKind.RAPID, MoveKind.CUT]
+    tp = Toolpath(tips, axes, kinds, [0.0, 0.0, 1000.0], [-1, -1, 0])
+    before = joint_path_deviation_mm(machine, tp.positions_mm, tp.to_machine(machine).joints)
+    refined = refine_for_joint_interpolation(tp, machine, 0.002)
+    rapid = refined.kinds[1:] == MoveKind.RAPID
+    after = joint_path_deviation_mm(machine, refined.positions_mm,
+                                    refined.to_machine(machine).joints)
+    assert before[0] > 5.0 * RAPID_TOLERANCE_MM
+    assert after[rapid].max() <= RAPID_TOLERANCE_MM and after[~rapid].max() <= 0.002

@@ -147,3 +147,40 @@ def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, clo
     gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
                          axes[first + 1], t[first], t[first + 1], s[first], s[first + 1], own)
     np.testing.assert_array_equal(fused[0], gathered[0])
+
+
+def _sharp_te_sections():
+    """Closed NACA-like sections (12 % thick) whose sharp TE (normals 109 deg apart) is point 0."""
+    n = 80
+    beta = np.linspace(0.0, 2 * np.pi, n, endpoint=False)
+    x = 0.5 * (1.0 + np.cos(beta))  # 1 at the TE (point 0), 0 at the LE
+    half = 0.3 * (2.969 * np.sqrt(x) - 1.26 * x - 3.516 * x**2 + 2.843 * x**3 - 1.036 * x**4)
+    y = np.where(beta < np.pi, 1.0, -1.0) * half
+    out = []
+    for j, h in enumerate(np.linspace(0.0, 1.0, 5)):
+        chord, twist = 40.0 - 8.0 * h, 0.3 * h
+        c, s = np.cos(twist), np.sin(twist)
+        out.append(np.c_[chord * (c * x - s * y), chord * (s * x + c * y), np.full(n, 15.0 * j)])
+    return np.stack(out)
+
+
+def test_signed_distance_beside_a_sharp_seam_corner_is_its_distance():
+    """A ball resting on a sharp TE at the seam stands clear, searched from either side.
+
+    With the normal of one side only, ``(p - X) . n`` read it as cut into the part (a
+    prop blade's plan measured a 6 mm chord error there).
+    """
+    surface = fit_streamline_surface(toolpath.as_sections(_sharp_te_sections(), closed=True),
+                                     tol=0.01)
+    s = np.array([0.2, 0.5, 0.8])
+    x, n_after = surface.points_and_normals(np.zeros(3), s)
+    n_before = surface.points_and_normals(np.full(3, 1.0 - 1e-12), s)[1]
+    assert (np.einsum("ij,ij->i", n_before, n_after) < 0.0).all()  # a corner, > 90 deg
+    bisector = (n_before + n_after) / np.linalg.norm(n_before + n_after, axis=1)[:, None]
+    for t0 in (0.0, 1.0 - 1e-9, 0.999, 0.001):
+        seeds = np.full(3, t0)
+        for surf in (surface, _NumpyOnly(surface)):
+            outside = signed_distance_near(surf, x + 3.0 * bisector, seeds, s, iterations=6)
+            assert np.allclose(outside[0], 3.0, rtol=0, atol=1e-3)  # (s stalls by ~1e-4)
+            inside = signed_distance_near(surf, x - 0.05 * bisector, seeds, s, iterations=6)
+            assert (inside[0] < 0.0).all()

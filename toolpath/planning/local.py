@@ -24,6 +24,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..compiled import SEAM_BEFORE_T, SEAM_SLACK_MM, SEAM_WINDOW_T
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
 
 __all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near",
@@ -204,7 +205,9 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     """Signed distance ``(p - X) . n`` to the closest point found from ``(t0, s0)``, mm.
 
     Positive on the outward side. The foot by :func:`project_to_surface`; returns the
-    distance and the foot's ``t``, ``s``.
+    distance and the foot's ``t``, ``s``. Beside a corner at a closed surface's seam (a
+    sharp trailing edge) the seam point where no farther, and ``|p - X|`` signed by the sum
+    of the two one-sided normals (:func:`toolpath.compiled._seam_signed`).
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     kernel = surface.kernel()
@@ -214,7 +217,20 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
         return signed, t, s
     t, s, _ = project_to_surface(surface, p, t0, s0, iterations=iterations)
     x, normals = surface.points_and_normals(t, s)
-    return np.einsum("ij,ij->i", p - x, normals), t, s
+    signed = np.einsum("ij,ij->i", p - x, normals)
+    if surface.closed_t and len(p):
+        # a foot beside the seam (a corner there, e.g. a sharp trailing edge): the seam point
+        # where no farther, |p - X| signed by the one-sided normals' sum (compiled._seam_signed)
+        near = np.flatnonzero(np.minimum(t, 1.0 - t) <= SEAM_WINDOW_T)
+        seam_x, n_after = surface.points_and_normals(np.zeros(near.size), s[near])
+        n_before = surface.points_and_normals(np.full(near.size, SEAM_BEFORE_T), s[near])[1]
+        d = p[near] - seam_x
+        size = np.linalg.norm(d, axis=1)
+        at = size <= np.linalg.norm(p[near] - x[near], axis=1) + SEAM_SLACK_MM
+        side = np.einsum("ij,ij->i", d, n_before + n_after)
+        t[near[at]] = 0.0
+        signed[near[at]] = np.where(side[at] >= 0.0, size[at], -size[at])
+    return signed, t, s
 
 
 #: A Newton step moving the foot by less than this (mm) ends the search for that point
