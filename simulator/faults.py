@@ -63,6 +63,17 @@ FAULT_NAMES = (
 )
 
 
+def _seconds_from_ms(name: str, text: str, most_ms: int) -> float:
+    """A delay given in ms (0..``most_ms``), in seconds."""
+    try:
+        ms = float(text)
+    except ValueError:
+        ms = -1.0
+    if not 0.0 <= ms <= most_ms:
+        raise ValueError(f"fault {name!r}: MS must be 0..{most_ms} ms, got {text!r}")
+    return ms / 1000.0
+
+
 def _int(name: str, text: str, lo: int, what: str) -> int:
     try:
         v = int(text)
@@ -144,21 +155,9 @@ class FaultPlan:
                     )
                 plan.ignore_status_fraction = share
             elif name == "status-delay":
-                try:
-                    ms = float(value)
-                except ValueError:
-                    ms = -1.0
-                if not 0.0 <= ms <= 10_000.0:
-                    raise ValueError(f"fault 'status-delay': MS must be 0..10000 ms, got {value!r}")
-                plan.status_delay_s = ms / 1000.0
+                plan.status_delay_s = _seconds_from_ms(name, value, 10_000)
             elif name == "latency":
-                try:
-                    ms = float(value)
-                except ValueError:
-                    ms = -1.0
-                if not 0.0 <= ms <= 60_000.0:
-                    raise ValueError(f"fault 'latency': MS must be 0..60000 ms, got {value!r}")
-                plan.latency_s += ms / 1000.0
+                plan.latency_s += _seconds_from_ms(name, value, 60_000)
             else:
                 kind = name.split("-", 1)[0]
                 line_text, _, code_text = value.partition(":")

@@ -114,11 +114,12 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     elif method in LINEAR_MODELS:
         extra = {"A": curve.A.tolist(),
                  "notes": ["constant-coefficient model: tol is reported, not enforced"]}
-    fairness = curve_fairness(curve, points, closed=bool(getattr(curve, "closed", False)))
+    is_closed = bool(getattr(curve, "closed", False))  # the linear models have no closed form
+    fairness = curve_fairness(curve, points, closed=is_closed)
     extra["fairness"] = fairness.as_dict()
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),
-                            closed=bool(getattr(curve, "closed", False)),
+                            closed=is_closed,
                             n_control_points=curve.n_control_points,
                             max_error_mm=curve.max_error, rms_error_mm=curve.rms_error,
                             tol_mm=tol, seconds=seconds, **extra)

@@ -309,9 +309,9 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
                  for found in [fair_check(c.fit, c.knots)]]
         if not tried:
             break
-        *_, trial, stretches = min(tried, key=lambda item: item[:3])
-        if _unfairness(stretches) < best[0]:
-            best = (_unfairness(stretches), trial, stretches)
+        score, _, _, trial, stretches = min(tried, key=lambda item: item[:3])
+        if score < best[0]:
+            best = (score, trial, stretches)
     _, trial, stretches = best
     if stretches:
         warnings.warn(ConvergenceWarning(

@@ -42,6 +42,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .surface import _unit
+
 __all__ = [
     "CONCAVE_DEPTH_MM",
     "SAMPLES_PER_INTERVAL",
@@ -231,11 +233,6 @@ def dense_parameters(t: NDArray[np.float64], per_interval: int = SAMPLES_PER_INT
     frac = np.arange(per_interval) / per_interval
     inner = (t[:-1, None] + np.diff(t)[:, None] * frac[None, :]).ravel()
     return np.append(inner, t[-1])
-
-
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0.0, norm, 1.0)
 
 
 def _chords(points: NDArray[np.float64], closed: bool

@@ -243,7 +243,6 @@ def _matched(points: NDArray[np.float64], u: NDArray[np.float64], marks: Section
     """One section's points (seam at its trailing edge when closed) and matched ``t``."""
     n = len(points)
     if closed:
-        curve = _interpolant(u, points, True)
         period = marks.length
         rel = np.mod(u[:-1] - marks.u_te, period)  # distance after the seam, [0, period)
         steps = np.diff(u)
@@ -259,7 +258,7 @@ def _matched(points: NDArray[np.float64], u: NDArray[np.float64], marks: Section
             is_data = np.r_[np.ones(len(ring), bool), False]  # the seam's copy at t = 1
             seam = ring[0]
         else:
-            seam = curve(marks.u_te)
+            seam = _interpolant(u, points, True)(marks.u_te)
             ring, rel = np.vstack((seam, ring)), np.concatenate(([0.0], rel))
             is_data = np.r_[False, np.ones(n - 1, bool), False]
         pts = np.vstack((ring, seam))

@@ -309,12 +309,6 @@ def _ranked_frames(x: NDArray[np.float64], t: NDArray[np.float64],
     return [paper_frame(x)]  # candidate_frames always yields translated frames for sane data
 
 
-def _choose_frame(x: NDArray[np.float64], t: NDArray[np.float64],
-                  knots: NDArray[np.float64]) -> ConeFrame:
-    """The best of :func:`_ranked_frames`."""
-    return _ranked_frames(x, t, knots)[0]
-
-
 def fit_streamline_curve(
     points: Any,
     *,
@@ -414,6 +408,7 @@ def fit_streamline_curve(
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
+    seam = seam_multiplicity(x, corner_angle_deg) if is_closed else 1
     for tried, chosen in enumerate(frames, start=1):
         problem = LogSpaceProblem(x, t, chosen)
 
@@ -428,7 +423,7 @@ def fit_streamline_curve(
             if is_closed:
                 coef, errors, knot_vector = adapt_closed_knots(
                     x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,
-                    seam=seam_multiplicity(x, corner_angle_deg), fair_check=fair_check)
+                    seam=seam, fair_check=fair_check)
             else:
                 coef, errors, knot_vector = adapt_knots(
                     x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,

@@ -51,9 +51,9 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
         method=args.method, axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
         linking=args.linking, placement=args.placement, dialect=args.dialect,
-        closed=getattr(args, "closed", None),
+        closed=args.closed,
         planning_options={"clearance_mm": args.clearance} | gouge_options(args)
-        | ({} if getattr(args, "extend", None) is None else {"extend_mm": args.extend}))
+        | ({} if args.extend is None else {"extend_mm": args.extend}))
 
 
 def report_lines(report: dict) -> list[str]:

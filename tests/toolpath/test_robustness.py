@@ -22,7 +22,7 @@ from toolpath import (
     read_sections,
 )
 from toolpath.adaptive import KnotOptions, _polish, _Trial
-from toolpath.errors import InvalidParameterError, InvalidPointsError, ToolpathError
+from toolpath.errors import FitError, InvalidParameterError, InvalidPointsError, ToolpathError
 from toolpath.paper_examples import bundled_data_path
 from toolpath.parametrize import unit_curve_parameters
 from toolpath.splinefit import admissible_knots, clamped_knots, schoenberg_whitney_violation
@@ -101,12 +101,15 @@ def test_polish_weights_stay_positive_and_finite():
 
 
 def test_polish_stops_at_a_failed_fit():
+    calls = []
+
     def fit_at(knots, weights):
-        return None, np.full(5, np.inf)
+        calls.append(weights)
+        raise FitError("refused")
 
     options = KnotOptions(None, 8, None, None, "density", None, 0, True)
     start = _Trial("start", np.array([0.0, 0.5, 1.0, 0.5, 0.0]), clamped_knots(np.array([])))
-    assert _polish(start, fit_at, options) is start
+    assert _polish(start, fit_at, options) is start and len(calls) == 1
 
 
 # ---------------------------------------------------------------- Schoenberg-Whitney

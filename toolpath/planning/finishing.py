@@ -643,7 +643,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
             f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
             "--fixed-axis or --axis lead-tilt")
     if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
-        raise _probe_gouge(surface, probe, cutter, t_probe, s_probe, opts.gouge_tol_mm)
+        raise _probe_gouge(probe, cutter, t_probe, s_probe, opts.gouge_tol_mm)
 
     clock.stage("spacing")
     allowed = probe["allowed"]
@@ -799,7 +799,7 @@ def _working_side(probe: dict[str, Any]) -> NDArray[np.float64] | None:
     return mean / size if size >= WORKING_SIDE_MIN else None
 
 
-def _probe_gouge(surface: ParametricSurface, probe: dict[str, Any], cutter: Cutter,
+def _probe_gouge(probe: dict[str, Any], cutter: Cutter,
                  t: NDArray[np.float64], s: NDArray[np.float64], tol_mm: float) -> Exception:
     """The GougeError for the deepest gouge on the probe grid (a measured depth).
 

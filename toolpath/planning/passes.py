@@ -35,6 +35,7 @@ from .sampling import (
     split_evenly,
 )
 from .tool_axis import (
+    _Z,
     AxisSmoothing,
     TiltLean,
     angle_deg,
@@ -61,7 +62,6 @@ __all__ = [
     "with_tips",
 ]
 
-_Z_AXIS = np.array([0.0, 0.0, 1.0])
 
 #: Where the chord check measures a ball's gap when the end slopes complete the model
 #: (:func:`~toolpath.planning.sampling.ball_end_slopes`).
@@ -396,7 +396,7 @@ def _within_tilt(opts: FinishingOptions, res: dict[str, float], axes: NDArray[np
     (points inserted between two axes within the reach need little or none).
     """
     cap = res.get("max_tilt_deg", math.inf)
-    if not math.isfinite(cap) or not (angle_deg(axes, _Z_AXIS) > cap).any():
+    if not math.isfinite(cap) or not (angle_deg(axes, _Z) > cap).any():
         return None
     lean = lean_within_tilt(axes, frame.normal, _rate_path(cutter, frame, pid), pid,
                             max_tilt_deg=cap, max_lean_deg=opts.max_lean_deg,

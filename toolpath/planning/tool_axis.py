@@ -463,14 +463,11 @@ class TiltLean:
     impossible : ndarray of bool, shape (n,)
         No axis within ``max_lean_deg`` of the normal is within ``max_tilt_deg`` of +Z:
         the axis there is the best one (the normal leaned ``max_lean_deg`` toward +Z).
-    best_tilt_deg : ndarray, shape (n,)
-        The angle from +Z of the final axes, deg.
     """
 
     axes: NDArray[np.float64]
     lean_deg: NDArray[np.float64]
     impossible: NDArray[np.bool_]
-    best_tilt_deg: NDArray[np.float64]
 
 
 def _toward_z(v: NDArray[np.float64], lean_deg: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -615,7 +612,7 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
     theta = angle_deg(axes, _Z)
     need = np.maximum(theta - max_tilt_deg, 0.0)
     if not (need > 0.0).any():
-        return TiltLean(axes, np.zeros(n), np.zeros(n, dtype=bool), theta)
+        return TiltLean(axes, np.zeros(n), np.zeros(n, dtype=bool))
     pid = np.ascontiguousarray(pass_id, dtype=np.int64)
     same = (pid[1:] == pid[:-1]) & moves
     for _ in range(MID_ROUNDS):
@@ -631,7 +628,6 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
             break
         grow = np.maximum(np.r_[excess, 0.0], np.r_[0.0, excess])
         need = need + 1.5 * np.maximum(grow, 0.0)
-    theta_out = angle_deg(out, _Z)
     impossible = angle_deg(normals, _Z) - max_lean_deg > max_tilt_deg + 1e-9
     moved = angle_deg(out, axes)
-    return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible, theta_out)
+    return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible)
