@@ -155,8 +155,10 @@ def test_bad_ports_give_one_line_naming_the_port(tmp_path, capsys, port, expecte
 
 def test_error_mid_job_with_firmware_silent_in_a_hold_names_the_line(simulator_factory):
     # the hold keeps the planner full, so this firmware never confirms it: the sender
-    # resets after hold_s anyway and still reports the rejected line, then resumes
-    job = Job.from_text(zigzag_program(80, feed=3000.0))
+    # resets after hold_s anyway and still reports the rejected line, then resumes.
+    # Slow moves (F100: ~0.5 s each at x20) keep the planner full from the error to the
+    # hold however late a loaded machine delivers the '!'; at F3000 it could drain first.
+    job = Job.from_text(zigzag_program(80, feed=100.0))
     bad = job.lines[29]
     timeouts = Timeouts(status_reply_s=0.3, status_wait_s=5.0, lost_line_s=1.0, stall_s=10.0,
                         hold_s=1.5, reset_s=3.0)  # fmt: skip
