@@ -59,7 +59,10 @@ MM_PER_INCH = 25.4
 
 #: The number grammar shared by emitter and parser: optional sign, digits with an
 #: optional point, or a point followed by digits. ASCII digits only; no exponent.
-NUMBER_PATTERN = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+#: Written without ambiguous repetition (a digit run can be split only one way) and with
+#: possessive quantifiers, so a regex built from it never backtracks: matching takes time
+#: linear in the text's length, even for lines that almost match (issue 26).
+NUMBER_PATTERN = r"[+-]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++)"
 _NUMBER_RE = re.compile(NUMBER_PATTERN)
 
 # Values whose scaled magnitude exceeds this leave the int64 vector path.
