@@ -6,8 +6,9 @@ The simulator parses every line a sender writes with ``BlockParser.parse_line``,
 ``check``/``send``/``verify`` parse whole files, so the figures are per line, in the
 same run, each the best of ``--repeat`` passes (``time.perf_counter``):
 
-* normal lines: a 5-axis-ish program of moves, arcs, feeds and comments (the speed the
-  simulator needs; the word reader must stay as fast as the regex it replaced);
+* normal lines: a program of moves, arcs, feeds and comments (the speed the simulator
+  needs), and the word reader alone with the old backtracking patterns and the new ones
+  on the same lines (it must stay as fast as the regex it replaced);
 * random lines up to 10,000 characters (letters, digit runs up to 400 long, signs,
   points, comments, junk) in GRBL, LinuxCNC and generic dialects: mean and worst ms/line
   against the issue's bound of 5 ms;
@@ -31,7 +32,7 @@ import time
 import numpy as np
 
 from gcode import GENERIC, GRBL, LINUXCNC, BlockParser, GCodeError
-from gcode.blockparser import _WORDS_RE
+from gcode.blockparser import _WORD_RE, _WORDS_RE
 
 _OLD_WORDS_RE = re.compile(r"(?:[A-Z][+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))*")
 _DIGITS = re.compile(r"[0-9]+\.?[0-9]*")
@@ -50,6 +51,7 @@ def _normal_program(rng: np.random.Generator, n: int) -> list[str]:
             lines.append(f"G1 X{x2:.3f} Y{y2:.3f} Z{z:.3f} F{f}")
         elif k == 2:
             lines.append(f"(pass {len(lines)})")
+            continue
         else:
             lines.append(f"G1 X{x2:.3f} Y{y2:.3f} Z{rng.normal(-1, 0.1):.3f}")
         x, y = x2, y2
@@ -126,6 +128,20 @@ def main() -> None:
     p99 = np.percentile(ms, 99) * 1e3
     print(f"  parse_line  mean {ms.mean() * 1e3:7.2f} us/line   p99 {p99:7.2f} us")
     print(f"  float() of the same numbers (baseline) mean {fl.mean() * 1e3:7.2f} us/line")
+    codes = ["".join(ln.split("(")[0].split()) for ln in normal]
+    old_word = re.compile(r"([A-Z])([+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+))")
+    for name, whole, word in (
+        ("old backtracking patterns", _OLD_WORDS_RE, old_word),
+        ("new possessive patterns  ", _WORDS_RE, _WORD_RE),
+    ):
+        best = np.inf
+        for _ in range(args.repeat):
+            t0 = time.perf_counter()
+            for c in codes:
+                if "E" not in c and whole.fullmatch(c) is not None:
+                    [(m[0], float(m[1]), m[1]) for m in word.findall(c)]
+            best = min(best, time.perf_counter() - t0)
+        print(f"  word reader, {name} {best / len(codes) * 1e6:7.2f} us/line")
 
     print(f"\nrandom lines up to 10,000 characters ({args.random} per dialect):")
     for dialect in (GRBL, LINUXCNC, GENERIC):

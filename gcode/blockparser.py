@@ -104,6 +104,8 @@ INVERSE_TIME_FLOOR_RATE = 0.1
 # backtrack either (`*+`): a fullmatch is linear in the block's length on any text.
 _WORDS_RE = re.compile(rf"(?:[A-Z]{NUMBER_PATTERN})*+")
 _WORD_RE = re.compile(rf"([A-Z])({NUMBER_PATTERN})")
+# ... the same with comment marks "(" allowed between words, never inside one
+_SPLIT_WORDS_RE = re.compile(rf"\(*+(?:[A-Z]{NUMBER_PATTERN}\(*+)*+")
 _VALUE_LETTERS = frozenset("XYZABCIJKRFSTPNO")
 _AXIS_LETTERS = ("X", "Y", "Z", "A", "B", "C")
 _LENGTH_LETTERS = frozenset("XYZIJKR")
@@ -142,7 +144,10 @@ def _split_comments(text: str, d: Dialect) -> tuple[list[str], list[str]]:
     ``d.comments_to_line_end`` an unclosed ``(`` comments out the rest of the line and a
     ``(`` inside a comment is text (GRBL ``protocol.c``); otherwise both are error 101.
     """
-    if ";" not in text:  # the usual case in one C-level split: code, comment, code, ...
+    if ";" not in text:
+        if "(" not in text:  # the usual case: no comment at all
+            return [text], []
+        # one C-level split: code, comment, code, ...
         parts = _PAREN_SPLIT.split(text)
         code = parts[::2]
         if not any("(" in c for c in code):  # else an unclosed or nested '(': see below
@@ -185,13 +190,16 @@ def _split_comments(text: str, d: Dialect) -> tuple[list[str], list[str]]:
     return code, comments
 
 
-def _words_fast(code: str) -> list[tuple[str, float, str]] | None:
+def _words_fast(
+    code: str, whole: re.Pattern[str] = _WORDS_RE
+) -> list[tuple[str, float, str]] | None:
     """Words of a well-formed ``code`` as (letter, value, text), or None.
 
-    One fullmatch and one findall of patterns that cannot backtrack: linear in
-    ``len(code)``. None for anything else (including an ``E``, which may be an exponent).
+    One fullmatch (of ``whole``: words, or words and comment marks ``(`` between them)
+    and one findall of patterns that cannot backtrack: linear in ``len(code)``. None for
+    anything else (including an ``E``, which may be an exponent).
     """
-    if "E" not in code and _WORDS_RE.fullmatch(code) is not None:
+    if "E" not in code and whole.fullmatch(code) is not None:
         return [(m[0], float(m[1]), m[1]) for m in _WORD_RE.findall(code)]
     return None
 
@@ -347,24 +355,27 @@ class BlockParser:
                 return []
             text = text.replace("/", "", 1)
         pieces, comments = _split_comments(text, d)
-        codes = ["".join(piece.split()).upper() for piece in pieces]
-        code = "".join(codes)
+        # "(" marks where a comment was: no code piece holds one
+        joined = "".join("(".join(pieces).split()).upper()
+        code = joined.replace("(", "") if comments else joined
         limit = d.max_line_length
         if limit is not None and len(code) > limit:
             raise _syntax(
                 ErrorCode.LINE_OVERFLOW,
                 f"{len(code)} characters exceed the {d.name} limit of {limit}",
             )
-        if d.comments_split_words and len(codes) > 1:
+        if d.comments_split_words and comments:
             # each piece between comments holds whole words (rs274ngc interp_read.cc)
-            words = []
-            at = 0
-            note = " (a comment ends the word before it)" + _says(
-                d, linuxcnc="Bad character used / Bad number format"
-            )
-            for c in codes:
-                words += self._read_words(c, at, note)
-                at += len(c)
+            words = _words_fast(joined, _SPLIT_WORDS_RE)
+            if words is None:  # piece by piece, to name the error (or read an E word)
+                note = " (a comment ends the word before it)" + _says(
+                    d, linuxcnc="Bad character used / Bad number format"
+                )
+                words = []
+                at = 0
+                for c in joined.split("("):
+                    words += self._read_words(c, at, note)
+                    at += len(c)
         else:
             words = self._read_words(code)
 

@@ -507,8 +507,15 @@ def read_number(text: str) -> float:
     Raises
     ------
     GCodeError
-        Code BAD_NUMBER_FORMAT for anything else (``1e-3``, ``nan``, ``1,5``, ``""``).
+        Code BAD_NUMBER_FORMAT for anything else (``1e-3``, ``nan``, ``1,5``, ``""``), and
+        for numbers beyond the float range (more than 308 integer digits).
     """
     if _NUMBER_RE.fullmatch(text) is None:
         raise SyntaxGCodeError(ErrorCode.BAD_NUMBER_FORMAT, f"not a fixed-point number: {text!r}")
-    return float(text)
+    value = float(text)
+    if not math.isfinite(value):
+        raise SyntaxGCodeError(
+            ErrorCode.BAD_NUMBER_FORMAT,
+            f"a number of {len(text)} characters is beyond the floating-point range (1.8e308)",
+        )
+    return value

@@ -22,7 +22,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from gcode import FANUC, GENERIC, GRBL, LINUXCNC, BlockParser, ErrorCode, GCodeError
-from gcode.blockparser import _words_fast, _words_scan
+from gcode.blockparser import _SPLIT_WORDS_RE, _words_fast, _words_scan
+from gcode.numbers import read_number
 from gcode.parser import parse_with_errors
 
 DIALECTS = [GRBL, LINUXCNC, FANUC, GENERIC]
@@ -66,6 +67,20 @@ def test_fast_words_and_scanner_agree(code):
         assert "E" in code
 
 
+@settings(max_examples=200, deadline=None, derandomize=True)
+@given(st.lists(_CODE, min_size=1, max_size=5))
+def test_words_between_comments_read_as_each_piece_alone(pieces):
+    """LinuxCNC: the one-pass read of words with comment marks equals piece by piece."""
+    together = _words_fast("(".join(pieces), _SPLIT_WORDS_RE)
+    alone = [_words_fast(p) for p in pieces]
+    if "E" in "".join(pieces):
+        assert together is None
+    elif any(a is None for a in alone):
+        assert together is None
+    else:
+        assert together == [w for a in alone for w in a]
+
+
 @settings(max_examples=150, deadline=None, derandomize=True)
 @given(_LINES, st.sampled_from(DIALECTS))
 def test_random_lines_give_a_block_or_a_gcode_error(line, dialect):
@@ -87,6 +102,13 @@ def test_fast_and_block_parser_agree_on_random_programs(lines, dialect):
 
 
 _BIG = "9" * 400
+
+
+def test_read_number_refuses_numbers_beyond_float_range():
+    assert read_number("9" * 308) == float("9" * 308)
+    with pytest.raises(GCodeError) as info:
+        read_number("-" + _BIG)
+    assert info.value.code is ErrorCode.BAD_NUMBER_FORMAT
 
 
 @pytest.mark.parametrize("letter", list("GMNTXYZABCFSPRIJKO"))
