@@ -18,7 +18,9 @@ so is a value that leaves it once converted (an inch value, an incremental targe
 
 Where GRBL and LinuxCNC decide differently, the :class:`~gcode.dialects.Dialect` flags
 say which rule applies (comments, feed-mode words, R-arc tolerance, inverse-time F0), and
-the error message of those dialects names the controller's own error.
+the error message of those dialects names the controller's own error. Where they agree,
+every dialect follows them: a G1/G2/G3 written out without axis words still needs a feed
+(error 22), and G2/G3 need axis words (error 26).
 
 Examples
 --------
