@@ -265,7 +265,8 @@ def fast_run(
     f_has = ~np.isnan(f)
     f_mm = f * MM_PER_INCH if (inch and not inverse) else f
     feed = _ffill(f_mm, f_has, np.nan if st.feed is None else st.feed)
-    feed_move = has_axes & (motion == 1.0)
+    # a G1 needs a feed with axis words or, written out, without them (GRBL error 22)
+    feed_move = (has_axes & (motion == 1.0)) | (g == 1.0)
     with np.errstate(invalid="ignore"):
         if inverse:
             bad = feed_move & ~(f_has & (f > 0.0))

@@ -11,6 +11,17 @@ the simulator can feed it one received line at a time.
 Values are converted to the IR's units here: lengths x ``MM_PER_INCH`` under G20, never
 rotary words, and never inverse-time feeds (1/min).
 
+Reading a block takes time linear in its length whatever the text: comments are split off
+in one pass, and words are matched by a pattern that cannot backtrack
+(:data:`gcode.numbers.NUMBER_PATTERN`); a number beyond the float range is error 2, and
+so is a value that leaves it once converted (an inch value, an incremental target).
+
+Where GRBL and LinuxCNC decide differently, the :class:`~gcode.dialects.Dialect` flags
+say which rule applies (comments, feed-mode words, R-arc tolerance, inverse-time F0), and
+the error message of those dialects names the controller's own error. Where they agree,
+every dialect follows them: a G1/G2/G3 written out without axis words still needs a feed
+(error 22), and G2/G3 need axis words (error 26).
+
 Examples
 --------
 >>> from gcode.blockparser import BlockParser
@@ -37,6 +48,7 @@ from gcode.errors import (
     ModalError,
     SyntaxGCodeError,
 )
+from gcode.interpreter import interpret
 from gcode.modal import G_GROUPS, M_GROUPS, ModalGroup, ModalState, MotionMode
 from gcode.numbers import MM_PER_INCH, NUMBER_PATTERN
 from gcode.program import (
@@ -51,6 +63,7 @@ from gcode.program import (
     FeedMode,
     Linear,
     Plane,
+    Program,
     ProgramEnd,
     Rapid,
     SetDistanceMode,
@@ -68,6 +81,7 @@ __all__ = [
     "ARC_RADIUS_ABS_TOLERANCE_MM",
     "ARC_RADIUS_MAX_ERROR_MM",
     "ARC_RADIUS_REL_TOLERANCE",
+    "INVERSE_TIME_FLOOR_RATE",
     "MAX_LINE_NUMBER",
     "BlockParser",
 ]
@@ -82,18 +96,158 @@ ARC_RADIUS_REL_TOLERANCE = 0.001
 ARC_RADIUS_MAX_ERROR_MM = 0.5
 #: Largest N word (grbl ``MAX_LINE_NUMBER``).
 MAX_LINE_NUMBER = 10_000_000
+#: Dialects with ``inverse_time_zero_feed``: an inverse-time move never runs slower than
+#: this many program units (mm or inch; degrees for rotary-only moves) per minute, as in
+#: LinuxCNC ``interp_inverse.cc`` (``rate = MAX(0.1, length * F)``).
+INVERSE_TIME_FLOOR_RATE = 0.1
 
-_WORDS_RE = re.compile(rf"(?:[A-Z]{NUMBER_PATTERN})*")
+# Whole-block and one-word patterns. NUMBER_PATTERN is unambiguous and possessive and
+# every word starts with a letter, which no number holds, so the repetition cannot
+# backtrack either (`*+`): a fullmatch is linear in the block's length on any text.
+_WORDS_RE = re.compile(rf"(?:[A-Z]{NUMBER_PATTERN})*+")
 _WORD_RE = re.compile(rf"([A-Z])({NUMBER_PATTERN})")
-_NUM_RE = re.compile(NUMBER_PATTERN)
+# ... the same with comment marks "(" allowed between words, never inside one
+_SPLIT_WORDS_RE = re.compile(rf"\(*+(?:[A-Z]{NUMBER_PATTERN}\(*+)*+")
 _VALUE_LETTERS = frozenset("XYZABCIJKRFSTPNO")
 _AXIS_LETTERS = ("X", "Y", "Z", "A", "B", "C")
 _LENGTH_LETTERS = frozenset("XYZIJKR")
+_PAREN_SPLIT = re.compile(r"\(([^()]*+)\)")
 _PRINTABLE = re.compile(r"[\t\r\x20-\x7e]*")
 
 
 def _syntax(code: ErrorCode, message: str) -> SyntaxGCodeError:
     return SyntaxGCodeError(code, message)
+
+
+def _short(raw: str) -> str:
+    """A number's text for a message: long ones shortened, with their length."""
+    return raw if len(raw) <= 24 else f"{raw[:12]}...{raw[-4:]} ({len(raw)} characters)"
+
+
+def _beyond_range(what: str) -> SyntaxGCodeError:
+    return _syntax(
+        ErrorCode.BAD_NUMBER_FORMAT, f"{what} is beyond the floating-point range (1.8e308)"
+    )
+
+
+def _says(d: Dialect, grbl: str | None = None, linuxcnc: str | None = None) -> str:
+    """The controller's own verdict, appended to a message of the GRBL/LinuxCNC dialects."""
+    if d.name == "grbl" and grbl:
+        return f" (GRBL {grbl})"
+    if d.name == "linuxcnc" and linuxcnc:
+        return f" (LinuxCNC: {linuxcnc!r})"
+    return ""
+
+
+def _split_comments(text: str, d: Dialect) -> tuple[list[str], list[str]]:
+    """Split a line into its code pieces (between comments) and its comments' texts.
+
+    One pass: every character is looked at a bounded number of times. With
+    ``d.comments_to_line_end`` an unclosed ``(`` comments out the rest of the line and a
+    ``(`` inside a comment is text (GRBL ``protocol.c``); otherwise both are error 101.
+    """
+    if ";" not in text:
+        if "(" not in text:  # the usual case: no comment at all
+            return [text], []
+        # one C-level split: code, comment, code, ...
+        parts = _PAREN_SPLIT.split(text)
+        code = parts[::2]
+        if not any("(" in c for c in code):  # else an unclosed or nested '(': see below
+            return code, [c.strip() for c in parts[1::2]]
+    to_line_end = d.comments_to_line_end
+    code = []
+    comments: list[str] = []
+    pos = 0
+    paren = text.find("(")
+    semi = text.find(";")
+    while True:
+        if paren < 0 and semi < 0:
+            code.append(text[pos:])
+            break
+        if semi >= 0 and (paren < 0 or semi < paren):
+            code.append(text[pos:semi])
+            comments.append(text[semi + 1 :].strip())
+            break
+        code.append(text[pos:paren])
+        close = text.find(")", paren + 1)
+        if close < 0:
+            if not to_line_end:
+                raise _syntax(
+                    ErrorCode.UNCLOSED_COMMENT,
+                    "'(' comment is not closed" + _says(d, linuxcnc="Unclosed comment found"),
+                )
+            comments.append(text[paren + 1 :].strip())
+            break
+        body = text[paren + 1 : close]
+        if not to_line_end and "(" in body:
+            raise _syntax(
+                ErrorCode.UNCLOSED_COMMENT,
+                "nested '(' inside a comment" + _says(d, linuxcnc="Nested comment found"),
+            )
+        comments.append(body.strip())
+        pos = close + 1
+        paren = text.find("(", pos)
+        if 0 <= semi < pos:  # that ';' was inside the comment
+            semi = text.find(";", pos)
+    return code, comments
+
+
+def _words_fast(
+    code: str, whole: re.Pattern[str] = _WORDS_RE
+) -> list[tuple[str, float, str]] | None:
+    """Words of a well-formed ``code`` as (letter, value, text), or None.
+
+    One fullmatch (of ``whole``: words, or words and comment marks ``(`` between them)
+    and one findall of patterns that cannot backtrack: linear in ``len(code)``. None for
+    anything else (including an ``E``, which may be an exponent).
+    """
+    if "E" not in code and whole.fullmatch(code) is not None:
+        return [(m[0], float(m[1]), m[1]) for m in _WORD_RE.findall(code)]
+    return None
+
+
+def _words_scan(code: str, offset: int = 0, note: str = "") -> list[tuple[str, float, str]]:
+    """Hand-written scanner: the words of ``code``, or the error at the first bad one.
+
+    Reads letter, optional sign, digits, optional point, digits, each character once
+    (linear in ``len(code)``); it accepts exactly the texts :func:`_words_fast` accepts
+    and returns the same words (a property test checks this), and for the others names
+    the problem at its column (``offset`` + position, 1-based, in the block without
+    spaces; ``note`` is appended to the message).
+    """
+    n = len(code)
+    pos = 0
+    words = []
+    while pos < n:
+        letter = code[pos]
+        if not ("A" <= letter <= "Z"):
+            raise _syntax(
+                ErrorCode.EXPECTED_COMMAND_LETTER,
+                f"expected a word letter, found {letter!r} at column {offset + pos + 1}" + note,
+            )
+        j = pos + 1
+        if j < n and code[j] in "+-":
+            j += 1
+        digits = 0
+        while j < n and "0" <= code[j] <= "9":
+            j += 1
+            digits += 1
+        if j < n and code[j] == ".":
+            j += 1
+            while j < n and "0" <= code[j] <= "9":
+                j += 1
+                digits += 1
+        if digits == 0:
+            raise _syntax(ErrorCode.BAD_NUMBER_FORMAT, f"letter {letter!r} has no number" + note)
+        if j < n and code[j] == "E":
+            raise _syntax(
+                ErrorCode.BAD_NUMBER_FORMAT,
+                f"exponent in {code[pos : j + 3]!r}: numbers must be fixed point",
+            )
+        raw = code[pos + 1 : j]
+        words.append((letter, float(raw), raw))
+        pos = j
+    return words
 
 
 class BlockParser:
@@ -165,57 +319,21 @@ class BlockParser:
             raise err.at(line, text.rstrip("\r\n")) from None
 
     # ------------------------------------------------------------------ STEP 1: read
-    def _split_comments(self, text: str) -> tuple[str, list[str]]:
-        code: list[str] = []
-        comments: list[str] = []
-        pos = 0
-        n = len(text)
-        while pos < n:
-            paren = text.find("(", pos)
-            semi = text.find(";", pos)
-            if paren < 0 and semi < 0:
-                code.append(text[pos:])
-                break
-            if semi >= 0 and (paren < 0 or semi < paren):
-                code.append(text[pos:semi])
-                comments.append(text[semi + 1 :].strip())
-                break
-            code.append(text[pos:paren])
-            close = text.find(")", paren + 1)
-            if close < 0:
-                raise _syntax(ErrorCode.UNCLOSED_COMMENT, "'(' comment is not closed")
-            body = text[paren + 1 : close]
-            if "(" in body:
-                raise _syntax(ErrorCode.UNCLOSED_COMMENT, "nested '(' inside a comment")
-            comments.append(body.strip())
-            pos = close + 1
-        return "".join(code), comments
+    def _read_words(
+        self, code: str, offset: int = 0, note: str = ""
+    ) -> list[tuple[str, float, str]]:
+        """Words of ``code`` (upper case, no spaces): the fast path, else the scanner's error.
 
-    def _read_words(self, code: str) -> list[tuple[str, float, str]]:
-        if "E" not in code and _WORDS_RE.fullmatch(code) is not None:
-            return [(m[0], float(m[1]), m[1]) for m in _WORD_RE.findall(code)]
-        # Find the first offending character and say exactly what is wrong.
-        pos = 0
-        words = []
-        while pos < len(code):
-            letter = code[pos]
-            if not ("A" <= letter <= "Z"):
-                raise _syntax(
-                    ErrorCode.EXPECTED_COMMAND_LETTER,
-                    f"expected a word letter, found {letter!r} at column {pos + 1}",
-                )
-            m = _NUM_RE.match(code, pos + 1)
-            if m is None:
-                raise _syntax(ErrorCode.BAD_NUMBER_FORMAT, f"letter {letter!r} has no number")
-            end = m.end()
-            if end < len(code) and code[end] == "E":
-                raise _syntax(
-                    ErrorCode.BAD_NUMBER_FORMAT,
-                    f"exponent in {code[pos : end + 3]!r}: numbers must be fixed point",
-                )
-            words.append((letter, float(m.group()), m.group()))
-            pos = end
-        return words
+        The scanner starts after the longest run of whole words (a possessive match, so
+        linear), where the error is, unless an ``E`` may be an exponent in that run.
+        """
+        words = _words_fast(code)
+        if words is not None:
+            return words
+        if "E" not in code:
+            cut = _WORDS_RE.match(code).end()  # type: ignore[union-attr]  # always matches
+            _words_scan(code[cut:], offset + cut, note)  # raises at its first character
+        return _words_scan(code, offset, note)
 
     # ------------------------------------------------------------------ STEP 2-4
     def _parse(self, text: str) -> list[Block]:
@@ -238,15 +356,30 @@ class BlockParser:
             if self.block_delete:
                 return []
             text = text.replace("/", "", 1)
-        code_text, comments = self._split_comments(text)
-        code = "".join(code_text.split()).upper()
+        pieces, comments = _split_comments(text, d)
+        # "(" marks where a comment was: no code piece holds one
+        joined = "".join("(".join(pieces).split()).upper()
+        code = joined.replace("(", "") if comments else joined
         limit = d.max_line_length
         if limit is not None and len(code) > limit:
             raise _syntax(
                 ErrorCode.LINE_OVERFLOW,
                 f"{len(code)} characters exceed the {d.name} limit of {limit}",
             )
-        words = self._read_words(code)
+        if d.comments_split_words and comments:
+            # each piece between comments holds whole words (rs274ngc interp_read.cc)
+            words = _words_fast(joined, _SPLIT_WORDS_RE)
+            if words is None:  # piece by piece, to name the error (or read an E word)
+                note = " (a comment ends the word before it)" + _says(
+                    d, linuxcnc="Bad character used / Bad number format"
+                )
+                words = []
+                at = 0
+                for c in joined.split("("):
+                    words += self._read_words(c, at, note)
+                    at += len(c)
+        else:
+            words = self._read_words(code)
 
         # -- collect and check words (no state touched yet)
         values: dict[str, float] = {}
@@ -254,6 +387,8 @@ class BlockParser:
         g_words: dict[ModalGroup, int] = {}
         m_words: dict[ModalGroup, int] = {}
         for letter, value, raw in words:
+            if not math.isfinite(value):
+                raise _beyond_range(f"the number of word {letter}{_short(raw)}")
             if letter in ("G", "M"):
                 table = G_GROUPS if letter == "G" else M_GROUPS
                 if value != int(value) or int(value) not in table:
@@ -318,7 +453,7 @@ class BlockParser:
         feed = st.feed
         if ModalGroup.FEED_MODE in g_words:
             feed_mode = FeedMode(g_words[ModalGroup.FEED_MODE])
-            if feed_mode is not st.feed_mode:
+            if feed_mode is not st.feed_mode or d.feed_mode_word_resets_feed:
                 feed = None
             blocks.append(SetFeedMode(feed_mode))
         units = st.units
@@ -328,6 +463,8 @@ class BlockParser:
         if "F" in values:
             f = values["F"]
             feed = f * MM_PER_INCH if inch and feed_mode is FeedMode.UNITS_PER_MINUTE else f
+            if not math.isfinite(feed):
+                raise _beyond_range(f"F{_short(texts['F'])} in mm/min")
         rpm = values.get("S", st.rpm)
         selected = int(values["T"]) if "T" in values else st.selected_tool
         tool = st.tool
@@ -381,7 +518,11 @@ class BlockParser:
         for letter in _AXIS_LETTERS:
             if letter in values:
                 v = values[letter]
-                axis_vals[letter.lower()] = v * scale if inch and letter in "XYZ" else v
+                if inch and letter in "XYZ":
+                    v *= scale
+                    if not math.isfinite(v):
+                        raise _beyond_range(f"{letter}{_short(texts[letter])} in mm")
+                axis_vals[letter.lower()] = v
         arc_words = [w for w in ("I", "J", "K", "R") if w in values]
         position = st.position
         motion_seen = self.motion_seen
@@ -391,23 +532,51 @@ class BlockParser:
             if motion is MotionMode.RAPID:
                 blocks.append(Rapid(**axis_vals))
             else:
-                this_feed = self._feed_for_move(feed_mode, feed, "F" in values)
+                this_feed = self._feed_for_move(motion, feed_mode, feed, "F" in values)
+                move: Linear | Arc
                 if motion is MotionMode.LINEAR:
-                    blocks.append(Linear(**axis_vals, feed=this_feed))
+                    move = Linear(**axis_vals, feed=this_feed or 1.0)
                 else:
-                    blocks.append(
-                        self._arc(
-                            motion,
-                            plane,
-                            axis_vals,
-                            values,
-                            st.position,
-                            position,
-                            this_feed,
-                            scale if inch else 1.0,
-                        )
+                    move = self._arc(
+                        motion,
+                        plane,
+                        axis_vals,
+                        values,
+                        st.position,
+                        position,
+                        this_feed or 1.0,
+                        scale if inch else 1.0,
                     )
                     arc_words = []
+                if this_feed == 0.0:  # inverse-time F0 where the dialect accepts it
+                    floor = self._floor_feed(move, replace(st, distance=distance), position, inch)
+                    move = replace(move, feed=floor) if floor else None
+                if move is not None:
+                    blocks.append(move)
+        elif ModalGroup.MOTION in g_words and motion is not MotionMode.RAPID:
+            # An explicit G1/G2/G3 without axis words still needs a feed (GRBL gcode.c
+            # "[Feed rate undefined]", LinuxCNC convert_straight/convert_arc); G2/G3 also
+            # need axis words (GRBL error 26; LinuxCNC "R, I, J, and K words all missing
+            # for arc", or a full circle from I/J/K alone, which we refuse: see LINUXCNC).
+            self._feed_for_move(motion, feed_mode, feed, "F" in values)
+            if motion is not MotionMode.LINEAR:
+                centre = any(w in values for w in "IJK")
+                raise ArcError(
+                    ErrorCode.NO_AXIS_WORDS,
+                    f"G{int(motion)} without axis words"
+                    + _says(
+                        d,
+                        grbl="error:26",
+                        linuxcnc="R, I, J, and K words all missing for arc"
+                        if not (centre or "R" in values)
+                        else None,
+                    )
+                    + (
+                        " (LinuxCNC would cut a full circle: refused by choice, see LINUXCNC)"
+                        if centre and d.name == "linuxcnc"
+                        else ""
+                    ),
+                )
         if arc_words:
             raise ModalError(ErrorCode.UNUSED_WORDS, f"{', '.join(arc_words)} without an arc move")
         if "P" in values and not used_p:
@@ -454,7 +623,11 @@ class BlockParser:
             if letter in values and letter.lower() not in d.axes:
                 raise DialectError(ErrorCode.UNSUPPORTED_COMMAND, f"{d.name} has no {letter} axis")
         if g_words.get(ModalGroup.FEED_MODE) == 93 and not d.inverse_time:
-            raise DialectError(ErrorCode.UNSUPPORTED_COMMAND, f"{d.name} has no inverse time G93")
+            why = " (GRBL 1.1 accepts G93; this project's grbl dialect refuses it by choice)"
+            raise DialectError(
+                ErrorCode.UNSUPPORTED_COMMAND,
+                f"{d.name} has no inverse time G93" + (why if d.name == "grbl" else ""),
+            )
         if g_words.get(ModalGroup.MOTION) in (2, 3) and not d.arcs:
             raise DialectError(ErrorCode.UNSUPPORTED_COMMAND, f"{d.name} has no arcs")
         if ModalGroup.TOOL_CHANGE in m_words and not d.tool_change:
@@ -471,24 +644,62 @@ class BlockParser:
         for n, name in enumerate(AXES):
             if name in axis_vals:
                 out[n] = out[n] + axis_vals[name] if inc else axis_vals[name]
+                if not math.isfinite(out[n]):
+                    raise _beyond_range(f"the incremental target of {name.upper()}")
         return tuple(out)  # type: ignore[return-value]
 
-    @staticmethod
-    def _feed_for_move(feed_mode: FeedMode, feed: float | None, has_f: bool) -> float:
+    def _feed_for_move(
+        self, motion: MotionMode, feed_mode: FeedMode, feed: float | None, has_f: bool
+    ) -> float:
+        """The feed of a G1/G2/G3 move, or error 22 (0.0: inverse-time F0 accepted)."""
+        d = self.dialect
+        g = f"G{int(motion)}"
+        kind = "G1" if motion is MotionMode.LINEAR else "arc"
         if feed_mode is FeedMode.INVERSE_TIME:
             if not has_f:
                 raise FeedError(
-                    ErrorCode.UNDEFINED_FEED_RATE, "feed move in inverse time (G93) without F"
+                    ErrorCode.UNDEFINED_FEED_RATE,
+                    f"{g} in inverse time (G93) without F"
+                    + _says(d, "error:22", f"F word missing with inverse time {kind} move"),
                 )
             if not feed:
-                raise FeedError(ErrorCode.UNDEFINED_FEED_RATE, "inverse-time F must be > 0")
+                if d.inverse_time_zero_feed:
+                    return 0.0
+                raise FeedError(
+                    ErrorCode.UNDEFINED_FEED_RATE,
+                    "inverse-time F must be > 0" + _says(d, grbl="error:22"),
+                )
             return feed
         if not feed:
+            zero = "Cannot do G1 with zero feed rate"
+            if motion is not MotionMode.LINEAR:
+                zero = "Cannot make arc with zero feed rate"
             raise FeedError(
                 ErrorCode.UNDEFINED_FEED_RATE,
-                f"feed move with no feed rate defined (F is {feed!r})",
+                f"{g} with no feed rate defined (F is {feed!r})" + _says(d, "error:22", zero),
             )
         return feed
+
+    @staticmethod
+    def _floor_feed(
+        move: Linear | Arc, state: ModalState, end: tuple[float, ...], inch: bool
+    ) -> float | None:
+        """Inverse-time feed (1/min) of an ``F0`` move run at the floor rate, None if static.
+
+        LinuxCNC runs an inverse-time move at ``max(0.1, L * F)`` units/min, ``L`` its
+        XYZ length (arc length for arcs) in program units, or its rotary distance when no
+        linear axis moves; with ``F0`` the move takes ``L / 0.1`` minutes, which is the
+        inverse-time feed ``0.1 / L``. A move of length 0 takes no time and is left out.
+        """
+        length = float(interpret(Program((move,)), state=state).lengths()[0])
+        if inch:
+            length /= MM_PER_INCH
+        if length == 0.0:
+            rotary = [e - s for s, e in zip(state.position[3:], end[3:], strict=True)]
+            length = math.sqrt(sum(r * r for r in rotary))
+        if length == 0.0:
+            return None
+        return INVERSE_TIME_FLOOR_RATE / length
 
     def _arc(
         self,
@@ -513,13 +724,19 @@ class BlockParser:
             if any(w in values for w in "IJK"):
                 raise ModalError(ErrorCode.UNUSED_WORDS, "I/J/K with R: give one centre form")
             r = values["R"] * scale
+            if not math.isfinite(r):
+                raise _beyond_range("the R word in mm")
             chord = math.hypot(eu - su, ev - sv)
             if chord == 0.0:
                 raise ArcError(ErrorCode.INVALID_TARGET, "R arc with end point equal to start")
-            if chord / 2.0 - abs(r) > ARC_RADIUS_ABS_TOLERANCE_MM:
+            # GRBL errs when 4 r^2 - chord^2 < 0, with no tolerance; the same test as
+            # |r| < chord / 2, written so that it cannot overflow
+            tolerance = 0.0 if self.dialect.exact_r_arcs else ARC_RADIUS_ABS_TOLERANCE_MM
+            if chord / 2.0 - abs(r) > tolerance:
                 raise ArcError(
                     ErrorCode.ARC_RADIUS_ERROR,
-                    f"radius {abs(r)!r} mm is shorter than half the chord {chord / 2!r} mm",
+                    f"radius {abs(r)!r} mm is shorter than half the chord {chord / 2!r} mm"
+                    + _says(self.dialect, grbl="error:34"),
                 )
             return Arc(clockwise=cw, **axis_vals, r=r, plane=plane, feed=feed)
         ou, ov = plane.offsets
@@ -532,6 +749,8 @@ class BlockParser:
         cu, cv = su + offs.get(ou, 0.0), sv + offs.get(ov, 0.0)
         r0 = math.hypot(su - cu, sv - cv)
         r1 = math.hypot(eu - cu, ev - cv)
+        if not math.isfinite(r0 + r1):
+            raise _beyond_range("the arc's centre or radius")
         if r0 == 0.0:
             raise ArcError(ErrorCode.INVALID_TARGET, "arc centre coincides with its start")
         delta = abs(r1 - r0)

@@ -113,6 +113,30 @@ class Dialect:
         G4 P is in milliseconds (Fanuc) instead of seconds.
     preamble, postamble : tuple of Block
         Blocks written before and after the program's own blocks (after the units line).
+    comments_to_line_end : bool
+        Comments are stripped the way GRBL's ``protocol.c`` strips them: a ``(`` comment
+        runs to the first ``)`` or, unclosed, to the end of the line (the block before it
+        still runs), and a ``(`` inside a comment is plain text. When False (default) an
+        unclosed or nested ``(`` is error 101, as in LinuxCNC ("Unclosed comment found",
+        "Nested comment found").
+    comments_split_words : bool
+        A ``( )`` comment ends the word before it, as in LinuxCNC's ``interp_read.cc``
+        (each item is read whole; a digit after a comment is "Bad character used"): then
+        ``G9(c)4`` is an error, not ``G94``. When False, comments are removed first and the
+        text around them joins up, as in GRBL.
+    feed_mode_word_resets_feed : bool
+        Every G93/G94 word, even one that repeats the current mode, leaves the feed rate
+        undefined (LinuxCNC ``convert_feed_mode`` sets it to 0), so the next feed move
+        needs an F. When False, only a change of mode does (GRBL).
+    exact_r_arcs : bool
+        An R-form arc whose radius is shorter than half its chord by any amount is
+        rejected (GRBL ``gcode.c``: error 34 when ``4 r**2 - x**2 - y**2 < 0``). When False
+        it may be shorter by up to ``ARC_RADIUS_ABS_TOLERANCE_MM`` (rounding of written
+        coordinates) and is then a half circle.
+    inverse_time_zero_feed : bool
+        An inverse-time (G93) feed move with ``F0`` is accepted and runs at the
+        controller's floor rate (LinuxCNC ``interp_inverse.cc``: the canonical feed is
+        ``max(0.1, length * F)`` units/min). When False, F must be > 0 (GRBL error 22).
     """
 
     name: str
@@ -140,6 +164,11 @@ class Dialect:
     dwell_ms: bool = False
     preamble: tuple[Block, ...] = ()
     postamble: tuple[Block, ...] = ()
+    comments_to_line_end: bool = False
+    comments_split_words: bool = False
+    feed_mode_word_resets_feed: bool = False
+    exact_r_arcs: bool = False
+    inverse_time_zero_feed: bool = False
 
     def __post_init__(self) -> None:
         bad = [a for a in self.axes if a not in AXES]
@@ -154,7 +183,14 @@ class Dialect:
 
 
 #: GRBL 1.1: XYZ only, 79 characters (80-byte line buffer incl. NUL, error:11 beyond),
-#: no tool change, arcs, no G93 (by project choice), no O words, no ``%``, compact text.
+#: no tool change, arcs, no O words, no ``%``, compact text. Verdicts follow GRBL 1.1h's
+#: ``protocol.c`` and ``gcode.c``: comments end at ``)`` or the line end, R arcs may not be
+#: short of half the chord by any amount (error 34), G1/G2/G3 need a feed even without axis
+#: words (error 22), G2/G3 need axis words (error 26).
+#:
+#: Stricter than GRBL by choice: **G93 is refused** (error 20) although GRBL 1.1 accepts
+#: inverse time, because this project's GRBL machines are 3-axis and never need it, and a
+#: G93 program sent to them is almost surely meant for another machine.
 GRBL = Dialect(
     name="grbl",
     axes=("x", "y", "z"),
@@ -165,13 +201,25 @@ GRBL = Dialect(
     o_words=False,
     accept_percent=False,
     preamble=_SAFE_START,
+    comments_to_line_end=True,
+    exact_r_arcs=True,
 )
 
-#: LinuxCNC 2.9: A/B/C, G93, tool change, O words; rs274ngc's LINELEN is 255.
+#: LinuxCNC 2.9: A/B/C, G93, tool change, O words; rs274ngc's LINELEN is 255. Verdicts
+#: follow rs274ngc: a comment inside a word is an error (``G9(c)4``), every G93/G94 word
+#: leaves F undefined, G93 moves need F on every move but accept ``F0`` (floor rate 0.1
+#: units/min), unclosed and nested comments are errors.
+#:
+#: Stricter than LinuxCNC by choice: ``G2``/``G3`` with I/J/K but no axis word (a full
+#: circle in LinuxCNC) is refused (error 26), as GRBL refuses it, so that a program's arcs
+#: get one verdict on both controllers; write a full circle with its end point.
 LINUXCNC = Dialect(
     name="linuxcnc",
     max_line_length=255,
     preamble=_SAFE_START,
+    comments_split_words=True,
+    feed_mode_word_resets_feed=True,
+    inverse_time_zero_feed=True,
 )
 
 #: Fanuc-style ISO: ``%`` delimiters, ``O0001 (NAME)``, N numbers, ``G01``, points on

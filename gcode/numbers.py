@@ -59,7 +59,10 @@ MM_PER_INCH = 25.4
 
 #: The number grammar shared by emitter and parser: optional sign, digits with an
 #: optional point, or a point followed by digits. ASCII digits only; no exponent.
-NUMBER_PATTERN = r"[+-]?(?:[0-9]+\.?[0-9]*|\.[0-9]+)"
+#: Written without ambiguous repetition (a digit run can be split only one way) and with
+#: possessive quantifiers, so a regex built from it never backtracks: matching takes time
+#: linear in the text's length, even for lines that almost match (issue 26).
+NUMBER_PATTERN = r"[+-]?+(?:[0-9]++(?:\.[0-9]*+)?+|\.[0-9]++)"
 _NUMBER_RE = re.compile(NUMBER_PATTERN)
 
 # Values whose scaled magnitude exceeds this leave the int64 vector path.
@@ -504,8 +507,15 @@ def read_number(text: str) -> float:
     Raises
     ------
     GCodeError
-        Code BAD_NUMBER_FORMAT for anything else (``1e-3``, ``nan``, ``1,5``, ``""``).
+        Code BAD_NUMBER_FORMAT for anything else (``1e-3``, ``nan``, ``1,5``, ``""``), and
+        for numbers beyond the float range (more than 308 integer digits).
     """
     if _NUMBER_RE.fullmatch(text) is None:
         raise SyntaxGCodeError(ErrorCode.BAD_NUMBER_FORMAT, f"not a fixed-point number: {text!r}")
-    return float(text)
+    value = float(text)
+    if not math.isfinite(value):
+        raise SyntaxGCodeError(
+            ErrorCode.BAD_NUMBER_FORMAT,
+            f"a number of {len(text)} characters is beyond the floating-point range (1.8e308)",
+        )
+    return value
