@@ -1,0 +1,108 @@
+"""``toolpath batch`` on a local Dask cluster: a bad input, a killed worker, a rerun."""
+
+from __future__ import annotations
+
+import csv
+import json
+import shutil
+from pathlib import Path
+
+from _batch_support import counted_task, killing_task
+
+from streamline_cam.batch import find_inputs, plan_batch, run_batch
+from streamline_cam.cli import _parser, main
+from streamline_cam.commands.run import request_from_args
+from streamline_cam.dask_engine import WARM_UP_TOPIC
+from toolpath.paper_examples import bundled_data_path
+
+#: Coarse jobs: seconds each.
+COARSE_FLAGS = ["--scallop", "0.5", "--chord-tol", "0.2", "--fit-tol", "0.05"]
+TIMEOUT_S = 120.0
+
+
+def _inputs(folder: Path, *, bad: bool) -> Path:
+    folder.mkdir()
+    shutil.copy(bundled_data_path("dev_prop_7x100.csv"), folder / "prop.csv")
+    shutil.copy(bundled_data_path("dev_rotor_blunt_9x120.csv"), folder / "blunt.csv")
+    if bad:
+        (folder / "bad.csv").write_text("section,x,y,z\n0,1.0,2.0\n", encoding="utf-8")
+    return folder
+
+
+def _template():
+    """The job options as ``toolpath batch`` reads them from its flags."""
+    args = _parser().parse_args(["batch", "x.csv", *COARSE_FLAGS, "-o", "out"])
+    return request_from_args(Path(), args)
+
+
+def _log_lines(log: Path) -> list[str]:
+    return log.read_text(encoding="utf-8").splitlines() if log.exists() else []
+
+
+def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp_path):
+    inputs = _inputs(tmp_path / "in", bad=True)
+    out, log = tmp_path / "out", tmp_path / "runs.log"
+    jobs = plan_batch(find_inputs([str(inputs)]), _template())
+    assert [j.name for j in jobs] == ["bad", "blunt", "prop"]
+    summary = run_batch(jobs, out, client, task=counted_task(str(log)), timeout_s=TIMEOUT_S)
+
+    rows = {row["name"]: row for row in summary.rows}
+    assert not summary.all_held
+    assert rows["bad"]["exit"] == 2 and rows["bad"]["status"] == "failed"
+    assert "bad.csv:2" in rows["bad"]["error"] and "\n" not in rows["bad"]["error"]
+    for name in ("blunt", "prop"):
+        assert rows[name]["exit"] == 0 and rows[name]["status"] == "done"
+        assert rows[name]["passes"] > 0 and rows[name]["points"] > rows[name]["passes"]
+        assert rows[name]["worker"] and rows[name]["seconds"] > 0
+        report = json.loads((out / name / "report.json").read_text())
+        assert report["plan"]["n_points"] == rows[name]["points"]
+        assert report["request"]["sections_path"] == str(inputs / f"{name}.csv")
+        assert (out / name / "part.nc").read_text().count("\n") == report["program"]["lines"]
+    assert not (out / "bad").exists()
+    assert sorted(p.name for p in out.iterdir()) == ["blunt", "prop", "summary.csv",
+                                                     "summary.json"]  # no partial folder
+    with (out / "summary.csv").open() as stream:
+        assert [r["name"] for r in csv.DictReader(stream)] == ["bad", "blunt", "prop"]
+    assert json.loads((out / "summary.json").read_text())["all_held"] is False
+    assert sorted(_log_lines(log)) == sorted(f"{e} {n}.csv" for e in ("start", "done")
+                                             for n in ("bad", "blunt", "prop"))
+
+    # the same batch again, through the command line and the cluster's address: the
+    # finished jobs are skipped (their folders untouched), the failed one is run again
+    (out / "prop" / "part.nc").touch()
+    stamp = (out / "prop" / "part.nc").stat().st_mtime_ns
+    address = client.scheduler.address
+    assert address.startswith("tcp://127.0.0.1:")
+    code = main(["batch", str(inputs / "*.csv"), *COARSE_FLAGS, "--scheduler", address,
+                 "-o", str(out), "--quiet"])
+    assert code == 1  # the bad input still fails
+    rows = {row["name"]: row for row in json.loads((out / "summary.json").read_text())["jobs"]}
+    assert [rows[n]["status"] for n in ("bad", "blunt", "prop")] == ["failed", "skipped",
+                                                                      "skipped"]
+    assert rows["prop"]["points"] == summary.rows[2]["points"]
+    assert (out / "prop" / "part.nc").stat().st_mtime_ns == stamp
+
+
+def test_a_worker_killed_during_a_job_has_the_job_run_again_once(client, tmp_path):
+    inputs = _inputs(tmp_path / "in", bad=False)
+    out, log, marker = tmp_path / "out", tmp_path / "runs.log", tmp_path / "killed"
+    jobs = plan_batch(find_inputs([str(inputs / "*.csv")]), _template())
+    summary = run_batch(jobs, out, client, timeout_s=TIMEOUT_S,
+                        task=killing_task(str(log), "prop.csv", str(marker)))
+
+    assert marker.exists()  # the worker running prop.csv was killed while planning
+    assert summary.all_held
+    assert [row["status"] for row in summary.rows] == ["done", "done"]
+    lines = _log_lines(log)
+    assert lines.count("start prop.csv") == 2  # killed, then run again on a new worker
+    assert lines.count("done prop.csv") == 1 and lines.count("done blunt.csv") == 1
+    killed_pid = int(marker.read_text())
+    assert summary.rows[1]["name"] == "prop"
+    assert not summary.rows[1]["worker"].endswith(f":{killed_pid}")
+    for name in ("blunt", "prop"):
+        assert {p.name for p in (out / name).iterdir()} == {
+            "batch_job.json", "part.nc", "report.json", "surface.json", "toolpath.npz"}
+    # the kernels were warmed once per worker process, not per job nor per batch (the
+    # command-line batch of the other test registered the set-up again on these workers)
+    pids = [event["pid"] for _, event in client.get_events(WARM_UP_TOPIC)]
+    assert len(pids) == len(set(pids)) and killed_pid in pids
