@@ -25,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
 
-from toolpath.errors import InvalidParameterError
+from toolpath.errors import DataFileError, InvalidParameterError
 
 from .job_task import JobOutcome, PackedJob, pack_job, write_files
 from .pipeline import JobRequest
@@ -54,12 +54,16 @@ SUMMARY_FIELDS: Final[tuple[str, ...]] = (
 
 @dataclass(frozen=True)
 class BatchJob:
-    """One input of a batch: its folder name under ``OUT_DIR``, fingerprint and packed job."""
+    """One input of a batch: its folder name under ``OUT_DIR``, fingerprint and packed job.
+
+    An input that cannot be read has no packed job but its ``error``: it fails alone.
+    """
 
     name: str
     path: Path
     fingerprint: str
-    packed: PackedJob
+    packed: PackedJob | None
+    error: str | None = None
 
 
 @dataclass(frozen=True)
@@ -131,8 +135,12 @@ def plan_batch(paths: Sequence[Path], template: JobRequest, *, verify: bool = Fa
     template.validated()  # a bad option is named once, before any work
     jobs = []
     for name, path in zip(_names(paths), paths, strict=True):
-        packed = pack_job(dataclasses.replace(template, sections_path=path), verify=verify,
-                          plots=plots)
+        try:
+            packed = pack_job(dataclasses.replace(template, sections_path=path),
+                              verify=verify, plots=plots)
+        except DataFileError as exc:  # unreadable (permissions): this job fails, not all
+            jobs.append(BatchJob(name, path, "", None, error=str(exc)))
+            continue
         jobs.append(BatchJob(name, path, _fingerprint(packed), packed))
     return jobs
 
@@ -227,6 +235,12 @@ def run_batch(jobs: Sequence[BatchJob], out_dir: Path, client: Any, *,
     rows: dict[str, dict[str, Any]] = {}
     futures, by_key = [], {}
     for job in jobs:
+        if job.packed is None:
+            rows[job.name] = summary_row(job, JobOutcome(None, error=job.error),
+                                         status="failed")
+            if on_done is not None:
+                on_done(rows[job.name])
+            continue
         record = _finished_record(out_dir / job.name, job.fingerprint)
         if record is not None:
             rows[job.name] = summary_row(job, None, status="skipped", record=record)

@@ -36,9 +36,11 @@ from .job_task import JobOutcome, PackedJob, pack_job, run_packed_job, warm_up, 
 from .pipeline import JobRequest
 
 __all__ = [
+    "CONNECT_TIMEOUT_S",
     "THREAD_LIMITS",
     "WARM_UP_TOPIC",
     "DaskJobs",
+    "SchedulerError",
     "WorkerSetup",
     "as_outcomes",
     "dashboard_link",
@@ -57,6 +59,9 @@ THREAD_LIMITS: Final[dict[str, str]] = {
     "OPENBLAS_NUM_THREADS": "1",
 }
 
+#: How long a client tries to reach a scheduler before it gives up (s).
+CONNECT_TIMEOUT_S: Final[float] = 30.0
+
 #: The topic of the workers' warm-up events (``Client.get_events``): one per process.
 WARM_UP_TOPIC: Final[str] = "toolpath-warm-up"
 
@@ -64,6 +69,10 @@ WARM_UP_TOPIC: Final[str] = "toolpath-warm-up"
 PROGRESS_INTERVAL_S: Final[float] = 0.5
 
 Task = Callable[[PackedJob, str | None], JobOutcome]
+
+
+class SchedulerError(ConnectionError):
+    """The Dask scheduler named by ``--scheduler`` cannot be reached."""
 
 
 class WorkerSetup(WorkerPlugin):
@@ -136,7 +145,11 @@ def job_client(scheduler: str | None = None, *, workers: int | None = None,
             silence_logs=logging.ERROR)
         client = Client(cluster)
     else:
-        client = Client(scheduler, timeout="30s")
+        try:
+            client = Client(scheduler, timeout=f"{CONNECT_TIMEOUT_S}s")
+        except OSError as exc:  # refused, timed out, unknown host
+            raise SchedulerError(f"cannot reach the Dask scheduler at {scheduler}: {exc}") \
+                from None
     try:
         client.register_plugin(WorkerSetup(warm=warm))
         crowded = [w for w, info in client.scheduler_info().get("workers", {}).items()
@@ -235,7 +248,8 @@ class DaskJobs:
     def _connected(self) -> Client:
         with self._lock:
             if self._client is None:
-                self._client = Client(self.scheduler, timeout="30s", set_as_default=False)
+                self._client = Client(self.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s",
+                                      set_as_default=False)
                 self._client.register_plugin(WorkerSetup())
             return self._client
 

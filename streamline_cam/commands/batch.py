@@ -40,11 +40,17 @@ def _batch(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
     from ..batch import find_inputs, plan_batch, run_batch
-    from ..dask_engine import dashboard_link, job_client
+    from ..dask_engine import SchedulerError, dashboard_link, job_client
 
     out_dir = Path(args.output)
     jobs = plan_batch(find_inputs(args.inputs), request_from_args(Path(), args),
                       verify=args.verify, plots=args.plots)
+    try:
+        out_dir.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        print(f"toolpath batch: error: cannot make the output folder {out_dir} (-o): "
+              f"{exc.strerror or exc}", file=sys.stderr)
+        return 2
     where = (f"the scheduler at {args.scheduler}" if args.scheduler else
              f"a local cluster of {args.workers or 'one worker per core'}"
              + (" worker(s)" if args.workers else ""))
@@ -64,9 +70,8 @@ def _batch(args: argparse.Namespace) -> int:
                 summary = run_batch(jobs, out_dir, client, on_done=done)
             finally:
                 bar.close()
-    except OSError as exc:  # the scheduler cannot be reached (distributed raises OSError)
-        print(f"toolpath batch: error: cannot reach the scheduler at {args.scheduler}: {exc}",
-              file=sys.stderr)
+    except SchedulerError as exc:
+        print(f"toolpath batch: error: {exc} (--scheduler)", file=sys.stderr)
         return 2
     counts = {s: sum(r["status"] == s for r in summary.rows) for s in ("done", "skipped",
                                                                         "failed")}

@@ -66,6 +66,11 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
     assert json.loads((out / "summary.json").read_text())["all_held"] is False
     assert sorted(_log_lines(log)) == sorted(f"{e} {n}.csv" for e in ("start", "done")
                                              for n in ("bad", "blunt", "prop"))
+    # one job per worker process, its compiled kernels on one thread
+    import numba
+
+    assert set(client.run(numba.get_num_threads).values()) == {1}
+    assert {w["nthreads"] for w in client.scheduler_info()["workers"].values()} == {1}
 
     # the same batch again, through the command line and the cluster's address: the
     # finished jobs are skipped (their folders untouched), the failed one is run again
@@ -106,3 +111,28 @@ def test_a_worker_killed_during_a_job_has_the_job_run_again_once(client, tmp_pat
     # command-line batch of the other test registered the set-up again on these workers)
     pids = [event["pid"] for _, event in client.get_events(WARM_UP_TOPIC)]
     assert len(pids) == len(set(pids)) and killed_pid in pids
+
+
+def test_inputs_are_files_folders_and_globs_each_once_with_distinct_names(tmp_path):
+    import pytest
+
+    from toolpath.errors import ToolpathError
+
+    for folder in ("rotor", "stator"):
+        (tmp_path / folder).mkdir()
+        (tmp_path / folder / "blade.csv").write_text("section,x,y,z\n")
+    (tmp_path / "rotor" / "notes.txt").write_text("")
+    paths = find_inputs([str(tmp_path / "rotor"), str(tmp_path / "*" / "*.csv"),
+                         str(tmp_path / "stator" / "blade.csv")])
+    assert paths == [tmp_path / "rotor" / "blade.csv", tmp_path / "stator" / "blade.csv"]
+    jobs = plan_batch(paths, _template())
+    assert [j.name for j in jobs] == ["rotor-blade", "stator-blade"]
+    assert jobs[0].fingerprint == jobs[1].fingerprint  # same bytes, same options
+    for pattern, message in ((tmp_path / "none", "no such file or folder"),
+                             (tmp_path / "*.xyz", "no file matches"),
+                             (tmp_path / "rotor" / "*.nc", "no file matches")):
+        with pytest.raises(ToolpathError, match=message):
+            find_inputs([str(pattern)])
+    (tmp_path / "empty").mkdir()
+    with pytest.raises(ToolpathError, match=r"no sections files \(\*\.csv\)"):
+        find_inputs([str(tmp_path / "empty")])
