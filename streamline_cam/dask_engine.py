@@ -32,7 +32,15 @@ from typing import Final
 import distributed
 from distributed import Client, Future, LocalCluster, WorkerPlugin
 
-from .job_task import JobOutcome, PackedJob, pack_job, run_packed_job, warm_up, write_files
+from .job_task import (
+    JobInterrupted,
+    JobOutcome,
+    PackedJob,
+    pack_job,
+    run_packed_job,
+    warm_up,
+    write_files,
+)
 from .pipeline import JobRequest
 
 __all__ = [
@@ -244,9 +252,12 @@ class DaskJobs:
         self.scheduler = scheduler
         self._lock = threading.Lock()
         self._client: Client | None = None
+        self._closed = False
 
     def _connected(self) -> Client:
         with self._lock:
+            if self._closed:
+                raise JobInterrupted("the service is stopping")
             if self._client is None:
                 self._client = Client(self.scheduler, timeout=f"{CONNECT_TIMEOUT_S}s",
                                       set_as_default=False)
@@ -256,7 +267,11 @@ class DaskJobs:
     def run(self, request: JobRequest, job_dir: Path, *,
             progress: Callable[[str, float], None] | None = None,
             verify: bool = False) -> JobOutcome:
-        """Run ``request`` on the cluster, its files written into ``job_dir``."""
+        """Run ``request`` on the cluster, its files written into ``job_dir``.
+
+        Raises :class:`~.job_task.JobInterrupted` when :meth:`close` cut the wait short
+        (the job is not failed: the service runs it again at its next start).
+        """
         client = self._connected()
         key = f"toolpath-job-{job_dir.name}-{uuid.uuid4().hex[:8]}"
         topic = f"{key}-progress" if progress else None
@@ -267,8 +282,10 @@ class DaskJobs:
                                 progress_topic=topic)
             outcome = _outcome_of(future)
         finally:
-            if topic is not None:
+            if topic is not None and not self._closed:
                 client.unsubscribe_topic(topic)
+        if self._closed:
+            raise JobInterrupted("the service stopped while the job ran on the cluster")
         if outcome.ok:
             write_files(outcome.files, job_dir)
         return outcome
@@ -276,6 +293,7 @@ class DaskJobs:
     def close(self) -> None:
         """Disconnect from the scheduler (its workers keep running)."""
         with self._lock:
+            self._closed = True
             if self._client is not None:
                 self._client.close()
                 self._client = None

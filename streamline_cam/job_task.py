@@ -33,6 +33,7 @@ from .pipeline import JobRequest, run_job
 
 __all__ = [
     "USER_ERRORS",
+    "JobInterrupted",
     "JobOutcome",
     "PackedJob",
     "pack_job",
@@ -45,6 +46,10 @@ __all__ = [
 USER_ERRORS: Final = (ToolpathError, MachineError, GCodeError)
 
 Progress = Callable[[str, float], None]
+
+
+class JobInterrupted(Exception):
+    """The engine running a job stopped before the job ended: it has no outcome (not failed)."""
 
 
 @dataclass(frozen=True)

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Final, Protocol
 
-from ..job_task import USER_ERRORS, JobOutcome
+from ..job_task import USER_ERRORS, JobInterrupted, JobOutcome
 from ..pipeline import JobRequest, run_job
 from .store import JobStore
 
@@ -94,7 +94,8 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
     -------
     str
         The job's final state, ``"done"``, ``"failed"`` or ``"superseded"`` (a newer run owns
-        the job: this one's outcome was dropped).
+        the job: this one's outcome was dropped), or ``"interrupted"`` (the engine stopped
+        before the job ended: it stays running in the store, re-queued at the next start).
     """
     store = JobStore(db_path)
     record = store.get(job_id)
@@ -117,6 +118,8 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
                                   outcome.error_type or "JobError")
                 return "failed" if kept else "superseded"
             report = outcome.report or {}
+    except JobInterrupted:  # the service stops: the job stays running, re-queued at start
+        return "interrupted"
     except USER_ERRORS as exc:
         kept = store.fail(job_id, attempt, as_job_fields(str(exc)), type(exc).__name__)
     except Exception as exc:  # a bug: keep the service up, the traceback on disk

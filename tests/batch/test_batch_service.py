@@ -36,7 +36,15 @@ def test_the_service_runs_its_jobs_on_the_scheduler(client, tmp_path):
                            data=fields)
         assert answer.status_code == 202, answer.text
         ids = [answer.json()["id"]]
+        deadline = time.monotonic() + TIMEOUT_S
+        while http.get(f"/jobs/{ids[0]}").json()["state"] == "queued":
+            assert time.monotonic() < deadline
+            time.sleep(0.02)
+    # the service stopped while its job ran on the cluster: the job is not failed, and the
+    # next start runs it again
+    with TestClient(create_app(config)) as http:
         done = _wait(http, ids[0])
+        assert done["attempts"] == 2, done
         assert done["state"] == "done", done
         assert done["progress"]["plan"] == 1.0  # progress came back from the worker
         report = http.get(f"/jobs/{ids[0]}/report").json()
