@@ -89,8 +89,9 @@ class WorkerSetup(WorkerPlugin):
     Parameters
     ----------
     threads : int
-        Threads a job's compiled kernels may use (``numba.set_num_threads``; workers
-        started by :func:`job_client` also get :data:`THREAD_LIMITS` before they start).
+        Threads a job's compiled kernels may use (``numba.set_num_threads`` in each task's
+        thread, numba's limit being per thread; workers started by :func:`job_client` also
+        get :data:`THREAD_LIMITS` in their environment before they start).
     warm : bool
         Load the compiled kernels now (:func:`~.job_task.warm_up`), not in the first job.
     """
@@ -107,11 +108,11 @@ class WorkerSetup(WorkerPlugin):
         Once per worker process: a plugin registered again (each batch's client registers
         it) finds the process warm and returns.
         """
+        global _JOB_THREADS
         for name in THREAD_LIMITS:
             os.environ.setdefault(name, str(self.threads))
-        import numba
-
-        numba.set_num_threads(max(1, min(self.threads, numba.config.NUMBA_NUM_THREADS)))
+        _JOB_THREADS = self.threads
+        _limit_threads()
         if self.warm and not _WARM.is_set():
             seconds = await asyncio.get_running_loop().run_in_executor(None, _warm_once)
             if seconds is not None:
@@ -121,6 +122,15 @@ class WorkerSetup(WorkerPlugin):
 
 _WARM = threading.Event()
 _WARM_LOCK = threading.Lock()
+#: Threads a job's compiled kernels may use in this worker process (set by WorkerSetup).
+_JOB_THREADS = 1
+
+
+def _limit_threads() -> None:
+    """Numba's thread count for the calling thread (numba keeps one per thread)."""
+    import numba
+
+    numba.set_num_threads(max(1, min(_JOB_THREADS, numba.config.NUMBA_NUM_THREADS)))
 
 
 def _warm_once() -> float | None:
@@ -128,6 +138,7 @@ def _warm_once() -> float | None:
     with _WARM_LOCK:
         if _WARM.is_set():
             return None
+        _limit_threads()
         seconds = warm_up()
         _WARM.set()
         return seconds
@@ -208,6 +219,7 @@ def run_packed_task(job: PackedJob, progress_topic: str | None = None) -> JobOut
     events of that topic (:meth:`distributed.Client.subscribe_topic`).
     """
     worker = distributed.get_worker()
+    _limit_threads()  # in this task's thread: numba's limit is per thread
     progress = _ProgressEvents(progress_topic) if progress_topic else None
     return run_packed_job(job, scratch_dir=worker.local_directory, progress=progress)
 

@@ -56,3 +56,10 @@ def killing_task(log: str, victim: str, marker: str):
         return outcome
 
     return task
+
+
+def numba_threads() -> int:
+    """The compiled kernels' thread pool size in this process."""
+    import numba
+
+    return numba.config.NUMBA_NUM_THREADS

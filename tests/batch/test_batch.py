@@ -7,7 +7,7 @@ import json
 import shutil
 from pathlib import Path
 
-from _batch_support import counted_task, killing_task
+from _batch_support import counted_task, killing_task, numba_threads
 
 from streamline_cam.batch import find_inputs, plan_batch, run_batch
 from streamline_cam.cli import _parser, main
@@ -67,9 +67,7 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
     assert sorted(_log_lines(log)) == sorted(f"{e} {n}.csv" for e in ("start", "done")
                                              for n in ("bad", "blunt", "prop"))
     # one job per worker process, its compiled kernels on one thread
-    import numba
-
-    assert set(client.run(numba.get_num_threads).values()) == {1}
+    assert set(client.run(numba_threads).values()) == {1}
     assert {w["nthreads"] for w in client.scheduler_info()["workers"].values()} == {1}
 
     # the same batch again, through the command line and the cluster's address: the
