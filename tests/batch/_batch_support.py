@@ -10,6 +10,8 @@ import os
 import signal
 from pathlib import Path
 
+import numpy as np
+
 from streamline_cam.dask_engine import run_packed_task
 from streamline_cam.job_task import JobOutcome, PackedJob, run_packed_job
 
@@ -63,3 +65,15 @@ def numba_threads() -> int:
     import numba
 
     return numba.config.NUMBA_NUM_THREADS
+
+
+def strip_csv(m: int = 5, n: int = 40, *, twist_deg: float = 4.0) -> bytes:
+    """``m`` sections of ``n`` points of a twisted, cambered strip: a job of a second or two."""
+    u = np.linspace(0.0, 1.0, n)
+    lines = ["section,x,y,z"]
+    for j in range(m):
+        twist = np.radians(twist_deg * j)
+        x, y = 40.0 * u - 20.0, 3.0 * np.sin(np.pi * u) * (1.0 - 0.05 * j) + 0.5 * j
+        xr, yr = np.cos(twist) * x - np.sin(twist) * y, np.sin(twist) * x + np.cos(twist) * y
+        lines += [f"{j},{a:.6f},{b:.6f},{10.0 * j:.6f}" for a, b in zip(xr, yr, strict=True)]
+    return ("\n".join(lines) + "\n").encode()

@@ -7,7 +7,7 @@ import json
 import shutil
 from pathlib import Path
 
-from _batch_support import counted_task, killing_task, numba_threads
+from _batch_support import counted_task, killing_task, numba_threads, strip_csv
 
 from streamline_cam.batch import find_inputs, plan_batch, run_batch
 from streamline_cam.cli import _parser, main
@@ -21,9 +21,10 @@ TIMEOUT_S = 120.0
 
 
 def _inputs(folder: Path, *, bad: bool) -> Path:
+    """The propeller blade (7 sections), a small strip (6 sections) and a bad file."""
     folder.mkdir()
     shutil.copy(bundled_data_path("dev_prop_7x100.csv"), folder / "prop.csv")
-    shutil.copy(bundled_data_path("dev_rotor_blunt_9x120.csv"), folder / "blunt.csv")
+    (folder / "strip.csv").write_bytes(strip_csv(6, twist_deg=3.0))
     if bad:
         (folder / "bad.csv").write_text("section,x,y,z\n0,1.0,2.0\n", encoding="utf-8")
     return folder
@@ -43,14 +44,14 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
     inputs = _inputs(tmp_path / "in", bad=True)
     out, log = tmp_path / "out", tmp_path / "runs.log"
     jobs = plan_batch(find_inputs([str(inputs)]), _template())
-    assert [j.name for j in jobs] == ["bad", "blunt", "prop"]
+    assert [j.name for j in jobs] == ["bad", "prop", "strip"]
     summary = run_batch(jobs, out, client, task=counted_task(str(log)), timeout_s=TIMEOUT_S)
 
     rows = {row["name"]: row for row in summary.rows}
     assert not summary.all_held
     assert rows["bad"]["exit"] == 2 and rows["bad"]["status"] == "failed"
     assert "bad.csv:2" in rows["bad"]["error"] and "\n" not in rows["bad"]["error"]
-    for name in ("blunt", "prop"):
+    for name in ("strip", "prop"):
         assert rows[name]["exit"] == 0 and rows[name]["status"] == "done"
         assert rows[name]["passes"] > 0 and rows[name]["points"] > rows[name]["passes"]
         assert rows[name]["worker"] and rows[name]["seconds"] > 0
@@ -59,13 +60,13 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
         assert report["request"]["sections_path"] == str(inputs / f"{name}.csv")
         assert (out / name / "part.nc").read_text().count("\n") == report["program"]["lines"]
     assert not (out / "bad").exists()
-    assert sorted(p.name for p in out.iterdir()) == ["blunt", "prop", "summary.csv",
+    assert sorted(p.name for p in out.iterdir()) == ["prop", "strip", "summary.csv",
                                                      "summary.json"]  # no partial folder
     with (out / "summary.csv").open() as stream:
-        assert [r["name"] for r in csv.DictReader(stream)] == ["bad", "blunt", "prop"]
+        assert [r["name"] for r in csv.DictReader(stream)] == ["bad", "prop", "strip"]
     assert json.loads((out / "summary.json").read_text())["all_held"] is False
     assert sorted(_log_lines(log)) == sorted(f"{e} {n}.csv" for e in ("start", "done")
-                                             for n in ("bad", "blunt", "prop"))
+                                             for n in ("bad", "strip", "prop"))
     # one job per worker process, its compiled kernels on one thread
     assert set(client.run(numba_threads).values()) == {1}
     assert {w["nthreads"] for w in client.scheduler_info()["workers"].values()} == {1}
@@ -80,9 +81,9 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
                  "-o", str(out), "--quiet"])
     assert code == 1  # the bad input still fails
     rows = {row["name"]: row for row in json.loads((out / "summary.json").read_text())["jobs"]}
-    assert [rows[n]["status"] for n in ("bad", "blunt", "prop")] == ["failed", "skipped",
+    assert [rows[n]["status"] for n in ("bad", "strip", "prop")] == ["failed", "skipped",
                                                                       "skipped"]
-    assert rows["prop"]["points"] == summary.rows[2]["points"]
+    assert rows["prop"]["points"] == summary.rows[1]["points"]
     assert (out / "prop" / "part.nc").stat().st_mtime_ns == stamp
 
 
@@ -91,18 +92,18 @@ def test_a_worker_killed_during_a_job_has_the_job_run_again_once(client, tmp_pat
     out, log, marker = tmp_path / "out", tmp_path / "runs.log", tmp_path / "killed"
     jobs = plan_batch(find_inputs([str(inputs / "*.csv")]), _template())
     summary = run_batch(jobs, out, client, timeout_s=TIMEOUT_S,
-                        task=killing_task(str(log), "prop.csv", str(marker)))
+                        task=killing_task(str(log), "strip.csv", str(marker)))
 
-    assert marker.exists()  # the worker running prop.csv was killed while planning
+    assert marker.exists()  # the worker running strip.csv was killed while planning
     assert summary.all_held
     assert [row["status"] for row in summary.rows] == ["done", "done"]
     lines = _log_lines(log)
-    assert lines.count("start prop.csv") == 2  # killed, then run again on a new worker
-    assert lines.count("done prop.csv") == 1 and lines.count("done blunt.csv") == 1
+    assert lines.count("start strip.csv") == 2  # killed, then run again on a new worker
+    assert lines.count("done strip.csv") == 1 and lines.count("done prop.csv") == 1
     killed_pid = int(marker.read_text())
-    assert summary.rows[1]["name"] == "prop"
+    assert summary.rows[1]["name"] == "strip"
     assert not summary.rows[1]["worker"].endswith(f":{killed_pid}")
-    for name in ("blunt", "prop"):
+    for name in ("strip", "prop"):
         assert {p.name for p in (out / name).iterdir()} == {
             "batch_job.json", "part.nc", "report.json", "surface.json", "toolpath.npz"}
     # the kernels were warmed once per worker process, not per job nor per batch (the

@@ -5,7 +5,7 @@ from __future__ import annotations
 import time
 import warnings
 
-from toolpath.paper_examples import bundled_data_path
+from _batch_support import strip_csv
 
 with warnings.catch_warnings():  # starlette asks for httpx2; httpx is what we have
     warnings.filterwarnings("ignore", message="Using `httpx` with `starlette.testclient`")
@@ -30,9 +30,9 @@ def test_the_service_runs_its_jobs_on_the_scheduler(client, tmp_path):
     config = ServiceConfig(data_dir=tmp_path / "service", workers=2,
                            scheduler=client.scheduler.address)
     fields = {"scallop_mm": "0.5", "chord_tol_mm": "0.2", "fit_tol_mm": "0.05"}
-    good = bundled_data_path("dev_prop_7x100.csv").read_bytes()
+    good = strip_csv()
     with TestClient(create_app(config)) as http:
-        answer = http.post("/jobs/upload", files={"file": ("prop.csv", good, "text/csv")},
+        answer = http.post("/jobs/upload", files={"file": ("strip.csv", good, "text/csv")},
                            data=fields)
         assert answer.status_code == 202, answer.text
         ids = [answer.json()["id"]]
