@@ -149,12 +149,10 @@ def summary_row(job: BatchJob, outcome: JobOutcome | None, *, status: str,
                 record: dict[str, Any] | None = None) -> dict[str, Any]:
     """The summary's row for ``job``: from its outcome, or a skipped job's saved record."""
     row: dict[str, Any] = dict.fromkeys(SUMMARY_FIELDS)
-    row |= {"file": str(job.path), "name": job.name, "status": status}
-    if record is not None:
-        return row | {k: record.get(k) for k in SUMMARY_FIELDS if k not in ("status",)} \
-            | {"file": str(job.path), "name": job.name}
-    assert outcome is not None
-    row |= {"seconds": round(outcome.seconds, 3), "worker": outcome.worker}
+    here = {"file": str(job.path), "name": job.name, "status": status}
+    if record is not None or outcome is None:  # skipped: the figures of the run that made it
+        return row | {k: (record or {}).get(k) for k in SUMMARY_FIELDS} | here
+    row |= here | {"seconds": round(outcome.seconds, 3), "worker": outcome.worker}
     if not outcome.ok:
         return row | {"exit": 2, "error": outcome.error}
     report = outcome.report or {}

@@ -27,7 +27,7 @@ from typing import Any, Final
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
-from toolpath.errors import ToolpathError
+from toolpath.errors import DataFileError, ToolpathError
 
 from .pipeline import JobRequest, run_job
 
@@ -119,8 +119,6 @@ def pack_job(request: JobRequest, *, verify: bool = False, plots: bool = False) 
     try:
         data = path.read_bytes()
     except OSError as exc:
-        from toolpath.errors import DataFileError
-
         raise DataFileError(f"cannot read the sections file ({exc.strerror})",
                             path=str(path)) from None
     fields = {f.name: getattr(request, f.name) for f in dataclasses.fields(request)
