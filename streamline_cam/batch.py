@@ -36,6 +36,7 @@ __all__ = [
     "BatchJob",
     "BatchSummary",
     "find_inputs",
+    "needs_run",
     "plan_batch",
     "run_batch",
     "summary_row",
@@ -176,6 +177,12 @@ def _finished_record(folder: Path, fingerprint: str) -> dict[str, Any] | None:
     return record if record.get("fingerprint") == fingerprint else None
 
 
+def needs_run(job: BatchJob, out_dir: Path) -> bool:
+    """``job`` has to run: readable, and no finished folder of its fingerprint in ``out_dir``."""
+    return job.packed is not None and _finished_record(out_dir / job.name,
+                                                       job.fingerprint) is None
+
+
 def _commit(out_dir: Path, job: BatchJob, outcome: JobOutcome, row: dict[str, Any]) -> None:
     """Write the job's folder whole, then rename it into place (replacing an older one)."""
     partial = out_dir / PARTIAL_DIR
@@ -219,7 +226,8 @@ def run_batch(jobs: Sequence[BatchJob], out_dir: Path, client: Any, *,
     ----------
     jobs : sequence of BatchJob
     out_dir : Path
-    client : distributed.Client
+    client : distributed.Client or None
+        Needed only when a job has to run (:func:`needs_run`).
     on_done : callable, optional
         Called with each job's row as it finishes (skipped jobs first).
     task : callable, optional
@@ -236,12 +244,11 @@ def run_batch(jobs: Sequence[BatchJob], out_dir: Path, client: Any, *,
         if job.packed is None:
             rows[job.name] = summary_row(job, JobOutcome(None, error=job.error),
                                          status="failed")
-            if on_done is not None:
-                on_done(rows[job.name])
-            continue
-        record = _finished_record(out_dir / job.name, job.fingerprint)
-        if record is not None:
-            rows[job.name] = summary_row(job, None, status="skipped", record=record)
+        elif not needs_run(job, out_dir):
+            rows[job.name] = summary_row(job, None, status="skipped",
+                                         record=_finished_record(out_dir / job.name,
+                                                                 job.fingerprint))
+        if job.name in rows:
             if on_done is not None:
                 on_done(rows[job.name])
             continue

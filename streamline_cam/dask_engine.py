@@ -248,7 +248,10 @@ def as_outcomes(futures: Iterable[Future], *,
 
     ``TimeoutError`` when they have not all finished after ``timeout_s`` seconds.
     """
-    for future in distributed.as_completed(list(futures), timeout=timeout_s):
+    futures = list(futures)
+    if not futures:  # (as_completed looks for a default client even for none)
+        return
+    for future in distributed.as_completed(futures, timeout=timeout_s):
         yield future, _outcome_of(future)
 
 

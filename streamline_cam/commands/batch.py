@@ -39,7 +39,7 @@ def _row_line(row: dict) -> str:
 def _batch(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
-    from ..batch import find_inputs, plan_batch, run_batch
+    from ..batch import find_inputs, needs_run, plan_batch, run_batch
     from ..dask_engine import SchedulerError, dashboard_link, job_client
 
     out_dir = Path(args.output)
@@ -51,28 +51,32 @@ def _batch(args: argparse.Namespace) -> int:
         print(f"toolpath batch: error: cannot make the output folder {out_dir} (-o): "
               f"{exc.strerror or exc}", file=sys.stderr)
         return 2
+    to_run = sum(needs_run(job, out_dir) for job in jobs)
     where = (f"the scheduler at {args.scheduler}" if args.scheduler else
              f"a local cluster of {args.workers or 'one worker per core'}"
              + (" worker(s)" if args.workers else ""))
-    print(f"toolpath batch: {len(jobs)} job(s) on {where}; results in {out_dir}", flush=True)
+    print(f"toolpath batch: {len(jobs)} job(s), {to_run} to run"
+          + (f" on {where}" if to_run else "") + f"; results in {out_dir}", flush=True)
+    bar = tqdm(total=len(jobs), unit="job", disable=args.quiet, file=sys.stderr)
+
+    def done(row: dict) -> None:
+        bar.update(1)
+        bar.write(_row_line(row), file=sys.stdout)
+
     try:
-        with job_client(args.scheduler, workers=args.workers) as client:
-            link = dashboard_link(client)
-            if link:
-                print(f"toolpath batch: dashboard {link}", flush=True)
-            bar = tqdm(total=len(jobs), unit="job", disable=args.quiet, file=sys.stderr)
-
-            def done(row: dict) -> None:
-                bar.update(1)
-                bar.write(_row_line(row), file=sys.stdout)
-
-            try:
+        if not to_run:  # every job finished before (or unreadable): no cluster needed
+            summary = run_batch(jobs, out_dir, None, on_done=done)
+        else:
+            with job_client(args.scheduler, workers=args.workers) as client:
+                link = dashboard_link(client)
+                if link:
+                    bar.write(f"toolpath batch: dashboard {link}", file=sys.stdout)
                 summary = run_batch(jobs, out_dir, client, on_done=done)
-            finally:
-                bar.close()
     except SchedulerError as exc:
         print(f"toolpath batch: error: {exc} (--scheduler)", file=sys.stderr)
         return 2
+    finally:
+        bar.close()
     counts = {s: sum(r["status"] == s for r in summary.rows) for s in ("done", "skipped",
                                                                         "failed")}
     held = sum(r["exit"] == 0 for r in summary.rows)

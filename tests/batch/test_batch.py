@@ -40,7 +40,8 @@ def _log_lines(log: Path) -> list[str]:
     return log.read_text(encoding="utf-8").splitlines() if log.exists() else []
 
 
-def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp_path):
+def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp_path,
+                                                                    capsys):
     inputs = _inputs(tmp_path / "in", bad=True)
     out, log = tmp_path / "out", tmp_path / "runs.log"
     jobs = plan_batch(find_inputs([str(inputs)]), _template())
@@ -85,6 +86,10 @@ def test_a_bad_input_fails_alone_and_a_rerun_skips_the_finished_jobs(client, tmp
                                                                       "skipped"]
     assert rows["prop"]["points"] == summary.rows[1]["points"]
     assert (out / "prop" / "part.nc").stat().st_mtime_ns == stamp
+    # only finished jobs: no cluster is started (none named), every one held
+    assert main(["batch", str(inputs / "prop.csv"), str(inputs / "strip.csv"), *COARSE_FLAGS,
+                 "-o", str(out), "--quiet"]) == 0
+    assert "2 job(s), 0 to run;" in capsys.readouterr().out
 
 
 def test_a_worker_killed_during_a_job_has_the_job_run_again_once(client, tmp_path):
