@@ -23,3 +23,4 @@ bench:
 	$(PYTHON) benchmarks/bench_stream.py
 	$(PYTHON) benchmarks/bench_gcode.py
 	$(PYTHON) benchmarks/bench_verify.py
+	$(PYTHON) benchmarks/bench_batch.py

@@ -24,6 +24,8 @@ CORNERS = {
     "fastapi": ("streamline_cam/service",),
     "uvicorn": ("streamline_cam/service", "streamline_cam/commands/serve"),
     "tqdm": ("streamline_cam/",),
+    "dask": ("streamline_cam/dask_engine",),
+    "distributed": ("streamline_cam/dask_engine",),
 }
 
 

@@ -68,7 +68,7 @@ def serve(args: argparse.Namespace) -> int:
         config = ServiceConfig(
             data_dir=Path(args.data_dir), workers=args.workers, executor=args.executor,
             max_upload_bytes=int(args.max_upload_mb * 2**20), max_queued=args.max_queued,
-            stream_targets=targets)
+            stream_targets=targets, scheduler=args.scheduler)
     except ValueError as exc:
         print(f"toolpath serve: error: {exc}", file=sys.stderr)
         return 2
@@ -85,8 +85,10 @@ def serve(args: argparse.Namespace) -> int:
               "no authentication: anyone who reaches it can submit jobs and start streams",
               file=sys.stderr)
     print(f"toolpath serve: http://{shown}:{port} (API docs: http://{shown}:{port}/docs); "
-          f"data in {config.data_dir.resolve()}; {config.workers} {config.executor} "
-          f"worker(s); stream targets: {', '.join(sorted(targets))}", flush=True)
+          f"data in {config.data_dir.resolve()}; "
+          + (f"jobs on the Dask scheduler at {config.scheduler}, {config.workers} at once"
+             if config.scheduler else f"{config.workers} {config.executor} worker(s)")
+          + f"; stream targets: {', '.join(sorted(targets))}", flush=True)
     server = uvicorn.Server(uvicorn.Config(create_app(config), log_level=args.log_level,
                                            timeout_graceful_shutdown=5))
     try:
@@ -118,6 +120,10 @@ def register(commands: argparse._SubParsersAction) -> None:
                         help="jobs run at once (default: cores - 1, 1 to 4)")
     parser.add_argument("--executor", choices=("process", "thread"), default="process",
                         help="run jobs in worker processes (default) or threads")
+    parser.add_argument("--scheduler", metavar="tcp://HOST:8786",
+                        help="run the jobs on this Dask scheduler's workers (`dask scheduler`, "
+                        "`dask worker`), --workers of them at once (default: the local "
+                        "process pool)")
     parser.add_argument("--max-upload-mb", type=float,
                         default=DEFAULT_MAX_UPLOAD_BYTES / 2**20,
                         help="largest request body, MiB (413 above)")

@@ -69,6 +69,10 @@ class ServiceConfig:
         Start taking jobs at start-up (``False`` leaves them queued; tests).
     max_attempts : int
         See :data:`MAX_ATTEMPTS`.
+    scheduler : str or None
+        A Dask scheduler's address (``tcp://HOST:8786``): jobs run on its workers
+        (:class:`~streamline_cam.dask_engine.DaskJobs`), ``workers`` of them at once, each
+        waited for by a thread here. None (default): the local pool of ``executor``.
     """
 
     data_dir: Path
@@ -79,6 +83,7 @@ class ServiceConfig:
     stream_targets: Mapping[str, str] = field(default_factory=lambda: DEFAULT_STREAM_TARGETS)
     start_workers: bool = True
     max_attempts: int = MAX_ATTEMPTS
+    scheduler: str | None = None
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data_dir", Path(self.data_dir))

@@ -8,6 +8,7 @@ stays empty.
 
 from __future__ import annotations
 
+import functools
 import importlib
 import logging
 import multiprocessing
@@ -46,6 +47,12 @@ class WorkerPool:
                  job_function: JobFunction = run_stored_job) -> None:
         self._store = store
         self._config = config
+        self._engine: Any = None
+        if config.scheduler is not None and job_function is run_stored_job:
+            from ..dask_engine import DaskJobs  # only with --scheduler: dask loads lazily
+
+            self._engine = DaskJobs(config.scheduler)
+            job_function = functools.partial(run_stored_job, engine=self._engine)
         self._job_function = job_function
         self._lock = threading.RLock()
         self._executor: Executor | None = None
@@ -53,7 +60,8 @@ class WorkerPool:
         self._closed = False
 
     def _new_executor(self) -> Executor:
-        if self._config.executor == "thread":
+        if self._config.executor == "thread" or self._engine is not None:
+            # (with a Dask scheduler, a thread here only waits for its job there)
             return ThreadPoolExecutor(max_workers=self._config.workers,
                                       thread_name_prefix="toolpath-job")
         # spawn: a clean interpreter, no copy of the HTTP loop's threads, locks or sockets
@@ -123,6 +131,8 @@ class WorkerPool:
         with self._lock:
             self._closed = True
             executor, self._executor = self._executor, None
+        if self._engine is not None:
+            self._engine.close()
         if executor is None:
             return
         # (shutdown forgets the manager thread: taken first)

@@ -10,24 +10,29 @@ from __future__ import annotations
 import re
 import time
 import traceback
+from collections.abc import Callable
 from pathlib import Path
-from typing import Final
+from typing import Final, Protocol
 
-from gcode.errors import GCodeError
-from machines.errors import MachineError
-from toolpath.errors import ToolpathError
-
+from ..job_task import USER_ERRORS, JobInterrupted, JobOutcome
 from ..pipeline import JobRequest, run_job
 from .store import JobStore
 
-__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "as_job_fields", "run_stored_job"]
+__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "JobEngine", "as_job_fields", "run_stored_job"]
 
 PROGRESS_INTERVAL_S: Final[float] = 0.25
 """Least time between two progress writes of one stage (s): a poll every second or so
 sees movement, and the planner's fine-grained callbacks cost no disk traffic."""
 
-#: The library's own error families: bad input or a request the library refuses.
-USER_ERRORS: Final = (ToolpathError, MachineError, GCodeError)
+
+class JobEngine(Protocol):
+    """Runs a job elsewhere: :class:`~streamline_cam.dask_engine.DaskJobs`."""
+
+    def run(self, request: JobRequest, job_dir: Path, *,
+            progress: Callable[[str, float], None] | None = None,
+            verify: bool = False) -> JobOutcome:
+        """Run ``request``, its files written into ``job_dir``."""
+        ...
 
 
 #: Command-line flags that library messages name as remedies, and the job's JSON field
@@ -75,18 +80,22 @@ class _Progress:
                                  min(max(float(fraction), 0.0), 1.0))
 
 
-def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> str:
+def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
+                   engine: JobEngine | None = None) -> str:
     """Run the stored job ``job_id`` (run number ``attempt``) with its files in ``job_dir``.
 
     Never raises for a failing job: the outcome (report, or message and error class) is
     written to the store. An unexpected exception is recorded as an internal error with its
-    traceback in ``job_dir/traceback.txt`` (not in the HTTP answer).
+    traceback in ``job_dir/traceback.txt`` (not in the HTTP answer). With ``engine`` (the
+    service's ``--scheduler``: :class:`~streamline_cam.dask_engine.DaskJobs`), the job runs
+    where the engine sends it and its files come back into ``job_dir``; without, here.
 
     Returns
     -------
     str
         The job's final state, ``"done"``, ``"failed"`` or ``"superseded"`` (a newer run owns
-        the job: this one's outcome was dropped).
+        the job: this one's outcome was dropped), or ``"interrupted"`` (the engine stopped
+        before the job ended: it stays running in the store, re-queued at the next start).
     """
     store = JobStore(db_path)
     record = store.get(job_id)
@@ -94,8 +103,23 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> s
         return "superseded"
     try:
         request = JobRequest(sections_path=job_dir / record.input_name, **record.parameters)
-        result = run_job(request, job_dir, progress=_Progress(store, job_id, attempt),
-                         verify=True)
+        progress = _Progress(store, job_id, attempt)
+        if engine is None:
+            report = run_job(request, job_dir, progress=progress, verify=True).report
+        else:
+            outcome = engine.run(request, job_dir, progress=progress, verify=True)
+            if outcome.traceback is not None:
+                (job_dir / "traceback.txt").write_text(outcome.traceback, encoding="utf-8")
+                kept = store.fail(job_id, attempt, f"{outcome.error}; the traceback is in "
+                                  "the job's folder", "InternalError")
+                return "failed" if kept else "superseded"
+            if not outcome.ok:
+                kept = store.fail(job_id, attempt, as_job_fields(outcome.error or ""),
+                                  outcome.error_type or "JobError")
+                return "failed" if kept else "superseded"
+            report = outcome.report or {}
+    except JobInterrupted:  # the service stops: the job stays running, re-queued at start
+        return "interrupted"
     except USER_ERRORS as exc:
         kept = store.fail(job_id, attempt, as_job_fields(str(exc)), type(exc).__name__)
     except Exception as exc:  # a bug: keep the service up, the traceback on disk
@@ -103,5 +127,5 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int) -> s
         kept = store.fail(job_id, attempt, f"internal error ({type(exc).__name__}: {exc}); "
                           "the traceback is in the job's folder", "InternalError")
     else:
-        return "done" if store.finish(job_id, attempt, result.report) else "superseded"
+        return "done" if store.finish(job_id, attempt, report) else "superseded"
     return "failed" if kept else "superseded"
