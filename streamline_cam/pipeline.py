@@ -324,6 +324,10 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         "attempts": attempts,
         "scallop_request_mm": request.scallop_mm, "chord_tol_mm": request.chord_tol_mm}
     plan_dict.pop("unreachable_spans", None)  # per pass; the regions summarize them
+    for name in ("rotary_rates", "blunt_face"):  # their report lines, worded once
+        figures = getattr(plan_report, name, None)
+        if figures is not None:
+            plan_dict[name]["text"] = figures.describe()
     report["plan"] = plan_dict
     if plots:
         files.update(_toolpath_plots(surface, path, out_dir))

@@ -4,6 +4,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from streamline_cam.pipeline import JobRequest, run_job
 from toolpath.paper_examples import bundled_data_path
@@ -78,3 +79,50 @@ def test_a_plan_measured_over_the_request_is_planned_again_tighter(tmp_path, mon
     assert [a["scallop_mm"] for a in plan["attempts"]] == asked
     assert plan["planned_for_scallop_mm"] == asked[1]
     assert plan["max_scallop_mm"] <= asked[1] < 0.05
+
+
+def _job_report(*, scallop_mm, gouge_mm):
+    """The report of a finished job whose verification measured these figures."""
+    return {
+        "fit": {"method": "streamline", "n_control_points": [20, 11], "max_error_mm": 0.005,
+                "between_sections_mm": 0.006},
+        "plan": {"n_passes": 10, "n_points": 1000, "max_scallop_mm": 0.019,
+                 "scallop_request_mm": 0.02, "max_chord_error_mm": 0.009, "chord_tol_mm": 0.01,
+                 "unreachable_fraction": 0.0, "linking": "zigzag"},
+        "program": {"lines": 1100, "time_s": 60.0},
+        "check": {"errors": 0, "warnings": 0, "issues": []},
+        "verify": {"max_scallop_mm": scallop_mm, "max_gouge_mm": gouge_mm,
+                   "max_gouge": {"line": 412} if gouge_mm else None,
+                   "max_scallop": {"line": 97}},
+    }
+
+
+@pytest.mark.parametrize(("scallop_mm", "gouge_mm", "exceeded"), [
+    (0.0195, 0.0096, None),
+    (0.0195, 0.0123, "deepest gouge 0.0123 mm exceeds the chord tolerance 0.01 mm "
+                     "(--chord-tol) at line 412"),
+    (0.148, 0.0, "scallop 0.1480 mm exceeds the 0.02 mm asked (--scallop) at line 97"),
+])
+def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
+        tmp_path, monkeypatch, capsys, scallop_mm, gouge_mm, exceeded):
+    from streamline_cam import cli
+    from streamline_cam.commands import run as run_command
+    from streamline_cam.pipeline import JobResult
+
+    gcode = tmp_path / "part.nc"
+    gcode.write_text("G0 Z5\n")
+
+    def finished(request, out_dir, **kwargs):
+        assert kwargs["verify"]
+        return JobResult(_job_report(scallop_mm=scallop_mm, gouge_mm=gouge_mm),
+                         {"gcode": gcode})
+
+    monkeypatch.setattr(run_command, "run_job", finished)
+    code = cli.main(["run", "sections.csv", "--verify", "--quiet"])
+    err = capsys.readouterr().err
+    assert code == (1 if exceeded else 0)
+    assert gcode.exists()  # the outputs are kept
+    if exceeded:
+        assert err.count("\n") == 1 and exceeded in err and "verify failed" in err
+    else:
+        assert "verify failed" not in err

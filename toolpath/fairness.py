@@ -36,6 +36,7 @@ error between the data there.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from typing import Any
 
@@ -46,6 +47,7 @@ from .surface import _unit
 
 __all__ = [
     "CONCAVE_DEPTH_MM",
+    "CONCAVE_TURN_DEG",
     "SAMPLES_PER_INTERVAL",
     "ConcaveStretch",
     "Fairness",
@@ -62,6 +64,13 @@ SAMPLES_PER_INTERVAL = 24
 CONCAVE_DEPTH_MM = 1e-3
 #: Concave stretches that cannot be this deep (mm) are not measured at all.
 NEGLIGIBLE_DEPTH_MM = 1e-6
+#: A concave stretch whose normal turns back more than this (deg) counts however shallow
+#: its dent: a ring after a curvature jump (a nose circle meeting its flank G1) that
+#: overshoots the turn and comes back within a micrometre of the data still swings the
+#: normal, and a ball placed along the normal at its start cuts into the flank beyond by
+#: about ``R θ² / 4`` (measured: 0.0042 mm for R = 3 mm, θ = 4.2° at the DCA rotor's
+#: TE): 1.5° keeps that within :data:`CONCAVE_DEPTH_MM` for balls up to 12 mm across.
+CONCAVE_TURN_DEG = 1.5
 #: Data turning less than this (1/mm: a radius above 1 m) is flat, neither convex nor
 #: concave: there the sign of the turning is the blade's twist and the stream surface's
 #: cone as much as the profile (a tip pressure flank: 1e-4/mm), and a fit within 10 um
@@ -101,6 +110,8 @@ class ConcaveStretch:
         Distance (mm) of the deepest point inside the bridge of the outer hull.
     t_start, t_end : float
         Parameters where the fit's turning is concave.
+    turn_deg : float
+        How far the normal turns back over the stretch (deg, in the development).
     """
 
     section: float
@@ -108,6 +119,18 @@ class ConcaveStretch:
     depth_mm: float
     t_start: float
     t_end: float
+    turn_deg: float = 0.0
+
+    def counts(self, min_depth_mm: float) -> bool:
+        """Deeper than ``min_depth_mm``, or turning back over :data:`CONCAVE_TURN_DEG`."""
+        return self.depth_mm > min_depth_mm or self.turn_deg > CONCAVE_TURN_DEG
+
+    def describe(self, surface: bool) -> str:
+        """``0.0021 mm concave at t=0.4961`` (and the turn where that is what counts)."""
+        text = f"{self.depth_mm:.4f} mm concave"
+        if self.turn_deg > CONCAVE_TURN_DEG:
+            text += f", the normal turning back {self.turn_deg:.1f} deg,"
+        return text + " at " + _where(self.section if surface else None, self.t)
 
 
 def _where(section: float | None, t: float) -> str:
@@ -179,9 +202,9 @@ class Fairness:
             deepest = max(self.stretches, key=lambda s: s.depth_mm)
             out.append(f"unfair: {self.n_concave} concave stretch"
                        f"{'es' if self.n_concave != 1 else ''} deeper than "
-                       f"{self.min_depth_mm * 1000:g} um where the data turn convex, deepest "
-                       f"{deepest.depth_mm:.4f} mm at "
-                       + _where(deepest.section if self.surface else None, deepest.t)
+                       f"{self.min_depth_mm * 1000:g} um (or turning back over "
+                       f"{CONCAVE_TURN_DEG:g} deg) where the data turn convex, deepest "
+                       + deepest.describe(self.surface)
                        + " (more knots did not remove it; a cutter following the fit "
                        "leaves that much there)")
         if self.nose_t is not None and self.nose_error_mm > tol_mm:
@@ -197,8 +220,8 @@ class Fairness:
         One entry per concave stretch, and one for the nose where the fit leaves the nose
         circles by more than ``tol_mm``.
         """
-        out = [(s.t_start, s.t_end, s.depth_mm, f"{s.depth_mm:.4f} mm concave at "
-                + _where(s.section if self.surface else None, s.t)) for s in self.stretches]
+        out = [(s.t_start, s.t_end, s.depth_mm, s.describe(self.surface))
+               for s in self.stretches]
         if tol_mm is not None and self.nose_t is not None and self.nose_error_mm > tol_mm:
             out.append((self.nose_t, self.nose_t, self.nose_error_mm,
                         f"{self.nose_error_mm:.4f} mm off the nose "
@@ -210,7 +233,7 @@ class Fairness:
         """JSON-ready form."""
         def stretch(s: ConcaveStretch) -> dict[str, float]:
             return {"section": s.section, "t": s.t, "depth_mm": s.depth_mm,
-                    "t_start": s.t_start, "t_end": s.t_end}
+                    "t_start": s.t_start, "t_end": s.t_end, "turn_deg": s.turn_deg}
 
         return {
             "summary": self.line(),
@@ -390,14 +413,20 @@ def _concave_stretches(section: float, tt, xt, xtt, normal, convex_dense
             # k L^2 / 8 deep: skip the hull where even the widest window's bound is nil
             reach = max(WINDOW_STRETCHES * (b - a + 1), 2 * SAMPLES_PER_INTERVAL)
             span = sigma[min(b + reach, hi_region)] - sigma[max(a - reach, lo_region)]
-            if kappa[a:b + 1].max() * span**2 / 8.0 < NEGLIGIBLE_DEPTH_MM:
+            # the normal's turn back over the stretch (trapezoid rule on k dσ)
+            turn_deg = float(np.degrees(np.sum(0.5 * (kappa[a + 1:b + 1] + kappa[a:b])
+                                               * np.diff(sigma[a:b + 1]))))
+            if kappa[a:b + 1].max() * span**2 / 8.0 < NEGLIGIBLE_DEPTH_MM \
+                    and turn_deg <= CONCAVE_TURN_DEG:
                 continue
             depth, deepest, p, q = _bridge_depth(x, tangents, (a + b) // 2, a, b,
                                                  lo_region, hi_region)
             key = (p, q)
-            if key not in found or found[key].depth_mm < depth:
-                found[key] = ConcaveStretch(section, float(tt[deepest]), depth,
-                                            float(tt[a]), float(tt[b]))
+            known = found.get(key)
+            if known is None or known.depth_mm < depth:
+                known = ConcaveStretch(section, float(tt[deepest]), depth, float(tt[a]),
+                                       float(tt[b]), known.turn_deg if known else 0.0)
+            found[key] = dataclasses.replace(known, turn_deg=max(known.turn_deg, turn_deg))
     return list(found.values())
 
 
@@ -477,7 +506,7 @@ def _as_3d(points: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _summary(stretches: list[ConcaveStretch], noses: list[tuple[float, float, float | None]],
              min_depth_mm: float, surface: bool) -> Fairness:
-    deep = tuple(sorted((s for s in stretches if s.depth_mm > min_depth_mm),
+    deep = tuple(sorted((s for s in stretches if s.counts(min_depth_mm)),
                         key=lambda s: (s.section, s.t)))
     deepest = max(stretches, key=lambda s: s.depth_mm, default=None)
     nose_error, nose_section, nose_t = max(noses, key=lambda n: n[0], default=(0.0, None, None))

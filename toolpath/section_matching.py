@@ -28,7 +28,8 @@ correspond (same point counts, the edges within :data:`CORRESPOND_SPREAD` points
 other, closed seams left where they are) the columns are the mean of the sections' own
 parameters per index, as before matching existed. Otherwise the columns
 are the union of all sections' matched parameters, and a section's entries at the other
-sections' columns come from its interpolating cubic in the matched parametrization. A
+sections' columns come from its Akima cubic in the matched parametrization (local: no
+ring after a nose meets its flank, :func:`_entries`). A
 mask marks the entries that are data. Near-duplicate parameters are *not* merged: moving a
 point's parameter by even 0.1 % of its spacing puts it beside interpolated entries of its
 own section that disagree with it, and the fit ripples between them (DCA rotor, tol 0.03:
@@ -99,6 +100,26 @@ def _interpolant(u: NDArray[np.float64], points: NDArray[np.float64], closed: bo
     """The section's interpolating cubic in ``u`` (periodic for a closed section)."""
     return scipy.interpolate.CubicSpline(u, points, bc_type="periodic" if closed else
                                          "not-a-knot")
+
+
+def _entries(t: NDArray[np.float64], points: NDArray[np.float64], closed: bool
+             ) -> scipy.interpolate.Akima1DInterpolator:
+    """The section between its points, for its entries at the other sections' columns.
+
+    Akima's local cubic (its slope at a point from the two chords either side, weighted by
+    how much the chords' slopes change further out), not the interpolating C2 cubic: where
+    a nose circle meets its flank (the curvature jumps, G1 only) the C2 cubic rings for
+    several intervals, bending concave where the section is convex (DCA rotor: 0.7° of
+    concave turn after the TE nose), and the fit on the grid follows it. Akima's slopes
+    settle on the flank's chords at once. A closed section is wrapped by three points each
+    side so the seam is read like any other point.
+    """
+    if not closed:
+        return scipy.interpolate.Akima1DInterpolator(t, points, axis=0)
+    ring, period = points[:-1], t[-1] - t[0]
+    wrap_t = np.concatenate((t[-4:-1] - period, t, t[1:4] + period))
+    wrap = np.vstack((ring[-3:], points, ring[1:4]))
+    return scipy.interpolate.Akima1DInterpolator(wrap_t, wrap, axis=0)
 
 
 def _farthest_near(curve, u: NDArray[np.float64], i: int, target: NDArray[np.float64],
@@ -213,7 +234,7 @@ class _MatchedSection:
     points: NDArray[np.float64]  # (k, 3): data, plus the seam point(s) when closed
     t: NDArray[np.float64]  # (k,) matched parameters, 0 to 1
     is_data: NDArray[np.bool_]  # (k,)
-    curve: scipy.interpolate.CubicSpline  # in t
+    curve: scipy.interpolate.Akima1DInterpolator  # in t (:func:`_entries`)
 
 
 @dataclass(frozen=True)
@@ -269,7 +290,7 @@ def _matched(points: NDArray[np.float64], u: NDArray[np.float64], marks: Section
         pts, is_data = points, np.ones(n, bool)
         t = np.interp(u, [0.0, marks.u_le, marks.length], [0.0, t_le, 1.0])
     t[0], t[-1] = 0.0, 1.0
-    return _MatchedSection(pts, t, is_data, _interpolant(t, pts, closed))
+    return _MatchedSection(pts, t, is_data, _entries(t, pts, closed))
 
 
 def _vector_area(points: NDArray[np.float64]) -> NDArray[np.float64]:

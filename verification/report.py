@@ -250,8 +250,9 @@ class VerificationReport:
         The largest remaining material within the horizon (refined), anywhere cut: on
         the border of an uncut area it is the flank of the uncut stock.
     max_scallop : Location or None
-        The same away from uncut and hidden areas (farther than ``sqrt(2 R horizon)``,
-        where a ball's profile rises by the horizon): the worst scallop between passes.
+        The same away from uncut and hidden areas and from areas facing away from a fixed
+        tool axis (farther than ``sqrt(2 R horizon)``, where a ball's profile rises by the
+        horizon): the worst scallop between passes.
     unswept_moves : int
         Moves at the start not swept: until every axis has been programmed the tool's
         position is not known.
@@ -265,6 +266,9 @@ class VerificationReport:
         Candidate (dexel, piece) pairs tested.
     timings_s : dict of str to float
         Seconds per stage.
+    faces_away_area_mm2 : float
+        Area facing away from a fixed-axis program's tool axis, mm^2: no move cuts to it,
+        so what is left there is reported as unreachable, never as a scallop.
     deviation_map : DeviationMap or None
         The field on the grid (not in the JSON, not compared).
     """
@@ -290,6 +294,7 @@ class VerificationReport:
     joints: JointDeviation
     pairs: int
     timings_s: dict[str, float]
+    faces_away_area_mm2: float = 0.0
     deviation_map: DeviationMap | None = field(default=None, compare=False, repr=False)
 
     @property
@@ -352,7 +357,9 @@ class VerificationReport:
                    f"p1 {p['p1']:.4f}, p50 {p['p50']:.4f}, p99 {p['p99']:.4f} mm")
         out.append(f"area: {s.area_mm2:.1f} mm^2, cut {s.cut_area_mm2:.1f}, not cut (more "
                    f"than {self.horizon_mm:g} mm left) {s.uncut_area_mm2:.1f}, hidden "
-                   f"{s.hidden_area_mm2:.1f}")
+                   f"{s.hidden_area_mm2:.1f}"
+                   + (f", facing away from the tool axis (unreachable, no scallop taken) "
+                      f"{self.faces_away_area_mm2:.1f}" if self.faces_away_area_mm2 else ""))
         j = self.joints
         if j.block_index is not None and j.max_mm > 0.0:
             out.append(f"joint interpolation: tip leaves the chord by up to {j.max_mm:.4f} mm "

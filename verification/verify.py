@@ -189,10 +189,11 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
 
     tol = opts.gouge_tol_mm
     cut = np.isfinite(dev_grid)
+    away = faces_away(motion, samples.normals)
     # a ball's profile (a bull-nose's corner) rises by the horizon within this band
     band = max(math.sqrt(2.0 * shape * horizon), samples.spacing_t_mm, samples.spacing_s_mm)
-    interior = cut & ~border(~cut, math.ceil(band / samples.spacing_t_mm),
-                              math.ceil(band / samples.spacing_s_mm))
+    interior = cut & ~away & ~border(~cut | away, math.ceil(band / samples.spacing_t_mm),
+                                     math.ceil(band / samples.spacing_s_mm))
     kw = {"refine": opts.refine, "collision": opts.collision}
     max_gouge = extreme(ev, surface, samples, res, dev_grid, cut, largest=False,
                          limit=-tol, **kw)
@@ -215,8 +216,25 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
         gouging_blocks=_gouging_blocks(motion, dev_grid, move_grid, samples.area_mm2,
                                        samples.points, tol),
         stats=stats, joints=_joints(motion, tol), pairs=res.pairs, timings_s=timings,
+        faces_away_area_mm2=float(samples.area_mm2[away].sum()),
         deviation_map=DeviationMap(samples.t, samples.s, samples.points, dev_grid,
                                    np.where(move_grid >= 0, motion.block_index[move_grid], -1)))
+
+
+def faces_away(motion: ToolMotion, normals: FloatArray) -> NDArray[np.bool_]:
+    """Where the design faces away from a program's one fixed tool axis (3-axis, 3+2).
+
+    The cutter's surface faces down its axis and sideways only (a ball's lower half, the
+    flutes), so it touches the design only where ``n . a >= 0``: where ``n . a < 0`` no
+    move of a fixed-axis program cuts to the surface, and the material left there is
+    what the cutter's side shaved off passing by, not a scallop between passes. A
+    program that turns its axis (5-axis) reaches round; nothing is marked for it.
+    """
+    cutting = ~motion.rapid[motion.move_of_instance[1:]]
+    axes = motion.axes[1:][cutting]
+    if axes.shape[0] == 0 or np.abs(axes - axes[0]).max() > 1e-9:
+        return np.zeros(normals.shape[:-1], dtype=bool)
+    return normals @ axes[0] < 0.0
 
 
 def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions

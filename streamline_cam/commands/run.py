@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 
 from ..cli import add_closure_arguments
@@ -12,7 +13,7 @@ from ..progress import StageBars
 from ..streaming import make_streamer
 from .plan import add_gouge_arguments, gouge_options
 
-__all__ = ["register"]
+__all__ = ["register", "verify_excess"]
 
 
 def add_job_arguments(parser: argparse.ArgumentParser) -> None:
@@ -82,36 +83,47 @@ def report_lines(report: dict) -> list[str]:
     if "verify" in report:
         v = report["verify"]
         gouge = v.get("max_gouge_mm") or 0.0
+        away = v.get("faces_away_area_mm2") or 0.0
         lines.append(f"verify     scallop {v.get('max_scallop_mm') or 0.0:.4f} mm, deepest gouge "
-                     f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})")
+                     f"{gouge:.4f} mm (chord tolerance {plan['chord_tol_mm']})"
+                     + (f"; {away:.0f} mm^2 faces away from the tool axis: not reached, "
+                        "no scallop taken there" if away else ""))
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
     return lines
 
 
+def verify_excess(report: dict) -> str | None:
+    """What the verifier measured beyond the request, in one line; None when nothing was.
+
+    The deepest gouge is held to the chord tolerance (chords cut into a convex surface by up
+    to that much by design; the plan keeps room for the G-code's rounding), the largest
+    scallop between passes to the scallop asked for.
+    """
+    verify, plan = report.get("verify"), report["plan"]
+    if not verify:
+        return None
+    over = []
+    gouge = verify.get("max_gouge_mm") or 0.0
+    if gouge > plan["chord_tol_mm"]:
+        where = verify.get("max_gouge") or {}
+        over.append(f"deepest gouge {gouge:.4f} mm exceeds the chord tolerance "
+                    f"{plan['chord_tol_mm']:g} mm (--chord-tol)"
+                    + (f" at line {where['line']}" if where.get("line") else ""))
+    scallop = verify.get("max_scallop_mm") or 0.0
+    if scallop > plan["scallop_request_mm"]:
+        where = verify.get("max_scallop") or {}
+        over.append(f"scallop {scallop:.4f} mm exceeds the {plan['scallop_request_mm']:g} mm "
+                    "asked (--scallop)"
+                    + (f" at line {where['line']}" if where.get("line") else ""))
+    return "; ".join(over) or None
+
+
 def _rotary_lines(plan: dict) -> list[str]:
     """The rotary joints' fastest turn and C's sense, and the edge face left uncut."""
-    lines = []
-    rot = plan.get("rotary_rates")
-    if rot:
-        over = rot["max_deg_per_s"] > rot["limit_deg_per_s"] * (1.0 + 1e-9)
-        lines.append(
-            f"rotary     {rot['axis']} {rot['max_deg_per_mm']:.3f} deg/mm of path max, "
-            f"{rot['axis_at_s']} {rot['max_deg_per_s']:.1f} deg/s at the programmed "
-            f"{rot['feed_mm_per_min']:g} mm/min (limit {rot['limit_deg_per_s']:.1f} deg/s"
-            + (f"; {rot['n_slowed']} moves slowed to keep it, down to "
-               f"{rot['slowest_feed_mm_per_min']:.0f} mm/min)" if over else ")")
-            + ("" if rot["c_one_way"] is None else
-               f"; C turns {'one way' if rot['c_one_way'] else 'back and forth'}, "
-               f"{rot['c_turn_deg']:+.1f} deg in all"))
-    face = plan.get("blunt_face")
-    if face:
-        lines.append(f"uncut      blunt edge face {face['min_width_mm']:.3f}-"
-                     f"{face['max_width_mm']:.3f} mm wide over {face['span_mm']:.1f} mm of "
-                     f"span ({face['area_mm2']:.1f} mm^2) between the sections' last and "
-                     "first points: not on the fitted surface, left uncut (--closed fits "
-                     "round it)")
-    return lines
+    return [f"{label} {plan[name]['text']}"
+            for label, name in (("rotary    ", "rotary_rates"), ("uncut     ", "blunt_face"))
+            if plan.get(name)]
 
 
 def _setup_lines(report: dict) -> list[str]:
@@ -149,7 +161,11 @@ def _run(args: argparse.Namespace) -> int:
     print(json.dumps(result.report, indent=2) if args.json else "\n".join(text))
     print(f"files      {', '.join(str(p) for p in result.files.values())}")
     failed = result.report["check"]["errors"] or not result.report.get("stream", {"ok": 1})["ok"]
-    return 1 if failed else 0
+    excess = verify_excess(result.report)
+    if excess:
+        print(f"toolpath: verify failed: {excess}; the files are kept for inspection",
+              file=sys.stderr)
+    return 1 if failed or excess else 0
 
 
 def register(commands: argparse._SubParsersAction) -> None:
@@ -169,7 +185,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     parser.add_argument("--plots", action="store_true",
                         help="write fit.png, toolpath.png, tool_axis.png (5-axis), deviation.png")
     parser.add_argument("--verify", action="store_true",
-                        help="replay the program and measure what it cuts")
+                        help="replay the program and measure what it cuts; exit status 1 "
+                             "when the deepest gouge exceeds --chord-tol or the scallop "
+                             "--scallop")
     parser.add_argument("--json", action="store_true", help="print the report as JSON")
     parser.add_argument("--quiet", action="store_true", help="no progress bars")
     parser.set_defaults(handler=_run)

@@ -153,3 +153,81 @@ def test_unmatched_sections_show_in_the_interpolation_estimate(dca):
     by_index = as_sections(dca, closed=False, params=np.linspace(0.0, 1.0, 181))
     assert interpolation_errors(matched.s, matched.points).max() < 0.002
     assert interpolation_errors(by_index.s, by_index.points).max() > 0.05
+
+
+# ------------------------------------------------- noses meeting their flanks (G1 only)
+def nosed_section(chord_mm, le_mm, te_mm, start_deg, z_mm, twist_deg, flank_mm=100.0):
+    """A convex closed section: LE and TE nose circles ``chord_mm`` apart joined by two
+    flank arcs of radius ``flank_mm`` tangent to both, so the curvature jumps (1/0.2 mm to
+    1/100 mm) where a nose meets a flank. Sampled like a CAD export: noses every 7.5 deg,
+    flanks 15 % longer per step up to 2.5 mm; the first point on the TE nose
+    ``start_deg`` above its tip, the last one step short of it (not repeated)."""
+    le, te = np.array([0.0, 0.0]), np.array([chord_mm, 0.0])
+    a, b = flank_mm - le_mm, flank_mm - te_mm  # flank centre's distances from the centres
+    x = (a * a - b * b + chord_mm**2) / (2 * chord_mm)
+    below, above = np.array([x, -np.sqrt(a * a - x * x)]), np.array([x, np.sqrt(a * a - x * x)])
+
+    def angle(v):
+        return float(np.mod(np.arctan2(v[1], v[0]), 2 * np.pi))
+
+    up_te, up_le = angle(te - below), angle(le - below)
+    down_le, down_te = angle(le - above), angle(te - above)
+    pieces = [(te, te_mm, 0.0, up_te), (below, flank_mm, up_te, up_le),
+              (le, le_mm, up_le, down_le), (above, flank_mm, down_le, down_te),
+              (te, te_mm, down_te, 2 * np.pi)]
+    step = np.radians(7.5)
+    out = []
+    for k, (centre, radius, a0, a1) in enumerate(pieces):
+        if radius < flank_mm:  # a nose: every 7.5 deg from its phase
+            phase = np.radians(start_deg) if k in (0, 4) else 0.3 * step
+            angles = np.arange(a0 + np.mod(phase - a0, step), a1, step)
+        else:  # a flank: 15 % longer steps from each end, at most 2.5 mm
+            first = te_mm * step
+            ends = np.cumsum(first * np.minimum(1.15 ** np.arange(1, 300), 2.5 / first))
+            length = radius * (a1 - a0)
+            ends = ends[ends < 0.5 * length]
+            angles = a0 + np.concatenate((ends, [0.5 * length], length - ends[::-1])) / radius
+        out.append(centre + radius * np.c_[np.cos(angles), np.sin(angles)])
+    turn = np.radians(twist_deg)
+    p = np.vstack(out) @ np.array([[np.cos(turn), np.sin(turn)], [-np.sin(turn), np.cos(turn)]])
+    return np.c_[p, np.full(len(p), z_mm)]
+
+
+@pytest.fixture(scope="module")
+def nosed_blade():
+    """Six such sections hub to tip, a 0.2 mm TE nose, the start point moving round it."""
+    return [nosed_section(50.0 - 2 * j, 0.5, 0.2, 12.0 + 7 * j, 8.0 * j, 3.0 * j)
+            for j in range(6)]
+
+
+def test_entries_between_a_sections_points_do_not_ring_after_a_nose(nosed_blade):
+    # the grid's entries at the other sections' columns turn the way the section does: no
+    # concave turn after a nose (the C2 interpolating cubic turned 0.3-0.7 deg concave
+    # there on the DCA rotor, and the fit on the grid followed it)
+    grid = as_sections(nosed_blade, closed=True)
+    assert not grid.mask.all()  # the sections do not correspond: entries interpolated
+    for j in range(grid.n_sections):
+        ring = grid.points[j][:-1, :2]
+        ahead, behind = np.roll(ring, -1, axis=0) - ring, ring - np.roll(ring, 1, axis=0)
+        cross = behind[:, 0] * ahead[:, 1] - behind[:, 1] * ahead[:, 0]
+        turn = np.arctan2(cross, np.einsum("ij,ij->i", behind, ahead))
+        assert turn.min() > -1e-4, f"section {j} turns {np.degrees(turn.min()):.3f} deg"
+
+
+def test_a_ball_along_the_normal_round_small_noses_does_not_gouge_the_fit(nosed_blade):
+    # a ball following a convex surface along its normal offset cannot cut into it: where
+    # the fit rang after the TE nose (6 deg concave near the hub, a 6 mm ball cutting
+    # 0.009 mm there) it could; at the default --gouge-tol 0.001 mm it must not
+    from toolpath.planning.avoid import gouge_depth_mm
+    from toolpath.planning.cutters import parse_cutter
+
+    surface = fit_streamline_surface(nosed_blade, tol=TOL_MM, closed=True)
+    ball = parse_cutter("ball:6")
+    t = np.concatenate((np.linspace(-0.01, 0.01, 81) % 1.0, np.linspace(0.48, 0.52, 81)))
+    for s in (0.0, 0.1, 0.5, 0.9, 1.0):
+        frame = surface.frame(t, np.full_like(t, s))
+        tips = ball.tips_from_contacts(frame.point, frame.normal, frame.normal)
+        depth = gouge_depth_mm(surface, ball, t, np.full_like(t, s), tips, frame.normal,
+                               speed_t=np.linalg.norm(frame.xt, axis=1),
+                               speed_s=np.linalg.norm(frame.xs, axis=1)).depth_mm
+        assert depth.max() <= 0.001, f"s={s}: {depth.max():.4f} mm at t={t[depth.argmax()]}"

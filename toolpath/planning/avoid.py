@@ -198,14 +198,14 @@ LIFT_ROUNDS = 30
 
 def lift_gouges(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
                 idx: NDArray[np.int64], depth_mm: NDArray[np.float64],
-                samples: SurfaceSamples, *, tol_mm: float, flutes: bool, drop: bool = False,
-                curved: NDArray[np.bool_] | None = None
+                samples: SurfaceSamples, *, curved: NDArray[np.bool_], tol_mm: float,
+                flutes: bool, drop: bool = False
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     """Lift the cutter at points ``idx`` along its axis until clear.
 
     ``depth_mm`` (all points) is the depth found at each (the larger of the sample check's
     and :func:`gouge_depth_mm`'s); after each lift the sample check is made again, and the
-    measurement where ``curved`` (all points; default all) says the curvature at the
+    measurement where ``curved`` (all points) says the curvature at the
     contact out-curves the cutter (elsewhere the samples see what it would). A point
     still gouging after :data:`LIFT_ROUNDS` (a wall nearly parallel to the axis, which no
     lift clears) raises, or with ``drop`` is returned for the caller to leave uncut.
@@ -229,8 +229,7 @@ def lift_gouges(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
         lift[todo] += depth
         check = global_clearance(cutter, tips[todo], pts.axes[todo], samples, flutes=flutes)
         worst = -check.min_mm
-        near = np.flatnonzero(worst <= tol_mm) if curved is None else \
-            np.flatnonzero((worst <= tol_mm) & curved[todo])
+        near = np.flatnonzero((worst <= tol_mm) & curved[todo])
         if near.size:
             rows = todo[near]
             worst[near] = measured_depth(surface, cutter, pts, rows, tips[rows],

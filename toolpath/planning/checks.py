@@ -85,8 +85,8 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
             curved_all = np.zeros(len(pts), dtype=bool)
             curved_all[idx] = curved
             tips, lift, stuck = lift_gouges(surface, cutter, pts, where, found, samples,
-                                            tol_mm=tol, flutes=opts.check_flutes, drop=fixed,
-                                            curved=curved_all)
+                                            curved=curved_all, tol_mm=tol,
+                                            flutes=opts.check_flutes, drop=fixed)
             pts = with_tips(pts, pts.axes, tips)
             if stuck.size:
                 # a wall along the fixed axis: no lift clears it, the tool cannot cut there
