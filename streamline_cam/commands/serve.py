@@ -6,7 +6,8 @@ import argparse
 import ipaddress
 import socket
 import sys
-from pathlib import Path
+
+from ..cli_files import CommandLineError, output_folder
 
 __all__ = ["register", "serve"]
 
@@ -66,10 +67,11 @@ def serve(args: argparse.Namespace) -> int:
     targets = dict(DEFAULT_STREAM_TARGETS) | dict(args.target or [])
     try:
         config = ServiceConfig(
-            data_dir=Path(args.data_dir), workers=args.workers, executor=args.executor,
+            data_dir=output_folder(args.data_dir, "--data-dir"), workers=args.workers,
+            executor=args.executor,
             max_upload_bytes=int(args.max_upload_mb * 2**20), max_queued=args.max_queued,
             stream_targets=targets)
-    except ValueError as exc:
+    except (ValueError, CommandLineError) as exc:
         print(f"toolpath serve: error: {exc}", file=sys.stderr)
         return 2
     try:
