@@ -127,3 +127,13 @@ def test_an_empty_port_number_is_one_line(files, capsys):
     assert main(["send", files["program"], "--port", "socket://127.0.0.1:",
                  "--machine", "grbl-router"]) == 2
     assert "--port 'socket://127.0.0.1:'" in _one_error_line(capsys)
+
+
+@pytest.mark.parametrize("port", ["99999", "-1", "x"])
+def test_a_port_out_of_range_is_refused_by_serve(capsys, port):
+    with pytest.raises(SystemExit) as stop:  # argparse: usage error, exit 2
+        main(["serve", "--port", port])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err  # argparse: the usage, then the error
+    assert "Traceback" not in err
+    assert err.splitlines()[-1].endswith(f"expected a port number 0-65535, got '{port}'")

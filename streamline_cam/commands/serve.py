@@ -30,6 +30,17 @@ def _positive_int(text: str) -> int:
     return value
 
 
+def _port_number(text: str) -> int:
+    """A TCP port for ``--port``: 0 (any free port) to 65535 (getaddrinfo would wrap more)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number 0-65535, got {text!r}")
+    return value
+
+
 def _bind(host: str, port: int) -> socket.socket:
     """A listening socket on ``host:port`` (port 0: any free port).
 
@@ -113,7 +124,8 @@ def register(commands: argparse._SubParsersAction) -> None:
         "kept in SQLite in the data folder, so a restart loses none.")
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to listen on (127.0.0.1: this computer only)")
-    parser.add_argument("--port", type=int, default=8000, help="port (0: any free port)")
+    parser.add_argument("--port", type=_port_number, default=8000,
+                        help="port (0: any free port)")
     parser.add_argument("--data-dir", default="toolpath-service",
                         help="folder for jobs.sqlite3 and the jobs' files (./toolpath-service)")
     parser.add_argument("--workers", type=_positive_int, default=default_workers(),
