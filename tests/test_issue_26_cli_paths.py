@@ -53,6 +53,8 @@ COMMANDS = {  # argv before the output option, the output option
     "verify --plot": (["verify", "{program}", "--surface", "{surface}", "--machine",
                        "grbl-router", "--cutter", "ball:6"], "--plot"),
     "run -o": (["run", "{sections}"], "-o"),
+    "send --journal": (["send", "{program}", "--port", "socket://127.0.0.1:1", "--machine",
+                        "grbl-router"], "--journal"),
 }
 
 
@@ -114,6 +116,9 @@ def test_a_damaged_npz_archive_is_one_line(tmp_path, capsys, files):
      "--cutter", "ball:6"],
     ["gcode-info", "{bin}"],
     ["fit", "surface", "{bin}"],
+    ["verify", "{bin}", "--surface", "{surface}", "--machine", "grbl-router",
+     "--cutter", "ball:6"],
+    ["post", "{path}", "--machine", "{bin}"],
 ])
 def test_binary_input_files_are_one_line_naming_the_file(tmp_path, capsys, files, argv):
     binary = tmp_path / "random.bin"

@@ -16,6 +16,7 @@ import json
 import sys
 
 from gcode.dialects import dialect_by_name, dialect_names
+from gcode.errors import GCodeError
 from machines import list_machines, load_machine
 from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
 from verification import VerifyOptions, verify_file
@@ -93,6 +94,9 @@ def run(args: argparse.Namespace) -> int:
                              options=options)
     except OSError as exc:
         print(f"toolpath: error: {exc}", file=sys.stderr)
+        return 2
+    except GCodeError as exc:  # the program's own fault: say which file
+        print(f"toolpath: error: {args.program}: {exc}", file=sys.stderr)
         return 2
     if plot:
         from verification.plotting import plot_deviation_map
