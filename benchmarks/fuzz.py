@@ -17,9 +17,10 @@ one. A **crash** is any outcome but the target's contract:
 * cli: ``streamline_cam.cli.main(argv)`` on random argv built from the real commands and
   flags and on bad files exits 0, 1 or 2 with no traceback on stderr.
 
-Prints per target the cases tried, crashes and hangs, each with a reproducer, and a summary
-line; exit status 1 when anything crashed or hung. ``tests/test_issue_26_fuzz.py`` runs a
-few seconds of the same generators in CI.
+Prints per target the cases tried, crashes and hangs, each with a reproducer (the first
+crash of each kind shrunk by delta debugging: parts of the line or argv dropped while it
+still fails alike), and a summary line; exit status 1 when anything crashed or hung.
+``tests/test_issue_26_fuzz.py`` runs a few seconds of the same generators in CI.
 """
 
 from __future__ import annotations
@@ -487,6 +488,7 @@ def fuzz(target: Target, seconds: float, seed: int) -> Tally:
     """Run ``target`` for ``seconds`` of wall time from ``seed``."""
     rng = np.random.default_rng([seed, sum(map(ord, target.name))])
     tally = Tally(target.name)
+    shrunk: set[str] = set()
     worker = _Worker(target.name)
     deadline = time.monotonic() + seconds
     try:
@@ -498,10 +500,54 @@ def fuzz(target: Target, seconds: float, seed: int) -> Tally:
                 tally.hangs.append(target.reproducer(case))
                 worker = _Worker(target.name)
             elif problem is not None:
+                kind = problem.split(":")[0]
+                if kind not in shrunk:  # the first of each kind, made small
+                    case, worker = _shrink(target, case, kind, worker)
+                    shrunk.add(kind)
                 tally.crashes.append((target.reproducer(case), problem))
     finally:
         worker.close()
     return tally
+
+
+def _smaller(case: Any) -> Iterator[Any]:
+    """Candidates one step smaller: chunks of the parser's line, elements of an argv."""
+    if isinstance(case, tuple):  # parser: (dialect, line)
+        name, line = case
+        size = len(line) // 2
+        while size >= 1:
+            for start in range(0, len(line), size):
+                yield name, line[:start] + line[start + size:]
+            size //= 2
+    elif isinstance(case, list) and all(isinstance(a, str) for a in case):  # cli argv
+        for i in range(len(case)):
+            yield case[:i] + case[i + 1:]
+
+
+SHRINK_TRIES = 400
+
+
+def _shrink(target: Target, case: Any, kind: str, worker: _Worker) -> tuple[Any, _Worker]:
+    """Delta debugging: drop parts of ``case`` while it still fails with ``kind``.
+
+    Each candidate runs in the worker under the target's time-out (a candidate that hangs
+    is not kept, and the worker is replaced). Returns the smallest case and the worker.
+    """
+    tries = 0
+    progress = True
+    while progress and tries < SHRINK_TRIES:
+        progress = False
+        for candidate in _smaller(case):
+            tries += 1
+            finished, problem = worker.run(candidate, target.timeout_s)
+            if not finished:
+                worker = _Worker(target.name)
+            elif problem is not None and problem.split(":")[0] == kind:
+                case, progress = candidate, True
+                break
+            if tries >= SHRINK_TRIES:
+                break
+    return case, worker
 
 
 def cases(target: Target, seed: int, count: int, **make: Any) -> Iterator[Any]:
