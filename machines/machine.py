@@ -511,5 +511,10 @@ def load_machine(name_or_path: str | Path) -> Machine:
             return _read_toml(resource.read_text(encoding="utf-8"), str(resource))
     path = Path(name_or_path)
     if path.is_file():
-        return _read_toml(path.read_text(encoding="utf-8"), str(path))
+        try:
+            text = path.read_text(encoding="utf-8")
+        except UnicodeDecodeError as exc:
+            raise MachineDefinitionError(f"not a TOML text file: byte {exc.start} is not "
+                                         "UTF-8", path=str(path)) from None
+        return _read_toml(text, str(path))
     raise UnknownMachineError(text_name, list_machines())

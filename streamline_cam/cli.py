@@ -7,7 +7,6 @@ import importlib
 import json
 import pkgutil
 import sys
-from pathlib import Path
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
@@ -15,6 +14,7 @@ from toolpath import as_sections, read_points, read_sections
 from toolpath.arrays import as_curve_points, as_positive_length
 from toolpath.errors import ToolpathError
 
+from .cli_files import CommandLineError, describe_os_error, output_file, output_folder
 from .fit_report import (
     CURVE_METHODS,
     SURFACE_METHODS,
@@ -76,16 +76,16 @@ def _register_command_modules(commands: argparse._SubParsersAction) -> None:
 
 def _fit_curve(args: argparse.Namespace) -> int:
     tol = as_positive_length(args.tol, name="--tol")
+    output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     points = as_curve_points(read_points(args.points))
     curve, report = fit_curve_by_method(points, method=args.method, tol=tol,
                                         closed=args.closed)
-    if args.output:
-        payload = curve.to_dict()
-        Path(args.output).write_text(json.dumps(payload), encoding="utf-8")
-    if args.plot:
+    if output:
+        output.write_text(json.dumps(curve.to_dict()), encoding="utf-8")
+    if plot:
         from toolpath.plotting import plot_curve_fit
 
-        plot_curve_fit(points, curve, args.plot, title=f"{args.method}: {args.points}")
+        plot_curve_fit(points, curve, plot, title=f"{args.method}: {args.points}")
     if args.json:
         print(json.dumps(report.as_dict(), indent=2))
     else:
@@ -95,14 +95,15 @@ def _fit_curve(args: argparse.Namespace) -> int:
 
 def _fit_surface(args: argparse.Namespace) -> int:
     tol = as_positive_length(args.tol, name="--tol")
+    output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     sections = as_sections(read_sections(args.points), closed=args.closed)
     surface, report = fit_surface_by_method(sections, method=args.method, tol=tol)
-    if args.output:
-        Path(args.output).write_text(json.dumps(surface.to_dict()), encoding="utf-8")
-    if args.plot:
+    if output:
+        output.write_text(json.dumps(surface.to_dict()), encoding="utf-8")
+    if plot:
         from toolpath.plotting import plot_surface_fit
 
-        plot_surface_fit(sections.points, surface, args.plot,
+        plot_surface_fit(sections.points, surface, plot,
                          title=f"{args.method}: {args.points}")
     print(json.dumps(report.as_dict(), indent=2) if args.json else "\n".join(report.lines()))
     return 0
@@ -119,9 +120,12 @@ def main(argv: list[str] | None = None) -> int:
             return _fit_curve(args) if args.what == "curve" else _fit_surface(args)
         from .demo import run_demo
 
-        return run_demo(Path(args.out), quick=args.quick)
-    except (ToolpathError, GCodeError, MachineError) as exc:
+        return run_demo(output_folder(args.out, "--out"), quick=args.quick)
+    except (ToolpathError, GCodeError, MachineError, CommandLineError) as exc:
         print(f"toolpath: error: {exc}", file=sys.stderr)
+        return 2
+    except OSError as exc:  # a file that failed after the checks (disk full, permissions)
+        print(f"toolpath: error: {describe_os_error(exc)}", file=sys.stderr)
         return 2
 
 

@@ -17,6 +17,7 @@ from toolpath import (
     fit_streamline_curve,
     fit_streamline_surface,
 )
+from toolpath.between_sections import WINDOW
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.sections import as_sections
@@ -189,6 +190,14 @@ class SurfaceFitReport:
         return out
 
 
+def _few_sections_note(n_sections: int, loo_mm: float) -> str:
+    """What the between-sections figure leaves out with fewer sections than a 4th difference."""
+    return (f"between sections: {n_sections} sections, too few for the interpolation error "
+            f"across them (a fourth difference needs {WINDOW}); the figure is the fit against "
+            f"the data interpolated across the sections only; leave-one-out (each inner "
+            f"section from the other {n_sections - 1}) {loo_mm:.4f} mm")
+
+
 def _fairness_lines(fairness: dict[str, Any] | None) -> list[str]:
     """``fairness  0 concave stretches > 1 um (deepest 0.0000 mm)`` and the noses' line."""
     if fairness is None:
@@ -212,6 +221,8 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     fairness = surface_fairness(surface, grid.points,
                                 per_interval=grid.samples_per_column(SAMPLES_PER_INTERVAL))
     notes += fairness.warnings(tol)
+    if grid.n_sections < WINDOW:
+        notes.append(_few_sections_note(grid.n_sections, surface.loo_error))
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),
         closed=surface.closed_t, n_control_points=surface.n_control_points,

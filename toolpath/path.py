@@ -9,6 +9,8 @@ tool starts, reached by a rapid). Rapids carry feed ``0`` (the machine's rapid r
 
 from __future__ import annotations
 
+import zipfile
+import zlib
 from dataclasses import dataclass, field
 from enum import IntEnum
 from functools import cached_property
@@ -193,24 +195,50 @@ class Toolpath:
 
     @classmethod
     def load(cls, path: str | Path) -> Toolpath:
-        """Read a file written by :meth:`save`; refuses other format versions."""
+        """Read a file written by :meth:`save`; refuses other format versions.
+
+        Raises
+        ------
+        DataFileError
+            Naming the file: missing, not a ``.npz`` archive, damaged, not a toolpath, or
+            another format version (never numpy's own messages about pickles).
+        """
+        path = Path(path)
         try:
-            data = np.load(Path(path), allow_pickle=False)
-        except (OSError, ValueError) as exc:
-            raise DataFileError(f"cannot read a toolpath: {exc}", path=str(path)) from None
-        with data:
-            missing = {"format_version", "positions_mm", "tool_axes", "kinds",
-                       "feeds_mm_per_min", "pass_index"} - set(data.files)
-            if missing:
-                raise DataFileError(f"not a toolpath file: missing {sorted(missing)}",
-                                    path=str(path))
-            version = int(data["format_version"])
-            if version != TOOLPATH_FORMAT_VERSION:
-                raise DataFileError(
-                    f"toolpath format version {version}; this program reads version "
-                    f"{TOOLPATH_FORMAT_VERSION}", path=str(path))
-            metadata = dict(zip(data.get("metadata_keys", np.array([], dtype=str)).tolist(),
-                                data.get("metadata_values", np.array([], dtype=str)).tolist(),
-                                strict=True))
+            with path.open("rb") as handle:  # a missing file or a folder: OSError
+                zipped = zipfile.is_zipfile(handle)
+            if not zipped:  # np.load would try it as a pickle
+                raise DataFileError("not a toolpath file: not a .npz archive (write one with "
+                                    "'toolpath plan -o PATH.npz')", path=str(path))
+            with np.load(path, allow_pickle=False) as data:
+                return cls._from_arrays(data, path)
+        except OSError as exc:
+            raise DataFileError(f"cannot read a toolpath: {exc.strerror or exc}",
+                                path=str(path)) from None
+        except (ValueError, TypeError, KeyError, EOFError, zipfile.BadZipFile,
+                zlib.error) as exc:
+            if isinstance(exc, DataFileError):
+                raise
+            raise DataFileError(f"not a toolpath file: a damaged or foreign .npz "
+                                f"({exc or type(exc).__name__})", path=str(path)) from None
+
+    @classmethod
+    def _from_arrays(cls, data: Any, path: Path) -> Toolpath:
+        missing = {"format_version", "positions_mm", "tool_axes", "kinds",
+                   "feeds_mm_per_min", "pass_index"} - set(data.files)
+        if missing:
+            raise DataFileError(f"not a toolpath file: missing {sorted(missing)}",
+                                path=str(path))
+        version = int(data["format_version"])
+        if version != TOOLPATH_FORMAT_VERSION:
+            raise DataFileError(
+                f"toolpath format version {version}; this program reads version "
+                f"{TOOLPATH_FORMAT_VERSION}", path=str(path))
+        metadata = dict(zip(data.get("metadata_keys", np.array([], dtype=str)).tolist(),
+                            data.get("metadata_values", np.array([], dtype=str)).tolist(),
+                            strict=True))
+        try:
             return cls(data["positions_mm"], data["tool_axes"], data["kinds"],
                        data["feeds_mm_per_min"], data["pass_index"], metadata)
+        except InvalidParameterError as exc:
+            raise DataFileError(f"not a valid toolpath: {exc}", path=str(path)) from None

@@ -3,14 +3,14 @@
 from __future__ import annotations
 
 import argparse
-import sys
-from pathlib import Path
 
 from gcode.check import machine_dialect
 from gcode.dialects import dialect_by_name, dialect_names
 from gcode.parser import parse
 from gcode.summary import summarize
 from machines import list_machines, load_machine
+
+from ..cli_files import read_text
 
 __all__ = ["register"]
 
@@ -37,11 +37,7 @@ def run(args: argparse.Namespace) -> int:
     dialect = dialect_by_name(name)
     if machine is not None:
         dialect = machine_dialect(machine, dialect)
-    try:
-        text = Path(args.program).read_text(encoding="utf-8")
-    except (OSError, UnicodeDecodeError) as exc:
-        print(f"toolpath: error: {exc}", file=sys.stderr)
-        return 2
+    text = read_text(args.program, "a G-code program")
     summary = summarize(parse(text, dialect), machine=machine,
                         rapid_rate_mm_per_min=args.rapid_rate)
     print(f"file: {args.program}")

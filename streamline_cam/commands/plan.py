@@ -19,43 +19,15 @@ from typing import Any
 from tqdm import tqdm
 
 from machines import list_machines
-from toolpath.errors import DataFileError, ToolpathError
-from toolpath.planning import analytic_surface_from_dict, plan_finishing
+from toolpath.planning import plan_finishing
 from toolpath.planning.cutters import CUTTER_SPEC_HELP
 from toolpath.planning.gouge import GOUGE_TOL_MM
 from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
-from toolpath.surface import ParametricSurface
 
+from ..cli_files import load_surface, output_file
 from ..surface_args import add_placement_arguments, parse_vector, placed_surface
 
 __all__ = ["add_gouge_arguments", "gouge_options", "load_surface", "register", "run_plan"]
-
-
-def load_surface(path: str | Path) -> ParametricSurface:
-    """Read a surface JSON: a fitted surface, or one of the analytic test surfaces.
-
-    Raises
-    ------
-    DataFileError
-        Naming the file: missing, not JSON, not a surface, or another format version.
-    """
-    path = Path(path)
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except OSError as exc:
-        raise DataFileError(f"cannot read the surface: {exc.strerror or exc}",
-                            path=str(path)) from None
-    except json.JSONDecodeError as exc:
-        raise DataFileError(f"not JSON: {exc.msg}", path=str(path), line=exc.lineno) from None
-    kind = data.get("kind") if isinstance(data, dict) else None
-    try:
-        if isinstance(kind, str) and kind.startswith("analytic_"):
-            return analytic_surface_from_dict(data)
-        from toolpath import surface_from_dict
-
-        return surface_from_dict(data)
-    except ToolpathError as exc:
-        raise DataFileError(str(exc), path=str(path)) from None
 
 
 def add_gouge_arguments(parser: argparse.ArgumentParser) -> None:
@@ -133,6 +105,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan, print the report, write the outputs; returns the exit code."""
+    output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     surface = placed_surface(load_surface(args.surface), args)
     options: dict[str, Any] = {
         "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
@@ -149,12 +122,12 @@ def run_plan(args: argparse.Namespace) -> int:
             surface, args.cutter, scallop_mm=args.scallop, chord_tol_mm=args.chord_tol,
             axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
             linking=args.linking, machine=args.machine, progress=progress, **options)
-    if args.output:
-        path.save(args.output)
-    if args.plot:
+    if output:
+        path.save(output)
+    if plot:
         from toolpath.plotting_paths import plot_toolpath
 
-        plot_toolpath(surface, path, args.plot, report=report,
+        plot_toolpath(surface, path, plot, report=report,
                       title=f"{Path(args.surface).name}: {args.cutter}, {args.axis}, "
                             f"{report.linking}")
     if args.json:

@@ -14,6 +14,8 @@ from gcode.writer import TextWriter
 from machines import list_machines, load_machine
 from toolpath import Toolpath
 
+from ..cli_files import output_file
+
 __all__ = ["register"]
 
 _COOLANT = {"flood": CoolantMode.FLOOD, "mist": CoolantMode.MIST, "off": None}
@@ -48,6 +50,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Post the toolpath; print a one-line summary to stderr when writing a file."""
+    output = output_file(args.output, "-o")
     machine = load_machine(args.machine)
     dialect = dialect_by_name(args.dialect) if args.dialect else None
     try:
@@ -60,9 +63,8 @@ def run(args: argparse.Namespace) -> int:
         print(f"toolpath: error: {exc}", file=sys.stderr)
         return 2
     program = post(Toolpath.load(args.toolpath), machine, dialect, options=options)
-    target = args.output if args.output else sys.stdout
-    with TextWriter(target) as writer:
+    with TextWriter(output or sys.stdout) as writer:
         n = emit(program, dialect or dialect_by_name(machine.dialect), writer)
-    if args.output:
+    if output:
         print(f"{args.output}: {n} lines for {machine.name}", file=sys.stderr)
     return 0

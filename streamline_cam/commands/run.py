@@ -8,6 +8,7 @@ import sys
 from pathlib import Path
 
 from ..cli import add_closure_arguments
+from ..cli_files import CommandLineError, output_folder
 from ..pipeline import JobRequest, run_job
 from ..progress import StageBars
 from ..streaming import make_streamer
@@ -145,7 +146,10 @@ def _setup_lines(report: dict) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> int:
-    out = Path(args.output).parent if args.output else Path("job")
+    out = (output_folder(Path(args.output).parent, "-o", shown=args.output) if args.output
+           else output_folder("job", "the output folder"))
+    if args.output and Path(args.output).is_dir():
+        raise CommandLineError(f"-o {args.output}: cannot write: it is a folder")
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
     stream = make_streamer(target, dialect=args.dialect) if target else None

@@ -28,6 +28,8 @@ from gcode.senders.resume import ResumePlan, plan_resume
 from gcode.senders.serial_link import DEFAULT_BAUD, open_serial_link, port_problem
 from machines import list_machines, load_machine
 
+from ..cli_files import output_file
+
 __all__ = ["register", "run"]
 
 EXIT_DONE, EXIT_STOPPED, EXIT_USAGE, EXIT_CANCELLED = 0, 1, 2, 130
@@ -120,6 +122,7 @@ def _resume_hint(args: argparse.Namespace, line: int | None) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``toolpath send``; returns the exit status."""
+    output_file(args.journal, "--journal")  # before the port opens
     if args.port is not None:
         problem = port_problem(args.port)
         if problem is not None:

@@ -6,7 +6,8 @@ import argparse
 import ipaddress
 import socket
 import sys
-from pathlib import Path
+
+from ..cli_files import CommandLineError, output_folder
 
 __all__ = ["register", "serve"]
 
@@ -26,6 +27,17 @@ def _positive_int(text: str) -> int:
         value = 0
     if value < 1:
         raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
+    return value
+
+
+def _port_number(text: str) -> int:
+    """A TCP port for ``--port``: 0 (any free port) to 65535 (getaddrinfo would wrap more)."""
+    try:
+        value = int(text)
+    except ValueError:
+        value = -1
+    if not 0 <= value <= 65535:
+        raise argparse.ArgumentTypeError(f"expected a port number 0-65535, got {text!r}")
     return value
 
 
@@ -66,10 +78,11 @@ def serve(args: argparse.Namespace) -> int:
     targets = dict(DEFAULT_STREAM_TARGETS) | dict(args.target or [])
     try:
         config = ServiceConfig(
-            data_dir=Path(args.data_dir), workers=args.workers, executor=args.executor,
+            data_dir=output_folder(args.data_dir, "--data-dir"), workers=args.workers,
+            executor=args.executor,
             max_upload_bytes=int(args.max_upload_mb * 2**20), max_queued=args.max_queued,
             stream_targets=targets, scheduler=args.scheduler)
-    except ValueError as exc:
+    except (ValueError, CommandLineError) as exc:
         print(f"toolpath serve: error: {exc}", file=sys.stderr)
         return 2
     try:
@@ -113,7 +126,8 @@ def register(commands: argparse._SubParsersAction) -> None:
         "kept in SQLite in the data folder, so a restart loses none.")
     parser.add_argument("--host", default="127.0.0.1",
                         help="address to listen on (127.0.0.1: this computer only)")
-    parser.add_argument("--port", type=int, default=8000, help="port (0: any free port)")
+    parser.add_argument("--port", type=_port_number, default=8000,
+                        help="port (0: any free port)")
     parser.add_argument("--data-dir", default="toolpath-service",
                         help="folder for jobs.sqlite3 and the jobs' files (./toolpath-service)")
     parser.add_argument("--workers", type=_positive_int, default=default_workers(),

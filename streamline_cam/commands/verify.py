@@ -16,11 +16,13 @@ import json
 import sys
 
 from gcode.dialects import dialect_by_name, dialect_names
+from gcode.errors import GCodeError
 from machines import list_machines, load_machine
 from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
-from verification import VerifyOptions, load_surface, verify_file
+from verification import VerifyOptions, verify_file
 from verification.options import DEFAULT_HORIZON_MM, DEFAULT_STOCK_MM, DexelMethod
 
+from ..cli_files import load_surface, output_file
 from ..surface_args import add_placement_arguments, placed_surface
 
 __all__ = ["DEFAULT_GOUGE_LIMIT_MM", "register"]
@@ -78,6 +80,7 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Verify; 0 when no gouge exceeds the limit, 1 otherwise, 2 on unreadable files."""
+    plot = output_file(args.plot, "--plot")
     machine = load_machine(args.machine)
     cutter = parse_cutter(args.cutter)
     options = VerifyOptions(
@@ -92,10 +95,13 @@ def run(args: argparse.Namespace) -> int:
     except OSError as exc:
         print(f"toolpath: error: {exc}", file=sys.stderr)
         return 2
-    if args.plot:
+    except GCodeError as exc:  # the program's own fault: say which file
+        print(f"toolpath: error: {args.program}: {exc}", file=sys.stderr)
+        return 2
+    if plot:
         from verification.plotting import plot_deviation_map
 
-        plot_deviation_map(report, args.plot, title=f"{args.program} on {machine.name}")
+        plot_deviation_map(report, plot, title=f"{args.program} on {machine.name}")
     if args.json:
         print(json.dumps(report.to_dict(), indent=2, allow_nan=False))
     else:

@@ -35,8 +35,9 @@ never by the HTTP client, so a request cannot open an arbitrary port."""
 EXECUTORS: Final[tuple[str, ...]] = ("process", "thread")
 
 MAX_ATTEMPTS: Final[int] = 3
-"""A job interrupted by this many service stops is failed instead of re-queued: a job that
-takes the service down (out of memory) must not do it forever."""
+"""A job cut short this many times by a crash (its worker process or the service killed
+mid-job) is failed instead of re-queued: a job that takes the service down (out of memory)
+must not do it forever. A graceful stop of the service re-queues its jobs without counting."""
 
 
 def default_workers() -> int:

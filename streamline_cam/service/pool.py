@@ -4,6 +4,11 @@ The pool never hands the executor more jobs than it has workers: when a slot fre
 job is submitted) it claims the oldest queued job from the store and submits it. So the
 queue survives a restart (it is the database), and the executor's own unbounded queue
 stays empty.
+
+Worker processes end with the service however it ends: a graceful stop terminates them
+(their jobs go back to the queue, not counted as failed attempts); a crash or ``kill -9``
+of the service is seen by each worker's watchdog thread (:func:`_exit_with_parent`), which
+ends the worker within :data:`PARENT_POLL_S` of it (or of the compiled call it is in).
 """
 
 from __future__ import annotations
@@ -12,8 +17,10 @@ import functools
 import importlib
 import logging
 import multiprocessing
+import os
 import signal
 import threading
+import time
 from collections.abc import Callable
 from concurrent.futures import Executor, Future, ProcessPoolExecutor, ThreadPoolExecutor
 from concurrent.futures.process import BrokenProcessPool
@@ -122,15 +129,16 @@ class WorkerPool:
         self.dispatch()
 
     def shutdown(self, *, wait: bool = False) -> None:
-        """Stop taking jobs; running ones stay ``running`` in the store (re-queued on start).
+        """Stop taking jobs; the running ones go back to the queue (not as failed attempts).
 
         Worker processes are stopped (their jobs are redone after the restart); worker
         threads cannot be stopped and finish their job unless ``wait`` is false and the
-        process exits.
+        process exits (that outcome is dropped: the job was re-queued).
         """
         with self._lock:
             self._closed = True
             executor, self._executor = self._executor, None
+            stopped = [(job_id, attempt) for job_id, attempt, _ in self._running.values()]
         if self._engine is not None:
             self._engine.close()
         if executor is None:
@@ -142,12 +150,53 @@ class WorkerPool:
         executor.shutdown(wait=wait, cancel_futures=True)
         if manager is not None and manager.is_alive():
             _join_manager(manager)
+        # a graceful stop is not a failed attempt: the jobs it cut short go back to the queue
+        # (a thread still finishing one is superseded: its outcome is dropped)
+        for job_id, attempt in stopped:
+            if self._store.requeue_stopped(job_id, attempt):
+                log.warning("job %s: stopped with the service; queued again", job_id)
+
+
+#: How often a worker process checks that the service that started it still runs, s.
+PARENT_POLL_S = 0.5
+#: Exit status of a worker process that ended because the service had gone.
+EXIT_SERVICE_GONE = 75
 
 
 def _init_worker_process() -> None:
-    """A worker process ignores Ctrl-C (the service stops it) and loads the pipeline."""
+    """Set up a worker process: no Ctrl-C (the service stops it), the watchdog, the pipeline."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)
+    _exit_with_parent()
     importlib.import_module("streamline_cam.pipeline")
+
+
+def _exit_with_parent() -> None:
+    """Start a daemon thread that ends this process as soon as its parent has ended.
+
+    ``multiprocessing.parent_process()`` holds the read end of a pipe whose write end only
+    the parent holds (spawn; on Windows the parent's process handle): it becomes ready when
+    the parent ends, however it ends (``kill -9`` included). Where there is no such
+    sentinel, the parent pid is polled: an orphan is re-parented, so ``os.getppid()``
+    changes. ``PR_SET_PDEATHSIG`` is not used: Linux sends it when the *thread* that
+    started the worker ends, and workers are started from short-lived request threads.
+    The worker's job is left ``running`` in the store: the next start re-queues it (as a
+    crash, which it was).
+    """
+    parent = multiprocessing.parent_process()
+    parent_pid = os.getppid()
+
+    def watch() -> None:
+        while True:
+            if parent is not None:
+                parent.join(timeout=PARENT_POLL_S)  # returns at once when the parent ends
+                gone = not parent.is_alive()
+            else:
+                time.sleep(PARENT_POLL_S)
+                gone = False
+            if gone or os.getppid() != parent_pid:
+                os._exit(EXIT_SERVICE_GONE)
+
+    threading.Thread(target=watch, name="toolpath-parent-watch", daemon=True).start()
 
 
 def _ready() -> None:

@@ -106,7 +106,8 @@ def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None) -> J
     return JobView(
         id=record.id, name=Path(record.input_name).stem, state=record.state.value,
         created=timestamp(record.created), started=timestamp(record.started),
-        finished=timestamp(record.finished), attempts=record.attempts, stage=record.stage,
+        finished=timestamp(record.finished), attempts=record.attempts, stops=record.stops,
+        stage=record.stage,
         progress=progress, error=record.error, error_type=record.error_type,
         parameters=record.parameters, links=links,
         streams=[_stream_view(s) for s in streams or []])

@@ -98,6 +98,8 @@ class JobView(BaseModel):
     started: datetime | None
     finished: datetime | None
     attempts: int = Field(description="runs started (more than one after a restart)")
+    stops: int = Field(0, description="runs ended by a graceful stop of the service and "
+                       "re-queued (not counted as failed attempts)")
     stage: str | None = Field(description="stage of the last progress report")
     progress: dict[str, float] = Field(description="fraction done (0 to 1) by stage")
     error: str | None = Field(description="why the job failed")

@@ -7,10 +7,14 @@ attempt it belongs to, so a worker left over from a stopped service (or a thread
 finishing) cannot overwrite a newer run. The database is opened per call in WAL mode with a
 busy time-out, so the HTTP threads and worker processes share it safely.
 
-Restart (:meth:`JobStore.recover`): ``running`` jobs go back to ``queued`` (their files are
-rewritten by the next run), unless they were interrupted :data:`~.config.MAX_ATTEMPTS`
-times. Streams that were queued or running are failed, never re-sent: a controller may hold
-part of the program, and a machine must not start by itself when a service comes back.
+A graceful stop (:meth:`JobStore.requeue_stopped`, by the worker pool as the service
+stops) puts its running jobs back in the queue at once and counts the run in ``stops``, not
+as a failed attempt. Restart (:meth:`JobStore.recover`): jobs still ``running`` were cut
+short by a crash or a ``kill -9``; they go back to ``queued`` (their files are rewritten by
+the next run), unless such crashes ended :data:`~.config.MAX_ATTEMPTS` of their runs
+(``attempts - stops``). Streams that were queued or running are failed, never re-sent: a
+controller may hold part of the program, and a machine must not start by itself when a
+service comes back.
 """
 
 from __future__ import annotations
@@ -28,7 +32,7 @@ from typing import Any, Final
 
 __all__ = ["JobRecord", "JobState", "JobStore", "StreamRecord", "StreamState"]
 
-SCHEMA_VERSION: Final[int] = 1
+SCHEMA_VERSION: Final[int] = 2
 BUSY_TIMEOUT_S: Final[float] = 10.0
 """Wait for a lock this long (s): writes are single-row and take microseconds, so only a
 stalled disk comes near it."""
@@ -44,6 +48,7 @@ CREATE TABLE IF NOT EXISTS jobs (
     started REAL,
     finished REAL,
     attempts INTEGER NOT NULL DEFAULT 0,
+    stops INTEGER NOT NULL DEFAULT 0,
     stage TEXT,
     progress TEXT NOT NULL DEFAULT '{}',
     error TEXT,
@@ -110,6 +115,8 @@ class JobRecord:
         Message and exception class of a failed job.
     report : dict or None
         The pipeline's report of a finished job.
+    stops : int
+        Runs ended by a graceful stop of the service (re-queued; not failed attempts).
     """
 
     id: str
@@ -125,6 +132,7 @@ class JobRecord:
     error: str | None
     error_type: str | None
     report: dict[str, Any] | None
+    stops: int = 0
 
 
 @dataclass(frozen=True)
@@ -148,7 +156,8 @@ def _job(row: sqlite3.Row) -> JobRecord:
         input_name=row["input_name"], created=row["created"], started=row["started"],
         finished=row["finished"], attempts=row["attempts"], stage=row["stage"],
         progress=json.loads(row["progress"]), error=row["error"], error_type=row["error_type"],
-        report=None if row["report"] is None else json.loads(row["report"]))
+        report=None if row["report"] is None else json.loads(row["report"]),
+        stops=row["stops"])
 
 
 def _stream(row: sqlite3.Row) -> StreamRecord:
@@ -186,6 +195,9 @@ class JobStore:
                 raise RuntimeError(f"{self.path}: job store schema {version} is newer than "
                                    f"this service's {SCHEMA_VERSION}")
             db.executescript(_SCHEMA)
+            columns = {r["name"] for r in db.execute("PRAGMA table_info(jobs)")}
+            if "stops" not in columns:  # a version 1 store: graceful stops not counted
+                db.execute("ALTER TABLE jobs ADD COLUMN stops INTEGER NOT NULL DEFAULT 0")
             db.execute(f"PRAGMA user_version = {SCHEMA_VERSION}")
 
     @contextmanager
@@ -290,17 +302,37 @@ class JobStore:
 
     def fail_if_worn(self, job_id: str, attempt: int, *, max_attempts: int,
                      reason: str) -> bool:
-        """Fail the run ``attempt`` if it is the ``max_attempts``-th; whether it was."""
+        """Fail the run ``attempt`` if it is the ``max_attempts``-th cut short; whether it was.
+
+        Runs ended by a graceful stop (``stops``) do not count.
+        """
         with self._connect() as db:
             cursor = db.execute(
                 "UPDATE jobs SET state = 'failed', finished = ?, error_type = 'Interrupted', "
-                "error = ? || ' (' || attempts || ' times; not retried again)' "
-                "WHERE id = ? AND state = 'running' AND attempts = ? AND attempts >= ?",
+                "error = ? || ' (' || (attempts - stops) || ' times; not retried again)' "
+                "WHERE id = ? AND state = 'running' AND attempts = ? "
+                "AND attempts - stops >= ?",
                 (time.time(), reason, job_id, attempt, max_attempts))
+        return cursor.rowcount == 1
+
+    def requeue_stopped(self, job_id: str, attempt: int) -> bool:
+        """The run ``attempt`` was stopped with the service: queue it again, not as a failure.
+
+        Returns whether the job was still in that run (``False``: it finished meanwhile, or
+        a newer run owns it).
+        """
+        with self._connect() as db:
+            cursor = db.execute(
+                "UPDATE jobs SET state = 'queued', stops = stops + 1, stage = NULL, "
+                "progress = '{}' WHERE id = ? AND state = 'running' AND attempts = ?",
+                (job_id, attempt))
         return cursor.rowcount == 1
 
     def recover(self, *, max_attempts: int) -> tuple[list[str], list[str]]:
         """After a restart: re-queue the jobs that were running, fail the worn-out ones.
+
+        A job still ``running`` here was cut short by a crash (a graceful stop re-queued
+        its jobs): it fails when crashes ended ``max_attempts`` of its runs.
 
         Returns
         -------
@@ -311,8 +343,9 @@ class JobStore:
         with self._connect() as db:
             failed = db.execute(
                 "UPDATE jobs SET state = 'failed', finished = ?, error_type = 'Interrupted', "
-                "error = 'the service stopped during this job (' || attempts || ' times; not "
-                "retried again)' WHERE state = 'running' AND attempts >= ? RETURNING id",
+                "error = 'the service stopped during this job (' || (attempts - stops) || "
+                "' times; not retried again)' WHERE state = 'running' "
+                "AND attempts - stops >= ? RETURNING id",
                 (now, max_attempts)).fetchall()
             requeued = db.execute(
                 "UPDATE jobs SET state = 'queued', stage = NULL, progress = '{}' "

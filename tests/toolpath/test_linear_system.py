@@ -63,3 +63,17 @@ def test_p12_normal_equations_match_dense_lstsq_of_eq10():
         rows.append(d * np.kron(np.eye(3), points[i][None, :]))
     ref = np.linalg.lstsq(np.vstack(rows), np.concatenate(rhs), rcond=None)[0].reshape(3, 3)
     np.testing.assert_allclose(curve.A, ref, atol=1e-9)
+
+
+def test_p0_stops_within_its_budget_and_warns(monkeypatch):
+    """Issue 26 (fuzz): points far from any dX/dt = A X (four blade sections read as one
+    curve) ran P0's Levenberg-Marquardt for scipy's 9000 evaluations, over ten minutes."""
+    import toolpath.linear_system as linear_system
+    from toolpath.errors import ConvergenceWarning
+
+    monkeypatch.setattr(linear_system, "P0_EVALUATIONS_PER_UNKNOWN", 1)
+    t = np.linspace(0.0, 1.0, 30)
+    zigzag = np.c_[40 * t, 3 * (-1.0) ** np.arange(30), 5 + t**2]
+    with pytest.warns(ConvergenceWarning, match="P0 stopped after"):
+        curve = fit_linear_system(zigzag, model="P0")
+    assert np.isfinite(curve.A).all() and np.isfinite(curve.max_error)
