@@ -90,8 +90,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
 
 
 def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs: FloatArray,
-                           centres: FloatArray, reach_mm: FloatArray, mid: FloatArray,
-                           half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
+                           centres: FloatArray, reach_mm: FloatArray, sorted_mid: FloatArray,
+                           sorted_half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
                            axis: FloatArray, radius_mm: float, behind_cosine: float, *,
                            below_mm: FloatArray | None = None
                            ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
@@ -114,9 +114,12 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
         Search centres, mm.
     reach_mm : ndarray, shape (q,)
         A piece is a candidate when its midpoint lies within this of the centre, mm.
-    mid, half_mm, a, e, ee, axis : ndarray
-        The pieces' midpoints, half lengths (mm), starts, vectors, squared lengths and
-        axes (:class:`~verification.pieces.Pieces`).
+    sorted_mid, sorted_half_mm : ndarray, shapes (n, 3), (n,)
+        The pieces' midpoints and half lengths (mm) in the grid's order
+        (``mid[grid.order]``: read in the order the walk meets them).
+    a, e, ee, axis : ndarray
+        The pieces' starts, vectors, squared lengths and axes
+        (:class:`~verification.pieces.Pieces`).
     radius_mm : float
         Capsule radius, mm.
     behind_cosine : float
@@ -153,7 +156,7 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
     f = np.ascontiguousarray
     _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
           f(reach_mm * reach_mm, dtype=float), f(cell), int(span), dims, grid.starts,
-          grid.order, mid[grid.order], half_mm[grid.order], f(a), f(e), f(ee), f(axis),
+          grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
           float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

@@ -186,6 +186,8 @@ class SweepIndex:
     compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
+    _sorted: dict[int, tuple[FloatArray, FloatArray]] = field(default_factory=dict,
+                                                               repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -200,8 +202,11 @@ class SweepIndex:
             pieces = self.pieces(which)
             cell = self.base_cell_mm * 2.0**k
             margin = self.reach_limit_mm + pieces.max_half_mm
-            self._grids[which, k] = PieceGrid.build(pieces.mid, self.lo_mm - margin,
-                                                    self.hi_mm + margin, cell)
+            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
+            self._grids[which, k] = grid
+            # midpoints and half lengths in the grid's order, for the compiled walk
+            self._sorted[id(grid)] = (np.ascontiguousarray(pieces.mid[grid.order]),
+                                      np.ascontiguousarray(pieces.half_mm[grid.order]))
         return self._grids[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
@@ -241,7 +246,7 @@ class SweepIndex:
             if self.corner_radius_mm is None and self.compiled:
                 lam, hit, behind, n = lowest_capsule_entries(
                     grid, int(span), points[sel], dirs[sel], centres[sel], reach[sel],
-                    pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee, pieces.axis,
+                    *self._sorted[id(grid)], pieces.a, pieces.e, pieces.ee, pieces.axis,
                     self.radius_mm, BEHIND_COSINE,
                     below_mm=None if below_mm is None else below_mm[sel])
                 pairs += n
