@@ -25,6 +25,14 @@ def blade():
     return fit_streamline_surface(sections, tol=0.01, closed=False)
 
 
+@pytest.fixture(autouse=True)
+def few_rays(monkeypatch):
+    """The estimate decides on small plans too, ray casting only the 16 largest."""
+    monkeypatch.setattr(measure, "ESTIMATE_MIN_SEEDS", 0)
+    monkeypatch.setattr(measure, "ESTIMATE_TOP", 16)
+    monkeypatch.setattr(measure, "ESTIMATE_TOP_SHARE", 0.0)
+
+
 def _measured_inputs(monkeypatch, surface, cutter, **options):
     """Plan with the measurement on, keeping what ``measure_scallop`` was given."""
     seen = {}
@@ -39,8 +47,20 @@ def _measured_inputs(monkeypatch, surface, cutter, **options):
 
 
 def _same_scallop(args, kwargs):
-    fast = measure.measure_scallop(*args, **kwargs, estimate=True)
+    cast = []
+    real = measure._cusps
+
+    def counted(volume, surface, t, *rest):
+        cast.append(len(t))
+        return real(volume, surface, t, *rest)
+
+    measure._cusps = counted
+    try:
+        fast = measure.measure_scallop(*args, **kwargs, estimate=True)
+    finally:
+        measure._cusps = real
     full = measure.measure_scallop(*args, **kwargs, estimate=False)
+    assert sum(cast) < 0.9 * fast.n_samples  # the estimate did decide where to cast
     assert fast.max_mm == pytest.approx(full.max_mm, rel=0.02)
     assert fast.interior_max_mm == pytest.approx(full.interior_max_mm, rel=0.02)
     assert fast.uncut_fraction == full.uncut_fraction

@@ -43,6 +43,7 @@ edges rather than through it.
 
 from __future__ import annotations
 
+import weakref
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -93,6 +94,11 @@ class ChordMeasurement:
                                           repr=False)
 
 
+#: The last toolpath's checked joints (a weak reference to it, the machine key, the
+#: joints): the chord and the scallop measurement of one plan solve them once.
+_JOINTS_SOLVED: list[tuple[weakref.ref[Toolpath], str, NDArray[np.float64]]] = []
+
+
 def _checked_joints(toolpath: Toolpath, machine: Machine | None
                     ) -> NDArray[np.float64] | None:
     """Joints of every point if ``toolpath`` was checked under ``machine``'s interpolation.
@@ -101,7 +107,13 @@ def _checked_joints(toolpath: Toolpath, machine: Machine | None
     """
     if machine is None or toolpath.metadata.get(JOINT_CHECKED) != machine_key(machine):
         return None
-    return solve_inverse(machine, toolpath.positions_mm, toolpath.tool_axes).joints
+    key = machine_key(machine)
+    for ref, known, joints in _JOINTS_SOLVED:
+        if ref() is toolpath and known == key:
+            return joints
+    joints = solve_inverse(machine, toolpath.positions_mm, toolpath.tool_axes).joints
+    _JOINTS_SOLVED[:] = [(weakref.ref(toolpath), key, joints)]
+    return joints
 
 
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
@@ -291,21 +303,20 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     """
     pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     owner = np.repeat(np.arange(len(a)), pieces)
-    first = np.r_[0, np.cumsum(pieces)[:-1]]
-    j = np.arange(pieces.sum()) - first[owner]
-    ends = []
-    for u in (j / pieces[owner], (j + 1) / pieces[owner]):
-        u = u[:, None]
-        if joints is None:
-            tips = a[owner] * (1 - u) + b[owner] * u
-            axes = aa[owner] * (1 - u) + ab[owner] * u
-            axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-        else:
-            machine, q_a, q_b = joints
-            tips, axes = forward(machine, q_a[owner] * (1 - u) + q_b[owner] * u)
-        ends.append((tips, axes))
-    (p0, x0), (p1, x1) = ends
-    return p0, p1, x0, x1, owner
+    # every move's pieces share their ends: the poses at u = j / pieces, j = 0 .. pieces,
+    # placed once
+    rows = np.repeat(np.arange(len(a)), pieces + 1)
+    first = np.r_[0, np.cumsum(pieces + 1)[:-1]]
+    u = ((np.arange(rows.size) - first[rows]) / pieces[rows])[:, None]
+    if joints is None:
+        tips = a[rows] * (1 - u) + b[rows] * u
+        axes = aa[rows] * (1 - u) + ab[rows] * u
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    else:
+        machine, q_a, q_b = joints
+        tips, axes = forward(machine, q_a[rows] * (1 - u) + q_b[rows] * u)
+    start = np.arange(owner.size) + owner  # pose of piece k's start; its end is next
+    return tips[start], tips[start + 1], axes[start], axes[start + 1], owner
 
 
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
@@ -472,19 +483,26 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     return result_h, result_s
 
 
-#: Seeds whose cusp, as estimated from the passes' own geometry, reaches this share of the
-#: largest cusp the ray cast found are ray cast too; on planned passes the estimate lies
-#: within a few per cent of the ray cast (on the dev blade 0.994 to 1.02 of it, on a
-#: sphere cap 0.98 to 1.2), so the largest cusp is among them
-#: with room to spare.
-ESTIMATE_SHARE = 0.9
+#: Seeds whose cusp, as estimated from the passes' own geometry, exceeds the largest cusp
+#: the ray cast found by this factor are ray cast too: the estimate errs by a few per cent
+#: (on the dev blade 0.994 to 1.02 of the ray cast, on a sphere cap 0.98 to 1.2, mostly
+#: above), so where it stands higher than that the ray cast decides.
+ESTIMATE_SHARE = 1.03
 
 #: Share of the estimated height beyond which the ridge sunk into the two passes' other
 #: pieces counts (a pass folding back); less is the passes' own curving.
 RIDGE_FOLD = 0.25
 
-#: Seeds of the largest estimates ray cast first (per group), for the cusp the share is of.
-ESTIMATE_TOP = 512
+#: Seeds of the largest estimates ray cast (per group, at least): on planned passes the
+#: largest cusp is among them, or one within a fraction of a per cent of it where the
+#: cusps are all alike (the estimate then ranks seeds by its few per cent of error).
+ESTIMATE_TOP = 1024
+
+#: ... or this share of the seeds, when more.
+ESTIMATE_TOP_SHARE = 0.01
+
+#: Fewer seeds are all ray cast: the estimate would leave few to skip.
+ESTIMATE_MIN_SEEDS = 8 * ESTIMATE_TOP
 
 
 def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
@@ -654,9 +672,10 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     chunk : int
         Seeds per vectorized batch.
     estimate : bool
-        Ball cutters: estimate every seed's cusp from the passes' own geometry
-        (:func:`_ball_cusp_estimates`) and ray-cast only the seeds near the largest
-        estimates (:func:`_needing_rays`); False ray-casts every seed (the full method).
+        Ball cutters, more than :data:`ESTIMATE_MIN_SEEDS` seeds: estimate every seed's
+        cusp from the passes' own geometry (:func:`_ball_cusp_estimates`) and ray-cast
+        only the seeds of the largest estimates and those the estimate cannot tell;
+        False ray-casts every seed (the full method).
     """
     h = float(scallop_mm)
     big, r = cutter.radius_mm, cutter.corner_radius_mm
@@ -712,22 +731,24 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
             sl = todo[lo:lo + chunk]
             cusp_h[sl], cusp_s[sl] = _cusps(volume, surface, st[sl], ss[sl], s1[sl], sp[sl])
 
-    if volume.ball and estimate and st.size:
+    if volume.ball and estimate and st.size > ESTIMATE_MIN_SEEDS:
         # a ball's cusps from the passes' own geometry first; then the ray cast where no
-        # estimate stands, at the largest estimates, and wherever an estimate comes within
-        # ESTIMATE_SHARE of the largest cusp the ray cast found (overall, and away from
+        # estimate stands, at the largest estimates, and wherever an estimate stands above
+        # the largest cusp the ray cast found by more than it errs (overall, and away from
         # uncut areas as the seeds stand)
         guess = _ball_cusp_estimates(volume, surface, st, ss, sp, seed_q, seed_n, x_s)
         groups = [np.ones(st.size, dtype=bool)]
         if reach is not None:
             groups.append(_distance_from(reach, grid_points, seed_q, st, ss) > 2.0 * big)
         first = ~np.isfinite(guess)
+        count = max(ESTIMATE_TOP, int(ESTIMATE_TOP_SHARE * st.size))
         for group in groups:
-            first |= _largest_first(guess, group, ESTIMATE_TOP)
+            first |= _largest_first(guess, group, count)
         ray_cast(first)
         for group in groups:
             measured = group & cast & np.isfinite(cusp_h)
             if measured.any():
+                # an estimate above the largest cusp by more than it errs: cast it too
                 top = float(cusp_h[measured].max())
                 ray_cast(group & (guess >= ESTIMATE_SHARE * top))
             else:
