@@ -319,6 +319,10 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     return tips[start], tips[start + 1], axes[start], axes[start + 1], owner
 
 
+#: A ball's nearest pieces a ray of the uncut grid meets first (:meth:`_CutVolume.cut`).
+NEAREST_FIRST = 8
+
+
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
 #: scallop of the bowed path.
 PIECE_SAG_SHARE = 0.03
@@ -359,6 +363,35 @@ class _CutVolume:
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
         self.cells = bin_samples(mid, self.reach) if len(mid) else None
+        self._tree: cKDTree | None = None
+
+    @property
+    def tree(self) -> cKDTree:
+        """A k-d tree of the ball pieces' midpoints (built once, when first asked)."""
+        if self._tree is None:
+            self._tree = cKDTree(0.5 * (self.a + self.b))
+        return self._tree
+
+    def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
+
+        A ball's nearest pieces are tried first: a ray one of them cuts is cut whatever
+        the others do (the height is the lowest entry); the rest meet all their pieces
+        (:meth:`height`).
+        """
+        out = np.zeros(len(q), dtype=bool)
+        rest = np.arange(len(q))
+        if self.ball and len(self.pass_of) and len(q):
+            k = min(NEAREST_FIRST, len(self.pass_of))
+            _, near = self.tree.query(q, k=k, workers=-1)
+            lo = np.arange(len(q), dtype=np.int64) * k
+            out = np.isfinite(self.height(q, n, lo, lo + k, near.reshape(-1)))
+            rest = np.flatnonzero(~out)
+        for i in range(0, len(rest), 100_000):
+            rows = rest[i:i + 100_000]
+            out[rows] = np.isfinite(self.height(q[rows], n[rows],
+                                                *ray_ranges(*self.pairs(q[rows]), len(rows))))
+        return out
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None
               ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
@@ -534,7 +567,7 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
         return out
     big = volume.cutter.radius_mm
     centre = q + big * nrm
-    tree = cKDTree(0.5 * (volume.a + volume.b))
+    tree = volume.tree
     seg = volume.b - volume.a
     x = np.zeros((n_seed, 3))
     inside = np.zeros((n_seed, 2))
@@ -692,12 +725,8 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     n_s = int(np.ceil(len_s / width)) + 1
     frame = surface.frame(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), grid=True)
     q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
-    heights = np.concatenate([
-        volume.height(q[i:i + 100_000], n[i:i + 100_000],
-                      *ray_ranges(*volume.pairs(q[i:i + 100_000]), len(q[i:i + 100_000])))
-        for i in range(0, len(q), 100_000)])
     area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
-    uncut = ~np.isfinite(heights)
+    uncut = ~volume.cut(q, n)
     uncut_fraction = float(area[uncut].sum() / max(area.sum(), 1e-300))
     # cusps from every seed, searched over 2.5 times the distance to the nearest contact of
     # another pass (what the toolpath itself shows of the spacing)
