@@ -35,16 +35,71 @@ Examples
 
 from __future__ import annotations
 
+import math
+
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["line_capsule_interval"]
+__all__ = ["capsule_interval", "line_capsule_interval"]
 
 FloatArray = NDArray[np.float64]
 
 #: Squared segment length (mm^2) below which a capsule is treated as a sphere: the side
 #: equation divides by it.
 _DEGENERATE_MM2 = 1e-18
+
+
+@numba.njit(cache=True)
+def capsule_interval(px: float, py: float, pz: float, dx: float, dy: float, dz: float,
+                     ax: float, ay: float, az: float, ex: float, ey: float, ez: float,
+                     ee: float, r2: float) -> tuple[float, float]:
+    """Entry and exit of one line ``P + lam d`` through one capsule (module formulas).
+
+    Scalars: ``P``, ``d``, ``A``, ``D = B - A``, ``|D|^2`` and ``R^2``; ``(+inf, -inf)``
+    where the line misses. The one implementation: :func:`line_capsule_interval` runs it
+    over arrays and :mod:`verification.capsule_search` inside its grid walk.
+    """
+    mx, my, mz = px - ax, py - ay, pz - az
+    mm = mx * mx + my * my + mz * mz
+    md = mx * dx + my * dy + mz * dz
+    me = mx * ex + my * ey + mz * ez
+    de = dx * ex + dy * ey + dz * ez
+    lam_in, lam_out = math.inf, -math.inf
+    disc = md * md - (mm - r2)  # sphere at A
+    if disc >= 0.0:
+        root = math.sqrt(disc)
+        lam_in, lam_out = -md - root, -md + root
+    mdb = md - de  # sphere at B: m_B = m - D
+    disc = mdb * mdb - (mm - 2.0 * me + ee - r2)
+    if disc >= 0.0:
+        root = math.sqrt(disc)
+        lam_in, lam_out = min(lam_in, -mdb - root), max(lam_out, -mdb + root)
+    if ee > _DEGENERATE_MM2:  # side of the cylinder
+        inv = 1.0 / ee
+        qa = 1.0 - de * de * inv
+        qb = md - me * de * inv
+        disc = qb * qb - qa * (mm - me * me * inv - r2)
+        if qa > 1e-12 and disc >= 0.0:
+            root = math.sqrt(disc)
+            lam = (-qb - root) / qa
+            foot = (me + lam * de) * inv
+            if 0.0 <= foot <= 1.0:
+                lam_in = min(lam_in, lam)
+            lam = (-qb + root) / qa
+            foot = (me + lam * de) * inv
+            if 0.0 <= foot <= 1.0:
+                lam_out = max(lam_out, lam)
+    return lam_in, lam_out
+
+
+@numba.njit(cache=True, parallel=True)
+def _intervals(points: FloatArray, dirs: FloatArray, a: FloatArray, e: FloatArray,
+               ee: FloatArray, r2: float, lam_in: FloatArray, lam_out: FloatArray) -> None:
+    for i in numba.prange(points.shape[0]):
+        lam_in[i], lam_out[i] = capsule_interval(
+            points[i, 0], points[i, 1], points[i, 2], dirs[i, 0], dirs[i, 1], dirs[i, 2],
+            a[i, 0], a[i, 1], a[i, 2], e[i, 0], e[i, 1], e[i, 2], ee[i], r2)
 
 
 def line_capsule_interval(
@@ -74,41 +129,11 @@ def line_capsule_interval(
         Signed distances along ``d`` from ``P`` where the line enters and leaves the
         capsule, mm; ``+inf`` and ``-inf`` where it misses.
     """
-    r2 = radius_mm * radius_mm
-    m = points - a
-    mm = np.einsum("ij,ij->i", m, m)
-    md = np.einsum("ij,ij->i", m, dirs)
-    me = np.einsum("ij,ij->i", m, e)
-    de = np.einsum("ij,ij->i", dirs, e)
-    del m
-    lam_in = np.full(mm.shape, np.inf)
-    lam_out = np.full(mm.shape, -np.inf)
-    # sphere at A
-    _take_roots(-md, md * md - (mm - r2), lam_in, lam_out)
-    # sphere at B: m_B = m - D
-    mdb = md - de
-    _take_roots(-mdb, mdb * mdb - (mm - 2.0 * me + ee - r2), lam_in, lam_out)
-    # side of the cylinder
-    ok = ee > _DEGENERATE_MM2
-    inv = np.divide(1.0, ee, out=np.zeros_like(ee), where=ok)
-    qa = 1.0 - de * de * inv
-    qb = md - me * de * inv
-    disc = qb * qb - qa * (mm - me * me * inv - r2)
-    ok &= (qa > 1e-12) & (disc >= 0.0)
-    if ok.any():
-        root = np.sqrt(np.where(ok, disc, 0.0))
-        qa_safe = np.where(ok, qa, 1.0)
-        for sign, out, pick in ((-1.0, lam_in, np.minimum), (1.0, lam_out, np.maximum)):
-            lam = (-qb + sign * root) / qa_safe
-            foot = (me + lam * de) * inv
-            valid = ok & (foot >= 0.0) & (foot <= 1.0)
-            pick(out, np.where(valid, lam, out), out=out)
+    m = np.asarray(ee).shape[0]
+    lam_in = np.empty(m)
+    lam_out = np.empty(m)
+    f = np.ascontiguousarray
+    _intervals(f(points, dtype=np.float64), f(dirs, dtype=np.float64),
+               f(a, dtype=np.float64), f(e, dtype=np.float64), f(ee, dtype=np.float64),
+               float(radius_mm) ** 2, lam_in, lam_out)
     return lam_in, lam_out
-
-
-def _take_roots(mid: FloatArray, disc: FloatArray, lam_in: FloatArray, lam_out: FloatArray) -> None:
-    """Fold the sphere roots ``mid -/+ sqrt(disc)`` (where ``disc >= 0``) into the interval."""
-    hit = disc >= 0.0
-    root = np.sqrt(np.where(hit, disc, 0.0))
-    np.minimum(lam_in, np.where(hit, mid - root, np.inf), out=lam_in)
-    np.maximum(lam_out, np.where(hit, mid + root, -np.inf), out=lam_out)

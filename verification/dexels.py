@@ -50,6 +50,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capsule import line_capsule_interval
+from .capsule_search import lowest_capsule_entries
 from .grid import PieceGrid
 from .pieces import Pieces
 from .torus import line_sweep_interval, sweep_entry_bound
@@ -167,6 +168,10 @@ class SweepIndex:
     corner_radius_mm : float or None
         Corner radius ``r`` of a flat or bull-nose cutter, mm (None: a ball, measured with
         the capsule kernel).
+    compiled : bool
+        Ball pieces: walk the grid in compiled code
+        (:func:`~verification.capsule_search.lowest_capsule_entries`, the default) rather
+        than expanding candidate pairs in numpy batches (the same values; the tests' oracle).
     """
 
     ball: Pieces
@@ -178,8 +183,11 @@ class SweepIndex:
     reach_limit_mm: float
     max_pairs: int = 2_000_000
     corner_radius_mm: float | None = None
+    compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
+    _sorted: dict[int, tuple[FloatArray, FloatArray]] = field(default_factory=dict,
+                                                               repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -194,12 +202,15 @@ class SweepIndex:
             pieces = self.pieces(which)
             cell = self.base_cell_mm * 2.0**k
             margin = self.reach_limit_mm + pieces.max_half_mm
-            self._grids[which, k] = PieceGrid.build(pieces.mid, self.lo_mm - margin,
-                                                    self.hi_mm + margin, cell)
+            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
+            self._grids[which, k] = grid
+            # midpoints and half lengths in the grid's order, for the compiled walk
+            self._sorted[id(grid)] = (np.ascontiguousarray(pieces.mid[grid.order]),
+                                      np.ascontiguousarray(pieces.half_mm[grid.order]))
         return self._grids[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-               radii_mm: FloatArray) -> DexelResult:
+               radii_mm: FloatArray, *, below_mm: FloatArray | None = None) -> DexelResult:
         """Lowest entries along dexels among pieces within ``radii`` of ``centres``.
 
         Parameters
@@ -212,6 +223,10 @@ class SweepIndex:
             Search centres, mm.
         radii_mm : ndarray, shape (q,)
             Search radii for piece *segments*, mm (the longest half piece is added).
+        below_mm : ndarray, shape (q,), optional
+            Values already known on the dexels, which the caller keeps where lower: the
+            compiled ball search then seeks only lower ones (elsewhere a dexel may hold
+            any value or none; the lower of the two is the same).
 
         Returns
         -------
@@ -228,6 +243,20 @@ class SweepIndex:
         pairs = 0
         for span in np.unique(spans):
             sel = np.flatnonzero(spans == span)
+            if self.corner_radius_mm is None and self.compiled:
+                lam, hit, behind, n = lowest_capsule_entries(
+                    grid, int(span), points[sel], dirs[sel], centres[sel], reach[sel],
+                    *self._sorted[id(grid)], pieces.a, pieces.e, pieces.ee, pieces.axis,
+                    self.radius_mm, BEHIND_COSINE,
+                    below_mm=None if below_mm is None else below_mm[sel])
+                pairs += n
+                found = hit >= 0
+                qi, hit = sel[found], hit[found]
+                out.lam_mm[qi] = lam[found]
+                out.move[qi] = pieces.moves_at(hit, points[qi])
+                out.shank[qi] = pieces.shank[hit]
+                out.behind[qi] = behind[found]
+                continue
             cen, lim2 = centres[sel], reach[sel] ** 2
             for query, piece in grid.candidate_batches(cen, int(span),
                                                        max_pairs=self.max_pairs):

@@ -69,8 +69,8 @@ class Dexels:
         return cos >= (Z_MIN_COSINE if self.method is DexelMethod.Z else 0.5)
 
     def search(self, points: FloatArray, normals: FloatArray, convexity: FloatArray,
-               *, near: bool = True, far: bool = False, depth: float | None = None
-               ) -> DexelResult:
+               *, near: bool = True, far: bool = False, depth: float | None = None,
+               below_mm: FloatArray | None = None) -> DexelResult:
         """Near and/or collision search at design points.
 
         Parameters
@@ -84,6 +84,10 @@ class Dexels:
             collision search.
         depth : float, optional
             Gouge depth the near search is sized for, mm (default: the instance's).
+        below_mm : ndarray, shape (q,), optional
+            Material already known on the dexels, which the caller keeps where it is
+            lower: the collision search then seeks only less (where it finds none, the
+            result holds the near search's, or nothing).
 
         Returns
         -------
@@ -112,7 +116,9 @@ class Dexels:
             r = np.full(points.shape[0], self.radius + self.horizon
                         + self.index.ball.max_height_mm)
             scatter(out, np.arange(points.shape[0]),
-                     self.index.search("far", points, dirs, points, r), merge=True)
+                     self.index.search("far", points, dirs, points, r, below_mm=(
+                         out.lam_mm if below_mm is None else np.minimum(out.lam_mm, below_mm))),
+                     merge=True)
         return out
 
     def deviation(self, result: DexelResult, normals: FloatArray) -> FloatArray:
@@ -192,7 +198,8 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         ct = _coarse_positions(n_t, collision_stride)
         cs = _coarse_positions(n_s, collision_stride)
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
-        far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True)
+        far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
+                        below_mm=res.lam_mm[coarse])
         flagged = far.lam_mm < res.lam_mm[coarse] - 1e-9
         # the near search missed it: a ball from outside gouging deeper than it was sized
         # for, or something it never looks at (shank, from behind, a sharp convex edge)
@@ -210,8 +217,8 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
                      merge=True)
         if collide.any():
             idx = windows.around(collide)
-            scatter(res, idx, ev.search(pts[idx], nrm[idx], conv[idx], near=False, far=True),
-                     merge=True)
+            scatter(res, idx, ev.search(pts[idx], nrm[idx], conv[idx], near=False, far=True,
+                                        below_mm=res.lam_mm[idx]), merge=True)
     return res, ev.deviation(res, nrm)
 
 

@@ -1,0 +1,124 @@
+"""The ball's cusp estimate from the passes' own geometry against the full ray cast.
+
+``measure_scallop`` estimates every seed's cusp from two centre segments and ray-casts
+only the seeds near the largest; ``estimate=False`` ray-casts every seed (the full
+method, the oracle here). Both must report the same scallop, and the estimate itself must
+stand within a few per cent of the ray cast seed by seed.
+"""
+
+import numpy as np
+import pytest
+
+import toolpath.planning.finishing as finishing
+import toolpath.planning.measure as measure
+from machines import load_machine
+from toolpath import fit_streamline_surface
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning import SpherePatch, plan_finishing
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
+
+
+@pytest.fixture(scope="module")
+def blade():
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    sections = rows[:, 1:].reshape(15, 142, 3)[::2]  # every other section: a shorter fit
+    return fit_streamline_surface(sections, tol=0.01, closed=False)
+
+
+@pytest.fixture(autouse=True)
+def few_rays(monkeypatch):
+    """The estimate decides on small plans too, ray casting only the 16 largest."""
+    monkeypatch.setattr(measure, "ESTIMATE_MIN_SEEDS", 0)
+    monkeypatch.setattr(measure, "ESTIMATE_TOP", 16)
+    monkeypatch.setattr(measure, "ESTIMATE_TOP_SHARE", 0.0)
+
+
+def _measured_inputs(monkeypatch, surface, cutter, **options):
+    """Plan with the measurement on, keeping what ``measure_scallop`` was given."""
+    seen = {}
+
+    def keep(*args, **kwargs):
+        seen["args"], seen["kwargs"] = args, kwargs
+        return measure.measure_scallop(*args, **kwargs)
+
+    monkeypatch.setattr(finishing, "measure_scallop", keep)
+    plan_finishing(surface, cutter, **options)
+    return seen["args"], seen["kwargs"]
+
+
+def _same_scallop(args, kwargs):
+    cast = []
+    real = measure._cusps
+
+    def counted(volume, surface, t, *rest):
+        cast.append(len(t))
+        return real(volume, surface, t, *rest)
+
+    measure._cusps = counted
+    try:
+        fast = measure.measure_scallop(*args, **kwargs, estimate=True)
+    finally:
+        measure._cusps = real
+    full = measure.measure_scallop(*args, **kwargs, estimate=False)
+    assert sum(cast) < 0.9 * fast.n_samples  # the estimate did decide where to cast
+    assert fast.max_mm == pytest.approx(full.max_mm, rel=0.02)
+    assert fast.interior_max_mm == pytest.approx(full.interior_max_mm, rel=0.02)
+    assert fast.uncut_fraction == full.uncut_fraction
+    assert full.max_mm > 0.0
+    return fast, full
+
+
+def test_sphere_cap_three_and_five_axis(monkeypatch):
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+    for axis in ({"axis_mode": "3"}, {"axis_mode": "lead-tilt", "lead_deg": 10.0}):
+        _same_scallop(*_measured_inputs(monkeypatch, cap, "ball:6", scallop_mm=0.02,
+                                        chord_tol_mm=0.02, **axis))
+
+
+def test_blade_lying_with_uncut_areas(monkeypatch, blade):
+    lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
+    fast, _ = _same_scallop(*_measured_inputs(monkeypatch, lying, "ball:10", scallop_mm=0.06,
+                                              chord_tol_mm=0.03, axis_mode="3"))
+    assert fast.uncut_fraction > 0.1  # the far side: interior and overall maxima differ
+
+
+def test_blade_standing_under_joint_interpolation(monkeypatch, blade):
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    args, kwargs = _measured_inputs(monkeypatch, standing, "ball:6", scallop_mm=0.03,
+                                    chord_tol_mm=0.03, axis_mode="lead-tilt", lead_deg=10.0,
+                                    machine=load_machine("trunnion-ac"))
+    _same_scallop(args, kwargs)
+
+
+def test_the_estimate_stands_near_the_ray_cast_seed_by_seed(monkeypatch):
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+    args, kwargs = _measured_inputs(monkeypatch, cap, "ball:6", scallop_mm=0.02,
+                                    chord_tol_mm=0.02, axis_mode="3")
+    seen = {}
+    real_estimates, real_cusps = measure._ball_cusp_estimates, measure._cusps
+
+    def estimates(*a, **k):
+        seen["guess"] = real_estimates(*a, **k)
+        seen["t"], seen["s"] = a[2], a[3]
+        return seen["guess"]
+
+    def cusps(volume, surface, t, s0, s1, own):
+        h, s = real_cusps(volume, surface, t, s0, s1, own)
+        seen.setdefault("cast", []).append((t, s0, h))
+        return h, s
+
+    monkeypatch.setattr(measure, "_ball_cusp_estimates", estimates)
+    monkeypatch.setattr(measure, "_cusps", cusps)
+    measure.measure_scallop(*args, **kwargs, estimate=True)
+    seen.pop("cast")
+    measure.measure_scallop(*args, **kwargs, estimate=False)
+    t, s0, h = (np.concatenate(c) for c in zip(*seen["cast"], strict=True))
+    full = dict(zip(zip(t.tolist(), s0.tolist(), strict=True), h.tolist(), strict=True))
+    guess = seen["guess"]
+    h = np.array([full.get(key, np.nan)
+                  for key in zip(seen["t"].tolist(), seen["s"].tolist(), strict=True)])
+    both = np.isfinite(guess) & np.isfinite(h) & (h > 0.5 * np.nanmax(h))
+    assert both.sum() > 100
+    ratio = guess[both] / h[both]
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.05)
+    assert ratio.min() > 0.95  # the share the ray cast is asked for leaves room

@@ -1,0 +1,144 @@
+"""Where two passes' ball tubes meet near a seed: the compiled part of the cusp estimate.
+
+For each seed (a ball centre ``P`` over a contact, its pass, the surface's ``X_s``) and its
+nearest pieces (centre segments, by a k-d tree on their midpoints), :func:`ridges` takes
+the nearest segment of the seed's own pass and the nearest of another pass on the ``+s``
+side, and returns where their tubes of radius ``R`` meet nearest the surface, and how deep
+that point lies inside the tubes of a third pass's pieces and of the two passes' other
+pieces (see
+:func:`toolpath.planning.measure._ball_cusp_estimates` for the geometry).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+__all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "ridges"]
+
+RIDGE_FOUND = 1  #: the tubes meet: ``point`` and ``inside`` hold the ridge
+RIDGE_NO_PASS = 0  #: no other pass on the ``+s`` side among the pieces given
+RIDGE_NO_LENGTH = -1  #: the own segment has no length (no direction across)
+RIDGE_OPEN = 2  #: the tubes do not meet: material between the passes
+
+
+@numba.njit(cache=True, inline="always")
+def _foot(px, py, pz, a, e, j):
+    ee = e[j, 0] * e[j, 0] + e[j, 1] * e[j, 1] + e[j, 2] * e[j, 2]
+    f = ((px - a[j, 0]) * e[j, 0] + (py - a[j, 1]) * e[j, 1] + (pz - a[j, 2]) * e[j, 2])
+    f = min(max(f / ee, 0.0), 1.0) if ee > 0.0 else 0.0
+    return a[j, 0] + f * e[j, 0], a[j, 1] + f * e[j, 1], a[j, 2] + f * e[j, 2]
+
+
+@numba.njit(cache=True, parallel=True)
+def _ridges(centre, normal, x_s, own, near, a, e, pass_of, radius, point, inside, state):
+    n_pieces = a.shape[0]
+    for i in numba.prange(centre.shape[0]):
+        px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
+        d_own, d_other = math.inf, math.inf
+        j_own, j_other = -1, -1
+        o0 = o1 = o2 = q0 = q1 = q2 = 0.0
+        for c in range(near.shape[1]):
+            j = near[i, c]
+            if j < 0 or j >= n_pieces:
+                continue
+            f0, f1, f2 = _foot(px, py, pz, a, e, j)
+            w0, w1, w2 = f0 - px, f1 - py, f2 - pz
+            dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+            if pass_of[j] == own[i]:
+                if dist < d_own:
+                    d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
+            elif w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0 and dist < d_other:
+                d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
+        if j_own < 0 or j_other < 0:
+            state[i] = RIDGE_NO_PASS
+            continue
+        u0, u1, u2 = e[j_own, 0], e[j_own, 1], e[j_own, 2]
+        length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        if length <= 0.0:
+            state[i] = RIDGE_NO_LENGTH
+            continue
+        u0, u1, u2 = u0 / length, u1 / length, u2 / length
+        d0, d1, d2 = q0 - o0, q1 - o1, q2 - o2
+        along = d0 * u0 + d1 * u1 + d2 * u2
+        c0, c1, c2 = d0 - along * u0, d1 - along * u1, d2 - along * u2  # across
+        half = 0.5 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        v0, v1, v2 = u1 * c2 - u2 * c1, u2 * c0 - u0 * c2, u0 * c1 - u1 * c0
+        v_len = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if v_len <= 0.0:
+            state[i] = RIDGE_NO_LENGTH
+            continue
+        if half >= radius:
+            state[i] = RIDGE_OPEN
+            continue
+        sign = 1.0 if v0 * normal[i, 0] + v1 * normal[i, 1] + v2 * normal[i, 2] >= 0.0 else -1.0
+        drop = math.sqrt(radius * radius - half * half) * sign / v_len
+        x0 = o0 + 0.5 * c0 - drop * v0
+        x1 = o1 + 0.5 * c1 - drop * v1
+        x2 = o2 + 0.5 * c2 - drop * v2
+        third = 0.0
+        two = 0.0
+        for c in range(near.shape[1]):
+            j = near[i, c]
+            if j < 0 or j >= n_pieces:
+                continue
+            f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
+            depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
+            if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
+                two = max(two, depth)
+            else:
+                third = max(third, depth)
+        point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
+        inside[i, 0] = third
+        inside[i, 1] = two
+        state[i] = RIDGE_FOUND
+
+
+def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArray[np.float64],
+           own: NDArray[np.int64], near: NDArray[np.int64], a: NDArray[np.float64],
+           e: NDArray[np.float64], pass_of: NDArray[np.int64], radius_mm: float
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """Ridge points, their depth inside other tubes (mm, >= 0) and a state per seed.
+
+    Parameters
+    ----------
+    centre, normal, x_s : ndarray, shape (m, 3)
+        ``P = Q + R n`` (mm), the unit normal ``n`` and ``X_s`` at each seed.
+    own : ndarray of int64, shape (m,)
+        The seed's pass.
+    near : ndarray of int64, shape (m, k)
+        Nearest pieces of each seed (indices ``>= len(a)`` are ignored: a k-d tree's
+        missing neighbours).
+    a, e : ndarray, shape (p, 3)
+        Piece starts and vectors (ball centres), mm.
+    pass_of : ndarray of int64, shape (p,)
+        Pass of each piece.
+    radius_mm : float
+        Ball radius ``R``, mm.
+
+    Returns
+    -------
+    point : ndarray, shape (m, 3)
+        Where the tubes meet nearest the surface (valid where ``state`` is
+        :data:`RIDGE_FOUND`), mm.
+    inside : ndarray, shape (m, 2)
+        How deep it lies inside the deepest tube of the given pieces of other passes than
+        the two, and of the two passes' other pieces, mm (>= 0).
+    state : ndarray of int64, shape (m,)
+        :data:`RIDGE_FOUND`, :data:`RIDGE_NO_PASS`, :data:`RIDGE_NO_LENGTH` or
+        :data:`RIDGE_OPEN`.
+    """
+    m = centre.shape[0]
+    point = np.zeros((m, 3))
+    inside = np.zeros((m, 2))
+    state = np.zeros(m, dtype=np.int64)
+    if m:
+        f = np.ascontiguousarray
+        _ridges(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
+                f(own, dtype=np.int64), f(near, dtype=np.int64), f(a, dtype=float),
+                f(e, dtype=float), f(pass_of, dtype=np.int64), float(radius_mm), point,
+                inside, state)
+    return point, inside, state

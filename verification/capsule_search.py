@@ -1,0 +1,162 @@
+"""The lowest capsule entry along each dexel, walked over the piece grid in compiled code.
+
+The same search as the candidate pairs of :class:`~verification.grid.PieceGrid` folded by
+:class:`~verification.dexels.SweepIndex` (the exact path, kept for flat and bull-nose
+pieces and as the oracle of the tests), without storing a pair: for each dexel the
+``(2 k + 1)^2`` columns of cells around its search centre are walked in the grid's order,
+every piece whose midpoint lies within the search radius is met with
+:func:`~verification.capsule.capsule_interval`, and only the lowest value is kept (the
+first of equal ones, as the pair fold keeps it). Memory is the output; the cost is the
+candidate pairs at a few nanoseconds each, spread over the cores.
+
+The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the capsule
+reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
+behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from .capsule import capsule_interval
+from .grid import PieceGrid
+
+__all__ = ["lowest_capsule_entries"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@numba.njit(cache=True, parallel=True)
+def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
+          cell_ijk: IntArray, span: int, dims: IntArray, starts: IntArray, order: IntArray,
+          mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
+          axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
+          piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray) -> None:
+    r2 = radius * radius
+    for q in numba.prange(points.shape[0]):
+        px, py, pz = points[q, 0], points[q, 1], points[q, 2]
+        dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
+        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+        ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
+        k0 = max(ck - span, 0)
+        k1 = min(ck + span, dims[2] - 1)
+        best = lam[q]
+        best_piece = -1
+        best_behind = False
+        n = 0
+        if k0 <= k1:
+            for i in range(ci - span, ci + span + 1):
+                if i < 0 or i >= dims[0]:
+                    continue
+                for j in range(cj - span, cj + span + 1):
+                    if j < 0 or j >= dims[1]:
+                        continue
+                    column = (i * dims[1] + j) * dims[2]
+                    for slot in range(starts[column + k0], starts[column + k1 + 1]):
+                        # midpoints and half lengths are stored in the grid's order
+                        mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
+                        if not mx * mx + my * my + mz * mz <= lim2[q]:
+                            continue
+                        n += 1
+                        # the capsule lies within rho = R + half of its midpoint: a line
+                        # farther than rho misses it, and enters it no sooner than
+                        # t - sqrt(rho^2 - perp^2) (t: the midpoint along the line)
+                        wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
+                        t = wx * dx + wy * dy + wz * dz
+                        rho = radius + half[slot]
+                        room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
+                        if room < 0.0 or t - math.sqrt(room) >= best:
+                            continue
+                        p = order[slot]
+                        lam_in, lam_out = capsule_interval(
+                            px, py, pz, dx, dy, dz, a[p, 0], a[p, 1], a[p, 2], e[p, 0],
+                            e[p, 1], e[p, 2], ee[p], r2)
+                        if not lam_out > 0.0:
+                            continue
+                        back = lam_in < 0.0 and (axis[p, 0] * dx + axis[p, 1] * dy
+                                                 + axis[p, 2] * dz) < behind_cosine
+                        value = max(lam_in, -lam_out) if back else lam_in
+                        if value < best:
+                            best, best_piece, best_behind = value, p, back
+        lam[q] = best
+        piece[q] = best_piece
+        behind[q] = best_behind
+        pairs[q] = n
+
+
+def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs: FloatArray,
+                           centres: FloatArray, reach_mm: FloatArray, sorted_mid: FloatArray,
+                           sorted_half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
+                           axis: FloatArray, radius_mm: float, behind_cosine: float, *,
+                           below_mm: FloatArray | None = None
+                           ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
+    """Per dexel the lowest value among capsules within ``reach_mm`` of its centre.
+
+    With ``below_mm`` (a value already known on each dexel, which the caller keeps where
+    it is lower) only values below it are sought: a capsule whose bound on its entry is
+    not below the best so far is skipped unmeasured, so a search for what another search
+    missed meets few capsules.
+
+    Parameters
+    ----------
+    grid : PieceGrid
+        The pieces by cell.
+    span : int
+        Cells searched on each side of a centre's cell (covers ``reach_mm``).
+    points, dirs : ndarray, shape (q, 3)
+        Dexel origins (mm) and unit directions.
+    centres : ndarray, shape (q, 3)
+        Search centres, mm.
+    reach_mm : ndarray, shape (q,)
+        A piece is a candidate when its midpoint lies within this of the centre, mm.
+    sorted_mid, sorted_half_mm : ndarray, shapes (n, 3), (n,)
+        The pieces' midpoints and half lengths (mm) in the grid's order
+        (``mid[grid.order]``: read in the order the walk meets them).
+    a, e, ee, axis : ndarray
+        The pieces' starts, vectors, squared lengths and axes
+        (:class:`~verification.pieces.Pieces`).
+    radius_mm : float
+        Capsule radius, mm.
+    behind_cosine : float
+        ``a . d`` below which a piece comes from behind.
+    below_mm : ndarray, shape (q,), optional
+        Seek only values below these, mm (default: all).
+
+    Returns
+    -------
+    lam : ndarray, shape (q,)
+        Lowest value, mm (``inf``: no candidate reached the design point, or none below
+        ``below_mm``).
+    piece : ndarray of int64
+        Its piece (``-1`` where none).
+    behind : ndarray of bool
+        It came from behind.
+    pairs : int
+        Candidate pairs met.
+    """
+    q = points.shape[0]
+    lam = np.full(q, np.inf)
+    if below_mm is not None:
+        lam[:] = below_mm
+    piece = np.full(q, -1, dtype=np.int64)
+    behind = np.zeros(q, dtype=np.bool_)
+    pairs = np.zeros(q, dtype=np.int64)
+    if q == 0 or grid.n_pieces == 0:
+        return lam, piece, behind, 0
+    dims = np.asarray(grid.dims, dtype=np.int64)
+    cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
+    # far (or non-finite) centres: a cell beyond the reach of any piece
+    cell = np.clip(np.nan_to_num(cell, nan=-span - 1.0), -span - 1.0,
+                   (dims + span).astype(float)).astype(np.int64)
+    f = np.ascontiguousarray
+    _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
+          f(reach_mm * reach_mm, dtype=float), f(cell), int(span), dims, grid.starts,
+          grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
+          float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+    lam[piece < 0] = np.inf
+    return lam, piece, behind, int(pairs.sum())
