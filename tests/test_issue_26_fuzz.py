@@ -5,9 +5,8 @@ for minutes in child processes with time-outs); here a fixed seed and a fixed nu
 cases run in this process:
 
 * parser: mutated blocks, each ``gcode.parse`` returning a program or raising
-  ``GCodeError`` (public API only). Numbers beyond float range and the backtracking
-  patterns of issue 26 points 1-2 belong to the tokenizer's own tests, so those mutations
-  are left out here (``hostile=False``); the benchmark tries them;
+  ``GCodeError`` (public API only), numbers beyond float range and the long digit runs
+  that once made the tokenizer backtrack included (``hostile=True``);
 * fitters: random point sets (NaN/inf, duplicates, int dtype, one to three points, huge
   and tiny scales, random order, random options): a fit or a ``ToolpathError``;
 * command line: random argv from the real commands and flags, bad files: exit 0, 1 or 2,
@@ -42,7 +41,7 @@ def _problems(name: str, count: int, **make) -> list[str]:
 
 
 def test_mutated_gcode_lines_parse_or_raise_gcode_error():
-    assert _problems("parser", 3000, hostile=False) == []
+    assert _problems("parser", 3000, hostile=True) == []
 
 
 def test_random_point_sets_fit_or_raise_toolpath_error():
