@@ -279,8 +279,9 @@ def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     if options.n_control_points is not None and got < options.n_control_points:
         warnings.warn(ConvergenceWarning(
             f"fitted with {got} control points, not the {options.n_control_points} control "
-            f"points asked: {t.size} data points leave no room for another knot (every "
-            "control point needs a data point of its own, Schoenberg-Whitney)"), stacklevel=3)
+            "points asked: no knot span has room for another knot (each control point "
+            "needs a data point of its own, Schoenberg-Whitney); give fewer control points"),
+            stacklevel=3)
     if fair_check is not None and options.tol is not None:
         trial = _mend(trial, points, t, seed_values, fit_at, options, fair_check)
     return trial.fit, trial.errors, trial.knots

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import warnings
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any, TypeVar
@@ -44,7 +45,7 @@ from .adaptive import (
 )
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError, LogRangeError
+from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
 from .periodic import adapt_closed_knots, seam_multiplicity
@@ -424,11 +425,13 @@ def fit_streamline_curve(
             if not is_closed:  # a closed fit checks its periodic knots itself
                 check_given_knots(t, probe)  # before the frames are tried on them
         else:
-            probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
-                                      max_control_points=max_control_points, params=t,
-                                      knot_method=knot_method,
-                                      corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                                      minimax=False, fair=False, closed=is_closed).knots
+            with warnings.catch_warnings():  # the fit itself says what its probe would
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
+                                          max_control_points=max_control_points, params=t,
+                                          knot_method=knot_method,
+                                          corner_angle_deg=corner_angle_deg, sweeps=sweeps,
+                                          minimax=False, fair=False, closed=is_closed).knots
         frames = _ranked_frames(x, t, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,7 +45,7 @@ from .adaptive import (
 from .bspline_surface import fit_bspline_surface
 from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError, LogRangeError
+from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
 from .sections import Sections, as_sections
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
@@ -299,11 +300,13 @@ def fit_streamline_surface(
         else:
             # the grid itself: its points re-read as sections would be validated again,
             # and a matched grid's nearby columns of one section refused as repeated points
-            probe = fit_bspline_surface(
-                grid, tol=tol, n_control_points=n_control_points,
-                max_control_points=max_control_points,
-                knot_method=knot_method, corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                minimax=False, fair=False).knots_t
+            with warnings.catch_warnings():  # the fit itself says what its probe would
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                probe = fit_bspline_surface(
+                    grid, tol=tol, n_control_points=n_control_points,
+                    max_control_points=max_control_points, knot_method=knot_method,
+                    corner_angle_deg=corner_angle_deg, sweeps=sweeps, minimax=False,
+                    fair=False).knots_t
         frames = _ranked_frames(grid, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
