@@ -147,9 +147,10 @@ def test_perturbed_trait_sections_fit_fair(fit, style, seed):
     assert fairness.nose_error_mm <= TOL_MM, fairness.nose_line()
 
 
-def trait_blade(style, seed, n_sections=4):
+def trait_blade(style, seed, n_sections=4, ragged=True):
     """Sections of one trait section's shape, scaled and twisted from hub to tip, each with
-    a few flank points of its own dropped (ragged counts) and its seam moved."""
+    a few flank points of its own dropped (``ragged``: the counts differ) and its seam
+    moved."""
     base, closed = trait_section(style, seed)
     rng = np.random.default_rng(seed + 1000)
     centre = base.mean(axis=0)
@@ -162,7 +163,8 @@ def trait_blade(style, seed, n_sections=4):
         steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
         flank = np.flatnonzero(steps[:-1] > 1.0) + 1  # interior points with long steps
         keep = np.setdiff1d(np.arange(len(points)),
-                            rng.choice(flank, size=min(j, flank.size), replace=False))
+                            rng.choice(flank, size=min(j if ragged else 0, flank.size),
+                                       replace=False))
         points = points[keep]
         if closed:
             points = np.roll(points, int(rng.integers(-3, 4)), axis=0)
@@ -184,3 +186,15 @@ def test_perturbed_trait_blades_fit_fair(fit, style, seed):
     assert surface.closed_t == closed and surface.max_error <= TOL_MM
     assert fairness.n_concave == 0, fairness.line()
     assert fairness.nose_error_mm <= TOL_MM, fairness.nose_line()
+
+
+def test_sections_sampled_alike_from_other_starts_share_columns():
+    # the same relative stations, seams moved: the matched parameters agree to rounding,
+    # one column each (two would repeat every section's point: a 0/0 in the corner test)
+    sections, closed = trait_blade("dca", 1, ragged=False)
+    grid = as_sections(sections, closed=closed)
+    steps = np.linalg.norm(np.diff(grid.stacked, axis=0), axis=1)
+    assert steps.min() > 0.0
+    with warnings.catch_warnings():
+        warnings.simplefilter("error", RuntimeWarning)
+        assert fit_bspline_surface(grid, tol=TOL_MM).max_error <= TOL_MM
