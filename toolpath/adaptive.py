@@ -26,6 +26,7 @@ from .arrays import as_positive_length
 from .errors import ConvergenceWarning, FitError, InvalidParameterError
 from .knots import (
     Corner,
+    _turning_angles,
     detect_corners,
     dominant_point_knots,
     error_density,
@@ -59,11 +60,17 @@ FitAt = Callable[[NDArray[np.float64], NDArray[np.float64] | None],
 #: Lawson iterations of the minimax polish; the max error settles within about ten.
 MINIMAX_STEPS = 12
 #: Rounds of the fairness mend (:func:`_mend`), and the factor by which each round weighs
-#: the errors around a stretch more: five rounds ask up to 1024x the accuracy there.
-MEND_ROUNDS = 5
+#: the errors around a stretch more (cumulative: eight rounds ask up to 4^8 x there).
+MEND_ROUNDS = 8
 MEND_TIGHTEN = 4.0
-#: The mend adds at most this factor of control points (it bounds the mend's time).
-MEND_GROWTH = 2
+#: The mend stops after this many rounds in a row that found nothing fairer.
+MEND_PATIENCE = 2
+#: Spans either side of a stretch that the wide split and the curvature-jump knot reach.
+MEND_REACH = 2
+#: The mend's budget: at most this factor of the chosen fit's control points (with the
+#: rounds, it bounds the mend's time). Trait-style sections (tests/toolpath/test_mend.py)
+#: chosen at 13-17 control points needed up to 36 (2x left 1 in 150 unfair).
+MEND_GROWTH = 3
 #: Error-equidistribution sweeps of each mend search (it starts from the chosen knots).
 MEND_SWEEPS = 4
 #: ``fair_check(fit, knots)`` -> the unfair stretches of a fit: ``(t_start, t_end, size_mm,
@@ -171,7 +178,8 @@ def _checked(trial: _Trial) -> _Trial:
     return trial
 
 
-def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
+def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions,
+            held: NDArray[np.float64] | None = None) -> _Trial:
     """Lower the max error on fixed knots by Lawson's iteratively reweighted least squares.
 
     ``w_i ← w_i e_i / Σ_j w_j e_j`` drives the weighted least-squares solution towards the
@@ -180,21 +188,30 @@ def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions) -> _Trial:
     meets (the interpolated ends have ``e = 0``) would otherwise reach weight 0, leave a
     basis function with no weighted data and make the normal equations singular (on the
     half profile that gave control points of 1e6 and ``exp`` overflow).
+
+    ``held``: weights (relative to the mean, 1) kept as they are where finite; ``trial``
+    is then the fit with them. Lawson's weights change from point to point with the error;
+    on a nose sampled 0.02 mm apart that makes the error alternate in sign from point to
+    point and the fit dent between them (a 0.0068 mm concave stretch beside a nose that
+    the least-squares fit on the same knots leaves convex). Held there, they keep the
+    fit a least-squares one along the nose.
     """
     if not options.minimax or trial.failure is not None:
         return trial
     best = trial
-    weights = np.ones_like(trial.errors)
+    free = np.ones(trial.errors.size, bool) if held is None else ~np.isfinite(held)
+    weights = np.where(free, 1.0, held if held is not None else 1.0)
     errors = trial.errors
     for _ in range(MINIMAX_STEPS):
         if not np.isfinite(errors).all():
             break  # a reweighted fit overflowed: keep the best finite one
-        weights = weights * errors
+        weights = np.where(free, weights * errors, 0.0)
         total = weights.sum()
         if not np.isfinite(total) or total <= 0:
             break
-        weights = weights / total * weights.size
-        weights = np.maximum(weights, WEIGHT_FLOOR)
+        weights = np.maximum(weights / total * free.sum(), WEIGHT_FLOOR)
+        if held is not None:
+            weights = np.where(free, weights, held)
         current = _try(fit_at, trial.knots, weights, errors.size)
         if current.failure is not None:
             break
@@ -258,6 +275,13 @@ def adapt_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     else:
         trial = _density(points, t, seed_values, fit_at, options)
     trial = _checked(trial)
+    got = n_coefficients(trial.knots)
+    if options.n_control_points is not None and got < options.n_control_points:
+        warnings.warn(ConvergenceWarning(
+            f"fitted with {got} control points, not the {options.n_control_points} control "
+            "points asked: no knot span has room for another knot (each control point "
+            "needs a data point of its own, Schoenberg-Whitney); give fewer control points"),
+            stacklevel=3)
     if fair_check is not None and options.tol is not None:
         trial = _mend(trial, points, t, seed_values, fit_at, options, fair_check)
     return trial.fit, trial.errors, trial.knots
@@ -270,20 +294,28 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     A fit within ``tol`` at the data may dent between them by about as much as its error
     swings from point to point: on a nose of radius 0.2 mm an error of 7 um alternating in
     sign bends the fit concave, and after a jump of the data's curvature (a nose circle
-    meeting a flank tangentially, G1 but not G2) the least-squares cubic rings with the
-    error's amplitude on the flank side. Each round tries three mends and keeps the
-    fairest that stays within ``tol`` (fewest stretches, then the shallowest deepest,
-    then the fewest control points):
+    meeting a flank tangentially, G1 but not G2) the cubic rings with the jump times the
+    span squared on the flank side. Each round mends every stretch where it is:
 
-    - the knot search again from the current knots, the errors of the points around each
-      stretch counting :data:`MEND_TIGHTEN` times more (cumulative over rounds): knots
-      gather there until those points are that much closer;
-    - the knot spans over the stretches halved (the ring's depth falls with the span²);
+    - the same knots, the polish's weights held (:func:`_polish`) at ``scale²`` around
+      the stretches, ``scale`` growing :data:`MEND_TIGHTEN` times a round there (Lawson's
+      weights, free to change from point to point on a dense nose, are what make the
+      error alternate there);
+    - the knot spans over the stretches halved, and with them :data:`MEND_REACH` spans
+      either side (the ring's depth falls with the span²);
     - one knot fewer at each stretch: knots as dense as the data, or a corner's piece
-      with fewer points than coefficients, let the spline swing between the points.
+      with fewer points than coefficients, let the spline swing between the points;
+    - a knot where the data's curvature jumps beside each stretch (:func:`_jump_knots`).
 
-    At most :data:`MEND_ROUNDS` rounds and :data:`MEND_GROWTH` times the control points;
-    what is left of the fairest fit is named in a :class:`ConvergenceWarning`.
+    The fairest candidate within ``tol`` is kept (fewest stretches, then the shallowest
+    deepest, then the fewest control points). Only when none of them is fairer than the
+    round's start is the knot search run again from the current knots with the errors
+    around the stretches times ``scale`` (knots gather there, but the search may add many
+    elsewhere too). The rounds go on until the check passes, no candidate stays within
+    ``tol``, :data:`MEND_ROUNDS` rounds have run, :data:`MEND_PATIENCE` rounds in a row
+    found nothing fairer, or the budget of :data:`MEND_GROWTH` times the control points
+    is spent; what is left of the fairest fit is named in a
+    :class:`ConvergenceWarning`.
     """
     assert options.tol is not None
     most = min(_limit(options, t.size), MEND_GROWTH * n_coefficients(trial.knots))
@@ -291,25 +323,42 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     scale = np.ones(t.size)
     stretches = fair_check(trial.fit, trial.knots)
     best = (_unfairness(stretches), trial, stretches)
+    stale = 0
     for _ in range(MEND_ROUNDS):
         if not stretches:
             return trial
+        if stale >= MEND_PATIENCE:
+            break  # the mends have stopped helping (unfair data, not a fit's ripple)
         scale = np.maximum(scale, _stretch_scale(trial.knots, t, stretches, scale))
-        candidates = [
-            # the points around the stretches asked closer: knots gather there
-            _tightened(trial, points, t, seed_values, fit_at, options, scale),
+        # the polish's weights held around the stretches, as the tightening asks
+        held = np.where(scale > 1.0, scale**2, np.nan)
+        local = [
+            # the same knots, the points around the stretches held closer
+            _refit(trial, trial.knots, t, fit_at, options, held),
             # the spans over the stretches halved
-            _refit(trial, _split_spans(trial.knots, t, stretches), t, fit_at, options),
+            _refit(trial, _split_spans(trial.knots, t, stretches), t, fit_at, options, held),
+            # ... and the spans beside them: a ring after a jump of the data's curvature
+            # (a nose meeting a flank) falls with the span squared on either side
+            _refit(trial, _split_spans(trial.knots, t, stretches, MEND_REACH), t, fit_at,
+                   options, held),
             # knots as dense as the data (or a corner's piece with fewer points than
             # coefficients) let the spline swing between the points: fewer knots there
-            _refit(trial, _thin_spans(trial.knots, stretches), t, fit_at, options),
+            _refit(trial, _thin_spans(trial.knots, stretches), t, fit_at, options, held),
+            # a knot where the data's curvature jumps beside each stretch
+            _refit(trial, _jump_knots(trial.knots, points, t, stretches), t, fit_at,
+                   options, held),
         ]
-        tried = [(_unfairness(found), n_coefficients(c.knots), k, c, found)
-                 for k, c in enumerate(candidates) if c is not None
-                 for found in [fair_check(c.fit, c.knots)]]
+        tried = _scored(local, fair_check)
+        if not tried or tried[0][0] >= _unfairness(stretches):
+            # no local mend helps: the knot search again, the points around the
+            # stretches asked closer (knots gather there; it may add many)
+            tried = sorted(tried + _scored([_tightened(trial, points, t, seed_values, fit_at,
+                                                       options, scale, held)], fair_check),
+                           key=lambda item: item[:2])
         if not tried:
             break
-        score, _, _, trial, stretches = min(tried, key=lambda item: item[:3])
+        score, _, trial, stretches = tried[0]
+        stale = 0 if score < best[0] else stale + 1
         if score < best[0]:
             best = (score, trial, stretches)
     _, trial, stretches = best
@@ -322,9 +371,22 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     return trial
 
 
+def _scored(candidates: list[_Trial | None], fair_check: FairCheck) -> list[tuple]:
+    """``(unfairness, control points, trial, stretches)`` of the candidates.
+
+    Fairest first, then the fewest control points.
+    """
+    tried = [(_unfairness(found), n_coefficients(c.knots), c, found)
+             for c in candidates if c is not None for found in [fair_check(c.fit, c.knots)]]
+    return sorted(tried, key=lambda item: item[:2])
+
+
 def _tightened(trial: _Trial, points, t, seed_values, fit_at: FitAt, options: KnotOptions,
-               scale: NDArray[np.float64]) -> _Trial | None:
-    """The knot search run again from ``trial``'s knots with the errors times ``scale``."""
+               scale: NDArray[np.float64], held: NDArray[np.float64]) -> _Trial | None:
+    """The knot search run again from ``trial``'s knots with the errors times ``scale``.
+
+    Its knots are then fitted and polished with the weights ``held`` around the stretches.
+    """
     def scaled(knots, weights):
         fit, errors = fit_at(knots, weights)
         return fit, errors * scale
@@ -337,42 +399,78 @@ def _tightened(trial: _Trial, points, t, seed_values, fit_at: FitAt, options: Kn
         found = _density(points, t, seed_values, scaled, local)
     except FitError:
         return None
-    return _Trial(found.fit, found.errors / scale, found.knots)
+    return _refit(trial, found.knots, t, fit_at, options, held)
 
 
 def _refit(trial: _Trial, knots: NDArray[np.float64], t, fit_at: FitAt,
-           options: KnotOptions) -> _Trial | None:
-    """The fit on new ``knots`` (polished).
+           options: KnotOptions, held: NDArray[np.float64]) -> _Trial | None:
+    """The fit on ``knots``, polished with the weights ``held`` where finite.
 
-    None if the knots are no change, cannot be fitted or lose ``tol``.
+    None if the knots cannot be fitted or lose ``tol``.
     """
     assert options.tol is not None
-    if np.array_equal(knots, trial.knots) or n_coefficients(knots) > _limit(options, t.size) \
+    if n_coefficients(knots) > _limit(options, t.size) \
             or schoenberg_whitney_violation(t, knots) is not None:
         return None
-    first = _try(fit_at, knots, None, t.size)
+    first = _try(fit_at, knots, np.where(np.isfinite(held), held, 1.0), t.size)
     if first.failure is not None:
         return None
-    found = _polish(first, fit_at, options)
+    found = _polish(first, fit_at, options, held)
     return found if found.max_error <= options.tol else None
 
 
-def _split_spans(knots: NDArray[np.float64], t: NDArray[np.float64], stretches
-                 ) -> NDArray[np.float64]:
-    """``knots`` with every span meeting a stretch split in the middle of its data.
+def _split_spans(knots: NDArray[np.float64], t: NDArray[np.float64], stretches,
+                 reach: int = 0) -> NDArray[np.float64]:
+    """``knots`` with the spans meeting a stretch split in the middle of their data.
 
-    A span holding fewer than two data parameters stays whole (Schoenberg-Whitney).
+    ``reach`` spans either side of them are split too. A span holding fewer than two data
+    parameters stays whole (Schoenberg-Whitney).
     """
     edges = np.unique(knots)
     added = []
     for lo, hi, *_ in stretches:
-        first = int(np.clip(np.searchsorted(edges, lo, side="right") - 1, 0, edges.size - 2))
-        last = int(np.clip(np.searchsorted(edges, hi, side="left") - 1, 0, edges.size - 2))
+        first = int(np.clip(np.searchsorted(edges, lo, side="right") - 1 - reach, 0,
+                            edges.size - 2))
+        last = int(np.clip(np.searchsorted(edges, hi, side="left") - 1 + reach, 0,
+                           edges.size - 2))
         for j in range(first, max(last, first) + 1):
             inside = t[(t > edges[j]) & (t < edges[j + 1])]
             if inside.size >= 2:
                 mid = inside.size // 2
                 added.append(0.5 * (inside[mid - 1] + inside[mid]))
+    return np.sort(np.concatenate((knots, np.unique(added))))
+
+
+def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stretches
+                ) -> NDArray[np.float64]:
+    """``knots`` with a knot where the data's curvature jumps most near each stretch.
+
+    A nose circle meeting a flank tangentially (G1, not G2) makes the data's curvature
+    jump between two points; a C2 cubic cannot follow it and rings on the flank side, by
+    the jump times the span squared. With a knot in the jump's interval the ring fades
+    within that span (a propeller-style LE: 0.0027 mm concave without it, 0.0007 with
+    it). The jump is the largest ``|ln(κ_{i+1} / κ_i)|`` of the discrete curvature
+    (turning angle over the mean of the two steps) over the stretch's spans and
+    :data:`MEND_REACH` spans either side; its interval gets a knot in the middle unless it
+    holds one.
+    """
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    kappa = np.full(t.size, np.nan)
+    kappa[1:-1] = _turning_angles(points) / np.maximum(0.5 * (steps[:-1] + steps[1:]),
+                                                        1e-300)
+    jump = np.abs(np.diff(np.log(np.maximum(kappa, 1e-9))))  # interval i .. i + 1
+    edges = np.unique(knots)
+    added = []
+    for lo, hi, *_ in stretches:
+        first = edges[max(int(np.searchsorted(edges, lo, side="right")) - 1 - MEND_REACH, 0)]
+        last = edges[min(int(np.searchsorted(edges, hi, side="left")) + MEND_REACH,
+                         edges.size - 1)]
+        inside = np.flatnonzero((t[:-1] >= first) & (t[1:] <= last) & np.isfinite(jump))
+        if inside.size == 0:
+            continue
+        i = int(inside[np.argmax(jump[inside])])
+        if not np.any((knots > t[i]) & (knots < t[i + 1])):
+            added.append(0.5 * (t[i] + t[i + 1]))
     return np.sort(np.concatenate((knots, np.unique(added))))
 
 

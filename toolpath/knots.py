@@ -30,7 +30,13 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .splinefit import DEGREE, admissible_knots, clamped_knots
+from .splinefit import (
+    DEGREE,
+    admissible_knots,
+    clamped_knots,
+    n_coefficients,
+    schoenberg_whitney_violation,
+)
 
 __all__ = [
     "Corner",
@@ -41,6 +47,7 @@ __all__ = [
     "fourth_derivative_density",
     "initial_dominant_points",
     "place_knots",
+    "refill_knots",
     "refine_dominant_points",
 ]
 
@@ -210,7 +217,33 @@ def place_knots(t: NDArray[np.float64], corners: list[Corner], edges: NDArray[np
         inner.extend(_respect_data(mine[(mine > lo) & (mine < hi)], t, lo_i, hi_i))
         if hi < 1.0:
             inner.extend([float(hi)] * DEGREE)
-    return admissible_knots(t, clamped_knots(np.asarray(inner)))
+    asked = DEGREE + 1 + max(n_free, 0) + DEGREE * len(corners)
+    return refill_knots(t, admissible_knots(t, clamped_knots(np.asarray(inner))), asked)
+
+
+def refill_knots(t: NDArray[np.float64], knots: NDArray[np.float64], count: int
+                 ) -> NDArray[np.float64]:
+    """``knots`` with knots added back until they give ``count`` control points.
+
+    Knots moved off empty spans or dropped for the Schoenberg-Whitney condition
+    (:func:`admissible_knots`) leave fewer control points than asked; each one is given
+    back in the span holding the most data parameters, between its middle two (the
+    equidistributed density put fewer knots where the data are dense). Stops short when no
+    span can take a knot without breaking the condition (too few data points).
+    """
+    while n_coefficients(knots) < count:
+        edges = np.unique(knots)
+        lo = np.searchsorted(t, edges[:-1], side="right")
+        hi = np.searchsorted(t, edges[1:], side="left")
+        k = int(np.argmax(hi - lo))
+        if hi[k] - lo[k] < 2:
+            break
+        mid = (lo[k] + hi[k]) // 2
+        grown = np.sort(np.append(knots, 0.5 * (t[mid - 1] + t[mid])))
+        if schoenberg_whitney_violation(t, grown) is not None:
+            break
+        knots = grown
+    return knots
 
 
 def fourth_derivative_density(spline_knots: NDArray[np.float64],

@@ -9,9 +9,25 @@ from numpy.typing import NDArray
 
 from .errors import InvalidParameterError
 
-__all__ = ["PARAM_METHODS", "curve_parameters", "unit_curve_parameters"]
+__all__ = ["PARAM_METHODS", "cumulative_parameters", "curve_parameters", "unit_curve_parameters"]
 
 PARAM_METHODS = ("chord", "centripetal", "uniform")
+
+
+def cumulative_parameters(points: NDArray[np.float64], params: str = "chord"
+                          ) -> NDArray[np.float64]:
+    """Accumulated parameter of ``points`` before normalization, from 0.
+
+    ``"chord"``: ``Σ_{j<=i} |X_j − X_{j−1}|`` (mm); ``"centripetal"``: the same with the
+    square root of each chord; ``"uniform"``: ``i``. :func:`curve_parameters` divides it
+    by its last value.
+    """
+    if params == "uniform":
+        return np.arange(points.shape[0], dtype=float)
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    if params == "centripetal":
+        steps = np.sqrt(steps)
+    return np.concatenate(([0.0], np.cumsum(steps)))
 
 
 def curve_parameters(points: NDArray[np.float64], params: Any = "chord") -> NDArray[np.float64]:
@@ -41,10 +57,7 @@ def curve_parameters(points: NDArray[np.float64], params: Any = "chord") -> NDAr
             )
         if params == "uniform":
             return np.linspace(0.0, 1.0, n)
-        steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
-        if params == "centripetal":
-            steps = np.sqrt(steps)
-        t = np.concatenate(([0.0], np.cumsum(steps)))
+        t = cumulative_parameters(points, params)
         return t / t[-1]
     try:
         t = np.asarray(params, dtype=float)

@@ -44,6 +44,7 @@ from __future__ import annotations
 
 import dataclasses
 import re
+import warnings
 
 import numpy as np
 import scipy.interpolate
@@ -52,7 +53,7 @@ import scipy.sparse
 from numpy.typing import NDArray
 
 from .adaptive import adapt_knots
-from .errors import FitError, InvalidParameterError
+from .errors import ConvergenceWarning, FitError, InvalidParameterError
 from .knots import detect_corners
 from .splinefit import DEGREE, clamped_knots, interior_knots
 
@@ -346,13 +347,23 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
                             for s in fair_check(fit, to_period(knots))])
     view_points = np.asarray(points)[order] if k else points
     view_seed = np.asarray(seed_values)[order] if k else seed_values
+    def counted(text: str) -> str:  # counts in messages are the driver's (clamped) ones
+        return re.sub(r"(\d+) control points",
+                      lambda m: f"{int(m.group(1)) - offset} control points", text)
+
     try:
-        fit, errors, knots = adapt_knots(view_points, view_t, view_seed, wrapped, driver,
-                                         wrapped_check)
-    except FitError as exc:  # counts in the message are the driver's (clamped) ones
-        raise FitError(re.sub(r"with (\d+) control points",
-                              lambda m: f"with {int(m.group(1)) - offset} control points",
-                              str(exc))) from None
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always", ConvergenceWarning)
+            fit, errors, knots = adapt_knots(view_points, view_t, view_seed, wrapped, driver,
+                                             wrapped_check)
+    except FitError as exc:
+        raise FitError(counted(str(exc))) from None
+    for warning in caught:
+        if issubclass(warning.category, ConvergenceWarning):
+            warnings.warn(ConvergenceWarning(counted(str(warning.message))), stacklevel=3)
+        else:
+            warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                                   warning.lineno)
     if k:
         errors = np.asarray(errors)[np.r_[back, back[0]]]
     return fit, errors, to_period(knots)

@@ -108,9 +108,11 @@ def _interlacing_violation(t: NDArray[np.float64], knots: NDArray[np.float64]) -
 
 def admissible_knots(t: NDArray[np.float64], knots: NDArray[np.float64]
                      ) -> NDArray[np.float64]:
-    """``knots`` less the interior knots that leave a control point without data.
+    """``knots`` less the interior knots that leave a span or a control point without data.
 
-    Where the Schoenberg-Whitney matching (see :func:`_interlacing_violation`) fails at
+    A knot span of non-zero length holding no data parameter loses one copy of its inner
+    end (its right end, or its left at the last span) until none is empty. Then, where the
+    Schoenberg-Whitney matching (see :func:`_interlacing_violation`) fails at
     control point ``j``, the interior knot nearest the middle of ``j``'s support is dropped,
     widening it, until every control point is pinned down (a corner knot beside one sample
     loses one of its copies). Knot vectors that already satisfy the condition come back
@@ -118,6 +120,14 @@ def admissible_knots(t: NDArray[np.float64], knots: NDArray[np.float64]
     """
     knots = np.asarray(knots, float)
     k = DEGREE + 1
+    while len(knots) > 2 * k:  # first no span without data: one copy of its inner end goes
+        edges = np.unique(knots)
+        empty = np.flatnonzero(np.histogram(t, bins=edges)[0] == 0)
+        if empty.size == 0:
+            break
+        j = int(empty[0])
+        value = edges[j + 1] if j + 1 < edges.size - 1 else edges[j]
+        knots = np.delete(knots, int(np.flatnonzero(knots == value)[0]))
     while len(knots) > 2 * k:
         j = _unpinned(t, knots)
         if j is None:

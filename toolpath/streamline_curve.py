@@ -26,8 +26,10 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import warnings
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, TypeVar
 
 import numpy as np
 import scipy.interpolate
@@ -43,13 +45,15 @@ from .adaptive import (
 )
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError, LogRangeError
+from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
 from .periodic import adapt_closed_knots, seam_multiplicity
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 
-__all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_streamline_curve"]
+__all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_in_frames", "fit_streamline_curve"]
+
+_Fit = TypeVar("_Fit")
 
 FRAME_METHODS = ("best", "paper")
 #: Gauss-Newton steps of the true-error refinement; each one costs one dense lstsq.
@@ -309,6 +313,28 @@ def _ranked_frames(x: NDArray[np.float64], t: NDArray[np.float64],
     return [paper_frame(x)]  # candidate_frames always yields translated frames for sane data
 
 
+def fit_in_frames(frames: list[ConeFrame], fit_in: Callable[[ConeFrame], _Fit]
+                  ) -> tuple[ConeFrame, _Fit]:
+    """``fit_in(frame)`` in the first of ``frames`` (best first) that keeps ``G`` in range.
+
+    The frames are ranked on the baseline's knots; the knots the fit settles on may still
+    make ``G`` leave the data's log range in one (:class:`LogRangeError`), and the next
+    one is tried then. Curves and surfaces both fit this way.
+
+    Raises
+    ------
+    LogRangeError
+        The last frame's, when every frame leaves the log range.
+    """
+    for tried, frame in enumerate(frames, start=1):
+        try:
+            return frame, fit_in(frame)
+        except LogRangeError:
+            if tried == len(frames):
+                raise  # no frame left: the reason names the stretch
+    raise InvalidParameterError("no cone frame to fit in")
+
+
 def fit_streamline_curve(
     points: Any,
     *,
@@ -399,43 +425,41 @@ def fit_streamline_curve(
             if not is_closed:  # a closed fit checks its periodic knots itself
                 check_given_knots(t, probe)  # before the frames are tried on them
         else:
-            probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
-                                      max_control_points=max_control_points, params=t,
-                                      knot_method=knot_method,
-                                      corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                                      minimax=False, fair=False, closed=is_closed).knots
+            with warnings.catch_warnings():  # the fit itself says what its probe would
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                probe = fit_bspline_curve(x, tol=tol, n_control_points=n_control_points,
+                                          max_control_points=max_control_points, params=t,
+                                          knot_method=knot_method,
+                                          corner_angle_deg=corner_angle_deg, sweeps=sweeps,
+                                          minimax=False, fair=False, closed=is_closed).knots
         frames = _ranked_frames(x, t, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
     seam = seam_multiplicity(x, corner_angle_deg) if is_closed else 1
-    for tried, chosen in enumerate(frames, start=1):
-        problem = LogSpaceProblem(x, t, chosen)
 
-        def make_curve(coef, knot_vector, frame=chosen):
+    def fit_in(frame: ConeFrame):
+        problem = LogSpaceProblem(x, t, frame)
+
+        def make_curve(coef, knot_vector):
             return StreamlineCurve(knots=knot_vector, params=t, max_error=0.0, rms_error=0.0,
                                    T=frame.T, c=frame.c, x0=x[0].copy(),
                                    g_coefficients=np.asarray(coef), closed=is_closed)
 
         fair_check = (curve_fair_check(make_curve, x, options.tol, closed=is_closed)
                       if fair and options.tol else None)
-        try:
-            if is_closed:
-                coef, errors, knot_vector = adapt_closed_knots(
-                    x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,
-                    seam=seam, fair_check=fair_check)
-            else:
-                coef, errors, knot_vector = adapt_knots(
-                    x, t, problem.y, lambda k, w, fit=problem.fit: fit(k, refine, w), options,
-                    fair_check)
-            break
-        except LogRangeError:
-            if tried == len(frames):
-                raise  # no frame left: the reason names the stretch
+        if is_closed:
+            return adapt_closed_knots(x, t, problem.y,
+                                      lambda k, w: problem.fit(k, refine, w), options,
+                                      seam=seam, fair_check=fair_check)
+        return adapt_knots(x, t, problem.y, lambda k, w: problem.fit(k, refine, w), options,
+                           fair_check)
+
+    chosen, (coef, errors, knot_vector) = fit_in_frames(frames, fit_in)
     if is_closed:
         t, errors = t[:-1], errors[:-1]  # the seam point is the first again
     max_error, rms_error = error_figures(errors)
     return StreamlineCurve(knots=knot_vector, params=t, max_error=max_error,
-                           rms_error=rms_error, T=problem.frame.T, c=problem.frame.c,
+                           rms_error=rms_error, T=chosen.T, c=chosen.c,
                            x0=x[0].copy(), g_coefficients=np.asarray(coef),
-                           frame_label=problem.frame.label, closed=is_closed)
+                           frame_label=chosen.label, closed=is_closed)

@@ -28,6 +28,7 @@ from __future__ import annotations
 
 import dataclasses
 import functools
+import warnings
 from dataclasses import dataclass
 from typing import Any
 
@@ -44,11 +45,17 @@ from .adaptive import (
 from .bspline_surface import fit_bspline_surface
 from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import InvalidParameterError, LogRangeError
+from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
 from .sections import Sections, as_sections
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
-from .streamline_curve import FRAME_METHODS, LogSpaceProblem, check_log_range
+from .streamline_curve import (
+    FRAME_METHODS,
+    FRAME_TRIES,
+    LogSpaceProblem,
+    check_log_range,
+    fit_in_frames,
+)
 from .tensor_spline import PiecewiseCubic
 
 __all__ = ["StreamlineSurface", "fit_streamline_surface"]
@@ -177,15 +184,16 @@ class _GridLogProblem:
         return rows, column_errors(fitted, grid.points)
 
 
-def _choose_frame(sections: Sections, knots) -> ConeFrame:
-    """The candidate frame fitting best on ``knots`` (the baseline's), in and between sections.
+def _ranked_frames(sections: Sections, knots) -> list[ConeFrame]:
+    """The candidate frames, best first on ``knots`` (the baseline's), in and between sections.
 
     Candidates are wide cones (:data:`SURFACE_MARGINS`): a tight cone makes ``T``
     ill-conditioned and the exponential amplifies any error between the sections (cylinder
     patch, ``benchmarks/paper_tables.py``: 0.038 mm between sections for a 0.0003 mm fit at
     the data with the curve fitter's margins, 0.00004 mm with these). The
-    :data:`FINALISTS` with the smallest max error at the data are then judged by
-    ``max(data error, leave-one-out error)``.
+    :data:`FINALISTS` with the smallest max error at the data are then ranked by
+    ``max(data error, leave-one-out error)``, and the other frames after them by their max
+    error at the data; frames whose fit leaves the log range are left out.
     """
     ranked, failure = [], None
     for candidate in candidate_frames(sections.points.reshape(-1, 3), margins=SURFACE_MARGINS,
@@ -200,15 +208,15 @@ def _choose_frame(sections: Sections, knots) -> ConeFrame:
         raise LogRangeError("no cone frame gives a streamline fit on "
                             f"{n_coefficients(knots)} control points along t: {failure}")
     if not ranked:
-        return paper_frame(sections.points.reshape(-1, 3))
+        return [paper_frame(sections.points.reshape(-1, 3))]
     ranked.sort(key=lambda item: item[:2])
-    best, best_score = ranked[0][2], np.inf
-    for data_error, _, candidate, rows, errors in ranked[:FINALISTS]:
+    finalists = []
+    for k, (data_error, _, candidate, rows, errors) in enumerate(ranked[:FINALISTS]):
         fields = {"T": candidate.T, "c": candidate.c}
         loo = StreamlineSurface._leave_one_out(sections, GridFit(knots, rows, errors), fields)
-        if max(data_error, loo) < best_score:
-            best, best_score = candidate, max(data_error, loo)
-    return best
+        finalists.append((max(data_error, loo), k, candidate))
+    finalists.sort(key=lambda item: item[:2])
+    return [frame for *_, frame in finalists] + [item[2] for item in ranked[FINALISTS:]]
 
 
 def fit_streamline_surface(
@@ -284,25 +292,33 @@ def fit_streamline_surface(
     if grid.closed and refine:
         raise InvalidParameterError("refine is available for open sections only, not closed ones")
     if frame == "paper":
-        chosen = paper_frame(grid.points.reshape(-1, 3))
+        frames = [paper_frame(grid.points.reshape(-1, 3))]
     else:
         probe = options.knots
         if probe is not None:
             check_given_knots(grid.t, probe)  # before the frames are tried on them
         else:
-            probe = fit_bspline_surface(
-                grid.points, tol=tol, n_control_points=n_control_points,
-                max_control_points=max_control_points, closed=grid.closed, params=grid.t,
-                section_params=grid.s,
-                knot_method=knot_method, corner_angle_deg=corner_angle_deg, sweeps=sweeps,
-                minimax=False, fair=False).knots_t
-        chosen = _choose_frame(grid, probe)
+            # the grid itself: its points re-read as sections would be validated again,
+            # and a matched grid's nearby columns of one section refused as repeated points
+            with warnings.catch_warnings():  # the fit itself says what its probe would
+                warnings.simplefilter("ignore", ConvergenceWarning)
+                probe = fit_bspline_surface(
+                    grid, tol=tol, n_control_points=n_control_points,
+                    max_control_points=max_control_points, knot_method=knot_method,
+                    corner_angle_deg=corner_angle_deg, sweeps=sweeps, minimax=False,
+                    fair=False).knots_t
+        frames = _ranked_frames(grid, probe)[:FRAME_TRIES]
         if options.knots is None and options.method == "density":
             # the baseline's knots for the same request: start the search there
             options = dataclasses.replace(options, start_knots=probe)
-    problem = _GridLogProblem(grid, chosen)
-    fields = {"T": chosen.T, "c": chosen.c, "frame_label": chosen.label}
-    fitted = fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w), options,
-                      (lambda fit: StreamlineSurface._from_grid(grid, fit, **fields))
-                      if fair else None)
-    return StreamlineSurface._from_grid(grid, fitted, **fields)
+
+    def fit_in(frame: ConeFrame) -> GridFit:
+        problem = _GridLogProblem(grid, frame)
+        fields = {"T": frame.T, "c": frame.c, "frame_label": frame.label}
+        return fit_grid(grid, problem.y_stacked, lambda k, w: problem.fit(k, refine, w),
+                        options, (lambda fit: StreamlineSurface._from_grid(grid, fit, **fields))
+                        if fair else None)
+
+    chosen, fitted = fit_in_frames(frames, fit_in)
+    return StreamlineSurface._from_grid(grid, fitted, T=chosen.T, c=chosen.c,
+                                        frame_label=chosen.label)
