@@ -9,17 +9,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from toolpath import (
-    LINEAR_MODELS,
-    fit_bspline_curve,
-    fit_bspline_surface,
-    fit_linear_system,
-    fit_streamline_curve,
-    fit_streamline_surface,
-)
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
-from toolpath.sections import as_sections
+from toolpath.linear_system import LINEAR_MODELS
 
 __all__ = [
     "CURVE_METHODS",
@@ -95,6 +87,8 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     """
     if method not in CURVE_METHODS:
         raise InvalidParameterError(f"method must be one of {CURVE_METHODS}, got {method!r}")
+    from toolpath import fit_bspline_curve, fit_linear_system, fit_streamline_curve
+
     start = time.perf_counter()
     if method == "streamline":
         curve = fit_streamline_curve(points, tol=tol, closed=closed)
@@ -202,6 +196,8 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     if method not in SURFACE_METHODS:
         raise InvalidParameterError(
             f"method must be one of {SURFACE_METHODS}, got {method!r}")
+    from toolpath import as_sections, fit_bspline_surface, fit_streamline_surface
+
     start = time.perf_counter()
     grid = as_sections(sections, closed=closed)  # matched once, fitted as matched
     fit = fit_streamline_surface if method == "streamline" else fit_bspline_surface

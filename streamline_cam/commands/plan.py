@@ -16,14 +16,10 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from machines import list_machines
 from toolpath.errors import DataFileError, ToolpathError
-from toolpath.planning import analytic_surface_from_dict, plan_finishing
 from toolpath.planning.cutters import CUTTER_SPEC_HELP
-from toolpath.planning.gouge import GOUGE_TOL_MM
-from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
+from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN, GOUGE_TOL_MM
 from toolpath.surface import ParametricSurface
 
 from ..surface_args import add_placement_arguments, parse_vector, placed_surface
@@ -50,6 +46,8 @@ def load_surface(path: str | Path) -> ParametricSurface:
     kind = data.get("kind") if isinstance(data, dict) else None
     try:
         if isinstance(kind, str) and kind.startswith("analytic_"):
+            from toolpath.planning.analytic import analytic_surface_from_dict
+
             return analytic_surface_from_dict(data)
         from toolpath import surface_from_dict
 
@@ -133,6 +131,10 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan, print the report, write the outputs; returns the exit code."""
+    from tqdm import tqdm
+
+    from toolpath.planning.finishing import plan_finishing
+
     surface = placed_surface(load_surface(args.surface), args)
     options: dict[str, Any] = {
         "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),

@@ -5,12 +5,13 @@ from __future__ import annotations
 import argparse
 import json
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..cli import add_closure_arguments
-from ..pipeline import JobRequest, run_job
-from ..progress import StageBars
-from ..streaming import make_streamer
 from .plan import add_gouge_arguments, gouge_options
+
+if TYPE_CHECKING:
+    from ..pipeline import JobRequest
 
 __all__ = ["register"]
 
@@ -46,6 +47,8 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
     """A :class:`JobRequest` from the shared arguments."""
+    from ..pipeline import JobRequest
+
     return JobRequest(
         sections_path=points, machine=args.machine, cutter=args.cutter,
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
@@ -133,6 +136,10 @@ def _setup_lines(report: dict) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..pipeline import run_job
+    from ..progress import StageBars
+    from ..streaming import make_streamer
+
     out = Path(args.output).parent if args.output else Path("job")
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send

@@ -18,8 +18,12 @@ import sys
 from gcode.dialects import dialect_by_name, dialect_names
 from machines import list_machines, load_machine
 from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
-from verification import VerifyOptions, load_surface, verify_file
-from verification.options import DEFAULT_HORIZON_MM, DEFAULT_STOCK_MM, DexelMethod
+from verification.options import (
+    DEFAULT_HORIZON_MM,
+    DEFAULT_STOCK_MM,
+    DexelMethod,
+    VerifyOptions,
+)
 
 from ..surface_args import add_placement_arguments, placed_surface
 
@@ -77,6 +81,8 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
+    from verification import load_surface, verify_file
+
     """Verify; 0 when no gouge exceeds the limit, 1 otherwise, 2 on unreadable files."""
     machine = load_machine(args.machine)
     cutter = parse_cutter(args.cutter)
