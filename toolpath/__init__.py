@@ -47,7 +47,10 @@ from .errors import (
     InvalidPointsError,
     ToolpathError,
 )
+from .kernel_cache import ensure_kernel_cache
 from .lazy import lazy_exports
+
+ensure_kernel_cache()  # before any kernel module loads numba
 
 #: Exported names -> defining module, imported on first use: ``import toolpath`` (and so
 #: ``toolpath check`` or ``toolpath --help``) does not load scipy, numba or the planner.
