@@ -1,6 +1,6 @@
 """``toolpath warm-up``: compile the kernels a job uses, once per install (``make install``).
 
-Optional: a job compiles what it needs on first use; this runs two small verified jobs
+Optional: a job compiles what it needs on first use; this runs two small jobs
 ahead of time (:mod:`streamline_cam.warmup`) so the first real one starts warm.
 """
 
@@ -16,9 +16,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     """Add the ``warm-up`` sub-command."""
     p = commands.add_parser(
         "warm-up", help="compile the planner's kernels once (make install runs it)",
-        description="Run two small verified jobs (3-axis and 5-axis) on a coarse copy of "
-        "the bundled blade, so that the kernels every job uses are compiled and cached "
-        "before the first real job. Optional: without it the first job compiles them.")
+        description="Run two small jobs (3-axis, verified, and 5-axis) on the bundled "
+        "blades, so that the kernels every job uses are compiled and cached before the "
+        "first real job. Optional: without it the first job compiles them.")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(handler=run)
 
