@@ -70,3 +70,13 @@ def test_an_unknown_name_is_an_attribute_error():
 
     with pytest.raises(AttributeError, match="no attribute 'plan_everything'"):
         toolpath.plan_everything  # noqa: B018
+
+
+def test_an_export_named_like_its_module_stays_the_export():
+    import gcode.post  # noqa: F401  (the submodules loaded, as a planning command does)
+    import verification.replay  # noqa: F401
+    from gcode import post
+    from verification import replay
+
+    assert callable(post) and post.__module__ == "gcode.post"
+    assert callable(replay) and replay.__module__ == "verification.replay"
