@@ -4,6 +4,7 @@ PYTHON ?= python3
 
 install:
 	$(PYTHON) -m pip install -q -e '.[test]'
+	-$(PYTHON) -m streamline_cam.cli warm-up
 
 demo: install
 	toolpath demo

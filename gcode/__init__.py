@@ -50,20 +50,6 @@ Examples
 True
 """
 
-from gcode.arcfit import ArcSpan, fit_arcs
-from gcode.blockparser import BlockParser
-from gcode.check import Issue, IssueCode, Severity, check_program, check_text
-from gcode.dialects import (
-    FANUC,
-    GENERIC,
-    GRBL,
-    LINUXCNC,
-    CommentStyle,
-    Dialect,
-    dialect_by_name,
-    dialect_names,
-)
-from gcode.emitter import emit, emit_file, emit_lines, emit_text
 from gcode.errors import (
     ArcError,
     DialectError,
@@ -74,44 +60,75 @@ from gcode.errors import (
     PostError,
     SyntaxGCodeError,
 )
-from gcode.interpreter import Segments, interpret
-from gcode.modal import ModalGroup, ModalState, MotionMode
-from gcode.numbers import (
-    MM_PER_INCH,
-    Decimals,
-    NumberKind,
-    format_array,
-    format_number,
-    read_number,
-)
-from gcode.parser import parse, parse_file, parse_with_errors
-from gcode.post import PostOptions, post
-from gcode.program import (
-    Arc,
-    Block,
-    Comment,
-    Coolant,
-    CoolantMode,
-    DistanceMode,
-    Dwell,
-    FeedMode,
-    Linear,
-    Plane,
-    Program,
-    ProgramEnd,
-    Rapid,
-    SetDistanceMode,
-    SetFeedMode,
-    SetPlane,
-    SetUnits,
-    SetWorkOffset,
-    Spindle,
-    SpindleDirection,
-    ToolChange,
-    Units,
-)
-from gcode.summary import ProgramSummary, summarize
-from gcode.writer import LineCollector, TextWriter, Writer
+from toolpath.lazy import lazy_exports
+
+#: Exported names -> defining module, imported on first use: reading a program or its
+#: errors does not load the post (and through it the planner).
+_EXPORTS = {
+    "ArcSpan": "gcode.arcfit",
+    "fit_arcs": "gcode.arcfit",
+    "BlockParser": "gcode.blockparser",
+    "Issue": "gcode.check",
+    "IssueCode": "gcode.check",
+    "Severity": "gcode.check",
+    "check_program": "gcode.check",
+    "check_text": "gcode.check",
+    "FANUC": "gcode.dialects",
+    "GENERIC": "gcode.dialects",
+    "GRBL": "gcode.dialects",
+    "LINUXCNC": "gcode.dialects",
+    "CommentStyle": "gcode.dialects",
+    "Dialect": "gcode.dialects",
+    "dialect_by_name": "gcode.dialects",
+    "dialect_names": "gcode.dialects",
+    "emit": "gcode.emitter",
+    "emit_file": "gcode.emitter",
+    "emit_lines": "gcode.emitter",
+    "emit_text": "gcode.emitter",
+    "Segments": "gcode.interpreter",
+    "interpret": "gcode.interpreter",
+    "ModalGroup": "gcode.modal",
+    "ModalState": "gcode.modal",
+    "MotionMode": "gcode.modal",
+    "MM_PER_INCH": "gcode.numbers",
+    "Decimals": "gcode.numbers",
+    "NumberKind": "gcode.numbers",
+    "format_array": "gcode.numbers",
+    "format_number": "gcode.numbers",
+    "read_number": "gcode.numbers",
+    "parse": "gcode.parser",
+    "parse_file": "gcode.parser",
+    "parse_with_errors": "gcode.parser",
+    "PostOptions": "gcode.post",
+    "post": "gcode.post",
+    "Arc": "gcode.program",
+    "Block": "gcode.program",
+    "Comment": "gcode.program",
+    "Coolant": "gcode.program",
+    "CoolantMode": "gcode.program",
+    "DistanceMode": "gcode.program",
+    "Dwell": "gcode.program",
+    "FeedMode": "gcode.program",
+    "Linear": "gcode.program",
+    "Plane": "gcode.program",
+    "Program": "gcode.program",
+    "ProgramEnd": "gcode.program",
+    "Rapid": "gcode.program",
+    "SetDistanceMode": "gcode.program",
+    "SetFeedMode": "gcode.program",
+    "SetPlane": "gcode.program",
+    "SetUnits": "gcode.program",
+    "SetWorkOffset": "gcode.program",
+    "Spindle": "gcode.program",
+    "SpindleDirection": "gcode.program",
+    "ToolChange": "gcode.program",
+    "Units": "gcode.program",
+    "ProgramSummary": "gcode.summary",
+    "summarize": "gcode.summary",
+    "LineCollector": "gcode.writer",
+    "TextWriter": "gcode.writer",
+    "Writer": "gcode.writer",
+}
 
 __all__ = [
     "FANUC",
@@ -186,3 +203,5 @@ __all__ = [
     "read_number",
     "summarize",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

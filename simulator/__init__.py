@@ -99,14 +99,29 @@ Examples
 (b"Grbl 1.1h ['$' for help]\r\n", b'ok\r\n', True)
 """
 
-from simulator.clock import Speed, VirtualClock
-from simulator.controller import Alarm, Controller, State, SubmitResult
-from simulator.faults import FaultPlan
-from simulator.grbl_protocol import GrblProtocol
-from simulator.journal import Journal, JournalEntry
-from simulator.modbus_device import ModbusDevice
-from simulator.program_run import ProgramRun, run_program
-from simulator.runtime import Endpoints, Simulator, run_simulator
+import importlib
+from typing import Any
+
+#: Exported names -> defining module, imported on first use: ``toolpath --help`` (which
+#: lists ``simulate``) and ``import simulator.cli`` do not load the whole controller.
+_EXPORTS = {
+    "Speed": "simulator.clock",
+    "VirtualClock": "simulator.clock",
+    "Alarm": "simulator.controller",
+    "Controller": "simulator.controller",
+    "State": "simulator.controller",
+    "SubmitResult": "simulator.controller",
+    "FaultPlan": "simulator.faults",
+    "GrblProtocol": "simulator.grbl_protocol",
+    "Journal": "simulator.journal",
+    "JournalEntry": "simulator.journal",
+    "ModbusDevice": "simulator.modbus_device",
+    "ProgramRun": "simulator.program_run",
+    "run_program": "simulator.program_run",
+    "Endpoints": "simulator.runtime",
+    "Simulator": "simulator.runtime",
+    "run_simulator": "simulator.runtime",
+}
 
 __all__ = [
     "Alarm",
@@ -126,3 +141,16 @@ __all__ = [
     "run_program",
     "run_simulator",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    # (toolpath.lazy.lazy_exports, inline: this package may import only machines and gcode)
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

@@ -15,7 +15,6 @@ import time
 
 from machines import load_machine
 from simulator.faults import FAULT_NAMES
-from simulator.runtime import Simulator
 
 __all__ = ["add_arguments", "main", "run"]
 
@@ -63,6 +62,8 @@ def _work_offsets(args: argparse.Namespace) -> dict[int, tuple[float, ...]] | No
 
 def run(args: argparse.Namespace) -> int:
     """Run the simulator as ``args`` say; returns the exit code."""
+    from simulator.runtime import Simulator  # the controller: loaded to run, not to parse
+
     serial = None if str(args.serial).lower() == "none" else args.serial
     try:
         sim = Simulator(

@@ -10,7 +10,6 @@ import sys
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
-from toolpath import as_sections, read_points, read_sections
 from toolpath.arrays import as_curve_points, as_positive_length
 from toolpath.errors import ToolpathError
 
@@ -35,7 +34,8 @@ def add_closure_arguments(parser: argparse.ArgumentParser, what: str = "sections
                          help=f"the {what} are open even if the ends nearly meet")
 
 
-def _parser() -> argparse.ArgumentParser:
+def _parser(command: str | None = None) -> argparse.ArgumentParser:
+    """The ``toolpath`` parser; given the ``command`` about to run, only what it needs."""
     parser = argparse.ArgumentParser(
         prog="toolpath", description="Streamline fitting and CNC toolpaths for blades.")
     commands = parser.add_subparsers(dest="command", required=True)
@@ -62,19 +62,33 @@ def _parser() -> argparse.ArgumentParser:
     demo.add_argument("--out", default="demo", help="folder for the outputs (demo/)")
     demo.add_argument("--quick", action="store_true",
                       help="coarse finishing (scallop 0.05 mm) so it runs in seconds")
-    _register_command_modules(commands)
+    _register_command_modules(commands, command)
     return parser
 
 
-def _register_command_modules(commands: argparse._SubParsersAction) -> None:
-    """Let every module in :mod:`streamline_cam.commands` add its sub-command."""
+def _register_command_modules(commands: argparse._SubParsersAction,
+                              command: str | None = None) -> None:
+    """Let every module in :mod:`streamline_cam.commands` add its sub-command.
+
+    Given the ``command`` about to run, only the module of that name (``gcode-info``:
+    ``gcode_info``), or none for a command of this module: a command imports what it uses,
+    not every other command's dependencies. Otherwise (``--help``, a mistyped command)
+    all of them.
+    """
     from . import commands as package
 
-    for info in sorted(pkgutil.iter_modules(package.__path__), key=lambda m: m.name):
-        importlib.import_module(f"{package.__name__}.{info.name}").register(commands)
+    names = sorted(info.name for info in pkgutil.iter_modules(package.__path__))
+    if command is not None and command in commands.choices:
+        names = []
+    elif command is not None and command.replace("-", "_") in names:
+        names = [command.replace("-", "_")]
+    for name in names:
+        importlib.import_module(f"{package.__name__}.{name}").register(commands)
 
 
 def _fit_curve(args: argparse.Namespace) -> int:
+    from toolpath import read_points
+
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     points = as_curve_points(read_points(args.points))
@@ -94,6 +108,8 @@ def _fit_curve(args: argparse.Namespace) -> int:
 
 
 def _fit_surface(args: argparse.Namespace) -> int:
+    from toolpath import as_sections, read_sections
+
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     sections = as_sections(read_sections(args.points), closed=args.closed)
@@ -111,7 +127,8 @@ def _fit_surface(args: argparse.Namespace) -> int:
 
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (non-zero on error)."""
-    args = _parser().parse_args(argv)
+    argv = sys.argv[1:] if argv is None else argv
+    args = _parser(argv[0] if argv else None).parse_args(argv)
     try:
         handler = getattr(args, "handler", None)
         if handler is not None:

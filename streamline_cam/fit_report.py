@@ -9,18 +9,9 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from toolpath import (
-    LINEAR_MODELS,
-    fit_bspline_curve,
-    fit_bspline_surface,
-    fit_linear_system,
-    fit_streamline_curve,
-    fit_streamline_surface,
-)
-from toolpath.between_sections import WINDOW
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
-from toolpath.sections import as_sections
+from toolpath.linear_system import LINEAR_MODELS
 
 __all__ = [
     "CURVE_METHODS",
@@ -96,6 +87,8 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     """
     if method not in CURVE_METHODS:
         raise InvalidParameterError(f"method must be one of {CURVE_METHODS}, got {method!r}")
+    from toolpath import fit_bspline_curve, fit_linear_system, fit_streamline_curve
+
     start = time.perf_counter()
     if method == "streamline":
         curve = fit_streamline_curve(points, tol=tol, closed=closed)
@@ -192,6 +185,8 @@ class SurfaceFitReport:
 
 def _few_sections_note(n_sections: int, loo_mm: float) -> str:
     """What the between-sections figure leaves out with fewer sections than a 4th difference."""
+    from toolpath.between_sections import WINDOW
+
     return (f"between sections: {n_sections} sections, too few for the interpolation error "
             f"across them (a fourth difference needs {WINDOW}); the figure is the fit against "
             f"the data interpolated across the sections only; leave-one-out (each inner "
@@ -211,6 +206,9 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     if method not in SURFACE_METHODS:
         raise InvalidParameterError(
             f"method must be one of {SURFACE_METHODS}, got {method!r}")
+    from toolpath import as_sections, fit_bspline_surface, fit_streamline_surface
+    from toolpath.between_sections import WINDOW
+
     start = time.perf_counter()
     grid = as_sections(sections, closed=closed)  # matched once, fitted as matched
     fit = fit_streamline_surface if method == "streamline" else fit_bspline_surface

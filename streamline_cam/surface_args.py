@@ -8,12 +8,14 @@ be given the same options as ``plan`` so both see the surface where it was cut.
 from __future__ import annotations
 
 import argparse
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from toolpath.errors import InvalidParameterError
-from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
-from toolpath.surface import ParametricSurface
+
+if TYPE_CHECKING:
+    from toolpath.surface import ParametricSurface
 
 __all__ = ["add_placement_arguments", "parse_vector", "placed_surface"]
 
@@ -43,6 +45,8 @@ def add_placement_arguments(parser: argparse.ArgumentParser) -> None:
 
 def placed_surface(surface: ParametricSurface, args: argparse.Namespace) -> ParametricSurface:
     """The surface in the workpiece frame as the placement arguments say."""
+    from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
+
     rotation = rotation_from_spec(args.rotate)
     shift = (np.asarray(parse_vector(args.translate, "--translate")) if args.translate
              else np.zeros(3))

@@ -39,8 +39,6 @@ from __future__ import annotations
 
 from typing import Any
 
-from .bspline_curve import BSplineCurve, fit_bspline_curve
-from .bspline_surface import BSplineSurface, fit_bspline_surface
 from .errors import (
     ConvergenceWarning,
     DataFileError,
@@ -49,14 +47,35 @@ from .errors import (
     InvalidPointsError,
     ToolpathError,
 )
-from .linear_system import LINEAR_MODELS, LinearSystemCurve, fit_linear_system
-from .path import MoveKind, Toolpath
-from .planning import plan_finishing, plan_roughing
-from .pointio import read_points, read_sections
-from .sections import Sections, as_sections
-from .streamline_curve import StreamlineCurve, fit_streamline_curve
-from .streamline_surface import StreamlineSurface, fit_streamline_surface
-from .surface import ParametricSurface
+from .kernel_cache import ensure_kernel_cache
+from .lazy import lazy_exports
+
+ensure_kernel_cache()  # before any kernel module loads numba
+
+#: Exported names -> defining module, imported on first use: ``import toolpath`` (and so
+#: ``toolpath check`` or ``toolpath --help``) does not load scipy, numba or the planner.
+_EXPORTS = {
+    "BSplineCurve": ".bspline_curve",
+    "fit_bspline_curve": ".bspline_curve",
+    "BSplineSurface": ".bspline_surface",
+    "fit_bspline_surface": ".bspline_surface",
+    "LINEAR_MODELS": ".linear_system",
+    "LinearSystemCurve": ".linear_system",
+    "fit_linear_system": ".linear_system",
+    "MoveKind": ".path",
+    "Toolpath": ".path",
+    "plan_finishing": ".planning",
+    "plan_roughing": ".planning",
+    "read_points": ".pointio",
+    "read_sections": ".pointio",
+    "Sections": ".sections",
+    "as_sections": ".sections",
+    "StreamlineCurve": ".streamline_curve",
+    "fit_streamline_curve": ".streamline_curve",
+    "StreamlineSurface": ".streamline_surface",
+    "fit_streamline_surface": ".streamline_surface",
+    "ParametricSurface": ".surface",
+}
 
 __all__ = [
     "LINEAR_MODELS",
@@ -89,23 +108,41 @@ __all__ = [
     "surface_from_dict",
 ]
 
-_KINDS = {"streamline_curve": StreamlineCurve, "bspline_curve": BSplineCurve}
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())
 
 
-def curve_from_dict(data: dict[str, Any]) -> StreamlineCurve | BSplineCurve:
-    """Rebuild a fitted spline curve from ``to_dict()`` output (e.g. a saved fit.json)."""
+def _curve_kinds() -> dict[str, Any]:
+    from .bspline_curve import BSplineCurve
+    from .streamline_curve import StreamlineCurve
+
+    return {"streamline_curve": StreamlineCurve, "bspline_curve": BSplineCurve}
+
+
+def _surface_kinds() -> dict[str, Any]:
+    from .bspline_surface import BSplineSurface
+    from .streamline_surface import StreamlineSurface
+
+    return {"streamline_surface": StreamlineSurface, "bspline_surface": BSplineSurface}
+
+
+def curve_from_dict(data: dict[str, Any]) -> Any:
+    """Rebuild a fitted spline curve from ``to_dict()`` output (e.g. a saved fit.json).
+
+    Returns a ``StreamlineCurve`` or a ``BSplineCurve``.
+    """
+    kinds = _curve_kinds()
     kind = data.get("kind") if isinstance(data, dict) else None
-    if kind not in _KINDS:
+    if kind not in kinds:
         raise InvalidParameterError(
-            f"not a saved curve: kind must be one of {sorted(_KINDS)}, got {kind!r}")
-    return _KINDS[kind].from_dict(data)
+            f"not a saved curve: kind must be one of {sorted(kinds)}, got {kind!r}")
+    return kinds[kind].from_dict(data)
 
 
-_SURFACE_KINDS = {"streamline_surface": StreamlineSurface, "bspline_surface": BSplineSurface}
-
-
-def surface_from_dict(data: dict[str, Any]) -> StreamlineSurface | BSplineSurface:
+def surface_from_dict(data: dict[str, Any]) -> Any:
     """Rebuild a fitted surface from ``to_dict()`` output (e.g. a saved blade.json).
+
+    Returns a ``StreamlineSurface`` or a ``BSplineSurface``.
 
     Raises
     ------
@@ -114,16 +151,17 @@ def surface_from_dict(data: dict[str, Any]) -> StreamlineSurface | BSplineSurfac
     """
     from .fitted_surface import SURFACE_FORMAT_VERSION
 
+    kinds = _surface_kinds()
     kind = data.get("kind") if isinstance(data, dict) else None
-    if kind not in _SURFACE_KINDS:
+    if kind not in kinds:
         raise InvalidParameterError(
-            f"not a saved surface: kind must be one of {sorted(_SURFACE_KINDS)}, got {kind!r}")
+            f"not a saved surface: kind must be one of {sorted(kinds)}, got {kind!r}")
     version = data.get("format_version")
     if version != SURFACE_FORMAT_VERSION:
         raise InvalidParameterError(
             f"surface format version {version!r}; this program reads version "
             f"{SURFACE_FORMAT_VERSION} (refit the surface)")
     try:
-        return _SURFACE_KINDS[kind].from_dict(data)
+        return kinds[kind].from_dict(data)
     except (KeyError, TypeError, ValueError) as exc:
         raise InvalidParameterError(f"the saved {kind} is incomplete or damaged: {exc!r}") from None

@@ -241,7 +241,9 @@ def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out, i,
 
 #: :func:`_point_partials` as a call, not inlined: the Newton search calls it from five
 #: places, and inlining it there (10 % faster) made the first compile take a minute.
-#: (The same source: numba's cache keeps both under the one function's name.)
+#: (The same source: numba's cache keeps both under the one function's name.) Its integer
+#: arguments are passed as ``np.int64(k)``: a bare constant is typed ``Literal[int](k)`` and
+#: numba compiled one specialisation per constant (four, some 5 s each on a cold start).
 _partials_at = numba.njit(cache=True)(_point_partials.py_func)
 
 
@@ -343,7 +345,8 @@ SEAM_SLACK_MM = 1e-6
 def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
                  w, pt, n):
     """Point and outward unit normal at ``(t, s)``: the point into ``pt[0, 0]``, ``n``."""
-    _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, 1, pt, 0, mu, mv, g, z, w)
+    _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
+                 mu, mv, g, z, w)
     a0, a1, a2 = pt[1, 0, 0], pt[1, 0, 1], pt[1, 0, 2]
     b0, b1, b2 = pt[2, 0, 0], pt[2, 0, 1], pt[2, 0, 2]
     n[0], n[1], n[2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -372,7 +375,8 @@ def _seam_signed(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, d
     ti = t[0]
     if min(ti, 1.0 - ti) > SEAM_WINDOW_T:
         return
-    _partials_at(ti, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, 0, pt, 0, mu, mv, g, z, w)
+    _partials_at(ti, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt,
+                 np.int64(0), mu, mv, g, z, w)
     f0, f1, f2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
     n_before = np.empty(3)
     n_after = np.empty(3)
@@ -462,7 +466,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 2, fr, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(2), fr, np.int64(0),
                      mu, mv, g, z, w)
         d0 = fr[0, 0, 0] - p[i, 0]
         d1 = fr[0, 0, 1] - p[i, 1]
@@ -503,7 +507,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
         for _ in range(8):
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                         tangents, pt, 0, mu, mv, g, z, w)
+                         tangents, pt, np.int64(0), mu, mv, g, z, w)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
@@ -516,7 +520,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
             new_s = min(max(si - step_s, 0.0), 1.0)
         if not closer:  # still farther after 8 halvings: the last step's point
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                         tangents, pt, 0, mu, mv, g, z, w)
+                         tangents, pt, np.int64(0), mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
@@ -524,7 +528,7 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         ti, si = new_t, new_s
         have_tangents = tangents == 1
     if iterations + extra == 0:  # no step: the foot is the start
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 0, pt, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt, np.int64(0),
                      mu, mv, g, z, w)
     t[i], s[i] = ti, si
     if orientation == 0.0:  # pt holds the last foot
@@ -532,6 +536,6 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
     if not have_tangents:
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, 1, pt, 0,
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
                      mu, mv, g, z, w)
     dist[i] = _taylor_signed(p, i, pt, 0.0, 0.0, orientation)  # at the foot itself

@@ -26,8 +26,6 @@ from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
-import scipy.linalg
-import scipy.optimize
 from numpy.typing import NDArray
 
 from .arrays import as_curve_points
@@ -107,6 +105,8 @@ class LinearSystemCurve:
 def _evaluate(A: NDArray[np.float64], x0: NDArray[np.float64],
               t: NDArray[np.float64]) -> NDArray[np.float64]:
     """``expm(A t_k) X_0`` for every ``t_k``, as one batched ``expm`` call."""
+    import scipy.linalg  # on first use: the CLI loads this module to list the models
+
     return scipy.linalg.expm(t[:, None, None] * A[None]) @ x0
 
 
@@ -146,6 +146,8 @@ def _fit_p2(x, t):
 
 
 def _fit_p0(x, t):
+    import scipy.optimize
+
     d = x.shape[1]
     start = _fit_p2(x, t)
 

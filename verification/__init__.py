@@ -48,6 +48,7 @@ errors
 Examples
 --------
 >>> from gcode import Linear, Program, Rapid
+>>> from verification import VerifyOptions, verify_program
 >>> from machines import load_machine
 >>> from toolpath.planning.analytic import PlaneSurface
 >>> from toolpath.planning.cutters import parse_cutter
@@ -61,25 +62,32 @@ Examples
 (True, 0.042)
 """
 
+from toolpath.lazy import lazy_exports
+
 from .errors import UnsupportedCutterError, VerificationError
-from .options import DexelMethod, VerifyOptions, stepover_for_scallop_mm
-from .replay import ToolMotion, replay
-from .report import (
-    BlockGouge,
-    DeviationMap,
-    DeviationStats,
-    JointDeviation,
-    Location,
-    VerificationReport,
-)
-from .samples import DesignSamples, sample_design
-from .verify import (
-    load_surface,
-    program_of_toolpath,
-    verify_file,
-    verify_program,
-    verify_toolpath,
-)
+
+#: Exported names -> defining module, imported on first use: reading the options (the
+#: ``verify`` command's defaults) does not load the verifier.
+_EXPORTS = {
+    "DexelMethod": ".options",
+    "VerifyOptions": ".options",
+    "stepover_for_scallop_mm": ".options",
+    "ToolMotion": ".replay",
+    "replay": ".replay",
+    "BlockGouge": ".report",
+    "DeviationMap": ".report",
+    "DeviationStats": ".report",
+    "JointDeviation": ".report",
+    "Location": ".report",
+    "VerificationReport": ".report",
+    "DesignSamples": ".samples",
+    "sample_design": ".samples",
+    "load_surface": ".verify",
+    "program_of_toolpath": ".verify",
+    "verify_file": ".verify",
+    "verify_program": ".verify",
+    "verify_toolpath": ".verify",
+}
 
 __all__ = [
     "BlockGouge",
@@ -103,3 +111,5 @@ __all__ = [
     "verify_program",
     "verify_toolpath",
 ]
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

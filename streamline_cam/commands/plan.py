@@ -16,13 +16,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from tqdm import tqdm
-
 from machines import list_machines
-from toolpath.planning import plan_finishing
 from toolpath.planning.cutters import CUTTER_SPEC_HELP
-from toolpath.planning.gouge import GOUGE_TOL_MM
-from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN
+from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN, GOUGE_TOL_MM
 
 from ..cli_files import load_surface, output_file
 from ..surface_args import add_placement_arguments, parse_vector, placed_surface
@@ -105,6 +101,10 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan, print the report, write the outputs; returns the exit code."""
+    from tqdm import tqdm
+
+    from toolpath.planning.finishing import plan_finishing
+
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     surface = placed_surface(load_surface(args.surface), args)
     options: dict[str, Any] = {

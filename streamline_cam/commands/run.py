@@ -6,13 +6,14 @@ import argparse
 import json
 import sys
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from ..cli import add_closure_arguments
 from ..cli_files import CommandLineError, output_folder
-from ..pipeline import JobRequest, run_job
-from ..progress import StageBars
-from ..streaming import make_streamer
 from .plan import add_gouge_arguments, gouge_options
+
+if TYPE_CHECKING:
+    from ..pipeline import JobRequest
 
 __all__ = ["register", "verify_excess"]
 
@@ -48,6 +49,8 @@ def add_job_arguments(parser: argparse.ArgumentParser) -> None:
 
 def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
     """A :class:`JobRequest` from the shared arguments."""
+    from ..pipeline import JobRequest
+
     return JobRequest(
         sections_path=points, machine=args.machine, cutter=args.cutter,
         scallop_mm=args.scallop, chord_tol_mm=args.chord_tol, fit_tol_mm=args.fit_tol,
@@ -146,6 +149,10 @@ def _setup_lines(report: dict) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..pipeline import run_job
+    from ..progress import StageBars
+    from ..streaming import make_streamer
+
     out = (output_folder(Path(args.output).parent, "-o", shown=args.output) if args.output
            else output_folder("job", "the output folder"))
     if args.output and Path(args.output).is_dir():

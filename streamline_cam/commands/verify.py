@@ -19,8 +19,12 @@ from gcode.dialects import dialect_by_name, dialect_names
 from gcode.errors import GCodeError
 from machines import list_machines, load_machine
 from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
-from verification import VerifyOptions, verify_file
-from verification.options import DEFAULT_HORIZON_MM, DEFAULT_STOCK_MM, DexelMethod
+from verification.options import (
+    DEFAULT_HORIZON_MM,
+    DEFAULT_STOCK_MM,
+    DexelMethod,
+    VerifyOptions,
+)
 
 from ..cli_files import load_surface, output_file
 from ..surface_args import add_placement_arguments, placed_surface
@@ -80,6 +84,8 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Verify; 0 when no gouge exceeds the limit, 1 otherwise, 2 on unreadable files."""
+    from verification import verify_file
+
     plot = output_file(args.plot, "--plot")
     machine = load_machine(args.machine)
     cutter = parse_cutter(args.cutter)

@@ -26,21 +26,34 @@ Modules: ``cutters``, ``analytic``, ``local`` (pass frame, projection), ``scallo
 
 from __future__ import annotations
 
-from .analytic import (
-    AnalyticSurface,
-    CylinderPatch,
-    EllipticBladeSurface,
-    PlaneSurface,
-    PocketSurface,
-    SpherePatch,
-    analytic_surface_from_dict,
-)
-from .cutters import Cutter, CutterKind, parse_cutter
+from ..lazy import lazy_exports
 from .errors import GougeError, PlanningError, PlanTravelLimitError, UnreachableRegionError
-from .finishing import plan_finishing
-from .options import AxisMode, FinishingOptions, Linking, OnGouge, OnLimit
-from .report import PlanningReport, UnreachableRegion, UnreachableSpan
-from .roughing import RoughingReport, plan_roughing
+
+#: Exported names -> defining module, imported on first use, so a command that reads one
+#: option or constant does not compile or load the planner's kernels.
+_EXPORTS = {
+    "AnalyticSurface": ".analytic",
+    "CylinderPatch": ".analytic",
+    "EllipticBladeSurface": ".analytic",
+    "PlaneSurface": ".analytic",
+    "PocketSurface": ".analytic",
+    "SpherePatch": ".analytic",
+    "analytic_surface_from_dict": ".analytic",
+    "Cutter": ".cutters",
+    "CutterKind": ".cutters",
+    "parse_cutter": ".cutters",
+    "plan_finishing": ".finishing",
+    "AxisMode": ".options",
+    "FinishingOptions": ".options",
+    "Linking": ".options",
+    "OnGouge": ".options",
+    "OnLimit": ".options",
+    "PlanningReport": ".report",
+    "UnreachableRegion": ".report",
+    "UnreachableSpan": ".report",
+    "RoughingReport": ".roughing",
+    "plan_roughing": ".roughing",
+}
 
 __all__ = [
     "AnalyticSurface",
@@ -69,3 +82,6 @@ __all__ = [
     "plan_finishing",
     "plan_roughing",
 ]
+
+
+__getattr__, __dir__ = lazy_exports(__name__, _EXPORTS, globals())

@@ -34,6 +34,7 @@ from ..surface import ParametricSurface
 from .clearance_kernel import SampleCells, bin_samples, clearances
 from .cutters import Cutter
 from .local import PassFrame
+from .resolution import GOUGE_TOL_MM
 
 __all__ = [
     "CLEARANCE_HORIZON_MM",
@@ -45,12 +46,6 @@ __all__ = [
     "query_capsule",
     "sample_surface",
 ]
-
-GOUGE_TOL_MM: Final[float] = 1e-3
-"""Penetration counted as a gouge, mm: the 1 um grid the G-code writes coordinates to
-(rounding to it moves the cutter by up to about that: a shallower cut is not one a program
-can avoid), far above the 1e-12 mm round-off of exact contacts, and a tenth of a finishing
-chord tolerance (chords dip into convex surfaces by up to that by design)."""
 
 CLEARANCE_HORIZON_MM: Final[float] = 0.1
 """Clearances are resolved up to this distance, mm; larger ones read ``inf``. It keeps the

@@ -15,8 +15,7 @@ import numpy as np
 
 from ..errors import InvalidParameterError
 from .cutters import Cutter, CutterKind
-from .gouge import GOUGE_TOL_MM
-from .resolution import MAX_RESERVE_SHARE
+from .resolution import GOUGE_TOL_MM, MAX_RESERVE_SHARE
 
 __all__ = [
     "CONCAVE_UNDERCUT_SHARE",

@@ -1,0 +1,173 @@
+"""The whole job as a user runs it, cold and warm (issue 27).
+
+Run: ``python benchmarks/bench_job.py [--quick] [--skip-run] [--skip-warm-up]``
+
+Each command runs as a user types it (``python -m streamline_cam.cli ...`` from this
+checkout, a fresh interpreter each time), twice:
+
+* **cold**: with an empty kernel cache (``NUMBA_CACHE_DIR`` set to a new temporary folder
+  for that command alone): the first run after a fresh install, compiling every kernel it
+  uses;
+* **warm**: the same command again, with the cache the cold run left.
+
+Commands: ``toolpath --help``; ``toolpath check`` of the 5-axis program; ``toolpath plan``
+(dev blade standing on ``trunnion-ac``, 5-axis lead 10, the README's coarse scallop 0.05 mm
+and chord 0.02 mm: the issue's 127 s / 8.1 s row); ``toolpath run --verify`` on the dev
+blade, 3-axis on ``grbl-router`` and 5-axis on ``trunnion-ac`` (ball 6, scallop 0.005,
+chord 0.01; ``--quick``: scallop 0.05, chord 0.02), with the stage split of the run's report
+(``seconds``) and the planner's own (``plan.seconds``). Then ``toolpath warm-up`` on an empty
+cache (what ``make install`` runs) and the 5-axis plan right after it: the first job of an
+install that ran the warm-up.
+
+Beside each figure: the issue's "today" figures, and the ratios the targets name, measured
+in this run: ``cold - warm`` against the 15 s cold-start target, ``--help`` and ``check``
+against 0.5 s. The machine is shared: wall seconds move with the load (printed), the CPU
+seconds of the command (user + system, all its threads) much less; read the ratios.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import resource
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parents[1]
+BLADE = ROOT / "toolpath" / "data" / "dev_blade_15x142.csv"
+
+COLD_TARGET_S = 15.0
+START_TARGET_S = 0.5
+#: The issue's figures (2-core machine, quiet): command -> (cold s, warm s).
+TODAY = {
+    "help": (None, 2.6),
+    "plan 5-axis coarse": (127.0, 8.1),
+    "run 5-axis": (None, 13.5),
+    "run 5-axis + verify": (None, 13.5 + 54.0),
+}
+PLAN_ARGS = ["--machine", "trunnion-ac", "--axis", "lead-tilt", "--lead", "10",
+             "--rotate", "y:-90", "--on-table", "--scallop", "0.05", "--chord-tol", "0.02"]
+
+
+def _run(argv: list[str], cache: Path, cwd: Path) -> tuple[float, float, str]:
+    """Wall and CPU seconds of ``toolpath argv`` in a fresh interpreter, and its stdout."""
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(cache)}
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    done = subprocess.run([sys.executable, "-m", "streamline_cam.cli", *argv], cwd=cwd, env=env,
+                          capture_output=True, text=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    if done.returncode not in (0, 1):
+        raise SystemExit(f"toolpath {' '.join(argv)} failed ({done.returncode}):\n"
+                         f"{done.stderr[-2000:]}")
+    cpu = (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+    return wall, cpu, done.stdout
+
+
+def _report(stdout: str) -> dict:
+    """The JSON report a command printed first (``--json``)."""
+    start = stdout.index("{")
+    return json.JSONDecoder().raw_decode(stdout[start:])[0]
+
+
+def _stages(seconds: dict | None) -> str:
+    return " ".join(f"{k} {v:.1f}" for k, v in (seconds or {}).items())
+
+
+def _verdict(seconds: float, target_s: float) -> str:
+    return "ok" if seconds <= target_s else "OVER"
+
+
+class Table:
+    """Rows of cold/warm figures, printed as they come."""
+
+    def __init__(self) -> None:
+        print(f"{'command':<28}{'today cold/warm':>16}{'cold s (cpu)':>16}"
+              f"{'warm s (cpu)':>16}{'cold-warm':>11}  target")
+
+    def row(self, name: str, cold: tuple[float, float] | None, warm: tuple[float, float],
+            target: str = "cold") -> None:
+        today = TODAY.get(name, (None, None))
+        text = "/".join("-" if v is None else f"{v:g}" for v in today)
+        cold_text = "-" if cold is None else f"{cold[0]:6.1f} ({cold[1]:5.1f})"
+        line = f"{name:<28}{text:>16}{cold_text:>16}{f'{warm[0]:6.2f} ({warm[1]:5.2f})':>16}"
+        if target == "cold" and cold is not None:
+            extra, extra_cpu = cold[0] - warm[0], cold[1] - warm[1]
+            line += (f"{extra:>10.1f}s  wall {_verdict(extra, COLD_TARGET_S)}, cpu "
+                     f"{extra_cpu:.1f} s {_verdict(extra_cpu, COLD_TARGET_S)} "
+                     f"(<= {COLD_TARGET_S:g} s)")
+        elif target == "start":
+            line += (f"{'':>11}  wall {_verdict(warm[0], START_TARGET_S)}, cpu "
+                     f"{_verdict(warm[1], START_TARGET_S)} (<= {START_TARGET_S:g} s)")
+        print(line, flush=True)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--quick", action="store_true",
+                        help="run jobs at scallop 0.05 mm, chord 0.02 mm")
+    parser.add_argument("--skip-run", action="store_true", help="no 'toolpath run' rows")
+    parser.add_argument("--skip-warm-up", action="store_true", help="no 'warm-up' row")
+    args = parser.parse_args()
+    load = os.getloadavg()
+    print(f"bench_job: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
+          f"{os.cpu_count()} CPUs, load average {load[0]:.1f} {load[1]:.1f} {load[2]:.1f} "
+          "(shared: compare within this run)")
+    with tempfile.TemporaryDirectory(prefix="bench-job-") as folder:
+        work = Path(folder)
+        caches = iter(work / f"cache{i}" for i in range(100))
+        fit_cache = next(caches)
+        _run(["fit", "surface", str(BLADE), "--tol", "0.01", "-o", "blade.json"], fit_cache,
+             work)
+        table = Table()
+
+        cache = next(caches)
+        help_cold = _run(["--help"], cache, work)[:2]
+        help_warm = _run(["--help"], cache, work)[:2]
+        table.row("help", help_cold, help_warm, target="start")
+
+        cache = next(caches)
+        plan_argv = ["plan", "blade.json", *PLAN_ARGS, "-o", "path.npz", "--json"]
+        *plan_cold, _ = _run(plan_argv, cache, work)
+        *plan_warm, out = _run(plan_argv, cache, work)
+        table.row("plan 5-axis coarse", tuple(plan_cold), tuple(plan_warm))
+        print(f"{'':<4}planner stages (warm): {_stages(_report(out).get('seconds'))}")
+
+        _run(["post", "path.npz", "--machine", "trunnion-ac", "-o", "part5.nc"], cache, work)
+        check_argv = ["check", "part5.nc", "--machine", "trunnion-ac"]
+        check_cold = _run(check_argv, next(caches), work)[:2]
+        check_warm = _run(check_argv, cache, work)[:2]
+        table.row("check (5-axis program)", check_cold, check_warm, target="start")
+
+        if not args.skip_run:
+            fine = ["--scallop", "0.05", "--chord-tol", "0.02"] if args.quick else []
+            for label, extra in (("3-axis", ["--machine", "grbl-router"]),
+                                 ("5-axis", ["--machine", "trunnion-ac", "--axis", "lead-tilt",
+                                             "--lead", "10"])):
+                cache = next(caches)
+                run_argv = ["run", str(BLADE), *extra, *fine, "--verify", "--quiet", "--json",
+                            "-o", f"job-{label}/part.nc"]
+                *cold, _ = _run(run_argv, cache, work)
+                *warm, out = _run(run_argv, cache, work)
+                table.row(f"run {label} + verify", tuple(cold), tuple(warm))
+                report = _report(out)
+                print(f"{'':<4}stages (warm): {_stages(report.get('seconds'))}; planner: "
+                      f"{_stages(report.get('plan', {}).get('seconds'))}", flush=True)
+
+        if not args.skip_warm_up:
+            cache = next(caches)
+            warm_up = _run(["warm-up", "--quiet"], cache, work)[:2]
+            after = _run(plan_argv, cache, work)[:2]
+            print(f"warm-up on an empty cache (make install): {warm_up[0]:.1f} s "
+                  f"(cpu {warm_up[1]:.1f}); the 5-axis plan right after it: {after[0]:.1f} s "
+                  f"(cpu {after[1]:.1f}), {after[0] - plan_warm[0]:+.1f} s against warm "
+                  f"(target <= {COLD_TARGET_S:g} s)")
+
+
+if __name__ == "__main__":
+    main()
