@@ -35,7 +35,7 @@ from .sampling import (
     split_evenly,
 )
 from .tool_axis import (
-    _Z,
+    Z_AXIS,
     AxisSmoothing,
     TiltLean,
     angle_deg,
@@ -396,7 +396,7 @@ def _within_tilt(opts: FinishingOptions, res: PlannedOptions, axes: NDArray[np.f
     (points inserted between two axes within the reach need little or none).
     """
     cap = res.max_tilt_deg
-    if not math.isfinite(cap) or not (angle_deg(axes, _Z) > cap).any():
+    if not math.isfinite(cap) or not (angle_deg(axes, Z_AXIS) > cap).any():
         return None
     lean = lean_within_tilt(axes, frame.normal, _rate_path(cutter, frame, pid), pid,
                             max_tilt_deg=cap, max_lean_deg=opts.max_lean_deg,
