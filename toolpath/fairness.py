@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .surface import _unit
+from .vectors import unit
 
 __all__ = [
     "CONCAVE_DEPTH_MM",
@@ -269,7 +269,7 @@ def _chords(points: NDArray[np.float64], closed: bool
 
     Open ends repeat their one chord (no turn); closed sections (last point = first) wrap.
     """
-    e = _unit(np.diff(points, axis=0))
+    e = unit(np.diff(points, axis=0))
     if closed:
         before = np.vstack((e[-1:], e))
         after = np.vstack((e, e[:1]))
@@ -455,7 +455,7 @@ def _circles(points: NDArray[np.float64], closed: bool
     radii = np.where(ok, np.linalg.norm(offset, axis=1), np.inf)
     if not closed:
         radii[0] = radii[-1] = np.inf
-    return points + offset, radii, _unit(axb) * ok[:, None]
+    return points + offset, radii, unit(axb) * ok[:, None]
 
 
 def _nose_points(radii: NDArray[np.float64], convex: NDArray[np.bool_], length: float
@@ -586,8 +586,8 @@ def curve_fairness(curve: Any, points: Any, *, closed: bool = False,
     before, after = _chords(data, closed)
     turn = np.arctan2(np.cross(before, after) @ plane, np.einsum("ij,ij->i", before, after))
     sense = -1.0 if turn.sum() < 0.0 else 1.0
-    normal = -sense * _unit(np.cross(plane, xt))
-    normal_data = -sense * _unit(np.cross(plane, before + after))
+    normal = -sense * unit(np.cross(plane, xt))
+    normal_data = -sense * unit(np.cross(plane, before + after))
     convex = _convex_points(data, normal_data, closed)
     stretches = _concave_stretches(0.0, tt, xt, xtt, normal,
                                    _dense_mask(convex, per_interval))
@@ -624,7 +624,7 @@ def surface_fairness(surface: Any, points: Any, *, min_depth_mm: float = CONCAVE
     parts = surface._partials_many(
         np.tile(tt, len(levels)), np.repeat([s_value for _, s_value, _ in levels], tt.size),
         ((0, 0), (1, 0), (0, 1), (2, 0)))
-    normal = surface.orientation * _unit(np.cross(parts[1, 0], parts[0, 1]))
+    normal = surface.orientation * unit(np.cross(parts[1, 0], parts[0, 1]))
     for k, (label, _, convex_here) in enumerate(levels):
         rows = slice(k * tt.size, (k + 1) * tt.size)
         stretches += _concave_stretches(label, tt, parts[1, 0][rows], parts[2, 0][rows],

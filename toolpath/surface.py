@@ -25,6 +25,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from .errors import InvalidParameterError
+from .vectors import unit
 
 if TYPE_CHECKING:
     from .compiled import StreamlineKernel
@@ -61,15 +62,10 @@ def parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
     return flat_t, flat_s, shape
 
 
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0.0, norm, 1.0)
-
-
 def _outward(surface: ParametricSurface, xt: NDArray[np.float64], xs: NDArray[np.float64]
              ) -> NDArray[np.float64]:
     """Unit normals ``orientation * X_t x X_s``."""
-    return surface.orientation * _unit(np.cross(xt, xs))
+    return surface.orientation * unit(np.cross(xt, xs))
 
 
 class SurfaceFrame:

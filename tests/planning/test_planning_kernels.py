@@ -321,10 +321,10 @@ def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out
     t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
     start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
     _, _, settled = passes.refine_chords(surface, cutter, opts, res, layout, start)
-    assert 0.9 * res["chord_tol_mm"] < settled <= res["chord_tol_mm"]
+    assert 0.9 * res.planned_chord_tol_mm < settled <= res.planned_chord_tol_mm
     monkeypatch.setattr(passes, "MAX_CHORD_ROUNDS", 1)
     _, _, cut_short = passes.refine_chords(surface, cutter, opts, res, layout, start)
-    assert cut_short > res["chord_tol_mm"]
+    assert cut_short > res.planned_chord_tol_mm
 
 
 def _greedy_by_search(grid, allowed, lower, scale, lookahead):

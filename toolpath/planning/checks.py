@@ -33,7 +33,7 @@ from .avoid import (
 from .cutters import Cutter
 from .errors import GougeError, PlanTravelLimitError
 from .gouge import Clearance, SurfaceSamples, global_clearance, local_margin
-from .options import AxisMode, FinishingOptions, OnGouge, OnLimit
+from .options import AxisMode, FinishingOptions, OnGouge, OnLimit, PlannedOptions
 from .passes import PassPoints, frame_take, with_tips
 from .travel import fit_travel
 
@@ -41,7 +41,7 @@ __all__ = ["check_links", "gouge_stage", "machine_stage"]
 
 
 def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-                 res: dict[str, float], pts: PassPoints, keep: NDArray[np.bool_],
+                 res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
                  samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_],
                                                    dict[str, Any]]:
     """Gouge checks on the kept points, then ``on_gouge``.

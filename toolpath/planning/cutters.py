@@ -44,6 +44,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidParameterError
+from ..vectors import unit
 
 __all__ = [
     "CUTTER_SPEC_HELP",
@@ -77,11 +78,6 @@ class CutterKind(StrEnum):
     BALL = "ball"
     FLAT = "flat"
     BULL = "bull"
-
-
-def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0.0, norm, 1.0)
 
 
 def radial_directions(normals: ArrayLike, axes: ArrayLike
@@ -267,7 +263,7 @@ class Cutter:
         ``1 / k(d)`` with Euler's formula on the cutter's principal curvatures (see
         :meth:`curvature_tensor`); ``inf`` where the flat face lies on the surface.
         """
-        d = _unit_rows(np.asarray(directions, dtype=float))
+        d = unit(np.asarray(directions, dtype=float))
         n = np.asarray(normals, dtype=float)
         other = np.cross(n, d)
         c11, _, _ = self.curvature_tensor(n, axes, d, other)

@@ -53,6 +53,7 @@ from .options import (
     Linking,
     OnGouge,
     OnLimit,
+    PlannedOptions,
     chosen_linking,
 )
 from .passes import (
@@ -166,7 +167,7 @@ def _rounding_reserve(surface: ParametricSurface, cutter: Cutter, opts: Finishin
 
 
 def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-           res: dict[str, float], t: NDArray[np.float64], s: NDArray[np.float64]
+           res: PlannedOptions, t: NDArray[np.float64], s: NDArray[np.float64]
            ) -> dict[str, Any]:
     """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
 
@@ -202,7 +203,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             cutter.tips_from_contacts(frame.point[at], frame.normal[at], axes[at]), axes[at],
             speed_t=frame.speed_t[at], speed_s=frame.speed_s[at]).depth_mm
     gouging = flagged & (depth > opts.gouge_tol_mm)
-    h = np.where(frame.s11 > 1e-12, res["scallop_mm"] - res["undercut_mm"], res["scallop_mm"])
+    h = np.where(frame.s11 > 1e-12, res.planned_scallop_mm - res.undercut_mm,
+                 res.planned_scallop_mm)
     # the cutter's curvature along the pass at the contact
     c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     if cutter.kind is CutterKind.BALL:
@@ -235,17 +237,17 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     with np.errstate(divide="ignore"):
         rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
     # concave passes: the moves stand above the surface and lift the cusps; keep them low
-    tol = np.where(frame.s11 > 1e-12, res["undercut_mm"], res["chord_tol_mm"])
+    tol = np.where(frame.s11 > 1e-12, res.undercut_mm, res.planned_chord_tol_mm)
     # the axis turns with the normal along the pass (5-axis): |S11| rad per mm
     axis_turn = np.abs(frame.s11) if opts.axis_mode is AxisMode.LEAD_TILT else 0.0
-    length = chord_length_mm(frame, rho_f, tol, res["max_segment_mm"],
+    length = chord_length_mm(frame, rho_f, tol, res.max_segment_mm,
                              lift_mm=cutter.corner_radius_mm, turn_per_mm=axis_turn)
     density = (frame.speed_t / length).reshape(len(t), len(s))
     if opts.axis_mode is AxisMode.FIXED:
         # the far side only needs points enough to end the passes' cut runs: the longest
         # moves there, but the full density next to anything reachable
         near = _next_to(reach.reshape(len(t), len(s)), bool(surface.closed_t))
-        density = np.where(near, density, (frame.speed_t / res["max_segment_mm"]).reshape(
+        density = np.where(near, density, (frame.speed_t / res.max_segment_mm).reshape(
             len(t), len(s)))
     return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
             "outcurved": outcurved, "gouging": gouging, "allowed": allowed.min(axis=0),
@@ -446,7 +448,7 @@ def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool
 
 
 def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-               res: dict[str, float], pts: PassPoints, runs: list[NDArray[np.int64]]
+               res: PlannedOptions, pts: PassPoints, runs: list[NDArray[np.int64]]
                ) -> list[Run]:
     """Runs in cutting order with their lead data and how they link.
 
@@ -472,8 +474,8 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     joined, direct = _run_links(surface, cutter, opts, res, pts, first, last, pass_index)
     # a run follows on in the chain of the one before: both consecutive rows, and joined
     # or linked directly with no extension past an edge between them
-    extended = extends(extend_last[:-1], res["extend_mm"]) | extends(extend_first[1:],
-                                                                      res["extend_mm"])
+    extended = extends(extend_last[:-1], res.extend_mm) | extends(extend_first[1:],
+                                                                      res.extend_mm)
     follows = np.r_[False, consecutive[1:] & consecutive[:-1] & (joined[1:] | (
         direct[1:] & ~extended))]
     chain_start = np.flatnonzero(~follows)
@@ -514,7 +516,7 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
 
 
 def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-               res: dict[str, float], pts: PassPoints, first: NDArray[np.int64],
+               res: PlannedOptions, pts: PassPoints, first: NDArray[np.int64],
                last: NDArray[np.int64], pass_index: NDArray[np.int64]
                ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
     """How each run links to the one before: ``joined`` (spiral), ``direct`` (a move).
@@ -530,7 +532,7 @@ def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     if opts.linking is Linking.SPIRAL:
         joined[1:] = (gaps_mm < 1e-6) & (pass_index[1:] == pass_index[:-1] + 1)
         return joined, direct
-    ks = np.flatnonzero((gaps_mm <= res["link_max_mm"])
+    ks = np.flatnonzero((gaps_mm <= res.link_max_mm)
                         & (pass_index[1:] != pass_index[:-1])) + 1
     if ks.size:
         # the cutter half-way along the link (its search started between the ends'
@@ -540,7 +542,7 @@ def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         gap = point_move_gaps(surface, cutter, pts.tips[ends], pts.axes[ends], pts.t[ends],
                               pts.s[ends], np.arange(0, ends.size, 2), np.array([0.5]),
                               newton=3)[0][:, 0]
-        direct[ks] = gap >= -res["chord_tol_mm"]
+        direct[ks] = gap >= -res.planned_chord_tol_mm
     return joined, direct
 
 
@@ -607,8 +609,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     opts.check_cutter(cutter)
     mach = _as_machine(machine, opts)
     reserve_mm = _rounding_reserve(surface, cutter, opts, mach)
-    res = opts.resolved(cutter, reserve_mm)
-    res["max_tilt_deg"] = _tilt_limit_deg(opts, mach)
+    res = opts.resolved(cutter, reserve_mm, max_tilt_deg=_tilt_limit_deg(opts, mach))
     chosen, why = chosen_linking(opts.linking, bool(surface.closed_t), opts.axis_mode)
     opts = replace(opts, linking=chosen)
     if opts.linking is Linking.SPIRAL and not surface.closed_t:
@@ -673,7 +674,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         _check_tilt_reach(pts, keep, opts, res, mach)
 
     clock.stage("gouge")
-    samples = sample_surface(surface, res["gouge_sample_mm"])
+    samples = sample_surface(surface, res.gouge_sample_mm)
     pts, keep, gstats = gouge_stage(surface, cutter, opts, res, pts, keep, samples)
     runs = _runs_of(keep, pts, bool(surface.closed_t))
     if not runs:
@@ -699,10 +700,10 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                                     up=_working_side(probe))
     link_opts = LinkOptions(
         clearance=clearance, feed_mm_per_min=opts.feed_mm_per_min,
-        plunge_feed_mm_per_min=res["plunge_feed_mm_per_min"],
-        lead_radius_mm=res["lead_radius_mm"], lead_angle_deg=opts.lead_angle_deg,
-        approach_mm=opts.approach_mm, extend_mm=res["extend_mm"],
-        chord_tol_mm=res["chord_tol_mm"])
+        plunge_feed_mm_per_min=res.plunge_feed_mm_per_min,
+        lead_radius_mm=res.lead_radius_mm, lead_angle_deg=opts.lead_angle_deg,
+        approach_mm=opts.approach_mm, extend_mm=res.extend_mm,
+        chord_tol_mm=res.planned_chord_tol_mm)
     positions, axes, kinds, feeds, passes = link_runs(run_list, link_opts)
     metadata = {"planner": "toolpath.planning.plan_finishing", "cutter": cutter.spec,
                 "surface": type(surface).__name__, "scallop_mm": f"{opts.scallop_mm:g}",
@@ -748,7 +749,7 @@ def _tilt_limit_deg(opts: FinishingOptions, mach: Machine | None) -> float:
 
 
 def _check_tilt_reach(pts: PassPoints, keep: NDArray[np.bool_], opts: FinishingOptions,
-                      res: dict[str, float], mach: Machine | None) -> None:
+                      res: PlannedOptions, mach: Machine | None) -> None:
     """Refuse a plan with cutter locations no allowed tool axis reaches.
 
     There the surface normal is further from +Z than the tilt joint reaches plus the lean
@@ -757,7 +758,7 @@ def _check_tilt_reach(pts: PassPoints, keep: NDArray[np.bool_], opts: FinishingO
     still leaves its travel. The error names the first such point, the joint and the best
     value it could take.
     """
-    cap = res["max_tilt_deg"]
+    cap = res.max_tilt_deg
     if not np.isfinite(cap) or mach is None or not mach.kinematics.is_five_axis:
         return
     reach_n = angle_deg(pts.frame.normal, np.array([0.0, 0.0, 1.0])) - opts.max_lean_deg
@@ -830,7 +831,7 @@ def _probe_gouge(probe: dict[str, Any], cutter: Cutter,
 
 
 def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-            res: dict[str, float], reserve_mm: float, probe: dict[str, Any], pts: PassPoints,
+            res: PlannedOptions, reserve_mm: float, probe: dict[str, Any], pts: PassPoints,
             cut: NDArray[np.bool_], spans: list[UnreachableSpan], path: Toolpath,
             gstats: dict[str, Any], planned_chord: float, mstats: dict[str, Any] | None,
             scallop: Any, chord: Any, seconds: dict[str, float]) -> PlanningReport:
@@ -886,6 +887,6 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                                     if opts.axis_mode is AxisMode.LEAD_TILT else None),
         tilt_leaned_points=0 if pts.smoothing is None else pts.smoothing.tilt_leaned_points,
         max_tilt_lean_deg=0.0 if pts.smoothing is None else pts.smoothing.max_tilt_lean_deg,
-        max_tilt_deg=res["max_tilt_deg"] if np.isfinite(res["max_tilt_deg"]) else None,
-        rounding_reserve_mm=reserve_mm, planned_scallop_mm=res["scallop_mm"],
-        planned_chord_tol_mm=res["chord_tol_mm"], advice=probe["advice"])
+        max_tilt_deg=res.max_tilt_deg if np.isfinite(res.max_tilt_deg) else None,
+        rounding_reserve_mm=reserve_mm, planned_scallop_mm=res.planned_scallop_mm,
+        planned_chord_tol_mm=res.planned_chord_tol_mm, advice=probe["advice"])

@@ -33,15 +33,11 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..path import MoveKind
+from ..vectors import unit
 
 __all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "extends", "link_runs"]
 
 _TRAVERSE_STEP_DEG = 10.0
-
-
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0.0, norm, 1.0)
 
 
 @dataclass(frozen=True)
@@ -75,7 +71,7 @@ def _great_circle(u: NDArray[np.float64], v: NDArray[np.float64]
                 + np.sin(frac * ang)[:, None] * v) / np.sin(ang)
     else:
         dirs = np.broadcast_to(u, (frac.size, 3))
-    return _unit(dirs), ang
+    return unit(dirs), ang
 
 
 @dataclass(frozen=True)
@@ -107,7 +103,7 @@ class ClearanceSphere:
         On the great circle through both, or over the ``up`` pole when that circle passes
         under the part.
         """
-        u, v = _unit(p - self.centre), _unit(q - self.centre)
+        u, v = unit(p - self.centre), unit(q - self.centre)
         dirs, _ = _great_circle(u, v)
         if self.up is not None and (dirs @ self.up).min() < min(u @ self.up,
                                                                 v @ self.up) - 1e-9:
@@ -124,7 +120,7 @@ class ClearanceSphere:
         dirs, frac = dirs[1:-1], frac[1:-1]
         pts = self.centre + self.radius_mm * dirs
         mix = (1.0 - frac)[:, None] * a + frac[:, None] * b
-        axes = _unit(mix)
+        axes = unit(mix)
         bad = np.linalg.norm(mix, axis=1) < 1e-6
         axes[bad] = dirs[bad]
         return pts, axes

@@ -26,6 +26,7 @@ __all__ = [
     "Linking",
     "OnGouge",
     "OnLimit",
+    "PlannedOptions",
     "ProgressCallback",
     "chosen_linking",
 ]
@@ -136,6 +137,41 @@ def _angle(value: Any, name: str, limit: float) -> float:
         raise InvalidParameterError(
             f"{name} must be a finite angle within +/-{limit:g} deg, got {value!r}")
     return out
+
+
+@dataclass(frozen=True)
+class PlannedOptions:
+    """What a plan works to (:meth:`FinishingOptions.resolved`), in mm, mm/min and deg.
+
+    The request stays in :class:`FinishingOptions` (``scallop_mm``, ``chord_tol_mm``: what
+    the result is measured and reported against); the planned tolerances here are what the
+    passes and the points along them are laid out for.
+
+    Attributes
+    ----------
+    planned_scallop_mm, planned_chord_tol_mm : float
+        The request less the rounding reserve (:mod:`~toolpath.planning.resolution`).
+    undercut_mm : float
+        Height the moves may stand above a concave surface:
+        ``min(planned_chord_tol_mm, CONCAVE_UNDERCUT_SHARE * planned_scallop_mm)``.
+    plunge_feed_mm_per_min, lead_radius_mm, link_max_mm, gouge_sample_mm : float
+    axis_smoothing_mm, max_segment_mm, extend_mm : float
+        The options of the same name with their cutter-dependent defaults filled in.
+    max_tilt_deg : float
+        Largest tilt of the tool axis from the workpiece +Z the plan keeps (``inf``: none).
+    """
+
+    planned_scallop_mm: float
+    planned_chord_tol_mm: float
+    undercut_mm: float
+    plunge_feed_mm_per_min: float
+    lead_radius_mm: float
+    link_max_mm: float
+    gouge_sample_mm: float
+    axis_smoothing_mm: float
+    max_segment_mm: float
+    extend_mm: float
+    max_tilt_deg: float = math.inf
 
 
 @dataclass(frozen=True)
@@ -353,33 +389,35 @@ class FinishingOptions:
                     f"tolerance must be a small fraction of the cutter (typically "
                     f"0.001-0.05 mm)")
 
-    def resolved(self, cutter: Cutter, reserve_mm: float = 0.0) -> dict[str, float]:
-        """Defaults that depend on the cutter, in mm or mm/min, and the planned tolerances.
+    def resolved(self, cutter: Cutter, reserve_mm: float = 0.0, *,
+                 max_tilt_deg: float = math.inf) -> PlannedOptions:
+        """What the plan works to (:class:`PlannedOptions`), defaults filled for ``cutter``.
 
-        ``scallop_mm`` and ``chord_tol_mm`` are what the plan aims for: the request less
-        ``reserve_mm`` (room for the G-code's rounding), at most
-        :data:`~toolpath.planning.resolution.MAX_RESERVE_SHARE` of it.
+        The planned tolerances are the request less ``reserve_mm`` (room for the G-code's
+        rounding), at most :data:`~toolpath.planning.resolution.MAX_RESERVE_SHARE` of it;
+        ``max_tilt_deg`` is the tilt cap the plan keeps (``inf``: none).
         """
         big = cutter.radius_mm
         scallop = self.scallop_mm - min(reserve_mm, MAX_RESERVE_SHARE * self.scallop_mm)
         chord = self.chord_tol_mm - min(reserve_mm, MAX_RESERVE_SHARE * self.chord_tol_mm)
-        return {
-            "scallop_mm": scallop,
-            "chord_tol_mm": chord,
-            "plunge_feed_mm_per_min": self.plunge_feed_mm_per_min or self.feed_mm_per_min / 4,
-            "lead_radius_mm": big if self.lead_radius_mm is None else self.lead_radius_mm,
-            "link_max_mm": 2.0 * big if self.link_max_mm is None else self.link_max_mm,
-            "gouge_sample_mm": (min(big / 4.0, 1.0) if self.gouge_sample_mm is None
-                                else self.gouge_sample_mm),
-            "axis_smoothing_mm": (big if self.axis_smoothing_mm is None
-                                  else self.axis_smoothing_mm),
-            "max_segment_mm": (4.0 * big if self.max_segment_mm is None
-                               else self.max_segment_mm),
-            "undercut_mm": min(chord, CONCAVE_UNDERCUT_SHARE * scallop),
-            "extend_mm": ((0.0 if cutter.kind is CutterKind.BALL
-                           else big - cutter.corner_radius_mm)
-                          if self.extend_mm is None else self.extend_mm),
-        }
+        return PlannedOptions(
+            planned_scallop_mm=scallop,
+            planned_chord_tol_mm=chord,
+            undercut_mm=min(chord, CONCAVE_UNDERCUT_SHARE * scallop),
+            plunge_feed_mm_per_min=self.plunge_feed_mm_per_min or self.feed_mm_per_min / 4,
+            lead_radius_mm=big if self.lead_radius_mm is None else self.lead_radius_mm,
+            link_max_mm=2.0 * big if self.link_max_mm is None else self.link_max_mm,
+            gouge_sample_mm=(min(big / 4.0, 1.0) if self.gouge_sample_mm is None
+                             else self.gouge_sample_mm),
+            axis_smoothing_mm=(big if self.axis_smoothing_mm is None
+                               else self.axis_smoothing_mm),
+            max_segment_mm=(4.0 * big if self.max_segment_mm is None
+                            else self.max_segment_mm),
+            extend_mm=((0.0 if cutter.kind is CutterKind.BALL
+                        else big - cutter.corner_radius_mm)
+                       if self.extend_mm is None else self.extend_mm),
+            max_tilt_deg=max_tilt_deg,
+        )
 
     def summary(self) -> dict[str, str]:
         """The options as strings (for toolpath metadata), without the callback."""

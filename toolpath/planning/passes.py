@@ -25,7 +25,7 @@ from .cutters import Cutter, CutterKind
 from .errors import too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
 from .one_way import one_way_azimuth
-from .options import AxisMode, FinishingOptions, Linking
+from .options import AxisMode, FinishingOptions, Linking, PlannedOptions
 from .sampling import (
     CHORD_FRACTIONS,
     ball_end_slopes,
@@ -35,7 +35,7 @@ from .sampling import (
     split_evenly,
 )
 from .tool_axis import (
-    _Z,
+    Z_AXIS,
     AxisSmoothing,
     TiltLean,
     angle_deg,
@@ -355,7 +355,7 @@ def _off_cone(opts: FinishingOptions, axes: NDArray[np.float64], frame: PassFram
     return axes, pushed
 
 
-def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
+def final_axes(cutter: Cutter, opts: FinishingOptions, res: PlannedOptions,
                frame: PassFrame, nominal: NDArray[np.float64], pid: NDArray[np.int64],
                direction: NDArray[np.int64]
                ) -> tuple[NDArray[np.float64], AxisSmoothing | None, int]:
@@ -370,7 +370,7 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
         return nominal, None, 0
     smoothing = smooth_axes(nominal, frame.normal, frame.e1 * direction[:, None],
                             _rate_path(cutter, frame, pid), pid,
-                            smoothing_mm=res["axis_smoothing_mm"],
+                            smoothing_mm=res.axis_smoothing_mm,
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
                             max_lean_deg=opts.max_lean_deg,
                             keep_lead=cutter.kind is not CutterKind.BALL)
@@ -386,28 +386,28 @@ def final_axes(cutter: Cutter, opts: FinishingOptions, res: dict[str, float],
     return axes, smoothing, pushed
 
 
-def _within_tilt(opts: FinishingOptions, res: dict[str, float], axes: NDArray[np.float64],
+def _within_tilt(opts: FinishingOptions, res: PlannedOptions, axes: NDArray[np.float64],
                  frame: PassFrame, pid: NDArray[np.int64], cutter: Cutter, *, smooth: bool
                  ) -> TiltLean | None:
-    """Axes leaned back within the machine's tilt reach (``res["max_tilt_deg"]``), if any.
+    """Axes leaned back within the machine's tilt reach (``res.max_tilt_deg``), if any.
 
     Smoothed along the passes (:func:`~toolpath.planning.tool_axis.lean_within_tilt`)
     when ``smooth`` (the points are whole passes); else each point leans by its own need
     (points inserted between two axes within the reach need little or none).
     """
-    cap = res.get("max_tilt_deg", math.inf)
-    if not math.isfinite(cap) or not (angle_deg(axes, _Z) > cap).any():
+    cap = res.max_tilt_deg
+    if not math.isfinite(cap) or not (angle_deg(axes, Z_AXIS) > cap).any():
         return None
     lean = lean_within_tilt(axes, frame.normal, _rate_path(cutter, frame, pid), pid,
                             max_tilt_deg=cap, max_lean_deg=opts.max_lean_deg,
-                            smoothing_mm=res["axis_smoothing_mm"] if smooth else 0.0,
+                            smoothing_mm=res.axis_smoothing_mm if smooth else 0.0,
                             max_rate_deg_per_mm=opts.max_axis_rate_deg_per_mm,
                             moves=smooth)
     return lean
 
 
 def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-            res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
+            res: PlannedOptions, layout: PassLayout, t: NDArray[np.float64],
             s: NDArray[np.float64], pid: NDArray[np.int64], frame: PassFrame,
             nominal: NDArray[np.float64]) -> PassPoints:
     """Axes (smoothing, cone) and tips for evaluated contacts."""
@@ -420,7 +420,7 @@ def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
 
 
 def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-                    res: dict[str, float], layout: PassLayout, t: NDArray[np.float64],
+                    res: PlannedOptions, layout: PassLayout, t: NDArray[np.float64],
                     pid: NDArray[np.int64]) -> PassPoints:
     """Evaluate contacts ``(t, pid)`` (sorted by pass then ``t``) from scratch."""
     s = layout.s_of(t, pid)
@@ -430,7 +430,7 @@ def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingO
 
 
 def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-                  res: dict[str, float], layout: PassLayout, pts: PassPoints,
+                  res: PlannedOptions, layout: PassLayout, pts: PassPoints,
                   t_new: NDArray[np.float64], pid_new: NDArray[np.int64]
                   ) -> tuple[PassPoints, NDArray[np.int64], bool]:
     """Merge new contacts into ``pts``.
@@ -552,7 +552,7 @@ def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
 
 
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-                  res: dict[str, float], layout: PassLayout, pts: PassPoints,
+                  res: PlannedOptions, layout: PassLayout, pts: PassPoints,
                   keep: NDArray[np.bool_] | None = None, machine: Machine | None = None
                   ) -> tuple[PassPoints, NDArray[np.bool_] | None, float]:
     """Split chords whose mid-chord cutter-to-surface gap exceeds the chord tolerance.
@@ -568,7 +568,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     :func:`~toolpath.planning.sampling.ball_end_slopes`) and its largest gap estimated
     (:func:`~toolpath.planning.sampling.chord_extremes`); chords cutting deeper
     than ``chord_tol_mm`` or standing higher than the undercut allowance
-    (``res["undercut_mm"]``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
+    (``res.undercut_mm``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
     are split into equal parameter steps, as many as the gap's excess needs
     (:data:`SPLIT_TARGET`). Only new chords are checked again. ``keep`` (reachable
     points) travels along: a chord between two kept points is checked; an inserted point
@@ -582,7 +582,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         were checked: every final move (an upper bound where an insertion smoothed the
         axes again and moved a checked move's ends).
     """
-    tol = res["chord_tol_mm"]
+    tol = res.planned_chord_tol_mm
     n_start = len(pts)
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = 0.0
@@ -617,7 +617,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # the model is close, not exact: where an extreme is within 10 % of its limit,
         # measure there (a move can both cut in and stand above: both sides are checked)
         sides = ((low, u_low, tol, -1.0, np.minimum),
-                 (high, u_high, res["undercut_mm"], 1.0, np.maximum))
+                 (high, u_high, res.undercut_mm, 1.0, np.maximum))
         for value, u_at, limit, sign, further in sides:
             # (next to a measured place the model is pinned to the measurement)
             off_sample = np.abs(u_at[:, None] - fractions).min(axis=1) > MEASURED_NEAR_U
@@ -629,7 +629,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                                               pts.s, j, u_at[close, None], newton=1,
                                               refine_rim=True, **joint_moves(machine, q, j))
                 value[close] = further(value[close], exact[:, 0])
-        bad = (low < -tol) | (high > res["undercut_mm"])
+        bad = (low < -tol) | (high > res.undercut_mm)
         if q is not None:
             bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
         # a move shorter than the program's resolution (tip, plus the cutter radius times
@@ -649,7 +649,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         unchecked = float(np.maximum(-low, high)[bad].max())
         # each offending move in as many equal parts (in t) as its gap needs: the gap
         # shrinks with the square of the length
-        over = np.maximum(-low / tol, high / res["undercut_mm"])[bad]
+        over = np.maximum(-low / tol, high / res.undercut_mm)[bad]
         parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
         j = idx[bad]
         new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)

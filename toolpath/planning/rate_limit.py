@@ -16,13 +16,23 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["RATE_MARGIN", "RATE_ROUNDS", "rate_limited_axes"]
+__all__ = [
+    "LEAST_RATE_SLACK",
+    "RATE_MARGIN",
+    "RATE_ROUNDS",
+    "angle_deg_at",
+    "rate_limited_axes",
+    "segment_rate",
+]
 
 #: Rounds of :func:`rate_limited_axes` that tighten a pass's in-plane rate where the axis'
 #: sideways turn (the frame's own twist) puts the true rate over the limit.
 RATE_ROUNDS = 6
 #: The in-plane rate aimed at, as a share of the limit (room for the sideways turn).
 RATE_MARGIN = 0.98
+#: The least rate that fits a tube is taken this much larger (relative), for the
+#: round-off of the slews' sums.
+LEAST_RATE_SLACK = 1e-12
 
 
 def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
@@ -220,7 +230,7 @@ def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean,
                 trial[j, c] = cb * (cp * ex[c] + sp * ey[c]) + sb * pole[c]
         worst = 0.0
         for j in range(1, m):
-            worst = max(worst, _segment_rate(trial, j - 1, x[a + j] - x[a + j - 1]))
+            worst = max(worst, segment_rate(trial, j - 1, x[a + j] - x[a + j - 1]))
         if worst < best or best == np.inf:
             best = worst
             out[:] = trial
@@ -246,7 +256,7 @@ def _wrap_pi(angle):
 
 
 @numba.njit(cache=True, inline="always")
-def _angle_deg_at(a, b, i, j):
+def angle_deg_at(a, b, i, j):
     """The angle between unit rows ``a[i]`` and ``b[j]``, deg (``atan2(|a x b|, a . b)``)."""
     c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
     c1 = a[i, 2] * b[j, 0] - a[i, 0] * b[j, 2]
@@ -256,12 +266,12 @@ def _angle_deg_at(a, b, i, j):
 
 
 @numba.njit(cache=True, inline="always")
-def _segment_rate(axes, i, length):
+def segment_rate(axes, i, length):
     """Turn of the axis from row ``i`` to ``i + 1`` per ``length``, deg/mm.
 
     A segment shorter than 1e-12 mm turning by more than 1e-9 deg turns at ``inf``.
     """
-    turn = _angle_deg_at(axes, axes, i, i + 1)
+    turn = angle_deg_at(axes, axes, i, i + 1)
     if length > 1e-12:
         return turn / length
     return np.inf if turn > 1e-9 else 0.0
@@ -302,11 +312,6 @@ def _fit_tube(x, lo, hi, want, rate, phi):
         else:
             low = mid
     _rate_tube(x, lo, hi, want, high, False, phi)
-
-
-#: The least rate that fits a tube is taken this much larger (relative), for the
-#: round-off of the slews' sums.
-LEAST_RATE_SLACK = 1e-12
 
 
 @numba.njit(cache=True)

@@ -46,7 +46,7 @@ from .local import (
     project_to_surface,
     signed_distance_near,
 )
-from .tool_axis import _segment
+from .tool_axis import segment_index
 
 __all__ = [
     "CHORD_FRACTIONS",
@@ -183,7 +183,7 @@ def _pass_densities(t_grid, s_grid, density, s_start, s_end, out):
         for i in range(t_grid.size):
             if i == 0 or not level:
                 ss = s_start[p] + (s_end[p] - s_start[p]) * t_grid[i]
-                j = _segment(s_grid, ss)  # s_grid[j] <= ss < s_grid[j + 1], clamped
+                j = segment_index(s_grid, ss)  # s_grid[j] <= ss < s_grid[j + 1], clamped
                 w = (ss - s_grid[j]) / (s_grid[j + 1] - s_grid[j])
             out[p, i] = (1.0 - w) * density[i, j] + w * density[i, j + 1]
 

@@ -32,10 +32,12 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from .rate_limit import _angle_deg_at, _segment_rate, rate_limited_axes
+from ..vectors import unit
+from .rate_limit import angle_deg_at, rate_limited_axes, segment_rate
 
 __all__ = [
     "LEAN_RATE_SHARE",
+    "Z_AXIS",
     "AxisSmoothing",
     "TiltLean",
     "angle_deg",
@@ -44,17 +46,14 @@ __all__ = [
     "keep_min_lean",
     "lean_within_tilt",
     "limit_lean",
+    "segment_index",
     "segment_turn_rates",
     "slerp",
     "smooth_axes",
 ]
 
-_Z = np.array([0.0, 0.0, 1.0])
-
-
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    norm = np.linalg.norm(v, axis=-1, keepdims=True)
-    return v / np.where(norm > 0.0, norm, 1.0)
+#: The workpiece +Z (the axis tilt and the singular cone are measured from).
+Z_AXIS = np.array([0.0, 0.0, 1.0])
 
 
 def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
@@ -69,7 +68,7 @@ def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
 @numba.njit(cache=True, parallel=True)
 def _angles_deg(a, b, out):
     for i in numba.prange(a.shape[0]):
-        out[i] = _angle_deg_at(a, b, i, i)
+        out[i] = angle_deg_at(a, b, i, i)
 
 
 def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
@@ -120,7 +119,7 @@ def slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
     safe = np.where(small, 1.0, sin)
     out = np.where(small, (1.0 - w) * a + w * b,
                    (np.sin((1.0 - w) * theta) * a + np.sin(w * theta) * b) / safe)
-    return _unit(out)
+    return unit(out)
 
 
 def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64],
@@ -139,7 +138,7 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
 @numba.njit(cache=True, parallel=True)
 def _turn_rates(axes, arclen, same, out):
     for i in numba.prange(out.size):
-        out[i] = _segment_rate(axes, i, arclen[i + 1] - arclen[i]) if same[i] else 0.0
+        out[i] = segment_rate(axes, i, arclen[i + 1] - arclen[i]) if same[i] else 0.0
 
 
 def _pass_coordinate(arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64]
@@ -205,7 +204,7 @@ def _unit_or_nominal(averaged, nominal, weak):
 
 
 @numba.njit(cache=True)
-def _segment(x, v):
+def segment_index(x, v):
     """``j`` with ``x[j] <= v < x[j + 1]`` (clamped to ``[0, x.size - 2]``), by bisection."""
     lo, hi = 0, x.size - 1
     while hi - lo > 1:
@@ -219,9 +218,9 @@ def _segment(x, v):
 
 @numba.njit(cache=True)
 def _walk(x, v, j):
-    """:func:`_segment` from a guess ``j`` at or before it."""
+    """:func:`segment_index` from a guess ``j`` at or before it."""
     if x[j] > v:
-        return _segment(x, v)
+        return segment_index(x, v)
     while j < x.size - 2 and x[j + 1] <= v:
         j += 1
     return j
@@ -249,7 +248,7 @@ def _window_means(values, x, lo, hi, out):
                                                                                    - x[i - 1])
     for block in numba.prange((n + _WINDOW_BLOCK - 1) // _WINDOW_BLOCK):
         first = block * _WINDOW_BLOCK
-        j_lo, j_hi = _segment(x, lo[first]), _segment(x, hi[first])
+        j_lo, j_hi = segment_index(x, lo[first]), segment_index(x, hi[first])
         for i in range(first, min(first + _WINDOW_BLOCK, n)):
             width = hi[i] - lo[i]
             if width <= 1e-12:
@@ -326,7 +325,7 @@ def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over)
         if abs(dot - cos_lean) > 1e-9:
             over[i] = dot < cos_lean
         else:
-            over[i] = _angle_deg_at(axes, normals, i, i) > max_lean_deg
+            over[i] = angle_deg_at(axes, normals, i, i) > max_lean_deg
         if not over[i]:
             out[i, :] = axes[i, :]
             continue
@@ -428,7 +427,7 @@ def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
     ``a' = cos(c) Z + sin(c) h`` with ``h`` the unit horizontal part of ``a`` (or of
     ``fallback`` where ``a`` is vertical). Returns the axes and how many were moved.
     """
-    theta = angle_deg(axes, _Z)
+    theta = angle_deg(axes, Z_AXIS)
     inside = theta < min_cone_deg
     if not inside.any():
         return axes, 0
@@ -442,7 +441,7 @@ def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
         ..., None], np.array([1.0, 0.0, 0.0]))
     h = np.where(size[:, None] > 1e-9, horiz / np.where(size > 1e-9, size, 1.0)[:, None], fb)
     c = np.radians(min_cone_deg)
-    pushed = np.cos(c) * _Z + np.sin(c) * h
+    pushed = np.cos(c) * Z_AXIS + np.sin(c) * h
     return np.where(inside[:, None], pushed, axes), int(inside.sum())
 
 
@@ -476,13 +475,13 @@ def _toward_z(v: NDArray[np.float64], lean_deg: NDArray[np.float64]) -> NDArray[
     ``v = cos(th) Z + sin(th) h`` (``h`` the unit horizontal part) becomes
     ``cos(th - L) Z + sin(th - L) h``: the azimuth is kept.
     """
-    theta = np.radians(angle_deg(v, _Z))
+    theta = np.radians(angle_deg(v, Z_AXIS))
     horiz = v.copy()
     horiz[:, 2] = 0.0
     size = np.linalg.norm(horiz, axis=1)
     h = horiz / np.where(size > 1e-12, size, 1.0)[:, None]
     th = theta - np.radians(lean_deg)
-    out = np.cos(th)[:, None] * _Z + np.sin(th)[:, None] * h
+    out = np.cos(th)[:, None] * Z_AXIS + np.sin(th)[:, None] * h
     return np.where((size > 1e-12)[:, None], out, v)
 
 
@@ -523,8 +522,8 @@ def _leaned(axes: NDArray[np.float64], lean_deg: NDArray[np.float64],
     if not over.any():
         return out
     a, n = out[over], normals[over]
-    tilt = np.radians(angle_deg(a, _Z))
-    th_n = np.radians(angle_deg(n, _Z))
+    tilt = np.radians(angle_deg(a, Z_AXIS))
+    th_n = np.radians(angle_deg(n, Z_AXIS))
     phi_n = np.arctan2(n[:, 1], n[:, 0])
     phi = np.arctan2(a[:, 1], a[:, 0])
     denominator = np.sin(tilt) * np.sin(th_n)
@@ -609,7 +608,7 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
     """
     axes = np.ascontiguousarray(axes, dtype=float)
     n = len(axes)
-    theta = angle_deg(axes, _Z)
+    theta = angle_deg(axes, Z_AXIS)
     need = np.maximum(theta - max_tilt_deg, 0.0)
     if not (need > 0.0).any():
         return TiltLean(axes, np.zeros(n), np.zeros(n, dtype=bool))
@@ -622,12 +621,12 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
         # a move's axes in between (the normalized mean of its ends: the post's split
         # points) lie off the circle th = max_tilt_deg, further from +Z beyond 90 deg:
         # its ends lean further by the excess
-        mid = _unit(out[1:] + out[:-1])
-        excess = np.where(same, angle_deg(mid, _Z) - max_tilt_deg, 0.0)
+        mid = unit(out[1:] + out[:-1])
+        excess = np.where(same, angle_deg(mid, Z_AXIS) - max_tilt_deg, 0.0)
         if not (excess > 1e-9).any():
             break
         grow = np.maximum(np.r_[excess, 0.0], np.r_[0.0, excess])
         need = need + 1.5 * np.maximum(grow, 0.0)
-    impossible = angle_deg(normals, _Z) - max_lean_deg > max_tilt_deg + 1e-9
+    impossible = angle_deg(normals, Z_AXIS) - max_lean_deg > max_tilt_deg + 1e-9
     moved = angle_deg(out, axes)
     return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible)
