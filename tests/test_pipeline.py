@@ -105,8 +105,7 @@ def _job_report(*, scallop_mm, gouge_mm):
 ])
 def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
         tmp_path, monkeypatch, capsys, scallop_mm, gouge_mm, exceeded):
-    from streamline_cam import cli
-    from streamline_cam.commands import run as run_command
+    from streamline_cam import cli, pipeline
     from streamline_cam.pipeline import JobResult
 
     gcode = tmp_path / "part.nc"
@@ -117,7 +116,7 @@ def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
         return JobResult(_job_report(scallop_mm=scallop_mm, gouge_mm=gouge_mm),
                          {"gcode": gcode})
 
-    monkeypatch.setattr(run_command, "run_job", finished)
+    monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
     code = cli.main(["run", "sections.csv", "--verify", "--quiet"])
     err = capsys.readouterr().err
     assert code == (1 if exceeded else 0)
