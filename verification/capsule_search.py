@@ -33,7 +33,7 @@ IntArray = NDArray[np.int64]
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, span: int, dims: IntArray, origin: FloatArray, cell: float,
+          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
@@ -44,6 +44,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
         cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
         ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
+        span = spans[q]
         k0 = max(ck - span, 0)
         k1 = min(ck + span, dims[2] - 1)
         best = lam[q]
@@ -106,7 +107,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         pairs[q] = n
 
 
-def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs: FloatArray,
+def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatArray,
+                           dirs: FloatArray,
                            centres: FloatArray, reach_mm: FloatArray, sorted_mid: FloatArray,
                            sorted_half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
                            axis: FloatArray, radius_mm: float, behind_cosine: float, *,
@@ -123,8 +125,9 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
     ----------
     grid : PieceGrid
         The pieces by cell.
-    span : int
-        Cells searched on each side of a centre's cell (covers ``reach_mm``).
+    span : int or ndarray of int64, shape (q,)
+        Cells searched on each side of a centre's cell (covers ``reach_mm``), one for all
+        or one per dexel.
     points, dirs : ndarray, shape (q, 3)
         Dexel origins (mm) and unit directions.
     centres : ndarray, shape (q, 3)
@@ -168,11 +171,13 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
     dims = np.asarray(grid.dims, dtype=np.int64)
     cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
     # far (or non-finite) centres: a cell beyond the reach of any piece
-    cell = np.clip(np.nan_to_num(cell, nan=-span - 1.0), -span - 1.0,
-                   (dims + span).astype(float)).astype(np.int64)
+    spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
+    far = (-spans - 1.0)[:, None]
+    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
+                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
     f = np.ascontiguousarray
     _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-          f(reach_mm * reach_mm, dtype=float), f(cell), int(span), dims,
+          f(reach_mm * reach_mm, dtype=float), f(cell), spans, dims,
           f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
           grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
           float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
