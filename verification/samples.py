@@ -24,6 +24,7 @@ from numpy.typing import NDArray
 from toolpath.surface import ParametricSurface, parameter_pairs
 
 from .errors import VerificationError
+from .vectors import row_norms
 
 __all__ = ["DesignSamples", "sample_design", "surface_points_normals"]
 
@@ -131,8 +132,8 @@ def surface_points_normals(surface: ParametricSurface, t: FloatArray, s: FloatAr
     parts = surface._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
     points, xt, xs = (parts[order].reshape((*shape, 3)) for order in ((0, 0), (1, 0), (0, 1)))
     cross = np.cross(xt, xs)
-    jac = np.linalg.norm(cross, axis=-1)
-    ok = jac > 1e-12 * np.maximum(np.linalg.norm(xt, axis=-1) * np.linalg.norm(xs, axis=-1),
+    jac = row_norms(cross)
+    ok = jac > 1e-12 * np.maximum(row_norms(xt) * row_norms(xs),
                                   1e-300)
     normals = np.where(ok[..., None], cross / np.where(ok, jac, 1.0)[..., None], 0.0)
     return points, surface.orientation * normals, jac
