@@ -33,7 +33,8 @@ IntArray = NDArray[np.int64]
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, span: int, dims: IntArray, starts: IntArray, order: IntArray,
+          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
           piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray) -> None:
@@ -43,21 +44,38 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
         cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
         ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
+        span = spans[q]
         k0 = max(ck - span, 0)
         k1 = min(ck + span, dims[2] - 1)
         best = lam[q]
         best_piece = -1
         best_behind = False
         n = 0
+        # only the cells the search ball meets (a little wider: the cells' borders here
+        # and in the grid's floor may round apart): a column whose square lies farther than
+        # the radius is skipped, the others walked over the ball's height above the square
+        rim = 1e-6 * cell
         if k0 <= k1:
             for i in range(ci - span, ci + span + 1):
                 if i < 0 or i >= dims[0]:
                     continue
+                x0 = origin[0] + i * cell
+                gx = max(x0 - rim - cx, cx - (x0 + cell + rim), 0.0)
                 for j in range(cj - span, cj + span + 1):
                     if j < 0 or j >= dims[1]:
                         continue
+                    y0 = origin[1] + j * cell
+                    gy = max(y0 - rim - cy, cy - (y0 + cell + rim), 0.0)
+                    across = lim2[q] - gx * gx - gy * gy
+                    if not across >= 0.0:
+                        continue
+                    height = math.sqrt(across) + rim
+                    lo_k = max(k0, math.floor((cz - height - origin[2]) / cell))
+                    hi_k = min(k1, math.floor((cz + height - origin[2]) / cell))
+                    if lo_k > hi_k:
+                        continue
                     column = (i * dims[1] + j) * dims[2]
-                    for slot in range(starts[column + k0], starts[column + k1 + 1]):
+                    for slot in range(starts[column + lo_k], starts[column + hi_k + 1]):
                         # midpoints and half lengths are stored in the grid's order
                         mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
                         if not mx * mx + my * my + mz * mz <= lim2[q]:
@@ -89,7 +107,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         pairs[q] = n
 
 
-def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs: FloatArray,
+def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatArray,
+                           dirs: FloatArray,
                            centres: FloatArray, reach_mm: FloatArray, sorted_mid: FloatArray,
                            sorted_half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
                            axis: FloatArray, radius_mm: float, behind_cosine: float, *,
@@ -106,8 +125,9 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
     ----------
     grid : PieceGrid
         The pieces by cell.
-    span : int
-        Cells searched on each side of a centre's cell (covers ``reach_mm``).
+    span : int or ndarray of int64, shape (q,)
+        Cells searched on each side of a centre's cell (covers ``reach_mm``), one for all
+        or one per dexel.
     points, dirs : ndarray, shape (q, 3)
         Dexel origins (mm) and unit directions.
     centres : ndarray, shape (q, 3)
@@ -151,11 +171,14 @@ def lowest_capsule_entries(grid: PieceGrid, span: int, points: FloatArray, dirs:
     dims = np.asarray(grid.dims, dtype=np.int64)
     cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
     # far (or non-finite) centres: a cell beyond the reach of any piece
-    cell = np.clip(np.nan_to_num(cell, nan=-span - 1.0), -span - 1.0,
-                   (dims + span).astype(float)).astype(np.int64)
+    spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
+    far = (-spans - 1.0)[:, None]
+    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
+                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
     f = np.ascontiguousarray
     _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-          f(reach_mm * reach_mm, dtype=float), f(cell), int(span), dims, grid.starts,
+          f(reach_mm * reach_mm, dtype=float), f(cell), spans, dims,
+          f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
           grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
           float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf

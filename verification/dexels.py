@@ -240,23 +240,22 @@ class SweepIndex:
         reach = radii_mm + pieces.max_half_mm
         grid = self._grid(which, float(np.median(reach)))
         spans = grid.span_of(reach)
+        if self.corner_radius_mm is None and self.compiled:
+            # one walk, each dexel over its own span of cells
+            lam, hit, behind, pairs = lowest_capsule_entries(
+                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
+                pieces.a, pieces.e, pieces.ee, pieces.axis, self.radius_mm, BEHIND_COSINE,
+                below_mm=below_mm)
+            qi = np.flatnonzero(hit >= 0)
+            hit = hit[qi]
+            out.lam_mm[qi] = lam[qi]
+            out.move[qi] = pieces.moves_at(hit, points[qi])
+            out.shank[qi] = pieces.shank[hit]
+            out.behind[qi] = behind[qi]
+            return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
         pairs = 0
         for span in np.unique(spans):
             sel = np.flatnonzero(spans == span)
-            if self.corner_radius_mm is None and self.compiled:
-                lam, hit, behind, n = lowest_capsule_entries(
-                    grid, int(span), points[sel], dirs[sel], centres[sel], reach[sel],
-                    *self._sorted[id(grid)], pieces.a, pieces.e, pieces.ee, pieces.axis,
-                    self.radius_mm, BEHIND_COSINE,
-                    below_mm=None if below_mm is None else below_mm[sel])
-                pairs += n
-                found = hit >= 0
-                qi, hit = sel[found], hit[found]
-                out.lam_mm[qi] = lam[found]
-                out.move[qi] = pieces.moves_at(hit, points[qi])
-                out.shank[qi] = pieces.shank[hit]
-                out.behind[qi] = behind[found]
-                continue
             cen, lim2 = centres[sel], reach[sel] ** 2
             for query, piece in grid.candidate_batches(cen, int(span),
                                                        max_pairs=self.max_pairs):

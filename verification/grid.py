@@ -1,11 +1,13 @@
-"""Spatial bucketing of capsule pieces on a uniform grid (numpy only).
+"""Spatial bucketing of capsule pieces on a uniform grid.
 
 Pieces are registered by their midpoint in cubic cells of side ``cell_mm`` over a box (the
 reach of the surface samples; pieces outside it cannot touch a sample and are dropped).
-The cells are a dense array of offsets into the pieces sorted by cell (a counting sort), so
-a query is a direct index, not a tree walk. A query ball of radius ``rho`` around a point
-is covered by the ``(2k + 1)^3`` cells around the point's cell with ``k = ceil(rho / c)``;
-queries are grouped by ``k`` and expanded into candidate pairs in bounded batches.
+The cells are a dense array of offsets into the pieces sorted by cell (a counting sort, in
+compiled code: one pass over the pieces and one over the cells, no temporaries the size of
+the grid), so a query is a direct index, not a tree walk. A query ball of radius ``rho``
+around a point is covered by the ``(2k + 1)^3`` cells around the point's cell with
+``k = ceil(rho / c)``; queries are grouped by ``k`` and expanded into candidate pairs in
+bounded batches.
 
 The cost of verification is the number of candidate pairs, about (area of the query disc
 on the sheet of ball centres) x (pieces per mm^2 of that sheet), never blocks x samples.
@@ -17,6 +19,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Final
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -79,15 +82,10 @@ class PieceGrid:
             cell *= (volume_cells / MAX_CELLS) ** (1.0 / 3.0) * 1.01
         dims_arr = np.maximum(np.ceil(span / cell).astype(np.int64) + 1, 1)
         dims = (int(dims_arr[0]), int(dims_arr[1]), int(dims_arr[2]))
-        ijk = np.floor((midpoints - lo) / cell).astype(np.int64)
-        inside = ((ijk >= 0) & (ijk < dims_arr)).all(axis=1)
-        keep = np.flatnonzero(inside)
-        key = (ijk[keep, 0] * dims[1] + ijk[keep, 1]) * dims[2] + ijk[keep, 2]
-        n_cells = dims[0] * dims[1] * dims[2]
-        counts = np.bincount(key, minlength=n_cells)
-        starts = np.zeros(n_cells + 1, dtype=np.int64)
-        np.cumsum(counts, out=starts[1:])
-        order = keep[np.argsort(key, kind="stable")]
+        # far (or non-finite) midpoints: a cell outside the grid, left out
+        ijk = np.floor(np.clip(np.nan_to_num((midpoints - lo) / cell, nan=-1.0), -1.0,
+                               float(dims_arr.max()))).astype(np.int64)
+        starts, order = _counting_sort(np.ascontiguousarray(ijk), dims_arr)
         return cls(lo, cell, dims, starts, order)
 
     @property
@@ -177,3 +175,31 @@ class PieceGrid:
         list_len = count.reshape(valid.shape).sum(axis=1)
         list_start = np.cumsum(list_len) - list_len
         return lists, list_start, list_len
+
+
+@numba.njit(cache=True)
+def _counting_sort(ijk: IntArray, dims: IntArray) -> tuple[IntArray, IntArray]:
+    """Pieces inside the grid sorted by cell ``(i n_j + j) n_k + k`` (stable), and offsets.
+
+    ``starts[c]`` counts the pieces of the cells before ``c``; ``order`` lists the pieces
+    cell by cell, in their own order within a cell (the stable sort of their cell keys).
+    """
+    n_cells = dims[0] * dims[1] * dims[2]
+    starts = np.zeros(n_cells + 1, dtype=np.int64)
+    key = np.full(ijk.shape[0], -1, dtype=np.int64)
+    for p in range(ijk.shape[0]):
+        i, j, k = ijk[p, 0], ijk[p, 1], ijk[p, 2]
+        if 0 <= i < dims[0] and 0 <= j < dims[1] and 0 <= k < dims[2]:
+            key[p] = (i * dims[1] + j) * dims[2] + k
+            starts[key[p] + 1] += 1
+    for c in range(n_cells):
+        starts[c + 1] += starts[c]
+    order = np.empty(starts[n_cells], dtype=np.int64)
+    for p in range(ijk.shape[0]):  # starts[c] runs up to the next cell's start
+        if key[p] >= 0:
+            order[starts[key[p]]] = p
+            starts[key[p]] += 1
+    for c in range(n_cells, 0, -1):
+        starts[c] = starts[c - 1]
+    starts[0] = 0
+    return starts, order

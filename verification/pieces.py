@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .replay import ToolMotion
+from .vectors import row_norms
 
 __all__ = ["Pieces", "ball_pieces", "cutter_pieces", "shank_pieces", "simplify_polyline"]
 
@@ -200,7 +201,7 @@ def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
         v = points[a_i[owner] + 1 + k] - points[a_i[owner]]
         f = np.clip(np.einsum("ij,ij->i", v, ac[owner]) / np.where(aa > 0.0, aa, 1.0)[owner],
                     0.0, 1.0)
-        dist = np.linalg.norm(v - f[:, None] * ac[owner], axis=1)
+        dist = row_norms(v - f[:, None] * ac[owner])
         worst = np.zeros(p.shape[0])
         if owner.shape[0]:
             np.maximum.at(worst, owner, dist)
@@ -226,7 +227,7 @@ def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0:
     axes at ``b``) every piece holds the normalised interpolated axis at its middle;
     otherwise the segment's ``axis``.
     """
-    length = np.linalg.norm(b - a, axis=1)
+    length = row_norms(b - a)
     count = np.maximum(np.ceil(length / max_piece_mm), 1).astype(np.int64)
     if min_count is not None:
         count = np.maximum(count, min_count)
@@ -261,7 +262,7 @@ def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0:
 
 def _path(motion: ToolMotion, radius_mm: float) -> tuple[FloatArray, FloatArray]:
     centres = motion.tips_mm + radius_mm * motion.axes
-    step = np.linalg.norm(np.diff(centres, axis=0), axis=1)
+    step = row_norms(np.diff(centres, axis=0))
     return centres, np.concatenate(([0.0], np.cumsum(step)))
 
 
@@ -334,8 +335,8 @@ def shank_pieces(motion: ToolMotion, radius_mm: float, flute_length_mm: float,
                       np.zeros(0, dtype=np.bool_), empty, none, none, path_arc, path_move,
                       none)
     tops = centres + height * motion.axes
-    step = np.maximum(np.linalg.norm(np.diff(centres, axis=0), axis=1),
-                      np.linalg.norm(np.diff(tops, axis=0), axis=1))
+    step = np.maximum(row_norms(np.diff(centres, axis=0)),
+                      row_norms(np.diff(tops, axis=0)))
     cum = np.concatenate(([0.0], np.cumsum(step)))
     total = float(cum[-1])
     n = max(int(np.ceil(total / spacing_mm)), 0) + 1

@@ -44,6 +44,7 @@ from gcode.program import AXES, Arc, Linear, Program, Rapid
 from machines import Machine, Wrap, forward
 
 from .errors import VerificationError
+from .vectors import row_norms
 
 __all__ = ["MAX_SUBSTEPS", "ToolMotion", "replay"]
 
@@ -199,8 +200,8 @@ def _midpoint_errors(machine: Machine, j0: FloatArray, j1: FloatArray, moves: In
     tip1, _, cen1 = _pose(machine, j0, j1, move, u, radius_mm)
     tip0, _, cen0 = _pose(machine, j0, j1, move, u - du, radius_mm)
     tipm, _, cenm = _pose(machine, j0, j1, move, u - 0.5 * du, radius_mm)
-    err = np.maximum(np.linalg.norm(tipm - 0.5 * (tip0 + tip1), axis=1),
-                     np.linalg.norm(cenm - 0.5 * (cen0 + cen1), axis=1))
+    err = np.maximum(row_norms(tipm - 0.5 * (tip0 + tip1)),
+                     row_norms(cenm - 0.5 * (cen0 + cen1)))
     out = np.zeros(moves.shape[0])
     np.maximum.at(out, move_local, err)
     return out
@@ -247,7 +248,7 @@ def _chord_deviation(tips: FloatArray, move: IntArray, counts: IntArray) -> Floa
     rel = tips[rows] - p0[k]
     dd = np.einsum("ij,ij->i", d, d)
     f = np.clip(np.einsum("ij,ij->i", rel, d) / np.where(dd > 0.0, dd, 1.0), 0.0, 1.0)
-    dist = np.linalg.norm(rel - f[:, None] * d, axis=1)
+    dist = row_norms(rel - f[:, None] * d)
     np.maximum.at(out, k, dist)
     return out
 

@@ -17,6 +17,7 @@ from numpy.typing import NDArray
 from .dexels import DexelResult, SweepIndex, near_search_radius_mm
 from .options import DexelMethod
 from .samples import DesignSamples
+from .vectors import row_norms
 
 __all__ = ["Z_MIN_COSINE", "Dexels", "grid_search", "scatter"]
 
@@ -61,7 +62,7 @@ class Dexels:
             dirs = np.zeros_like(normals)
             dirs[:, 2] = 1.0
             return dirs, normals[:, 2].copy()
-        return normals, np.linalg.norm(normals, axis=1)
+        return normals, row_norms(normals)
 
     def visible(self, normals: FloatArray) -> NDArray[np.bool_]:
         """Samples whose dexel is defined (Z-map: facing up enough)."""
