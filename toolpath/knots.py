@@ -83,7 +83,9 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
 
     A sample (or two adjacent samples whose turns add up, when the true corner lies
     between them) is a corner when its turn is at least ``min_angle_deg`` and at least
-    ``CORNER_CONTRAST`` times the largest turn at the samples two to five steps away.
+    ``CORNER_CONTRAST`` times the largest turn at the samples two to five steps away and
+    at the samples just beside it (or beside the pair): a round nose sampled at steps near
+    its radius turns most at one or two samples too, but its turns ramp up to them.
     A closed loop (the last point equal to the first, as closed curves and sections are
     stored) is read round its seam: the samples beside the seam have neighbours on both
     sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
@@ -109,6 +111,11 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
             around = ring[np.r_[i - 5:i - 1, i + 3:i + 7] % ring.size]
         background = float(around.max()) if around.size else 0.0
         single = turn[i] >= threshold and turn[i] >= 0.85 * pair
+        # the turns beside it: a round nose sampled coarsely ramps up to its largest turns
+        # (propeller LE: 14, 25, 38, 32, 16 deg), a corner's sides do not
+        beside = (ring[np.r_[i - 1, i + (1 if single else 2)] % ring.size] if ring is not None
+                  else turn[[k for k in (i - 1, i + (1 if single else 2)) if 0 <= k < n]])
+        background = max(background, float(beside.max()) if beside.size else 0.0)
         if single and turn[i] >= CORNER_CONTRAST * background:
             corners.append(Corner(float(t[i + 1]), float(np.degrees(turn[i])), i + 1))
             i += 3

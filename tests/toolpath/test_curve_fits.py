@@ -279,3 +279,23 @@ def test_knots_are_shared_among_pieces_by_mass_and_counted_exactly():
     first = np.count_nonzero(inner < corners[0].t) + 1
     second = np.count_nonzero(inner > corners[0].t) + 1
     assert (first, second) == (8, 16)
+
+
+def _polyline_turning(turns_deg, step_mm=0.5):
+    """An open polyline of equal steps turning by ``turns_deg`` at its interior samples."""
+    heading = np.concatenate(([0.0], np.cumsum(np.radians(turns_deg))))
+    steps = step_mm * np.c_[np.cos(heading), np.sin(heading)]
+    return np.vstack(([0.0, 0.0], np.cumsum(steps, axis=0)))
+
+
+def test_a_round_nose_whose_turns_ramp_up_is_no_corner():
+    # the propeller's LE sampled at steps near its radius: 14, 25, 38, 32, 16 deg (its
+    # pair, 70 deg, is 5x the turns two steps away); a C0 knot there creased the surface
+    flank = [1.0] * 12
+    nose = [*flank, 2.0, 4.0, 8.0, 14.0, 25.0, 38.0, 32.0, 16.0, 8.0, 4.0, 2.0, *flank]
+    points = _polyline_turning(nose)
+    assert detect_corners(points, unit_curve_parameters(points)) == []
+    corner = [*flank, 1.0, 1.0, 1.0, 2.0, 2.0, 70.0, 2.0, 2.0, 1.0, 1.0, 1.0, *flank]
+    points = _polyline_turning(corner)
+    found = detect_corners(points, unit_curve_parameters(points))
+    assert [c.index for c in found] == [18] and abs(found[0].angle_deg - 70.0) < 1e-6
