@@ -22,7 +22,6 @@ import importlib.util
 import logging
 import os
 import threading
-import time
 import uuid
 from collections.abc import Callable, Iterable, Iterator
 from contextlib import contextmanager
@@ -36,6 +35,7 @@ from .job_task import (
     JobInterrupted,
     JobOutcome,
     PackedJob,
+    ThrottledProgress,
     pack_job,
     run_packed_job,
     warm_up,
@@ -195,20 +195,15 @@ def dashboard_link(client: Client) -> str | None:
     return client.dashboard_link
 
 
-class _ProgressEvents:
+class _ProgressEvents(ThrottledProgress):
     """``progress(stage, fraction)`` on a worker: throttled events under the job's topic."""
 
     def __init__(self, topic: str) -> None:
+        super().__init__(PROGRESS_INTERVAL_S)
         self._topic = topic
         self._worker = distributed.get_worker()
-        self._last: dict[str, float] = {}
 
-    def __call__(self, stage: str, fraction: float) -> None:
-        now = time.monotonic()
-        ends = fraction <= 0.0 or fraction >= 1.0
-        if not ends and now - self._last.get(stage, -1e9) < PROGRESS_INTERVAL_S:
-            return
-        self._last[stage] = now
+    def emit(self, stage: str, fraction: float) -> None:
         self._worker.log_event(self._topic, {"stage": stage, "fraction": float(fraction)})
 
 

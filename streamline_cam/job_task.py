@@ -36,6 +36,7 @@ __all__ = [
     "JobInterrupted",
     "JobOutcome",
     "PackedJob",
+    "ThrottledProgress",
     "pack_job",
     "run_packed_job",
     "warm_up",
@@ -46,6 +47,31 @@ __all__ = [
 USER_ERRORS: Final = (ToolpathError, MachineError, GCodeError)
 
 Progress = Callable[[str, float], None]
+
+
+class ThrottledProgress:
+    """``progress(stage, fraction)`` passed on at most once per ``interval_s`` per stage.
+
+    A stage's start (fraction <= 0) and end (>= 1) always pass; subclasses say where to
+    (:meth:`emit`): the service's job store, a Dask worker's event log.
+    """
+
+    def __init__(self, interval_s: float) -> None:
+        self._interval_s = interval_s
+        self._last: dict[str, float] = {}
+
+    def __call__(self, stage: str, fraction: float) -> None:
+        """Pass ``fraction`` of ``stage`` on if it starts or ends the stage or is due."""
+        now = time.monotonic()
+        ends = fraction <= 0.0 or fraction >= 1.0
+        if not ends and now - self._last.get(stage, -1e9) < self._interval_s:
+            return
+        self._last[stage] = now
+        self.emit(stage, fraction)
+
+    def emit(self, stage: str, fraction: float) -> None:
+        """Deliver one progress figure (the subclass's destination)."""
+        raise NotImplementedError
 
 
 class JobInterrupted(Exception):

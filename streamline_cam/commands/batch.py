@@ -6,19 +6,10 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..cli_types import positive_int
 from .run import add_job_arguments, request_from_args
 
 __all__ = ["register"]
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return value
 
 
 def _row_line(row: dict) -> str:
@@ -104,7 +95,7 @@ def register(commands: argparse._SubParsersAction) -> None:
     engine.add_argument("--scheduler", metavar="tcp://HOST:8786",
                         help="a running Dask scheduler (`dask scheduler`) whose workers run "
                              "the jobs")
-    engine.add_argument("--workers", type=_positive_int,
+    engine.add_argument("--workers", type=positive_int,
                         help="worker processes of the local cluster (default: one per core)")
     parser.add_argument("--verify", action="store_true",
                         help="replay each program and measure what it cuts")

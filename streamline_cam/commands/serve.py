@@ -8,6 +8,7 @@ import socket
 import sys
 
 from ..cli_files import CommandLineError, output_folder
+from ..cli_types import positive_int
 
 __all__ = ["register", "serve"]
 
@@ -18,16 +19,6 @@ def _target(text: str) -> tuple[str, str]:
         raise argparse.ArgumentTypeError(
             f"expected NAME=ADDRESS (e.g. mill=socket://127.0.0.1:5000), got {text!r}")
     return name.strip(), address.strip()
-
-
-def _positive_int(text: str) -> int:
-    try:
-        value = int(text)
-    except ValueError:
-        value = 0
-    if value < 1:
-        raise argparse.ArgumentTypeError(f"expected an integer >= 1, got {text!r}")
-    return value
 
 
 def _port_number(text: str) -> int:
@@ -130,7 +121,7 @@ def register(commands: argparse._SubParsersAction) -> None:
                         help="port (0: any free port)")
     parser.add_argument("--data-dir", default="toolpath-service",
                         help="folder for jobs.sqlite3 and the jobs' files (./toolpath-service)")
-    parser.add_argument("--workers", type=_positive_int, default=default_workers(),
+    parser.add_argument("--workers", type=positive_int, default=default_workers(),
                         help="jobs run at once (default: cores - 1, 1 to 4)")
     parser.add_argument("--executor", choices=("process", "thread"), default="process",
                         help="run jobs in worker processes (default) or threads")
@@ -141,7 +132,7 @@ def register(commands: argparse._SubParsersAction) -> None:
     parser.add_argument("--max-upload-mb", type=float,
                         default=DEFAULT_MAX_UPLOAD_BYTES / 2**20,
                         help="largest request body, MiB (413 above)")
-    parser.add_argument("--max-queued", type=_positive_int, default=DEFAULT_MAX_QUEUED,
+    parser.add_argument("--max-queued", type=positive_int, default=DEFAULT_MAX_QUEUED,
                         help="queued jobs before submissions get 503")
     parser.add_argument("--target", action="append", type=_target, metavar="NAME=ADDRESS",
                         help="a stream target: NAME=socket://HOST:PORT or a serial port "

@@ -8,13 +8,12 @@ so the HTTP side reads it from SQLite whatever the executor.
 from __future__ import annotations
 
 import re
-import time
 import traceback
 from collections.abc import Callable
 from pathlib import Path
 from typing import Final, Protocol
 
-from ..job_task import USER_ERRORS, JobInterrupted, JobOutcome
+from ..job_task import USER_ERRORS, JobInterrupted, JobOutcome, ThrottledProgress
 from ..pipeline import JobRequest, run_job
 from .store import JobStore
 
@@ -63,19 +62,14 @@ def as_job_fields(message: str) -> str:
     return _FLAG.sub(field, message)
 
 
-class _Progress:
+class _Progress(ThrottledProgress):
     """``progress(stage, fraction)`` writing to the store at most every interval."""
 
     def __init__(self, store: JobStore, job_id: str, attempt: int) -> None:
+        super().__init__(PROGRESS_INTERVAL_S)
         self._store, self._job_id, self._attempt = store, job_id, attempt
-        self._last: dict[str, float] = {}
 
-    def __call__(self, stage: str, fraction: float) -> None:
-        now = time.monotonic()
-        ends = fraction <= 0.0 or fraction >= 1.0
-        if not ends and now - self._last.get(stage, -1e9) < PROGRESS_INTERVAL_S:
-            return
-        self._last[stage] = now
+    def emit(self, stage: str, fraction: float) -> None:
         self._store.set_progress(self._job_id, self._attempt, stage,
                                  min(max(float(fraction), 0.0), 1.0))
 
