@@ -21,8 +21,9 @@ from pathlib import Path
 
 from streamline_cam.batch import plan_batch, run_batch
 from streamline_cam.dask_engine import job_client
-from streamline_cam.job_task import run_packed_job, warm_up
+from streamline_cam.job_task import run_packed_job
 from streamline_cam.pipeline import JobRequest
+from streamline_cam.warmup import load_kernels
 
 DATA = Path(__file__).resolve().parent.parent / "toolpath" / "data"
 BLADES = ("dev_blade_15x142.csv", "dev_prop_7x100.csv", "dev_rotor_blunt_9x120.csv",
@@ -44,7 +45,7 @@ def main() -> None:
                 shutil.copy(DATA / name, paths[-1])
         jobs = plan_batch(paths, JobRequest(Path(), **OPTIONS))
 
-        warm_s = warm_up()
+        warm_s = load_kernels()
         start = time.perf_counter()
         for job in jobs:
             outcome = run_packed_job(job.packed)

@@ -6,7 +6,7 @@ The only module that imports ``dask``/``distributed`` (imported lazily by the co
 one :class:`~streamline_cam.job_task.JobOutcome` out (the report and the job's files as
 bytes), so workers need no disk shared with the client. Workers are set up once each by
 :class:`WorkerSetup`: the compiled kernels' threads limited so jobs side by side do not fight
-for cores, and the kernels loaded before the first job (:func:`~.job_task.warm_up`).
+for cores, and the kernels loaded before the first job (:func:`~.warmup.load_kernels`).
 
 Nothing lost, nothing twice: a worker that dies (killed, out of memory) takes its task with
 it and the scheduler runs the task again on another worker, up to
@@ -38,10 +38,10 @@ from .job_task import (
     ThrottledProgress,
     pack_job,
     run_packed_job,
-    warm_up,
     write_files,
 )
 from .pipeline import JobRequest
+from .warmup import load_kernels
 
 __all__ = [
     "CONNECT_TIMEOUT_S",
@@ -93,7 +93,7 @@ class WorkerSetup(WorkerPlugin):
         thread, numba's limit being per thread; workers started by :func:`job_client` also
         get :data:`THREAD_LIMITS` in their environment before they start).
     warm : bool
-        Load the compiled kernels now (:func:`~.job_task.warm_up`), not in the first job.
+        Load the compiled kernels now (:func:`~.warmup.load_kernels`), not in the first job.
     """
 
     name = "streamline-cam-setup"
@@ -134,12 +134,12 @@ def _limit_threads() -> None:
 
 
 def _warm_once() -> float | None:
-    """:func:`~.job_task.warm_up` unless this process is warm; its seconds, or None."""
+    """:func:`~.warmup.load_kernels` unless this process is warm; its seconds, or None."""
     with _WARM_LOCK:
         if _WARM.is_set():
             return None
         _limit_threads()
-        seconds = warm_up()
+        seconds = load_kernels()
         _WARM.set()
         return seconds
 

@@ -39,7 +39,6 @@ __all__ = [
     "ThrottledProgress",
     "pack_job",
     "run_packed_job",
-    "warm_up",
     "write_files",
 ]
 
@@ -207,37 +206,3 @@ def write_files(files: dict[str, bytes], folder: Path) -> None:
         part = folder / f".{name}.part"
         part.write_bytes(data)
         part.replace(folder / name)
-
-
-#: The warm-up job: a coarse plan on a small blade-like strip, enough to load (or, the first
-#: time on a machine, compile) the compiled kernels a job calls.
-_WARM_UP_OPTIONS: Final = {"scallop_mm": 0.5, "chord_tol_mm": 0.05}
-
-
-def _warm_up_sections() -> str:
-    """Five sections of 40 points of a twisted, cambered strip, as ``section,x,y,z`` CSV."""
-    import numpy as np
-
-    u = np.linspace(0.0, 1.0, 40)
-    lines = ["section,x,y,z"]
-    for j in range(5):
-        twist = np.radians(4.0 * j)
-        x, y = 40.0 * u - 20.0, 3.0 * np.sin(np.pi * u) * (1.0 - 0.05 * j) + 0.5 * j
-        xr, yr = np.cos(twist) * x - np.sin(twist) * y, np.sin(twist) * x + np.cos(twist) * y
-        lines += [f"{j},{a:.6f},{b:.6f},{10.0 * j:.6f}" for a, b in zip(xr, yr, strict=True)]
-    return "\n".join(lines) + "\n"
-
-
-def warm_up() -> float:
-    """Load the compiled kernels into this process once; returns the seconds it took.
-
-    Runs one coarse job on a small strip in a scratch folder: numba loads each kernel
-    from its on-disk cache (or compiles it) at its first call, so the first real job in a
-    fresh process would otherwise pay for it (about 2 s with the cache, minutes without).
-    """
-    start = time.perf_counter()
-    with tempfile.TemporaryDirectory(prefix="toolpath-warm-") as folder:
-        sections = Path(folder) / "warm-up.csv"
-        sections.write_text(_warm_up_sections(), encoding="utf-8")
-        run_job(JobRequest(sections, **_WARM_UP_OPTIONS), Path(folder) / "out")
-    return time.perf_counter() - start

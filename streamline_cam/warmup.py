@@ -7,7 +7,9 @@ and every later process loads them. The warm-up runs that first job ahead of tim
 small jobs on bundled blades at coarse settings (3-axis on ``grbl-router``: the development
 blade, open sections, verified; 5-axis on ``trunnion-ac``: the propeller blade, closed
 sections, a spiral), which compile every kernel a job reaches for the argument types jobs
-pass. Nothing depends on it: a kernel it did not reach compiles when a job first calls it,
+pass. :func:`load_kernels` is the per-process counterpart for long-lived workers (a Dask
+worker, before its first job): one small job that loads the cached kernels in a second or
+two. Nothing depends on either: a kernel it did not reach compiles when a job first calls it,
 and a warm-up job that stops (bad data would be a bug) is reported and skipped.
 """
 
@@ -18,13 +20,14 @@ import time
 import warnings
 from collections.abc import Callable
 from pathlib import Path
+from typing import Final
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
 from toolpath.errors import ToolpathError
 from toolpath.paper_examples import bundled_data_path
 
-__all__ = ["COARSE", "WARM_JOBS", "warm_up"]
+__all__ = ["COARSE", "WARM_JOBS", "load_kernels", "warm_up"]
 
 #: The warm-up's jobs: (label, bundled blade, machine, axis mode, verify). Coarse settings
 #: (COARSE): the kernels matter here, not the figures. One verification reaches the
@@ -62,4 +65,40 @@ def warm_up(say: Callable[[str], None] | None = None) -> float:
                                for stage, seconds in result.report["seconds"].items())
             say(f"warm-up {i}/{len(WARM_JOBS)}: {label} done in "
                 f"{time.perf_counter() - job_start:.1f} s ({stages} s)")
+    return time.perf_counter() - start
+
+
+#: The job of :func:`load_kernels`: a coarse plan on a small blade-like strip, enough to
+#: load (or, the first time on a machine, compile) the compiled kernels a job calls.
+_STRIP_OPTIONS: Final = {"scallop_mm": 0.5, "chord_tol_mm": 0.05}
+
+
+def _strip_sections() -> str:
+    """Five sections of 40 points of a twisted, cambered strip, as ``section,x,y,z`` CSV."""
+    import numpy as np
+
+    u = np.linspace(0.0, 1.0, 40)
+    lines = ["section,x,y,z"]
+    for j in range(5):
+        twist = np.radians(4.0 * j)
+        x, y = 40.0 * u - 20.0, 3.0 * np.sin(np.pi * u) * (1.0 - 0.05 * j) + 0.5 * j
+        xr, yr = np.cos(twist) * x - np.sin(twist) * y, np.sin(twist) * x + np.cos(twist) * y
+        lines += [f"{j},{a:.6f},{b:.6f},{10.0 * j:.6f}" for a, b in zip(xr, yr, strict=True)]
+    return "\n".join(lines) + "\n"
+
+
+def load_kernels() -> float:
+    """Load the compiled kernels into this process once; returns the seconds it took.
+
+    Runs one coarse job on a small strip in a scratch folder: numba loads each kernel
+    from its on-disk cache (or compiles it) at its first call, so the first real job in a
+    fresh process would otherwise pay for it (about 2 s with the cache, minutes without).
+    """
+    from .pipeline import JobRequest, run_job
+
+    start = time.perf_counter()
+    with tempfile.TemporaryDirectory(prefix="toolpath-warm-") as folder:
+        sections = Path(folder) / "warm-up.csv"
+        sections.write_text(_strip_sections(), encoding="utf-8")
+        run_job(JobRequest(sections, **_STRIP_OPTIONS), Path(folder) / "out")
     return time.perf_counter() - start
