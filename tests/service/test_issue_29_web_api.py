@@ -244,6 +244,17 @@ def test_cancel_a_running_stream_and_see_it_in_the_events(tmp_path, finished_job
             reader.close()
 
 
+def test_serve_refuses_a_simulator_target_of_unknown_speed(capsys):
+    from streamline_cam.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["serve", "--target", "sim=simulate:fast"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert err.startswith("toolpath serve: error: argument --target: 'sim=simulate:fast': "
+                          "unknown speed 'fast'")
+
+
 # preview ---------------------------------------------------------------------------------
 
 
