@@ -244,6 +244,35 @@ def test_cancel_a_running_stream_and_see_it_in_the_events(tmp_path, finished_job
             reader.close()
 
 
+class _Sender:
+    """Records the feed holds a StreamControl asks for."""
+
+    status = None
+
+    def __init__(self) -> None:
+        self.holds = 0
+
+    def request_hold(self) -> None:
+        self.holds += 1
+
+
+def test_a_cancel_before_the_sender_starts_stops_it_at_its_first_line():
+    from gcode.senders.progress import Progress
+    from streamline_cam.streaming import StreamControl
+
+    control = StreamControl()
+    assert not control.hold() and not control.resume()  # queued: nothing to hold yet
+    # cancelled as the runner starts it (the store says running, the control queued)
+    assert control.cancel() and not control.cancel()
+    control.start()
+    sender = _Sender()
+    control.attach(sender)
+    assert sender.holds == 1  # the sender holds at once, then asks what to do
+    assert control.decide(Progress(0, 10, 0.1)) == "cancel"
+    control.ended()
+    assert not control.hold() and not control.cancel()
+
+
 def test_serve_refuses_a_simulator_target_of_unknown_speed(capsys):
     from streamline_cam.cli import main
 
