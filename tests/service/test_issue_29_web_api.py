@@ -26,8 +26,8 @@ from streamline_cam.service.preview import chord_deviation, decimate_polyline, t
 
 #: A job that plans for many seconds (fine scallop): it is still running when cancelled.
 SLOW = {"scallop_mm": 0.0015, "chord_tol_mm": 0.002}
-#: The simulator at 20 times real speed: the small blade's program takes a few seconds.
-SIM_TARGETS = {"simulator": "simulate:x20"}
+#: The simulator at 40 times real speed: the small blade's program takes two seconds.
+SIM_TARGETS = {"simulator": "simulate:x40"}
 END_STATES = ("done", "failed", "cancelled")
 
 
@@ -44,15 +44,13 @@ def _wait(client, url: str, predicate, timeout: float = 60.0) -> dict:
 # live events -----------------------------------------------------------------------------
 
 
-def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path):
-    with live_server(tmp_path / "data") as (url, app), httpx.Client(base_url=url) as client:
-        first = client.post("/jobs", json={"sections": blade_sections(), **COARSE,
-                                           "name": "first"}).json()
-        _wait(client, f"/jobs/{first['id']}", lambda v: v["state"] in END_STATES)
+def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path, finished_job):
+    data_dir, first = _own_copy(finished_job, tmp_path)
+    with live_server(data_dir) as (url, app), httpx.Client(base_url=url) as client:
         reader = EventReader(url)
         try:
             _, seen = reader.wait_for(lambda t, d: t == "job", timeout=10)
-            assert seen["id"] == first["id"] and seen["state"] == "done"
+            assert seen == client.get(f"/jobs/{first}").json()  # the job there was
             assert "text/event-stream" in reader.headers["content-type"]
             job = client.post("/jobs", json={"sections": blade_sections(shift_mm=1.0),
                                              **COARSE}).json()
@@ -67,6 +65,10 @@ def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path):
             assert all(a != b for a, b in pairwise(ours))
             plan = [d["progress"]["plan"] for d in ours]
             assert plan == sorted(plan)
+            later = EventReader(url)  # a new listener gets every job, newest first
+            later.wait_for(lambda t, d: t == "job" and d["id"] == first, timeout=10)
+            assert [d["id"] for _, d in later.events[:2]] == [job["id"], first]
+            later.close()
         finally:
             reader.close()
         # the connection's end is seen by the server: no listener is left behind
