@@ -6,6 +6,7 @@ import argparse
 import ipaddress
 import socket
 import sys
+from typing import Any
 
 from ..cli_files import CommandLineError, output_folder
 from ..cli_types import positive_int
@@ -18,6 +19,14 @@ def _target(text: str) -> tuple[str, str]:
     if not sep or not name.strip() or not address.strip():
         raise argparse.ArgumentTypeError(
             f"expected NAME=ADDRESS (e.g. mill=socket://127.0.0.1:5000), got {text!r}")
+    kind, _, speed = address.strip().partition(":")
+    if kind == "simulate" and speed:  # the built-in simulator at another time scale
+        from simulator.clock import Speed
+
+        try:
+            Speed.parse(speed)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
     return name.strip(), address.strip()
 
 
@@ -64,6 +73,7 @@ def serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from ..service import ServiceConfig, create_app
+    from ..service.app import stop_events
     from ..service.config import DEFAULT_STREAM_TARGETS
 
     targets = dict(DEFAULT_STREAM_TARGETS) | dict(args.target or [])
@@ -93,8 +103,14 @@ def serve(args: argparse.Namespace) -> int:
           + (f"jobs on the Dask scheduler at {config.scheduler}, {config.workers} at once"
              if config.scheduler else f"{config.workers} {config.executor} worker(s)")
           + f"; stream targets: {', '.join(sorted(targets))}", flush=True)
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level=args.log_level,
-                                           timeout_graceful_shutdown=5))
+    app = create_app(config)
+
+    class Server(uvicorn.Server):
+        def handle_exit(self, sig: int, frame: Any) -> None:
+            stop_events(app)  # open /events streams end, so the graceful stop is quick
+            super().handle_exit(sig, frame)
+
+    server = Server(uvicorn.Config(app, log_level=args.log_level, timeout_graceful_shutdown=5))
     try:
         server.run(sockets=[sock])
     except KeyboardInterrupt:  # uvicorn re-raises Ctrl-C after its graceful shutdown
@@ -135,8 +151,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     parser.add_argument("--max-queued", type=positive_int, default=DEFAULT_MAX_QUEUED,
                         help="queued jobs before submissions get 503")
     parser.add_argument("--target", action="append", type=_target, metavar="NAME=ADDRESS",
-                        help="a stream target: NAME=socket://HOST:PORT or a serial port "
-                        "(repeatable; 'simulator' is always offered)")
+                        help="a stream target: NAME=socket://HOST:PORT, a serial port, or "
+                        "the built-in simulator at a time scale, NAME=simulate:x20 (or "
+                        "simulate:realtime) (repeatable; 'simulator' is always offered)")
     parser.add_argument("--log-level", default="info",
                         choices=("critical", "error", "warning", "info", "debug"))
     parser.set_defaults(handler=serve)
