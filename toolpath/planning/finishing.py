@@ -711,7 +711,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
                 "linking": opts.linking.value}
     if mach is not None and mach.kinematics.is_five_axis and not (
-            gstats["n_lifted"] or gstats["n_retilted"]):
+            gstats["n_lifted"] or gstats["n_retilted"] or gstats["n_fold_points"]):
         # the cutting moves were checked as this machine moves them (refine_chords): the
         # post need not split them for joint interpolation
         metadata[JOINT_CHECKED] = machine_key(mach)

@@ -116,11 +116,58 @@ def sample_surface(surface: ParametricSurface, sample_mm: float, *,
         pieces = [columns[:1]] + [np.linspace(a, b, k + 1)[1:] for a, b, k in
                                   zip(columns[:-1], columns[1:], parts, strict=True)]
         columns = np.concatenate(pieces)
+        columns = _fold_columns(surface, columns, g, max(max_samples // n_s, columns.size))
     t, s = np.meshgrid(columns, np.linspace(0.0, 1.0, n_s), indexing="ij")
     t, s = t.ravel(), s.ravel()
     points = surface(t, s)
     spacing = float(max(len_t / (n_t - 1), len_s / (n_s - 1)))
     return SurfaceSamples(points=points, t=t, s=s, spacing_mm=spacing)
+
+
+#: A ``t`` interval where the normal still turns over :data:`SAMPLE_TURN_DEG` once divided
+#: (a fold: a sharp edge, a crease, the normal turning at a point) is halved again until
+#: its samples lie within this of each other, so the fold's own line is sampled to about
+#: this (a cutter rolling round a ridge sits on its top, which samples either side of it
+#: would miss by the slope times their distance); at most :data:`FOLD_HALVINGS` times.
+FOLD_SAMPLE_MM = 2e-6
+FOLD_HALVINGS = 32
+
+
+def _fold_columns(surface: ParametricSurface, columns: NDArray[np.float64],
+                  g: NDArray[np.float64], max_columns: int) -> NDArray[np.float64]:
+    """``columns`` with the intervals across a fold halved (:data:`FOLD_SAMPLE_MM`).
+
+    Each round evaluates the midpoints of the intervals still turning over
+    :data:`SAMPLE_TURN_DEG` (at any of the ``g`` levels of ``s``) and wider than
+    :data:`FOLD_SAMPLE_MM`: a smooth turn stops once divided, a fold's interval halves
+    each round (one or two new columns a fold a round).
+    """
+    def turn_width(a: NDArray[np.float64], b: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        pa, pb = surface(a, g, grid=True), surface(b, g, grid=True)
+        na, nb = surface.normal(a, g, grid=True), surface.normal(b, g, grid=True)
+        cos = np.einsum("ijk,ijk->ij", na, nb).min(axis=1)
+        width = np.linalg.norm(pb - pa, axis=2).max(axis=1)
+        return np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))), width
+
+    turn, width = turn_width(columns[:-1], columns[1:])
+    todo = (turn > SAMPLE_TURN_DEG) & (width > FOLD_SAMPLE_MM)
+    lo, hi = columns[:-1][todo], columns[1:][todo]
+    added: list[NDArray[np.float64]] = []
+    for _ in range(FOLD_HALVINGS):
+        if not lo.size or columns.size + sum(a.size for a in added) + lo.size > max_columns:
+            break
+        mid = 0.5 * (lo + hi)
+        added.append(mid)
+        t_a, w_a = turn_width(lo, mid)
+        t_b, w_b = turn_width(mid, hi)
+        left = (t_a > SAMPLE_TURN_DEG) & (w_a > FOLD_SAMPLE_MM)
+        right = (t_b > SAMPLE_TURN_DEG) & (w_b > FOLD_SAMPLE_MM)
+        lo = np.r_[lo[left], mid[right]]
+        hi = np.r_[mid[left], hi[right]]
+    if not added:
+        return columns
+    return np.unique(np.concatenate([columns, *added]))
 
 
 @dataclass(frozen=True, eq=False)
