@@ -379,8 +379,8 @@ CLOSEST_STEPS = 20
 
 def _closest_near(surface: ParametricSurface, centres: NDArray[np.float64],
                   at: NDArray[np.int64], samples: SurfaceSamples
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """The surface's point nearest each centre, searched round sample ``at``; and its normal.
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The surface's point nearest each centre, searched round sample ``at``; its ``t, s``.
 
     The samples stand a spacing apart in ``s`` (a ball between two of them is missed by
     ``spacing^2 / 8 R``); the distance is minimised along ``s`` within a spacing of the
@@ -417,7 +417,12 @@ def _closest_near(surface: ParametricSurface, centres: NDArray[np.float64],
             else:
                 better = dist(mid, s) < dist(t, s)
                 t = np.where(better, mid, t)
-    return surface(t, s), surface.normal(t, s)
+    return surface(t, s), t, s
+
+
+#: Where the nearest point lies on a fold, its normal is taken this far (in ``t``) to
+#: either side of it too: the verifier measures along either face's normal.
+FOLD_SIDE_T = 1e-7
 
 
 def _normal_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
@@ -427,10 +432,11 @@ def _normal_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
     """How deep each pose cuts below its deepest sample along that sample's normal, mm.
 
     A gouge is measured along the surface's normal (as the verifier measures it). A ball
-    (centre ``c``) whose clearance to a point ``P`` (normal ``n``, ``q = P - c``) is
-    ``-e`` cuts it down to ``q.n + sqrt((q.n)^2 - |q|^2 + R^2)``: ``e`` where the centre
+    (centre ``c``) holding a point ``P`` (normal ``n``, ``q = P - c``, ``|q| = R - e``)
+    cuts it down to ``q.n + sqrt((q.n)^2 - |q|^2 + R^2)``: ``e`` where the centre
     stands on the normal, up to ``sqrt(2 R e)`` at a fold, where it stands on the other
-    face's normal. Other cutters: the clearance itself.
+    face's normal (so the normals on both sides of the point are taken,
+    :data:`FOLD_SIDE_T`). Other cutters: the clearance itself.
     """
     depth = np.maximum(-worst, 0.0)
     if cutter.kind is not CutterKind.BALL:
@@ -440,12 +446,16 @@ def _normal_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
         return depth
     tips, axes = _move_poses(pts, a_i[rows], u[rows])
     centres = tips + cutter.radius_mm * axes
-    point, n = _closest_near(surface, centres, at[rows], samples)
+    point, t, s = _closest_near(surface, centres, at[rows], samples)
     q = point - centres
     depth[rows] = np.maximum(cutter.radius_mm - np.linalg.norm(q, axis=1), depth[rows])
-    qn = np.einsum("ij,ij->i", q, n)
-    inside = qn * qn - np.einsum("ij,ij->i", q, q) + cutter.radius_mm ** 2
-    depth[rows] = np.maximum(qn + np.sqrt(np.maximum(inside, 0.0)), depth[rows])
+    qq = np.einsum("ij,ij->i", q, q)
+    for side in (-FOLD_SIDE_T, 0.0, FOLD_SIDE_T):  # a fold's two faces, and the point
+        n = surface.normal(np.clip(t + side, 0.0, 1.0), s)
+        qn = np.einsum("ij,ij->i", q, n)
+        inside = qn * qn - qq + cutter.radius_mm ** 2
+        depth[rows] = np.maximum(np.where(qq < cutter.radius_mm ** 2, qn + np.sqrt(
+            np.maximum(inside, 0.0)), 0.0), depth[rows])
     return depth
 
 
@@ -471,7 +481,7 @@ def _lift_poses(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
         if cutter.kind is CutterKind.BALL:
             rows = np.flatnonzero(at >= 0)
             centres = tips[todo[rows]] + cutter.radius_mm * pts.axes[todo[rows]]
-            point, _ = _closest_near(surface, centres, at[rows], samples)
+            point, _, _ = _closest_near(surface, centres, at[rows], samples)
             worst[rows] = np.maximum(worst[rows], cutter.radius_mm - np.linalg.norm(
                 point - centres, axis=1))
         still = worst > tol_mm
