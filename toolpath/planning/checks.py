@@ -124,7 +124,10 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     # between the points: moves across a fold, or next to another part of the surface
     near_other = np.zeros(len(pts), dtype=bool)
     near_other[idx] = np.isfinite(far_mm)
-    pts, keep, fold = fold_moves(surface, cutter, opts, res, pts, keep, samples, near_other)
+    accepted = np.zeros(len(pts))  # gouges within gouge_tol_mm at the points
+    accepted[idx] = np.maximum(-np.minimum(far_mm, near_mm), 0.0)
+    pts, keep, fold = fold_moves(surface, cutter, opts, res, pts, keep, samples, near_other,
+                                 accepted)
     if "shadowed" in fold:
         stats["shadowed"] = stats.get("shadowed", 0) + fold.pop("shadowed")
     stats.update(fold)
@@ -495,7 +498,8 @@ def _lift_poses(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
 
 def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
-               samples: SurfaceSamples, near_other: NDArray[np.bool_]
+               samples: SurfaceSamples, near_other: NDArray[np.bool_],
+               accepted_mm: NDArray[np.float64]
                ) -> tuple[PassPoints, NDArray[np.bool_], dict[str, Any]]:
     """Check the cutting moves between their points where a fold may lie; insert poses.
 
@@ -504,14 +508,17 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     fold between a move's contacts (a blunt base meeting the flank, a crease): the
     cutter at each end sits on one face, and the straight move between them cuts the
     edge by up to ``R (1 - cos(theta / 2))`` (``theta`` the normals' turn). Moves whose
-    contacts' normals turn that far (:data:`FOLD_SCREEN_SHARE`) or whose ends have another
+    contacts' normals turn that far (:data:`FOLD_SCREEN_SHARE`), convex (the normals part
+    along the move: ``(n_b - n_a) . (x_b - x_a) > 0``), or whose ends have another
     part of the surface within the clearance horizon (``near_other``) are sampled
     (:func:`_deepest`); one that cuts deeper than the chord tolerance along the surface's
     normal (:func:`_normal_depth`) gets the pose at its deepest place inserted, lifted
     along its axis until it stands within ``tol^2 / 2R`` of the surface (a ball that close
     to a fold cuts its far face no deeper than ``tol``; :func:`~.avoid.lift_gouges`: the
     cutter rolls round the edge), and its two parts are checked again, for
-    :data:`FOLD_ROUNDS` rounds. Where no lift clears (a wall along a fixed axis) or the
+    :data:`FOLD_ROUNDS` rounds. A move is held to the chord tolerance beyond the deeper
+    of the gouges accepted at its ends (``accepted_mm``: within ``gouge_tol_mm``). Where
+    no lift clears (a wall along a fixed axis) or the
     rounds run out, 3-axis leaves the move's ends uncut (as shadowed), 5-axis raises a
     GougeError naming the move.
     """
@@ -522,7 +529,12 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
     cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
     dip = cutter.radius_mm * (1.0 - np.sqrt(np.clip(0.5 * (1.0 + cos), 0.0, 1.0)))
-    a_i = a_i[(dip > FOLD_SCREEN_SHARE * tol) | near_other[a_i] | near_other[a_i + 1]]
+    # a convex turn: the normals part along the move (a concave one the cutter bridges,
+    # its ends' checks see the walls)
+    parting = np.einsum("ij,ij->i", pts.frame.normal[a_i + 1] - pts.frame.normal[a_i],
+                        pts.frame.point[a_i + 1] - pts.frame.point[a_i]) > 0.0
+    a_i = a_i[((dip > FOLD_SCREEN_SHARE * tol) & parting) | near_other[a_i]
+              | near_other[a_i + 1]]
     dropped = 0
     for round_ in range(FOLD_ROUNDS + 1):
         if not a_i.size:
@@ -530,7 +542,7 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         pieces = _fold_pieces(cutter, pts, a_i, tol)
         worst, u_at, at = _deepest(cutter, pts, a_i, pieces, samples, opts.check_flutes, tol)
         depth = _normal_depth(surface, cutter, pts, a_i, u_at, worst, at, samples, tol)
-        bad = depth > tol
+        bad = depth > tol + np.maximum(accepted_mm[a_i], accepted_mm[a_i + 1])
         if not bad.any():
             break
         a_bad = a_i[bad]
@@ -548,6 +560,7 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
             dropped += int(out.size)
             break
         pts, keep, new_at = insert_move_poses(surface, pts, keep, a_bad, u_at[bad])
+        accepted_mm = np.insert(accepted_mm, new_at - np.arange(new_at.size), 0.0)
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
         tips, lift, stuck = _lift_poses(surface, cutter, pts, new_at, np.maximum(
