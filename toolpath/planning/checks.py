@@ -295,6 +295,10 @@ def move_clearance(cutter: Cutter, pts: PassPoints, a_i: NDArray[np.int64],
 #: stand above the move by more than this share of the chord tolerance (``R (1 - cos
 #: (theta / 2))``, ``theta`` the turn: the chord of its centre's arc round the edge).
 FOLD_SCREEN_SHARE = 0.25
+#: The turn counted is what the contacts' curvature along the pass (the larger, times
+#: this margin, over the move's length) does not explain: a smooth nose's turn the chord
+#: check measures; a fold turns between contacts on flat faces.
+FOLD_CURVATURE_MARGIN = 1.5
 #: A ball's clearance along a move, sampled ``d`` apart, is missed by at most ``d^2 / 8 r``
 #: (``r`` its corner radius, at least :data:`FOLD_MIN_CORNER_MM`) next to its deepest place:
 #: this share of the chord tolerance; at most :data:`FOLD_MAX_PIECES` poses a move. Where
@@ -528,7 +532,13 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     fixed = opts.axis_mode is AxisMode.FIXED
     a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
     cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
-    dip = cutter.radius_mm * (1.0 - np.sqrt(np.clip(0.5 * (1.0 + cos), 0.0, 1.0)))
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    # the turn the contacts' own curvature along the pass explains (the chord check's
+    # business) is no fold's
+    chord = np.linalg.norm(pts.frame.point[a_i + 1] - pts.frame.point[a_i], axis=1)
+    bend = np.maximum(np.abs(pts.frame.s11[a_i]), np.abs(pts.frame.s11[a_i + 1]))
+    unexplained = np.maximum(turn - FOLD_CURVATURE_MARGIN * chord * bend, 0.0)
+    dip = cutter.radius_mm * (1.0 - np.cos(0.5 * unexplained))
     # a convex turn: the normals part along the move (a concave one the cutter bridges,
     # its ends' checks see the walls)
     parting = np.einsum("ij,ij->i", pts.frame.normal[a_i + 1] - pts.frame.normal[a_i],
