@@ -573,11 +573,12 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         accepted_mm = np.insert(accepted_mm, new_at - np.arange(new_at.size), 0.0)
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
+        # (lifted first by the sampled depth: the normal's depth at a fold is far more)
         tips, lift, stuck = _lift_poses(surface, cutter, pts, new_at, np.maximum(
-            depth[bad], 0.0), samples, lift_tol, opts.check_flutes)
+            -worst[bad], 0.0), samples, lift_tol, opts.check_flutes)
         if stuck.size and not fixed:
             i = int(stuck[0])
-            raise gouge_error(pts, i, cutter, float(depth[bad][0]),
+            raise gouge_error(pts, i, cutter, float(depth[bad][np.searchsorted(new_at, i)]),
                               f"lifting the cutter {lift[i]:.4f} mm along its axis inside the "
                               "move from there did not clear a fold of the surface; use a "
                               "smaller cutter")
