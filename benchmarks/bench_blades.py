@@ -11,7 +11,9 @@ zigzag otherwise); the row names the linking the plan chose. One row per case:
 - ``passes``, ``points``: of the plan;
 - ``scallop``: the verifier's largest scallop against the request (mm);
 - ``gouge``: the verifier's deepest cut into the design surface against the chord tolerance;
-- ``uncut``, ``unreach``: the plan's uncut and unreachable fractions of the surface (%);
+- ``uncut``: the plan's uncut fraction of the surface (%); ``unreach``: the verifier's
+  unreachable fraction (facing away from every tool axis the program cuts with, or
+  covered by no pass), for 3-axis and 5-axis programs alike (%);
 - seconds per stage (fit, plan, post, check, verify) and the whole command.
 
 Each case runs in a fresh process (a cold start, as a user's command), so the plan column
@@ -75,10 +77,13 @@ def row(blade: Path, machine: str, case: dict) -> str:
     gouge = (verify.get("max_gouge") or {}).get("deviation_mm") or 0.0
     scallop = verify.get("max_scallop_mm") or 0.0
     stages = " ".join(f"{seconds.get(s, 0.0):6.1f}" for s in STAGES)
+    # the verifier's (facing away from every axis the program cuts with, or covered by no
+    # pass: 5-axis programs too), else the plan's
+    unreachable = verify.get("unreachable_fraction", plan["unreachable_fraction"])
     return (f"{name} exit {case['exit']} {plan['n_passes']:5d} {plan['n_points']:7d} "
             f"{scallop:7.4f}/{plan['scallop_request_mm']:<6} {-min(gouge, 0.0):7.4f}/"
             f"{plan['chord_tol_mm']:<6} {100 * plan['uncut_fraction']:6.1f} "
-            f"{100 * plan['unreachable_fraction']:6.1f}  {stages} {case['wall_s']:7.1f}")
+            f"{100 * unreachable:6.1f}  {stages} {case['wall_s']:7.1f}")
 
 
 def main() -> int:

@@ -37,6 +37,7 @@ from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
 
 from .fit_report import SURFACE_METHODS, fit_surface_by_method
+from .verdict import verify_verdict
 
 __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
 
@@ -368,6 +369,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         start = time.perf_counter()
         report_progress("verify", 0.0)
         report["verify"] = _verify(files, surface, machine, request, dialect, plots)
+        report["verify"]["verdict"] = verify_verdict(report)
         seconds["verify"] = time.perf_counter() - start
         report_progress("verify", 1.0)
 

@@ -267,8 +267,15 @@ class VerificationReport:
     timings_s : dict of str to float
         Seconds per stage.
     faces_away_area_mm2 : float
-        Area facing away from a fixed-axis program's tool axis, mm^2: no move cuts to it,
+        Area facing away from every tool axis the program cuts with (a fixed-axis
+        program's one axis; a 5-axis program's range of axes), mm^2: no move cuts to it,
         so what is left there is reported as unreachable, never as a scallop.
+    unreachable_area_mm2 : float
+        Area facing away, or covered by no pass (no cutting move comes within the
+        horizon), mm^2.
+    design_area_mm2 : float
+        Area of the design surface, mm^2 (``unreachable_fraction`` in the JSON is the
+        unreachable share of it).
     deviation_map : DeviationMap or None
         The field on the grid (not in the JSON, not compared).
     """
@@ -295,6 +302,8 @@ class VerificationReport:
     pairs: int
     timings_s: dict[str, float]
     faces_away_area_mm2: float = 0.0
+    unreachable_area_mm2: float = 0.0
+    design_area_mm2: float = 0.0
     deviation_map: DeviationMap | None = field(default=None, compare=False, repr=False)
 
     @property
@@ -319,6 +328,8 @@ class VerificationReport:
         out["max_gouge_mm"] = self.max_gouge_mm
         out["max_excess_mm"] = self.max_excess_mm
         out["max_scallop_mm"] = self.max_scallop_mm
+        out["unreachable_fraction"] = self.unreachable_area_mm2 / max(self.design_area_mm2,
+                                                                      1e-300)
         return _clean(out)
 
     def lines(self) -> list[str]:
@@ -359,7 +370,10 @@ class VerificationReport:
                    f"than {self.horizon_mm:g} mm left) {s.uncut_area_mm2:.1f}, hidden "
                    f"{s.hidden_area_mm2:.1f}"
                    + (f", facing away from the tool axis (unreachable, no scallop taken) "
-                      f"{self.faces_away_area_mm2:.1f}" if self.faces_away_area_mm2 else ""))
+                      f"{self.faces_away_area_mm2:.1f}" if self.faces_away_area_mm2 else "")
+                   + (f"; unreachable (facing away or covered by no pass) "
+                      f"{self.unreachable_area_mm2:.1f} of {self.design_area_mm2:.1f}"
+                      if self.unreachable_area_mm2 else ""))
         j = self.joints
         if j.block_index is not None and j.max_mm > 0.0:
             out.append(f"joint interpolation: tip leaves the chord by up to {j.max_mm:.4f} mm "

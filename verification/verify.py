@@ -217,24 +217,44 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                                        samples.points, tol),
         stats=stats, joints=_joints(motion, tol), pairs=res.pairs, timings_s=timings,
         faces_away_area_mm2=float(samples.area_mm2[away].sum()),
+        unreachable_area_mm2=float(samples.area_mm2[away | np.isposinf(dev_grid)].sum()),
+        design_area_mm2=float(samples.area_mm2.sum()),
         deviation_map=DeviationMap(samples.t, samples.s, samples.points, dev_grid,
                                    np.where(move_grid >= 0, motion.block_index[move_grid], -1)))
 
 
+#: Cutting axes are told apart to this (components of the unit vector, about 3 deg) when a
+#: program turns its axis: a design normal faces away when it stands more than this past
+#: square to every one of them.
+AXIS_BIN = 0.05
+#: Normals compared with the axes at a time (bounds the memory of the products).
+AXIS_CHUNK = 65536
+
+
 def faces_away(motion: ToolMotion, normals: FloatArray) -> NDArray[np.bool_]:
-    """Where the design faces away from a program's one fixed tool axis (3-axis, 3+2).
+    """Where the design faces away from every tool axis the program cuts with.
 
     The cutter's surface faces down its axis and sideways only (a ball's lower half, the
-    flutes), so it touches the design only where ``n . a >= 0``: where ``n . a < 0`` no
-    move of a fixed-axis program cuts to the surface, and the material left there is
-    what the cutter's side shaved off passing by, not a scallop between passes. A
-    program that turns its axis (5-axis) reaches round; nothing is marked for it.
+    flutes), so it touches the design only where ``n . a >= 0``: where ``n . a < 0`` for
+    the program's one fixed axis (3-axis, 3+2), or for every axis of a program that turns
+    it (5-axis: the range its moves use, told apart to :data:`AXIS_BIN`, and the normal
+    then past square to all of them by that much), no move cuts to the surface, and the
+    material left there is what the cutter's side shaved off passing by, not a scallop
+    between passes.
     """
     cutting = ~motion.rapid[motion.move_of_instance[1:]]
     axes = motion.axes[1:][cutting]
-    if axes.shape[0] == 0 or np.abs(axes - axes[0]).max() > 1e-9:
+    if axes.shape[0] == 0:
         return np.zeros(normals.shape[:-1], dtype=bool)
-    return normals @ axes[0] < 0.0
+    if np.abs(axes - axes[0]).max() <= 1e-9:
+        return normals @ axes[0] < 0.0
+    kinds = np.unique(np.round(axes / AXIS_BIN).astype(np.int64), axis=0) * AXIS_BIN
+    kinds /= np.maximum(np.linalg.norm(kinds, axis=1, keepdims=True), 1e-300)
+    flat = normals.reshape(-1, 3)
+    reach = np.empty(len(flat))
+    for first in range(0, len(flat), AXIS_CHUNK):
+        reach[first:first + AXIS_CHUNK] = (flat[first:first + AXIS_CHUNK] @ kinds.T).max(axis=1)
+    return (reach < -AXIS_BIN).reshape(normals.shape[:-1])
 
 
 def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions

@@ -10,6 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..cli import add_closure_arguments
 from ..cli_files import CommandLineError, output_folder
+from ..verdict import verify_excess
 from .plan import add_gouge_arguments, gouge_options
 
 if TYPE_CHECKING:
@@ -95,32 +96,6 @@ def report_lines(report: dict) -> list[str]:
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
     return lines
-
-
-def verify_excess(report: dict) -> str | None:
-    """What the verifier measured beyond the request, in one line; None when nothing was.
-
-    The deepest gouge is held to the chord tolerance (chords cut into a convex surface by up
-    to that much by design; the plan keeps room for the G-code's rounding), the largest
-    scallop between passes to the scallop asked for.
-    """
-    verify, plan = report.get("verify"), report["plan"]
-    if not verify:
-        return None
-    over = []
-    gouge = verify.get("max_gouge_mm") or 0.0
-    if gouge > plan["chord_tol_mm"]:
-        where = verify.get("max_gouge") or {}
-        over.append(f"deepest gouge {gouge:.4f} mm exceeds the chord tolerance "
-                    f"{plan['chord_tol_mm']:g} mm (--chord-tol)"
-                    + (f" at line {where['line']}" if where.get("line") else ""))
-    scallop = verify.get("max_scallop_mm") or 0.0
-    if scallop > plan["scallop_request_mm"]:
-        where = verify.get("max_scallop") or {}
-        over.append(f"scallop {scallop:.4f} mm exceeds the {plan['scallop_request_mm']:g} mm "
-                    "asked (--scallop)"
-                    + (f" at line {where['line']}" if where.get("line") else ""))
-    return "; ".join(over) or None
 
 
 def _rotary_lines(plan: dict) -> list[str]:

@@ -30,10 +30,12 @@ from gcode.dialects import dialect_names
 from machines.machine import list_machines
 
 from ..pipeline import STAGES
+from ..verdict import verdict_summary
 from . import artefacts, preview
 from .config import ServiceConfig
 from .events import CLOSED, HEARTBEAT_S, EventHub, sse
 from .pool import WorkerPool
+from .runner import as_job_fields
 from .schemas import (
     ErrorBody,
     Health,
@@ -125,7 +127,11 @@ def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None,
     progress = {stage: 0.0 for stage in _JOB_STAGES} | record.progress
     if record.state is JobState.DONE:
         progress = {stage: 1.0 for stage in progress}
+    verdict = ((record.report or {}).get("verify") or {}).get("verdict") \
+        if record.state is JobState.DONE else None
     return JobView(
+        verdict=None if verdict is None else ("pass" if verdict["ok"] else "exceeds"),
+        summary=None if verdict is None else as_job_fields(verdict_summary(verdict)),
         id=record.id, name=Path(record.input_name).stem, state=record.state.value,
         created=timestamp(record.created), started=timestamp(record.started),
         finished=timestamp(record.finished), attempts=record.attempts, stops=record.stops,

@@ -128,6 +128,11 @@ class JobView(BaseModel):
     progress: dict[str, float] = Field(description="fraction done (0 to 1) by stage")
     error: str | None = Field(description="why the job failed")
     error_type: str | None
+    verdict: Literal["pass", "exceeds"] | None = Field(
+        None, description="a done job's program as the verifier measured it against the "
+        "request: pass, or exceeds (the gouge beyond chord_tol_mm or the scallop beyond "
+        "scallop_mm; its files are kept for inspection)")
+    summary: str | None = Field(None, description="the verdict in one line, with the figures")
     parameters: dict[str, Any]
     links: dict[str, str] = Field(description="the job's resources, by name")
     streams: list[StreamView] = Field(default_factory=list)

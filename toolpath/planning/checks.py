@@ -11,6 +11,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import Any
 
 import numpy as np
@@ -23,6 +24,7 @@ from machines.limits import check_rates, check_travel, min_segment_times
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from .avoid import (
+    LIFT_ROUNDS,
     depth_text,
     gouge_error,
     lift_gouges,
@@ -30,11 +32,11 @@ from .avoid import (
     measured_depth,
     retilt_gouges,
 )
-from .cutters import Cutter
-from .errors import GougeError, PlanTravelLimitError
+from .cutters import Cutter, CutterKind
+from .errors import GougeError, PlanTravelLimitError, too_many_points
 from .gouge import Clearance, SurfaceSamples, global_clearance, local_margin
 from .options import AxisMode, FinishingOptions, OnGouge, OnLimit, PlannedOptions
-from .passes import PassPoints, frame_take, with_tips
+from .passes import PassPoints, frame_take, insert_move_poses, with_rate_record, with_tips
 from .travel import fit_travel
 
 __all__ = ["check_links", "gouge_stage", "machine_stage"]
@@ -116,8 +118,19 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     else:
         still = keep[idx]
         far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
+        idx = idx[still]
     stats["min_clearance_mm"] = float(far_mm.min()) if far_mm.size else float("inf")
     stats["min_contact_clearance_mm"] = float(near_mm.min()) if near_mm.size else 0.0
+    # between the points: moves across a fold, or next to another part of the surface
+    near_other = np.zeros(len(pts), dtype=bool)
+    near_other[idx] = np.isfinite(far_mm)
+    accepted = np.zeros(len(pts))  # gouges within gouge_tol_mm at the points
+    accepted[idx] = np.maximum(-np.minimum(far_mm, near_mm), 0.0)
+    pts, keep, fold = fold_moves(surface, cutter, opts, res, pts, keep, samples, near_other,
+                                 accepted)
+    if "shadowed" in fold:
+        stats["shadowed"] = stats.get("shadowed", 0) + fold.pop("shadowed")
+    stats.update(fold)
     return pts, keep, stats
 
 
@@ -217,18 +230,10 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
         b_i = a_i + 1
         if not a_i.size:
             break
-        a, b = pts.tips[a_i], pts.tips[b_i]
-        pieces = np.maximum(np.ceil(np.linalg.norm(b - a, axis=1) * LIFTED_MOVE_POINTS_PER_MM)
-                            .astype(np.int64), LIFTED_MOVE_MIN_POINTS)
-        owner = np.repeat(np.arange(a_i.size), pieces)
-        first = np.r_[0, np.cumsum(pieces)[:-1]]
-        u = ((np.arange(pieces.sum()) - first[owner] + 1) / (pieces[owner] + 1))[:, None]
-        along = a[owner] * (1 - u) + b[owner] * u
-        axes = pts.axes[a_i][owner] * (1 - u) + pts.axes[b_i][owner] * u
-        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
-        clr = global_clearance(cutter, along, axes, samples, flutes=opts.check_flutes)
-        worst = np.full(a_i.size, np.inf)
-        np.minimum.at(worst, owner, clr.min_mm)
+        pieces = np.maximum(np.ceil(np.linalg.norm(pts.tips[b_i] - pts.tips[a_i], axis=1)
+                                    * LIFTED_MOVE_POINTS_PER_MM).astype(np.int64),
+                            LIFTED_MOVE_MIN_POINTS)
+        worst, _, _ = move_clearance(cutter, pts, a_i, pieces, samples, opts.check_flutes)
         bad = worst < -opts.chord_tol_mm
         if not bad.any():
             break
@@ -242,6 +247,355 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
         keep[out] = False
         dropped += int(out.size)
     return keep, dropped
+
+
+def _move_poses(pts: PassPoints, a_i: NDArray[np.int64], u: NDArray[np.float64]
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Tips and axes at fractions ``u`` of moves ``a_i -> a_i + 1`` (linear, axis normalised)."""
+    w = u[:, None]
+    tips = pts.tips[a_i] * (1 - w) + pts.tips[a_i + 1] * w
+    axes = pts.axes[a_i] * (1 - w) + pts.axes[a_i + 1] * w
+    return tips, axes / np.linalg.norm(axes, axis=1, keepdims=True)
+
+
+def _pose_clearance(cutter: Cutter, tips: NDArray[np.float64], axes: NDArray[np.float64],
+                    samples: SurfaceSamples, flutes: bool
+                    ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Each pose's smallest clearance against every sample, and that sample (-1: none)."""
+    clr = global_clearance(cutter, tips, axes, samples, flutes=flutes)
+    return clr.min_mm, np.where(clr.near_mm <= clr.far_mm, clr.near_sample, clr.far_sample)
+
+
+def move_clearance(cutter: Cutter, pts: PassPoints, a_i: NDArray[np.int64],
+                   pieces: NDArray[np.int64], samples: SurfaceSamples, flutes: bool
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """The cutter's smallest clearance inside moves ``a_i -> a_i + 1``, where, and against.
+
+    ``pieces[k]`` poses at ``u = j / (pieces + 1)``, ``j = 1 .. pieces``, the move's own
+    (:func:`_move_poses`), each against every sample (:func:`~.gouge.global_clearance`,
+    ``inf`` beyond its horizon); returns the smallest per move, its ``u`` and its sample.
+    """
+    owner = np.repeat(np.arange(a_i.size), pieces)
+    first = np.r_[0, np.cumsum(pieces)[:-1]]
+    u = (np.arange(pieces.sum()) - first[owner] + 1) / (pieces[owner] + 1)
+    clr, sample = _pose_clearance(cutter, *_move_poses(pts, a_i[owner], u), samples, flutes)
+    worst = np.full(a_i.size, np.inf)
+    np.minimum.at(worst, owner, clr)
+    # the first pose reaching each move's minimum
+    hit = np.flatnonzero(clr == worst[owner])[::-1]
+    u_at = np.full(a_i.size, 0.5)
+    at = np.full(a_i.size, -1)
+    u_at[owner[hit]] = u[hit]
+    at[owner[hit]] = sample[hit]
+    return worst, u_at, at
+
+
+#: A move is checked between its points (:func:`fold_moves`) where the normal turns
+#: between its contacts so far that the cutter, rolled round a sharp edge there, would
+#: stand above the move by more than this share of the chord tolerance (``R (1 - cos
+#: (theta / 2))``, ``theta`` the turn: the chord of its centre's arc round the edge).
+FOLD_SCREEN_SHARE = 0.25
+#: The turn counted is what the contacts' curvature along the pass (the larger, times
+#: this margin, over the move's length) does not explain: a smooth nose's turn the chord
+#: check measures; a fold turns between contacts on flat faces.
+FOLD_CURVATURE_MARGIN = 1.5
+#: A ball's clearance along a move, sampled ``d`` apart, is missed by at most ``d^2 / 8 r``
+#: (``r`` its corner radius, at least :data:`FOLD_MIN_CORNER_MM`) next to its deepest place:
+#: this share of the chord tolerance; at most :data:`FOLD_MAX_PIECES` poses a move. Where
+#: the smallest sample is within that of touching, the deepest place is searched between
+#: its neighbours (golden section, :data:`FOLD_GOLDEN_STEPS`).
+FOLD_MISS_SHARE = 0.25
+FOLD_MIN_CORNER_MM = 0.25
+FOLD_MAX_PIECES = 64
+FOLD_GOLDEN_STEPS = 24
+#: Rounds of :func:`fold_moves` (each inserts one pose into each move still gouging: the
+#: turn left to each part halves, its dip quarters).
+FOLD_ROUNDS = 16
+
+
+def _fold_pieces(cutter: Cutter, pts: PassPoints, a_i: NDArray[np.int64], tol_mm: float
+                 ) -> NDArray[np.int64]:
+    """Poses to sample inside each move (one at least, :data:`FOLD_MAX_PIECES` at most).
+
+    Its travel (tip, plus the radius times the axis' turn) over the spacing
+    :data:`FOLD_MISS_SHARE` needs.
+    """
+    b_i = a_i + 1
+    r = max(cutter.corner_radius_mm, FOLD_MIN_CORNER_MM)
+    spacing = math.sqrt(8.0 * r * FOLD_MISS_SHARE * tol_mm)
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", pts.axes[a_i], pts.axes[b_i]), -1.0, 1.0))
+    travel = np.linalg.norm(pts.tips[b_i] - pts.tips[a_i], axis=1) + cutter.radius_mm * turn
+    return np.clip(np.ceil(travel / spacing).astype(np.int64), 1, FOLD_MAX_PIECES)
+
+
+def _missed_mm(cutter: Cutter, samples: SurfaceSamples, tol_mm: float) -> float:
+    """How much a sampled clearance may overstate the true one along a move, mm.
+
+    The poses' spacing (:data:`FOLD_MISS_SHARE` of ``tol_mm``) and the samples' own: a
+    ball passes between samples ``d`` apart missing them by up to ``d^2 / 8 r``.
+    """
+    r = max(cutter.corner_radius_mm, FOLD_MIN_CORNER_MM)
+    return FOLD_MISS_SHARE * tol_mm + samples.spacing_mm ** 2 / (8.0 * r)
+
+
+def _deepest(cutter: Cutter, pts: PassPoints, a_i: NDArray[np.int64],
+             pieces: NDArray[np.int64], samples: SurfaceSamples, flutes: bool, tol_mm: float
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """:func:`move_clearance`, its minimum searched between samples near touching."""
+    worst, u_at, at = move_clearance(cutter, pts, a_i, pieces, samples, flutes)
+    near = np.flatnonzero(worst < _missed_mm(cutter, samples, tol_mm))
+    if not near.size:
+        return worst, u_at, at
+    h = 1.0 / (pieces[near] + 1)
+    lo, hi = np.maximum(u_at[near] - h, 0.0), np.minimum(u_at[near] + h, 1.0)
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+    rows = a_i[near]
+
+    def clear(u: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+        return _pose_clearance(cutter, *_move_poses(pts, rows, u), samples, flutes)
+
+    x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
+    (f1, s1), (f2, s2) = clear(x1), clear(x2)
+    for _ in range(FOLD_GOLDEN_STEPS):
+        left = f1 < f2  # the minimum lies in [lo, x2]
+        hi = np.where(left, x2, hi)
+        lo = np.where(left, lo, x1)
+        x2n = np.where(left, x1, lo + g * (hi - lo))
+        x1n = np.where(left, hi - g * (hi - lo), x2)
+        f2n, s2n = np.where(left, f1, f2), np.where(left, s1, s2)
+        f1n, s1n = np.where(left, f2, f1), np.where(left, s2, s1)
+        x1, x2, f1, f2, s1, s2 = x1n, x2n, f1n, f2n, s1n, s2n
+        new = np.where(left, x1, x2)
+        f_new, s_new = clear(new)
+        f1 = np.where(left, f_new, f1)
+        s1 = np.where(left, s_new, s1)
+        f2 = np.where(left, f2, f_new)
+        s2 = np.where(left, s2, s_new)
+    best_u, best_f, best_s = np.where(f1 < f2, x1, x2), np.minimum(f1, f2), np.where(
+        f1 < f2, s1, s2)
+    better = best_f < worst[near]
+    worst[near[better]] = best_f[better]
+    u_at[near[better]] = best_u[better]
+    at[near[better]] = best_s[better]
+    return worst, u_at, at
+
+
+#: Golden-section steps of :func:`_closest_near` in each of ``s`` and ``t``, twice over.
+CLOSEST_STEPS = 20
+
+
+def _closest_near(surface: ParametricSurface, centres: NDArray[np.float64],
+                  at: NDArray[np.int64], samples: SurfaceSamples
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
+    """The surface's point nearest each centre, searched round sample ``at``; its ``t, s``.
+
+    The samples stand a spacing apart in ``s`` (a ball between two of them is missed by
+    ``spacing^2 / 8 R``); the distance is minimised along ``s`` within a spacing of the
+    sample, then along ``t`` within the neighbouring columns (golden section, which needs
+    no derivative: across a fold the distance has a kink), twice.
+    """
+    t, s = samples.t[at].copy(), samples.s[at].copy()
+    columns = np.unique(samples.t)
+    k = np.searchsorted(columns, t)
+    t_lo = columns[np.maximum(k - 1, 0)]
+    t_hi = columns[np.minimum(k + 1, columns.size - 1)]
+    ds = samples.spacing_mm / max(float(np.linalg.norm(
+        surface(0.5, 1.0) - surface(0.5, 0.0))), 1e-9)
+    s_lo, s_hi = np.maximum(s - 2.0 * ds, 0.0), np.minimum(s + 2.0 * ds, 1.0)
+    g = 0.5 * (math.sqrt(5.0) - 1.0)
+
+    def dist(tt: NDArray[np.float64], ss: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.linalg.norm(surface(tt, ss) - centres, axis=1)
+
+    for _ in range(2):
+        for along_s in (True, False):
+            lo, hi = (s_lo, s_hi) if along_s else (t_lo, t_hi)
+            lo, hi = lo.copy(), hi.copy()
+            for _step in range(CLOSEST_STEPS):
+                x1, x2 = hi - g * (hi - lo), lo + g * (hi - lo)
+                f1 = dist(t, x1) if along_s else dist(x1, s)
+                f2 = dist(t, x2) if along_s else dist(x2, s)
+                hi = np.where(f1 < f2, x2, hi)
+                lo = np.where(f1 < f2, lo, x1)
+            mid = 0.5 * (lo + hi)
+            if along_s:
+                better = dist(t, mid) < dist(t, s)
+                s = np.where(better, mid, s)
+            else:
+                better = dist(mid, s) < dist(t, s)
+                t = np.where(better, mid, t)
+    return surface(t, s), t, s
+
+
+#: Where the nearest point lies on a fold, its normal is taken this far (in ``t``) to
+#: either side of it too: the verifier measures along either face's normal.
+FOLD_SIDE_T = 1e-7
+
+
+def _normal_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
+                  a_i: NDArray[np.int64], u: NDArray[np.float64], worst: NDArray[np.float64],
+                  at: NDArray[np.int64], samples: SurfaceSamples, tol_mm: float
+                  ) -> NDArray[np.float64]:
+    """How deep each pose cuts below its deepest sample along that sample's normal, mm.
+
+    A gouge is measured along the surface's normal (as the verifier measures it). A ball
+    (centre ``c``) holding a point ``P`` (normal ``n``, ``q = P - c``, ``|q| = R - e``)
+    cuts it down to ``q.n + sqrt((q.n)^2 - |q|^2 + R^2)``: ``e`` where the centre
+    stands on the normal, up to ``sqrt(2 R e)`` at a fold, where it stands on the other
+    face's normal (so the normals on both sides of the point are taken,
+    :data:`FOLD_SIDE_T`). Other cutters: the clearance itself.
+    """
+    depth = np.maximum(-worst, 0.0)
+    if cutter.kind is not CutterKind.BALL:
+        return depth
+    rows = np.flatnonzero((at >= 0) & (worst < _missed_mm(cutter, samples, tol_mm)))
+    if not rows.size:
+        return depth
+    tips, axes = _move_poses(pts, a_i[rows], u[rows])
+    centres = tips + cutter.radius_mm * axes
+    point, t, s = _closest_near(surface, centres, at[rows], samples)
+    q = point - centres
+    depth[rows] = np.maximum(cutter.radius_mm - np.linalg.norm(q, axis=1), depth[rows])
+    qq = np.einsum("ij,ij->i", q, q)
+    for side in (-FOLD_SIDE_T, 0.0, FOLD_SIDE_T):  # a fold's two faces, and the point
+        n = surface.normal(np.clip(t + side, 0.0, 1.0), s)
+        qn = np.einsum("ij,ij->i", q, n)
+        inside = qn * qn - qq + cutter.radius_mm ** 2
+        depth[rows] = np.maximum(np.where(qq < cutter.radius_mm ** 2, qn + np.sqrt(
+            np.maximum(inside, 0.0)), 0.0), depth[rows])
+    return depth
+
+
+def _lift_poses(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
+                idx: NDArray[np.int64], first_mm: NDArray[np.float64],
+                samples: SurfaceSamples, tol_mm: float, flutes: bool
+                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+    """Lift poses ``idx`` along their axes until within ``tol_mm`` of the surface.
+
+    Like :func:`~.avoid.lift_gouges` (:data:`~.avoid.LIFT_ROUNDS` rounds, each by the
+    depth still found), the depth taken from the samples and, for a ball, from the point
+    nearest its centre (:func:`_closest_near`: samples alone miss a ridge between them).
+    Returns all tips, the lifts and the poses no lift cleared (left where they were).
+    """
+    tips = pts.tips.copy()
+    lift = np.zeros(len(tips))
+    todo, step = np.asarray(idx), first_mm + tol_mm
+    for _ in range(LIFT_ROUNDS):
+        tips[todo] += step[:, None] * pts.axes[todo]
+        lift[todo] += step
+        clr, at = _pose_clearance(cutter, tips[todo], pts.axes[todo], samples, flutes)
+        worst = -clr
+        if cutter.kind is CutterKind.BALL:
+            rows = np.flatnonzero(at >= 0)
+            centres = tips[todo[rows]] + cutter.radius_mm * pts.axes[todo[rows]]
+            point, _, _ = _closest_near(surface, centres, at[rows], samples)
+            worst[rows] = np.maximum(worst[rows], cutter.radius_mm - np.linalg.norm(
+                point - centres, axis=1))
+        still = worst > tol_mm
+        todo, step = todo[still], worst[still] + tol_mm
+        if not todo.size:
+            return tips, lift, todo
+    tips[todo] -= lift[todo, None] * pts.axes[todo]
+    lift[todo] = 0.0
+    return tips, lift, todo
+
+
+def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+               res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
+               samples: SurfaceSamples, near_other: NDArray[np.bool_],
+               accepted_mm: NDArray[np.float64]
+               ) -> tuple[PassPoints, NDArray[np.bool_], dict[str, Any]]:
+    """Check the cutting moves between their points where a fold may lie; insert poses.
+
+    The checks at the points and the chord check (which measures the gap to the surface
+    next to the move, found from the parameters between its ends) do not see a sharp
+    fold between a move's contacts (a blunt base meeting the flank, a crease): the
+    cutter at each end sits on one face, and the straight move between them cuts the
+    edge by up to ``R (1 - cos(theta / 2))`` (``theta`` the normals' turn). Moves whose
+    contacts' normals turn that far (:data:`FOLD_SCREEN_SHARE`), convex (the normals part
+    along the move: ``(n_b - n_a) . (x_b - x_a) > 0``), or whose ends have another
+    part of the surface within the clearance horizon (``near_other``) are sampled
+    (:func:`_deepest`); one that cuts deeper than the chord tolerance along the surface's
+    normal (:func:`_normal_depth`) gets the pose at its deepest place inserted, lifted
+    along its axis until it stands within ``tol^2 / 2R`` of the surface (a ball that close
+    to a fold cuts its far face no deeper than ``tol``; :func:`~.avoid.lift_gouges`: the
+    cutter rolls round the edge), and its two parts are checked again, for
+    :data:`FOLD_ROUNDS` rounds. A move is held to the chord tolerance beyond the deeper
+    of the gouges accepted at its ends (``accepted_mm``: within ``gouge_tol_mm``). Where
+    no lift clears (a wall along a fixed axis) or the
+    rounds run out, 3-axis leaves the move's ends uncut (as shadowed), 5-axis raises a
+    GougeError naming the move.
+    """
+    tol = res.planned_chord_tol_mm
+    lift_tol = min(opts.gouge_tol_mm, 0.5 * tol * tol / (2.0 * cutter.radius_mm))
+    stats: dict[str, Any] = {"n_fold_points": 0, "max_fold_lift_mm": 0.0}
+    fixed = opts.axis_mode is AxisMode.FIXED
+    a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
+    cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    # the turn the contacts' own curvature along the pass explains (the chord check's
+    # business) is no fold's
+    chord = np.linalg.norm(pts.frame.point[a_i + 1] - pts.frame.point[a_i], axis=1)
+    bend = np.maximum(np.abs(pts.frame.s11[a_i]), np.abs(pts.frame.s11[a_i + 1]))
+    unexplained = np.maximum(turn - FOLD_CURVATURE_MARGIN * chord * bend, 0.0)
+    dip = cutter.radius_mm * (1.0 - np.cos(0.5 * unexplained))
+    # a convex turn: the normals part along the move (a concave one the cutter bridges,
+    # its ends' checks see the walls)
+    parting = np.einsum("ij,ij->i", pts.frame.normal[a_i + 1] - pts.frame.normal[a_i],
+                        pts.frame.point[a_i + 1] - pts.frame.point[a_i]) > 0.0
+    a_i = a_i[((dip > FOLD_SCREEN_SHARE * tol) & parting) | near_other[a_i]
+              | near_other[a_i + 1]]
+    dropped = 0
+    for round_ in range(FOLD_ROUNDS + 1):
+        if not a_i.size:
+            break
+        pieces = _fold_pieces(cutter, pts, a_i, tol)
+        worst, u_at, at = _deepest(cutter, pts, a_i, pieces, samples, opts.check_flutes, tol)
+        depth = _normal_depth(surface, cutter, pts, a_i, u_at, worst, at, samples, tol)
+        bad = depth > tol + np.maximum(accepted_mm[a_i], accepted_mm[a_i + 1])
+        if not bad.any():
+            break
+        a_bad = a_i[bad]
+        if round_ == FOLD_ROUNDS:
+            if not fixed:
+                k = int(np.flatnonzero(bad)[0])
+                raise gouge_error(pts, int(a_i[k]), cutter, float(depth[k]),
+                                  "the cutting move from there to the next point still cuts "
+                                  f"that deep after {FOLD_ROUNDS} rounds of poses inserted "
+                                  "into it and lifted clear (a fold of the surface); use a "
+                                  "smaller cutter")
+            out = np.unique(np.r_[a_bad, a_bad + 1])
+            keep = keep.copy()
+            keep[out] = False
+            dropped += int(out.size)
+            break
+        pts, keep, new_at = insert_move_poses(surface, pts, keep, a_bad, u_at[bad])
+        accepted_mm = np.insert(accepted_mm, new_at - np.arange(new_at.size), 0.0)
+        if len(pts) > opts.max_points:
+            raise too_many_points(opts, len(pts))
+        # (lifted first by the sampled depth: the normal's depth at a fold is far more)
+        tips, lift, stuck = _lift_poses(surface, cutter, pts, new_at, np.maximum(
+            -worst[bad], 0.0), samples, lift_tol, opts.check_flutes)
+        if stuck.size and not fixed:
+            i = int(stuck[0])
+            raise gouge_error(pts, i, cutter, float(depth[bad][np.searchsorted(new_at, i)]),
+                              f"lifting the cutter {lift[i]:.4f} mm along its axis inside the "
+                              "move from there did not clear a fold of the surface; use a "
+                              "smaller cutter")
+        pts = with_tips(pts, pts.axes, tips)
+        stats["n_fold_points"] += int(new_at.size - stuck.size)
+        stats["max_fold_lift_mm"] = max(stats["max_fold_lift_mm"], float(lift.max()))
+        if stuck.size:  # a wall along the fixed axis: the move cannot be cut
+            out = np.unique(np.r_[stuck - 1, stuck, stuck + 1])
+            keep[out] = False
+            dropped += int(out.size - stuck.size)
+        near = np.unique(np.r_[new_at - 1, new_at])
+        a_i = near[keep[near] & keep[near + 1] & pts.same_pass[near]]
+    if dropped:
+        stats["shadowed"] = dropped
+    if stats["n_fold_points"]:
+        pts = with_rate_record(cutter, pts)
+    return pts, keep, stats
 
 
 def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int

@@ -667,8 +667,6 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock.stage("chords")
     pts, keep, planned_chord = refine_chords(surface, cutter, opts, res, layout, pts,
                                              keep=keep, machine=mach)
-    faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
-        np.zeros(len(pts), dtype=bool)
 
     if opts.on_limit is OnLimit.RAISE:
         _check_tilt_reach(pts, keep, opts, res, mach)
@@ -676,6 +674,9 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock.stage("gouge")
     samples = sample_surface(surface, res.gouge_sample_mm)
     pts, keep, gstats = gouge_stage(surface, cutter, opts, res, pts, keep, samples)
+    # (after the gouge stage: it may insert poses into moves across a fold)
+    faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
+        np.zeros(len(pts), dtype=bool)
     runs = _runs_of(keep, pts, bool(surface.closed_t))
     if not runs:
         raise UnreachableRegionError(
@@ -711,7 +712,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
                 "linking": opts.linking.value}
     if mach is not None and mach.kinematics.is_five_axis and not (
-            gstats["n_lifted"] or gstats["n_retilted"]):
+            gstats["n_lifted"] or gstats["n_retilted"] or gstats["n_fold_points"]):
         # the cutting moves were checked as this machine moves them (refine_chords): the
         # post need not split them for joint interpolation
         metadata[JOINT_CHECKED] = machine_key(mach)

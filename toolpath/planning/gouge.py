@@ -115,12 +115,73 @@ def sample_surface(surface: ParametricSurface, sample_mm: float, *,
     if (parts > 1).any() and (n_t + int((parts - 1).sum())) * n_s <= max_samples:
         pieces = [columns[:1]] + [np.linspace(a, b, k + 1)[1:] for a, b, k in
                                   zip(columns[:-1], columns[1:], parts, strict=True)]
+        coarse = columns
         columns = np.concatenate(pieces)
+        # (only the divided intervals' parts can still turn that much)
+        divided = parts[np.clip(np.searchsorted(coarse, columns[:-1], side="right") - 1, 0,
+                                parts.size - 1)] > 1
+        columns = _fold_columns(surface, columns, divided, g,
+                                max(max_samples // n_s, columns.size))
     t, s = np.meshgrid(columns, np.linspace(0.0, 1.0, n_s), indexing="ij")
     t, s = t.ravel(), s.ravel()
     points = surface(t, s)
     spacing = float(max(len_t / (n_t - 1), len_s / (n_s - 1)))
     return SurfaceSamples(points=points, t=t, s=s, spacing_mm=spacing)
+
+
+#: A ``t`` interval where the normal still turns over :data:`SAMPLE_TURN_DEG` once divided
+#: (a fold: a sharp edge, a crease, the normal turning at a point) is halved again until
+#: its samples lie within this of each other, so the fold's own line is sampled to about
+#: this (a cutter rolling round a ridge sits on its top, which samples either side of it
+#: would miss by the slope times their distance); at most :data:`FOLD_HALVINGS` times.
+FOLD_SAMPLE_MM = 2e-6
+FOLD_HALVINGS = 32
+
+
+def _fold_columns(surface: ParametricSurface, columns: NDArray[np.float64],
+                  divided: NDArray[np.bool_], g: NDArray[np.float64], max_columns: int
+                  ) -> NDArray[np.float64]:
+    """``columns`` with the intervals across a fold halved (:data:`FOLD_SAMPLE_MM`).
+
+    Of the intervals ``divided`` (``columns[i], columns[i + 1]``), each round evaluates
+    the midpoints of those still turning over
+    :data:`SAMPLE_TURN_DEG` (at any of the ``g`` levels of ``s``) and wider than
+    :data:`FOLD_SAMPLE_MM`: a smooth turn stops once divided, a fold's interval halves
+    each round (one or two new columns a fold a round).
+    """
+    def at(t: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+        return surface(t, g, grid=True), surface.normal(t, g, grid=True)
+
+    def turning(a: tuple[NDArray[np.float64], NDArray[np.float64]],
+                b: tuple[NDArray[np.float64], NDArray[np.float64]]) -> NDArray[np.bool_]:
+        cos = np.einsum("ijk,ijk->ij", a[1], b[1]).min(axis=1)
+        width = np.linalg.norm(b[0] - a[0], axis=2).max(axis=1)
+        return (np.degrees(np.arccos(np.clip(cos, -1.0, 1.0))) > SAMPLE_TURN_DEG) & (
+            width > FOLD_SAMPLE_MM)
+
+    lo, hi = columns[:-1][divided], columns[1:][divided]
+    ends = at(np.r_[lo, hi])  # (one evaluation for both ends)
+    lo_at = (ends[0][:lo.size], ends[1][:lo.size])
+    hi_at = (ends[0][lo.size:], ends[1][lo.size:])
+    todo = turning(lo_at, hi_at)
+    lo, hi = lo[todo], hi[todo]
+    lo_at, hi_at = (lo_at[0][todo], lo_at[1][todo]), (hi_at[0][todo], hi_at[1][todo])
+    added: list[NDArray[np.float64]] = []
+    for _ in range(FOLD_HALVINGS):
+        if not lo.size or columns.size + sum(a.size for a in added) + lo.size > max_columns:
+            break
+        mid = 0.5 * (lo + hi)
+        added.append(mid)
+        mid_at = at(mid)
+        left, right = turning(lo_at, mid_at), turning(mid_at, hi_at)
+        lo, hi = np.r_[lo[left], mid[right]], np.r_[mid[left], hi[right]]
+        lo_at = tuple(np.concatenate((x[left], y[right])) for x, y in zip(lo_at, mid_at,
+                                                                          strict=True))
+        hi_at = tuple(np.concatenate((x[left], y[right])) for x, y in zip(mid_at, hi_at,
+                                                                          strict=True))
+    if not added:
+        return columns
+    return np.unique(np.concatenate([columns, *added]))
 
 
 @dataclass(frozen=True, eq=False)

@@ -502,6 +502,31 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     return _merge_points(pts, new, new_at), where_new, True
 
 
+def insert_move_poses(surface: ParametricSurface, pts: PassPoints, keep: NDArray[np.bool_],
+                      after: NDArray[np.int64], u: NDArray[np.float64]
+                      ) -> tuple[PassPoints, NDArray[np.bool_], NDArray[np.int64]]:
+    """The cutter's poses inside moves ``after -> after + 1`` (increasing, one each) merged in.
+
+    At fraction ``u`` of each move the pose is the move's own: tip and axis interpolated
+    linearly (the axis normalised), as the controller cuts the move; its surface parameters
+    ``(t, s)`` interpolated too (the frame there stands for the contact). Returns the
+    points, ``keep`` on them (the new ones kept) and the new points' rows.
+    """
+    w = u[:, None]
+    b = after + 1
+    axes = pts.axes[after] * (1.0 - w) + pts.axes[b] * w
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    t = pts.t[after] * (1.0 - u) + pts.t[b] * u
+    s = pts.s[after] * (1.0 - u) + pts.s[b] * u
+    new = PassPoints(t=t, s=s, pid=pts.pid[after], frame=pass_frame(surface, t, s),
+                     nominal=axes, axes=axes,
+                     tips=pts.tips[after] * (1.0 - w) + pts.tips[b] * w,
+                     direction=pts.direction[after], smoothing=pts.smoothing,
+                     cone_pushed=pts.cone_pushed)
+    new_at = after + 1 + np.arange(after.size)
+    return _merge_points(pts, new, new_at), _kept_with_new(keep, new_at), new_at
+
+
 #: The per-point arrays of :class:`PassPoints` (the frame apart).
 _ROW_FIELDS = tuple(f.name for f in fields(PassPoints)
                     if f.name not in ("frame", "smoothing", "cone_pushed"))

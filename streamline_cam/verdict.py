@@ -1,0 +1,61 @@
+"""The verification verdict: what the verifier measured against what the job asked for.
+
+One implementation for the command line (``toolpath run --verify`` exits 1 when the
+program exceeds the request) and the service (the job's ``verdict`` and ``summary``).
+The deepest gouge is held to the chord tolerance (chords cut into a convex surface by up
+to that much by design; the plan keeps room for the G-code's rounding), the largest
+scallop between passes to the scallop asked for.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+__all__ = ["verdict_summary", "verify_excess", "verify_verdict"]
+
+
+def verify_verdict(report: dict[str, Any]) -> dict[str, Any] | None:
+    """Pass or fail of a job's verified program against its request; None unverified.
+
+    ``report`` is the pipeline's (``plan`` and ``verify`` sections). Returns ``ok``, the
+    figures held to each limit (``gouge_mm`` to ``chord_tol_mm``, ``scallop_mm`` to
+    ``scallop_request_mm``) and ``exceeds``: one line per limit exceeded, naming the
+    command-line flag that sets it and the G-code line where the verifier found it.
+    """
+    verify, plan = report.get("verify"), report.get("plan") or {}
+    if not verify:
+        return None
+    over = []
+    gouge = float(verify.get("max_gouge_mm") or 0.0)
+    chord = float(plan["chord_tol_mm"])
+    if gouge > chord:
+        where = verify.get("max_gouge") or {}
+        over.append(f"deepest gouge {gouge:.4f} mm exceeds the chord tolerance {chord:g} mm "
+                    "(--chord-tol)" + (f" at line {where['line']}" if where.get("line") else ""))
+    scallop = float(verify.get("max_scallop_mm") or 0.0)
+    asked = float(plan["scallop_request_mm"])
+    if scallop > asked:
+        where = verify.get("max_scallop") or {}
+        over.append(f"scallop {scallop:.4f} mm exceeds the {asked:g} mm asked (--scallop)"
+                    + (f" at line {where['line']}" if where.get("line") else ""))
+    return {"ok": not over, "gouge_mm": gouge, "chord_tol_mm": chord, "scallop_mm": scallop,
+            "scallop_request_mm": asked, "exceeds": over}
+
+
+def verify_excess(report: dict[str, Any]) -> str | None:
+    """What the verifier measured beyond the request, in one line; None when nothing was."""
+    verdict = report.get("verify", {}).get("verdict") if report.get("verify") else None
+    if verdict is None:
+        verdict = verify_verdict(report)
+    if verdict is None or verdict["ok"]:
+        return None
+    return "; ".join(verdict["exceeds"])
+
+
+def verdict_summary(verdict: dict[str, Any]) -> str:
+    """The verdict in one line: the figures within the request, or what exceeds it."""
+    if not verdict["ok"]:
+        return "the program exceeds the request: " + "; ".join(verdict["exceeds"])
+    return (f"verified: deepest gouge {verdict['gouge_mm']:.4f} mm within the chord tolerance "
+            f"{verdict['chord_tol_mm']:g} mm, scallop {verdict['scallop_mm']:.4f} mm within the "
+            f"{verdict['scallop_request_mm']:g} mm asked")
