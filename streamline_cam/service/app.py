@@ -28,6 +28,7 @@ from toolpath.errors import ToolpathError
 
 from .config import ServiceConfig
 from .limits import BodySizeLimit
+from .page import mount_page
 from .pool import WorkerPool
 from .routes import Service, router
 from .store import JobStore
@@ -94,6 +95,9 @@ def create_app(config: ServiceConfig, *,
     app.state.service = service
     app.add_middleware(BodySizeLimit, max_bytes=config.max_upload_bytes)
     app.include_router(router)
+
+    # the web page at / (static files; see .page)
+    mount_page(app)
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:
