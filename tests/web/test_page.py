@@ -172,6 +172,8 @@ def test_dev_blade_job_preview_report_and_plots(server, browser, finished, tmp_p
                            "[...document.querySelectorAll('#plots img')]"
                            ".every(i => i.complete && i.naturalWidth > 0)", timeout=60_000)
     _shot(page, tmp_path, "3-report-and-plots")
+    plots = page.locator("#plots figure").evaluate_all("fs => fs.map(f => f.dataset.plot)")
+    assert {"deviation", "surface"} <= set(plots)
     links = dict(page.locator("#downloads a").evaluate_all(
         "links => links.map(a => [a.dataset.download, a.getAttribute('href')])"))
     assert {"gcode", "toolpath", "report"} <= set(links)

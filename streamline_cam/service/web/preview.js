@@ -23,6 +23,33 @@ function passColour(k, n, target) {
   return target.setHSL(0.66 * (1 - f), 0.85, 0.45);
 }
 
+/** Every `stride`-th point of a flat xyz run, its last point kept. */
+function thin(points, stride) {
+  const n = points.length / 3;
+  if (stride <= 1 || n <= 2) return points;
+  const keep = [];
+  for (let i = 0; i < n; i += stride) keep.push(i);
+  if (keep[keep.length - 1] !== n - 1) keep.push(n - 1);
+  const out = new Float32Array(3 * keep.length);
+  keep.forEach((i, k) => {
+    out[3 * k] = points[3 * i];
+    out[3 * k + 1] = points[3 * i + 1];
+    out[3 * k + 2] = points[3 * i + 2];
+  });
+  return out;
+}
+
+/** The segments with at most about `limit` points: a guard for a server that sent more
+ *  than asked (display only; the G-code is never touched). */
+export function capPoints(segments, limit) {
+  let total = 0;
+  for (const s of segments) total += s.points.length / 3;
+  const stride = Math.ceil(total / limit);
+  if (stride <= 1) return segments;
+  return segments.map((s) => ({ ...s, points: thin(s.points, stride),
+                                tool_axis: s.tool_axis && thin(s.tool_axis, stride) }));
+}
+
 /** `"ball:6"`, `"flat:10"`, `"bull:10:2"` -> {kind, radius_mm}; a ball of 6 mm otherwise. */
 export function parseCutter(spec) {
   const [kind, diameter] = String(spec || "").split(":");
@@ -62,9 +89,10 @@ function pieces(runs) {
 export class Preview {
   constructor(container, slider, readout) {
     this.container = container;
+    // no multisampling: it doubles the cost of a frame in a software renderer (no GPU)
     this.slider = slider;
     this.readout = readout;
-    this.renderer = new THREE.WebGLRenderer({ antialias: true });
+    this.renderer = new THREE.WebGLRenderer({ antialias: false });
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
     this.renderer.setClearColor(BACKGROUND);
     container.append(this.renderer.domElement);
@@ -124,7 +152,8 @@ export class Preview {
   show(job, data) {
     this.clear();
     const cutter = parseCutter(job.parameters?.cutter);
-    const { surface, segments } = data;
+    const { surface } = data;
+    const segments = capPoints(data.segments, MAX_POINTS);
     if (surface && surface.rows > 1 && surface.cols > 1) this.addSurface(surface);
 
     const cuts = segments.filter((s) => s.kind === "cut");
@@ -279,7 +308,7 @@ export class Preview {
   frame(box) {
     const centre = box.getCenter(new THREE.Vector3());
     const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1);
-    const distance = radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    const distance = 0.8 * radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2));
     this.camera.near = distance / 100;
     this.camera.far = distance * 10;
     this.camera.position.copy(centre).add(new THREE.Vector3(0.6, -1, 0.7).normalize()
