@@ -8,38 +8,160 @@
   ``joint - work_origin``), stream through pyserial with character counting, and compare
   the simulator's journal with the program: every block executed exactly once, the final
   position the program's end;
+- ``"simulate:SPEED"`` (``simulate:x10``, ``simulate:realtime``): the same at that time
+  scale (the default ``instant`` jumps each move to its end);
 - a port (``/dev/ttyUSB0``, ``socket://127.0.0.1:PORT``): stream to that controller.
 
-Both refuse a program whose pre-flight check finds errors.
+Both refuse a program whose pre-flight check finds errors. A :class:`StreamControl` passed as
+``stream(..., control=...)`` watches the run (progress, status) and holds, resumes or
+cancels it from another thread through the sender's own feed hold (``!``), cycle start
+(``~``) and cancel (hold, then soft reset: position kept).
 """
 
 from __future__ import annotations
 
+import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from gcode.dialects import dialect_by_name
 from gcode.senders.grbl_sender import GrblSender
 from gcode.senders.job import Job
 from gcode.senders.journal import JobJournal
 from gcode.senders.preflight import preflight
+from gcode.senders.progress import Progress
 from gcode.senders.serial_link import open_serial_link
 from machines import Machine
 
-__all__ = ["make_streamer"]
+__all__ = ["SIMULATE", "StreamControl", "make_streamer"]
 
-Streamer = Callable[[Path, Machine], dict[str, Any]]
+#: The built-in simulator's target name (``simulate`` or ``simulate:SPEED``).
+SIMULATE: Final[str] = "simulate"
+
+Streamer = Callable[..., dict[str, Any]]
 
 
-def _send(job: Job, machine: Machine, url: str, journal_path: Path, dialect_name: str | None
-          ) -> dict[str, Any]:
+class StreamControl:
+    """Watch one stream and hold, resume or cancel it from other threads.
+
+    The sender runs in its own thread and calls :meth:`progress` (``on_progress``) and,
+    once a requested feed hold has stopped the machine, :meth:`decide` (``on_hold``), which
+    waits for :meth:`resume` or :meth:`cancel`. ``state`` is ``queued`` (not sending yet),
+    ``running``, ``held`` (stopped by a feed hold, waiting for a decision) or ``stopping``
+    (a cancel is under way); the caller records how the run ended.
+
+    Parameters
+    ----------
+    on_change : callable or None
+        ``on_change(control)`` after each progress report and state change (from the
+        sender's thread or the caller's).
+    """
+
+    def __init__(self, on_change: Callable[[StreamControl], None] | None = None) -> None:
+        self._lock = threading.Lock()
+        self._decided = threading.Condition(self._lock)
+        self._sender: GrblSender | None = None
+        self._hold_asked = False
+        self._decision: str | None = None
+        self.on_change = on_change
+        self.state = "queued"
+        self.cancelled = False
+        self.progress_report: Progress | None = None
+        self.machine_position: tuple[float, ...] | None = None
+
+    def _changed(self) -> None:
+        if self.on_change is not None:
+            self.on_change(self)
+
+    def attach(self, sender: GrblSender) -> None:
+        """The run starts with ``sender``: a hold or cancel asked before applies now."""
+        with self._lock:
+            self._sender = sender
+            if self.state == "queued":
+                self.state = "running"
+            if self._hold_asked:
+                sender.request_hold()
+        self._changed()
+
+    def progress(self, report: Progress) -> None:
+        """``on_progress`` of the sender: keep the latest report."""
+        sender = self._sender
+        status = sender.status if sender is not None else None
+        self.progress_report = report
+        if status is not None and status.machine_position is not None:
+            self.machine_position = tuple(status.machine_position)
+        self._changed()
+
+    def hold(self) -> bool:
+        """Ask for a feed hold; ``False`` unless the stream is running and not holding."""
+        with self._lock:
+            if self.state != "running" or self._hold_asked or self.cancelled:
+                return False
+            self._hold_asked, self._decision = True, None
+            if self._sender is not None:
+                self._sender.request_hold()
+        return True
+
+    def resume(self) -> bool:
+        """Cycle start after a hold; ``False`` unless the stream is held."""
+        with self._lock:
+            if self.state != "held":
+                return False
+            self._decision = "resume"
+            self._decided.notify_all()
+        return True
+
+    def cancel(self) -> bool:
+        """Stop the run (hold, then soft reset); ``False`` once it has ended or is stopping."""
+        with self._lock:
+            if self.cancelled or self.state not in ("queued", "running", "held"):
+                return False
+            self.cancelled, self._decision = True, "cancel"
+            if self.state == "running" and not self._hold_asked:
+                self._hold_asked = True
+                if self._sender is not None:
+                    self._sender.request_hold()
+            self._decided.notify_all()
+        return True
+
+    def decide(self, report: Progress) -> str:
+        """``on_hold`` of the sender: the machine stands in a feed hold; wait for a decision.
+
+        Returns ``"resume"`` or ``"cancel"``.
+        """
+        self.progress_report = report
+        with self._lock:
+            if self._decision is None:
+                self.state = "held"
+        self._changed()
+        with self._lock:
+            self._decided.wait_for(lambda: self._decision is not None)
+            decision, self._decision, self._hold_asked = self._decision, None, False
+            self.state = "running" if decision == "resume" else "stopping"
+        self._changed()
+        return str(decision)
+
+    def ended(self) -> None:
+        """The run is over: later requests are refused."""
+        with self._lock:
+            self.state = "ended"
+            self._sender = None
+
+
+def _send(job: Job, machine: Machine, url: str, journal_path: Path, dialect_name: str | None,
+          control: StreamControl | None = None) -> dict[str, Any]:
     dialect = dialect_by_name(dialect_name or machine.dialect)
-    sender = GrblSender(open_serial_link(url), dialect=dialect)
+    sender = GrblSender(open_serial_link(url), dialect=dialect,
+                        on_progress=control.progress if control is not None else None)
     try:
         sender.connect()
         with JobJournal(journal_path, job, mode="char-count", port=url) as journal:
-            result = sender.run(job, journal=journal)
+            if control is None:
+                result = sender.run(job, journal=journal)
+            else:
+                control.attach(sender)
+                result = sender.run(job, journal=journal, on_hold=control.decide)
     finally:
         sender.close()
     return {"ok": True, "port": url, "blocks_done": result.blocks_done,
@@ -55,26 +177,32 @@ def _in_order(ran: list[str], sent: list[str]) -> bool:
 
 def make_streamer(target: str, *, speed: str = "instant", baud: int = 115200,
                   dialect: str | None = None) -> Streamer:
-    """A ``stream(gcode_path, machine)`` for ``target`` (``"simulate"`` or a port).
+    """A ``stream(gcode_path, machine, *, control=None)`` for ``target``.
 
+    ``target`` is ``"simulate"``, ``"simulate:SPEED"`` (overrides ``speed``) or a port.
     ``dialect`` overrides the machine's (as the program was posted); ``speed`` and ``baud``
-    set the simulator's time scale and link pacing.
+    set the simulator's time scale and link pacing. ``control`` (a :class:`StreamControl`)
+    watches, holds, resumes and cancels the run.
     """
+    name, _, given_speed = target.partition(":")
+    if name == SIMULATE and given_speed:
+        target, speed = SIMULATE, given_speed
 
-    def stream(gcode_path: Path, machine: Machine) -> dict[str, Any]:
+    def stream(gcode_path: Path, machine: Machine, *,
+               control: StreamControl | None = None) -> dict[str, Any]:
         job = Job.from_text(gcode_path.read_text(encoding="ascii"), gcode_path.name)
         issues = preflight(job, machine, dialect_by_name(dialect) if dialect else None)
         if issues:
             return {"ok": False, "refused": f"pre-flight: {issues[0]}"}
         journal_path = gcode_path.with_suffix(".journal")
         if target != "simulate":
-            return _send(job, machine, target, journal_path, dialect)
+            return _send(job, machine, target, journal_path, dialect, control)
         from simulator import run_simulator
 
         g54 = (*machine.work_origin, 0.0, 0.0, 0.0)
         with run_simulator(machine, serial="pty", speed=speed, baud=baud,
                            work_offsets={1: g54}) as sim:
-            outcome = _send(job, machine, sim.serial_url, journal_path, dialect)
+            outcome = _send(job, machine, sim.serial_url, journal_path, dialect, control)
             executed = sim.journal()
             snapshot = sim.snapshot()
         sent = [line.text for line in job.lines]

@@ -6,6 +6,7 @@ import argparse
 import ipaddress
 import socket
 import sys
+from typing import Any
 
 from ..cli_files import CommandLineError, output_folder
 from ..cli_types import positive_int
@@ -64,6 +65,7 @@ def serve(args: argparse.Namespace) -> int:
     import uvicorn
 
     from ..service import ServiceConfig, create_app
+    from ..service.app import stop_events
     from ..service.config import DEFAULT_STREAM_TARGETS
 
     targets = dict(DEFAULT_STREAM_TARGETS) | dict(args.target or [])
@@ -93,8 +95,14 @@ def serve(args: argparse.Namespace) -> int:
           + (f"jobs on the Dask scheduler at {config.scheduler}, {config.workers} at once"
              if config.scheduler else f"{config.workers} {config.executor} worker(s)")
           + f"; stream targets: {', '.join(sorted(targets))}", flush=True)
-    server = uvicorn.Server(uvicorn.Config(create_app(config), log_level=args.log_level,
-                                           timeout_graceful_shutdown=5))
+    app = create_app(config)
+
+    class Server(uvicorn.Server):
+        def handle_exit(self, sig: int, frame: Any) -> None:
+            stop_events(app)  # open /events streams end, so the graceful stop is quick
+            super().handle_exit(sig, frame)
+
+    server = Server(uvicorn.Config(app, log_level=args.log_level, timeout_graceful_shutdown=5))
     try:
         server.run(sockets=[sock])
     except KeyboardInterrupt:  # uvicorn re-raises Ctrl-C after its graceful shutdown

@@ -8,6 +8,9 @@ Error mapping (every answer is JSON ``{"detail": ...}``, never a traceback):
 - 404 unknown job, stream or plot; 409 results of a job that is not done;
 - 503 queue full, or streaming not available in this installation;
 - 500 only for a bug, with the exception's class and no traceback (that goes to the log).
+
+``/docs`` is Swagger UI from files shipped in the package (``static/swagger``: no CDN, so it
+works on a machine without internet); ReDoc is not offered.
 """
 
 from __future__ import annotations
@@ -16,17 +19,21 @@ import logging
 import threading
 from collections.abc import AsyncIterator, Callable
 from contextlib import asynccontextmanager
-from typing import Any
+from pathlib import Path
+from typing import Any, Final
 
 from fastapi import FastAPI, Request
 from fastapi.exceptions import RequestValidationError
-from fastapi.responses import JSONResponse
+from fastapi.openapi.docs import get_swagger_ui_html
+from fastapi.responses import HTMLResponse, JSONResponse
+from fastapi.staticfiles import StaticFiles
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
 from toolpath.errors import ToolpathError
 
 from .config import ServiceConfig
+from .events import EventHub, JobWatcher
 from .limits import BodySizeLimit
 from .page import mount_page
 from .pool import WorkerPool
@@ -35,9 +42,12 @@ from .store import JobStore
 from .streams import MakeStreamer, StreamRunner, load_make_streamer
 from .validation import SubmissionError
 
-__all__ = ["create_app"]
+__all__ = ["SWAGGER_DIR", "create_app", "stop_events"]
 
 log = logging.getLogger(__name__)
+
+#: Swagger UI's files (swagger-ui-dist, Apache-2.0), served at ``/static/swagger``.
+SWAGGER_DIR: Final[Path] = Path(__file__).parent / "static" / "swagger"
 
 _DESCRIPTION = """Blade sections in, a checked G-code program out.
 
@@ -71,10 +81,21 @@ def create_app(config: ServiceConfig, *,
     config.jobs_dir.mkdir(parents=True, exist_ok=True)
     store = JobStore(config.db_path)
     pool = WorkerPool(store, config)
+    hub = EventHub()
     service = Service(config=config, store=store, pool=pool,
                       streams=StreamRunner(store, config,
                                            loader=stream_loader or load_make_streamer),
-                      plot_lock=threading.Lock())
+                      plot_lock=threading.Lock(), events=hub)
+    watcher = JobWatcher(store, hub, lambda record, streams: service.job_view(
+        record, streams).model_dump(mode="json"))
+
+    def stream_changed(stream_id: str) -> None:
+        if hub.listeners:
+            record = store.get_stream(stream_id)
+            if record is not None:
+                hub.publish("stream", service.stream_view(record).model_dump(mode="json"))
+
+    service.streams.on_change = stream_changed
 
     @asynccontextmanager
     async def lifespan(app: FastAPI) -> AsyncIterator[None]:
@@ -84,17 +105,30 @@ def create_app(config: ServiceConfig, *,
                         len(requeued), len(failed), config.max_attempts)
         if config.start_workers:
             pool.start()
+        watcher.start()
         try:
             yield
         finally:
+            hub.close()
+            watcher.stop()
             pool.shutdown()
             service.streams.shutdown()
 
     app = FastAPI(title="streamline-cam", version="0.1.0", description=_DESCRIPTION,
-                  lifespan=lifespan, form_limits={"max_files": 1, "max_fields": 40})
+                  lifespan=lifespan, form_limits={"max_files": 1, "max_fields": 40},
+                  docs_url=None, redoc_url=None)
     app.state.service = service
     app.add_middleware(BodySizeLimit, max_bytes=config.max_upload_bytes)
     app.include_router(router)
+    app.mount("/static/swagger", StaticFiles(directory=SWAGGER_DIR), name="swagger")
+
+    @app.get("/docs", include_in_schema=False)
+    def docs() -> HTMLResponse:
+        return get_swagger_ui_html(
+            openapi_url=app.openapi_url or "/openapi.json", title=f"{app.title}: API",
+            swagger_js_url="/static/swagger/swagger-ui-bundle.js",
+            swagger_css_url="/static/swagger/swagger-ui.css",
+            swagger_favicon_url="/static/swagger/favicon-32x32.png")
 
     # the web page at / (static files; see .page)
     mount_page(app)
@@ -123,3 +157,12 @@ def create_app(config: ServiceConfig, *,
             "detail": f"internal error ({type(exc).__name__}); see the service log"})
 
     return app
+
+
+def stop_events(app: FastAPI) -> None:
+    """End every ``GET /events`` connection now (the server is stopping).
+
+    A server waits for open responses before it shuts the application down, and an event
+    stream never ends by itself: ``toolpath serve`` calls this when it is asked to stop.
+    """
+    app.state.service.events.close()

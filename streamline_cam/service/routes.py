@@ -1,14 +1,15 @@
 """The HTTP endpoints (one router); the service's parts come from ``request.app.state``.
 
 Endpoints are plain ``def``: FastAPI runs them in its thread pool, where SQLite calls and
-file copies do not block the event loop.
+file copies do not block the event loop. ``GET /events`` is the one ``async`` endpoint: a
+Server-Sent Events stream fed by the service's :class:`~.events.EventHub`.
 """
 
 from __future__ import annotations
 
 import shutil
 import uuid
-from collections.abc import Callable
+from collections.abc import AsyncIterator, Callable
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated, Any
@@ -22,14 +23,16 @@ from fastapi import (
     Request,
     Response,
 )
-from fastapi.responses import FileResponse, JSONResponse
+from fastapi.responses import FileResponse, JSONResponse, StreamingResponse
+from starlette.concurrency import run_in_threadpool
 
 from gcode.dialects import dialect_names
 from machines.machine import list_machines
 
 from ..pipeline import STAGES
-from . import artefacts
+from . import artefacts, preview
 from .config import ServiceConfig
+from .events import CLOSED, HEARTBEAT_S, EventHub, sse
 from .pool import WorkerPool
 from .schemas import (
     ErrorBody,
@@ -39,11 +42,12 @@ from .schemas import (
     JobParameters,
     JobSubmission,
     JobView,
+    Preview,
     StreamRequest,
     StreamView,
     timestamp,
 )
-from .store import JobRecord, JobState, JobStore, StreamRecord
+from .store import FINAL_STATES, JobRecord, JobState, JobStore, StreamRecord
 from .streams import StreamingUnavailable, StreamRunner
 from .validation import (
     SubmissionError,
@@ -68,6 +72,16 @@ class Service:
     pool: WorkerPool
     streams: StreamRunner
     plot_lock: Any
+    events: EventHub
+
+    def job_view(self, record: JobRecord,
+                 streams: list[StreamRecord] | None = None) -> JobView:
+        """``GET /jobs/{id}``'s answer for ``record`` (its streams with their live status)."""
+        return _job_view(record, streams, self.streams.live)
+
+    def stream_view(self, record: StreamRecord) -> StreamView:
+        """``GET /jobs/{id}/streams/{sid}``'s answer: the record and its live status."""
+        return _stream_view(record, self.streams.live(record.id))
 
 
 def _service(request: Request) -> Service:
@@ -84,20 +98,28 @@ router = APIRouter(responses=_ERRORS)
 # views ---------------------------------------------------------------------------------
 
 
-def _stream_view(record: StreamRecord) -> StreamView:
+def _stream_view(record: StreamRecord, live: dict[str, Any] | None = None) -> StreamView:
+    live = dict(live or {})
+    state = record.state.value
+    if live.pop("held", False) and state == "running":
+        state = "held"
     return StreamView(id=record.id, job_id=record.job_id, target=record.target,
-                      state=record.state.value, created=timestamp(record.created),
+                      state=state, created=timestamp(record.created),
                       started=timestamp(record.started), finished=timestamp(record.finished),
-                      result=record.result, error=record.error)
+                      result=record.result, error=record.error, **live)
 
 
-def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None) -> JobView:
+def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None,
+              live: Callable[[str], dict[str, Any]] | None = None) -> JobView:
     base = f"/jobs/{record.id}"
     links = {"self": base, "input": f"{base}/input"}
     if record.state is JobState.DONE:
         links |= {name: f"{base}/{name}" for name in artefacts.FILES}
         links |= {f"plot:{name}": f"{base}/plots/{name}" for name in artefacts.plot_names()}
         links["stream"] = f"{base}/stream"
+        links["preview"] = f"{base}/preview"
+    if record.state in (JobState.QUEUED, JobState.RUNNING):
+        links["cancel"] = f"{base}/cancel"
     if streams:
         links["journal"] = f"{base}/journal"
     progress = {stage: 0.0 for stage in _JOB_STAGES} | record.progress
@@ -110,7 +132,7 @@ def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None) -> J
         stage=record.stage,
         progress=progress, error=record.error, error_type=record.error_type,
         parameters=record.parameters, links=links,
-        streams=[_stream_view(s) for s in streams or []])
+        streams=[_stream_view(s, live(s.id) if live else None) for s in streams or []])
 
 
 def _job_or_404(service: Service, job_id: str) -> JobRecord:
@@ -126,6 +148,8 @@ def _done_or_409(service: Service, job_id: str) -> JobRecord:
         return record
     if record.state is JobState.FAILED:
         raise HTTPException(409, f"job {job_id} failed, it has no results: {record.error}")
+    if record.state is JobState.CANCELLED:
+        raise HTTPException(409, f"job {job_id} was cancelled, it has no results")
     where = ""
     if record.stage is not None:
         where = f" (stage {record.stage}, {100 * record.progress.get(record.stage, 0):.0f}%)"
@@ -162,6 +186,23 @@ def _submit(service: Service, params: JobParameters, name: str,
 def _accepted(record: JobRecord, response: Response) -> JobView:
     response.headers["Location"] = f"/jobs/{record.id}"
     return _job_view(record)
+
+
+@router.post("/jobs/{job_id}/cancel", response_model=JobView, tags=["jobs"],
+             summary="Cancel a queued or running job")
+def cancel_job(job_id: str, service: ServiceDep) -> JobView:
+    """Cancel the job: its state becomes ``cancelled``.
+
+    A queued job never runs; a running one stops at its next progress report (within a
+    fraction of a second: every stage reports its start, end and steps between). 409
+    when the job has already finished (done, failed or cancelled).
+    """
+    record = service.store.cancel(job_id)
+    if record is None:
+        current = _job_or_404(service, job_id)
+        raise HTTPException(409, f"job {job_id} is {current.state.value}; only a queued or "
+                            "running job can be cancelled")
+    return service.job_view(record, service.store.streams_of(job_id))
 
 
 @router.post("/jobs", status_code=202, response_model=JobView, tags=["jobs"],
@@ -201,7 +242,7 @@ def list_jobs(service: ServiceDep, state: JobState | None = None,
               offset: Annotated[int, Query(ge=0)] = 0) -> JobList:
     """Jobs (optionally of one state) and the counts by state."""
     records = service.store.jobs(state=state, limit=limit, offset=offset)
-    return JobList(jobs=[_job_view(r) for r in records], counts=service.store.counts())
+    return JobList(jobs=[service.job_view(r) for r in records], counts=service.store.counts())
 
 
 @router.get("/jobs/{job_id}", response_model=JobView, tags=["jobs"],
@@ -209,7 +250,7 @@ def list_jobs(service: ServiceDep, state: JobState | None = None,
 def get_job(job_id: str, service: ServiceDep) -> JobView:
     """Poll this until ``state`` is ``done`` or ``failed``."""
     record = _job_or_404(service, job_id)
-    return _job_view(record, service.store.streams_of(job_id))
+    return service.job_view(record, service.store.streams_of(job_id))
 
 
 @router.get("/jobs/{job_id}/report", tags=["results"],
@@ -303,7 +344,7 @@ def stream_job(job_id: str, service: ServiceDep, response: Response,
         raise HTTPException(409, f"job {job_id} is already being streamed; wait for that "
                             "stream to end (GET /jobs/{id})")
     response.headers["Location"] = f"/jobs/{job_id}/streams/{stream.id}"
-    return _stream_view(stream)
+    return service.stream_view(stream)
 
 
 @router.get("/jobs/{job_id}/journal", response_class=FileResponse, tags=["streaming"],
@@ -321,11 +362,143 @@ def get_journal(job_id: str, service: ServiceDep) -> FileResponse:
 @router.get("/jobs/{job_id}/streams/{stream_id}", response_model=StreamView,
             tags=["streaming"], summary="A stream request's state and result")
 def get_stream(job_id: str, stream_id: str, service: ServiceDep) -> StreamView:
-    """Poll this until ``state`` is ``done`` or ``failed``."""
+    """Poll this (or listen to ``GET /events``) until ``state`` has ended.
+
+    The ends are ``done``, ``failed`` and ``cancelled``; while it runs, the live fields
+    give position, lines, percent and ETA.
+    """
+    return service.stream_view(_stream_or_404(service, job_id, stream_id))
+
+
+def _stream_or_404(service: Service, job_id: str, stream_id: str) -> StreamRecord:
     stream = service.store.get_stream(stream_id)
     if stream is None or stream.job_id != job_id:
         raise HTTPException(404, f"job {job_id!r} has no stream {stream_id!r}")
-    return _stream_view(stream)
+    return stream
+
+
+def _control(service: Service, job_id: str, stream_id: str, action: str,
+             allowed: str) -> StreamView:
+    """Ask the stream's sender for ``action``; 409 naming the state when it cannot be."""
+    _stream_or_404(service, job_id, stream_id)
+    if not getattr(service.streams, action)(stream_id):
+        view = service.stream_view(_stream_or_404(service, job_id, stream_id))
+        raise HTTPException(409, f"stream {stream_id} is {view.state}; only a {allowed} "
+                            f"stream can be {'cancelled' if action == 'cancel' else action + 'ed'}")
+    return service.stream_view(_stream_or_404(service, job_id, stream_id))
+
+
+@router.post("/jobs/{job_id}/streams/{stream_id}/hold", status_code=202,
+             response_model=StreamView, tags=["streaming"],
+             summary="Feed hold (!): the machine decelerates to a stop on the path")
+def hold_stream(job_id: str, stream_id: str, service: ServiceDep) -> StreamView:
+    """Ask the sender for a feed hold.
+
+    ``state`` becomes ``held`` once the controller reports the axes stopped (watch ``GET
+    /events``). 409 unless the stream is running.
+    """
+    return _control(service, job_id, stream_id, "hold", "running")
+
+
+@router.post("/jobs/{job_id}/streams/{stream_id}/resume", status_code=202,
+             response_model=StreamView, tags=["streaming"],
+             summary="Cycle start (~) after a feed hold")
+def resume_stream(job_id: str, stream_id: str, service: ServiceDep) -> StreamView:
+    """Go on with the held program where it stopped. 409 unless the stream is held."""
+    return _control(service, job_id, stream_id, "resume", "held")
+
+
+@router.post("/jobs/{job_id}/streams/{stream_id}/cancel", status_code=202,
+             response_model=StreamView, tags=["streaming"],
+             summary="Cancel a stream: feed hold, then soft reset (position kept)")
+def cancel_stream(job_id: str, stream_id: str, service: ServiceDep) -> StreamView:
+    """Cancel the stream.
+
+    A queued stream never starts; a running or held one is stopped by the sender (feed
+    hold, wait for the stop, soft reset) and ends ``cancelled`` with the line to resume
+    from in its error. 409 once it has ended.
+    """
+    return _control(service, job_id, stream_id, "cancel", "queued, running or held")
+
+
+# preview and live events ---------------------------------------------------------------
+
+
+@router.get("/jobs/{job_id}/preview", response_class=JSONResponse, tags=["results"],
+            responses={200: {"model": Preview}},
+            summary="The fitted surface and the toolpath for a 3-D view (decimated)")
+def get_preview(job_id: str, service: ServiceDep,
+                max_points: Annotated[int, Query(ge=100, le=2_000_000)] = (
+                    preview.DEFAULT_MAX_POINTS)) -> Response:
+    """The surface on a grid and the toolpath in runs, decimated for display.
+
+    Runs are ``cut`` (one per pass), ``link`` and ``rapid``, at most ``max_points`` points
+    in all, every run's ends kept; ``max_deviation_mm`` says how far a dropped point lies
+    from the line drawn. The G-code and the ``.npz`` toolpath are the full ones.
+    """
+    _done_or_409(service, job_id)
+    job_dir = service.config.jobs_dir / job_id
+    if not (job_dir / "toolpath.npz").is_file() or not (job_dir / "surface.json").is_file():
+        raise HTTPException(404, f"job {job_id} has no toolpath.npz or surface.json (removed "
+                            "from the data folder?)")
+    return Response(preview.job_preview(job_dir, max_points), media_type="application/json")
+
+
+#: Jobs sent when an ``/events`` connection opens (newest first).
+EVENTS_FIRST_JOBS = 10_000
+
+
+def _snapshot(service: Service) -> list[tuple[str, dict[str, Any]]]:
+    """Every job (newest first), then the live streams: what a new listener gets first."""
+    records = service.store.jobs(limit=EVENTS_FIRST_JOBS)
+    streams = service.store.streams_of_jobs([r.id for r in records])
+    events = [("job", service.job_view(r, streams.get(r.id, [])).model_dump(mode="json"))
+              for r in records]
+    for record in (s for r in records for s in streams.get(r.id, [])):
+        if record.state.value not in FINAL_STATES:
+            events.append(("stream", service.stream_view(record).model_dump(mode="json")))
+    return events
+
+
+#: How often an idle ``/events`` connection checks that its client is still there (s).
+DISCONNECT_CHECK_S = 1.0
+
+
+@router.get("/events", tags=["jobs"], response_class=StreamingResponse,
+            responses={200: {"content": {"text/event-stream": {}}}},
+            summary="Live job and stream changes (Server-Sent Events)")
+async def events(request: Request, service: ServiceDep) -> StreamingResponse:
+    """Server-Sent Events of the jobs and streams, pushed as they change.
+
+    ``event: job`` (data: the job as ``GET /jobs/{id}`` answers) for every job at once,
+    newest first, then whenever one changes; ``event: stream`` (data: as ``GET
+    /jobs/{id}/streams/{sid}``, with position, line, percent, ETA, alarm) while a stream
+    runs; a comment ``: ping`` every 15 s. Use ``new EventSource("/events")``.
+    """
+    subscription = service.events.subscribe()  # before the snapshot: nothing is missed
+
+    async def body() -> AsyncIterator[str]:
+        quiet_s = 0.0
+        try:
+            yield ": connected\n\n"
+            for event, data in await run_in_threadpool(_snapshot, service):
+                yield sse(event, data)
+            while (item := await subscription.get(DISCONNECT_CHECK_S)) != CLOSED:
+                if item is None:
+                    quiet_s += DISCONNECT_CHECK_S
+                    if await request.is_disconnected():
+                        return
+                    if quiet_s >= HEARTBEAT_S:
+                        quiet_s = 0.0
+                        yield ": ping\n\n"
+                else:
+                    quiet_s = 0.0
+                    yield sse(*item)
+        finally:
+            subscription.close()
+
+    return StreamingResponse(body(), media_type="text/event-stream",
+                             headers={"Cache-Control": "no-cache", "X-Accel-Buffering": "no"})
 
 
 # the service ---------------------------------------------------------------------------

@@ -17,7 +17,14 @@ from ..job_task import USER_ERRORS, JobInterrupted, JobOutcome, ThrottledProgres
 from ..pipeline import JobRequest, run_job
 from .store import JobStore
 
-__all__ = ["PROGRESS_INTERVAL_S", "USER_ERRORS", "JobEngine", "as_job_fields", "run_stored_job"]
+__all__ = [
+    "PROGRESS_INTERVAL_S",
+    "USER_ERRORS",
+    "JobCancelled",
+    "JobEngine",
+    "as_job_fields",
+    "run_stored_job",
+]
 
 PROGRESS_INTERVAL_S: Final[float] = 0.25
 """Least time between two progress writes of one stage (s): a poll every second or so
@@ -62,16 +69,30 @@ def as_job_fields(message: str) -> str:
     return _FLAG.sub(field, message)
 
 
-class _Progress(ThrottledProgress):
-    """``progress(stage, fraction)`` writing to the store at most every interval."""
+class JobCancelled(Exception):
+    """The run no longer owns its job (cancelled on request, or superseded): stop it."""
 
-    def __init__(self, store: JobStore, job_id: str, attempt: int) -> None:
+
+class _Progress(ThrottledProgress):
+    """``progress(stage, fraction)`` writing to the store at most every interval.
+
+    A write the store refuses means the job was cancelled (or a newer run owns it): with
+    ``stop_when_cancelled`` the call raises :class:`JobCancelled`, so the pipeline stops at
+    its next progress report (every stage reports its start and end, the long ones more
+    often than every :data:`PROGRESS_INTERVAL_S`).
+    """
+
+    def __init__(self, store: JobStore, job_id: str, attempt: int, *,
+                 stop_when_cancelled: bool = True) -> None:
         super().__init__(PROGRESS_INTERVAL_S)
         self._store, self._job_id, self._attempt = store, job_id, attempt
+        self._stop = stop_when_cancelled
 
     def emit(self, stage: str, fraction: float) -> None:
-        self._store.set_progress(self._job_id, self._attempt, stage,
-                                 min(max(float(fraction), 0.0), 1.0))
+        owned = self._store.set_progress(self._job_id, self._attempt, stage,
+                                         min(max(float(fraction), 0.0), 1.0))
+        if not owned and self._stop:
+            raise JobCancelled(self._job_id)
 
 
 def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
@@ -88,7 +109,9 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
     -------
     str
         The job's final state, ``"done"``, ``"failed"`` or ``"superseded"`` (a newer run owns
-        the job: this one's outcome was dropped), or ``"interrupted"`` (the engine stopped
+        the job: this one's outcome was dropped), ``"cancelled"`` (stopped on request: the
+        job was cancelled while it ran; with ``engine`` the run ends and its outcome is
+        dropped as ``"superseded"``), or ``"interrupted"`` (the engine stopped
         before the job ended: it stays running in the store, re-queued at the next start).
     """
     store = JobStore(db_path)
@@ -97,7 +120,8 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
         return "superseded"
     try:
         request = JobRequest(sections_path=job_dir / record.input_name, **record.parameters)
-        progress = _Progress(store, job_id, attempt)
+        # (an engine's progress comes from its own event thread: nothing to stop there)
+        progress = _Progress(store, job_id, attempt, stop_when_cancelled=engine is None)
         if engine is None:
             report = run_job(request, job_dir, progress=progress, verify=True).report
         else:
@@ -112,6 +136,10 @@ def run_stored_job(db_path: Path, job_dir: Path, job_id: str, attempt: int, *,
                                   outcome.error_type or "JobError")
                 return "failed" if kept else "superseded"
             report = outcome.report or {}
+    except JobCancelled:
+        current = store.get(job_id)
+        return "cancelled" if current is not None and current.state == "cancelled" else (
+            "superseded")
     except JobInterrupted:  # the service stops: the job stays running, re-queued at start
         return "interrupted"
     except USER_ERRORS as exc:

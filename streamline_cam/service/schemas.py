@@ -21,6 +21,9 @@ __all__ = [
     "JobParameters",
     "JobSubmission",
     "JobView",
+    "Preview",
+    "PreviewSegment",
+    "PreviewSurface",
     "StreamRequest",
     "StreamView",
     "timestamp",
@@ -75,17 +78,38 @@ class JobForm(JobParameters):
 
 
 class StreamView(BaseModel):
-    """A request to stream a job's G-code to a target."""
+    """A request to stream a job's G-code to a target, with its live status while it runs.
+
+    The live fields are null until the sender's first progress report, and after a restart
+    of the service (they are kept in memory).
+    """
 
     id: str
     job_id: str
     target: str
-    state: Literal["queued", "running", "done", "failed"]
+    state: Literal["queued", "running", "held", "done", "failed", "cancelled"] = Field(
+        description="held: stopped by a feed hold, waiting for resume or cancel")
     created: datetime
     started: datetime | None
     finished: datetime | None
     result: dict[str, Any] | None = Field(None, description="the streamer's report")
     error: str | None
+    position_mm: dict[str, float] | None = Field(
+        None, description="work position (the program's coordinates) {x, y, z[, a, b, c]}, "
+        "mm (rotary axes deg), from the controller's latest status report")
+    position_source: str | None = Field(
+        None, description="report, or planned (the report was stale: the planned end of the "
+        "last acknowledged line)")
+    machine_position_mm: dict[str, float] | None = Field(
+        None, description="machine position (MPos) of the latest status report")
+    controller_state: str | None = Field(None, description="Idle, Run, Hold, Alarm, ...")
+    line: int | None = Field(None, description="program lines acknowledged")
+    source_line: int | None = Field(None, description="program line number last acknowledged")
+    total_lines: int | None = Field(None, description="program lines to send")
+    percent: float | None = None
+    eta_s: float | None = Field(None, description="time left at the rate so far, s")
+    elapsed_s: float | None = None
+    alarm: str | None = Field(None, description="the controller's alarm, if one stopped it")
 
 
 class JobView(BaseModel):
@@ -93,7 +117,7 @@ class JobView(BaseModel):
 
     id: str
     name: str
-    state: Literal["queued", "running", "done", "failed"]
+    state: Literal["queued", "running", "done", "failed", "cancelled"]
     created: datetime
     started: datetime | None
     finished: datetime | None
@@ -135,6 +159,40 @@ class Health(BaseModel):
     stream_targets: list[str]
     streaming: str = Field(description="'available', or why streaming is not")
     max_upload_bytes: int
+
+
+class PreviewSurface(BaseModel):
+    """The fitted surface sampled on a ``rows`` x ``cols`` parameter grid."""
+
+    rows: int
+    cols: int
+    points: list[float] = Field(description="flat [x, y, z, ...] row by row, mm")
+    closed: bool = Field(description="rows wrap round (closed sections)")
+
+
+class PreviewSegment(BaseModel):
+    """A run of moves of one kind, decimated for display."""
+
+    kind: Literal["cut", "link", "rapid"]
+    pass_: int | None = Field(None, alias="pass", description="finishing pass (cut only)")
+    points: list[float] = Field(description="flat [x, y, z, ...], mm")
+    tool_axis: list[float] | None = Field(
+        None, description="5-axis only: flat [i, j, k, ...], parallel to points")
+
+    model_config = ConfigDict(populate_by_name=True)
+
+
+class Preview(BaseModel):
+    """``GET /jobs/{id}/preview``: what the 3-D view draws (display only, never the G-code)."""
+
+    surface: PreviewSurface
+    segments: list[PreviewSegment]
+    bounds_mm: dict[str, list[float]] = Field(description="min and max [x, y, z] of it all")
+    points: int = Field(description="toolpath points in the segments")
+    source_points: int = Field(description="points of the full toolpath")
+    five_axis: bool
+    max_deviation_mm: float = Field(description="largest distance of a dropped point from "
+                                    "the decimated polyline")
 
 
 class ErrorBody(BaseModel):

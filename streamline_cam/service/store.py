@@ -1,7 +1,9 @@
 """The job store: jobs and stream requests in SQLite (stdlib :mod:`sqlite3`).
 
 One file, ``jobs.sqlite3`` in the data folder, is the queue and the record: a job is
-``queued`` -> ``running`` -> ``done`` | ``failed``. The worker pool claims the oldest queued
+``queued`` -> ``running`` -> ``done`` | ``failed``, or ``cancelled`` on request from either of
+the first two (:meth:`JobStore.cancel`; a running job's worker sees it at its next progress
+write). The worker pool claims the oldest queued
 job in one ``UPDATE ... RETURNING`` statement, and every later write of that run names the
 attempt it belongs to, so a worker left over from a stopped service (or a thread still
 finishing) cannot overwrite a newer run. The database is opened per call in WAL mode with a
@@ -30,9 +32,9 @@ from enum import StrEnum
 from pathlib import Path
 from typing import Any, Final
 
-__all__ = ["JobRecord", "JobState", "JobStore", "StreamRecord", "StreamState"]
+__all__ = ["FINAL_STATES", "JobRecord", "JobState", "JobStore", "StreamRecord", "StreamState"]
 
-SCHEMA_VERSION: Final[int] = 2
+SCHEMA_VERSION: Final[int] = 3
 BUSY_TIMEOUT_S: Final[float] = 10.0
 """Wait for a lock this long (s): writes are single-row and take microseconds, so only a
 stalled disk comes near it."""
@@ -41,7 +43,8 @@ _SCHEMA = """
 CREATE TABLE IF NOT EXISTS jobs (
     seq INTEGER PRIMARY KEY AUTOINCREMENT,
     id TEXT NOT NULL UNIQUE,
-    state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'done', 'failed')),
+    state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'done', 'failed',
+                                         'cancelled')),
     parameters TEXT NOT NULL,
     input_name TEXT NOT NULL,
     created REAL NOT NULL,
@@ -61,7 +64,8 @@ CREATE TABLE IF NOT EXISTS streams (
     id TEXT NOT NULL UNIQUE,
     job_id TEXT NOT NULL REFERENCES jobs (id),
     target TEXT NOT NULL,
-    state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'done', 'failed')),
+    state TEXT NOT NULL CHECK (state IN ('queued', 'running', 'done', 'failed',
+                                         'cancelled')),
     created REAL NOT NULL,
     started REAL,
     finished REAL,
@@ -79,6 +83,7 @@ class JobState(StrEnum):
     RUNNING = "running"  #: in a worker
     DONE = "done"  #: files and report written
     FAILED = "failed"  #: ``error`` says why
+    CANCELLED = "cancelled"  #: stopped on request (``POST /jobs/{id}/cancel``)
 
 
 class StreamState(StrEnum):
@@ -88,6 +93,11 @@ class StreamState(StrEnum):
     RUNNING = "running"
     DONE = "done"
     FAILED = "failed"
+    CANCELLED = "cancelled"
+
+
+#: Finished states: nothing changes a job or stream in one of these any more.
+FINAL_STATES: Final[frozenset[str]] = frozenset({"done", "failed", "cancelled"})
 
 
 @dataclass(frozen=True)
@@ -194,6 +204,8 @@ class JobStore:
             if version > SCHEMA_VERSION:
                 raise RuntimeError(f"{self.path}: job store schema {version} is newer than "
                                    f"this service's {SCHEMA_VERSION}")
+            if 0 < version < 3:
+                _allow_cancelled(db)
             db.executescript(_SCHEMA)
             columns = {r["name"] for r in db.execute("PRAGMA table_info(jobs)")}
             if "stops" not in columns:  # a version 1 store: graceful stops not counted
@@ -237,6 +249,29 @@ class JobStore:
                               (*args, limit, offset)).fetchall()
         return [_job(r) for r in rows]
 
+    def changing_jobs(self, *, finished_after: float) -> list[JobRecord]:
+        """Queued and running jobs, and those finished after ``finished_after`` (Unix s)."""
+        with self._connect() as db:
+            rows = db.execute(
+                "SELECT * FROM jobs WHERE state IN ('queued', 'running') OR finished >= ? "
+                "OR id IN (SELECT job_id FROM streams WHERE state IN ('queued', 'running') "
+                "OR finished >= ?) ORDER BY seq DESC", (finished_after, finished_after)
+            ).fetchall()
+        return [_job(r) for r in rows]
+
+    def streams_of_jobs(self, job_ids: list[str]) -> dict[str, list[StreamRecord]]:
+        """The stream requests of each of ``job_ids`` (oldest first); jobs without, absent."""
+        out: dict[str, list[StreamRecord]] = {}
+        with self._connect() as db:
+            for start in range(0, len(job_ids), 500):  # (SQLite's variable limit)
+                chunk = job_ids[start:start + 500]
+                rows = db.execute(
+                    f"SELECT * FROM streams WHERE job_id IN ({', '.join('?' * len(chunk))}) "
+                    "ORDER BY seq", chunk).fetchall()
+                for row in rows:
+                    out.setdefault(row["job_id"], []).append(_stream(row))
+        return out
+
     def counts(self) -> dict[str, int]:
         """Number of jobs by state (every state present)."""
         with self._connect() as db:
@@ -252,13 +287,30 @@ class JobStore:
                 "state = 'queued' ORDER BY seq LIMIT 1) RETURNING *", (time.time(),)).fetchone()
         return None if row is None else _job(row)
 
-    def set_progress(self, job_id: str, attempt: int, stage: str, fraction: float) -> None:
-        """Record ``fraction`` (0 to 1) of ``stage`` for the run ``attempt``."""
+    def set_progress(self, job_id: str, attempt: int, stage: str, fraction: float) -> bool:
+        """Record ``fraction`` (0 to 1) of ``stage`` for the run ``attempt``.
+
+        Returns whether the run still owns the job (``False``: cancelled, or superseded).
+        """
         with self._connect() as db:
-            db.execute(
+            cursor = db.execute(
                 "UPDATE jobs SET stage = ?, progress = json_set(progress, '$.' || ?, ?) "
                 "WHERE id = ? AND state = 'running' AND attempts = ?",
                 (stage, stage, float(fraction), job_id, attempt))
+        return cursor.rowcount == 1
+
+    def cancel(self, job_id: str) -> JobRecord | None:
+        """Cancel a queued or running job; ``None`` if it is not (any more) one of those.
+
+        A queued job is never claimed; a running one's worker stops at its next progress
+        write (:meth:`set_progress` answers ``False``) and its outcome is dropped.
+        """
+        with self._connect() as db:
+            row = db.execute(
+                "UPDATE jobs SET state = 'cancelled', finished = ?, error = 'cancelled on "
+                "request', error_type = 'Cancelled' WHERE id = ? AND state IN ('queued', "
+                "'running') RETURNING *", (time.time(), job_id)).fetchone()
+        return None if row is None else _job(row)
 
     def finish(self, job_id: str, attempt: int, report: dict[str, Any]) -> bool:
         """Mark the run ``attempt`` done with its report; ``False`` if it was superseded."""
@@ -392,10 +444,23 @@ class JobStore:
                                 "WHERE id = ? AND state = 'queued'", (time.time(), stream_id))
         return cursor.rowcount == 1
 
+    def cancel_queued_stream(self, stream_id: str) -> bool:
+        """``queued`` -> ``cancelled`` (it never starts); ``False`` if it was not queued."""
+        with self._connect() as db:
+            cursor = db.execute(
+                "UPDATE streams SET state = 'cancelled', finished = ?, error = 'cancelled "
+                "before it started' WHERE id = ? AND state = 'queued'", (time.time(), stream_id))
+        return cursor.rowcount == 1
+
     def end_stream(self, stream_id: str, *, result: dict[str, Any] | None = None,
-                   error: str | None = None) -> None:
-        """Record the outcome: failed if there is an ``error``, else done; ``result`` kept."""
+                   error: str | None = None, cancelled: bool = False) -> None:
+        """Record the outcome: cancelled if asked, failed if there is an ``error``, else done.
+
+        ``result`` is kept.
+        """
         state = StreamState.FAILED if error is not None else StreamState.DONE
+        if cancelled:
+            state = StreamState.CANCELLED
         with self._connect() as db:
             db.execute(
                 "UPDATE streams SET state = ?, finished = ?, result = ?, error = ? "
@@ -403,3 +468,36 @@ class JobStore:
                 (str(state), time.time(),
                  None if result is None else json.dumps(result, default=str),
                  error, stream_id))
+
+
+def _allow_cancelled(db: sqlite3.Connection) -> None:
+    """Rebuild a version 1 or 2 store's tables so their ``state`` accepts ``cancelled``.
+
+    SQLite cannot alter a CHECK constraint: each table is copied into one of the new
+    schema, in one transaction (the rows, ids and ``seq`` order are kept).
+    """
+    db.execute("PRAGMA foreign_keys = OFF")
+    db.execute("BEGIN IMMEDIATE")
+    try:
+        renamed = []
+        for table, index in (("jobs", "jobs_state"), ("streams", "streams_job")):
+            sql = db.execute("SELECT sql FROM sqlite_master WHERE type = 'table' AND name = ?",
+                             (table,)).fetchone()
+            if sql is None or "'cancelled'" in sql[0]:
+                continue
+            db.execute(f"ALTER TABLE {table} RENAME TO {table}_old")
+            db.execute(f"DROP INDEX IF EXISTS {index}")
+            renamed.append(table)
+        for statement in _SCHEMA.split(";"):  # (executescript would commit first)
+            if statement.strip():
+                db.execute(statement)
+        for table in renamed:
+            columns = ", ".join(r["name"] for r in db.execute(f"PRAGMA table_info({table}_old)"))
+            db.execute(f"INSERT INTO {table} ({columns}) SELECT {columns} FROM {table}_old")
+            db.execute(f"DROP TABLE {table}_old")
+        db.execute("COMMIT")
+    except BaseException:
+        db.execute("ROLLBACK")
+        raise
+    finally:
+        db.execute("PRAGMA foreign_keys = ON")

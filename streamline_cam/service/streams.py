@@ -5,6 +5,11 @@ needed: without it the endpoint answers 503 rather than pretend. Each target has
 single-thread executor, so two programs never interleave on one controller, and a slow
 machine does not hold up the simulator. Stream requests are recorded in the store; one cut
 short by a service stop is failed at the next start, never re-sent (see :mod:`.store`).
+
+While a stream runs, its :class:`~streamline_cam.streaming.StreamControl` holds the live
+status (position, lines, percent, ETA, alarm: :meth:`StreamRunner.live`) and takes feed
+hold, resume and cancel (:meth:`StreamRunner.hold`, ``resume``, ``cancel``); every change is
+passed to ``on_change(stream_id)`` (the service's event feed).
 """
 
 from __future__ import annotations
@@ -12,11 +17,14 @@ from __future__ import annotations
 import importlib
 import logging
 import threading
+from collections import OrderedDict
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
-from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
+from gcode.senders.errors import AlarmError, JobCancelledError
+
+from ..streaming import StreamControl
 from .config import ServiceConfig
 from .runner import USER_ERRORS
 from .store import JobRecord, JobStore, StreamRecord
@@ -33,7 +41,12 @@ log = logging.getLogger(__name__)
 
 STREAMING_MODULE = "streamline_cam.streaming"
 
-MakeStreamer = Callable[[str], Callable[[Path, Any], dict[str, Any]]]
+MakeStreamer = Callable[[str], Callable[..., dict[str, Any]]]
+
+#: Streams whose live status is kept in memory after they end (the newest ones).
+KEPT_LIVE: Final[int] = 200
+#: Axis names of the positions in status reports, in report order.
+_AXES: Final[str] = "xyzabc"
 
 
 class StreamingUnavailable(RuntimeError):
@@ -69,16 +82,30 @@ class StreamRunner:
     store : JobStore
     config : ServiceConfig
     loader : callable, optional
-        Returns ``make_streamer``; default :func:`load_make_streamer`.
+        Returns ``make_streamer``; default :func:`load_make_streamer`. Its streamers are
+        called ``stream(gcode_path, machine, control=StreamControl)``.
+    on_change : callable, optional
+        ``on_change(stream_id)`` after every change of a stream's state or live status.
     """
 
     def __init__(self, store: JobStore, config: ServiceConfig, *,
-                 loader: Callable[[], MakeStreamer] = load_make_streamer) -> None:
+                 loader: Callable[[], MakeStreamer] = load_make_streamer,
+                 on_change: Callable[[str], None] | None = None) -> None:
         self._store = store
         self._config = config
         self._loader = loader
         self._lock = threading.Lock()
         self._executors: dict[str, ThreadPoolExecutor] = {}
+        self._controls: OrderedDict[str, StreamControl] = OrderedDict()
+        self._alarms: dict[str, str] = {}
+        self.on_change = on_change
+
+    def _changed(self, stream_id: str) -> None:
+        if self.on_change is not None:
+            try:
+                self.on_change(stream_id)
+            except Exception:  # a listener's bug must not stop a machine mid-program
+                log.exception("stream %s: change listener failed", stream_id)
 
     def availability(self) -> str:
         """``"available"``, or why streaming is not."""
@@ -108,24 +135,46 @@ class StreamRunner:
         record = self._store.add_stream(job.id, target)
         if record is None:
             return None
+        stream_id = record.id
+        control = StreamControl(on_change=lambda _: self._changed(stream_id))
         with self._lock:
+            self._controls[stream_id] = control
+            while len(self._controls) > KEPT_LIVE:
+                old, _ = self._controls.popitem(last=False)
+                self._alarms.pop(old, None)
             executor = self._executors.get(target)
             if executor is None:
                 executor = ThreadPoolExecutor(max_workers=1,
                                               thread_name_prefix=f"toolpath-stream-{target}")
                 self._executors[target] = executor
-            executor.submit(self._run, record.id, job, address, make_streamer)
+            executor.submit(self._run, record.id, job, address, make_streamer, control)
+        self._changed(stream_id)
         return record
 
     def _run(self, stream_id: str, job: JobRecord, address: str,
-             make_streamer: MakeStreamer) -> None:
-        if not self._store.start_stream(stream_id):
-            return
+             make_streamer: MakeStreamer, control: StreamControl) -> None:
+        try:
+            if control.cancelled or not self._store.start_stream(stream_id):
+                return
+            self._changed(stream_id)
+            self._stream(stream_id, job, address, make_streamer, control)
+        finally:
+            control.ended()
+            self._changed(stream_id)
+
+    def _stream(self, stream_id: str, job: JobRecord, address: str,
+                make_streamer: MakeStreamer, control: StreamControl) -> None:
         from machines.machine import load_machine
 
         try:
             machine = load_machine(job.parameters["machine"])
-            result = make_streamer(address)(self._config.jobs_dir / job.id / "part.nc", machine)
+            result = make_streamer(address)(self._config.jobs_dir / job.id / "part.nc", machine,
+                                            control=control)
+        except JobCancelledError as exc:
+            self._store.end_stream(stream_id, error=str(exc), cancelled=True)
+        except AlarmError as exc:
+            self._alarms[stream_id] = str(exc)
+            self._store.end_stream(stream_id, error=f"{type(exc).__name__}: {exc}")
         except USER_ERRORS as exc:
             self._store.end_stream(stream_id, error=f"{type(exc).__name__}: {exc}")
         except Exception as exc:  # a sender error or a bug: recorded, the service stays up
@@ -139,11 +188,85 @@ class StreamRunner:
             if result.get("ok") is False:
                 refused = str(result.get("refused") or result.get("error")
                               or "the streamer reported ok: false")
+            if result.get("alarm"):
+                self._alarms[stream_id] = str(result["alarm"])
             self._store.end_stream(stream_id, result=result, error=refused)
 
+    # control ------------------------------------------------------------------------------
+
+    def _control(self, stream_id: str) -> StreamControl | None:
+        with self._lock:
+            return self._controls.get(stream_id)
+
+    def hold(self, stream_id: str) -> bool:
+        """Feed hold (``!``) on a running stream; whether it was asked."""
+        control = self._control(stream_id)
+        return control is not None and control.hold()
+
+    def resume(self, stream_id: str) -> bool:
+        """Cycle start (``~``) of a held stream; whether it was asked."""
+        control = self._control(stream_id)
+        if control is None or not control.resume():
+            return False
+        return True
+
+    def cancel(self, stream_id: str) -> bool:
+        """Cancel a stream; whether it was asked.
+
+        A queued stream never starts; a running or held one gets a feed hold, then a soft
+        reset (the position is kept).
+        """
+        control = self._control(stream_id)
+        if self._store.cancel_queued_stream(stream_id):
+            if control is not None:
+                control.cancel()
+            self._changed(stream_id)
+            return True
+        return control is not None and control.cancel()
+
+    def live(self, stream_id: str) -> dict[str, Any]:
+        """The stream's live status (fields of ``StreamView``; empty when not known here).
+
+        ``position_mm`` is the work position (the program's coordinates) of the latest
+        status report, or the planned end of the last acknowledged line when the report is
+        stale (``position_source``); ``machine_position_mm`` the machine's (MPos).
+        """
+        control = self._control(stream_id)
+        if control is None:
+            return {}
+        report = control.progress_report
+        live: dict[str, Any] = {"held": control.state == "held",
+                                "alarm": self._alarms.get(stream_id)}
+        if report is not None:
+            live |= {
+                "position_mm": _axes(report.position),
+                "position_source": report.position_source or None,
+                "machine_position_mm": _axes(control.machine_position),
+                "controller_state": report.state or None,
+                "line": report.done, "source_line": report.line,
+                "total_lines": report.total, "percent": round(report.percent, 2),
+                "eta_s": None if report.eta_s is None else round(report.eta_s, 1),
+                "elapsed_s": round(report.elapsed_s, 2),
+            }
+        return live
+
     def shutdown(self) -> None:
-        """Stop taking streams (a running one ends with the process)."""
+        """Stop taking streams.
+
+        A running one ends with the process; a held one is cancelled (nobody is left to
+        resume it).
+        """
         with self._lock:
             executors, self._executors = list(self._executors.values()), {}
+            held = [c for c in self._controls.values() if c.state == "held"]
+        for control in held:
+            control.cancel()
         for executor in executors:
             executor.shutdown(wait=False, cancel_futures=True)
+
+
+def _axes(position: tuple[float, ...] | None) -> dict[str, float] | None:
+    """``{"x": .., "y": .., "z": .., ...}`` (mm; rotary axes in degrees) of a reported position."""
+    if position is None:
+        return None
+    return {name: round(float(v), 4) for name, v in zip(_AXES, position, strict=False)}

@@ -34,7 +34,7 @@ def test_csv_missing_column_names_the_column_file_and_line(service_client):
         answer = upload(client, three, filename="hub.csv")
         assert answer.status_code == 422 and "at least 4 sections" in _msg(answer)
         assert client.get("/jobs").json()["counts"] == {
-            "queued": 0, "running": 0, "done": 0, "failed": 0}
+            "queued": 0, "running": 0, "done": 0, "failed": 0, "cancelled": 0}
 
 
 def test_too_large_bodies_get_413_before_they_are_read(service_client, tmp_path):

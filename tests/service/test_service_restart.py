@@ -77,7 +77,8 @@ def test_jobs_are_claimed_oldest_first_and_once(tmp_path):
     ids = [store.add({"k": i}, input_name="b.csv").id for i in range(3)]
     assert [store.claim_next().id for _ in range(3)] == ids
     assert store.claim_next() is None
-    assert store.counts() == {"queued": 0, "running": 3, "done": 0, "failed": 0}
+    assert store.counts() == {"queued": 0, "running": 3, "done": 0, "failed": 0,
+                              "cancelled": 0}
     assert JobStore(tmp_path / "jobs.sqlite3").counts()["running"] == 3  # on disk
 
 

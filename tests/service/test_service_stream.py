@@ -46,7 +46,7 @@ class _Recorder:
         self.fail, self.refuse, self.gate = fail, refuse, gate
 
     def __call__(self, target: str):
-        def stream(gcode_path: Path, machine) -> dict:
+        def stream(gcode_path: Path, machine, *, control=None) -> dict:
             self.calls.append((target, Path(gcode_path), machine.name))
             if self.gate is not None:
                 assert self.gate.wait(30.0)
