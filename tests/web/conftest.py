@@ -53,6 +53,7 @@ def server(tmp_path_factory) -> Iterator[Server]:
     import uvicorn
 
     from streamline_cam.service import ServiceConfig, create_app
+    from streamline_cam.service.app import stop_events
 
     data_dir = tmp_path_factory.mktemp("web") / "data"
     app = create_app(ServiceConfig(data_dir=data_dir, workers=1, executor="thread",
@@ -70,6 +71,7 @@ def server(tmp_path_factory) -> Iterator[Server]:
     try:
         yield Server(f"http://127.0.0.1:{port}", data_dir)
     finally:
+        stop_events(app)  # an open event stream would hold the shutdown
         uv.should_exit = True
         thread.join(15)
         sock.close()
