@@ -48,10 +48,9 @@ function showJob(job, chosen) {
   for (const id of ["preview-panel", "report-panel", "plots-panel"]) $(id).hidden = !done;
   if (!chosen && shown.id === job.id && shown.state === job.state) return;
   shown = { id: job.id, state: job.state };
-  if (!done) {
-    preview?.clear();
-    return;
-  }
+  preview?.clear();  // not the last job's view while this one's loads
+  $("preview-info").textContent = "";
+  if (!done) return;
   showPlots($("plots"), job);
   loadResults(job).catch((error) => {
     $("job-error").textContent = `results: ${error.message}`;

@@ -308,7 +308,10 @@ export class Preview {
   frame(box) {
     const centre = box.getCenter(new THREE.Vector3());
     const radius = Math.max(box.getSize(new THREE.Vector3()).length() / 2, 1);
-    const distance = 0.8 * radius / Math.sin(THREE.MathUtils.degToRad(this.camera.fov / 2));
+    // the bounding sphere inside the narrower of the vertical and horizontal fields of view
+    const halfHeight = THREE.MathUtils.degToRad(this.camera.fov / 2);
+    const halfWidth = Math.atan(Math.tan(halfHeight) * this.camera.aspect);
+    const distance = 0.95 * radius / Math.sin(Math.min(halfHeight, halfWidth));
     this.camera.near = distance / 100;
     this.camera.far = distance * 10;
     this.camera.position.copy(centre).add(new THREE.Vector3(0.6, -1, 0.7).normalize()
