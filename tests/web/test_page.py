@@ -217,6 +217,13 @@ def test_stream_to_the_simulator_with_hold_and_resume(server, browser, finished,
     assert page.inner_text("#m-alarm") == "none"
     stream = httpx.get(f"{server.url}/jobs/{job_id}").json()["streams"][-1]
     assert stream["state"] == "done" and stream["result"]["exactly_once"], stream
+
+    # opened again, the page shows the job's last stream where it ended
+    page.reload()
+    page.wait_for_selector("body[data-ready=true]")
+    page.click(f'#jobs tr[data-job="{job_id}"]')
+    page.wait_for_selector("#machine-panel[data-stream-state=done]")
+    assert _readout(page) == shown
     _no_console_errors(browser)
 
 

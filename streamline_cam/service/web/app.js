@@ -44,6 +44,11 @@ function showJob(job, chosen) {
   $("job-error").textContent = job.error || "";
   showDownloads($("downloads"), job);
   machine.setJob(job);
+  if (chosen) {  // the list's views carry no streams: the job's own view has them, live
+    getJSON(`/jobs/${job.id}`).then((full) => {
+      if (jobs.selected === full.id && full.streams.length) jobs.update(full);
+    }).catch(() => {});  // gone meanwhile: the list says so
+  }
   const done = job.state === "done";
   for (const id of ["preview-panel", "report-panel", "plots-panel"]) $(id).hidden = !done;
   if (!chosen && shown.id === job.id && shown.state === job.state) return;

@@ -46,8 +46,10 @@ export class JobsList {
     const old = this.body.querySelector(`tr[data-job="${job.id}"]`);
     if (old) {
       old.replaceWith(row);
-    } else {
-      this.body.prepend(row);  // newest first
+    } else {  // newest first, whatever order the views arrive in
+      const later = [...this.body.rows].find(
+        (tr) => this.jobs.get(tr.dataset.job).created < job.created);
+      this.body.insertBefore(row, later || null);
     }
     this.empty.hidden = this.jobs.size > 0;
     this.showCounts();
