@@ -69,6 +69,8 @@ class StreamControl:
         self.cancelled = False
         self.progress_report: Progress | None = None
         self.machine_position: tuple[float, ...] | None = None
+        self.axes = "xyz"
+        """Axis letters of the reported positions, in report order (lower case)."""
 
     def _changed(self) -> None:
         if self.on_change is not None:
@@ -190,6 +192,9 @@ def make_streamer(target: str, *, speed: str = "instant", baud: int = 115200,
 
     def stream(gcode_path: Path, machine: Machine, *,
                control: StreamControl | None = None) -> dict[str, Any]:
+        if control is not None:  # GRBL reports X Y Z A B C, the machine's axes among them
+            control.axes = "".join(c for c in "xyzabc"
+                                   if c.upper() in {a.letter.upper() for a in machine.axes})
         job = Job.from_text(gcode_path.read_text(encoding="ascii"), gcode_path.name)
         issues = preflight(job, machine, dialect_by_name(dialect) if dialect else None)
         if issues:

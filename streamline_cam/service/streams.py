@@ -239,9 +239,9 @@ class StreamRunner:
                                 "alarm": self._alarms.get(stream_id)}
         if report is not None:
             live |= {
-                "position_mm": _axes(report.position),
+                "position_mm": _axes(report.position, control.axes),
                 "position_source": report.position_source or None,
-                "machine_position_mm": _axes(control.machine_position),
+                "machine_position_mm": _axes(control.machine_position, control.axes),
                 "controller_state": report.state or None,
                 "line": report.done, "source_line": report.line,
                 "total_lines": report.total, "percent": round(report.percent, 2),
@@ -265,8 +265,14 @@ class StreamRunner:
             executor.shutdown(wait=False, cancel_futures=True)
 
 
-def _axes(position: tuple[float, ...] | None) -> dict[str, float] | None:
-    """``{"x": .., "y": .., "z": .., ...}`` (mm; rotary axes in degrees) of a reported position."""
+def _axes(position: tuple[float, ...] | None, names: str) -> dict[str, float] | None:
+    """``{"x": .., "y": .., "z": .., ...}`` (mm; rotary axes deg) of a reported position.
+
+    ``names`` are the reported axes in order; a report of another length is named in
+    GRBL's order (X Y Z A B C).
+    """
     if position is None:
         return None
-    return {name: round(float(v), 4) for name, v in zip(_AXES, position, strict=False)}
+    if len(names) != len(position):
+        names = _AXES
+    return {name: round(float(v), 4) for name, v in zip(names, position, strict=False)}

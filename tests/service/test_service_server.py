@@ -13,6 +13,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 import httpx
+from _live_server import EventReader
 from _service_support import COARSE, JOB_TIMEOUT_S, blade_sections
 
 START_TIMEOUT_S = 30.0
@@ -47,6 +48,7 @@ def _serve(data_dir: Path) -> Iterator[str]:
             raise AssertionError(f"toolpath serve did not stop on Ctrl-C:\n{err}") from None
     assert process.returncode == 0, err
     assert "stopped" in out and "Traceback" not in err, err
+    assert "timeout graceful shutdown exceeded" not in err, err
 
 
 def _wait(client: httpx.Client, url: str) -> dict:
@@ -83,3 +85,10 @@ def test_toolpath_serve_on_loopback_survives_a_restart(tmp_path):
         status = client.get(f"/jobs/{job_id}").json()
         assert status["state"] == "done" and status["attempts"] == 1
         assert client.get(f"/jobs/{job_id}/gcode").text == program
+        # issue 29: an open event stream ends with the server (Ctrl-C), not after uvicorn's
+        # graceful time-out ("Cancel 1 running task(s)" in the log: _serve checks stderr)
+        events = EventReader(base)
+        _, job = events.wait_for(lambda kind, data: kind == "job", timeout=10.0)
+        assert job == status
+    assert events.ended.wait(5.0)
+    events.close()
