@@ -224,6 +224,17 @@ def test_stream_to_the_simulator_with_hold_and_resume(server, browser, finished,
     page.click(f'#jobs tr[data-job="{job_id}"]')
     page.wait_for_selector("#machine-panel[data-stream-state=done]")
     assert _readout(page) == shown
+
+    # a second stream, cancelled from the panel (hold, then soft reset: the position kept)
+    page.click("#m-stream")
+    page.wait_for_selector("#machine-panel[data-stream-state=running]")
+    page.wait_for_function("/^\\d+ of/.test(document.querySelector('#m-line').textContent)")
+    page.click("#m-cancel")
+    page.wait_for_selector("#machine-panel[data-stream-state=cancelled]")
+    _shot(page, tmp_path, "4-cancelled")
+    assert page.is_enabled("#m-stream") and not page.is_enabled("#m-cancel")
+    stream = httpx.get(f"{server.url}/jobs/{job_id}").json()["streams"][-1]
+    assert stream["state"] == "cancelled", stream
     _no_console_errors(browser)
 
 

@@ -26,6 +26,7 @@ export class MachinePanel {
     this.buttons = { stream: $("m-stream"), hold: $("m-hold"), resume: $("m-resume"),
                      cancel: $("m-cancel") };
     this.error = $("m-error");
+    this.note = $("m-note");
     this.out = { state: $("m-state"), controller: $("m-controller"), position: $("m-position"),
                  line: $("m-line"), progress: $("m-progress"), percent: $("m-percent"),
                  eta: $("m-eta"), alarm: $("m-alarm") };
@@ -103,7 +104,8 @@ export class MachinePanel {
     const s = this.stream;
     const o = this.out;
     this.root.dataset.streamState = s?.state || "";
-    o.state.textContent = s ? s.state + (s.error && s.state !== "done" ? `: ${s.error}` : "") : "–";
+    o.state.textContent = s?.state || "–";
+    this.note.textContent = s?.error ? `${s.state}: ${s.error}` : "";
     o.controller.textContent = s?.controller_state || "–";
     o.position.textContent = position(s?.position_mm || s?.result?.final_position);
     o.line.textContent = s?.line != null ? `${s.line} of ${s.total_lines ?? "?"}` : "–";
