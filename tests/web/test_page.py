@@ -196,6 +196,9 @@ def test_stream_to_the_simulator_with_hold_and_resume(server, browser, finished,
         seen.add(page.inner_text("#m-position"))
     assert len(seen) >= 3, f"the position readout did not move: {seen}"
     _shot(page, tmp_path, "1-streaming")
+    # on a 3-axis machine the program's coordinates are the preview's: the tool is drawn there
+    page.wait_for_selector("#viewport[data-machine=shown]")
+    page.locator("#viewport").screenshot(path=str(tmp_path / "step-1-machine-tool.png"))
 
     page.click("#m-hold")
     page.wait_for_selector("#machine-panel[data-stream-state=held]")
@@ -208,6 +211,7 @@ def test_stream_to_the_simulator_with_hold_and_resume(server, browser, finished,
     page.click("#m-resume")
     page.wait_for_selector("#machine-panel[data-stream-state=done]", timeout=JOB_TIMEOUT_MS)
     _shot(page, tmp_path, "3-done")
+    assert page.get_attribute("#viewport", "data-machine") == ""
     program = httpx.get(f"{server.url}/jobs/{job_id}/gcode").text
     end = _last_program_point(program)
     shown = _readout(page)

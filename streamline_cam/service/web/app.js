@@ -81,6 +81,15 @@ async function loadResults(job) {
     + `${decimated})`;
 }
 
+/** Where the 3-D view puts the machine's tool: the live position of a moving stream on
+ *  a 3-axis machine (its program coordinates are the preview's); else nowhere. */
+function liveTool(stream) {
+  const p = stream.position_mm;
+  const moving = ["queued", "running", "held"].includes(stream.state);
+  const linear = p && Object.keys(p).every((axis) => "xyz".includes(axis));
+  return moving && linear ? p : null;
+}
+
 /** Live updates: a `job` event per job on connect and on each change, `stream` events. */
 function listen() {
   const live = $("live");
@@ -97,6 +106,7 @@ function listen() {
   events.addEventListener("stream", (event) => {
     const stream = JSON.parse(event.data);
     machine.update(stream);
+    if (stream.job_id === shown.id) preview?.showMachine(liveTool(stream));
     const job = jobs.jobs.get(stream.job_id);
     if (job) {
       const others = (job.streams || []).filter((s) => s.id !== stream.id);

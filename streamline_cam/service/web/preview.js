@@ -16,6 +16,7 @@ const BACKGROUND = 0xf3f5f7;
 const LINK_COLOUR = 0xff8c00;
 const RAPID_COLOUR = 0xd62728;
 const TOOL_COLOUR = 0x7a5cc4;
+const MACHINE_COLOUR = 0x1a9e55;
 
 /** Colour of pass `k` of `n`: blue (first) through green to red (last). */
 function passColour(k, n, target) {
@@ -111,6 +112,7 @@ export class Preview {
     this.content = new THREE.Group();
     this.scene.add(this.content);
     this.tool = null;
+    this.machineTool = null;
     this.track = null;
 
     slider.addEventListener("input", () => this.placeTool(Number(slider.value)));
@@ -141,6 +143,7 @@ export class Preview {
       node.material?.dispose();
     });
     this.content.clear();
+    this.tool = this.machineTool = null;
     this.track = null;
     this.slider.max = 0;
     this.readout.textContent = "";
@@ -238,10 +241,10 @@ export class Preview {
   }
 
   /** The cutter (ball or flat end and its shank) and its axis, tip at the origin, axis +Y. */
-  addTool({ kind, radius_mm }, size) {
+  makeTool({ kind, radius_mm }, size, colour, name) {
     const tool = new THREE.Group();
-    tool.name = "tool";
-    const material = new THREE.MeshPhongMaterial({ color: TOOL_COLOUR, transparent: true,
+    tool.name = name;
+    const material = new THREE.MeshPhongMaterial({ color: colour, transparent: true,
                                                    opacity: 0.75 });
     const length = 6 * radius_mm;
     const base = kind === "ball" ? radius_mm : 0;
@@ -259,7 +262,25 @@ export class Preview {
       [new THREE.Vector3(0, -2 * radius_mm, 0), new THREE.Vector3(0, reach, 0)]);
     tool.add(new THREE.Line(axis, new THREE.LineBasicMaterial({ color: 0x222222 })));
     this.content.add(tool);
-    this.tool = tool;
+    return tool;
+  }
+
+  addTool(cutter, size) {
+    this.tool = this.makeTool(cutter, size, TOOL_COLOUR, "tool");
+    this.machineTool = this.makeTool(cutter, size, MACHINE_COLOUR, "machine");
+    this.machineTool.visible = false;
+    this.machineTool.quaternion.setFromUnitVectors(new THREE.Vector3(0, 1, 0),
+                                                   new THREE.Vector3(0, 0, 1));
+  }
+
+  /** The machine's tool at `position` ({x, y, z}, the program's coordinates, which are the
+   *  preview's on a 3-axis machine), or hidden (null). */
+  showMachine(position) {
+    if (!this.machineTool) return;
+    this.machineTool.visible = Boolean(position);
+    if (position) this.machineTool.position.set(position.x, position.y, position.z);
+    this.container.dataset.machine = position ? "shown" : "";
+    this.render();
   }
 
   /** The points the slider walks, in program order, with their tool axes. */
