@@ -76,6 +76,13 @@ class StreamControl:
         if self.on_change is not None:
             self.on_change(self)
 
+    def start(self) -> None:
+        """The run has begun (connecting): holds and cancels are taken from now on."""
+        with self._lock:
+            if self.state == "queued":
+                self.state = "running"
+        self._changed()
+
     def attach(self, sender: GrblSender) -> None:
         """The run starts with ``sender``: a hold or cancel asked before applies now."""
         with self._lock:

@@ -19,6 +19,14 @@ def _target(text: str) -> tuple[str, str]:
     if not sep or not name.strip() or not address.strip():
         raise argparse.ArgumentTypeError(
             f"expected NAME=ADDRESS (e.g. mill=socket://127.0.0.1:5000), got {text!r}")
+    kind, _, speed = address.strip().partition(":")
+    if kind == "simulate" and speed:  # the built-in simulator at another time scale
+        from simulator.clock import Speed
+
+        try:
+            Speed.parse(speed)
+        except ValueError as exc:
+            raise argparse.ArgumentTypeError(f"{text!r}: {exc}") from None
     return name.strip(), address.strip()
 
 
@@ -143,8 +151,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     parser.add_argument("--max-queued", type=positive_int, default=DEFAULT_MAX_QUEUED,
                         help="queued jobs before submissions get 503")
     parser.add_argument("--target", action="append", type=_target, metavar="NAME=ADDRESS",
-                        help="a stream target: NAME=socket://HOST:PORT or a serial port "
-                        "(repeatable; 'simulator' is always offered)")
+                        help="a stream target: NAME=socket://HOST:PORT, a serial port, or "
+                        "the built-in simulator at a time scale, NAME=simulate:x20 (or "
+                        "simulate:realtime) (repeatable; 'simulator' is always offered)")
     parser.add_argument("--log-level", default="info",
                         choices=("critical", "error", "warning", "info", "debug"))
     parser.set_defaults(handler=serve)

@@ -156,7 +156,7 @@ class StreamRunner:
         try:
             if control.cancelled or not self._store.start_stream(stream_id):
                 return
-            self._changed(stream_id)
+            control.start()
             self._stream(stream_id, job, address, make_streamer, control)
         finally:
             control.ended()

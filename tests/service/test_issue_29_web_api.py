@@ -229,8 +229,30 @@ def test_cancel_a_running_stream_and_see_it_in_the_events(tmp_path, finished_job
                             timeout=10)
             again = client.post(f"{url}/cancel")
             assert again.status_code == 409 and "is cancelled" in again.json()["detail"]
+            # held, then cancelled: the sender resets the held controller
+            stream_id, url = _start_stream(client, job_id)
+            reader.wait_for(lambda t, d: t == "stream" and d["id"] == stream_id
+                            and (d["line"] or 0) >= 10)
+            assert client.post(f"{url}/hold").status_code == 202
+            _, held = reader.wait_for(lambda t, d: t == "stream" and d["id"] == stream_id
+                                      and d["state"] == "held", timeout=20)
+            assert client.post(f"{url}/cancel").status_code == 202
+            _, end = reader.wait_for(lambda t, d: t == "stream" and d["id"] == stream_id
+                                     and d["state"] in END_STATES, timeout=30)
+            assert end["state"] == "cancelled" and end["line"] == held["line"], end
         finally:
             reader.close()
+
+
+def test_serve_refuses_a_simulator_target_of_unknown_speed(capsys):
+    from streamline_cam.cli import main
+
+    with pytest.raises(SystemExit) as stop:
+        main(["serve", "--target", "sim=simulate:fast"])
+    assert stop.value.code == 2
+    err = capsys.readouterr().err.splitlines()[-1]
+    assert err.startswith("toolpath serve: error: argument --target: 'sim=simulate:fast': "
+                          "unknown speed 'fast'")
 
 
 # preview ---------------------------------------------------------------------------------
