@@ -63,9 +63,8 @@ export async function setUpForm(form, onQueued) {
     button.disabled = true;
     try {
       onQueued(await request("POST", "/jobs/upload", data));
-    } catch (error) {
-      if (!error.fields) throw error;
-      showErrors(form, error);
+    } catch (error) {  // a refusal (its fields), or no answer at all (the message)
+      showErrors(form, { fields: error.fields || {}, message: error.message });
     } finally {
       button.disabled = false;
     }
