@@ -127,7 +127,7 @@ class StreamControl:
             if self.cancelled or self.state not in ("queued", "running", "held"):
                 return False
             self.cancelled, self._decision = True, "cancel"
-            if self.state == "running" and not self._hold_asked:
+            if self.state in ("queued", "running") and not self._hold_asked:
                 self._hold_asked = True
                 if self._sender is not None:
                     self._sender.request_hold()

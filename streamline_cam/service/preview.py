@@ -35,9 +35,11 @@ __all__ = [
     "DEFAULT_MAX_POINTS",
     "SURFACE_GRID",
     "Decimation",
+    "chord_deviation",
     "decimate_polyline",
     "job_preview",
     "preview",
+    "rdp_weights",
     "toolpath_runs",
 ]
 

@@ -206,9 +206,7 @@ class StreamRunner:
     def resume(self, stream_id: str) -> bool:
         """Cycle start (``~``) of a held stream; whether it was asked."""
         control = self._control(stream_id)
-        if control is None or not control.resume():
-            return False
-        return True
+        return control is not None and control.resume()
 
     def cancel(self, stream_id: str) -> bool:
         """Cancel a stream; whether it was asked.

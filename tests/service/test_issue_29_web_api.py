@@ -20,14 +20,14 @@ import pytest
 from _live_server import EventReader, live_server
 from _service_support import COARSE, blade_csv, blade_sections, upload
 
-from streamline_cam.service import JobStore
+from streamline_cam.service import JobStore, routes
 from streamline_cam.service import store as store_module
 from streamline_cam.service.preview import chord_deviation, decimate_polyline, toolpath_runs
 
 #: A job that plans for many seconds (fine scallop): it is still running when cancelled.
 SLOW = {"scallop_mm": 0.0015, "chord_tol_mm": 0.002}
-#: The simulator at 20 times real speed: the small blade's program takes a few seconds.
-SIM_TARGETS = {"simulator": "simulate:x20"}
+#: The simulator at 40 times real speed: the small blade's program takes two seconds.
+SIM_TARGETS = {"simulator": "simulate:x40"}
 END_STATES = ("done", "failed", "cancelled")
 
 
@@ -44,15 +44,13 @@ def _wait(client, url: str, predicate, timeout: float = 60.0) -> dict:
 # live events -----------------------------------------------------------------------------
 
 
-def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path):
-    with live_server(tmp_path / "data") as (url, app), httpx.Client(base_url=url) as client:
-        first = client.post("/jobs", json={"sections": blade_sections(), **COARSE,
-                                           "name": "first"}).json()
-        _wait(client, f"/jobs/{first['id']}", lambda v: v["state"] in END_STATES)
+def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path, finished_job):
+    data_dir, first = _own_copy(finished_job, tmp_path)
+    with live_server(data_dir) as (url, app), httpx.Client(base_url=url) as client:
         reader = EventReader(url)
         try:
             _, seen = reader.wait_for(lambda t, d: t == "job", timeout=10)
-            assert seen["id"] == first["id"] and seen["state"] == "done"
+            assert seen == client.get(f"/jobs/{first}").json()  # the job there was
             assert "text/event-stream" in reader.headers["content-type"]
             job = client.post("/jobs", json={"sections": blade_sections(shift_mm=1.0),
                                              **COARSE}).json()
@@ -67,6 +65,10 @@ def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path):
             assert all(a != b for a, b in pairwise(ours))
             plan = [d["progress"]["plan"] for d in ours]
             assert plan == sorted(plan)
+            later = EventReader(url)  # a new listener gets every job, newest first
+            later.wait_for(lambda t, d: t == "job" and d["id"] == first, timeout=10)
+            assert [d["id"] for _, d in later.events[:2]] == [job["id"], first]
+            later.close()
         finally:
             reader.close()
         # the connection's end is seen by the server: no listener is left behind
@@ -77,14 +79,16 @@ def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path):
         assert hub.listeners == 0
 
 
-def test_an_open_event_stream_does_not_hold_the_server_up(tmp_path):
+def test_an_idle_event_stream_pings_and_does_not_hold_the_server_up(tmp_path, monkeypatch):
+    monkeypatch.setattr(routes, "HEARTBEAT_S", 0.6)  # (15 s in service)
+    monkeypatch.setattr(routes, "DISCONNECT_CHECK_S", 0.2)
     started = None
     with live_server(tmp_path / "data") as (url, _app):
         reader = EventReader(url)
         deadline = time.monotonic() + 10
-        while not reader.comments and time.monotonic() < deadline:
+        while len(reader.comments) < 2 and time.monotonic() < deadline:
             time.sleep(0.02)
-        assert reader.comments == [": connected"]
+        assert reader.comments[:2] == [": connected", ": ping"] and not reader.events
         started = time.monotonic()
     assert time.monotonic() - started < 3.0  # not the 5 s graceful time-out
     assert reader.ended.wait(2.0)  # the stream ended with the server
@@ -242,6 +246,35 @@ def test_cancel_a_running_stream_and_see_it_in_the_events(tmp_path, finished_job
             assert end["state"] == "cancelled" and end["line"] == held["line"], end
         finally:
             reader.close()
+
+
+class _Sender:
+    """Records the feed holds a StreamControl asks for."""
+
+    status = None
+
+    def __init__(self) -> None:
+        self.holds = 0
+
+    def request_hold(self) -> None:
+        self.holds += 1
+
+
+def test_a_cancel_before_the_sender_starts_stops_it_at_its_first_line():
+    from gcode.senders.progress import Progress
+    from streamline_cam.streaming import StreamControl
+
+    control = StreamControl()
+    assert not control.hold() and not control.resume()  # queued: nothing to hold yet
+    # cancelled as the runner starts it (the store says running, the control queued)
+    assert control.cancel() and not control.cancel()
+    control.start()
+    sender = _Sender()
+    control.attach(sender)
+    assert sender.holds == 1  # the sender holds at once, then asks what to do
+    assert control.decide(Progress(0, 10, 0.1)) == "cancel"
+    control.ended()
+    assert not control.hold() and not control.cancel()
 
 
 def test_serve_refuses_a_simulator_target_of_unknown_speed(capsys):
