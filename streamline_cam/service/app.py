@@ -35,6 +35,7 @@ from toolpath.errors import ToolpathError
 from .config import ServiceConfig
 from .events import EventHub, JobWatcher
 from .limits import BodySizeLimit
+from .page import mount_page
 from .pool import WorkerPool
 from .routes import Service, router
 from .store import JobStore
@@ -128,6 +129,9 @@ def create_app(config: ServiceConfig, *,
             swagger_js_url="/static/swagger/swagger-ui-bundle.js",
             swagger_css_url="/static/swagger/swagger-ui.css",
             swagger_favicon_url="/static/swagger/favicon-32x32.png")
+
+    # the web page at / (static files; see .page)
+    mount_page(app)
 
     @app.exception_handler(RequestValidationError)
     async def _invalid(request: Request, exc: RequestValidationError) -> JSONResponse:

@@ -1,7 +1,8 @@
 """A job's files: which exist, their media types, and the plots drawn on first request.
 
-Plots (``surface``: sections, streamlines and fit error; ``toolpath``: the passes over the
-surface, when :mod:`toolpath.plotting_paths` is installed) are drawn by the library's
+Plots (``surface``: sections, streamlines and fit error; ``deviation``: the verified
+deviation map of the program; ``toolpath``: the passes over the surface, when
+:mod:`toolpath.plotting_paths` is installed) are drawn by the library's
 headless plotting modules (imported lazily, so the service starts without matplotlib) into
 ``<job>/plots/NAME.png`` once, under one lock per service (pyplot keeps global state), then
 served from disk.
@@ -77,9 +78,33 @@ def _toolpath_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
                   title=f"toolpath: {record.input_name}")
 
 
+def _deviation_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
+    """The verified deviation map: the job's program checked again as the job checked it.
+
+    The same check as the pipeline's verify stage (``verify_file`` of ``part.nc`` against
+    the placed surface, the job's machine, cutter, dialect and scallop), so its extremes
+    are the report's ``verify`` figures; the map itself is not kept by the job.
+    """
+    from gcode.dialects import dialect_by_name
+    from machines.machine import load_machine
+    from toolpath import surface_from_dict
+    from toolpath.planning.cutters import parse_cutter
+    from verification.options import VerifyOptions
+    from verification.plotting import plot_deviation_map
+    from verification.verify import verify_file
+
+    params = record.parameters
+    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    dialect = dialect_by_name(params["dialect"]) if params.get("dialect") else None
+    outcome = verify_file(job_dir / "part.nc", surface, load_machine(params["machine"]),
+                          parse_cutter(params["cutter"]), dialect=dialect,
+                          options=VerifyOptions(scallop_mm=params["scallop_mm"]))
+    plot_deviation_map(outcome, out)
+
+
 def _renderers() -> dict[str, Renderer]:
     """The plots this installation can draw."""
-    renderers: dict[str, Renderer] = {"surface": _surface_plot}
+    renderers: dict[str, Renderer] = {"surface": _surface_plot, "deviation": _deviation_plot}
     if importlib.util.find_spec("toolpath.plotting_paths") is not None:
         renderers["toolpath"] = _toolpath_plot
     return renderers
