@@ -13,6 +13,7 @@ lint:
 	$(PYTHON) -m ruff check .
 
 test: install lint
+	scripts/install-chromium
 	$(PYTHON) -m pytest
 
 bench:
