@@ -43,6 +43,11 @@ class CurveFitReport:
     #: :meth:`toolpath.fairness.Fairness.as_dict` of the fit (concave stretches, noses).
     fairness: dict[str, Any] | None = None
     closed: bool = False
+    #: Estimated largest error between the data points (``toolpath.between_data``) and
+    #: where; None for the constant-coefficient models.
+    between_data_mm: float | None = None
+    between_data_t: float | None = None
+    between_data_basis: str | None = None
 
     @property
     def within_tol(self) -> bool:
@@ -64,6 +69,8 @@ class CurveFitReport:
             f"max error         {self.max_error_mm:.6f} mm"
             + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
             f"rms error         {self.rms_error_mm:.6f} mm",
+            *_between_data_lines(self.between_data_mm, None, self.between_data_t,
+                                 self.between_data_basis),
             f"time              {self.seconds:.3f} s",
         ]
         for name, matrix in (("T", self.T), ("A", self.A)):
@@ -111,6 +118,8 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     is_closed = bool(getattr(curve, "closed", False))  # the linear models have no closed form
     fairness = curve_fairness(curve, points, closed=is_closed)
     extra["fairness"] = fairness.as_dict()
+    if method not in LINEAR_MODELS:
+        extra.update(_curve_between_data(curve, points))
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     report = CurveFitReport(method=method, n_points=len(points),
                             closed=is_closed,
@@ -120,7 +129,34 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     return curve, report
 
 
+def _curve_between_data(curve: Any, points: NDArray[np.float64]) -> dict[str, Any]:
+    """The between-data estimate of a spline curve fit, as report fields."""
+    from toolpath.between_data import between_data_estimate
+
+    t = np.asarray(curve.params, dtype=float)
+    data = np.asarray(points, dtype=float)[:t.size]
+    if curve.closed:
+        t, data = np.append(t, 1.0), np.vstack((data, data[:1]))
+    mm, where = between_data_estimate(curve, t, data, closed=bool(curve.closed))
+    return {"between_data_mm": mm, "between_data_t": where,
+            "between_data_basis": BETWEEN_DATA_BASIS}
+
+
+def _between_data_lines(mm: float | None, section: int | None, t: float | None,
+                        basis: str | None) -> list[str]:
+    """``between data  0.011 mm (estimate: ..., largest at section 2 t=0.4812)``."""
+    if mm is None:
+        return []
+    where = "" if t is None else (", largest at " + ("" if section is None
+                                                       else f"section {section} ")
+                                  + f"t={t:.4f}")
+    return [f"between data      {mm:.6f} mm ({basis}{where})"]
+
+
 SURFACE_METHODS = ("streamline", "bspline")
+#: What ``between_data_mm`` is (``toolpath.between_data``).
+BETWEEN_DATA_BASIS = ("estimate: fit vs the data's interpolating cubic between points "
+                      "+ interpolation error")
 #: What ``between_sections_mm`` is (``toolpath.between_sections``).
 BETWEEN_SECTIONS_BASIS = "estimate: fit vs data interpolated across sections + interpolation error"
 
@@ -150,6 +186,12 @@ class SurfaceFitReport:
     section_point_counts: list[int] = field(default_factory=list)
     leave_one_out_mm: float | None = None
     between_sections_basis: str = BETWEEN_SECTIONS_BASIS
+    #: Estimated largest error between the data points along the sections
+    #: (``toolpath.between_data``) and where (section index, t).
+    between_data_mm: float | None = None
+    between_data_section: int | None = None
+    between_data_t: float | None = None
+    between_data_basis: str = BETWEEN_DATA_BASIS
 
     @property
     def within_tol(self) -> bool:
@@ -176,6 +218,8 @@ class SurfaceFitReport:
             + ("" if self.within_tol else f"   (above tol {self.tol_mm:g} mm)"),
             f"rms error         {self.rms_error_mm:.6f} mm",
             f"between sections  {self.between_sections_mm:.6f} mm ({self.between_sections_basis})",
+            *_between_data_lines(self.between_data_mm, self.between_data_section,
+                                 self.between_data_t, self.between_data_basis),
             f"time              {self.seconds:.3f} s",
         ]
         out.extend(_fairness_lines(self.fairness))
@@ -221,11 +265,15 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     notes += fairness.warnings(tol)
     if grid.n_sections < WINDOW:
         notes.append(_few_sections_note(grid.n_sections, surface.loo_error))
+    from toolpath.between_data import surface_between_data
+
+    between_data, data_section, data_t = surface_between_data(surface, grid)
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),
         closed=surface.closed_t, n_control_points=surface.n_control_points,
         max_error_mm=surface.max_error, rms_error_mm=surface.rms_error,
         between_sections_mm=surface.between_error, tol_mm=tol, seconds=seconds, notes=notes,
         fairness=fairness.as_dict(), section_point_counts=counts,
-        leave_one_out_mm=surface.loo_error)
+        leave_one_out_mm=surface.loo_error, between_data_mm=between_data,
+        between_data_section=data_section, between_data_t=data_t)
     return surface, report

@@ -59,8 +59,8 @@ def _fourth_derivative(s: NDArray[np.float64], points: NDArray[np.float64]
     return out
 
 
-def interpolation_errors(s: NDArray[np.float64], points: NDArray[np.float64]
-                         ) -> NDArray[np.float64]:
+def interpolation_errors(s: NDArray[np.float64], points: NDArray[np.float64], *,
+                         centred: bool = False) -> NDArray[np.float64]:
     """Estimated cubic interpolation error across ``s`` per interval and column, mm.
 
     Parameters
@@ -69,6 +69,11 @@ def interpolation_errors(s: NDArray[np.float64], points: NDArray[np.float64]
         Section parameters, increasing (``m >= 5``; fewer give zeros: no fourth difference).
     points : ndarray, shape (m, N, 3)
         The grid: every section at every column (mm).
+
+    centred : bool
+        Only the (one or two) windows with interval ``j`` in their middle, not all four
+        containing it: a nose's fourth differences then do not spill onto the intervals
+        two samples away (:mod:`toolpath.between_data`).
 
     Returns
     -------
@@ -84,6 +89,8 @@ def interpolation_errors(s: NDArray[np.float64], points: NDArray[np.float64]
     for j in range(m - 1):
         first = max(0, j + 1 - (WINDOW - 1))
         last = min(j, m - WINDOW)
+        if centred:
+            first, last = (int(np.clip(k, 0, m - WINDOW)) for k in (j - 2, j - 1))
         out[j] = INTERPOLATION_CONSTANT * (s[j + 1] - s[j]) ** 4 * d4[first:last + 1].max(axis=0)
     return out
 

@@ -53,6 +53,13 @@ __all__ = [
 
 #: A turning angle this many times larger than the largest nearby turn marks a corner.
 CORNER_CONTRAST = 4.0
+#: A corner's neighbour continues its arc (a round nose sampled coarsely, not a corner) when
+#: it turns, beyond its side's own turning, at least this fraction of what the arc would
+#: make it turn (:func:`_continues_arc`; ~0 beside a corner, the same again on a circle,
+#: less towards an ellipse's vertex, which ramps). An elliptic LE (vertex radius 0.1-0.3 mm,
+#: axes 2.5-4 : 1) sampled 10-20 points round turns 6, 14, 55, 55, 14, 6 deg: 0.4-0.5 of
+#: its arc; Ex 4's and Ex 5's corners' neighbours turn under 1/40 of theirs.
+ARC_FRACTION = 0.25
 #: Error sweeps take a span's ``e^{1/4}`` within this factor of the median span's (so its
 #: length changes at most about this much relative to the others per sweep). Without it, on
 #: the 71-point half profile at 20 control points, spans the fit interpolated were emptied
@@ -85,7 +92,9 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     between them) is a corner when its turn is at least ``min_angle_deg`` and at least
     ``CORNER_CONTRAST`` times the largest turn at the samples two to five steps away and
     at the samples just beside it (or beside the pair): a round nose sampled at steps near
-    its radius turns most at one or two samples too, but its turns ramp up to them.
+    its radius turns most at one or two samples too, but its turns ramp up to them. Nor is
+    it a corner where a neighbour continues its arc (:func:`_continues_arc`): the turning
+    is concentrated in the sample(s), not spread the way the sampled arc would spread it.
     A closed loop (the last point equal to the first, as closed curves and sections are
     stored) is read round its seam: the samples beside the seam have neighbours on both
     sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
@@ -97,6 +106,7 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     ring = None  # closed: the turns round the loop, ring[n] at the seam
     if np.array_equal(points[0], points[-1]):
         ring = np.append(turn, _turning_angles(points[[-2, 0, 1]]))
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)  # chord k: sample k to k + 1
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
     i = 0
@@ -116,6 +126,9 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
         beside = (ring[np.r_[i - 1, i + (1 if single else 2)] % ring.size] if ring is not None
                   else turn[[k for k in (i - 1, i + (1 if single else 2)) if 0 <= k < n]])
         background = max(background, float(beside.max()) if beside.size else 0.0)
+        if _continues_arc(turn if ring is None else ring, steps, i, ring is not None):
+            i += 1
+            continue
         if single and turn[i] >= CORNER_CONTRAST * background:
             corners.append(Corner(float(t[i + 1]), float(np.degrees(turn[i])), i + 1))
             i += 3
@@ -126,6 +139,42 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
             continue
         i += 1
     return corners
+
+
+def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: int,
+                   closed: bool) -> bool:
+    """Whether a neighbour of a corner at turn ``i`` continues its arc.
+
+    ``turns[k]`` is the turn between chords ``steps[k]`` and ``steps[k + 1]``. A corner at or
+    next to turn ``i`` turns ``Θ = turns[i] + turns[i + 1]`` (with ``i`` moved back one when
+    the turn before is the larger neighbour; the second turn is the chord cutting across
+    a corner between the samples, or the flank's own turn). Spread over an
+    arc instead, from the middle of the chord ``a`` before ``i`` to the middle of the chord
+    ``d`` after ``i + 1`` (``c`` between them), the neighbour across ``a`` turns about
+    ``Θ (a/2) / (a/2 + c + d/2)`` more than the side's own turning (the least turn two to
+    five samples out on that side); likewise across ``d``. A neighbour continues the arc
+    when its excess reaches :data:`ARC_FRACTION` of that. ``closed``: indices wrap.
+    """
+    n = turns.size
+    if (closed or i > 0) and turns[(i - 1) % n] > turns[(i + 1) % n]:
+        i = (i - 1) % n if closed else i - 1  # the corner's other sample is before it
+    if not closed and i + 1 >= n:
+        return False
+    total = turns[i] + turns[(i + 1) % n]
+    a, c, d = (steps[k % steps.size] for k in (i, i + 1, i + 2))
+    length = 0.5 * a + c + 0.5 * d
+    if length <= 0.0:
+        return False
+    for beside, half, outward in ((i - 1, 0.5 * a, -1), (i + 2, 0.5 * d, 1)):
+        far = [beside + outward * k for k in range(1, 5)]
+        if not closed:
+            if not 0 <= beside < n:
+                continue
+            far = [k for k in far if 0 <= k < n]
+        own = float(turns[np.array(far) % n].min()) if far else 0.0
+        if turns[beside % n] - own >= ARC_FRACTION * total * half / length:
+            return True
+    return False
 
 
 def _between(points: NDArray[np.float64], t: NDArray[np.float64], j: int) -> float:

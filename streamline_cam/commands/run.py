@@ -68,7 +68,9 @@ def report_lines(report: dict) -> list[str]:
     n_t, n_s = fit["n_control_points"]
     lines = [
         f"fit        {fit['method']} surface {n_t}x{n_s} CPs, max error "
-        f"{fit['max_error_mm']:.4f} mm (between sections {fit['between_sections_mm']:.4f})",
+        f"{fit['max_error_mm']:.4f} mm (between sections {fit['between_sections_mm']:.4f}"
+        + (f", between data {fit['between_data_mm']:.4f}"
+           if fit.get("between_data_mm") is not None else "") + ")",
         *([f"fairness   {fit['fairness']['summary']}"] if fit.get("fairness") else []),
         f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
         f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "

@@ -299,3 +299,55 @@ def test_a_round_nose_whose_turns_ramp_up_is_no_corner():
     points = _polyline_turning(corner)
     found = detect_corners(points, unit_curve_parameters(points))
     assert [c.index for c in found] == [18] and abs(found[0].angle_deg - 70.0) < 1e-6
+
+
+def _elliptic_nose_section(vertex_radius_mm, n_round, aspect, flank_step_mm):
+    """Straight flanks 30 mm long either side of a half ellipse (semi-axes ``aspect`` and
+    ``aspect²`` times the vertex radius, so its vertex circle is ``vertex_radius_mm``)
+    sampled ``n_round`` points round at even arc length; ``aspect`` 1 is a circle."""
+    b = vertex_radius_mm * aspect
+    a = b * aspect
+    theta = np.linspace(0.0, np.pi, 4001)
+    arc = np.c_[-a * np.sin(theta), b * np.cos(theta)]
+    s = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(arc, axis=0), axis=1))))
+    nose = arc[np.searchsorted(s, np.linspace(0.0, s[-1], n_round)).clip(0, theta.size - 1)]
+    x = flank_step_mm * np.arange(1, int(30.0 / flank_step_mm) + 1)
+    return np.vstack((np.c_[x[::-1], np.full(x.size, b)], nose, np.c_[x, np.full(x.size, -b)]))
+
+
+@pytest.mark.parametrize("radius_mm", [0.1, 0.2, 0.3])
+@pytest.mark.parametrize("n_round", [10, 15, 20])
+def test_a_thin_round_or_elliptic_nose_is_no_corner(radius_mm, n_round):
+    # its largest turns (14, 55, 55, 14 deg on a 4:1 ellipse sampled 20 points round) stand
+    # 4-8x above their neighbours, but the neighbours continue the arc those turns imply
+    for aspect in (1.0, 2.5, 4.0):
+        for flank_step_mm in (0.5, 2.0, 5.0):
+            points = _elliptic_nose_section(radius_mm, n_round, aspect, flank_step_mm)
+            assert detect_corners(points, unit_curve_parameters(points)) == [], \
+                (aspect, flank_step_mm)
+
+
+@pytest.mark.parametrize("angle_deg", [20.0, 45.0, 90.0, 135.0])
+def test_a_corner_between_samples_or_at_one_stays_a_corner(angle_deg):
+    # two straight or gently curved sides meeting at a sample or between two (the chord
+    # across the corner turns too), unequal steps either side; Ex 4 and Ex 5 keep theirs
+    for step_in, step_out in ((0.1, 0.5), (0.5, 0.5), (2.0, 0.5), (0.5, 2.0)):
+        for fraction in (0.0, 0.25, 0.5):
+            for radius_mm in (None, 100.0):
+                heading = np.radians(angle_deg)
+                s_in = step_in * np.arange(25, -1, -1) + fraction * step_in
+                s_out = step_out * np.arange(26) + (1.0 - fraction) * step_out
+                bend = 0.0 if radius_mm is None else 1.0 / radius_mm
+                incoming = np.c_[-s_in, -0.5 * bend * s_in**2]
+                out_dir = np.array([np.cos(heading), np.sin(heading)])
+                out_normal = np.array([-out_dir[1], out_dir[0]])
+                outgoing = (s_out[:, None] * out_dir
+                            + (0.5 * bend * s_out**2)[:, None] * out_normal)
+                points = np.vstack((incoming, outgoing if fraction else outgoing[1:]))
+                found = detect_corners(points, unit_curve_parameters(points))
+                assert len(found) == 1, (step_in, step_out, fraction, radius_mm)
+                # (a corner read at one sample reports that sample's turn: >= 85 %)
+                assert 0.8 * angle_deg < found[0].angle_deg < 1.1 * angle_deg
+    for example, count in ((example4, 2), (example5, 1)):
+        points = example()
+        assert len(detect_corners(points, unit_curve_parameters(points))) == count

@@ -1,0 +1,65 @@
+"""The between-data estimate (toolpath.between_data) against the truth between the points."""
+
+import itertools
+
+import numpy as np
+import pytest
+
+from streamline_cam.fit_report import fit_curve_by_method
+from toolpath import fit_bspline_curve, fit_streamline_curve
+from toolpath.between_data import between_data_errors, between_data_estimate
+
+
+def _airfoil(phi):
+    """A closed thin section (chord 60 mm, 3 mm thick, cambered) at angles ``phi``."""
+    x = 30.0 * (1.0 + np.cos(phi))
+    y = 3.0 * np.sin(phi) * (1.0 - 0.3 * np.cos(phi)) + 2.0 * np.sin(np.pi * x / 60.0)
+    return np.c_[x, y]
+
+
+def _truth_distance(query, dense):
+    """Distance (mm) from each query point to the dense true polyline."""
+    a, ab = dense[:-1], np.diff(dense, axis=0)
+    rel = query[:, None, :] - a[None]
+    w = np.clip(np.einsum("qij,ij->qi", rel, ab) / np.einsum("ij,ij->i", ab, ab), 0.0, 1.0)
+    return np.linalg.norm(rel - w[..., None] * ab[None], axis=2).min(axis=1)
+
+
+@pytest.mark.parametrize("fit", [fit_streamline_curve, fit_bspline_curve])
+def test_the_estimate_is_within_2x_of_the_true_error_between_sparse_points(fit):
+    # 80 points round: flanks ~2.4 mm apart, the noses sampled on a cosine
+    phi = np.linspace(0.0, 2.0 * np.pi, 81)
+    points = _airfoil(phi)
+    curve = fit(points[:-1], tol=0.01, closed=True)
+    t = np.append(curve.params, 1.0)
+    estimate = between_data_errors(curve, t, points, closed=True)
+    dense = _airfoil(np.linspace(0.0, 2.0 * np.pi, 40 * 400 + 1))
+    true = np.array([_truth_distance(curve(np.linspace(a, b, 23)[1:-1]), dense).max()
+                     for a, b in itertools.pairwise(t)])
+    assert np.isfinite(estimate).all()
+    assert 0.7 * true.max() <= estimate.max() <= 2.0 * true.max()
+    flank = np.linalg.norm(np.diff(points, axis=0), axis=1) > 2.0
+    assert np.abs(estimate[flank] - true[flank]).max() < 0.3 * true.max()
+
+
+def test_a_corner_interval_is_not_estimated_and_open_ends_are():
+    # a right-angle corner between two samples: the data cannot tell where it lies
+    x = np.linspace(0.0, 10.0, 11)
+    points = np.vstack((np.c_[x, np.zeros(11)], np.c_[np.full(10, 10.4), x[1:]]))
+    t = np.linspace(0.0, 1.0, len(points))
+    errors = between_data_errors(lambda u: np.interp(u, t, points[:, 0])[:, None]
+                                 * [1.0, 0.0] + np.interp(u, t, points[:, 1])[:, None]
+                                 * [0.0, 1.0], t, points)
+    assert np.isnan(errors[10]) and np.isfinite(np.delete(errors, 10)).all()
+    assert np.nanmax(errors) < 1e-9  # the polyline is its own data curve there
+    mm, where = between_data_estimate(lambda u: np.c_[u, 0.0 * u] * 10.0, t[:11] / t[10],
+                                      points[:11])
+    assert mm < 1e-9 and where is not None
+
+
+def test_the_fit_report_gives_the_estimate():
+    points = _airfoil(np.linspace(0.0, 2.0 * np.pi, 81))[:-1]
+    _, report = fit_curve_by_method(points, method="bspline", tol=0.01, closed=True)
+    data = report.as_dict()
+    assert 0.0 < data["between_data_mm"] < 0.05 and 0.0 <= data["between_data_t"] <= 1.0
+    assert any(line.startswith("between data") for line in report.lines())
