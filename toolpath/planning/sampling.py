@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from machines import Machine
 from machines.kinematics import forward
 
+from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind, disc_basis
 from .local import (
@@ -504,19 +505,16 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     m = len(tips_a)
     u = np.asarray(fractions, dtype=float)
     u = np.broadcast_to(u, (m, u.shape[-1]))
-    closed = bool(surface.closed_t)
-    if closed:
-        tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
     if joints is None:
         tips = _lerp(tips_a, tips_b, u)
         axes = _nlerp(axes_a, axes_b, u)
     else:
         machine, q_a, q_b = joints
         tips, axes = forward(machine, _lerp(q_a, q_b, u))
-    t0 = (ta[:, None] * (1.0 - u) + tb[:, None] * u).ravel()
+    t0 = seam_lerp_rows(np.ascontiguousarray(ta, dtype=float),
+                        np.ascontiguousarray(tb, dtype=float),
+                        np.ascontiguousarray(u), bool(surface.closed_t)).ravel()
     s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
-    if closed:
-        t0 = np.mod(t0, 1.0)
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
                            refine_rim=refine_rim)
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
