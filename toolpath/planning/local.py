@@ -102,7 +102,7 @@ def tangent_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> Pas
 def _frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike,
            orders: tuple[tuple[int, int], ...]) -> PassFrame:
     tt, ss, _ = parameter_pairs(t, s, grid=False)
-    parts = surface._partials_many(tt, ss, orders)
+    parts = surface.partials_many(tt, ss, orders)
     n = tt.size
     vectors = np.empty((3, n, 3))  # normal, e1, e2
     scalars = np.empty((6, n))  # speed_t, speed_s, s11, s12, s22, kg
@@ -180,7 +180,7 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     kernel = surface.kernel()
-    if kernel is not None:  # the same steps, compiled (toolpath.compiled.project)
+    if kernel is not None:  # the same steps, compiled (toolpath.compiled.project_points)
         return kernel.project(p, t0, s0, iterations, EXTRA_ITERATIONS, CONVERGED_MM)
     t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
     s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))

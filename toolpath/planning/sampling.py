@@ -64,6 +64,8 @@ __all__ = [
 
 #: Where inside a move the gap is measured; with the ends (gap 0) they fix the model below.
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
+#: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
+_GRID = 21
 
 
 def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
@@ -637,6 +639,10 @@ def _gap_model(u, a, b, c):
     return u * (1.0 - u) * (a + b * u + c * u * u)
 
 
+#: Rows per block of :func:`_model_extremes` run in parallel.
+_EXTREMES_BLOCK = 4096
+
+
 @numba.njit(cache=True, parallel=True)
 def _model_extremes(values, inverse, n_grid, samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
@@ -650,10 +656,6 @@ def _model_extremes(values, inverse, n_grid, samples, out):
     for block in numba.prange((values.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
         _model_extremes_rows(values, inverse, n_grid, samples, out, block * _EXTREMES_BLOCK,
                              min((block + 1) * _EXTREMES_BLOCK, values.shape[0]))
-
-
-#: Rows per block of :func:`_model_extremes` run in parallel.
-_EXTREMES_BLOCK = 4096
 
 
 @numba.njit(cache=True)
@@ -718,7 +720,3 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
             return nxt
         x = nxt if lo < nxt < hi else 0.5 * (lo + hi)
     return x
-
-
-#: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
-_GRID = 21

@@ -226,6 +226,10 @@ def _walk(x, v, j):
     return j
 
 
+#: Points per block of :func:`_window_means` run in parallel.
+_WINDOW_BLOCK = 8192
+
+
 @numba.njit(cache=True, parallel=True)
 def _window_means(values, x, lo, hi, out):
     """``out[i]``: mean of the piecewise-linear ``values(x)`` over ``[lo[i], hi[i]]``.
@@ -262,10 +266,6 @@ def _window_means(values, x, lo, hi, out):
                 top = cum[j_hi, k] + f_hi * (cum[j_hi + 1, k] - cum[j_hi, k])
                 bottom = cum[j_lo, k] + f_lo * (cum[j_lo + 1, k] - cum[j_lo, k])
                 out[i, k] = (top - bottom) / width
-
-
-#: Points per block of :func:`_window_means` run in parallel.
-_WINDOW_BLOCK = 8192
 
 
 @dataclass(frozen=True)
