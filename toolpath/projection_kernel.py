@@ -30,12 +30,13 @@ import math
 import numba
 import numpy as np
 
+from .tolerances import ROUND_OFF, TINY
+
 __all__ = [
     "DEGENERATE_SHARE",
     "HALVINGS",
     "NO_FARTHER_SHARE",
     "STEP_CLIP",
-    "TINY",
     "clamp_s",
     "halve_rows",
     "newton_step",
@@ -59,13 +60,10 @@ STEP_CLIP = 0.25
 HALVINGS = 8
 #: The Hessian counts as not positive definite where its determinant is at most this share
 #: of the Gauss-Newton one (``E G``): relative round-off of the 2 x 2 determinant, scale free.
-DEGENERATE_SHARE = 1e-12
+DEGENERATE_SHARE = ROUND_OFF
 #: A trial point counts as no farther than the current foot where its squared distance is
 #: larger by at most this share: the round-off of evaluating it, so a converged foot is kept.
-NO_FARTHER_SHARE = 1e-12
-#: Floor of a denominator that can vanish (a degenerate ``E G`` or determinant): far below
-#: any real value of these squares of mm per unit parameter, it only keeps the step finite.
-TINY = 1e-300
+NO_FARTHER_SHARE = ROUND_OFF
 
 
 @numba.njit(cache=True, inline="always")

@@ -5,13 +5,13 @@ import numpy as np
 from toolpath.projection_kernel import (
     DEGENERATE_SHARE,
     STEP_CLIP,
-    TINY,
     halve_rows,
     newton_step_rows,
     no_farther,
     seam_lerp_rows,
     wrap_t_rows,
 )
+from toolpath.tolerances import TINY
 
 
 def _numpy_step(fr, p, t, s, closed):

@@ -27,6 +27,7 @@ from numpy.typing import ArrayLike, NDArray
 from ..compiled import SEAM_BEFORE_T, SEAM_SLACK_MM, SEAM_WINDOW_T
 from ..projection_kernel import HALVINGS, halve_rows, newton_step_rows, no_farther
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
+from ..tolerances import TINY
 
 __all__ = ["CONVERGED_MM", "EXTRA_ITERATIONS", "PassFrame", "pass_frame",
            "project_to_surface", "signed_distance_near", "tangent_frame"]
@@ -132,10 +133,10 @@ def _frame_rows(x, xt, xs, xtt, xts, xss, orientation, vectors, scalars):
         big_l = xtt[i, 0] * n0 + xtt[i, 1] * n1 + xtt[i, 2] * n2
         big_m = xts[i, 0] * n0 + xts[i, 1] * n1 + xts[i, 2] * n2
         big_n = xss[i, 0] * n0 + xss[i, 1] * n1 + xss[i, 2] * n2
-        e_safe = max(e, 1e-300)
+        e_safe = max(e, TINY)
         e_len = math.sqrt(e_safe)
         ratio = f / e_safe
-        q2 = max(g - f * ratio, 1e-300)
+        q2 = max(g - f * ratio, TINY)
         q = math.sqrt(q2)
         e1 = (xt[i, 0] / e_len, xt[i, 1] / e_len, xt[i, 2] / e_len)
         for k in range(3):
