@@ -512,12 +512,14 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
     return scale * ((p[i, 0] - x0) * n0 + (p[i, 1] - x1) * n1 + (p[i, 2] - x2) * n2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def _project_one(p, t, s, sf, search, dist, scratch):
     """The foot of ``p[0]`` from ``(t[0], s[0])`` and its distance, in place.
 
     :func:`_newton_search`, then, for a signed distance on a closed surface, the corner
-    rule at the seam (:func:`_seam_signed`).
+    rule at the seam (:func:`_seam_signed`). A call, not inlined: both kernels
+    (:func:`project_points`, :func:`project_moves`) share one compiled search (inlined in
+    each, a cold start compiled it twice: 41 s of CPU instead of about 20).
     """
     _newton_search(p, t, s, sf, search, dist, scratch)
     if search.closed and search.orientation != 0.0:
