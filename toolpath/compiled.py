@@ -335,14 +335,6 @@ def streamline_partials(t, s, sf, order, out):
                             out, i, mu, mv, g, z, w)
 
 
-@numba.njit(cache=True, inline="always")
-def _scratch():
-    """The scratch arrays of one thread's projections: ``mu, mv, g, z, w, fr, pt``."""
-    # (pt's second partials stay 0: read by _taylor_signed, times a zero step)
-    return (np.empty((3, 4)), np.empty((3, 4)), np.empty((6, 3)), np.empty((3, 3)),
-            np.empty((6, 3)), np.empty((6, 1, 3)), np.zeros((6, 1, 3)))
-
-
 @numba.njit(cache=True, parallel=True)
 def project_points(p, sf, search, t, s, dist):
     """Newton projection of points ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
@@ -353,15 +345,28 @@ def project_points(p, sf, search, t, s, dist):
     the foot (one more evaluation of the first partials there). The steps are those of
     :mod:`toolpath.projection_kernel` (:func:`_project_one`).
     """
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
+    closed, iterations, extra, converged_mm, orientation = search
     m = p.shape[0]
     for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        scratch = _scratch()
+        mu = np.empty((3, 4))
+        mv = np.empty((3, 4))
+        g = np.empty((6, 3))
+        z = np.empty((3, 3))
+        w = np.empty((6, 3))
+        fr = np.empty((6, 1, 3))
+        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
         q1 = np.empty((1, 3))
         t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
         for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
             q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
             t1[0], s1[0] = t[j], s[j]
-            _project_one(q1, t1, s1, sf, search, d1, scratch)
+            _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
+                         iterations, extra, converged_mm, orientation, d1, mu, mv, g, z, w,
+                         fr, pt)
+            if closed and orientation != 0.0:
+                _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                             orientation, d1, mu, mv, g, z, w, pt)
             t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
@@ -374,16 +379,30 @@ def project_moves(moves, sf, search, t, s, dist):
     (:func:`_move_point`), projected from the ends' parameters interpolated alike;
     ``t[j, q], s[j, q]`` its foot, ``dist[j, q]`` its distance less ``lift_mm``.
     """
-    m, k = moves.fractions.shape
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
+    closed, iterations, extra, converged_mm, orientation = search
+    tips, axes, tt, ss, first, u, lift = moves
+    m, k = u.shape
     for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        scratch = _scratch()
+        mu = np.empty((3, 4))
+        mv = np.empty((3, 4))
+        g = np.empty((6, 3))
+        z = np.empty((3, 3))
+        w = np.empty((6, 3))
+        fr = np.empty((6, 1, 3))
+        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
         q1 = np.empty((1, 3))
         t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
         for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
             for q in range(k):
-                _move_point(moves, j, q, search.closed, q1, t1, s1)
-                _project_one(q1, t1, s1, sf, search, d1, scratch)
-                t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - moves.lift_mm
+                _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, q1, t1, s1)
+                _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
+                             iterations, extra, converged_mm, orientation, d1, mu, mv, g, z,
+                             w, fr, pt)
+                if closed and orientation != 0.0:
+                    _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                                 orientation, d1, mu, mv, g, z, w, pt)
+                t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - lift
 
 
 #: ``t`` just before a closed surface's seam: its normal there is the one from below.
@@ -395,19 +414,12 @@ SEAM_WINDOW_T = 1e-3
 SEAM_SLACK_MM = 1e-6
 
 
-@numba.njit(cache=True, inline="always")
-def _at(sf, t, s, order, out, scratch):
-    """:func:`_partials_at` of the surface ``sf`` at ``(t, s)`` into ``out[:, 0]``."""
-    mu, mv, g, z, w = scratch[0], scratch[1], scratch[2], scratch[3], scratch[4]
-    _partials_at(t, s, sf.breaks_t, sf.breaks_s, sf.g_poly, sf.x0_breaks, sf.x0_poly, sf.T,
-                 sf.c, sf.M, sf.off, order, out, np.int64(0), mu, mv, g, z, w)
-
-
 @numba.njit(cache=True)
-def _seam_normal(t, s, sf, orientation, scratch, n):
+def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
+                 w, pt, n):
     """Point and outward unit normal at ``(t, s)``: the point into ``pt[0, 0]``, ``n``."""
-    pt = scratch[6]
-    _at(sf, t, s, np.int64(1), pt, scratch)
+    _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
+                 mu, mv, g, z, w)
     a0, a1, a2 = pt[1, 0, 0], pt[1, 0, 1], pt[1, 0, 2]
     b0, b1, b2 = pt[2, 0, 0], pt[2, 0, 1], pt[2, 0, 2]
     n[0], n[1], n[2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -418,7 +430,8 @@ def _seam_normal(t, s, sf, orientation, scratch, n):
 
 
 @numba.njit(cache=True)
-def _seam_signed(p, t, s, sf, orientation, dist, scratch):
+def _seam_signed(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, dist, mu, mv,
+                 g, z, w, pt):
     """The foot and signed distance of a point near a closed surface's seam, in place.
 
     A closed section may have a corner at its seam (a sharp trailing edge: the periodic
@@ -435,17 +448,19 @@ def _seam_signed(p, t, s, sf, orientation, dist, scratch):
     ti = t[0]
     if min(ti, 1.0 - ti) > SEAM_WINDOW_T:
         return
-    pt = scratch[6]
-    _at(sf, ti, s[0], np.int64(0), pt, scratch)
+    _partials_at(ti, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt,
+                 np.int64(0), mu, mv, g, z, w)
     f0, f1, f2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
     n_before = np.empty(3)
     n_after = np.empty(3)
-    _seam_normal(0.0, s[0], sf, orientation, scratch, n_after)
+    _seam_normal(0.0, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g,
+                 z, w, pt, n_after)
     d0, d1, d2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
     size = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
     if size > math.sqrt(f0 * f0 + f1 * f1 + f2 * f2) + SEAM_SLACK_MM:
         return  # a foot off the seam, nearer: on a face
-    _seam_normal(SEAM_BEFORE_T, s[0], sf, orientation, scratch, n_before)
+    _seam_normal(SEAM_BEFORE_T, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation,
+                 mu, mv, g, z, w, pt, n_before)
     side = (d0 * (n_before[0] + n_after[0]) + d1 * (n_before[1] + n_after[1])
             + d2 * (n_before[2] + n_after[2]))
     t[0] = 0.0
@@ -453,17 +468,13 @@ def _seam_signed(p, t, s, sf, orientation, dist, scratch):
 
 
 @numba.njit(cache=True, inline="always")
-def _move_point(moves, j, q, closed, p, t1, s1):
-    """The point ``lift_mm`` up the axis at fraction ``q`` of move ``j`` (:class:`Moves`).
+def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1):
+    """The point ``lift`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
 
     Into ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear) and the
     parameters to start from (the ends' interpolated, the short way across the seam:
     :func:`~toolpath.projection_kernel.seam_lerp`).
     """
-    tips, axes, tt, ss = moves.tips_mm, moves.axes, moves.t, moves.s
-    a = moves.first[j]
-    f = moves.fractions[j, q]
-    lift = moves.lift_mm
     b = a + 1
     size2 = 0.0
     for col in range(3):
@@ -512,23 +523,10 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
     return scale * ((p[i, 0] - x0) * n0 + (p[i, 1] - x1) * n1 + (p[i, 2] - x2) * n2)
 
 
-@numba.njit(cache=True)
-def _project_one(p, t, s, sf, search, dist, scratch):
-    """The foot of ``p[0]`` from ``(t[0], s[0])`` and its distance, in place.
-
-    :func:`_newton_search`, then, for a signed distance on a closed surface, the corner
-    rule at the seam (:func:`_seam_signed`). A call, not inlined: both kernels
-    (:func:`project_points`, :func:`project_moves`) share one compiled search (inlined in
-    each, a cold start compiled it twice: 41 s of CPU instead of about 20).
-    """
-    _newton_search(p, t, s, sf, search, dist, scratch)
-    if search.closed and search.orientation != 0.0:
-        _seam_signed(p, t, s, sf, search.orientation, dist, scratch)
-
-
 @numba.njit(cache=True, inline="always")
-def _newton_search(p, t, s, sf, search, dist, scratch):
-    """The damped Newton search for the foot of ``p[0]`` (steps: :mod:`.projection_kernel`).
+def _project_one(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
+                 extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
+    """The foot of ``p[0]`` from ``(t[0], s[0])`` and its distance, in place.
 
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
@@ -538,41 +536,50 @@ def _newton_search(p, t, s, sf, search, dist, scratch):
     :data:`SMALL_STEP_SHARE` of ``converged_mm`` is taken without evaluating its point,
     and the distance there is the second-order expansion from the partials at hand
     (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
-    distance, the same distance to a nanometre).
+    distance, the same distance to a nanometre). (The kernels then apply the corner rule
+    at a closed surface's seam: :func:`_seam_signed`.)
+
+    A call, not inlined: both kernels share one compiled search (inlined in each, a cold
+    start compiled it twice: 41 s of CPU instead of about 20). The surface's and the
+    scratch arrays are passed one by one, not in tuples: taken out of a tuple inside the
+    loop they cost the projections 60 % more time (reference counts moved at every
+    evaluation).
     """
-    closed, iterations, extra = search.closed, search.iterations, search.extra
-    converged_mm, orientation = search.converged_mm, search.orientation
-    fr, pt = scratch[5], scratch[6]
-    ti, si = t[0], s[0]
+    i = 0
+    ti, si = t[i], s[i]
     moved = np.inf
     have_tangents = False  # pt holds the first partials at (ti, si)
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _at(sf, ti, si, np.int64(2), fr, scratch)
-        step_t, step_s, here = newton_step(fr, 0, p, 0)
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(2), fr, np.int64(0),
+                     mu, mv, g, z, w)
+        step_t, step_s, here = newton_step(fr, 0, p, i)
         new_t, new_s = trial(ti, si, step_t, step_s, closed)
+        xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
+        xs0, xs1, xs2 = fr[2, 0, 0], fr[2, 0, 1], fr[2, 0, 2]
         # a last step that moves the foot by far less than converged_mm (to first order)
         # cannot overshoot: taken without evaluating the surface there first (unless it
         # wrapped round the seam: t then moves by most of a turn, more than any step)
-        lin0 = fr[1, 0, 0] * (new_t - ti) + fr[2, 0, 0] * (new_s - si)
-        lin1 = fr[1, 0, 1] * (new_t - ti) + fr[2, 0, 1] * (new_s - si)
-        lin2 = fr[1, 0, 2] * (new_t - ti) + fr[2, 0, 2] * (new_s - si)
+        lin0 = xt0 * (new_t - ti) + xs0 * (new_s - si)
+        lin1 = xt1 * (new_t - ti) + xs1 * (new_s - si)
+        lin2 = xt2 * (new_t - ti) + xs2 * (new_s - si)
         if (orientation != 0.0 and k + 1 >= iterations and abs(new_t - ti) < STEP_CLIP
                 and lin0 * lin0 + lin1 * lin1 + lin2 * lin2
                 < (SMALL_STEP_SHARE * converged_mm) ** 2):
-            t[0], s[0] = new_t, new_s
-            dist[0] = _taylor_signed(p, 0, fr, new_t - ti, new_s - si, orientation)
+            t[i], s[i] = new_t, new_s
+            dist[i] = _taylor_signed(p, i, fr, new_t - ti, new_s - si, orientation)
             return
         closer = False
         # where this may be the last step, the first partials there too: the signed
         # distance at the foot needs no other evaluation
-        tangents = np.int64(1) if orientation != 0.0 and k + 1 >= iterations else np.int64(0)
+        tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
         for _ in range(HALVINGS):
-            _at(sf, new_t, new_s, tangents, pt, scratch)
-            e0 = pt[0, 0, 0] - p[0, 0]
-            e1 = pt[0, 0, 1] - p[0, 1]
-            e2 = pt[0, 0, 2] - p[0, 2]
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                         tangents, pt, np.int64(0), mu, mv, g, z, w)
+            e0 = pt[0, 0, 0] - p[i, 0]
+            e1 = pt[0, 0, 1] - p[i, 1]
+            e2 = pt[0, 0, 2] - p[i, 2]
             if no_farther(e0 * e0 + e1 * e1 + e2 * e2, here):
                 closer = True
                 break
@@ -580,7 +587,8 @@ def _newton_search(p, t, s, sf, search, dist, scratch):
             step_s *= 0.5
             new_t, new_s = trial(ti, si, step_t, step_s, closed)
         if not closer:  # still farther after the last halving: the last step's point
-            _at(sf, new_t, new_s, tangents, pt, scratch)
+            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                         tangents, pt, np.int64(0), mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
@@ -588,12 +596,14 @@ def _newton_search(p, t, s, sf, search, dist, scratch):
         ti, si = new_t, new_s
         have_tangents = tangents == 1
     if iterations + extra == 0:  # no step: the foot is the start
-        _at(sf, ti, si, np.int64(0), pt, scratch)
-    t[0], s[0] = ti, si
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt, np.int64(0),
+                     mu, mv, g, z, w)
+    t[i], s[i] = ti, si
     if orientation == 0.0:  # pt holds the last foot
-        e0, e1, e2 = pt[0, 0, 0] - p[0, 0], pt[0, 0, 1] - p[0, 1], pt[0, 0, 2] - p[0, 2]
-        dist[0] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
+        e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
+        dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
     if not have_tangents:
-        _at(sf, ti, si, np.int64(1), pt, scratch)
-    dist[0] = _taylor_signed(p, 0, pt, 0.0, 0.0, orientation)  # at the foot itself
+        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
+                     mu, mv, g, z, w)
+    dist[i] = _taylor_signed(p, i, pt, 0.0, 0.0, orientation)  # at the foot itself

@@ -133,7 +133,7 @@ def trial(t, s, step_t, step_s, closed):
     return wrap_t(t - step_t, closed), clamp_s(s - step_s)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, inline="always")
 def no_farther(dist2, here):
     """Whether a trial point at squared distance ``dist2`` is no farther than ``here``.
 
