@@ -26,7 +26,6 @@ from .arrays import as_positive_length
 from .errors import ConvergenceWarning, FitError, InvalidParameterError
 from .knots import (
     Corner,
-    _turning_angles,
     detect_corners,
     dominant_point_knots,
     error_density,
@@ -34,6 +33,7 @@ from .knots import (
     initial_dominant_points,
     place_knots,
     refine_dominant_points,
+    turning_angles,
 )
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients, schoenberg_whitney_violation
 
@@ -469,7 +469,7 @@ def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stre
     """
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
     kappa = np.full(t.size, np.nan)
-    kappa[1:-1] = _turning_angles(points) / np.maximum(0.5 * (steps[:-1] + steps[1:]),
+    kappa[1:-1] = turning_angles(points) / np.maximum(0.5 * (steps[:-1] + steps[1:]),
                                                         1e-300)
     jump = np.abs(np.diff(np.log(np.maximum(kappa, 1e-9))))  # interval i .. i + 1
     edges = np.unique(knots)

@@ -33,7 +33,8 @@ class BSplineSurface(FittedSurface):
     def _partials(self, t, s, dt, ds) -> NDArray[np.float64]:
         return self.tensor.partial(t, s, dt, ds)
 
-    def _partials_many(self, t, s, orders):
+    def partials_many(self, t, s, orders):
+        """``{(dt, ds): (n, 3)}`` at once, from the tensor spline."""
         return self.tensor.partials(t, s, tuple(orders))
 
     def to_dict(self) -> dict[str, Any]:

@@ -10,9 +10,12 @@ arrays. Here the same mathematics runs point by point in machine code (numba):
   ``W_ts = W_s G_t + W G_ts``, ``W_ss = e^G (Z_0'' + 2 Z_0' G_s + Z_0 (G_ss + G_s²))``),
   ``G`` and ``X_0`` from their per-patch power forms (:mod:`toolpath.tensor_spline`), then
   a rigid placement ``R X + d`` (folded into the last step: ``M W + off``);
-* :func:`project` : the damped Newton projection of
-  :func:`toolpath.planning.local.project_to_surface`, step for step (same Hessian, same
-  fall-back, clipping, halvings and convergence rule), one point at a time.
+* :func:`project_points`, :func:`project_moves`: the damped Newton projection of
+  :func:`toolpath.planning.local.project_to_surface`, one point at a time, with the steps
+  of :mod:`toolpath.projection_kernel` (the numpy path takes the same ones).
+
+The compiled loops take a surface as :class:`SurfaceArrays` and the search's settings as
+:class:`NewtonSearch` (named tuples).
 
 A surface offers this through :class:`StreamlineKernel` (``surface.kernel()``); surfaces
 without one (analytic test surfaces, B-spline baselines) keep the numpy path.
@@ -24,12 +27,16 @@ import dataclasses
 import math
 from dataclasses import dataclass
 from functools import cached_property
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["StreamlineKernel", "n_partials", "project", "streamline_partials"]
+from .projection_kernel import HALVINGS, STEP_CLIP, newton_step, no_farther, seam_lerp, trial
+
+__all__ = ["Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays", "n_partials",
+           "project_moves", "project_points", "streamline_partials"]
 
 #: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
 ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -83,9 +90,11 @@ class StreamlineKernel:
         return (np.ascontiguousarray(self.rotation @ self.T_inv),
                 np.ascontiguousarray(self.translation_mm - self.rotation @ self.c))
 
-    def _args(self) -> tuple:
-        return (self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks, self.x0_poly,
-                self.T, self.c, *self._output)
+    @cached_property
+    def arrays(self) -> SurfaceArrays:
+        """The arrays the compiled loops take (:class:`SurfaceArrays`)."""
+        return SurfaceArrays(self.breaks_t, self.breaks_s, self.g_poly, self.x0_breaks,
+                             self.x0_poly, self.T, self.c, *self._output)
 
     def partials(self, t: NDArray[np.float64], s: NDArray[np.float64],
                  orders: tuple[tuple[int, int], ...]
@@ -95,8 +104,13 @@ class StreamlineKernel:
         t = np.ascontiguousarray(t, dtype=float).ravel()
         s = np.ascontiguousarray(s, dtype=float).ravel()
         out = np.empty((n_partials(top), t.size, 3))
-        streamline_partials(t, s, *self._args(), top, out)
+        streamline_partials(t, s, self.arrays, top, out)
         return {order: out[ORDERS.index(order)] for order in orders}
+
+    def _search(self, iterations: int, extra: int, converged_mm: float, orientation: float
+                ) -> NewtonSearch:
+        return NewtonSearch(bool(self.closed_t), int(iterations), int(extra),
+                            float(converged_mm), float(orientation))
 
     def project(self, points_mm: NDArray[np.float64], t0: NDArray[np.float64],
                 s0: NDArray[np.float64], iterations: int, extra: int, converged_mm: float,
@@ -111,10 +125,8 @@ class StreamlineKernel:
         t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
         s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
         dist = np.empty(len(p))
-        none3, none1 = np.empty((0, 3)), np.empty(0)
-        project(p, none3, none3, none1, none1, np.empty(0, dtype=np.int64),
-                np.empty((0, 1)), 0.0, *self._args(), self.closed_t, iterations, extra,
-                converged_mm, float(orientation), t[:, None], s[:, None], dist[:, None])
+        project_points(p, self.arrays, self._search(iterations, extra, converged_mm,
+                                                    orientation), t, s, dist)
         return t, s, dist
 
     def project_moves(self, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
@@ -134,13 +146,62 @@ class StreamlineKernel:
         t_out, s_out, dist = np.empty(u.shape), np.empty(u.shape), np.empty(u.shape)
         if not len(first):
             return t_out, s_out, dist
-        project(np.empty((0, 3)), np.ascontiguousarray(tips_mm, dtype=float),
-                np.ascontiguousarray(axes, dtype=float), np.ascontiguousarray(t, dtype=float),
-                np.ascontiguousarray(s, dtype=float),
-                np.ascontiguousarray(first, dtype=np.int64), u, float(lift_mm),
-                *self._args(), self.closed_t, iterations, extra, converged_mm,
-                float(orientation), t_out, s_out, dist)
+        moves = Moves(np.ascontiguousarray(tips_mm, dtype=float),
+                      np.ascontiguousarray(axes, dtype=float),
+                      np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(s, dtype=float),
+                      np.ascontiguousarray(first, dtype=np.int64), u, float(lift_mm))
+        project_moves(moves, self.arrays, self._search(iterations, extra, converged_mm,
+                                                        orientation), t_out, s_out, dist)
         return t_out, s_out, dist
+
+
+class SurfaceArrays(NamedTuple):
+    """A streamline surface as the compiled loops take it (from :class:`StreamlineKernel`).
+
+    ``M = R T^-1`` and ``off = d - R c`` fold the placement into the last step:
+    ``X = M W + off``.
+    """
+
+    breaks_t: NDArray[np.float64]
+    breaks_s: NDArray[np.float64]
+    g_poly: NDArray[np.float64]
+    x0_breaks: NDArray[np.float64]
+    x0_poly: NDArray[np.float64]
+    T: NDArray[np.float64]
+    c: NDArray[np.float64]
+    M: NDArray[np.float64]
+    off: NDArray[np.float64]
+
+
+class NewtonSearch(NamedTuple):
+    """How a projection searches (:func:`project_points`, :func:`project_moves`).
+
+    ``iterations`` steps for every point, then up to ``extra`` more while a step moves the
+    foot by more than ``converged_mm``; ``orientation`` 0 for the distance ``|p - X|``,
+    the surface's +-1 for the signed one; ``closed`` the surface's ``closed_t``.
+    """
+
+    closed: bool
+    iterations: int
+    extra: int
+    converged_mm: float
+    orientation: float
+
+
+class Moves(NamedTuple):
+    """Moves between cutter locations, for :func:`project_moves`.
+
+    Move ``j`` from location ``first[j]`` to the next (of ``tips_mm, axes, t, s``), at its
+    ``fractions[j]`` (shape (m, k)); the point projected is ``lift_mm`` up the axis.
+    """
+
+    tips_mm: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    first: NDArray[np.int64]
+    fractions: NDArray[np.float64]
+    lift_mm: float
 
 
 @numba.njit(cache=True, inline="always")
@@ -257,8 +318,12 @@ BLOCK = 1024
 
 
 @numba.njit(cache=True, parallel=True)
-def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out):
-    """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``."""
+def streamline_partials(t, s, sf, order, out):
+    """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``.
+
+    ``sf``: the surface's :class:`SurfaceArrays`.
+    """
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
     for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))
         mv = np.empty((3, 4))
@@ -270,41 +335,54 @@ def streamline_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out
                             out, i, mu, mv, g, z, w)
 
 
-@numba.njit(cache=True, inline="always")
-def _wrap(t, closed):
-    if closed:
-        return t - math.floor(t)
-    return min(max(t, 0.0), 1.0)
+@numba.njit(cache=True, parallel=True)
+def project_points(p, sf, search, t, s, dist):
+    """Newton projection of points ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
+
+    ``sf`` the surface (:class:`SurfaceArrays`), ``search`` a :class:`NewtonSearch`. With
+    ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
+    ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
+    the foot (one more evaluation of the first partials there). The steps are those of
+    :mod:`toolpath.projection_kernel` (:func:`_project_one`).
+    """
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
+    closed, iterations, extra, converged_mm, orientation = search
+    m = p.shape[0]
+    for block in numba.prange((m + BLOCK - 1) // BLOCK):
+        mu = np.empty((3, 4))
+        mv = np.empty((3, 4))
+        g = np.empty((6, 3))
+        z = np.empty((3, 3))
+        w = np.empty((6, 3))
+        fr = np.empty((6, 1, 3))
+        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
+        q1 = np.empty((1, 3))
+        t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
+        for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
+            q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
+            t1[0], s1[0] = t[j], s[j]
+            _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
+                         iterations, extra, converged_mm, orientation, d1, mu, mv, g, z, w,
+                         fr, pt)
+            if closed and orientation != 0.0:
+                _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                             orientation, d1, mu, mv, g, z, w, pt)
+            t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
 @numba.njit(cache=True, parallel=True)
-def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, c, M,
-            off, closed, iterations, extra, converged_mm, orientation, t, s, dist):
-    """Newton projection of points from their start parameters, in place; their distances.
+def project_moves(moves, sf, search, t, s, dist):
+    """:func:`project_points` of points inside moves, never stored; distances less the lift.
 
-    With ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
-    ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
-    the foot (one more evaluation of the first partials there).
-
-    The step of :func:`toolpath.planning.local._newton_step`: gradient and Hessian of
-    ``|X - p|^2 / 2``, the Gauss-Newton matrix where the Hessian is not positive definite,
-    steps clipped to 0.25, halved up to 8 times while they move away from ``p``;
-    ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
-    than ``converged_mm``. For a signed distance, a last step predicted (to first order)
-    to move the foot by under :data:`SMALL_STEP_SHARE` of ``converged_mm`` is taken
-    without evaluating its point, and the distance there is the second-order expansion
-    from the partials at hand (the numpy path evaluates both: the same foot to within
-    that distance, the same distance to a nanometre).
-
-    Points: ``p[i]`` from ``(t[i, 0], s[i, 0])``, in place, ``dist[i, 0]`` (``first``
-    empty). Moves (:meth:`StreamlineKernel.project_moves`): move ``j`` from point
-    ``first[j]`` of ``tips, axes, tt, ss`` to the next, at its fractions ``u[j]``, the
-    point ``lift`` up the interpolated axis; ``dist[j, q]`` less ``lift``. (One kernel
-    for both: the Newton search is inlined once, and compiles once.)
+    ``moves`` (:class:`Moves`): move ``j`` from location ``first[j]`` to the next, at its
+    fractions ``u[j, q]``, the point ``lift_mm`` up the interpolated axis
+    (:func:`_move_point`), projected from the ends' parameters interpolated alike;
+    ``t[j, q], s[j, q]`` its foot, ``dist[j, q]`` its distance less ``lift_mm``.
     """
-    moves = first.size > 0
-    m = first.size if moves else p.shape[0]
-    k = u.shape[1] if moves else 1
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
+    closed, iterations, extra, converged_mm, orientation = search
+    tips, axes, tt, ss, first, u, lift = moves
+    m, k = u.shape
     for block in numba.prange((m + BLOCK - 1) // BLOCK):
         mu = np.empty((3, 4))
         mv = np.empty((3, 4))
@@ -317,15 +395,10 @@ def project(p, tips, axes, tt, ss, first, u, lift, bt, bs, g_poly, x0b, x0p, T, 
         t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
         for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
             for q in range(k):
-                if moves:
-                    _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, q1, t1,
-                                s1)
-                else:
-                    q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
-                    t1[0], s1[0] = t[j, 0], s[j, 0]
-                _project_one(0, q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                             closed, iterations, extra, converged_mm, orientation, d1, mu, mv,
-                             g, z, w, fr, pt)
+                _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, q1, t1, s1)
+                _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
+                             iterations, extra, converged_mm, orientation, d1, mu, mv, g, z,
+                             w, fr, pt)
                 if closed and orientation != 0.0:
                     _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                                  orientation, d1, mu, mv, g, z, w, pt)
@@ -399,15 +472,10 @@ def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1):
     """The point ``lift`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
 
     Into ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear) and the
-    parameters to start from (the ends' interpolated, the short way across the seam).
+    parameters to start from (the ends' interpolated, the short way across the seam:
+    :func:`~toolpath.projection_kernel.seam_lerp`).
     """
     b = a + 1
-    ta, tb = tt[a], tt[b]
-    if closed:
-        if tb - ta > 0.5:
-            tb -= 1.0
-        elif ta - tb > 0.5:
-            tb += 1.0
     size2 = 0.0
     for col in range(3):
         v = axes[a, col] + f * (axes[b, col] - axes[a, col])
@@ -416,8 +484,7 @@ def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1):
     size = math.sqrt(size2)
     for col in range(3):
         p[0, col] = tips[a, col] + f * (tips[b, col] - tips[a, col]) + lift * (p[0, col] / size)
-    t0 = ta * (1.0 - f) + tb * f
-    t1[0] = t0 - math.floor(t0) if closed else t0
+    t1[0] = seam_lerp(tt[a], tt[b], f, closed)
     s1[0] = ss[a] * (1.0 - f) + ss[b] * f
 
 
@@ -457,9 +524,28 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
 
 
 @numba.njit(cache=True, inline="always")
-def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
+def _project_one(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
                  extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
-    """:func:`project` of point ``i`` (the rest: scratch arrays)."""
+    """The foot of ``p[0]`` from ``(t[0], s[0])`` and its distance, in place.
+
+    ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
+    than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
+    halved (up to :data:`~toolpath.projection_kernel.HALVINGS` times) while its point is
+    farther from ``p`` (:func:`~toolpath.projection_kernel.no_farther`). For a signed
+    distance, a last step predicted (to first order) to move the foot by under
+    :data:`SMALL_STEP_SHARE` of ``converged_mm`` is taken without evaluating its point,
+    and the distance there is the second-order expansion from the partials at hand
+    (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
+    distance, the same distance to a nanometre). (The kernels then apply the corner rule
+    at a closed surface's seam: :func:`_seam_signed`.)
+
+    A call, not inlined: both kernels share one compiled search (inlined in each, a cold
+    start compiled it twice: 41 s of CPU instead of about 20). The surface's and the
+    scratch arrays are passed one by one, not in tuples: taken out of a tuple inside the
+    loop they cost the projections 60 % more time (reference counts moved at every
+    evaluation).
+    """
+    i = 0
     ti, si = t[i], s[i]
     moved = np.inf
     have_tangents = False  # pt holds the first partials at (ti, si)
@@ -468,34 +554,17 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
             break
         _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(2), fr, np.int64(0),
                      mu, mv, g, z, w)
-        d0 = fr[0, 0, 0] - p[i, 0]
-        d1 = fr[0, 0, 1] - p[i, 1]
-        d2 = fr[0, 0, 2] - p[i, 2]
+        step_t, step_s, here = newton_step(fr, 0, p, i)
+        new_t, new_s = trial(ti, si, step_t, step_s, closed)
         xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
         xs0, xs1, xs2 = fr[2, 0, 0], fr[2, 0, 1], fr[2, 0, 2]
-        e_ = xt0 * xt0 + xt1 * xt1 + xt2 * xt2
-        f_ = xt0 * xs0 + xt1 * xs1 + xt2 * xs2
-        g_ = xs0 * xs0 + xs1 * xs1 + xs2 * xs2
-        g1 = d0 * xt0 + d1 * xt1 + d2 * xt2
-        g2 = d0 * xs0 + d1 * xs1 + d2 * xs2
-        h11 = e_ + d0 * fr[3, 0, 0] + d1 * fr[3, 0, 1] + d2 * fr[3, 0, 2]
-        h12 = f_ + d0 * fr[4, 0, 0] + d1 * fr[4, 0, 1] + d2 * fr[4, 0, 2]
-        h22 = g_ + d0 * fr[5, 0, 0] + d1 * fr[5, 0, 1] + d2 * fr[5, 0, 2]
-        det = h11 * h22 - h12 * h12
-        if det <= 1e-12 * (e_ * g_ + 1e-300) or h11 <= 0.0:
-            h11, h12, h22 = e_, f_, g_
-        det = max(h11 * h22 - h12 * h12, 1e-300)
-        step_t = min(max((h22 * g1 - h12 * g2) / det, -0.25), 0.25)
-        step_s = min(max((h11 * g2 - h12 * g1) / det, -0.25), 0.25)
-        here = d0 * d0 + d1 * d1 + d2 * d2
-        new_t = _wrap(ti - step_t, closed)
-        new_s = min(max(si - step_s, 0.0), 1.0)
         # a last step that moves the foot by far less than converged_mm (to first order)
-        # cannot overshoot: taken without evaluating the surface there first
+        # cannot overshoot: taken without evaluating the surface there first (unless it
+        # wrapped round the seam: t then moves by most of a turn, more than any step)
         lin0 = xt0 * (new_t - ti) + xs0 * (new_s - si)
         lin1 = xt1 * (new_t - ti) + xs1 * (new_s - si)
         lin2 = xt2 * (new_t - ti) + xs2 * (new_s - si)
-        if (orientation != 0.0 and k + 1 >= iterations and abs(new_t - ti) < 0.25
+        if (orientation != 0.0 and k + 1 >= iterations and abs(new_t - ti) < STEP_CLIP
                 and lin0 * lin0 + lin1 * lin1 + lin2 * lin2
                 < (SMALL_STEP_SHARE * converged_mm) ** 2):
             t[i], s[i] = new_t, new_s
@@ -505,20 +574,19 @@ def _project_one(i, p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         # where this may be the last step, the first partials there too: the signed
         # distance at the foot needs no other evaluation
         tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
-        for _ in range(8):
+        for _ in range(HALVINGS):
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                          tangents, pt, np.int64(0), mu, mv, g, z, w)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
-            if e0 * e0 + e1 * e1 + e2 * e2 <= here * (1.0 + 1e-12):
+            if no_farther(e0 * e0 + e1 * e1 + e2 * e2, here):
                 closer = True
                 break
             step_t *= 0.5
             step_s *= 0.5
-            new_t = _wrap(ti - step_t, closed)
-            new_s = min(max(si - step_s, 0.0), 1.0)
-        if not closer:  # still farther after 8 halvings: the last step's point
+            new_t, new_s = trial(ti, si, step_t, step_s, closed)
+        if not closer:  # still farther after the last halving: the last step's point
             _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                          tangents, pt, np.int64(0), mu, mv, g, z, w)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]

@@ -29,6 +29,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import FitError
+from .vectors import unit
 
 __all__ = ["ConeFrame", "algorithm1", "algorithm2", "candidate_frames"]
 
@@ -58,10 +59,6 @@ class ConeFrame:
         return bool(np.all(z > 1e-9 * np.abs(z).max()))
 
 
-def _unit(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return v / np.linalg.norm(v)
-
-
 def algorithm1(x: NDArray[np.float64], c: NDArray[np.float64], *, eta: float | None = None,
                margin: float = MARGINS[0], label: str = "") -> ConeFrame | None:
     """Algorithm 1 on the shifted 2-D points ``x + c``; None if the sector is too wide.
@@ -71,7 +68,7 @@ def algorithm1(x: NDArray[np.float64], c: NDArray[np.float64], *, eta: float | N
     y = x + c
     if np.any(np.linalg.norm(y, axis=1) == 0):
         return None
-    ref = np.arctan2(*_unit(np.mean(_unit_rows(y), axis=0))[::-1])
+    ref = np.arctan2(*unit(np.mean(unit(y), axis=0))[::-1])
     theta = np.angle(np.exp(1j * (np.arctan2(y[:, 1], y[:, 0]) - ref)))
     spread = theta.max() - theta.min()
     if eta is None:
@@ -82,10 +79,6 @@ def algorithm1(x: NDArray[np.float64], c: NDArray[np.float64], *, eta: float | N
     T = np.linalg.inv(np.array([[np.cos(a), np.cos(b)], [np.sin(a), np.sin(b)]]))
     frame = ConeFrame(T / np.linalg.norm(T, 2), np.asarray(c, float), label)
     return frame if frame.contains(x) else None
-
-
-def _unit_rows(y: NDArray[np.float64]) -> NDArray[np.float64]:
-    return y / np.linalg.norm(y, axis=1)[:, None]
 
 
 def algorithm2(x: NDArray[np.float64], c: NDArray[np.float64], *, margin: float = 1.1,
@@ -102,11 +95,11 @@ def algorithm2(x: NDArray[np.float64], c: NDArray[np.float64], *, margin: float 
         return None
     rho = margin * 2.0 * d * r / np.sqrt(d * d - r * r)
     axis = q / d
-    e1 = _unit(np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))]))
+    e1 = unit(np.cross(axis, np.eye(3)[int(np.argmin(np.abs(axis)))]))
     e2 = np.cross(axis, e1)
     phis = 2.0 * np.pi * np.arange(3) / 3.0
     xi = q[None] + rho * (np.cos(phis)[:, None] * e1 + np.sin(phis)[:, None] * e2)
-    T = np.linalg.inv((xi / np.linalg.norm(xi, axis=1)[:, None]).T)
+    T = np.linalg.inv(unit(xi).T)
     frame = ConeFrame(T / np.linalg.norm(T, 2), np.asarray(c, float), label)
     return frame if frame.contains(x) else None
 

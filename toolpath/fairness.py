@@ -621,7 +621,7 @@ def surface_fairness(surface: Any, points: Any, *, min_depth_mm: float = CONCAVE
     levels += [(j + 0.5, 0.5 * (s[j] + s[j + 1]), convex[j] & convex[j + 1])
                for j in range(len(s) - 1)]
     # one evaluation for every level (a compiled kernel's call costs more than its points)
-    parts = surface._partials_many(
+    parts = surface.partials_many(
         np.tile(tt, len(levels)), np.repeat([s_value for _, s_value, _ in levels], tt.size),
         ((0, 0), (1, 0), (0, 1), (2, 0)))
     normal = surface.orientation * unit(np.cross(parts[1, 0], parts[0, 1]))

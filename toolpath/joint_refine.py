@@ -27,6 +27,7 @@ from machines.kinematics import forward, solve_inverse
 
 from .errors import InvalidParameterError
 from .path import MoveKind, Toolpath
+from .vectors import unit
 
 __all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm",
            "machine_key", "refine_for_joint_interpolation"]
@@ -54,10 +55,6 @@ def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
         return np.zeros(0)
     middle_tips, _ = forward(machine, 0.5 * (joints[:-1] + joints[1:]))
     return np.linalg.norm(middle_tips - 0.5 * (tips_mm[:-1] + tips_mm[1:]), axis=1)
-
-
-def _unit_rows(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    return v / np.linalg.norm(v, axis=1, keepdims=True)
 
 
 def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: float
@@ -89,7 +86,7 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
             break
         at = np.flatnonzero(split)  # move at -> at + 1 gets a middle point
         new_tips = 0.5 * (tips[at] + tips[at + 1])
-        new_axes = _unit_rows(axes[at] + axes[at + 1])
+        new_axes = unit(axes[at] + axes[at + 1])
         where = at + 1
         tips = np.insert(tips, where, new_tips, axis=0)
         axes = np.insert(axes, where, new_axes, axis=0)

@@ -49,6 +49,7 @@ __all__ = [
     "place_knots",
     "refill_knots",
     "refine_dominant_points",
+    "turning_angles",
 ]
 
 #: A turning angle this many times larger than the largest nearby turn marks a corner.
@@ -76,7 +77,7 @@ class Corner:
     index: int  # the sample at or just before the corner
 
 
-def _turning_angles(points: NDArray[np.float64]) -> NDArray[np.float64]:
+def turning_angles(points: NDArray[np.float64]) -> NDArray[np.float64]:
     """Angle (rad) between consecutive chords at each interior sample, shape (n − 2,)."""
     chords = np.diff(points, axis=0)
     unit = chords / np.linalg.norm(chords, axis=1)[:, None]
@@ -99,13 +100,13 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     stored) is read round its seam: the samples beside the seam have neighbours on both
     sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
     """
-    turn = _turning_angles(points)  # turn[i] is at sample i + 1
+    turn = turning_angles(points)  # turn[i] is at sample i + 1
     n = turn.size
     if n < 5:
         return []
     ring = None  # closed: the turns round the loop, ring[n] at the seam
     if np.array_equal(points[0], points[-1]):
-        ring = np.append(turn, _turning_angles(points[[-2, 0, 1]]))
+        ring = np.append(turn, turning_angles(points[[-2, 0, 1]]))
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1)  # chord k: sample k to k + 1
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
@@ -415,7 +416,7 @@ def refine_dominant_points(points: NDArray[np.float64], dominant: NDArray[np.int
         return dominant
     seg = points[lo:hi + 1]
     length = np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(seg, axis=0), axis=1))))
-    turn = np.concatenate(([0.0], np.cumsum(_turning_angles(seg)), [0.0]))
+    turn = np.concatenate(([0.0], np.cumsum(turning_angles(seg)), [0.0]))
     turn[-1] = turn[-2]
     score = length / length[-1] + (turn / turn[-1] if turn[-1] > 0 else 0.0)
     mid = lo + int(np.argmin(np.abs(score - 0.5 * score[-1])))

@@ -119,7 +119,7 @@ class StreamlineSurface(FittedSurface):
         return g_t[..., :, None] * np.eye(3)
 
     def _partials(self, t, s, dt, ds) -> NDArray[np.float64]:
-        return self._partials_many(t, s, ((dt, ds),))[dt, ds]
+        return self.partials_many(t, s, ((dt, ds),))[dt, ds]
 
     def kernel(self) -> StreamlineKernel:
         """Eq. 25 and its partials, compiled (:mod:`toolpath.compiled`)."""

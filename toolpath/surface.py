@@ -77,7 +77,7 @@ class SurfaceFrame:
 
     def __init__(self, surface: ParametricSurface, t: ArrayLike, s: ArrayLike, grid: bool):
         flat_t, flat_s, shape = parameter_pairs(t, s, grid)
-        parts = surface._partials_many(flat_t, flat_s, FRAME_ORDERS)
+        parts = surface.partials_many(flat_t, flat_s, FRAME_ORDERS)
         vec = (*shape, 3)
         self.point = parts[0, 0].reshape(vec)
         self.xt, self.xs = parts[1, 0].reshape(vec), parts[0, 1].reshape(vec)
@@ -125,12 +125,13 @@ class ParametricSurface(ABC):
                   ) -> NDArray[np.float64]:
         """``d^(dt+ds) X / dt^dt ds^ds`` at flat arrays ``t``, ``s`` -> ``(n, 3)``."""
 
-    def _partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
                        orders: tuple[tuple[int, int], ...]
                        ) -> dict[tuple[int, int], NDArray[np.float64]]:
-        """Several partials at once (compiled when :meth:`kernel` offers it).
+        """Several partials at once: ``{(dt, ds): (n, 3)}`` at flat ``t``, ``s``.
 
-        Override to share work between the partials otherwise.
+        Compiled when :meth:`kernel` offers it, else :meth:`_partials` order by order;
+        override to share work between the partials otherwise.
         """
         kernel = self.kernel()
         if kernel is not None:
@@ -164,7 +165,7 @@ class ParametricSurface(ABC):
     def normal(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False) -> NDArray[np.float64]:
         """Unit normals, oriented outward (``orientation * X_t x X_s``)."""
         flat_t, flat_s, shape = parameter_pairs(t, s, grid)
-        parts = self._partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
+        parts = self.partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
         normal = _outward(self, parts[1, 0], parts[0, 1])
         return normal.reshape((*shape, 3))
 
@@ -172,7 +173,7 @@ class ParametricSurface(ABC):
                            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
         """Points and outward unit normals from one evaluation of the three partials."""
         flat_t, flat_s, shape = parameter_pairs(t, s, grid)
-        parts = self._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
+        parts = self.partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
         normal = _outward(self, parts[1, 0], parts[0, 1])
         return parts[0, 0].reshape((*shape, 3)), normal.reshape((*shape, 3))
 

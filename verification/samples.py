@@ -129,7 +129,7 @@ def surface_points_normals(surface: ParametricSurface, t: FloatArray, s: FloatAr
     """
     # the three partials in one evaluation (one pass of a compiled surface's kernel)
     flat_t, flat_s, shape = parameter_pairs(t, s, grid)
-    parts = surface._partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
+    parts = surface.partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
     points, xt, xs = (parts[order].reshape((*shape, 3)) for order in ((0, 0), (1, 0), (0, 1)))
     cross = np.cross(xt, xs)
     jac = row_norms(cross)

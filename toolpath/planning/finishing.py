@@ -62,6 +62,7 @@ from .passes import (
     evaluate_points,
     final_axes,
     frame_take,
+    nominal_axes,
     reach_height,
     reach_split,
     refine_chords,
@@ -77,7 +78,7 @@ from .sampling import (
     split_evenly,
 )
 from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
-from .tool_axis import angle_deg, lead_tilt_axes
+from .tool_axis import angle_deg
 
 __all__ = ["plan_finishing"]
 
@@ -139,13 +140,6 @@ def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
     return mach
 
 
-def _nominal(opts: FinishingOptions, normal: NDArray[np.float64], e1: NDArray[np.float64]
-             ) -> NDArray[np.float64]:
-    if opts.axis_mode is AxisMode.FIXED:
-        return np.broadcast_to(np.asarray(opts.fixed_axis), normal.shape).copy()
-    return lead_tilt_axes(normal, e1, opts.lead_deg, opts.tilt_deg)
-
-
 def _reach(opts: FinishingOptions, normal: NDArray[np.float64]) -> NDArray[np.bool_]:
     if opts.axis_mode is not AxisMode.FIXED:
         return np.ones(normal.shape[0], dtype=bool)
@@ -160,7 +154,7 @@ def _rounding_reserve(surface: ParametricSurface, cutter: Cutter, opts: Finishin
     g = np.linspace(0.0, 1.0, 17)
     tt, ss = np.meshgrid(g, g, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
-    axes = _nominal(opts, frame.normal, frame.e1)
+    axes = nominal_axes(opts, frame.normal, frame.e1)
     tips = cutter.tips_from_contacts(frame.point, frame.normal, axes)
     return rounding_reserve_mm(tips, axes, mach, coordinate_step_mm=opts.coordinate_step_mm,
                                angle_step_deg=opts.angle_step_deg)
@@ -176,7 +170,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     """
     tt, ss = np.meshgrid(t, s, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
-    axes = _nominal(opts, frame.normal, frame.e1)
+    axes = nominal_axes(opts, frame.normal, frame.e1)
     if cutter.kind is not CutterKind.BALL and opts.axis_mode is AxisMode.LEAD_TILT:
         # a flat face's section depends on the axis it will have, not the nominal one:
         # smoothing a zero lead on a convex surface leans the face sideways and moves the

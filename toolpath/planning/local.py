@@ -25,10 +25,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..compiled import SEAM_BEFORE_T, SEAM_SLACK_MM, SEAM_WINDOW_T
+from ..projection_kernel import HALVINGS, halve_rows, newton_step_rows, no_farther
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
+from ..tolerances import TINY
 
-__all__ = ["PassFrame", "pass_frame", "project_to_surface", "signed_distance_near",
-           "tangent_frame", "wrap_t"]
+__all__ = ["CONVERGED_MM", "EXTRA_ITERATIONS", "PassFrame", "pass_frame",
+           "project_to_surface", "signed_distance_near", "tangent_frame"]
+
+#: A Newton step moving the foot by less than this (mm) ends the search for that point
+#: (the next would move it by about its square over the radius of curvature).
+CONVERGED_MM = 1e-3
+#: Newton steps at most beyond the requested ones, for the points not yet converged (a
+#: point beside a leading edge, started a few hundredths of ``t`` away, can take over a
+#: dozen; only those pay for them).
+EXTRA_ITERATIONS = 24
 
 
 @dataclass(frozen=True, eq=False)
@@ -93,7 +103,7 @@ def tangent_frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike) -> Pas
 def _frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike,
            orders: tuple[tuple[int, int], ...]) -> PassFrame:
     tt, ss, _ = parameter_pairs(t, s, grid=False)
-    parts = surface._partials_many(tt, ss, orders)
+    parts = surface.partials_many(tt, ss, orders)
     n = tt.size
     vectors = np.empty((3, n, 3))  # normal, e1, e2
     scalars = np.empty((6, n))  # speed_t, speed_s, s11, s12, s22, kg
@@ -123,10 +133,10 @@ def _frame_rows(x, xt, xs, xtt, xts, xss, orientation, vectors, scalars):
         big_l = xtt[i, 0] * n0 + xtt[i, 1] * n1 + xtt[i, 2] * n2
         big_m = xts[i, 0] * n0 + xts[i, 1] * n1 + xts[i, 2] * n2
         big_n = xss[i, 0] * n0 + xss[i, 1] * n1 + xss[i, 2] * n2
-        e_safe = max(e, 1e-300)
+        e_safe = max(e, TINY)
         e_len = math.sqrt(e_safe)
         ratio = f / e_safe
-        q2 = max(g - f * ratio, 1e-300)
+        q2 = max(g - f * ratio, TINY)
         q = math.sqrt(q2)
         e1 = (xt[i, 0] / e_len, xt[i, 1] / e_len, xt[i, 2] / e_len)
         for k in range(3):
@@ -145,25 +155,17 @@ def _frame_rows(x, xt, xs, xtt, xts, xss, orientation, vectors, scalars):
         scalars[5, i] = (xtt[i, 0] * side0 + xtt[i, 1] * side1 + xtt[i, 2] * side2) / e_safe
 
 
-def wrap_t(t: NDArray[np.float64], closed: bool) -> NDArray[np.float64]:
-    """``t`` folded into [0, 1]: modulo 1 on closed sections, clipped otherwise."""
-    return np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)
-
-
 def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,
                        s0: ArrayLike, *, iterations: int = 4
                        ) -> tuple[NDArray[np.float64], NDArray[np.float64],
                                   NDArray[np.float64]]:
     """Closest surface points to ``points`` by Newton's method from ``(t0, s0)``.
 
-    Minimizes ``f = |X(t, s) - p|^2 / 2``: gradient ``g = (d.X_t, d.X_s)`` with
-    ``d = X - p``, Hessian ``[[E + d.X_tt, F + d.X_ts], [F + d.X_ts, G + d.X_ss]]``. The
-    curvature terms matter: from a cutter centre 3 mm off a 0.3 mm leading edge, the
-    first-order (Gauss-Newton) step overshoots tenfold. Where the Hessian is not positive
-    definite the Gauss-Newton matrix ``[[E, F], [F, G]]`` is used. Steps are clipped to
-    0.25 in each parameter, halved (up to 8 times) while they would move away from ``p``
-    (so a step past a sharp nose cannot land on the far side), and the result is kept in
-    the domain (``t`` wraps on closed sections).
+    Minimizes ``f = |X(t, s) - p|^2 / 2`` by the damped Newton steps of
+    :mod:`toolpath.projection_kernel` (the Hessian with its curvature terms, the
+    Gauss-Newton matrix where it is not positive definite, steps clipped and halved while
+    they would move away from ``p``, ``t`` wrapping on closed sections): compiled point by
+    point where the surface has a kernel, else on rows of partials from the surface.
 
     ``iterations`` steps are taken for every point; points whose last step still moved
     the foot by more than :data:`CONVERGED_MM` take up to :data:`EXTRA_ITERATIONS` more
@@ -179,7 +181,7 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     kernel = surface.kernel()
-    if kernel is not None:  # the same steps, compiled (toolpath.compiled.project)
+    if kernel is not None:  # the same steps, compiled (toolpath.compiled.project_points)
         return kernel.project(p, t0, s0, iterations, EXTRA_ITERATIONS, CONVERGED_MM)
     t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
     s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
@@ -233,51 +235,32 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     return signed, t, s
 
 
-#: A Newton step moving the foot by less than this (mm) ends the search for that point
-#: (the next would move it by about its square over the radius of curvature).
-CONVERGED_MM = 1e-3
-#: Newton steps at most beyond the requested ones, for the points not yet converged (a
-#: point beside a leading edge, started a few hundredths of ``t`` away, can take over a
-#: dozen; only those pay for them).
-EXTRA_ITERATIONS = 24
-
-
 def _newton_step(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],
                  s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-    """One damped Newton step of :func:`project_to_surface`.
+    """One damped Newton step of :func:`project_to_surface` at every row.
 
+    The step from :func:`~toolpath.projection_kernel.newton_step` on the surface's partials,
+    halved (:func:`~toolpath.projection_kernel.halve_rows`) up to
+    :data:`~toolpath.projection_kernel.HALVINGS` times while its point is farther.
     Returns the new ``t, s``, the foot point there and how far the step moved it (mm).
     """
     closed = bool(surface.closed_t)
     f = surface.frame(t, s)
-    d = f.point - p
-    g1 = np.einsum("ij,ij->i", d, f.xt)
-    g2 = np.einsum("ij,ij->i", d, f.xs)
-    h11 = f.E + np.einsum("ij,ij->i", d, f.xtt)
-    h12 = f.F + np.einsum("ij,ij->i", d, f.xts)
-    h22 = f.G + np.einsum("ij,ij->i", d, f.xss)
-    det = h11 * h22 - h12 * h12
-    bad = (det <= 1e-12 * (f.E * f.G + 1e-300)) | (h11 <= 0.0)
-    h11 = np.where(bad, f.E, h11)
-    h12 = np.where(bad, f.F, h12)
-    h22 = np.where(bad, f.G, h22)
-    det = np.maximum(h11 * h22 - h12 * h12, 1e-300)
-    step_t = np.clip((h22 * g1 - h12 * g2) / det, -0.25, 0.25)
-    step_s = np.clip((h11 * g2 - h12 * g1) / det, -0.25, 0.25)
-    here = np.einsum("ij,ij->i", d, d)
-    new_t, new_s = wrap_t(t - step_t, closed), np.clip(s - step_s, 0.0, 1.0)
-    worse = np.arange(len(p))
+    partials = np.stack((f.point, f.xt, f.xs, f.xtt, f.xts, f.xss))
+    n = len(p)
+    t, s = np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(s, dtype=float)
+    step_t, step_s, here, new_t, new_s = (np.empty(n) for _ in range(5))
+    newton_step_rows(partials, np.ascontiguousarray(p, dtype=float), t, s, closed, step_t,
+                     step_s, here, new_t, new_s)
+    worse = np.arange(n)
     x = np.empty_like(p)
-    for _ in range(8):
+    for _ in range(HALVINGS):
         x[worse] = surface(new_t[worse], new_s[worse])
         dn = x[worse] - p[worse]
-        worse = worse[np.einsum("ij,ij->i", dn, dn) > here[worse] * (1.0 + 1e-12)]
+        worse = worse[~no_farther(np.einsum("ij,ij->i", dn, dn), here[worse])]
         if not worse.size:
             break
-        step_t[worse] *= 0.5
-        step_s[worse] *= 0.5
-        new_t[worse] = wrap_t(t[worse] - step_t[worse], closed)
-        new_s[worse] = np.clip(s[worse] - step_s[worse], 0.0, 1.0)
-    if worse.size:  # still farther after 8 halvings: the last step's point
+        halve_rows(worse, t, s, closed, step_t, step_s, new_t, new_s)
+    if worse.size:  # still farther after the last halving: the last step's point
         x[worse] = surface(new_t[worse], new_s[worse])
     return new_t, new_s, x, np.linalg.norm(x - f.point, axis=1)

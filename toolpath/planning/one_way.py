@@ -22,6 +22,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from ..tolerances import ANGLE_SLACK_DEG, ROUND_OFF
 from .tool_axis import angle_deg
 
 __all__ = ["OneWay", "one_way_azimuth"]
@@ -44,13 +45,13 @@ def one_way_azimuth(axes: NDArray[np.float64], normals: NDArray[np.float64],
         return OneWay(axes, 0, 0.0)
     phi = np.unwrap(np.arctan2(axes[:, 1], axes[:, 0]))
     total = phi[-1] - phi[0]
-    if abs(total) < 1e-12:
+    if abs(total) < ROUND_OFF:
         return OneWay(axes, 0, 0.0)
     sense = np.sign(total)
     u = sense * phi
     target = 0.5 * (np.maximum.accumulate(u) + np.minimum.accumulate(u[::-1])[::-1])
     turn = sense * (target - u)
-    moved = np.abs(turn) > 1e-12
+    moved = np.abs(turn) > ROUND_OFF
     if not moved.any():
         return OneWay(axes, 0, 0.0)
     c, s = np.cos(turn), np.sin(turn)
@@ -59,6 +60,6 @@ def one_way_azimuth(axes: NDArray[np.float64], normals: NDArray[np.float64],
     out[:, 1] = s * axes[:, 0] + c * axes[:, 1]
     lean_before = angle_deg(axes, normals)
     lean_after = angle_deg(out, normals)
-    if (lean_after[moved] > np.maximum(max_lean_deg, lean_before[moved]) + 1e-9).any():
+    if (lean_after[moved] > np.maximum(max_lean_deg, lean_before[moved]) + ANGLE_SLACK_DEG).any():
         return OneWay(axes, 0, 0.0)
     return OneWay(out, int(moved.sum()), float(np.degrees(np.abs(turn).max())))

@@ -56,6 +56,7 @@ __all__ = [
     "final_axes",
     "frame_take",
     "insert_points",
+    "nominal_axes",
     "reach_height",
     "refine_chords",
     "reach_split",
@@ -236,12 +237,17 @@ def _kept_with_new(mask: NDArray[np.bool_], where_new: NDArray[np.int64]
     return out
 
 
-def _nominal_axes(opts: FinishingOptions, frame: PassFrame, direction: NDArray[np.int64]
-                  ) -> NDArray[np.float64]:
+def nominal_axes(opts: FinishingOptions, normals: NDArray[np.float64],
+                 feed_dirs: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The tool axes the options ask for before any smoothing, shape (n, 3).
+
+    ``--fixed-axis``: that axis everywhere; else the surface ``normals`` led by
+    ``opts.lead_deg`` along the unit ``feed_dirs`` and tilted by ``opts.tilt_deg``
+    (:func:`~toolpath.planning.tool_axis.lead_tilt_axes`).
+    """
     if opts.axis_mode is AxisMode.FIXED:
-        return np.broadcast_to(np.asarray(opts.fixed_axis), frame.normal.shape).copy()
-    return lead_tilt_axes(frame.normal, frame.e1 * direction[:, None], opts.lead_deg,
-                          opts.tilt_deg)
+        return np.broadcast_to(np.asarray(opts.fixed_axis), normals.shape).copy()
+    return lead_tilt_axes(normals, feed_dirs, opts.lead_deg, opts.tilt_deg)
 
 
 @numba.njit(cache=True)
@@ -425,7 +431,7 @@ def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingO
     """Evaluate contacts ``(t, pid)`` (sorted by pass then ``t``) from scratch."""
     s = layout.s_of(t, pid)
     frame = pass_frame(surface, t, s)
-    nominal = _nominal_axes(opts, frame, layout.direction[pid])
+    nominal = nominal_axes(opts, frame.normal, frame.e1 * layout.direction[pid][:, None])
     return _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
 
 
@@ -454,7 +460,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     s_new = layout.s_of(t_new, pid_new)
     frame = pass_frame(surface, t_new, s_new)
     direction = layout.direction[pid_new]
-    nominal = _nominal_axes(opts, frame, direction)
+    nominal = nominal_axes(opts, frame.normal, frame.e1 * direction[:, None])
     # where each new point goes: after the old points of its pass up to its t
     after_old = _insertion_rows(pts.pid, pts.t, pid_new, t_new)
     new_at = after_old + np.arange(t_new.size)  # (in the merged points, increasing)

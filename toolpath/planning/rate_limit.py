@@ -16,6 +16,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..tolerances import ANGLE_SLACK_DEG, LIMIT_SLACK, SAME_POINT_MM
+
 __all__ = [
     "LEAST_RATE_SLACK",
     "RATE_MARGIN",
@@ -33,6 +35,12 @@ RATE_MARGIN = 0.98
 #: The least rate that fits a tube is taken this much larger (relative), for the
 #: round-off of the slews' sums.
 LEAST_RATE_SLACK = 1e-12
+#: Slack of the tube test (rad of azimuth): bounds that cross by less still hold a path
+#: (round-off of the slews' sums); the least rate reads the bounds with the same slack.
+TUBE_SLACK_RAD = 1e-12
+#: Where the doubling search for a rate that fits the tube starts when the least rate is 0
+#: (rad of azimuth per unit of the pass' abscissa): the least positive rate worth a trial.
+FIRST_TRIAL_RATE = 1e-9
 
 
 def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
@@ -163,7 +171,7 @@ def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_
             if rate < best or best == np.inf:
                 best = rate
                 out[a:b] = trial
-            if best <= limit_deg * (1.0 + 1e-9):
+            if best <= limit_deg * (1.0 + LIMIT_SLACK):
                 break
 
 
@@ -213,7 +221,7 @@ def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean,
     x_phi[0] = 0.0
     for j in range(1, m):
         dx = x[a + j] - x[a + j - 1]
-        slope = (beta[j] - beta[j - 1]) / max(dx, 1e-12)
+        slope = (beta[j] - beta[j - 1]) / max(dx, SAME_POINT_MM)
         room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
         cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
         x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
@@ -234,7 +242,7 @@ def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean,
         if worst < best or best == np.inf:
             best = worst
             out[:] = trial
-        if worst <= limit_deg * (1.0 + 1e-9) or not np.isfinite(worst):
+        if worst <= limit_deg * (1.0 + LIMIT_SLACK) or not np.isfinite(worst):
             break  # met, or a segment of no length turns: lowering cannot help
         scale *= margin * limit_deg / worst
     return best
@@ -269,12 +277,13 @@ def angle_deg_at(a, b, i, j):
 def segment_rate(axes, i, length):
     """Turn of the axis from row ``i`` to ``i + 1`` per ``length``, deg/mm.
 
-    A segment shorter than 1e-12 mm turning by more than 1e-9 deg turns at ``inf``.
+    A segment shorter than :data:`~toolpath.tolerances.SAME_POINT_MM` turning by more than
+    :data:`~toolpath.tolerances.ANGLE_SLACK_DEG` turns at ``inf``.
     """
     turn = angle_deg_at(axes, axes, i, i + 1)
-    if length > 1e-12:
+    if length > SAME_POINT_MM:
         return turn / length
-    return np.inf if turn > 1e-9 else 0.0
+    return np.inf if turn > ANGLE_SLACK_DEG else 0.0
 
 
 @numba.njit(cache=True)
@@ -294,7 +303,7 @@ def _fit_tube(x, lo, hi, want, rate, phi):
                                     False, phi):
         return
     # (x repeats, or round-off: bisect for it)
-    low, high = rate, max(rate, 1e-9)
+    low, high = rate, max(rate, FIRST_TRIAL_RATE)
     fits = False
     for _ in range(80):
         high *= 2.0
@@ -319,15 +328,15 @@ def _least_rate(x, lo, hi):
     """The least rate at which a path fits the tube ``[lo, hi]`` (ends free).
 
     A path exists iff ``lo[k] - hi[j] <= rate |x[k] - x[j]|`` for every pair (what the
-    slews of :func:`_rate_tube` propagate, with its 1e-12 slack): the largest of those
+    slews of :func:`_rate_tube` propagate, with its :data:`TUBE_SLACK_RAD`): the largest of those
     slopes, each way (:func:`_max_slope`). ``inf`` where ``x`` does not increase (a
     segment of no length: the caller bisects).
     """
     for i in range(1, x.size):
         if not x[i] > x[i - 1]:
             return np.inf
-    forward = _max_slope(x, hi, lo - 1e-12, 1.0)
-    backward = _max_slope(x[::-1], hi[::-1], lo[::-1] - 1e-12, -1.0)
+    forward = _max_slope(x, hi, lo - TUBE_SLACK_RAD, 1.0)
+    backward = _max_slope(x[::-1], hi[::-1], lo[::-1] - TUBE_SLACK_RAD, -1.0)
     return max(0.0, forward, backward)
 
 
@@ -386,7 +395,7 @@ def _rate_tube(x, lo, hi, want, rate, pin_ends, phi):
         high[i] = min(high[i], high[i + 1] + d)
         low[i] = max(low[i], low[i + 1] - d)
     for i in range(n):
-        if low[i] > high[i] + 1e-12:
+        if low[i] > high[i] + TUBE_SLACK_RAD:
             return False
     fwd = np.empty(n)
     fwd[0] = min(max(want[0], low[0]), high[0])

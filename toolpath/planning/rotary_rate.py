@@ -27,6 +27,7 @@ from machines import Machine
 from machines.kinematics import solve_inverse
 
 from ..path import MoveKind, Toolpath
+from ..tolerances import LENGTH_SLACK_MM, LIMIT_SLACK
 
 __all__ = ["STILL_DEG", "RotaryRates", "rotary_rates"]
 
@@ -80,7 +81,7 @@ class RotaryRates:
     @property
     def within_limit(self) -> bool:
         """The fastest joint stays within its rate limit at the programmed feed."""
-        return self.max_deg_per_s <= self.limit_deg_per_s * (1.0 + 1e-9)
+        return self.max_deg_per_s <= self.limit_deg_per_s * (1.0 + LIMIT_SLACK)
 
     def describe(self) -> str:
         """One line for the reports."""
@@ -113,7 +114,7 @@ def rotary_rates(path: Toolpath, machine: Machine) -> RotaryRates | None:
     feeds = path.feeds_mm_per_min[first + 1:last + 1]
     lengths = path.segment_lengths_mm[first:last]
     steps = np.abs(np.diff(joints[:, rotary], axis=0))
-    moving = lengths > 1e-9
+    moving = lengths > LENGTH_SLACK_MM
     per_mm = np.where(moving[:, None], steps / np.where(moving, lengths, 1.0)[:, None], 0.0)
     per_s = per_mm * np.where(feeds > 0.0, feeds, 0.0)[:, None] / 60.0
     limits = np.array([machine.axes[k].max_rate / 60.0 for k in rotary])
@@ -137,7 +138,7 @@ def rotary_rates(path: Toolpath, machine: Machine) -> RotaryRates | None:
         max_deg_per_mm=float(per_mm[:, j_mm].max()),
         max_deg_per_s=float(per_s[at, j_s]), axis_at_s=machine.axes[rotary[j_s]].letter,
         limit_deg_per_s=float(limits[j_s]), point=int(first + at + 1),
-        n_slowed=int((fed & (over > 1.0 + 1e-9)).sum()),
+        n_slowed=int((fed & (over > 1.0 + LIMIT_SLACK)).sum()),
         slowest_feed_mm_per_min=float(slowed[fed].min()) if fed.any() else 0.0,
         feed_mm_per_min=float(feeds.max()),
         c_one_way=c_one_way, c_turn_deg=c_turn)

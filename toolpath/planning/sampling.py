@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from machines import Machine
 from machines.kinematics import forward
 
+from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind, disc_basis
 from .local import (
@@ -63,6 +64,8 @@ __all__ = [
 
 #: Where inside a move the gap is measured; with the ends (gap 0) they fix the model below.
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
+#: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
+_GRID = 21
 
 
 def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
@@ -504,19 +507,16 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     m = len(tips_a)
     u = np.asarray(fractions, dtype=float)
     u = np.broadcast_to(u, (m, u.shape[-1]))
-    closed = bool(surface.closed_t)
-    if closed:
-        tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
     if joints is None:
         tips = _lerp(tips_a, tips_b, u)
         axes = _nlerp(axes_a, axes_b, u)
     else:
         machine, q_a, q_b = joints
         tips, axes = forward(machine, _lerp(q_a, q_b, u))
-    t0 = (ta[:, None] * (1.0 - u) + tb[:, None] * u).ravel()
+    t0 = seam_lerp_rows(np.ascontiguousarray(ta, dtype=float),
+                        np.ascontiguousarray(tb, dtype=float),
+                        np.ascontiguousarray(u), bool(surface.closed_t)).ravel()
     s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
-    if closed:
-        t0 = np.mod(t0, 1.0)
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
                            refine_rim=refine_rim)
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
@@ -639,6 +639,10 @@ def _gap_model(u, a, b, c):
     return u * (1.0 - u) * (a + b * u + c * u * u)
 
 
+#: Rows per block of :func:`_model_extremes` run in parallel.
+_EXTREMES_BLOCK = 4096
+
+
 @numba.njit(cache=True, parallel=True)
 def _model_extremes(values, inverse, n_grid, samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
@@ -652,10 +656,6 @@ def _model_extremes(values, inverse, n_grid, samples, out):
     for block in numba.prange((values.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
         _model_extremes_rows(values, inverse, n_grid, samples, out, block * _EXTREMES_BLOCK,
                              min((block + 1) * _EXTREMES_BLOCK, values.shape[0]))
-
-
-#: Rows per block of :func:`_model_extremes` run in parallel.
-_EXTREMES_BLOCK = 4096
 
 
 @numba.njit(cache=True)
@@ -720,7 +720,3 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
             return nxt
         x = nxt if lo < nxt < hi else 0.5 * (lo + hi)
     return x
-
-
-#: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
-_GRID = 21

@@ -41,12 +41,17 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..tolerances import ROUND_OFF, TINY
 from .cutter_kernel import shadow_point
 from .cutters import CutterShadow
 from .errors import PlanningError
 
 __all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm",
            "turn_radius_mm"]
+
+#: A curvature below this (1/mm: a radius over 1e12 mm) is a plane's, where the formulas
+#: for a curved surface would divide by it.
+FLAT_PER_MM = 1e-12
 
 
 def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
@@ -82,9 +87,9 @@ def _stepover(h, rho, k):
         # a flat profile (rho -> inf): point contacts; on a convex surface the cusp is the
         # surface's own bulge, z -> sqrt(2 h |k|) / (2 sqrt(1 + h |k|)); on a plane unbounded
         if k < 0.0:
-            z = math.sqrt(2.0 * h * abs(k)) / (2.0 * math.sqrt(max(1.0 - h * k, 1e-300)))
+            z = math.sqrt(2.0 * h * abs(k)) / (2.0 * math.sqrt(max(1.0 - h * k, TINY)))
             angle = math.pi if z >= 1.0 else 4.0 * math.asin(min(z, 1.0))
-            return angle / max(abs(k), 1e-300)
+            return angle / max(abs(k), TINY)
         return math.inf if k == 0.0 else 0.0
     chord = math.sqrt(max(h * (2.0 * rho - h), 0.0))
     denom = (1.0 - h * k) * (1.0 - rho * k)
@@ -95,7 +100,7 @@ def _stepover(h, rho, k):
     if z >= 1.0:
         # only in a hollow the cutter nearly fills (rho k -> 1) under a tall cusp: there
         # the cusp never reaches h and the stepover is half the hollow's circle
-        return math.pi / max(abs(k), 1e-300)
+        return math.pi / max(abs(k), TINY)
     # asin(z) / z, with its limit 1 at 0 (series below 1e-4)
     ratio = 1.0 + z * z / 6.0 if z < 1e-4 else math.asin(z) / z
     return 2.0 * chord / root * ratio
@@ -115,7 +120,7 @@ def scallop_height_mm(stepover: ArrayLike, radius_mm: ArrayLike, curvature_per_m
     rho = np.asarray(radius_mm, dtype=float)
     k = np.asarray(curvature_per_mm, dtype=float)
     w, rho, k = np.broadcast_arrays(w, rho, k)
-    flat = np.abs(k) < 1e-12
+    flat = np.abs(k) < FLAT_PER_MM
     radius = 1.0 / np.where(flat, 1.0, np.abs(k))
     half = 0.5 * w * np.where(flat, 0.0, np.abs(k))
     convex = k < 0.0
@@ -157,7 +162,7 @@ def _section_arc(y, z, x, k, lever):
     ``atan2(k y, 1 - k z) / k`` (``y`` on a plane).
     """
     z = _lifted(z, x, lever)
-    if abs(k) > 1e-12:
+    if abs(k) > FLAT_PER_MM:
         return math.atan2(k * y, 1.0 - k * z) / k
     return y
 
@@ -317,7 +322,7 @@ def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes:
         return np.full(a.shape[:2], np.inf)
     arc = np.linalg.norm(np.gradient(c, axis=0), axis=-1)
     turn = np.einsum("ijk,ijk->ij", np.cross(a, np.gradient(a, axis=0)), np.cross(n, e1))
-    rate = turn / np.maximum(arc, 1e-300)
+    rate = turn / np.maximum(arc, TINY)
     with np.errstate(divide="ignore"):
         return np.where(rate > 1e-9, 1.0 / np.where(rate > 1e-9, rate, 1.0), np.inf)
 
@@ -359,7 +364,7 @@ def _greedy(grid, allowed, lower, scale, lookahead, levels):
             hi = min(s + lookahead * ds, 1.0)  # (> s: the window's last level from s's)
             j1 = min(max(_count_below(grid, hi, max(at_most - 1, 0)) - 1, 0), last)
             new = min(ds, scale * lower[j0:j1 + 1].min())
-            if new >= ds * (1.0 - 1e-12):
+            if new >= ds * (1.0 - ROUND_OFF):
                 break
             ds = new
         s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds

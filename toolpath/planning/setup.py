@@ -97,18 +97,18 @@ class PlacedSurface(ParametricSurface):
     def _partials(self, t: NDArray[np.float64], s: NDArray[np.float64], dt: int, ds: int
                   ) -> NDArray[np.float64]:
         if self.kernel() is not None:  # (placed in the compiled pass)
-            return self._partials_many(t, s, ((dt, ds),))[dt, ds]
+            return self.partials_many(t, s, ((dt, ds),))[dt, ds]
         out = self.base._partials(t, s, dt, ds) @ self.rotation.T
         return out + self.translation if (dt, ds) == (0, 0) else out
 
-    def _partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
                        orders: tuple[tuple[int, int], ...]
                        ) -> dict[tuple[int, int], NDArray[np.float64]]:
         """The base surface's partials in one pass (it may share work), then placed."""
         if self.kernel() is not None:
-            return super()._partials_many(t, s, orders)
+            return super().partials_many(t, s, orders)
         out = {order: d @ self.rotation.T
-               for order, d in self.base._partials_many(t, s, orders).items()}
+               for order, d in self.base.partials_many(t, s, orders).items()}
         if (0, 0) in out:
             out[(0, 0)] += self.translation
         return out

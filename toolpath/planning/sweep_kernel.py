@@ -35,6 +35,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..tolerances import ROUND_OFF, TINY
 from .cutter_kernel import cutter_distance
 
 __all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_ranges", "segment_distances",
@@ -276,7 +277,7 @@ def _capsule_entry(q, n, a, b, r2):
     kb = dd * mn - nd * md
     kc = dd * (mm - r2) - md * md
     disc = kb * kb - ka * kc
-    if ka > 1e-12 * max(dd, 1e-300) and disc >= 0.0:
+    if ka > ROUND_OFF * max(dd, TINY) and disc >= 0.0:
         lam = (-kb - math.sqrt(disc)) / ka
         y = md + lam * nd
         if lam >= 0.0 and 0.0 <= y <= dd:
@@ -331,17 +332,17 @@ def _segment_distance(p0, p1, q0, q1):
     c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
     b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
     den = a * e - b * b
-    safe_a = a if a > 1e-300 else 1.0
+    safe_a = a if a > TINY else 1.0
     sc = 0.0
-    if den > 1e-12 * (a * e + 1e-300):
+    if den > ROUND_OFF * (a * e + TINY):
         sc = min(max((b * f - c * e) / den, 0.0), 1.0)
-    tc = (b * sc + f) / (e if e > 1e-300 else 1.0)
+    tc = (b * sc + f) / (e if e > TINY else 1.0)
     if tc < 0.0:
         sc = min(max(-c / safe_a, 0.0), 1.0)
     elif tc > 1.0:
         sc = min(max((b - c) / safe_a, 0.0), 1.0)
     tc = min(max(tc, 0.0), 1.0)
-    if not a > 1e-300:
+    if not a > TINY:
         sc = 0.0
     total = 0.0
     for k in range(3):

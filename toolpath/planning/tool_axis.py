@@ -32,6 +32,7 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
+from ..tolerances import ANGLE_SLACK_DEG, LIMIT_SLACK, ROUND_OFF, SAME_POINT_MM
 from ..vectors import unit
 from .rate_limit import angle_deg_at, rate_limited_axes, segment_rate
 
@@ -109,13 +110,19 @@ def _lead_tilt_rows(n, f, cos_lead, sin_lead, cos_tilt, sin_tilt, out):
         out[i, 0], out[i, 1], out[i, 2] = v0 / size, v1 / size, v2 / size
 
 
+#: Unit vectors whose angle has a sine below this are parallel: :func:`slerp` then
+#: interpolates linearly (off the great circle by ``theta^2 / 8``, below 1e-18), and a
+#: vector this close to +Z has no horizontal direction of its own.
+PARALLEL_SIN = 1e-9
+
+
 def slerp(a: NDArray[np.float64], b: NDArray[np.float64], w: NDArray[np.float64]
           ) -> NDArray[np.float64]:
     """Unit vectors a fraction ``w`` of the angle from unit ``a`` to ``b`` (rows)."""
     theta = np.radians(angle_deg(a, b))[:, None]
     w = np.asarray(w, dtype=float).reshape(-1, 1)
     sin = np.sin(theta)
-    small = sin < 1e-9
+    small = sin < PARALLEL_SIN
     safe = np.where(small, 1.0, sin)
     out = np.where(small, (1.0 - w) * a + w * b,
                    (np.sin((1.0 - w) * theta) * a + np.sin(w * theta) * b) / safe)
@@ -126,7 +133,8 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
                        same_pass: NDArray[np.bool_]) -> NDArray[np.float64]:
     """Turn rate of the axis on each segment, deg per mm along the pass (0 across passes).
 
-    A segment shorter than 1e-12 mm turning by more than 1e-9 deg turns at ``inf``.
+    A segment shorter than :data:`~toolpath.tolerances.SAME_POINT_MM` turning by more than
+    :data:`~toolpath.tolerances.ANGLE_SLACK_DEG` turns at ``inf``.
     """
     out = np.empty(max(len(axes) - 1, 0))
     _turn_rates(np.ascontiguousarray(axes, dtype=float),
@@ -147,8 +155,9 @@ def _pass_coordinate(arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64]
     """A strictly increasing coordinate over the passes, mm, and their first and last rows.
 
     Each pass's arc length shifted past the previous pass plus a 1 mm gap (windows never
-    reach across), plus ``1e-12`` mm per row (repeated points). Returns ``x``, the first
-    and last row of each pass and the pass of each row (0-based, in order).
+    reach across), plus :data:`~toolpath.tolerances.SAME_POINT_MM` per row (repeated
+    points). Returns ``x``, the first and last row of each pass and the pass of each row
+    (0-based, in order).
     """
     n = len(pass_id)
     starts = np.flatnonzero(np.r_[True, pass_id[1:] != pass_id[:-1]])
@@ -156,7 +165,7 @@ def _pass_coordinate(arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64]
     which = np.repeat(np.arange(len(starts)), ends - starts + 1)
     local = arclen_mm - arclen_mm[starts][which]
     offsets = np.concatenate([[0.0], np.cumsum(local[ends] + 1.0)[:-1]])
-    return local + offsets[which] + np.arange(n) * 1e-12, starts, ends, which
+    return local + offsets[which] + np.arange(n) * SAME_POINT_MM, starts, ends, which
 
 
 def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
@@ -226,6 +235,10 @@ def _walk(x, v, j):
     return j
 
 
+#: Points per block of :func:`_window_means` run in parallel.
+_WINDOW_BLOCK = 8192
+
+
 @numba.njit(cache=True, parallel=True)
 def _window_means(values, x, lo, hi, out):
     """``out[i]``: mean of the piecewise-linear ``values(x)`` over ``[lo[i], hi[i]]``.
@@ -251,7 +264,7 @@ def _window_means(values, x, lo, hi, out):
         j_lo, j_hi = segment_index(x, lo[first]), segment_index(x, hi[first])
         for i in range(first, min(first + _WINDOW_BLOCK, n)):
             width = hi[i] - lo[i]
-            if width <= 1e-12:
+            if width <= SAME_POINT_MM:
                 for k in range(m):
                     out[i, k] = values[i, k]
                 continue
@@ -262,10 +275,6 @@ def _window_means(values, x, lo, hi, out):
                 top = cum[j_hi, k] + f_hi * (cum[j_hi + 1, k] - cum[j_hi, k])
                 bottom = cum[j_lo, k] + f_lo * (cum[j_lo + 1, k] - cum[j_lo, k])
                 out[i, k] = (top - bottom) / width
-
-
-#: Points per block of :func:`_window_means` run in parallel.
-_WINDOW_BLOCK = 8192
 
 
 @dataclass(frozen=True)
@@ -322,7 +331,7 @@ def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over)
     for i in numba.prange(axes.shape[0]):
         dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
         # (unit vectors: the cosine decides unless it is within round-off of the limit's)
-        if abs(dot - cos_lean) > 1e-9:
+        if abs(dot - cos_lean) > LIMIT_SLACK:
             over[i] = dot < cos_lean
         else:
             over[i] = angle_deg_at(axes, normals, i, i) > max_lean_deg
@@ -350,7 +359,7 @@ def keep_min_lean(axes: NDArray[np.float64], normals: NDArray[np.float64],
     would lean the face sideways or back, so the nominal axis is taken instead. Returns
     the axes and which were replaced.
     """
-    under = angle_deg(axes, normals) < angle_deg(min_axes, normals) - 1e-9
+    under = angle_deg(axes, normals) < angle_deg(min_axes, normals) - ANGLE_SLACK_DEG
     return np.where(under[:, None], min_axes, axes), under
 
 
@@ -437,9 +446,11 @@ def keep_out_of_cone(axes: NDArray[np.float64], min_cone_deg: float,
     fb = np.asarray(fallback, dtype=float).copy()
     fb[..., 2] = 0.0
     fb_size = np.linalg.norm(fb, axis=-1)
-    fb = np.where(fb_size[..., None] > 1e-9, fb / np.where(fb_size > 1e-9, fb_size, 1.0)[
-        ..., None], np.array([1.0, 0.0, 0.0]))
-    h = np.where(size[:, None] > 1e-9, horiz / np.where(size > 1e-9, size, 1.0)[:, None], fb)
+    fb = np.where(fb_size[..., None] > PARALLEL_SIN,
+                  fb / np.where(fb_size > PARALLEL_SIN, fb_size, 1.0)[..., None],
+                  np.array([1.0, 0.0, 0.0]))
+    h = np.where(size[:, None] > PARALLEL_SIN,
+                 horiz / np.where(size > PARALLEL_SIN, size, 1.0)[:, None], fb)
     c = np.radians(min_cone_deg)
     pushed = np.cos(c) * Z_AXIS + np.sin(c) * h
     return np.where(inside[:, None], pushed, axes), int(inside.sum())
@@ -479,10 +490,10 @@ def _toward_z(v: NDArray[np.float64], lean_deg: NDArray[np.float64]) -> NDArray[
     horiz = v.copy()
     horiz[:, 2] = 0.0
     size = np.linalg.norm(horiz, axis=1)
-    h = horiz / np.where(size > 1e-12, size, 1.0)[:, None]
+    h = horiz / np.where(size > ROUND_OFF, size, 1.0)[:, None]  # (else vertical: kept)
     th = theta - np.radians(lean_deg)
     out = np.cos(th)[:, None] * Z_AXIS + np.sin(th)[:, None] * h
-    return np.where((size > 1e-12)[:, None], out, v)
+    return np.where((size > ROUND_OFF)[:, None], out, v)
 
 
 @numba.njit(cache=True)
@@ -518,7 +529,7 @@ def _leaned(axes: NDArray[np.float64], lean_deg: NDArray[np.float64],
     """
     out = _toward_z(axes, lean_deg)
     cos_lean = np.cos(np.radians(max_lean_deg))
-    over = np.einsum("ij,ij->i", out, normals) < cos_lean - 1e-12
+    over = np.einsum("ij,ij->i", out, normals) < cos_lean - ROUND_OFF
     if not over.any():
         return out
     a, n = out[over], normals[over]
@@ -528,7 +539,7 @@ def _leaned(axes: NDArray[np.float64], lean_deg: NDArray[np.float64],
     phi = np.arctan2(a[:, 1], a[:, 0])
     denominator = np.sin(tilt) * np.sin(th_n)
     k = (cos_lean - np.cos(tilt) * np.cos(th_n)) / np.where(
-        np.abs(denominator) > 1e-12, denominator, 1e-12)
+        np.abs(denominator) > ROUND_OFF, denominator, ROUND_OFF)
     half = np.arccos(np.clip(k, -1.0, 1.0))
     phi = phi_n + np.clip(np.mod(phi - phi_n + np.pi, 2.0 * np.pi) - np.pi, -half, half)
     on_circle = np.column_stack([np.sin(tilt) * np.cos(phi), np.sin(tilt) * np.sin(phi),
@@ -623,10 +634,10 @@ def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],
         # its ends lean further by the excess
         mid = unit(out[1:] + out[:-1])
         excess = np.where(same, angle_deg(mid, Z_AXIS) - max_tilt_deg, 0.0)
-        if not (excess > 1e-9).any():
+        if not (excess > ANGLE_SLACK_DEG).any():
             break
         grow = np.maximum(np.r_[excess, 0.0], np.r_[0.0, excess])
         need = need + 1.5 * np.maximum(grow, 0.0)
-    impossible = angle_deg(normals, Z_AXIS) - max_lean_deg > max_tilt_deg + 1e-9
+    impossible = angle_deg(normals, Z_AXIS) - max_lean_deg > max_tilt_deg + ANGLE_SLACK_DEG
     moved = angle_deg(out, axes)
-    return TiltLean(out, np.where(moved > 1e-9, moved, 0.0), impossible)
+    return TiltLean(out, np.where(moved > ANGLE_SLACK_DEG, moved, 0.0), impossible)

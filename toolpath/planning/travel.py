@@ -38,6 +38,8 @@ from machines import Machine
 from machines.kinematics import solve_inverse
 from machines.limits import Violation, check_travel
 
+from ..tolerances import LENGTH_SLACK_MM
+
 __all__ = ["TRAVEL_MARGIN_MM", "AxisRange", "TravelFit", "fit_travel"]
 
 TRAVEL_MARGIN_MM: Final[float] = 0.01
@@ -216,7 +218,7 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
         grown = False
         for j, (a, b) in enumerate(blocks):
             slack = b - a @ d + e
-            broken = np.flatnonzero(slack < -1e-9)
+            broken = np.flatnonzero(slack < -LENGTH_SLACK_MM)
             if broken.size:
                 new = broken[np.argsort(slack[broken])[:_ROUND_ROWS]]
                 merged = np.union1d(active[j], new)
@@ -225,7 +227,7 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
         if not grown:
             break
     d = x[:3] - x[3:6]
-    d[np.abs(d) < 1e-9] = 0.0
+    d[np.abs(d) < LENGTH_SLACK_MM] = 0.0
     step = jac @ d
     moved = g + step
     shifted = joints.copy()
@@ -236,6 +238,6 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
                              (ax.min, ax.max))
                    for k, (letter, ax) in enumerate(zip(letters, limits, strict=True))
                    if ax.is_limited and len(moved))
-    uniform = not len(step) or float(np.ptp(step, axis=0).max()) < 1e-9
+    uniform = not len(step) or float(np.ptp(step, axis=0).max()) < LENGTH_SLACK_MM
     return TravelFit(offset_mm=d, fits=not violations, ranges=ranges, violations=violations,
                      uniform=uniform)

@@ -1,0 +1,179 @@
+"""The damped Newton step of the closest-point projection, and the closed-seam rule.
+
+Both projections onto a surface take their steps here, so they cannot drift apart: the
+compiled one (:mod:`toolpath.compiled`, point by point over a streamline surface's kernel)
+and the numpy one (:func:`toolpath.planning.local.project_to_surface`, for surfaces without
+a kernel, on rows of partials). The functions are numba kernels; the ``*_rows`` ones run
+the same scalar rule over arrays for the numpy caller.
+
+**Newton step.** The foot of ``p`` minimizes ``f(t, s) = |X(t, s) - p|^2 / 2``: with
+``d = X - p`` the gradient is ``(d.X_t, d.X_s)`` and the Hessian
+``[[E + d.X_tt, F + d.X_ts], [F + d.X_ts, G + d.X_ss]]`` (``E, F, G`` the first fundamental
+form). The curvature terms matter: from a cutter centre 3 mm off a 0.3 mm leading edge the
+first-order (Gauss-Newton) step overshoots tenfold. Where the Hessian is not positive
+definite (determinant at most :data:`DEGENERATE_SHARE` of ``E G``, or ``H_tt <= 0``) the
+Gauss-Newton matrix ``[[E, F], [F, G]]`` is used. The step is clipped to
+:data:`STEP_CLIP` in each parameter; the caller halves it (up to :data:`HALVINGS` times)
+while its point is farther from ``p`` than the current foot (:func:`no_farther`), so a step
+past a sharp nose cannot land on the far side.
+
+**Seam rule.** ``t`` runs round a closed section (``closed_t``) and wraps: a parameter is
+folded by ``t - floor(t)`` (:func:`wrap_t`; clipped to [0, 1] on an open surface), and two
+parameters are interpolated the short way across the seam (:func:`seam_lerp`). ``s`` is
+never closed: it is clipped (:func:`clamp_s`).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+
+from .tolerances import ROUND_OFF, TINY
+
+__all__ = [
+    "DEGENERATE_SHARE",
+    "HALVINGS",
+    "NO_FARTHER_SHARE",
+    "STEP_CLIP",
+    "clamp_s",
+    "halve_rows",
+    "newton_step",
+    "newton_step_rows",
+    "no_farther",
+    "seam_lerp",
+    "seam_lerp_rows",
+    "trial",
+    "wrap_t",
+    "wrap_t_rows",
+]
+
+#: Largest Newton step in either parameter (both span [0, 1]): a quarter of the domain. A
+#: step from a poor start (the Hessian's model far off, near a leading edge) stays in the
+#: neighbourhood its partials describe, and round a closed section never jumps to the
+#: far side of the seam.
+STEP_CLIP = 0.25
+#: Halvings of a step that would move the foot away from ``p`` before the last one is
+#: taken as it is: ``2^-8`` of :data:`STEP_CLIP` is about 0.001 in a parameter, under a
+#: tenth of a millimetre on a blade, where the next full step takes over.
+HALVINGS = 8
+#: The Hessian counts as not positive definite where its determinant is at most this share
+#: of the Gauss-Newton one (``E G``): relative round-off of the 2 x 2 determinant, scale free.
+DEGENERATE_SHARE = ROUND_OFF
+#: A trial point counts as no farther than the current foot where its squared distance is
+#: larger by at most this share: the round-off of evaluating it, so a converged foot is kept.
+NO_FARTHER_SHARE = ROUND_OFF
+
+
+@numba.njit(cache=True, inline="always")
+def wrap_t(t, closed):
+    """``t`` folded into the domain: ``t - floor(t)`` on closed sections, else clipped."""
+    if closed:
+        return t - math.floor(t)
+    return min(max(t, 0.0), 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def clamp_s(s):
+    """``s`` clipped to [0, 1] (``s`` runs between end sections: never closed)."""
+    return min(max(s, 0.0), 1.0)
+
+
+@numba.njit(cache=True, inline="always")
+def seam_lerp(ta, tb, f, closed):
+    """The parameter a fraction ``f`` from ``ta`` to ``tb``: across the seam the short way.
+
+    On closed sections ``tb`` is first moved by a whole turn to within 0.5 of ``ta`` and
+    the result folded by :func:`wrap_t`; on open ones the plain interpolation.
+    """
+    if closed:
+        if tb - ta > 0.5:
+            tb -= 1.0
+        elif ta - tb > 0.5:
+            tb += 1.0
+    t = ta * (1.0 - f) + tb * f
+    return t - math.floor(t) if closed else t
+
+
+@numba.njit(cache=True, inline="always")
+def newton_step(fr, j, p, i):
+    """The clipped Newton step towards the foot of ``p[i]`` and ``|X - p|^2`` now.
+
+    ``fr[:, j]`` holds ``X, X_t, X_s, X_tt, X_ts, X_ss`` (that order,
+    :data:`toolpath.compiled.ORDERS`) at the current ``(t, s)``. Returns ``step_t, step_s``
+    (to subtract from ``t, s``: :func:`trial`) and the squared distance (mm^2). The step is
+    the one of the module docstring.
+    """
+    d0 = fr[0, j, 0] - p[i, 0]
+    d1 = fr[0, j, 1] - p[i, 1]
+    d2 = fr[0, j, 2] - p[i, 2]
+    xt0, xt1, xt2 = fr[1, j, 0], fr[1, j, 1], fr[1, j, 2]
+    xs0, xs1, xs2 = fr[2, j, 0], fr[2, j, 1], fr[2, j, 2]
+    e_ = xt0 * xt0 + xt1 * xt1 + xt2 * xt2
+    f_ = xt0 * xs0 + xt1 * xs1 + xt2 * xs2
+    g_ = xs0 * xs0 + xs1 * xs1 + xs2 * xs2
+    g1 = d0 * xt0 + d1 * xt1 + d2 * xt2
+    g2 = d0 * xs0 + d1 * xs1 + d2 * xs2
+    h11 = e_ + d0 * fr[3, j, 0] + d1 * fr[3, j, 1] + d2 * fr[3, j, 2]
+    h12 = f_ + d0 * fr[4, j, 0] + d1 * fr[4, j, 1] + d2 * fr[4, j, 2]
+    h22 = g_ + d0 * fr[5, j, 0] + d1 * fr[5, j, 1] + d2 * fr[5, j, 2]
+    det = h11 * h22 - h12 * h12
+    if det <= DEGENERATE_SHARE * (e_ * g_ + TINY) or h11 <= 0.0:
+        h11, h12, h22 = e_, f_, g_
+    det = max(h11 * h22 - h12 * h12, TINY)
+    step_t = min(max((h22 * g1 - h12 * g2) / det, -STEP_CLIP), STEP_CLIP)
+    step_s = min(max((h11 * g2 - h12 * g1) / det, -STEP_CLIP), STEP_CLIP)
+    return step_t, step_s, d0 * d0 + d1 * d1 + d2 * d2
+
+
+@numba.njit(cache=True, inline="always")
+def trial(t, s, step_t, step_s, closed):
+    """The parameters a step leads to, kept in the domain (the seam rule)."""
+    return wrap_t(t - step_t, closed), clamp_s(s - step_s)
+
+
+@numba.njit(cache=True, inline="always")
+def no_farther(dist2, here):
+    """Whether a trial point at squared distance ``dist2`` is no farther than ``here``.
+
+    (Scalars or arrays alike.)
+    """
+    return dist2 <= here * (1.0 + NO_FARTHER_SHARE)
+
+
+@numba.njit(cache=True)
+def newton_step_rows(fr, p, t, s, closed, step_t, step_s, here, new_t, new_s):
+    """:func:`newton_step` and :func:`trial` at every row: into the last five arrays."""
+    for j in range(p.shape[0]):
+        a, b, h = newton_step(fr, j, p, j)
+        step_t[j], step_s[j], here[j] = a, b, h
+        new_t[j], new_s[j] = trial(t[j], s[j], a, b, closed)
+
+
+@numba.njit(cache=True)
+def halve_rows(rows, t, s, closed, step_t, step_s, new_t, new_s):
+    """At ``rows``: the steps halved and their :func:`trial` points, in place."""
+    for j in rows:
+        step_t[j] *= 0.5
+        step_s[j] *= 0.5
+        new_t[j], new_s[j] = trial(t[j], s[j], step_t[j], step_s[j], closed)
+
+
+@numba.njit(cache=True)
+def wrap_t_rows(t, closed):
+    """:func:`wrap_t` of each element of a flat array (a new array)."""
+    out = np.empty(t.size)
+    for j in range(t.size):
+        out[j] = wrap_t(t[j], closed)
+    return out
+
+
+@numba.njit(cache=True)
+def seam_lerp_rows(ta, tb, u, closed):
+    """:func:`seam_lerp` from ``ta[j]`` to ``tb[j]`` at each fraction ``u[j, q]``: (m, k)."""
+    out = np.empty(u.shape)
+    for j in range(u.shape[0]):
+        for q in range(u.shape[1]):
+            out[j, q] = seam_lerp(ta[j], tb[j], u[j, q], closed)
+    return out
