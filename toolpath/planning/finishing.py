@@ -665,8 +665,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     faces_away = ~keep
 
     clock.stage("chords")
-    pts, keep, planned_chord = refine_chords(surface, cutter, opts, res, layout, pts,
-                                             keep=keep, machine=mach)
+    refined = refine_chords(surface, cutter, opts, res, layout, pts, keep=keep, machine=mach)
+    pts, keep, planned_chord = refined.points, refined.keep, refined.worst_mm
     faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
         np.zeros(len(pts), dtype=bool)
 
