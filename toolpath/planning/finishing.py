@@ -33,7 +33,7 @@ from machines.kinematics import tilt_reach_deg
 from machines.limits import Side, Violation
 
 from ..errors import InvalidParameterError
-from ..joint_refine import JOINT_CHECKED, machine_key
+from ..joint_refine import machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
@@ -710,12 +710,12 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 "chord_tol_mm": f"{opts.chord_tol_mm:g}", "axis_mode": opts.axis_mode.value,
                 "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
                 "linking": opts.linking.value}
-    if mach is not None and mach.kinematics.is_five_axis and not (
-            gstats["n_lifted"] or gstats["n_retilted"]):
-        # the cutting moves were checked as this machine moves them (refine_chords): the
-        # post need not split them for joint interpolation
-        metadata[JOINT_CHECKED] = machine_key(mach)
-    path = Toolpath(positions, axes, kinds, feeds, passes, metadata)
+    # the cutting moves were checked as this machine moves them (refine_chords): the
+    # post need not split them for joint interpolation
+    checked = (machine_key(mach) if mach is not None and mach.kinematics.is_five_axis
+               and not (gstats["n_lifted"] or gstats["n_retilted"]) else None)
+    path = Toolpath(positions, axes, kinds, feeds, passes, metadata,
+                    joints_checked_for=checked)
     check_links(path, cutter, samples, opts)
 
     clock.stage("machine")
