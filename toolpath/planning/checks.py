@@ -11,14 +11,14 @@
 
 from __future__ import annotations
 
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
 from machines.kinematics import solve_inverse
-from machines.limits import check_rates, check_travel, min_segment_times
+from machines.limits import Violation, check_rates, check_travel, min_segment_times
 
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
@@ -37,13 +37,49 @@ from .options import AxisMode, FinishingOptions, OnGouge, OnLimit, PlannedOption
 from .passes import PassPoints, frame_take, with_tips
 from .travel import fit_travel
 
-__all__ = ["check_links", "gouge_stage", "machine_stage"]
+__all__ = ["GougeStats", "MachineStats", "check_links", "gouge_stage", "machine_stage"]
+
+
+@dataclass(frozen=True)
+class GougeStats:
+    """What the gouge stage did (:func:`gouge_stage`).
+
+    Attributes
+    ----------
+    n_lifted : int
+        Kept points lifted clear of a gouge (``on_gouge="lift"``).
+    max_lift_mm : float
+        The largest lift, mm (0 when none).
+    n_retilted : int
+        Points whose axis was turned away from a gouge (``on_gouge="retilt"``).
+    min_clearance_mm : float
+        The smallest clearance of the kept points' tools from the surface samples away
+        from the contact, after the fixes (``inf`` when no point is kept).
+    """
+
+    n_lifted: int = 0
+    max_lift_mm: float = 0.0
+    n_retilted: int = 0
+    min_clearance_mm: float = float("inf")
+
+
+@dataclass(frozen=True)
+class MachineStats:
+    """The machine stage's findings (:func:`machine_stage`).
+
+    Its name, the travel and rate violations (travel only with ``on_limit="report"``)
+    and the time at the rate limits, s.
+    """
+
+    name: str
+    travel: tuple[Violation, ...]
+    rates: tuple[Violation, ...]
+    time_s: float
 
 
 def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                  res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
-                 samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_],
-                                                   dict[str, Any]]:
+                 samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_], GougeStats]:
     """Gouge checks on the kept points, then ``on_gouge``.
 
     A location gouges where it sinks deeper than ``gouge_tol_mm`` into the surface: by the
@@ -56,13 +92,12 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     rows = slice(None) if idx.size == len(pts) else idx  # (every point kept: no copies)
     clr = global_clearance(cutter, pts.tips[rows], pts.axes[rows], samples,
                            contacts_mm=pts.frame.point[rows], flutes=opts.check_flutes)
-    stats: dict[str, Any] = {"n_lifted": 0, "max_lift_mm": 0.0, "n_retilted": 0}
+    n_lifted, max_lift_mm, n_retilted = 0, 0.0, 0
     far_bad = clr.far_mm < -tol
     if opts.axis_mode is AxisMode.FIXED and far_bad.any():
         # the fixed axis cannot get there without the tool hitting the part elsewhere
         keep = keep.copy()
         keep[idx[far_bad]] = False
-        stats["shadowed"] = int(far_bad.sum())
         far_bad = np.zeros_like(far_bad)
     depth = np.maximum(-clr.near_mm, 0.0)
     curved = local_depth_mm(frame_take(pts.frame, idx), cutter, pts.axes[idx]) > tol
@@ -92,33 +127,28 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 # a wall along the fixed axis: no lift clears it, the tool cannot cut there
                 keep = keep.copy()
                 keep[stuck] = False
-                stats["shadowed"] = stats.get("shadowed", 0) + int(stuck.size)
             lifted = np.setdiff1d(where, stuck)
-            keep, dropped = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
-            if dropped:
-                stats["shadowed"] = stats.get("shadowed", 0) + dropped
-            stats["n_lifted"] = int(keep[lifted].sum())
-            stats["max_lift_mm"] = float(lift.max())
+            keep, _ = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
+            n_lifted, max_lift_mm = int(keep[lifted].sum()), float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
                 surface, cutter, pts, where, samples, lead_deg=opts.lead_deg,
                 tilt_deg=opts.tilt_deg, min_cone_deg=opts.min_cone_deg, tol_mm=tol,
                 flutes=opts.check_flutes)
             pts = with_tips(pts, axes, tips)
-            stats["n_retilted"] = moved
+            n_retilted = moved
     # clearance for the report, after the fixes (without any, the first check stands for
     # the points still kept)
     if bad.any():
         idx = np.flatnonzero(keep)
         final = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
                                  contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
-        far_mm, near_mm = final.far_mm, final.near_mm
+        far_mm = final.far_mm
     else:
-        still = keep[idx]
-        far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
-    stats["min_clearance_mm"] = float(far_mm.min()) if far_mm.size else float("inf")
-    stats["min_contact_clearance_mm"] = float(near_mm.min()) if near_mm.size else 0.0
-    return pts, keep, stats
+        far_mm = clr.far_mm[keep[idx]]
+    return pts, keep, GougeStats(
+        n_lifted=n_lifted, max_lift_mm=max_lift_mm, n_retilted=n_retilted,
+        min_clearance_mm=float(far_mm.min()) if far_mm.size else float("inf"))
 
 
 #: Normals sampled between a contact and the deepest point of its gouge (to tell a fold).
@@ -252,7 +282,7 @@ def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
 
 
 def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
-                 opts: FinishingOptions) -> None:
+                opts: FinishingOptions) -> None:
     """Check non-cutting positions, and points a cutter radius apart along those moves.
 
     Every toolpath point, and every point inside a rapid or plunge, must clear the surface
@@ -295,8 +325,7 @@ def gouge_error_link(i: int, kind: str, depth: float, where: NDArray[np.float64]
         depth_mm=depth)
 
 
-def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
-                   ) -> dict[str, Any]:
+def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions) -> MachineStats:
     """Joints, travel and rate violations and the time; raises on travel when asked."""
     sol = solve_inverse(mach, path.positions_mm, path.tool_axes)
     travel = check_travel(mach, sol.joints)
@@ -315,8 +344,8 @@ def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
                  f"frame); {_travel_remedy(path, mach)}")
         raise PlanTravelLimitError(travel, where)
     time_s = float(np.maximum(durations, limit_s).sum())
-    return {"travel": tuple(travel), "rates": tuple(rates), "time_s": time_s,
-            "name": mach.name}
+    return MachineStats(name=mach.name, travel=tuple(travel), rates=tuple(rates),
+                        time_s=time_s)
 
 
 def _travel_remedy(path: Toolpath, mach: Machine) -> str:
