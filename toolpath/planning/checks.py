@@ -86,6 +86,8 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     sample check, or, where the curvature at its contact out-curves the cutter (the local
     check), by the depth measured round the contact (:func:`~.avoid.gouge_depth_mm`); a
     concave radius smaller than the cutter that costs less is no gouge (a ripple of a fit).
+    After a lift the cutting moves must keep within the planned chord tolerance
+    (``res.planned_chord_tol_mm``, :func:`_lifted_moves`).
     """
     tol = opts.gouge_tol_mm
     idx = np.flatnonzero(keep)
@@ -128,7 +130,8 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 keep = keep.copy()
                 keep[stuck] = False
             lifted = np.setdiff1d(where, stuck)
-            keep, _ = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
+            keep, _ = _lifted_moves(cutter, pts, keep, lifted, samples, opts,
+                                    res.planned_chord_tol_mm)
             n_lifted, max_lift_mm = int(keep[lifted].sum()), float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
@@ -225,18 +228,18 @@ LIFTED_MOVE_MIN_POINTS = 4
 
 
 def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
-                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions
-                  ) -> tuple[NDArray[np.bool_], int]:
+                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions,
+                  chord_tol_mm: float) -> tuple[NDArray[np.bool_], int]:
     """Check the cutting moves once points were lifted; returns ``keep`` and drops.
 
     A lifted location is clear, but the straight move from it to a neighbour (chosen
     before the lift) may still cut through what the lift avoided, and where the surface
     folds (a fit's fold at a sharp edge) the chord check, which measures the gap to the
     surface next to the move, may not see the fold's other side. Points along every
-    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by the
-    chord tolerance (a move along a pass may dip that much). 3-axis: both ends of such a
-    move are dropped (left uncut, as shadowed), until none is left; 5-axis: a GougeError
-    naming it.
+    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by
+    ``chord_tol_mm`` (the planned one: a move along a pass may dip that much). 3-axis: both
+    ends of such a move are dropped (left uncut, as shadowed), until none is left; 5-axis:
+    a GougeError naming it.
     """
     keep = keep.copy()
     dropped = 0
@@ -259,7 +262,7 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
         clr = global_clearance(cutter, along, axes, samples, flutes=opts.check_flutes)
         worst = np.full(a_i.size, np.inf)
         np.minimum.at(worst, owner, clr.min_mm)
-        bad = worst < -opts.chord_tol_mm
+        bad = worst < -chord_tol_mm
         if not bad.any():
             break
         if opts.axis_mode is not AxisMode.FIXED:
@@ -282,12 +285,14 @@ def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
 
 
 def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
-                opts: FinishingOptions) -> None:
+                opts: FinishingOptions, res: PlannedOptions) -> None:
     """Check non-cutting positions, and points a cutter radius apart along those moves.
 
     Every toolpath point, and every point inside a rapid or plunge, must clear the surface
     (``gouge_tol_mm``); inside a feed move (lead arc chord, link) the cutter may dip as far
-    as along a pass (``chord_tol_mm``). A gouge there is an error, whatever ``on_gouge``.
+    as along a pass (the planned chord tolerance, ``res.planned_chord_tol_mm``: the
+    request less the G-code's rounding, which moves these points as it moves the passes').
+    A gouge there is an error, whatever ``on_gouge``.
     """
     kinds = path.kinds
     pos, ax = path.positions_mm, path.tool_axes
@@ -307,7 +312,7 @@ def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
     clr = global_clearance(cutter, pts, axes, samples, flutes=opts.check_flutes)
     feed = ~np.isin(kinds[moves][owner], (MoveKind.RAPID, MoveKind.PLUNGE))
     inside = step < pieces[owner]
-    allowed = np.where(feed & inside, opts.chord_tol_mm, opts.gouge_tol_mm)
+    allowed = np.where(feed & inside, res.planned_chord_tol_mm, opts.gouge_tol_mm)
     bad = clr.min_mm < -allowed
     if bad.any():
         j = int(np.flatnonzero(bad)[0])

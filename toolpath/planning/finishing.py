@@ -671,7 +671,7 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
 
     clock.stage("linking")
     path = _linked_path(job, probe, pts, runs, gouge)
-    check_links(path, cutter, samples, opts)
+    check_links(path, cutter, samples, opts, res)
 
     clock.stage("machine")
     machined = machine_stage(path, mach, opts) if mach is not None else None
