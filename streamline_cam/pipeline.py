@@ -29,7 +29,6 @@ from machines import load_machine
 from toolpath import as_sections, read_sections
 from toolpath.arrays import as_positive_length
 from toolpath.errors import InvalidParameterError
-from toolpath.joint_refine import JOINT_CHECKED
 from toolpath.path import MoveKind
 from toolpath.placement import place_points, translated_surface
 from toolpath.planning.errors import PlanTravelLimitError
@@ -205,13 +204,12 @@ def _fit_to_travel(path: Any, surface: Any, placement: Any, plan_report: Any, ma
                                    f"on machine {machine.name!r}: {cause}")
     if not fit.offset_mm.any():
         return path, surface, placement, plan_report, fit.offset_mm
-    metadata = dict(path.metadata)
-    if not fit.uniform:
-        # the joints move by different amounts at different rotary angles: the moves'
-        # check under the machine's joint interpolation no longer holds (the post splits)
-        metadata.pop(JOINT_CHECKED, None)
+    # unless the joints all move by one amount, they move differently at different rotary
+    # angles: the moves' check under the machine's joint interpolation no longer holds (the
+    # post splits them)
     path = dataclasses.replace(path, positions_mm=path.positions_mm + fit.offset_mm,
-                               metadata=metadata)
+                               joints_checked_for=path.joints_checked_for if fit.uniform
+                               else None)
     return (path, translated_surface(surface, fit.offset_mm), placement.shifted(fit.offset_mm),
             dataclasses.replace(plan_report, travel_violations=()), fit.offset_mm)
 

@@ -10,14 +10,16 @@ joint midpoint ``FK((q_i + q_{i+1}) / 2)`` is compared with the chord midpoint
 segment shrinks about fourfold per halving, so a few rounds suffice.
 
 A planner that already checked its cutting moves under this machine's joint interpolation
-(against the surface, and sideways) marks the toolpath with :data:`JOINT_CHECKED` set to
+(against the surface, and sideways) sets the toolpath's ``joints_checked_for`` to
 :func:`machine_key`; those moves (cutting, within one pass) are then left whole, and
 only the others (leads, links, plunges) are split here.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
+import json
 
 import numpy as np
 from numpy.typing import NDArray
@@ -29,7 +31,7 @@ from .errors import InvalidParameterError
 from .path import MoveKind, Toolpath
 from .vectors import unit
 
-__all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm",
+__all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm", "joints_checked",
            "machine_key", "refine_for_joint_interpolation"]
 
 #: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
@@ -38,14 +40,30 @@ __all__ = ["JOINT_CHECKED", "MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_devi
 RAPID_TOLERANCE_MM = 1.0
 #: Halvings at most (a move is split into at most 2**MAX_ROUNDS pieces).
 MAX_ROUNDS = 8
-#: Toolpath metadata key: the :func:`machine_key` whose joint interpolation the planner
-#: checked the cutting moves under.
-JOINT_CHECKED = "joint_checked_for"
+#: Fields of a machine its joint interpolation does not depend on (left out of
+#: :func:`machine_key`: a definition read from another file, or speaking another dialect,
+#: moves its joints the same).
+NOT_KINEMATIC = ("name", "dialect", "connection", "description", "source")
 
 
 def machine_key(machine: Machine) -> str:
-    """A short fingerprint of every field of the machine definition (name, geometry, ...)."""
-    return f"{machine.name}:{hashlib.sha1(repr(machine).encode()).hexdigest()[:12]}"
+    """The machine's name and a stable hash of what its joint interpolation depends on.
+
+    ``name:hash``, the hash (SHA-256, 16 hex digits) of the kinematic type, the axes
+    (letters, kinds, travel, rates, wrapping) and the geometry (tool length, work origin,
+    rotary centre, C offset, head pivot, preferred tilt branch) as sorted JSON: the same
+    in every run and on every computer, whatever file the definition was read from.
+    """
+    content = {name: value for name, value in dataclasses.asdict(machine).items()
+               if name not in NOT_KINEMATIC}
+    text = json.dumps(content, sort_keys=True, default=str)
+    return f"{machine.name}:{hashlib.sha256(text.encode()).hexdigest()[:16]}"
+
+
+def joints_checked(path: Toolpath, machine: Machine) -> bool:
+    """Whether ``path``'s cutting moves were checked under ``machine``'s interpolation."""
+    return path.joints_checked_for is not None and path.joints_checked_for == machine_key(
+        machine)
 
 
 def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
@@ -73,7 +91,7 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
         return path
     tips, axes = path.positions_mm, path.tool_axes
     kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
-    checked = path.metadata.get(JOINT_CHECKED) == machine_key(machine)
+    checked = joints_checked(path, machine)
     for _ in range(MAX_ROUNDS):
         joints = solve_inverse(machine, tips, axes).joints
         deviation = joint_path_deviation_mm(machine, tips, joints)
@@ -96,4 +114,5 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     if len(tips) == len(path):
         return path
     metadata = {**path.metadata, "joint_refined_mm": f"{tol_mm:g}"}
-    return Toolpath(tips, axes, kinds, feeds, passes, metadata)
+    return Toolpath(tips, axes, kinds, feeds, passes, metadata,
+                    joints_checked_for=path.joints_checked_for)

@@ -28,8 +28,12 @@ from .errors import DataFileError, InvalidParameterError
 
 __all__ = ["TOOLPATH_FORMAT_VERSION", "MoveKind", "Toolpath"]
 
-#: Bumped whenever the ``.npz`` layout changes; ``load`` refuses other versions.
+#: Bumped whenever the ``.npz`` layout changes incompatibly; ``load`` refuses other
+#: versions. Arrays added since (``joints_checked_for``) are optional: older files read.
 TOOLPATH_FORMAT_VERSION = 1
+#: The metadata key under which files written before :attr:`Toolpath.joints_checked_for`
+#: kept a fingerprint of the machine; dropped on reading.
+LEGACY_JOINT_CHECKED_KEY = "joint_checked_for"
 
 
 class MoveKind(IntEnum):
@@ -67,7 +71,13 @@ class Toolpath:
     pass_index : ndarray of int32, shape (n,)
         The finishing pass a point belongs to, ``-1`` for linking and positioning moves.
     metadata : dict
-        Free-form strings (cutter, surface, parameters) carried into the program header.
+        Free-form strings (cutter, surface, parameters) carried into the program header;
+        nothing reads them to decide what to do.
+    joints_checked_for : str or None
+        The :func:`~toolpath.joint_refine.machine_key` of the 5-axis machine whose joint
+        interpolation the planner checked the cutting moves under (the post then leaves
+        them whole, :func:`~toolpath.joint_refine.refine_for_joint_interpolation`); None
+        when they were not checked so.
     """
 
     positions_mm: NDArray[np.float64]
@@ -76,6 +86,7 @@ class Toolpath:
     feeds_mm_per_min: NDArray[np.float64]
     pass_index: NDArray[np.int32]
     metadata: dict[str, str] = field(default_factory=dict)
+    joints_checked_for: str | None = None
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.positions_mm, dtype=float)
@@ -123,6 +134,8 @@ class Toolpath:
         object.__setattr__(self, "feeds_mm_per_min", _frozen(feeds, float))
         object.__setattr__(self, "pass_index", _frozen(checks["pass_index"][0], np.int32))
         object.__setattr__(self, "metadata", {str(k): str(v) for k, v in self.metadata.items()})
+        if self.joints_checked_for is not None:
+            object.__setattr__(self, "joints_checked_for", str(self.joints_checked_for))
 
     # ------------------------------------------------------------------ figures
     def __len__(self) -> int:
@@ -191,7 +204,8 @@ class Toolpath:
                 handle, format_version=np.array(TOOLPATH_FORMAT_VERSION),
                 positions_mm=self.positions_mm, tool_axes=self.tool_axes, kinds=self.kinds,
                 feeds_mm_per_min=self.feeds_mm_per_min, pass_index=self.pass_index,
-                metadata_keys=keys, metadata_values=values)
+                metadata_keys=keys, metadata_values=values,
+                joints_checked_for=np.array(self.joints_checked_for or ""))
 
     @classmethod
     def load(cls, path: str | Path) -> Toolpath:
@@ -237,8 +251,14 @@ class Toolpath:
         metadata = dict(zip(data.get("metadata_keys", np.array([], dtype=str)).tolist(),
                             data.get("metadata_values", np.array([], dtype=str)).tolist(),
                             strict=True))
+        # files written before the typed field kept a fingerprint of the machine's repr
+        # (its definition file's path included) here: not trusted, the post splits
+        metadata.pop(LEGACY_JOINT_CHECKED_KEY, None)
+        checked = (str(data["joints_checked_for"]) if "joints_checked_for" in data.files
+                   else "")
         try:
             return cls(data["positions_mm"], data["tool_axes"], data["kinds"],
-                       data["feeds_mm_per_min"], data["pass_index"], metadata)
+                       data["feeds_mm_per_min"], data["pass_index"], metadata,
+                       joints_checked_for=checked or None)
         except InvalidParameterError as exc:
             raise DataFileError(f"not a valid toolpath: {exc}", path=str(path)) from None

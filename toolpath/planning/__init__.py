@@ -19,9 +19,56 @@ GougeError, PlanningError, PlanTravelLimitError, UnreachableRegionError
     The planner's errors (``ToolpathError`` subclasses; the travel error is a
     ``MachineError``).
 
-Modules: ``cutters``, ``analytic``, ``local`` (pass frame, projection), ``scallop``
-(stepover), ``sampling`` (chord), ``tool_axis``, ``passes``, ``gouge``, ``avoid``,
-``linking``, ``measure``, ``report``, ``options``, ``finishing``, ``roughing``.
+Modules
+-------
+finishing
+    ``plan_finishing``: probe, spacing, passes, chords, gouge, linking, machine, measure.
+options
+    ``FinishingOptions`` (the request) and ``PlannedOptions`` (what the plan works to).
+cutters, cutter_kernel
+    Ball, flat and bull-nose solids, tips from contacts, shadows; their compiled pieces.
+analytic
+    Plane, sphere, cylinder, pocket and elliptic blade surfaces for tests and demos.
+setup
+    A fitted surface rotated and placed onto the machine (``--rotate``, ``--on-table``).
+local
+    The pass frame and the damped Newton projection onto the surface.
+scallop
+    Stepover from the cusp height (ball circle, flat and bull true section); pass levels.
+sampling
+    Points along passes from the chord tolerance; cutter-surface gaps along moves.
+tool_axis
+    Fixed and lead/tilt axes, smoothing, lean limits, the singular cone.
+rate_limit
+    The axis turn rate limited within the lean cone.
+one_way
+    A spiral's axes turned about +Z one way only.
+passes
+    Points, axes and tips along passes; chord refinement (``RefinedChords``); 3-axis reach.
+gouge, clearance_kernel
+    Surface samples; local and global (compiled) clearance of the cutter.
+avoid
+    Gouge depth measured round the contact; lift and retilt.
+checks
+    The gouge stage (``GougeStats``), link checks, the machine stage (``MachineStats``).
+linking
+    Runs, lead arcs, extensions, clearance plane or sphere, rapids and plunges.
+travel
+    The smallest shift of the part keeping the path inside the machine's travel.
+resolution
+    What the G-code's rounding can move the cutter by (the rounding reserve).
+rotary_rate
+    Rotary joint rates along the cut against the axes' limits.
+blunt_edge
+    An open blade's unfitted edge face, reported as left uncut.
+measure, sweep_kernel, cusp_kernel
+    Scallop and chord error measured on the result (compiled sweeps, cusp estimates).
+report
+    ``PlanningReport``, unreachable spans and regions.
+roughing
+    Z-level contour-parallel roughing (shapely).
+errors
+    The planner's ``ToolpathError`` subclasses.
 """
 
 from __future__ import annotations

@@ -12,14 +12,14 @@
 from __future__ import annotations
 
 import math
-from typing import Any
+from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
 from machines.kinematics import solve_inverse
-from machines.limits import check_rates, check_travel, min_segment_times
+from machines.limits import Violation, check_rates, check_travel, min_segment_times
 
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
@@ -39,32 +39,75 @@ from .options import AxisMode, FinishingOptions, OnGouge, OnLimit, PlannedOption
 from .passes import PassPoints, frame_take, insert_move_poses, with_rate_record, with_tips
 from .travel import fit_travel
 
-__all__ = ["check_links", "gouge_stage", "machine_stage"]
+__all__ = ["GougeStats", "MachineStats", "check_links", "gouge_stage", "machine_stage"]
+
+
+@dataclass(frozen=True)
+class GougeStats:
+    """What the gouge stage did (:func:`gouge_stage`).
+
+    Attributes
+    ----------
+    n_lifted : int
+        Kept points lifted clear of a gouge (``on_gouge="lift"``).
+    max_lift_mm : float
+        The largest lift, mm (0 when none).
+    n_retilted : int
+        Points whose axis was turned away from a gouge (``on_gouge="retilt"``).
+    min_clearance_mm : float
+        The smallest clearance of the kept points' tools from the surface samples away
+        from the contact, after the fixes (``inf`` when no point is kept).
+    n_fold_points : int
+        Poses inserted into cutting moves across a fold (:func:`fold_moves`).
+    max_fold_lift_mm : float
+        The largest lift of those poses along their axes, mm (0 when none).
+    """
+
+    n_lifted: int = 0
+    max_lift_mm: float = 0.0
+    n_retilted: int = 0
+    min_clearance_mm: float = float("inf")
+    n_fold_points: int = 0
+    max_fold_lift_mm: float = 0.0
+
+
+@dataclass(frozen=True)
+class MachineStats:
+    """The machine stage's findings (:func:`machine_stage`).
+
+    Its name, the travel and rate violations (travel only with ``on_limit="report"``)
+    and the time at the rate limits, s.
+    """
+
+    name: str
+    travel: tuple[Violation, ...]
+    rates: tuple[Violation, ...]
+    time_s: float
 
 
 def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                  res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
-                 samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_],
-                                                   dict[str, Any]]:
+                 samples: SurfaceSamples) -> tuple[PassPoints, NDArray[np.bool_], GougeStats]:
     """Gouge checks on the kept points, then ``on_gouge``.
 
     A location gouges where it sinks deeper than ``gouge_tol_mm`` into the surface: by the
     sample check, or, where the curvature at its contact out-curves the cutter (the local
     check), by the depth measured round the contact (:func:`~.avoid.gouge_depth_mm`); a
     concave radius smaller than the cutter that costs less is no gouge (a ripple of a fit).
+    After a lift the cutting moves must keep within the planned chord tolerance
+    (``res.planned_chord_tol_mm``, :func:`_lifted_moves`).
     """
     tol = opts.gouge_tol_mm
     idx = np.flatnonzero(keep)
     rows = slice(None) if idx.size == len(pts) else idx  # (every point kept: no copies)
     clr = global_clearance(cutter, pts.tips[rows], pts.axes[rows], samples,
                            contacts_mm=pts.frame.point[rows], flutes=opts.check_flutes)
-    stats: dict[str, Any] = {"n_lifted": 0, "max_lift_mm": 0.0, "n_retilted": 0}
+    n_lifted, max_lift_mm, n_retilted = 0, 0.0, 0
     far_bad = clr.far_mm < -tol
     if opts.axis_mode is AxisMode.FIXED and far_bad.any():
         # the fixed axis cannot get there without the tool hitting the part elsewhere
         keep = keep.copy()
         keep[idx[far_bad]] = False
-        stats["shadowed"] = int(far_bad.sum())
         far_bad = np.zeros_like(far_bad)
     depth = np.maximum(-clr.near_mm, 0.0)
     curved = local_depth_mm(frame_take(pts.frame, idx), cutter, pts.axes[idx]) > tol
@@ -94,44 +137,40 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 # a wall along the fixed axis: no lift clears it, the tool cannot cut there
                 keep = keep.copy()
                 keep[stuck] = False
-                stats["shadowed"] = stats.get("shadowed", 0) + int(stuck.size)
             lifted = np.setdiff1d(where, stuck)
-            keep, dropped = _lifted_moves(cutter, pts, keep, lifted, samples, opts)
-            if dropped:
-                stats["shadowed"] = stats.get("shadowed", 0) + dropped
-            stats["n_lifted"] = int(keep[lifted].sum())
-            stats["max_lift_mm"] = float(lift.max())
+            keep, _ = _lifted_moves(cutter, pts, keep, lifted, samples, opts,
+                                    res.planned_chord_tol_mm)
+            n_lifted, max_lift_mm = int(keep[lifted].sum()), float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
                 surface, cutter, pts, where, samples, lead_deg=opts.lead_deg,
                 tilt_deg=opts.tilt_deg, min_cone_deg=opts.min_cone_deg, tol_mm=tol,
                 flutes=opts.check_flutes)
             pts = with_tips(pts, axes, tips)
-            stats["n_retilted"] = moved
+            n_retilted = moved
     # clearance for the report, after the fixes (without any, the first check stands for
     # the points still kept)
     if bad.any():
         idx = np.flatnonzero(keep)
         final = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
                                  contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
-        far_mm, near_mm = final.far_mm, final.near_mm
+        far_mm = final.far_mm
     else:
         still = keep[idx]
         far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
         idx = idx[still]
-    stats["min_clearance_mm"] = float(far_mm.min()) if far_mm.size else float("inf")
-    stats["min_contact_clearance_mm"] = float(near_mm.min()) if near_mm.size else 0.0
+    min_clearance_mm = float(far_mm.min()) if far_mm.size else float("inf")
     # between the points: moves across a fold, or next to another part of the surface
     near_other = np.zeros(len(pts), dtype=bool)
     near_other[idx] = np.isfinite(far_mm)
     accepted = np.zeros(len(pts))  # gouges within gouge_tol_mm at the points
     accepted[idx] = np.maximum(-np.minimum(far_mm, near_mm), 0.0)
-    pts, keep, fold = fold_moves(surface, cutter, opts, res, pts, keep, samples, near_other,
-                                 accepted)
-    if "shadowed" in fold:
-        stats["shadowed"] = stats.get("shadowed", 0) + fold.pop("shadowed")
-    stats.update(fold)
-    return pts, keep, stats
+    pts, keep, n_fold_points, max_fold_lift_mm = fold_moves(
+        surface, cutter, opts, res, pts, keep, samples, near_other, accepted)
+    return pts, keep, GougeStats(
+        n_lifted=n_lifted, max_lift_mm=max_lift_mm, n_retilted=n_retilted,
+        min_clearance_mm=min_clearance_mm, n_fold_points=n_fold_points,
+        max_fold_lift_mm=max_fold_lift_mm)
 
 
 #: Normals sampled between a contact and the deepest point of its gouge (to tell a fold).
@@ -208,18 +247,18 @@ LIFTED_MOVE_MIN_POINTS = 4
 
 
 def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
-                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions
-                  ) -> tuple[NDArray[np.bool_], int]:
+                  lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions,
+                  chord_tol_mm: float) -> tuple[NDArray[np.bool_], int]:
     """Check the cutting moves once points were lifted; returns ``keep`` and drops.
 
     A lifted location is clear, but the straight move from it to a neighbour (chosen
     before the lift) may still cut through what the lift avoided, and where the surface
     folds (a fit's fold at a sharp edge) the chord check, which measures the gap to the
     surface next to the move, may not see the fold's other side. Points along every
-    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by the
-    chord tolerance (a move along a pass may dip that much). 3-axis: both ends of such a
-    move are dropped (left uncut, as shadowed), until none is left; 5-axis: a GougeError
-    naming it.
+    cutting move (:data:`LIFTED_MOVE_POINTS_PER_MM`) must clear the surface samples by
+    ``chord_tol_mm`` (the planned one: a move along a pass may dip that much). 3-axis: both
+    ends of such a move are dropped (left uncut, as shadowed), until none is left; 5-axis:
+    a GougeError naming it.
     """
     keep = keep.copy()
     dropped = 0
@@ -234,7 +273,7 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
                                     * LIFTED_MOVE_POINTS_PER_MM).astype(np.int64),
                             LIFTED_MOVE_MIN_POINTS)
         worst, _, _ = move_clearance(cutter, pts, a_i, pieces, samples, opts.check_flutes)
-        bad = worst < -opts.chord_tol_mm
+        bad = worst < -chord_tol_mm
         if not bad.any():
             break
         if opts.axis_mode is not AxisMode.FIXED:
@@ -504,8 +543,11 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
                res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
                samples: SurfaceSamples, near_other: NDArray[np.bool_],
                accepted_mm: NDArray[np.float64]
-               ) -> tuple[PassPoints, NDArray[np.bool_], dict[str, Any]]:
+               ) -> tuple[PassPoints, NDArray[np.bool_], int, float]:
     """Check the cutting moves between their points where a fold may lie; insert poses.
+
+    Returns the points, the kept mask, the number of poses inserted and their largest
+    lift, mm.
 
     The checks at the points and the chord check (which measures the gap to the surface
     next to the move, found from the parameters between its ends) do not see a sharp
@@ -528,7 +570,7 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     """
     tol = res.planned_chord_tol_mm
     lift_tol = min(opts.gouge_tol_mm, 0.5 * tol * tol / (2.0 * cutter.radius_mm))
-    stats: dict[str, Any] = {"n_fold_points": 0, "max_fold_lift_mm": 0.0}
+    n_fold_points, max_fold_lift_mm = 0, 0.0
     fixed = opts.axis_mode is AxisMode.FIXED
     a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
     cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
@@ -545,7 +587,6 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
                         pts.frame.point[a_i + 1] - pts.frame.point[a_i]) > 0.0
     a_i = a_i[((dip > FOLD_SCREEN_SHARE * tol) & parting) | near_other[a_i]
               | near_other[a_i + 1]]
-    dropped = 0
     for round_ in range(FOLD_ROUNDS + 1):
         if not a_i.size:
             break
@@ -567,7 +608,6 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
             out = np.unique(np.r_[a_bad, a_bad + 1])
             keep = keep.copy()
             keep[out] = False
-            dropped += int(out.size)
             break
         pts, keep, new_at = insert_move_poses(surface, pts, keep, a_bad, u_at[bad])
         accepted_mm = np.insert(accepted_mm, new_at - np.arange(new_at.size), 0.0)
@@ -583,19 +623,16 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
                               "move from there did not clear a fold of the surface; use a "
                               "smaller cutter")
         pts = with_tips(pts, pts.axes, tips)
-        stats["n_fold_points"] += int(new_at.size - stuck.size)
-        stats["max_fold_lift_mm"] = max(stats["max_fold_lift_mm"], float(lift.max()))
+        n_fold_points += int(new_at.size - stuck.size)
+        max_fold_lift_mm = max(max_fold_lift_mm, float(lift.max()))
         if stuck.size:  # a wall along the fixed axis: the move cannot be cut
             out = np.unique(np.r_[stuck - 1, stuck, stuck + 1])
             keep[out] = False
-            dropped += int(out.size - stuck.size)
         near = np.unique(np.r_[new_at - 1, new_at])
         a_i = near[keep[near] & keep[near + 1] & pts.same_pass[near]]
-    if dropped:
-        stats["shadowed"] = dropped
-    if stats["n_fold_points"]:
+    if n_fold_points:
         pts = with_rate_record(cutter, pts)
-    return pts, keep, stats
+    return pts, keep, n_fold_points, max_fold_lift_mm
 
 
 def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
@@ -606,12 +643,14 @@ def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int
 
 
 def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
-                 opts: FinishingOptions) -> None:
+                opts: FinishingOptions, res: PlannedOptions) -> None:
     """Check non-cutting positions, and points a cutter radius apart along those moves.
 
     Every toolpath point, and every point inside a rapid or plunge, must clear the surface
     (``gouge_tol_mm``); inside a feed move (lead arc chord, link) the cutter may dip as far
-    as along a pass (``chord_tol_mm``). A gouge there is an error, whatever ``on_gouge``.
+    as along a pass (the planned chord tolerance, ``res.planned_chord_tol_mm``: the
+    request less the G-code's rounding, which moves these points as it moves the passes').
+    A gouge there is an error, whatever ``on_gouge``.
     """
     kinds = path.kinds
     pos, ax = path.positions_mm, path.tool_axes
@@ -631,7 +670,7 @@ def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
     clr = global_clearance(cutter, pts, axes, samples, flutes=opts.check_flutes)
     feed = ~np.isin(kinds[moves][owner], (MoveKind.RAPID, MoveKind.PLUNGE))
     inside = step < pieces[owner]
-    allowed = np.where(feed & inside, opts.chord_tol_mm, opts.gouge_tol_mm)
+    allowed = np.where(feed & inside, res.planned_chord_tol_mm, opts.gouge_tol_mm)
     bad = clr.min_mm < -allowed
     if bad.any():
         j = int(np.flatnonzero(bad)[0])
@@ -649,8 +688,7 @@ def gouge_error_link(i: int, kind: str, depth: float, where: NDArray[np.float64]
         depth_mm=depth)
 
 
-def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
-                   ) -> dict[str, Any]:
+def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions) -> MachineStats:
     """Joints, travel and rate violations and the time; raises on travel when asked."""
     sol = solve_inverse(mach, path.positions_mm, path.tool_axes)
     travel = check_travel(mach, sol.joints)
@@ -669,8 +707,8 @@ def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions
                  f"frame); {_travel_remedy(path, mach)}")
         raise PlanTravelLimitError(travel, where)
     time_s = float(np.maximum(durations, limit_s).sum())
-    return {"travel": tuple(travel), "rates": tuple(rates), "time_s": time_s,
-            "name": mach.name}
+    return MachineStats(name=mach.name, travel=tuple(travel), rates=tuple(rates),
+                        time_s=time_s)
 
 
 def _travel_remedy(path: Toolpath, mach: Machine) -> str:

@@ -21,7 +21,7 @@ Stages (each timed in the report):
 from __future__ import annotations
 
 import time
-from dataclasses import replace
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -33,19 +33,19 @@ from machines.kinematics import tilt_reach_deg
 from machines.limits import Side, Violation
 
 from ..errors import InvalidParameterError
-from ..joint_refine import JOINT_CHECKED, machine_key
+from ..joint_refine import machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
 from .blunt_edge import blunt_face
-from .checks import check_links, gouge_stage, machine_stage
+from .checks import GougeStats, MachineStats, check_links, gouge_stage, machine_stage
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
 from .errors import GougeError, PlanTravelLimitError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
 from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, extends, link_runs
-from .local import pass_frame
-from .measure import measure_chord, measure_scallop
+from .local import PassFrame, pass_frame
+from .measure import ChordMeasurement, ScallopMeasurement, measure_chord, measure_scallop
 from .options import (
     TILT_MARGIN_DEG,
     AxisMode,
@@ -160,9 +160,56 @@ def _rounding_reserve(surface: ParametricSurface, cutter: Cutter, opts: Finishin
                                angle_step_deg=opts.angle_step_deg)
 
 
+@dataclass(frozen=True, eq=False)
+class ProbeGrid:
+    """The surface frame and what the plan reads from it on the probe grid.
+
+    Nodes ``(t[i], s[j])`` are ravelled ``t``-major (row ``i * len(s) + j``) in the
+    per-node arrays.
+
+    Attributes
+    ----------
+    t, s : ndarray
+        Probe columns (along the passes) and levels (across them).
+    frame : PassFrame
+        The surface frame at the nodes.
+    axes : ndarray, shape (n, 3)
+        The tool axes there (smoothed like passes for a flat face in 5-axis).
+    reach : ndarray of bool, shape (n,)
+        Reachable by the fixed axis (every node in 5-axis).
+    outcurved : ndarray of bool, shape (n,)
+        The surface out-curves the cutter there (the cusp formula has no meaning).
+    depth_mm : ndarray, shape (n,)
+        The gouge depth measured where the curvature flags one, 0 elsewhere.
+    gouging : ndarray of bool, shape (n,)
+        ``depth_mm`` beyond the gouge tolerance.
+    allowed_ds : ndarray, shape (len(s),)
+        The allowed step in ``s`` per level (the smallest along it; ``inf``: none).
+    area : ndarray, shape (len(t), len(s))
+        ``|X_t| |X_s|`` at the nodes (area weights).
+    density : ndarray, shape (len(t), len(s))
+        Chord density: segments per unit ``t`` the chord tolerance needs.
+    advice : tuple of str
+        Advice on the cutter (:func:`_flat_advice`).
+    """
+
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    frame: PassFrame
+    axes: NDArray[np.float64]
+    reach: NDArray[np.bool_]
+    outcurved: NDArray[np.bool_]
+    depth_mm: NDArray[np.float64]
+    gouging: NDArray[np.bool_]
+    allowed_ds: NDArray[np.float64]
+    area: NDArray[np.float64]
+    density: NDArray[np.float64]
+    advice: tuple[str, ...]
+
+
 def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
            res: PlannedOptions, t: NDArray[np.float64], s: NDArray[np.float64]
-           ) -> dict[str, Any]:
+           ) -> ProbeGrid:
     """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
 
     Where the pass is concave (``S11 > 0``) the cusp is planned for the scallop minus the
@@ -220,7 +267,7 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                                    turn_radius_mm=turn_radius, cutter_curvature_along_per_mm=c11)
     width = np.where(reach & ~outcurved, width, np.inf)
     allowed = (width / frame.speed_s).reshape(len(t), len(s))
-    advice = ()
+    advice: tuple[str, ...] = ()
     if cutter.kind is CutterKind.FLAT:
         ball = np.where(reach & ~outcurved, stepover_mm(h, cutter.radius_mm, frame.s22),
                         np.inf)
@@ -243,9 +290,9 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         near = _next_to(reach.reshape(len(t), len(s)), bool(surface.closed_t))
         density = np.where(near, density, (frame.speed_t / res.max_segment_mm).reshape(
             len(t), len(s)))
-    return {"frame": frame, "axes": axes, "reach": reach, "depth": depth,
-            "outcurved": outcurved, "gouging": gouging, "allowed": allowed.min(axis=0),
-            "area": area, "points": frame.point, "density": density, "advice": advice}
+    return ProbeGrid(t=t, s=s, frame=frame, axes=axes, reach=reach, outcurved=outcurved,
+                     depth_mm=depth, gouging=gouging, allowed_ds=allowed.min(axis=0),
+                     area=area, density=density, advice=advice)
 
 
 def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
@@ -590,16 +637,79 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
         Unknown machine, an orientation the machine cannot make, travel exceeded
         (with ``on_limit="raise"``).
     """
-    known = {f for f in FinishingOptions.__dataclass_fields__} - {
-        "scallop_mm", "chord_tol_mm", "axis_mode", "lead_deg", "tilt_deg", "linking"}
+    job = _job(surface, cutter, machine, options, scallop_mm=scallop_mm,
+               chord_tol_mm=chord_tol_mm, axis_mode=axis_mode, lead_deg=lead_deg,
+               tilt_deg=tilt_deg, linking=linking)
+    surface, cutter, opts, res, mach = job.surface, job.cutter, job.opts, job.res, job.machine
+    clock = _Clock(opts.progress)
+
+    clock.stage("probe")
+    probe = _probe_stage(job)
+
+    clock.stage("spacing")
+    layout = _layout(_levels(probe, opts.linking), opts.linking)
+
+    clock.stage("passes")
+    pts, keep = _pass_points(job, probe, layout)
+
+    clock.stage("chords")
+    refined = refine_chords(surface, cutter, opts, res, layout, pts, keep=keep, machine=mach)
+    pts, keep = refined.points, refined.keep
+    if opts.on_limit is OnLimit.RAISE:
+        _check_tilt_reach(pts, keep, opts, res, mach)
+
+    clock.stage("gouge")
+    samples = sample_surface(surface, res.gouge_sample_mm)
+    pts, keep, gouge = gouge_stage(surface, cutter, opts, res, pts, keep, samples)
+    runs, cut, spans = _cut_runs(job, layout, pts, keep)
+
+    clock.stage("linking")
+    path = _linked_path(job, probe, pts, runs, gouge)
+    check_links(path, cutter, samples, opts, res)
+
+    clock.stage("machine")
+    machined = machine_stage(path, mach, opts) if mach is not None else None
+
+    clock.stage("measure")
+    scallop = chord = None
+    if opts.measure:
+        chord = measure_chord(path, surface, cutter, samples, machine=mach)
+        scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord, machine=mach)
+    clock.done()
+
+    stages = _Stages(probe=probe, points=pts, cut=cut, spans=tuple(spans), gouge=gouge,
+                     planned_chord_mm=refined.worst_mm, machine=machined, scallop=scallop,
+                     chord=chord, seconds=dict(clock.seconds))
+    return path, _report(job, stages, path)
+
+
+@dataclass(frozen=True, eq=False)
+class _Job:
+    """What a plan is asked for, checked: the surface, cutter, options and machine.
+
+    ``res`` is what the plan works to (the request less ``reserve_mm``, the room the
+    G-code's rounding needs), ``linking_reason`` why ``opts.linking`` was chosen.
+    """
+
+    surface: ParametricSurface
+    cutter: Cutter
+    opts: FinishingOptions
+    res: PlannedOptions
+    machine: Machine | None
+    reserve_mm: float
+    linking_reason: str
+
+
+def _job(surface: ParametricSurface, cutter: Cutter | str, machine: Machine | str | None,
+         options: dict[str, Any], **request: Any) -> _Job:
+    """Check the options (``request``: the named arguments; ``options``: the others)."""
+    known = {f for f in FinishingOptions.__dataclass_fields__} - set(request)
     unknown = sorted(set(options) - known)
     if unknown:
         raise InvalidParameterError(f"unknown option(s) {unknown}; known: {sorted(known)}")
     surface = as_surface(surface)
     cutter = _as_cutter(cutter)
-    opts = FinishingOptions(scallop_mm=scallop_mm, chord_tol_mm=chord_tol_mm,
-                            axis_mode=axis_mode, lead_deg=lead_deg, tilt_deg=tilt_deg,
-                            linking=linking, **options)
+    opts = FinishingOptions(**request, **options)
     opts.check_cutter(cutter)
     mach = _as_machine(machine, opts)
     reserve_mm = _rounding_reserve(surface, cutter, opts, mach)
@@ -611,90 +721,108 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
             "--linking spiral needs closed sections (surface.closed_t): this surface's "
             "passes are open (fit with --closed if its sections close); use --linking "
             "auto, zigzag or oneway")
-    clock = _Clock(opts.progress)
+    return _Job(surface, cutter, opts, res, mach, reserve_mm, why)
 
-    clock.stage("probe")
+
+#: Probe levels per pass of the coarse probe's smallest step, and the fewest and most
+#: probe levels (the coarse probe tells how many passes the plan will have).
+PROBE_LEVELS_PER_PASS = 3.0
+MIN_PROBE_S = 65
+MAX_PROBE_S = 129
+#: Smallest allowed step in ``s`` the probe levels are counted for (a guard against 0).
+MIN_ALLOWED_DS = 1e-6
+
+
+def _probe_stage(job: _Job) -> ProbeGrid:
+    """The probe grid as fine as the plan needs, checked for reach and gouges.
+
+    Without ``probe_t``/``probe_s``, a coarse probe (:data:`COARSE_PROBE_T` by
+    :data:`COARSE_PROBE_S`) tells how fine: :data:`PROBE_LEVELS_PER_PASS` levels per pass
+    of its smallest step, columns by :func:`_probe_columns`.
+    """
+    surface, cutter, opts, res = job.surface, job.cutter, job.opts, job.res
     n_t, n_s = opts.probe_t, opts.probe_s
-    coarse_t: NDArray[np.float64] | None = None
+    coarse: ProbeGrid | None = None
     if n_t is None or n_s is None:
-        # a coarse probe tells how fine the plan will be
-        coarse_t = _probe_t(surface, COARSE_PROBE_T)
-        coarse = _probe(surface, cutter, opts, res, coarse_t,
+        coarse = _probe(surface, cutter, opts, res, _probe_t(surface, COARSE_PROBE_T),
                         np.linspace(0.0, 1.0, COARSE_PROBE_S))
         if n_s is None:
-            # three levels per pass
-            allowed = coarse["allowed"][np.isfinite(coarse["allowed"])]
-            n_s = int(np.clip(3.0 / max(float(allowed.min()), 1e-6) + 1, 65, 129)) \
-                if allowed.size else 65
+            allowed = coarse.allowed_ds[np.isfinite(coarse.allowed_ds)]
+            n_s = int(np.clip(PROBE_LEVELS_PER_PASS / max(float(allowed.min()), MIN_ALLOWED_DS)
+                              + 1, MIN_PROBE_S, MAX_PROBE_S)) if allowed.size else MIN_PROBE_S
         if n_t is None:
-            n_t = _probe_columns(coarse_t, coarse["density"])
-    t_probe = coarse_t if n_t == COARSE_PROBE_T and coarse_t is not None else \
+            n_t = _probe_columns(coarse.t, coarse.density)
+    t_probe = coarse.t if n_t == COARSE_PROBE_T and coarse is not None else \
         _probe_t(surface, n_t)
-    s_probe = np.linspace(0.0, 1.0, n_s)
-    probe = _probe(surface, cutter, opts, res, t_probe, s_probe)
-    if not np.isfinite(probe["allowed"]).any() and not probe["outcurved"].any():
+    probe = _probe(surface, cutter, opts, res, t_probe, np.linspace(0.0, 1.0, n_s))
+    if not np.isfinite(probe.allowed_ds).any() and not probe.outcurved.any():
         raise UnreachableRegionError(
             f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
             f"(normals at least {opts.reach_margin_deg:g} deg above its plane); use another "
             "--fixed-axis or --axis lead-tilt")
-    if probe["gouging"].any() and opts.on_gouge is OnGouge.RAISE:
-        raise _probe_gouge(probe, cutter, t_probe, s_probe, opts.gouge_tol_mm)
+    if probe.gouging.any() and opts.on_gouge is OnGouge.RAISE:
+        raise _probe_gouge(probe, cutter, opts.gouge_tol_mm)
+    return probe
 
-    clock.stage("spacing")
-    allowed = probe["allowed"]
-    allowed = np.where(np.isfinite(allowed), allowed, 1.0)
-    levels = pass_levels(s_probe, allowed,
-                         lookahead=2.0 if opts.linking is Linking.SPIRAL else 1.0)
-    layout = _layout(levels, opts.linking)
 
-    clock.stage("passes")
-    t, pid = _initial_points(layout, t_probe, s_probe, probe["density"])
+#: The allowed step in ``s`` of a probe level no node of which sets one (nothing
+#: reachable, or the surface out-curves the cutter all along): the whole range.
+UNLIMITED_DS = 1.0
+
+
+def _levels(probe: ProbeGrid, linking: Linking) -> NDArray[np.float64]:
+    """Pass levels in ``s`` from the probe's allowed steps (a spiral looks ahead two)."""
+    allowed = np.where(np.isfinite(probe.allowed_ds), probe.allowed_ds, UNLIMITED_DS)
+    return pass_levels(probe.s, allowed, lookahead=2.0 if linking is Linking.SPIRAL else 1.0)
+
+
+def _pass_points(job: _Job, probe: ProbeGrid, layout: PassLayout
+                 ) -> tuple[PassPoints, NDArray[np.bool_]]:
+    """Points along the passes from the probe's chord density, and which are reachable.
+
+    3-axis: the passes are split where they leave the fixed axis' reach
+    (:func:`~toolpath.planning.passes.reach_split`).
+    """
+    opts = job.opts
+    t, pid = _initial_points(layout, probe.t, probe.s, probe.density)
     if t.size > opts.max_points:
         raise too_many_points(opts, t.size)
     if opts.axis_mode is AxisMode.FIXED:
-        t, pid, keep = reach_split(surface, opts, layout, t, pid)
+        t, pid, keep = reach_split(job.surface, opts, layout, t, pid)
     else:
         keep = np.ones(t.size, dtype=bool)
-    pts = evaluate_points(surface, cutter, opts, res, layout, t, pid)
-    faces_away = ~keep
+    pts = evaluate_points(job.surface, job.cutter, opts, job.res, layout, t, pid)
+    return pts, keep
 
-    clock.stage("chords")
-    pts, keep, planned_chord = refine_chords(surface, cutter, opts, res, layout, pts,
-                                             keep=keep, machine=mach)
 
-    if opts.on_limit is OnLimit.RAISE:
-        _check_tilt_reach(pts, keep, opts, res, mach)
-
-    clock.stage("gouge")
-    samples = sample_surface(surface, res.gouge_sample_mm)
-    pts, keep, gstats = gouge_stage(surface, cutter, opts, res, pts, keep, samples)
-    # (after the gouge stage: it may insert poses into moves across a fold)
-    faces_away = ~_reach(opts, pts.frame.normal) if opts.axis_mode is AxisMode.FIXED else \
-        np.zeros(len(pts), dtype=bool)
-    runs = _runs_of(keep, pts, bool(surface.closed_t))
+def _cut_runs(job: _Job, layout: PassLayout, pts: PassPoints, keep: NDArray[np.bool_]
+              ) -> tuple[list[NDArray[np.int64]], NDArray[np.bool_], list[UnreachableSpan]]:
+    """The runs cut (index arrays), the points they cut, and the uncut stretches."""
+    closed = bool(job.surface.closed_t)
+    runs = _runs_of(keep, pts, closed)
     if not runs:
         raise UnreachableRegionError(
             "no stretch of any pass can be cut (every point faces away from the tool axis "
             "or is shadowed by the part)")
+    faces_away = (~_reach(job.opts, pts.frame.normal) if job.opts.axis_mode is AxisMode.FIXED
+                  else np.zeros(len(pts), dtype=bool))
     cut = _cut_mask(runs, len(pts))
-    spans = _spans(pts, keep, faces_away, cut, layout)
+    return runs, cut, _spans(pts, keep, faces_away, cut, layout)
 
-    clock.stage("linking")
+
+def _linked_path(job: _Job, probe: ProbeGrid, pts: PassPoints,
+                 runs: list[NDArray[np.int64]], gouge: GougeStats) -> Toolpath:
+    """The runs linked into a toolpath (leads, links, clearance, rapids).
+
+    With a 5-axis machine and no point lifted, retilted or inserted after the chord check, the
+    cutting moves were checked as that machine moves them
+    (:func:`~toolpath.planning.passes.refine_chords`): the toolpath says so
+    (``joints_checked_for``) and the post leaves them whole.
+    """
+    surface, cutter, opts, res, mach = job.surface, job.cutter, job.opts, job.res, job.machine
     run_list = _make_runs(surface, cutter, opts, res, pts, runs)
-    corners = probe["points"]
-    if opts.axis_mode is AxisMode.FIXED:
-        axis = np.asarray(opts.fixed_axis)
-        clearance: ClearancePlane | ClearanceSphere = ClearancePlane(
-            axis, float((corners @ axis).max()) + opts.clearance_mm)
-    else:
-        lo, hi = points_box(corners)
-        centre = 0.5 * (lo + hi)
-        off = corners - centre
-        radius = float(np.sqrt(np.einsum("ij,ij->i", off, off).max()))
-        clearance = ClearanceSphere(centre, radius + opts.clearance_mm,
-                                    up=_working_side(probe))
     link_opts = LinkOptions(
-        clearance=clearance, feed_mm_per_min=opts.feed_mm_per_min,
+        clearance=_clearance(opts, probe), feed_mm_per_min=opts.feed_mm_per_min,
         plunge_feed_mm_per_min=res.plunge_feed_mm_per_min,
         lead_radius_mm=res.lead_radius_mm, lead_angle_deg=opts.lead_angle_deg,
         approach_mm=opts.approach_mm, extend_mm=res.extend_mm,
@@ -705,30 +833,46 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
                 "chord_tol_mm": f"{opts.chord_tol_mm:g}", "axis_mode": opts.axis_mode.value,
                 "lead_deg": f"{opts.lead_deg:g}", "tilt_deg": f"{opts.tilt_deg:g}",
                 "linking": opts.linking.value}
-    if mach is not None and mach.kinematics.is_five_axis and not (
-            gstats["n_lifted"] or gstats["n_retilted"] or gstats["n_fold_points"]):
-        # the cutting moves were checked as this machine moves them (refine_chords): the
-        # post need not split them for joint interpolation
-        metadata[JOINT_CHECKED] = machine_key(mach)
-    path = Toolpath(positions, axes, kinds, feeds, passes, metadata)
-    check_links(path, cutter, samples, opts)
+    checked = (machine_key(mach) if mach is not None and mach.kinematics.is_five_axis
+               and not (gouge.n_lifted or gouge.n_retilted or gouge.n_fold_points)
+               else None)
+    return Toolpath(positions, axes, kinds, feeds, passes, metadata,
+                    joints_checked_for=checked)
 
-    clock.stage("machine")
-    mstats = machine_stage(path, mach, opts) if mach is not None else None
 
-    clock.stage("measure")
-    scallop = chord = None
-    if opts.measure:
-        chord = measure_chord(path, surface, cutter, samples, machine=mach)
-        scallop = measure_scallop(path, surface, cutter, opts.scallop_mm, chord, machine=mach)
-    clock.done()
+def _clearance(opts: FinishingOptions, probe: ProbeGrid
+               ) -> ClearancePlane | ClearanceSphere:
+    """The clearance plane (3-axis) or sphere (5-axis) ``clearance_mm`` beyond the part."""
+    corners = probe.frame.point
+    if opts.axis_mode is AxisMode.FIXED:
+        axis = np.asarray(opts.fixed_axis)
+        return ClearancePlane(axis, float((corners @ axis).max()) + opts.clearance_mm)
+    lo, hi = points_box(corners)
+    centre = 0.5 * (lo + hi)
+    off = corners - centre
+    radius = float(np.sqrt(np.einsum("ij,ij->i", off, off).max()))
+    return ClearanceSphere(centre, radius + opts.clearance_mm, up=_working_side(probe))
 
-    report = _report(surface, cutter, opts, res, reserve_mm, probe, pts, cut, spans,
-                     path, gstats, planned_chord, mstats, scallop, chord, clock.seconds)
-    rotary = (rotary_rates(path, mach)
-              if mach is not None and mach.kinematics.is_five_axis else None)
-    return path, replace(report, linking_reason=why, rotary_rates=rotary,
-                         blunt_face=blunt_face(surface, opts.chord_tol_mm))
+
+@dataclass(frozen=True, eq=False)
+class _Stages:
+    """What the stages found, for the report.
+
+    ``cut``: the points the runs cut; ``planned_chord_mm``: the chord check's largest gap
+    (:class:`~toolpath.planning.passes.RefinedChords`); ``scallop``, ``chord``: the
+    measurement (None with ``measure=False``); ``machine``: None without a machine.
+    """
+
+    probe: ProbeGrid
+    points: PassPoints
+    cut: NDArray[np.bool_]
+    spans: tuple[UnreachableSpan, ...]
+    gouge: GougeStats
+    planned_chord_mm: float
+    machine: MachineStats | None
+    scallop: ScallopMeasurement | None
+    chord: ChordMeasurement | None
+    seconds: dict[str, float]
 
 
 def _tilt_limit_deg(opts: FinishingOptions, mach: Machine | None) -> float:
@@ -787,30 +931,28 @@ def _check_tilt_reach(pts: PassPoints, keep: NDArray[np.bool_], opts: FinishingO
 WORKING_SIDE_MIN = 0.3
 
 
-def _working_side(probe: dict[str, Any]) -> NDArray[np.float64] | None:
+def _working_side(probe: ProbeGrid) -> NDArray[np.float64] | None:
     """Area-weighted mean normal of the probe grid (unit), or None when they cancel."""
-    weights = probe["area"].ravel()
-    mean = (weights @ probe["frame"].normal) / max(weights.sum(), 1e-300)
+    weights = probe.area.ravel()
+    mean = (weights @ probe.frame.normal) / max(weights.sum(), 1e-300)
     size = float(np.linalg.norm(mean))
     return mean / size if size >= WORKING_SIDE_MIN else None
 
 
-def _probe_gouge(probe: dict[str, Any], cutter: Cutter,
-                 t: NDArray[np.float64], s: NDArray[np.float64], tol_mm: float) -> Exception:
+def _probe_gouge(probe: ProbeGrid, cutter: Cutter, tol_mm: float) -> Exception:
     """The GougeError for the deepest gouge on the probe grid (a measured depth).
 
     It names the depth and its place, and the smallest concave radius among the probe
     points that gouge (the largest cutter that fits there).
     """
-    gouging = probe["gouging"]
-    frame = probe["frame"]
-    i = int(np.argmax(np.where(gouging, probe["depth"], -1.0)))
+    gouging, frame, t, s = probe.gouging, probe.frame, probe.t, probe.s
+    i = int(np.argmax(np.where(gouging, probe.depth_mm, -1.0)))
     kmax = frame.max_concave_curvature
     j = int(np.argmax(np.where(gouging, kmax, -np.inf)))
     ti, si = np.unravel_index(i, (t.size, s.size))
     tj, sj = np.unravel_index(j, (t.size, s.size))
     p = frame.point[i]
-    depth_mm = float(probe["depth"][i])
+    depth_mm = float(probe.depth_mm[i])
     smallest = 1.0 / float(kmax[j])
     return GougeError(
         f"cutter {cutter.spec} (radius {cutter.radius_mm:g} mm) would cut "
@@ -825,33 +967,34 @@ def _probe_gouge(probe: dict[str, Any], cutter: Cutter,
         t=float(t[ti]), s=float(s[si]), depth_mm=depth_mm)
 
 
-def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-            res: PlannedOptions, reserve_mm: float, probe: dict[str, Any], pts: PassPoints,
-            cut: NDArray[np.bool_], spans: list[UnreachableSpan], path: Toolpath,
-            gstats: dict[str, Any], planned_chord: float, mstats: dict[str, Any] | None,
-            scallop: Any, chord: Any, seconds: dict[str, float]) -> PlanningReport:
-    # the smallest concave radius the cutter meets: at its locations and on the probe
-    # grid where it cuts (the grid holds the extremes the locations may step over)
-    reach = probe["reach"]
-    cut_at, reach_at = np.flatnonzero(cut), np.flatnonzero(reach)
+def _concave_radius(cutter: Cutter, stages: _Stages) -> tuple[float, float]:
+    """The smallest concave radius the cutter meets, mm, and the cutter's radius there.
+
+    At its locations and on the probe grid where it cuts (the grid holds the extremes the
+    locations may step over); the cutter's curvature there is the local margin plus the
+    surface's. ``(inf, cutter radius)`` where nothing is concave.
+    """
+    pts, probe = stages.points, stages.probe
+    cut_at, reach_at = np.flatnonzero(stages.cut), np.flatnonzero(probe.reach)
     kmax = np.r_[pts.frame.max_concave_curvature_at(cut_at),
-                 probe["frame"].max_concave_curvature_at(reach_at)]
-    if kmax.size and kmax.max() > 0.0:
-        i = int(np.argmax(kmax))
-        # the cutter's curvature there (the local margin plus the surface's)
-        frame, axes, at = ((pts.frame, pts.axes, cut_at[i]) if i < cut_at.size else
-                           (probe["frame"], probe["axes"], reach_at[i - cut_at.size]))
-        margin = float(local_margin(frame_take(frame, np.array([at])), cutter,
-                                    axes[at][None])[0])
-        min_radius = 1.0 / float(kmax[i])
-        c_there = 1.0 / max(margin + float(kmax[i]), 1e-12)
-    else:
-        min_radius, c_there = float("inf"), cutter.radius_mm
-    area = probe["area"].ravel()
-    unreach = float(area[~probe["reach"]].sum() / max(area.sum(), 1e-300))
-    rate = None
-    if opts.axis_mode is AxisMode.LEAD_TILT and pts.smoothing is not None:
-        rate = pts.smoothing.max_rate_deg_per_mm
+                 probe.frame.max_concave_curvature_at(reach_at)]
+    if not (kmax.size and kmax.max() > 0.0):
+        return float("inf"), cutter.radius_mm
+    i = int(np.argmax(kmax))
+    frame, axes, at = ((pts.frame, pts.axes, cut_at[i]) if i < cut_at.size else
+                       (probe.frame, probe.axes, reach_at[i - cut_at.size]))
+    margin = float(local_margin(frame_take(frame, np.array([at])), cutter, axes[at][None])[0])
+    return 1.0 / float(kmax[i]), 1.0 / max(margin + float(kmax[i]), 1e-12)
+
+
+def _report(job: _Job, stages: _Stages, path: Toolpath) -> PlanningReport:
+    """The planning report: the request, what the stages found and the measurement."""
+    cutter, opts, res, mach = job.cutter, job.opts, job.res, job.machine
+    pts, probe, gouge, machined = stages.points, stages.probe, stages.gouge, stages.machine
+    scallop, chord, smoothing = stages.scallop, stages.chord, pts.smoothing
+    min_radius, c_there = _concave_radius(cutter, stages)
+    area = probe.area.ravel()
+    five_axis = opts.axis_mode is AxisMode.LEAD_TILT
     return PlanningReport(
         cutter=str(cutter.spec), axis_mode=opts.axis_mode.value, linking=opts.linking.value,
         scallop_request_mm=opts.scallop_mm, chord_tol_mm=opts.chord_tol_mm,
@@ -865,23 +1008,29 @@ def _report(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         chord_overcut_mm=None if chord is None else chord.overcut_mm,
         chord_undercut_mm=None if chord is None else chord.undercut_mm,
         chord_worst_point=None if chord is None else chord.worst_point,
-        planned_chord_error_mm=planned_chord,
-        min_clearance_mm=gstats["min_clearance_mm"],
+        planned_chord_error_mm=stages.planned_chord_mm,
+        min_clearance_mm=gouge.min_clearance_mm,
         min_concave_radius_mm=min_radius, cutter_radius_there_mm=c_there,
-        n_lifted=gstats["n_lifted"], max_lift_mm=gstats["max_lift_mm"],
-        n_retilted=gstats["n_retilted"], unreachable_spans=tuple(spans),
-        unreachable_regions=merge_spans(spans), unreachable_fraction=unreach,
-        max_axis_rate_deg_per_mm=rate, cone_pushed=pts.cone_pushed,
-        machine=None if mstats is None else mstats["name"],
-        travel_violations=() if mstats is None else mstats["travel"],
-        rate_violations=() if mstats is None else mstats["rates"],
-        estimated_time_s=None if mstats is None else mstats["time_s"],
+        n_lifted=gouge.n_lifted, max_lift_mm=gouge.max_lift_mm,
+        n_retilted=gouge.n_retilted, unreachable_spans=stages.spans,
+        unreachable_regions=merge_spans(list(stages.spans)),
+        unreachable_fraction=float(area[~probe.reach].sum() / max(area.sum(), 1e-300)),
+        max_axis_rate_deg_per_mm=(smoothing.max_rate_deg_per_mm
+                                  if five_axis and smoothing is not None else None),
+        cone_pushed=pts.cone_pushed,
+        machine=None if machined is None else machined.name,
+        travel_violations=() if machined is None else machined.travel,
+        rate_violations=() if machined is None else machined.rates,
+        estimated_time_s=None if machined is None else machined.time_s,
         length_mm=path.length_mm, cutting_length_mm=path.cutting_length_mm,
-        seconds=dict(seconds), gouge_tol_mm=opts.gouge_tol_mm,
-        axis_rate_limit_deg_per_mm=(opts.max_axis_rate_deg_per_mm
-                                    if opts.axis_mode is AxisMode.LEAD_TILT else None),
-        tilt_leaned_points=0 if pts.smoothing is None else pts.smoothing.tilt_leaned_points,
-        max_tilt_lean_deg=0.0 if pts.smoothing is None else pts.smoothing.max_tilt_lean_deg,
+        seconds=dict(stages.seconds), gouge_tol_mm=opts.gouge_tol_mm,
+        axis_rate_limit_deg_per_mm=opts.max_axis_rate_deg_per_mm if five_axis else None,
+        tilt_leaned_points=0 if smoothing is None else smoothing.tilt_leaned_points,
+        max_tilt_lean_deg=0.0 if smoothing is None else smoothing.max_tilt_lean_deg,
         max_tilt_deg=res.max_tilt_deg if np.isfinite(res.max_tilt_deg) else None,
-        rounding_reserve_mm=reserve_mm, planned_scallop_mm=res.planned_scallop_mm,
-        planned_chord_tol_mm=res.planned_chord_tol_mm, advice=probe["advice"])
+        rounding_reserve_mm=job.reserve_mm, planned_scallop_mm=res.planned_scallop_mm,
+        planned_chord_tol_mm=res.planned_chord_tol_mm, advice=probe.advice,
+        linking_reason=job.linking_reason,
+        rotary_rates=(rotary_rates(path, mach) if mach is not None
+                      and mach.kinematics.is_five_axis else None),
+        blunt_face=blunt_face(job.surface, opts.chord_tol_mm))

@@ -55,7 +55,7 @@ from scipy.spatial import cKDTree
 from machines import Machine
 from machines.kinematics import forward, solve_inverse
 
-from ..joint_refine import JOINT_CHECKED, machine_key
+from ..joint_refine import joints_checked, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from .clearance_kernel import bin_samples, pairs_within
@@ -103,9 +103,10 @@ def _checked_joints(toolpath: Toolpath, machine: Machine | None
                     ) -> NDArray[np.float64] | None:
     """Joints of every point if ``toolpath`` was checked under ``machine``'s interpolation.
 
-    ``JOINT_CHECKED``: the post then leaves its cutting moves whole. None otherwise.
+    (``Toolpath.joints_checked_for``: the post then leaves its cutting moves whole).
+    None otherwise.
     """
-    if machine is None or toolpath.metadata.get(JOINT_CHECKED) != machine_key(machine):
+    if machine is None or not joints_checked(toolpath, machine):
         return None
     key = machine_key(machine)
     for ref, known, joints in _JOINTS_SOLVED:
@@ -122,7 +123,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     """Measure the chord error of ``toolpath`` (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
-    (``JOINT_CHECKED``: the post then leaves its cutting moves whole), the cutter inside
+    (``Toolpath.joints_checked_for``: the post then leaves them whole), the cutter inside
     each move is placed as that interpolation places it (the tip bows off the chord
     where rotary axes turn).
     """

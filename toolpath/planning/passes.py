@@ -22,7 +22,7 @@ from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
 from .cutters import Cutter, CutterKind
-from .errors import too_many_points
+from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
 from .one_way import one_way_azimuth
 from .options import AxisMode, FinishingOptions, Linking, PlannedOptions
@@ -52,6 +52,7 @@ from .tool_axis import (
 __all__ = [
     "PassLayout",
     "PassPoints",
+    "RefinedChords",
     "evaluate_points",
     "final_axes",
     "frame_take",
@@ -86,9 +87,6 @@ MAX_PARTS = 8
 #: Moves shorter than this (mm, a G-code program's 3-decimal resolution; the tip's travel
 #: plus the cutter radius times the axis turn) are not split.
 MIN_SPLIT_MM = 1e-3
-#: After the first round of the chord check, the split moves go on alone and are merged
-#: into the other points once, at the end (:func:`refine_chords`; a switch for its test).
-DEFER_SPLIT_MOVES = True
 #: A checked chord is checked again when its ends move (tip, plus the cutter radius times
 #: the axis change) by more than this share of the chord tolerance.
 MOVED_SHARE = 0.01
@@ -582,50 +580,51 @@ def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
     return np.abs(np.einsum("ij,ij->i", off, side))
 
 
+@dataclass(frozen=True, eq=False)
+class RefinedChords:
+    """What the chord check hands on: the points, their mask and the planned chord error.
+
+    Attributes
+    ----------
+    points : PassPoints
+        The points with the split moves' new points merged in.
+    keep : ndarray of bool or None
+        The reachable-points mask on ``points`` (new points kept), None when none was given.
+    worst_mm : float
+        The largest ``|gap|`` (the model's extreme, measured where near a limit) over the
+        moves left whole, in whichever round they were checked: every final move (an upper
+        bound where an insertion smoothed the axes again and moved a checked move's ends).
+    """
+
+    points: PassPoints
+    keep: NDArray[np.bool_] | None
+    worst_mm: float
+
+
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                   res: PlannedOptions, layout: PassLayout, pts: PassPoints,
                   keep: NDArray[np.bool_] | None = None, machine: Machine | None = None
-                  ) -> tuple[PassPoints, NDArray[np.bool_] | None, float]:
+                  ) -> RefinedChords:
     """Split chords whose mid-chord cutter-to-surface gap exceeds the chord tolerance.
 
-    The cutter inside each move (tip and axis interpolated; with a 5-axis ``machine``,
-    its joints, as its control moves it: :func:`~toolpath.planning.sampling.move_gaps`;
-    such a move is also split where it carries the tip more than
-    :data:`JOINT_SIDEWAYS_MM` across the pass, and the post then leaves it whole) is
-    measured against the
-    surface at three places (one Newton step from the parameters between the move's ends:
-    the foot point is then off by the fourth order of the move's length; a ball moved
-    linearly in the middle only, its gap's slopes at the ends known:
-    :func:`~toolpath.planning.sampling.ball_end_slopes`) and its largest gap estimated
-    (:func:`~toolpath.planning.sampling.chord_extremes`); chords cutting deeper
-    than ``chord_tol_mm`` or standing higher than the undercut allowance
-    (``res.undercut_mm``, see :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`)
-    are split into equal parameter steps, as many as the gap's excess needs
-    (:data:`SPLIT_TARGET`). Only new chords are checked again. ``keep`` (reachable
-    points) travels along: a chord between two kept points is checked; an inserted point
-    is kept.
+    Each round measures the moves still to check (:func:`_gap_extremes`), picks those to
+    split (:func:`_moves_to_split`), splits them into equal parameter steps, as many as the
+    gap's excess needs (:data:`SPLIT_TARGET`), and checks again only the new moves and
+    those whose ends moved (:func:`_checked_again`). ``keep`` (reachable points) travels
+    along: a chord between two kept points is checked; an inserted point is kept.
 
-    Returns
-    -------
-    pts, keep, worst_mm
-        The refined points, the mask and the largest ``|gap|`` (the model's extreme,
-        measured where near a limit) over the moves left whole, in whichever round they
-        were checked: every final move (an upper bound where an insertion smoothed the
-        axes again and moved a checked move's ends).
+    After the first round the split moves go on alone (``pts`` then holds their ends and
+    new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
+    and are merged into the others once, at the end: merging each round copies every point
+    (memory-bound, 0.1 us a point). Joints along a 5-axis machine's path are solved along
+    the whole path, so not there.
     """
     tol = res.planned_chord_tol_mm
-    n_start = len(pts)
-    check = np.ones(max(len(pts) - 1, 0), dtype=bool)
-    worst = 0.0
-    # after the first round only the split moves are checked again: they go on alone
-    # (``pts`` then holds their ends and new points, ``origin`` the rows of ``everything``
-    # the ends are, -1 for new points) and are merged into the others once, at the end.
-    # Merging each round copies every point (memory-bound, 0.1 us a point). Joints along
-    # a 5-axis machine's path are solved along the whole path, so not there.
-    everything, keep_all = pts, keep
-    defer = DEFER_SPLIT_MOVES and (machine is None or not machine.kinematics.is_five_axis)
+    start, keep_start = pts, keep
+    defer = machine is None or not machine.kinematics.is_five_axis
     origin: NDArray[np.int64] | None = None
-    unchecked = 0.0
+    check = np.ones(max(len(pts) - 1, 0), dtype=bool)
+    worst = unchecked = 0.0
     for _ in range(MAX_CHORD_ROUNDS):
         seg_ok = pts.same_pass & check
         if keep is not None:
@@ -633,99 +632,149 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         idx = np.flatnonzero(seg_ok)
         if not idx.size:
             break
-        q = (solve_inverse(machine, pts.tips, pts.axes).joints
-             if machine is not None and machine.kinematics.is_five_axis else None)
-        # a ball moved tip- and axis-linear: the gap's slopes at the ends are known
-        # exactly, one gap in the middle completes the model (a third of the projections)
-        slopes = (ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, idx)
-                  if cutter.kind is CutterKind.BALL and q is None else None)
-        fractions = np.asarray(CHORD_FRACTIONS if slopes is None else BALL_FRACTIONS)
-        gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
-                                     fractions, newton=1, refine_rim=True,
-                                     **joint_moves(machine, q, idx))
-        low, u_low, high, u_high = chord_extremes(gaps, fractions, end_slopes=slopes,
-                                                  with_samples=True)
-        # the model is close, not exact: where an extreme is within 10 % of its limit,
-        # measure there (a move can both cut in and stand above: both sides are checked)
-        sides = ((low, u_low, tol, -1.0, np.minimum),
-                 (high, u_high, res.undercut_mm, 1.0, np.maximum))
-        for value, u_at, limit, sign, further in sides:
-            # (next to a measured place the model is pinned to the measurement)
-            off_sample = np.abs(u_at[:, None] - fractions).min(axis=1) > MEASURED_NEAR_U
-            close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
-                                   & (np.sign(value) == sign) & off_sample)
-            if close.size:
-                j = idx[close]
-                exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,
-                                              pts.s, j, u_at[close, None], newton=1,
-                                              refine_rim=True, **joint_moves(machine, q, j))
-                value[close] = further(value[close], exact[:, 0])
-        bad = (low < -tol) | (high > res.undercut_mm)
-        if q is not None:
-            bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
-        # a move shorter than the program's resolution (tip, plus the cutter radius times
-        # the axis turn) is not split: its gap is not the chord's (its ends themselves
-        # stand off), and the report carries it
-        at = np.flatnonzero(bad)
-        j = idx[at]
-        bad[at] = _travel_mm(cutter, pts.tips[j], pts.tips[j + 1], pts.axes[j],
-                             pts.axes[j + 1]) > MIN_SPLIT_MM
-        # the moves left whole are final: the worst of them all is reported
-        if not bad.all():
-            worst = max(worst, float(np.maximum(-low, high)[~bad].max()))
+        low, high, q = _gap_extremes(surface, cutter, res, pts, idx, machine)
+        bad = _moves_to_split(cutter, res, pts, idx, low, high, machine, q)
+        gap = np.maximum(-low, high)
+        if not bad.all():  # the moves left whole are final: the worst of them is reported
+            worst = max(worst, float(gap[~bad].max()))
         if not bad.any():
             break
-        # (if the rounds run out, the last split moves' parts go unchecked: their
-        # whole moves' gaps, larger, stand for them)
-        unchecked = float(np.maximum(-low, high)[bad].max())
-        # each offending move in as many equal parts (in t) as its gap needs: the gap
-        # shrinks with the square of the length
+        # (if the rounds run out, the last split moves' parts go unchecked: their whole
+        # moves' gaps, larger, stand for them)
+        unchecked = float(gap[bad].max())
+        j = idx[bad]
         over = np.maximum(-low / tol, high / res.undercut_mm)[bad]
         parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
-        j = idx[bad]
         new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)
         new_pid = pts.pid[j][which]
         if defer and origin is None:
             origin = np.unique(np.r_[j, j + 1])
             pts = _take_points(pts, origin)
             keep = None if keep is None else keep[origin]
-        old_len, old_tips, old_axes = len(pts), pts.tips, pts.axes
+        before = pts
         pts, where_new, kept = insert_points(surface, cutter, opts, res, layout, pts, new_t,
                                              new_pid)
-        # (split points lie strictly inside their moves: the others keep their axes, so
-        # the split moves can go on alone)
-        assert kept or origin is None, "insert_points smoothed the axes of deferred moves"
         if origin is not None:
+            if not kept:
+                raise PlanningError(
+                    "internal error in the chord check: inserting points inside moves moved "
+                    "the moves' ends (the axes were smoothed again); please report it")
             origin = _merge(origin, np.full(where_new.size, -1), np.sort(where_new))
-        n_points = len(pts) if origin is None else len(everything) + int((origin < 0).sum())
+        n_points = len(pts) if origin is None else len(start) + int((origin < 0).sum())
         if n_points > opts.max_points:
             raise too_many_points(opts, n_points)
-        if keep is not None:
-            keep = _kept_with_new(keep, where_new)
-        # check again the chords next to the new points, and those whose ends moved (where
-        # insert_points had to smooth the axes again, which shifts the tips and axes of
-        # their neighbours: a chord checked before is then another chord)
-        moved = np.zeros(len(pts), dtype=bool)
-        moved[where_new] = True
-        if not kept:
-            old_at = np.flatnonzero(~moved)
-            shift = _travel_mm(cutter, old_tips, pts.tips[old_at], old_axes, pts.axes[old_at])
-            moved[old_at[shift > MOVED_SHARE * tol]] = True
-        at = np.flatnonzero(moved)
-        check = np.zeros(len(pts) - 1, dtype=bool)
-        check[np.clip(at - 1, 0, None)] = True
-        check[np.clip(at, None, len(pts) - 2)] = True
-        assert len(pts) > old_len
+        keep = None if keep is None else _kept_with_new(keep, where_new)
+        check = _checked_again(cutter, tol, before, pts, where_new, kept)
     else:
         worst = max(worst, unchecked)
     if origin is not None:
-        added = np.flatnonzero(origin < 0)
-        new = _take_points(pts, added)  # (with the totals of the smoothing record)
-        new_at = _insertion_rows(everything.pid, everything.t, new.pid, new.t) \
-            + np.arange(added.size)
-        pts = _merge_points(everything, new, new_at)
-        keep = None if keep_all is None else _kept_with_new(keep_all, new_at)
-    return (with_rate_record(cutter, pts) if len(pts) > n_start else pts), keep, worst
+        pts, keep = _merged_back(start, keep_start, pts, origin)
+    return RefinedChords(with_rate_record(cutter, pts) if len(pts) > len(start) else pts,
+                         keep, worst)
+
+
+def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOptions,
+                  pts: PassPoints, idx: NDArray[np.int64], machine: Machine | None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64],
+                             NDArray[np.float64] | None]:
+    """The deepest cut and the highest stand of the cutter along moves ``idx -> idx + 1``.
+
+    The cutter inside each move (tip and axis interpolated; with a 5-axis ``machine``, its
+    joints ``q``, as its control moves it: :func:`~toolpath.planning.sampling.move_gaps`)
+    is measured against the surface at three places (one Newton step from the parameters
+    between the move's ends: the foot point is then off by the fourth order of the move's
+    length; a ball moved linearly in the middle only, its gap's slopes at the ends known:
+    :func:`~toolpath.planning.sampling.ball_end_slopes`) and its extremes estimated
+    (:func:`~toolpath.planning.sampling.chord_extremes`); an extreme within 10 % of its
+    limit (``res.planned_chord_tol_mm`` below, ``res.undercut_mm`` above, see
+    :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`) is measured there.
+
+    Returns ``low`` (<= 0), ``high`` (>= 0) per move and the joints (None but 5-axis).
+    """
+    q = (solve_inverse(machine, pts.tips, pts.axes).joints
+         if machine is not None and machine.kinematics.is_five_axis else None)
+    slopes = (ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, idx)
+              if cutter.kind is CutterKind.BALL and q is None else None)
+    fractions = np.asarray(CHORD_FRACTIONS if slopes is None else BALL_FRACTIONS)
+    gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
+                                 fractions, newton=1, refine_rim=True,
+                                 **joint_moves(machine, q, idx))
+    low, u_low, high, u_high = chord_extremes(gaps, fractions, end_slopes=slopes,
+                                              with_samples=True)
+    # the model is close, not exact: where an extreme is within 10 % of its limit,
+    # measure there (a move can both cut in and stand above: both sides are checked)
+    sides = ((low, u_low, res.planned_chord_tol_mm, -1.0, np.minimum),
+             (high, u_high, res.undercut_mm, 1.0, np.maximum))
+    for value, u_at, limit, sign, further in sides:
+        # (next to a measured place the model is pinned to the measurement)
+        off_sample = np.abs(u_at[:, None] - fractions).min(axis=1) > MEASURED_NEAR_U
+        close = np.flatnonzero((np.abs(value) > 0.9 * limit) & (np.abs(value) <= limit)
+                               & (np.sign(value) == sign) & off_sample)
+        if close.size:
+            j = idx[close]
+            exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,
+                                          pts.s, j, u_at[close, None], newton=1,
+                                          refine_rim=True, **joint_moves(machine, q, j))
+            value[close] = further(value[close], exact[:, 0])
+    return low, high, q
+
+
+def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
+                    idx: NDArray[np.int64], low: NDArray[np.float64],
+                    high: NDArray[np.float64], machine: Machine | None,
+                    q: NDArray[np.float64] | None) -> NDArray[np.bool_]:
+    """Which moves ``idx`` to split.
+
+    Those cutting deeper than the chord tolerance, standing higher than the undercut
+    allowance, or (5-axis, joints ``q``) carrying the tip more than
+    :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
+
+    A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the
+    cutter radius times the axis turn) is not split: its gap is not the chord's (its ends
+    themselves stand off), and the report carries it.
+    """
+    bad = (low < -res.planned_chord_tol_mm) | (high > res.undercut_mm)
+    if q is not None and machine is not None:
+        bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
+    at = np.flatnonzero(bad)
+    j = idx[at]
+    bad[at] = _travel_mm(cutter, pts.tips[j], pts.tips[j + 1], pts.axes[j],
+                         pts.axes[j + 1]) > MIN_SPLIT_MM
+    return bad
+
+
+def _checked_again(cutter: Cutter, tol_mm: float, before: PassPoints, pts: PassPoints,
+                   where_new: NDArray[np.int64], kept: bool) -> NDArray[np.bool_]:
+    """The moves to check in the next round.
+
+    Those next to the new points, and those whose ends moved by more than
+    :data:`MOVED_SHARE` of the tolerance (where the insertion smoothed the axes again,
+    which shifts the tips and axes of their neighbours: a chord checked before is then
+    another chord).
+    """
+    moved = np.zeros(len(pts), dtype=bool)
+    moved[where_new] = True
+    if not kept:
+        old_at = np.flatnonzero(~moved)
+        shift = _travel_mm(cutter, before.tips, pts.tips[old_at], before.axes,
+                           pts.axes[old_at])
+        moved[old_at[shift > MOVED_SHARE * tol_mm]] = True
+    at = np.flatnonzero(moved)
+    check = np.zeros(len(pts) - 1, dtype=bool)
+    check[np.clip(at - 1, 0, None)] = True
+    check[np.clip(at, None, len(pts) - 2)] = True
+    return check
+
+
+def _merged_back(start: PassPoints, keep_start: NDArray[np.bool_] | None, pts: PassPoints,
+                 origin: NDArray[np.int64]
+                 ) -> tuple[PassPoints, NDArray[np.bool_] | None]:
+    """The split moves' new points (``origin < 0``) merged into the starting points."""
+    added = np.flatnonzero(origin < 0)
+    new = _take_points(pts, added)  # (with the totals of the smoothing record)
+    new_at = _insertion_rows(start.pid, start.t, new.pid, new.t) + np.arange(added.size)
+    merged = _merge_points(start, new, new_at)
+    return merged, None if keep_start is None else _kept_with_new(keep_start, new_at)
 
 
 def reach_split(surface: ParametricSurface, opts: FinishingOptions, layout: PassLayout,
