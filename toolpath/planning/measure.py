@@ -378,16 +378,17 @@ class _CutVolume:
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
 
-        Where a ball's pieces are many to a ray (joint interpolation cuts moves short), its
-        nearest pieces are tried first: a ray one of them cuts is cut whatever the others
-        do (the height is the lowest entry); the rest meet all their pieces
+        Where a ball's pieces are many to a ray (joint interpolation cuts moves short), the
+        pieces nearest to the point ``R`` up the ray (on the sheet of ball centres, where a
+        k-d tree finds them fast) are tried first: a ray one of them cuts is cut whatever
+        the others do (the height is the lowest entry); the rest meet all their pieces
         (:meth:`height`).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
         if self.ball and len(self.pass_of) > NEAREST_FIRST * len(q) > 0:
             k = min(NEAREST_FIRST, len(self.pass_of))
-            _, near = self.tree.query(q, k=k, workers=-1)
+            _, near = self.tree.query(q + self.lift * n, k=k, workers=-1)
             lo = np.arange(len(q), dtype=np.int64) * k
             out = np.isfinite(self.height(q, n, lo, lo + k, near.reshape(-1)))
             rest = np.flatnonzero(~out)
