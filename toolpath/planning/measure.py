@@ -378,15 +378,14 @@ class _CutVolume:
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
 
-        Where a ball's pieces are many to a ray (joint interpolation cuts moves short), the
-        pieces nearest to the point ``R`` up the ray (on the sheet of ball centres, where a
-        k-d tree finds them fast) are tried first: a ray one of them cuts is cut whatever
-        the others do (the height is the lowest entry); the rest meet all their pieces
-        (:meth:`height`).
+        A ball's pieces nearest to the point ``R`` up the ray (on the sheet of ball
+        centres, where a k-d tree finds them fast) are tried first: a ray one of them cuts
+        is cut whatever the others do (the height is the lowest entry); the rest meet all
+        their pieces (:meth:`height`).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
-        if self.ball and len(self.pass_of) > NEAREST_FIRST * len(q) > 0:
+        if self.ball and len(self.pass_of) >= NEAREST_FIRST and len(q):
             k = min(NEAREST_FIRST, len(self.pass_of))
             _, near = self.tree.query(q + self.lift * n, k=k, workers=-1)
             lo = np.arange(len(q), dtype=np.int64) * k
@@ -472,7 +471,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     other_lo, other_hi, other_item = ray_ranges(owner[~mine], item[~mine], m)
     big = 10.0 * volume.horizon + 1.0
     # at each end of the bracket (column 0: f <= 0, 1: f > 0), where last evaluated: |f|
-    # and min(h_own, h_other); none yet at the seed's own contact
+    # and min(h_own, h_other)
     end_f = np.full((m, 2), np.inf)
     end_h = np.zeros((m, 2))
 
@@ -487,9 +486,15 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
         end_h[active, side] = np.minimum(h_own, h_other)
         return value
 
-    # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0
+    # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0 (where
+    # it does not read so, within the search's tolerance, another pass touches there too:
+    # -horizon stands in)
+    f_tol = CUSP_HEIGHT_SHARE * volume.scallop_mm
     lo = s0.copy()
-    f_lo = np.full(m, -volume.horizon)
+    f_lo = f(s0, np.arange(m))
+    covered = f_lo >= -f_tol
+    f_lo[covered] = -volume.horizon
+    end_f[covered, 0], end_h[covered, 0] = np.inf, 0.0
     hi = np.full(m, np.nan)
     f_hi = np.full(m, np.nan)
     steps = 3
@@ -507,14 +512,15 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     act = np.flatnonzero(~np.isnan(hi))
     if not act.size:
         return result_h, result_s
-    # the crossing, from the side where the own pass stands lower (-f >= 0); the end
-    # nearer to it (the smaller |f|) gives the cusp
+    # the crossing, from the side where the own pass stands lower (-f >= 0); the ends'
+    # heights are the own pass's and the other's there, each below the crest between
+    # them: the higher is the cusp
     s_low, s_high = illinois_roots(lambda sv, rows: -f(sv, act[rows]), lo[act], hi[act],
                                    -f_lo[act], -f_hi[act], secant_steps=CUSP_SECANT_STEPS,
                                    bisect_steps=CUSP_BISECT_STEPS,
                                    x_tol=CUSP_S_SHARE * (hi[act] - lo[act]),
-                                   f_tol=CUSP_HEIGHT_SHARE * volume.scallop_mm, either_end=True)
-    high = end_f[act, 1] < end_f[act, 0]
+                                   f_tol=f_tol, either_end=True)
+    high = end_h[act, 1] > end_h[act, 0]
     result_h[act] = end_h[act, high.astype(np.int64)]
     result_s[act] = np.where(high, s_high, s_low)
     return result_h, result_s
