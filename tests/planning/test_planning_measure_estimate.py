@@ -118,7 +118,44 @@ def test_the_estimate_stands_near_the_ray_cast_seed_by_seed(monkeypatch):
     h = np.array([full.get(key, np.nan)
                   for key in zip(seen["t"].tolist(), seen["s"].tolist(), strict=True)])
     both = np.isfinite(guess) & np.isfinite(h) & (h > 0.5 * np.nanmax(h))
+    # at the passes' ends (the patch's edges t = 0, 1) the nearest pieces are the links',
+    # and the estimate reads the ridge as sunk (below the ray cast, which a dense scan of
+    # those brackets confirms): the interior's cusps, as high, are cast there
+    both &= (seen["t"] > 1e-9) & (seen["t"] < 1.0 - 1e-9)
     assert both.sum() > 100
     ratio = guess[both] / h[both]
     assert np.median(ratio) == pytest.approx(1.0, abs=0.05)
     assert ratio.min() > 0.95  # the share the ray cast is asked for leaves room
+
+
+@pytest.mark.parametrize("axis", [{"axis_mode": "3"},
+                                  {"axis_mode": "lead-tilt", "lead_deg": 10.0}])
+def test_the_cusp_search_finds_the_crest_a_dense_scan_finds(monkeypatch, axis):
+    # the Illinois search (toolpath.planning.roots) on each bracket against the highest
+    # min(h_own, h_other) over 2001 points of it: the crest of the machined surface
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+    args, _ = _measured_inputs(monkeypatch, cap, "ball:6", scallop_mm=0.02,
+                               chord_tol_mm=0.02, **axis)
+    path, surface, cutter, request, chord = args
+    volume = measure._CutVolume(path, cutter, max(10.0 * request, 0.05), request)
+    rng = np.random.default_rng(7)
+    rows = rng.choice(np.flatnonzero(chord.seeds_s < 0.9), 12, replace=False)
+    t, s0, own = chord.seeds_t[rows], chord.seeds_s[rows], chord.seeds_pass[rows]
+    s1 = np.minimum(s0 + 0.15, 1.0)
+    h, s = measure._cusps(volume, surface, t, s0, s1, own)
+    found = np.isfinite(h)
+    assert found.sum() >= 8
+    for i in np.flatnonzero(found):
+        grid = np.linspace(s0[i], s1[i], 2001)
+        x, n = surface.points_and_normals(np.full(grid.size, t[i]), grid)
+        owner, item = volume.pairs(x)
+        mine = volume.pass_of[item] == own[i]
+        h_own = volume.height(x, n, *measure.ray_ranges(owner[mine], item[mine], grid.size))
+        h_other = volume.height(x, n, *measure.ray_ranges(owner[~mine], item[~mine],
+                                                          grid.size))
+        low = np.minimum(h_own, h_other)
+        # the first crossing from the seed: where the own pass stops standing lower
+        cross = int(np.argmax(h_own > h_other))
+        crest = low[max(cross - 1, 0):cross + 1].max()
+        assert h[i] == pytest.approx(crest, rel=0.01, abs=1e-3 * request)
+        assert abs(s[i] - grid[cross]) <= 2.0 * (grid[1] - grid[0])

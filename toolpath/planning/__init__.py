@@ -63,6 +63,8 @@ blunt_edge
     An open blade's unfitted edge face, reported as left uncut.
 measure, sweep_kernel, cusp_kernel
     Scallop and chord error measured on the result (compiled sweeps, cusp estimates).
+roots
+    The one Illinois regula falsi with a bisection fallback, row by row.
 report
     ``PlanningReport``, unreachable spans and regions.
 roughing

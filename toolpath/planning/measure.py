@@ -34,7 +34,8 @@ mid-chord contact standing above the surface found by the chord measurement, at 
 nearest contact of another pass: the height ``h_own(s)`` left by the contact's own pass
 rises from 0 and the height ``h_other(s)`` left by the other passes falls to 0 at the next
 pass; the cusp is where they cross (a sign change found on 3 samples over the bracket,
-then 5 Illinois regula-falsi steps), its height ``min(h_own, h_other)``. A contact with no
+then closed by regula falsi with the Illinois rule, :mod:`.roots`), its height
+``min(h_own, h_other)``. A contact with no
 pass within that bracket borders an uncut area and has no cusp. A coarse grid (spacing
 half the cutter radius along ``t``, one stepover across) gives the uncut area; distances
 from it are taken along the surface (shortest paths over the grid), round a thin part's
@@ -62,6 +63,7 @@ from .clearance_kernel import bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
+from .roots import illinois_roots
 from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
 from .sweep_kernel import (
     capsule_entries,
@@ -336,6 +338,7 @@ class _CutVolume:
                  scallop_mm: float, machine: Machine | None = None) -> None:
         self.cutter = cutter
         self.horizon = horizon_mm
+        self.scallop_mm = scallop_mm
         joints = _checked_joints(toolpath, machine)
         a, b, xa, xb, owner, q_a, q_b = _feed_segments(toolpath, joints)
         interpolation = None if joints is None else (machine, q_a, q_b)
@@ -376,16 +379,16 @@ class _CutVolume:
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
 
-        Where a ball's pieces are many to a ray (joint interpolation cuts moves short), its
-        nearest pieces are tried first: a ray one of them cuts is cut whatever the others
-        do (the height is the lowest entry); the rest meet all their pieces
-        (:meth:`height`).
+        A ball's pieces nearest to the point ``R`` up the ray (on the sheet of ball
+        centres, where a k-d tree finds them fast) are tried first: a ray one of them cuts
+        is cut whatever the others do (the height is the lowest entry); the rest meet all
+        their pieces (:meth:`height`).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
-        if self.ball and len(self.pass_of) > NEAREST_FIRST * len(q) > 0:
+        if self.ball and len(self.pass_of) >= NEAREST_FIRST and len(q):
             k = min(NEAREST_FIRST, len(self.pass_of))
-            _, near = self.tree.query(q, k=k, workers=-1)
+            _, near = self.tree.query(q + self.lift * n, k=k, workers=-1)
             lo = np.arange(len(q), dtype=np.int64) * k
             out = np.isfinite(self.height(q, n, lo, lo + k, near.reshape(-1)))
             rest = np.flatnonzero(~out)
@@ -468,18 +471,31 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     own_lo, own_hi, own_item = ray_ranges(owner[mine], item[mine], m)
     other_lo, other_hi, other_item = ray_ranges(owner[~mine], item[~mine], m)
     big = 10.0 * volume.horizon + 1.0
+    # at each end of the bracket (column 0: f <= 0, 1: f > 0), where last evaluated: |f|
+    # and min(h_own, h_other)
+    end_f = np.full((m, 2), np.inf)
+    end_h = np.zeros((m, 2))
 
-    def f(sv: NDArray[np.float64], active: NDArray[np.int64]
-          ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-        """``h_own - h_other`` (clipped) and ``min(h_own, h_other)`` at seeds ``active``."""
+    def f(sv: NDArray[np.float64], active: NDArray[np.int64]) -> NDArray[np.float64]:
+        """``h_own - h_other`` (clipped) at seeds ``active`` (kept in ``end_f, end_h``)."""
         x, nrm = surface.points_and_normals(t[active], sv)
         h_own = volume.height(x, nrm, own_lo[active], own_hi[active], own_item)
         h_other = volume.height(x, nrm, other_lo[active], other_hi[active], other_item)
-        return np.minimum(h_own, big) - np.minimum(h_other, big), np.minimum(h_own, h_other)
+        value = np.minimum(h_own, big) - np.minimum(h_other, big)
+        side = (value > 0.0).astype(np.int64)
+        end_f[active, side] = np.abs(value)
+        end_h[active, side] = np.minimum(h_own, h_other)
+        return value
 
-    # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0
+    # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0 (where
+    # it does not read so, within the search's tolerance, another pass touches there too:
+    # -horizon stands in)
+    f_tol = CUSP_HEIGHT_SHARE * volume.scallop_mm
     lo = s0.copy()
-    f_lo = np.full(m, -volume.horizon)
+    f_lo = f(s0, np.arange(m))
+    covered = f_lo >= -f_tol
+    f_lo[covered] = -volume.horizon
+    end_f[covered, 0], end_h[covered, 0] = np.inf, 0.0
     hi = np.full(m, np.nan)
     f_hi = np.full(m, np.nan)
     steps = 3
@@ -488,7 +504,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
         open_ = np.flatnonzero(np.isnan(hi))
         if not open_.size:
             break
-        fj, _ = f(sj[open_], open_)
+        fj = f(sj[open_], open_)
         found = fj > 0.0
         hi[open_[found]], f_hi[open_[found]] = sj[open_[found]], fj[found]
         lo[open_[~found]], f_lo[open_[~found]] = sj[open_[~found]], fj[~found]
@@ -497,25 +513,32 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     act = np.flatnonzero(~np.isnan(hi))
     if not act.size:
         return result_h, result_s
-    a, b, fa, fb = lo[act], hi[act], f_lo[act], f_hi[act]
-    last_right = np.zeros(act.size, dtype=bool)
-    last_left = np.zeros(act.size, dtype=bool)
-    c = 0.5 * (a + b)
-    for _ in range(5):
-        den = fb - fa
-        c = np.where(den > 0.0, b - fb * (b - a) / np.where(den > 0.0, den, 1.0), 0.5 * (a + b))
-        c = np.clip(c, a, b)
-        fc, _ = f(c, act)
-        right = fc > 0.0
-        # Illinois: halve the end value that stayed twice running
-        fa = np.where(right, np.where(last_right, 0.5 * fa, fa), fc)
-        fb = np.where(right, fc, np.where(last_left, 0.5 * fb, fb))
-        a, b = np.where(right, a, c), np.where(right, c, b)
-        last_right, last_left = right, ~right
-    _, height = f(c, act)
-    result_h[act] = height
-    result_s[act] = c
+    # the crossing, from the side where the own pass stands lower (-f >= 0); the ends'
+    # heights are the own pass's and the other's there, each below the crest between
+    # them: the higher is the cusp
+    s_low, s_high = illinois_roots(lambda sv, rows: -f(sv, act[rows]), lo[act], hi[act],
+                                   -f_lo[act], -f_hi[act], secant_steps=CUSP_SECANT_STEPS,
+                                   bisect_steps=CUSP_BISECT_STEPS,
+                                   x_tol=CUSP_S_SHARE * (hi[act] - lo[act]),
+                                   f_tol=f_tol, either_end=True)
+    high = end_h[act, 1] > end_h[act, 0]
+    result_h[act] = end_h[act, high.astype(np.int64)]
+    result_s[act] = np.where(high, s_high, s_low)
     return result_h, result_s
+
+
+#: The cusp search (:func:`_cusps`) stops where the two heights are within this share of
+#: the requested scallop at an end of its bracket (the cusp's height then within about
+#: half of it), ...
+CUSP_HEIGHT_SHARE = 3e-3
+
+#: ... or the bracket within this share of its first width (in ``s``) ...
+CUSP_S_SHARE = 2.0 ** -24
+
+#: ... after at most these regula falsi steps and then bisections
+#: (:func:`~.roots.illinois_roots`).
+CUSP_SECANT_STEPS = 8
+CUSP_BISECT_STEPS = 16
 
 
 #: Seeds whose cusp, as estimated from the passes' own geometry, exceeds the largest cusp

@@ -26,6 +26,7 @@ from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
 from .one_way import one_way_azimuth
 from .options import AxisMode, FinishingOptions, Linking, PlannedOptions
+from .roots import illinois_roots
 from .sampling import (
     CHORD_FRACTIONS,
     ball_end_slopes,
@@ -833,41 +834,16 @@ def _reach_boundary(height: Callable[[NDArray[np.float64], NDArray[np.int64]],
     """The last reachable ``t`` in each bracket, where ``height`` crosses 0.
 
     ``height(t, rows)`` is ``n . a`` less its limit at parameters ``t`` of brackets
-    ``rows``; ``good_h >= 0 > bad_h`` at the ends. Regula falsi with the Illinois rule (an
-    end kept twice has its height halved, so the other closes in too; bisection where the
-    secant leaves the bracket) for :data:`SECANT_STEPS`, a few evaluations where the
+    ``rows``; ``good_h >= 0 > bad_h`` at the ends. Regula falsi with the Illinois rule
+    (:func:`~.roots.illinois_roots`) for :data:`SECANT_STEPS`, a few evaluations where the
     height is smooth; then bisection, which no crease or flat zero slows, until
     :data:`REACH_T_SHARE` of the bracket or :data:`REACH_HEIGHT_TOL` of the height (at a
     point evaluated here: never an end itself).
     """
-    good, bad = good_t.astype(float), bad_t.astype(float)
-    h_good, h_bad = good_h.astype(float), bad_h.astype(float)
-    above = np.full(good.size, np.inf)  # the height at the last reachable step taken
-    tol = REACH_T_SHARE * np.abs(bad - good)
-    last = np.zeros(good.size, dtype=np.int64)  # the end replaced last: +1 good, -1 bad
-
-    def open_rows(rows: NDArray[np.int64]) -> NDArray[np.int64]:
-        return rows[(np.abs(bad[rows] - good[rows]) > tol[rows])
-                    & (above[rows] > REACH_HEIGHT_TOL)]
-
-    rows = open_rows(np.arange(good.size))
-    for step in range(SECANT_STEPS + 40):
-        if not rows.size:
-            break
-        g, b, hg, hb = good[rows], bad[rows], h_good[rows], h_bad[rows]
-        x = 0.5 * (g + b)
-        if step < SECANT_STEPS:
-            secant = b - hb * (b - g) / (hb - hg)
-            x = np.where((secant - g) * (b - secant) > 0.0, secant, x)
-        hx = height(x, rows)
-        up = hx >= 0.0
-        on_good, on_bad = rows[up], rows[~up]
-        good[on_good], h_good[on_good], above[on_good] = x[up], hx[up], hx[up]
-        bad[on_bad], h_bad[on_bad] = x[~up], hx[~up]
-        h_bad[on_good[last[on_good] == 1]] *= 0.5
-        h_good[on_bad[last[on_bad] == -1]] *= 0.5
-        last[rows] = np.where(up, 1, -1)
-        rows = open_rows(rows)
+    good, _ = illinois_roots(height, good_t, bad_t, good_h, bad_h,
+                             secant_steps=SECANT_STEPS, bisect_steps=40,
+                             x_tol=REACH_T_SHARE * np.abs(bad_t - good_t),
+                             f_tol=REACH_HEIGHT_TOL)
     return good
 
 
