@@ -154,7 +154,7 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
         idx = np.flatnonzero(keep)
         final = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
                                  contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
-        far_mm = final.far_mm
+        far_mm, near_mm = final.far_mm, final.near_mm
     else:
         still = keep[idx]
         far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
