@@ -2,22 +2,21 @@
 
 The server runs in a thread on 127.0.0.1 (a free port), one thread worker, a temporary data
 folder, and the built-in simulator as stream target, slowed so that a feed hold lands
-while the program runs. Chromium is the system's (``apt-get install chromium``; `.ci/run`
-installs it); Playwright only drives it (``playwright install`` is never needed).
+while the program runs (:func:`_live_server.live_server`). Chromium is the system's
+(``apt-get install chromium``; ``make test`` installs it); Playwright only drives it
+(``playwright install`` is never needed).
 """
 
 from __future__ import annotations
 
 import os
 import shutil
-import socket
-import threading
-import time
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import pytest
+from _live_server import live_server
 
 CHROMIUM = os.environ.get("CHROMIUM", "/usr/bin/chromium")
 CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-quic",
@@ -27,7 +26,6 @@ CHROMIUM_ARGS = ["--headless=new", "--no-sandbox", "--disable-gpu", "--disable-q
                  "--enable-unsafe-swiftshader"]
 #: The simulator at 20x machine speed: the coarse job's program runs for a few seconds.
 SIMULATOR_TARGET = "simulate:x20"
-START_TIMEOUT_S = 30.0
 
 
 @dataclass
@@ -50,37 +48,15 @@ class Browser:
 
 @pytest.fixture(scope="module")
 def server(tmp_path_factory) -> Iterator[Server]:
-    import uvicorn
-
-    from streamline_cam.service import ServiceConfig, create_app
-    from streamline_cam.service.app import stop_events
-
     data_dir = tmp_path_factory.mktemp("web") / "data"
-    app = create_app(ServiceConfig(data_dir=data_dir, workers=1, executor="thread",
-                                   stream_targets={"simulator": SIMULATOR_TARGET}))
-    sock = socket.socket()
-    sock.bind(("127.0.0.1", 0))
-    port = sock.getsockname()[1]
-    uv = uvicorn.Server(uvicorn.Config(app, log_level="warning", timeout_graceful_shutdown=2))
-    thread = threading.Thread(target=uv.run, kwargs={"sockets": [sock]}, daemon=True)
-    thread.start()
-    deadline = time.monotonic() + START_TIMEOUT_S
-    while not uv.started:
-        assert thread.is_alive() and time.monotonic() < deadline, "uvicorn did not start"
-        time.sleep(0.05)
-    try:
-        yield Server(f"http://127.0.0.1:{port}", data_dir)
-    finally:
-        stop_events(app)  # an open event stream would hold the shutdown
-        uv.should_exit = True
-        thread.join(15)
-        sock.close()
+    with live_server(data_dir, stream_targets={"simulator": SIMULATOR_TARGET}) as (url, _app):
+        yield Server(url, data_dir)
 
 
 @pytest.fixture(scope="module")
 def browser(server, tmp_path_factory) -> Iterator[Browser]:
     if not Path(CHROMIUM).is_file():
-        pytest.skip(f"no chromium at {CHROMIUM} (apt-get install chromium; .ci/run does)")
+        pytest.skip(f"no chromium at {CHROMIUM} (apt-get install chromium; make test does)")
     sync_api = pytest.importorskip("playwright.sync_api",
                                    reason="playwright is a test extra: pip install -e '.[test]'")
     profile = tmp_path_factory.mktemp("chromium-profile")
