@@ -56,11 +56,11 @@ def _verified_gouge(machine_name, axis_mode, rotation, **kw):
     machine = load_machine(machine_name)
     surface = centred_on_table(Ridge(), rotation_from_spec(rotation))
     ball = parse_cutter("ball:6")
-    path, _ = plan_finishing(surface, ball, scallop_mm=0.02, chord_tol_mm=CHORD_MM,
-                             machine=machine, axis_mode=axis_mode, measure=False, **kw)
+    path, report = plan_finishing(surface, ball, scallop_mm=0.02, chord_tol_mm=CHORD_MM,
+                                  machine=machine, axis_mode=axis_mode, measure=False, **kw)
     path = refine_for_joint_interpolation(path, machine, JOINT_TOL_MM)
     return verify_toolpath(path, surface, machine, ball,
-                           options=VerifyOptions(scallop_mm=0.02)).max_gouge_mm
+                           options=VerifyOptions(scallop_mm=0.02)).max_gouge_mm, report
 
 
 @pytest.mark.parametrize("machine, axis_mode, rotation, kw", [
@@ -68,8 +68,12 @@ def _verified_gouge(machine_name, axis_mode, rotation, **kw):
     ("trunnion-ac", "lead-tilt", "y:40", {"lead_deg": 10.0}),
 ], ids=["3-axis", "5-axis"])
 def test_moves_across_a_fold_do_not_gouge(machine, axis_mode, rotation, kw, monkeypatch):
-    assert _verified_gouge(machine, axis_mode, rotation, **kw) <= CHORD_MM
+    gouge_mm, report = _verified_gouge(machine, axis_mode, rotation, **kw)
+    assert gouge_mm <= CHORD_MM
+    # the report says what the check did
+    assert report.n_fold_points > 0 and report.max_fold_lift_mm > 0.0
+    assert any(line.startswith("folds ") for line in report.lines())
     # without the check between the points, the verifier finds the fold cut
     monkeypatch.setattr(checks, "fold_moves", lambda surface, cutter, opts, res, pts, keep,
                         *checked: (pts, keep, 0, 0.0))
-    assert _verified_gouge(machine, axis_mode, rotation, **kw) > 10 * CHORD_MM
+    assert _verified_gouge(machine, axis_mode, rotation, **kw)[0] > 10 * CHORD_MM

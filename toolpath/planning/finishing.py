@@ -1012,7 +1012,8 @@ def _report(job: _Job, stages: _Stages, path: Toolpath) -> PlanningReport:
         min_clearance_mm=gouge.min_clearance_mm,
         min_concave_radius_mm=min_radius, cutter_radius_there_mm=c_there,
         n_lifted=gouge.n_lifted, max_lift_mm=gouge.max_lift_mm,
-        n_retilted=gouge.n_retilted, unreachable_spans=stages.spans,
+        n_retilted=gouge.n_retilted, n_fold_points=gouge.n_fold_points,
+        max_fold_lift_mm=gouge.max_fold_lift_mm, unreachable_spans=stages.spans,
         unreachable_regions=merge_spans(list(stages.spans)),
         unreachable_fraction=float(area[~probe.reach].sum() / max(area.sum(), 1e-300)),
         max_axis_rate_deg_per_mm=(smoothing.max_rate_deg_per_mm

@@ -173,6 +173,10 @@ class PlanningReport:
     blunt_face : BluntFace or None
         An open blade's unfitted edge face between the sections' last and first points,
         left uncut (:mod:`~toolpath.planning.blunt_edge`).
+    n_fold_points : int
+        Poses inserted into cutting moves that crossed a fold of the surface
+        (:func:`~toolpath.planning.checks.fold_moves`); ``max_fold_lift_mm`` their largest
+        lift along the tool axis, mm.
     advice : tuple of str
         Suggestions for a better plan (e.g. a flat end mill whose stepover the staircase
         of its face on slopes keeps tiny).
@@ -226,6 +230,8 @@ class PlanningReport:
     linking_reason: str = ""
     rotary_rates: RotaryRates | None = None
     blunt_face: BluntFace | None = None
+    n_fold_points: int = 0
+    max_fold_lift_mm: float = 0.0
 
     @property
     def within_request(self) -> bool:
@@ -273,6 +279,9 @@ class PlanningReport:
         if self.n_lifted or self.n_retilted:
             out.append(f"gouge avoidance   {self.n_lifted} lifted (max {self.max_lift_mm:.4f} "
                        f"mm), {self.n_retilted} re-tilted")
+        if self.n_fold_points:
+            out.append(f"folds             {self.n_fold_points} pose(s) inserted into moves "
+                       f"across a fold (max lift {self.max_fold_lift_mm:.4f} mm)")
         if self.unreachable_regions:
             out.append(f"unreachable       {100 * self.unreachable_fraction:.1f} % of the "
                        f"surface in {len(self.unreachable_regions)} region(s):")
