@@ -138,8 +138,8 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
                 keep = keep.copy()
                 keep[stuck] = False
             lifted = np.setdiff1d(where, stuck)
-            keep, _ = _lifted_moves(cutter, pts, keep, lifted, samples, opts,
-                                    res.planned_chord_tol_mm)
+            keep = _lifted_moves(cutter, pts, keep, lifted, samples, opts,
+                                 res.planned_chord_tol_mm)
             n_lifted, max_lift_mm = int(keep[lifted].sum()), float(lift.max())
         else:
             axes, tips, moved = retilt_gouges(
@@ -248,8 +248,8 @@ LIFTED_MOVE_MIN_POINTS = 4
 
 def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
                   lifted: NDArray[np.int64], samples: SurfaceSamples, opts: FinishingOptions,
-                  chord_tol_mm: float) -> tuple[NDArray[np.bool_], int]:
-    """Check the cutting moves once points were lifted; returns ``keep`` and drops.
+                  chord_tol_mm: float) -> NDArray[np.bool_]:
+    """Check the cutting moves once points were lifted; returns ``keep``.
 
     A lifted location is clear, but the straight move from it to a neighbour (chosen
     before the lift) may still cut through what the lift avoided, and where the surface
@@ -261,9 +261,8 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
     a GougeError naming it.
     """
     keep = keep.copy()
-    dropped = 0
     if not lifted.size:
-        return keep, dropped
+        return keep
     for _ in range(LIFTED_MOVE_ROUNDS):
         a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
         b_i = a_i + 1
@@ -284,8 +283,7 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
                               "a lifted neighbour); use --on-gouge retilt or a smaller cutter")
         out = np.unique(np.r_[a_i[bad], b_i[bad]])
         keep[out] = False
-        dropped += int(out.size)
-    return keep, dropped
+    return keep
 
 
 def _move_poses(pts: PassPoints, a_i: NDArray[np.int64], u: NDArray[np.float64]
@@ -401,9 +399,9 @@ def _deepest(cutter: Cutter, pts: PassPoints, a_i: NDArray[np.int64],
         lo = np.where(left, lo, x1)
         x2n = np.where(left, x1, lo + g * (hi - lo))
         x1n = np.where(left, hi - g * (hi - lo), x2)
-        f2n, s2n = np.where(left, f1, f2), np.where(left, s1, s2)
-        f1n, s1n = np.where(left, f2, f1), np.where(left, s2, s1)
-        x1, x2, f1, f2, s1, s2 = x1n, x2n, f1n, f2n, s1n, s2n
+        # the kept interior point moves to the other side (its value with it); the new
+        # point's value is evaluated below
+        x1, x2, f1, f2, s1, s2 = x1n, x2n, f2, f1, s2, s1
         new = np.where(left, x1, x2)
         f_new, s_new = clear(new)
         f1 = np.where(left, f_new, f1)
