@@ -227,12 +227,10 @@ class SurfaceFitReport:
         return out
 
 
-def _few_sections_note(n_sections: int, loo_mm: float) -> str:
-    """What the between-sections figure leaves out with fewer sections than a 4th difference."""
-    from toolpath.between_sections import WINDOW
-
+def _few_sections_note(n_sections: int, loo_mm: float, window: int) -> str:
+    """What the between-sections figure leaves out below ``window`` sections (a 4th difference)."""
     return (f"between sections: {n_sections} sections, too few for the interpolation error "
-            f"across them (a fourth difference needs {WINDOW}); the figure is the fit against "
+            f"across them (a fourth difference needs {window}); the figure is the fit against "
             f"the data interpolated across the sections only; leave-one-out (each inner "
             f"section from the other {n_sections - 1}) {loo_mm:.4f} mm")
 
@@ -251,6 +249,7 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
         raise InvalidParameterError(
             f"method must be one of {SURFACE_METHODS}, got {method!r}")
     from toolpath import as_sections, fit_bspline_surface, fit_streamline_surface
+    from toolpath.between_data import surface_between_data
     from toolpath.between_sections import WINDOW
 
     start = time.perf_counter()
@@ -264,9 +263,7 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
                                 per_interval=grid.samples_per_column(SAMPLES_PER_INTERVAL))
     notes += fairness.warnings(tol)
     if grid.n_sections < WINDOW:
-        notes.append(_few_sections_note(grid.n_sections, surface.loo_error))
-    from toolpath.between_data import surface_between_data
-
+        notes.append(_few_sections_note(grid.n_sections, surface.loo_error, WINDOW))
     between_data, data_section, data_t = surface_between_data(surface, grid)
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),

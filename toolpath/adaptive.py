@@ -199,8 +199,9 @@ def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions,
     if not options.minimax or trial.failure is not None:
         return trial
     best = trial
-    free = np.ones(trial.errors.size, bool) if held is None else ~np.isfinite(held)
-    weights = np.where(free, 1.0, held if held is not None else 1.0)
+    held = np.full(trial.errors.size, np.nan) if held is None else held
+    free = ~np.isfinite(held)
+    weights = np.where(free, 1.0, held)
     errors = trial.errors
     for _ in range(MINIMAX_STEPS):
         if not np.isfinite(errors).all():
@@ -210,8 +211,7 @@ def _polish(trial: _Trial, fit_at: FitAt, options: KnotOptions,
         if not np.isfinite(total) or total <= 0:
             break
         weights = np.maximum(weights / total * free.sum(), WEIGHT_FLOOR)
-        if held is not None:
-            weights = np.where(free, weights, held)
+        weights = np.where(free, weights, held)
         current = _try(fit_at, trial.knots, weights, errors.size)
         if current.failure is not None:
             break
@@ -306,8 +306,8 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     - one knot fewer at each stretch: knots as dense as the data, or a corner's piece
       with fewer points than coefficients, let the spline swing between the points;
     - a knot where the data's curvature jumps beside each stretch (:func:`_jump_knots`);
-    - the same knots, the polish's weights held at ``1 / slack`` around the stretches,
-      ``slack`` growing :data:`MEND_TIGHTEN` times a round there: a C2 cubic fitting a
+    - the same knots, the polish's weights held at ``1 / scale`` around the stretches
+      (``scale`` as above): a C2 cubic fitting a
       jump of the data's curvature (a nose circle meeting its flank G1) as closely as the
       dense nose asks overshoots it, like a least-squares line through a step, and rings
       concave on the flank; let go there, it spreads the turn within ``tol`` instead
@@ -328,7 +328,6 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
     most = min(_limit(options, t.size), MEND_GROWTH * n_coefficients(trial.knots))
     options = dataclasses.replace(options, max_control_points=most)
     scale = np.ones(t.size)
-    slack = np.ones(t.size)
     stretches = fair_check(trial.fit, trial.knots)
     best = (_unfairness(stretches), trial, stretches)
     stale = 0
@@ -338,7 +337,6 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
         if stale >= MEND_PATIENCE:
             break  # the mends have stopped helping (unfair data, not a fit's ripple)
         scale = np.maximum(scale, _stretch_scale(trial.knots, t, stretches, scale))
-        slack = np.maximum(slack, _stretch_scale(trial.knots, t, stretches, slack))
         # the polish's weights held around the stretches, as the tightening asks
         held = np.where(scale > 1.0, scale**2, np.nan)
         local = [
@@ -359,7 +357,7 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
             # the same knots, the points around the stretches let go: a ring after a jump
             # of the data's curvature is the fit following the jump too closely
             _refit(trial, trial.knots, t, fit_at, options,
-                   np.where(slack > 1.0, 1.0 / slack, np.nan)),
+                   np.where(scale > 1.0, 1.0 / scale, np.nan)),
         ]
         tried = _scored(local, fair_check)
         if not tried or tried[0][0] >= _unfairness(stretches):

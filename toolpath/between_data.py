@@ -44,6 +44,7 @@ from numpy.typing import NDArray
 
 from .between_sections import interpolation_errors
 from .knots import detect_corners
+from .parametrize import cumulative_parameters
 
 __all__ = ["BETWEEN_DATA_FRACTIONS", "between_data_errors", "between_data_estimate",
            "surface_between_data"]
@@ -103,7 +104,7 @@ def between_data_errors(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.fl
     corners = _corner_samples(points, t, closed)
     if closed and not corners:
         # periodic: the data curve round the loop, two samples either side for the windows
-        tau = _chord_lengths(points)
+        tau = cumulative_parameters(points)
         period = tau[-1]
         data_curve = scipy.interpolate.CubicSpline(tau, points, axis=0, bc_type="periodic")
         ext_tau = np.concatenate((tau[-3:-1] - period, tau, tau[1:3] + period))
@@ -133,19 +134,13 @@ def between_data_errors(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.fl
         if lo in skip and hi == lo + 1:
             continue
         u, values = along[lo:hi + 1], points[order[lo:hi + 1]]
-        tau = _chord_lengths(values)
+        tau = cumulative_parameters(values)
         data_curve = (scipy.interpolate.CubicSpline(tau, values, axis=0) if u.size >= 4
                       else scipy.interpolate.make_interp_spline(tau, values, k=1))
         hall = interpolation_errors(tau, values[:, None, :], centred=True)[:, 0]
         intervals = order[lo:hi]  # interval order[k] -> order[k] + 1 (mod the loop)
         _compare(fitted_at, u, tau, data_curve, hall, intervals, out, wrap=closed)
     return out
-
-
-def _chord_lengths(points: NDArray[np.float64]) -> NDArray[np.float64]:
-    """Cumulative chord length (mm) along ``points``."""
-    return np.concatenate(([0.0], np.cumsum(np.linalg.norm(np.diff(points, axis=0),
-                                                           axis=1))))
 
 
 def _compare(fitted_at, u, tau, data_curve, hall, intervals, out, *, wrap: bool) -> None:

@@ -495,10 +495,10 @@ def _nose_error(points, convex, closed, tt, x, per_interval
 
     Returns ``(deviation_mm, t_worst, t_start, t_end)`` for every checked interval.
     """
-    length = float(np.linalg.norm(np.diff(points, axis=0), axis=1).sum())
+    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
+    length = float(steps.sum())
     centres, radii, axes = _circles(points, closed)
     nose = _nose_points(radii, convex, length)
-    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
     reach = 2.0 * np.sin(np.radians(0.5 * NOSE_STEP_ARC_DEG))
     i = np.flatnonzero(nose[:-1] & nose[1:])
     i = i[(steps[i] <= reach * radii[i]) & (steps[i] <= reach * radii[i + 1])]
@@ -542,9 +542,8 @@ def _summary(stretches: list[ConcaveStretch],
     deepest = max(stretches, key=lambda s: s.depth_mm, default=None)
     worst = max(noses, key=lambda n: n[1], default=None)
     off = tuple(n for n in noses if n[1] > NEGLIGIBLE_DEPTH_MM)
-    if worst is None:
-        return Fairness(deep, deepest, 0.0, None, None, min_depth_mm, surface, off)
-    return Fairness(deep, deepest, worst[1], worst[0], worst[2], min_depth_mm, surface, off)
+    section, error_mm, t = (worst[0], worst[1], worst[2]) if worst else (None, 0.0, None)
+    return Fairness(deep, deepest, error_mm, section, t, min_depth_mm, surface, off)
 
 
 def _plane_normal(points: NDArray[np.float64]) -> NDArray[np.float64]:
