@@ -156,16 +156,26 @@ def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
     return {"toolpath_plot": Path(plot_toolpath(surface, path, out_dir / "toolpath.png"))}
 
 
-def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
-            dialect: Any, plots: bool) -> dict[str, Any]:
-    """Material-removal check of the written program against the design surface."""
+def verify_program(gcode: Path, surface: Any, machine: Any, cutter_spec: str, dialect: Any,
+                   scallop_mm: float) -> Any:
+    """Material-removal check of the program ``gcode`` against the design ``surface``.
+
+    The job's verify stage, and the service's deviation map of a finished job (which the
+    job does not keep): one check, so the map's extremes are the report's figures.
+    """
     from toolpath.planning.cutters import parse_cutter
     from verification.options import VerifyOptions
     from verification.verify import verify_file
 
-    cutter = parse_cutter(request.cutter)
-    outcome = verify_file(files["gcode"], surface, machine, cutter,
-                          dialect=dialect, options=VerifyOptions(scallop_mm=request.scallop_mm))
+    return verify_file(gcode, surface, machine, parse_cutter(cutter_spec), dialect=dialect,
+                       options=VerifyOptions(scallop_mm=scallop_mm))
+
+
+def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
+            dialect: Any, plots: bool) -> dict[str, Any]:
+    """Material-removal check of the written program against the design surface."""
+    outcome = verify_program(files["gcode"], surface, machine, request.cutter, dialect,
+                             request.scallop_mm)
     if plots:
         from verification.plotting import plot_deviation_map
 

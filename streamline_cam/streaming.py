@@ -34,10 +34,12 @@ from gcode.senders.progress import Progress
 from gcode.senders.serial_link import open_serial_link
 from machines import Machine
 
-__all__ = ["SIMULATE", "StreamControl", "make_streamer"]
+__all__ = ["GRBL_AXES", "SIMULATE", "StreamControl", "make_streamer"]
 
 #: The built-in simulator's target name (``simulate`` or ``simulate:SPEED``).
 SIMULATE: Final[str] = "simulate"
+#: Axis letters of the positions in GRBL's status reports, in report order.
+GRBL_AXES: Final[str] = "xyzabc"
 
 Streamer = Callable[..., dict[str, Any]]
 
@@ -200,7 +202,7 @@ def make_streamer(target: str, *, speed: str = "instant", baud: int = 115200,
     def stream(gcode_path: Path, machine: Machine, *,
                control: StreamControl | None = None) -> dict[str, Any]:
         if control is not None:  # GRBL reports X Y Z A B C, the machine's axes among them
-            control.axes = "".join(c for c in "xyzabc"
+            control.axes = "".join(c for c in GRBL_AXES
                                    if c.upper() in {a.letter.upper() for a in machine.axes})
         job = Job.from_text(gcode_path.read_text(encoding="ascii"), gcode_path.name)
         issues = preflight(job, machine, dialect_by_name(dialect) if dialect else None)

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["verdict_summary", "verify_excess", "verify_verdict"]
+__all__ = ["report_verdict", "verdict_summary", "verify_excess", "verify_verdict"]
 
 
 def verify_verdict(report: dict[str, Any]) -> dict[str, Any] | None:
@@ -42,11 +42,14 @@ def verify_verdict(report: dict[str, Any]) -> dict[str, Any] | None:
             "scallop_request_mm": asked, "exceeds": over}
 
 
+def report_verdict(report: dict[str, Any] | None) -> dict[str, Any] | None:
+    """The verdict a job's report carries (:func:`verify_verdict`, set by ``run_job``)."""
+    return ((report or {}).get("verify") or {}).get("verdict")
+
+
 def verify_excess(report: dict[str, Any]) -> str | None:
     """What the verifier measured beyond the request, in one line; None when nothing was."""
-    verdict = report.get("verify", {}).get("verdict") if report.get("verify") else None
-    if verdict is None:
-        verdict = verify_verdict(report)
+    verdict = report_verdict(report) or verify_verdict(report)
     if verdict is None or verdict["ok"]:
         return None
     return "; ".join(verdict["exceeds"])

@@ -16,7 +16,7 @@ from .plan import add_gouge_arguments, gouge_options
 if TYPE_CHECKING:
     from ..pipeline import JobRequest
 
-__all__ = ["register", "verify_excess"]
+__all__ = ["register"]
 
 
 def add_job_arguments(parser: argparse.ArgumentParser) -> None:

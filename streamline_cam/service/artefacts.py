@@ -17,7 +17,7 @@ import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 
@@ -60,20 +60,26 @@ def _placed_sections(job_dir: Path, record: JobRecord) -> np.ndarray:
                      str(placement["mode"])).apply(raw.points)
 
 
-def _surface_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
+def job_surface(job_dir: Path) -> Any:
+    """The fitted surface of the finished job in ``job_dir`` (placed as the job planned it)."""
     from toolpath import surface_from_dict
+
+    return surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+
+
+def _surface_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
     from toolpath.plotting import plot_surface_fit
 
-    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    surface = job_surface(job_dir)
     plot_surface_fit(_placed_sections(job_dir, record), surface, out,
                      title=f"{record.parameters.get('method', '')} fit: {record.input_name}")
 
 
 def _toolpath_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
-    from toolpath import Toolpath, surface_from_dict
+    from toolpath import Toolpath
     from toolpath.plotting_paths import plot_toolpath
 
-    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    surface = job_surface(job_dir)
     plot_toolpath(surface, Toolpath.load(job_dir / "toolpath.npz"), out,
                   title=f"toolpath: {record.input_name}")
 
@@ -81,25 +87,21 @@ def _toolpath_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
 def _deviation_plot(job_dir: Path, record: JobRecord, out: Path) -> None:
     """The verified deviation map: the job's program checked again as the job checked it.
 
-    The same check as the pipeline's verify stage (``verify_file`` of ``part.nc`` against
-    the placed surface, the job's machine, cutter, dialect and scallop), so its extremes
-    are the report's ``verify`` figures; the map itself is not kept by the job.
+    The pipeline's verify stage (:func:`~streamline_cam.pipeline.verify_program` of
+    ``part.nc`` against the placed surface, the job's machine, cutter, dialect and scallop),
+    so its extremes are the report's ``verify`` figures; the map itself is not kept by the job.
     """
     from gcode.dialects import dialect_by_name
     from machines.machine import load_machine
-    from toolpath import surface_from_dict
-    from toolpath.planning.cutters import parse_cutter
-    from verification.options import VerifyOptions
     from verification.plotting import plot_deviation_map
-    from verification.verify import verify_file
+
+    from ..pipeline import verify_program
 
     params = record.parameters
-    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
     dialect = dialect_by_name(params["dialect"]) if params.get("dialect") else None
-    outcome = verify_file(job_dir / "part.nc", surface, load_machine(params["machine"]),
-                          parse_cutter(params["cutter"]), dialect=dialect,
-                          options=VerifyOptions(scallop_mm=params["scallop_mm"]))
-    plot_deviation_map(outcome, out)
+    plot_deviation_map(verify_program(job_dir / "part.nc", job_surface(job_dir),
+                                      load_machine(params["machine"]), params["cutter"],
+                                      dialect, params["scallop_mm"]), out)
 
 
 def _renderers() -> dict[str, Renderer]:

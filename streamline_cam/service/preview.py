@@ -292,9 +292,11 @@ def job_preview(job_dir: Path, max_points: int) -> bytes:
     cache = job_dir / "preview" / f"{max_points}.json"
     if cache.is_file():
         return cache.read_bytes()
-    from toolpath import Toolpath, surface_from_dict
+    from toolpath import Toolpath
 
-    surface = surface_from_dict(json.loads((job_dir / "surface.json").read_text("utf-8")))
+    from .artefacts import job_surface
+
+    surface = job_surface(job_dir)
     body = json.dumps(preview(surface, Toolpath.load(job_dir / "toolpath.npz"),
                               max_points=max_points), separators=(",", ":")).encode()
     cache.parent.mkdir(exist_ok=True)

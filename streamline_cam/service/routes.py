@@ -30,7 +30,7 @@ from gcode.dialects import dialect_names
 from machines.machine import list_machines
 
 from ..pipeline import STAGES
-from ..verdict import verdict_summary
+from ..verdict import report_verdict, verdict_summary
 from . import artefacts, preview
 from .config import ServiceConfig
 from .events import CLOSED, HEARTBEAT_S, EventHub, sse
@@ -127,8 +127,7 @@ def _job_view(record: JobRecord, streams: list[StreamRecord] | None = None,
     progress = {stage: 0.0 for stage in _JOB_STAGES} | record.progress
     if record.state is JobState.DONE:
         progress = {stage: 1.0 for stage in progress}
-    verdict = ((record.report or {}).get("verify") or {}).get("verdict") \
-        if record.state is JobState.DONE else None
+    verdict = report_verdict(record.report) if record.state is JobState.DONE else None
     return JobView(
         verdict=None if verdict is None else ("pass" if verdict["ok"] else "exceeds"),
         summary=None if verdict is None else as_job_fields(verdict_summary(verdict)),

@@ -24,7 +24,7 @@ from typing import Any, Final
 
 from gcode.senders.errors import AlarmError, JobCancelledError
 
-from ..streaming import StreamControl
+from ..streaming import GRBL_AXES, StreamControl
 from .config import ServiceConfig
 from .runner import USER_ERRORS
 from .store import JobRecord, JobStore, StreamRecord
@@ -45,8 +45,6 @@ MakeStreamer = Callable[[str], Callable[..., dict[str, Any]]]
 
 #: Streams whose live status is kept in memory after they end (the newest ones).
 KEPT_LIVE: Final[int] = 200
-#: Axis names of the positions in status reports, in report order.
-_AXES: Final[str] = "xyzabc"
 
 
 class StreamingUnavailable(RuntimeError):
@@ -272,5 +270,5 @@ def _axes(position: tuple[float, ...] | None, names: str) -> dict[str, float] | 
     if position is None:
         return None
     if len(names) != len(position):
-        names = _AXES
+        names = GRBL_AXES
     return {name: round(float(v), 4) for name, v in zip(names, position, strict=False)}
