@@ -124,8 +124,7 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
         ring = np.append(turn, turning_angles(points[[-2, 0, 1]]))
     chords = np.diff(points, axis=0)  # chord k: sample k to k + 1
     steps = np.linalg.norm(chords, axis=1)
-    unit = chords / steps[:, None]
-    bends = np.diff(unit if ring is None else np.vstack((unit, unit[:1])), axis=0)
+    unit = chords / steps[:, None]  # closed: unit[n] then unit[0] round the seam
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
     i = 0
@@ -147,7 +146,7 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
         background = max(background, float(beside.max()) if beside.size else 0.0)
         turns = turn if ring is None else ring
         if (_continues_arc(turns, steps, i, ring is not None)
-                or _follows_trend(turns, bends, i, single, ring is not None)):
+                or _follows_trend(turns, unit, i, single, ring is not None)):
             i += 1
             continue
         if single and turn[i] >= CORNER_CONTRAST * background:
@@ -198,33 +197,49 @@ def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: in
     return False
 
 
-def _follows_trend(turns: NDArray[np.float64], bends: NDArray[np.float64], i: int,
+def _follows_trend(turns: NDArray[np.float64], unit: NDArray[np.float64], i: int,
                    single: bool, closed: bool) -> bool:
     """Whether a corner candidate's turn continues the ramp of the turns on both its sides.
 
-    ``turns[k]`` is the angle between unit chords ``k`` and ``k + 1``, ``bends[k]`` their
-    difference; the candidate turns at ``i`` (``single``) or at ``i`` and ``i + 1``. On each
-    side, turns are signed by their bend's component along the candidate's own bend (a side
-    bending away counts negative) and measured above the side's level, the median turn three
-    to six samples out: ``e₁`` beside the candidate, ``e₂`` next. A curvature rising along
-    the side grows the turns about geometrically, so the candidate's end on that side should
-    turn about ``e₁ q`` above the level, ``q = e₁ / e₂`` held to at most :data:`RAMP_LIMIT`.
-    It follows the trend, a nose and no corner, when both sides ramp (``e₁, e₂ > 0``) and on
-    neither is its end's excess turn :data:`TREND_CONTRAST` or more times the prediction.
-    A corner's sides turn at their own level up to it (``e₁ ≈ e₂ ≈ 0``). ``closed``: wrap.
+    ``turns[k]`` is the angle between unit chords ``unit[k]`` and ``unit[k + 1]``; the
+    candidate turns at ``i`` (``single``) or at ``i`` and ``i + 1``, from chord ``a`` to
+    chord ``b``. On each side, turns are signed by the sense of rotation: positive when the
+    bend ``unit[k + 1] − unit[k]`` has a positive component along ``J unit[k]``, ``J`` the
+    quarter turn from ``a`` towards ``b`` in their plane (so in any dimension, and a flank
+    bending away from the turn counts negative). They are measured above the side's level,
+    the median turn three to six samples out: ``e₁`` beside the candidate, ``e₂`` next. A
+    curvature rising along the side grows the turns about geometrically, so the candidate's
+    end on that side should turn about ``e₁ q`` above the level, ``q = e₁ / e₂`` held to at
+    most :data:`RAMP_LIMIT`. It follows the trend, a nose and no corner, when both sides
+    ramp (``e₁ > 0`` and ``e₂`` above half the largest second difference of the turns from
+    ``e₂`` outwards, so measurement noise on a flank makes no ramp) and on neither is its
+    end's excess turn :data:`TREND_CONTRAST` or more times the prediction. A corner's sides
+    turn at their own level up to it (``e₁ ≈ e₂ ≈ 0``). ``closed``: indices wrap round the
+    loop.
     """
     n = turns.size
     last = i if single else i + 1
     if not closed and (i < 3 or last + 3 >= n):
         return False
-    own = bends[np.r_[i:last + 1] % n].sum(axis=0)
+    chords = unit.shape[0]
+    across = unit[i % chords]
+    for k in (last + 1, i + 1):  # the chord after the turn; the middle one if it doubles back
+        quarter = unit[k % chords] - (unit[k % chords] @ across) * across
+        if np.linalg.norm(quarter) > 1e-6:
+            break
+    else:
+        return False
+    quarter = quarter / np.linalg.norm(quarter)
     for end, outward in ((i, -1), (last, 1)):
-        side = (end + outward * np.arange(7)) % n if closed else end + outward * np.arange(7)
-        side = side[(side >= 0) & (side < n)]
-        signed = turns[side] * np.sign(bends[side] @ own)
+        side = end + outward * np.arange(7)
+        side = side % n if closed else side[(side >= 0) & (side < n)]
+        before, after = unit[side % chords], unit[(side + 1) % chords]
+        sense = (before @ across)[:, None] * quarter - (before @ quarter)[:, None] * across
+        signed = turns[side] * np.sign(np.einsum("ij,ij->i", after - before, sense))
         level = float(np.median(signed[3:]))
         excess = signed[:3] - level  # the end, the sample beside it, the next one out
-        if excess[1] <= 0.0 or excess[2] <= 0.0:
+        scatter = 0.5 * float(np.abs(np.diff(signed[2:], 2)).max(initial=0.0))
+        if excess[1] <= 0.0 or excess[2] <= scatter:
             return False
         ramp = min(excess[1] / excess[2], RAMP_LIMIT)
         if excess[0] >= TREND_CONTRAST * ramp * excess[1]:

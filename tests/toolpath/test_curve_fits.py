@@ -378,3 +378,18 @@ def test_a_closed_section_with_thin_noses_has_no_corner_round_its_seam(roll):
     loop = np.roll(np.vstack((one, other)), roll, axis=0)
     loop = np.vstack((loop, loop[:1]))
     assert detect_corners(loop, unit_curve_parameters(loop)) == []
+
+
+def test_stacked_sections_read_a_thin_nose_and_a_corner_alike():
+    # surface fits look for corners on the sections stacked side by side, (n, 3 m)
+    def stacked(section):
+        rows = [np.c_[section * scale, np.full(len(section), z)]
+                for scale, z in ((1.0, 0.0), (1.2, 20.0), (1.5, 40.0))]
+        return np.hstack(rows)
+
+    nose = stacked(_elliptic_nose_section(0.1, 6, 4.0, 2.0))
+    assert detect_corners(nose, unit_curve_parameters(nose)) == []
+    flank = [0.0] * 12
+    wedge = stacked(_polyline_turning([*flank, 1.0, 1.0, 150.0, 1.0, 1.0, *flank]))
+    found = detect_corners(wedge, unit_curve_parameters(wedge))
+    assert [c.index for c in found] == [15]
