@@ -61,6 +61,18 @@ CORNER_CONTRAST = 4.0
 #: axes 2.5-4 : 1) sampled 10-20 points round turns 6, 14, 55, 55, 14, 6 deg: 0.4-0.5 of
 #: its arc; Ex 4's and Ex 5's corners' neighbours turn under 1/40 of theirs.
 ARC_FRACTION = 0.25
+#: A thin nose's turns ramp up towards its vertex along both sides (a 4:1 elliptic LE
+#: sampled 6 points round turns 0, 3, 9, 78, 78, 9, 3, 0 deg); a corner's sides turn at
+#: their own level up to it. Each side's ramp beside a corner candidate, held to at most
+#: this ratio per sample (a steeper step is itself a jump), predicts the candidate's turn
+#: (:func:`_follows_trend`).
+RAMP_LIMIT = CORNER_CONTRAST
+#: A candidate whose sides both ramp is a corner only when it turns this many times more
+#: than their ramps predict. An elliptic nose's curvature climbs faster than geometrically
+#: near its vertex, so the prediction falls short: by up to 4.1x on half ellipses of vertex
+#: radius 0.05-0.3 mm, axes 1-4 : 1, 6-20 points round (8 points round a 4:1 ellipse turn
+#: 2.3, 5.2, 9.7, 72.9 deg); twice that is the margin (``benchmarks/corner_sweep.py``).
+TREND_CONTRAST = 2.0 * CORNER_CONTRAST
 #: Error sweeps take a span's ``e^{1/4}`` within this factor of the median span's (so its
 #: length changes at most about this much relative to the others per sweep). Without it, on
 #: the 71-point half profile at 20 control points, spans the fit interpolated were emptied
@@ -95,7 +107,10 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     at the samples just beside it (or beside the pair): a round nose sampled at steps near
     its radius turns most at one or two samples too, but its turns ramp up to them. Nor is
     it a corner where a neighbour continues its arc (:func:`_continues_arc`): the turning
-    is concentrated in the sample(s), not spread the way the sampled arc would spread it.
+    is concentrated in the sample(s), not spread the way the sampled arc would spread it;
+    nor where the turns on both sides ramp up to it about as steeply as it stands above
+    them (:func:`_follows_trend`): a thin elliptic nose sampled with few points, whose
+    curvature climbs along both sides to its vertex.
     A closed loop (the last point equal to the first, as closed curves and sections are
     stored) is read round its seam: the samples beside the seam have neighbours on both
     sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
@@ -107,7 +122,9 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     ring = None  # closed: the turns round the loop, ring[n] at the seam
     if np.array_equal(points[0], points[-1]):
         ring = np.append(turn, turning_angles(points[[-2, 0, 1]]))
-    steps = np.linalg.norm(np.diff(points, axis=0), axis=1)  # chord k: sample k to k + 1
+    chords = np.diff(points, axis=0)  # chord k: sample k to k + 1
+    steps = np.linalg.norm(chords, axis=1)
+    unit = chords / steps[:, None]  # closed: unit[n] then unit[0] round the seam
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
     i = 0
@@ -127,7 +144,9 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
         beside = (ring[np.r_[i - 1, i + (1 if single else 2)] % ring.size] if ring is not None
                   else turn[[k for k in (i - 1, i + (1 if single else 2)) if 0 <= k < n]])
         background = max(background, float(beside.max()) if beside.size else 0.0)
-        if _continues_arc(turn if ring is None else ring, steps, i, ring is not None):
+        turns = turn if ring is None else ring
+        if (_continues_arc(turns, steps, i, ring is not None)
+                or _follows_trend(turns, unit, i, single, ring is not None)):
             i += 1
             continue
         if single and turn[i] >= CORNER_CONTRAST * background:
@@ -176,6 +195,56 @@ def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: in
         if turns[beside % n] - own >= ARC_FRACTION * total * half / length:
             return True
     return False
+
+
+def _follows_trend(turns: NDArray[np.float64], unit: NDArray[np.float64], i: int,
+                   single: bool, closed: bool) -> bool:
+    """Whether a corner candidate's turn continues the ramp of the turns on both its sides.
+
+    ``turns[k]`` is the angle between unit chords ``unit[k]`` and ``unit[k + 1]``; the
+    candidate turns at ``i`` (``single``) or at ``i`` and ``i + 1``, from chord ``a`` to
+    chord ``b``. On each side, turns are signed by the sense of rotation: positive when the
+    bend ``unit[k + 1] − unit[k]`` has a positive component along ``J unit[k]``, ``J`` the
+    quarter turn from ``a`` towards ``b`` in their plane (so in any dimension, and a flank
+    bending away from the turn counts negative). They are measured above the side's level,
+    the median turn three to six samples out: ``e₁`` beside the candidate, ``e₂`` next. A
+    curvature rising along the side grows the turns about geometrically, so the candidate's
+    end on that side should turn about ``e₁ q`` above the level, ``q = e₁ / e₂`` held to at
+    most :data:`RAMP_LIMIT`. It follows the trend, a nose and no corner, when both sides
+    ramp (``e₁ > 0`` and ``e₂`` above half the largest second difference of the turns from
+    ``e₂`` outwards, so measurement noise on a flank makes no ramp) and on neither is its
+    end's excess turn :data:`TREND_CONTRAST` or more times the prediction. A corner's sides
+    turn at their own level up to it (``e₁ ≈ e₂ ≈ 0``). ``closed``: indices wrap round the
+    loop.
+    """
+    n = turns.size
+    last = i if single else i + 1
+    if not closed and (i < 3 or last + 3 >= n):
+        return False
+    chords = unit.shape[0]
+    across = unit[i % chords]
+    for k in (last + 1, i + 1):  # the chord after the turn; the middle one if it doubles back
+        quarter = unit[k % chords] - (unit[k % chords] @ across) * across
+        if np.linalg.norm(quarter) > 1e-6:
+            break
+    else:
+        return False
+    quarter = quarter / np.linalg.norm(quarter)
+    for end, outward in ((i, -1), (last, 1)):
+        side = end + outward * np.arange(7)
+        side = side % n if closed else side[(side >= 0) & (side < n)]
+        before, after = unit[side % chords], unit[(side + 1) % chords]
+        sense = (before @ across)[:, None] * quarter - (before @ quarter)[:, None] * across
+        signed = turns[side] * np.sign(np.einsum("ij,ij->i", after - before, sense))
+        level = float(np.median(signed[3:]))
+        excess = signed[:3] - level  # the end, the sample beside it, the next one out
+        scatter = 0.5 * float(np.abs(np.diff(signed[2:], 2)).max(initial=0.0))
+        if excess[1] <= 0.0 or excess[2] <= scatter:
+            return False
+        ramp = min(excess[1] / excess[2], RAMP_LIMIT)
+        if excess[0] >= TREND_CONTRAST * ramp * excess[1]:
+            return False
+    return True
 
 
 def _between(points: NDArray[np.float64], t: NDArray[np.float64], j: int) -> float:

@@ -316,11 +316,12 @@ def _elliptic_nose_section(vertex_radius_mm, n_round, aspect, flank_step_mm):
 
 
 @pytest.mark.parametrize("radius_mm", [0.1, 0.2, 0.3])
-@pytest.mark.parametrize("n_round", [10, 15, 20])
+@pytest.mark.parametrize("n_round", [6, 7, 8, 10, 15, 20])
 def test_a_thin_round_or_elliptic_nose_is_no_corner(radius_mm, n_round):
     # its largest turns (14, 55, 55, 14 deg on a 4:1 ellipse sampled 20 points round) stand
-    # 4-8x above their neighbours, but the neighbours continue the arc those turns imply
-    for aspect in (1.0, 2.5, 4.0):
+    # 4-8x above their neighbours, but the neighbours continue the arc those turns imply;
+    # 6-8 points round a 4:1 ellipse (9, 78, 78, 9 deg) ramp up to them on both sides
+    for aspect in (1.0, 2.5, 3.0, 4.0):
         for flank_step_mm in (0.5, 2.0, 5.0):
             points = _elliptic_nose_section(radius_mm, n_round, aspect, flank_step_mm)
             assert detect_corners(points, unit_curve_parameters(points)) == [], \
@@ -351,3 +352,44 @@ def test_a_corner_between_samples_or_at_one_stays_a_corner(angle_deg):
     for example, count in ((example4, 2), (example5, 1)):
         points = example()
         assert len(detect_corners(points, unit_curve_parameters(points))) == count
+
+
+def test_turns_ramping_up_on_both_sides_are_a_nose_a_jump_above_its_sides_a_corner():
+    flank = [0.0] * 12
+    # a 4:1 elliptic nose 6 points round: the turns beside the peak ramp up to it
+    points = _polyline_turning([*flank, 3.2, 9.3, 77.6, 77.4, 9.3, 3.2, *flank], 0.3)
+    assert detect_corners(points, unit_curve_parameters(points)) == []
+    # the same peak on sides turning at their own level (3 deg a sample), or ramping on
+    # one side only, or far too gently for it: corners
+    for sides in (([3.0] * 4, [3.0] * 4), ([0.0, 0.0, 3.2, 9.3], [0.0] * 4),
+                  ([0.0, 0.0, 0.5, 1.0], [1.0, 0.5, 0.0, 0.0])):
+        points = _polyline_turning([*flank, *sides[0], 77.6, 77.4, *sides[1], *flank], 0.3)
+        found = detect_corners(points, unit_curve_parameters(points))
+        assert len(found) == 1 and abs(found[0].angle_deg - 155.0) < 1.0, sides
+
+
+@pytest.mark.parametrize("roll", [0, 14, 16, 18, 20, 36, 38, 40])
+def test_a_closed_section_with_thin_noses_has_no_corner_round_its_seam(roll):
+    # a closed thin section: a 4:1 elliptic nose 6 points round at either end of straight
+    # flanks, opened anywhere (the seam in a nose reads turns across it)
+    one = _elliptic_nose_section(0.1, 6, 4.0, 2.0)  # flanks at x = 2 ... 30 mm, 15 each
+    nose = one[15:21]
+    other = np.c_[32.0 - nose[:, 0], -nose[:, 1]]  # the same nose turned round at x = 32
+    loop = np.roll(np.vstack((one, other)), roll, axis=0)
+    loop = np.vstack((loop, loop[:1]))
+    assert detect_corners(loop, unit_curve_parameters(loop)) == []
+
+
+def test_stacked_sections_read_a_thin_nose_and_a_corner_alike():
+    # surface fits look for corners on the sections stacked side by side, (n, 3 m)
+    def stacked(section):
+        rows = [np.c_[section * scale, np.full(len(section), z)]
+                for scale, z in ((1.0, 0.0), (1.2, 20.0), (1.5, 40.0))]
+        return np.hstack(rows)
+
+    nose = stacked(_elliptic_nose_section(0.1, 6, 4.0, 2.0))
+    assert detect_corners(nose, unit_curve_parameters(nose)) == []
+    flank = [0.0] * 12
+    wedge = stacked(_polyline_turning([*flank, 1.0, 1.0, 150.0, 1.0, 1.0, *flank]))
+    found = detect_corners(wedge, unit_curve_parameters(wedge))
+    assert [c.index for c in found] == [15]

@@ -38,28 +38,28 @@ def _refusing_the_first(monkeypatch, module, problem_class, rank):
     return ranked
 
 
-def test_a_curve_fits_in_the_next_frame(monkeypatch):
+def _curve_points():
     s = np.linspace(0.0, np.pi, 60)
-    points = np.c_[40.0 * np.cos(s), 15.0 * np.sin(s), 2.0 * s]
-    ranked = _refusing_the_first(monkeypatch, streamline_curve,
-                                 streamline_curve.LogSpaceProblem,
-                                 streamline_curve._ranked_frames)
-    curve = fit_streamline_curve(points, tol=0.01)
-    assert len(ranked) >= 2
-    assert curve.frame_label == ranked[1].label and curve.max_error <= 0.01
+    return np.c_[40.0 * np.cos(s), 15.0 * np.sin(s), 2.0 * s]
 
 
-def test_a_surface_fits_in_the_next_frame(monkeypatch):
+def _surface_sections():
     t, s = np.linspace(0, 1, 40), np.linspace(0, 1, 5)
     a = 0.3 + 0.8 * t[None, :]
-    sections = np.stack([(60 + 5 * s[:, None]) * np.cos(a), (60 + 5 * s[:, None]) * np.sin(a),
-                         20 * s[:, None] + 0 * a], -1)
-    ranked = _refusing_the_first(monkeypatch, streamline_surface,
-                                 streamline_surface._GridLogProblem,
-                                 streamline_surface._ranked_frames)
-    surface = fit_streamline_surface(sections, tol=0.005)
+    return np.stack([(60 + 5 * s[:, None]) * np.cos(a), (60 + 5 * s[:, None]) * np.sin(a),
+                     20 * s[:, None] + 0 * a], -1)
+
+
+@pytest.mark.parametrize(("module", "problem", "data", "fit", "tol"), [
+    (streamline_curve, "LogSpaceProblem", _curve_points, fit_streamline_curve, 0.01),
+    (streamline_surface, "_GridLogProblem", _surface_sections, fit_streamline_surface, 0.005),
+], ids=["curve", "surface"])
+def test_a_fit_moves_to_the_next_frame(monkeypatch, module, problem, data, fit, tol):
+    ranked = _refusing_the_first(monkeypatch, module, getattr(module, problem),
+                                 module._ranked_frames)
+    fitted = fit(data(), tol=tol)
     assert len(ranked) >= 2
-    assert surface.frame_label == ranked[1].label and surface.max_error <= 0.005
+    assert fitted.frame_label == ranked[1].label and fitted.max_error <= tol
 
 
 def test_every_frame_out_of_range_names_the_cause(monkeypatch):
