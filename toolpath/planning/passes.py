@@ -604,15 +604,17 @@ class RefinedChords:
 
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                   res: PlannedOptions, layout: PassLayout, pts: PassPoints,
-                  keep: NDArray[np.bool_] | None = None, machine: Machine | None = None
-                  ) -> RefinedChords:
+                  keep: NDArray[np.bool_] | None = None, machine: Machine | None = None,
+                  *, max_rounds: int = MAX_CHORD_ROUNDS) -> RefinedChords:
     """Split chords whose mid-chord cutter-to-surface gap exceeds the chord tolerance.
 
     Each round measures the moves still to check (:func:`_gap_extremes`), picks those to
     split (:func:`_moves_to_split`), splits them into equal parameter steps, as many as the
     gap's excess needs (:data:`SPLIT_TARGET`), and checks again only the new moves and
     those whose ends moved (:func:`_checked_again`). ``keep`` (reachable points) travels
-    along: a chord between two kept points is checked; an inserted point is kept.
+    along: a chord between two kept points is checked; an inserted point is kept. After
+    ``max_rounds`` rounds (:data:`MAX_CHORD_ROUNDS`) the parts of the moves split last go
+    unchecked, and the gaps of the whole moves stand for them in ``worst_mm``.
 
     After the first round the split moves go on alone (``pts`` then holds their ends and
     new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
@@ -626,7 +628,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     origin: NDArray[np.int64] | None = None
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = unchecked = 0.0
-    for _ in range(MAX_CHORD_ROUNDS):
+    for _ in range(max_rounds):
         seg_ok = pts.same_pass & check
         if keep is not None:
             seg_ok &= keep[:-1] & keep[1:]

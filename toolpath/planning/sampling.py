@@ -220,7 +220,7 @@ _RIM = 24
 
 def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
                axes: NDArray[np.float64], t0: NDArray[np.float64], s0: NDArray[np.float64],
-               *, newton: int = 3, refine_rim: bool = False
+               *, newton: int = 3, refine_rim: bool = False, chunk: int = GAP_CHUNK
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Signed gap between the cutter and the surface near ``(t0, s0)``, mm.
 
@@ -240,7 +240,9 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     then sought by golden section within one sample step either side
     (:data:`RIM_REFINE_STEPS` projections more): round an edge much tighter than the disc
     the distance dips over a few degrees of the rim, which neither the samples nor a
-    parabola through them resolve.
+    parabola through them resolve. Flat and bull-nose cutters are measured ``chunk`` poses
+    at a time (:data:`GAP_CHUNK`: the disc's samples of every pose at once would take
+    gigabytes); the gaps do not depend on it.
 
     Returns
     -------
@@ -252,11 +254,11 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         signed, t, s = signed_distance_near(surface, tips_mm + r * axes, t0, s0,
                                             iterations=newton)
         return signed - r, t, s
-    if len(tips_mm) > GAP_CHUNK:  # the disc's samples, a chunk of poses at a time
-        parts = [cutter_gap(surface, cutter, tips_mm[i:i + GAP_CHUNK],
-                            axes[i:i + GAP_CHUNK], t0[i:i + GAP_CHUNK], s0[i:i + GAP_CHUNK],
-                            newton=newton, refine_rim=refine_rim)
-                 for i in range(0, len(tips_mm), GAP_CHUNK)]
+    if len(tips_mm) > chunk:  # the disc's samples, a chunk of poses at a time
+        parts = [cutter_gap(surface, cutter, tips_mm[i:i + chunk], axes[i:i + chunk],
+                            t0[i:i + chunk], s0[i:i + chunk], newton=newton,
+                            refine_rim=refine_rim, chunk=chunk)
+                 for i in range(0, len(tips_mm), chunk)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
     centre = tips_mm + r * axes
