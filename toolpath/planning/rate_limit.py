@@ -11,6 +11,7 @@ per pass (numba, in parallel).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -41,6 +42,35 @@ TUBE_SLACK_RAD = 1e-12
 #: Where the doubling search for a rate that fits the tube starts when the least rate is 0
 #: (rad of azimuth per unit of the pass' abscissa): the least positive rate worth a trial.
 FIRST_TRIAL_RATE = 1e-9
+
+
+class _Passes(NamedTuple):
+    """The passes' rows (``n`` of them) for the compiled rate limit.
+
+    ``normals``, ``axes`` (wanted), ``feed``, ``nominal`` (the leads to keep, or the
+    axes again), shape (n, 3); ``x``: arc length along the passes, mm.
+    """
+
+    normals: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    feed: NDArray[np.float64]
+    nominal: NDArray[np.float64]
+    x: NDArray[np.float64]
+
+
+class _RateRule(NamedTuple):
+    """What the compiled rate limit works to.
+
+    ``has_lead``: keep the leads ``nominal``; ``cos_lean``: cosine of the largest lean
+    from the normal; ``rho``: the rate limit, rad per mm; ``rounds``, ``margin``:
+    :data:`RATE_ROUNDS`, :data:`RATE_MARGIN`.
+    """
+
+    has_lead: bool
+    cos_lean: float
+    rho: float
+    rounds: int
+    margin: float
 
 
 def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
@@ -88,10 +118,11 @@ def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
     poles = _turn_axes(normals, starts)
     has_lead = nominal is not None
     out = np.empty_like(axes)
-    _limit_passes(*(np.ascontiguousarray(v, dtype=float) for v in (
-        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm, poles)), bounds,
-        has_lead, math.cos(math.radians(max_lean_deg)), math.radians(max_rate_deg_per_mm),
-        RATE_ROUNDS, RATE_MARGIN, out)
+    rows = _Passes(*(np.ascontiguousarray(v, dtype=float) for v in (
+        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm)))
+    rule = _RateRule(has_lead, math.cos(math.radians(max_lean_deg)),
+                     math.radians(max_rate_deg_per_mm), RATE_ROUNDS, RATE_MARGIN)
+    _limit_passes(rows, np.ascontiguousarray(poles, dtype=float), bounds, rule, out)
     return out
 
 
@@ -153,21 +184,19 @@ def _covariances(v, bounds, out):
 
 
 @numba.njit(cache=True, parallel=True)
-def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_lean, rho,
-                  rounds, margin, out):
+def _limit_passes(rows, poles, bounds, rule, out):
     """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel).
 
     ``poles[k]`` holds the pass's candidate turning axes: the next is tried while the
     rate is not met, and the pass keeps the slowest result.
     """
-    limit_deg = math.degrees(rho)
+    limit_deg = math.degrees(rule.rho)
     for k in numba.prange(bounds.size - 1):
         a, b = bounds[k], bounds[k + 1]
         best = np.inf
         trial = np.empty((b - a, 3))
         for c in range(poles.shape[1]):
-            rate = _limit_pass(normals, axes, feed, nominal, x, poles[k, c], a, b, has_lead,
-                               cos_lean, rho, rounds, margin, trial)
+            rate = _limit_pass(rows, poles[k, c], a, b, rule, trial)
             if rate < best or best == np.inf:
                 best = rate
                 out[a:b] = trial
@@ -176,9 +205,10 @@ def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_
 
 
 @numba.njit(cache=True)
-def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean, rho, rounds,
-                margin, out):
-    """One pass about one pole into ``out`` (``b - a`` rows); returns its largest rate."""
+def _limit_pass(rows, pole, a, b, rule, out):
+    """One pass (``rows`` ``a:b``) about one pole into ``out``; returns its largest rate."""
+    normals, axes, feed, nominal, x = rows
+    has_lead, cos_lean, rho, rounds, margin = rule
     limit_deg = math.degrees(rho)
     m = b - a
     # a basis (ex, ey) of the plane normal to the pole

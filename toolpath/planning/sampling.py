@@ -39,6 +39,7 @@ from machines.kinematics import forward
 
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface
+from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF
 from .cutters import Cutter, CutterKind, disc_basis
 from .local import (
     CONVERGED_MM,
@@ -92,7 +93,7 @@ def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
     bend = k * (1.0 - feed_radius_mm * k) + np.where(
         k > 0.0, lift_mm * np.square(turn_per_mm), 0.0)
     kappa = np.hypot(bend, frame.kg)
-    radius = 1.0 / np.maximum(kappa, 1e-12)
+    radius = 1.0 / np.maximum(kappa, FLAT_PER_MM)
     length = 2.0 * np.sqrt(np.maximum(tol_mm * (2.0 * radius - tol_mm), tol_mm * tol_mm))
     return np.minimum(length, max_segment_mm)
 
@@ -139,7 +140,7 @@ def _cumulate(t_grid, density, cum, n_seg):
         for i in range(1, t_grid.size):
             cum[p, i] = cum[p, i - 1] + 0.5 * (density[p, i] + density[p, i - 1]) * (
                 t_grid[i] - t_grid[i - 1])
-        n_seg[p] = max(math.ceil(cum[p, -1] - 1e-9), 1)
+        n_seg[p] = max(math.ceil(cum[p, -1] - LIMIT_SLACK), 1)
 
 
 @numba.njit(cache=True)
@@ -702,13 +703,14 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
     """The root of ``g'`` in ``[lo, hi]``, where it changes sign (Newton, kept bracketed).
 
     From the secant's root; a Newton step leaving the bracket is replaced by halving it;
-    done when a step moves ``u`` by under 1e-12 (the value is then exact to round-off).
+    done when a step moves ``u`` by under ``ROUND_OFF`` (the value is then exact to
+    round-off).
     """
     den = slope_lo - slope_hi
     x = lo + (hi - lo) * slope_lo / den if den != 0.0 else 0.5 * (lo + hi)
     for _ in range(40):
         slope = _gap_slope(x, a, b, c)
-        if slope == 0.0 or hi - lo < 1e-12:
+        if slope == 0.0 or hi - lo < ROUND_OFF:
             break
         if (slope < 0.0) == (slope_lo < 0.0):
             lo, slope_lo = x, slope
@@ -718,7 +720,7 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
         dp = b + 2.0 * c * x
         curve = -2.0 * p + 2.0 * (1.0 - 2.0 * x) * dp + 2.0 * c * (x - x * x)
         nxt = x - slope / curve if curve != 0.0 else 0.5 * (lo + hi)
-        if abs(nxt - x) < 1e-12:
+        if abs(nxt - x) < ROUND_OFF:
             return nxt
         x = nxt if lo < nxt < hi else 0.5 * (lo + hi)
     return x
