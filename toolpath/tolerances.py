@@ -9,8 +9,8 @@ Plain floats, so numba kernels read them as compile-time constants.
 
 from __future__ import annotations
 
-__all__ = ["ANGLE_SLACK_DEG", "LENGTH_SLACK_MM", "LIMIT_SLACK", "ROUND_OFF", "SAME_POINT_MM",
-           "TINY"]
+__all__ = ["ANGLE_SLACK_DEG", "FLAT_PER_MM", "LENGTH_SLACK_MM", "LIMIT_SLACK", "ROUND_OFF",
+           "SAME_POINT_MM", "TINY"]
 
 #: Floor of a denominator that can vanish (the length of a zero vector, the curvature of
 #: a flat, a degenerate determinant): far below any value divided by (mm, rad, their
@@ -39,3 +39,7 @@ ANGLE_SLACK_DEG = 1e-9
 
 #: :data:`LIMIT_SLACK` for lengths, mm: a nanometre, far below a machine's resolution.
 LENGTH_SLACK_MM = 1e-9
+
+#: A curvature below this (1/mm: a radius over 1e12 mm) is a plane's: the formulas for a
+#: curved surface would divide by it, and its sign (concave or convex) is round-off.
+FLAT_PER_MM = 1e-12

@@ -94,7 +94,7 @@ def test_signed_distance_of_known_points():
 
 
 @pytest.mark.parametrize("spec", ["flat:6", "bull:6:1", "bull:10:2"])
-def test_flat_and_bull_gap_matches_a_scan_of_the_whole_disc(spec, monkeypatch):
+def test_flat_and_bull_gap_matches_a_scan_of_the_whole_disc(spec):
     # the rim window facing down the surface finds what 33 samples of the disc find (or
     # lower), tool axes upright and leaning, over a sphere of radius 20 mm
     from toolpath.planning import SpherePatch
@@ -119,9 +119,7 @@ def test_flat_and_bull_gap_matches_a_scan_of_the_whole_disc(spec, monkeypatch):
     assert np.median(np.abs(gap - (scanned - r))) < 1e-5
     # in chunks of poses (the disc's samples of a million moves would take gigabytes),
     # the same gaps
-    import toolpath.planning.sampling as sampling
-
     whole, _, _ = cutter_gap(sphere, cutter, tips, axes, t, s, newton=2, refine_rim=True)
-    monkeypatch.setattr(sampling, "GAP_CHUNK", 70)
-    chunked, _, _ = cutter_gap(sphere, cutter, tips, axes, t, s, newton=2, refine_rim=True)
+    chunked, _, _ = cutter_gap(sphere, cutter, tips, axes, t, s, newton=2, refine_rim=True,
+                               chunk=70)
     np.testing.assert_array_equal(chunked, whole)

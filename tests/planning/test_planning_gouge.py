@@ -198,3 +198,27 @@ def test_pass_frame_on_a_sphere():
     np.testing.assert_allclose(basis @ basis.transpose(0, 2, 1), np.broadcast_to(
         np.eye(3), basis.shape), atol=1e-12)
     np.testing.assert_allclose(frame.normal, frame.point / 20.0, atol=1e-12)
+
+
+def test_lift_until_clear_lifts_by_the_depth_found_and_puts_back_what_it_cannot_clear():
+    # the floor z = 0: a pose 1 mm under it clears in one round, lifted 1 mm plus the
+    # tolerance; a pose whose axis runs along the floor never clears and is put back
+    from toolpath.planning.avoid import LIFT_ROUNDS, lift_until_clear
+
+    tips = np.array([[0.0, 0.0, -1.0], [5.0, 0.0, -0.5], [9.0, 0.0, 2.0]])
+    axes = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
+    calls = []
+
+    def depth_at(rows, tips_mm):
+        calls.append(rows.tolist())
+        return -tips_mm[:, 2]
+
+    lifted = lift_until_clear(tips, axes, np.array([0, 1]), np.array([1.0, 0.5]), 0.01,
+                              depth_at)
+    assert lifted.tips[0, 2] == pytest.approx(0.01)
+    assert lifted.lift_mm.tolist() == pytest.approx([1.01, 0.0, 0.0])
+    assert lifted.stuck.tolist() == [1]
+    np.testing.assert_allclose(lifted.tips[1:], tips[1:], atol=1e-12)
+    assert lifted.stuck_depth_mm.tolist() == [0.5]
+    assert lifted.stuck_lift_mm[0] == pytest.approx(LIFT_ROUNDS * 0.51)
+    assert calls == [[0, 1]] + [[1]] * (LIFT_ROUNDS - 1)

@@ -308,8 +308,7 @@ def test_least_rate_of_a_tube_is_the_steepest_pair_and_fits_it():
     assert rate_limit._least_rate(np.array([0.0, 1.0, 1.0]), np.zeros(3), np.ones(3)) == np.inf
 
 
-def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out(
-        monkeypatch):
+def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out():
     # with one round only, the split moves' parts are never checked: the estimate keeps
     # their whole moves' gaps (over the tolerance), not only the moves left whole
     surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
@@ -322,8 +321,8 @@ def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out
     start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
     settled = passes.refine_chords(surface, cutter, opts, res, layout, start).worst_mm
     assert 0.9 * res.planned_chord_tol_mm < settled <= res.planned_chord_tol_mm
-    monkeypatch.setattr(passes, "MAX_CHORD_ROUNDS", 1)
-    cut_short = passes.refine_chords(surface, cutter, opts, res, layout, start).worst_mm
+    cut_short = passes.refine_chords(surface, cutter, opts, res, layout, start,
+                                     max_rounds=1).worst_mm
     assert cut_short > res.planned_chord_tol_mm
 
 

@@ -19,6 +19,7 @@ the data spacing costs a fraction of a micrometre.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -32,8 +33,9 @@ from .local import PassFrame
 from .passes import PassPoints, frame_take
 from .tool_axis import keep_out_of_cone, lead_tilt_axes
 
-__all__ = ["GougeDepth", "depth_text", "gouge_depth_mm", "gouge_error", "lift_gouges",
-           "local_depth_mm", "measured_depth", "retilt_gouges"]
+__all__ = ["GougeDepth", "Lifted", "depth_text", "gouge_depth_mm", "gouge_error",
+           "lift_gouges", "lift_until_clear", "local_depth_mm", "measured_depth",
+           "retilt_gouges"]
 
 _RETILT_STEPS_DEG = (5.0, 10.0, 15.0, 20.0, 25.0, 30.0)
 
@@ -196,12 +198,66 @@ def gouge_error(pts: PassPoints, i: int, cutter: Cutter, depth_mm: float, cause:
 LIFT_ROUNDS = 30
 
 
+@dataclass(frozen=True, eq=False)
+class Lifted:
+    """Poses lifted along their axes until clear (:func:`lift_until_clear`).
+
+    Attributes
+    ----------
+    tips : ndarray, shape (n, 3)
+        All tips, the cleared ones lifted (the stuck ones put back).
+    lift_mm : ndarray, shape (n,)
+        Lift of each pose (0 where untouched or stuck).
+    stuck : ndarray of int
+        The poses no lift cleared.
+    stuck_depth_mm, stuck_lift_mm : ndarray, shape (len(stuck),)
+        The depth still found at each in the last round, and how far it was lifted.
+    """
+
+    tips: NDArray[np.float64]
+    lift_mm: NDArray[np.float64]
+    stuck: NDArray[np.int64]
+    stuck_depth_mm: NDArray[np.float64]
+    stuck_lift_mm: NDArray[np.float64]
+
+
+def lift_until_clear(tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                     idx: NDArray[np.int64], first_mm: NDArray[np.float64], tol_mm: float,
+                     depth_at: Callable[[NDArray[np.int64], NDArray[np.float64]],
+                                        NDArray[np.float64]]) -> Lifted:
+    """Lift poses ``idx`` along their axes until within ``tol_mm`` of the surface.
+
+    Each round lifts a pose by the depth found (``first_mm`` per pose of ``idx`` before
+    the first round, then ``depth_at(rows, tips)``: the depth of poses ``rows`` with those
+    tips) plus ``tol_mm``, and checks again; a pose still deeper than ``tol_mm`` after
+    :data:`LIFT_ROUNDS` rounds (a wall nearly parallel to the axis, which no lift clears)
+    is put back where it was and returned as stuck.
+    """
+    tips = tips_mm.copy()
+    lift = np.zeros(len(tips))
+    todo = np.asarray(idx)
+    step = first_mm + tol_mm
+    worst = np.zeros(0)
+    for _ in range(LIFT_ROUNDS):
+        tips[todo] += step[:, None] * axes[todo]
+        lift[todo] += step
+        worst = depth_at(todo, tips[todo])
+        still = worst > tol_mm
+        todo, step, worst = todo[still], worst[still] + tol_mm, worst[still]
+        if not todo.size:
+            break
+    tried = lift[todo]
+    tips[todo] -= tried[:, None] * axes[todo]
+    lift[todo] = 0.0
+    return Lifted(tips, lift, todo, worst, tried)
+
+
 def lift_gouges(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
                 idx: NDArray[np.int64], depth_mm: NDArray[np.float64],
                 samples: SurfaceSamples, *, curved: NDArray[np.bool_], tol_mm: float,
                 flutes: bool, drop: bool = False
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
-    """Lift the cutter at points ``idx`` along its axis until clear.
+    """Lift the cutter at points ``idx`` along its axis until clear (:func:`lift_until_clear`).
 
     ``depth_mm`` (all points) is the depth found at each (the larger of the sample check's
     and :func:`gouge_depth_mm`'s); after each lift the sample check is made again, and the
@@ -219,35 +275,24 @@ def lift_gouges(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
     stuck : ndarray of int
         The points no lift cleared (empty unless ``drop``).
     """
-    tips = pts.tips.copy()
-    lift = np.zeros(len(tips))
-    todo = np.asarray(idx)
-    depth = depth_mm[todo]
-    depth = np.where(np.isfinite(depth), depth, 0.0) + tol_mm
-    for _ in range(LIFT_ROUNDS):
-        tips[todo] += depth[:, None] * pts.axes[todo]
-        lift[todo] += depth
-        check = global_clearance(cutter, tips[todo], pts.axes[todo], samples, flutes=flutes)
-        worst = -check.min_mm
-        near = np.flatnonzero((worst <= tol_mm) & curved[todo])
+    def depth_at(rows: NDArray[np.int64], tips: NDArray[np.float64]) -> NDArray[np.float64]:
+        worst = -global_clearance(cutter, tips, pts.axes[rows], samples, flutes=flutes).min_mm
+        near = np.flatnonzero((worst <= tol_mm) & curved[rows])
         if near.size:
-            rows = todo[near]
-            worst[near] = measured_depth(surface, cutter, pts, rows, tips[rows],
-                                         pts.axes[rows], tol_mm).depth_mm
-        still = worst > tol_mm
-        todo, depth = todo[still], worst[still] + tol_mm
-        if not todo.size:
-            return tips, lift, todo
-    if drop:
-        tips[todo] -= lift[todo, None] * pts.axes[todo]
-        lift[todo] = 0.0
-        return tips, lift, todo
-    i = int(todo[0])
-    raise gouge_error(pts, i, cutter, float(depth[0] - tol_mm),
-                      f"lifting it {lift[i]:.4f} mm along the tool axis did not clear it "
-                      f"after {LIFT_ROUNDS} rounds (the surface there is nearly parallel to "
-                      "the axis); use a smaller cutter, or --on-gouge retilt on a 5-axis "
-                      "machine")
+            worst[near] = measured_depth(surface, cutter, pts, rows[near], tips[near],
+                                         pts.axes[rows[near]], tol_mm).depth_mm
+        return worst
+
+    first = depth_mm[np.asarray(idx)]
+    lifted = lift_until_clear(pts.tips, pts.axes, idx, np.where(np.isfinite(first), first, 0.0),
+                              tol_mm, depth_at)
+    if drop or not lifted.stuck.size:
+        return lifted.tips, lifted.lift_mm, lifted.stuck
+    raise gouge_error(pts, int(lifted.stuck[0]), cutter, float(lifted.stuck_depth_mm[0]),
+                      f"lifting it {lifted.stuck_lift_mm[0]:.4f} mm along the tool axis did "
+                      f"not clear it after {LIFT_ROUNDS} rounds (the surface there is nearly "
+                      "parallel to the axis); use a smaller cutter, or --on-gouge retilt on a "
+                      "5-axis machine")
 
 
 def measured_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,

@@ -12,7 +12,7 @@
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numpy.typing import NDArray
@@ -23,11 +23,13 @@ from machines.limits import Violation, check_rates, check_travel, min_segment_ti
 
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
+from ..tolerances import LENGTH_SLACK_MM
 from .avoid import (
-    LIFT_ROUNDS,
+    Lifted,
     depth_text,
     gouge_error,
     lift_gouges,
+    lift_until_clear,
     local_depth_mm,
     measured_depth,
     retilt_gouges,
@@ -95,17 +97,58 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     check), by the depth measured round the contact (:func:`~.avoid.gouge_depth_mm`); a
     concave radius smaller than the cutter that costs less is no gouge (a ripple of a fit).
     After a lift the cutting moves must keep within the planned chord tolerance
-    (``res.planned_chord_tol_mm``, :func:`_lifted_moves`).
+    (``res.planned_chord_tol_mm``, :func:`_lifted_moves`). Then the moves between the
+    points are checked (:func:`fold_moves`).
+    """
+    found, keep = _point_gouges(surface, cutter, opts, pts, keep, samples)
+    stats = GougeStats()
+    if found.bad.any():
+        pts, keep, stats = _fixed_gouges(surface, cutter, opts, res, pts, keep, samples, found)
+    idx, far_mm, near_mm = _clearance_after(cutter, opts, pts, keep, samples, found)
+    # between the points: moves across a fold, or next to another part of the surface
+    near_other = np.zeros(len(pts), dtype=bool)
+    near_other[idx] = np.isfinite(far_mm)
+    accepted = np.zeros(len(pts))  # gouges within gouge_tol_mm at the points
+    accepted[idx] = np.maximum(-np.minimum(far_mm, near_mm), 0.0)
+    pts, keep, n_fold_points, max_fold_lift_mm = fold_moves(
+        surface, cutter, opts, res, pts, keep, samples, near_other, accepted)
+    return pts, keep, replace(
+        stats, min_clearance_mm=float(far_mm.min()) if far_mm.size else float("inf"),
+        n_fold_points=n_fold_points, max_fold_lift_mm=max_fold_lift_mm)
+
+
+@dataclass(frozen=True, eq=False)
+class _PointGouges:
+    """The gouge checks at the kept points (:func:`_point_gouges`), rows ``idx``.
+
+    ``clr``: the sample check; ``depth_mm``: the depth near the contact (measured where
+    ``curved``: the curvature there out-curves the cutter); ``far_bad``: another part of
+    the surface cuts deeper than the tolerance; ``bad``: a kept point that gouges.
+    """
+
+    idx: NDArray[np.int64]
+    clr: Clearance
+    depth_mm: NDArray[np.float64]
+    curved: NDArray[np.bool_]
+    far_bad: NDArray[np.bool_]
+    bad: NDArray[np.bool_]
+
+
+def _point_gouges(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                  pts: PassPoints, keep: NDArray[np.bool_], samples: SurfaceSamples
+                  ) -> tuple[_PointGouges, NDArray[np.bool_]]:
+    """The sample and local checks at the kept points, and the points kept after them.
+
+    With the fixed axis, a point where another part of the surface is in the way is not
+    kept: the axis cannot get there without the tool hitting the part elsewhere.
     """
     tol = opts.gouge_tol_mm
     idx = np.flatnonzero(keep)
     rows = slice(None) if idx.size == len(pts) else idx  # (every point kept: no copies)
     clr = global_clearance(cutter, pts.tips[rows], pts.axes[rows], samples,
                            contacts_mm=pts.frame.point[rows], flutes=opts.check_flutes)
-    n_lifted, max_lift_mm, n_retilted = 0, 0.0, 0
     far_bad = clr.far_mm < -tol
     if opts.axis_mode is AxisMode.FIXED and far_bad.any():
-        # the fixed axis cannot get there without the tool hitting the part elsewhere
         keep = keep.copy()
         keep[idx[far_bad]] = False
         far_bad = np.zeros_like(far_bad)
@@ -115,62 +158,72 @@ def gouge_stage(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptio
     if maybe.size:  # the curvature says it may sink in: measure how deep
         at = idx[maybe]
         depth[maybe] = measured_depth(surface, cutter, pts, at, pts.tips[at], pts.axes[at],
-                                 stop_mm=tol).depth_mm
-    near_bad = depth > tol
-    bad = (near_bad | far_bad) & keep[idx]
-    if bad.any():
-        where = idx[bad]
-        if opts.on_gouge is OnGouge.RAISE:
-            k = int(np.flatnonzero(bad)[0])
-            raise _gouge_error(surface, cutter, pts, int(idx[k]), clr, k, samples,
-                               far=bool(far_bad[k]))
-        if opts.on_gouge is OnGouge.LIFT:
-            found = _scatter(np.maximum(depth, -clr.far_mm), idx, len(pts))
-            fixed = opts.axis_mode is AxisMode.FIXED
-            curved_all = np.zeros(len(pts), dtype=bool)
-            curved_all[idx] = curved
-            tips, lift, stuck = lift_gouges(surface, cutter, pts, where, found, samples,
-                                            curved=curved_all, tol_mm=tol,
-                                            flutes=opts.check_flutes, drop=fixed)
-            pts = with_tips(pts, pts.axes, tips)
-            if stuck.size:
-                # a wall along the fixed axis: no lift clears it, the tool cannot cut there
-                keep = keep.copy()
-                keep[stuck] = False
-            lifted = np.setdiff1d(where, stuck)
-            keep = _lifted_moves(cutter, pts, keep, lifted, samples, opts,
-                                 res.planned_chord_tol_mm)
-            n_lifted, max_lift_mm = int(keep[lifted].sum()), float(lift.max())
-        else:
-            axes, tips, moved = retilt_gouges(
-                surface, cutter, pts, where, samples, lead_deg=opts.lead_deg,
-                tilt_deg=opts.tilt_deg, min_cone_deg=opts.min_cone_deg, tol_mm=tol,
-                flutes=opts.check_flutes)
-            pts = with_tips(pts, axes, tips)
-            n_retilted = moved
-    # clearance for the report, after the fixes (without any, the first check stands for
-    # the points still kept)
-    if bad.any():
+                                      stop_mm=tol).depth_mm
+    bad = ((depth > tol) | far_bad) & keep[idx]
+    return _PointGouges(idx, clr, depth, curved, far_bad, bad), keep
+
+
+def _fixed_gouges(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                  res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
+                  samples: SurfaceSamples, found: _PointGouges
+                  ) -> tuple[PassPoints, NDArray[np.bool_], GougeStats]:
+    """``on_gouge`` at the gouging points: raise, lift (:func:`_lifted_gouges`) or re-tilt."""
+    idx, bad = found.idx, found.bad
+    if opts.on_gouge is OnGouge.RAISE:
+        k = int(np.flatnonzero(bad)[0])
+        raise _gouge_error(surface, cutter, pts, int(idx[k]), found.clr, k, samples,
+                           far=bool(found.far_bad[k]))
+    if opts.on_gouge is OnGouge.LIFT:
+        return _lifted_gouges(surface, cutter, opts, res, pts, keep, samples, found)
+    axes, tips, moved = retilt_gouges(
+        surface, cutter, pts, idx[bad], samples, lead_deg=opts.lead_deg,
+        tilt_deg=opts.tilt_deg, min_cone_deg=opts.min_cone_deg, tol_mm=opts.gouge_tol_mm,
+        flutes=opts.check_flutes)
+    return with_tips(pts, axes, tips), keep, GougeStats(n_retilted=moved)
+
+
+def _lifted_gouges(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+                   res: PlannedOptions, pts: PassPoints, keep: NDArray[np.bool_],
+                   samples: SurfaceSamples, found: _PointGouges
+                   ) -> tuple[PassPoints, NDArray[np.bool_], GougeStats]:
+    """The gouging points lifted clear (:func:`~.avoid.lift_gouges`), their moves checked.
+
+    With the fixed axis a point no lift clears (a wall along the axis) is not kept: the
+    tool cannot cut there. The lifted points' moves must keep within the planned chord
+    tolerance (:func:`_lifted_moves`).
+    """
+    idx, where = found.idx, found.idx[found.bad]
+    depth = _scatter(np.maximum(found.depth_mm, -found.clr.far_mm), idx, len(pts))
+    curved = np.zeros(len(pts), dtype=bool)
+    curved[idx] = found.curved
+    tips, lift, stuck = lift_gouges(surface, cutter, pts, where, depth, samples,
+                                    curved=curved, tol_mm=opts.gouge_tol_mm,
+                                    flutes=opts.check_flutes,
+                                    drop=opts.axis_mode is AxisMode.FIXED)
+    pts = with_tips(pts, pts.axes, tips)
+    if stuck.size:
+        keep = keep.copy()
+        keep[stuck] = False
+    lifted = np.setdiff1d(where, stuck)
+    keep = _lifted_moves(cutter, pts, keep, lifted, samples, opts, res.planned_chord_tol_mm)
+    return pts, keep, GougeStats(n_lifted=int(keep[lifted].sum()), max_lift_mm=float(lift.max()))
+
+
+def _clearance_after(cutter: Cutter, opts: FinishingOptions, pts: PassPoints,
+                     keep: NDArray[np.bool_], samples: SurfaceSamples, found: _PointGouges
+                     ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """The kept points and their far and near clearances after the fixes, mm.
+
+    Checked again where a point was fixed; without any fix, the first check stands for
+    the points still kept.
+    """
+    if found.bad.any():
         idx = np.flatnonzero(keep)
         final = global_clearance(cutter, pts.tips[idx], pts.axes[idx], samples,
                                  contacts_mm=pts.frame.point[idx], flutes=opts.check_flutes)
-        far_mm, near_mm = final.far_mm, final.near_mm
-    else:
-        still = keep[idx]
-        far_mm, near_mm = clr.far_mm[still], clr.near_mm[still]
-        idx = idx[still]
-    min_clearance_mm = float(far_mm.min()) if far_mm.size else float("inf")
-    # between the points: moves across a fold, or next to another part of the surface
-    near_other = np.zeros(len(pts), dtype=bool)
-    near_other[idx] = np.isfinite(far_mm)
-    accepted = np.zeros(len(pts))  # gouges within gouge_tol_mm at the points
-    accepted[idx] = np.maximum(-np.minimum(far_mm, near_mm), 0.0)
-    pts, keep, n_fold_points, max_fold_lift_mm = fold_moves(
-        surface, cutter, opts, res, pts, keep, samples, near_other, accepted)
-    return pts, keep, GougeStats(
-        n_lifted=n_lifted, max_lift_mm=max_lift_mm, n_retilted=n_retilted,
-        min_clearance_mm=min_clearance_mm, n_fold_points=n_fold_points,
-        max_fold_lift_mm=max_fold_lift_mm)
+        return idx, final.far_mm, final.near_mm
+    still = keep[found.idx]
+    return found.idx[still], found.clr.far_mm[still], found.clr.near_mm[still]
 
 
 #: Normals sampled between a contact and the deepest point of its gouge (to tell a fold).
@@ -437,7 +490,7 @@ def _closest_near(surface: ParametricSurface, centres: NDArray[np.float64],
     t_lo = columns[np.maximum(k - 1, 0)]
     t_hi = columns[np.minimum(k + 1, columns.size - 1)]
     ds = samples.spacing_mm / max(float(np.linalg.norm(
-        surface(0.5, 1.0) - surface(0.5, 0.0))), 1e-9)
+        surface(0.5, 1.0) - surface(0.5, 0.0))), LENGTH_SLACK_MM)
     s_lo, s_hi = np.maximum(s - 2.0 * ds, 0.0), np.minimum(s + 2.0 * ds, 1.0)
     g = 0.5 * (math.sqrt(5.0) - 1.0)
 
@@ -505,36 +558,26 @@ def _normal_depth(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
 
 def _lift_poses(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
                 idx: NDArray[np.int64], first_mm: NDArray[np.float64],
-                samples: SurfaceSamples, tol_mm: float, flutes: bool
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+                samples: SurfaceSamples, tol_mm: float, flutes: bool) -> Lifted:
     """Lift poses ``idx`` along their axes until within ``tol_mm`` of the surface.
 
-    Like :func:`~.avoid.lift_gouges` (:data:`~.avoid.LIFT_ROUNDS` rounds, each by the
-    depth still found), the depth taken from the samples and, for a ball, from the point
-    nearest its centre (:func:`_closest_near`: samples alone miss a ridge between them).
-    Returns all tips, the lifts and the poses no lift cleared (left where they were).
+    :func:`~.avoid.lift_until_clear`, the depth taken from the samples and, for a ball,
+    from the point nearest its centre (:func:`_closest_near`: samples alone miss a ridge
+    between them).
     """
-    tips = pts.tips.copy()
-    lift = np.zeros(len(tips))
-    todo, step = np.asarray(idx), first_mm + tol_mm
-    for _ in range(LIFT_ROUNDS):
-        tips[todo] += step[:, None] * pts.axes[todo]
-        lift[todo] += step
-        clr, at = _pose_clearance(cutter, tips[todo], pts.axes[todo], samples, flutes)
+    def depth_at(rows: NDArray[np.int64], tips: NDArray[np.float64]) -> NDArray[np.float64]:
+        axes = pts.axes[rows]
+        clr, at = _pose_clearance(cutter, tips, axes, samples, flutes)
         worst = -clr
         if cutter.kind is CutterKind.BALL:
-            rows = np.flatnonzero(at >= 0)
-            centres = tips[todo[rows]] + cutter.radius_mm * pts.axes[todo[rows]]
-            point, _, _ = _closest_near(surface, centres, at[rows], samples)
-            worst[rows] = np.maximum(worst[rows], cutter.radius_mm - np.linalg.norm(
+            near = np.flatnonzero(at >= 0)
+            centres = tips[near] + cutter.radius_mm * axes[near]
+            point, _, _ = _closest_near(surface, centres, at[near], samples)
+            worst[near] = np.maximum(worst[near], cutter.radius_mm - np.linalg.norm(
                 point - centres, axis=1))
-        still = worst > tol_mm
-        todo, step = todo[still], worst[still] + tol_mm
-        if not todo.size:
-            return tips, lift, todo
-    tips[todo] -= lift[todo, None] * pts.axes[todo]
-    lift[todo] = 0.0
-    return tips, lift, todo
+        return worst
+
+    return lift_until_clear(pts.tips, pts.axes, idx, first_mm, tol_mm, depth_at)
 
 
 def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -570,21 +613,7 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     lift_tol = min(opts.gouge_tol_mm, 0.5 * tol * tol / (2.0 * cutter.radius_mm))
     n_fold_points, max_fold_lift_mm = 0, 0.0
     fixed = opts.axis_mode is AxisMode.FIXED
-    a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
-    cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
-    turn = np.arccos(np.clip(cos, -1.0, 1.0))
-    # the turn the contacts' own curvature along the pass explains (the chord check's
-    # business) is no fold's
-    chord = np.linalg.norm(pts.frame.point[a_i + 1] - pts.frame.point[a_i], axis=1)
-    bend = np.maximum(np.abs(pts.frame.s11[a_i]), np.abs(pts.frame.s11[a_i + 1]))
-    unexplained = np.maximum(turn - FOLD_CURVATURE_MARGIN * chord * bend, 0.0)
-    dip = cutter.radius_mm * (1.0 - np.cos(0.5 * unexplained))
-    # a convex turn: the normals part along the move (a concave one the cutter bridges,
-    # its ends' checks see the walls)
-    parting = np.einsum("ij,ij->i", pts.frame.normal[a_i + 1] - pts.frame.normal[a_i],
-                        pts.frame.point[a_i + 1] - pts.frame.point[a_i]) > 0.0
-    a_i = a_i[((dip > FOLD_SCREEN_SHARE * tol) & parting) | near_other[a_i]
-              | near_other[a_i + 1]]
+    a_i = _fold_suspects(cutter, pts, keep, near_other, tol)
     for round_ in range(FOLD_ROUNDS + 1):
         if not a_i.size:
             break
@@ -612,17 +641,18 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
         if len(pts) > opts.max_points:
             raise too_many_points(opts, len(pts))
         # (lifted first by the sampled depth: the normal's depth at a fold is far more)
-        tips, lift, stuck = _lift_poses(surface, cutter, pts, new_at, np.maximum(
-            -worst[bad], 0.0), samples, lift_tol, opts.check_flutes)
+        lifted = _lift_poses(surface, cutter, pts, new_at, np.maximum(-worst[bad], 0.0),
+                             samples, lift_tol, opts.check_flutes)
+        stuck = lifted.stuck
         if stuck.size and not fixed:
             i = int(stuck[0])
             raise gouge_error(pts, i, cutter, float(depth[bad][np.searchsorted(new_at, i)]),
-                              f"lifting the cutter {lift[i]:.4f} mm along its axis inside the "
-                              "move from there did not clear a fold of the surface; use a "
-                              "smaller cutter")
-        pts = with_tips(pts, pts.axes, tips)
+                              f"lifting the cutter {lifted.stuck_lift_mm[0]:.4f} mm along its "
+                              "axis inside the move from there did not clear a fold of the "
+                              "surface; use a smaller cutter")
+        pts = with_tips(pts, pts.axes, lifted.tips)
         n_fold_points += int(new_at.size - stuck.size)
-        max_fold_lift_mm = max(max_fold_lift_mm, float(lift.max()))
+        max_fold_lift_mm = max(max_fold_lift_mm, float(lifted.lift_mm.max()))
         if stuck.size:  # a wall along the fixed axis: the move cannot be cut
             out = np.unique(np.r_[stuck - 1, stuck, stuck + 1])
             keep[out] = False
@@ -631,6 +661,29 @@ def fold_moves(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     if n_fold_points:
         pts = with_rate_record(cutter, pts)
     return pts, keep, n_fold_points, max_fold_lift_mm
+
+
+def _fold_suspects(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
+                   near_other: NDArray[np.bool_], tol_mm: float) -> NDArray[np.int64]:
+    """The cutting moves ``a -> a + 1`` a fold may cut (:func:`fold_moves`), their ``a``.
+
+    Those whose contacts' normals turn, beyond what their curvature along the pass
+    explains (the chord check's business), by enough for the straight move to dip
+    :data:`FOLD_SCREEN_SHARE` of ``tol_mm`` into the edge, and convex (the normals part
+    along the move: a concave turn the cutter bridges, its ends' checks see the walls);
+    and those with another part of the surface near an end (``near_other``).
+    """
+    a_i = np.flatnonzero(keep[:-1] & keep[1:] & pts.same_pass)
+    cos = np.einsum("ij,ij->i", pts.frame.normal[a_i], pts.frame.normal[a_i + 1])
+    turn = np.arccos(np.clip(cos, -1.0, 1.0))
+    chord = np.linalg.norm(pts.frame.point[a_i + 1] - pts.frame.point[a_i], axis=1)
+    bend = np.maximum(np.abs(pts.frame.s11[a_i]), np.abs(pts.frame.s11[a_i + 1]))
+    unexplained = np.maximum(turn - FOLD_CURVATURE_MARGIN * chord * bend, 0.0)
+    dip = cutter.radius_mm * (1.0 - np.cos(0.5 * unexplained))
+    parting = np.einsum("ij,ij->i", pts.frame.normal[a_i + 1] - pts.frame.normal[a_i],
+                        pts.frame.point[a_i + 1] - pts.frame.point[a_i]) > 0.0
+    return a_i[((dip > FOLD_SCREEN_SHARE * tol_mm) & parting) | near_other[a_i]
+               | near_other[a_i + 1]]
 
 
 def _scatter(values: NDArray[np.float64], idx: NDArray[np.int64], n: int

@@ -36,6 +36,7 @@ from ..errors import InvalidParameterError
 from ..joint_refine import machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
+from ..tolerances import ANGLE_SLACK_DEG, FLAT_PER_MM, LIMIT_SLACK, TINY
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
 from .blunt_edge import blunt_face
 from .checks import GougeStats, MachineStats, check_links, gouge_stage, machine_stage
@@ -132,7 +133,7 @@ def _as_machine(machine: Any, opts: FinishingOptions) -> Machine | None:
                 f"--axis lead-tilt (axis_mode='lead-tilt') needs a 5-axis machine: machine "
                 f"{mach.name!r} is 3-axis and holds the tool along +Z only; use --axis 3 or "
                 f"--machine trunnion-ac / head-table-bc", indices=[])
-        if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=1e-9):
+        if not np.allclose(opts.fixed_axis, (0.0, 0.0, 1.0), atol=LIMIT_SLACK):
             raise UnreachableOrientationError(
                 f"--fixed-axis {','.join(f'{v:g}' for v in opts.fixed_axis)} is not +Z: the "
                 f"3-axis machine {mach.name!r} holds the tool along +Z only; set the part up "
@@ -207,47 +208,90 @@ class ProbeGrid:
     advice: tuple[str, ...]
 
 
-def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-           res: PlannedOptions, t: NDArray[np.float64], s: NDArray[np.float64]
-           ) -> ProbeGrid:
+def _probe(job: _Job, t: NDArray[np.float64], s: NDArray[np.float64]) -> ProbeGrid:
     """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
 
-    Where the pass is concave (``S11 > 0``) the cusp is planned for the scallop minus the
-    allowed chord undercut (:data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`).
+    The stages: the surface frame at the nodes, the tool axes (:func:`_probe_axes`), the
+    reach, the local gouges (:func:`_probe_gouges`), the allowed step in ``s``
+    (:func:`_allowed_steps`) and the chord density (:func:`_chord_density`).
     """
     tt, ss = np.meshgrid(t, s, indexing="ij")
-    frame = pass_frame(surface, tt.ravel(), ss.ravel())
+    frame = pass_frame(job.surface, tt.ravel(), ss.ravel())
+    axes = _probe_axes(job, frame, t.size, s.size)
+    reach = _reach(job.opts, frame.normal)
+    outcurved, depth, gouging = _probe_gouges(job, frame, axes, reach, tt.ravel(), ss.ravel())
+    # the cutter's curvature along the pass at the contact
+    c11, _, _ = job.cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
+    allowed, advice = _allowed_steps(job, frame, axes, c11, reach & ~outcurved, s)
+    density = _chord_density(job, frame, c11, reach, (t.size, s.size))
+    area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
+    return ProbeGrid(t=t, s=s, frame=frame, axes=axes, reach=reach, outcurved=outcurved,
+                     depth_mm=depth, gouging=gouging, allowed_ds=allowed.min(axis=0),
+                     area=area, density=density, advice=advice)
+
+
+def _probe_axes(job: _Job, frame: PassFrame, n_t: int, n_s: int) -> NDArray[np.float64]:
+    """The tool axes at the ``n_t`` by ``n_s`` probe nodes (ravelled ``t``-major).
+
+    The nominal axes; in 5-axis with a flat face, smoothed like passes: a flat face's
+    section depends on the axis it will have, not the nominal one (smoothing a zero lead
+    on a convex surface leans the face sideways and moves the contact to its rim). The
+    probe's columns (fixed ``s``) are smoothed like passes.
+    """
+    cutter, opts = job.cutter, job.opts
     axes = nominal_axes(opts, frame.normal, frame.e1)
-    if cutter.kind is not CutterKind.BALL and opts.axis_mode is AxisMode.LEAD_TILT:
-        # a flat face's section depends on the axis it will have, not the nominal one:
-        # smoothing a zero lead on a convex surface leans the face sideways and moves the
-        # contact to its rim. The probe's columns (fixed s) are smoothed like passes.
-        by_pass = np.arange(t.size * s.size).reshape(t.size, s.size).T.ravel()
-        column = np.repeat(np.arange(s.size), t.size)
-        smoothed, _, _ = final_axes(cutter, opts, res, frame_take(frame, by_pass),
-                                    axes[by_pass], column, np.ones(column.size, np.int64))
-        axes = np.empty_like(axes)
-        axes[by_pass] = smoothed
-    reach = _reach(opts, frame.normal)
-    # where the curvature out-curves the cutter, measure how deep it actually sinks in: a
-    # gouge is a depth beyond the tolerance, not a radius (a fit's ripple costs nothing)
+    if cutter.kind is CutterKind.BALL or opts.axis_mode is not AxisMode.LEAD_TILT:
+        return axes
+    by_pass = np.arange(n_t * n_s).reshape(n_t, n_s).T.ravel()
+    column = np.repeat(np.arange(n_s), n_t)
+    smoothed, _, _ = final_axes(cutter, opts, job.res, frame_take(frame, by_pass),
+                                axes[by_pass], column, np.ones(column.size, np.int64))
+    axes = np.empty_like(axes)
+    axes[by_pass] = smoothed
+    return axes
+
+
+def _probe_gouges(job: _Job, frame: PassFrame, axes: NDArray[np.float64],
+                  reach: NDArray[np.bool_], t: NDArray[np.float64], s: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.bool_], NDArray[np.float64], NDArray[np.bool_]]:
+    """Where the surface out-curves the cutter, how deep it sinks in, and where it gouges.
+
+    Where the curvature out-curves the cutter, how deep it actually sinks in is measured
+    (:func:`~toolpath.planning.avoid.gouge_depth_mm`): a gouge is a depth beyond the
+    tolerance, not a radius (a fit's ripple costs nothing). Out-curved nodes do not set
+    the spacing: the cusp formula has no meaning where the cutter bridges the hollow.
+    Returns ``outcurved``, ``depth_mm`` (0 where not measured) and ``gouging``.
+    """
+    surface, cutter, tol_mm = job.surface, job.cutter, job.opts.gouge_tol_mm
     estimate = local_depth_mm(frame, cutter, axes)
-    flagged = reach & (estimate > opts.gouge_tol_mm)
-    # where the surface out-curves the cutter the cusp formula has no meaning (the cutter
-    # bridges the hollow): those nodes do not set the spacing
+    flagged = reach & (estimate > tol_mm)
     outcurved = reach & (estimate > 0.0)
     depth = np.zeros(flagged.size)
     at = np.flatnonzero(flagged)
     if at.size:
         depth[at] = gouge_depth_mm(
-            surface, cutter, tt.ravel()[at], ss.ravel()[at],
+            surface, cutter, t[at], s[at],
             cutter.tips_from_contacts(frame.point[at], frame.normal[at], axes[at]), axes[at],
             speed_t=frame.speed_t[at], speed_s=frame.speed_s[at]).depth_mm
-    gouging = flagged & (depth > opts.gouge_tol_mm)
-    h = np.where(frame.s11 > 1e-12, res.planned_scallop_mm - res.undercut_mm,
+    return outcurved, depth, flagged & (depth > tol_mm)
+
+
+def _allowed_steps(job: _Job, frame: PassFrame, axes: NDArray[np.float64],
+                   c11: NDArray[np.float64], sets_step: NDArray[np.bool_],
+                   s: NDArray[np.float64]) -> tuple[NDArray[np.float64], tuple[str, ...]]:
+    """The allowed step in ``s`` at each node (``len(t)`` by ``len(s)``) and the advice.
+
+    The stepover the scallop allows (:func:`~toolpath.planning.scallop.stepover_mm` for a
+    ball, :func:`~toolpath.planning.scallop.shadow_stepover_mm` for the others) over
+    ``|X_s|``; ``inf`` where the node does not set the step (``sets_step`` false). Where
+    the pass is concave (``S11 > 0``) the cusp is planned for the scallop minus the
+    allowed chord undercut (:data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`).
+    ``c11``: the cutter's curvature along the pass at the contact, 1/mm.
+    """
+    cutter, opts, res = job.cutter, job.opts, job.res
+    shape = (len(frame.s11) // len(s), len(s))  # (the nodes are ravelled t-major)
+    h = np.where(frame.s11 > FLAT_PER_MM, res.planned_scallop_mm - res.undercut_mm,
                  res.planned_scallop_mm)
-    # the cutter's curvature along the pass at the contact
-    c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     if cutter.kind is CutterKind.BALL:
         width = stepover_mm(h, cutter.radius_mm, frame.s22)
     else:
@@ -259,40 +303,44 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
         turn_radius = None
         if opts.axis_mode is AxisMode.LEAD_TILT:
             # the axis turning along the pass (round an edge) lifts the section's sides
-            grid = (len(t), len(s), 3)
+            grid = (*shape, 3)
             turn_radius = turn_radius_mm(*(v.reshape(grid) for v in (
                 frame.point, frame.normal, frame.e1, axes))).ravel()
         width = shadow_stepover_mm(h, cutter.radius_mm, cutter.corner_radius_mm,
                                    frame.normal, axes, frame.e2, frame.s22, mirrored=mirrored,
                                    turn_radius_mm=turn_radius, cutter_curvature_along_per_mm=c11)
-    width = np.where(reach & ~outcurved, width, np.inf)
-    allowed = (width / frame.speed_s).reshape(len(t), len(s))
-    advice: tuple[str, ...] = ()
-    if cutter.kind is CutterKind.FLAT:
-        ball = np.where(reach & ~outcurved, stepover_mm(h, cutter.radius_mm, frame.s22),
-                        np.inf)
-        advice = _flat_advice(allowed, (ball / frame.speed_s).reshape(allowed.shape), s)
-    area = (frame.speed_t * frame.speed_s).reshape(len(t), len(s))
-    # chord density |X_t| / L (segments per unit t) for the points along the passes
+    allowed = (np.where(sets_step, width, np.inf) / frame.speed_s).reshape(shape)
+    if cutter.kind is not CutterKind.FLAT:
+        return allowed, ()
+    ball = np.where(sets_step, stepover_mm(h, cutter.radius_mm, frame.s22), np.inf)
+    return allowed, _flat_advice(allowed, (ball / frame.speed_s).reshape(shape), s)
+
+
+def _chord_density(job: _Job, frame: PassFrame, c11: NDArray[np.float64],
+                   reach: NDArray[np.bool_], shape: tuple[int, int]) -> NDArray[np.float64]:
+    """Chord density ``|X_t| / L`` (segments per unit ``t``) at the nodes, ``shape``.
+
+    ``L`` is the chord length the chord tolerance allows
+    (:func:`~toolpath.planning.sampling.chord_length_mm`) with the cutter's radius of
+    curvature along the pass (``1 / c11``, at most its radius); on concave passes the
+    moves stand above the surface and lift the cusps, so the tolerance there is the
+    allowed undercut. 3-axis: the far side only needs points enough to end the passes'
+    cut runs (the longest moves there), but the full density next to anything reachable.
+    """
+    surface, cutter, opts, res = job.surface, job.cutter, job.opts, job.res
     big = cutter.radius_mm
     with np.errstate(divide="ignore"):
         rho_f = np.where(c11 > 0.0, np.minimum(1.0 / np.where(c11 > 0.0, c11, 1.0), big), big)
-    # concave passes: the moves stand above the surface and lift the cusps; keep them low
-    tol = np.where(frame.s11 > 1e-12, res.undercut_mm, res.planned_chord_tol_mm)
+    tol = np.where(frame.s11 > FLAT_PER_MM, res.undercut_mm, res.planned_chord_tol_mm)
     # the axis turns with the normal along the pass (5-axis): |S11| rad per mm
     axis_turn = np.abs(frame.s11) if opts.axis_mode is AxisMode.LEAD_TILT else 0.0
     length = chord_length_mm(frame, rho_f, tol, res.max_segment_mm,
                              lift_mm=cutter.corner_radius_mm, turn_per_mm=axis_turn)
-    density = (frame.speed_t / length).reshape(len(t), len(s))
-    if opts.axis_mode is AxisMode.FIXED:
-        # the far side only needs points enough to end the passes' cut runs: the longest
-        # moves there, but the full density next to anything reachable
-        near = _next_to(reach.reshape(len(t), len(s)), bool(surface.closed_t))
-        density = np.where(near, density, (frame.speed_t / res.max_segment_mm).reshape(
-            len(t), len(s)))
-    return ProbeGrid(t=t, s=s, frame=frame, axes=axes, reach=reach, outcurved=outcurved,
-                     depth_mm=depth, gouging=gouging, allowed_ds=allowed.min(axis=0),
-                     area=area, density=density, advice=advice)
+    density = (frame.speed_t / length).reshape(shape)
+    if opts.axis_mode is not AxisMode.FIXED:
+        return density
+    near = _next_to(reach.reshape(shape), bool(surface.closed_t))
+    return np.where(near, density, (frame.speed_t / res.max_segment_mm).reshape(shape))
 
 
 def _next_to(mask: NDArray[np.bool_], closed_t: bool) -> NDArray[np.bool_]:
@@ -488,6 +536,30 @@ def _spans(pts: PassPoints, keep: NDArray[np.bool_], faces_away: NDArray[np.bool
         p.tolist(), s_mid.tolist(), lo.tolist(), hi.tolist(), reason.tolist(), strict=True)]
 
 
+@dataclass(frozen=True, eq=False)
+class _RunOrder:
+    """The runs in cutting order, as arrays over them (entry ``j``: the ``j``-th cut).
+
+    ``index``: each one's index into the runs; ``first``, ``last``: the rows it cuts
+    first and last; ``consecutive``: its rows follow on in ``pts``; ``extend_first``,
+    ``extend_last``: its ends lie on an open edge; ``joined``, ``direct``: how it links to
+    the one before (:func:`_run_links`); ``rows``, ``offset``, ``length``: the rows of
+    every run end to end, where each one's start and how many.
+    """
+
+    index: NDArray[np.int64]
+    first: NDArray[np.int64]
+    last: NDArray[np.int64]
+    consecutive: NDArray[np.bool_]
+    extend_first: NDArray[np.bool_]
+    extend_last: NDArray[np.bool_]
+    joined: NDArray[np.bool_]
+    direct: NDArray[np.bool_]
+    rows: NDArray[np.int64]
+    offset: NDArray[np.int64]
+    length: NDArray[np.int64]
+
+
 def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                res: PlannedOptions, pts: PassPoints, runs: list[NDArray[np.int64]]
                ) -> list[Run]:
@@ -498,62 +570,79 @@ def _make_runs(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     another (joined, or linked directly with no extension between) as one chain, with a
     kind and pass per point (:class:`~toolpath.planning.linking.Run`).
     """
+    order = _run_order(surface, cutter, opts, res, pts, runs)
+    # a run follows on in the chain of the one before: both consecutive rows, and joined
+    # or linked directly with no extension past an edge between them
+    extended = (extends(order.extend_last[:-1], res.extend_mm)
+                | extends(order.extend_first[1:], res.extend_mm))
+    both = order.consecutive[1:] & order.consecutive[:-1]
+    follows = np.r_[False, both & (order.joined[1:] | (order.direct[1:] & ~extended))]
+    chain_start = np.flatnonzero(~follows)
+    chain_end = np.r_[chain_start[1:], len(runs)]  # (exclusive)
+    return [_chain(pts, runs, order, j, end)
+            for j, end in zip(chain_start.tolist(), chain_end.tolist(), strict=True)]
+
+
+def _run_order(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
+               res: PlannedOptions, pts: PassPoints, runs: list[NDArray[np.int64]]
+               ) -> _RunOrder:
+    """The runs in cutting order: by pass, a pass cut backwards last to first, reversed."""
     heads = np.array([run[0] for run in runs], dtype=np.int64)
     tails = np.array([run[-1] for run in runs], dtype=np.int64)
     sizes = np.array([len(run) for run in runs], dtype=np.int64)
     back = pts.direction[heads] < 0
     k = np.arange(len(runs))
-    order = np.lexsort((np.where(back, -k, k), pts.pid[heads]))
-    first = np.where(back, tails, heads)[order]
-    last = np.where(back, heads, tails)[order]
-    consecutive = (tails - heads == sizes - 1)[order]
-    closed = bool(surface.closed_t)
+    index = np.lexsort((np.where(back, -k, k), pts.pid[heads]))
+    first = np.where(back, tails, heads)[index]
+    last = np.where(back, heads, tails)[index]
+    open_edge = not surface.closed_t
     t_first, t_last = pts.t[first], pts.t[last]
-    extend_first = (not closed) & ((t_first == 0.0) | (t_first == 1.0))
-    extend_last = (not closed) & ((t_last == 0.0) | (t_last == 1.0))
-    pass_index = pts.pid[first]
-    joined, direct = _run_links(surface, cutter, opts, res, pts, first, last, pass_index)
-    # a run follows on in the chain of the one before: both consecutive rows, and joined
-    # or linked directly with no extension past an edge between them
-    extended = extends(extend_last[:-1], res.extend_mm) | extends(extend_first[1:],
-                                                                      res.extend_mm)
-    follows = np.r_[False, consecutive[1:] & consecutive[:-1] & (joined[1:] | (
-        direct[1:] & ~extended))]
-    chain_start = np.flatnonzero(~follows)
-    chain_end = np.r_[chain_start[1:], len(runs)]  # (exclusive)
+    joined, direct = _run_links(surface, cutter, opts, res, pts, first, last, pts.pid[first])
     # the rows of every consecutive run in cutting order, end to end
     length = np.abs(last - first) + 1
     offset = np.cumsum(length) - length
     step = np.where(last >= first, 1, -1)
-    rows_all = (np.repeat(first - step * offset, length)
-                + np.repeat(step, length) * np.arange(int(length.sum())))
-    normal_first, normal_last = pts.frame.normal[first], pts.frame.normal[last]
-    feed_first = pts.frame.e1[first] * pts.direction[first, None]
-    feed_last = pts.frame.e1[last] * pts.direction[last, None]
-    out: list[Run] = []
-    for j, end in zip(chain_start.tolist(), chain_end.tolist(), strict=True):
-        i = int(order[j])
-        point_kinds = point_passes = None
-        if end - j > 1:  # a chain: its runs' rows end to end
-            rows: slice | NDArray[np.int64] = rows_all[offset[j]:offset[end - 1]
-                                                      + length[end - 1]]
-            point_kinds = np.full(rows.size, MoveKind.CUT, dtype=np.uint8)
-            point_kinds[offset[j + 1:end] - offset[j]] = np.where(
-                joined[j + 1:end], MoveKind.CUT, MoveKind.LINK)
-            point_passes = np.repeat(pass_index[j:end], length[j:end])
-        elif consecutive[j]:  # consecutive rows: a view
-            a, b = int(first[j]), int(last[j])
-            rows = slice(a, b + 1) if a <= b else slice(a, b - 1 if b > 0 else None, -1)
-        else:  # two stretches joined across a closed section's seam
-            rows = runs[i][::-1] if back[i] else runs[i]
-        out.append(Run(
-            tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pass_index[j]),
-            normal_start=normal_first[j], normal_end=normal_last[end - 1],
-            feed_start=feed_first[j], feed_end=feed_last[end - 1],
-            extend_start=bool(extend_first[j]), extend_end=bool(extend_last[end - 1]),
-            joined=bool(joined[j]), direct_link=bool(direct[j]), point_kinds=point_kinds,
-            point_passes=point_passes))
-    return out
+    rows = (np.repeat(first - step * offset, length)
+            + np.repeat(step, length) * np.arange(int(length.sum())))
+    return _RunOrder(index=index, first=first, last=last,
+                     consecutive=(tails - heads == sizes - 1)[index],
+                     extend_first=open_edge & ((t_first == 0.0) | (t_first == 1.0)),
+                     extend_last=open_edge & ((t_last == 0.0) | (t_last == 1.0)),
+                     joined=joined, direct=direct, rows=rows, offset=offset, length=length)
+
+
+def _chain(pts: PassPoints, runs: list[NDArray[np.int64]], order: _RunOrder, j: int,
+           end: int) -> Run:
+    """The :class:`~toolpath.planning.linking.Run` of the runs ``j`` to ``end - 1`` in order.
+
+    A chain of several: their rows end to end, with a kind and pass per point; a run of
+    consecutive rows: a view; two stretches joined across a closed section's seam: their
+    rows.
+    """
+    i = int(order.index[j])
+    point_kinds = point_passes = None
+    offset, length = order.offset, order.length
+    if end - j > 1:
+        rows: slice | NDArray[np.int64] = order.rows[offset[j]:offset[end - 1]
+                                                     + length[end - 1]]
+        point_kinds = np.full(rows.size, MoveKind.CUT, dtype=np.uint8)
+        point_kinds[offset[j + 1:end] - offset[j]] = np.where(
+            order.joined[j + 1:end], MoveKind.CUT, MoveKind.LINK)
+        point_passes = np.repeat(pts.pid[order.first[j:end]], length[j:end])
+    elif order.consecutive[j]:
+        a, b = int(order.first[j]), int(order.last[j])
+        rows = slice(a, b + 1) if a <= b else slice(a, b - 1 if b > 0 else None, -1)
+    else:
+        rows = runs[i][::-1] if pts.direction[runs[i][0]] < 0 else runs[i]
+    start, stop = int(order.first[j]), int(order.last[end - 1])
+    return Run(
+        tips=pts.tips[rows], axes=pts.axes[rows], pass_index=int(pts.pid[start]),
+        normal_start=pts.frame.normal[start], normal_end=pts.frame.normal[stop],
+        feed_start=pts.frame.e1[start] * pts.direction[start],
+        feed_end=pts.frame.e1[stop] * pts.direction[stop],
+        extend_start=bool(order.extend_first[j]), extend_end=bool(order.extend_last[end - 1]),
+        joined=bool(order.joined[j]), direct_link=bool(order.direct[j]),
+        point_kinds=point_kinds, point_passes=point_passes)
 
 
 def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -740,11 +829,11 @@ def _probe_stage(job: _Job) -> ProbeGrid:
     :data:`COARSE_PROBE_S`) tells how fine: :data:`PROBE_LEVELS_PER_PASS` levels per pass
     of its smallest step, columns by :func:`_probe_columns`.
     """
-    surface, cutter, opts, res = job.surface, job.cutter, job.opts, job.res
+    surface, cutter, opts = job.surface, job.cutter, job.opts
     n_t, n_s = opts.probe_t, opts.probe_s
     coarse: ProbeGrid | None = None
     if n_t is None or n_s is None:
-        coarse = _probe(surface, cutter, opts, res, _probe_t(surface, COARSE_PROBE_T),
+        coarse = _probe(job, _probe_t(surface, COARSE_PROBE_T),
                         np.linspace(0.0, 1.0, COARSE_PROBE_S))
         if n_s is None:
             allowed = coarse.allowed_ds[np.isfinite(coarse.allowed_ds)]
@@ -754,7 +843,7 @@ def _probe_stage(job: _Job) -> ProbeGrid:
             n_t = _probe_columns(coarse.t, coarse.density)
     t_probe = coarse.t if n_t == COARSE_PROBE_T and coarse is not None else \
         _probe_t(surface, n_t)
-    probe = _probe(surface, cutter, opts, res, t_probe, np.linspace(0.0, 1.0, n_s))
+    probe = _probe(job, t_probe, np.linspace(0.0, 1.0, n_s))
     if not np.isfinite(probe.allowed_ds).any() and not probe.outcurved.any():
         raise UnreachableRegionError(
             f"no part of the surface faces the fixed tool axis {opts.fixed_axis!r} "
@@ -901,7 +990,7 @@ def _check_tilt_reach(pts: PassPoints, keep: NDArray[np.bool_], opts: FinishingO
     if not np.isfinite(cap) or mach is None or not mach.kinematics.is_five_axis:
         return
     reach_n = angle_deg(pts.frame.normal, np.array([0.0, 0.0, 1.0])) - opts.max_lean_deg
-    bad = np.flatnonzero(keep & (reach_n > cap + 1e-9))
+    bad = np.flatnonzero(keep & (reach_n > cap + ANGLE_SLACK_DEG))
     if not bad.size:
         return
     i = int(bad[0])
@@ -934,7 +1023,7 @@ WORKING_SIDE_MIN = 0.3
 def _working_side(probe: ProbeGrid) -> NDArray[np.float64] | None:
     """Area-weighted mean normal of the probe grid (unit), or None when they cancel."""
     weights = probe.area.ravel()
-    mean = (weights @ probe.frame.normal) / max(weights.sum(), 1e-300)
+    mean = (weights @ probe.frame.normal) / max(weights.sum(), TINY)
     size = float(np.linalg.norm(mean))
     return mean / size if size >= WORKING_SIDE_MIN else None
 
@@ -984,7 +1073,7 @@ def _concave_radius(cutter: Cutter, stages: _Stages) -> tuple[float, float]:
     frame, axes, at = ((pts.frame, pts.axes, cut_at[i]) if i < cut_at.size else
                        (probe.frame, probe.axes, reach_at[i - cut_at.size]))
     margin = float(local_margin(frame_take(frame, np.array([at])), cutter, axes[at][None])[0])
-    return 1.0 / float(kmax[i]), 1.0 / max(margin + float(kmax[i]), 1e-12)
+    return 1.0 / float(kmax[i]), 1.0 / max(margin + float(kmax[i]), FLAT_PER_MM)
 
 
 def _report(job: _Job, stages: _Stages, path: Toolpath) -> PlanningReport:
@@ -1015,7 +1104,7 @@ def _report(job: _Job, stages: _Stages, path: Toolpath) -> PlanningReport:
         n_retilted=gouge.n_retilted, n_fold_points=gouge.n_fold_points,
         max_fold_lift_mm=gouge.max_fold_lift_mm, unreachable_spans=stages.spans,
         unreachable_regions=merge_spans(list(stages.spans)),
-        unreachable_fraction=float(area[~probe.reach].sum() / max(area.sum(), 1e-300)),
+        unreachable_fraction=float(area[~probe.reach].sum() / max(area.sum(), TINY)),
         max_axis_rate_deg_per_mm=(smoothing.max_rate_deg_per_mm
                                   if five_axis and smoothing is not None else None),
         cone_pushed=pts.cone_pushed,

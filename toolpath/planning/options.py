@@ -303,6 +303,7 @@ class FinishingOptions:
     progress: ProgressCallback | None = None
 
     def __post_init__(self) -> None:
+        """Check every option (naming it), and store the checked values."""
         put = object.__setattr__
         put(self, "scallop_mm", _length(self.scallop_mm, "scallop_mm"))
         put(self, "chord_tol_mm", _length(self.chord_tol_mm, "chord_tol_mm"))
@@ -310,6 +311,15 @@ class FinishingOptions:
         put(self, "linking", _choice(Linking, self.linking, "linking"))
         put(self, "on_gouge", _choice(OnGouge, self.on_gouge, "on_gouge"))
         put(self, "on_limit", _choice(OnLimit, self.on_limit, "on_limit"))
+        self._check_angles()
+        self._check_fixed_axis()
+        self._check_lengths()
+        self._check_steps()
+        self._check_combinations()
+
+    def _check_angles(self) -> None:
+        """Lead, tilt, lead-in angle, lean, reach margin and tilt limit, deg."""
+        put = object.__setattr__
         put(self, "lead_deg", _angle(self.lead_deg, "lead_deg", 80.0))
         put(self, "tilt_deg", _angle(self.tilt_deg, "tilt_deg", 80.0))
         put(self, "lead_angle_deg", _angle(self.lead_angle_deg, "lead_angle_deg", 180.0))
@@ -329,12 +339,20 @@ class FinishingOptions:
             if self.max_tilt_deg <= 0.0:
                 raise InvalidParameterError(
                     f"max_tilt_deg must be > 0 deg, got {self.max_tilt_deg!r}")
+
+    def _check_fixed_axis(self) -> None:
+        """The fixed tool axis: a non-zero 3-vector, stored unit."""
+        put = object.__setattr__
         axis = np.asarray(self.fixed_axis, dtype=float)
         if axis.shape != (3,) or not np.isfinite(axis).all() or np.linalg.norm(axis) < 1e-9:
             raise InvalidParameterError(
                 f"fixed_axis must be a non-zero 3-vector, got {self.fixed_axis!r}")
         axis = axis / np.linalg.norm(axis)
         put(self, "fixed_axis", (float(axis[0]), float(axis[1]), float(axis[2])))
+
+    def _check_lengths(self) -> None:
+        """Feeds, clearances, tolerances and lengths: positive (or zero where allowed)."""
+        put = object.__setattr__
         for name in ("feed_mm_per_min", "clearance_mm"):
             put(self, name, _length(getattr(self, name), name))
         for name in ("approach_mm", "gouge_tol_mm", "coordinate_step_mm"):
@@ -348,6 +366,10 @@ class FinishingOptions:
             if value is not None:
                 zero_ok = name in ("lead_radius_mm", "link_max_mm", "axis_smoothing_mm")
                 put(self, name, _length(value, name, allow_zero=zero_ok))
+
+    def _check_steps(self) -> None:
+        """The G-code's angle step, the cone kept out of, the probe grid and point budget."""
+        put = object.__setattr__
         put(self, "angle_step_deg", _angle(self.angle_step_deg, "angle_step_deg", 1.0))
         if self.angle_step_deg < 0.0:
             raise InvalidParameterError(
@@ -368,6 +390,9 @@ class FinishingOptions:
         if not isinstance(self.max_points, int) or self.max_points < 2:
             raise InvalidParameterError(f"max_points must be an integer >= 2, got "
                                         f"{self.max_points!r}")
+
+    def _check_combinations(self) -> None:
+        """Options that need another: lead and tilt need 5-axis, and so does re-tilting."""
         if self.axis_mode is AxisMode.FIXED and (self.lead_deg or self.tilt_deg):
             raise InvalidParameterError(
                 f"lead_deg={self.lead_deg!r} and tilt_deg={self.tilt_deg!r} need "

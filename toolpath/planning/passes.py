@@ -21,6 +21,7 @@ from machines import Machine
 from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
+from ..tolerances import ROUND_OFF, TINY
 from .cutters import Cutter, CutterKind
 from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
@@ -312,7 +313,7 @@ def _split_fraction_rows(old_points, old_normals, new_points, new_normals, lift,
             total += _lifted_distance(new_points, new_normals, end, old_points, old_normals,
                                       a, lift)
             for q in range(j, end + 1):
-                out[q] /= max(total, 1e-300)
+                out[q] /= max(total, TINY)
         j = end + 1
 
 
@@ -411,10 +412,9 @@ def _within_tilt(opts: FinishingOptions, res: PlannedOptions, axes: NDArray[np.f
     return lean
 
 
-def _finish(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
-            res: PlannedOptions, layout: PassLayout, t: NDArray[np.float64],
-            s: NDArray[np.float64], pid: NDArray[np.int64], frame: PassFrame,
-            nominal: NDArray[np.float64]) -> PassPoints:
+def _finish(cutter: Cutter, opts: FinishingOptions, res: PlannedOptions, layout: PassLayout,
+            t: NDArray[np.float64], s: NDArray[np.float64], pid: NDArray[np.int64],
+            frame: PassFrame, nominal: NDArray[np.float64]) -> PassPoints:
     """Axes (smoothing, cone) and tips for evaluated contacts."""
     direction = layout.direction[pid]
     axes, smoothing, pushed = final_axes(cutter, opts, res, frame, nominal, pid, direction)
@@ -431,7 +431,7 @@ def evaluate_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingO
     s = layout.s_of(t, pid)
     frame = pass_frame(surface, t, s)
     nominal = nominal_axes(opts, frame.normal, frame.e1 * layout.direction[pid][:, None])
-    return _finish(surface, cutter, opts, res, layout, t, s, pid, frame, nominal)
+    return _finish(cutter, opts, res, layout, t, s, pid, frame, nominal)
 
 
 def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -477,7 +477,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         merged = _merge_points(pts, PassPoints(
             t=t_new, s=s_new, pid=pid_new, frame=frame, nominal=nominal, axes=nominal,
             tips=frame.point, direction=direction), new_at)
-        return (_finish(surface, cutter, opts, res, layout, merged.t, merged.s, merged.pid,
+        return (_finish(cutter, opts, res, layout, merged.t, merged.s, merged.pid,
                         merged.frame, merged.nominal), where_new, False)
     else:
         # by arc length of the path the turn rate is measured on, turning at a uniform
@@ -576,7 +576,7 @@ def _sideways_mm(machine: Machine, pts: PassPoints, joints: NDArray[np.float64],
     middle, _ = forward(machine, 0.5 * (joints[idx] + joints[idx + 1]))
     chord = pts.tips[idx + 1] - pts.tips[idx]
     side = np.cross(pts.axes[idx] + pts.axes[idx + 1], chord)
-    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), 1e-300)
+    side /= np.maximum(np.linalg.norm(side, axis=1, keepdims=True), TINY)
     off = middle - 0.5 * (pts.tips[idx] + pts.tips[idx + 1])
     return np.abs(np.einsum("ij,ij->i", off, side))
 
@@ -604,15 +604,17 @@ class RefinedChords:
 
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                   res: PlannedOptions, layout: PassLayout, pts: PassPoints,
-                  keep: NDArray[np.bool_] | None = None, machine: Machine | None = None
-                  ) -> RefinedChords:
+                  keep: NDArray[np.bool_] | None = None, machine: Machine | None = None,
+                  *, max_rounds: int = MAX_CHORD_ROUNDS) -> RefinedChords:
     """Split chords whose mid-chord cutter-to-surface gap exceeds the chord tolerance.
 
     Each round measures the moves still to check (:func:`_gap_extremes`), picks those to
     split (:func:`_moves_to_split`), splits them into equal parameter steps, as many as the
     gap's excess needs (:data:`SPLIT_TARGET`), and checks again only the new moves and
     those whose ends moved (:func:`_checked_again`). ``keep`` (reachable points) travels
-    along: a chord between two kept points is checked; an inserted point is kept.
+    along: a chord between two kept points is checked; an inserted point is kept. After
+    ``max_rounds`` rounds (:data:`MAX_CHORD_ROUNDS`) the parts of the moves split last go
+    unchecked, and the gaps of the whole moves stand for them in ``worst_mm``.
 
     After the first round the split moves go on alone (``pts`` then holds their ends and
     new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
@@ -626,7 +628,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     origin: NDArray[np.int64] | None = None
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = unchecked = 0.0
-    for _ in range(MAX_CHORD_ROUNDS):
+    for _ in range(max_rounds):
         seg_ok = pts.same_pass & check
         if keep is not None:
             seg_ok &= keep[:-1] & keep[1:]
@@ -809,12 +811,12 @@ def reach_split(surface: ParametricSurface, opts: FinishingOptions, layout: Pass
 
 
 def reach_height(opts: FinishingOptions, normals: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``n . a - sin(reach_margin_deg)`` of the fixed axis ``a`` (less 1e-12 of slack).
+    """``n . a - sin(reach_margin_deg)`` of the fixed axis ``a``, less ``ROUND_OFF`` of slack.
 
     At least 0 where the cutting end reaches the contact (3-axis).
     """
     return normals @ np.asarray(opts.fixed_axis) - (np.sin(np.radians(opts.reach_margin_deg))
-                                                    - 1e-12)
+                                                    - ROUND_OFF)
 
 
 #: The reach boundary is found to this share of the distance (in ``t``) between the

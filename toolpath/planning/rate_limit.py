@@ -11,6 +11,7 @@ per pass (numba, in parallel).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -41,6 +42,35 @@ TUBE_SLACK_RAD = 1e-12
 #: Where the doubling search for a rate that fits the tube starts when the least rate is 0
 #: (rad of azimuth per unit of the pass' abscissa): the least positive rate worth a trial.
 FIRST_TRIAL_RATE = 1e-9
+
+
+class _Passes(NamedTuple):
+    """The passes' rows (``n`` of them) for the compiled rate limit.
+
+    ``normals``, ``axes`` (wanted), ``feed``, ``nominal`` (the leads to keep, or the
+    axes again), shape (n, 3); ``x``: arc length along the passes, mm.
+    """
+
+    normals: NDArray[np.float64]
+    axes: NDArray[np.float64]
+    feed: NDArray[np.float64]
+    nominal: NDArray[np.float64]
+    x: NDArray[np.float64]
+
+
+class _RateRule(NamedTuple):
+    """What the compiled rate limit works to.
+
+    ``has_lead``: keep the leads ``nominal``; ``cos_lean``: cosine of the largest lean
+    from the normal; ``rho``: the rate limit, rad per mm; ``rounds``, ``margin``:
+    :data:`RATE_ROUNDS`, :data:`RATE_MARGIN`.
+    """
+
+    has_lead: bool
+    cos_lean: float
+    rho: float
+    rounds: int
+    margin: float
 
 
 def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
@@ -88,10 +118,11 @@ def rate_limited_axes(axes: NDArray[np.float64], normals: NDArray[np.float64],
     poles = _turn_axes(normals, starts)
     has_lead = nominal is not None
     out = np.empty_like(axes)
-    _limit_passes(*(np.ascontiguousarray(v, dtype=float) for v in (
-        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm, poles)), bounds,
-        has_lead, math.cos(math.radians(max_lean_deg)), math.radians(max_rate_deg_per_mm),
-        RATE_ROUNDS, RATE_MARGIN, out)
+    rows = _Passes(*(np.ascontiguousarray(v, dtype=float) for v in (
+        normals, axes, feed_dirs, nominal if has_lead else axes, x_mm)))
+    rule = _RateRule(has_lead, math.cos(math.radians(max_lean_deg)),
+                     math.radians(max_rate_deg_per_mm), RATE_ROUNDS, RATE_MARGIN)
+    _limit_passes(rows, np.ascontiguousarray(poles, dtype=float), bounds, rule, out)
     return out
 
 
@@ -153,21 +184,19 @@ def _covariances(v, bounds, out):
 
 
 @numba.njit(cache=True, parallel=True)
-def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_lean, rho,
-                  rounds, margin, out):
+def _limit_passes(rows, poles, bounds, rule, out):
     """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel).
 
     ``poles[k]`` holds the pass's candidate turning axes: the next is tried while the
     rate is not met, and the pass keeps the slowest result.
     """
-    limit_deg = math.degrees(rho)
+    limit_deg = math.degrees(rule.rho)
     for k in numba.prange(bounds.size - 1):
         a, b = bounds[k], bounds[k + 1]
         best = np.inf
         trial = np.empty((b - a, 3))
         for c in range(poles.shape[1]):
-            rate = _limit_pass(normals, axes, feed, nominal, x, poles[k, c], a, b, has_lead,
-                               cos_lean, rho, rounds, margin, trial)
+            rate = _limit_pass(rows, poles[k, c], a, b, rule, trial)
             if rate < best or best == np.inf:
                 best = rate
                 out[a:b] = trial
@@ -176,60 +205,28 @@ def _limit_passes(normals, axes, feed, nominal, x, poles, bounds, has_lead, cos_
 
 
 @numba.njit(cache=True)
-def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean, rho, rounds,
-                margin, out):
-    """One pass about one pole into ``out`` (``b - a`` rows); returns its largest rate."""
-    limit_deg = math.degrees(rho)
+def _limit_pass(rows, pole, a, b, rule, out):
+    """One pass (``rows`` ``a:b``) about one pole into ``out``; returns its largest rate.
+
+    The tube the azimuth about the pole must keep to (:func:`_azimuth_tube`), the path
+    along which it may turn at the rate (:func:`_azimuth_path`), then rounds of the tube
+    fit (:func:`_fit_tube`) lowered by the excess until the axes meet the rate.
+    """
+    limit_deg = math.degrees(rule.rho)
+    x = rows.x
     m = b - a
     # a basis (ex, ey) of the plane normal to the pole
     ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     ex = np.cross(pole, ref)
     ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
     ey = np.cross(pole, ex)
-    phi_n = np.empty(m)
-    lo = np.empty(m)
-    hi = np.empty(m)
-    want = np.empty(m)
-    beta = np.empty(m)
-    for j in range(m):
-        i = a + j
-        az_n, beta_n = _polar(normals[i], pole, ex, ey)
-        if j == 0:
-            phi_n[j] = az_n
-        else:  # unwrapped along the pass
-            phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
-        az_w, beta_w = _polar(axes[i], pole, ex, ey)
-        beta[j] = beta_w
-        c = ((cos_lean - math.sin(beta_w) * math.sin(beta_n))
-             / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
-        half = math.acos(min(max(c, -1.0), 1.0))
-        lo[j] = phi_n[j] - half
-        hi[j] = phi_n[j] + half
-        if has_lead:
-            az_l, _ = _polar(nominal[i], pole, ex, ey)
-            lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
-            # the way the feed runs round the pole: ahead is increasing azimuth if > 0
-            side = np.cross(pole, normals[i])
-            ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
-            if ahead > 0.3:
-                lo[j] = max(lo[j], min(lead, hi[j]))
-            elif ahead < -0.3:
-                hi[j] = min(hi[j], max(lead, lo[j]))
-        want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
-    # a path along which the azimuth may turn 1 per unit at the rate limit
-    x_phi = np.empty(m)
-    x_phi[0] = 0.0
-    for j in range(1, m):
-        dx = x[a + j] - x[a + j - 1]
-        slope = (beta[j] - beta[j - 1]) / max(dx, SAME_POINT_MM)
-        room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
-        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
-        x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
+    lo, hi, want, beta = _azimuth_tube(rows, pole, ex, ey, a, b, rule)
+    x_phi = _azimuth_path(x, beta, a, rule.rho)
     scale = 1.0
     best = np.inf
     phi = np.empty(m)
     trial = np.empty((m, 3))
-    for _ in range(rounds):
+    for _ in range(rule.rounds):
         _fit_tube(x_phi, lo, hi, want, scale, phi)
         for j in range(m):
             cb, sb = math.cos(beta[j]), math.sin(beta[j])
@@ -244,8 +241,70 @@ def _limit_pass(normals, axes, feed, nominal, x, pole, a, b, has_lead, cos_lean,
             out[:] = trial
         if worst <= limit_deg * (1.0 + LIMIT_SLACK) or not np.isfinite(worst):
             break  # met, or a segment of no length turns: lowering cannot help
-        scale *= margin * limit_deg / worst
+        scale *= rule.margin * limit_deg / worst
     return best
+
+
+@numba.njit(cache=True)
+def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
+    """Bounds ``lo``, ``hi`` of the azimuth about ``pole``, the wanted one, the elevation.
+
+    Per row ``a:b`` (unwrapped along the pass): the lean limit's tube round the normal's
+    azimuth, narrowed with ``rule.has_lead`` so the axis leans no less ahead of the
+    normal than the nominal one; the wanted azimuth (the axis') clipped into it.
+    """
+    normals, axes, feed, nominal, _ = rows
+    m = b - a
+    phi_n = np.empty(m)
+    lo = np.empty(m)
+    hi = np.empty(m)
+    want = np.empty(m)
+    beta = np.empty(m)
+    for j in range(m):
+        i = a + j
+        az_n, beta_n = _polar(normals[i], pole, ex, ey)
+        if j == 0:
+            phi_n[j] = az_n
+        else:  # unwrapped along the pass
+            phi_n[j] = phi_n[j - 1] + _wrap_pi(az_n - phi_n[j - 1])
+        az_w, beta_w = _polar(axes[i], pole, ex, ey)
+        beta[j] = beta_w
+        c = ((rule.cos_lean - math.sin(beta_w) * math.sin(beta_n))
+             / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
+        half = math.acos(min(max(c, -1.0), 1.0))
+        lo[j] = phi_n[j] - half
+        hi[j] = phi_n[j] + half
+        if rule.has_lead:
+            az_l, _ = _polar(nominal[i], pole, ex, ey)
+            lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
+            # the way the feed runs round the pole: ahead is increasing azimuth if > 0
+            side = np.cross(pole, normals[i])
+            ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
+            if ahead > 0.3:
+                lo[j] = max(lo[j], min(lead, hi[j]))
+            elif ahead < -0.3:
+                hi[j] = min(hi[j], max(lead, lo[j]))
+        want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
+    return lo, hi, want, beta
+
+
+@numba.njit(cache=True)
+def _azimuth_path(x, beta, a, rho):
+    """A path along which the azimuth may turn 1 per unit at the rate limit ``rho``.
+
+    Per segment of the pass (rows ``a`` on, arc length ``x``), the room the elevation's
+    own turn leaves, over the cosine of the elevation.
+    """
+    m = beta.size
+    x_phi = np.empty(m)
+    x_phi[0] = 0.0
+    for j in range(1, m):
+        dx = x[a + j] - x[a + j - 1]
+        slope = (beta[j] - beta[j - 1]) / max(dx, SAME_POINT_MM)
+        room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
+        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
+        x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
+    return x_phi
 
 
 @numba.njit(cache=True)

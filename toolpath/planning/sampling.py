@@ -39,6 +39,7 @@ from machines.kinematics import forward
 
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface
+from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF
 from .cutters import Cutter, CutterKind, disc_basis
 from .local import (
     CONVERGED_MM,
@@ -92,7 +93,7 @@ def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
     bend = k * (1.0 - feed_radius_mm * k) + np.where(
         k > 0.0, lift_mm * np.square(turn_per_mm), 0.0)
     kappa = np.hypot(bend, frame.kg)
-    radius = 1.0 / np.maximum(kappa, 1e-12)
+    radius = 1.0 / np.maximum(kappa, FLAT_PER_MM)
     length = 2.0 * np.sqrt(np.maximum(tol_mm * (2.0 * radius - tol_mm), tol_mm * tol_mm))
     return np.minimum(length, max_segment_mm)
 
@@ -139,7 +140,7 @@ def _cumulate(t_grid, density, cum, n_seg):
         for i in range(1, t_grid.size):
             cum[p, i] = cum[p, i - 1] + 0.5 * (density[p, i] + density[p, i - 1]) * (
                 t_grid[i] - t_grid[i - 1])
-        n_seg[p] = max(math.ceil(cum[p, -1] - 1e-9), 1)
+        n_seg[p] = max(math.ceil(cum[p, -1] - LIMIT_SLACK), 1)
 
 
 @numba.njit(cache=True)
@@ -220,7 +221,7 @@ _RIM = 24
 
 def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
                axes: NDArray[np.float64], t0: NDArray[np.float64], s0: NDArray[np.float64],
-               *, newton: int = 3, refine_rim: bool = False
+               *, newton: int = 3, refine_rim: bool = False, chunk: int = GAP_CHUNK
                ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Signed gap between the cutter and the surface near ``(t0, s0)``, mm.
 
@@ -240,7 +241,9 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     then sought by golden section within one sample step either side
     (:data:`RIM_REFINE_STEPS` projections more): round an edge much tighter than the disc
     the distance dips over a few degrees of the rim, which neither the samples nor a
-    parabola through them resolve.
+    parabola through them resolve. Flat and bull-nose cutters are measured ``chunk`` poses
+    at a time (:data:`GAP_CHUNK`: the disc's samples of every pose at once would take
+    gigabytes); the gaps do not depend on it.
 
     Returns
     -------
@@ -252,11 +255,11 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         signed, t, s = signed_distance_near(surface, tips_mm + r * axes, t0, s0,
                                             iterations=newton)
         return signed - r, t, s
-    if len(tips_mm) > GAP_CHUNK:  # the disc's samples, a chunk of poses at a time
-        parts = [cutter_gap(surface, cutter, tips_mm[i:i + GAP_CHUNK],
-                            axes[i:i + GAP_CHUNK], t0[i:i + GAP_CHUNK], s0[i:i + GAP_CHUNK],
-                            newton=newton, refine_rim=refine_rim)
-                 for i in range(0, len(tips_mm), GAP_CHUNK)]
+    if len(tips_mm) > chunk:  # the disc's samples, a chunk of poses at a time
+        parts = [cutter_gap(surface, cutter, tips_mm[i:i + chunk], axes[i:i + chunk],
+                            t0[i:i + chunk], s0[i:i + chunk], newton=newton,
+                            refine_rim=refine_rim, chunk=chunk)
+                 for i in range(0, len(tips_mm), chunk)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
     centre = tips_mm + r * axes
@@ -700,13 +703,14 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
     """The root of ``g'`` in ``[lo, hi]``, where it changes sign (Newton, kept bracketed).
 
     From the secant's root; a Newton step leaving the bracket is replaced by halving it;
-    done when a step moves ``u`` by under 1e-12 (the value is then exact to round-off).
+    done when a step moves ``u`` by under ``ROUND_OFF`` (the value is then exact to
+    round-off).
     """
     den = slope_lo - slope_hi
     x = lo + (hi - lo) * slope_lo / den if den != 0.0 else 0.5 * (lo + hi)
     for _ in range(40):
         slope = _gap_slope(x, a, b, c)
-        if slope == 0.0 or hi - lo < 1e-12:
+        if slope == 0.0 or hi - lo < ROUND_OFF:
             break
         if (slope < 0.0) == (slope_lo < 0.0):
             lo, slope_lo = x, slope
@@ -716,7 +720,7 @@ def _stationary(lo, hi, slope_lo, slope_hi, a, b, c):
         dp = b + 2.0 * c * x
         curve = -2.0 * p + 2.0 * (1.0 - 2.0 * x) * dp + 2.0 * c * (x - x * x)
         nxt = x - slope / curve if curve != 0.0 else 0.5 * (lo + hi)
-        if abs(nxt - x) < 1e-12:
+        if abs(nxt - x) < ROUND_OFF:
             return nxt
         x = nxt if lo < nxt < hi else 0.5 * (lo + hi)
     return x

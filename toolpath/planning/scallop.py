@@ -41,18 +41,13 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..tolerances import ROUND_OFF, TINY
+from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF, TINY
 from .cutter_kernel import shadow_point
 from .cutters import CutterShadow
 from .errors import PlanningError
 
 __all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm",
            "turn_radius_mm"]
-
-#: A curvature below this (1/mm: a radius over 1e12 mm) is a plane's, where the formulas
-#: for a curved surface would divide by it.
-FLAT_PER_MM = 1e-12
-
 
 def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
                 ) -> NDArray[np.float64]:
@@ -367,7 +362,7 @@ def _greedy(grid, allowed, lower, scale, lookahead, levels):
             if new >= ds * (1.0 - ROUND_OFF):
                 break
             ds = new
-        s = 1.0 if s + ds >= 1.0 - 1e-9 else s + ds
+        s = 1.0 if s + ds >= 1.0 - LIMIT_SLACK else s + ds
         if count == levels.size:
             return -1
         levels[count] = s
