@@ -77,7 +77,13 @@ from .sampling import (
     point_move_gaps,
     split_evenly,
 )
-from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
+from .scallop import (
+    cusp_allowance_mm,
+    pass_levels,
+    shadow_stepover_mm,
+    stepover_mm,
+    turn_radius_mm,
+)
 from .tool_axis import angle_deg
 
 __all__ = ["plan_finishing"]
@@ -212,8 +218,9 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
            ) -> ProbeGrid:
     """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
 
-    Where the pass is concave (``S11 > 0``) the cusp is planned for the scallop minus the
-    allowed chord undercut (:data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`).
+    Where the moves can stand above the surface (a concave pass, ``S11 > 0``, or a tool
+    axis turning along it) the cusp is planned for the scallop minus the allowed chord
+    undercut (:func:`~toolpath.planning.scallop.cusp_allowance_mm`).
     """
     tt, ss = np.meshgrid(t, s, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
@@ -244,8 +251,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
             cutter.tips_from_contacts(frame.point[at], frame.normal[at], axes[at]), axes[at],
             speed_t=frame.speed_t[at], speed_s=frame.speed_s[at]).depth_mm
     gouging = flagged & (depth > opts.gouge_tol_mm)
-    h = np.where(frame.s11 > 1e-12, res.planned_scallop_mm - res.undercut_mm,
-                 res.planned_scallop_mm)
+    h = cusp_allowance_mm(res.planned_scallop_mm, res.undercut_mm, frame.s11,
+                          opts.axis_mode is AxisMode.LEAD_TILT)
     # the cutter's curvature along the pass at the contact
     c11, _, _ = cutter.curvature_tensor(frame.normal, axes, frame.e1, frame.e2)
     if cutter.kind is CutterKind.BALL:

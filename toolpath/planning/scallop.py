@@ -46,12 +46,52 @@ from .cutter_kernel import shadow_point
 from .cutters import CutterShadow
 from .errors import PlanningError
 
-__all__ = ["pass_levels", "scallop_height_mm", "shadow_stepover_mm", "stepover_mm",
-           "turn_radius_mm"]
+__all__ = ["cusp_allowance_mm", "pass_levels", "scallop_height_mm", "shadow_stepover_mm",
+           "stepover_mm", "turn_radius_mm"]
 
 #: A curvature below this (1/mm: a radius over 1e12 mm) is a plane's, where the formulas
 #: for a curved surface would divide by it.
 FLAT_PER_MM = 1e-12
+
+
+#: A curvature along the pass above this (1/mm) is concave: its straight moves stand above
+#: the surface.
+CONCAVE_PER_MM = 1e-12
+
+
+def cusp_allowance_mm(scallop_mm: float, undercut_mm: float,
+                      curvature_along_per_mm: ArrayLike, axis_turns: bool
+                      ) -> NDArray[np.float64]:
+    """Cusp height the passes are spaced for: the scallop less what the moves may stand up.
+
+    A move along a pass that stands above the surface (an undercut, up to ``undercut_mm``:
+    the chord check's limit) lifts the cusps beside it by as much, so where a move can
+    stand up the passes are spaced for ``scallop_mm - undercut_mm``. A straight move stands
+    up where the pass is concave (``S11 > 0``: the chord lies above the arc); and wherever
+    the tool axis turns along the moves (5-axis), which bows the cutter off the chord
+    whatever the curvature: on a convex stretch of the dev blade (``S11`` about
+    -0.018/mm, no concave point) the moves of a 5-axis ball stood up to 0.0037 mm above
+    the surface and the cusps rose from the planned 0.018 mm to 0.021 mm, over the
+    0.02 mm asked (issue 28). Elsewhere (a fixed axis on a convex pass) the moves only
+    cut in, and the passes are spaced for the whole scallop.
+
+    Parameters
+    ----------
+    scallop_mm, undercut_mm : float
+        Planned cusp height and the moves' undercut limit, mm.
+    curvature_along_per_mm : array_like
+        ``S11`` at the probe points, 1/mm (positive concave).
+    axis_turns : bool
+        The tool axis turns along the passes (lead/tilt).
+
+    Returns
+    -------
+    ndarray
+        Cusp height per point, mm.
+    """
+    k = np.asarray(curvature_along_per_mm, dtype=float)
+    stands_up = (k > CONCAVE_PER_MM) | axis_turns
+    return np.where(stands_up, scallop_mm - undercut_mm, scallop_mm)
 
 
 def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: ArrayLike
