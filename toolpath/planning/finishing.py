@@ -219,8 +219,8 @@ def _probe(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
     """Allowed step in ``s`` per probe level, reach and local gouges on the probe grid.
 
     Where the moves can stand above the surface (a concave pass, ``S11 > 0``, or a tool
-    axis turning along it) the cusp is planned for the scallop minus the allowed chord
-    undercut (:func:`~toolpath.planning.scallop.cusp_allowance_mm`).
+    axis turning along it) the cusp is planned for the scallop minus what the chord check
+    lets them stand up (:func:`~toolpath.planning.scallop.cusp_allowance_mm`).
     """
     tt, ss = np.meshgrid(t, s, indexing="ij")
     frame = pass_frame(surface, tt.ravel(), ss.ravel())
