@@ -23,6 +23,8 @@ capsule
 torus
     ``line_sweep_interval``: where a line enters and leaves a flat or bull-nose cutter
     swept along a segment (the kernel for those cutters).
+sweep_search
+    ``lowest_sweep_entries``: the compiled grid walk for flat and bull-nose pieces.
 pieces
     ``ball_pieces``, ``cutter_pieces``, ``shank_pieces`` -> ``Pieces``: the swept cutter.
 grid

@@ -25,10 +25,43 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["lowest_capsule_entries"]
+__all__ = ["centre_cells", "column_slots", "lowest_capsule_entries"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+
+@numba.njit(cache=True)
+def column_slots(i: int, j: int, k0: int, k1: int, cx: float, cy: float, cz: float,
+                 lim2: float, dims: IntArray, origin: FloatArray, cell: float,
+                 starts: IntArray) -> tuple[int, int]:
+    """Slots of the grid's order a search ball can reach in column ``(i, j)``.
+
+    Cells ``k0..k1`` of the column, the ball centred at ``c`` with squared radius
+    ``lim2``; ``(0, 0)`` when none.
+
+    Only the cells the ball meets (a little wider: the cells' borders here and in the
+    grid's floor may round apart): a column whose square lies farther than the radius is
+    skipped, the others walked over the ball's height above the square. The one cell walk
+    of the compiled searches (this module's and :mod:`verification.sweep_search`).
+    """
+    if i < 0 or i >= dims[0] or j < 0 or j >= dims[1] or k0 > k1:
+        return 0, 0
+    rim = 1e-6 * cell
+    x0 = origin[0] + i * cell
+    gx = max(x0 - rim - cx, cx - (x0 + cell + rim), 0.0)
+    y0 = origin[1] + j * cell
+    gy = max(y0 - rim - cy, cy - (y0 + cell + rim), 0.0)
+    across = lim2 - gx * gx - gy * gy
+    if not across >= 0.0:
+        return 0, 0
+    height = math.sqrt(across) + rim
+    lo_k = max(k0, math.floor((cz - height - origin[2]) / cell))
+    hi_k = min(k1, math.floor((cz + height - origin[2]) / cell))
+    if lo_k > hi_k:
+        return 0, 0
+    column = (i * dims[1] + j) * dims[2]
+    return starts[column + lo_k], starts[column + hi_k + 1]
 
 
 @numba.njit(cache=True, parallel=True)
@@ -51,60 +84,56 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         best_piece = -1
         best_behind = False
         n = 0
-        # only the cells the search ball meets (a little wider: the cells' borders here
-        # and in the grid's floor may round apart): a column whose square lies farther than
-        # the radius is skipped, the others walked over the ball's height above the square
-        rim = 1e-6 * cell
-        if k0 <= k1:
-            for i in range(ci - span, ci + span + 1):
-                if i < 0 or i >= dims[0]:
-                    continue
-                x0 = origin[0] + i * cell
-                gx = max(x0 - rim - cx, cx - (x0 + cell + rim), 0.0)
-                for j in range(cj - span, cj + span + 1):
-                    if j < 0 or j >= dims[1]:
+        for i in range(ci - span, ci + span + 1):
+            for j in range(cj - span, cj + span + 1):
+                first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims, origin,
+                                           cell, starts)
+                for slot in range(first, stop):
+                    # midpoints and half lengths are stored in the grid's order
+                    mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
+                    if not mx * mx + my * my + mz * mz <= lim2[q]:
                         continue
-                    y0 = origin[1] + j * cell
-                    gy = max(y0 - rim - cy, cy - (y0 + cell + rim), 0.0)
-                    across = lim2[q] - gx * gx - gy * gy
-                    if not across >= 0.0:
+                    n += 1
+                    # the capsule lies within rho = R + half of its midpoint: a line
+                    # farther than rho misses it, and enters it no sooner than
+                    # t - sqrt(rho^2 - perp^2) (t: the midpoint along the line)
+                    wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
+                    t = wx * dx + wy * dy + wz * dz
+                    rho = radius + half[slot]
+                    room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
+                    if room < 0.0 or t - math.sqrt(room) >= best:
                         continue
-                    height = math.sqrt(across) + rim
-                    lo_k = max(k0, math.floor((cz - height - origin[2]) / cell))
-                    hi_k = min(k1, math.floor((cz + height - origin[2]) / cell))
-                    if lo_k > hi_k:
+                    p = order[slot]
+                    lam_in, lam_out = capsule_interval(
+                        px, py, pz, dx, dy, dz, a[p, 0], a[p, 1], a[p, 2], e[p, 0],
+                        e[p, 1], e[p, 2], ee[p], r2)
+                    if not lam_out > 0.0:
                         continue
-                    column = (i * dims[1] + j) * dims[2]
-                    for slot in range(starts[column + lo_k], starts[column + hi_k + 1]):
-                        # midpoints and half lengths are stored in the grid's order
-                        mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
-                        if not mx * mx + my * my + mz * mz <= lim2[q]:
-                            continue
-                        n += 1
-                        # the capsule lies within rho = R + half of its midpoint: a line
-                        # farther than rho misses it, and enters it no sooner than
-                        # t - sqrt(rho^2 - perp^2) (t: the midpoint along the line)
-                        wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
-                        t = wx * dx + wy * dy + wz * dz
-                        rho = radius + half[slot]
-                        room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
-                        if room < 0.0 or t - math.sqrt(room) >= best:
-                            continue
-                        p = order[slot]
-                        lam_in, lam_out = capsule_interval(
-                            px, py, pz, dx, dy, dz, a[p, 0], a[p, 1], a[p, 2], e[p, 0],
-                            e[p, 1], e[p, 2], ee[p], r2)
-                        if not lam_out > 0.0:
-                            continue
-                        back = lam_in < 0.0 and (axis[p, 0] * dx + axis[p, 1] * dy
-                                                 + axis[p, 2] * dz) < behind_cosine
-                        value = max(lam_in, -lam_out) if back else lam_in
-                        if value < best:
-                            best, best_piece, best_behind = value, p, back
+                    back = lam_in < 0.0 and (axis[p, 0] * dx + axis[p, 1] * dy
+                                             + axis[p, 2] * dz) < behind_cosine
+                    value = max(lam_in, -lam_out) if back else lam_in
+                    if value < best:
+                        best, best_piece, best_behind = value, p, back
         lam[q] = best
         piece[q] = best_piece
         behind[q] = best_behind
         pairs[q] = n
+
+
+def centre_cells(grid: PieceGrid, centres: FloatArray, span: int | IntArray
+                 ) -> tuple[IntArray, IntArray, IntArray]:
+    """The cell of each search centre, the spans per centre and the grid's dims.
+
+    A far (or non-finite) centre gets a cell beyond the reach of any piece.
+    """
+    q = centres.shape[0]
+    dims = np.asarray(grid.dims, dtype=np.int64)
+    cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
+    spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
+    far = (-spans - 1.0)[:, None]
+    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
+                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
+    return np.ascontiguousarray(cell), spans, dims
 
 
 def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatArray,
@@ -168,13 +197,7 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
         return lam, piece, behind, 0
-    dims = np.asarray(grid.dims, dtype=np.int64)
-    cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
-    # far (or non-finite) centres: a cell beyond the reach of any piece
-    spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
-    far = (-spans - 1.0)[:, None]
-    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
-                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
+    cell, spans, dims = centre_cells(grid, centres, span)
     f = np.ascontiguousarray
     _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
           f(reach_mm * reach_mm, dtype=float), f(cell), spans, dims,

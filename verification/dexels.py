@@ -36,7 +36,8 @@ core disc of radius ``rho0 = R - r`` (:mod:`verification.torus`): every ball of 
 entries are no longer closed-form, so a batch is measured in two rounds: first, for each
 dexel, the piece whose cheap lower bound (the entry into a bounding capsule and slab) is
 lowest; then only the pieces whose bound is below the best found. A piece whose bound is
-not below the best cannot lower the minimum.
+not below the best cannot lower the minimum. By default both rounds run in compiled code
+inside the grid walk (:mod:`verification.sweep_search`), storing no pair.
 
 Candidates come from :class:`~verification.grid.PieceGrid`; pairs are processed in
 batches of at most ``max_pairs``, so memory is bounded whatever the program's length.
@@ -53,6 +54,7 @@ from .capsule import line_capsule_interval
 from .capsule_search import lowest_capsule_entries
 from .grid import PieceGrid
 from .pieces import Pieces
+from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
 
 __all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "DexelResult", "SweepIndex",
@@ -169,8 +171,9 @@ class SweepIndex:
         Corner radius ``r`` of a flat or bull-nose cutter, mm (None: a ball, measured with
         the capsule kernel).
     compiled : bool
-        Ball pieces: walk the grid in compiled code
-        (:func:`~verification.capsule_search.lowest_capsule_entries`, the default) rather
+        Walk the grid in compiled code (the default): ball pieces measured in the walk
+        (:func:`~verification.capsule_search.lowest_capsule_entries`), flat and bull-nose
+        pieces too (:func:`~verification.sweep_search.lowest_sweep_entries`), rather
         than expanding candidate pairs in numpy batches (the same values; the tests' oracle).
     """
 
@@ -253,6 +256,19 @@ class SweepIndex:
             out.shank[qi] = pieces.shank[hit]
             out.behind[qi] = behind[qi]
             return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+        if self.compiled:
+            # the same, flat and bull-nose pieces: bounds and exact entries in the walk
+            lam, hit, behind, pairs = lowest_sweep_entries(
+                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
+                pieces.a, pieces.e, pieces.axis, pieces.height_mm,
+                core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
+                behind_cosine=BEHIND_COSINE, below_mm=below_mm)
+            qi = np.flatnonzero(hit >= 0)
+            out.lam_mm[qi] = lam[qi]
+            out.move[qi] = pieces.moves_at(hit[qi], points[qi])
+            out.shank[qi] = pieces.shank[hit[qi]]
+            out.behind[qi] = behind[qi]
+            return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
         pairs = 0
         for span in np.unique(spans):
             sel = np.flatnonzero(spans == span)
@@ -284,11 +300,10 @@ class SweepIndex:
     def _cutters(self, qi: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,
                  dirs: FloatArray, out: DexelResult) -> None:
         """Flat/bull-nose pieces: the lowest-bound pair per dexel, then the ones below."""
-        r = float(self.corner_radius_mm or 0.0)
-        rho0 = self.radius_mm - r
-        args = (pieces.a[piece], pieces.e[piece], pieces.axis[piece], pieces.height_mm[piece])
-        bound, _ = sweep_entry_bound(points[qi], dirs[qi], *args, core_radius_mm=rho0,
-                                     corner_radius_mm=r)
+        bound, _ = sweep_entry_bound(points[qi], dirs[qi], pieces.a[piece], pieces.e[piece],
+                                     pieces.axis[piece], pieces.height_mm[piece],
+                                     core_radius_mm=self.radius_mm - self._corner,
+                                     corner_radius_mm=self._corner)
         todo = np.flatnonzero(bound < out.lam_mm[qi])
         if todo.shape[0] == 0:
             return
@@ -296,19 +311,26 @@ class SweepIndex:
         key = np.lexsort((bound[todo], qi[todo]))
         ordered = todo[key]
         first = ordered[np.r_[True, qi[ordered][1:] != qi[ordered][:-1]]]
-        for rows in (first, None):
-            if rows is None:
-                rows = np.setdiff1d(todo, first, assume_unique=True)
-                rows = rows[bound[rows] < out.lam_mm[qi[rows]]]
-                if rows.shape[0] == 0:
-                    return
-            q, d = qi[rows], dirs[qi[rows]]
-            axis = pieces.axis[piece[rows]]
-            lam_in, lam_out = line_sweep_interval(
-                points[q], d, *(a[rows] for a in args), core_radius_mm=rho0,
-                corner_radius_mm=r, exit_wanted=np.einsum("ij,ij->i", axis, d) < BEHIND_COSINE)
-            _fold_min(q, *_values(lam_in, lam_out, axis, d), piece[rows], pieces, points,
-                      out)
+        self._measure(qi[first], piece[first], pieces, points, dirs, out)
+        rows = np.setdiff1d(todo, first, assume_unique=True)
+        rows = rows[bound[rows] < out.lam_mm[qi[rows]]]
+        self._measure(qi[rows], piece[rows], pieces, points, dirs, out)
+
+    @property
+    def _corner(self) -> float:
+        return float(self.corner_radius_mm or 0.0)
+
+    def _measure(self, q: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,
+                 dirs: FloatArray, out: DexelResult) -> None:
+        """Flat/bull-nose pairs (grouped by dexel) measured exactly, folded into ``out``."""
+        if q.shape[0] == 0:
+            return
+        d, axis = dirs[q], pieces.axis[piece]
+        lam_in, lam_out = line_sweep_interval(
+            points[q], d, pieces.a[piece], pieces.e[piece], axis, pieces.height_mm[piece],
+            core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
+            exit_wanted=np.einsum("ij,ij->i", axis, d) < BEHIND_COSINE)
+        _fold_min(q, *_values(lam_in, lam_out, axis, d), piece, pieces, points, out)
 
 
 def _values(lam_in: FloatArray, lam_out: FloatArray, axis: FloatArray, dirs: FloatArray

@@ -42,19 +42,25 @@ is jointly convex in ``(lam, w)``, so ``F`` (the signed distance of the dexel po
 
 Iteration stops at ``|F| <= CONVERGED_MM`` (1e-7 mm): the point returned lies within that
 of the sweep's boundary.
+
+Each kernel is written once, on scalars, in compiled code (:func:`sweep_interval`,
+:func:`sweep_bound`), so the grid walk of :mod:`verification.sweep_search` calls it per
+candidate; the array functions run it over rows of pairs.
 """
 
 from __future__ import annotations
 
+import math
 from typing import Final
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule import line_capsule_interval
+from .capsule import capsule_interval
 
-__all__ = ["CONVERGED_MM", "core_signed_distance", "line_sweep_interval", "sweep_distance",
-           "sweep_entry_bound"]
+__all__ = ["CONVERGED_MM", "core_signed_distance", "line_sweep_interval", "sweep_bound",
+           "sweep_distance", "sweep_entry_bound", "sweep_interval"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -73,9 +79,242 @@ _CLOSED_FORM: Final[float] = 1e-24
 """``(D.a)^2 / |D|^2`` (or the across part's) below which a chord counts as exactly across
 (along) the axis: the inner minimiser is then in closed form."""
 
+_PARALLEL: Final[float] = 1e-12
+"""``|d . a|`` below which a line counts as parallel to the bounding slab's planes."""
 
-def _dot(u: FloatArray, v: FloatArray) -> FloatArray:
-    return np.einsum("ij,ij->i", u, v)
+
+@numba.njit(cache=True)
+def _core_sd(yx: float, yy: float, yz: float, ax: float, ay: float, az: float,
+             height: float, core_radius: float
+             ) -> tuple[float, float, float, float]:
+    """Signed distance of ``y`` to the core and its gradient (:func:`core_signed_distance`)."""
+    z = yx * ax + yy * ay + yz * az
+    px, py, pz = yx - z * ax, yy - z * ay, yz - z * az
+    rho = math.sqrt(px * px + py * py + pz * pz)
+    if rho > 0.0:
+        px, py, pz = px / rho, py / rho, pz / rho
+    dx = rho - core_radius
+    below = -z >= z - height
+    dz = -z if below else z - height
+    s_z = -1.0 if below else 1.0
+    ox, oz = max(dx, 0.0), max(dz, 0.0)
+    h = math.hypot(ox, oz)
+    if h > 0.0:
+        cx, cz, sd = ox / h, oz / h * s_z, h
+    else:
+        cx = 1.0 if dx >= dz else 0.0
+        cz = (0.0 if dx >= dz else 1.0) * s_z
+        sd = max(dx, dz)
+    return sd, cx * px + cz * ax, cx * py + cz * ay, cx * pz + cz * az
+
+
+@numba.njit(cache=True)
+def _phi(yx: float, yy: float, yz: float, w: float, chord: FloatArray, axis: FloatArray,
+         height: float, core_radius: float, corner_radius: float
+         ) -> tuple[float, float, float, float]:
+    """``Phi(x, w)`` and its gradient in ``x`` (``y = x - C0``)."""
+    sd, gx, gy, gz = _core_sd(yx - w * chord[0], yy - w * chord[1], yz - w * chord[2],
+                              axis[0], axis[1], axis[2], height, core_radius)
+    return sd - corner_radius, gx, gy, gz
+
+
+@numba.njit(cache=True)
+def _inner_min(yx: float, yy: float, yz: float, chord: FloatArray, axis: FloatArray,
+               height: float, core_radius: float, corner_radius: float
+               ) -> tuple[float, float, float, float]:
+    """``F = min_w Phi`` at ``x = C0 + y`` and the gradient of ``Phi`` at the minimiser.
+
+    ``dPhi/dw = -grad . D`` is non-decreasing: an end where it does not change sign is the
+    minimiser; otherwise Illinois false position on ``[0, 1]``. Closed forms: a chord across
+    the axis moves ``rho`` only (``sd`` grows with ``rho`` at a fixed ``z``), one along the
+    axis moves ``z`` only (``sd`` is even about the mid-height).
+    """
+    rise = chord[0] * axis[0] + chord[1] * axis[1] + chord[2] * axis[2]
+    ux, uy, uz = chord[0] - rise * axis[0], chord[1] - rise * axis[1], chord[2] - rise * axis[2]
+    cc = chord[0] * chord[0] + chord[1] * chord[1] + chord[2] * chord[2]
+    aa = ux * ux + uy * uy + uz * uz
+    flat = rise * rise <= _CLOSED_FORM * cc
+    upright = aa <= _CLOSED_FORM * cc and not flat
+    if flat:
+        w = (yx * ux + yy * uy + yz * uz) / (aa if cc > 0.0 else 1.0)
+    elif upright:
+        w = (yx * axis[0] + yy * axis[1] + yz * axis[2] - 0.5 * height) / rise
+    else:
+        # the general case starts where a ball's minimiser would be: the projection on D
+        w = (yx * chord[0] + yy * chord[1] + yz * chord[2]) / (cc if cc > 0.0 else 1.0)
+    w = min(max(w, 0.0), 1.0)
+    best, bx, by, bz = _phi(yx, yy, yz, w, chord, axis, height, core_radius, corner_radius)
+    slope = -(bx * chord[0] + by * chord[1] + bz * chord[2])
+    if flat or upright or slope == 0.0:
+        return best, bx, by, bz
+    # bracket: the guess and the end on the downhill side, unless that end is lower
+    right = slope > 0.0
+    end = 0.0 if right else 1.0
+    f, gx, gy, gz = _phi(yx, yy, yz, end, chord, axis, height, core_radius, corner_radius)
+    s_end = -(gx * chord[0] + gy * chord[1] + gz * chord[2])
+    if f < best:
+        best, bx, by, bz = f, gx, gy, gz
+    if not (s_end < 0.0 if right else s_end > 0.0):
+        return best, bx, by, bz
+    lo, hi = (end, w) if right else (w, end)
+    slo, shi = (s_end, slope) if right else (slope, s_end)
+    t_lo, t_hi = slo, shi  # true slopes at the bracket's ends
+    side = 0
+    for _ in range(_MAX_INNER):
+        # convexity: min Phi >= Phi(end) - |slope(end)| (hi - lo) at either end
+        if not min(-t_lo, t_hi) * (hi - lo) > CONVERGED_MM * 0.01:
+            break
+        w = min(max((lo * shi - hi * slo) / (shi - slo), lo), hi)
+        f, gx, gy, gz = _phi(yx, yy, yz, w, chord, axis, height, core_radius, corner_radius)
+        if f < best:
+            best, bx, by, bz = f, gx, gy, gz
+        sw = -(gx * chord[0] + gy * chord[1] + gz * chord[2])
+        if sw > 0.0:  # the root lies left of w
+            # Illinois: halve the value kept at an end retained twice in a row
+            shi, t_hi, hi = sw, sw, w
+            if side == 1:
+                slo = 0.5 * slo
+            side = 1
+        else:
+            slo, t_lo, lo = sw, sw, w
+            if side == -1:
+                shi = 0.5 * shi
+            side = -1
+        if sw == 0.0:
+            t_lo = 0.0
+    return best, bx, by, bz
+
+
+@numba.njit(cache=True)
+def _newton(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+            axis: FloatArray, height: float, core_radius: float, corner_radius: float,
+            start: float, stop: float, sign: float) -> float:
+    """First root of ``F`` going from ``start`` towards ``stop`` (``sign`` +1: rightwards).
+
+    ``+inf * sign`` where the line misses the sweep within ``[start, stop]``.
+    """
+    lam = start
+    for _ in range(_MAX_NEWTON):
+        f, gx, gy, gz = _inner_min(p[0] + lam * d[0] - c0[0], p[1] + lam * d[1] - c0[1],
+                                   p[2] + lam * d[2] - c0[2], chord, axis, height,
+                                   core_radius, corner_radius)
+        if f <= CONVERGED_MM:
+            return lam
+        slope = sign * (gx * d[0] + gy * d[1] + gz * d[2])  # dF along the walk
+        if not slope < 0.0:
+            return sign * math.inf
+        lam = lam - sign * f / slope
+        if sign * (lam - stop) > 0.0:
+            return sign * math.inf
+    return lam  # converging on a tangency: within 2^-40 of the span
+
+
+@numba.njit(cache=True)
+def sweep_bound(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+                axis: FloatArray, height: float, core_radius: float, corner_radius: float
+                ) -> tuple[float, float]:
+    """Bounds ``lo <= lam_in``, ``hi >= lam_out`` of one line through one swept cutter.
+
+    The sweep lies within ``sqrt(rho0^2 + (L/2)^2) + r`` of the path
+    ``C0 + (L/2) a + w D`` of the core's mid-height centre, and between the planes
+    ``(X - C0) . a = min(0, D . a) - r`` (the tip's lowest position) and
+    ``max(0, D . a) + L + r``: the line's interval through both contains
+    ``[lam_in, lam_out]``; ``(+inf, -inf)`` where the line misses them.
+    """
+    half = 0.5 * height
+    bound = math.sqrt(core_radius * core_radius + half * half) + corner_radius
+    ee = chord[0] * chord[0] + chord[1] * chord[1] + chord[2] * chord[2]
+    lo, hi = capsule_interval(p[0], p[1], p[2], d[0], d[1], d[2], c0[0] + half * axis[0],
+                              c0[1] + half * axis[1], c0[2] + half * axis[2], chord[0],
+                              chord[1], chord[2], ee, bound * bound)
+    if not lo <= hi:
+        return math.inf, -math.inf
+    da = d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]
+    z0 = (p[0] - c0[0]) * axis[0] + (p[1] - c0[1]) * axis[1] + (p[2] - c0[2]) * axis[2]
+    rise = chord[0] * axis[0] + chord[1] * axis[1] + chord[2] * axis[2]
+    zlo = min(rise, 0.0) - corner_radius
+    zhi = max(rise, 0.0) + height + corner_radius
+    if abs(da) > _PARALLEL:
+        t1, t2 = (zlo - z0) / da, (zhi - z0) / da
+        lo, hi = max(lo, min(t1, t2)), min(hi, max(t1, t2))
+    elif z0 < zlo or z0 > zhi:
+        return math.inf, -math.inf
+    if lo > hi:
+        return math.inf, -math.inf
+    return lo, hi
+
+
+@numba.njit(cache=True)
+def sweep_interval(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+                   axis: FloatArray, height: float, core_radius: float, corner_radius: float,
+                   exit_wanted: bool) -> tuple[float, float]:
+    """Entry and exit of one line ``P + lam d`` through one swept cutter (module method).
+
+    Without ``exit_wanted`` the exit only tells whether the sweep reaches ``P``: ``+inf``
+    where it does (``lam_out > 0``), else the entry. ``(+inf, -inf)`` where the line
+    misses.
+    """
+    lo, hi = sweep_bound(p, d, c0, chord, axis, height, core_radius, corner_radius)
+    if not math.isfinite(lo):
+        return math.inf, -math.inf
+    entry = _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, lo, hi, 1.0)
+    if not math.isfinite(entry):
+        return math.inf, -math.inf
+    if exit_wanted:
+        return entry, _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, hi,
+                              entry, -1.0)
+    if entry < 0.0:
+        f0, _, _, _ = _inner_min(p[0] - c0[0], p[1] - c0[1], p[2] - c0[2], chord, axis,
+                                 height, core_radius, corner_radius)
+        if not f0 <= 0.0:
+            return entry, entry
+    return entry, math.inf
+
+
+@numba.njit(cache=True, parallel=True)
+def _rows(kind: int, points: FloatArray, dirs: FloatArray, core0: FloatArray,
+          chord: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
+          corner_radius: float, exit_wanted: BoolArray, first: FloatArray,
+          second: FloatArray) -> None:
+    """A kernel over rows of pairs: 0 the interval, 1 the bound, 2 ``F`` at the points."""
+    for i in numba.prange(points.shape[0]):
+        if kind == 0:
+            first[i], second[i] = sweep_interval(
+                points[i], dirs[i], core0[i], chord[i], axis[i], height[i], core_radius,
+                corner_radius, exit_wanted[i])
+        elif kind == 1:
+            first[i], second[i] = sweep_bound(points[i], dirs[i], core0[i], chord[i],
+                                              axis[i], height[i], core_radius, corner_radius)
+        else:
+            first[i], _, _, _ = _inner_min(
+                points[i, 0] - core0[i, 0], points[i, 1] - core0[i, 1],
+                points[i, 2] - core0[i, 2], chord[i], axis[i], height[i], core_radius,
+                corner_radius)
+
+
+def _run_rows(kind: int, points: FloatArray, dirs: FloatArray, core0: FloatArray,
+              chord: FloatArray, axis: FloatArray, height_mm: FloatArray,
+              core_radius_mm: float, corner_radius_mm: float,
+              exit_wanted: BoolArray | None = None) -> tuple[FloatArray, FloatArray]:
+    m = points.shape[0]
+    first, second = np.empty(m), np.empty(m)
+    f = np.ascontiguousarray
+    want = (np.zeros(m, dtype=np.bool_) if exit_wanted is None
+            else f(np.broadcast_to(exit_wanted, (m,)), dtype=np.bool_))
+    _rows(kind, f(points, dtype=float), f(dirs, dtype=float), f(core0, dtype=float),
+          f(chord, dtype=float), f(axis, dtype=float),
+          f(np.broadcast_to(height_mm, (m,)), dtype=float), float(core_radius_mm),
+          float(corner_radius_mm), want, first, second)
+    return first, second
+
+
+@numba.njit(cache=True, parallel=True)
+def _core_rows(y: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
+               sd: FloatArray, grad: FloatArray) -> None:
+    for i in numba.prange(y.shape[0]):
+        sd[i], grad[i, 0], grad[i, 1], grad[i, 2] = _core_sd(
+            y[i, 0], y[i, 1], y[i, 2], axis[i, 0], axis[i, 1], axis[i, 2], height[i],
+            core_radius)
 
 
 def core_signed_distance(y: FloatArray, axis: FloatArray, height_mm: FloatArray,
@@ -107,144 +346,21 @@ def core_signed_distance(y: FloatArray, axis: FloatArray, height_mm: FloatArray,
         Its gradient (unit outside; a one-sided choice on the axis and the medial
         surfaces, where it has none).
     """
-    z = _dot(y, axis)
-    yp = y - z[:, None] * axis
-    rho = np.sqrt(_dot(yp, yp))
-    e_rho = yp / np.where(rho > 0.0, rho, 1.0)[:, None]
-    dx = rho - core_radius_mm
-    below = -z >= z - height_mm
-    dz = np.where(below, -z, z - height_mm)
-    s_z = np.where(below, -1.0, 1.0)
-    ox, oz = np.maximum(dx, 0.0), np.maximum(dz, 0.0)
-    h = np.hypot(ox, oz)
-    out = h > 0.0
-    inv = 1.0 / np.where(out, h, 1.0)
-    cx = np.where(out, ox * inv, dx >= dz)
-    cz = np.where(out, oz * inv, dx < dz) * s_z
-    sd = np.where(out, h, np.maximum(dx, dz))
-    return sd, cx[:, None] * e_rho + cz[:, None] * axis
-
-
-class _Piece:
-    """One row per (line, piece) pair: the arrays the kernel evaluates ``Phi`` with."""
-
-    def __init__(self, core0: FloatArray, chord: FloatArray, axis: FloatArray,
-                 height_mm: FloatArray, core_radius_mm: float, corner_radius_mm: float
-                 ) -> None:
-        self.core0, self.chord, self.axis, self.height = core0, chord, axis, height_mm
-        self.rho0, self.r = core_radius_mm, corner_radius_mm
-
-    def phi(self, x: FloatArray, w: FloatArray, rows: NDArray[np.int64]
-            ) -> tuple[FloatArray, FloatArray]:
-        """``Phi`` at points ``x`` and segment parameters ``w`` of pairs ``rows``; gradient."""
-        y = x - self.core0[rows] - w[:, None] * self.chord[rows]
-        sd, g = core_signed_distance(y, self.axis[rows], self.height[rows], self.rho0)
-        return sd - self.r, g
-
-    def inner_min(self, x: FloatArray, rows: NDArray[np.int64]
-                  ) -> tuple[FloatArray, FloatArray]:
-        """``F = min_w Phi`` at points ``x`` and the gradient of ``Phi`` at the minimiser.
-
-        ``dPhi/dw = -grad . D`` is non-decreasing: an end where it does not change sign is
-        the minimiser; otherwise Illinois false position on ``[0, 1]``.
-        """
-        chord, axis = self.chord[rows], self.axis[rows]
-        # closed forms: a chord across the axis moves rho only (sd grows with rho at a
-        # fixed z), one along the axis moves z only (sd is even about the mid-height)
-        y0 = x - self.core0[rows]
-        rise = _dot(chord, axis)
-        across = chord - rise[:, None] * axis
-        cc, aa = _dot(chord, chord), _dot(across, across)
-        flat = rise * rise <= _CLOSED_FORM * cc
-        upright = (aa <= _CLOSED_FORM * cc) & ~flat
-        safe_cc = np.where(cc > 0.0, cc, 1.0)
-        # the general case starts where a ball's minimiser would be: the projection on D
-        w = _dot(y0, chord) / safe_cc
-        w[flat] = _dot(y0[flat], across[flat]) / np.where(flat & (cc > 0.0), aa, 1.0)[flat]
-        w[upright] = (_dot(y0[upright], axis[upright]) - 0.5 * self.height[rows[upright]]
-                      ) / rise[upright]
-        w = np.clip(w, 0.0, 1.0)
-        best_f, best_g = self.phi(x, w, rows)
-        slope = -_dot(best_g, chord)
-        todo = np.flatnonzero(~(flat | upright) & (slope != 0.0))
-        if todo.shape[0] == 0:
-            return best_f, best_g
-        # bracket: the guess and the end on the downhill side, unless that end is lower
-        right = slope[todo] > 0.0
-        end = np.where(right, 0.0, 1.0)
-        f_end, g_end = self.phi(x[todo], end, rows[todo])
-        s_end = -_dot(g_end, chord[todo])
-        take = f_end < best_f[todo]
-        best_f[todo] = np.where(take, f_end, best_f[todo])
-        best_g[todo] = np.where(take[:, None], g_end, best_g[todo])
-        inside = np.where(right, s_end < 0.0, s_end > 0.0)
-        todo, right, s_end, end = todo[inside], right[inside], s_end[inside], end[inside]
-        lo = np.where(right, end, w[todo])
-        hi = np.where(right, w[todo], end)
-        slo = np.where(right, s_end, slope[todo])
-        shi = np.where(right, slope[todo], s_end)
-        side = np.zeros(todo.shape[0], dtype=np.int64)
-        t_lo, t_hi = slo.copy(), shi.copy()  # true slopes at the bracket's ends
-        for _ in range(_MAX_INNER):
-            # convexity: min Phi >= Phi(end) - |slope(end)| (hi - lo) at either end
-            live = np.minimum(-t_lo, t_hi) * (hi - lo) > CONVERGED_MM * 0.01
-            if not live.all():
-                todo, lo, hi, slo, shi, side, t_lo, t_hi = (
-                    v[live] for v in (todo, lo, hi, slo, shi, side, t_lo, t_hi))
-                if todo.shape[0] == 0:
-                    break
-            w = np.clip((lo * shi - hi * slo) / (shi - slo), lo, hi)
-            f, g = self.phi(x[todo], w, rows[todo])
-            better = f < best_f[todo]
-            best_f[todo] = np.where(better, f, best_f[todo])
-            best_g[todo] = np.where(better[:, None], g, best_g[todo])
-            sw = -_dot(g, chord[todo])
-            go_left = sw > 0.0  # the root lies left of w
-            # Illinois: halve the value kept at an end retained twice in a row
-            shi = np.where(go_left, sw, np.where(side == -1, 0.5 * shi, shi))
-            slo = np.where(go_left, np.where(side == 1, 0.5 * slo, slo), sw)
-            t_hi = np.where(go_left, sw, t_hi)
-            t_lo = np.where(go_left, t_lo, sw)
-            hi = np.where(go_left, w, hi)
-            lo = np.where(go_left, lo, w)
-            side = np.where(go_left, 1, -1)
-            done = sw == 0.0
-            t_lo[done] = 0.0
-        return best_f, best_g
-
-
-def _newton(piece: _Piece, points: FloatArray, dirs: FloatArray, rows: NDArray[np.int64],
-            start: FloatArray, stop: FloatArray, sign: float) -> FloatArray:
-    """First root of ``F`` going from ``start`` towards ``stop`` (``sign`` +1: rightwards).
-
-    Returns ``+inf * sign`` where the line misses the sweep within ``[start, stop]``.
-    """
-    lam = start.copy()
-    out = np.full(rows.shape[0], sign * np.inf)
-    todo = np.arange(rows.shape[0])
-    for _ in range(_MAX_NEWTON):
-        x = points[rows[todo]] + lam[todo, None] * dirs[rows[todo]]
-        f, g = piece.inner_min(x, rows[todo])
-        slope = sign * _dot(g, dirs[rows[todo]])  # dF along the walk
-        hit = f <= CONVERGED_MM
-        out[todo[hit]] = lam[todo[hit]]
-        step = np.where(slope < 0.0, -f / np.where(slope < 0.0, slope, -1.0), np.inf)
-        nxt = lam[todo] + sign * step
-        live = ~hit & (slope < 0.0) & (sign * (nxt - stop[todo]) <= 0.0)
-        lam[todo] = nxt
-        todo = todo[live]
-        if todo.shape[0] == 0:
-            return out
-    out[todo] = lam[todo]  # converging on a tangency: within 2^-40 of the span
-    return out
+    m = y.shape[0]
+    sd, grad = np.empty(m), np.empty((m, 3))
+    f = np.ascontiguousarray
+    _core_rows(f(y, dtype=float), f(axis, dtype=float),
+               f(np.broadcast_to(height_mm, (m,)), dtype=float), float(core_radius_mm), sd,
+               grad)
+    return sd, grad
 
 
 def sweep_distance(points: FloatArray, core0: FloatArray, chord: FloatArray, axis: FloatArray,
                    height_mm: FloatArray, *, core_radius_mm: float, corner_radius_mm: float
                    ) -> FloatArray:
     """``F``: signed distance of points to the swept cutters, pairwise (exact outside), mm."""
-    piece = _Piece(core0, chord, axis, height_mm, core_radius_mm, corner_radius_mm)
-    f, _ = piece.inner_min(points, np.arange(points.shape[0]))
+    f, _ = _run_rows(2, points, points, core0, chord, axis, height_mm, core_radius_mm,
+                     corner_radius_mm)
     return f
 
 
@@ -279,47 +395,15 @@ def line_sweep_interval(points: FloatArray, dirs: FloatArray, core0: FloatArray,
         Signed distances along ``d`` from ``P``, mm; ``+inf`` and ``-inf`` where the line
         misses.
     """
-    m = points.shape[0]
-    rho0, r = core_radius_mm, corner_radius_mm
-    lam_in = np.full(m, np.inf)
-    lam_out = np.full(m, -np.inf)
-    lo, hi = sweep_entry_bound(points, dirs, core0, chord, axis, height_mm,
-                               core_radius_mm=rho0, corner_radius_mm=r)
-    cand = np.flatnonzero(np.isfinite(lo))
-    if cand.shape[0] == 0:
-        return lam_in, lam_out
-    piece = _Piece(core0, chord, axis, height_mm, rho0, r)
-    entry = _newton(piece, points, dirs, cand, lo[cand], hi[cand], 1.0)
-    found = np.isfinite(entry)
-    cand, entry = cand[found], entry[found]
-    lam_in[cand] = entry
-    below = entry < 0.0
-    reach = np.ones(cand.shape[0], dtype=bool)
-    if below.any():
-        f0 = sweep_distance(points[cand[below]], core0[cand[below]], chord[cand[below]],
-                            axis[cand[below]], height_mm[cand[below]], core_radius_mm=rho0,
-                            corner_radius_mm=r)
-        reach[below] = f0 <= 0.0
-    lam_out[cand] = np.where(reach, np.inf, entry)
-    if exit_wanted is not None:
-        want = np.flatnonzero(exit_wanted[cand])
-        if want.shape[0]:
-            rows = cand[want]
-            lam_out[rows] = _newton(piece, points, dirs, rows, hi[rows], entry[want], -1.0)
-    return lam_in, lam_out
+    return _run_rows(0, points, dirs, core0, chord, axis, height_mm, core_radius_mm,
+                     corner_radius_mm, exit_wanted)
 
 
 def sweep_entry_bound(points: FloatArray, dirs: FloatArray, core0: FloatArray,
                       chord: FloatArray, axis: FloatArray, height_mm: FloatArray, *,
                       core_radius_mm: float, corner_radius_mm: float
                       ) -> tuple[FloatArray, FloatArray]:
-    """Bounds on where lines meet swept cutters: a bounding capsule cut by a slab.
-
-    The sweep lies within ``sqrt(rho0^2 + (L/2)^2) + r`` of the path of the core's
-    mid-height centre ``C0 + (L/2) a + w D``, and between the planes
-    ``(X - C0) . a = min(0, D . a) - r`` (the tip's lowest position) and
-    ``max(0, D . a) + L + r``: the line's interval through both contains ``[lam_in,
-    lam_out]``.
+    """Bounds on where lines meet swept cutters (:func:`sweep_bound`), pairwise.
 
     Parameters
     ----------
@@ -332,27 +416,5 @@ def sweep_entry_bound(points: FloatArray, dirs: FloatArray, core0: FloatArray,
         ``lo <= lam_in`` and ``hi >= lam_out``, mm; ``+inf`` and ``-inf`` where the line
         misses the bounds.
     """
-    half = 0.5 * height_mm
-    bound = np.sqrt(core_radius_mm**2 + half * half) + corner_radius_mm
-    lo, hi = _capsule(points, dirs, core0 + half[:, None] * axis, chord, bound)
-    da = _dot(dirs, axis)
-    z0 = _dot(points - core0, axis)
-    rise = _dot(chord, axis)
-    zlo = np.minimum(rise, 0.0) - corner_radius_mm
-    zhi = np.maximum(rise, 0.0) + height_mm + corner_radius_mm
-    along = np.abs(da) > 1e-12
-    inv = 1.0 / np.where(along, da, 1.0)
-    t1, t2 = (zlo - z0) * inv, (zhi - z0) * inv
-    lo = np.where(along, np.maximum(lo, np.minimum(t1, t2)), lo)
-    hi = np.where(along, np.minimum(hi, np.maximum(t1, t2)), hi)
-    miss = (lo > hi) | (~along & ((z0 < zlo) | (z0 > zhi)))
-    return np.where(miss, np.inf, lo), np.where(miss, -np.inf, hi)
-
-
-def _capsule(points: FloatArray, dirs: FloatArray, a: FloatArray, e: FloatArray,
-             radius_mm: FloatArray) -> tuple[FloatArray, FloatArray]:
-    """:func:`line_capsule_interval` with a radius per pair (the pieces' bounds)."""
-    scale = 1.0 / radius_mm
-    lo, hi = line_capsule_interval(points * scale[:, None], dirs, a * scale[:, None],
-                                   e * scale[:, None], _dot(e, e) * scale * scale, 1.0)
-    return lo * radius_mm, hi * radius_mm
+    return _run_rows(1, points, dirs, core0, chord, axis, height_mm, core_radius_mm,
+                     corner_radius_mm)

@@ -34,9 +34,11 @@ from gcode.check import machine_dialect
 from gcode.dialects import Dialect, dialect_by_name
 from gcode.machine_frame import machine_axis_names, program_values
 from gcode.parser import parse_file
+from gcode.post import DEFAULT_JOINT_TOLERANCE_MM
 from gcode.program import Linear, Program, Rapid
 from machines import Machine
 from toolpath import MoveKind, Toolpath, surface_from_dict
+from toolpath.joint_refine import refine_for_joint_interpolation
 from toolpath.planning.cutters import Cutter, CutterKind
 from toolpath.surface import ParametricSurface
 
@@ -372,14 +374,21 @@ def program_of_toolpath(toolpath: Toolpath, machine: Machine) -> Program:
 
 
 def verify_toolpath(toolpath: Toolpath, surface: ParametricSurface, machine: Machine,
-                    cutter: Cutter, *, options: VerifyOptions | None = None
+                    cutter: Cutter, *, options: VerifyOptions | None = None,
+                    joint_tolerance_mm: float | None = DEFAULT_JOINT_TOLERANCE_MM
                     ) -> VerificationReport:
     """Verify a toolpath as the machine would run it, before any G-code rounding.
 
     The planning step's figures (scallop, chord error) are figures of its toolpath; this is
     the check that confirms them with the machine's joint interpolation between points
-    (:func:`program_of_toolpath`, then :func:`verify_program`). Lines in the report are
-    toolpath point numbers + 1 (block ``i`` arrives at point ``i``).
+    (:func:`program_of_toolpath`, then :func:`verify_program`), after the post's split of
+    5-axis moves (:func:`~toolpath.joint_refine.refine_for_joint_interpolation`, which
+    :func:`gcode.post` runs by default): the planner checks its leads and links as
+    straight tip moves and leaves them to that split, so without it a link that turns the
+    tool axis bows off its chord, into the part (issue 28: 0.06 mm on a dev-blade zigzag
+    link turning the axis 20 deg). Lines in the report are point numbers + 1 of the
+    toolpath so split (block ``i`` arrives at point ``i``); the same as the planner's on
+    a 3-axis machine, or with ``joint_tolerance_mm=None``.
 
     Parameters
     ----------
@@ -387,10 +396,16 @@ def verify_toolpath(toolpath: Toolpath, surface: ParametricSurface, machine: Mac
         The planner's output.
     surface, machine, cutter, options
         As for :func:`verify_program`.
+    joint_tolerance_mm : float or None
+        The post's joint tolerance, mm (its default,
+        :data:`gcode.post.DEFAULT_JOINT_TOLERANCE_MM`); None: every point joined by one
+        block interpolated in joint space (a post run with ``joint_tolerance_mm=None``).
 
     Returns
     -------
     VerificationReport
     """
+    if joint_tolerance_mm is not None:
+        toolpath = refine_for_joint_interpolation(toolpath, machine, joint_tolerance_mm)
     program = program_of_toolpath(toolpath, machine)
     return verify_program(program, surface, machine, cutter, options=options)

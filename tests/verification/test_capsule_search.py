@@ -1,9 +1,10 @@
-"""The compiled ball search against the exact pair search it replaces (the oracle).
+"""The compiled searches against the exact pair search they replace (the oracle).
 
 The pair search expands every candidate (dexel, piece) pair in numpy and folds the
-minimum; the compiled walk meets the same candidates, skips the capsules its bound rules
-out, and seeks only below what an earlier search found. Both must leave the same
-material on every dexel, traced to the same block.
+minimum; the compiled walks (ball: capsules; flat and bull-nose: swept cutters, issue 28)
+meet the same candidates, skip the pieces their bounds rule out, and seek only below what
+an earlier search found. Both must leave the same material on every dexel, traced to the
+same block.
 """
 
 import functools
@@ -16,6 +17,7 @@ import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
 from machines import load_machine
 from toolpath.planning.analytic import PlaneSurface, SpherePatch
+from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
 from verification.dexels import SweepIndex
 
@@ -83,3 +85,25 @@ def test_a_sphere_raster_with_uncut_stock(monkeypatch, router, ball6):
                    for x, h in zip(xs, z, strict=True)]
     _same(*_both(monkeypatch, Program(tuple(blocks)), sphere, router, ball6,
                  options=VerifyOptions(spacing_mm=0.15)))
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1"])
+def test_flat_and_bull_nose_five_axis_blocks(monkeypatch, spec):
+    # the axis turns along every block: pieces cut short, the case the walk is for
+    machine = load_machine("trunnion-ac")
+    cutter = parse_cutter(spec)
+    program = five_axis_line(machine, cutter, 4, tilt_deg=(5.0, 12.0), length_mm=4.0,
+                             lean="y")
+    plane = PlaneSurface((0.0, -2.0, 0.0), (4.0, 0.0, 0.0), (0.0, 4.0, 0.0))
+    _same(*_both(monkeypatch, program, plane, machine, cutter,
+                 options=VerifyOptions(spacing_mm=0.3, horizon_mm=0.1, refine=4)))
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1"])
+def test_flat_and_bull_nose_raster_with_a_deep_pass_and_a_rapid(monkeypatch, router, spec):
+    honest = zigzag_raster([0.0, 4.0, 8.0], -5.0, 11.0, shift={1: -0.05})
+    crash = Program((*honest.blocks[:-1], Rapid(x=-6.0, y=6.0, z=-4.0),
+                     Rapid(x=12.0, y=6.0, z=-4.0), Rapid(z=5.0)))
+    plane = PlaneSurface((0.0, 0.0, 0.0), (6.0, 0.0, 0.0), (0.0, 8.0, 0.0))
+    _same(*_both(monkeypatch, crash, plane, router, parse_cutter(spec),
+                 options=VerifyOptions(spacing_mm=0.2, refine=4)))

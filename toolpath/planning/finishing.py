@@ -78,7 +78,13 @@ from .sampling import (
     point_move_gaps,
     split_evenly,
 )
-from .scallop import pass_levels, shadow_stepover_mm, stepover_mm, turn_radius_mm
+from .scallop import (
+    cusp_allowance_mm,
+    pass_levels,
+    shadow_stepover_mm,
+    stepover_mm,
+    turn_radius_mm,
+)
 from .tool_axis import angle_deg
 
 __all__ = ["plan_finishing"]
@@ -290,8 +296,8 @@ def _allowed_steps(job: _Job, frame: PassFrame, axes: NDArray[np.float64],
     """
     cutter, opts, res = job.cutter, job.opts, job.res
     shape = (len(frame.s11) // len(s), len(s))  # (the nodes are ravelled t-major)
-    h = np.where(frame.s11 > FLAT_PER_MM, res.planned_scallop_mm - res.undercut_mm,
-                 res.planned_scallop_mm)
+    h = cusp_allowance_mm(res.planned_scallop_mm, res.undercut_mm, frame.s11,
+                          opts.axis_mode is AxisMode.LEAD_TILT)
     if cutter.kind is CutterKind.BALL:
         width = stepover_mm(h, cutter.radius_mm, frame.s22)
     else:

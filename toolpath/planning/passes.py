@@ -36,6 +36,7 @@ from .sampling import (
     point_move_gaps,
     split_evenly,
 )
+from .scallop import undercut_limit_mm
 from .tool_axis import (
     Z_AXIS,
     AxisSmoothing,
@@ -646,7 +647,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # moves' gaps, larger, stand for them)
         unchecked = float(gap[bad].max())
         j = idx[bad]
-        over = np.maximum(-low / tol, high / res.undercut_mm)[bad]
+        over = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))[bad]
         parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
         new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)
         new_pid = pts.pid[j][which]
@@ -707,7 +708,7 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
     # the model is close, not exact: where an extreme is within 10 % of its limit,
     # measure there (a move can both cut in and stand above: both sides are checked)
     sides = ((low, u_low, res.planned_chord_tol_mm, -1.0, np.minimum),
-             (high, u_high, res.undercut_mm, 1.0, np.maximum))
+             (high, u_high, _undercut_limit(res, pts, idx), 1.0, np.maximum))
     for value, u_at, limit, sign, further in sides:
         # (next to a measured place the model is pinned to the measurement)
         off_sample = np.abs(u_at[:, None] - fractions).min(axis=1) > MEASURED_NEAR_U
@@ -720,6 +721,13 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
                                           refine_rim=True, **joint_moves(machine, q, j))
             value[close] = further(value[close], exact[:, 0])
     return low, high, q
+
+
+def _undercut_limit(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
+                    ) -> NDArray[np.float64]:
+    """How far moves ``idx -> idx + 1`` may stand above the surface (:func:`undercut_limit_mm`)."""
+    return undercut_limit_mm(res.undercut_mm, res.planned_scallop_mm, pts.frame.s11[idx],
+                             pts.frame.s11[idx + 1], pts.axes[idx], pts.axes[idx + 1])
 
 
 def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
@@ -736,7 +744,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     cutter radius times the axis turn) is not split: its gap is not the chord's (its ends
     themselves stand off), and the report carries it.
     """
-    bad = (low < -res.planned_chord_tol_mm) | (high > res.undercut_mm)
+    bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
     if q is not None and machine is not None:
         bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
     at = np.flatnonzero(bad)

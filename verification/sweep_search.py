@@ -1,0 +1,191 @@
+"""The lowest entry of flat and bull-nose pieces along each dexel, walked in compiled code.
+
+The same search as the candidate pairs of :class:`~verification.grid.PieceGrid` measured by
+:class:`~verification.dexels.SweepIndex` (the exact path, kept as the oracle of the
+tests), without storing a pair. Expanded as numpy pairs, every candidate's bound is stored
+and the pairs it cannot rule out are measured in numpy: on a 5-axis program, whose pieces
+are short (cut where the axis turns), that is tens of millions of pairs and minutes of a
+verification. Here each dexel walks its candidates (every piece whose midpoint lies within
+the search radius of its centre, over the cells of
+:func:`~verification.capsule_search.column_slots`) twice:
+
+1. the piece whose cheap lower bound on the entry (:func:`~verification.torus.sweep_bound`:
+   a bounding capsule cut by a slab) is lowest, measured exactly
+   (:func:`~verification.torus.sweep_interval`): usually the piece that leaves the least;
+2. every other piece whose bound lies below the best value found so far, measured.
+
+The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
+reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
+behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing; the first of equal
+values is kept.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from .capsule_search import centre_cells, column_slots
+from .grid import PieceGrid
+from .torus import sweep_bound, sweep_interval
+
+__all__ = ["lowest_sweep_entries"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+
+@numba.njit(cache=True)
+def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+           axis: FloatArray, height: float, core_radius: float, corner_radius: float,
+           behind_cosine: float) -> tuple[float, bool]:
+    """Material one piece leaves on one dexel (``inf``: none), and whether from behind."""
+    against = d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2] < behind_cosine
+    lam_in, lam_out = sweep_interval(p, d, c0, chord, axis, height, core_radius,
+                                     corner_radius, against)
+    if not lam_out > 0.0:
+        return math.inf, False
+    back = lam_in < 0.0 and against
+    return (max(lam_in, -lam_out) if back else lam_in), back
+
+
+@numba.njit(cache=True, parallel=True)
+def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
+          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          starts: IntArray, order: IntArray, mid: FloatArray, half: FloatArray, a: FloatArray,
+          e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
+          corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
+          behind: NDArray[np.bool_], pairs: IntArray) -> None:
+    # every piece's cutter lies within this plus its half length of its midpoint (the
+    # bound of :func:`~verification.torus.sweep_bound` about the core's mid-height path,
+    # which stands L / 2 above the midpoint)
+    top = 0.5 * height.max()
+    outer = math.sqrt(core_radius * core_radius + top * top) + corner_radius + top
+    for q in numba.prange(points.shape[0]):
+        p, d = points[q], dirs[q]
+        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+        ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
+        span = spans[q]
+        k0 = max(ck - span, 0)
+        k1 = min(ck + span, dims[2] - 1)
+        best = lam[q]
+        best_piece = -1
+        best_behind = False
+        n = 0
+        for walk in range(2):
+            lowest, lowest_piece = best, -1
+            for i in range(ci - span, ci + span + 1):
+                for j in range(cj - span, cj + span + 1):
+                    first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims,
+                                               origin, cell, starts)
+                    for slot in range(first, stop):
+                        mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
+                        if not mx * mx + my * my + mz * mz <= lim2[q]:
+                            continue
+                        if walk == 0:
+                            n += 1
+                        # the piece lies within rho of its midpoint: a line farther than
+                        # rho misses it, and enters it no sooner than t - sqrt(rho^2 - perp^2)
+                        wx, wy, wz = mid[slot, 0] - p[0], mid[slot, 1] - p[1], mid[slot, 2] - p[2]
+                        t = wx * d[0] + wy * d[1] + wz * d[2]
+                        rho = outer + half[slot]
+                        room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
+                        if room < 0.0 or t - math.sqrt(room) >= (lowest if walk == 0
+                                                                  else best):
+                            continue
+                        k = order[slot]
+                        if walk == 1 and k == lowest_piece:
+                            continue
+                        lo, _ = sweep_bound(p, d, a[k], e[k], axis[k], height[k],
+                                            core_radius, corner_radius)
+                        if walk == 0:
+                            if lo < lowest:
+                                lowest, lowest_piece = lo, k
+                            continue
+                        if not lo < best:
+                            continue
+                        value, back = _value(p, d, a[k], e[k], axis[k], height[k],
+                                             core_radius, corner_radius, behind_cosine)
+                        if value < best:
+                            best, best_piece, best_behind = value, k, back
+            if walk == 0:
+                if lowest_piece < 0:
+                    break
+                value, back = _value(p, d, a[lowest_piece], e[lowest_piece],
+                                     axis[lowest_piece], height[lowest_piece], core_radius,
+                                     corner_radius, behind_cosine)
+                if value < best:
+                    best, best_piece, best_behind = value, lowest_piece, back
+        lam[q] = best
+        piece[q] = best_piece
+        behind[q] = best_behind
+        pairs[q] = n
+
+
+def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
+                         dirs: FloatArray, centres: FloatArray, reach_mm: FloatArray,
+                         sorted_mid: FloatArray, sorted_half_mm: FloatArray,
+                         a: FloatArray, e: FloatArray, axis: FloatArray, height_mm: FloatArray,
+                         *, core_radius_mm: float, corner_radius_mm: float,
+                         behind_cosine: float,
+                         below_mm: FloatArray | None = None
+                         ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
+    """Per dexel the lowest value among flat/bull-nose pieces within ``reach_mm``.
+
+    Parameters
+    ----------
+    grid : PieceGrid
+        The pieces by cell.
+    span : ndarray of int64, shape (q,)
+        Cells searched on each side of a centre's cell (covers ``reach_mm``).
+    points, dirs : ndarray, shape (q, 3)
+        Dexel origins (mm) and unit directions.
+    centres : ndarray, shape (q, 3)
+        Search centres, mm.
+    reach_mm : ndarray, shape (q,)
+        A piece is a candidate when its midpoint lies within this of the centre, mm.
+    sorted_mid, sorted_half_mm : ndarray, shapes (n, 3), (n,)
+        The pieces' midpoints and half lengths in the grid's order (``mid[grid.order]``),
+        mm.
+    a, e, axis, height_mm : ndarray
+        The pieces' core bottom centres at their starts, chords, axes and core heights
+        (:class:`~verification.pieces.Pieces`).
+    core_radius_mm, corner_radius_mm : float
+        ``rho0 = R - r`` and ``r``, mm.
+    behind_cosine : float
+        ``a . d`` below which a piece comes from behind.
+    below_mm : ndarray, shape (q,), optional
+        Seek only values below these, mm (default: all).
+
+    Returns
+    -------
+    lam : ndarray, shape (q,)
+        Lowest value, mm (``inf``: none reached the design point, or none below
+        ``below_mm``).
+    piece : ndarray of int64
+        Its piece (``-1`` where none).
+    behind : ndarray of bool
+        It came from behind.
+    pairs : int
+        Candidate pairs met.
+    """
+    q = points.shape[0]
+    lam = np.full(q, np.inf) if below_mm is None else np.array(below_mm, dtype=float)
+    piece = np.full(q, -1, dtype=np.int64)
+    behind = np.zeros(q, dtype=np.bool_)
+    pairs = np.zeros(q, dtype=np.int64)
+    if q == 0 or grid.n_pieces == 0:
+        return np.full(q, np.inf), piece, behind, 0
+    cell, spans, dims = centre_cells(grid, centres, span)
+    f = np.ascontiguousarray
+    _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
+          f(reach_mm * reach_mm, dtype=float), cell, spans, dims,
+          f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, grid.order,
+          f(sorted_mid), f(sorted_half_mm), f(a, dtype=float), f(e, dtype=float),
+          f(axis, dtype=float), f(height_mm, dtype=float), float(core_radius_mm),
+          float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+    lam[piece < 0] = np.inf
+    return lam, piece, behind, int(pairs.sum())
