@@ -46,11 +46,21 @@ from .between_sections import interpolation_errors
 from .knots import detect_corners
 from .parametrize import cumulative_parameters
 
-__all__ = ["BETWEEN_DATA_FRACTIONS", "between_data_errors", "between_data_estimate",
+__all__ = ["BETWEEN_DATA", "BETWEEN_DATA_FRACTIONS", "DATA_SHARE", "between_data_errors",
+           "between_data_estimate", "between_data_over", "between_data_parts",
            "surface_between_data"]
 
 #: Where in each data interval the fit is compared with the data curve.
 BETWEEN_DATA_FRACTIONS = (0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875)
+#: The kind that :func:`between_data_over` gives its intervals (their fifth entry).
+BETWEEN_DATA = "between data"
+#: The share of the tolerance the data's own uncertainty (Hall's term) may take in the
+#: criterion of :func:`between_data_over`; where it is larger the data cannot tell the
+#: section to the tolerance (a nose sampled as coarsely as its radius: 0.007-0.01 mm on the
+#: real-like propeller's LE; a flank interval whose fourth differences reach into a dense
+#: nose: up to 1 mm, a bound far above the truth there), and the fit is held to the data
+#: curve alone.
+DATA_SHARE = 0.5
 #: Samples of the data curve per data interval (its polyline): a flank interval of 8 mm on
 #: a 50 mm radius sags 0.16 mm, its 1/16 chords 0.6 um.
 POLYLINE_SAMPLES = 16
@@ -80,6 +90,19 @@ def between_data_errors(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.fl
                         closed: bool = False) -> NDArray[np.float64]:
     """Estimated largest error (mm) of the fit in each data interval (module docstring).
 
+    The sum of the two parts of :func:`between_data_parts`; parameters as there, NaN where
+    a corner lies inside an interval.
+    """
+    fit_mm, data_mm = between_data_parts(fitted_at, t, points, closed=closed)
+    return fit_mm + data_mm
+
+
+def between_data_parts(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                       t: NDArray[np.float64], points: NDArray[np.float64], *,
+                       closed: bool = False
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The fit's largest distance from the data curve, and Hall's term, per data interval.
+
     Parameters
     ----------
     fitted_at : callable
@@ -94,13 +117,15 @@ def between_data_errors(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.fl
 
     Returns
     -------
-    ndarray, shape (n - 1,)
-        Per interval ``i`` (``t_i`` to ``t_(i+1)``); NaN where a corner lies inside it.
+    fit_mm, data_mm : ndarray, shape (n - 1,)
+        Per interval ``i`` (``t_i`` to ``t_(i+1)``): ``max |X - D|`` there, and Hall's
+        term, how far the data curve itself may be from the section whatever the fit (the
+        data's uncertainty); both NaN where a corner lies inside the interval.
     """
     t = np.asarray(t, dtype=float)
     points = np.asarray(points, dtype=float)
     n = t.size
-    out = np.full(n - 1, np.nan)
+    out = (np.full(n - 1, np.nan), np.full(n - 1, np.nan))
     corners = _corner_samples(points, t, closed)
     if closed and not corners:
         # periodic: the data curve round the loop, two samples either side for the windows
@@ -144,11 +169,11 @@ def between_data_errors(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.fl
 
 
 def _compare(fitted_at, u, tau, data_curve, hall, intervals, out, *, wrap: bool) -> None:
-    """Fill ``out[intervals[k]]`` for every interval ``u_k .. u_(k+1)`` of a piece.
+    """Fill ``out`` (fit part, data part) at ``intervals[k]``, each ``u_k .. u_(k+1)``.
 
     The largest distance from the fit there to the data curve near it (its polyline over
     the intervals ``k - 1 .. k + 1``, each sampled :data:`POLYLINE_SAMPLES` times along
-    ``tau``), plus ``hall[k]``.
+    ``tau``), and ``hall[k]``.
     """
     frac = np.asarray(BETWEEN_DATA_FRACTIONS)
     at = (u[:-1, None] + np.diff(u)[:, None] * frac[None, :]).ravel()
@@ -160,8 +185,8 @@ def _compare(fitted_at, u, tau, data_curve, hall, intervals, out, *, wrap: bool)
     for k in range(u.size - 1):
         lo = max(k - 1, 0) * POLYLINE_SAMPLES
         hi = min(k + 2, u.size - 1) * POLYLINE_SAMPLES
-        out[intervals[k]] = _distance_to_polyline(fitted[k], polyline[lo:hi + 1]).max() \
-            + hall[k]
+        out[0][intervals[k]] = _distance_to_polyline(fitted[k], polyline[lo:hi + 1]).max()
+        out[1][intervals[k]] = hall[k]
 
 
 def _distance_to_polyline(query: NDArray[np.float64], polyline: NDArray[np.float64]
@@ -172,6 +197,30 @@ def _distance_to_polyline(query: NDArray[np.float64], polyline: NDArray[np.float
     length2 = np.maximum(np.einsum("ij,ij->i", ab, ab), 1e-300)
     w = np.clip(np.einsum("qij,ij->qi", rel, ab) / length2, 0.0, 1.0)
     return np.linalg.norm(rel - w[:, :, None] * ab[None, :, :], axis=2).min(axis=1)
+
+
+def between_data_over(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
+                      t: NDArray[np.float64], points: NDArray[np.float64], tol_mm: float, *,
+                      closed: bool = False) -> list[tuple[float, float, float, str, str]]:
+    """The data intervals where the fit is estimated beyond ``tol_mm``: what a fitter mends.
+
+    With ``h`` Hall's term (:func:`between_data_parts`), an interval counts where
+    ``|X - D| > tol - h`` if ``h <= DATA_SHARE tol``, else where ``|X - D| > tol``: the
+    fit keeps within ``tol`` of the section as far as the data tell, and within ``tol``
+    of the data curve where the data themselves cannot tell the section that well (no
+    fit makes up for that; the estimate reported beside the fit still carries all of
+    ``h``). Returns ``(t_i, t_(i+1), mm, what, BETWEEN_DATA)`` per interval, worst first,
+    ``mm`` the estimate there.
+    """
+    fit_mm, data_mm = between_data_parts(fitted_at, t, points, closed=closed)
+    with np.errstate(invalid="ignore"):
+        score = fit_mm + np.where(data_mm <= DATA_SHARE * tol_mm, data_mm, 0.0)
+        over = np.flatnonzero(score > tol_mm)
+    over = over[np.argsort(-score[over], kind="stable")]
+    return [(float(t[i]), float(t[i + 1]), float(fit_mm[i] + data_mm[i]),
+             f"{fit_mm[i] + data_mm[i]:.4f} mm from the data between points at "
+             f"t={0.5 * (t[i] + t[i + 1]):.4f} (estimated, {data_mm[i]:.4f} mm of it the "
+             "uncertainty of the data themselves there)", BETWEEN_DATA) for i in over]
 
 
 def between_data_estimate(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
