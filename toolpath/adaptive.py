@@ -354,7 +354,7 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
             # ... the weights left to the polish: a fit off the data between the points
             # there needs the span, not the points, held closer
             _refit(trial, _split_spans(trial.knots, t, mending), t, fit_at, options,
-                   np.full(t.size, np.nan)),
+                   np.full(t.size, np.nan)) if mending[0][4:5] == (BETWEEN_DATA,) else None,
             # ... and the spans beside them: a ring after a jump of the data's curvature
             # (a nose meeting a flank) falls with the span squared on either side
             _refit(trial, _split_spans(trial.knots, t, mending, MEND_REACH), t, fit_at,

@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .between_data import between_data_over
+from .between_data import DataCurve, between_data_over
 from .vectors import unit
 
 __all__ = [
@@ -648,46 +648,64 @@ def curve_fair_check(make_curve: Any, points: Any, tol_mm: float, *, closed: boo
     Those are looked for once the fit is fair (the mend mends the unfair stretches first).
     """
     data = np.asarray(points, dtype=float)
+    made: dict[bytes, DataCurve] = {}  # the data curve, once per parametrization
 
     def check(fit: Any, knots: NDArray[np.float64]) -> list[tuple]:
         curve = make_curve(fit, knots)
+        unfair = curve_fairness(curve, points, closed=closed).unfair(tol_mm)
+        if unfair:
+            return unfair
         t, ring = np.asarray(curve.params, dtype=float), data
         if closed and t[-1] < 1.0:  # round to the first point again (as curve_fairness)
             t = np.append(t, 1.0)
             if len(ring) < t.size:
                 ring = np.vstack((data, data[:1]))
-        unfair = curve_fairness(curve, points, closed=closed).unfair(tol_mm)
-        return unfair or between_data_over(curve, t, ring, tol_mm, closed=closed)
+        key = t.tobytes()
+        if key not in made:
+            made[key] = DataCurve(t, ring, closed)
+        return between_data_over(curve, t, ring, tol_mm, closed=closed, data=made[key])
 
     return check
 
 
 def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
-                       per_interval: int = SAMPLES_PER_INTERVAL):
+                       per_interval: int = SAMPLES_PER_INTERVAL, data_mask: Any = None):
     """``fair_check`` for a surface fit: ``make_surface(fit, knots)`` builds the surface.
 
     As :func:`curve_fair_check`, with every section's intervals off the data between its
-    grid points (a union grid's interpolated entries lie on their section's own curve).
+    data points: ``data_mask`` (m, n) marks them on the grid (None: every entry is data).
     """
     data = np.asarray(points, dtype=float)
+    made: dict[bytes, list[tuple]] = {}  # (t, section, data curve) per section, once
+
+    def sections(surface: Any) -> list[tuple]:
+        t = np.asarray(surface.t_params, dtype=float)
+        closed = bool(surface.closed_t)
+        key = t.tobytes() + bytes(closed)
+        if key not in made:
+            made[key] = []
+            mask = (np.ones(data.shape[:2], dtype=bool) if data_mask is None
+                    else np.asarray(data_mask, dtype=bool))
+            for ring, on in zip(data, mask, strict=True):
+                u, ring = t[on], ring[on]
+                if closed and not np.array_equal(ring[0], ring[-1]):
+                    u, ring = np.append(u, 1.0), np.vstack((ring, ring[:1]))
+                made[key].append((u, ring, DataCurve(u, ring, closed)))
+        return made[key]
 
     def check(fit: Any, knots: NDArray[np.float64]) -> list[tuple]:
         surface = make_surface(fit, knots)
         unfair = surface_fairness(surface, data, per_interval=per_interval).unfair(tol_mm)
         if unfair:
             return unfair
-        t = np.asarray(surface.t_params, dtype=float)
         closed = bool(surface.closed_t)
         off: list[tuple] = []
-        for j, s_j in enumerate(np.asarray(surface.s_params, dtype=float)):
-            ring = data[j]
-            if closed and not np.array_equal(ring[0], ring[-1]):
-                ring = np.vstack((ring, ring[:1]))
-            u = t if len(ring) == t.size else np.append(t, 1.0)
+        for j, ((u, ring, curve), s_j) in enumerate(zip(sections(surface), surface.s_params,
+                                                        strict=True)):
             off += [(lo, hi, mm, f"section {j}: {what}", kind) for lo, hi, mm, what, kind
                     in between_data_over(lambda v, s_j=s_j: surface(v, np.full(np.shape(v),
                                                                                s_j)),
-                                         u, ring, tol_mm, closed=closed)]
+                                         u, ring, tol_mm, closed=closed, data=curve)]
         return sorted(off, key=lambda item: -item[2])
 
     return check
