@@ -77,7 +77,8 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
     if make_surface is not None and options.tol is not None:
         fair_check = surface_fair_check(
             lambda fit, knots: make_surface(GridFit(knots, *fit)), sections.points,
-            options.tol, per_interval=sections.samples_per_column(SAMPLES_PER_INTERVAL))
+            options.tol, per_interval=sections.samples_per_column(SAMPLES_PER_INTERVAL),
+            data_mask=sections.data_mask)
 
     def driver_fit(knots, weights):
         rows, errors = fit_at(knots, weights)
