@@ -25,12 +25,8 @@ def blade():
     return fit_streamline_surface(sections, tol=0.01, closed=False)
 
 
-@pytest.fixture(autouse=True)
-def few_rays(monkeypatch):
-    """The estimate decides on small plans too, ray casting only the 16 largest."""
-    monkeypatch.setattr(measure, "ESTIMATE_MIN_SEEDS", 0)
-    monkeypatch.setattr(measure, "ESTIMATE_TOP", 16)
-    monkeypatch.setattr(measure, "ESTIMATE_TOP_SHARE", 0.0)
+#: The estimate decides on small plans too, ray casting only the 16 largest.
+FEW_RAYS = {"estimate_min_seeds": 0, "estimate_top": 16, "estimate_top_share": 0.0}
 
 
 def _measured_inputs(monkeypatch, surface, cutter, **options):
@@ -47,20 +43,10 @@ def _measured_inputs(monkeypatch, surface, cutter, **options):
 
 
 def _same_scallop(args, kwargs):
-    cast = []
-    real = measure._cusps
-
-    def counted(volume, surface, t, *rest):
-        cast.append(len(t))
-        return real(volume, surface, t, *rest)
-
-    measure._cusps = counted
-    try:
-        fast = measure.measure_scallop(*args, **kwargs, estimate=True)
-    finally:
-        measure._cusps = real
+    fast = measure.measure_scallop(*args, **kwargs, estimate=True, **FEW_RAYS)
     full = measure.measure_scallop(*args, **kwargs, estimate=False)
-    assert sum(cast) < 0.9 * fast.n_samples  # the estimate did decide where to cast
+    assert full.n_cast == full.n_samples
+    assert fast.n_cast < 0.9 * fast.n_samples  # the estimate did decide where to cast
     assert fast.max_mm == pytest.approx(full.max_mm, rel=0.02)
     assert fast.interior_max_mm == pytest.approx(full.interior_max_mm, rel=0.02)
     assert fast.uncut_fraction == full.uncut_fraction
@@ -109,7 +95,7 @@ def test_the_estimate_stands_near_the_ray_cast_seed_by_seed(monkeypatch):
 
     monkeypatch.setattr(measure, "_ball_cusp_estimates", estimates)
     monkeypatch.setattr(measure, "_cusps", cusps)
-    measure.measure_scallop(*args, **kwargs, estimate=True)
+    measure.measure_scallop(*args, **kwargs, estimate=True, **FEW_RAYS)
     seen.pop("cast")
     measure.measure_scallop(*args, **kwargs, estimate=False)
     t, s0, h = (np.concatenate(c) for c in zip(*seen["cast"], strict=True))
