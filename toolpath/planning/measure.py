@@ -142,7 +142,9 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     big, r = cutter.radius_mm, cutter.corner_radius_mm
     # the contact of every cutter location on a cutting move, once (seeded by the nearest
     # surface sample)
-    ends = np.unique(np.r_[move, move + 1])
+    at_end = np.zeros(len(kinds), dtype=bool)
+    at_end[move] = at_end[move + 1] = True
+    ends = np.flatnonzero(at_end)
     guess = pos[ends] + (big if cutter.kind is CutterKind.BALL else r) * ax_all[ends]
     _, nearest = samples.tree.query(guess, k=1, workers=-1)
     g_end = np.empty(ends.size)
