@@ -387,10 +387,13 @@ class _CutVolume:
     def near_cells(self) -> SampleCells:
         """A ball's pieces' midpoints binned (when first asked) in cells twice :attr:`near_mm`.
 
-        (Finer cells cost more to lay out over the part's box than they save.)
+        (Finer cells cost more to lay out over the part's box than they save;) and at least
+        as many pieces as cells: a few pieces over a large part leave most cells empty.
         """
         if self._near_cells is None:
-            self._near_cells = bin_samples(0.5 * (self.a + self.b), 2.0 * self.near_mm)
+            mid = 0.5 * (self.a + self.b)
+            sparse = float(np.prod(np.ptp(mid, axis=0) + self.near_mm) / len(mid)) ** (1 / 3)
+            self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
         return self._near_cells
 
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
