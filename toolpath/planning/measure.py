@@ -808,7 +808,10 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         gap = np.where(np.isfinite(gap), gap, 3.0 * width)
         speed = np.linalg.norm(x_s[todo], axis=1)
         s1[todo] = np.minimum(ss[todo] + 2.5 * gap / np.maximum(speed, 1e-12), 1.0)
-        todo = todo[s1[todo] > ss[todo] + 1e-12]  # no room above: no cusp
+        room = s1[todo] > ss[todo] + 1e-12  # no room above: no cusp
+        # brackets of like length batched together: a batch meets the pieces within
+        # reach of its longest bracket
+        todo = todo[room][np.argsort(gap[room], kind="stable")]
         for lo in range(0, todo.size, chunk):
             sl = todo[lo:lo + chunk]
             cusp_h[sl], cusp_s[sl] = _cusps(volume, surface, st[sl], ss[sl], s1[sl], sp[sl])
