@@ -376,8 +376,8 @@ class _CutVolume:
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
         self.cells = bin_samples(mid, self.reach) if len(mid) else None
-        # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within a
-        # few spacings of passes on a plane (the width a cusp of the request leaves)
+        # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
+        # about the spacing of passes on a plane for the request (:data:`NEAR_WIDTHS`)
         self.near_mm = (NEAR_WIDTHS * 2.0 * np.sqrt(scallop_mm * (2.0 * big - scallop_mm))
                         + 0.5 * step)
         self.step_mm = step
