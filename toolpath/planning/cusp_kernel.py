@@ -1,7 +1,9 @@
 """Where two passes' ball tubes meet near a seed: the compiled part of the cusp estimate.
 
-For each seed (a ball centre ``P`` over a contact, its pass, the surface's ``X_s``) and its
-nearest pieces (centre segments, by a k-d tree on their midpoints), :func:`ridges` takes
+For each seed (a ball centre ``P`` over a contact, its pass, the surface's ``X_s``) and the
+pieces near it (centre segments whose midpoints lie within a reach of ``P``, met on the spot
+in the cells of a grid that reach meets, as :func:`~.clearance_kernel.pairs_within` finds
+them, no list of pairs built), :func:`ridges` takes
 the nearest segment of the seed's own pass and the nearest of another pass on the ``+s``
 side, and returns where their tubes of radius ``R`` meet nearest the surface, and how deep
 that point lies inside the tubes of a third pass's pieces and of the two passes' other
@@ -16,6 +18,8 @@ import math
 import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from .clearance_kernel import BLOCK, SampleCells, _cell_scratch_size, _cells_near
 
 __all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "ridges"]
 
@@ -33,72 +37,85 @@ def _foot(px, py, pz, a, e, j):
     return a[j, 0] + f * e[j, 0], a[j, 1] + f * e[j, 1], a[j, 2] + f * e[j, 2]
 
 
+@numba.njit(cache=True, inline="always")
+def _near(points, jj, px, py, pz, reach):
+    """Whether binned midpoint ``jj`` lies within ``reach`` of ``P``."""
+    d0, d1, d2 = points[jj, 0] - px, points[jj, 1] - py, points[jj, 2] - pz
+    return d0 * d0 + d1 * d1 + d2 * d2 <= reach * reach
+
+
 @numba.njit(cache=True, parallel=True)
-def _ridges(centre, normal, x_s, own, near, a, e, pass_of, radius, point, inside, state):
-    n_pieces = a.shape[0]
-    for i in numba.prange(centre.shape[0]):
-        px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
-        d_own, d_other = math.inf, math.inf
-        j_own, j_other = -1, -1
-        o0 = o1 = o2 = q0 = q1 = q2 = 0.0
-        for c in range(near.shape[1]):
-            j = near[i, c]
-            if j < 0 or j >= n_pieces:
+def _ridges(centre, normal, x_s, own, points, index, cell_start, origin, shape, cell, box,
+            reach, scratch_size, a, e, pass_of, radius, point, inside, state):
+    for block in numba.prange((centre.shape[0] + BLOCK - 1) // BLOCK):
+        cells = np.empty(scratch_size, dtype=np.int64)
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, centre.shape[0])):
+            px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
+            n_cells = _cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
+            d_own, d_other = math.inf, math.inf
+            j_own, j_other = -1, -1
+            o0 = o1 = o2 = q0 = q1 = q2 = 0.0
+            for m in range(n_cells):
+                for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
+                    if not _near(points, jj, px, py, pz, reach):
+                        continue
+                    j = index[jj]
+                    f0, f1, f2 = _foot(px, py, pz, a, e, j)
+                    w0, w1, w2 = f0 - px, f1 - py, f2 - pz
+                    dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                    if pass_of[j] == own[i]:
+                        if dist < d_own:
+                            d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
+                    elif (w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0
+                          and dist < d_other):
+                        d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
+            if j_own < 0 or j_other < 0:
+                state[i] = RIDGE_NO_PASS
                 continue
-            f0, f1, f2 = _foot(px, py, pz, a, e, j)
-            w0, w1, w2 = f0 - px, f1 - py, f2 - pz
-            dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-            if pass_of[j] == own[i]:
-                if dist < d_own:
-                    d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
-            elif w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0 and dist < d_other:
-                d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
-        if j_own < 0 or j_other < 0:
-            state[i] = RIDGE_NO_PASS
-            continue
-        u0, u1, u2 = e[j_own, 0], e[j_own, 1], e[j_own, 2]
-        length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-        if length <= 0.0:
-            state[i] = RIDGE_NO_LENGTH
-            continue
-        u0, u1, u2 = u0 / length, u1 / length, u2 / length
-        d0, d1, d2 = q0 - o0, q1 - o1, q2 - o2
-        along = d0 * u0 + d1 * u1 + d2 * u2
-        c0, c1, c2 = d0 - along * u0, d1 - along * u1, d2 - along * u2  # across
-        half = 0.5 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-        v0, v1, v2 = u1 * c2 - u2 * c1, u2 * c0 - u0 * c2, u0 * c1 - u1 * c0
-        v_len = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-        if v_len <= 0.0:
-            state[i] = RIDGE_NO_LENGTH
-            continue
-        if half >= radius:
-            state[i] = RIDGE_OPEN
-            continue
-        sign = 1.0 if v0 * normal[i, 0] + v1 * normal[i, 1] + v2 * normal[i, 2] >= 0.0 else -1.0
-        drop = math.sqrt(radius * radius - half * half) * sign / v_len
-        x0 = o0 + 0.5 * c0 - drop * v0
-        x1 = o1 + 0.5 * c1 - drop * v1
-        x2 = o2 + 0.5 * c2 - drop * v2
-        third = 0.0
-        two = 0.0
-        for c in range(near.shape[1]):
-            j = near[i, c]
-            if j < 0 or j >= n_pieces:
+            u0, u1, u2 = e[j_own, 0], e[j_own, 1], e[j_own, 2]
+            length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+            if length <= 0.0:
+                state[i] = RIDGE_NO_LENGTH
                 continue
-            f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
-            depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
-            if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
-                two = max(two, depth)
-            else:
-                third = max(third, depth)
-        point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
-        inside[i, 0] = third
-        inside[i, 1] = two
-        state[i] = RIDGE_FOUND
+            u0, u1, u2 = u0 / length, u1 / length, u2 / length
+            d0, d1, d2 = q0 - o0, q1 - o1, q2 - o2
+            along = d0 * u0 + d1 * u1 + d2 * u2
+            c0, c1, c2 = d0 - along * u0, d1 - along * u1, d2 - along * u2  # across
+            half = 0.5 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            v0, v1, v2 = u1 * c2 - u2 * c1, u2 * c0 - u0 * c2, u0 * c1 - u1 * c0
+            v_len = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+            if v_len <= 0.0:
+                state[i] = RIDGE_NO_LENGTH
+                continue
+            if half >= radius:
+                state[i] = RIDGE_OPEN
+                continue
+            up = v0 * normal[i, 0] + v1 * normal[i, 1] + v2 * normal[i, 2]
+            drop = math.sqrt(radius * radius - half * half) * (1.0 if up >= 0.0 else -1.0) / v_len
+            x0 = o0 + 0.5 * c0 - drop * v0
+            x1 = o1 + 0.5 * c1 - drop * v1
+            x2 = o2 + 0.5 * c2 - drop * v2
+            third = 0.0
+            two = 0.0
+            for m in range(n_cells):
+                for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
+                    if not _near(points, jj, px, py, pz, reach):
+                        continue
+                    j = index[jj]
+                    f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
+                    depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
+                    if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
+                        two = max(two, depth)
+                    else:
+                        third = max(third, depth)
+            point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
+            inside[i, 0] = third
+            inside[i, 1] = two
+            state[i] = RIDGE_FOUND
 
 
 def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArray[np.float64],
-           own: NDArray[np.int64], near: NDArray[np.int64], a: NDArray[np.float64],
+           own: NDArray[np.int64], cells: SampleCells, reach_mm: float, a: NDArray[np.float64],
            e: NDArray[np.float64], pass_of: NDArray[np.int64], radius_mm: float
            ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     """Ridge points, their depth inside other tubes (mm, >= 0) and a state per seed.
@@ -109,9 +126,10 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         ``P = Q + R n`` (mm), the unit normal ``n`` and ``X_s`` at each seed.
     own : ndarray of int64, shape (m,)
         The seed's pass.
-    near : ndarray of int64, shape (m, k)
-        Nearest pieces of each seed (indices ``>= len(a)`` are ignored: a k-d tree's
-        missing neighbours).
+    cells : SampleCells
+        The pieces' midpoints, binned (:func:`~.clearance_kernel.bin_samples`).
+    reach_mm : float
+        The pieces whose midpoints lie within this distance of ``P`` are met.
     a, e : ndarray, shape (p, 3)
         Piece starts and vectors (ball centres), mm.
     pass_of : ndarray of int64, shape (p,)
@@ -125,7 +143,7 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         Where the tubes meet nearest the surface (valid where ``state`` is
         :data:`RIDGE_FOUND`), mm.
     inside : ndarray, shape (m, 2)
-        How deep it lies inside the deepest tube of the given pieces of other passes than
+        How deep it lies inside the deepest tube of the met pieces of other passes than
         the two, and of the two passes' other pieces, mm (>= 0).
     state : ndarray of int64, shape (m,)
         :data:`RIDGE_FOUND`, :data:`RIDGE_NO_PASS`, :data:`RIDGE_NO_LENGTH` or
@@ -138,7 +156,9 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
     if m:
         f = np.ascontiguousarray
         _ridges(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
-                f(own, dtype=np.int64), f(near, dtype=np.int64), f(a, dtype=float),
+                f(own, dtype=np.int64), cells.points, cells.index, cells.cell_start,
+                cells.origin, cells.shape, cells.cell_mm, cells.box, float(reach_mm),
+                _cell_scratch_size(reach_mm, cells.cell_mm), f(a, dtype=float),
                 f(e, dtype=float), f(pass_of, dtype=np.int64), float(radius_mm), point,
                 inside, state)
     return point, inside, state

@@ -59,7 +59,7 @@ from machines.kinematics import forward, solve_inverse
 from ..joint_refine import joints_checked, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
-from .clearance_kernel import bin_samples, pairs_within
+from .clearance_kernel import SampleCells, bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
@@ -142,7 +142,9 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     big, r = cutter.radius_mm, cutter.corner_radius_mm
     # the contact of every cutter location on a cutting move, once (seeded by the nearest
     # surface sample)
-    ends = np.unique(np.r_[move, move + 1])
+    at_end = np.zeros(len(kinds), dtype=bool)
+    at_end[move] = at_end[move + 1] = True
+    ends = np.flatnonzero(at_end)
     guess = pos[ends] + (big if cutter.kind is CutterKind.BALL else r) * ax_all[ends]
     _, nearest = samples.tree.query(guess, k=1, workers=-1)
     g_end = np.empty(ends.size)
@@ -245,7 +247,9 @@ class ScallopMeasurement:
     uncut_fraction : float
         Area fraction of the surface left uncut (coarse grid).
     n_samples : int
-        Cusp searches made.
+        Seeds whose cusp was measured.
+    n_cast : int
+        Of them, those measured by ray casting (the others by the ball's estimate).
     """
 
     max_mm: float
@@ -254,6 +258,7 @@ class ScallopMeasurement:
     interior_max_mm: float
     uncut_fraction: float
     n_samples: int
+    n_cast: int = 0
 
 
 def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
@@ -322,8 +327,12 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     return tips[start], tips[start + 1], axes[start], axes[start + 1], owner
 
 
-#: A ball's nearest pieces a ray of the uncut grid meets first (:meth:`_CutVolume.cut`).
-NEAREST_FIRST = 8
+#: A ball's pieces near a point are sought first within this many widths of the cusp the
+#: request leaves on a plane (``2 sqrt(h (2 R - h))``), plus half a piece's length: the
+#: neighbouring passes on either side where the passes are planned for that cusp (farther
+#: apart on convex parts: :func:`_ball_cusp_estimates` widens the search where it finds
+#: no other pass).
+NEAR_WIDTHS = 1.0
 
 
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
@@ -367,30 +376,40 @@ class _CutVolume:
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
         self.cells = bin_samples(mid, self.reach) if len(mid) else None
-        self._tree: cKDTree | None = None
+        # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
+        # about the spacing of passes on a plane for the request (:data:`NEAR_WIDTHS`)
+        self.near_mm = (NEAR_WIDTHS * 2.0 * np.sqrt(scallop_mm * (2.0 * big - scallop_mm))
+                        + 0.5 * step)
+        self.step_mm = step
+        self._near_cells: SampleCells | None = None
 
     @property
-    def tree(self) -> cKDTree:
-        """A k-d tree of the ball pieces' midpoints (built once, when first asked)."""
-        if self._tree is None:
-            self._tree = cKDTree(0.5 * (self.a + self.b))
-        return self._tree
+    def near_cells(self) -> SampleCells:
+        """A ball's pieces' midpoints binned (when first asked) in cells twice :attr:`near_mm`.
+
+        (Finer cells cost more to lay out over the part's box than they save;) and at least
+        as many pieces as cells: a few pieces over a large part leave most cells empty.
+        """
+        if self._near_cells is None:
+            mid = 0.5 * (self.a + self.b)
+            sparse = float(np.prod(np.ptp(mid, axis=0) + self.near_mm) / len(mid)) ** (1 / 3)
+            self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
+        return self._near_cells
 
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
         """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
 
-        A ball's pieces nearest to the point ``R`` up the ray (on the sheet of ball
-        centres, where a k-d tree finds them fast) are tried first: a ray one of them cuts
-        is cut whatever the others do (the height is the lowest entry); the rest meet all
-        their pieces (:meth:`height`).
+        A ball's pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the
+        sheet of ball centres) are tried first: a ray one of them cuts is cut whatever the
+        others do (the height is the lowest entry); the rest meet all their pieces
+        (:meth:`height`).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
-        if self.ball and len(self.pass_of) >= NEAREST_FIRST and len(q):
-            k = min(NEAREST_FIRST, len(self.pass_of))
-            _, near = self.tree.query(q + self.lift * n, k=k, workers=-1)
-            lo = np.arange(len(q), dtype=np.int64) * k
-            out = np.isfinite(self.height(q, n, lo, lo + k, near.reshape(-1)))
+        if self.ball and len(self.pass_of) and len(q):
+            owner, item = pairs_within(self.near_cells, q + self.lift * n, 0.5 * self.near_mm)
+            lo, hi, item = ray_ranges(owner, item, len(q))
+            out = np.isfinite(self.height(q, n, lo, hi, item))
             rest = np.flatnonzero(~out)
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]
@@ -573,16 +592,19 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
     A ball sweeps the tubes of radius ``R`` round its centre's segments. Near the seed,
     ``P = Q + R n`` with ``Q`` its surface point, take the nearest segment of its own pass
     and the nearest of another pass on the ``+s`` side (``(C - P) . X_s > 0``), their points
-    ``C1`` and ``C2`` nearest to ``P``. Across the own segment (direction ``u``) the two
-    tubes are circles ``2 d`` apart (``d`` half the across part ``D`` of ``C2 - C1``),
-    meeting at ``X = C1 + D / 2 - sqrt(R^2 - d^2) v`` (``v`` across ``u`` and ``D``,
-    pointing away from the surface): the bottom of the cusp's ridge
+    ``C1`` and ``C2`` nearest to ``P``, among the pieces whose midpoints lie within
+    ``near_mm`` of ``P`` (:data:`NEAR_WIDTHS`; where no other pass lies there, within 4
+    times that, and so on up to ``2 R`` and a piece's length: beyond, the tubes are apart).
+    Across the own segment (direction ``u``) the two tubes are circles ``2 d`` apart (``d``
+    half the across part ``D`` of ``C2 - C1``), meeting at
+    ``X = C1 + D / 2 - sqrt(R^2 - d^2) v`` (``v`` across ``u`` and ``D``, pointing away
+    from the surface): the bottom of the cusp's ridge
     (:func:`~.cusp_kernel.ridges`). Its height is ``(X - X(t, s_c)) . n(t, s_c)`` over the
     surface point one first-order step from the seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``,
     less how deep ``X`` lies in a nearby tube of a third pass (passes closing up, links),
     or of the two passes' other pieces when deeper than :data:`RIDGE_FOLD` of the height.
 
-    Returns NaN where no other pass lies on that side among the nearest 2048 pieces or a
+    Returns NaN where no other pass lies on that side within that reach or a
     segment has no length (the ray cast decides there), ``inf`` where the tubes do not
     meet (``d >= R``: material between the passes).
     """
@@ -592,23 +614,23 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
         return out
     big = volume.cutter.radius_mm
     centre = q + big * nrm
-    tree = volume.tree
     seg = volume.b - volume.a
     x = np.zeros((n_seed, 3))
     inside = np.zeros((n_seed, 2))
     state = np.full(n_seed, RIDGE_NO_PASS)
     todo = np.arange(n_seed)
-    k = 24
-    while todo.size and k <= 2048:
-        k_eff = min(k, len(seg))
-        _, near = tree.query(centre[todo], k=k_eff, workers=-1)
+    radius = volume.near_mm
+    # an other pass's piece whose midpoint lies farther than 2 R and a piece's length from
+    # ``P`` leaves its tube apart from the own pass's (the tubes do not meet)
+    limit = 2.0 * big + volume.step_mm
+    while todo.size:
         x[todo], inside[todo], state[todo] = ridges(
-            centre[todo], nrm[todo], x_s[todo], own[todo], near.reshape(len(todo), k_eff),
+            centre[todo], nrm[todo], x_s[todo], own[todo], volume.near_cells, radius,
             volume.a, seg, volume.pass_of, big)
         todo = todo[state[todo] == RIDGE_NO_PASS]
-        if k_eff >= len(seg):
+        if radius >= limit:
             break
-        k *= 4
+        radius = min(4.0 * radius, limit)
     out[state == RIDGE_OPEN] = np.inf
     ok = np.flatnonzero(state == RIDGE_FOUND)
     xs = x_s[ok]
@@ -713,7 +735,9 @@ def _distance_from(reach: NDArray[np.float64], grid: NDArray[np.float64],
 def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                     scallop_mm: float, chord: ChordMeasurement, *,
                     machine: Machine | None = None, chunk: int = 20_000,
-                    estimate: bool = True) -> ScallopMeasurement:
+                    estimate: bool = True, estimate_min_seeds: int = ESTIMATE_MIN_SEEDS,
+                    estimate_top: int = ESTIMATE_TOP,
+                    estimate_top_share: float = ESTIMATE_TOP_SHARE) -> ScallopMeasurement:
     """Measure the material left between passes (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under,
@@ -730,10 +754,14 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     chunk : int
         Seeds per vectorized batch.
     estimate : bool
-        Ball cutters, more than :data:`ESTIMATE_MIN_SEEDS` seeds: estimate every seed's
+        Ball cutters, more than ``estimate_min_seeds`` seeds: estimate every seed's
         cusp from the passes' own geometry (:func:`_ball_cusp_estimates`) and ray-cast
         only the seeds of the largest estimates and those the estimate cannot tell;
         False ray-casts every seed (the full method).
+    estimate_min_seeds, estimate_top, estimate_top_share
+        Fewer seeds are all ray cast; else at least the ``estimate_top`` seeds of the
+        largest estimates, or that share of the seeds when more (defaults
+        :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`, :data:`ESTIMATE_TOP_SHARE`).
     """
     h = float(scallop_mm)
     big, r = cutter.radius_mm, cutter.corner_radius_mm
@@ -780,12 +808,15 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         gap = np.where(np.isfinite(gap), gap, 3.0 * width)
         speed = np.linalg.norm(x_s[todo], axis=1)
         s1[todo] = np.minimum(ss[todo] + 2.5 * gap / np.maximum(speed, 1e-12), 1.0)
-        todo = todo[s1[todo] > ss[todo] + 1e-12]  # no room above: no cusp
+        room = s1[todo] > ss[todo] + 1e-12  # no room above: no cusp
+        # brackets of like length batched together: a batch meets the pieces within
+        # reach of its longest bracket
+        todo = todo[room][np.argsort(gap[room], kind="stable")]
         for lo in range(0, todo.size, chunk):
             sl = todo[lo:lo + chunk]
             cusp_h[sl], cusp_s[sl] = _cusps(volume, surface, st[sl], ss[sl], s1[sl], sp[sl])
 
-    if volume.ball and estimate and st.size > ESTIMATE_MIN_SEEDS:
+    if volume.ball and estimate and st.size > estimate_min_seeds:
         # a ball's cusps from the passes' own geometry first; then the ray cast where no
         # estimate stands, at the largest estimates, and wherever an estimate stands above
         # the largest cusp the ray cast found by more than it errs (overall, and away from
@@ -795,7 +826,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         if reach is not None:
             groups.append(_distance_from(reach, grid_points, seed_q, st, ss) > 2.0 * big)
         first = ~np.isfinite(guess)
-        count = max(ESTIMATE_TOP, int(ESTIMATE_TOP_SHARE * st.size))
+        count = max(estimate_top, int(estimate_top_share * st.size))
         for group in groups:
             first |= _largest_first(guess, group, count)
         ray_cast(first)
@@ -812,7 +843,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     found = ~np.isnan(cusp_h)
     if not found.any():
         return ScallopMeasurement(0.0, float("nan"), float("nan"), 0.0, uncut_fraction,
-                                  int(st.size))
+                                  int(st.size), int(cast.sum()))
     ch, ct, cs = cusp_h[found], st[found], cusp_s[found]
     k = int(np.argmax(ch))
     interior = ch
@@ -821,4 +852,5 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         interior = np.where(dist > 2.0 * big, ch, -np.inf)
     return ScallopMeasurement(max_mm=float(ch[k]), t=float(ct[k]), s=float(cs[k]),
                               interior_max_mm=max(float(interior.max()), 0.0),
-                              uncut_fraction=uncut_fraction, n_samples=int(st.size))
+                              uncut_fraction=uncut_fraction, n_samples=int(st.size),
+                              n_cast=int(cast.sum()))
