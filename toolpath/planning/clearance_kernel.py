@@ -28,7 +28,8 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["SampleCells", "bin_samples", "clearances", "pairs_within", "points_box"]
+__all__ = ["BLOCK", "SampleCells", "bin_samples", "cell_scratch_size", "cells_near", "clearances",
+           "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -216,7 +217,7 @@ def _gap(x, lo, size):
 
 
 @numba.njit(cache=True)
-def _cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
+def cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
     """The cells a sphere meets, into ``out``; how many.
 
     The cells its bounding box overlaps, less those farther than ``radius`` from ``c``
@@ -260,7 +261,7 @@ def _span_gap(x, lo, hi):
     return 0.0
 
 
-def _cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
+def cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
     """Room for the cells a sphere of ``radius_mm`` can meet."""
     side = int(2.0 * radius_mm / cell_mm) + 3
     return side * side * side
@@ -428,7 +429,7 @@ def _pairs_within(points, index, cell_start, origin, shape, cell, box, queries, 
         for i in range(block * BLOCK, min((block + 1) * BLOCK, queries.shape[0])):
             c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
             found = 0
-            for m in range(_cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
+            for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
                 cid = cells[m]
                 for j in range(cell_start[cid], cell_start[cid + 1]):
                     e0 = points[j, 0] - c0
@@ -452,7 +453,7 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     counts = np.zeros(len(q), dtype=np.int64)
     starts = np.zeros(len(q), dtype=np.int64)
     args = (*_grid(cells), q, float(radius_mm))
-    scratch = _cell_scratch_size(radius_mm, cells.cell_mm)
+    scratch = cell_scratch_size(radius_mm, cells.cell_mm)
     _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)

@@ -19,7 +19,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .clearance_kernel import BLOCK, SampleCells, _cell_scratch_size, _cells_near
+from .clearance_kernel import BLOCK, SampleCells, cell_scratch_size, cells_near
 
 __all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "ridges"]
 
@@ -51,7 +51,7 @@ def _ridges(centre, normal, x_s, own, points, index, cell_start, origin, shape, 
         cells = np.empty(scratch_size, dtype=np.int64)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, centre.shape[0])):
             px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
-            n_cells = _cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
+            n_cells = cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
             d_own, d_other = math.inf, math.inf
             j_own, j_other = -1, -1
             o0 = o1 = o2 = q0 = q1 = q2 = 0.0
@@ -158,7 +158,7 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         _ridges(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
                 f(own, dtype=np.int64), cells.points, cells.index, cells.cell_start,
                 cells.origin, cells.shape, cells.cell_mm, cells.box, float(reach_mm),
-                _cell_scratch_size(reach_mm, cells.cell_mm), f(a, dtype=float),
+                cell_scratch_size(reach_mm, cells.cell_mm), f(a, dtype=float),
                 f(e, dtype=float), f(pass_of, dtype=np.int64), float(radius_mm), point,
                 inside, state)
     return point, inside, state
