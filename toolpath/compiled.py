@@ -46,8 +46,8 @@ from .projection_kernel import (
     trial,
 )
 
-__all__ = ["Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays", "move_points",
-           "n_partials", "project_points", "streamline_partials"]
+__all__ = ["MOVES_CHUNK", "Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays",
+           "move_points", "n_partials", "project_points", "streamline_partials"]
 
 #: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
 ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
