@@ -10,9 +10,10 @@ arrays. Here the same mathematics runs point by point in machine code (numba):
   ``W_ts = W_s G_t + W G_ts``, ``W_ss = e^G (Z_0'' + 2 Z_0' G_s + Z_0 (G_ss + G_s²))``),
   ``G`` and ``X_0`` from their per-patch power forms (:mod:`toolpath.tensor_spline`), then
   a rigid placement ``R X + d`` (folded into the last step: ``M W + off``);
-* :func:`project_points`, :func:`project_moves`: the damped Newton projection of
+* :func:`project_points`: the damped Newton projection of
   :func:`toolpath.planning.local.project_to_surface`, one point at a time, with the steps
-  of :mod:`toolpath.projection_kernel` (the numpy path takes the same ones).
+  of :mod:`toolpath.projection_kernel` (the numpy path takes the same ones); points inside
+  moves (:func:`move_points`) go through it too, so the search compiles once.
 
 The compiled loops take a surface as :class:`SurfaceArrays` and the search's settings as
 :class:`NewtonSearch` (named tuples).
@@ -31,12 +32,22 @@ from typing import NamedTuple
 
 import numba
 import numpy as np
-from numpy.typing import NDArray
+from numpy.typing import ArrayLike, NDArray
 
-from .projection_kernel import HALVINGS, STEP_CLIP, newton_step, no_farther, seam_lerp, trial
+from .projection_kernel import (
+    HALVINGS,
+    SEAM_BEFORE_T,
+    STEP_CLIP,
+    near_seam,
+    newton_step,
+    no_farther,
+    seam_corner,
+    seam_lerp,
+    trial,
+)
 
-__all__ = ["Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays", "n_partials",
-           "project_moves", "project_points", "streamline_partials"]
+__all__ = ["MOVES_CHUNK", "Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays",
+           "move_points", "n_partials", "project_points", "streamline_partials"]
 
 #: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
 ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -101,8 +112,8 @@ class StreamlineKernel:
                  ) -> dict[tuple[int, int], NDArray[np.float64]]:
         """``{(dt, ds): (n, 3)}`` at flat ``t``, ``s``, total orders up to 2."""
         top = max(dt + ds for dt, ds in orders)
-        t = np.ascontiguousarray(t, dtype=float).ravel()
-        s = np.ascontiguousarray(s, dtype=float).ravel()
+        t = _writable(np.ravel(t), float)
+        s = _writable(np.ravel(s), float)
         out = np.empty((n_partials(top), t.size, 3))
         streamline_partials(t, s, self.arrays, top, out)
         return {order: out[ORDERS.index(order)] for order in orders}
@@ -121,7 +132,7 @@ class StreamlineKernel:
         With ``orientation`` (the surface's, +-1) the distance is signed: positive on the
         side the outward normal points to.
         """
-        p = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
+        p = _writable(np.reshape(points_mm, (-1, 3)), float)
         t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
         s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
         dist = np.empty(len(p))
@@ -139,20 +150,41 @@ class StreamlineKernel:
         Move ``j`` goes from point ``first[j]`` to the next (tip linear, axis
         normalized-linear); at each of its ``fractions[j]`` the point ``lift_mm`` up the
         axis from the tip is projected (:meth:`project`) from the ends' parameters
-        interpolated alike (the short way across the seam of closed sections). The poses
-        are never stored. Returns ``t, s`` of the feet and the distances, shape (m, k).
+        interpolated alike (the short way across the seam of closed sections). The points
+        are made :data:`MOVES_CHUNK` moves at a time (:func:`move_points`) and projected
+        by :func:`project_points`. Returns ``t, s`` of the feet and the distances, shape
+        (m, k).
         """
-        u = np.ascontiguousarray(fractions, dtype=float)
-        t_out, s_out, dist = np.empty(u.shape), np.empty(u.shape), np.empty(u.shape)
-        if not len(first):
-            return t_out, s_out, dist
-        moves = Moves(np.ascontiguousarray(tips_mm, dtype=float),
-                      np.ascontiguousarray(axes, dtype=float),
-                      np.ascontiguousarray(t, dtype=float), np.ascontiguousarray(s, dtype=float),
-                      np.ascontiguousarray(first, dtype=np.int64), u, float(lift_mm))
-        project_moves(moves, self.arrays, self._search(iterations, extra, converged_mm,
-                                                        orientation), t_out, s_out, dist)
-        return t_out, s_out, dist
+        u = _writable(fractions, float)
+        m, k = u.shape
+        t_out, s_out, dist = np.empty(m * k), np.empty(m * k), np.empty(m * k)
+        moves = Moves(_writable(tips_mm, float), _writable(axes, float), _writable(t, float),
+                      _writable(s, float), _writable(first, np.int64), u, float(lift_mm))
+        search = self._search(iterations, extra, converged_mm, orientation)
+        points = np.empty((min(m, MOVES_CHUNK) * k, 3))
+        for lo in range(0, m, MOVES_CHUNK):
+            hi = min(lo + MOVES_CHUNK, m)
+            rows, chunk = slice(lo * k, hi * k), moves._replace(first=moves.first[lo:hi],
+                                                                 fractions=u[lo:hi])
+            move_points(chunk, search.closed, points, t_out[rows], s_out[rows])
+            project_points(points[:(hi - lo) * k], self.arrays, search, t_out[rows],
+                           s_out[rows], dist[rows])
+        dist -= moves.lift_mm
+        return t_out.reshape(m, k), s_out.reshape(m, k), dist.reshape(m, k)
+
+
+#: Moves whose points :meth:`StreamlineKernel.project_moves` makes at a time (the
+#: points are kept only for their projection: 24 bytes each).
+MOVES_CHUNK = 1 << 16
+
+
+def _writable(a: ArrayLike, dtype: type) -> NDArray:
+    """``a`` as a C-contiguous, writable array of ``dtype`` (copied only where it is not).
+
+    What the compiled loops are compiled for: numba types a read-only array (a broadcast
+    view, a memory-mapped file) apart and would compile a kernel again for it (3 to 10 s).
+    """
+    return np.require(a, dtype=dtype, requirements=("C", "W"))
 
 
 class SurfaceArrays(NamedTuple):
@@ -174,7 +206,7 @@ class SurfaceArrays(NamedTuple):
 
 
 class NewtonSearch(NamedTuple):
-    """How a projection searches (:func:`project_points`, :func:`project_moves`).
+    """How a projection searches (:func:`project_points`).
 
     ``iterations`` steps for every point, then up to ``extra`` more while a step moves the
     foot by more than ``converged_mm``; ``orientation`` 0 for the distance ``|p - X|``,
@@ -189,7 +221,7 @@ class NewtonSearch(NamedTuple):
 
 
 class Moves(NamedTuple):
-    """Moves between cutter locations, for :func:`project_moves`.
+    """Moves between cutter locations, for :func:`move_points`.
 
     Move ``j`` from location ``first[j]`` to the next (of ``tips_mm, axes, t, s``), at its
     ``fractions[j]`` (shape (m, k)); the point projected is ``lift_mm`` up the axis.
@@ -342,8 +374,11 @@ def project_points(p, sf, search, t, s, dist):
     ``sf`` the surface (:class:`SurfaceArrays`), ``search`` a :class:`NewtonSearch`. With
     ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
     ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
-    the foot (one more evaluation of the first partials there). The steps are those of
-    :mod:`toolpath.projection_kernel` (:func:`_project_one`).
+    the foot (one more evaluation of the first partials there). The search
+    (:func:`_project_one`, the steps of :mod:`toolpath.projection_kernel`) is inlined
+    here, the one compiled loop that runs it (points inside moves come here too:
+    :meth:`StreamlineKernel.project_moves`); then the corner rule at a closed surface's
+    seam (:func:`_seam_signed`).
     """
     bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
     closed, iterations, extra, converged_mm, orientation = search
@@ -356,68 +391,43 @@ def project_points(p, sf, search, t, s, dist):
         w = np.empty((6, 3))
         fr = np.empty((6, 1, 3))
         pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
+        # each point is copied into a one-row array of this thread's, searched as row 0:
+        # faster than searching p[j] where it lies (measured 10-15 %)
         q1 = np.empty((1, 3))
         t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
         for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
             q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
             t1[0], s1[0] = t[j], s[j]
-            _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
+            _project_one(q1, 0, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
                          iterations, extra, converged_mm, orientation, d1, mu, mv, g, z, w,
                          fr, pt)
             if closed and orientation != 0.0:
-                _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
+                _seam_signed(q1, 0, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
                              orientation, d1, mu, mv, g, z, w, pt)
             t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
-@numba.njit(cache=True, parallel=True)
-def project_moves(moves, sf, search, t, s, dist):
-    """:func:`project_points` of points inside moves, never stored; distances less the lift.
+@numba.njit(cache=True)
+def move_points(moves, closed, p, t, s):
+    """The points of :meth:`StreamlineKernel.project_moves` and where their search starts.
 
-    ``moves`` (:class:`Moves`): move ``j`` from location ``first[j]`` to the next, at its
-    fractions ``u[j, q]``, the point ``lift_mm`` up the interpolated axis
-    (:func:`_move_point`), projected from the ends' parameters interpolated alike;
-    ``t[j, q], s[j, q]`` its foot, ``dist[j, q]`` its distance less ``lift_mm``.
+    ``moves`` (:class:`Moves`): row ``j k + q`` of ``p``, ``t``, ``s`` is the point
+    ``lift_mm`` up the interpolated axis a fraction ``u[j, q]`` along move ``j`` (from
+    location ``first[j]`` to the next: :func:`_move_point`) and the ends' parameters
+    interpolated alike (``closed``: the short way across the seam).
     """
-    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
-    closed, iterations, extra, converged_mm, orientation = search
     tips, axes, tt, ss, first, u, lift = moves
-    m, k = u.shape
-    for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        mu = np.empty((3, 4))
-        mv = np.empty((3, 4))
-        g = np.empty((6, 3))
-        z = np.empty((3, 3))
-        w = np.empty((6, 3))
-        fr = np.empty((6, 1, 3))
-        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
-        q1 = np.empty((1, 3))
-        t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
-        for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
-            for q in range(k):
-                _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, q1, t1, s1)
-                _project_one(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
-                             iterations, extra, converged_mm, orientation, d1, mu, mv, g, z,
-                             w, fr, pt)
-                if closed and orientation != 0.0:
-                    _seam_signed(q1, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                                 orientation, d1, mu, mv, g, z, w, pt)
-                t[j, q], s[j, q], dist[j, q] = t1[0], s1[0], d1[0] - lift
-
-
-#: ``t`` just before a closed surface's seam: its normal there is the one from below.
-SEAM_BEFORE_T = 1.0 - 1e-12
-#: A foot found within this of a closed surface's seam (in ``t``) is compared with the
-#: seam point (:func:`_seam_signed`).
-SEAM_WINDOW_T = 1e-3
-#: The seam point is taken where no farther than the foot found by more than this (mm).
-SEAM_SLACK_MM = 1e-6
+    k = u.shape[1]
+    for j in range(u.shape[0]):
+        for q in range(k):
+            _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, p, t, s,
+                        j * k + q)
 
 
 @numba.njit(cache=True)
 def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
-                 w, pt, n):
-    """Point and outward unit normal at ``(t, s)``: the point into ``pt[0, 0]``, ``n``."""
+                 w, pt, x, n):
+    """Point and outward unit normal at ``(t, s)``: into ``x`` and ``n``."""
     _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
                  mu, mv, g, z, w)
     a0, a1, a2 = pt[1, 0, 0], pt[1, 0, 1], pt[1, 0, 2]
@@ -427,65 +437,54 @@ def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, 
     scale = orientation / size if size > 0.0 else 0.0
     for k in range(3):
         n[k] *= scale
+        x[k] = pt[0, 0, k]
 
 
 @numba.njit(cache=True)
-def _seam_signed(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, dist, mu, mv,
-                 g, z, w, pt):
-    """The foot and signed distance of a point near a closed surface's seam, in place.
+def _seam_signed(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, dist, mu,
+                 mv, g, z, w, pt):
+    """The corner rule at a closed surface's seam for point ``i``, in place.
 
-    A closed section may have a corner at its seam (a sharp trailing edge: the periodic
-    fit keeps a seam knot of full multiplicity, the surface only ``C0`` there), where the
-    normal jumps between its one-sided values ``n-`` (``t -> 1``) and ``n+`` (``t -> 0``),
-    by up to 180 deg round a knife edge. A point beside the edge whose closest point is the
-    corner itself (a cutter resting on the edge) has no orthogonal foot: the Newton search
-    stalls beside the corner, and the normal of one side read it as cut into the part. For
-    a foot ``X`` within :data:`SEAM_WINDOW_T` of the seam the seam point ``X(0, s)`` is
-    taken instead where it is no farther; there the distance is ``|p - X|`` signed by
-    ``(p - X) . (n- + n+)`` (outside a convex corner exactly when ``p - X`` is in the
-    normals' cone; on a smooth seam, ``n- = n+``, the usual ``(p - X) . n``).
+    For a foot within :data:`~toolpath.projection_kernel.SEAM_WINDOW_T` of the seam: the
+    foot, the seam point ``X(0, s)`` and the one-sided normals there evaluated, the rule
+    itself :func:`~toolpath.projection_kernel.seam_corner` (which states the math).
     """
-    ti = t[0]
-    if min(ti, 1.0 - ti) > SEAM_WINDOW_T:
+    ti, si = t[i], s[i]
+    if not near_seam(ti):
         return
-    _partials_at(ti, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt,
+    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt,
                  np.int64(0), mu, mv, g, z, w)
-    f0, f1, f2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
-    n_before = np.empty(3)
-    n_after = np.empty(3)
-    _seam_normal(0.0, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g,
-                 z, w, pt, n_after)
-    d0, d1, d2 = p[0, 0] - pt[0, 0, 0], p[0, 1] - pt[0, 0, 1], p[0, 2] - pt[0, 0, 2]
-    size = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
-    if size > math.sqrt(f0 * f0 + f1 * f1 + f2 * f2) + SEAM_SLACK_MM:
-        return  # a foot off the seam, nearer: on a face
-    _seam_normal(SEAM_BEFORE_T, s[0], bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation,
-                 mu, mv, g, z, w, pt, n_before)
-    side = (d0 * (n_before[0] + n_after[0]) + d1 * (n_before[1] + n_after[1])
-            + d2 * (n_before[2] + n_after[2]))
-    t[0] = 0.0
-    dist[0] = size if side >= 0.0 else -size
+    foot = pt[0, 0].copy()
+    seam_x, n_after = np.empty(3), np.empty(3)
+    before_x, n_before = np.empty(3), np.empty(3)
+    _seam_normal(0.0, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
+                 w, pt, seam_x, n_after)
+    _seam_normal(SEAM_BEFORE_T, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu,
+                 mv, g, z, w, pt, before_x, n_before)
+    at_seam, signed = seam_corner(p[i], foot, seam_x, n_before, n_after)
+    if at_seam:
+        t[i], dist[i] = 0.0, signed
 
 
 @numba.njit(cache=True, inline="always")
-def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1):
+def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1, i):
     """The point ``lift`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
 
-    Into ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear) and the
-    parameters to start from (the ends' interpolated, the short way across the seam:
-    :func:`~toolpath.projection_kernel.seam_lerp`).
+    Into row ``i`` of ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear)
+    and the parameters to start from (the ends' interpolated, the short way across the
+    seam: :func:`~toolpath.projection_kernel.seam_lerp`).
     """
     b = a + 1
     size2 = 0.0
     for col in range(3):
         v = axes[a, col] + f * (axes[b, col] - axes[a, col])
-        p[0, col] = v
+        p[i, col] = v
         size2 += v * v
     size = math.sqrt(size2)
     for col in range(3):
-        p[0, col] = tips[a, col] + f * (tips[b, col] - tips[a, col]) + lift * (p[0, col] / size)
-    t1[0] = seam_lerp(tt[a], tt[b], f, closed)
-    s1[0] = ss[a] * (1.0 - f) + ss[b] * f
+        p[i, col] = tips[a, col] + f * (tips[b, col] - tips[a, col]) + lift * (p[i, col] / size)
+    t1[i] = seam_lerp(tt[a], tt[b], f, closed)
+    s1[i] = ss[a] * (1.0 - f) + ss[b] * f
 
 
 @numba.njit(cache=True, inline="always")
@@ -524,9 +523,9 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
 
 
 @numba.njit(cache=True, inline="always")
-def _project_one(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
+def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
                  extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
-    """The foot of ``p[0]`` from ``(t[0], s[0])`` and its distance, in place.
+    """The foot of ``p[i]`` from ``(t[i], s[i])`` and its distance ``dist[i]``, in place.
 
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
@@ -537,15 +536,9 @@ def _project_one(p, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterat
     and the distance there is the second-order expansion from the partials at hand
     (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
     distance, the same distance to a nanometre). (The kernels then apply the corner rule
-    at a closed surface's seam: :func:`_seam_signed`.)
-
-    A call, not inlined: both kernels share one compiled search (inlined in each, a cold
-    start compiled it twice: 41 s of CPU instead of about 20). The surface's and the
-    scratch arrays are passed one by one, not in tuples: taken out of a tuple inside the
-    loop they cost the projections 60 % more time (reference counts moved at every
-    evaluation).
+    at a closed surface's seam: :func:`_seam_signed`.) Inlined in :func:`project_points`
+    alone (points inside moves come there too).
     """
-    i = 0
     ti, si = t[i], s[i]
     moved = np.inf
     have_tangents = False  # pt holds the first partials at (ti, si)

@@ -21,6 +21,9 @@ past a sharp nose cannot land on the far side.
 folded by ``t - floor(t)`` (:func:`wrap_t`; clipped to [0, 1] on an open surface), and two
 parameters are interpolated the short way across the seam (:func:`seam_lerp`). ``s`` is
 never closed: it is clipped (:func:`clamp_s`).
+
+**Seam corner.** A closed section may have a corner at its seam, where a foot found near it
+is replaced by the seam point when that is no farther (:func:`seam_corner`).
 """
 
 from __future__ import annotations
@@ -36,17 +39,22 @@ __all__ = [
     "DEGENERATE_SHARE",
     "HALVINGS",
     "NO_FARTHER_SHARE",
+    "SEAM_BEFORE_T",
+    "SEAM_SLACK_MM",
+    "SEAM_WINDOW_T",
     "STEP_CLIP",
     "clamp_s",
     "halve_rows",
+    "near_seam",
     "newton_step",
     "newton_step_rows",
     "no_farther",
+    "seam_corner",
+    "seam_corner_rows",
     "seam_lerp",
     "seam_lerp_rows",
     "trial",
     "wrap_t",
-    "wrap_t_rows",
 ]
 
 #: Largest Newton step in either parameter (both span [0, 1]): a quarter of the domain. A
@@ -161,15 +169,6 @@ def halve_rows(rows, t, s, closed, step_t, step_s, new_t, new_s):
 
 
 @numba.njit(cache=True)
-def wrap_t_rows(t, closed):
-    """:func:`wrap_t` of each element of a flat array (a new array)."""
-    out = np.empty(t.size)
-    for j in range(t.size):
-        out[j] = wrap_t(t[j], closed)
-    return out
-
-
-@numba.njit(cache=True)
 def seam_lerp_rows(ta, tb, u, closed):
     """:func:`seam_lerp` from ``ta[j]`` to ``tb[j]`` at each fraction ``u[j, q]``: (m, k)."""
     out = np.empty(u.shape)
@@ -177,3 +176,60 @@ def seam_lerp_rows(ta, tb, u, closed):
         for q in range(u.shape[1]):
             out[j, q] = seam_lerp(ta[j], tb[j], u[j, q], closed)
     return out
+
+
+#: ``t`` just before a closed surface's seam: its normal there is the one from below.
+SEAM_BEFORE_T = 1.0 - 1e-12
+#: A foot found within this of a closed surface's seam (in ``t``) is compared with the
+#: seam point (:func:`seam_corner`).
+SEAM_WINDOW_T = 1e-3
+#: The seam point is taken where no farther than the foot found by more than this (mm).
+SEAM_SLACK_MM = 1e-6
+
+
+@numba.njit(cache=True, inline="always")
+def near_seam(t):
+    """Whether a foot at ``t`` is within :data:`SEAM_WINDOW_T` of a closed surface's seam."""
+    return min(t, 1.0 - t) <= SEAM_WINDOW_T
+
+
+@numba.njit(cache=True)
+def seam_corner(p, foot, seam_x, n_before, n_after):
+    """The seam point instead of a foot beside it, and its signed distance (mm).
+
+    A closed section may have a corner at its seam (a sharp trailing edge: the periodic
+    fit keeps a seam knot of full multiplicity, the surface only ``C0`` there), where the
+    normal jumps between its one-sided values ``n-`` (``t -> 1``, at
+    :data:`SEAM_BEFORE_T`) and ``n+`` (``t -> 0``), by up to 180 deg round a knife edge.
+    A point beside the edge whose closest point is the corner itself (a cutter resting on
+    the edge) has no orthogonal foot: the Newton search stalls beside the corner, and the
+    normal of one side reads it as cut into the part. For a foot ``X`` found
+    :func:`near_seam` the seam point ``X(0, s)`` is taken instead where it is no farther
+    from ``p`` (to :data:`SEAM_SLACK_MM`); there the distance is ``|p - X|`` signed by
+    ``(p - X) . (n- + n+)`` (outside a convex corner exactly when ``p - X`` is in the
+    normals' cone; on a smooth seam, ``n- = n+``, the usual ``(p - X) . n``).
+
+    ``p``, ``foot``, ``seam_x`` points (mm), the normals outward unit vectors (3,).
+    Returns whether the seam point is taken and its signed distance (0 where not).
+    """
+    f0, f1, f2 = p[0] - foot[0], p[1] - foot[1], p[2] - foot[2]
+    d0, d1, d2 = p[0] - seam_x[0], p[1] - seam_x[1], p[2] - seam_x[2]
+    size = math.sqrt(d0 * d0 + d1 * d1 + d2 * d2)
+    if size > math.sqrt(f0 * f0 + f1 * f1 + f2 * f2) + SEAM_SLACK_MM:
+        return False, 0.0  # a foot off the seam, nearer: on a face
+    side = (d0 * (n_before[0] + n_after[0]) + d1 * (n_before[1] + n_after[1])
+            + d2 * (n_before[2] + n_after[2]))
+    return True, size if side >= 0.0 else -size
+
+
+@numba.njit(cache=True)
+def seam_corner_rows(p, foot, seam_x, n_before, n_after, rows, t, signed):
+    """:func:`seam_corner` at each of ``rows`` (arrays of (n, 3)); ``t``, ``signed`` in place.
+
+    Where the seam point is taken, ``t[row]`` becomes 0 and ``signed[row]`` its distance.
+    """
+    for j in range(rows.size):
+        row = rows[j]
+        at_seam, value = seam_corner(p[row], foot[row], seam_x[j], n_before[j], n_after[j])
+        if at_seam:
+            t[row], signed[row] = 0.0, value

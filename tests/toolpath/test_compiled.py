@@ -6,7 +6,7 @@ import scipy.interpolate
 
 import toolpath
 from toolpath import fit_streamline_surface
-from toolpath.compiled import ORDERS
+from toolpath.compiled import MOVES_CHUNK, ORDERS
 from toolpath.paper_examples import bundled_data_path
 from toolpath.planning.local import project_to_surface, signed_distance_near
 from toolpath.planning.setup import PlacedSurface, rotation_from_spec
@@ -115,8 +115,9 @@ def test_compiled_projection_takes_the_numpy_steps(blade, iterations):
 @pytest.mark.parametrize("closed", [False, True])
 def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, closed_sections,
                                                                       closed):
-    # the chord check's fused path (the moves' poses made inside the kernel, never stored)
-    # gives the very numbers of move_gaps on the gathered ends, across a closed seam too
+    # the chord check's compiled path (the moves' points made in a kernel, projected by the
+    # points' search) gives the very numbers of move_gaps on the gathered ends, across a
+    # closed seam too
     from toolpath.planning.cutters import parse_cutter
     from toolpath.planning.sampling import move_gaps, point_move_gaps
 
@@ -147,6 +148,12 @@ def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, clo
     gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
                          axes[first + 1], t[first], t[first + 1], s[first], s[first + 1], own)
     np.testing.assert_array_equal(fused[0], gathered[0])
+    # more moves than one batch of points holds: every batch the same numbers
+    many = np.resize(first, MOVES_CHUNK + 5)
+    batched = point_move_gaps(placed, cutter, tips, axes, t, s, many, fractions, newton=1)
+    once = point_move_gaps(placed, cutter, tips, axes, t, s, first, fractions, newton=1)
+    for got, want in zip(batched, once, strict=True):
+        np.testing.assert_array_equal(got, np.resize(want, (len(many), len(fractions))))
 
 
 def _sharp_te_sections():

@@ -8,8 +8,9 @@ from toolpath.projection_kernel import (
     halve_rows,
     newton_step_rows,
     no_farther,
+    seam_corner,
     seam_lerp_rows,
-    wrap_t_rows,
+    wrap_t,
 )
 from toolpath.tolerances import TINY
 
@@ -74,7 +75,20 @@ def test_seam_rule_goes_the_short_way_round():
     np.testing.assert_allclose(closed, [[0.975, 0.025], [0.025, 0.99], [0.4, 0.6]], atol=1e-12)
     open_ = seam_lerp_rows(ta, tb, u, False)
     np.testing.assert_allclose(open_, ta[:, None] * (1.0 - u) + tb[:, None] * u)
-    np.testing.assert_allclose(wrap_t_rows(np.array([-0.25, 1.25, 0.5]), True),
-                               [0.75, 0.25, 0.5])
-    np.testing.assert_allclose(wrap_t_rows(np.array([-0.25, 1.25, 0.5]), False),
-                               [0.0, 1.0, 0.5])
+    np.testing.assert_allclose([wrap_t(t, True) for t in (-0.25, 1.25, 0.5)], [0.75, 0.25, 0.5])
+    np.testing.assert_allclose([wrap_t(t, False) for t in (-0.25, 1.25, 0.5)], [0.0, 1.0, 0.5])
+
+
+def test_seam_corner_takes_the_corner_where_no_farther_signed_by_both_normals():
+    # a knife edge at the origin: the part |y| < -x, outward normals 90 deg apart
+    n_before, n_after = np.array([1.0, 1.0, 0.0]) / 2**0.5, np.array([1.0, -1.0, 0.0]) / 2**0.5
+    corner = np.zeros(3)
+    beside = np.array([-0.01, 0.01, 0.0])  # a stalled foot on the upper face
+    outside = np.array([2.0, 0.3, 0.0])  # in the normals' cone: outside, the corner nearest
+    assert seam_corner(outside, beside, corner, n_before, n_after) == (
+        True, np.linalg.norm(outside))
+    inside = np.array([-0.5, 0.0, 0.0])  # between the faces: inside
+    taken, signed = seam_corner(inside, np.array([-0.25, 0.25, 0.0]), corner, n_before, n_after)
+    assert not taken  # the foot on a face is nearer (0.35 < 0.5)
+    taken, signed = seam_corner(inside, np.array([-0.5, 0.5, 0.0]), corner, n_before, n_after)
+    assert taken and signed == -0.5  # a worse foot: the corner, inside

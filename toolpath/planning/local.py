@@ -24,8 +24,15 @@ import numba
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-from ..compiled import SEAM_BEFORE_T, SEAM_SLACK_MM, SEAM_WINDOW_T
-from ..projection_kernel import HALVINGS, halve_rows, newton_step_rows, no_farther
+from ..projection_kernel import (
+    HALVINGS,
+    SEAM_BEFORE_T,
+    SEAM_WINDOW_T,
+    halve_rows,
+    newton_step_rows,
+    no_farther,
+    seam_corner_rows,
+)
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
 from ..tolerances import TINY
 
@@ -209,7 +216,7 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     Positive on the outward side. The foot by :func:`project_to_surface`; returns the
     distance and the foot's ``t``, ``s``. Beside a corner at a closed surface's seam (a
     sharp trailing edge) the seam point where no farther, and ``|p - X|`` signed by the sum
-    of the two one-sided normals (:func:`toolpath.compiled._seam_signed`).
+    of the two one-sided normals (:func:`toolpath.projection_kernel.seam_corner`).
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     kernel = surface.kernel()
@@ -222,16 +229,12 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     signed = np.einsum("ij,ij->i", p - x, normals)
     if surface.closed_t and len(p):
         # a foot beside the seam (a corner there, e.g. a sharp trailing edge): the seam point
-        # where no farther, |p - X| signed by the one-sided normals' sum (compiled._seam_signed)
+        # where no farther (projection_kernel.seam_corner, as the compiled search applies it)
         near = np.flatnonzero(np.minimum(t, 1.0 - t) <= SEAM_WINDOW_T)
         seam_x, n_after = surface.points_and_normals(np.zeros(near.size), s[near])
         n_before = surface.points_and_normals(np.full(near.size, SEAM_BEFORE_T), s[near])[1]
-        d = p[near] - seam_x
-        size = np.linalg.norm(d, axis=1)
-        at = size <= np.linalg.norm(p[near] - x[near], axis=1) + SEAM_SLACK_MM
-        side = np.einsum("ij,ij->i", d, n_before + n_after)
-        t[near[at]] = 0.0
-        signed[near[at]] = np.where(side[at] >= 0.0, size[at], -size[at])
+        seam_corner_rows(*(np.ascontiguousarray(a, dtype=float)
+                           for a in (p, x, seam_x, n_before, n_after)), near, t, signed)
     return signed, t, s
 
 

@@ -199,7 +199,9 @@ def _limit_passes(rows, poles, bounds, rule, out):
             rate = _limit_pass(rows, poles[k, c], a, b, rule, trial)
             if rate < best or best == np.inf:
                 best = rate
-                out[a:b] = trial
+                for i in range(b - a):  # (a loop: a slice copy here compiled for seconds)
+                    for col in range(3):
+                        out[a + i, col] = trial[i, col]
             if best <= limit_deg * (1.0 + LIMIT_SLACK):
                 break
 
@@ -217,9 +219,9 @@ def _limit_pass(rows, pole, a, b, rule, out):
     m = b - a
     # a basis (ex, ey) of the plane normal to the pole
     ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    ex = np.cross(pole, ref)
+    ex = _cross(pole, ref)
     ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
-    ey = np.cross(pole, ex)
+    ey = _cross(pole, ex)
     lo, hi, want, beta = _azimuth_tube(rows, pole, ex, ey, a, b, rule)
     x_phi = _azimuth_path(x, beta, a, rule.rho)
     scale = 1.0
@@ -238,7 +240,9 @@ def _limit_pass(rows, pole, a, b, rule, out):
             worst = max(worst, segment_rate(trial, j - 1, x[a + j] - x[a + j - 1]))
         if worst < best or best == np.inf:
             best = worst
-            out[:] = trial
+            for j in range(m):
+                for c in range(3):
+                    out[j, c] = trial[j, c]
         if worst <= limit_deg * (1.0 + LIMIT_SLACK) or not np.isfinite(worst):
             break  # met, or a segment of no length turns: lowering cannot help
         scale *= rule.margin * limit_deg / worst
@@ -278,7 +282,7 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
             az_l, _ = _polar(nominal[i], pole, ex, ey)
             lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
             # the way the feed runs round the pole: ahead is increasing azimuth if > 0
-            side = np.cross(pole, normals[i])
+            side = _cross(pole, normals[i])
             ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
             if ahead > 0.3:
                 lo[j] = max(lo[j], min(lead, hi[j]))
@@ -305,6 +309,13 @@ def _azimuth_path(x, beta, a, rho):
         cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
         x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
     return x_phi
+
+
+@numba.njit(cache=True)
+def _cross(a, b):
+    """``a x b`` of two 3-vectors, a new array (numba's ``np.cross`` is slow to compile)."""
+    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+                     a[0] * b[1] - a[1] * b[0]])
 
 
 @numba.njit(cache=True)
@@ -353,20 +364,22 @@ def _fit_tube(x, lo, hi, want, rate, phi):
     rings join there), else they are free; where no path keeps the rate in the tube, the
     smallest rate that does is used (:func:`_least_rate`; bisected where it cannot tell).
     """
-    if _rate_tube(x, lo, hi, want, rate, True, phi):
+    # (np.bool_: a bare True / False is typed as a literal, one compiled _rate_tube each)
+    pinned, free = np.bool_(True), np.bool_(False)
+    if _rate_tube(x, lo, hi, want, rate, pinned, phi):
         return
-    if _rate_tube(x, lo, hi, want, rate, False, phi):
+    if _rate_tube(x, lo, hi, want, rate, free, phi):
         return
     need = _least_rate(x, lo, hi)
     if need < np.inf and _rate_tube(x, lo, hi, want, max(need * (1.0 + LEAST_RATE_SLACK), rate),
-                                    False, phi):
+                                    free, phi):
         return
     # (x repeats, or round-off: bisect for it)
     low, high = rate, max(rate, FIRST_TRIAL_RATE)
     fits = False
     for _ in range(80):
         high *= 2.0
-        if _rate_tube(x, lo, hi, want, high, False, phi):
+        if _rate_tube(x, lo, hi, want, high, free, phi):
             fits = True
             break
     if not fits:  # no rate fits (a segment of no length): the wanted axes, in the tube
@@ -375,11 +388,11 @@ def _fit_tube(x, lo, hi, want, rate, phi):
         return
     for _ in range(40):
         mid = 0.5 * (low + high)
-        if _rate_tube(x, lo, hi, want, mid, False, phi):
+        if _rate_tube(x, lo, hi, want, mid, free, phi):
             high = mid
         else:
             low = mid
-    _rate_tube(x, lo, hi, want, high, False, phi)
+    _rate_tube(x, lo, hi, want, high, free, phi)
 
 
 @numba.njit(cache=True)
@@ -395,7 +408,8 @@ def _least_rate(x, lo, hi):
         if not x[i] > x[i - 1]:
             return np.inf
     forward = _max_slope(x, hi, lo - TUBE_SLACK_RAD, 1.0)
-    backward = _max_slope(x[::-1], hi[::-1], lo[::-1] - TUBE_SLACK_RAD, -1.0)
+    # (reversed copies: views of another layout would compile _max_slope again)
+    backward = _max_slope(x[::-1].copy(), hi[::-1].copy(), lo[::-1] - TUBE_SLACK_RAD, -1.0)
     return max(0.0, forward, backward)
 
 
