@@ -690,8 +690,10 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
     length; a ball moved linearly in the middle only, its gap's slopes at the ends known:
     :func:`~toolpath.planning.sampling.ball_end_slopes`) and its extremes estimated
     (:func:`~toolpath.planning.sampling.chord_extremes`); an extreme within 10 % of its
-    limit (``res.planned_chord_tol_mm`` below, ``res.undercut_mm`` above, see
-    :data:`~toolpath.planning.options.CONCAVE_UNDERCUT_SHARE`) is measured there.
+    limit (``res.planned_chord_tol_mm`` below; above, how far the move may stand up,
+    :func:`_undercut_limit`: the concave allowance or, where the axis turns along a convex
+    pass, :data:`~toolpath.planning.scallop.TURNING_UNDERCUT_SHARE` of the scallop) is
+    measured there.
 
     Returns ``low`` (<= 0), ``high`` (>= 0) per move and the joints (None but 5-axis).
     """
@@ -736,8 +738,8 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
                     q: NDArray[np.float64] | None) -> NDArray[np.bool_]:
     """Which moves ``idx`` to split.
 
-    Those cutting deeper than the chord tolerance, standing higher than the undercut
-    allowance, or (5-axis, joints ``q``) carrying the tip more than
+    Those cutting deeper than the chord tolerance, standing higher than they may
+    (:func:`_undercut_limit`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the

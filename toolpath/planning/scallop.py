@@ -49,10 +49,6 @@ from .errors import PlanningError
 __all__ = ["TURNING_UNDERCUT_SHARE", "cusp_allowance_mm", "pass_levels", "scallop_height_mm",
            "shadow_stepover_mm", "stepover_mm", "turn_radius_mm", "undercut_limit_mm"]
 
-#: A curvature along the pass above this (1/mm) is concave: its straight moves stand above
-#: the surface.
-CONCAVE_PER_MM = 1e-12
-
 TURNING_UNDERCUT_SHARE = 0.05
 """Share of the planned scallop a move may stand above a convex pass where the tool axis
 turns along it (5-axis).
@@ -102,7 +98,7 @@ def cusp_allowance_mm(scallop_mm: float, undercut_mm: float,
     ndarray
         Cusp height per point, mm.
     """
-    concave = np.asarray(curvature_along_per_mm, dtype=float) > CONCAVE_PER_MM
+    concave = np.asarray(curvature_along_per_mm, dtype=float) > FLAT_PER_MM
     return scallop_mm - _stand_up_mm(undercut_mm, scallop_mm, concave, axis_turns)
 
 
@@ -130,8 +126,8 @@ def undercut_limit_mm(undercut_mm: float, scallop_mm: float, s11_start: ArrayLik
     -------
     ndarray, shape (m,)
     """
-    concave = ((np.asarray(s11_start, dtype=float) > CONCAVE_PER_MM)
-               | (np.asarray(s11_end, dtype=float) > CONCAVE_PER_MM))
+    concave = ((np.asarray(s11_start, dtype=float) > FLAT_PER_MM)
+               | (np.asarray(s11_end, dtype=float) > FLAT_PER_MM))
     turning = np.any(np.asarray(axes_start) != np.asarray(axes_end), axis=-1)
     return _stand_up_mm(undercut_mm, scallop_mm, concave | ~turning, True)
 
