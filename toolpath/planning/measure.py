@@ -561,9 +561,14 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     return result_h, result_s
 
 
+#: Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]`` (:func:`~.sweep_kernel.ray_ranges`):
+#: ``(lo, hi, item)``.
+_RayRanges = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+
 def _bracket_pieces(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
                     s0: NDArray[np.float64], s1: NDArray[np.float64], own: NDArray[np.int64]
-                    ) -> tuple[NDArray[np.int64], ...]:
+                    ) -> tuple[_RayRanges, _RayRanges]:
     """The pieces that can reach the rays over each bracket, of its own pass and the others.
 
     The pieces that matter have their centres on the sheet ``lift`` above the surface,
@@ -571,8 +576,8 @@ def _bracket_pieces(volume: _CutVolume, surface: ParametricSurface, t: NDArray[n
     horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
     cutter's reach of the bracket's chord on the surface (plus the chord's sag).
 
-    Returns the ray ranges (:func:`~.sweep_kernel.ray_ranges`) ``own_lo, own_hi,
-    own_item, other_lo, other_hi, other_item``.
+    Returns the ray ranges (:func:`~.sweep_kernel.ray_ranges`) of the seed's own pass and
+    of the others.
     """
     m = len(t)
     mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
@@ -589,7 +594,7 @@ def _bracket_pieces(volume: _CutVolume, surface: ParametricSurface, t: NDArray[n
     near = dist <= volume.segment_reach + 2.0 * sag[owner]
     owner, item = owner[near], item[near]
     mine = volume.pass_of[item] == own[owner]
-    return (*ray_ranges(owner[mine], item[mine], m), *ray_ranges(owner[~mine], item[~mine], m))
+    return ray_ranges(owner[mine], item[mine], m), ray_ranges(owner[~mine], item[~mine], m)
 
 
 class _HeightDifference:
@@ -602,12 +607,9 @@ class _HeightDifference:
     """
 
     def __init__(self, volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
-                 own_lo: NDArray[np.int64], own_hi: NDArray[np.int64],
-                 own_item: NDArray[np.int64], other_lo: NDArray[np.int64],
-                 other_hi: NDArray[np.int64], other_item: NDArray[np.int64]) -> None:
+                 own: _RayRanges, other: _RayRanges) -> None:
         self.volume, self.surface, self.t = volume, surface, t
-        self.own = own_lo, own_hi, own_item
-        self.other = other_lo, other_hi, other_item
+        self.own, self.other = own, other
         self.clip = 10.0 * volume.horizon + 1.0
         self.end_f = np.full((len(t), 2), np.inf)
         self.end_h = np.zeros((len(t), 2))
