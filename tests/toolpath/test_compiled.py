@@ -119,7 +119,7 @@ def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, clo
     # points' search) gives the very numbers of move_gaps on the gathered ends, across a
     # closed seam too
     from toolpath.planning.cutters import parse_cutter
-    from toolpath.planning.sampling import move_gaps, point_move_gaps
+    from toolpath.planning.sampling import MoveEnds, move_gaps, point_move_gaps
 
     surface = fit_streamline_surface(closed_sections, tol=0.01) if closed else blade
     placed = PlacedSurface(surface, rotation_from_spec("y:-90"), (0.0, 0.0, 20.0))
@@ -137,16 +137,15 @@ def test_ball_move_gaps_in_one_compiled_pass_equal_the_gathered_moves(blade, clo
     first = np.arange(n - 1)
     fractions = np.array([0.25, 0.5, 0.75])
     fused = point_move_gaps(placed, cutter, tips, axes, t, s, first, fractions, newton=1)
-    gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
-                         axes[first + 1], t[first], t[first + 1], s[first], s[first + 1],
-                         fractions, newton=1)
+    ends = MoveEnds(tips[first], tips[first + 1], axes[first], axes[first + 1], t[first],
+                    t[first + 1], s[first], s[first + 1])
+    gathered = move_gaps(placed, cutter, ends, fractions, newton=1)
     for got, want in zip(fused, gathered, strict=True):
         np.testing.assert_array_equal(got, want)
     # the moves' own fractions (one each), the default Newton steps
     own = rng.random((n - 1, 1))
     fused = point_move_gaps(placed, cutter, tips, axes, t, s, first, own)
-    gathered = move_gaps(placed, cutter, tips[first], tips[first + 1], axes[first],
-                         axes[first + 1], t[first], t[first + 1], s[first], s[first + 1], own)
+    gathered = move_gaps(placed, cutter, ends, own)
     np.testing.assert_array_equal(fused[0], gathered[0])
     # more moves than one batch of points holds: every batch the same numbers
     many = np.resize(first, MOVES_CHUNK + 5)

@@ -46,6 +46,7 @@ from __future__ import annotations
 
 import weakref
 from dataclasses import dataclass, field
+from typing import NamedTuple
 
 import numpy as np
 import scipy.sparse
@@ -64,7 +65,14 @@ from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .roots import illinois_roots
-from .sampling import CHORD_FRACTIONS, chord_extremes, cutter_gap, joint_moves, move_gaps
+from .sampling import (
+    CHORD_FRACTIONS,
+    JointEnds,
+    MoveEnds,
+    chord_extremes,
+    cutter_gap,
+    move_gaps,
+)
 from .sweep_kernel import (
     capsule_entries,
     nearest_entries,
@@ -130,72 +138,129 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     where rotary axes turn).
     """
     joints = _checked_joints(toolpath, machine)
-    kinds, passes = toolpath.kinds, toolpath.pass_index
-    move = np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
+    move = _cutting_moves(toolpath)
     if not move.size:
         return ChordMeasurement(0.0, 0.0, 0.0, -1, 0.0, 0)
-    u = np.asarray(CHORD_FRACTIONS, dtype=float)
-    seeds_t, seeds_s, seeds_p = [], [], []
+    contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk)
+    contact = float(np.abs(contacts.gap).max())
     worst = np.zeros(move.size)
     over = under = 0.0
-    pos, ax_all = toolpath.positions_mm, toolpath.tool_axes
-    big, r = cutter.radius_mm, cutter.corner_radius_mm
-    # the contact of every cutter location on a cutting move, once (seeded by the nearest
-    # surface sample)
-    at_end = np.zeros(len(kinds), dtype=bool)
-    at_end[move] = at_end[move + 1] = True
-    ends = np.flatnonzero(at_end)
-    guess = pos[ends] + (big if cutter.kind is CutterKind.BALL else r) * ax_all[ends]
-    _, nearest = samples.tree.query(guess, k=1, workers=-1)
-    g_end = np.empty(ends.size)
-    t_end = np.empty(ends.size)
-    s_end = np.empty(ends.size)
-    for lo in range(0, ends.size, chunk):
-        sl = slice(lo, lo + chunk)
-        g_end[sl], t_end[sl], s_end[sl] = _contact_gaps(
-            surface, cutter, samples, pos[ends[sl]], ax_all[ends[sl]], nearest[sl])
-    contact = float(np.abs(g_end).max())
-    where = np.searchsorted(ends, move)
+    seeds: list[tuple[NDArray[np.float64], ...]] = []
     for lo in range(0, move.size, chunk):
         seg = move[lo:lo + chunk]
-        m = len(seg)
-        ia, ib = where[lo:lo + m], where[lo:lo + m] + 1
-        args = (pos[seg], pos[seg + 1], ax_all[seg], ax_all[seg + 1], t_end[ia], t_end[ib],
-                s_end[ia], s_end[ib])
-        # measured at three places, then once more where the gap model is lowest and
-        # where it is highest (on the moves whose extreme could be the largest: within
-        # half of the largest sample)
-        g3, t3, s3 = move_gaps(surface, cutter, *args, u, newton=2, refine_rim=True,
-                               **joint_moves(machine, joints, seg))
-        low, u_low, high, u_high = chord_extremes(g3, u)
-        top = max(float(np.abs(g3).max()), float(np.abs(g_end).max()), max(over, under))
-        g_star = np.zeros((m, 2))
-        for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
-            sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
-            if sel.size:
-                g_star[sel, col] = move_gaps(surface, cutter, *(a[sel] for a in args),
-                                             u_at[sel, None], newton=2, refine_rim=True,
-                                             **joint_moves(machine, joints, seg[sel]))[0][:, 0]
-        gap = np.concatenate([g_end[ia][:, None], g3, g_star, g_end[ib][:, None]],
-                             axis=1)
-        worst[lo:lo + m] = np.abs(gap).max(axis=1)
+        ends, gap_a, gap_b = contacts.of_moves(toolpath, seg)
+        interpolation = None if joints is None else (machine, joints[seg], joints[seg + 1])
+        gap, g3, t3, s3 = _move_chunk_gaps(surface, cutter, ends, gap_a, gap_b,
+                                           max(contact, over, under), interpolation)
+        worst[lo:lo + len(seg)] = np.abs(gap).max(axis=1)
         over = max(over, float(-gap.min()))
         under = max(under, float(gap.max()))
-        # the cusps are highest where the moves stand highest: at the contacts, and at
-        # the middle of moves that stand above the surface
-        mid = int(np.argmin(np.abs(u - 0.5)))
-        tc = np.concatenate([t_end[ia][:, None], t3[:, mid:mid + 1]], axis=1)
-        sc = np.concatenate([s_end[ia][:, None], s3[:, mid:mid + 1]], axis=1)
-        use = np.stack([np.ones(m, dtype=bool), g3[:, mid] > 0.0], axis=1)
-        seeds_t.append(np.mod(tc, 1.0)[use] if surface.closed_t else tc[use])
-        seeds_s.append(sc[use])
-        seeds_p.append(np.broadcast_to(passes[seg][:, None], use.shape)[use])
+        seeds.append(_cusp_seeds(surface, ends, g3, t3, s3, toolpath.pass_index[seg]))
     i = int(np.argmax(worst))
+    seeds_t, seeds_s, seeds_p = (np.concatenate(column) for column in zip(*seeds, strict=True))
     return ChordMeasurement(max_mm=float(worst[i]), overcut_mm=max(over, 0.0),
                             undercut_mm=max(under, 0.0), worst_point=int(move[i] + 1),
-                            contact_mm=contact, n_moves=int(move.size),
-                            seeds_t=np.concatenate(seeds_t), seeds_s=np.concatenate(seeds_s),
-                            seeds_pass=np.concatenate(seeds_p).astype(np.int64))
+                            contact_mm=contact, n_moves=int(move.size), seeds_t=seeds_t,
+                            seeds_s=seeds_s, seeds_pass=seeds_p.astype(np.int64))
+
+
+def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:
+    """First points of the cutting moves from a point of a pass to a point of a pass."""
+    kinds, passes = toolpath.kinds, toolpath.pass_index
+    return np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
+
+
+@dataclass(frozen=True)
+class _EndContacts:
+    """The contact of the cutter at every point ``points`` ending a cutting move."""
+
+    points: NDArray[np.int64]
+    gap: NDArray[np.float64]
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+
+    def of_moves(self, toolpath: Toolpath, first: NDArray[np.int64]
+                 ) -> tuple[MoveEnds, NDArray[np.float64], NDArray[np.float64]]:
+        """Moves ``first -> first + 1``: their ends with the contacts, and the ends' gaps."""
+        ia = np.searchsorted(self.points, first)
+        ib = ia + 1
+        pos, axes = toolpath.positions_mm, toolpath.tool_axes
+        ends = MoveEnds(pos[first], pos[first + 1], axes[first], axes[first + 1],
+                        self.t[ia], self.t[ib], self.s[ia], self.s[ib])
+        return ends, self.gap[ia], self.gap[ib]
+
+
+def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
+                  samples: SurfaceSamples, move: NDArray[np.int64], chunk: int
+                  ) -> _EndContacts:
+    """The contact of every cutter location on a cutting move ``move``, once.
+
+    Seeded by the surface sample nearest to the cutter's centre (ball) or corner-circle
+    centre on the axis (:func:`_contact_gaps`), ``chunk`` locations at a time.
+    """
+    pos, axes = toolpath.positions_mm, toolpath.tool_axes
+    at_end = np.zeros(len(toolpath.kinds), dtype=bool)
+    at_end[move] = at_end[move + 1] = True
+    ends = np.flatnonzero(at_end)
+    lift = cutter.radius_mm if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
+    _, nearest = samples.tree.query(pos[ends] + lift * axes[ends], k=1, workers=-1)
+    gap, t, s = np.empty(ends.size), np.empty(ends.size), np.empty(ends.size)
+    for lo in range(0, ends.size, chunk):
+        sl = slice(lo, lo + chunk)
+        gap[sl], t[sl], s[sl] = _contact_gaps(surface, cutter, samples, pos[ends[sl]],
+                                              axes[ends[sl]], nearest[sl])
+    return _EndContacts(ends, gap, t, s)
+
+
+def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
+                     gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
+                     joints: JointEnds | None) -> tuple[NDArray[np.float64], ...]:
+    """Gaps along moves: at both ends, at ``CHORD_FRACTIONS`` and at the model's extremes.
+
+    Measured at three places, then once more where the gap model through them is lowest
+    and where it is highest (:func:`~.sampling.chord_extremes`), on the moves whose
+    extreme could be the largest: within half of the largest gap so far (``top_mm`` and
+    the three places'). ``joints``: the moves' ends under a machine's joint
+    interpolation, as for :func:`~.sampling.move_gaps`.
+
+    Returns ``gap`` (m, 7: end, three places, lowest, highest, end) and the three places'
+    gaps, ``t`` and ``s`` (m, 3).
+    """
+    u = np.asarray(CHORD_FRACTIONS, dtype=float)
+    m = len(gap_a)
+    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=2, refine_rim=True, joints=joints)
+    low, u_low, high, u_high = chord_extremes(g3, u)
+    top = max(float(np.abs(g3).max()), top_mm)
+    g_star = np.zeros((m, 2))
+    for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
+        sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
+        if sel.size:
+            g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
+                                         newton=2, refine_rim=True,
+                                         joints=_joint_rows(joints, sel))[0][:, 0]
+    gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
+    return gap, g3, t3, s3
+
+
+def _joint_rows(joints: JointEnds | None, rows: NDArray[np.int64]) -> JointEnds | None:
+    """The moves ``rows`` of moves' ends under joint interpolation (None stays None)."""
+    return None if joints is None else (joints[0], joints[1][rows], joints[2][rows])
+
+
+def _cusp_seeds(surface: ParametricSurface, ends: MoveEnds, g3: NDArray[np.float64],
+                t3: NDArray[np.float64], s3: NDArray[np.float64], passes: NDArray[np.int32]
+                ) -> tuple[NDArray[np.float64], ...]:
+    """Where the scallop search starts: ``t``, ``s`` and pass of each seed.
+
+    The cusps are highest where the moves stand highest: at the contacts (each move's
+    first), and at the middle of the moves that stand above the surface there.
+    """
+    mid = int(np.argmin(np.abs(np.asarray(CHORD_FRACTIONS, dtype=float) - 0.5)))
+    tc = np.concatenate([ends.t_a[:, None], t3[:, mid:mid + 1]], axis=1)
+    sc = np.concatenate([ends.s_a[:, None], s3[:, mid:mid + 1]], axis=1)
+    use = np.stack([np.ones(len(tc), dtype=bool), g3[:, mid] > 0.0], axis=1)
+    seeds_t = np.mod(tc, 1.0)[use] if surface.closed_t else tc[use]
+    return seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use]
 
 
 def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
@@ -467,66 +532,16 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
     than the horizon.
     """
     m = len(t)
-    mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
-    ends = surface(t, s1) - surface(t, s0)
-    half = 0.5 * np.linalg.norm(ends, axis=1)
-    # the pieces that matter have their centres on the sheet ``lift`` above the surface,
-    # within ``lateral`` of the bracket
-    owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
-        half.max()) if m else 0.0)
-    # keep the pieces that can reach the rays over the bracket: whose cutters come below
-    # the horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
-    # cutter's reach of the bracket's chord on the surface (plus the chord's sag)
-    p0, p1 = surface(t, s0), surface(t, s1)
-    sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
-    if not volume.ball:
-        near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon
-        owner, item = owner[near], item[near]
-    dist = segment_distances(p0, p1, owner, volume.piece_a, volume.piece_b, item)
-    near = dist <= volume.segment_reach + 2.0 * sag[owner]
-    owner, item = owner[near], item[near]
-    mine = volume.pass_of[item] == own[owner]
-    # each seed's pieces of its own pass and of the others
-    own_lo, own_hi, own_item = ray_ranges(owner[mine], item[mine], m)
-    other_lo, other_hi, other_item = ray_ranges(owner[~mine], item[~mine], m)
-    big = 10.0 * volume.horizon + 1.0
-    # at each end of the bracket (column 0: f <= 0, 1: f > 0), where last evaluated: |f|
-    # and min(h_own, h_other)
-    end_f = np.full((m, 2), np.inf)
-    end_h = np.zeros((m, 2))
-
-    def f(sv: NDArray[np.float64], active: NDArray[np.int64]) -> NDArray[np.float64]:
-        """``h_own - h_other`` (clipped) at seeds ``active`` (kept in ``end_f, end_h``)."""
-        x, nrm = surface.points_and_normals(t[active], sv)
-        h_own = volume.height(x, nrm, own_lo[active], own_hi[active], own_item)
-        h_other = volume.height(x, nrm, other_lo[active], other_hi[active], other_item)
-        value = np.minimum(h_own, big) - np.minimum(h_other, big)
-        side = (value > 0.0).astype(np.int64)
-        end_f[active, side] = np.abs(value)
-        end_h[active, side] = np.minimum(h_own, h_other)
-        return value
-
+    f = _HeightDifference(volume, surface, t, *_bracket_pieces(volume, surface, t, s0, s1, own))
     # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0 (where
     # it does not read so, within the search's tolerance, another pass touches there too:
     # -horizon stands in)
     f_tol = CUSP_HEIGHT_SHARE * volume.scallop_mm
-    lo = s0.copy()
     f_lo = f(s0, np.arange(m))
     covered = f_lo >= -f_tol
     f_lo[covered] = -volume.horizon
-    end_f[covered, 0], end_h[covered, 0] = np.inf, 0.0
-    hi = np.full(m, np.nan)
-    f_hi = np.full(m, np.nan)
-    steps = 3
-    for j in range(1, steps + 1):
-        sj = s0 + (s1 - s0) * j / steps
-        open_ = np.flatnonzero(np.isnan(hi))
-        if not open_.size:
-            break
-        fj = f(sj[open_], open_)
-        found = fj > 0.0
-        hi[open_[found]], f_hi[open_[found]] = sj[open_[found]], fj[found]
-        lo[open_[~found]], f_lo[open_[~found]] = sj[open_[~found]], fj[~found]
+    f.end_f[covered, 0], f.end_h[covered, 0] = np.inf, 0.0
+    lo, f_lo, hi, f_hi = _sign_change(f, s0, s1, f_lo, steps=3)
     result_h = np.full(m, np.nan)
     result_s = np.full(m, np.nan)
     act = np.flatnonzero(~np.isnan(hi))
@@ -540,10 +555,102 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
                                    bisect_steps=CUSP_BISECT_STEPS,
                                    x_tol=CUSP_S_SHARE * (hi[act] - lo[act]),
                                    f_tol=f_tol, either_end=True)
-    high = end_h[act, 1] > end_h[act, 0]
-    result_h[act] = end_h[act, high.astype(np.int64)]
+    high = f.end_h[act, 1] > f.end_h[act, 0]
+    result_h[act] = f.end_h[act, high.astype(np.int64)]
     result_s[act] = np.where(high, s_high, s_low)
     return result_h, result_s
+
+
+#: Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]`` (:func:`~.sweep_kernel.ray_ranges`):
+#: ``(lo, hi, item)``.
+_RayRanges = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
+
+
+def _bracket_pieces(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
+                    s0: NDArray[np.float64], s1: NDArray[np.float64], own: NDArray[np.int64]
+                    ) -> tuple[_RayRanges, _RayRanges]:
+    """The pieces that can reach the rays over each bracket, of its own pass and the others.
+
+    The pieces that matter have their centres on the sheet ``lift`` above the surface,
+    within ``lateral`` of the bracket; of those, the ones whose cutters come below the
+    horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
+    cutter's reach of the bracket's chord on the surface (plus the chord's sag).
+
+    Returns the ray ranges (:func:`~.sweep_kernel.ray_ranges`) of the seed's own pass and
+    of the others.
+    """
+    m = len(t)
+    mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
+    ends = surface(t, s1) - surface(t, s0)
+    half = 0.5 * np.linalg.norm(ends, axis=1)
+    owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
+        half.max()) if m else 0.0)
+    p0, p1 = surface(t, s0), surface(t, s1)
+    sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
+    if not volume.ball:
+        near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon
+        owner, item = owner[near], item[near]
+    dist = segment_distances(p0, p1, owner, volume.piece_a, volume.piece_b, item)
+    near = dist <= volume.segment_reach + 2.0 * sag[owner]
+    owner, item = owner[near], item[near]
+    mine = volume.pass_of[item] == own[owner]
+    return ray_ranges(owner[mine], item[mine], m), ray_ranges(owner[~mine], item[~mine], m)
+
+
+class _HeightDifference:
+    """``f(s) = h_own(s) - h_other(s)`` (clipped) along each seed's line of fixed ``t``.
+
+    ``h_own`` is the height the seed's own pass leaves, ``h_other`` the other passes'
+    (:meth:`_CutVolume.height` over the pieces of :func:`_bracket_pieces`). Each call
+    keeps, at the end of the bracket on its side (column 0: ``f <= 0``, 1: ``f > 0``),
+    ``|f|`` in :attr:`end_f` and ``min(h_own, h_other)`` in :attr:`end_h`.
+    """
+
+    def __init__(self, volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
+                 own: _RayRanges, other: _RayRanges) -> None:
+        self.volume, self.surface, self.t = volume, surface, t
+        self.own, self.other = own, other
+        self.clip = 10.0 * volume.horizon + 1.0
+        self.end_f = np.full((len(t), 2), np.inf)
+        self.end_h = np.zeros((len(t), 2))
+
+    def __call__(self, sv: NDArray[np.float64], active: NDArray[np.int64]
+                 ) -> NDArray[np.float64]:
+        """``f`` at ``sv`` for seeds ``active``."""
+        x, nrm = self.surface.points_and_normals(self.t[active], sv)
+        lo, hi, item = self.own
+        h_own = self.volume.height(x, nrm, lo[active], hi[active], item)
+        lo, hi, item = self.other
+        h_other = self.volume.height(x, nrm, lo[active], hi[active], item)
+        value = np.minimum(h_own, self.clip) - np.minimum(h_other, self.clip)
+        side = (value > 0.0).astype(np.int64)
+        self.end_f[active, side] = np.abs(value)
+        self.end_h[active, side] = np.minimum(h_own, h_other)
+        return value
+
+
+def _sign_change(f: _HeightDifference, s0: NDArray[np.float64], s1: NDArray[np.float64],
+                 f_lo: NDArray[np.float64], steps: int
+                 ) -> tuple[NDArray[np.float64], ...]:
+    """The first of ``steps`` even samples over ``(s0, s1]`` where ``f > 0``, per seed.
+
+    Returns ``lo, f_lo`` (the last sample with ``f <= 0``, from ``s0`` and ``f_lo``
+    there) and ``hi, f_hi`` (the first with ``f > 0``; ``nan``: none).
+    """
+    m = len(s0)
+    lo, f_lo = s0.copy(), f_lo.copy()
+    hi = np.full(m, np.nan)
+    f_hi = np.full(m, np.nan)
+    for j in range(1, steps + 1):
+        sj = s0 + (s1 - s0) * j / steps
+        open_ = np.flatnonzero(np.isnan(hi))
+        if not open_.size:
+            break
+        fj = f(sj[open_], open_)
+        found = fj > 0.0
+        hi[open_[found]], f_hi[open_[found]] = sj[open_[found]], fj[found]
+        lo[open_[~found]], f_lo[open_[~found]] = sj[open_[~found]], fj[~found]
+    return lo, f_lo, hi, f_hi
 
 
 #: The cusp search (:func:`_cusps`) stops where the two heights are within this share of
@@ -582,10 +689,7 @@ ESTIMATE_TOP_SHARE = 0.01
 ESTIMATE_MIN_SEEDS = 8 * ESTIMATE_TOP
 
 
-def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
-                         t: NDArray[np.float64], s: NDArray[np.float64],
-                         own: NDArray[np.int64], q: NDArray[np.float64],
-                         nrm: NDArray[np.float64], x_s: NDArray[np.float64]
+def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds
                          ) -> NDArray[np.float64]:
     """Cusp height from each seed towards increasing ``s``, from two centre segments (ball).
 
@@ -608,41 +712,53 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface,
     segment has no length (the ray cast decides there), ``inf`` where the tubes do not
     meet (``d >= R``: material between the passes).
     """
-    n_seed = len(t)
+    n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
     if not n_seed or not len(volume.pass_of):
         return out
-    big = volume.cutter.radius_mm
-    centre = q + big * nrm
-    seg = volume.b - volume.a
-    x = np.zeros((n_seed, 3))
-    inside = np.zeros((n_seed, 2))
-    state = np.full(n_seed, RIDGE_NO_PASS)
-    todo = np.arange(n_seed)
-    radius = volume.near_mm
-    # an other pass's piece whose midpoint lies farther than 2 R and a piece's length from
-    # ``P`` leaves its tube apart from the own pass's (the tubes do not meet)
-    limit = 2.0 * big + volume.step_mm
-    while todo.size:
-        x[todo], inside[todo], state[todo] = ridges(
-            centre[todo], nrm[todo], x_s[todo], own[todo], volume.near_cells, radius,
-            volume.a, seg, volume.pass_of, big)
-        todo = todo[state[todo] == RIDGE_NO_PASS]
-        if radius >= limit:
-            break
-        radius = min(4.0 * radius, limit)
+    x, inside, state = _ridges_widening(volume, seeds)
     out[state == RIDGE_OPEN] = np.inf
     ok = np.flatnonzero(state == RIDGE_FOUND)
-    xs = x_s[ok]
-    s_c = np.clip(s[ok] + np.einsum("ij,ij->i", x[ok] - q[ok], xs)
+    xs = seeds.x_s[ok]
+    s_c = np.clip(seeds.s[ok] + np.einsum("ij,ij->i", x[ok] - seeds.q[ok], xs)
                   / np.maximum(np.einsum("ij,ij->i", xs, xs), 1e-30), 0.0, 1.0)
-    foot_c, n_c = surface.points_and_normals(t[ok], s_c)
+    foot_c, n_c = surface.points_and_normals(seeds.t[ok], s_c)
     height = np.einsum("ij,ij->i", x[ok] - foot_c, n_c)
     # the two passes' own curving sinks the ridge a little into their neighbouring pieces
     # (a fraction of a micrometre): only a deep sinking is a pass folding back on itself
     third, two = inside[ok, 0], inside[ok, 1]
     out[ok] = height - np.maximum(third, np.where(two > RIDGE_FOLD * height, two, 0.0))
     return out
+
+
+def _ridges_widening(volume: _CutVolume, seeds: _Seeds) -> tuple[NDArray[np.float64], ...]:
+    """The ridge between each seed's own pass and the next pass (:func:`~.cusp_kernel.ridges`).
+
+    Among the pieces within :attr:`_CutVolume.near_mm` of ``P = Q + R n``; where no other
+    pass lies there, within 4 times that, and so on up to ``2 R`` and a piece's length (an
+    other pass's piece whose midpoint lies farther from ``P`` leaves its tube apart from
+    the own pass's: the tubes do not meet). Returns the ridge points, the depths inside
+    the other tubes and the states (``RIDGE_*``).
+    """
+    n_seed = len(seeds.t)
+    big = volume.cutter.radius_mm
+    centre = seeds.q + big * seeds.n
+    seg = volume.b - volume.a
+    x = np.zeros((n_seed, 3))
+    inside = np.zeros((n_seed, 2))
+    state = np.full(n_seed, RIDGE_NO_PASS)
+    todo = np.arange(n_seed)
+    radius = volume.near_mm
+    limit = 2.0 * big + volume.step_mm
+    while todo.size:
+        x[todo], inside[todo], state[todo] = ridges(
+            centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
+            volume.near_cells, radius, volume.a, seg, volume.pass_of, big)
+        todo = todo[state[todo] == RIDGE_NO_PASS]
+        if radius >= limit:
+            break
+        radius = min(4.0 * radius, limit)
+    return x, inside, state
 
 
 def _largest_first(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int
@@ -764,93 +880,174 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`, :data:`ESTIMATE_TOP_SHARE`).
     """
     h = float(scallop_mm)
-    big, r = cutter.radius_mm, cutter.corner_radius_mm
-    horizon = max(10.0 * h, 0.05)
-    rho = r if r > h else big
+    rho = cutter.corner_radius_mm if cutter.corner_radius_mm > h else cutter.radius_mm
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
-    volume = _CutVolume(toolpath, cutter, horizon, h, machine)
-    # uncut area on a coarse grid
-    g = np.linspace(0.0, 1.0, 33)
-    pts = surface(g, g, grid=True)
-    len_t = np.linalg.norm(np.diff(pts, axis=0), axis=2).sum(axis=0).max() * 1.02
-    len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
-    n_t = int(np.ceil(len_t / (0.5 * big))) + 1
-    n_s = int(np.ceil(len_s / width)) + 1
-    frame = surface.frame(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), grid=True)
-    q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
-    area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
-    uncut = ~volume.cut(q, n)
-    uncut_fraction = float(area[uncut].sum() / max(area.sum(), 1e-300))
-    # cusps from every seed, searched over 2.5 times the distance to the nearest contact of
-    # another pass (what the toolpath itself shows of the spacing)
-    st, ss, sp = chord.seeds_t, chord.seeds_s, chord.seeds_pass
-    if st.size:
-        seed_q, seed_n = surface.points_and_normals(st, ss)
-        x_s = surface.derivative(st, ss, dt=0, ds=1)
+    volume = _CutVolume(toolpath, cutter, max(10.0 * h, 0.05), h, machine)
+    uncut = _UncutArea.on_grid(surface, volume, width)
+    seeds, others = _Seeds.of(surface, chord)
+    search = _CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)
+    if volume.ball and estimate and len(seeds.t) > estimate_min_seeds:
+        count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
+        _cast_beyond_estimates(search, uncut, count)
     else:
-        seed_q = seed_n = x_s = np.zeros((0, 3))
-    others = _OtherPasses(seed_q, sp)  # of every seed, searched from the live ones
-    live = np.flatnonzero(ss < 1.0 - 1e-12)
-    st, ss, sp, x_s, seed_q, seed_n = (a[live] for a in (st, ss, sp, x_s, seed_q, seed_n))
-    s1 = np.full(st.size, np.nan)
-    grid_points = frame.point.reshape(n_t, n_s, 3)
-    reach = (_surface_reach(grid_points, uncut.reshape(n_t, n_s), bool(surface.closed_t),
-                            2.0 * big) if uncut.any() else None)
-    # a ball's cusps from the passes' own geometry first; the ray cast where it decides
-    cusp_h = np.full(st.size, np.nan)
-    cusp_s = np.full(st.size, np.nan)
-    cast = np.zeros(st.size, dtype=bool)
+        search.run(np.ones(len(seeds.t), dtype=bool))
+    return _scallop_result(search, uncut)
 
-    def ray_cast(rows: NDArray[np.bool_]) -> None:
-        todo = np.flatnonzero(rows & ~cast)
-        cast[todo] = True
-        gap = others.distance(live[todo])
-        gap = np.where(np.isfinite(gap), gap, 3.0 * width)
-        speed = np.linalg.norm(x_s[todo], axis=1)
-        s1[todo] = np.minimum(ss[todo] + 2.5 * gap / np.maximum(speed, 1e-12), 1.0)
-        room = s1[todo] > ss[todo] + 1e-12  # no room above: no cusp
+
+@dataclass(frozen=True)
+class _UncutArea:
+    """The coarse grid's points no cutter comes near, and distances over the surface to them.
+
+    ``grid`` holds the points ``(n_t, n_s, 3)``, ``uncut`` the uncut ones; ``reach`` the
+    distance from each grid node to the nearest uncut one (:func:`_surface_reach`; None:
+    nothing uncut), followed up to a cutter diameter (``diameter_mm``).
+    """
+
+    grid: NDArray[np.float64]
+    uncut: NDArray[np.bool_]
+    fraction: float
+    reach: NDArray[np.float64] | None
+    diameter_mm: float
+
+    @classmethod
+    def on_grid(cls, surface: ParametricSurface, volume: _CutVolume, width_mm: float
+                ) -> _UncutArea:
+        """Grid spacing half the cutter radius along ``t``, ``width_mm`` across."""
+        big = volume.cutter.radius_mm
+        g = np.linspace(0.0, 1.0, 33)
+        pts = surface(g, g, grid=True)
+        len_t = np.linalg.norm(np.diff(pts, axis=0), axis=2).sum(axis=0).max() * 1.02
+        len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
+        n_t = int(np.ceil(len_t / (0.5 * big))) + 1
+        n_s = int(np.ceil(len_s / width_mm)) + 1
+        frame = surface.frame(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s),
+                              grid=True)
+        q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
+        area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
+        uncut = ~volume.cut(q, n)
+        fraction = float(area[uncut].sum() / max(area.sum(), 1e-300))
+        grid = frame.point.reshape(n_t, n_s, 3)
+        reach = (_surface_reach(grid, uncut.reshape(n_t, n_s), bool(surface.closed_t),
+                                2.0 * big) if uncut.any() else None)
+        return cls(grid, uncut, fraction, reach, 2.0 * big)
+
+    def away(self, points: NDArray[np.float64], t: NDArray[np.float64],
+             s: NDArray[np.float64]) -> NDArray[np.bool_] | None:
+        """Points farther than a cutter diameter from the uncut area (None: none uncut)."""
+        if self.reach is None:
+            return None
+        return _distance_from(self.reach, self.grid, points, t, s) > self.diameter_mm
+
+
+class _Seeds(NamedTuple):
+    """Where cusps are searched from: ``t, s``, pass, ``X_s``, surface point and normal."""
+
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    pass_: NDArray[np.int64]
+    x_s: NDArray[np.float64]
+    q: NDArray[np.float64]
+    n: NDArray[np.float64]
+    rows: NDArray[np.int64]
+
+    @classmethod
+    def of(cls, surface: ParametricSurface, chord: ChordMeasurement
+           ) -> tuple[_Seeds, _OtherPasses]:
+        """The chord measurement's seeds short of ``s = 1`` (``rows`` among all of them).
+
+        And the contacts of every seed (:class:`_OtherPasses`).
+        """
+        st, ss, sp = chord.seeds_t, chord.seeds_s, chord.seeds_pass
+        if st.size:
+            seed_q, seed_n = surface.points_and_normals(st, ss)
+            x_s = surface.derivative(st, ss, dt=0, ds=1)
+        else:
+            seed_q = seed_n = x_s = np.zeros((0, 3))
+        others = _OtherPasses(seed_q, sp)
+        live = np.flatnonzero(ss < 1.0 - 1e-12)
+        return cls(*(a[live] for a in (st, ss, sp, x_s, seed_q, seed_n)), live), others
+
+
+class _CuspSearch:
+    """Cusps searched by ray casting from the seeds, each once (:func:`_cusps`).
+
+    From a seed at ``s`` over 2.5 times the distance to the nearest contact of another
+    pass (what the toolpath itself shows of the spacing; ``default_gap_mm`` where none),
+    ``chunk`` seeds at a time. :attr:`height` and :attr:`s` hold the cusps found (``nan``:
+    none or not cast), :attr:`cast` the seeds cast.
+    """
+
+    def __init__(self, volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds,
+                 others: _OtherPasses, default_gap_mm: float, chunk: int) -> None:
+        self.volume, self.surface, self.seeds, self.others = volume, surface, seeds, others
+        self.default_gap_mm, self.chunk = default_gap_mm, chunk
+        m = len(seeds.t)
+        self.height = np.full(m, np.nan)
+        self.s = np.full(m, np.nan)
+        self.cast = np.zeros(m, dtype=bool)
+
+    def run(self, rows: NDArray[np.bool_]) -> None:
+        """Ray cast the seeds ``rows`` not cast yet."""
+        seeds = self.seeds
+        todo = np.flatnonzero(rows & ~self.cast)
+        self.cast[todo] = True
+        gap = self.others.distance(seeds.rows[todo])
+        gap = np.where(np.isfinite(gap), gap, self.default_gap_mm)
+        speed = np.linalg.norm(seeds.x_s[todo], axis=1)
+        s1 = np.minimum(seeds.s[todo] + 2.5 * gap / np.maximum(speed, 1e-12), 1.0)
+        room = s1 > seeds.s[todo] + 1e-12  # no room above: no cusp
         # brackets of like length batched together: a batch meets the pieces within
         # reach of its longest bracket
-        todo = todo[room][np.argsort(gap[room], kind="stable")]
-        for lo in range(0, todo.size, chunk):
-            sl = todo[lo:lo + chunk]
-            cusp_h[sl], cusp_s[sl] = _cusps(volume, surface, st[sl], ss[sl], s1[sl], sp[sl])
+        order = np.argsort(gap[room], kind="stable")
+        todo, s1 = todo[room][order], s1[room][order]
+        for lo in range(0, todo.size, self.chunk):
+            sl = todo[lo:lo + self.chunk]
+            self.height[sl], self.s[sl] = _cusps(self.volume, self.surface, seeds.t[sl],
+                                                 seeds.s[sl], s1[lo:lo + self.chunk],
+                                                 seeds.pass_[sl])
 
-    if volume.ball and estimate and st.size > estimate_min_seeds:
-        # a ball's cusps from the passes' own geometry first; then the ray cast where no
-        # estimate stands, at the largest estimates, and wherever an estimate stands above
-        # the largest cusp the ray cast found by more than it errs (overall, and away from
-        # uncut areas as the seeds stand)
-        guess = _ball_cusp_estimates(volume, surface, st, ss, sp, seed_q, seed_n, x_s)
-        groups = [np.ones(st.size, dtype=bool)]
-        if reach is not None:
-            groups.append(_distance_from(reach, grid_points, seed_q, st, ss) > 2.0 * big)
-        first = ~np.isfinite(guess)
-        count = max(estimate_top, int(estimate_top_share * st.size))
-        for group in groups:
-            first |= _largest_first(guess, group, count)
-        ray_cast(first)
-        for group in groups:
-            measured = group & cast & np.isfinite(cusp_h)
-            if measured.any():
-                # an estimate above the largest cusp by more than it errs: cast it too
-                top = float(cusp_h[measured].max())
-                ray_cast(group & (guess >= ESTIMATE_SHARE * top))
-            else:
-                ray_cast(group)
-    else:
-        ray_cast(np.ones(st.size, dtype=bool))
-    found = ~np.isnan(cusp_h)
+
+def _cast_beyond_estimates(search: _CuspSearch, uncut: _UncutArea, count: int) -> None:
+    """A ball's cusps estimated first; the ray cast where the estimate cannot decide.
+
+    Every seed's cusp from the passes' own geometry (:func:`_ball_cusp_estimates`); then
+    the ray cast where no estimate stands, at the ``count`` largest estimates, and
+    wherever an estimate stands above the largest cusp the ray cast found by more than it
+    errs (:data:`ESTIMATE_SHARE`; overall, and away from uncut areas as the seeds stand).
+    """
+    seeds = search.seeds
+    guess = _ball_cusp_estimates(search.volume, search.surface, seeds)
+    groups = [np.ones(len(seeds.t), dtype=bool)]
+    away = uncut.away(seeds.q, seeds.t, seeds.s)
+    if away is not None:
+        groups.append(away)
+    first = ~np.isfinite(guess)
+    for group in groups:
+        first |= _largest_first(guess, group, count)
+    search.run(first)
+    for group in groups:
+        measured = group & search.cast & np.isfinite(search.height)
+        if measured.any():
+            # an estimate above the largest cusp by more than it errs: cast it too
+            top = float(search.height[measured].max())
+            search.run(group & (guess >= ESTIMATE_SHARE * top))
+        else:
+            search.run(group)
+
+
+def _scallop_result(search: _CuspSearch, uncut: _UncutArea) -> ScallopMeasurement:
+    """The largest cusp found, overall and away from the uncut area."""
+    seeds = search.seeds
+    n_cast = int(search.cast.sum())
+    found = ~np.isnan(search.height)
     if not found.any():
-        return ScallopMeasurement(0.0, float("nan"), float("nan"), 0.0, uncut_fraction,
-                                  int(st.size), int(cast.sum()))
-    ch, ct, cs = cusp_h[found], st[found], cusp_s[found]
+        return ScallopMeasurement(0.0, float("nan"), float("nan"), 0.0, uncut.fraction,
+                                  len(seeds.t), n_cast)
+    ch, ct, cs = search.height[found], seeds.t[found], search.s[found]
     k = int(np.argmax(ch))
-    interior = ch
-    if reach is not None:
-        dist = _distance_from(reach, grid_points, surface(ct, cs), ct, cs)
-        interior = np.where(dist > 2.0 * big, ch, -np.inf)
+    away = uncut.away(search.surface(ct, cs), ct, cs)
+    interior = ch if away is None else np.where(away, ch, -np.inf)
     return ScallopMeasurement(max_mm=float(ch[k]), t=float(ct[k]), s=float(cs[k]),
                               interior_max_mm=max(float(interior.max()), 0.0),
-                              uncut_fraction=uncut_fraction, n_samples=int(st.size),
-                              n_cast=int(cast.sum()))
+                              uncut_fraction=uncut.fraction, n_samples=len(seeds.t),
+                              n_cast=n_cast)

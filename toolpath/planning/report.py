@@ -245,7 +245,29 @@ class PlanningReport:
 
     def lines(self) -> list[str]:
         """The report as text lines."""
-        out = [
+        out = [*self._figure_lines(), *self._rounding_lines(), *self._uncut_lines()]
+        if self.max_axis_rate_deg_per_mm is not None:
+            out.append(self._axis_rate_line())
+        if self.rotary_rates is not None:
+            out.append(f"rotary joints     {self.rotary_rates.describe()}")
+        if self.blunt_face is not None:
+            out.append(f"uncut edge face   {self.blunt_face.describe()}")
+        if self.tilt_leaned_points:
+            out.append(f"tool-axis lean    {self.tilt_leaned_points} points leaned toward +Z "
+                       f"by up to {self.max_tilt_lean_deg:.3f} deg (the tilt joint reaches "
+                       f"{_fmt(self.max_tilt_deg, unit='deg', digits=2)} from +Z)")
+        out.extend(self._machine_lines())
+        out.extend(f"advice            {line}" for line in self.advice)
+        out.append(f"length            {self.length_mm:.1f} mm "
+                   f"({self.cutting_length_mm:.1f} mm feeding)")
+        total = sum(self.seconds.values())
+        out.append(f"planning time     {total:.2f} s (" + ", ".join(
+            f"{k} {v:.2f}" for k, v in self.seconds.items()) + ")")
+        return out
+
+    def _figure_lines(self) -> list[str]:
+        """What was asked and what the plan achieved: passes, scallop, chord, clearance."""
+        return [
             f"cutter            {self.cutter}",
             f"axis / linking    {self.axis_mode} / {self.linking}"
             + (f" ({self.linking_reason})" if self.linking_reason else ""),
@@ -262,18 +284,27 @@ class PlanningReport:
             f"concave radius    {_fmt(self.min_concave_radius_mm, digits=3)} smallest met "
             f"(cutter {self.cutter_radius_there_mm:.3f} mm there)",
         ]
-        if self.rounding_reserve_mm:
-            out.append(f"G-code grid       rounding moves the cutter up to "
-                       f"{self.rounding_reserve_mm:.5f} mm; planned for scallop "
-                       f"{_fmt(self.planned_scallop_mm)}, chord "
-                       f"{_fmt(self.planned_chord_tol_mm)}")
-            short = min(self.scallop_request_mm - (self.planned_scallop_mm or 0.0),
-                        self.chord_tol_mm - (self.planned_chord_tol_mm or 0.0))
-            if self.rounding_reserve_mm > short + 1e-12:
-                out.append(f"  the grid needs more than the quarter of the request kept for "
-                           f"it: the written program may exceed the request by up to "
-                           f"{self.rounding_reserve_mm - short:.5f} mm (write more decimals, "
-                           f"or ask for less)")
+
+    def _rounding_lines(self) -> list[str]:
+        """The G-code grid's rounding reserve, and a warning when it needs more than it has."""
+        if not self.rounding_reserve_mm:
+            return []
+        out = [f"G-code grid       rounding moves the cutter up to "
+               f"{self.rounding_reserve_mm:.5f} mm; planned for scallop "
+               f"{_fmt(self.planned_scallop_mm)}, chord "
+               f"{_fmt(self.planned_chord_tol_mm)}"]
+        short = min(self.scallop_request_mm - (self.planned_scallop_mm or 0.0),
+                    self.chord_tol_mm - (self.planned_chord_tol_mm or 0.0))
+        if self.rounding_reserve_mm > short + 1e-12:
+            out.append(f"  the grid needs more than the quarter of the request kept for "
+                       f"it: the written program may exceed the request by up to "
+                       f"{self.rounding_reserve_mm - short:.5f} mm (write more decimals, "
+                       f"or ask for less)")
+        return out
+
+    def _uncut_lines(self) -> list[str]:
+        """Area left uncut, cutter locations moved off gouges and folds, unreachable regions."""
+        out = []
         if self.uncut_fraction is not None:
             out.append(f"uncut area        {100 * self.uncut_fraction:.2f} % of the surface")
         if self.n_lifted or self.n_retilted:
@@ -286,36 +317,29 @@ class PlanningReport:
             out.append(f"unreachable       {100 * self.unreachable_fraction:.1f} % of the "
                        f"surface in {len(self.unreachable_regions)} region(s):")
             out.extend(f"  {reg.describe()}" for reg in self.unreachable_regions[:10])
-        if self.max_axis_rate_deg_per_mm is not None:
-            limit = ("" if self.axis_rate_limit_deg_per_mm is None
-                     else f" (limit {self.axis_rate_limit_deg_per_mm:g}"
-                     + ("; exceeded: the slowest turn within max_lean_deg of the normal, a "
-                        "flat or bull-nose face never leaning less than the lead)"
-                        if self.max_axis_rate_deg_per_mm > self.axis_rate_limit_deg_per_mm
-                        else ")"))
-            out.append(f"axis turn rate    {self.max_axis_rate_deg_per_mm:.3f} deg/mm max"
-                       + limit + (f", {self.cone_pushed} axes kept off the singular cone"
-                                  if self.cone_pushed else ""))
-        if self.rotary_rates is not None:
-            out.append(f"rotary joints     {self.rotary_rates.describe()}")
-        if self.blunt_face is not None:
-            out.append(f"uncut edge face   {self.blunt_face.describe()}")
-        if self.tilt_leaned_points:
-            out.append(f"tool-axis lean    {self.tilt_leaned_points} points leaned toward +Z "
-                       f"by up to {self.max_tilt_lean_deg:.3f} deg (the tilt joint reaches "
-                       f"{_fmt(self.max_tilt_deg, unit='deg', digits=2)} from +Z)")
-        if self.machine is not None:
-            out.append(f"machine           {self.machine}")
-            out.extend(f"  travel: {v.message()}" for v in self.travel_violations)
-            out.extend(f"  feed limited: {v.message()}" for v in self.rate_violations[:5])
-            if self.estimated_time_s is not None:
-                out.append(f"estimated time    {self.estimated_time_s / 60.0:.2f} min")
-        out.extend(f"advice            {line}" for line in self.advice)
-        out.append(f"length            {self.length_mm:.1f} mm "
-                   f"({self.cutting_length_mm:.1f} mm feeding)")
-        total = sum(self.seconds.values())
-        out.append(f"planning time     {total:.2f} s (" + ", ".join(
-            f"{k} {v:.2f}" for k, v in self.seconds.items()) + ")")
+        return out
+
+    def _axis_rate_line(self) -> str:
+        """The largest tool-axis turn rate, against its limit (5-axis)."""
+        rate = self.max_axis_rate_deg_per_mm
+        limit = ("" if self.axis_rate_limit_deg_per_mm is None
+                 else f" (limit {self.axis_rate_limit_deg_per_mm:g}"
+                 + ("; exceeded: the slowest turn within max_lean_deg of the normal, a "
+                    "flat or bull-nose face never leaning less than the lead)"
+                    if rate > self.axis_rate_limit_deg_per_mm else ")"))
+        return (f"axis turn rate    {rate:.3f} deg/mm max" + limit
+                + (f", {self.cone_pushed} axes kept off the singular cone"
+                   if self.cone_pushed else ""))
+
+    def _machine_lines(self) -> list[str]:
+        """The machine: travel and feed-rate violations, estimated time (none: no machine)."""
+        if self.machine is None:
+            return []
+        out = [f"machine           {self.machine}"]
+        out.extend(f"  travel: {v.message()}" for v in self.travel_violations)
+        out.extend(f"  feed limited: {v.message()}" for v in self.rate_violations[:5])
+        if self.estimated_time_s is not None:
+            out.append(f"estimated time    {self.estimated_time_s / 60.0:.2f} min")
         return out
 
     def as_dict(self) -> dict[str, Any]:

@@ -202,127 +202,222 @@ def plan_roughing(surface: ParametricSurface, cutter: Cutter | str, *, step_down
     surface = as_surface(surface)
     cutter = parse_cutter(cutter) if isinstance(cutter, str) else cutter
     big = cutter.radius_mm
-    checks = {"step_down_mm": step_down_mm, "allowance_mm": allowance_mm,
-              "feed_mm_per_min": feed_mm_per_min, "clearance_mm": clearance_mm}
-    for name, value in checks.items():
+    stepover = _checked_stepover(cutter, stepover_mm, step_down_mm=step_down_mm,
+                                 allowance_mm=allowance_mm, feed_mm_per_min=feed_mm_per_min,
+                                 clearance_mm=clearance_mm)
+    frame = _frame(up)
+    eps = min(allowance_mm / 2.0, 0.5)
+    pts = _part_grid(surface, frame, grid_mm or float(np.clip(allowance_mm / 2.0, 0.1, 1.0)))
+    part_top, part_bottom = float(pts[..., 2].max()), float(pts[..., 2].min())
+    top = part_top + allowance_mm if top_mm is None else float(top_mm)
+    bottom = part_bottom if bottom_mm is None else float(bottom_mm)
+    levels = _levels(top, bottom, step_down_mm)
+    sections, walls = _sections(pts, levels, bottom, part_top, step_down_mm, eps)
+    stock_poly = _stock_outline(sections, stock, stock_margin_mm)
+    moves = _Moves(frame, safe_mm=top + clearance_mm, approach_mm=approach_mm,
+                   link_mm=2.0 * stepover + big)
+    removed = 0.0
+    min_clear = np.inf
+    for level in levels:
+        shadow, wall = _shadow(sections, walls, float(level))
+        island = (shadow.buffer(allowance_mm + big - eps + _SIMPLIFY_MM)
+                  if not shadow.is_empty else shadow)
+        removed += (stock_poly.difference(shadow.buffer(allowance_mm - eps))
+                    .area if not shadow.is_empty else stock_poly.area) * step_down_mm
+        pieces = _offset_rings(stock_poly, island, big, stepover)
+        clear = moves.cut_level(pieces, float(level), island,
+                                None if shadow.is_empty else wall, big)
+        min_clear = min(min_clear, clear)
+    path = moves.toolpath(feed_mm_per_min, plunge_feed_mm_per_min or feed_mm_per_min / 4.0,
+                          {"planner": "toolpath.planning.plan_roughing", "cutter": cutter.spec,
+                           "allowance_mm": f"{allowance_mm:g}",
+                           "step_down_mm": f"{step_down_mm:g}"})
+    report = RoughingReport(
+        levels_mm=tuple(float(v) for v in levels), n_rings=moves.n_rings, n_points=len(path),
+        stepover_mm=stepover, step_down_mm=float(step_down_mm), allowance_mm=allowance_mm,
+        min_wall_clearance_mm=float(min_clear), removed_volume_mm3=float(removed),
+        length_mm=path.length_mm, seconds=time.perf_counter() - t0)
+    return path, report
+
+
+def _checked_stepover(cutter: Cutter, stepover_mm: float | None, **positive: float) -> float:
+    """The stepover (default 40 % of the diameter), after checking ``positive`` are > 0.
+
+    Raises :class:`InvalidParameterError` naming the first value out of range.
+    """
+    for name, value in positive.items():
         if not (np.isfinite(value) and value > 0.0):
             raise InvalidParameterError(f"{name} must be > 0, got {value!r}")
+    big = cutter.radius_mm
     stepover = 0.4 * cutter.diameter_mm if stepover_mm is None else float(stepover_mm)
     if not (np.isfinite(stepover) and 0.0 < stepover <= big):
         raise InvalidParameterError(
             f"stepover_mm must be in (0, cutter radius {big:g}] mm, got {stepover_mm!r}")
-    frame = _frame(up)
-    eps = min(allowance_mm / 2.0, 0.5)
-    spacing = grid_mm or float(np.clip(allowance_mm / 2.0, 0.1, 1.0))
+    return stepover
+
+
+def _part_grid(surface: ParametricSurface, frame: NDArray[np.float64], spacing_mm: float
+               ) -> NDArray[np.float64]:
+    """The surface sampled about ``spacing_mm`` apart, in the level frame (height last).
+
+    The spacing along each parameter from the longest grid line of a 33 x 33 probe (at
+    most 4000 samples a side).
+    """
     g = np.linspace(0.0, 1.0, 33)
     probe = surface(g, g, grid=True)
     len_t = np.linalg.norm(np.diff(probe, axis=0), axis=2).sum(axis=0).max()
     len_s = np.linalg.norm(np.diff(probe, axis=1), axis=2).sum(axis=1).max()
-    n_t = int(min(np.ceil(len_t / spacing) + 1, 4000))
-    n_s = int(min(np.ceil(len_s / spacing) + 1, 4000))
-    pts = surface(np.linspace(0, 1, n_t), np.linspace(0, 1, n_s), grid=True) @ frame.T
-    part_top, part_bottom = float(pts[..., 2].max()), float(pts[..., 2].min())
-    top = part_top + allowance_mm if top_mm is None else float(top_mm)
-    bottom = part_bottom if bottom_mm is None else float(bottom_mm)
+    n_t = int(min(np.ceil(len_t / spacing_mm) + 1, 4000))
+    n_s = int(min(np.ceil(len_s / spacing_mm) + 1, 4000))
+    return surface(np.linspace(0, 1, n_t), np.linspace(0, 1, n_s), grid=True) @ frame.T
+
+
+def _levels(top: float, bottom: float, step_down_mm: float) -> NDArray[np.float64]:
+    """Heights of the levels, ``step_down_mm`` apart from ``top`` down, the last at ``bottom``."""
     if not top > bottom:
         raise InvalidParameterError(f"top_mm={top!r} must be above bottom_mm={bottom!r}")
     n_levels = int(np.ceil((top - bottom) / step_down_mm - 1e-9))
     levels = top - step_down_mm * np.arange(1, n_levels + 1)
     levels[-1] = max(levels[-1], bottom)
-    # sections on a finer set of heights for the shadow (every half step down)
+    return levels
+
+
+def _sections(points: NDArray[np.float64], levels: NDArray[np.float64], bottom: float,
+              part_top: float, step_down_mm: float, eps_mm: float
+              ) -> tuple[dict[float, Polygon], dict[float, MultiLineString]]:
+    """Sections (filled polygons) and walls (cut segments) by height.
+
+    At the levels and, for the shadow, on a finer set of heights (every half step down
+    from ``bottom`` and just below the part's top) (:func:`section_polygons`).
+    """
     fine = np.unique(np.r_[levels, np.arange(bottom, part_top + 1e-9, step_down_mm / 2.0),
                            part_top - 1e-6])
-    cut = dict(zip(fine.tolist(), section_polygons(pts, fine, eps_mm=eps), strict=True))
+    cut = dict(zip(fine.tolist(), section_polygons(points, fine, eps_mm=eps_mm), strict=True))
     sections = {h: v[0] for h, v in cut.items() if v is not None}
     walls = {h: v[1] for h, v in cut.items() if v is not None}
+    return sections, walls
+
+
+def _stock_outline(sections: dict[float, Polygon], stock: Any, margin_mm: float) -> Polygon:
+    """The stock outline given, or the sections' bounding box grown by ``margin_mm``."""
     outline = unary_union(list(sections.values()))
     if outline.is_empty:
         raise PlanningError("the surface has no section between the top and the bottom")
     if stock is None:
-        stock_poly = shapely.box(*outline.bounds).buffer(stock_margin_mm, join_style="mitre")
-    else:
-        stock_poly = stock if isinstance(stock, Polygon) else Polygon(np.asarray(stock, float))
-        if not stock_poly.is_valid or stock_poly.is_empty:
-            raise InvalidParameterError("stock must be a valid, non-empty polygon")
-    plunge = plunge_feed_mm_per_min or feed_mm_per_min / 4.0
-    safe = top + clearance_mm
-    pos: list[NDArray[np.float64]] = []
-    kinds: list[int] = []
-    passes: list[int] = []
-    ring_id = 0
-    removed = 0.0
-    min_clear = np.inf
+        return shapely.box(*outline.bounds).buffer(margin_mm, join_style="mitre")
+    stock_poly = stock if isinstance(stock, Polygon) else Polygon(np.asarray(stock, float))
+    if not stock_poly.is_valid or stock_poly.is_empty:
+        raise InvalidParameterError("stock must be a valid, non-empty polygon")
+    return stock_poly
 
-    def at(xy: NDArray[np.float64], h: float) -> NDArray[np.float64]:
-        return xy[:, 0:1] * frame[0] + xy[:, 1:2] * frame[1] + h * frame[2]
 
-    for level in levels:
-        above = [p for h, p in sections.items() if h >= level - 1e-9]
-        shadow = unary_union(above) if above else Polygon()
-        wall = unary_union([w for h, w in walls.items() if h >= level - 1e-9])
-        island = (shadow.buffer(allowance_mm + big - eps + _SIMPLIFY_MM)
-                  if not shadow.is_empty else shadow)
-        removed += (stock_poly.difference(shadow.buffer(allowance_mm - eps))
-                    .area if not shadow.is_empty else stock_poly.area) * step_down_mm
-        pieces: list[LineString] = []
-        k = 1
-        while True:
-            ring = stock_poly.buffer(big - k * stepover, join_style="round")
-            if ring.is_empty:
-                break
-            for poly in getattr(ring, "geoms", [ring]):
-                poly = shapely.geometry.polygon.orient(poly, 1.0)
-                pieces.extend(_rings(poly.exterior.difference(island)))
-            k += 1
-        for poly in getattr(island, "geoms", [island]):
-            if not poly.is_empty and stock_poly.buffer(big).contains(poly):
-                pieces.append(shapely.geometry.polygon.orient(poly, 1.0).exterior)
+def _shadow(sections: dict[float, Polygon], walls: dict[float, MultiLineString], level: float
+            ) -> tuple[Any, Any]:
+    """The union of the sections at and above ``level``, and of their walls."""
+    above = [p for h, p in sections.items() if h >= level - 1e-9]
+    shadow = unary_union(above) if above else Polygon()
+    wall = unary_union([w for h, w in walls.items() if h >= level - 1e-9])
+    return shadow, wall
+
+
+def _offset_rings(stock: Polygon, island: Any, big: float, stepover: float
+                  ) -> list[LineString]:
+    """A level's rings, outside in: the stock's offsets clipped outside ``island``, then it.
+
+    The stock outline offset inwards by ``R - stepover``, ``R - 2 stepover``, ... until
+    the offsets vanish, counter-clockwise; then the island's own outlines within reach of
+    the stock.
+    """
+    pieces: list[LineString] = []
+    k = 1
+    while True:
+        ring = stock.buffer(big - k * stepover, join_style="round")
+        if ring.is_empty:
+            break
+        for poly in getattr(ring, "geoms", [ring]):
+            poly = shapely.geometry.polygon.orient(poly, 1.0)
+            pieces.extend(_rings(poly.exterior.difference(island)))
+        k += 1
+    for poly in getattr(island, "geoms", [island]):
+        if not poly.is_empty and stock.buffer(big).contains(poly):
+            pieces.append(shapely.geometry.polygon.orient(poly, 1.0).exterior)
+    return pieces
+
+
+class _Moves:
+    """The roughing toolpath's points as they are planned: positions, kinds, rings.
+
+    Within a level a ring links straight from the last when the link stays clear of the
+    island and within ``link_mm``; otherwise the tool retracts to ``safe_mm``, traverses,
+    rapids down to ``approach_mm`` above the ring's start and plunges.
+    """
+
+    def __init__(self, frame: NDArray[np.float64], *, safe_mm: float, approach_mm: float,
+                 link_mm: float) -> None:
+        self.frame = frame
+        self.safe_mm, self.approach_mm, self.link_mm = safe_mm, approach_mm, link_mm
+        self.pos: list[NDArray[np.float64]] = []
+        self.kinds: list[int] = []
+        self.passes: list[int] = []
+        self.n_rings = 0
+
+    def at(self, xy: NDArray[np.float64], h: float) -> NDArray[np.float64]:
+        """Points ``xy`` of the level plane at height ``h``, in part coordinates."""
+        return xy[:, 0:1] * self.frame[0] + xy[:, 1:2] * self.frame[1] + h * self.frame[2]
+
+    def add(self, points: NDArray[np.float64], kinds: list[int], passes: list[int]) -> None:
+        """Append points with the kinds of the moves to them and their rings (-1: none)."""
+        self.pos.append(points)
+        self.kinds.extend(kinds)
+        self.passes.extend(passes)
+
+    def cut_level(self, pieces: list[LineString], level: float, island: Any, wall: Any,
+                  big: float) -> float:
+        """Cut ``pieces`` at ``level``, then retract; the smallest allowance left, mm.
+
+        Measured from the tool-centre path to the sliced ``wall`` (not the thickened
+        polygons) less the cutter radius ``big`` (``inf``: no wall).
+        """
         last = None
+        clear = np.inf
         for piece in pieces:
             # arcs from the offsets carry far more vertices than the cut needs
             piece = piece.simplify(_SIMPLIFY_MM)
             xy = np.asarray(piece.coords)
-            if not shadow.is_empty:
-                # measured on the sliced walls themselves, not the thickened polygons
-                min_clear = min(min_clear, float(shapely.distance(piece, wall)) - big)
-            path3 = at(xy, float(level))
-            link_ok = (last is not None and not LineString([last, xy[0]]).crosses(island)
-                       and np.linalg.norm(last - xy[0]) <= 2.0 * stepover + big)
-            if link_ok:
-                pos.append(path3[:1])
-                kinds.append(MoveKind.LINK)
-                passes.append(ring_id)
-            else:
-                if last is not None:
-                    pos.append(at(last[None], safe))
-                    kinds.append(MoveKind.RAPID)
-                    passes.append(-1)
-                pos.append(at(xy[:1], safe))
-                pos.append(at(xy[:1], float(level) + approach_mm))
-                pos.append(path3[:1])
-                kinds.extend([MoveKind.RAPID, MoveKind.RAPID, MoveKind.PLUNGE])
-                passes.extend([-1, -1, ring_id])
-            pos.append(path3[1:])
-            kinds.extend([MoveKind.CUT] * (len(path3) - 1))
-            passes.extend([ring_id] * (len(path3) - 1))
+            if wall is not None:
+                clear = min(clear, float(shapely.distance(piece, wall)) - big)
+            path3 = self.at(xy, level)
+            self._enter(xy, path3, level, island, last)
+            self.add(path3[1:], [MoveKind.CUT] * (len(path3) - 1),
+                     [self.n_rings] * (len(path3) - 1))
             last = xy[-1]
-            ring_id += 1
+            self.n_rings += 1
         if last is not None:
-            pos.append(at(last[None], safe))
-            kinds.append(MoveKind.RAPID)
-            passes.append(-1)
-    if not pos:
-        raise PlanningError("nothing to rough: the stock lies inside the island at every level")
-    positions = np.concatenate(pos)
-    kind_arr = np.asarray(kinds, dtype=np.uint8)
-    feeds = np.where(kind_arr == MoveKind.RAPID, 0.0,
-                     np.where(kind_arr == MoveKind.PLUNGE, plunge, feed_mm_per_min))
-    path = Toolpath(positions, frame[2], kind_arr, feeds, np.asarray(passes, np.int32),
-                    {"planner": "toolpath.planning.plan_roughing", "cutter": cutter.spec,
-                     "allowance_mm": f"{allowance_mm:g}", "step_down_mm": f"{step_down_mm:g}"})
-    report = RoughingReport(
-        levels_mm=tuple(float(v) for v in levels), n_rings=ring_id, n_points=len(path),
-        stepover_mm=stepover, step_down_mm=float(step_down_mm), allowance_mm=allowance_mm,
-        min_wall_clearance_mm=float(min_clear), removed_volume_mm3=float(removed),
-        length_mm=path.length_mm, seconds=time.perf_counter() - t0)
-    return path, report
+            self.add(self.at(last[None], self.safe_mm), [MoveKind.RAPID], [-1])
+        return clear
+
+    def _enter(self, xy: NDArray[np.float64], path3: NDArray[np.float64], level: float,
+               island: Any, last: NDArray[np.float64] | None) -> None:
+        """Reach the start of the ring ``xy`` from the last ring's end ``last``."""
+        if (last is not None and not LineString([last, xy[0]]).crosses(island)
+                and np.linalg.norm(last - xy[0]) <= self.link_mm):
+            self.add(path3[:1], [MoveKind.LINK], [self.n_rings])
+            return
+        if last is not None:
+            self.add(self.at(last[None], self.safe_mm), [MoveKind.RAPID], [-1])
+        self.add(self.at(xy[:1], self.safe_mm), [MoveKind.RAPID], [-1])
+        self.add(self.at(xy[:1], level + self.approach_mm), [MoveKind.RAPID], [-1])
+        self.add(path3[:1], [MoveKind.PLUNGE], [self.n_rings])
+
+    def toolpath(self, feed_mm_per_min: float, plunge_feed_mm_per_min: float,
+                 metadata: dict[str, str]) -> Toolpath:
+        """The points as a :class:`Toolpath` (rapids at feed 0, plunges at the plunge feed)."""
+        if not self.pos:
+            raise PlanningError(
+                "nothing to rough: the stock lies inside the island at every level")
+        kinds = np.asarray(self.kinds, dtype=np.uint8)
+        feeds = np.where(kinds == MoveKind.RAPID, 0.0,
+                         np.where(kinds == MoveKind.PLUNGE, plunge_feed_mm_per_min,
+                                  feed_mm_per_min))
+        return Toolpath(np.concatenate(self.pos), self.frame[2], kinds, feeds,
+                        np.asarray(self.passes, np.int32), metadata)

@@ -28,7 +28,7 @@ contacts, exact for curvature varying quadratically along the move); the model's
 from __future__ import annotations
 
 import math
-from typing import Any
+from typing import Any, NamedTuple
 
 import numba
 import numpy as np
@@ -57,6 +57,8 @@ __all__ = [
     "chord_length_mm",
     "cutter_gap",
     "equidistribute",
+    "JointEnds",
+    "MoveEnds",
     "joint_moves",
     "pass_densities",
     "move_gaps",
@@ -473,6 +475,31 @@ def _lerp_rows(a, b, u, unit, out):
                     out[row, c] /= size
 
 
+#: Moves under a 5-axis machine's joint interpolation: the machine and the joints at the
+#: moves' two ends, ``(machine, q_a, q_b)``.
+JointEnds = tuple[Machine, NDArray[np.float64], NDArray[np.float64]]
+
+
+class MoveEnds(NamedTuple):
+    """The two ends of ``m`` moves: tips, tool axes (m, 3) and contacts' ``t, s`` (m,).
+
+    The contacts start the Newton search at points inside the moves (:func:`move_gaps`).
+    """
+
+    tips_a: NDArray[np.float64]
+    tips_b: NDArray[np.float64]
+    axes_a: NDArray[np.float64]
+    axes_b: NDArray[np.float64]
+    t_a: NDArray[np.float64]
+    t_b: NDArray[np.float64]
+    s_a: NDArray[np.float64]
+    s_b: NDArray[np.float64]
+
+    def take(self, rows: NDArray[np.int64]) -> MoveEnds:
+        """The moves ``rows``."""
+        return MoveEnds(*(column[rows] for column in self))
+
+
 def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
                 idx: NDArray[np.int64]) -> dict[str, Any]:
     """:func:`move_gaps` keywords for moves ``idx -> idx + 1`` interpolated in ``joints``.
@@ -484,12 +511,9 @@ def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
     return {"joints": (machine, joints[idx], joints[idx + 1])}
 
 
-def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.float64],
-              tips_b: NDArray[np.float64], axes_a: NDArray[np.float64],
-              axes_b: NDArray[np.float64], ta: NDArray[np.float64], tb: NDArray[np.float64],
-              sa: NDArray[np.float64], sb: NDArray[np.float64],
+def move_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
               fractions: NDArray[np.float64], *, newton: int = 2, refine_rim: bool = False,
-              joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
+              joints: JointEnds | None = None
               ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """Gaps of the cutter at ``fractions`` of each move.
 
@@ -497,8 +521,8 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     normalized-linear (a control interpolating the tool tip); with ``joints = (machine,
     q_a, q_b)``, the joints linear, the pose their forward kinematics (a 5-axis control
     without tool-centre-point interpolation, whose tip bows off the chord where the
-    rotary axes turn). The Newton search starts between the ends' contacts ``(ta, sa)``
-    and ``(tb, sb)`` (across the seam the short way on closed sections).
+    rotary axes turn). The Newton search starts between the ends' contacts
+    ``(t_a, s_a)`` and ``(t_b, s_b)`` (across the seam the short way on closed sections).
 
     ``fractions`` are the same for every move (shape (k,)) or each move's own (m, k).
     ``newton`` and ``refine_rim`` go to :func:`cutter_gap`.
@@ -507,19 +531,19 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
     -------
     gap, t, s : ndarray, shape (m, k)
     """
-    m = len(tips_a)
+    m = len(ends.tips_a)
     u = np.asarray(fractions, dtype=float)
     u = np.broadcast_to(u, (m, u.shape[-1]))
     if joints is None:
-        tips = _lerp(tips_a, tips_b, u)
-        axes = _nlerp(axes_a, axes_b, u)
+        tips = _lerp(ends.tips_a, ends.tips_b, u)
+        axes = _nlerp(ends.axes_a, ends.axes_b, u)
     else:
         machine, q_a, q_b = joints
         tips, axes = forward(machine, _lerp(q_a, q_b, u))
-    t0 = seam_lerp_rows(np.ascontiguousarray(ta, dtype=float),
-                        np.ascontiguousarray(tb, dtype=float),
+    t0 = seam_lerp_rows(np.ascontiguousarray(ends.t_a, dtype=float),
+                        np.ascontiguousarray(ends.t_b, dtype=float),
                         np.ascontiguousarray(u), bool(surface.closed_t)).ravel()
-    s0 = (sa[:, None] * (1.0 - u) + sb[:, None] * u).ravel()
+    s0 = (ends.s_a[:, None] * (1.0 - u) + ends.s_b[:, None] * u).ravel()
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
                            refine_rim=refine_rim)
     return gap.reshape(u.shape), t.reshape(u.shape), s.reshape(u.shape)
@@ -528,10 +552,8 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, tips_a: NDArray[np.flo
 def point_move_gaps(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
                     axes: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64],
                     first: NDArray[np.int64], fractions: NDArray[np.float64], *,
-                    newton: int = 2, refine_rim: bool = False,
-                    joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
-                    = None) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                                     NDArray[np.float64]]:
+                    newton: int = 2, refine_rim: bool = False, joints: JointEnds | None = None
+                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
     """:func:`move_gaps` of the moves ``first -> first + 1`` of a sequence of points.
 
     ``tips_mm``, ``axes``, ``t``, ``s`` are the points' (all of them); ``joints`` the
@@ -549,9 +571,10 @@ def point_move_gaps(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray
             CONVERGED_MM, surface.orientation)
         return gap, t_out, s_out
     nxt = first + 1
-    return move_gaps(surface, cutter, tips_mm[first], tips_mm[nxt], axes[first], axes[nxt],
-                     t[first], t[nxt], s[first], s[nxt], fractions, newton=newton,
-                     refine_rim=refine_rim, joints=joints)
+    ends = MoveEnds(tips_mm[first], tips_mm[nxt], axes[first], axes[nxt], t[first], t[nxt],
+                    s[first], s[nxt])
+    return move_gaps(surface, cutter, ends, fractions, newton=newton, refine_rim=refine_rim,
+                     joints=joints)
 
 
 def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACTIONS, *,
