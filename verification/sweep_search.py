@@ -16,8 +16,9 @@ the search radius of its centre, over the cells of
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
-behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing; the first of equal
-values is kept.
+behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing. Of equal values the
+one measured first is kept: the piece of lowest bound (of equal bounds the first in the
+grid's order), then the others in the grid's order.
 """
 
 from __future__ import annotations
@@ -75,8 +76,9 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         best_piece = -1
         best_behind = False
         n = 0
+        # the piece of lowest bound, found and measured in walk 0, skipped in walk 1
+        lowest, lowest_piece = best, -1
         for walk in range(2):
-            lowest, lowest_piece = best, -1
             for i in range(ci - span, ci + span + 1):
                 for j in range(cj - span, cj + span + 1):
                     first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims,
