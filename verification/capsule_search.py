@@ -11,7 +11,7 @@ candidate pairs at a few nanoseconds each, spread over the cores.
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the capsule
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
-behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing.
+behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing (:func:`pair_value`).
 """
 
 from __future__ import annotations
@@ -25,7 +25,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["centre_cells", "column_slots", "lowest_capsule_entries"]
+__all__ = ["centre_cells", "column_slots", "enters_before", "is_candidate",
+           "lowest_capsule_entries", "pair_value", "pair_values"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -64,6 +65,63 @@ def column_slots(i: int, j: int, k0: int, k1: int, cx: float, cy: float, cz: flo
     return starts[column + lo_k], starts[column + hi_k + 1]
 
 
+@numba.njit(cache=True, inline="always")
+def is_candidate(slot: int, mid: FloatArray, cx: float, cy: float, cz: float,
+                 lim2: float) -> bool:
+    """Whether the midpoint in ``slot`` lies within ``sqrt(lim2)`` of the centre ``c``.
+
+    The candidate test of the compiled walks (this module's and
+    :mod:`verification.sweep_search`); midpoints in the grid's order.
+    """
+    mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
+    return mx * mx + my * my + mz * mz <= lim2
+
+
+@numba.njit(cache=True, inline="always")
+def enters_before(slot: int, mid: FloatArray, half: FloatArray, px: float, py: float,
+                  pz: float, dx: float, dy: float, dz: float, outer: float,
+                  limit: float) -> bool:
+    """Whether the piece in ``slot`` may enter the line ``p + lam d`` below ``limit``.
+
+    Its solid lies within ``rho = outer + half`` of its midpoint ``m``: a line farther
+    than ``rho`` from ``m`` misses it, and enters it no sooner than
+    ``t - sqrt(rho^2 - perp^2)`` (``t = (m - p) . d``, ``perp`` the line's distance).
+    The prune of the compiled walks; midpoints and half lengths in the grid's order.
+    """
+    wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
+    t = wx * dx + wy * dy + wz * dz
+    rho = outer + half[slot]
+    room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
+    return not (room < 0.0 or t - math.sqrt(room) >= limit)
+
+
+@numba.njit(cache=True, inline="always")
+def pair_value(lam_in: float, lam_out: float, cosine: float, behind_cosine: float
+               ) -> tuple[float, bool]:
+    """Material a piece met in ``[lam_in, lam_out]`` leaves on a dexel, and whether from behind.
+
+    ``lam_in`` when it reaches the design point (``lam_out > 0``); when it comes from
+    behind (its axis makes ``cosine = a . d < behind_cosine``) and ``lam_in < 0``,
+    ``max(lam_in, -lam_out)``; ``inf`` (nothing) when ``lam_out <= 0``. The one rule of
+    the module docstring of :mod:`verification.dexels`, for every search.
+    """
+    if not lam_out > 0.0:
+        return math.inf, False
+    back = lam_in < 0.0 and cosine < behind_cosine
+    return (max(lam_in, -lam_out) if back else lam_in), back
+
+
+@numba.njit(cache=True)
+def pair_values(lam_in: FloatArray, lam_out: FloatArray, cosine: FloatArray,
+                behind_cosine: float) -> tuple[FloatArray, NDArray[np.bool_]]:
+    """:func:`pair_value` of each pair (the candidate-pair path of ``SweepIndex``)."""
+    value = np.empty(lam_in.shape[0])
+    behind = np.empty(lam_in.shape[0], dtype=np.bool_)
+    for k in range(lam_in.shape[0]):
+        value[k], behind[k] = pair_value(lam_in[k], lam_out[k], cosine[k], behind_cosine)
+    return value, behind
+
+
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
           cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
@@ -89,31 +147,22 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
                 first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims, origin,
                                            cell, starts)
                 for slot in range(first, stop):
-                    # midpoints and half lengths are stored in the grid's order
-                    mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
-                    if not mx * mx + my * my + mz * mz <= lim2[q]:
+                    if not is_candidate(slot, mid, cx, cy, cz, lim2[q]):
                         continue
                     n += 1
-                    # the capsule lies within rho = R + half of its midpoint: a line
-                    # farther than rho misses it, and enters it no sooner than
-                    # t - sqrt(rho^2 - perp^2) (t: the midpoint along the line)
-                    wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
-                    t = wx * dx + wy * dy + wz * dz
-                    rho = radius + half[slot]
-                    room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
-                    if room < 0.0 or t - math.sqrt(room) >= best:
+                    # the capsule lies within R + half of its midpoint
+                    if not enters_before(slot, mid, half, px, py, pz, dx, dy, dz, radius,
+                                         best):
                         continue
-                    p = order[slot]
+                    k = order[slot]
                     lam_in, lam_out = capsule_interval(
-                        px, py, pz, dx, dy, dz, a[p, 0], a[p, 1], a[p, 2], e[p, 0],
-                        e[p, 1], e[p, 2], ee[p], r2)
-                    if not lam_out > 0.0:
-                        continue
-                    back = lam_in < 0.0 and (axis[p, 0] * dx + axis[p, 1] * dy
-                                             + axis[p, 2] * dz) < behind_cosine
-                    value = max(lam_in, -lam_out) if back else lam_in
+                        px, py, pz, dx, dy, dz, a[k, 0], a[k, 1], a[k, 2], e[k, 0],
+                        e[k, 1], e[k, 2], ee[k], r2)
+                    value, back = pair_value(lam_in, lam_out,
+                                             axis[k, 0] * dx + axis[k, 1] * dy
+                                             + axis[k, 2] * dz, behind_cosine)
                     if value < best:
-                        best, best_piece, best_behind = value, p, back
+                        best, best_piece, best_behind = value, k, back
         lam[q] = best
         piece[q] = best_piece
         behind[q] = best_behind

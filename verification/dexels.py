@@ -51,7 +51,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capsule import line_capsule_interval
-from .capsule_search import lowest_capsule_entries
+from .capsule_search import lowest_capsule_entries, pair_values
 from .grid import PieceGrid
 from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
@@ -249,13 +249,7 @@ class SweepIndex:
                 grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
                 pieces.a, pieces.e, pieces.ee, pieces.axis, self.radius_mm, BEHIND_COSINE,
                 below_mm=below_mm)
-            qi = np.flatnonzero(hit >= 0)
-            hit = hit[qi]
-            out.lam_mm[qi] = lam[qi]
-            out.move[qi] = pieces.moves_at(hit, points[qi])
-            out.shank[qi] = pieces.shank[hit]
-            out.behind[qi] = behind[qi]
-            return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+            return _scattered(out, lam, hit, behind, pairs, pieces, points)
         if self.compiled:
             # the same, flat and bull-nose pieces: bounds and exact entries in the walk
             lam, hit, behind, pairs = lowest_sweep_entries(
@@ -263,12 +257,7 @@ class SweepIndex:
                 pieces.a, pieces.e, pieces.axis, pieces.height_mm,
                 core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
                 behind_cosine=BEHIND_COSINE, below_mm=below_mm)
-            qi = np.flatnonzero(hit >= 0)
-            out.lam_mm[qi] = lam[qi]
-            out.move[qi] = pieces.moves_at(hit[qi], points[qi])
-            out.shank[qi] = pieces.shank[hit[qi]]
-            out.behind[qi] = behind[qi]
-            return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+            return _scattered(out, lam, hit, behind, pairs, pieces, points)
         pairs = 0
         for span in np.unique(spans):
             sel = np.flatnonzero(spans == span)
@@ -333,12 +322,24 @@ class SweepIndex:
         _fold_min(q, *_values(lam_in, lam_out, axis, d), piece, pieces, points, out)
 
 
+def _scattered(out: DexelResult, lam: FloatArray, hit: IntArray, behind: NDArray[np.bool_],
+               pairs: int, pieces: Pieces, points: FloatArray) -> DexelResult:
+    """A compiled walk's per-dexel lowest values and pieces (``-1``: none) written into ``out``."""
+    qi = np.flatnonzero(hit >= 0)
+    hit = hit[qi]
+    out.lam_mm[qi] = lam[qi]
+    out.move[qi] = pieces.moves_at(hit, points[qi])
+    out.shank[qi] = pieces.shank[hit]
+    out.behind[qi] = behind[qi]
+    return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+
+
 def _values(lam_in: FloatArray, lam_out: FloatArray, axis: FloatArray, dirs: FloatArray
             ) -> tuple[FloatArray, NDArray[np.bool_]]:
     """Remaining material each pair leaves on its dexel, and whether it came from behind."""
-    behind = (lam_in < 0.0) & (np.einsum("ij,ij->i", axis, dirs) < BEHIND_COSINE)
-    value = np.where(behind, np.maximum(lam_in, -lam_out), lam_in)
-    return np.where(lam_out > 0.0, value, np.inf), behind
+    f = np.ascontiguousarray
+    return pair_values(f(lam_in, dtype=float), f(lam_out, dtype=float),
+                       np.einsum("ij,ij->i", axis, dirs), BEHIND_COSINE)
 
 
 def _fold_min(query: IntArray, value: FloatArray, behind: NDArray[np.bool_], piece: IntArray,

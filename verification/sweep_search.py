@@ -16,8 +16,10 @@ the search radius of its centre, over the cells of
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
-behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing; the first of equal
-values is kept.
+behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing
+(:func:`~verification.capsule_search.pair_value`). Of equal values the
+one measured first is kept: the piece of lowest bound (of equal bounds the first in the
+grid's order), then the others in the grid's order.
 """
 
 from __future__ import annotations
@@ -28,7 +30,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule_search import centre_cells, column_slots
+from .capsule_search import centre_cells, column_slots, enters_before, is_candidate, pair_value
 from .grid import PieceGrid
 from .torus import sweep_bound, sweep_interval
 
@@ -43,13 +45,10 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
            axis: FloatArray, height: float, core_radius: float, corner_radius: float,
            behind_cosine: float) -> tuple[float, bool]:
     """Material one piece leaves on one dexel (``inf``: none), and whether from behind."""
-    against = d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2] < behind_cosine
+    cosine = d[0] * axis[0] + d[1] * axis[1] + d[2] * axis[2]
     lam_in, lam_out = sweep_interval(p, d, c0, chord, axis, height, core_radius,
-                                     corner_radius, against)
-    if not lam_out > 0.0:
-        return math.inf, False
-    back = lam_in < 0.0 and against
-    return (max(lam_in, -lam_out) if back else lam_in), back
+                                     corner_radius, cosine < behind_cosine)
+    return pair_value(lam_in, lam_out, cosine, behind_cosine)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -75,26 +74,21 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         best_piece = -1
         best_behind = False
         n = 0
+        # the piece of lowest bound, found and measured in walk 0, skipped in walk 1
+        lowest, lowest_piece = best, -1
         for walk in range(2):
-            lowest, lowest_piece = best, -1
             for i in range(ci - span, ci + span + 1):
                 for j in range(cj - span, cj + span + 1):
                     first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims,
                                                origin, cell, starts)
                     for slot in range(first, stop):
-                        mx, my, mz = mid[slot, 0] - cx, mid[slot, 1] - cy, mid[slot, 2] - cz
-                        if not mx * mx + my * my + mz * mz <= lim2[q]:
+                        if not is_candidate(slot, mid, cx, cy, cz, lim2[q]):
                             continue
                         if walk == 0:
                             n += 1
-                        # the piece lies within rho of its midpoint: a line farther than
-                        # rho misses it, and enters it no sooner than t - sqrt(rho^2 - perp^2)
-                        wx, wy, wz = mid[slot, 0] - p[0], mid[slot, 1] - p[1], mid[slot, 2] - p[2]
-                        t = wx * d[0] + wy * d[1] + wz * d[2]
-                        rho = outer + half[slot]
-                        room = rho * rho - (wx * wx + wy * wy + wz * wz - t * t)
-                        if room < 0.0 or t - math.sqrt(room) >= (lowest if walk == 0
-                                                                  else best):
+                        # the piece lies within outer + half of its midpoint
+                        if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1],
+                                             d[2], outer, lowest if walk == 0 else best):
                             continue
                         k = order[slot]
                         if walk == 1 and k == lowest_piece:
