@@ -55,7 +55,7 @@ from .parametrize import cumulative_parameters
 
 __all__ = ["BETWEEN_DATA", "BETWEEN_DATA_FRACTIONS", "DATA_SHARE", "DataCurve",
            "between_data_errors", "between_data_estimate", "between_data_over",
-           "between_data_parts", "surface_between_data"]
+           "between_data_parts", "surface_between_data", "worst_first"]
 
 #: Where in each data interval the fit is compared with the data curve.
 BETWEEN_DATA_FRACTIONS = (0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875)
@@ -252,18 +252,28 @@ def between_data_over(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.floa
     fit keeps within ``tol`` of the section as far as the data tell, and within ``tol``
     of the data curve where the data themselves cannot tell the section that well (no
     fit makes up for that; the estimate reported beside the fit still carries all of
-    ``h``). Returns ``(t_i, t_(i+1), mm, what, BETWEEN_DATA)`` per interval, worst first,
-    ``mm`` the estimate there. ``data``: as for :func:`between_data_parts`.
+    ``h``). Returns ``(t_i, t_(i+1), mm, what, BETWEEN_DATA)`` per interval, ``mm`` the
+    estimate there, worst first (:func:`worst_first`). ``data``: as for
+    :func:`between_data_parts`.
     """
     fit_mm, data_mm = between_data_parts(fitted_at, t, points, closed=closed, data=data)
     with np.errstate(invalid="ignore"):
         score = fit_mm + np.where(data_mm <= DATA_SHARE * tol_mm, data_mm, 0.0)
         over = np.flatnonzero(score > tol_mm)
-    over = over[np.argsort(-score[over], kind="stable")]
-    return [(float(t[i]), float(t[i + 1]), float(fit_mm[i] + data_mm[i]),
-             f"{fit_mm[i] + data_mm[i]:.4f} mm from the data between points at "
-             f"t={0.5 * (t[i] + t[i + 1]):.4f} (estimated, {data_mm[i]:.4f} mm of it the "
-             "uncertainty of the data themselves there)", BETWEEN_DATA) for i in over]
+    return worst_first([
+        (float(t[i]), float(t[i + 1]), float(fit_mm[i] + data_mm[i]),
+         f"{fit_mm[i] + data_mm[i]:.4f} mm from the data between points at "
+         f"t={0.5 * (t[i] + t[i + 1]):.4f} (estimated, {data_mm[i]:.4f} mm of it the "
+         "uncertainty of the data themselves there)", BETWEEN_DATA) for i in over])
+
+
+def worst_first(intervals: list[tuple]) -> list[tuple]:
+    """``(t_start, t_end, mm, what, kind)`` intervals by their estimate ``mm``, largest first.
+
+    ``mm`` is the figure they report; ties keep their order. One order for a curve's
+    intervals and a surface's (all its sections' together).
+    """
+    return sorted(intervals, key=lambda item: -item[2])
 
 
 def between_data_estimate(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],

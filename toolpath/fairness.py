@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .between_data import DataCurve, between_data_over
+from .between_data import DataCurve, between_data_over, worst_first
 from .vectors import unit
 
 __all__ = [
@@ -706,6 +706,6 @@ def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
                     in between_data_over(lambda v, s_j=s_j: surface(v, np.full(np.shape(v),
                                                                                s_j)),
                                          u, ring, tol_mm, closed=closed, data=curve)]
-        return sorted(off, key=lambda item: -item[2])
+        return worst_first(off)
 
     return check
