@@ -490,7 +490,8 @@ def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stre
     (turning angle over the mean of the two steps) over the stretch's spans and
     :data:`MEND_REACH` spans either side, away from the corners (a knot of multiplicity
     ``DEGREE``: a corner's turn is no curvature jump to follow); its interval gets a knot
-    in the middle unless it holds one.
+    in the middle unless it holds one. Stretches sharing a jump share its knot: each
+    position goes in once, up to ``copies`` in all with the copies already there.
 
     ``copies=2``: the knot is a double one, the fit C1 there and its curvature free to
     jump as the data's does. A C2 fit across a G1 join rings however dense its knots (a
@@ -512,7 +513,7 @@ def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stre
         < np.searchsorted(corners, t[np.minimum(np.arange(t.size - 1) + 2, t.size - 1)],
                           "right")
     jump[near] = np.nan
-    added = []
+    wanted = set()  # knot positions; two stretches near one jump pick it once
     for lo, hi, *_ in stretches:
         first = edges[max(int(np.searchsorted(edges, lo, side="right")) - 1 - MEND_REACH, 0)]
         last = edges[min(int(np.searchsorted(edges, hi, side="left")) + MEND_REACH,
@@ -524,10 +525,12 @@ def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stre
         at = _join(signed, t, i)
         there = knots[(knots > t[i]) & (knots < t[i + 1])] if at is None else \
             knots[knots == at]
-        if there.size == 0:
-            added += [0.5 * (t[i] + t[i + 1]) if at is None else at] * copies
-        elif copies > 1 and np.sum(knots == there[0]) < copies:
-            added += [float(there[0])] * (copies - int(np.sum(knots == there[0])))
+        if there.size:
+            wanted.add(float(there[0]))
+        else:
+            wanted.add(0.5 * (t[i] + t[i + 1]) if at is None else at)
+    # each position up to ``copies`` in all, counting the copies already there
+    added = [x for x in sorted(wanted) for _ in range(copies - int(np.sum(knots == x)))]
     return np.sort(np.concatenate((knots, added)))
 
 

@@ -55,7 +55,8 @@ from .parametrize import cumulative_parameters
 
 __all__ = ["BETWEEN_DATA", "BETWEEN_DATA_FRACTIONS", "DATA_SHARE", "DataCurve",
            "between_data_errors", "between_data_estimate", "between_data_over",
-           "between_data_parts", "surface_between_data"]
+           "between_data_parts", "on_section", "section_data", "surface_between_data",
+           "worst_first"]
 
 #: Where in each data interval the fit is compared with the data curve.
 BETWEEN_DATA_FRACTIONS = (0.125, 0.25, 0.375, 0.5, 0.625, 0.75, 0.875)
@@ -252,18 +253,28 @@ def between_data_over(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.floa
     fit keeps within ``tol`` of the section as far as the data tell, and within ``tol``
     of the data curve where the data themselves cannot tell the section that well (no
     fit makes up for that; the estimate reported beside the fit still carries all of
-    ``h``). Returns ``(t_i, t_(i+1), mm, what, BETWEEN_DATA)`` per interval, worst first,
-    ``mm`` the estimate there. ``data``: as for :func:`between_data_parts`.
+    ``h``). Returns ``(t_i, t_(i+1), mm, what, BETWEEN_DATA)`` per interval, ``mm`` the
+    estimate there, worst first (:func:`worst_first`). ``data``: as for
+    :func:`between_data_parts`.
     """
     fit_mm, data_mm = between_data_parts(fitted_at, t, points, closed=closed, data=data)
     with np.errstate(invalid="ignore"):
         score = fit_mm + np.where(data_mm <= DATA_SHARE * tol_mm, data_mm, 0.0)
         over = np.flatnonzero(score > tol_mm)
-    over = over[np.argsort(-score[over], kind="stable")]
-    return [(float(t[i]), float(t[i + 1]), float(fit_mm[i] + data_mm[i]),
-             f"{fit_mm[i] + data_mm[i]:.4f} mm from the data between points at "
-             f"t={0.5 * (t[i] + t[i + 1]):.4f} (estimated, {data_mm[i]:.4f} mm of it the "
-             "uncertainty of the data themselves there)", BETWEEN_DATA) for i in over]
+    return worst_first([
+        (float(t[i]), float(t[i + 1]), float(fit_mm[i] + data_mm[i]),
+         f"{fit_mm[i] + data_mm[i]:.4f} mm from the data between points at "
+         f"t={0.5 * (t[i] + t[i + 1]):.4f} (estimated, {data_mm[i]:.4f} mm of it the "
+         "uncertainty of the data themselves there)", BETWEEN_DATA) for i in over])
+
+
+def worst_first(intervals: list[tuple]) -> list[tuple]:
+    """``(t_start, t_end, mm, what, kind)`` intervals by their estimate ``mm``, largest first.
+
+    ``mm`` is the figure they report; ties keep their order. One order for a curve's
+    intervals and a surface's (all its sections' together).
+    """
+    return sorted(intervals, key=lambda item: -item[2])
 
 
 def between_data_estimate(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]],
@@ -280,22 +291,47 @@ def between_data_estimate(fitted_at: Callable[[NDArray[np.float64]], NDArray[np.
     return float(errors[i]), float(0.5 * (t[i] + t[i + 1]))
 
 
+def section_data(t: NDArray[np.float64], points: NDArray[np.float64], closed: bool,
+                 data_mask: Any = None) -> list[tuple[NDArray[np.float64],
+                                                      NDArray[np.float64]]]:
+    """Each section's data as the estimate takes it: ``(t_j, points_j)`` per section.
+
+    ``t`` (n,) the sections' common parameters, ``points`` (m, n, d) the grid,
+    ``data_mask`` (m, n) its data entries (None: every entry); a closed section ends at
+    ``t = 1`` with its first point again.
+    """
+    t, points = np.asarray(t, dtype=float), np.asarray(points, dtype=float)
+    mask = (np.ones(points.shape[:2], dtype=bool) if data_mask is None
+            else np.asarray(data_mask, dtype=bool))
+    out = []
+    for ring, on in zip(points, mask, strict=True):
+        u, ring = t[on], ring[on]
+        if closed and not np.array_equal(ring[0], ring[-1]):
+            u, ring = np.append(u, 1.0), np.vstack((ring, ring[:1]))
+        out.append((u, ring))
+    return out
+
+
+def on_section(surface: Callable[..., NDArray[np.float64]], s: float
+               ) -> Callable[[NDArray[np.float64]], NDArray[np.float64]]:
+    """The section ``s`` of ``surface(t, s)`` as a curve: ``u -> surface(u, s)``."""
+    return lambda u: surface(u, np.full(np.shape(u), s))
+
+
 def surface_between_data(surface: Callable[..., NDArray[np.float64]], sections: Any
                          ) -> tuple[float, int | None, float | None]:
     """The estimate on every section of a surface fit: ``(mm, section, t)`` where largest.
 
     ``surface(t, s)`` gives points for arrays ``t, s``; ``sections`` is the
-    :class:`toolpath.sections.Sections` grid fitted (each section's data entries only).
+    :class:`toolpath.sections.Sections` grid fitted (each section's data entries only,
+    :func:`section_data`).
     """
     worst: tuple[float, int | None, float | None] = (0.0, None, None)
-    mask = sections.data_mask
-    for j, s_j in enumerate(sections.s):
-        t, points = sections.t[mask[j]], sections.points[j, mask[j]]
-        if sections.closed and not np.array_equal(points[0], points[-1]):
-            t, points = np.append(t, 1.0), np.vstack((points, points[:1]))
-        mm, where = between_data_estimate(
-            lambda u, s_j=s_j: surface(u, np.full(np.shape(u), s_j)), t, points,
-            closed=sections.closed)
+    for j, (s_j, (t, points)) in enumerate(zip(
+            sections.s, section_data(sections.t, sections.points, sections.closed,
+                                     sections.data_mask), strict=True)):
+        mm, where = between_data_estimate(on_section(surface, s_j), t, points,
+                                          closed=sections.closed)
         if where is not None and mm > worst[0]:
             worst = (mm, j, where)
     return worst

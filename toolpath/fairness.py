@@ -43,7 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .between_data import DataCurve, between_data_over
+from .between_data import DataCurve, between_data_over, on_section, section_data, worst_first
 from .vectors import unit
 
 __all__ = [
@@ -676,21 +676,16 @@ def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
     data points: ``data_mask`` (m, n) marks them on the grid (None: every entry is data).
     """
     data = np.asarray(points, dtype=float)
-    made: dict[bytes, list[tuple]] = {}  # (t, section, data curve) per section, once
+    # (t, section, data curve) per section, once per parametrization and closure
+    made: dict[tuple[bytes, bool], list[tuple]] = {}
 
     def sections(surface: Any) -> list[tuple]:
         t = np.asarray(surface.t_params, dtype=float)
         closed = bool(surface.closed_t)
-        key = t.tobytes() + bytes(closed)
+        key = (t.tobytes(), closed)
         if key not in made:
-            made[key] = []
-            mask = (np.ones(data.shape[:2], dtype=bool) if data_mask is None
-                    else np.asarray(data_mask, dtype=bool))
-            for ring, on in zip(data, mask, strict=True):
-                u, ring = t[on], ring[on]
-                if closed and not np.array_equal(ring[0], ring[-1]):
-                    u, ring = np.append(u, 1.0), np.vstack((ring, ring[:1]))
-                made[key].append((u, ring, DataCurve(u, ring, closed)))
+            made[key] = [(u, ring, DataCurve(u, ring, closed))
+                         for u, ring in section_data(t, data, closed, data_mask)]
         return made[key]
 
     def check(fit: Any, knots: NDArray[np.float64]) -> list[tuple]:
@@ -703,9 +698,8 @@ def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
         for j, ((u, ring, curve), s_j) in enumerate(zip(sections(surface), surface.s_params,
                                                         strict=True)):
             off += [(lo, hi, mm, f"section {j}: {what}", kind) for lo, hi, mm, what, kind
-                    in between_data_over(lambda v, s_j=s_j: surface(v, np.full(np.shape(v),
-                                                                               s_j)),
-                                         u, ring, tol_mm, closed=closed, data=curve)]
-        return sorted(off, key=lambda item: -item[2])
+                    in between_data_over(on_section(surface, s_j), u, ring, tol_mm,
+                                         closed=closed, data=curve)]
+        return worst_first(off)
 
     return check

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import scipy.interpolate
 from scipy.spatial import cKDTree
 
 from streamline_cam.fit_report import fit_curve_by_method
@@ -95,6 +96,25 @@ def test_the_criterion_holds_the_fit_to_the_data_curve_where_the_data_are_uncert
                                          t, points)
     assert np.allclose(fit_mm, 0.0, atol=1e-9) and np.allclose(data_mm, 0.0, atol=1e-9)
     assert DATA_SHARE < 1.0
+
+
+def test_intervals_off_the_data_come_worst_first_by_the_estimate_they_report():
+    # a fit 0.014 mm off the data curve where the data are certain, and 0.012 mm off it
+    # beside a bump where Hall's term is over half the tolerance: the criterion ranks the
+    # first higher (Hall's term left out there), the estimate reported the second
+    x = np.linspace(0.0, 20.0, 21)
+    t = x / 20.0
+    y = np.where(np.arange(21) == 10, 0.08, 0.0)
+    data_curve = scipy.interpolate.CubicSpline(x, y)
+
+    def fitted_at(u):
+        off_mm = np.where((u > 0.1) & (u < 0.15), 0.014,
+                          np.where((u > 0.45) & (u < 0.55), 0.012, 0.0))
+        return np.c_[20.0 * u, data_curve(20.0 * u) + off_mm]
+
+    off = between_data_over(fitted_at, t, np.c_[x, y], 0.01)
+    assert len(off) == 3 and off[-1][0] == pytest.approx(0.1)
+    assert [mm for _, _, mm, *_ in off] == sorted((mm for _, _, mm, *_ in off), reverse=True)
 
 
 @pytest.mark.parametrize("fit", [fit_streamline_curve, fit_bspline_curve])

@@ -206,3 +206,28 @@ def test_sections_sampled_alike_from_other_starts_share_columns():
     with warnings.catch_warnings():
         warnings.simplefilter("error", RuntimeWarning)
         assert fit_bspline_surface(grid, tol=TOL_MM).max_error <= TOL_MM
+
+
+@pytest.mark.parametrize("copies", [1, 2])
+def test_jump_knot_goes_in_once_for_stretches_sharing_a_jump(copies):
+    """Two concave stretches within reach of one curvature jump (a nose circle meeting a
+    straight flank) pick the same interval: its knot goes in ``copies`` times in all, not
+    once per stretch (a 4-fold knot would break the cubic there and read as a corner)."""
+    from toolpath.adaptive import _jump_knots
+    from toolpath.splinefit import DEGREE
+
+    a = np.linspace(0.5 * np.pi, 1.5 * np.pi, 15)
+    nose = np.c_[np.cos(a), np.sin(a)]
+    upper = np.c_[np.linspace(5.0, 0.3, 10), np.ones(10)]
+    lower = np.c_[np.linspace(0.3, 5.0, 10), -np.ones(10)]
+    points = np.vstack((upper, nose, lower))
+    t = np.linspace(0.0, 1.0, len(points))
+    knots = np.r_[[0.0] * (DEGREE + 1), np.linspace(0.0, 1.0, 9)[1:-1], [1.0] * (DEGREE + 1)]
+    one = [(0.55, 0.6, 0.01, "a", "x")]
+    two = [*one, (0.6, 0.65, 0.01, "b", "x")]
+    alone = _jump_knots(knots, points, t, one, copies)
+    shared = _jump_knots(knots, points, t, two, copies)
+    assert alone.size == knots.size + copies  # the jump does get its knot
+    np.testing.assert_array_equal(shared, alone)
+    _, counts = np.unique(shared, return_counts=True)
+    assert counts[1:-1].max() <= copies
