@@ -43,7 +43,6 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from .between_data import DataCurve, between_data_over, on_section, section_data, worst_first
 from .vectors import unit
 
 __all__ = [
@@ -647,6 +646,9 @@ def curve_fair_check(make_curve: Any, points: Any, tol_mm: float, *, closed: boo
     points (the real-like propeller's LE: 0.0126 mm between points, within tol at them).
     Those are looked for once the fit is fair (the mend mends the unfair stretches first).
     """
+    # (imported here: the CLI's --help reads this module, and between_data needs scipy)
+    from .between_data import DataCurve, between_data_over
+
     data = np.asarray(points, dtype=float)
     made: dict[bytes, DataCurve] = {}  # the data curve, once per parametrization
 
@@ -675,6 +677,8 @@ def surface_fair_check(make_surface: Any, points: Any, tol_mm: float, *,
     As :func:`curve_fair_check`, with every section's intervals off the data between its
     data points: ``data_mask`` (m, n) marks them on the grid (None: every entry is data).
     """
+    from .between_data import DataCurve, between_data_over, on_section, section_data, worst_first
+
     data = np.asarray(points, dtype=float)
     # (t, section, data curve) per section, once per parametrization and closure
     made: dict[tuple[bytes, bool], list[tuple]] = {}
