@@ -26,7 +26,7 @@ from .cutters import Cutter, CutterKind
 from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
 from .one_way import one_way_azimuth
-from .options import AxisMode, FinishingOptions, Linking, PlannedOptions
+from .options import TILT_MARGIN_DEG, AxisMode, FinishingOptions, Linking, PlannedOptions
 from .roots import illinois_roots
 from .sampling import (
     CHORD_FRACTIONS,
@@ -732,6 +732,26 @@ def _undercut_limit(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
                              pts.frame.s11[idx + 1], pts.axes[idx], pts.axes[idx + 1])
 
 
+def _middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
+                     ) -> NDArray[np.bool_]:
+    """Moves ``idx -> idx + 1`` whose middle axis leans past the tilt cap by half its margin.
+
+    The post splits a 5-axis move at its middle with the normalized mean of the ends' axes
+    (:mod:`toolpath.joint_refine`); beyond 90 deg from +Z that axis lies further from +Z
+    than either end (``cos(tilt_mid) = cos(tilt) / cos(turn / 2)`` for two ends at one
+    tilt), so two ends leaned back to the cap ``res.max_tilt_deg`` and turned 7 deg apart
+    put the middle past the joint's travel (the cap keeps :data:`TILT_MARGIN_DEG` from it).
+    Split, each half's middle bulges a quarter as far.
+    """
+    if not math.isfinite(res.max_tilt_deg):
+        return np.zeros(idx.size, dtype=bool)
+    mean = pts.axes[idx] + pts.axes[idx + 1]
+    size = np.linalg.norm(mean, axis=1)
+    cos_tilt = mean[:, 2] / np.maximum(size, TINY)
+    limit = math.cos(math.radians(min(res.max_tilt_deg + 0.5 * TILT_MARGIN_DEG, 180.0)))
+    return (size > TINY) & (cos_tilt < limit)
+
+
 def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
                     idx: NDArray[np.int64], low: NDArray[np.float64],
                     high: NDArray[np.float64], machine: Machine | None,
@@ -739,7 +759,8 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     """Which moves ``idx`` to split.
 
     Those cutting deeper than the chord tolerance, standing higher than they may
-    (:func:`_undercut_limit`), or (5-axis, joints ``q``) carrying the tip more than
+    (:func:`_undercut_limit`), whose middle leans past the tilt cap
+    (:func:`_middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the
@@ -747,6 +768,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     themselves stand off), and the report carries it.
     """
     bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
+    bad |= _middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
         bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
     at = np.flatnonzero(bad)
