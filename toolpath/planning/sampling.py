@@ -439,12 +439,21 @@ def _parabola_angle(before: NDArray[np.float64], here: NDArray[np.float64],
     return angle + np.clip(step, -1.0, 1.0) * spacing
 
 
+def _kernel_rows(u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``u`` as a contiguous, writable float64 array for a compiled kernel.
+
+    A read-only view (``np.broadcast_to`` of one move's fractions stays one when it is
+    already contiguous) would compile the kernel a second time, for read-only arrays.
+    """
+    return np.require(u, dtype=np.float64, requirements=("C", "W"))
+
+
 def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
           ) -> NDArray[np.float64]:
     """Rows ``a + u (b - a)``, every move with its fractions ``u`` (m, k), move by move."""
     out = np.empty((u.size, a.shape[1]))
     _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-               np.ascontiguousarray(u), False, out)
+               _kernel_rows(u), False, out)
     return out
 
 
@@ -453,7 +462,7 @@ def _nlerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64
     """:func:`_lerp` of unit vectors, normalized (the axis of a tip-linear move)."""
     out = np.empty((u.size, 3))
     _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-               np.ascontiguousarray(u), True, out)
+               _kernel_rows(u), True, out)
     return out
 
 
@@ -542,7 +551,7 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
         tips, axes = forward(machine, _lerp(q_a, q_b, u))
     t0 = seam_lerp_rows(np.ascontiguousarray(ends.t_a, dtype=float),
                         np.ascontiguousarray(ends.t_b, dtype=float),
-                        np.ascontiguousarray(u), bool(surface.closed_t)).ravel()
+                        _kernel_rows(u), bool(surface.closed_t)).ravel()
     s0 = (ends.s_a[:, None] * (1.0 - u) + ends.s_b[:, None] * u).ravel()
     gap, t, s = cutter_gap(surface, cutter, tips, axes, t0, s0, newton=newton,
                            refine_rim=refine_rim)
