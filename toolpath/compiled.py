@@ -220,6 +220,31 @@ class NewtonSearch(NamedTuple):
     orientation: float
 
 
+class Scratch(NamedTuple):
+    """One thread's working arrays for :func:`_point_partials` (overwritten at each point).
+
+    ``mu, mv``: the monomials of ``u`` and ``v`` and their derivatives, (3, 4); ``g``:
+    ``G``'s partials, (6, 3); ``z``: ``T X_0^(a)``, (3, 3); ``w``: ``W``'s partials, (6, 3).
+    """
+
+    mu: NDArray[np.float64]
+    mv: NDArray[np.float64]
+    g: NDArray[np.float64]
+    z: NDArray[np.float64]
+    w: NDArray[np.float64]
+
+
+@numba.njit(cache=True)
+def _scratch():
+    """A fresh :class:`Scratch`.
+
+    A call: inlined into a parallel loop, the named tuple of arrays fails numba's array
+    analysis (an ``IndexError`` while compiling).
+    """
+    return Scratch(np.empty((3, 4)), np.empty((3, 4)), np.empty((6, 3)), np.empty((3, 3)),
+                   np.empty((6, 3)))
+
+
 class Moves(NamedTuple):
     """Moves between cutter locations, for :func:`move_points`.
 
@@ -269,9 +294,13 @@ def n_partials(order):
 
 
 @numba.njit(cache=True, inline="always")
-def _point_partials(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, order, out, i,
-                    mu, mv, g, z, w):
-    """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``."""
+def _point_partials(t, s, sf, order, out, i, work):
+    """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``.
+
+    ``sf`` the surface (:class:`SurfaceArrays`), ``work`` a :class:`Scratch`.
+    """
+    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
+    mu, mv, g, z, w = work
     lt, u = _locate(bt, t)
     ls, v = _locate(bs, s)
     _monomials(u, mu)
@@ -355,16 +384,10 @@ def streamline_partials(t, s, sf, order, out):
 
     ``sf``: the surface's :class:`SurfaceArrays`.
     """
-    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
     for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
-        mu = np.empty((3, 4))
-        mv = np.empty((3, 4))
-        g = np.empty((6, 3))
-        z = np.empty((3, 3))
-        w = np.empty((6, 3))
+        work = _scratch()
         for i in range(block * BLOCK, min((block + 1) * BLOCK, t.size)):
-            _point_partials(t[i], s[i], bt, bs, g_poly, x0b, x0p, T, c, M, off, order,
-                            out, i, mu, mv, g, z, w)
+            _point_partials(t[i], s[i], sf, order, out, i, work)
 
 
 @numba.njit(cache=True, parallel=True)
@@ -380,15 +403,9 @@ def project_points(p, sf, search, t, s, dist):
     :meth:`StreamlineKernel.project_moves`); then the corner rule at a closed surface's
     seam (:func:`_seam_signed`).
     """
-    bt, bs, g_poly, x0b, x0p, T, c, M, off = sf
-    closed, iterations, extra, converged_mm, orientation = search
     m = p.shape[0]
     for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        mu = np.empty((3, 4))
-        mv = np.empty((3, 4))
-        g = np.empty((6, 3))
-        z = np.empty((3, 3))
-        w = np.empty((6, 3))
+        work = _scratch()
         fr = np.empty((6, 1, 3))
         pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
         # each point is copied into a one-row array of this thread's, searched as row 0:
@@ -398,12 +415,9 @@ def project_points(p, sf, search, t, s, dist):
         for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
             q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
             t1[0], s1[0] = t[j], s[j]
-            _project_one(q1, 0, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed,
-                         iterations, extra, converged_mm, orientation, d1, mu, mv, g, z, w,
-                         fr, pt)
-            if closed and orientation != 0.0:
-                _seam_signed(q1, 0, t1, s1, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                             orientation, d1, mu, mv, g, z, w, pt)
+            _project_one(q1, 0, t1, s1, sf, search, d1, work, fr, pt)
+            if search.closed and search.orientation != 0.0:
+                _seam_signed(q1, 0, t1, s1, sf, search.orientation, d1, work, pt)
             t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
@@ -425,11 +439,9 @@ def move_points(moves, closed, p, t, s):
 
 
 @numba.njit(cache=True)
-def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
-                 w, pt, x, n):
+def _seam_normal(t, s, sf, orientation, work, pt, x, n):
     """Point and outward unit normal at ``(t, s)``: into ``x`` and ``n``."""
-    _partials_at(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
-                 mu, mv, g, z, w)
+    _partials_at(t, s, sf, np.int64(1), pt, np.int64(0), work)
     a0, a1, a2 = pt[1, 0, 0], pt[1, 0, 1], pt[1, 0, 2]
     b0, b1, b2 = pt[2, 0, 0], pt[2, 0, 1], pt[2, 0, 2]
     n[0], n[1], n[2] = a1 * b2 - a2 * b1, a2 * b0 - a0 * b2, a0 * b1 - a1 * b0
@@ -441,8 +453,7 @@ def _seam_normal(t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, 
 
 
 @numba.njit(cache=True)
-def _seam_signed(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, dist, mu,
-                 mv, g, z, w, pt):
+def _seam_signed(p, i, t, s, sf, orientation, dist, work, pt):
     """The corner rule at a closed surface's seam for point ``i``, in place.
 
     For a foot within :data:`~toolpath.projection_kernel.SEAM_WINDOW_T` of the seam: the
@@ -452,15 +463,12 @@ def _seam_signed(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation
     ti, si = t[i], s[i]
     if not near_seam(ti):
         return
-    _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt,
-                 np.int64(0), mu, mv, g, z, w)
+    _partials_at(ti, si, sf, np.int64(0), pt, np.int64(0), work)
     foot = pt[0, 0].copy()
     seam_x, n_after = np.empty(3), np.empty(3)
     before_x, n_before = np.empty(3), np.empty(3)
-    _seam_normal(0.0, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu, mv, g, z,
-                 w, pt, seam_x, n_after)
-    _seam_normal(SEAM_BEFORE_T, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, orientation, mu,
-                 mv, g, z, w, pt, before_x, n_before)
+    _seam_normal(0.0, si, sf, orientation, work, pt, seam_x, n_after)
+    _seam_normal(SEAM_BEFORE_T, si, sf, orientation, work, pt, before_x, n_before)
     at_seam, signed = seam_corner(p[i], foot, seam_x, n_before, n_after)
     if at_seam:
         t[i], dist[i] = 0.0, signed
@@ -523,10 +531,12 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
 
 
 @numba.njit(cache=True, inline="always")
-def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, iterations,
-                 extra, converged_mm, orientation, dist, mu, mv, g, z, w, fr, pt):
+def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
     """The foot of ``p[i]`` from ``(t[i], s[i])`` and its distance ``dist[i]``, in place.
 
+    ``sf`` the surface (:class:`SurfaceArrays`), ``search`` the :class:`NewtonSearch`,
+    ``work`` a :class:`Scratch`; ``fr`` and ``pt`` take the partials (up to the second at
+    the point the step starts from, the first at its trial points).
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
     halved (up to :data:`~toolpath.projection_kernel.HALVINGS` times) while its point is
@@ -539,14 +549,14 @@ def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
     at a closed surface's seam: :func:`_seam_signed`.) Inlined in :func:`project_points`
     alone (points inside moves come there too).
     """
+    closed, iterations, extra, converged_mm, orientation = search
     ti, si = t[i], s[i]
     moved = np.inf
     have_tangents = False  # pt holds the first partials at (ti, si)
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(2), fr, np.int64(0),
-                     mu, mv, g, z, w)
+        _partials_at(ti, si, sf, np.int64(2), fr, np.int64(0), work)
         step_t, step_s, here = newton_step(fr, 0, p, i)
         new_t, new_s = trial(ti, si, step_t, step_s, closed)
         xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
@@ -568,8 +578,7 @@ def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         # distance at the foot needs no other evaluation
         tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
         for _ in range(HALVINGS):
-            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                         tangents, pt, np.int64(0), mu, mv, g, z, w)
+            _partials_at(new_t, new_s, sf, tangents, pt, np.int64(0), work)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
@@ -580,8 +589,7 @@ def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
             step_s *= 0.5
             new_t, new_s = trial(ti, si, step_t, step_s, closed)
         if not closer:  # still farther after the last halving: the last step's point
-            _partials_at(new_t, new_s, bt, bs, g_poly, x0b, x0p, T, c, M, off,
-                         tangents, pt, np.int64(0), mu, mv, g, z, w)
+            _partials_at(new_t, new_s, sf, tangents, pt, np.int64(0), work)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
@@ -589,14 +597,12 @@ def _project_one(p, i, t, s, bt, bs, g_poly, x0b, x0p, T, c, M, off, closed, ite
         ti, si = new_t, new_s
         have_tangents = tangents == 1
     if iterations + extra == 0:  # no step: the foot is the start
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(0), pt, np.int64(0),
-                     mu, mv, g, z, w)
+        _partials_at(ti, si, sf, np.int64(0), pt, np.int64(0), work)
     t[i], s[i] = ti, si
     if orientation == 0.0:  # pt holds the last foot
         e0, e1, e2 = pt[0, 0, 0] - p[i, 0], pt[0, 0, 1] - p[i, 1], pt[0, 0, 2] - p[i, 2]
         dist[i] = math.sqrt(e0 * e0 + e1 * e1 + e2 * e2)
         return
     if not have_tangents:
-        _partials_at(ti, si, bt, bs, g_poly, x0b, x0p, T, c, M, off, np.int64(1), pt, np.int64(0),
-                     mu, mv, g, z, w)
+        _partials_at(ti, si, sf, np.int64(1), pt, np.int64(0), work)
     dist[i] = _taylor_signed(p, i, pt, 0.0, 0.0, orientation)  # at the foot itself

@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Any
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -28,8 +28,8 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["BLOCK", "SampleCells", "bin_samples", "cell_scratch_size", "cells_near", "clearances",
-           "pairs_within", "points_box"]
+__all__ = ["BLOCK", "Capsule", "Cutter", "Grid", "SampleCells", "bin_samples",
+           "cell_scratch_size", "cells_near", "clearances", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -70,6 +70,48 @@ class SampleCells:
     cell_mm: float
     box: NDArray[np.float64]
     column: NDArray[np.int64]
+
+    @property
+    def grid(self) -> Grid:
+        """The arrays of the cells as the compiled loops take them (:class:`Grid`)."""
+        return Grid(self.points, self.index, self.cell_start, self.origin, self.shape,
+                    float(self.cell_mm), self.box)
+
+
+class Grid(NamedTuple):
+    """:class:`SampleCells` less ``column``, as the compiled loops take them (a named tuple)."""
+
+    points: NDArray[np.float64]
+    index: NDArray[np.int64]
+    cell_start: NDArray[np.int64]
+    origin: NDArray[np.float64]
+    shape: NDArray[np.int64]
+    cell_mm: float
+    box: NDArray[np.float64]
+
+
+class Capsule(NamedTuple):
+    """The gouge check's query around each tool axis (:func:`clearances`).
+
+    The samples within ``sqrt(reach2)`` (mm) of the axis from ``low`` to ``high`` (mm)
+    above the tip; near (of the contact) within ``sqrt(near2)``, every one without
+    contacts (``has_contacts`` false).
+    """
+
+    low: float
+    high: float
+    reach: float
+    reach2: float
+    near2: float
+    has_contacts: bool
+
+
+class Cutter(NamedTuple):
+    """The cutter of :func:`.cutter_kernel.cutter_distance`: corner radius, radius, flute (mm)."""
+
+    corner: float
+    radius: float
+    flute: float
 
 
 def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
@@ -192,18 +234,14 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
     has_contacts = contacts_mm is not None
     contacts = np.ascontiguousarray(tips_mm if contacts_mm is None else contacts_mm,
                                     dtype=float)
-    _clearances(_grid(cells), cells.column, np.ascontiguousarray(tips_mm, dtype=float),
-                np.ascontiguousarray(axes, dtype=float), contacts, has_contacts,
-                float(low_mm), float(max(high_mm, low_mm)), float(reach_mm), corner_mm,
-                radius_mm, flute_mm, near_radius_mm * near_radius_mm, near, far, near_i,
-                far_i)
+    capsule = Capsule(float(low_mm), float(max(high_mm, low_mm)), float(reach_mm),
+                      float(reach_mm) * float(reach_mm), float(near_radius_mm * near_radius_mm),
+                      has_contacts)
+    _clearances(cells.grid, cells.column, np.ascontiguousarray(tips_mm, dtype=float),
+                np.ascontiguousarray(axes, dtype=float), contacts, capsule,
+                Cutter(float(corner_mm), float(radius_mm), float(flute_mm)), near, far,
+                near_i, far_i)
     return near, far, near_i, far_i
-
-
-def _grid(cells: SampleCells) -> tuple[Any, ...]:
-    """The arrays of ``cells`` as the compiled loops take them."""
-    return (cells.points, cells.index, cells.cell_start, cells.origin, cells.shape,
-            cells.cell_mm, cells.box)
 
 
 @numba.njit(cache=True, inline="always")
@@ -332,8 +370,7 @@ def _index_range(x0, x1, pad, origin, cell, n):
 
 
 @numba.njit(cache=True, parallel=True)
-def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, reach, r, big,
-                h, near2, near, far, near_i, far_i):
+def _clearances(grid, column, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i):
     """The loop of :func:`clearances`, blocks of locations in parallel.
 
     The segment ``p0 + u d`` (``u`` in ``[0, 1]``) is clipped to each row of cells (in
@@ -345,8 +382,8 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
     (:func:`_cell_clearances`).
     """
     points, index, cell_start, origin, shape, cell, box = grid
+    low, high, reach = capsule.low, capsule.high, capsule.reach
     nx, ny = shape[0], shape[1]
-    reach2 = reach * reach
     span = high - low
     for block in numba.prange((tips.shape[0] + BLOCK - 1) // BLOCK):
         for i in range(block * BLOCK, min((block + 1) * BLOCK, tips.shape[0])):
@@ -388,22 +425,29 @@ def _clearances(grid, column, tips, axes, contacts, has_contacts, low, high, rea
                                                   cid) > reach:
                             continue
                         near_mm, near_at, far_mm, far_at = _cell_clearances(
-                            points, index, cell_start[cid], cell_start[cid + 1], t0, t1, t2,
-                            a0, a1, a2, k0, k1, k2, has_contacts, low, high, reach2, r, big, h,
-                            near2, near_mm, near_at, far_mm, far_at)
+                            points, index, cell_start[cid], cell_start[cid + 1], (t0, t1, t2),
+                            (a0, a1, a2), (k0, k1, k2), capsule, cutter,
+                            (near_mm, near_at, far_mm, far_at))
             near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
 
 
 @numba.njit(cache=True, inline="always")
-def _cell_clearances(points, index, first, stop, t0, t1, t2, a0, a1, a2, k0, k1, k2,
-                     has_contacts, low, high, reach2, r, big, h, near2, near_mm, near_at,
-                     far_mm, far_at):
+def _cell_clearances(points, index, first, stop, tip, axis, contact, capsule, cutter, best):
     """The smallest clearances so far, near and far, with samples ``first .. stop - 1``.
 
-    A sample in the capsule (within ``sqrt(reach2)`` of the axis from ``low`` to ``high``
-    above the tip ``t``, axis ``a``) gets the cutter's signed distance; it is near within
-    ``sqrt(near2)`` of the contact ``k`` (every sample without contacts).
+    ``best``: those so far, ``near_mm, near_at, far_mm, far_at`` (returned updated). A
+    sample in the ``capsule`` (:class:`Capsule`: within ``sqrt(reach2)`` of the axis from
+    ``low`` to ``high`` above the tip ``t``, axis ``a``) gets the cutter's signed distance
+    (:class:`Cutter`); it is near within ``sqrt(near2)`` of the contact ``k`` (every sample
+    without contacts).
     """
+    t0, t1, t2 = tip
+    a0, a1, a2 = axis
+    k0, k1, k2 = contact
+    low, high, reach2 = capsule.low, capsule.high, capsule.reach2
+    near2, has_contacts = capsule.near2, capsule.has_contacts
+    r, big, h = cutter
+    near_mm, near_at, far_mm, far_at = best
     for j in range(first, stop):
         e0, e1, e2 = points[j, 0] - t0, points[j, 1] - t1, points[j, 2] - t2
         z = e0 * a0 + e1 * a1 + e2 * a2
@@ -452,7 +496,7 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     counts = np.zeros(len(q), dtype=np.int64)
     starts = np.zeros(len(q), dtype=np.int64)
-    args = (*_grid(cells), q, float(radius_mm))
+    args = (*cells.grid, q, float(radius_mm))
     scratch = cell_scratch_size(radius_mm, cells.cell_mm)
     _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
     starts[1:] = np.cumsum(counts)[:-1]

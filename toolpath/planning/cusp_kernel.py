@@ -14,6 +14,7 @@ pieces (see
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
@@ -27,6 +28,31 @@ RIDGE_FOUND = 1  #: the tubes meet: ``point`` and ``inside`` hold the ridge
 RIDGE_NO_PASS = 0  #: no other pass on the ``+s`` side among the pieces given
 RIDGE_NO_LENGTH = -1  #: the own segment has no length (no direction across)
 RIDGE_OPEN = 2  #: the tubes do not meet: material between the passes
+
+
+class Seeds(NamedTuple):
+    """The seeds of :func:`ridges` as its compiled loop takes them (see there)."""
+
+    centre: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    x_s: NDArray[np.float64]
+    own: NDArray[np.int64]
+
+
+class Pieces(NamedTuple):
+    """The pieces of :func:`ridges`: starts ``a``, vectors ``e`` (mm) and their passes."""
+
+    a: NDArray[np.float64]
+    e: NDArray[np.float64]
+    pass_of: NDArray[np.int64]
+
+
+class Ridges(NamedTuple):
+    """What :func:`ridges` returns, filled in place by its compiled loop (see there)."""
+
+    point: NDArray[np.float64]
+    inside: NDArray[np.float64]
+    state: NDArray[np.int64]
 
 
 @numba.njit(cache=True, inline="always")
@@ -45,8 +71,17 @@ def _near(points, jj, px, py, pz, reach):
 
 
 @numba.njit(cache=True, parallel=True)
-def _ridges(centre, normal, x_s, own, points, index, cell_start, origin, shape, cell, box,
-            reach, scratch_size, a, e, pass_of, radius, point, inside, state):
+def _ridges(seeds, grid, reach, scratch_size, pieces, radius, out):
+    """The loop of :func:`ridges`, blocks of seeds in parallel.
+
+    ``seeds`` (:class:`Seeds`), the pieces' midpoints binned
+    (:class:`~.clearance_kernel.Grid`), ``pieces`` (:class:`Pieces`), into ``out``
+    (:class:`Ridges`).
+    """
+    centre, normal, x_s, own = seeds
+    points, index, cell_start, origin, shape, cell, box = grid
+    a, e, pass_of = pieces
+    point, inside, state = out
     for block in numba.prange((centre.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, centre.shape[0])):
@@ -155,10 +190,9 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
     state = np.zeros(m, dtype=np.int64)
     if m:
         f = np.ascontiguousarray
-        _ridges(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
-                f(own, dtype=np.int64), cells.points, cells.index, cells.cell_start,
-                cells.origin, cells.shape, cells.cell_mm, cells.box, float(reach_mm),
-                cell_scratch_size(reach_mm, cells.cell_mm), f(a, dtype=float),
-                f(e, dtype=float), f(pass_of, dtype=np.int64), float(radius_mm), point,
-                inside, state)
+        seeds = Seeds(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
+                      f(own, dtype=np.int64))
+        pieces = Pieces(f(a, dtype=float), f(e, dtype=float), f(pass_of, dtype=np.int64))
+        _ridges(seeds, cells.grid, float(reach_mm), cell_scratch_size(reach_mm, cells.cell_mm),
+                pieces, float(radius_mm), Ridges(point, inside, state))
     return point, inside, state
