@@ -19,7 +19,6 @@ value among the samples near its contact and among the others.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import NamedTuple
 
 import numba
@@ -28,16 +27,15 @@ from numpy.typing import NDArray
 
 from .cutter_kernel import cutter_distance
 
-__all__ = ["BLOCK", "Capsule", "Cutter", "Grid", "SampleCells", "bin_samples",
+__all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
            "cell_scratch_size", "cells_near", "clearances", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
 
 
-@dataclass(frozen=True, eq=False)
-class SampleCells:
-    """Samples sorted by grid cell.
+class SampleCells(NamedTuple):
+    """Samples sorted by grid cell (a named tuple: the compiled loops take it whole).
 
     Attributes
     ----------
@@ -70,24 +68,6 @@ class SampleCells:
     cell_mm: float
     box: NDArray[np.float64]
     column: NDArray[np.int64]
-
-    @property
-    def grid(self) -> Grid:
-        """The arrays of the cells as the compiled loops take them (:class:`Grid`)."""
-        return Grid(self.points, self.index, self.cell_start, self.origin, self.shape,
-                    float(self.cell_mm), self.box)
-
-
-class Grid(NamedTuple):
-    """:class:`SampleCells` less ``column``, as the compiled loops take them (a named tuple)."""
-
-    points: NDArray[np.float64]
-    index: NDArray[np.int64]
-    cell_start: NDArray[np.int64]
-    origin: NDArray[np.float64]
-    shape: NDArray[np.int64]
-    cell_mm: float
-    box: NDArray[np.float64]
 
 
 class Capsule(NamedTuple):
@@ -237,7 +217,7 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
     capsule = Capsule(float(low_mm), float(max(high_mm, low_mm)), float(reach_mm),
                       float(reach_mm) * float(reach_mm), float(near_radius_mm * near_radius_mm),
                       has_contacts)
-    _clearances(cells.grid, cells.column, np.ascontiguousarray(tips_mm, dtype=float),
+    _clearances(cells, np.ascontiguousarray(tips_mm, dtype=float),
                 np.ascontiguousarray(axes, dtype=float), contacts, capsule,
                 Cutter(float(corner_mm), float(radius_mm), float(flute_mm)), near, far,
                 near_i, far_i)
@@ -370,7 +350,7 @@ def _index_range(x0, x1, pad, origin, cell, n):
 
 
 @numba.njit(cache=True, parallel=True)
-def _clearances(grid, column, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i):
+def _clearances(binned, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i):
     """The loop of :func:`clearances`, blocks of locations in parallel.
 
     The segment ``p0 + u d`` (``u`` in ``[0, 1]``) is clipped to each row of cells (in
@@ -381,7 +361,7 @@ def _clearances(grid, column, tips, axes, contacts, capsule, cutter, near, far, 
     (:func:`_box_bound`) exceeds ``reach``; the samples of the others are each tested
     (:func:`_cell_clearances`).
     """
-    points, index, cell_start, origin, shape, cell, box = grid
+    points, index, cell_start, origin, shape, cell, box, column = binned
     low, high, reach = capsule.low, capsule.high, capsule.reach
     nx, ny = shape[0], shape[1]
     span = high - low
@@ -465,9 +445,9 @@ def _cell_clearances(points, index, first, stop, tip, axis, contact, capsule, cu
 
 
 @numba.njit(cache=True, parallel=True)
-def _pairs_within(points, index, cell_start, origin, shape, cell, box, queries, radius,
-                  counts, starts, items, scratch_size):
+def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size):
     """Count (``items`` empty) or list the points within ``radius`` of each query."""
+    points, index, cell_start, origin, shape, cell, box, _ = binned
     for block in numba.prange((queries.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, queries.shape[0])):
@@ -496,7 +476,7 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     counts = np.zeros(len(q), dtype=np.int64)
     starts = np.zeros(len(q), dtype=np.int64)
-    args = (*cells.grid, q, float(radius_mm))
+    args = (cells, q, float(radius_mm))
     scratch = cell_scratch_size(radius_mm, cells.cell_mm)
     _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
     starts[1:] = np.cumsum(counts)[:-1]

@@ -71,15 +71,15 @@ def _near(points, jj, px, py, pz, reach):
 
 
 @numba.njit(cache=True, parallel=True)
-def _ridges(seeds, grid, reach, scratch_size, pieces, radius, out):
+def _ridges(seeds, binned, reach, scratch_size, pieces, radius, out):
     """The loop of :func:`ridges`, blocks of seeds in parallel.
 
     ``seeds`` (:class:`Seeds`), the pieces' midpoints binned
-    (:class:`~.clearance_kernel.Grid`), ``pieces`` (:class:`Pieces`), into ``out``
+    (:class:`~.clearance_kernel.SampleCells`), ``pieces`` (:class:`Pieces`), into ``out``
     (:class:`Ridges`).
     """
     centre, normal, x_s, own = seeds
-    points, index, cell_start, origin, shape, cell, box = grid
+    points, index, cell_start, origin, shape, cell, box, _ = binned
     a, e, pass_of = pieces
     point, inside, state = out
     for block in numba.prange((centre.shape[0] + BLOCK - 1) // BLOCK):
@@ -193,6 +193,6 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         seeds = Seeds(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
                       f(own, dtype=np.int64))
         pieces = Pieces(f(a, dtype=float), f(e, dtype=float), f(pass_of, dtype=np.int64))
-        _ridges(seeds, cells.grid, float(reach_mm), cell_scratch_size(reach_mm, cells.cell_mm),
+        _ridges(seeds, cells, float(reach_mm), cell_scratch_size(reach_mm, cells.cell_mm),
                 pieces, float(radius_mm), Ridges(point, inside, state))
     return point, inside, state
