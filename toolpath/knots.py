@@ -78,6 +78,9 @@ TREND_CONTRAST = 2.0 * CORNER_CONTRAST
 #: the 71-point half profile at 20 control points, spans the fit interpolated were emptied
 #: and the next sweep's error rose from 0.001 to 0.019 mm.
 SWEEP_REACH = 3.0
+#: A unit chord whose component across the turn's chord is shorter than this runs along it
+#: (no doubling back to judge by): the next chord is tried.
+_ALONG = 1e-6
 
 
 @dataclass(frozen=True)
@@ -225,7 +228,7 @@ def _follows_trend(turns: NDArray[np.float64], unit: NDArray[np.float64], i: int
     across = unit[i % chords]
     for k in (last + 1, i + 1):  # the chord after the turn; the middle one if it doubles back
         quarter = unit[k % chords] - (unit[k % chords] @ across) * across
-        if np.linalg.norm(quarter) > 1e-6:
+        if np.linalg.norm(quarter) > _ALONG:
             break
     else:
         return False
