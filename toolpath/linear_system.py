@@ -145,7 +145,8 @@ def _fit_p2(x, t):
     return _solve_linear(lhs, x[1:] - x[:-1], x.shape[1])
 
 
-def _fit_p0(x, t):
+def _fit_p0(x, t, *, evaluations_per_unknown: int = P0_EVALUATIONS_PER_UNKNOWN):
+    """P0 by Levenberg-Marquardt from P2, within ``evaluations_per_unknown * (d² + 1)``."""
     import scipy.optimize
 
     d = x.shape[1]
@@ -154,7 +155,7 @@ def _fit_p0(x, t):
     def residual(a):
         return (_evaluate(a.reshape(d, d), x[0], t) - x).ravel()
 
-    budget = P0_EVALUATIONS_PER_UNKNOWN * (d * d + 1)
+    budget = evaluations_per_unknown * (d * d + 1)
     result = scipy.optimize.least_squares(residual, start.ravel(), method="lm", xtol=1e-14,
                                           ftol=1e-14, gtol=1e-14, max_nfev=budget)
     if result.status == 0:  # the budget ran out
