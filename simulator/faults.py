@@ -50,8 +50,8 @@ from dataclasses import dataclass, field
 
 __all__ = ["FAULT_NAMES", "FaultPlan"]
 
-#: Added to ``query * fraction`` before it is truncated: a fraction like 0.1 times 10 is
-#: 0.9999999999999999 in doubles, and the 10th query would be skipped.
+#: Added to ``query * fraction`` before it is truncated: 100 * 0.29 is 28.999999999999996
+#: in doubles, and the 100th query would not count as the 29th ignored one.
 _COUNT_SLACK = 1e-9
 
 FAULT_NAMES = (

@@ -35,8 +35,7 @@ MAX_CELLS = 4_000_000
 #: The grid's box grows by this (mm) on each side, so samples on its faces fall inside a
 #: cell whatever the round-off of ``(p - origin) / cell``.
 _BOX_PAD_MM = 1e-9
-#: Least cell size (mm): a reach of 0 (a query for contacts only) would give cells of no
-#: size and a division by zero.
+#: Least cell size (mm): a reach of 0 would give cells of no size (a division by zero).
 _LEAST_CELL_MM = 1e-9
 
 

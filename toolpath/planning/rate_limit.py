@@ -43,9 +43,9 @@ TUBE_SLACK_RAD = 1e-12
 #: (rad of azimuth per unit of the pass' abscissa): the least positive rate worth a trial.
 FIRST_TRIAL_RATE = 1e-9
 
-#: Floor of the cosines of the axis' and the normal's polar angles (from the pole) in the
-#: lean-cone half-width: at the pole the azimuth is undefined, and the floor (a polar
-#: angle of 89.94 deg) keeps the half-width finite (the ``acos`` argument is clipped).
+#: Floor of the cosines of the axis' and the normal's elevations (about the pole) in the
+#: lean-cone half-width: at the pole (90 deg) the azimuth is undefined, and the floor (an
+#: elevation of 89.94 deg) keeps the half-width finite (the ``acos`` argument is clipped).
 _LEAST_POLAR_COS = 1e-3
 
 

@@ -17,12 +17,12 @@ from .blunt_edge import BluntFace
 from .gouge import GOUGE_TOL_MM
 from .rotary_rate import RotaryRates
 
+__all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
+
 #: The rounding reserve and the request less the planned tolerance are the same length
 #: (mm) by two routes when the reserve fits in the quarter kept for it: within this
 #: round-off (of values ~0.01 mm) no "needs more than the quarter" warning.
 _RESERVE_ROUND_OFF_MM = 1e-12
-
-__all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
 
 
 @dataclass(frozen=True)
