@@ -30,6 +30,7 @@ from gcode.block_sequence import KIND_LINEAR, MoveRun, block_runs
 from gcode.errors import ArcError, ErrorCode
 from gcode.modal import ModalState, MotionMode
 from gcode.program import Arc, DistanceMode, Dwell, FeedMode, Linear, Program, Rapid
+from toolpath.tolerances import TINY
 
 __all__ = [
     "DEFAULT_CHORD_TOLERANCE_MM",
@@ -46,6 +47,9 @@ KIND_RAPID, KIND_ARC_CW, KIND_ARC_CCW = 0, 2, 3  # KIND_LINEAR = 1 as in MoveRun
 #: the coordinates we write, so linearizing adds no error visible in the text.
 DEFAULT_CHORD_TOLERANCE_MM = 0.001
 _PLANE_IDX = {17: (0, 1, 2), 18: (2, 0, 1), 19: (1, 2, 0)}
+#: An arc whose sweep (rad) from start to end is within this of 0 ends where it starts: a
+#: full circle, as G2/G3 with end == start means (round-off of two ``atan2``).
+_SAME_ANGLE_RAD = 1e-12
 
 FloatArray = npt.NDArray[np.float64]
 
@@ -106,7 +110,7 @@ class Segments:
             ccw = self.kind[rows] == KIND_ARC_CCW
             d = np.where(ccw, a1 - a0, a0 - a1)
             d = np.mod(d, 2.0 * np.pi)
-            d = np.where(d <= 1e-12, 2.0 * np.pi, d)  # end == start: full circle
+            d = np.where(d <= _SAME_ANGLE_RAD, 2.0 * np.pi, d)  # end == start: full circle
             radius[rows] = np.hypot(su, sv)
             sweep[rows] = np.where(ccw, d, -d)
             normal[rows] = self.end[rows, w] - self.start[rows, w]
@@ -185,7 +189,7 @@ class Segments:
         radius, sweep, _ = self._arc_geometry()
         counts = np.ones(len(self), dtype=np.int64)
         r = radius[arcs]
-        half = np.arccos(np.clip(1.0 - chord_tolerance / np.maximum(r, 1e-300), -1.0, 1.0))
+        half = np.arccos(np.clip(1.0 - chord_tolerance / np.maximum(r, TINY), -1.0, 1.0))
         counts[arcs] = np.maximum(1, np.ceil(np.abs(sweep[arcs]) / (2.0 * half))).astype(np.int64)
         total = int(counts.sum())
         rep = np.repeat(np.arange(len(self)), counts)

@@ -97,6 +97,7 @@ from machines import Machine, UnreachableOrientationError, Wrap
 from machines.limits import min_segment_times
 from toolpath import MoveKind, Toolpath
 from toolpath.joint_refine import refine_for_joint_interpolation
+from toolpath.tolerances import ROUND_OFF
 
 __all__ = ["DEFAULT_CLEARANCE_MM", "PostOptions", "post"]
 
@@ -236,7 +237,7 @@ class _Grid:
     def floor(self, values: npt.NDArray[np.float64]) -> npt.NDArray[np.float64]:
         """Largest grid values not above ``values`` (one grid step at least)."""
         scale = 10.0**self.decimals
-        q = np.floor((values / self.per_text_unit) * scale * (1.0 + 1e-12))
+        q = np.floor((values / self.per_text_unit) * scale * (1.0 + ROUND_OFF))
         return (np.maximum(q, 1.0) / scale) * self.per_text_unit
 
 

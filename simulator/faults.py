@@ -50,6 +50,10 @@ from dataclasses import dataclass, field
 
 __all__ = ["FAULT_NAMES", "FaultPlan"]
 
+#: Added to ``query * fraction`` before it is truncated: 100 * 0.29 is 28.999999999999996
+#: in doubles, and the 100th query would not count as the 29th ignored one.
+_COUNT_SLACK = 1e-9
+
 FAULT_NAMES = (
     "drop-after-bytes",
     "drop-after-lines",
@@ -185,7 +189,7 @@ class FaultPlan:
     def ignores_status(self, query: int) -> bool:
         """Whether the ``query``-th ``?`` (1-based) is one of the ignored fraction."""
         f = self.ignore_status_fraction
-        return f > 0.0 and int(query * f + 1e-9) > int((query - 1) * f + 1e-9)
+        return f > 0.0 and int(query * f + _COUNT_SLACK) > int((query - 1) * f + _COUNT_SLACK)
 
     def line_fault(self, line: int) -> tuple[str, int] | None:
         """The fault due at ``line`` (fired and forgotten), or None."""

@@ -21,6 +21,10 @@ from collections import deque
 
 __all__ = ["PacedPipe", "bytes_per_s_for_baud"]
 
+#: Bytes due by ``elapsed * rate`` are counted with this much added: a byte due exactly now
+#: (the clock advanced by ``1 / rate``) is delivered despite round-off of the product.
+_DUE_SLACK_BYTES = 1e-9
+
 
 def bytes_per_s_for_baud(baud: int | None, bits_per_byte: int = 10) -> float:
     """Bytes per second of a UART link (8N1: 10 bits a byte); ``inf`` for 0/None.
@@ -79,7 +83,7 @@ class PacedPipe:
                 take = len(buf)
                 self._busy_until = start
             else:
-                take = min(int((now_s - start) * rate + 1e-9), len(buf))
+                take = min(int((now_s - start) * rate + _DUE_SLACK_BYTES), len(buf))
                 if take == 0:
                     break
                 self._busy_until = start + take / rate

@@ -38,6 +38,7 @@ from .knots import (
     turning_angles,
 )
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients, schoenberg_whitney_violation
+from .tolerances import TINY
 
 __all__ = ["KNOT_METHODS", "KnotOptions", "adapt_knots", "check_given_knots", "knot_options"]
 
@@ -501,7 +502,7 @@ def _jump_knots(knots: NDArray[np.float64], points, t: NDArray[np.float64], stre
     steps = np.linalg.norm(np.diff(points, axis=0), axis=1)
     kappa = np.full(t.size, np.nan)
     kappa[1:-1] = turning_angles(points) / np.maximum(0.5 * (steps[:-1] + steps[1:]),
-                                                        1e-300)
+                                                        TINY)
     # curvature floored where the data are flat: a flank's few micrometres of noise take
     # its discrete turning to ~0 at a point, a jump of ln(1e-9) without the floor
     signed = np.diff(np.log(np.maximum(kappa, FLAT_CURVATURE_PER_MM)))
@@ -620,13 +621,18 @@ def _limit(options: KnotOptions, n_points: int) -> int:
     return limit
 
 
+#: Floor of a gap between given start knots (a repeated knot has none) where their
+#: density is ``1 / gap``: it keeps the density finite, and huge where knots coincide.
+_LEAST_KNOT_GAP = 1e-12
+
+
 def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
     corners = ([] if options.corner_angle_deg is None
                else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
     fixed = DEGREE + 1 + DEGREE * len(corners)
     if options.start_knots is not None and options.tol is not None:
         edges = np.unique(options.start_knots)
-        density = 1.0 / np.maximum(np.diff(edges), 1e-12)
+        density = 1.0 / np.maximum(np.diff(edges), _LEAST_KNOT_GAP)
     else:
         edges, density = _seed_density(t, seed_values, corners)
     learned = [(edges, density)]  # the density of the latest attempt's best knots

@@ -9,6 +9,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .errors import InvalidParameterError, InvalidPointsError
+from .tolerances import ROUND_OFF
 
 __all__ = ["MIN_CURVE_POINTS", "as_curve_points", "as_positive_length"]
 
@@ -54,7 +55,7 @@ def as_curve_points(points: Any, *, min_points: int = MIN_CURVE_POINTS) -> NDArr
         )
     steps = np.linalg.norm(np.diff(arr, axis=0), axis=1)
     scale = float(np.max(np.abs(arr))) or 1.0
-    dup = steps <= 1e-12 * scale
+    dup = steps <= ROUND_OFF * scale
     if dup.all():
         raise InvalidPointsError("the curve has zero length: all points coincide", index=0)
     if dup.any():

@@ -52,6 +52,7 @@ from numpy.typing import NDArray
 from .between_sections import interpolation_errors
 from .knots import detect_corners
 from .parametrize import cumulative_parameters
+from .tolerances import TINY
 
 __all__ = ["BETWEEN_DATA", "BETWEEN_DATA_FRACTIONS", "DATA_SHARE", "DataCurve",
            "between_data_errors", "between_data_estimate", "between_data_over",
@@ -211,7 +212,7 @@ class DataCurve:
         chord = np.minimum(lo[:, None] + np.arange(3 * POLYLINE_SAMPLES)[None, :],
                            hi[:, None] - 1)
         a, ab = polyline[chord], polyline[chord + 1] - polyline[chord]
-        length2 = np.maximum(np.einsum("kwd,kwd->kw", ab, ab), 1e-300)
+        length2 = np.maximum(np.einsum("kwd,kwd->kw", ab, ab), TINY)
         self._pieces.append((u, intervals, a, ab, length2, wrap))
 
     def distances(self, fitted_at: Callable[[NDArray[np.float64]], NDArray[np.float64]]

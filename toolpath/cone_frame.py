@@ -39,6 +39,12 @@ PAPER_ETA_RAD = 0.05
 KAPPAS = (1.5, 3.0, 10.0, 100.0)
 #: Fractions of the free angle (2-D) or radius factors (3-D) used as cone margins.
 MARGINS = (0.15, 0.6)
+#: A point is inside the cone when each component of ``T (X + c)`` exceeds this share of the
+#: largest: a component at round-off of zero is on the cone's face, and ``log Z`` blows up.
+_CONE_MARGIN = 1e-9
+#: Algorithm 2 needs the origin outside the points' ball (``d > r``): within this relative
+#: margin of its surface the cone's half-angle ``sqrt(d^2 - r^2)`` is round-off.
+_BALL_MARGIN = 1e-9
 
 
 @dataclass(frozen=True)
@@ -56,7 +62,7 @@ class ConeFrame:
     def contains(self, x: NDArray[np.float64]) -> bool:
         """Whether every component of ``T (X + c)`` is positive (with a relative margin)."""
         z = self.to_cone(x)
-        return bool(np.all(z > 1e-9 * np.abs(z).max()))
+        return bool(np.all(z > _CONE_MARGIN * np.abs(z).max()))
 
 
 def algorithm1(x: NDArray[np.float64], c: NDArray[np.float64], *, eta: float | None = None,
@@ -91,7 +97,7 @@ def algorithm2(x: NDArray[np.float64], c: NDArray[np.float64], *, margin: float 
     q = y.mean(axis=0)
     r = float(np.linalg.norm(y - q, axis=1).max())
     d = float(np.linalg.norm(q))
-    if d <= r * (1 + 1e-9):
+    if d <= r * (1 + _BALL_MARGIN):
         return None
     rho = margin * 2.0 * d * r / np.sqrt(d * d - r * r)
     axis = q / d

@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .tolerances import TINY
 from .vectors import unit
 
 __all__ = [
@@ -64,6 +65,9 @@ SAMPLES_PER_INTERVAL = 24
 CONCAVE_DEPTH_MM = 1e-3
 #: Concave stretches that cannot be this deep (mm) are not measured at all.
 NEGLIGIBLE_DEPTH_MM = 1e-6
+#: Squared doubled area (mm^4) of three consecutive points below which they are collinear:
+#: their circle has no centre (a straight run of data has no curvature to measure).
+_STRAIGHT_AREA2_MM4 = 1e-30
 #: A concave stretch whose normal turns back more than this (deg) counts however shallow
 #: its dent: a ring after a curvature jump (a nose circle meeting its flank G1) that
 #: overshoots the turn and comes back within a micrometre of the data still swings the
@@ -386,7 +390,7 @@ def _development(tt, xt, xtt, normal) -> tuple[NDArray[np.float64], ...]:
     Returns the points (n, 2), unit tangents (n, 2), ``k`` (n,) and ``σ`` (n,).
     """
     speed = np.linalg.norm(xt, axis=1)
-    kappa = np.einsum("ij,ij->i", xtt, normal) / np.maximum(speed, 1e-300) ** 2
+    kappa = np.einsum("ij,ij->i", xtt, normal) / np.maximum(speed, TINY) ** 2
     dt = np.diff(tt)
     dsigma = 0.5 * (speed[1:] + speed[:-1]) * dt
     theta = np.concatenate(([0.0], np.cumsum(0.5 * (kappa[1:] + kappa[:-1]) * dsigma)))
@@ -448,7 +452,7 @@ def _circles(points: NDArray[np.float64], closed: bool
     a, b = prev - points, nxt - points
     axb = np.cross(a, b)
     area2 = np.einsum("ij,ij->i", axb, axb)
-    ok = area2 > 1e-30
+    ok = area2 > _STRAIGHT_AREA2_MM4
     safe = np.where(ok, area2, 1.0)
     offset = (np.cross(axb, a) * np.einsum("ij,ij->i", b, b)[:, None]
               + np.cross(b, axb) * np.einsum("ij,ij->i", a, a)[:, None]) / (2 * safe[:, None])

@@ -78,6 +78,9 @@ TREND_CONTRAST = 2.0 * CORNER_CONTRAST
 #: the 71-point half profile at 20 control points, spans the fit interpolated were emptied
 #: and the next sweep's error rose from 0.001 to 0.019 mm.
 SWEEP_REACH = 3.0
+#: A unit chord whose component across the turn's chord is shorter than this runs along it
+#: (no doubling back to judge by): the next chord is tried.
+_ALONG = 1e-6
 
 
 @dataclass(frozen=True)
@@ -225,7 +228,7 @@ def _follows_trend(turns: NDArray[np.float64], unit: NDArray[np.float64], i: int
     across = unit[i % chords]
     for k in (last + 1, i + 1):  # the chord after the turn; the middle one if it doubles back
         quarter = unit[k % chords] - (unit[k % chords] @ across) * across
-        if np.linalg.norm(quarter) > 1e-6:
+        if np.linalg.norm(quarter) > _ALONG:
             break
     else:
         return False
@@ -372,6 +375,14 @@ def refill_knots(t: NDArray[np.float64], knots: NDArray[np.float64], count: int
     return knots
 
 
+#: Least density of :func:`fourth_derivative_density`, relative to its largest: a span whose
+#: ``S'''`` does not jump (a straight or exactly cubic stretch) would get no knots at all.
+_LEAST_DERIVATIVE_DENSITY = 1e-3
+#: Least density of :func:`error_density`, relative to its least positive value: no span
+#: is left at density 0 (equidistribution would give it no knots).
+_LEAST_ERROR_DENSITY = 1e-2
+
+
 def fourth_derivative_density(spline_knots: NDArray[np.float64],
                               coefficients: NDArray[np.float64]
                               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -402,7 +413,7 @@ def fourth_derivative_density(spline_knots: NDArray[np.float64],
     at_span[:-1] = jump
     at_span[1:] = np.maximum(at_span[1:], jump)
     density = np.power(at_span, 0.25)
-    floor = 1e-3 * density.max() if density.max() > 0 else 1.0
+    floor = _LEAST_DERIVATIVE_DENSITY * density.max() if density.max() > 0 else 1.0
     return edges, np.maximum(density, floor)
 
 
@@ -437,7 +448,7 @@ def error_density(knots: NDArray[np.float64], t: NDArray[np.float64],
         root = np.clip(root, typical / SWEEP_REACH, typical * SWEEP_REACH)
     density = root / np.diff(edges)
     positive = density[density > 0]
-    floor = 1e-2 * positive.min() if positive.size else 1.0
+    floor = _LEAST_ERROR_DENSITY * positive.min() if positive.size else 1.0
     return edges, np.maximum(density, floor)
 
 

@@ -41,6 +41,10 @@ LINEAR_MODELS = ("P0", "P1-1", "P1-2", "P2")
 #: (``100 d² (d² + 1)``, 9000 in 3-D) let points far from any ``dX/dt = A X`` (fuzzing:
 #: four blade sections read as one curve) run for over ten minutes.
 P0_EVALUATIONS_PER_UNKNOWN = 20
+#: P0's stopping tolerances (``xtol``, ``ftol``, ``gtol`` of Levenberg-Marquardt, relative):
+#: near round-off, against scipy's 1e-8, so the exact model is solved as far as doubles
+#: allow; :data:`P0_EVALUATIONS_PER_UNKNOWN` bounds what that costs.
+P0_STOP_TOL = 1e-14
 
 
 @dataclass(frozen=True, eq=False)
@@ -145,7 +149,8 @@ def _fit_p2(x, t):
     return _solve_linear(lhs, x[1:] - x[:-1], x.shape[1])
 
 
-def _fit_p0(x, t):
+def _fit_p0(x, t, *, evaluations_per_unknown: int = P0_EVALUATIONS_PER_UNKNOWN):
+    """P0 by Levenberg-Marquardt from P2, within ``evaluations_per_unknown * (d² + 1)``."""
     import scipy.optimize
 
     d = x.shape[1]
@@ -154,9 +159,10 @@ def _fit_p0(x, t):
     def residual(a):
         return (_evaluate(a.reshape(d, d), x[0], t) - x).ravel()
 
-    budget = P0_EVALUATIONS_PER_UNKNOWN * (d * d + 1)
-    result = scipy.optimize.least_squares(residual, start.ravel(), method="lm", xtol=1e-14,
-                                          ftol=1e-14, gtol=1e-14, max_nfev=budget)
+    budget = evaluations_per_unknown * (d * d + 1)
+    result = scipy.optimize.least_squares(residual, start.ravel(), method="lm",
+                                          xtol=P0_STOP_TOL, ftol=P0_STOP_TOL,
+                                          gtol=P0_STOP_TOL, max_nfev=budget)
     if result.status == 0:  # the budget ran out
         warnings.warn(f"P0 stopped after {result.nfev} evaluations without converging; "
                       "the best A found is kept (these points are far from dX/dt = A X)",

@@ -21,7 +21,7 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from machines import Machine
-from machines.kinematics import InverseSolution, solve_inverse
+from machines.kinematics import AXIS_NORM_TOL, InverseSolution, solve_inverse
 from machines.limits import min_segment_times
 
 from .errors import DataFileError, InvalidParameterError
@@ -112,7 +112,7 @@ class Toolpath:
                 raise InvalidParameterError(
                     f"{name} has a non-finite value at point {int(np.argmax(bad))}")
         norms = np.sqrt(np.einsum("ij,ij->i", axes, axes))
-        bad = np.abs(norms - 1.0) > 1e-6
+        bad = np.abs(norms - 1.0) > AXIS_NORM_TOL
         if bad.any():
             i = int(np.argmax(bad))
             raise InvalidParameterError(

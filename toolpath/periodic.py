@@ -56,6 +56,7 @@ from .adaptive import adapt_knots
 from .errors import ConvergenceWarning, FitError, InvalidParameterError
 from .knots import detect_corners
 from .splinefit import DEGREE, clamped_knots, interior_knots
+from .tolerances import ROUND_OFF
 
 __all__ = [
     "TIE_BREAK",
@@ -117,7 +118,7 @@ def periodic_violation(t: NDArray[np.float64], knots: NDArray[np.float64]) -> st
     period = period_of(knots)
     if period[0] != 0.0 or knots[-(DEGREE + 1)] != 1.0:
         return "a periodic knot vector's base interval must be [0, 1] (knots[3] = 0)"
-    if not np.allclose(knots, periodic_knots(period), rtol=0.0, atol=1e-12):
+    if not np.allclose(knots, periodic_knots(period), rtol=0.0, atol=ROUND_OFF):
         return "knots must continue by period 1 on both sides of [0, 1]"
     _, counts = np.unique(period, return_counts=True)
     if counts.max() > DEGREE:

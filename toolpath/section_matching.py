@@ -74,6 +74,9 @@ FLAT_AREA_FRACTION = 1e-4
 #: merged, move its open fits from 0.0040 to 0.0060 mm at the data (the knot search starts
 #: elsewhere) and from 0.0038 to 0.0054 mm off the truth file.
 SAME_PARAMETER = 1e-12
+#: Floor of an edge width (mm) in the log of the two ends' width ratio: a section pinched
+#: to a point at one end gives width 0, and its log would be -inf.
+_LEAST_WIDTH_MM = 1e-12
 #: Samples of a local window when a landmark is refined on the interpolating cubic.
 REFINE_SAMPLES = 41
 #: Dense samples per section for the edge-width rule.
@@ -225,7 +228,7 @@ def section_landmarks(sections: list[NDArray[np.float64]], closed: bool, params:
     log_ratio = 0.0  # > 0: end "a" is the wider one, the leading edge
     for (u_a, u_b), u, curve in zip(ends, us, curves, strict=True):
         wa, wb = (_edge_width(curve, x, y, u[-1]) for x, y in ((u_a, u_b), (u_b, u_a)))
-        log_ratio += np.log(max(wa, 1e-12) / max(wb, 1e-12))
+        log_ratio += np.log(max(wa, _LEAST_WIDTH_MM) / max(wb, _LEAST_WIDTH_MM))
     return [SectionLandmarks(u_a, u_b, float(u[-1])) if log_ratio > 0.0
             else SectionLandmarks(u_b, u_a, float(u[-1]))
             for (u_a, u_b), u in zip(ends, us, strict=True)]

@@ -34,6 +34,9 @@ TIE_BREAK = 1e-9
 #: Least Cholesky pivot, relative to its diagonal entry, of a well-posed least squares; a
 #: smaller one means a control point the data barely see, and the tie-break takes over.
 MIN_PIVOT = 1e-10
+#: Between interior knots equally near the middle of an unpinned span, drop the one
+#: nearest ``j + 2``: a weight per index this small only breaks ties (knots lie in [0, 1]).
+_DROP_TIE_BREAK = 1e-12
 
 
 def clamped_knots(interior: NDArray[np.float64], lo: float = 0.0, hi: float = 1.0
@@ -134,7 +137,8 @@ def admissible_knots(t: NDArray[np.float64], knots: NDArray[np.float64]
             break
         inner = np.arange(k, len(knots) - k)
         middle = 0.5 * (knots[j] + knots[j + k])
-        drop = inner[np.argmin(np.abs(knots[inner] - middle) + 1e-12 * np.abs(inner - j - 2))]
+        drop = inner[np.argmin(np.abs(knots[inner] - middle)
+                               + _DROP_TIE_BREAK * np.abs(inner - j - 2))]
         knots = np.delete(knots, drop)
     return knots
 

@@ -63,6 +63,12 @@ REFINE_STEPS = 6
 FRAME_TRIES = 3
 #: Halvings of a Gauss-Newton step that raises the cost before the refinement stops.
 REFINE_HALVINGS = 5
+#: A Gauss-Newton trial is taken only when it lowers the cost by this share at least: a
+#: smaller gain is round-off, and taking it would keep the refinement going for nothing.
+_LEAST_DECREASE = 1e-9
+#: Relative ridge on the normal matrix's diagonal: it keeps the banded Cholesky solve
+#: defined where a direction has no data, and moves nothing else (round-off of the sums).
+_RIDGE = 1e-12
 #: How far (in natural log units) ``G``'s control points may leave the data's log range:
 #: ``e^2.3 ≈ 10``, a fitted point ten times farther from the cone's apex (or closer to it)
 #: than any data point is no fit; the fits of the paper's examples and the half profile
@@ -214,7 +220,7 @@ class LogSpaceProblem:
                 if np.all((trial >= lo) & (trial <= hi)):
                     trial_residual, trial_w = residual_of(trial)
                     trial_cost = float(np.sum(trial_residual**2))
-                    if trial_cost < cost * (1 - 1e-9):
+                    if trial_cost < cost * (1 - _LEAST_DECREASE):
                         best, residual, w, cost = trial, trial_residual, trial_w, trial_cost
                         break
             else:
@@ -231,8 +237,8 @@ def _gauss_newton_step(local: NDArray[np.float64], first: NDArray[np.int64], m: 
     ``Z_0 e^G``), ``J^T J δ = −J^T r`` where ``(J^T J)[(j, k), (j', k')] =
     Σ_i N_j N_j' w_ik w_ik' (T^{-T} T^{-1})[k, k']`` is banded: unknowns ordered
     ``u = (j − 1) d + k`` couple only within ``4d − 1``. ``local``/``first``: each data
-    point's ``DEGREE + 1`` basis values and the index of the first. A relative 1e-12 on
-    the diagonal keeps the solve defined where a direction has no data.
+    point's ``DEGREE + 1`` basis values and the index of the first. A relative
+    :data:`_RIDGE` on the diagonal keeps the solve defined where a direction has no data.
     """
     d = w.shape[1]
     size = (m - 2) * d
@@ -254,7 +260,7 @@ def _gauss_newton_step(local: NDArray[np.float64], first: NDArray[np.int64], m: 
                     keep = inside_a & (jb >= 1) & (jb <= m - 2) & (u <= ub)
                     value = local[:, a] * local[:, b] * w[:, k] * w[:, kb] * gram[k, kb]
                     np.add.at(upper, (band + u[keep] - ub[keep], ub[keep]), value[keep])
-    upper[band] += 1e-12 * upper[band].max()
+    upper[band] += _RIDGE * upper[band].max()
     return scipy.linalg.solveh_banded(upper, rhs).reshape(m - 2, d)
 
 

@@ -9,8 +9,8 @@ Plain floats, so numba kernels read them as compile-time constants.
 
 from __future__ import annotations
 
-__all__ = ["ANGLE_SLACK_DEG", "FLAT_PER_MM", "LENGTH_SLACK_MM", "LIMIT_SLACK", "ROUND_OFF",
-           "SAME_POINT_MM", "TINY"]
+__all__ = ["ANGLE_SLACK_DEG", "FLAT_PER_MM", "LENGTH_SLACK_MM", "LIMIT_SLACK", "NO_MEAN_AXIS",
+           "NULL_VECTOR", "ROUND_OFF", "SAME_POINT_MM", "TINY"]
 
 #: Floor of a denominator that can vanish (the length of a zero vector, the curvature of
 #: a flat, a degenerate determinant): far below any value divided by (mm, rad, their
@@ -43,3 +43,13 @@ LENGTH_SLACK_MM = 1e-9
 #: A curvature below this (1/mm: a radius over 1e12 mm) is a plane's: the formulas for a
 #: curved surface would divide by it, and its sign (concave or convex) is round-off.
 FLAT_PER_MM = 1e-12
+
+#: A direction a user gives (the roughing ``up``, a fixed tool axis) with a norm below this
+#: is none: such a vector is a typo or a zero, not a direction to normalise (a real one is
+#: given to 1e-3 or so, and below 1e-9 its unit components are round-off of the input).
+NULL_VECTOR = 1e-9
+
+#: A weighted mean of two unit tool axes shorter than this has no direction: the axes are
+#: (nearly) opposite, and normalising would amplify round-off by 1e6 or more; callers take
+#: another direction (or skip the middle) instead.
+NO_MEAN_AXIS = 1e-6

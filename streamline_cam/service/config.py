@@ -9,6 +9,8 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Final
 
+from .events import HEARTBEAT_S
+
 __all__ = [
     "DEFAULT_MAX_QUEUED",
     "DEFAULT_MAX_UPLOAD_BYTES",
@@ -74,6 +76,10 @@ class ServiceConfig:
         A Dask scheduler's address (``tcp://HOST:8786``): jobs run on its workers
         (:class:`~streamline_cam.dask_engine.DaskJobs`), ``workers`` of them at once, each
         waited for by a thread here. None (default): the local pool of ``executor``.
+    heartbeat_s : float
+        Seconds between ``: ping`` comments on an idle ``/events`` stream (> 0; see
+        :data:`~streamline_cam.service.events.HEARTBEAT_S`): shorter behind a proxy that
+        drops connections idle for less.
     """
 
     data_dir: Path
@@ -85,6 +91,7 @@ class ServiceConfig:
     start_workers: bool = True
     max_attempts: int = MAX_ATTEMPTS
     scheduler: str | None = None
+    heartbeat_s: float = HEARTBEAT_S
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "data_dir", Path(self.data_dir))
@@ -97,6 +104,8 @@ class ServiceConfig:
             value = getattr(self, name)
             if not isinstance(value, int) or value < 1:
                 raise ValueError(f"{name} must be an integer >= 1, got {value!r}")
+        if not self.heartbeat_s > 0.0:
+            raise ValueError(f"heartbeat_s must be > 0 s, got {self.heartbeat_s!r}")
 
     @property
     def db_path(self) -> Path:

@@ -50,6 +50,8 @@ SURFACE_GRID: Final[tuple[int, int]] = (48, 72)
 3,456 points."""
 _FLAT_MM: Final[float] = 1e-9
 """A chord whose farthest point is nearer than this is straight: not split further."""
+_SAME_AXIS: Final[float] = 1e-9
+"""Unit tool axes whose components all agree to this are one axis: a 3-axis path."""
 
 # MoveKind values (toolpath.path) -> run kind
 _RAPID, _CUT = 0, 3
@@ -257,7 +259,7 @@ def preview(surface: Any, toolpath: Any, *, max_points: int = DEFAULT_MAX_POINTS
     positions = np.asarray(toolpath.positions_mm, dtype=float)
     axes = np.asarray(toolpath.tool_axes, dtype=float)
     n = len(positions)
-    five_axis = bool(n) and not np.allclose(axes, axes[0], atol=1e-9)
+    five_axis = bool(n) and not np.allclose(axes, axes[0], atol=_SAME_AXIS)
     runs = toolpath_runs(toolpath.kinds, toolpath.pass_index)
     fixed = np.zeros(n, dtype=bool)
     for _, _, first, last in runs:

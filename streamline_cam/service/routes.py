@@ -33,7 +33,7 @@ from ..pipeline import STAGES
 from ..verdict import report_verdict, verdict_summary
 from . import artefacts, preview
 from .config import ServiceConfig
-from .events import CLOSED, HEARTBEAT_S, EventHub, sse
+from .events import CLOSED, EventHub, sse
 from .pool import WorkerPool
 from .runner import as_job_fields
 from .schemas import (
@@ -465,7 +465,8 @@ def _snapshot(service: Service) -> list[tuple[str, dict[str, Any]]]:
     return events
 
 
-#: How often an idle ``/events`` connection checks that its client is still there (s).
+#: How often an idle ``/events`` connection checks that its client is still there (s); at
+#: least as often as the heartbeat (``ServiceConfig.heartbeat_s``) is due.
 DISCONNECT_CHECK_S = 1.0
 
 
@@ -481,6 +482,8 @@ async def events(request: Request, service: ServiceDep) -> StreamingResponse:
     runs; a comment ``: ping`` every 15 s. Use ``new EventSource("/events")``.
     """
     subscription = service.events.subscribe()  # before the snapshot: nothing is missed
+    heartbeat_s = service.config.heartbeat_s
+    check_s = min(DISCONNECT_CHECK_S, heartbeat_s)
 
     async def body() -> AsyncIterator[str]:
         quiet_s = 0.0
@@ -488,12 +491,12 @@ async def events(request: Request, service: ServiceDep) -> StreamingResponse:
             yield ": connected\n\n"
             for event, data in await run_in_threadpool(_snapshot, service):
                 yield sse(event, data)
-            while (item := await subscription.get(DISCONNECT_CHECK_S)) != CLOSED:
+            while (item := await subscription.get(check_s)) != CLOSED:
                 if item is None:
-                    quiet_s += DISCONNECT_CHECK_S
+                    quiet_s += check_s
                     if await request.is_disconnected():
                         return
-                    if quiet_s >= HEARTBEAT_S:
+                    if quiet_s >= heartbeat_s:
                         quiet_s = 0.0
                         yield ": ping\n\n"
                 else:

@@ -141,13 +141,39 @@ def test_short_stretches_stay_objects_and_tiny_programs_a_tuple():
     assert runs and min(map(len, runs)) >= post_module._MIN_COLUMN_RUN
 
 
+def _short_columns(blocks, sizes=(1, 2, 3, 5)):
+    """The blocks with their plain moves stored as columns of ``sizes`` moves, in turn."""
+    parts, stretch, other = [], [], []
+    for b in (*blocks, None):
+        if isinstance(b, Rapid | Linear):
+            if other:
+                parts.append(tuple(other))
+                other = []
+            stretch.append(b)
+            continue
+        at, k = 0, 0
+        while at < len(stretch):
+            parts.append(MoveRun.from_blocks(stretch[at : at + sizes[k % len(sizes)]]))
+            at, k = at + sizes[k % len(sizes)], k + 1
+        stretch = []
+        if b is not None:
+            other.append(b)
+    return BlockSequence(parts + ([tuple(other)] if other else []))
+
+
 @pytest.mark.parametrize("seed", range(3))
-def test_every_stretch_as_columns_still_equals_the_objects(monkeypatch, seed):
+def test_short_stretches_as_columns_still_equal_the_objects(monkeypatch, seed):
+    """The post keeps stretches under ``_MIN_COLUMN_RUN`` moves as objects; consumers
+    must still read shorter ones (parsed programs hold any length) as the objects."""
     tp = random_mixed(np.random.default_rng(seed), 30)
     machine = load_machine("head-table-bc")
-    monkeypatch.setattr(post_module, "_MIN_COLUMN_RUN", 1)
-    columns, eager = _both(monkeypatch, tp, machine, LINUXCNC, PostOptions())
+    _, eager = _both(monkeypatch, tp, machine, LINUXCNC, PostOptions())
+    columns = replace(eager, blocks=_short_columns(eager.blocks))
+    assert {len(p) for p in columns.blocks.parts if isinstance(p, MoveRun)} >= {1, 2, 3}
     assert columns == eager
+    a, b = interpret(columns), interpret(eager)
+    for name in ("start", "end", "kind", "feed", "inverse_time", "centre", "plane", "line"):
+        assert np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True), name
     assert emit_text(columns, LINUXCNC) == emit_text(eager, LINUXCNC)
     assert emit_text(columns, replace(LINUXCNC, suppress_modal=False)) == emit_text(
         eager, replace(LINUXCNC, suppress_modal=False)

@@ -93,10 +93,9 @@ def test_repeated_toolpath_points_dropped_and_axes_made_unit():
 
 
 @pytest.mark.parametrize("linking", ["zigzag", "oneway"])
-def test_runs_in_cutting_order_as_views_where_consecutive(linking):
+def test_runs_in_cutting_order(linking):
     # runs on a closed section: gaps in the kept points, one run joined across the seam;
-    # passes cut backwards take their runs last to first, each reversed; a run of
-    # consecutive rows is a view of the points
+    # passes cut backwards take their runs last to first, each reversed
     surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
     opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, linking=linking)
     res = opts.resolved(cutter, 0.0)
@@ -121,8 +120,6 @@ def test_runs_in_cutting_order_as_views_where_consecutive(linking):
         assert run.pass_index == pts.pid[rows[0]]
         np.testing.assert_array_equal(run.feed_end, pts.feed_dirs[rows[-1]])
         np.testing.assert_array_equal(run.normal_start, pts.frame.normal[rows[0]])
-        consecutive = (np.abs(np.diff(rows)) == 1).all()
-        assert np.shares_memory(run.tips, pts.tips) == consecutive
     assert sum(not (np.abs(np.diff(rows)) == 1).all() for rows in want) == 2  # the seams
 
 

@@ -20,7 +20,7 @@ import pytest
 from _live_server import EventReader, live_server
 from _service_support import COARSE, blade_csv, blade_sections, upload
 
-from streamline_cam.service import JobStore, routes
+from streamline_cam.service import JobStore
 from streamline_cam.service import store as store_module
 from streamline_cam.service.preview import chord_deviation, decimate_polyline, toolpath_runs
 
@@ -79,11 +79,9 @@ def test_events_bring_every_job_then_a_coarse_job_to_done(tmp_path, finished_job
         assert hub.listeners == 0
 
 
-def test_an_idle_event_stream_pings_and_does_not_hold_the_server_up(tmp_path, monkeypatch):
-    monkeypatch.setattr(routes, "HEARTBEAT_S", 0.6)  # (15 s in service)
-    monkeypatch.setattr(routes, "DISCONNECT_CHECK_S", 0.2)
+def test_an_idle_event_stream_pings_and_does_not_hold_the_server_up(tmp_path):
     started = None
-    with live_server(tmp_path / "data") as (url, _app):
+    with live_server(tmp_path / "data", heartbeat_s=0.6) as (url, _app):  # (15 s default)
         reader = EventReader(url)
         deadline = time.monotonic() + 10
         while len(reader.comments) < 2 and time.monotonic() < deadline:

@@ -46,14 +46,15 @@ def test_curve_derivatives_equal_scipy():
         assert np.allclose(curve(x, nu), want, rtol=0.0, atol=1e-10 * np.abs(want).max())
 
 
-def test_chunked_evaluation_matches_one_chunk(monkeypatch):
-    import toolpath.tensor_spline as ts
+def test_evaluation_across_chunks_matches_separate_calls():
+    """More points than one chunk: each point's value as if evaluated on its own call."""
+    from toolpath.tensor_spline import CHUNK
 
     rng = np.random.default_rng(4)
     knots = _clamped(rng, 6)
     spline = TensorSpline(knots, knots, rng.normal(size=(len(knots) - 4,) * 2 + (3,)))
-    t, s = rng.random(1000), rng.random(1000)
+    n, cut = CHUNK + 1000, 1000  # one call crossing a chunk's end; two that do not
+    t, s = rng.random(n), rng.random(n)
     whole = spline.partial(t, s, 1, 1)
-    monkeypatch.setattr(ts, "CHUNK", 64)
-    assert np.array_equal(TensorSpline(spline.knots_t, spline.knots_s, spline.coef)
-                          .partial(t, s, 1, 1), whole)
+    parts = [spline.partial(t[:cut], s[:cut], 1, 1), spline.partial(t[cut:], s[cut:], 1, 1)]
+    assert np.array_equal(whole, np.concatenate(parts))

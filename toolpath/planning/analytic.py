@@ -29,6 +29,7 @@ from numpy.typing import NDArray
 
 from ..errors import InvalidParameterError
 from ..surface import ParametricSurface
+from ..tolerances import ANGLE_SLACK_DEG, ROUND_OFF, TINY
 
 __all__ = [
     "ANALYTIC_FORMAT_VERSION",
@@ -110,8 +111,8 @@ class PlaneSurface(AnalyticSurface):
         self.origin = np.array(_vec3(origin_mm, "origin_mm"))
         self.u = np.array(_vec3(t_vector_mm, "t_vector_mm"))
         self.v = np.array(_vec3(s_vector_mm, "s_vector_mm"))
-        if np.linalg.norm(np.cross(self.u, self.v)) <= 1e-12 * (
-                np.linalg.norm(self.u) * np.linalg.norm(self.v) + 1e-300):
+        if np.linalg.norm(np.cross(self.u, self.v)) <= ROUND_OFF * (
+                np.linalg.norm(self.u) * np.linalg.norm(self.v) + TINY):
             raise InvalidParameterError("t_vector_mm and s_vector_mm must not be parallel")
 
     def params(self) -> dict[str, Any]:
@@ -232,7 +233,7 @@ class CylinderPatch(AnalyticSurface):
         span = abs(self.angle[1] - self.angle[0])
         if span > 360.0:
             raise InvalidParameterError(f"angle_deg spans {span} deg > 360 deg")
-        self.closed_t = passes == "around" and abs(span - 360.0) < 1e-9
+        self.closed_t = passes == "around" and abs(span - 360.0) < ANGLE_SLACK_DEG
         self._a0 = np.radians(self.angle[0])
         self._da = np.radians(self.angle[1] - self.angle[0])
         self._x0, self._dx = self.length[0], self.length[1] - self.length[0]

@@ -65,6 +65,11 @@ DEPTH_LEVELS = 7
 DEPTH_CHAINS = 4
 #: Surface evaluations per batch of the search (memory: about 100 bytes each).
 _DEPTH_BATCH = 2_000_000
+#: Floor of the surface's speed (mm per unit parameter) where a search window's half-width
+#: in the parameter is ``reach / speed``: at a pole (a section collapsed to a point) the
+#: speed is round-off; the floor keeps the width finite, and the window is clipped to the
+#: domain.
+_LEAST_SPEED_MM = 1e-12
 
 
 @dataclass(frozen=True)
@@ -113,8 +118,8 @@ def gouge_depth_mm(surface: ParametricSurface, cutter: Cutter, t: ArrayLike, s: 
     tips, axes = np.asarray(tips_mm, dtype=float), np.asarray(axes, dtype=float)
     n = t.size
     reach = 2.0 * cutter.radius_mm
-    half_t = reach / np.maximum(np.asarray(speed_t, dtype=float), 1e-12)
-    half_s = reach / np.maximum(np.asarray(speed_s, dtype=float), 1e-12)
+    half_t = reach / np.maximum(np.asarray(speed_t, dtype=float), _LEAST_SPEED_MM)
+    half_s = reach / np.maximum(np.asarray(speed_s, dtype=float), _LEAST_SPEED_MM)
     closed = bool(surface.closed_t)
 
     def search(rows: NDArray[np.int64], ct: NDArray[np.float64], cs: NDArray[np.float64],

@@ -32,6 +32,11 @@ __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
+#: The grid's box grows by this (mm) on each side, so samples on its faces fall inside a
+#: cell whatever the round-off of ``(p - origin) / cell``.
+_BOX_PAD_MM = 1e-9
+#: Least cell size (mm): a reach of 0 would give cells of no size (a division by zero).
+_LEAST_CELL_MM = 1e-9
 
 
 class SampleCells(NamedTuple):
@@ -105,13 +110,14 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     if not len(points):  # nothing to find: one empty cell
         return SampleCells(points=points, index=np.zeros(0, dtype=np.int64),
                            cell_start=np.zeros(2, dtype=np.int64), origin=np.zeros(3),
-                           shape=np.ones(3, dtype=np.int64), cell_mm=max(float(reach_mm), 1e-9),
+                           shape=np.ones(3, dtype=np.int64),
+                           cell_mm=max(float(reach_mm), _LEAST_CELL_MM),
                            box=np.array([[np.inf] * 3 + [-np.inf] * 3]),
                            column=np.array([[1, 0]], dtype=np.int64))
     lo, hi = points_box(points)
-    lo = lo - 1e-9
-    extent = hi + 1e-9 - lo
-    cell = max(float(reach_mm), 1e-9)
+    lo = lo - _BOX_PAD_MM
+    extent = hi + _BOX_PAD_MM - lo
+    cell = max(float(reach_mm), _LEAST_CELL_MM)
     while np.prod(np.floor(extent / cell) + 1.0) > MAX_CELLS:
         cell *= 1.5
     shape = (np.floor(extent / cell) + 1).astype(np.int64)

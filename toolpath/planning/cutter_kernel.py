@@ -15,6 +15,10 @@ import numba
 
 __all__ = ["cutter_distance", "shadow_point"]
 
+#: Floor of ``|A^T nu|`` in :func:`shadow_point`: zero only for a core disc seen edge on,
+#: where any disc point is as good; the floor keeps the division finite.
+_LEAST_NORM = 1e-15
+
 
 @numba.njit(cache=True, inline="always")
 def cutter_distance(p0, p1, p2, a0, a1, a2, r, big, h):
@@ -39,7 +43,7 @@ def shadow_point(a11, a12, a21, a22, d1, d2, r, theta):
     """
     nx, nz = math.sin(theta), -math.cos(theta)
     w1, w2 = a11 * nx + a21 * nz, a12 * nx + a22 * nz  # A^T nu
-    size = max(math.hypot(w1, w2), 1e-15)
+    size = max(math.hypot(w1, w2), _LEAST_NORM)
     u1, u2 = w1 / size, w2 / size
     return (a11 * u1 + a12 * u2 + r * nx, a21 * u1 + a22 * u2 + r * nz,
             d1 * u1 + d2 * u2)

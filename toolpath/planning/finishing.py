@@ -651,6 +651,11 @@ def _chain(pts: PassPoints, runs: list[NDArray[np.int64]], order: _RunOrder, j: 
         point_kinds=point_kinds, point_passes=point_passes)
 
 
+#: A spiral's run that starts within this (mm) of where the one before ended continues it:
+#: the spiral is one pass cut into runs, whose shared ends are the same point.
+_SPIRAL_JOIN_MM = 1e-6
+
+
 def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
                res: PlannedOptions, pts: PassPoints, first: NDArray[np.int64],
                last: NDArray[np.int64], pass_index: NDArray[np.int64]
@@ -666,7 +671,7 @@ def _run_links(surface: ParametricSurface, cutter: Cutter, opts: FinishingOption
     step = pts.tips[first[1:]] - pts.tips[last[:-1]]
     gaps_mm = np.sqrt(np.einsum("ij,ij->i", step, step))
     if opts.linking is Linking.SPIRAL:
-        joined[1:] = (gaps_mm < 1e-6) & (pass_index[1:] == pass_index[:-1] + 1)
+        joined[1:] = (gaps_mm < _SPIRAL_JOIN_MM) & (pass_index[1:] == pass_index[:-1] + 1)
         return joined, direct
     ks = np.flatnonzero((gaps_mm <= res.link_max_mm)
                         & (pass_index[1:] != pass_index[:-1])) + 1

@@ -33,11 +33,20 @@ import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
 from ..path import MoveKind
+from ..tolerances import LIMIT_SLACK, NO_MEAN_AXIS
 from ..vectors import unit
 
 __all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "extends", "link_runs"]
 
 _TRAVERSE_STEP_DEG = 10.0
+#: Two directions closer than this (rad) are one: their great circle is undefined (the
+#: interpolation divides by its sine), and the path stays on the one direction.
+_SAME_DIRECTION_RAD = 1e-9
+#: Squared distance (mm^2, 1 nm apart) below which a link point repeats the one before.
+_SAME_TIP_MM2 = 1e-18
+#: Least angle step (rad) of a lead arc: a tolerance far above the radius asks for one
+#: step of pi/2 at most, and a step of 0 would divide by zero.
+_LEAST_ARC_STEP_RAD = 1e-6
 
 
 @dataclass(frozen=True)
@@ -66,7 +75,7 @@ def _great_circle(u: NDArray[np.float64], v: NDArray[np.float64]
     ang = float(np.arctan2(np.linalg.norm(np.cross(u, v)), u @ v))
     steps = max(int(np.ceil(np.degrees(ang) / _TRAVERSE_STEP_DEG)), 1)
     frac = np.arange(steps + 1) / steps
-    if ang > 1e-9:
+    if ang > _SAME_DIRECTION_RAD:
         dirs = (np.sin((1.0 - frac) * ang)[:, None] * u
                 + np.sin(frac * ang)[:, None] * v) / np.sin(ang)
     else:
@@ -106,7 +115,7 @@ class ClearanceSphere:
         u, v = unit(p - self.centre), unit(q - self.centre)
         dirs, _ = _great_circle(u, v)
         if self.up is not None and (dirs @ self.up).min() < min(u @ self.up,
-                                                                v @ self.up) - 1e-9:
+                                                                v @ self.up) - LIMIT_SLACK:
             first, ang1 = _great_circle(u, self.up)
             second, ang2 = _great_circle(self.up, v)
             dirs = np.concatenate([first, second[1:]])
@@ -121,7 +130,7 @@ class ClearanceSphere:
         pts = self.centre + self.radius_mm * dirs
         mix = (1.0 - frac)[:, None] * a + frac[:, None] * b
         axes = unit(mix)
-        bad = np.linalg.norm(mix, axis=1) < 1e-6
+        bad = np.linalg.norm(mix, axis=1) < NO_MEAN_AXIS
         axes[bad] = dirs[bad]
         return pts, axes
 
@@ -257,7 +266,7 @@ def _distinct_rows(pts, axes, kept):
             d2 = 0.0
             for k in range(3):
                 d2 += (pts[i, k] - pts[i - 1, k]) ** 2
-            if d2 <= 1e-18:
+            if d2 <= _SAME_TIP_MM2:
                 continue
         size = math.sqrt(axes[i, 0] * axes[i, 0] + axes[i, 1] * axes[i, 1]
                          + axes[i, 2] * axes[i, 2])
@@ -280,7 +289,7 @@ def _arc(centre_pt: NDArray[np.float64], f: NDArray[np.float64], n: NDArray[np.f
     if radius <= 0.0 or angle_deg <= 0.0:
         return np.zeros((0, 3))
     step = 2.0 * np.arccos(max(1.0 - tol / radius, -1.0)) if tol < radius else np.pi / 2
-    count = max(int(np.ceil(np.radians(angle_deg) / max(step, 1e-6))), 1)
+    count = max(int(np.ceil(np.radians(angle_deg) / max(step, _LEAST_ARC_STEP_RAD))), 1)
     th = np.linspace(0.0, np.radians(angle_deg), count + 1)[1:]
     sign = -1.0 if lead_in else 1.0
     pts = centre_pt + radius * (sign * np.sin(th)[:, None] * f

@@ -14,6 +14,7 @@ from typing import Any, Final
 import numpy as np
 
 from ..errors import InvalidParameterError
+from ..tolerances import NULL_VECTOR
 from .cutters import Cutter, CutterKind
 from .resolution import GOUGE_TOL_MM, MAX_RESERVE_SHARE
 
@@ -344,7 +345,7 @@ class FinishingOptions:
         """The fixed tool axis: a non-zero 3-vector, stored unit."""
         put = object.__setattr__
         axis = np.asarray(self.fixed_axis, dtype=float)
-        if axis.shape != (3,) or not np.isfinite(axis).all() or np.linalg.norm(axis) < 1e-9:
+        if axis.shape != (3,) or not np.isfinite(axis).all() or np.linalg.norm(axis) < NULL_VECTOR:
             raise InvalidParameterError(
                 f"fixed_axis must be a non-zero 3-vector, got {self.fixed_axis!r}")
         axis = axis / np.linalg.norm(axis)

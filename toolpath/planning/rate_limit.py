@@ -43,6 +43,11 @@ TUBE_SLACK_RAD = 1e-12
 #: (rad of azimuth per unit of the pass' abscissa): the least positive rate worth a trial.
 FIRST_TRIAL_RATE = 1e-9
 
+#: Floor of the cosines of the axis' and the normal's elevations (about the pole) in the
+#: lean-cone half-width: at the pole (90 deg) the azimuth is undefined, and the floor (an
+#: elevation of 89.94 deg) keeps the half-width finite (the ``acos`` argument is clipped).
+_LEAST_POLAR_COS = 1e-3
+
 
 class _Passes(NamedTuple):
     """The passes' rows (``n`` of them) for the compiled rate limit.
@@ -274,7 +279,7 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
         az_w, beta_w = _polar(axes[i], pole, ex, ey)
         beta[j] = beta_w
         c = ((rule.cos_lean - math.sin(beta_w) * math.sin(beta_n))
-             / (max(math.cos(beta_w), 1e-3) * max(math.cos(beta_n), 1e-3)))
+             / (max(math.cos(beta_w), _LEAST_POLAR_COS) * max(math.cos(beta_n), _LEAST_POLAR_COS)))
         half = math.acos(min(max(c, -1.0), 1.0))
         lo[j] = phi_n[j] - half
         hi[j] = phi_n[j] + half

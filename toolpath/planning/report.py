@@ -19,6 +19,11 @@ from .rotary_rate import RotaryRates
 
 __all__ = ["PlanningReport", "UnreachableRegion", "UnreachableSpan", "merge_spans"]
 
+#: The rounding reserve and the request less the planned tolerance are the same length
+#: (mm) by two routes when the reserve fits in the quarter kept for it: within this
+#: round-off (of values ~0.01 mm) no "needs more than the quarter" warning.
+_RESERVE_ROUND_OFF_MM = 1e-12
+
 
 @dataclass(frozen=True)
 class UnreachableSpan:
@@ -295,7 +300,7 @@ class PlanningReport:
                f"{_fmt(self.planned_chord_tol_mm)}"]
         short = min(self.scallop_request_mm - (self.planned_scallop_mm or 0.0),
                     self.chord_tol_mm - (self.planned_chord_tol_mm or 0.0))
-        if self.rounding_reserve_mm > short + 1e-12:
+        if self.rounding_reserve_mm > short + _RESERVE_ROUND_OFF_MM:
             out.append(f"  the grid needs more than the quarter of the request kept for "
                        f"it: the written program may exceed the request by up to "
                        f"{self.rounding_reserve_mm - short:.5f} mm (write more decimals, "

@@ -35,6 +35,7 @@ from shapely.ops import unary_union
 from ..errors import InvalidParameterError
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
+from ..tolerances import LENGTH_SLACK_MM, LIMIT_SLACK, NULL_VECTOR, SAME_POINT_MM
 from .cutters import Cutter, parse_cutter
 from .errors import PlanningError
 from .options import DEFAULT_FEED_MM_PER_MIN
@@ -96,7 +97,7 @@ class RoughingReport:
 def _frame(up: ArrayLike) -> NDArray[np.float64]:
     """Rows ``e_a, e_b, up``: an orthonormal frame with ``up`` last."""
     u = np.asarray(up, dtype=float)
-    if u.shape != (3,) or not np.isfinite(u).all() or np.linalg.norm(u) < 1e-9:
+    if u.shape != (3,) or not np.isfinite(u).all() or np.linalg.norm(u) < NULL_VECTOR:
         raise InvalidParameterError(f"up must be a non-zero 3-vector, got {up!r}")
     u = u / np.linalg.norm(u)
     helper = np.array([1.0, 0.0, 0.0]) if abs(u[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
@@ -140,7 +141,7 @@ def section_polygons(points: NDArray[np.float64], heights: ArrayLike, *, eps_mm:
         ok = ~np.isnan(e[:, :, 0])
         pick = np.argsort(~ok, axis=1, kind="stable")[:, :2]
         seg = np.take_along_axis(e, pick[:, :, None], axis=1)
-        seg = seg[np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1) > 1e-12]
+        seg = seg[np.linalg.norm(seg[:, 1] - seg[:, 0], axis=1) > SAME_POINT_MM]
         lines = MultiLineString(list(shapely.linestrings(seg)))
         thick = shapely.line_merge(unary_union(lines)).buffer(eps_mm)
         filled = unary_union([Polygon(g.exterior) for g in getattr(thick, "geoms", [thick])
@@ -276,10 +277,16 @@ def _levels(top: float, bottom: float, step_down_mm: float) -> NDArray[np.float6
     """Heights of the levels, ``step_down_mm`` apart from ``top`` down, the last at ``bottom``."""
     if not top > bottom:
         raise InvalidParameterError(f"top_mm={top!r} must be above bottom_mm={bottom!r}")
-    n_levels = int(np.ceil((top - bottom) / step_down_mm - 1e-9))
+    n_levels = int(np.ceil((top - bottom) / step_down_mm - LIMIT_SLACK))
     levels = top - step_down_mm * np.arange(1, n_levels + 1)
     levels[-1] = max(levels[-1], bottom)
     return levels
+
+
+#: How far below the part's top (mm) its highest section is taken: the top itself cuts the
+#: surface in a point or an edge, a micrometre lower in the top's outline (far below any
+#: step down).
+_BELOW_TOP_MM = 1e-6
 
 
 def _sections(points: NDArray[np.float64], levels: NDArray[np.float64], bottom: float,
@@ -290,8 +297,9 @@ def _sections(points: NDArray[np.float64], levels: NDArray[np.float64], bottom: 
     At the levels and, for the shadow, on a finer set of heights (every half step down
     from ``bottom`` and just below the part's top) (:func:`section_polygons`).
     """
-    fine = np.unique(np.r_[levels, np.arange(bottom, part_top + 1e-9, step_down_mm / 2.0),
-                           part_top - 1e-6])
+    fine = np.unique(np.r_[levels, np.arange(bottom, part_top + LENGTH_SLACK_MM,
+                                             step_down_mm / 2.0),
+                           part_top - _BELOW_TOP_MM])
     cut = dict(zip(fine.tolist(), section_polygons(points, fine, eps_mm=eps_mm), strict=True))
     sections = {h: v[0] for h, v in cut.items() if v is not None}
     walls = {h: v[1] for h, v in cut.items() if v is not None}
@@ -314,9 +322,9 @@ def _stock_outline(sections: dict[float, Polygon], stock: Any, margin_mm: float)
 def _shadow(sections: dict[float, Polygon], walls: dict[float, MultiLineString], level: float
             ) -> tuple[Any, Any]:
     """The union of the sections at and above ``level``, and of their walls."""
-    above = [p for h, p in sections.items() if h >= level - 1e-9]
+    above = [p for h, p in sections.items() if h >= level - LENGTH_SLACK_MM]
     shadow = unary_union(above) if above else Polygon()
-    wall = unary_union([w for h, w in walls.items() if h >= level - 1e-9])
+    wall = unary_union([w for h, w in walls.items() if h >= level - LENGTH_SLACK_MM])
     return shadow, wall
 
 

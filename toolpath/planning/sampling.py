@@ -69,6 +69,12 @@ __all__ = [
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
 #: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
 _GRID = 21
+#: A gap model (mm) whose coefficients are all below this is round-off: it has no extremes
+#: worth a search.
+_ROUND_OFF_MODEL_MM = 1e-15
+#: Second difference of three sampled gaps (mm) below which their parabola has no minimum
+#: (flat or bending down): the sample stays where it is.
+_LEAST_BEND_MM = 1e-15
 
 
 def chord_length_mm(frame: PassFrame, feed_radius_mm: NDArray[np.float64],
@@ -435,7 +441,8 @@ def _parabola_angle(before: NDArray[np.float64], here: NDArray[np.float64],
                     ) -> NDArray[np.float64]:
     """Where the parabola through three equally spaced samples is lowest (within one step)."""
     den = before - 2.0 * here + after
-    step = np.where(den > 1e-15, 0.5 * (before - after) / np.where(den > 1e-15, den, 1.0), 0.0)
+    step = np.where(den > _LEAST_BEND_MM,
+                    0.5 * (before - after) / np.where(den > _LEAST_BEND_MM, den, 1.0), 0.0)
     return angle + np.clip(step, -1.0, 1.0) * spacing
 
 
@@ -707,7 +714,7 @@ def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
         low = high = at_low = at_high = 0.0  # the ends: g(0) = g(1) = 0
         before = _gap_slope(0.0, a, b, c)
         # (a model of nothing but round-off has no extremes worth a search)
-        for j in range(1 if max(abs(a), abs(b), abs(c)) > 1e-15 else n_grid, n_grid):
+        for j in range(1 if max(abs(a), abs(b), abs(c)) > _ROUND_OFF_MODEL_MM else n_grid, n_grid):
             x = j * step
             after = _gap_slope(x, a, b, c)
             if (before < 0.0) != (after < 0.0) or before == 0.0:

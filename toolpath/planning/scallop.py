@@ -156,6 +156,11 @@ def stepover_mm(scallop_mm: ArrayLike, radius_mm: ArrayLike, curvature_per_mm: A
                      np.asarray(curvature_per_mm, dtype=float))
 
 
+#: Below this ``z``, ``asin(z) / z`` is its series ``1 + z^2 / 6`` (the next term, ``3 z^4
+#: / 40``, is under 1e-17 there), and ``0 / 0`` at ``z = 0`` is avoided.
+_ASIN_SERIES_Z = 1e-4
+
+
 @numba.vectorize(["float64(float64, float64, float64)"], cache=True)
 def _stepover(h, rho, k):
     """:func:`stepover_mm` at one point (a compiled ufunc: it broadcasts)."""
@@ -179,8 +184,8 @@ def _stepover(h, rho, k):
         # only in a hollow the cutter nearly fills (rho k -> 1) under a tall cusp: there
         # the cusp never reaches h and the stepover is half the hollow's circle
         return math.pi / max(abs(k), TINY)
-    # asin(z) / z, with its limit 1 at 0 (series below 1e-4)
-    ratio = 1.0 + z * z / 6.0 if z < 1e-4 else math.asin(z) / z
+    # asin(z) / z, with its limit 1 at 0
+    ratio = 1.0 + z * z / 6.0 if z < _ASIN_SERIES_Z else math.asin(z) / z
     return 2.0 * chord / root * ratio
 
 
@@ -384,6 +389,11 @@ def _cast(shadow, origin, theta):
     return y - origin[0], z - origin[1], x - origin[2]
 
 
+#: A turn of the tool axis slower than this (rad per mm of pass: a radius over 1e9 mm) is
+#: none: the turn radius is infinite there rather than the inverse of round-off.
+_STILL_TURN_PER_MM = 1e-9
+
+
 def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes: ArrayLike
                    ) -> NDArray[np.float64]:
     """Radius of the axis' convex turn along passes, mm (``inf`` where it turns concave or not).
@@ -402,7 +412,8 @@ def turn_radius_mm(contacts: ArrayLike, normals: ArrayLike, e1: ArrayLike, axes:
     turn = np.einsum("ijk,ijk->ij", np.cross(a, np.gradient(a, axis=0)), np.cross(n, e1))
     rate = turn / np.maximum(arc, TINY)
     with np.errstate(divide="ignore"):
-        return np.where(rate > 1e-9, 1.0 / np.where(rate > 1e-9, rate, 1.0), np.inf)
+        return np.where(rate > _STILL_TURN_PER_MM,
+                        1.0 / np.where(rate > _STILL_TURN_PER_MM, rate, 1.0), np.inf)
 
 
 @numba.njit(cache=True, inline="always")

@@ -29,6 +29,11 @@ from ..surface import ParametricSurface
 
 __all__ = ["PlacedSurface", "centred_on_table", "rotation_from_spec"]
 
+#: A rotation's ``Q Q^T`` may differ from the identity by this (per entry): a matrix built
+#: in doubles is orthonormal to 1e-15, a product of a few to 1e-13; any real shear or
+#: scale is far above it.
+_ORTHONORMAL_ATOL = 1e-9
+
 
 def _axis_rotation(axis: str, angle_deg: float) -> NDArray[np.float64]:
     c, s = np.cos(np.radians(angle_deg)), np.sin(np.radians(angle_deg))
@@ -81,7 +86,7 @@ class PlacedSurface(ParametricSurface):
     def __init__(self, surface: ParametricSurface, rotation: ArrayLike,
                  translation_mm: ArrayLike = (0.0, 0.0, 0.0)) -> None:
         q = np.asarray(rotation, dtype=float)
-        if q.shape != (3, 3) or not np.allclose(q @ q.T, np.eye(3), atol=1e-9) \
+        if q.shape != (3, 3) or not np.allclose(q @ q.T, np.eye(3), atol=_ORTHONORMAL_ATOL) \
                 or np.linalg.det(q) < 0.0:
             raise InvalidParameterError("rotation must be a proper 3x3 rotation matrix")
         d = np.asarray(translation_mm, dtype=float)

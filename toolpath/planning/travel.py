@@ -36,9 +36,9 @@ from numpy.typing import ArrayLike, NDArray
 
 from machines import Machine
 from machines.kinematics import solve_inverse
-from machines.limits import Violation, check_travel
+from machines.limits import TRAVEL_TOLERANCE, Violation, check_travel
 
-from ..tolerances import LENGTH_SLACK_MM
+from ..tolerances import LENGTH_SLACK_MM, NO_MEAN_AXIS
 
 __all__ = ["TRAVEL_MARGIN_MM", "AxisRange", "TravelFit", "fit_travel"]
 
@@ -51,6 +51,9 @@ _OVERRUN_WEIGHT = 1.0e4
 #: Constraints per axis and side in the first round, and added per round.
 _ROUND_ROWS = 256
 _MAX_ROUNDS = 30
+#: A horizontal shift below this (mm) prints as 0.000 at the report's 3 decimals: the
+#: part is said to be raised or lowered only.
+_PRINTS_ZERO_MM = 5e-4
 
 
 @dataclass(frozen=True)
@@ -64,8 +67,8 @@ class AxisRange:
     @property
     def fits(self) -> bool:
         """The needed range lies within the travel (up to the limits' tolerance)."""
-        return (self.needed_mm[0] >= self.travel_mm[0] - 1e-6
-                and self.needed_mm[1] <= self.travel_mm[1] + 1e-6)
+        return (self.needed_mm[0] >= self.travel_mm[0] - TRAVEL_TOLERANCE
+                and self.needed_mm[1] <= self.travel_mm[1] + TRAVEL_TOLERANCE)
 
     def describe(self) -> str:
         """``axis 'Z' needs -830.2..-512.0 mm (318.2 mm), travel -800..0 mm (800 mm)``."""
@@ -112,7 +115,7 @@ class TravelFit:
     def describe_offset(self) -> str:
         """``raised 25.000 mm`` / ``moved by (1.000, 0.000, 25.000) mm``."""
         d = self.offset_mm
-        if abs(d[0]) < 5e-4 and abs(d[1]) < 5e-4:
+        if abs(d[0]) < _PRINTS_ZERO_MM and abs(d[1]) < _PRINTS_ZERO_MM:
             return f"raised {d[2]:.3f} mm" if d[2] >= 0.0 else f"lowered {-d[2]:.3f} mm"
         return f"moved by ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}) mm"
 
@@ -147,7 +150,7 @@ def _with_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
         return tips, axes, np.arange(n)
     mean = axes[1:] + axes[:-1]
     size = np.linalg.norm(mean, axis=1)
-    take = np.flatnonzero(np.asarray(split, dtype=bool) & (size > 1e-6))
+    take = np.flatnonzero(np.asarray(split, dtype=bool) & (size > NO_MEAN_AXIS))
     mid_tips = 0.5 * (tips[take] + tips[take + 1])
     mid_axes = mean[take] / size[take, None]
     # in path order, each middle before the point its move arrives at
