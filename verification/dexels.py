@@ -189,8 +189,7 @@ class SweepIndex:
     compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
-    _sorted: dict[int, tuple[FloatArray, FloatArray]] = field(default_factory=dict,
-                                                               repr=False)
+    _sorted: dict[int, tuple[FloatArray, ...]] = field(default_factory=dict, repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -207,9 +206,11 @@ class SweepIndex:
             margin = self.reach_limit_mm + pieces.max_half_mm
             grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
             self._grids[which, k] = grid
-            # midpoints and half lengths in the grid's order, for the compiled walk
-            self._sorted[id(grid)] = (np.ascontiguousarray(pieces.mid[grid.order]),
-                                      np.ascontiguousarray(pieces.half_mm[grid.order]))
+            # the fields the compiled walks read, in the grid's order (read as met)
+            self._sorted[id(grid)] = tuple(
+                np.ascontiguousarray(v[grid.order], dtype=float)
+                for v in (pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee,
+                          pieces.axis, pieces.height_mm))
         return self._grids[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
@@ -245,16 +246,16 @@ class SweepIndex:
         spans = grid.span_of(reach)
         if self.corner_radius_mm is None and self.compiled:
             # one walk, each dexel over its own span of cells
+            mid, half, a, e, ee, axis, _ = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_capsule_entries(
-                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
-                pieces.a, pieces.e, pieces.ee, pieces.axis, self.radius_mm, BEHIND_COSINE,
-                below_mm=below_mm)
+                grid, spans, points, dirs, centres, reach, mid, half, a, e, ee, axis,
+                self.radius_mm, BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         if self.compiled:
             # the same, flat and bull-nose pieces: bounds and exact entries in the walk
+            mid, half, a, e, _, axis, height = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_sweep_entries(
-                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
-                pieces.a, pieces.e, pieces.axis, pieces.height_mm,
+                grid, spans, points, dirs, centres, reach, mid, half, a, e, axis, height,
                 core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
                 behind_cosine=BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)

@@ -26,6 +26,10 @@ FloatArray = NDArray[np.float64]
 Z_MIN_COSINE: Final[float] = 0.05
 """A Z-map sees a sample only where its normal is within acos(0.05) = 87 deg of +Z."""
 
+FLAG_MARGIN_MM: Final[float] = 1e-9
+"""The collision search finds more than the near search where lower by more than this, mm:
+the rounding of one piece met by both searches, far below any deviation reported."""
+
 
 class Dexels:
     """Deviation of arbitrary design points: the searches with their parameters.
@@ -201,7 +205,7 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
         far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
                         below_mm=res.lam_mm[coarse])
-        flagged = far.lam_mm < res.lam_mm[coarse] - 1e-9
+        flagged = far.lam_mm < res.lam_mm[coarse] - FLAG_MARGIN_MM
         # the near search missed it: a ball from outside gouging deeper than it was sized
         # for, or something it never looks at (shank, from behind, a sharp convex edge)
         deep = flagged & ~(far.shank | far.behind) & (far.lam_mm < 0.0)
