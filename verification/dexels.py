@@ -26,7 +26,10 @@ Two searches keep the candidate pieces few:
   through the part, the shank rubbing a wall. Where it finds more than the near search,
   every sample around is searched again: with the collision search when the piece was the
   shank or came from behind, else (a ball gouging deeper than ``g`` from outside) with a
-  near search sized for that depth, which holds far fewer candidates.
+  near search sized for that depth, which holds far fewer candidates. A shank piece that
+  finds more by no more than the tolerance of the pieces (replay plus merge) met the ball
+  it starts at, which the merged ball pieces approximate from inside: the same contact,
+  kept on that sample and not searched around.
 
 **Flat and bull-nose cutters** (corner radius ``r < R``) are the points within ``r`` of a
 core disc of radius ``rho0 = R - r`` (:mod:`verification.torus`): every ball of radius

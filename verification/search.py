@@ -49,12 +49,18 @@ class Dexels:
     corner_radius : float, optional
         Corner radius ``r`` of a flat or bull-nose cutter, mm (default: a ball, ``r = R``):
         the near search runs around ``P + r n`` for the core centres.
+    model_tol_mm : float
+        How far inside the swept cutter its pieces may lie, mm (the replay's chord
+        tolerance plus the merge tolerance): a shank piece that leaves less than the near
+        search by no more than this met the cutter end the pieces approximate, at one of
+        the shank's instances, not something the near search missed (0: any less).
     """
 
     def __init__(self, index: SweepIndex, radius: float, horizons: tuple[float, ...],
-                 depth: float, method: DexelMethod, *, corner_radius: float | None = None
-                 ) -> None:
+                 depth: float, method: DexelMethod, *, corner_radius: float | None = None,
+                 model_tol_mm: float = 0.0) -> None:
         self.index, self.radius, self.depth = index, radius, depth
+        self.model_tol_mm = model_tol_mm
         self.corner = radius if corner_radius is None else corner_radius
         self.horizons = horizons
         self.horizon = horizons[-1]
@@ -205,7 +211,12 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
         far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
                         below_mm=res.lam_mm[coarse])
-        flagged = far.lam_mm < res.lam_mm[coarse] - FLAG_MARGIN_MM
+        near_lam = res.lam_mm[coarse]
+        # a shank piece starts at the cutter end (a ball's centre), so at its instance it
+        # holds the very cutter the near search's merged pieces approximate from inside:
+        # less by no more than that approximation is the same contact, not a miss
+        end = far.shank & ~far.behind & (far.lam_mm >= near_lam - ev.model_tol_mm)
+        flagged = (far.lam_mm < near_lam - FLAG_MARGIN_MM) & ~end
         # the near search missed it: a ball from outside gouging deeper than it was sized
         # for, or something it never looks at (shank, from behind, a sharp convex edge)
         deep = flagged & ~(far.shank | far.behind) & (far.lam_mm < 0.0)

@@ -180,7 +180,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                        base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
                        reach_limit_mm=radius + horizon + depth,
                        max_pairs=opts.max_pairs, corner_radius_mm=corner)
-    ev = Dexels(index, radius, levels, depth, method, corner_radius=corner)
+    ev = Dexels(index, radius, levels, depth, method, corner_radius=corner,
+                model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm)
     lap("pieces")
     stride = None
     if opts.collision:
