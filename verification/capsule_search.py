@@ -25,8 +25,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["centre_cells", "column_slots", "enters_before", "is_candidate",
-           "lowest_capsule_entries", "pair_value", "pair_values"]
+__all__ = ["candidate_slots", "centre_cell", "column_slots", "enters_before", "is_candidate",
+           "lowest_capsule_entries", "pair_value", "pair_values", "walk_shape"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -131,20 +131,38 @@ def pair_values(lam_in: FloatArray, lam_out: FloatArray, cosine: FloatArray,
     return value, behind
 
 
+@numba.njit(cache=True, inline="always")
+def centre_cell(c: float, origin: float, cell: float, n_cells: int, span: int) -> int:
+    """The cell of a search centre along one axis; a far (or non-finite) one beyond reach.
+
+    ``floor((c - origin) / cell)`` held within ``[-span - 1, n_cells + span]``, NaN to
+    ``-span - 1``: cells beyond those hold no piece within ``span`` cells.
+    """
+    v = (c - origin) / cell
+    if not v >= -span - 1.0:
+        return -span - 1
+    if v > n_cells + span:
+        return n_cells + span
+    return math.floor(v)
+
+
 @numba.njit(cache=True)
-def candidate_slots(cx: float, cy: float, cz: float, lim2: float, ci: int, cj: int, ck: int,
-                    span: int, dims: IntArray, origin: FloatArray, cell: float,
-                    starts: IntArray, mid: FloatArray, buf: IntArray) -> tuple[IntArray, int]:
+def candidate_slots(cx: float, cy: float, cz: float, lim2: float, span: int, dims: IntArray,
+                    origin: FloatArray, cell: float, starts: IntArray, mid: FloatArray,
+                    buf: IntArray) -> tuple[IntArray, int]:
     """Slots of the pieces whose midpoints lie within ``sqrt(lim2)`` of ``c``, in grid order.
 
     The one loop nest of the compiled walks (this module's and
     :mod:`verification.sweep_search`): the columns ``(i, j)`` within ``span`` cells of the
-    centre's cell ``(ci, cj, ck)`` that the search ball meets (along ``j`` only those
+    centre's cell (:func:`centre_cell`) that the search ball meets (along ``j`` only those
     within the ball's chord at ``i``, one more each side for the rounding of the borders;
     :func:`column_slots` decides), their cells the ball reaches, and of their pieces the
     ones :func:`is_candidate` keeps. Written to ``buf`` (grown when full, so returned) and
     counted: ``buf[:n]``.
     """
+    ci = centre_cell(cx, origin[0], cell, dims[0], span)
+    cj = centre_cell(cy, origin[1], cell, dims[1], span)
+    ck = centre_cell(cz, origin[2], cell, dims[2], span)
     n = 0
     k0 = max(ck - span, 0)
     k1 = min(ck + span, dims[2] - 1)
@@ -198,7 +216,7 @@ def capsule_entry_bound(slot: int, mid: FloatArray, half: FloatArray, e: FloatAr
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
@@ -214,9 +232,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
             px, py, pz = points[q, 0], points[q, 1], points[q, 2]
             dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-            buf, n = candidate_slots(cx, cy, cz, lim2[q], cell_ijk[q, 0], cell_ijk[q, 1],
-                                     cell_ijk[q, 2], spans[q], dims, origin, cell, starts,
-                                     mid, buf)
+            buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
+                                     starts, mid, buf)
             best = lam[q]
             best_slot = -1
             best_behind = False
@@ -246,20 +263,10 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
             pairs[q] = n
 
 
-def centre_cells(grid: PieceGrid, centres: FloatArray, span: int | IntArray
-                 ) -> tuple[IntArray, IntArray, IntArray]:
-    """The cell of each search centre, the spans per centre and the grid's dims.
-
-    A far (or non-finite) centre gets a cell beyond the reach of any piece.
-    """
-    q = centres.shape[0]
-    dims = np.asarray(grid.dims, dtype=np.int64)
-    cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
+def walk_shape(grid: PieceGrid, span: int | IntArray, q: int) -> tuple[IntArray, IntArray]:
+    """The spans of ``q`` dexels (one for all, or one each) and the grid's dims, as walked."""
     spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
-    far = (-spans - 1.0)[:, None]
-    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
-                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
-    return np.ascontiguousarray(cell), spans, dims
+    return spans, np.asarray(grid.dims, dtype=np.int64)
 
 
 def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatArray,
@@ -323,11 +330,11 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
         return lam, piece, behind, 0
-    cell, spans, dims = centre_cells(grid, centres, span)
+    spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
         _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              f(reach_mm * reach_mm, dtype=float), f(cell), spans, dims,
+              f(reach_mm * reach_mm, dtype=float), spans, dims,
               f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
               grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
               float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)

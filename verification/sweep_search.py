@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule_search import WALK_BLOCK, candidate_slots, centre_cells, enters_before, pair_value
+from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, pair_value, walk_shape
 from .grid import PieceGrid
 from .torus import sweep_bound, sweep_interval
 
@@ -53,7 +53,7 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray, mid: FloatArray, half: FloatArray, a: FloatArray,
           e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
           corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
@@ -70,9 +70,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         for q in range(b * WALK_BLOCK, min(n_q, (b + 1) * WALK_BLOCK)):
             p, d = points[q], dirs[q]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-            buf, n = candidate_slots(cx, cy, cz, lim2[q], cell_ijk[q, 0], cell_ijk[q, 1],
-                                     cell_ijk[q, 2], spans[q], dims, origin, cell, starts,
-                                     mid, buf)
+            buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
+                                     starts, mid, buf)
             if bounds.shape[0] < buf.shape[0]:
                 bounds = np.empty(buf.shape[0])
             best = lam[q]
@@ -176,11 +175,11 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
         return np.full(q, np.inf), piece, behind, 0
-    cell, spans, dims = centre_cells(grid, centres, span)
+    spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
         _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              f(reach_mm * reach_mm, dtype=float), cell, spans, dims,
+              f(reach_mm * reach_mm, dtype=float), spans, dims,
               f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, grid.order,
               f(sorted_mid), f(sorted_half_mm), f(a, dtype=float), f(e, dtype=float),
               f(axis, dtype=float), f(height_mm, dtype=float), float(core_radius_mm),
