@@ -112,12 +112,17 @@ class Dexels:
             # iterative deepening: a dexel whose remaining material is found within level
             # e_k is exact (every ball that could leave less lies within r(e_k)); the others
             # are searched again with the next, wider level
-            centres = points + self.corner * normals
+            centres = normals * self.corner
+            centres += points
             todo = np.arange(points.shape[0])
             for level in self.horizons:
-                r = near_search_radius_mm(self.corner, level, g, convexity[todo],
+                # the first level meets every dexel: no copies of the rows
+                every = todo.shape[0] == points.shape[0]
+                r = near_search_radius_mm(self.corner, level, g,
+                                          convexity if every else convexity[todo],
                                           core_radius_mm=self.radius - self.corner)
-                part = self.index.search("near", points[todo], dirs[todo], centres[todo], r)
+                part = (self.index.search("near", points, dirs, centres, r) if every else
+                        self.index.search("near", points[todo], dirs[todo], centres[todo], r))
                 scatter(out, todo, part, merge=True)
                 todo = todo[~(part.lam_mm * cos[todo] <= level)]
                 if todo.shape[0] == 0:
@@ -203,7 +208,9 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
     conv = samples.convexity_per_mm.ravel()
     vis = np.flatnonzero(ev.visible(nrm))
     res = DexelResult.empty(pts.shape[0])
-    part = ev.search(pts[vis], nrm[vis], conv[vis])
+    # every sample visible (the normal dexels of a surface): no copies of the rows
+    every = vis.shape[0] == pts.shape[0]
+    part = ev.search(pts, nrm, conv) if every else ev.search(pts[vis], nrm[vis], conv[vis])
     scatter(res, vis, part)
     if collision_stride is not None:
         ct = _coarse_positions(n_t, collision_stride)

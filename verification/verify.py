@@ -47,6 +47,7 @@ from .dexels import SweepIndex, near_search_radius_mm
 from .errors import VerificationError
 from .extremes import Extreme, border, extreme
 from .options import DexelMethod, VerifyOptions
+from .pages import with_small_pages
 from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
 from .replay import ToolMotion, replay
 from .report import (
@@ -113,6 +114,7 @@ def _joints(motion: ToolMotion, tol: float) -> JointDeviation:
         blocks_over_tol=int((dev > tol).sum()), substeps=int(motion.substeps.sum()))
 
 
+@with_small_pages
 def verify_program(program: Program, surface: ParametricSurface, machine: Machine,
                    cutter: Cutter, *, options: VerifyOptions | None = None,
                    offsets: dict[int, tuple[float, ...]] | None = None) -> VerificationReport:
