@@ -64,6 +64,8 @@ from verification.samples import sample_design
 SCALLOP_MM = 0.005
 CHORD_MM = 0.01
 CUTTER = "ball:6"
+#: A planner overcut of 0 is divided as this, mm (a ratio, not a division by zero).
+NO_OVERCUT_MM = 1e-12
 
 
 def timed(fn):
@@ -261,7 +263,7 @@ def compare_exact(tp, surface, machine, cutter, opts, planner, posted) -> None:
           f"mm: ratio {exact.max_scallop_mm / planner.max_scallop_mm:.3f}; gouge "
           f"{exact.max_gouge_mm:.5f} mm vs planner's chord overcut "
           f"{planner.chord_overcut_mm:.5f} mm: ratio "
-          f"{exact.max_gouge_mm / max(planner.chord_overcut_mm, 1e-12):.3f}")
+          f"{exact.max_gouge_mm / max(planner.chord_overcut_mm, NO_OVERCUT_MM):.3f}")
     d_scallop = 1000 * (posted.max_scallop_mm - exact.max_scallop_mm)
     d_gouge = 1000 * (posted.max_gouge_mm - exact.max_gouge_mm)
     print(f"    the G-code's rounding adds {d_scallop:+.2f} um of scallop and {d_gouge:+.2f} um "

@@ -60,11 +60,15 @@ from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
 
-__all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "DexelResult", "SweepIndex",
+__all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "MIN_TARGET_CELL_MM", "DexelResult", "SweepIndex",
            "near_search_radius_mm"]
 
 #: Search radii per grid cell (the cell nearest ``reach / CELL_PER_REACH`` is used).
 CELL_PER_REACH = 2.0
+
+#: Smallest cell a search asks for, mm: a search of radius 0 (a point) gets the finest grid
+#: (the cell's log2 needs a positive target; any length far below a grid cell works).
+MIN_TARGET_CELL_MM = 1e-12
 
 #: A piece whose tool axis makes ``a . d`` below this with the dexel comes from behind:
 #: the rest of the tool lies inside the part (axis more than 120 deg from the dexel). Side
@@ -201,7 +205,7 @@ class SweepIndex:
         return self._pieces[which]
 
     def _grid(self, which: str, reach_mm: float) -> PieceGrid:
-        target = max(reach_mm / CELL_PER_REACH, 1e-12)
+        target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
         k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
         if (which, k) not in self._grids:
             pieces = self.pieces(which)
