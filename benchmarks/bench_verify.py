@@ -64,6 +64,8 @@ from verification.samples import sample_design
 SCALLOP_MM = 0.005
 CHORD_MM = 0.01
 CUTTER = "ball:6"
+#: A planner overcut of 0 is divided as this, mm (a ratio, not a division by zero).
+NO_OVERCUT_MM = 1e-12
 
 
 def timed(fn):
@@ -145,13 +147,17 @@ def verify_child(argv: list[str]) -> int:
         surface = pickle.load(f)
     machine = load_machine(machine_name)
     dialect = {"grbl": GRBL, "linuxcnc": LINUXCNC}[dialect_name]
+    cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     text, t_read = timed(lambda: open(path, encoding="utf-8").read())
     program, t_parse = timed(lambda: parse(text, dialect))
     rep, t_verify = timed(lambda: verify_program(program, surface, machine,
                                                  parse_cutter(CUTTER),
                                                  options=VerifyOptions(scallop_mm=SCALLOP_MM)))
+    cpu1 = resource.getrusage(resource.RUSAGE_SELF)
     print(json.dumps({"lines": len(text.splitlines()), "parse_s": t_read + t_parse,
                       "verify_s": t_verify, "timings_s": rep.timings_s,
+                      "user_s": cpu1.ru_utime - cpu0.ru_utime,
+                      "sys_s": cpu1.ru_stime - cpu0.ru_stime,
                       "gouge_mm": rep.max_gouge_mm, "scallop_mm": rep.max_scallop_mm,
                       "pairs": rep.pairs,
                       "peak_mb": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}))
@@ -185,7 +191,8 @@ def issue27(surface, machine, program, blocks: int, baseline: bool) -> None:
     import tempfile
 
     print("issue 27: verification of 5-axis programs (fresh process each, fastest of 3, 1 "
-          "and 2 runs; peak = ru_maxrss)")
+          "and 2 runs; peak = ru_maxrss); load average "
+          + " ".join(f"{v:.2f}" for v in os.getloadavg()))
     with tempfile.TemporaryDirectory() as tmp:
         surface_pkl = os.path.join(tmp, "surface.pkl")
         with open(surface_pkl, "wb") as f:
@@ -205,21 +212,28 @@ def issue27(surface, machine, program, blocks: int, baseline: bool) -> None:
         rows.append(("dense (moves split)", run_child(big, surface_pkl, machine.name,
                                                       "linuxcnc", repeats=2), None, 40.0))
     print(f"  {'program':<20}{'lines':>10}{'parse s':>9}{'verify s':>9}{'search s':>9}"
-          f"{'total s':>9}{'issue s':>9}{'target':>8}{'peak MB':>9}{'gouge mm':>11}"
-          f"{'scallop mm':>11}")
+          f"{'total s':>9}{'user s':>8}{'sys s':>7}{'issue s':>9}{'target':>8}{'peak MB':>9}"
+          f"{'gouge mm':>11}{'scallop mm':>11}")
     for name, r, issue_s, target in rows:
         total = r["parse_s"] + r["verify_s"]
         print(f"  {name:<20}{r['lines']:>10,}{r['parse_s']:>9.1f}{r['verify_s']:>9.1f}"
-              f"{r['timings_s']['search']:>9.1f}{total:>9.1f}"
-              f"{'-' if issue_s is None else f'{issue_s:g}':>9}"
+              f"{r['timings_s']['search']:>9.1f}{total:>9.1f}{r['user_s']:>8.1f}"
+              f"{r['sys_s']:>7.1f}{'-' if issue_s is None else f'{issue_s:g}':>9}"
               f"{'-' if target is None else f'{target:g}':>8}{r['peak_mb']:>9.0f}"
               f"{r['gouge_mm']:>11.6f}{r['scallop_mm']:>11.6f}")
+    for name, r, _, _ in rows:
+        print(f"    {name.strip()} stages, s: "
+              + ", ".join(f"{k} {v:.2f}" for k, v in r["timings_s"].items()))
+    print("  (user, sys: CPU seconds of the parse and the verification in the child, both "
+          "cores; wall seconds depend on the machine's load, CPU seconds much less)")
     new = rows[0][1]
     if baseline:
         old = rows[1][1]
         ratio = old["timings_s"]["search"] / new["timings_s"]["search"]
+        cpu_ratio = (old["user_s"] + old["sys_s"]) / (new["user_s"] + new["sys_s"])
         print(f"  same run, old / new: search {ratio:.1f}x, "
-              f"verify {old['verify_s'] / new['verify_s']:.1f}x; gouge and scallop differ by "
+              f"verify {old['verify_s'] / new['verify_s']:.1f}x, CPU {cpu_ratio:.1f}x; "
+              f"gouge and scallop differ by "
               f"{abs(new['gouge_mm'] - old['gouge_mm']):.2g} and "
               f"{abs(new['scallop_mm'] - old['scallop_mm']):.2g} mm")
         # the issue's 54 s, scaled by what the old search takes on this machine now
@@ -227,6 +241,7 @@ def issue27(surface, machine, program, blocks: int, baseline: bool) -> None:
         print(f"  scaled to the issue's machine (old total = 54 s): blade "
               f"{(new['parse_s'] + new['verify_s']) * scale:.1f} s (target 5), dense "
               f"{(rows[-1][1]['parse_s'] + rows[-1][1]['verify_s']) * scale:.1f} s (target 40)")
+    print("  load average at the end " + " ".join(f"{v:.2f}" for v in os.getloadavg()))
     dense_r = rows[-1][1]
     print(f"  dense vs blade (the same path; may differ by the merge tolerance, 1 um, and the "
           f"text rounding of the split points): gouge {dense_r['gouge_mm']:.6f} vs "
@@ -248,7 +263,7 @@ def compare_exact(tp, surface, machine, cutter, opts, planner, posted) -> None:
           f"mm: ratio {exact.max_scallop_mm / planner.max_scallop_mm:.3f}; gouge "
           f"{exact.max_gouge_mm:.5f} mm vs planner's chord overcut "
           f"{planner.chord_overcut_mm:.5f} mm: ratio "
-          f"{exact.max_gouge_mm / max(planner.chord_overcut_mm, 1e-12):.3f}")
+          f"{exact.max_gouge_mm / max(planner.chord_overcut_mm, NO_OVERCUT_MM):.3f}")
     d_scallop = 1000 * (posted.max_scallop_mm - exact.max_scallop_mm)
     d_gouge = 1000 * (posted.max_gouge_mm - exact.max_gouge_mm)
     print(f"    the G-code's rounding adds {d_scallop:+.2f} um of scallop and {d_gouge:+.2f} um "

@@ -38,6 +38,8 @@ extremes
 report
     ``VerificationReport`` (JSON via ``to_dict``), ``Location``, ``BlockGouge``,
     ``DeviationStats``, ``JointDeviation``, ``DeviationMap``.
+pages
+    ``small_pages``: numpy's huge-page request off while a verification runs.
 verify
     ``verify_program``, ``verify_file``, ``verify_toolpath`` (a planner's toolpath as the
     machine runs it, unrounded), ``program_of_toolpath``, ``load_surface``.

@@ -25,11 +25,20 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["centre_cells", "column_slots", "enters_before", "is_candidate",
-           "lowest_capsule_entries", "pair_value", "pair_values"]
+__all__ = ["candidate_slots", "centre_cell", "column_slots", "enters_before", "is_candidate",
+           "lowest_capsule_entries", "pair_value", "pair_values", "walk_shape"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+#: Widening of a grid cell's borders (in cells) when a walk tests whether the search ball
+#: meets a column or a cell: the cell a midpoint was filed in comes from a floor of its own
+#: rounding, so a ball grazing a border keeps the cell on both sides.
+COLUMN_RIM = 1e-6
+#: Dexels one task of a compiled walk takes (tasks are handed to the cores as they free,
+#: so a core slowed by other work takes fewer); within a task the piece that left least
+#: on one dexel is tried first on the next.
+WALK_BLOCK = 64
 
 
 @numba.njit(cache=True)
@@ -48,7 +57,7 @@ def column_slots(i: int, j: int, k0: int, k1: int, cx: float, cy: float, cz: flo
     """
     if i < 0 or i >= dims[0] or j < 0 or j >= dims[1] or k0 > k1:
         return 0, 0
-    rim = 1e-6 * cell
+    rim = COLUMN_RIM * cell
     x0 = origin[0] + i * cell
     gx = max(x0 - rim - cx, cx - (x0 + cell + rim), 0.0)
     y0 = origin[1] + j * cell
@@ -122,67 +131,142 @@ def pair_values(lam_in: FloatArray, lam_out: FloatArray, cosine: FloatArray,
     return value, behind
 
 
+@numba.njit(cache=True, inline="always")
+def centre_cell(c: float, origin: float, cell: float, n_cells: int, span: int) -> int:
+    """The cell of a search centre along one axis; a far (or non-finite) one beyond reach.
+
+    ``floor((c - origin) / cell)`` held within ``[-span - 1, n_cells + span]``, NaN to
+    ``-span - 1``: cells beyond those hold no piece within ``span`` cells.
+    """
+    v = (c - origin) / cell
+    if not v >= -span - 1.0:
+        return -span - 1
+    if v > n_cells + span:
+        return n_cells + span
+    return math.floor(v)
+
+
+@numba.njit(cache=True)
+def candidate_slots(cx: float, cy: float, cz: float, lim2: float, span: int, dims: IntArray,
+                    origin: FloatArray, cell: float, starts: IntArray, mid: FloatArray,
+                    buf: IntArray) -> tuple[IntArray, int]:
+    """Slots of the pieces whose midpoints lie within ``sqrt(lim2)`` of ``c``, in grid order.
+
+    The one loop nest of the compiled walks (this module's and
+    :mod:`verification.sweep_search`): the columns ``(i, j)`` within ``span`` cells of the
+    centre's cell (:func:`centre_cell`) that the search ball meets (along ``j`` only those
+    within the ball's chord at ``i``, one more each side for the rounding of the borders;
+    :func:`column_slots` decides), their cells the ball reaches, and of their pieces the
+    ones :func:`is_candidate` keeps. Written to ``buf`` (grown when full, so returned) and
+    counted: ``buf[:n]``.
+    """
+    ci = centre_cell(cx, origin[0], cell, dims[0], span)
+    cj = centre_cell(cy, origin[1], cell, dims[1], span)
+    ck = centre_cell(cz, origin[2], cell, dims[2], span)
+    n = 0
+    k0 = max(ck - span, 0)
+    k1 = min(ck + span, dims[2] - 1)
+    rim = COLUMN_RIM * cell
+    for i in range(max(ci - span, 0), min(ci + span, dims[0] - 1) + 1):
+        x0 = origin[0] + i * cell
+        gx = max(x0 - rim - cx, cx - (x0 + cell + rim), 0.0)
+        across = lim2 - gx * gx
+        if not across >= 0.0:
+            continue
+        w = math.sqrt(across) + rim
+        j0 = max(cj - span, math.floor((cy - w - origin[1]) / cell) - 1, 0)
+        j1 = min(cj + span, math.floor((cy + w - origin[1]) / cell) + 1, dims[1] - 1)
+        for j in range(j0, j1 + 1):
+            first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2, dims, origin, cell,
+                                       starts)
+            for slot in range(first, stop):
+                if not is_candidate(slot, mid, cx, cy, cz, lim2):
+                    continue
+                if n == buf.shape[0]:
+                    grown = np.empty(2 * n, dtype=np.int64)
+                    grown[:n] = buf
+                    buf = grown
+                buf[n] = slot
+                n += 1
+    return buf, n
+
+
+@numba.njit(cache=True, inline="always")
+def capsule_entry_bound(slot: int, mid: FloatArray, half: FloatArray, e: FloatArray,
+                        px: float, py: float, pz: float, dx: float, dy: float, dz: float,
+                        radius: float) -> float:
+    """A lower bound on where the line ``p + lam d`` enters the capsule in ``slot``.
+
+    Every point ``x`` of the segment lies within ``h`` (its half length) of the midpoint
+    ``m``, so its distance from the line is at least ``D = perp(m) - h`` and its ``t = (x -
+    p) . d`` at least ``t(m) - |e . d| / 2``; the line enters the ball of radius ``R``
+    about ``x`` no sooner than ``t - sqrt(R^2 - perp^2)``, hence no sooner than
+    ``t(m) - |e . d| / 2 - sqrt(R^2 - max(D, 0)^2)``; ``inf`` when ``D >= R`` (a miss).
+    Pieces (midpoints, half lengths, vectors ``e``) in the grid's order.
+    """
+    wx, wy, wz = mid[slot, 0] - px, mid[slot, 1] - py, mid[slot, 2] - pz
+    t = wx * dx + wy * dy + wz * dz
+    gap = math.sqrt(max(wx * wx + wy * wy + wz * wz - t * t, 0.0)) - half[slot]
+    if gap >= radius:
+        return math.inf
+    room = radius * radius - (gap * gap if gap > 0.0 else 0.0)
+    along = abs(e[slot, 0] * dx + e[slot, 1] * dy + e[slot, 2] * dz)
+    return t - 0.5 * along - math.sqrt(room)
+
+
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
           piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray) -> None:
+    # pieces (a, e, ee, axis) in the grid's order, read by slot; dexels in blocks, each
+    # block's first piece tried the one that left least on the block's previous dexel
     r2 = radius * radius
-    for q in numba.prange(points.shape[0]):
-        px, py, pz = points[q, 0], points[q, 1], points[q, 2]
-        dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
-        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-        ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
-        span = spans[q]
-        k0 = max(ck - span, 0)
-        k1 = min(ck + span, dims[2] - 1)
-        best = lam[q]
-        best_piece = -1
-        best_behind = False
-        n = 0
-        for i in range(ci - span, ci + span + 1):
-            for j in range(cj - span, cj + span + 1):
-                first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims, origin,
-                                           cell, starts)
-                for slot in range(first, stop):
-                    if not is_candidate(slot, mid, cx, cy, cz, lim2[q]):
-                        continue
-                    n += 1
-                    # the capsule lies within R + half of its midpoint
-                    if not enters_before(slot, mid, half, px, py, pz, dx, dy, dz, radius,
-                                         best):
-                        continue
-                    k = order[slot]
-                    lam_in, lam_out = capsule_interval(
-                        px, py, pz, dx, dy, dz, a[k, 0], a[k, 1], a[k, 2], e[k, 0],
-                        e[k, 1], e[k, 2], ee[k], r2)
-                    value, back = pair_value(lam_in, lam_out,
-                                             axis[k, 0] * dx + axis[k, 1] * dy
-                                             + axis[k, 2] * dz, behind_cosine)
-                    if value < best:
-                        best, best_piece, best_behind = value, k, back
-        lam[q] = best
-        piece[q] = best_piece
-        behind[q] = best_behind
-        pairs[q] = n
+    n_q = points.shape[0]
+    for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
+        buf = np.empty(WALK_BLOCK, dtype=np.int64)
+        seed = -1
+        for q in range(b * WALK_BLOCK, min(n_q, (b + 1) * WALK_BLOCK)):
+            px, py, pz = points[q, 0], points[q, 1], points[q, 2]
+            dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
+            cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+            buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
+                                     starts, mid, buf)
+            best = lam[q]
+            best_slot = -1
+            best_behind = False
+            first = -1
+            if seed >= 0 and is_candidate(seed, mid, cx, cy, cz, lim2[q]):
+                first = seed
+            for c in range(-1, n):
+                slot = first if c < 0 else buf[c]
+                if slot < 0 or (c >= 0 and slot == first):
+                    continue
+                # of equal values the first in the grid's order, as a walk in that order
+                if capsule_entry_bound(slot, mid, half, e, px, py, pz, dx, dy, dz,
+                                       radius) > best:
+                    continue
+                lam_in, lam_out = capsule_interval(
+                    px, py, pz, dx, dy, dz, a[slot, 0], a[slot, 1], a[slot, 2], e[slot, 0],
+                    e[slot, 1], e[slot, 2], ee[slot], r2)
+                value, back = pair_value(lam_in, lam_out,
+                                         axis[slot, 0] * dx + axis[slot, 1] * dy
+                                         + axis[slot, 2] * dz, behind_cosine)
+                if value < best or (value == best and 0 <= slot < best_slot):
+                    best, best_slot, best_behind = value, slot, back
+            seed = best_slot
+            lam[q] = best
+            piece[q] = order[best_slot] if best_slot >= 0 else -1
+            behind[q] = best_behind
+            pairs[q] = n
 
 
-def centre_cells(grid: PieceGrid, centres: FloatArray, span: int | IntArray
-                 ) -> tuple[IntArray, IntArray, IntArray]:
-    """The cell of each search centre, the spans per centre and the grid's dims.
-
-    A far (or non-finite) centre gets a cell beyond the reach of any piece.
-    """
-    q = centres.shape[0]
-    dims = np.asarray(grid.dims, dtype=np.int64)
-    cell = np.floor((centres - grid.origin_mm) / grid.cell_mm)
+def walk_shape(grid: PieceGrid, span: int | IntArray, q: int) -> tuple[IntArray, IntArray]:
+    """The spans of ``q`` dexels (one for all, or one each) and the grid's dims, as walked."""
     spans = np.ascontiguousarray(np.broadcast_to(np.asarray(span, dtype=np.int64), (q,)))
-    far = (-spans - 1.0)[:, None]
-    cell = np.clip(np.where(np.isnan(cell), far, cell), far,
-                   (dims[None, :] + spans[:, None]).astype(float)).astype(np.int64)
-    return np.ascontiguousarray(cell), spans, dims
+    return spans, np.asarray(grid.dims, dtype=np.int64)
 
 
 def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatArray,
@@ -217,7 +301,7 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
         (``mid[grid.order]``: read in the order the walk meets them).
     a, e, ee, axis : ndarray
         The pieces' starts, vectors, squared lengths and axes
-        (:class:`~verification.pieces.Pieces`).
+        (:class:`~verification.pieces.Pieces`), in the grid's order too.
     radius_mm : float
         Capsule radius, mm.
     behind_cosine : float
@@ -246,12 +330,13 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
         return lam, piece, behind, 0
-    cell, spans, dims = centre_cells(grid, centres, span)
+    spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
-    _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-          f(reach_mm * reach_mm, dtype=float), f(cell), spans, dims,
-          f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
-          grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
-          float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+    with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
+        _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
+              f(reach_mm * reach_mm, dtype=float), spans, dims,
+              f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
+              grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
+              float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

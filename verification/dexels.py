@@ -26,7 +26,10 @@ Two searches keep the candidate pieces few:
   through the part, the shank rubbing a wall. Where it finds more than the near search,
   every sample around is searched again: with the collision search when the piece was the
   shank or came from behind, else (a ball gouging deeper than ``g`` from outside) with a
-  near search sized for that depth, which holds far fewer candidates.
+  near search sized for that depth, which holds far fewer candidates. A shank piece that
+  finds more by no more than the tolerance of the pieces (replay plus merge) met the ball
+  it starts at, which the merged ball pieces approximate from inside: the same contact,
+  kept on that sample and not searched around.
 
 **Flat and bull-nose cutters** (corner radius ``r < R``) are the points within ``r`` of a
 core disc of radius ``rho0 = R - r`` (:mod:`verification.torus`): every ball of radius
@@ -57,11 +60,15 @@ from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
 
-__all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "DexelResult", "SweepIndex",
+__all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "MIN_TARGET_CELL_MM", "DexelResult", "SweepIndex",
            "near_search_radius_mm"]
 
 #: Search radii per grid cell (the cell nearest ``reach / CELL_PER_REACH`` is used).
 CELL_PER_REACH = 2.0
+
+#: Smallest cell a search asks for, mm: a search of radius 0 (a point) gets the finest grid
+#: (the cell's log2 needs a positive target; any length far below a grid cell works).
+MIN_TARGET_CELL_MM = 1e-12
 
 #: A piece whose tool axis makes ``a . d`` below this with the dexel comes from behind:
 #: the rest of the tool lies inside the part (axis more than 120 deg from the dexel). Side
@@ -189,8 +196,7 @@ class SweepIndex:
     compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
-    _sorted: dict[int, tuple[FloatArray, FloatArray]] = field(default_factory=dict,
-                                                               repr=False)
+    _sorted: dict[int, tuple[FloatArray, ...]] = field(default_factory=dict, repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -199,7 +205,7 @@ class SweepIndex:
         return self._pieces[which]
 
     def _grid(self, which: str, reach_mm: float) -> PieceGrid:
-        target = max(reach_mm / CELL_PER_REACH, 1e-12)
+        target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
         k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
         if (which, k) not in self._grids:
             pieces = self.pieces(which)
@@ -207,9 +213,11 @@ class SweepIndex:
             margin = self.reach_limit_mm + pieces.max_half_mm
             grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
             self._grids[which, k] = grid
-            # midpoints and half lengths in the grid's order, for the compiled walk
-            self._sorted[id(grid)] = (np.ascontiguousarray(pieces.mid[grid.order]),
-                                      np.ascontiguousarray(pieces.half_mm[grid.order]))
+            # the fields the compiled walks read, in the grid's order (read as met)
+            self._sorted[id(grid)] = tuple(
+                np.ascontiguousarray(v[grid.order], dtype=float)
+                for v in (pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee,
+                          pieces.axis, pieces.height_mm))
         return self._grids[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
@@ -245,16 +253,16 @@ class SweepIndex:
         spans = grid.span_of(reach)
         if self.corner_radius_mm is None and self.compiled:
             # one walk, each dexel over its own span of cells
+            mid, half, a, e, ee, axis, _ = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_capsule_entries(
-                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
-                pieces.a, pieces.e, pieces.ee, pieces.axis, self.radius_mm, BEHIND_COSINE,
-                below_mm=below_mm)
+                grid, spans, points, dirs, centres, reach, mid, half, a, e, ee, axis,
+                self.radius_mm, BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         if self.compiled:
             # the same, flat and bull-nose pieces: bounds and exact entries in the walk
+            mid, half, a, e, _, axis, height = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_sweep_entries(
-                grid, spans, points, dirs, centres, reach, *self._sorted[id(grid)],
-                pieces.a, pieces.e, pieces.axis, pieces.height_mm,
+                grid, spans, points, dirs, centres, reach, mid, half, a, e, axis, height,
                 core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
                 behind_cosine=BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)

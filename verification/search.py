@@ -26,6 +26,10 @@ FloatArray = NDArray[np.float64]
 Z_MIN_COSINE: Final[float] = 0.05
 """A Z-map sees a sample only where its normal is within acos(0.05) = 87 deg of +Z."""
 
+FLAG_MARGIN_MM: Final[float] = 1e-9
+"""The collision search finds more than the near search where lower by more than this, mm:
+the rounding of one piece met by both searches, far below any deviation reported."""
+
 
 class Dexels:
     """Deviation of arbitrary design points: the searches with their parameters.
@@ -45,12 +49,18 @@ class Dexels:
     corner_radius : float, optional
         Corner radius ``r`` of a flat or bull-nose cutter, mm (default: a ball, ``r = R``):
         the near search runs around ``P + r n`` for the core centres.
+    model_tol_mm : float
+        How far inside the swept cutter its pieces may lie, mm (the replay's chord
+        tolerance plus the merge tolerance): a shank piece that leaves less than the near
+        search by no more than this met the cutter end the pieces approximate, at one of
+        the shank's instances, not something the near search missed (0: any less).
     """
 
     def __init__(self, index: SweepIndex, radius: float, horizons: tuple[float, ...],
-                 depth: float, method: DexelMethod, *, corner_radius: float | None = None
-                 ) -> None:
+                 depth: float, method: DexelMethod, *, corner_radius: float | None = None,
+                 model_tol_mm: float = 0.0) -> None:
         self.index, self.radius, self.depth = index, radius, depth
+        self.model_tol_mm = model_tol_mm
         self.corner = radius if corner_radius is None else corner_radius
         self.horizons = horizons
         self.horizon = horizons[-1]
@@ -102,12 +112,17 @@ class Dexels:
             # iterative deepening: a dexel whose remaining material is found within level
             # e_k is exact (every ball that could leave less lies within r(e_k)); the others
             # are searched again with the next, wider level
-            centres = points + self.corner * normals
+            centres = normals * self.corner
+            centres += points
             todo = np.arange(points.shape[0])
             for level in self.horizons:
-                r = near_search_radius_mm(self.corner, level, g, convexity[todo],
+                # the first level meets every dexel: no copies of the rows
+                every = todo.shape[0] == points.shape[0]
+                r = near_search_radius_mm(self.corner, level, g,
+                                          convexity if every else convexity[todo],
                                           core_radius_mm=self.radius - self.corner)
-                part = self.index.search("near", points[todo], dirs[todo], centres[todo], r)
+                part = (self.index.search("near", points, dirs, centres, r) if every else
+                        self.index.search("near", points[todo], dirs[todo], centres[todo], r))
                 scatter(out, todo, part, merge=True)
                 todo = todo[~(part.lam_mm * cos[todo] <= level)]
                 if todo.shape[0] == 0:
@@ -193,7 +208,9 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
     conv = samples.convexity_per_mm.ravel()
     vis = np.flatnonzero(ev.visible(nrm))
     res = DexelResult.empty(pts.shape[0])
-    part = ev.search(pts[vis], nrm[vis], conv[vis])
+    # every sample visible (the normal dexels of a surface): no copies of the rows
+    every = vis.shape[0] == pts.shape[0]
+    part = ev.search(pts, nrm, conv) if every else ev.search(pts[vis], nrm[vis], conv[vis])
     scatter(res, vis, part)
     if collision_stride is not None:
         ct = _coarse_positions(n_t, collision_stride)
@@ -201,7 +218,12 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
         far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
                         below_mm=res.lam_mm[coarse])
-        flagged = far.lam_mm < res.lam_mm[coarse] - 1e-9
+        near_lam = res.lam_mm[coarse]
+        # a shank piece starts at the cutter end (a ball's centre), so at its instance it
+        # holds the very cutter the near search's merged pieces approximate from inside:
+        # less by no more than that approximation is the same contact, not a miss
+        end = far.shank & ~far.behind & (far.lam_mm >= near_lam - ev.model_tol_mm)
+        flagged = (far.lam_mm < near_lam - FLAG_MARGIN_MM) & ~end
         # the near search missed it: a ball from outside gouging deeper than it was sized
         # for, or something it never looks at (shank, from behind, a sharp convex edge)
         deep = flagged & ~(far.shank | far.behind) & (far.lam_mm < 0.0)

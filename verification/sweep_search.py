@@ -7,7 +7,7 @@ and the pairs it cannot rule out are measured in numpy: on a 5-axis program, who
 are short (cut where the axis turns), that is tens of millions of pairs and minutes of a
 verification. Here each dexel walks its candidates (every piece whose midpoint lies within
 the search radius of its centre, over the cells of
-:func:`~verification.capsule_search.column_slots`) twice:
+:func:`~verification.capsule_search.candidate_slots`, listed once) twice:
 
 1. the piece whose cheap lower bound on the entry (:func:`~verification.torus.sweep_bound`:
    a bounding capsule cut by a slab) is lowest, measured exactly
@@ -30,7 +30,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule_search import centre_cells, column_slots, enters_before, is_candidate, pair_value
+from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, pair_value, walk_shape
 from .grid import PieceGrid
 from .torus import sweep_bound, sweep_interval
 
@@ -53,7 +53,7 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
-          cell_ijk: IntArray, spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
+          spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray, mid: FloatArray, half: FloatArray, a: FloatArray,
           e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
           corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
@@ -63,60 +63,62 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
     # which stands L / 2 above the midpoint)
     top = 0.5 * height.max()
     outer = math.sqrt(core_radius * core_radius + top * top) + corner_radius + top
-    for q in numba.prange(points.shape[0]):
-        p, d = points[q], dirs[q]
-        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-        ci, cj, ck = cell_ijk[q, 0], cell_ijk[q, 1], cell_ijk[q, 2]
-        span = spans[q]
-        k0 = max(ck - span, 0)
-        k1 = min(ck + span, dims[2] - 1)
-        best = lam[q]
-        best_piece = -1
-        best_behind = False
-        n = 0
-        # the piece of lowest bound, found and measured in walk 0, skipped in walk 1
-        lowest, lowest_piece = best, -1
-        for walk in range(2):
-            for i in range(ci - span, ci + span + 1):
-                for j in range(cj - span, cj + span + 1):
-                    first, stop = column_slots(i, j, k0, k1, cx, cy, cz, lim2[q], dims,
-                                               origin, cell, starts)
-                    for slot in range(first, stop):
-                        if not is_candidate(slot, mid, cx, cy, cz, lim2[q]):
-                            continue
-                        if walk == 0:
-                            n += 1
-                        # the piece lies within outer + half of its midpoint
-                        if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1],
-                                             d[2], outer, lowest if walk == 0 else best):
-                            continue
-                        k = order[slot]
-                        if walk == 1 and k == lowest_piece:
-                            continue
-                        lo, _ = sweep_bound(p, d, a[k], e[k], axis[k], height[k],
-                                            core_radius, corner_radius)
-                        if walk == 0:
-                            if lo < lowest:
-                                lowest, lowest_piece = lo, k
-                            continue
-                        if not lo < best:
-                            continue
-                        value, back = _value(p, d, a[k], e[k], axis[k], height[k],
-                                             core_radius, corner_radius, behind_cosine)
-                        if value < best:
-                            best, best_piece, best_behind = value, k, back
-            if walk == 0:
-                if lowest_piece < 0:
-                    break
-                value, back = _value(p, d, a[lowest_piece], e[lowest_piece],
-                                     axis[lowest_piece], height[lowest_piece], core_radius,
-                                     corner_radius, behind_cosine)
+    n_q = points.shape[0]
+    for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
+        buf = np.empty(WALK_BLOCK, dtype=np.int64)
+        bounds = np.empty(WALK_BLOCK)
+        for q in range(b * WALK_BLOCK, min(n_q, (b + 1) * WALK_BLOCK)):
+            p, d = points[q], dirs[q]
+            cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+            buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
+                                     starts, mid, buf)
+            if bounds.shape[0] < buf.shape[0]:
+                bounds = np.empty(buf.shape[0])
+            best = lam[q]
+            best_slot = -1
+            best_behind = False
+            # walk 0: every candidate's bound (NaN where the bounding ball already puts
+            # it no lower than the lowest so far), the piece of lowest bound measured
+            lowest, lowest_slot = best, -1
+            for c in range(n):
+                slot = buf[c]
+                bounds[c] = np.nan
+                if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1], d[2],
+                                     outer, lowest):
+                    continue
+                lo, _ = sweep_bound(p, d, a[slot], e[slot], axis[slot], height[slot],
+                                    core_radius, corner_radius)
+                bounds[c] = lo
+                if lo < lowest:
+                    lowest, lowest_slot = lo, slot
+            if lowest_slot >= 0:
+                value, back = _value(p, d, a[lowest_slot], e[lowest_slot], axis[lowest_slot],
+                                     height[lowest_slot], core_radius, corner_radius,
+                                     behind_cosine)
                 if value < best:
-                    best, best_piece, best_behind = value, lowest_piece, back
-        lam[q] = best
-        piece[q] = best_piece
-        behind[q] = best_behind
-        pairs[q] = n
+                    best, best_slot, best_behind = value, lowest_slot, back
+                # walk 1: the others whose bound lies below the best, in the grid's order
+                for c in range(n):
+                    slot = buf[c]
+                    if slot == lowest_slot:
+                        continue
+                    lo = bounds[c]
+                    if np.isnan(lo):
+                        if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1],
+                                             d[2], outer, best):
+                            continue
+                        lo, _ = sweep_bound(p, d, a[slot], e[slot], axis[slot], height[slot],
+                                            core_radius, corner_radius)
+                    if not lo < best:
+                        continue
+                    value, back = _value(p, d, a[slot], e[slot], axis[slot], height[slot],
+                                         core_radius, corner_radius, behind_cosine)
+                    if value < best:
+                        best, best_slot, best_behind = value, slot, back
+            lam[q] = best
+            piece[q] = order[best_slot] if best_slot >= 0 else -1
+            behind[q] = best_behind
+            pairs[q] = n
 
 
 def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
@@ -146,7 +148,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
         mm.
     a, e, axis, height_mm : ndarray
         The pieces' core bottom centres at their starts, chords, axes and core heights
-        (:class:`~verification.pieces.Pieces`).
+        (:class:`~verification.pieces.Pieces`), in the grid's order too.
     core_radius_mm, corner_radius_mm : float
         ``rho0 = R - r`` and ``r``, mm.
     behind_cosine : float
@@ -173,13 +175,14 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
         return np.full(q, np.inf), piece, behind, 0
-    cell, spans, dims = centre_cells(grid, centres, span)
+    spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
-    _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-          f(reach_mm * reach_mm, dtype=float), cell, spans, dims,
-          f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, grid.order,
-          f(sorted_mid), f(sorted_half_mm), f(a, dtype=float), f(e, dtype=float),
-          f(axis, dtype=float), f(height_mm, dtype=float), float(core_radius_mm),
-          float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+    with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
+        _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
+              f(reach_mm * reach_mm, dtype=float), spans, dims,
+              f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, grid.order,
+              f(sorted_mid), f(sorted_half_mm), f(a, dtype=float), f(e, dtype=float),
+              f(axis, dtype=float), f(height_mm, dtype=float), float(core_radius_mm),
+              float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

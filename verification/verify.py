@@ -27,6 +27,7 @@ import time
 from pathlib import Path
 from typing import Any, Final
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -46,6 +47,7 @@ from .dexels import SweepIndex, near_search_radius_mm
 from .errors import VerificationError
 from .extremes import Extreme, border, extreme
 from .options import DexelMethod, VerifyOptions
+from .pages import with_small_pages
 from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
 from .replay import ToolMotion, replay
 from .report import (
@@ -58,6 +60,7 @@ from .report import (
 )
 from .samples import sample_design
 from .search import Dexels, grid_search
+from .vectors import row_norms
 
 __all__ = ["load_surface", "program_of_toolpath", "verify_file", "verify_program",
            "verify_toolpath"]
@@ -111,6 +114,7 @@ def _joints(motion: ToolMotion, tol: float) -> JointDeviation:
         blocks_over_tol=int((dev > tol).sum()), substeps=int(motion.substeps.sum()))
 
 
+@with_small_pages
 def verify_program(program: Program, surface: ParametricSurface, machine: Machine,
                    cutter: Cutter, *, options: VerifyOptions | None = None,
                    offsets: dict[int, tuple[float, ...]] | None = None) -> VerificationReport:
@@ -178,7 +182,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                        base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
                        reach_limit_mm=radius + horizon + depth,
                        max_pairs=opts.max_pairs, corner_radius_mm=corner)
-    ev = Dexels(index, radius, levels, depth, method, corner_radius=corner)
+    ev = Dexels(index, radius, levels, depth, method, corner_radius=corner,
+                model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm)
     lap("pieces")
     stride = None
     if opts.collision:
@@ -229,8 +234,16 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
 #: program turns its axis: a design normal faces away when it stands more than this past
 #: square to every one of them.
 AXIS_BIN = 0.05
-#: Normals compared with the axes at a time (bounds the memory of the products).
-AXIS_CHUNK = 65536
+#: Largest spread of a program's axis components still taken as one fixed axis (3-axis,
+#: 3+2): far below :data:`AXIS_BIN`, above the rounding of posted and replayed angles.
+FIXED_AXIS_SPREAD = 1e-9
+#: Floor of an axis bin's length before it is normalised (a bin rounded to the zero vector
+#: stays zero rather than dividing by zero; any positive length far below a bin's works).
+MIN_BIN_LENGTH = 1e-300
+#: Packing of a bin's three rounded components (each within ``+-1 / AXIS_BIN = +-20``)
+#: into one integer key, so that the bins are found by a 1-D ``np.unique``.
+_BIN_OFFSET = 128
+_BIN_BASE = 256
 
 
 def faces_away(motion: ToolMotion, normals: FloatArray) -> NDArray[np.bool_]:
@@ -243,20 +256,53 @@ def faces_away(motion: ToolMotion, normals: FloatArray) -> NDArray[np.bool_]:
     then past square to all of them by that much), no move cuts to the surface, and the
     material left there is what the cutter's side shaved off passing by, not a scallop
     between passes.
+
+    A normal is reached as soon as one axis bin has ``n . a >= -AXIS_BIN``
+    (:func:`_past_square_to_all`): the bin that faced the previous sample best is tried
+    first and usually reaches its neighbour too, so a reached normal costs one product and
+    only a facing-away one (or a turn of the normals) all of them, with no
+    ``samples x bins`` table.
     """
     cutting = ~motion.rapid[motion.move_of_instance[1:]]
     axes = motion.axes[1:][cutting]
     if axes.shape[0] == 0:
         return np.zeros(normals.shape[:-1], dtype=bool)
-    if np.abs(axes - axes[0]).max() <= 1e-9:
+    if np.abs(axes - axes[0]).max() <= FIXED_AXIS_SPREAD:
         return normals @ axes[0] < 0.0
-    kinds = np.unique(np.round(axes / AXIS_BIN).astype(np.int64), axis=0) * AXIS_BIN
-    kinds /= np.maximum(np.linalg.norm(kinds, axis=1, keepdims=True), 1e-300)
-    flat = normals.reshape(-1, 3)
-    reach = np.empty(len(flat))
-    for first in range(0, len(flat), AXIS_CHUNK):
-        reach[first:first + AXIS_CHUNK] = (flat[first:first + AXIS_CHUNK] @ kinds.T).max(axis=1)
-    return (reach < -AXIS_BIN).reshape(normals.shape[:-1])
+    # one key per bin: rounded components lie within +-1 / AXIS_BIN, packed in 8 bits each
+    bins = np.round(axes / AXIS_BIN).astype(np.int64) + _BIN_OFFSET
+    key = np.unique((bins[:, 0] * _BIN_BASE + bins[:, 1]) * _BIN_BASE + bins[:, 2])
+    kinds = np.column_stack((key // (_BIN_BASE * _BIN_BASE), key // _BIN_BASE % _BIN_BASE,
+                             key % _BIN_BASE)).astype(float)
+    kinds = (kinds - _BIN_OFFSET) * AXIS_BIN
+    kinds /= np.maximum(row_norms(kinds), MIN_BIN_LENGTH)[:, None]
+    flat = np.ascontiguousarray(normals.reshape(-1, 3), dtype=float)
+    return _past_square_to_all(flat, np.ascontiguousarray(kinds), -AXIS_BIN).reshape(
+        normals.shape[:-1])
+
+
+@numba.njit(cache=True)
+def _past_square_to_all(normals: FloatArray, axes: FloatArray, limit: float
+                        ) -> NDArray[np.bool_]:
+    """Per row of ``normals``: ``max_k n . a_k < limit``.
+
+    The axis that faced the last normal scanned best is tried first; only when it falls
+    short are all axes scanned (and the best kept for the next rows).
+    """
+    away = np.ones(normals.shape[0], dtype=np.bool_)
+    last = 0
+    for i in range(normals.shape[0]):
+        nx, ny, nz = normals[i, 0], normals[i, 1], normals[i, 2]
+        if nx * axes[last, 0] + ny * axes[last, 1] + nz * axes[last, 2] >= limit:
+            away[i] = False
+            continue
+        best = -np.inf
+        for k in range(axes.shape[0]):
+            c = nx * axes[k, 0] + ny * axes[k, 1] + nz * axes[k, 2]
+            if c > best:
+                best, last = c, k
+        away[i] = not best >= limit
+    return away
 
 
 def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions

@@ -15,7 +15,7 @@ from verify_programs import five_axis_line
 
 from machines import load_machine
 from verification import verify_program
-from verification.verify import faces_away
+from verification.verify import AXIS_BIN, faces_away
 
 
 def _motion(axes):
@@ -53,3 +53,21 @@ def test_a_five_axis_line_leaves_the_plane_beside_it_unreachable(ball6):
     assert report.unreachable_area_mm2 == pytest.approx(report.stats.uncut_area_mm2)
     fraction = report.to_dict()["unreachable_fraction"]
     assert 0.2 < fraction < 0.9
+
+
+def test_the_bin_scan_agrees_with_every_product():
+    # the scan that tries the last best bin first against max over the full products table
+    rng = np.random.default_rng(27)
+    tilt = np.radians(rng.uniform(0.0, 40.0, 4000))
+    turn = np.radians(rng.uniform(-30.0, 90.0, 4000))
+    axes = np.column_stack((np.sin(tilt) * np.cos(turn), np.sin(tilt) * np.sin(turn),
+                            np.cos(tilt)))
+    normals = rng.normal(size=(30, 40, 3))
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    bins = np.unique(np.round(axes / AXIS_BIN).astype(np.int64), axis=0) * AXIS_BIN
+    bins /= np.linalg.norm(bins, axis=1, keepdims=True)
+    full = (normals.reshape(-1, 3) @ bins.T).max(axis=1) < -AXIS_BIN
+    away = faces_away(_motion(axes), normals)
+    assert away.shape == (30, 40)
+    assert 0.1 < away.mean() < 0.9
+    assert away.ravel().tolist() == full.tolist()

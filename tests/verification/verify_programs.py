@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from gcode import Linear, Program, Rapid
@@ -56,3 +58,40 @@ def five_axis_line(machine: Machine, cutter, n_blocks: int, *, tilt_deg=(10.0, 5
     above = words[0].copy()
     above[2] += 10.0
     return Program((block(above, Rapid), *(block(r, Linear, feed=500.0) for r in words)))
+
+
+def five_axis_cap(machine: Machine, cutter, sphere_radius_mm: float, *,
+                  colatitudes_deg, longitude_deg=(-25.0, 25.0), points: int = 120,
+                  lead_deg: float = 10.0, inside: bool = False) -> Program:
+    """5-axis zigzag passes along parallels of a sphere about the origin, axis leading.
+
+    Each pass runs along the longitudes at one colatitude (short blocks on a curve: the
+    ball-centre chords merge within the tolerance and no further); the axis is the
+    sphere's normal (inward for a bowl, ``inside``) leaned ``lead_deg`` along the pass.
+    Joints from the machine's inverse kinematics; links lift 5 mm along the normal.
+    """
+    lon = np.radians(np.linspace(*longitude_deg, points))
+    blocks: list = []
+    for k, colat_deg in enumerate(colatitudes_deg):
+        th = math.radians(colat_deg)
+        phi = lon if k % 2 == 0 else lon[::-1]
+        radial = np.column_stack([np.sin(th) * np.cos(phi), np.sin(th) * np.sin(phi),
+                                  np.full(points, math.cos(th))])
+        normals = -radial if inside else radial
+        along = np.column_stack([-np.sin(phi), np.cos(phi), np.zeros(points)])
+        if k % 2:
+            along = -along
+        lead = math.radians(lead_deg)
+        axes = math.cos(lead) * normals + math.sin(lead) * along
+        tips = cutter.tips_from_contacts(sphere_radius_mm * radial, normals, axes)
+        words = program_values(machine, inverse(machine, tips, axes))
+        lifted = program_values(machine, inverse(machine, tips[[0, -1]] + 5.0 * axes[[0, -1]],
+                                                 axes[[0, -1]]))
+
+        def block(row, cls, **kw):
+            return cls(**{NAMES[i]: float(round(row[i], 4)) for i in range(6)
+                          if not np.isnan(row[i])}, **kw)
+
+        blocks += [block(lifted[0], Rapid), *(block(r, Linear, feed=800.0) for r in words),
+                   block(lifted[1], Rapid)]
+    return Program(tuple(blocks))
