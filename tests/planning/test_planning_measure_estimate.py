@@ -176,3 +176,24 @@ def test_the_cusp_search_finds_the_crest_a_dense_scan_finds(monkeypatch, cutter,
         crest = low[max(cross - 1, 0):cross + 1].max()
         assert h[i] == pytest.approx(crest, rel=0.01, abs=1e-3 * request)
         assert abs(s[i] - grid[cross]) <= 2.0 * (grid[1] - grid[0])
+
+
+@pytest.mark.parametrize(("cutter", "request_mm"), [("ball:6", 0.02), ("bull:8:1", 0.05)])
+def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(monkeypatch, cutter,
+                                                                         request_mm):
+    # _CutVolume.cut stops each ray at the first piece it enters within the horizon: the
+    # same rays cut as the lowest entries over all their pieces say, near the passes and
+    # off the patch's edges (rays that enter only beyond the horizon stay uncut)
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+    args, _ = _measured_inputs(monkeypatch, cap, cutter, scallop_mm=request_mm,
+                               chord_tol_mm=0.02, axis_mode="lead-tilt", lead_deg=10.0)
+    path, surface, cutter, request, _ = args
+    volume = measure._CutVolume(path, cutter, max(10.0 * request, 0.05), request)
+    g = np.linspace(-0.05, 1.05, 41)
+    t, s = (a.ravel() for a in np.meshgrid(np.clip(g, 0.0, 1.0), g, indexing="ij"))
+    q, n = surface.points_and_normals(t, np.clip(s, 0.0, 1.0))
+    q = q + np.where(s > 1.0, 3.0, np.where(s < 0.0, -3.0, 0.0))[:, None] * n  # off the sheet
+    full = np.isfinite(volume.height(q, n, *measure.ray_ranges(*volume.pairs(q), len(q))))
+    got = volume.cut(q, n)
+    np.testing.assert_array_equal(got, full)
+    assert 0 < full.sum() < len(full)

@@ -489,12 +489,13 @@ class _CutVolume:
         if self.ball and len(self.pass_of) and len(q):
             owner, item = pairs_within(self.near_cells, q + self.lift * n, 0.5 * self.near_mm)
             lo, hi, item = ray_ranges(owner, item, len(q))
-            out = np.isfinite(self.height(q, n, lo, hi, item))
+            out = np.isfinite(self.height(q, n, lo, hi, item, first=True))
             rest = np.flatnonzero(~out)
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]
             out[rows] = np.isfinite(self.height(q[rows], n[rows],
-                                                *ray_ranges(*self.pairs(q[rows]), len(rows))))
+                                                *ray_ranges(*self.pairs(q[rows]), len(rows)),
+                                                first=True))
         return out
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None
@@ -509,19 +510,24 @@ class _CutVolume:
         return owner, item
 
     def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
-               hi: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+               hi: NDArray[np.int64], item: NDArray[np.int64], *, first: bool = False
+               ) -> NDArray[np.float64]:
         """Entry distance along ``n`` into the removed material (inf: beyond the horizon).
 
-        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``.
+        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``. With ``first``, whether it
+        enters within the horizon is all that counts: the first piece it enters there
+        gives the height (finite, not the lowest), the others are not tried.
         """
+        stop = self.horizon if first else 0.0
         if not self.ball:
             out = nearest_entries(q, n, lo, hi, item, self.tips0, self.tips1, self.axes0,
                                   self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
                                   radius_mm=self.cutter.radius_mm,
                                   flute_length_mm=self.cutter.flute_length_mm,
-                                  horizon_mm=self.horizon)
+                                  horizon_mm=self.horizon, stop_mm=stop)
         else:
-            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm)
+            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm,
+                                  stop_mm=stop)
         return np.where(out > self.horizon, np.inf, out)
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
@@ -703,8 +709,9 @@ ESTIMATE_TOP = 1024
 #: ... or this share of the seeds, when more.
 ESTIMATE_TOP_SHARE = 0.01
 
-#: Fewer seeds are all ray cast: the estimate would leave few to skip.
-ESTIMATE_MIN_SEEDS = 8 * ESTIMATE_TOP
+#: Fewer seeds are all ray cast: the estimate would leave few to skip (it costs about a
+#: fifteenth of a seed's ray cast per seed).
+ESTIMATE_MIN_SEEDS = 2 * ESTIMATE_TOP
 
 
 def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds

@@ -219,11 +219,12 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
 
 
 @numba.njit(cache=True, parallel=True)
-def _nearest_entries(rays, pieces, poses, cutter, horizon, out):
+def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     """The loop of :func:`nearest_entries`, rays in parallel.
 
     ``rays`` (:class:`Rays`) meet ``pieces`` (:class:`RayPieces`) of ``poses``
-    (:class:`Poses`) of the ``cutter`` (:class:`~.clearance_kernel.Cutter`), into ``out``.
+    (:class:`Poses`) of the ``cutter`` (:class:`~.clearance_kernel.Cutter`), into ``out``;
+    a ray stops at an entry within ``stop``.
     """
     q, n = rays
     lo_k, hi_k, item = pieces
@@ -245,7 +246,7 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, out):
                     break
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
                                              tip, axis, values))
-                if best == 0.0:
+                if best <= stop:
                     break
         out[i] = best
 
@@ -265,10 +266,13 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
                     hi: NDArray[np.int64], item: NDArray[np.int64], tips0: NDArray[np.float64],
                     tips1: NDArray[np.float64], axes0: NDArray[np.float64],
                     axes1: NDArray[np.float64], *, corner_radius_mm: float, radius_mm: float,
-                    flute_length_mm: float, horizon_mm: float) -> NDArray[np.float64]:
+                    flute_length_mm: float, horizon_mm: float, stop_mm: float = 0.0
+                    ) -> NDArray[np.float64]:
     """Each ray's first entry into the material removed by its pieces, mm.
 
-    Pieces are tried in the order of their tip-plane bounds, up to the best entry found.
+    Pieces are tried in the order of their tip-plane bounds, up to the best entry found,
+    or up to the first entry within ``stop_mm`` (0: the first entry, exactly; the
+    horizon: whether the ray enters within it, as soon as one piece says so).
 
     Parameters
     ----------
@@ -294,7 +298,7 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
         _nearest_entries(Rays(_floats(q), _floats(n)), RayPieces(_ints(lo), _ints(hi), _ints(item)),
                          Poses(_floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1)),
                          Cutter(float(corner_radius_mm), float(radius_mm), float(flute_length_mm)),
-                         float(horizon_mm), out)
+                         float(horizon_mm), float(stop_mm), out)
     return out
 
 
@@ -336,7 +340,7 @@ def _capsule_entry(q, n, a, b, r2):
 
 
 @numba.njit(cache=True, parallel=True)
-def _capsule_entries(rays, pieces, segments, r2, out):
+def _capsule_entries(rays, pieces, segments, r2, stop, out):
     """The loop of :func:`capsule_entries`: :class:`Rays`, :class:`RayPieces`, :class:`Segments`."""
     q, n = rays
     lo, hi, item = pieces
@@ -345,23 +349,26 @@ def _capsule_entries(rays, pieces, segments, r2, out):
         best = np.inf
         for k in range(lo[i], hi[i]):
             best = min(best, _capsule_entry(q[i], n[i], a[item[k]], b[item[k]], r2))
-            if best == 0.0:
+            if best <= stop:
                 break
         out[i] = best
 
 
 def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
                     hi: NDArray[np.int64], item: NDArray[np.int64], a: NDArray[np.float64],
-                    b: NDArray[np.float64], radius_mm: float) -> NDArray[np.float64]:
+                    b: NDArray[np.float64], radius_mm: float, stop_mm: float = 0.0
+                    ) -> NDArray[np.float64]:
     """Each ray's first entry into the capsules round its segments ``item[lo:hi]``, mm.
 
     A capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
-    where the ray starts inside one, ``inf`` where it misses them all.
+    where the ray starts inside one, ``inf`` where it misses them all. A ray stops at
+    the first capsule it enters within ``stop_mm`` (0: the first entry, exactly).
     """
     out = np.full(len(q), np.inf)
     if len(q):
         _capsule_entries(Rays(_floats(q), _floats(n)), RayPieces(_ints(lo), _ints(hi), _ints(item)),
-                         Segments(_floats(a), _floats(b)), float(radius_mm) ** 2, out)
+                         Segments(_floats(a), _floats(b)), float(radius_mm) ** 2,
+                         float(stop_mm), out)
     return out
 
 
