@@ -78,3 +78,36 @@ def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     w = ((fine_u[:, 0] - u[piece, 0]) / (u[piece + 1, 0] - u[piece, 0]))[:, None]
     chords = p0[piece] * (1.0 - w) + p1[piece] * w
     assert np.linalg.norm(fine_tips - chords, axis=1).max() < 2e-4
+
+
+def test_split_places_pieces_of_many_moves_as_the_full_forward_kinematics():
+    # moves of one piece and of several, in a row: each piece's ends are the forward
+    # kinematics of its move's interpolated joints (the moves' own ends taken from the
+    # tips and axes given, the inner poses solved), and tip-linear without a machine
+    from machines.kinematics import forward
+    from toolpath.planning.measure import _split
+
+    machine = load_machine("trunnion-ac")
+    order = [a.letter for a in machine.axes]
+    canon = np.array([[10.0, 5.0, 20.0, 10.0, 0.0], [10.1, 5.0, 20.0, 10.0, 0.0],
+                      [12.0, 6.0, 20.0, 25.0, 40.0], [12.2, 6.1, 20.0, 25.5, 41.0],
+                      [20.0, 6.1, 20.0, 25.5, 41.0]])
+    q = canon[:, ["XYZAC".index(letter) for letter in order]]
+    tips, axes = forward(machine, q)
+    for joints in ((machine, q[:-1], q[1:]), None):
+        p0, p1, x0, x1, owner = _split(tips[:-1], tips[1:], axes[:-1], axes[1:], 0.5, 3.0,
+                                       1e-4, joints)
+        counts = np.bincount(owner, minlength=4)
+        assert counts.min() == 1 and counts.max() > 2
+        for move in range(4):
+            rows = np.flatnonzero(owner == move)
+            u = np.linspace(0.0, 1.0, rows.size + 1)[:, None]
+            if joints is None:
+                want_tips = tips[move] * (1.0 - u) + tips[move + 1] * u
+                want_axes = axes[move] * (1.0 - u) + axes[move + 1] * u
+                want_axes /= np.linalg.norm(want_axes, axis=1, keepdims=True)
+            else:
+                want_tips, want_axes = forward(machine, q[move] * (1.0 - u) + q[move + 1] * u)
+            np.testing.assert_allclose(np.r_[p0[rows], p1[rows[-1:]]], want_tips, atol=1e-9)
+            np.testing.assert_allclose(np.r_[x0[rows], x1[rows[-1:]]], want_axes, atol=1e-12)
+            np.testing.assert_array_equal(p0[rows[1:]], p1[rows[:-1]])  # shared ends

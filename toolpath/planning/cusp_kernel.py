@@ -71,12 +71,14 @@ def _near(points, jj, px, py, pz, reach):
 
 
 @numba.njit(cache=True, parallel=True)
-def _ridges(seeds, binned, reach, scratch_size, pieces, radius, out):
+def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out):
     """The loop of :func:`ridges`, blocks of seeds in parallel.
 
     ``seeds`` (:class:`Seeds`), the pieces' midpoints binned
     (:class:`~.clearance_kernel.SampleCells`), ``pieces`` (:class:`Pieces`), into ``out``
-    (:class:`Ridges`).
+    (:class:`Ridges`). One pass over the cells near a seed keeps the pieces within
+    ``reach`` (at most ``room``) and the nearest of each side; the depths of the ridge
+    are then taken over those kept.
     """
     centre, normal, x_s, own = seeds
     points, index, cell_start, origin, shape, cell, box, _ = binned
@@ -84,17 +86,21 @@ def _ridges(seeds, binned, reach, scratch_size, pieces, radius, out):
     point, inside, state = out
     for block in numba.prange((centre.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
+        near = np.empty(room, dtype=np.int64)
         for i in range(block * BLOCK, min((block + 1) * BLOCK, centre.shape[0])):
             px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
             n_cells = cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
             d_own, d_other = math.inf, math.inf
             j_own, j_other = -1, -1
             o0 = o1 = o2 = q0 = q1 = q2 = 0.0
+            n_near = 0
             for m in range(n_cells):
                 for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
                     if not _near(points, jj, px, py, pz, reach):
                         continue
                     j = index[jj]
+                    near[n_near] = j
+                    n_near += 1
                     f0, f1, f2 = _foot(px, py, pz, a, e, j)
                     w0, w1, w2 = f0 - px, f1 - py, f2 - pz
                     dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
@@ -132,17 +138,14 @@ def _ridges(seeds, binned, reach, scratch_size, pieces, radius, out):
             x2 = o2 + 0.5 * c2 - drop * v2
             third = 0.0
             two = 0.0
-            for m in range(n_cells):
-                for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
-                    if not _near(points, jj, px, py, pz, reach):
-                        continue
-                    j = index[jj]
-                    f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
-                    depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
-                    if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
-                        two = max(two, depth)
-                    else:
-                        third = max(third, depth)
+            for k in range(n_near):
+                j = near[k]
+                f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
+                depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
+                if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
+                    two = max(two, depth)
+                else:
+                    third = max(third, depth)
             point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
             inside[i, 0] = third
             inside[i, 1] = two
@@ -193,6 +196,9 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         seeds = Seeds(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
                       f(own, dtype=np.int64))
         pieces = Pieces(f(a, dtype=float), f(e, dtype=float), f(pass_of, dtype=np.int64))
-        _ridges(seeds, cells, float(reach_mm), cell_scratch_size(reach_mm, cells.cell_mm),
-                pieces, float(radius_mm), Ridges(point, inside, state))
+        scratch = cell_scratch_size(reach_mm, cells.cell_mm)
+        # room for the pieces of the fullest cells a seed can meet
+        room = min(len(cells.index), scratch * int(np.diff(cells.cell_start).max()))
+        _ridges(seeds, cells, float(reach_mm), scratch, room, pieces, float(radius_mm),
+                Ridges(point, inside, state))
     return point, inside, state

@@ -60,6 +60,8 @@ from machines.kinematics import forward, solve_inverse
 from ..joint_refine import joints_checked, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
+from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
+from ..vectors import unit
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
@@ -263,6 +265,13 @@ def _cusp_seeds(surface: ParametricSurface, ends: MoveEnds, g3: NDArray[np.float
     return seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use]
 
 
+#: A flat or bull-nose contact's foot farther from its corner-circle centre than the
+#: sample nearest to that centre by more than this (mm) is not its closest point: a
+#: micrometre, above the Newton search's residual on the foot and far below any chord
+#: tolerance (:func:`_contact_gaps`).
+FOOT_SLACK_MM = 1e-6
+
+
 def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
                   tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
                   seeds: NDArray[np.int64]) -> tuple[NDArray[np.float64], ...]:
@@ -285,7 +294,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
         x, n = surface.points_and_normals(t[rows], s[rows])
         k = x + (gap[rows] + r)[:, None] * n
         near_mm, near = samples.tree.query(k, workers=-1)
-        wrong = np.abs(gap[rows] + r) > near_mm + 1e-6
+        wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:
             break
@@ -372,24 +381,30 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
 
     The piece ends as the control places them: tips linear and axes renormalized, or,
     with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
-    kinematics (the tip bows off the chord where the rotary axes turn).
+    kinematics (the tip bows off the chord where the rotary axes turn) inside the move,
+    its own ends at the move's ends (the poses ``q_a``, ``q_b`` were solved for).
     """
     pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
-    owner = np.repeat(np.arange(len(a)), pieces)
-    # every move's pieces share their ends: the poses at u = j / pieces, j = 0 .. pieces,
-    # placed once
-    rows = np.repeat(np.arange(len(a)), pieces + 1)
-    first = np.r_[0, np.cumsum(pieces + 1)[:-1]]
-    u = ((np.arange(rows.size) - first[rows]) / pieces[rows])[:, None]
+    n = len(a)
+    owner = np.repeat(np.arange(n), pieces)
+    # piece j of a move of m pieces runs from the pose at u = j / m to (j + 1) / m: the
+    # move's own ends, or one of its inner poses (placed once, shared by two pieces)
+    rank = np.arange(owner.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
+    inner_first = np.cumsum(pieces - 1) - (pieces - 1)
+    inner_move = np.repeat(np.arange(n), pieces - 1)
+    u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
+         / pieces[inner_move])[:, None]
     if joints is None:
-        tips = a[rows] * (1 - u) + b[rows] * u
-        axes = aa[rows] * (1 - u) + ab[rows] * u
-        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        tips = a[inner_move] * (1 - u) + b[inner_move] * u
+        axes = unit(aa[inner_move] * (1 - u) + ab[inner_move] * u)
     else:
         machine, q_a, q_b = joints
-        tips, axes = forward(machine, q_a[rows] * (1 - u) + q_b[rows] * u)
-    start = np.arange(owner.size) + owner  # pose of piece k's start; its end is next
-    return tips[start], tips[start + 1], axes[start], axes[start + 1], owner
+        tips, axes = forward(machine, q_a[inner_move] * (1 - u) + q_b[inner_move] * u)
+    inner = 2 * n + inner_first[owner] + rank  # index of the pose after piece j's start
+    start = np.where(rank == 0, owner, inner - 1)
+    stop = np.where(rank == pieces[owner] - 1, n + owner, inner)
+    poses, pose_axes = np.concatenate([a, b, tips]), np.concatenate([aa, ab, axes])
+    return poses[start], poses[stop], pose_axes[start], pose_axes[stop], owner
 
 
 #: A ball's pieces near a point are sought first within this many widths of the cusp the
@@ -474,12 +489,13 @@ class _CutVolume:
         if self.ball and len(self.pass_of) and len(q):
             owner, item = pairs_within(self.near_cells, q + self.lift * n, 0.5 * self.near_mm)
             lo, hi, item = ray_ranges(owner, item, len(q))
-            out = np.isfinite(self.height(q, n, lo, hi, item))
+            out = np.isfinite(self.height(q, n, lo, hi, item, first=True))
             rest = np.flatnonzero(~out)
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]
             out[rows] = np.isfinite(self.height(q[rows], n[rows],
-                                                *ray_ranges(*self.pairs(q[rows]), len(rows))))
+                                                *ray_ranges(*self.pairs(q[rows]), len(rows)),
+                                                first=True))
         return out
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None
@@ -494,19 +510,24 @@ class _CutVolume:
         return owner, item
 
     def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
-               hi: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+               hi: NDArray[np.int64], item: NDArray[np.int64], *, first: bool = False
+               ) -> NDArray[np.float64]:
         """Entry distance along ``n`` into the removed material (inf: beyond the horizon).
 
-        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``.
+        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``. With ``first``, whether it
+        enters within the horizon is all that counts: the first piece it enters there
+        gives the height (finite, not the lowest), the others are not tried.
         """
+        stop = self.horizon if first else 0.0
         if not self.ball:
             out = nearest_entries(q, n, lo, hi, item, self.tips0, self.tips1, self.axes0,
                                   self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
                                   radius_mm=self.cutter.radius_mm,
                                   flute_length_mm=self.cutter.flute_length_mm,
-                                  horizon_mm=self.horizon)
+                                  horizon_mm=self.horizon, stop_mm=stop)
         else:
-            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm)
+            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm,
+                                  stop_mm=stop)
         return np.where(out > self.horizon, np.inf, out)
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
@@ -669,13 +690,16 @@ CUSP_BISECT_STEPS = 16
 
 #: Seeds whose cusp, as estimated from the passes' own geometry, exceeds the largest cusp
 #: the ray cast found by this factor are ray cast too: the estimate errs by a few per cent
-#: (on the dev blade 0.994 to 1.02 of the ray cast, on a sphere cap 0.98 to 1.2, mostly
-#: above), so where it stands higher than that the ray cast decides.
+#: (of the cusps above half the largest, 98 % stand within 0.98 to 1.18 of the ray cast on
+#: the dev blade, 0.99 to 1.002 on the R150 dome), so where it stands higher than that
+#: the ray cast decides.
 ESTIMATE_SHARE = 1.03
 
-#: Share of the estimated height beyond which the ridge sunk into the two passes' other
-#: pieces counts (a pass folding back); less is the passes' own curving.
-RIDGE_FOLD = 0.25
+#: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
+#: lower envelope drops by ``delta`` (the passes' own curving, a pass folding back, a
+#: third pass), its crossing with the other side's, whose slopes across are about
+#: opposite (``+-d / R``), drops by about half of it.
+RIDGE_SINK_SHARE = 0.5
 
 #: Seeds of the largest estimates ray cast (per group, at least): on planned passes the
 #: largest cusp is among them, or one within a fraction of a per cent of it where the
@@ -685,8 +709,9 @@ ESTIMATE_TOP = 1024
 #: ... or this share of the seeds, when more.
 ESTIMATE_TOP_SHARE = 0.01
 
-#: Fewer seeds are all ray cast: the estimate would leave few to skip.
-ESTIMATE_MIN_SEEDS = 8 * ESTIMATE_TOP
+#: Fewer seeds are all ray cast: the estimate would leave few to skip (it costs about a
+#: fifteenth of a seed's ray cast per seed).
+ESTIMATE_MIN_SEEDS = 2 * ESTIMATE_TOP
 
 
 def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds
@@ -705,8 +730,8 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: 
     from the surface): the bottom of the cusp's ridge
     (:func:`~.cusp_kernel.ridges`). Its height is ``(X - X(t, s_c)) . n(t, s_c)`` over the
     surface point one first-order step from the seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``,
-    less how deep ``X`` lies in a nearby tube of a third pass (passes closing up, links),
-    or of the two passes' other pieces when deeper than :data:`RIDGE_FOLD` of the height.
+    less :data:`RIDGE_SINK_SHARE` of how deep ``X`` lies in a nearby tube of a third pass
+    (passes closing up, links) or of the two passes' other pieces (their curving, a fold).
 
     Returns NaN where no other pass lies on that side within that reach or a
     segment has no length (the ray cast decides there), ``inf`` where the tubes do not
@@ -721,13 +746,13 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: 
     ok = np.flatnonzero(state == RIDGE_FOUND)
     xs = seeds.x_s[ok]
     s_c = np.clip(seeds.s[ok] + np.einsum("ij,ij->i", x[ok] - seeds.q[ok], xs)
-                  / np.maximum(np.einsum("ij,ij->i", xs, xs), 1e-30), 0.0, 1.0)
+                  / np.maximum(np.einsum("ij,ij->i", xs, xs), TINY), 0.0, 1.0)
     foot_c, n_c = surface.points_and_normals(seeds.t[ok], s_c)
     height = np.einsum("ij,ij->i", x[ok] - foot_c, n_c)
-    # the two passes' own curving sinks the ridge a little into their neighbouring pieces
-    # (a fraction of a micrometre): only a deep sinking is a pass folding back on itself
-    third, two = inside[ok, 0], inside[ok, 1]
-    out[ok] = height - np.maximum(third, np.where(two > RIDGE_FOLD * height, two, 0.0))
+    # the two passes' own curving sinks the ridge into their neighbouring pieces (on the
+    # R150 dome by 14 % of its height: the ray cast reads 6 % below X), a fold or a third
+    # pass deeper
+    out[ok] = height - RIDGE_SINK_SHARE * inside[ok].max(axis=1)
     return out
 
 
@@ -821,7 +846,8 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
     a = np.concatenate([p[0].ravel() for p in pairs])
     b = np.concatenate([p[1].ravel() for p in pairs])
     flat = grid.reshape(-1, 3)
-    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), 1e-9)  # 0 is no edge
+    # a stored 0 is no edge to the graph: coincident nodes (a collapsed row) keep theirs
+    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), LENGTH_SLACK_MM)
     graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
     return scipy.sparse.csgraph.dijkstra(graph, directed=False,
                                          indices=np.flatnonzero(sources.ravel()),
@@ -925,7 +951,7 @@ class _UncutArea:
         q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
         area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
         uncut = ~volume.cut(q, n)
-        fraction = float(area[uncut].sum() / max(area.sum(), 1e-300))
+        fraction = float(area[uncut].sum() / max(area.sum(), TINY))
         grid = frame.point.reshape(n_t, n_s, 3)
         reach = (_surface_reach(grid, uncut.reshape(n_t, n_s), bool(surface.closed_t),
                                 2.0 * big) if uncut.any() else None)
@@ -959,12 +985,14 @@ class _Seeds(NamedTuple):
         """
         st, ss, sp = chord.seeds_t, chord.seeds_s, chord.seeds_pass
         if st.size:
-            seed_q, seed_n = surface.points_and_normals(st, ss)
-            x_s = surface.derivative(st, ss, dt=0, ds=1)
+            # one evaluation of the three partials: points, normals and X_s
+            parts = surface.partials_many(st, ss, ((0, 0), (1, 0), (0, 1)))
+            seed_q, x_s = parts[0, 0], parts[0, 1]
+            seed_n = surface.orientation * unit(np.cross(parts[1, 0], x_s))
         else:
             seed_q = seed_n = x_s = np.zeros((0, 3))
         others = _OtherPasses(seed_q, sp)
-        live = np.flatnonzero(ss < 1.0 - 1e-12)
+        live = np.flatnonzero(ss < 1.0 - ROUND_OFF)
         return cls(*(a[live] for a in (st, ss, sp, x_s, seed_q, seed_n)), live), others
 
 
@@ -994,8 +1022,8 @@ class _CuspSearch:
         gap = self.others.distance(seeds.rows[todo])
         gap = np.where(np.isfinite(gap), gap, self.default_gap_mm)
         speed = np.linalg.norm(seeds.x_s[todo], axis=1)
-        s1 = np.minimum(seeds.s[todo] + 2.5 * gap / np.maximum(speed, 1e-12), 1.0)
-        room = s1 > seeds.s[todo] + 1e-12  # no room above: no cusp
+        s1 = np.minimum(seeds.s[todo] + 2.5 * gap / np.maximum(speed, TINY), 1.0)
+        room = s1 > seeds.s[todo] + ROUND_OFF  # no room above (s in [0, 1]): no cusp
         # brackets of like length batched together: a batch meets the pieces within
         # reach of its longest bracket
         order = np.argsort(gap[room], kind="stable")

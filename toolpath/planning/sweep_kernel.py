@@ -30,16 +30,18 @@ tip plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
 from __future__ import annotations
 
 import math
+from typing import NamedTuple
 
 import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from ..tolerances import ROUND_OFF, TINY
+from .clearance_kernel import Cutter
 from .cutter_kernel import cutter_distance
 
-__all__ = ["POSES", "capsule_entries", "nearest_entries", "ray_ranges", "segment_distances",
-           "tip_plane_floors"]
+__all__ = ["POSES", "Poses", "RayPieces", "Rays", "Segments", "capsule_entries",
+           "nearest_entries", "ray_ranges", "segment_distances", "tip_plane_floors"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -52,6 +54,37 @@ TERNARY_STEPS = 60
 BISECTION_STEPS = 50
 
 
+class Rays(NamedTuple):
+    """Rays ``q + l n`` (``l >= 0``): origins ``q`` (mm) and unit directions ``n``, (m, 3)."""
+
+    q: NDArray[np.float64]
+    n: NDArray[np.float64]
+
+
+class RayPieces(NamedTuple):
+    """Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]`` (:func:`ray_ranges`)."""
+
+    lo: NDArray[np.int64]
+    hi: NDArray[np.int64]
+    item: NDArray[np.int64]
+
+
+class Poses(NamedTuple):
+    """Pieces of feed moves: the cutter's tips (mm) and unit axes at their ends, (p, 3)."""
+
+    tip0: NDArray[np.float64]
+    tip1: NDArray[np.float64]
+    axis0: NDArray[np.float64]
+    axis1: NDArray[np.float64]
+
+
+class Segments(NamedTuple):
+    """Segments from ``a`` to ``b`` (mm), (p, 3)."""
+
+    a: NDArray[np.float64]
+    b: NDArray[np.float64]
+
+
 def _floats(a: NDArray) -> NDArray[np.float64]:
     return np.ascontiguousarray(a, dtype=float)
 
@@ -61,15 +94,19 @@ def _ints(a: NDArray) -> NDArray[np.int64]:
 
 
 @numba.njit(cache=True, inline="always")
-def _distance(q, n, lam, tip, axis, r, big, h):
+def _distance(q, n, lam, tip, axis, cutter):
     return cutter_distance(q[0] + lam * n[0] - tip[0], q[1] + lam * n[1] - tip[1],
-                           q[2] + lam * n[2] - tip[2], axis[0], axis[1], axis[2], r, big, h)
+                           q[2] + lam * n[2] - tip[2], axis[0], axis[1], axis[2],
+                           cutter.corner, cutter.radius, cutter.flute)
 
 
 @numba.njit(cache=True)
-def _entry(q, n, tip, axis, r, big, h, horizon):
-    """First ``l`` in ``[0, horizon]`` with ``q + l n`` in the cutter at one pose; inf if none."""
-    g = _distance(q, n, 0.0, tip, axis, r, big, h)
+def _entry(q, n, tip, axis, cutter, horizon):
+    """First ``l`` in ``[0, horizon]`` with ``q + l n`` in the cutter at one pose; inf if none.
+
+    ``cutter``: :class:`~.clearance_kernel.Cutter`.
+    """
+    g = _distance(q, n, 0.0, tip, axis, cutter)
     if g <= TOUCH_MM:
         return 0.0
     lam = 0.0
@@ -78,7 +115,7 @@ def _entry(q, n, tip, axis, r, big, h, horizon):
         lam += step
         if lam > horizon:
             return np.inf
-        before, g = g, _distance(q, n, lam, tip, axis, r, big, h)
+        before, g = g, _distance(q, n, lam, tip, axis, cutter)
         if g <= TOUCH_MM:
             return lam
         if g >= before:
@@ -92,17 +129,16 @@ def _entry(q, n, tip, axis, r, big, h, horizon):
     for _ in range(TERNARY_STEPS):
         m1 = lo + (hi - lo) / 3.0
         m2 = hi - (hi - lo) / 3.0
-        if _distance(q, n, m1, tip, axis, r, big, h) <= _distance(q, n, m2, tip, axis, r,
-                                                                    big, h):
+        if _distance(q, n, m1, tip, axis, cutter) <= _distance(q, n, m2, tip, axis, cutter):
             hi = m2
         else:
             lo = m1
-    if _distance(q, n, lo, tip, axis, r, big, h) > TOUCH_MM:
+    if _distance(q, n, lo, tip, axis, cutter) > TOUCH_MM:
         return np.inf
     root_lo, root_hi = lam, lo
     for _ in range(BISECTION_STEPS):
         mid = 0.5 * (root_lo + root_hi)
-        if _distance(q, n, mid, tip, axis, r, big, h) <= TOUCH_MM:
+        if _distance(q, n, mid, tip, axis, cutter) <= TOUCH_MM:
             root_hi = mid
         else:
             root_lo = mid
@@ -110,27 +146,27 @@ def _entry(q, n, tip, axis, r, big, h, horizon):
 
 
 @numba.njit(cache=True)
-def _entry_at(u, q, n, p0, p1, a0, a1, r, big, h, horizon, tip, axis):
-    """:func:`_entry` with the piece at ``u`` (``tip``, ``axis``: scratch arrays)."""
+def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
+    """:func:`_entry` with piece ``j`` of ``poses`` at ``u`` (``tip``, ``axis``: scratch)."""
+    tip0, tip1, axis0, axis1 = poses
     size = 0.0
     for k in range(3):
-        tip[k] = p0[k] + u * (p1[k] - p0[k])
-        axis[k] = a0[k] + u * (a1[k] - a0[k])
+        tip[k] = tip0[j, k] + u * (tip1[j, k] - tip0[j, k])
+        axis[k] = axis0[j, k] + u * (axis1[j, k] - axis0[j, k])
         size += axis[k] * axis[k]
     size = math.sqrt(size)
     for k in range(3):
         axis[k] /= size
-    return _entry(q, n, tip, axis, r, big, h, horizon)
+    return _entry(q, n, tip, axis, cutter, horizon)
 
 
 @numba.njit(cache=True)
-def _pair_entry(q, n, i, j, p0, p1, a0, a1, r, big, h, horizon, tip, axis, values):
-    """The entry of ray ``i`` into piece ``j`` (the last three: scratch arrays)."""
+def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
+    """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays)."""
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
     best = 0
     for m in range(POSES):
-        values[m] = _entry_at(m / (POSES - 1), q[i], n[i], p0[j], p1[j], a0[j], a1[j],
-                              r, big, h, horizon, tip, axis)
+        values[m] = _entry_at(m / (POSES - 1), q, n, poses, j, cutter, horizon, tip, axis)
         if values[m] < values[best]:
             best = m
     found = values[best]
@@ -139,21 +175,17 @@ def _pair_entry(q, n, i, j, p0, p1, a0, a1, r, big, h, horizon, tip, axis, value
         hi = min(best + 1, POSES - 1) / (POSES - 1)
         x1 = hi - inv_phi * (hi - lo)
         x2 = lo + inv_phi * (hi - lo)
-        f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
-                       tip, axis)
-        f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h, horizon,
-                       tip, axis)
+        f1 = _entry_at(x1, q, n, poses, j, cutter, horizon, tip, axis)
+        f2 = _entry_at(x2, q, n, poses, j, cutter, horizon, tip, axis)
         for _ in range(GOLDEN_STEPS):
             if f1 <= f2:
                 hi, x2, f2 = x2, x1, f1
                 x1 = hi - inv_phi * (hi - lo)
-                f1 = _entry_at(x1, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
-                               horizon, tip, axis)
+                f1 = _entry_at(x1, q, n, poses, j, cutter, horizon, tip, axis)
             else:
                 lo, x1, f1 = x1, x2, f2
                 x2 = lo + inv_phi * (hi - lo)
-                f2 = _entry_at(x2, q[i], n[i], p0[j], p1[j], a0[j], a1[j], r, big, h,
-                               horizon, tip, axis)
+                f2 = _entry_at(x2, q, n, poses, j, cutter, horizon, tip, axis)
         found = min(found, f1, f2)
     return found
 
@@ -187,7 +219,16 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
 
 
 @numba.njit(cache=True, parallel=True)
-def _nearest_entries(q, n, lo_k, hi_k, item, p0, p1, a0, a1, r, big, h, horizon, out):
+def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
+    """The loop of :func:`nearest_entries`, rays in parallel.
+
+    ``rays`` (:class:`Rays`) meet ``pieces`` (:class:`RayPieces`) of ``poses``
+    (:class:`Poses`) of the ``cutter`` (:class:`~.clearance_kernel.Cutter`), into ``out``;
+    a ray stops at an entry within ``stop``.
+    """
+    q, n = rays
+    lo_k, hi_k, item = pieces
+    tip0, tip1, axis0, axis1 = poses
     for i in numba.prange(lo_k.size):
         lo, hi = lo_k[i], hi_k[i]
         best = np.inf
@@ -198,13 +239,14 @@ def _nearest_entries(q, n, lo_k, hi_k, item, p0, p1, a0, a1, r, big, h, horizon,
             bounds = np.empty(hi - lo)
             for k in range(lo, hi):
                 j = item[k]
-                bounds[k - lo] = _tip_plane_bound(q[i], n[i], p0[j], p1[j], a0[j], a1[j], big)
+                bounds[k - lo] = _tip_plane_bound(q[i], n[i], tip0[j], tip1[j], axis0[j],
+                                                  axis1[j], cutter.radius)
             for m in np.argsort(bounds):
                 if bounds[m] > min(best, horizon):
                     break
-                best = min(best, _pair_entry(q, n, i, item[lo + m], p0, p1, a0, a1, r, big, h,
-                                             horizon, tip, axis, values))
-                if best == 0.0:
+                best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
+                                             tip, axis, values))
+                if best <= stop:
                     break
         out[i] = best
 
@@ -224,10 +266,13 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
                     hi: NDArray[np.int64], item: NDArray[np.int64], tips0: NDArray[np.float64],
                     tips1: NDArray[np.float64], axes0: NDArray[np.float64],
                     axes1: NDArray[np.float64], *, corner_radius_mm: float, radius_mm: float,
-                    flute_length_mm: float, horizon_mm: float) -> NDArray[np.float64]:
+                    flute_length_mm: float, horizon_mm: float, stop_mm: float = 0.0
+                    ) -> NDArray[np.float64]:
     """Each ray's first entry into the material removed by its pieces, mm.
 
-    Pieces are tried in the order of their tip-plane bounds, up to the best entry found.
+    Pieces are tried in the order of their tip-plane bounds, up to the best entry found,
+    or up to the first entry within ``stop_mm`` (0: the first entry, exactly; the
+    horizon: whether the ray enters within it, as soon as one piece says so).
 
     Parameters
     ----------
@@ -250,10 +295,10 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
     """
     out = np.full(len(q), np.inf)
     if len(q):
-        _nearest_entries(_floats(q), _floats(n), _ints(lo), _ints(hi), _ints(item),
-                         _floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1),
-                         float(corner_radius_mm), float(radius_mm), float(flute_length_mm),
-                         float(horizon_mm), out)
+        _nearest_entries(Rays(_floats(q), _floats(n)), RayPieces(_ints(lo), _ints(hi), _ints(item)),
+                         Poses(_floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1)),
+                         Cutter(float(corner_radius_mm), float(radius_mm), float(flute_length_mm)),
+                         float(horizon_mm), float(stop_mm), out)
     return out
 
 
@@ -295,28 +340,35 @@ def _capsule_entry(q, n, a, b, r2):
 
 
 @numba.njit(cache=True, parallel=True)
-def _capsule_entries(q, n, lo, hi, item, a, b, r2, out):
+def _capsule_entries(rays, pieces, segments, r2, stop, out):
+    """The loop of :func:`capsule_entries`: :class:`Rays`, :class:`RayPieces`, :class:`Segments`."""
+    q, n = rays
+    lo, hi, item = pieces
+    a, b = segments
     for i in numba.prange(lo.size):
         best = np.inf
         for k in range(lo[i], hi[i]):
             best = min(best, _capsule_entry(q[i], n[i], a[item[k]], b[item[k]], r2))
-            if best == 0.0:
+            if best <= stop:
                 break
         out[i] = best
 
 
 def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
                     hi: NDArray[np.int64], item: NDArray[np.int64], a: NDArray[np.float64],
-                    b: NDArray[np.float64], radius_mm: float) -> NDArray[np.float64]:
+                    b: NDArray[np.float64], radius_mm: float, stop_mm: float = 0.0
+                    ) -> NDArray[np.float64]:
     """Each ray's first entry into the capsules round its segments ``item[lo:hi]``, mm.
 
     A capsule: every point within ``radius_mm`` of the segment from ``a`` to ``b``. 0
-    where the ray starts inside one, ``inf`` where it misses them all.
+    where the ray starts inside one, ``inf`` where it misses them all. A ray stops at
+    the first capsule it enters within ``stop_mm`` (0: the first entry, exactly).
     """
     out = np.full(len(q), np.inf)
     if len(q):
-        _capsule_entries(_floats(q), _floats(n), _ints(lo), _ints(hi), _ints(item),
-                         _floats(a), _floats(b), float(radius_mm) ** 2, out)
+        _capsule_entries(Rays(_floats(q), _floats(n)), RayPieces(_ints(lo), _ints(hi), _ints(item)),
+                         Segments(_floats(a), _floats(b)), float(radius_mm) ** 2,
+                         float(stop_mm), out)
     return out
 
 
@@ -352,7 +404,10 @@ def _segment_distance(p0, p1, q0, q1):
 
 
 @numba.njit(cache=True, parallel=True)
-def _segment_distances(p0, p1, owner, a, b, item, out):
+def _segment_distances(first, owner, second, item, out):
+    """The loop of :func:`segment_distances` (two :class:`Segments`)."""
+    p0, p1 = first
+    a, b = second
     for k in numba.prange(owner.size):
         out[k] = _segment_distance(p0[owner[k]], p1[owner[k]], a[item[k]], b[item[k]])
 
@@ -363,13 +418,15 @@ def segment_distances(p0: NDArray[np.float64], p1: NDArray[np.float64],
     """Distance between segment ``owner[k]`` (``p0 p1``) and segment ``item[k]`` (``a b``), mm."""
     out = np.empty(len(owner))
     if out.size:
-        _segment_distances(_floats(p0), _floats(p1), _ints(owner), _floats(a), _floats(b),
-                           _ints(item), out)
+        _segment_distances(Segments(_floats(p0), _floats(p1)), _ints(owner),
+                           Segments(_floats(a), _floats(b)), _ints(item), out)
     return out
 
 
 @numba.njit(cache=True, parallel=True)
-def _tip_plane_floors(centre, radius, owner, item, p0, p1, a0, a1, big, out):
+def _tip_plane_floors(centre, radius, owner, item, poses, big, out):
+    """The loop of :func:`tip_plane_floors` (``poses``: :class:`Poses`)."""
+    p0, p1, a0, a1 = poses
     for k in numba.prange(owner.size):
         c, j = owner[k], item[k]
         depth = np.inf
@@ -395,6 +452,6 @@ def tip_plane_floors(centre: NDArray[np.float64], radius: NDArray[np.float64],
     out = np.empty(len(owner))
     if out.size:
         _tip_plane_floors(_floats(centre), _floats(radius), _ints(owner), _ints(item),
-                          _floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1),
+                          Poses(_floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1)),
                           float(radius_mm), out)
     return out
