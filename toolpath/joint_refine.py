@@ -71,8 +71,42 @@ def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
     """Distance (mm) of each move's joint-midpoint tip from its chord midpoint, ``(n-1,)``."""
     if len(tips_mm) < 2:
         return np.zeros(0)
-    middle_tips, _ = forward(machine, 0.5 * (joints[:-1] + joints[1:]))
-    return np.linalg.norm(middle_tips - 0.5 * (tips_mm[:-1] + tips_mm[1:]), axis=1)
+    return _moves_deviation(machine, tips_mm, joints, np.arange(len(tips_mm) - 1))
+
+
+def _moves_deviation(machine: Machine, tips_mm: NDArray[np.float64],
+                     joints: NDArray[np.float64], idx: NDArray[np.int64]
+                     ) -> NDArray[np.float64]:
+    """:func:`joint_path_deviation_mm` of the moves ``idx -> idx + 1``."""
+    middle_tips, _ = forward(machine, 0.5 * (joints[idx] + joints[idx + 1]))
+    return np.linalg.norm(middle_tips - 0.5 * (tips_mm[idx] + tips_mm[idx + 1]), axis=1)
+
+
+def _deviation_again(machine: Machine, tips_mm: NDArray[np.float64],
+                     joints: NDArray[np.float64],
+                     last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
+                     | None) -> NDArray[np.float64]:
+    """:func:`joint_path_deviation_mm` of a path after a round of splits.
+
+    ``last`` holds the previous round's joints, deviations and, per point now, the row it
+    had then (-1 for a new point). A move between two points that were neighbours then,
+    whose joints came out the same, has the same deviation (the same numbers in, the same
+    out); only the others are computed (the new halves, and any whose joints moved).
+    """
+    if last is None or len(tips_mm) < 2:
+        return joint_path_deviation_mm(machine, tips_mm, joints)
+    old_joints, old_deviation, was = last
+    a, b = was[:-1], was[1:]
+    same = (a >= 0) & (b == a + 1)
+    rows = np.flatnonzero(same)
+    same[rows] = ((joints[rows] == old_joints[a[rows]]).all(axis=1)
+                  & (joints[rows + 1] == old_joints[b[rows]]).all(axis=1))
+    deviation = np.empty(len(tips_mm) - 1)
+    deviation[same] = old_deviation[a[same]]
+    again = np.flatnonzero(~same)
+    if again.size:
+        deviation[again] = _moves_deviation(machine, tips_mm, joints, again)
+    return deviation
 
 
 def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: float
@@ -92,9 +126,11 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     tips, axes = path.positions_mm, path.tool_axes
     kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
     checked = joints_checked(path, machine)
+    # the last round's joints and deviations, by the new rows of its points (-1: new)
+    last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None = None
     for _ in range(MAX_ROUNDS):
         joints = solve_inverse(machine, tips, axes).joints
-        deviation = joint_path_deviation_mm(machine, tips, joints)
+        deviation = _deviation_again(machine, tips, joints, last)
         rapid = kinds[1:] == MoveKind.RAPID
         split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)
         if checked:
@@ -106,6 +142,8 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
         new_tips = 0.5 * (tips[at] + tips[at + 1])
         new_axes = unit(axes[at] + axes[at + 1])
         where = at + 1
+        old_rows = np.arange(len(tips))
+        last = (joints, deviation, np.insert(old_rows, where, -1))
         tips = np.insert(tips, where, new_tips, axis=0)
         axes = np.insert(axes, where, new_axes, axis=0)
         kinds = np.insert(kinds, where, kinds[at + 1])
