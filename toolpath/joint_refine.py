@@ -32,7 +32,7 @@ from .path import MoveKind, Toolpath
 from .vectors import unit
 
 __all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm", "joints_checked",
-           "machine_key", "refine_for_joint_interpolation"]
+           "machine_key", "refine_for_joint_interpolation", "refine_with_joints"]
 
 #: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
 #: sphere) under joint interpolation, mm: a rotary swing otherwise sweeps the tool far off
@@ -119,10 +119,23 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     round), through the part. On a 3-axis machine joint and tip interpolation agree and
     ``path`` is returned unchanged.
     """
+    return refine_with_joints(path, machine, tol_mm)[0]
+
+
+def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
+                       ) -> tuple[Toolpath, NDArray[np.float64] | None]:
+    """:func:`refine_for_joint_interpolation`, and the joints of the path it returns.
+
+    The joints are those its last round solved (``path.to_machine(machine).joints`` of the
+    result, without solving them again); None on a 3-axis machine, for a path under two
+    points, or where :data:`MAX_ROUNDS` ran out (the last round's points were split after
+    its joints were solved).
+    """
     if not (np.isfinite(tol_mm) and tol_mm > 0.0):
         raise InvalidParameterError(f"joint tolerance must be > 0 mm, got {tol_mm!r}")
     if not machine.kinematics.is_five_axis or len(path) < 2:
-        return path
+        return path, None
+    final: NDArray[np.float64] | None = None
     tips, axes = path.positions_mm, path.tool_axes
     kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
     checked = joints_checked(path, machine)
@@ -137,6 +150,7 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
             split &= ~((kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1])
                        & (passes[1:] >= 0))
         if not split.any():
+            final = joints
             break
         at = np.flatnonzero(split)  # move at -> at + 1 gets a middle point
         new_tips = 0.5 * (tips[at] + tips[at + 1])
@@ -150,7 +164,7 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
         feeds = np.insert(feeds, where, feeds[at + 1])
         passes = np.insert(passes, where, passes[at + 1])
     if len(tips) == len(path):
-        return path
+        return path, final
     metadata = {**path.metadata, "joint_refined_mm": f"{tol_mm:g}"}
     return Toolpath(tips, axes, kinds, feeds, passes, metadata,
-                    joints_checked_for=path.joints_checked_for)
+                    joints_checked_for=path.joints_checked_for), final
