@@ -96,11 +96,11 @@ def _deviation_again(machine: Machine, tips_mm: NDArray[np.float64],
     if last is None or len(tips_mm) < 2:
         return joint_path_deviation_mm(machine, tips_mm, joints)
     old_joints, old_deviation, was = last
+    old = was >= 0
+    moved = np.ones(len(was), dtype=bool)  # new, or its joints came out otherwise
+    moved[old] = (joints[old] != old_joints).any(axis=1)
     a, b = was[:-1], was[1:]
-    same = (a >= 0) & (b == a + 1)
-    rows = np.flatnonzero(same)
-    same[rows] = ((joints[rows] == old_joints[a[rows]]).all(axis=1)
-                  & (joints[rows + 1] == old_joints[b[rows]]).all(axis=1))
+    same = (b == a + 1) & ~moved[:-1] & ~moved[1:]
     deviation = np.empty(len(tips_mm) - 1)
     deviation[same] = old_deviation[a[same]]
     again = np.flatnonzero(~same)
