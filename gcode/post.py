@@ -96,7 +96,7 @@ from gcode.program import (
 from machines import Machine, UnreachableOrientationError, Wrap
 from machines.limits import min_segment_times
 from toolpath import MoveKind, Toolpath
-from toolpath.joint_refine import refine_for_joint_interpolation
+from toolpath.joint_refine import refine_with_joints
 from toolpath.tolerances import ROUND_OFF
 
 __all__ = ["DEFAULT_CLEARANCE_MM", "PostOptions", "post"]
@@ -612,9 +612,11 @@ def post(
     if len(toolpath) == 0:
         raise PostError(ErrorCode.NO_AXIS_WORDS, "the toolpath has no points")
     _check_machine_dialect(machine, d)
+    joints = None  # (the refinement's last round solved them for the path it returns)
     if opts.joint_tolerance_mm is not None:
-        toolpath = refine_for_joint_interpolation(toolpath, machine, opts.joint_tolerance_mm)
-    joints = _joints(toolpath, machine)
+        toolpath, joints = refine_with_joints(toolpath, machine, opts.joint_tolerance_mm)
+    if joints is None:
+        joints = _joints(toolpath, machine)
     moves = _plan_moves(toolpath, machine, joints, d, opts)
     arcs: dict[int, tuple[int, Arc]] = {}
     grid = _word_grid(d, opts.units)

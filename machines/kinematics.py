@@ -86,6 +86,7 @@ __all__ = [
     "controller_values",
     "forward",
     "inverse",
+    "linear_jacobian",
     "solve_inverse",
     "tilt_reach_deg",
 ]
@@ -136,14 +137,28 @@ class InverseSolution:
 
 def _rot(v: NDArray[np.float64], k: int, ang_deg: NDArray[np.float64]) -> NDArray[np.float64]:
     """Rotate row vectors ``v`` (n, 3) right-handed about basis axis ``k`` by ``ang_deg``."""
+    return _rot_cs(v, k, *_cos_sin(ang_deg))
+
+
+def _cos_sin(ang_deg: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``cos`` and ``sin`` of angles in deg (computed once where a rotation is used twice)."""
     a = np.radians(ang_deg)
-    c, s = np.cos(a), np.sin(a)
+    return np.cos(a), np.sin(a)
+
+
+def _rot_cs(v: NDArray[np.float64], k: int, c: NDArray[np.float64], s: NDArray[np.float64]
+            ) -> NDArray[np.float64]:
+    """:func:`_rot` by the angles whose cosines ``c`` and sines ``s`` are given."""
     x, y, z = v[:, 0], v[:, 1], v[:, 2]
-    if k == 0:
-        return np.stack([x, c * y - s * z, s * y + c * z], axis=1)
-    if k == 1:
-        return np.stack([c * x + s * z, y, -s * x + c * z], axis=1)
-    return np.stack([c * x - s * y, s * x + c * y, z], axis=1)
+    out = np.empty((len(c), 3))
+    i, j = ((1, 2), (2, 0), (0, 1))[k]  # the plane turned: e_i toward e_j
+    a, b = v[:, i], v[:, j]
+    out[:, k] = (x, y, z)[k]
+    np.multiply(c, a, out=out[:, i])
+    out[:, i] -= s * b
+    np.multiply(s, a, out=out[:, j])
+    out[:, j] += c * b
+    return out
 
 
 def _wrap180(a: NDArray[np.float64]) -> NDArray[np.float64]:
@@ -160,9 +175,8 @@ def _as_rows(a: ArrayLike, name: str, width: int) -> tuple[NDArray[np.float64], 
         raise KinematicsError(
             f"{name} must have shape (n, {width}) or ({width},), got {np.shape(a)!r}"
         )
-    bad = ~np.isfinite(arr).all(axis=1)
-    if bad.any():
-        i = int(np.flatnonzero(bad)[0])
+    if not np.isfinite(arr).all():  # (one pass over the values; rows only to name one)
+        i = int(np.flatnonzero(~np.isfinite(arr).all(axis=1))[0])
         raise KinematicsError(f"{name}[{i}] is not finite: {arr[i].tolist()!r}")
     return arr, single
 
@@ -241,18 +255,20 @@ def forward(machine: Machine, joints: ArrayLike) -> tuple[NDArray[np.float64], N
         t, c = canon[:, 3], canon[:, 4]
         k = _tilt_index(kin)
         p = np.asarray(machine.rotary_centre)
+        turn_c = _cos_sin(-c)  # (each rotation's cos and sin once: used twice)
         if kin.tilting_head:
             u = _rot(z, k, t)
             lp = machine.head_pivot_length
             tip_m = g + lp * _Z - (lp + machine.tool_length) * u
-            tips = _rot(tip_m - p, 2, -c) + p - origin
-            axes = _rot(u, 2, -c)
+            tips = _rot_cs(tip_m - p, 2, *turn_c) + p - origin
+            axes = _rot_cs(u, 2, *turn_c)
         else:
+            turn_t = _cos_sin(-t)
             pc = p + np.asarray(machine.c_offset)
             tip_m = g - machine.tool_length * _Z
-            v = _rot(tip_m - p, k, -t) + p - pc
-            tips = _rot(v, 2, -c) + pc - origin
-            axes = _rot(_rot(z, k, -t), 2, -c)
+            v = _rot_cs(tip_m - p, k, *turn_t) + p - pc
+            tips = _rot_cs(v, 2, *turn_c) + pc - origin
+            axes = _rot_cs(_rot_cs(z, k, *turn_t), 2, *turn_c)
     if single:
         return tips[0], axes[0]
     return tips, axes
@@ -469,6 +485,44 @@ def solve_inverse(
     joints = np.empty_like(canon)
     joints[:, _order(machine)] = canon
     return InverseSolution(joints=joints, in_cone=in_cone, axis_error_deg=err)
+
+
+def linear_jacobian(machine: Machine, joints: ArrayLike) -> NDArray[np.float64]:
+    """How the linear joints move with the tool tip at fixed rotary joints, ``dG/dq``.
+
+    The inverse maps of the module's text are affine in the tip ``q`` for given rotary
+    angles (which follow from the tool axis alone): ``G = M q + const`` with
+    ``M = R_t(t) R_z(c)`` on a table-table machine, ``R_z(c)`` on a head-table one and the
+    identity on a 3-axis one. Moving the part by ``d`` (workpiece frame) moves the linear
+    joints of every pose by ``M d`` exactly.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    joints : array_like, shape (n, n_axes)
+        Joint values in the machine's axis order (only the rotary ones are read).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 3, 3)
+        ``M`` per pose: rows X, Y, Z of the linear joints, columns x, y, z of the tip.
+    """
+    j, _ = _as_rows(joints, "joints", machine.n_axes)
+    kin = machine.kinematics
+    n = len(j)
+    jac = np.empty((n, 3, 3))
+    if kin is KinematicType.XYZ:
+        jac[:] = np.eye(3)
+        return jac
+    canon = j[:, _order(machine)]
+    turn_c = _cos_sin(canon[:, 4])
+    turn_t = None if kin.tilting_head else _cos_sin(canon[:, 3])
+    for k in range(3):
+        column = _rot_cs(np.broadcast_to(np.eye(3)[k], (n, 3)), 2, *turn_c)
+        jac[:, :, k] = column if turn_t is None else _rot_cs(column, _tilt_index(kin),
+                                                              *turn_t)
+    return jac
 
 
 def inverse(

@@ -20,6 +20,7 @@ from .fit_report import (
     fit_curve_by_method,
     fit_surface_by_method,
 )
+from .job_process import prepare_job_process
 
 __all__ = ["main"]
 
@@ -129,6 +130,7 @@ def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (non-zero on error)."""
     argv = sys.argv[1:] if argv is None else argv
     args = _parser(argv[0] if argv else None).parse_args(argv)
+    prepare_job_process()  # memory reuse, idle threads asleep (streamline_cam.job_process)
     try:
         handler = getattr(args, "handler", None)
         if handler is not None:

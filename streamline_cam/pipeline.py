@@ -36,6 +36,7 @@ from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
 
 from .fit_report import SURFACE_METHODS, fit_surface_by_method
+from .job_process import prepare_job_process
 from .verdict import verify_verdict
 
 __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
@@ -259,6 +260,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     JobResult
     """
     request = request.validated()
+    prepare_job_process()  # memory reuse, idle threads asleep (streamline_cam.job_process)
     report_progress = progress or _no_progress
     out_dir.mkdir(parents=True, exist_ok=True)
     machine = load_machine(request.machine)

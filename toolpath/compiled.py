@@ -46,8 +46,9 @@ from .projection_kernel import (
     trial,
 )
 
-__all__ = ["MOVES_CHUNK", "Moves", "NewtonSearch", "StreamlineKernel", "SurfaceArrays",
-           "move_points", "n_partials", "project_points", "streamline_partials"]
+__all__ = ["MOVES_CHUNK", "MoveStarts", "Moves", "NewtonSearch", "StreamlineKernel",
+           "SurfaceArrays", "move_points", "n_partials", "project_points",
+           "streamline_partials"]
 
 #: Partials in the order the kernels write them: X, X_t, X_s, X_tt, X_ts, X_ss.
 ORDERS = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
@@ -118,8 +119,9 @@ class StreamlineKernel:
         streamline_partials(t, s, self.arrays, top, out)
         return {order: out[ORDERS.index(order)] for order in orders}
 
-    def _search(self, iterations: int, extra: int, converged_mm: float, orientation: float
-                ) -> NewtonSearch:
+    def search(self, iterations: int, extra: int, converged_mm: float,
+               orientation: float = 0.0) -> NewtonSearch:
+        """The :class:`NewtonSearch` of these settings on this surface."""
         return NewtonSearch(bool(self.closed_t), int(iterations), int(extra),
                             float(converged_mm), float(orientation))
 
@@ -136,37 +138,34 @@ class StreamlineKernel:
         t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
         s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
         dist = np.empty(len(p))
-        project_points(p, self.arrays, self._search(iterations, extra, converged_mm,
-                                                    orientation), t, s, dist)
+        project_points(p, self.arrays, self.search(iterations, extra, converged_mm,
+                                                   orientation), t, s, dist)
         return t, s, dist
 
-    def project_moves(self, tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
-                      t: NDArray[np.float64], s: NDArray[np.float64], first: NDArray[np.int64],
-                      fractions: NDArray[np.float64], lift_mm: float, iterations: int,
-                      extra: int, converged_mm: float, orientation: float
+    def project_moves(self, moves: Moves, search: NewtonSearch
                       ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
         """Signed distances, less ``lift_mm``, of points inside moves, projected.
 
-        Move ``j`` goes from point ``first[j]`` to the next (tip linear, axis
-        normalized-linear); at each of its ``fractions[j]`` the point ``lift_mm`` up the
-        axis from the tip is projected (:meth:`project`) from the ends' parameters
-        interpolated alike (the short way across the seam of closed sections). The points
-        are made :data:`MOVES_CHUNK` moves at a time (:func:`move_points`) and projected
-        by :func:`project_points`. Returns ``t, s`` of the feet and the distances, shape
-        (m, k).
+        Move ``j`` of ``moves`` (:class:`Moves`) goes from point ``first[j]`` to the next
+        (tip linear, axis normalized-linear); at each of its ``fractions[j]`` the point
+        ``lift_mm`` up the axis from the tip is projected by ``search`` (:meth:`search`,
+        as :meth:`project` does) from the ends' parameters interpolated alike (the short
+        way across the seam of closed sections). The points are made :data:`MOVES_CHUNK`
+        moves at a time (:func:`move_points`) and projected by :func:`project_points`.
+        Returns ``t, s`` of the feet and the distances, shape (m, k).
         """
-        u = _writable(fractions, float)
+        u = _writable(moves.fractions, float)
         m, k = u.shape
         t_out, s_out, dist = np.empty(m * k), np.empty(m * k), np.empty(m * k)
-        moves = Moves(_writable(tips_mm, float), _writable(axes, float), _writable(t, float),
-                      _writable(s, float), _writable(first, np.int64), u, float(lift_mm))
-        search = self._search(iterations, extra, converged_mm, orientation)
+        moves = Moves(_writable(moves.tips_mm, float), _writable(moves.axes, float),
+                      _writable(moves.t, float), _writable(moves.s, float),
+                      _writable(moves.first, np.int64), u, float(moves.lift_mm))
         points = np.empty((min(m, MOVES_CHUNK) * k, 3))
         for lo in range(0, m, MOVES_CHUNK):
             hi = min(lo + MOVES_CHUNK, m)
             rows, chunk = slice(lo * k, hi * k), moves._replace(first=moves.first[lo:hi],
                                                                  fractions=u[lo:hi])
-            move_points(chunk, search.closed, points, t_out[rows], s_out[rows])
+            move_points(chunk, search.closed, MoveStarts(points, t_out[rows], s_out[rows]))
             project_points(points[:(hi - lo) * k], self.arrays, search, t_out[rows],
                            s_out[rows], dist[rows])
         dist -= moves.lift_mm
@@ -259,6 +258,18 @@ class Moves(NamedTuple):
     first: NDArray[np.int64]
     fractions: NDArray[np.float64]
     lift_mm: float
+
+
+class MoveStarts(NamedTuple):
+    """What :func:`move_points` makes for the points inside moves.
+
+    Row ``i``: the point to project (mm) and the parameters ``t, s`` its search starts
+    from (then its foot's, written in place by :func:`project_points`).
+    """
+
+    points: NDArray[np.float64]
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
 
 
 @numba.njit(cache=True, inline="always")
@@ -422,20 +433,19 @@ def project_points(p, sf, search, t, s, dist):
 
 
 @numba.njit(cache=True)
-def move_points(moves, closed, p, t, s):
+def move_points(moves, closed, out):
     """The points of :meth:`StreamlineKernel.project_moves` and where their search starts.
 
-    ``moves`` (:class:`Moves`): row ``j k + q`` of ``p``, ``t``, ``s`` is the point
-    ``lift_mm`` up the interpolated axis a fraction ``u[j, q]`` along move ``j`` (from
-    location ``first[j]`` to the next: :func:`_move_point`) and the ends' parameters
+    ``moves`` (:class:`Moves`), ``out`` (:class:`MoveStarts`): its row ``j k + q`` is the
+    point ``lift_mm`` up the interpolated axis a fraction ``u[j, q]`` along move ``j``
+    (from location ``first[j]`` to the next: :func:`_move_point`) and the ends' parameters
     interpolated alike (``closed``: the short way across the seam).
     """
-    tips, axes, tt, ss, first, u, lift = moves
+    first, u = moves.first, moves.fractions
     k = u.shape[1]
     for j in range(u.shape[0]):
         for q in range(k):
-            _move_point(tips, axes, tt, ss, first[j], u[j, q], lift, closed, p, t, s,
-                        j * k + q)
+            _move_point(moves, first[j], u[j, q], closed, out, j * k + q)
 
 
 @numba.njit(cache=True)
@@ -475,13 +485,16 @@ def _seam_signed(p, i, t, s, sf, orientation, dist, work, pt):
 
 
 @numba.njit(cache=True, inline="always")
-def _move_point(tips, axes, tt, ss, a, f, lift, closed, p, t1, s1, i):
-    """The point ``lift`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
+def _move_point(moves, a, f, closed, out, i):
+    """The point ``lift_mm`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
 
-    Into row ``i`` of ``p``, ``t1``, ``s1``: the point (tip linear, axis normalized-linear)
-    and the parameters to start from (the ends' interpolated, the short way across the
-    seam: :func:`~toolpath.projection_kernel.seam_lerp`).
+    Of ``moves`` (:class:`Moves`), into row ``i`` of ``out`` (:class:`MoveStarts`): the
+    point (tip linear, axis normalized-linear) and the parameters to start from (the ends'
+    interpolated, the short way across the seam:
+    :func:`~toolpath.projection_kernel.seam_lerp`).
     """
+    tips, axes, tt, ss, lift = moves.tips_mm, moves.axes, moves.t, moves.s, moves.lift_mm
+    p, t1, s1 = out
     b = a + 1
     size2 = 0.0
     for col in range(3):

@@ -32,7 +32,7 @@ from .path import MoveKind, Toolpath
 from .vectors import unit
 
 __all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm", "joints_checked",
-           "machine_key", "refine_for_joint_interpolation"]
+           "machine_key", "refine_for_joint_interpolation", "refine_with_joints"]
 
 #: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
 #: sphere) under joint interpolation, mm: a rotary swing otherwise sweeps the tool far off
@@ -71,8 +71,42 @@ def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
     """Distance (mm) of each move's joint-midpoint tip from its chord midpoint, ``(n-1,)``."""
     if len(tips_mm) < 2:
         return np.zeros(0)
-    middle_tips, _ = forward(machine, 0.5 * (joints[:-1] + joints[1:]))
-    return np.linalg.norm(middle_tips - 0.5 * (tips_mm[:-1] + tips_mm[1:]), axis=1)
+    return _moves_deviation(machine, tips_mm, joints, np.arange(len(tips_mm) - 1))
+
+
+def _moves_deviation(machine: Machine, tips_mm: NDArray[np.float64],
+                     joints: NDArray[np.float64], idx: NDArray[np.int64]
+                     ) -> NDArray[np.float64]:
+    """:func:`joint_path_deviation_mm` of the moves ``idx -> idx + 1``."""
+    middle_tips, _ = forward(machine, 0.5 * (joints[idx] + joints[idx + 1]))
+    return np.linalg.norm(middle_tips - 0.5 * (tips_mm[idx] + tips_mm[idx + 1]), axis=1)
+
+
+def _deviation_again(machine: Machine, tips_mm: NDArray[np.float64],
+                     joints: NDArray[np.float64],
+                     last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]
+                     | None) -> NDArray[np.float64]:
+    """:func:`joint_path_deviation_mm` of a path after a round of splits.
+
+    ``last`` holds the previous round's joints, deviations and, per point now, the row it
+    had then (-1 for a new point). A move between two points that were neighbours then,
+    whose joints came out the same, has the same deviation (the same numbers in, the same
+    out); only the others are computed (the new halves, and any whose joints moved).
+    """
+    if last is None or len(tips_mm) < 2:
+        return joint_path_deviation_mm(machine, tips_mm, joints)
+    old_joints, old_deviation, was = last
+    old = was >= 0
+    moved = np.ones(len(was), dtype=bool)  # new, or its joints came out otherwise
+    moved[old] = (joints[old] != old_joints).any(axis=1)
+    a, b = was[:-1], was[1:]
+    same = (b == a + 1) & ~moved[:-1] & ~moved[1:]
+    deviation = np.empty(len(tips_mm) - 1)
+    deviation[same] = old_deviation[a[same]]
+    again = np.flatnonzero(~same)
+    if again.size:
+        deviation[again] = _moves_deviation(machine, tips_mm, joints, again)
+    return deviation
 
 
 def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: float
@@ -85,34 +119,52 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     round), through the part. On a 3-axis machine joint and tip interpolation agree and
     ``path`` is returned unchanged.
     """
+    return refine_with_joints(path, machine, tol_mm)[0]
+
+
+def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
+                       ) -> tuple[Toolpath, NDArray[np.float64] | None]:
+    """:func:`refine_for_joint_interpolation`, and the joints of the path it returns.
+
+    The joints are those its last round solved (``path.to_machine(machine).joints`` of the
+    result, without solving them again); None on a 3-axis machine, for a path under two
+    points, or where :data:`MAX_ROUNDS` ran out (the last round's points were split after
+    its joints were solved).
+    """
     if not (np.isfinite(tol_mm) and tol_mm > 0.0):
         raise InvalidParameterError(f"joint tolerance must be > 0 mm, got {tol_mm!r}")
     if not machine.kinematics.is_five_axis or len(path) < 2:
-        return path
+        return path, None
+    final: NDArray[np.float64] | None = None
     tips, axes = path.positions_mm, path.tool_axes
     kinds, feeds, passes = path.kinds, path.feeds_mm_per_min, path.pass_index
     checked = joints_checked(path, machine)
+    # the last round's joints and deviations, by the new rows of its points (-1: new)
+    last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None = None
     for _ in range(MAX_ROUNDS):
         joints = solve_inverse(machine, tips, axes).joints
-        deviation = joint_path_deviation_mm(machine, tips, joints)
+        deviation = _deviation_again(machine, tips, joints, last)
         rapid = kinds[1:] == MoveKind.RAPID
         split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)
         if checked:
             split &= ~((kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1])
                        & (passes[1:] >= 0))
         if not split.any():
+            final = joints
             break
         at = np.flatnonzero(split)  # move at -> at + 1 gets a middle point
         new_tips = 0.5 * (tips[at] + tips[at + 1])
         new_axes = unit(axes[at] + axes[at + 1])
         where = at + 1
+        old_rows = np.arange(len(tips))
+        last = (joints, deviation, np.insert(old_rows, where, -1))
         tips = np.insert(tips, where, new_tips, axis=0)
         axes = np.insert(axes, where, new_axes, axis=0)
         kinds = np.insert(kinds, where, kinds[at + 1])
         feeds = np.insert(feeds, where, feeds[at + 1])
         passes = np.insert(passes, where, passes[at + 1])
     if len(tips) == len(path):
-        return path
+        return path, final
     metadata = {**path.metadata, "joint_refined_mm": f"{tol_mm:g}"}
     return Toolpath(tips, axes, kinds, feeds, passes, metadata,
-                    joints_checked_for=path.joints_checked_for)
+                    joints_checked_for=path.joints_checked_for), final

@@ -196,11 +196,16 @@ class Toolpath:
 
     # ------------------------------------------------------------------ files
     def save(self, path: str | Path) -> None:
-        """Write a ``.npz`` file (version :data:`TOOLPATH_FORMAT_VERSION`)."""
+        """Write a ``.npz`` file (version :data:`TOOLPATH_FORMAT_VERSION`).
+
+        Stored, not deflated: a 175,000-point 5-axis path takes 10.7 MB instead of 8.0, in
+        0.01 s instead of 0.26 s (doubles of measured geometry barely compress). :meth:`load`
+        reads either.
+        """
         keys = np.array(list(self.metadata), dtype=str)
         values = np.array(list(self.metadata.values()), dtype=str)
         with Path(path).open("wb") as handle:
-            np.savez_compressed(
+            np.savez(
                 handle, format_version=np.array(TOOLPATH_FORMAT_VERSION),
                 positions_mm=self.positions_mm, tool_axes=self.tool_axes, kinds=self.kinds,
                 feeds_mm_per_min=self.feeds_mm_per_min, pass_index=self.pass_index,

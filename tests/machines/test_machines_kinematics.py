@@ -17,6 +17,7 @@ from machines import (
     load_machine,
     solve_inverse,
 )
+from machines.kinematics import linear_jacobian
 
 LINEAR_TOL = 1e-9  # mm: round-off of a few rotations of ~1 m lever arms
 ANGLE_TOL = 1e-9  # deg
@@ -58,6 +59,21 @@ def test_forward_of_inverse_random_axes(five_axis, rng):
     t2, a2 = forward(five_axis, j)
     np.testing.assert_allclose(t2, tips, rtol=0, atol=LINEAR_TOL)
     np.testing.assert_allclose(a2, axes, rtol=0, atol=AXIS_TOL)
+
+
+def test_linear_jacobian_is_how_the_linear_joints_follow_the_tip(any_machine, rng):
+    """``G(q + d) - G(q) = J d`` at the same rotary joints, every machine, any ``d``."""
+    j = random_joints(any_machine, rng, 500)
+    tips, axes = forward(any_machine, j)
+    sol = solve_inverse(any_machine, tips, axes)
+    linear = [any_machine.index(letter) for letter in "XYZ"]
+    d = rng.uniform(-40.0, 40.0, (len(j), 3))
+    moved = solve_inverse(any_machine, tips + d, axes).joints
+    np.testing.assert_array_equal(np.delete(moved, linear, axis=1),
+                                  np.delete(sol.joints, linear, axis=1))
+    step = np.einsum("nij,nj->ni", linear_jacobian(any_machine, sol.joints), d)
+    np.testing.assert_allclose(moved[:, linear] - sol.joints[:, linear], step, rtol=0,
+                               atol=LINEAR_TOL)
 
 
 def test_joint_columns_follow_machine_order():

@@ -356,3 +356,38 @@ def test_greedy_walk_finds_the_probe_levels_a_search_finds():
         count = scallop._greedy(grid, allowed, lower, scale, lookahead, levels)
         assert levels[:count].tolist() == _greedy_by_search(grid, allowed, lower, scale,
                                                             lookahead)
+
+
+def test_joints_of_split_moves_going_on_alone_are_those_along_the_whole_path():
+    # the chord check's split moves go on alone (their ends and new points); their joints
+    # come from one solve along the whole path, merged as the end merges it back
+    from machines import load_machine
+    from machines.kinematics import solve_inverse
+
+    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode="lead-tilt",
+                            lead_deg=10.0)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 4)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 25), 4), np.repeat(np.arange(4), 25)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    split = np.array([0, 1, 7, 30, 31, 60, 98])  # moves split -> split + 1 (same pass)
+    split = split[start.same_pass[split]]
+    origin = np.unique(np.r_[split, split + 1])
+    alone = passes._take_points(start, origin)
+    new_t, which = passes.split_evenly(start.t[split], start.t[split + 1],
+                                       np.full(split.size, 3))
+    alone, where_new, kept = passes.insert_points(surface, cutter, opts, res, layout, alone,
+                                                  new_t, start.pid[split][which])
+    assert kept
+    origin = passes._merge(origin, np.full(where_new.size, -1), np.sort(where_new))
+    machine = load_machine("trunnion-ac")
+    q = passes._joints_along(machine, start, alone, origin)
+    whole, _ = passes._merged_back(start, None, alone, origin)
+    full = solve_inverse(machine, whole.tips, whole.axes).joints
+    key = np.round(whole.t * 1e12) + 1e13 * whole.pid
+    rows = np.searchsorted(key, np.round(alone.t * 1e12) + 1e13 * alone.pid)
+    np.testing.assert_array_equal(key[rows], np.round(alone.t * 1e12) + 1e13 * alone.pid)
+    np.testing.assert_array_equal(q, full[rows])
+    np.testing.assert_array_equal(passes._joints_along(machine, whole, whole, None), full)

@@ -7,7 +7,13 @@ import pytest
 
 from machines import load_machine
 from toolpath.errors import DataFileError, InvalidParameterError
-from toolpath.joint_refine import joints_checked, machine_key, refine_for_joint_interpolation
+from toolpath.joint_refine import (
+    joint_path_deviation_mm,
+    joints_checked,
+    machine_key,
+    refine_for_joint_interpolation,
+    refine_with_joints,
+)
 from toolpath.path import LEGACY_JOINT_CHECKED_KEY, TOOLPATH_FORMAT_VERSION, MoveKind, Toolpath
 from toolpath.planning import PlaneSurface, SpherePatch, plan_finishing
 
@@ -127,3 +133,16 @@ def test_the_post_leaves_checked_cutting_moves_whole_and_splits_the_others(
     assert old.joints_checked_for is None and LEGACY_JOINT_CHECKED_KEY not in old.metadata
     np.testing.assert_array_equal(old.positions_mm, path.positions_mm)
     assert len(refine_for_joint_interpolation(old, machine, tol)) == len(split)
+
+
+def test_the_refinement_hands_on_the_joints_of_the_path_it_returns(checked_on_machine):
+    path, machine = checked_on_machine
+    unchecked = dataclasses.replace(path, joints_checked_for=None)
+    tol = 1e-3
+    refined, joints = refine_with_joints(unchecked, machine, tol)
+    assert len(refined) > len(path)  # (rounds of splits: deviations carried over between them)
+    np.testing.assert_array_equal(joints, refined.to_machine(machine).joints)
+    deviation = joint_path_deviation_mm(machine, refined.positions_mm, joints)
+    assert deviation[refined.kinds[1:] != MoveKind.RAPID].max() <= tol
+    # where the rounds run out, no joints: the last round's points were split after them
+    assert refine_with_joints(unchecked, machine, 1e-6)[1] is None

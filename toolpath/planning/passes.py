@@ -621,11 +621,14 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
     and are merged into the others once, at the end: merging each round copies every point
     (memory-bound, 0.1 us a point). Joints along a 5-axis machine's path are solved along
-    the whole path, so not there.
+    the whole path: its tips and axes alone are merged for them (:func:`_joints_along`).
+    Not where an insertion would smooth the axes again (lead/tilt axes without a
+    smoothing record): every point may then move.
     """
     tol = res.planned_chord_tol_mm
     start, keep_start = pts, keep
-    defer = machine is None or not machine.kinematics.is_five_axis
+    five_axis = machine is not None and machine.kinematics.is_five_axis
+    defer = opts.axis_mode is not AxisMode.LEAD_TILT or pts.smoothing is not None
     origin: NDArray[np.int64] | None = None
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = unchecked = 0.0
@@ -636,7 +639,8 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         idx = np.flatnonzero(seg_ok)
         if not idx.size:
             break
-        low, high, q = _gap_extremes(surface, cutter, res, pts, idx, machine)
+        q = _joints_along(machine, start, pts, origin) if five_axis else None
+        low, high = _gap_extremes(surface, cutter, res, pts, idx, machine, q)
         bad = _moves_to_split(cutter, res, pts, idx, low, high, machine, q)
         gap = np.maximum(-low, high)
         if not bad.all():  # the moves left whole are final: the worst of them is reported
@@ -677,10 +681,32 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                          keep, worst)
 
 
+def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,
+                  origin: NDArray[np.int64] | None) -> NDArray[np.float64]:
+    """The joints at ``pts``' rows, solved along the whole path.
+
+    ``pts`` is the path itself (``origin`` None) or the split moves going on alone: their
+    ends (``origin``: rows of ``start``) and new points (-1), merged into ``start`` for the
+    solve as :func:`_merged_back` merges them (tips and axes only).
+    """
+    if origin is None:
+        return solve_inverse(machine, pts.tips, pts.axes).joints
+    added = np.flatnonzero(origin < 0)
+    before = _insertion_rows(start.pid, start.t, pts.pid[added], pts.t[added])
+    new_at = before + np.arange(added.size)
+    joints = solve_inverse(machine, _merge(start.tips, pts.tips[added], new_at),
+                           _merge(start.axes, pts.axes[added], new_at)).joints
+    rows = np.empty(len(pts), dtype=np.int64)
+    rows[added] = new_at
+    ends = np.flatnonzero(origin >= 0)  # start's row r, after the new points before it
+    rows[ends] = origin[ends] + np.searchsorted(before, origin[ends], side="right")
+    return joints[rows]
+
+
 def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOptions,
-                  pts: PassPoints, idx: NDArray[np.int64], machine: Machine | None
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64],
-                             NDArray[np.float64] | None]:
+                  pts: PassPoints, idx: NDArray[np.int64], machine: Machine | None,
+                  q: NDArray[np.float64] | None
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The deepest cut and the highest stand of the cutter along moves ``idx -> idx + 1``.
 
     The cutter inside each move (tip and axis interpolated; with a 5-axis ``machine``, its
@@ -695,10 +721,9 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
     pass, :data:`~toolpath.planning.scallop.TURNING_UNDERCUT_SHARE` of the scallop) is
     measured there.
 
-    Returns ``low`` (<= 0), ``high`` (>= 0) per move and the joints (None but 5-axis).
+    Returns ``low`` (<= 0), ``high`` (>= 0) per move. ``q``: the points' joints along the
+    whole path with a 5-axis ``machine`` (:func:`_joints_along`), else None.
     """
-    q = (solve_inverse(machine, pts.tips, pts.axes).joints
-         if machine is not None and machine.kinematics.is_five_axis else None)
     slopes = (ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, idx)
               if cutter.kind is CutterKind.BALL and q is None else None)
     fractions = np.asarray(CHORD_FRACTIONS if slopes is None else BALL_FRACTIONS)
@@ -722,7 +747,7 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
                                           pts.s, j, u_at[close, None], newton=1,
                                           refine_rim=True, **joint_moves(machine, q, j))
             value[close] = further(value[close], exact[:, 0])
-    return low, high, q
+    return low, high
 
 
 def _undercut_limit(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]

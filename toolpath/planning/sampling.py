@@ -37,6 +37,7 @@ from numpy.typing import ArrayLike, NDArray
 from machines import Machine
 from machines.kinematics import forward
 
+from ..compiled import Moves
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface
 from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF
@@ -583,8 +584,8 @@ def point_move_gaps(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray
         u = np.broadcast_to(np.asarray(fractions, dtype=float),
                             (len(first), np.shape(fractions)[-1]))
         t_out, s_out, gap = kernel.project_moves(
-            tips_mm, axes, t, s, first, u, cutter.corner_radius_mm, newton, EXTRA_ITERATIONS,
-            CONVERGED_MM, surface.orientation)
+            Moves(tips_mm, axes, t, s, first, u, cutter.corner_radius_mm),
+            kernel.search(newton, EXTRA_ITERATIONS, CONVERGED_MM, surface.orientation))
         return gap, t_out, s_out
     nxt = first + 1
     ends = MoveEnds(tips_mm[first], tips_mm[nxt], axes[first], axes[nxt], t[first], t[nxt],

@@ -35,7 +35,7 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from machines import Machine
-from machines.kinematics import solve_inverse
+from machines.kinematics import linear_jacobian, solve_inverse
 from machines.limits import TRAVEL_TOLERANCE, Violation, check_travel
 
 from ..tolerances import LENGTH_SLACK_MM, NO_MEAN_AXIS
@@ -122,16 +122,14 @@ class TravelFit:
 
 def _linear_joints(machine: Machine, tips: NDArray[np.float64], axes: NDArray[np.float64]
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """All joints, the linear joints ``G`` (n, 3) and their Jacobian ``J`` (n, 3, 3) in ``d``."""
+    """All joints, the linear joints ``G`` (n, 3) and their Jacobian ``J`` (n, 3, 3) in ``d``.
+
+    ``G`` is affine in the tips at the poses' rotary joints (which the axes alone set), so
+    ``J`` is exact: :func:`~machines.kinematics.linear_jacobian`.
+    """
     joints = solve_inverse(machine, tips, axes).joints
-    cols = [machine.index(letter) for letter in "XYZ"]
-    g = joints[:, cols]
-    jac = np.empty((len(tips), 3, 3))
-    for k in range(3):
-        step = np.zeros(3)
-        step[k] = 1.0
-        jac[:, :, k] = solve_inverse(machine, tips + step, axes).joints[:, cols] - g
-    return joints, g, jac
+    g = joints[:, [machine.index(letter) for letter in "XYZ"]]
+    return joints, g, linear_jacobian(machine, joints)
 
 
 def _with_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],

@@ -1,0 +1,20 @@
+"""A job's process keeps freed arrays for reuse, its idle threads asleep (issue 27)."""
+
+import os
+import platform
+
+import pytest
+from numpy._core import multiarray
+
+from streamline_cam.job_process import prepare_job_process
+
+
+def test_numpy_asks_for_no_huge_pages_and_openmp_waits_passively():
+    prepare_job_process()
+    assert multiarray._set_madvise_hugepage(False) is False  # returns the setting it replaced
+    assert os.environ["OMP_WAIT_POLICY"]  # PASSIVE unless the environment chose
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
+def test_glibc_takes_the_malloc_settings():
+    assert prepare_job_process() is True
