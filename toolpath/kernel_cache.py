@@ -148,13 +148,17 @@ def _patch_numba() -> None:
     """Make numba's cache drop stale indexes and compile each kernel in one process."""
     from numba.core import caching, dispatcher
 
-    index_file = caching.IndexDataCacheFile
-    if not getattr(index_file, "_streamline_cam", False):
+    # (numba's internals as of 0.68: a numba without them is left as it is)
+    index_file = getattr(caching, "IndexDataCacheFile", None)
+    if hasattr(index_file, "_load_index") and not getattr(index_file, "_streamline_cam", False):
         index_file._load_index = _readable_index(index_file._load_index)
         index_file._streamline_cam = True
-    compiled = dispatcher.Dispatcher
-    if not getattr(compiled, "_streamline_cam", False):
-        compiled.compile = _compile_once(compiled.compile)
+    compiled = getattr(dispatcher, "Dispatcher", None)
+    if hasattr(compiled, "compile") and not getattr(compiled, "_streamline_cam", False):
+        try:
+            compiled.compile = _compile_once(compiled.compile)
+        except ImportError:
+            return
         compiled._streamline_cam = True
 
 
