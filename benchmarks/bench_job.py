@@ -1,6 +1,6 @@
 """The whole job as a user runs it, cold and warm (issue 27).
 
-Run: ``python benchmarks/bench_job.py [--quick] [--skip-run] [--skip-warm-up]``
+Run: ``python benchmarks/bench_job.py [--quick] [--skip-run] [--skip-warm-up] [--split]``
 
 Each command runs as a user types it (``python -m streamline_cam.cli ...`` from this
 checkout, a fresh interpreter each time), twice:
@@ -18,6 +18,11 @@ chord 0.01; ``--quick``: scallop 0.05, chord 0.02), with the stage split of the 
 (``seconds``) and the planner's own (``plan.seconds``). Then ``toolpath warm-up`` on an empty
 cache (what ``make install`` runs) and the 5-axis plan right after it: the first job of an
 install that ran the warm-up.
+
+``--split`` prints only where the warm-up's compiling goes: its jobs one after the other
+in one process on an empty cache, with the CPU seconds of each kernel's compile (its own,
+without the kernels it calls; numba's ``numba:compile`` events) and the kernels compiled
+for more than one signature (each should have one).
 
 Beside each figure: the issue's "today" figures, and the ratios the targets name, measured
 in this run: ``cold - warm`` against the 15 s cold-start target, ``--help`` and ``check``
@@ -107,13 +112,71 @@ class Table:
         print(line, flush=True)
 
 
+def compile_split() -> None:
+    """The warm-up's jobs in this process, and the CPU seconds of each kernel's compile.
+
+    Run with an empty ``NUMBA_CACHE_DIR`` (``--split`` sets one). A compile's own time is
+    its time less that of the compiles it started (the kernels it calls).
+    """
+    from collections import defaultdict
+
+    from numba.core import event
+
+    from streamline_cam.warmup import warm_up
+
+    own: dict[str, float] = defaultdict(float)
+    signatures: dict[str, list[str]] = defaultdict(list)
+    running: list[list] = []  # [name, cpu at start, cpu of the compiles it started]
+
+    class Compiles(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            func = ev.data["dispatcher"].py_func
+            running.append([f"{func.__module__}.{func.__qualname__}", time.process_time(), 0.0])
+
+        def on_end(self, ev: event.Event) -> None:
+            name, start, inner = running.pop()
+            took = time.process_time() - start
+            own[name] += took - inner
+            signatures[name].append(str(ev.data["args"]))
+            if running:
+                running[-1][2] += took
+
+    event.register("numba:compile", Compiles())
+    cpu = time.process_time()
+    wall = warm_up(lambda text: print(text, flush=True), processes=1)
+    cpu = time.process_time() - cpu
+    print(f"warm-up in one process: {wall:.1f} s wall, {cpu:.1f} s cpu, of which compiling "
+          f"{sum(own.values()):.1f} s cpu; load {os.getloadavg()[0]:.1f}")
+    print(f"{'cpu s':>7} {'share':>6} {'sigs':>4}  kernel (own compile time)")
+    for name, seconds in sorted(own.items(), key=lambda item: -item[1]):
+        if seconds >= 0.1:
+            print(f"{seconds:7.2f} {seconds / cpu:6.1%} {len(signatures[name]):4d}  {name}")
+    ours = ("toolpath.", "verification.", "streamline_cam.", "gcode.", "machines.")
+    twice = {name: sigs for name, sigs in signatures.items()
+             if len(sigs) > 1 and name.startswith(ours)}
+    print("kernels compiled for more than one signature:", "none" if not twice else "")
+    for name, sigs in twice.items():
+        print(f"  {name}:", *sigs, sep="\n    ")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--quick", action="store_true",
                         help="run jobs at scallop 0.05 mm, chord 0.02 mm")
     parser.add_argument("--skip-run", action="store_true", help="no 'toolpath run' rows")
     parser.add_argument("--skip-warm-up", action="store_true", help="no 'warm-up' row")
+    parser.add_argument("--split", action="store_true",
+                        help="only the warm-up's compile time, kernel by kernel")
+    parser.add_argument("--split-here", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
+    if args.split_here:  # (the child --split starts, on an empty cache)
+        compile_split()
+        return
+    if args.split:
+        with tempfile.TemporaryDirectory(prefix="bench-job-split-") as cache:
+            subprocess.run([sys.executable, __file__, "--split-here"], check=True,
+                           env={**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": cache})
+        return
     load = os.getloadavg()
     print(f"bench_job: {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}, "
           f"{os.cpu_count()} CPUs, load average {load[0]:.1f} {load[1]:.1f} {load[2]:.1f} "

@@ -7,18 +7,24 @@ and every later process loads them. The warm-up runs that first job ahead of tim
 small jobs on bundled blades at coarse settings (3-axis on ``grbl-router``: the development
 blade, open sections, verified; 5-axis on ``trunnion-ac``: the propeller blade, closed
 sections, a spiral), which compile every kernel a job reaches for the argument types jobs
-pass. :func:`load_kernels` is the per-process counterpart for long-lived workers (a Dask
-worker, before its first job): one small job that loads the cached kernels in a second or
-two. Nothing depends on either: a kernel it did not reach compiles when a job first calls it,
-and a warm-up job that stops (bad data would be a bug) is reported and skipped.
+pass. The two jobs run at once, one process each (on a machine of one core, one after the
+other): the kernel cache lets one process compile each kernel while the other waits and
+loads it, so the jobs share the compiling. :func:`load_kernels` is the per-process
+counterpart for long-lived workers (a Dask worker, before its first job): one small job
+that loads the cached kernels in a second or two. Nothing depends on either: a kernel it did
+not reach compiles when a job first calls it, and a warm-up job that stops (bad data would
+be a bug) is reported and skipped.
 """
 
 from __future__ import annotations
 
+import multiprocessing
+import os
 import tempfile
 import time
 import warnings
 from collections.abc import Callable
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Final
 
@@ -31,41 +37,70 @@ __all__ = ["COARSE", "WARM_JOBS", "load_kernels", "warm_up"]
 
 #: The warm-up's jobs: (label, bundled blade, machine, axis mode, verify). Coarse settings
 #: (COARSE): the kernels matter here, not the figures. One verification reaches the
-#: verifier's code; a second (5-axis) would only repeat it, at a cost.
+#: verifier's code; a second (5-axis) compiles nothing more and ran 9-12 s. Run at once, the
+#: 3-axis job compiles most of the shared planner kernels (it reaches them sooner) while
+#: the 5-axis one compiles its tool-axis kernels.
 WARM_JOBS = (("3-axis", "dev_blade_15x142.csv", "grbl-router", "3", True),
              ("5-axis", "dev_prop_7x100.csv", "trunnion-ac", "lead-tilt", False))
 COARSE = {"scallop_mm": 0.05, "chord_tol_mm": 0.02}
 
 
-def warm_up(say: Callable[[str], None] | None = None) -> float:
+def warm_up(say: Callable[[str], None] | None = None, processes: int | None = None) -> float:
     """Run the warm-up jobs in a temporary folder; returns the seconds taken.
 
-    ``say`` gets one line as each job starts and ends (progress), e.g. ``print``.
+    ``say`` gets one line as each job starts and ends (progress), e.g. ``print``. The jobs
+    run at once in up to ``processes`` processes (default: one per core, at most one per
+    job): compiling is single-threaded, and the kernel cache has each kernel compiled by
+    one process while the others wait for it and load it
+    (:func:`toolpath.kernel_cache.hook_numba`), so the jobs share the compiling.
     """
-    from .pipeline import JobRequest, run_job
-
     say = say or (lambda _text: None)
     start = time.perf_counter()
-    with (tempfile.TemporaryDirectory(prefix="toolpath-warm-up-") as folder,
-          warnings.catch_warnings()):
-        warnings.simplefilter("ignore")  # figures of coarse settings do not matter here
-        for i, (label, name, machine, axis_mode, verify) in enumerate(WARM_JOBS, 1):
-            job_start = time.perf_counter()
+    workers = max(1, min(len(WARM_JOBS), processes or os.cpu_count() or 1))
+    with tempfile.TemporaryDirectory(prefix="toolpath-warm-up-") as folder:
+        for i, (label, name, machine, _axis_mode, verify) in enumerate(WARM_JOBS, 1):
             say(f"warm-up {i}/{len(WARM_JOBS)}: {label} job on {machine} ({name}: fit, plan, "
                 f"post, check{', verify' if verify else ''}) ...")
-            request = JobRequest(bundled_data_path(name), machine=machine,
-                                 axis_mode=axis_mode, **COARSE)
-            try:
-                result = run_job(request, Path(folder) / label, verify=verify)
-            except (ToolpathError, GCodeError, MachineError) as exc:
-                say(f"warm-up {i}/{len(WARM_JOBS)}: {label} stopped ({exc}); what it did not "
-                    "reach compiles on first use")
-                continue
-            stages = ", ".join(f"{stage} {seconds:.1f}"
-                               for stage, seconds in result.report["seconds"].items())
-            say(f"warm-up {i}/{len(WARM_JOBS)}: {label} done in "
-                f"{time.perf_counter() - job_start:.1f} s ({stages} s)")
+        if workers == 1:
+            for i in range(len(WARM_JOBS)):
+                say(_warm_job(i, folder))
+            return time.perf_counter() - start
+        spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
+        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
+                                 initializer=_one_thread) as pool:
+            for done in as_completed([pool.submit(_warm_job, i, folder)
+                                      for i in range(len(WARM_JOBS))]):
+                say(done.result())
     return time.perf_counter() - start
+
+
+def _one_thread() -> None:
+    """Compiled loops run on one thread in a warm-up process (the processes share the cores).
+
+    (Read by numba when it loads, before the job; the compiled code does not depend on it.)
+    """
+    os.environ["NUMBA_NUM_THREADS"] = "1"
+
+
+def _warm_job(index: int, folder: str) -> str:
+    """Run warm-up job ``index`` (of :data:`WARM_JOBS`) under ``folder``; its progress line."""
+    from .pipeline import JobRequest, run_job
+
+    label, name, machine, axis_mode, verify = WARM_JOBS[index]
+    head = f"warm-up {index + 1}/{len(WARM_JOBS)}: {label}"
+    job_start, job_cpu = time.perf_counter(), time.process_time()
+    request = JobRequest(bundled_data_path(name), machine=machine, axis_mode=axis_mode,
+                         **COARSE)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")  # figures of coarse settings do not matter here
+        try:
+            result = run_job(request, Path(folder) / label, verify=verify)
+        except (ToolpathError, GCodeError, MachineError) as exc:
+            return f"{head} stopped ({exc}); what it did not reach compiles on first use"
+    stages = ", ".join(f"{stage} {seconds:.1f}"
+                       for stage, seconds in result.report["seconds"].items())
+    return (f"{head} done in {time.perf_counter() - job_start:.1f} s, cpu "
+            f"{time.process_time() - job_cpu:.1f} s ({stages} s)")
 
 
 #: The job of :func:`load_kernels`: a coarse plan on a small blade-like strip, enough to

@@ -396,9 +396,15 @@ def streamline_partials(t, s, sf, order, out):
     ``sf``: the surface's :class:`SurfaceArrays`.
     """
     for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
-        work = _scratch()
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, t.size)):
-            _point_partials(t[i], s[i], sf, order, out, i, work)
+        _partials_block(t, s, sf, order, out, block * BLOCK, min((block + 1) * BLOCK, t.size))
+
+
+@numba.njit(cache=True)
+def _partials_block(t, s, sf, order, out, lo, hi):
+    """:func:`streamline_partials` for points ``lo .. hi - 1``."""
+    work = _scratch()
+    for i in range(lo, hi):
+        _point_partials(t[i], s[i], sf, order, out, i, work)
 
 
 @numba.njit(cache=True, parallel=True)

@@ -13,17 +13,40 @@ module loads numba) settles the folder first:
 2. numba's own choice when the package folder is writable;
 3. else ``$XDG_CACHE_HOME/streamline-cam/kernels`` (``~/.cache/...``), else a folder in the
    system's temporary directory, whichever is writable first (set as ``NUMBA_CACHE_DIR``).
+
+It also makes the cache safe to share and to outlive the code (:func:`hook_numba`, applied
+when numba gets imported, so that commands which never load numba do not pay for it):
+
+* **a stale index is dropped, not raised**: numba unpickles a kernel's cache index before
+  it checks the source's stamp, and the index names the classes of the kernel's signature
+  (the named tuples the kernels take); after an upgrade that renamed or removed one of them
+  the unpickling raised ``AttributeError`` at the first call. An index that cannot be read
+  now counts as empty: the kernel compiles again and writes a fresh index;
+* **one process compiles a kernel, the others wait and load it**: a compile (and the cache
+  look-up before it) holds a lock file beside the kernel's index, so processes starting on
+  an empty cache at once (the warm-up's jobs, a service's or a batch's workers) never
+  compile the same kernel twice.
 """
 
 from __future__ import annotations
 
+import contextlib
+import importlib.abc
+import importlib.util
 import os
 import sys
 import tempfile
-from collections.abc import Callable, MutableMapping
+from collections.abc import Callable, Iterator, MutableMapping
 from pathlib import Path
+from types import ModuleType
+from typing import Any
 
-__all__ = ["choose_cache_dir", "ensure_kernel_cache"]
+try:
+    import fcntl
+except ImportError:  # (Windows: no lock across processes; each may compile a kernel)
+    fcntl = None
+
+__all__ = ["choose_cache_dir", "ensure_kernel_cache", "hook_numba"]
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -67,6 +90,7 @@ def ensure_kernel_cache() -> Path | None:
     Sets ``NUMBA_CACHE_DIR`` (and numba's setting, if numba is loaded already) when the
     package folder is read-only; returns the folder set, or None for numba's default.
     """
+    hook_numba()
     folder = choose_cache_dir(os.environ)
     if folder is None or os.environ.get("NUMBA_CACHE_DIR"):
         return folder
@@ -75,3 +99,143 @@ def ensure_kernel_cache() -> Path | None:
     if config is not None:
         config.CACHE_DIR = str(folder)
     return folder
+
+
+def hook_numba() -> None:
+    """Patch numba's kernel cache (see the module's text) now, or when numba is imported.
+
+    Loads nothing: with numba not yet imported, a one-time import hook patches it right
+    after its import. Patching twice is a no-op.
+    """
+    if "numba" in sys.modules:
+        _patch_numba()
+    elif not any(isinstance(finder, _NumbaImportHook) for finder in sys.meta_path):
+        sys.meta_path.insert(0, _NumbaImportHook())
+
+
+class _NumbaImportHook(importlib.abc.MetaPathFinder):
+    """Runs :func:`_patch_numba` right after ``import numba`` (once, then leaves)."""
+
+    def find_spec(self, fullname: str, path: Any = None, target: Any = None) -> Any:
+        if fullname != "numba":
+            return None
+        with contextlib.suppress(ValueError):
+            sys.meta_path.remove(self)
+        spec = importlib.util.find_spec(fullname)
+        if spec is not None and spec.loader is not None:
+            spec.loader = _PatchAfterLoad(spec.loader)
+        return spec
+
+
+class _PatchAfterLoad(importlib.abc.Loader):
+    """numba's own loader, then :func:`_patch_numba`."""
+
+    def __init__(self, loader: Any) -> None:
+        self._loader = loader
+
+    def __getattr__(self, name: str) -> Any:  # (the rest of the loader's interface)
+        return getattr(self._loader, name)
+
+    def create_module(self, spec: Any) -> ModuleType | None:
+        return self._loader.create_module(spec)
+
+    def exec_module(self, module: ModuleType) -> None:
+        self._loader.exec_module(module)
+        _patch_numba()
+
+
+def _patch_numba() -> None:
+    """Make numba's cache drop stale indexes and compile each kernel in one process."""
+    from numba.core import caching, dispatcher
+
+    # (numba's internals as of 0.68: a numba without them is left as it is)
+    index_file = getattr(caching, "IndexDataCacheFile", None)
+    if hasattr(index_file, "_load_index") and not getattr(index_file, "_streamline_cam", False):
+        index_file._load_index = _readable_index(index_file._load_index)
+        index_file._streamline_cam = True
+    compiled = getattr(dispatcher, "Dispatcher", None)
+    if hasattr(compiled, "compile") and not getattr(compiled, "_streamline_cam", False):
+        try:
+            compiled.compile = _compile_once(compiled.compile)
+        except ImportError:
+            return
+        compiled._streamline_cam = True
+
+
+def _readable_index(load_index: Callable[[Any], dict]) -> Callable[[Any], dict]:
+    """Wrap numba's ``IndexDataCacheFile._load_index``: an unreadable index counts as empty.
+
+    numba unpickles the index (kernel signatures, which name their classes) before it
+    compares the source stamp: a class since renamed or removed, a module gone, a damaged
+    file raise there. Such an index is stale: removed, and the kernel compiles afresh (its
+    next save writes a new index; the old data files are overwritten in turn).
+    """
+
+    def _load_index(self: Any) -> dict:
+        try:
+            return load_index(self)
+        except Exception:  # (whatever unpickling raised: the index is stale)
+            with contextlib.suppress(OSError):
+                os.remove(self._index_path)
+            return {}
+
+    _load_index.__doc__ = load_index.__doc__
+    return _load_index
+
+
+#: Lock files this process holds (path -> depth), so that a nested compile of the same
+#: kernel does not wait for itself.
+_HELD: dict[str, int] = {}
+
+
+def _compile_once(compile_: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
+    """Wrap numba's ``Dispatcher.compile``: under a lock file beside the kernel's cache index.
+
+    For kernels with a disk cache (``cache=True``) and a signature not yet in this
+    process: numba's compile lock, then the kernel's lock file (in that order, as every
+    thread of the process takes them: no lock-order cycle), then numba's own cache look-up
+    and compile. A second process asking for the kernel meanwhile waits, then loads what
+    the first saved. Kernels call kernels but never back (no cycle across processes).
+    """
+    from numba.core import sigutils
+    from numba.core.compiler_lock import global_compiler_lock
+
+    def compile(self: Any, sig: Any) -> Any:
+        index_path = getattr(getattr(self._cache, "_cache_file", None), "_index_path", None)
+        if index_path is None or fcntl is None:
+            return compile_(self, sig)
+        args, _ = sigutils.normalize_signature(sig)
+        if tuple(args) in self.overloads:
+            return compile_(self, sig)
+        with global_compiler_lock, _file_lock(index_path + ".lock"):
+            return compile_(self, sig)
+
+    compile.__doc__ = compile_.__doc__
+    return compile
+
+
+@contextlib.contextmanager
+def _file_lock(path: str) -> Iterator[None]:
+    """Hold an exclusive lock on ``path`` (created if missing); a no-op where it cannot."""
+    if _HELD.get(path):
+        _HELD[path] += 1
+        try:
+            yield
+        finally:
+            _HELD[path] -= 1
+        return
+    try:
+        handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
+    except OSError:  # (a read-only cache: numba will not save there either)
+        yield
+        return
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX)
+        _HELD[path] = 1
+        try:
+            yield
+        finally:
+            del _HELD[path]
+            fcntl.flock(handle, fcntl.LOCK_UN)
+    finally:
+        os.close(handle)

@@ -17,8 +17,9 @@ def register(commands: argparse._SubParsersAction) -> None:
     p = commands.add_parser(
         "warm-up", help="compile the planner's kernels once (make install runs it)",
         description="Run two small jobs (3-axis, verified, and 5-axis) on the bundled "
-        "blades, so that the kernels every job uses are compiled and cached before the "
-        "first real job. Optional: without it the first job compiles them.")
+        "blades, at once in two processes, so that the kernels every job uses are compiled "
+        "and cached before the first real job. Optional: without it the first job compiles "
+        "them.")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(handler=run)
 

@@ -18,7 +18,7 @@ from toolpath.planning.sampling import (
 
 
 @pytest.mark.parametrize("shape", [(), (3,)])
-@pytest.mark.parametrize("dtype", [float, np.int64])
+@pytest.mark.parametrize("dtype", [float, np.int64, np.int32])  # (8-byte words, bytes)
 @pytest.mark.parametrize("share", [0.0, 0.003, 0.3, 1.0])
 @pytest.mark.parametrize("size", [500, 3 * MERGE_BLOCK + 7])
 def test_merge_places_new_rows_where_asked_and_old_ones_between(shape, dtype, share, size):

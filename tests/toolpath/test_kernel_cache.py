@@ -33,3 +33,120 @@ def test_with_no_writable_home_the_temporary_folder(tmp_path):
 
 def test_the_package_folder_is_the_toolpath_package():
     assert (PACKAGE_DIR / "compiled.py").is_file()
+
+
+# A kernel taking a named tuple, in a module of its own; ``NAME`` is the tuple's class name.
+KERNEL_MODULE = '''
+from typing import NamedTuple
+
+import numba
+
+
+class NAME(NamedTuple):
+    a: float
+    b: float
+
+
+@numba.njit(cache=True)
+def total(pair):
+    return pair.a + 2.0 * pair.b
+'''
+
+# Imports toolpath first (which hooks numba, as every command does), then the kernel; prints
+# the kernel's result and whether it came from the cache.
+RUN_KERNEL = '''
+import importlib, sys
+import toolpath  # noqa: F401
+kernel = importlib.import_module("kernel_mod")
+print(kernel.total(getattr(kernel, sys.argv[1])(1.0, 2.0)),
+      sum(kernel.total.stats.cache_hits.values()))
+'''
+
+
+def _run_kernel(folder: Path, cls: str) -> tuple[str, int]:
+    import os
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(folder), str(root))),
+           "NUMBA_CACHE_DIR": str(folder / "cache")}
+    done = subprocess.run([sys.executable, "-c", RUN_KERNEL, cls], cwd=folder, env=env,
+                          capture_output=True, text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    value, hits = done.stdout.split()
+    return value, int(hits)
+
+
+def test_a_cache_index_naming_a_renamed_class_is_dropped_and_rewritten(tmp_path):
+    module = tmp_path / "kernel_mod.py"
+    module.write_text(KERNEL_MODULE.replace("NAME", "Pair"), encoding="utf-8")
+    assert _run_kernel(tmp_path, "Pair") == ("5.0", 0)  # compiled, index written
+    assert _run_kernel(tmp_path, "Pair") == ("5.0", 1)  # loaded from the cache
+    indexes = list((tmp_path / "cache").rglob("*.nbi"))
+    assert len(indexes) == 1 and b"Pair" in indexes[0].read_bytes()
+    # an upgrade renames the class: the index names a class the module no longer has
+    # (numba's unpickling of it raised AttributeError before its stamp check)
+    module.write_text(KERNEL_MODULE.replace("NAME", "Couple"), encoding="utf-8")
+    assert _run_kernel(tmp_path, "Couple") == ("5.0", 0)  # compiled again
+    assert b"Pair" not in indexes[0].read_bytes()
+    assert _run_kernel(tmp_path, "Couple") == ("5.0", 1)  # the new index serves
+
+
+def test_the_hook_waits_for_numba_and_patches_it_once():
+    import subprocess
+    import sys
+
+    code = ("import sys, toolpath\n"
+            "assert 'numba' not in sys.modules\n"
+            "from numba.core import caching, dispatcher\n"
+            "from toolpath.kernel_cache import hook_numba\n"
+            "compile_, load = dispatcher.Dispatcher.compile, "
+            "caching.IndexDataCacheFile._load_index\n"
+            "hook_numba()\n"
+            "assert dispatcher.Dispatcher.compile is compile_\n"
+            "assert caching.IndexDataCacheFile._load_index is load\n"
+            "print(compile_.__module__, load.__module__)\n")
+    root = Path(__file__).resolve().parents[2]
+    done = subprocess.run([sys.executable, "-c", code], cwd=root, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["toolpath.kernel_cache"] * 2
+
+
+# Waits for the file ``go`` (both processes ready), then calls the kernel: prints whether it
+# compiled it (a cache miss) or loaded it.
+RACE_KERNEL = '''
+import importlib, os, sys, time
+import toolpath  # noqa: F401
+kernel = importlib.import_module("kernel_mod")
+print("ready", flush=True)
+while not os.path.exists("go"):
+    time.sleep(0.01)
+print(kernel.total(kernel.Pair(1.0, 2.0)), sum(kernel.total.stats.cache_misses.values()))
+'''
+
+
+def test_processes_starting_at_once_compile_a_kernel_once(tmp_path):
+    import os
+    import subprocess
+    import sys
+
+    (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE.replace("NAME", "Pair"),
+                                            encoding="utf-8")
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    runs = [subprocess.Popen([sys.executable, "-c", RACE_KERNEL], cwd=tmp_path, env=env,
+                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+            for _ in range(2)]
+    for run in runs:
+        assert run.stdout.readline().strip() == "ready"
+    (tmp_path / "go").touch()  # both call the kernel now, on an empty cache
+    results = []
+    for run in runs:
+        out, err = run.communicate(timeout=120)
+        assert run.returncode == 0, err
+        results.append(out.split())
+    # one compiled it, the other waited and loaded it
+    assert sorted(results) == [["5.0", "0"], ["5.0", "1"]]

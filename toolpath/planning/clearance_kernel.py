@@ -367,54 +367,67 @@ def _clearances(binned, tips, axes, contacts, capsule, cutter, near, far, near_i
     (:func:`_box_bound`) exceeds ``reach``; the samples of the others are each tested
     (:func:`_cell_clearances`).
     """
+    m = tips.shape[0]
+    for block in numba.prange((m + BLOCK - 1) // BLOCK):
+        _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, near_i,
+                        far_i, block * BLOCK, min((block + 1) * BLOCK, m))
+
+
+@numba.njit(cache=True)
+def _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i,
+                    lo, hi):
+    """:func:`_clearances` for locations ``lo .. hi - 1``.
+
+    A serial function the parallel loop calls, not its body: numba compiles a parallel
+    loop's body twice (typed and lowered again as a kernel of its own).
+    """
     points, index, cell_start, origin, shape, cell, box, column = binned
     low, high, reach = capsule.low, capsule.high, capsule.reach
     nx, ny = shape[0], shape[1]
     span = high - low
-    for block in numba.prange((tips.shape[0] + BLOCK - 1) // BLOCK):
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, tips.shape[0])):
-            a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
-            t0, t1, t2 = tips[i, 0], tips[i, 1], tips[i, 2]
-            k0, k1, k2 = contacts[i, 0], contacts[i, 1], contacts[i, 2]
-            p0, p1, p2 = t0 + low * a0, t1 + low * a1, t2 + low * a2
-            d0, d1, d2 = span * a0, span * a1, span * a2
-            near_mm, far_mm, near_at, far_at = near[i], far[i], near_i[i], far_i[i]
-            y_lo, y_hi = _index_range(p1, p1 + d1, reach, origin[1], cell, ny)
-            for cy in range(y_lo, y_hi):
-                y0 = origin[1] + cy * cell
-                u0, u1 = _clip(p1, d1, y0 - reach, y0 + cell + reach, 0.0, 1.0)
-                if u0 > u1:
+    for i in range(lo, hi):
+        a0, a1, a2 = axes[i, 0], axes[i, 1], axes[i, 2]
+        t0, t1, t2 = tips[i, 0], tips[i, 1], tips[i, 2]
+        k0, k1, k2 = contacts[i, 0], contacts[i, 1], contacts[i, 2]
+        p0, p1, p2 = t0 + low * a0, t1 + low * a1, t2 + low * a2
+        d0, d1, d2 = span * a0, span * a1, span * a2
+        near_mm, far_mm, near_at, far_at = near[i], far[i], near_i[i], far_i[i]
+        y_lo, y_hi = _index_range(p1, p1 + d1, reach, origin[1], cell, ny)
+        for cy in range(y_lo, y_hi):
+            y0 = origin[1] + cy * cell
+            u0, u1 = _clip(p1, d1, y0 - reach, y0 + cell + reach, 0.0, 1.0)
+            if u0 > u1:
+                continue
+            x_lo, x_hi = _index_range(p0 + u0 * d0, p0 + u1 * d0, reach, origin[0],
+                                      cell, nx)
+            for cx in range(x_lo, x_hi):
+                col = cx + nx * cy
+                if column[col, 0] > column[col, 1]:
                     continue
-                x_lo, x_hi = _index_range(p0 + u0 * d0, p0 + u1 * d0, reach, origin[0],
-                                          cell, nx)
-                for cx in range(x_lo, x_hi):
-                    col = cx + nx * cy
-                    if column[col, 0] > column[col, 1]:
+                x0 = origin[0] + cx * cell
+                v0, v1 = _clip(p0, d0, x0 - reach, x0 + cell + reach, u0, u1)
+                if v0 > v1:
+                    continue
+                z_lo, z_hi = _index_range(p2 + v0 * d2, p2 + v1 * d2, reach, origin[2],
+                                          cell, shape[2])
+                for cz in range(max(z_lo, column[col, 0]), min(z_hi, column[col, 1] + 1)):
+                    cid = col + nx * ny * cz
+                    if cell_start[cid + 1] == cell_start[cid]:
                         continue
-                    x0 = origin[0] + cx * cell
-                    v0, v1 = _clip(p0, d0, x0 - reach, x0 + cell + reach, u0, u1)
-                    if v0 > v1:
+                    w0, w1 = _clip(p0, d0, box[cid, 0] - reach, box[cid, 3] + reach, v0,
+                                   v1)
+                    w0, w1 = _clip(p1, d1, box[cid, 1] - reach, box[cid, 4] + reach, w0,
+                                   w1)
+                    w0, w1 = _clip(p2, d2, box[cid, 2] - reach, box[cid, 5] + reach, w0,
+                                   w1)
+                    if w0 > w1 or _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box,
+                                              cid) > reach:
                         continue
-                    z_lo, z_hi = _index_range(p2 + v0 * d2, p2 + v1 * d2, reach, origin[2],
-                                              cell, shape[2])
-                    for cz in range(max(z_lo, column[col, 0]), min(z_hi, column[col, 1] + 1)):
-                        cid = col + nx * ny * cz
-                        if cell_start[cid + 1] == cell_start[cid]:
-                            continue
-                        w0, w1 = _clip(p0, d0, box[cid, 0] - reach, box[cid, 3] + reach, v0,
-                                       v1)
-                        w0, w1 = _clip(p1, d1, box[cid, 1] - reach, box[cid, 4] + reach, w0,
-                                       w1)
-                        w0, w1 = _clip(p2, d2, box[cid, 2] - reach, box[cid, 5] + reach, w0,
-                                       w1)
-                        if w0 > w1 or _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box,
-                                                  cid) > reach:
-                            continue
-                        near_mm, near_at, far_mm, far_at = _cell_clearances(
-                            points, index, cell_start[cid], cell_start[cid + 1], (t0, t1, t2),
-                            (a0, a1, a2), (k0, k1, k2), capsule, cutter,
-                            (near_mm, near_at, far_mm, far_at))
-            near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
+                    near_mm, near_at, far_mm, far_at = _cell_clearances(
+                        points, index, cell_start[cid], cell_start[cid + 1], (t0, t1, t2),
+                        (a0, a1, a2), (k0, k1, k2), capsule, cutter,
+                        (near_mm, near_at, far_mm, far_at))
+        near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
 
 
 @numba.njit(cache=True, inline="always")

@@ -199,9 +199,13 @@ def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
         width *= extent
     if width == 0:
         return out
-    _merge_rows(np.ascontiguousarray(old).reshape(-1),
-                np.ascontiguousarray(new, dtype=old.dtype).reshape(-1),
-                np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(-1), width)
+    # copied as 8-byte words whatever they hold (float or integer: one compiled kernel),
+    # bytes where the values are not 8 bytes wide
+    word = np.dtype(np.int64 if old.dtype.itemsize == 8 else np.uint8)
+    words = width * (old.dtype.itemsize // word.itemsize)
+    _merge_rows(np.ascontiguousarray(old).reshape(-1).view(word),
+                np.ascontiguousarray(new, dtype=old.dtype).reshape(-1).view(word),
+                np.ascontiguousarray(new_at, dtype=np.int64), out.reshape(-1).view(word), words)
     return out
 
 
@@ -211,7 +215,7 @@ MERGE_BLOCK = 16384
 
 @numba.njit(cache=True, parallel=True)
 def _merge_rows(old, new, new_at, out, width):
-    """The rows of ``width`` values of flat arrays: runs of old rows copied whole."""
+    """The rows of ``width`` words of flat arrays: runs of old rows copied whole."""
     size = out.size // width
     for block in numba.prange((size + MERGE_BLOCK - 1) // MERGE_BLOCK):
         lo = block * MERGE_BLOCK
