@@ -73,9 +73,9 @@ def prepare_job_process() -> bool:
     if _done:
         return True
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-    from numpy._core import multiarray
+    from verification.pages import madvise_switch  # numpy's switch, 1.26 and 2.x
 
-    set_hugepage = getattr(multiarray, "_set_madvise_hugepage", None)
+    set_hugepage = madvise_switch()
     if set_hugepage is not None:
         set_hugepage(False)
     _done = (_mallopt(_M_MMAP_THRESHOLD, MMAP_THRESHOLD_BYTES)

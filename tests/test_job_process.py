@@ -4,14 +4,15 @@ import os
 import platform
 
 import pytest
-from numpy._core import multiarray
 
 from streamline_cam.job_process import prepare_job_process
+from verification.pages import madvise_switch
 
 
 def test_numpy_asks_for_no_huge_pages_and_openmp_waits_passively():
     prepare_job_process()
-    assert multiarray._set_madvise_hugepage(False) is False  # returns the setting it replaced
+    switch = madvise_switch()
+    assert switch is not None and switch(False) is False  # returns the setting it replaced
     assert os.environ["OMP_WAIT_POLICY"]  # PASSIVE unless the environment chose
 
 
