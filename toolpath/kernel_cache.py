@@ -36,6 +36,7 @@ import importlib.util
 import os
 import sys
 import tempfile
+import time
 from collections.abc import Callable, Iterator, MutableMapping
 from pathlib import Path
 from types import ModuleType
@@ -174,6 +175,8 @@ def _readable_index(load_index: Callable[[Any], dict]) -> Callable[[Any], dict]:
     def _load_index(self: Any) -> dict:
         try:
             return load_index(self)
+        except OSError:  # (not the index's content: e.g. another user's unreadable file)
+            raise
         except Exception:  # (whatever unpickling raised: the index is stale)
             with contextlib.suppress(OSError):
                 os.remove(self._index_path)
@@ -181,6 +184,33 @@ def _readable_index(load_index: Callable[[Any], dict]) -> Callable[[Any], dict]:
 
     _load_index.__doc__ = load_index.__doc__
     return _load_index
+
+
+#: How long a process waits for another's compile of the same kernel before it compiles
+#: the kernel itself (a duplicate compile is harmless; a hung or stopped process, or a
+#: future cycle of kernels compiling each other, must not stall every job).
+LOCK_WAIT_S = 600.0
+#: How often a waiting process tries the lock again.
+LOCK_POLL_S = 0.05
+
+
+def _wait_for_lock(handle: int, wait_s: float = LOCK_WAIT_S) -> bool:
+    """Take an exclusive ``flock`` on ``handle`` within ``wait_s`` seconds; False if not.
+
+    False too where the file system has no locks (``flock`` raises, e.g. NFS mounted
+    ``nolock``): the kernel then compiles unlocked, as numba alone would.
+    """
+    deadline = time.monotonic() + wait_s
+    while True:
+        try:
+            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+            return True
+        except BlockingIOError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(LOCK_POLL_S)
+        except OSError:
+            return False
 
 
 #: Lock files this process holds (path -> depth), so that a nested compile of the same
@@ -230,7 +260,9 @@ def _file_lock(path: str) -> Iterator[None]:
         yield
         return
     try:
-        fcntl.flock(handle, fcntl.LOCK_EX)
+        if not _wait_for_lock(handle):  # (no locks on this file system, or held too long)
+            yield
+            return
         _HELD[path] = 1
         try:
             yield

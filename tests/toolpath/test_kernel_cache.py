@@ -1,9 +1,17 @@
 """The kernel cache folder: numba's own in a writable package, a user folder otherwise."""
 
+import os
 import tempfile
 from pathlib import Path
 
-from toolpath.kernel_cache import PACKAGE_DIR, choose_cache_dir
+import pytest
+
+from toolpath.kernel_cache import PACKAGE_DIR, _wait_for_lock, choose_cache_dir
+
+try:
+    import fcntl
+except ImportError:  # (Windows)
+    fcntl = None
 
 
 def test_a_writable_package_keeps_numba_s_folder_and_the_variable_wins(tmp_path):
@@ -127,6 +135,7 @@ print(kernel.total(kernel.Pair(1.0, 2.0)), sum(kernel.total.stats.cache_misses.v
 '''
 
 
+@pytest.mark.skipif(fcntl is None, reason="no flock here: kernels compile unlocked")
 def test_processes_starting_at_once_compile_a_kernel_once(tmp_path):
     import os
     import subprocess
@@ -150,3 +159,18 @@ def test_processes_starting_at_once_compile_a_kernel_once(tmp_path):
         results.append(out.split())
     # one compiled it, the other waited and loaded it
     assert sorted(results) == [["5.0", "0"], ["5.0", "1"]]
+
+
+@pytest.mark.skipif(fcntl is None, reason="no flock here")
+def test_a_lock_held_too_long_is_given_up_and_a_free_one_taken(tmp_path):
+    path = tmp_path / "kernel.nbi.lock"
+    holder = os.open(path, os.O_RDWR | os.O_CREAT)
+    waiter = os.open(path, os.O_RDWR)
+    try:
+        fcntl.flock(holder, fcntl.LOCK_EX)
+        assert _wait_for_lock(waiter, wait_s=0.2) is False  # compile unlocked, not hang
+        fcntl.flock(holder, fcntl.LOCK_UN)
+        assert _wait_for_lock(waiter, wait_s=0.2) is True
+    finally:
+        os.close(waiter)
+        os.close(holder)
