@@ -35,10 +35,16 @@ On a C library without ``mallopt`` (musl, macOS, Windows) the malloc settings ar
 from __future__ import annotations
 
 import ctypes
+import functools
 import os
-from typing import Final
+import sys
+from collections.abc import Callable
+from typing import Any, Final, TypeVar
 
-__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "prepare_job_process"]
+__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "as_job", "prepare_job_process",
+           "release_freed_memory"]
+
+F = TypeVar("F", bound=Callable[..., Any])
 
 #: glibc's largest mmap threshold on 64-bit (``DEFAULT_MMAP_THRESHOLD_MAX``): bigger blocks
 #: are always mapped on their own.
@@ -53,15 +59,57 @@ _M_MMAP_THRESHOLD: Final[int] = -3
 _done = False
 
 
+def _libc_function(name: str) -> Any:
+    """The running C library's function ``name``, or None (not glibc-like, or missing)."""
+    if not sys.platform.startswith("linux"):  # (Windows: no CDLL(None); macOS: no mallopt)
+        return None
+    try:
+        return getattr(ctypes.CDLL(None), name)  # the C library the interpreter runs on
+    except (OSError, AttributeError, TypeError):
+        return None
+
+
 def _mallopt(param: int, value: int) -> bool:
     """The C library's ``mallopt(param, value)``; False where it has none or refuses."""
-    try:
-        mallopt = ctypes.CDLL(None).mallopt  # the C library the interpreter runs on
-    except (OSError, AttributeError):
+    mallopt = _libc_function("mallopt")
+    if mallopt is None:
         return False
     mallopt.argtypes = (ctypes.c_int, ctypes.c_int)
     mallopt.restype = ctypes.c_int
     return bool(mallopt(param, value))
+
+
+def as_job(run: F) -> F:
+    """``run`` as a job: :func:`prepare_job_process` first, :func:`release_freed_memory` after.
+
+    After, however ``run`` ends (an error too).
+    """
+    @functools.wraps(run)
+    def job(*args: Any, **kwargs: Any) -> Any:
+        prepare_job_process()
+        try:
+            return run(*args, **kwargs)
+        finally:
+            release_freed_memory()
+
+    return job  # type: ignore[return-value]
+
+
+def release_freed_memory() -> bool:
+    """Hand the memory a finished job freed back to the system (glibc ``malloc_trim(0)``).
+
+    The trim threshold above keeps up to :data:`TRIM_THRESHOLD_BYTES` free per malloc arena
+    while a job runs; a long-lived process (the HTTP service's thread pool, a batch worker)
+    calls this after each job so that what it holds between jobs does not grow with the
+    number of threads. False where the C library has no such call.
+    """
+    trim = _libc_function("malloc_trim")
+    if trim is None:
+        return False
+    trim.argtypes = (ctypes.c_size_t,)
+    trim.restype = ctypes.c_int
+    trim(0)
+    return True
 
 
 def prepare_job_process() -> bool:

@@ -36,7 +36,7 @@ from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
 
 from .fit_report import SURFACE_METHODS, fit_surface_by_method
-from .job_process import prepare_job_process
+from .job_process import as_job
 from .verdict import verify_verdict
 
 __all__ = ["STAGES", "JobRequest", "JobResult", "run_job"]
@@ -229,6 +229,7 @@ def _no_progress(stage: str, fraction: float) -> None:
     del stage, fraction
 
 
+@as_job  # memory reuse, idle threads asleep; freed memory handed back after
 def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
             stream: Callable[[Path, Any], dict[str, Any]] | None = None,
             plots: bool = False, verify: bool = False) -> JobResult:
@@ -260,7 +261,6 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     JobResult
     """
     request = request.validated()
-    prepare_job_process()  # memory reuse, idle threads asleep (streamline_cam.job_process)
     report_progress = progress or _no_progress
     out_dir.mkdir(parents=True, exist_ok=True)
     machine = load_machine(request.machine)

@@ -5,7 +5,8 @@ import platform
 
 import pytest
 
-from streamline_cam.job_process import prepare_job_process
+from streamline_cam import job_process
+from streamline_cam.job_process import as_job, prepare_job_process, release_freed_memory
 from verification.pages import madvise_switch
 
 
@@ -19,3 +20,28 @@ def test_numpy_asks_for_no_huge_pages_and_openmp_waits_passively():
 @pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="mallopt is glibc's")
 def test_glibc_takes_the_malloc_settings():
     assert prepare_job_process() is True
+
+
+def test_a_job_hands_its_freed_memory_back_when_it_ends_even_by_an_error(monkeypatch):
+    calls = []
+    monkeypatch.setattr(job_process, "release_freed_memory", lambda: calls.append("released"))
+
+    @as_job
+    def failing_job():
+        calls.append("ran")
+        raise ValueError("bad input")
+
+    with pytest.raises(ValueError, match="bad input"):
+        failing_job()
+    assert calls == ["ran", "released"]
+
+
+@pytest.mark.skipif(platform.libc_ver()[0] != "glibc", reason="malloc_trim is glibc's")
+def test_glibc_trims_freed_memory():
+    assert release_freed_memory() is True
+
+
+def test_no_c_library_calls_off_linux(monkeypatch):
+    monkeypatch.setattr(job_process.sys, "platform", "win32")
+    assert job_process.release_freed_memory() is False
+    assert job_process._mallopt(-3, 1024) is False
