@@ -25,6 +25,7 @@ import time
 import warnings
 from collections.abc import Callable
 from concurrent.futures import ProcessPoolExecutor, as_completed
+from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Final
 
@@ -61,17 +62,31 @@ def warm_up(say: Callable[[str], None] | None = None, processes: int | None = No
         for i, (label, name, machine, _axis_mode, verify) in enumerate(WARM_JOBS, 1):
             say(f"warm-up {i}/{len(WARM_JOBS)}: {label} job on {machine} ({name}: fit, plan, "
                 f"post, check{', verify' if verify else ''}) ...")
-        if workers == 1:
-            for i in range(len(WARM_JOBS)):
-                say(_warm_job(i, folder))
-            return time.perf_counter() - start
-        spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
-        with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
-                                 initializer=_one_thread) as pool:
-            for done in as_completed([pool.submit(_warm_job, i, folder)
-                                      for i in range(len(WARM_JOBS))]):
-                say(done.result())
+        pending = set(range(len(WARM_JOBS)))
+        if workers > 1:
+            try:
+                _in_processes(workers, folder, say, pending)
+            except (OSError, BrokenProcessPool) as exc:  # (no /dev/shm, a worker killed)
+                say(f"warm-up: a worker process failed ({exc}); the rest runs here")
+        for i in sorted(pending):
+            say(_warm_job(i, folder))
     return time.perf_counter() - start
+
+
+def _in_processes(workers: int, folder: str, say: Callable[[str], None],
+                  pending: set[int]) -> None:
+    """Run the jobs ``pending`` at once in ``workers`` processes; each done one leaves it."""
+    spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
+    with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
+                             initializer=_one_thread) as pool:
+        futures = {pool.submit(_warm_job, i, folder): i for i in sorted(pending)}
+        try:
+            for done in as_completed(futures):
+                say(done.result())
+                pending.discard(futures[done])
+        except KeyboardInterrupt:
+            pool.shutdown(wait=False, cancel_futures=True)
+            raise
 
 
 def _one_thread() -> None:

@@ -21,3 +21,24 @@ def test_warm_up_is_a_documented_command(capsys):
     except SystemExit as stop:
         assert stop.code == 0
     assert "compile" in capsys.readouterr().out
+
+
+def test_jobs_a_failed_worker_pool_did_not_finish_run_in_this_process(monkeypatch):
+    from streamline_cam import warmup
+
+    ran, said = [], []
+
+    def pool_that_breaks(workers, folder, say, pending):
+        say(warmup._warm_job(0, folder))  # the first job finished in a worker
+        pending.discard(0)
+        raise OSError("no /dev/shm")
+
+    def job(index, folder):
+        ran.append(index)
+        return f"job {index} done"
+
+    monkeypatch.setattr(warmup, "_in_processes", pool_that_breaks)
+    monkeypatch.setattr(warmup, "_warm_job", job)
+    warmup.warm_up(said.append, processes=2)
+    assert ran == list(range(len(WARM_JOBS)))  # each job once: none lost, none repeated
+    assert any("worker process failed (no /dev/shm)" in line for line in said)
