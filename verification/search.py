@@ -218,11 +218,13 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
         far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
                         below_mm=res.lam_mm[coarse])
-        near_lam = res.lam_mm[coarse]
+        near_lam, near_move = res.lam_mm[coarse], res.move[coarse]
         # a shank piece starts at the cutter end (a ball's centre), so at its instance it
         # holds the very cutter the near search's merged pieces approximate from inside:
-        # less by no more than that approximation is the same contact, not a miss
-        end = far.shank & ~far.behind & (far.lam_mm >= near_lam - ev.model_tol_mm)
+        # of the same block and less by no more than that approximation, it is the same
+        # contact, not a miss (a shank of another block is searched around as before)
+        end = (far.shank & ~far.behind & (far.move == near_move)
+               & (far.lam_mm >= near_lam - ev.model_tol_mm))
         flagged = (far.lam_mm < near_lam - FLAG_MARGIN_MM) & ~end
         # the near search missed it: a ball from outside gouging deeper than it was sized
         # for, or something it never looks at (shank, from behind, a sharp convex edge)
