@@ -43,6 +43,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
+from .surface import outward_normals
 from .tolerances import TINY
 from .vectors import unit
 
@@ -627,7 +628,7 @@ def surface_fairness(surface: Any, points: Any, *, min_depth_mm: float = CONCAVE
     parts = surface.partials_many(
         np.tile(tt, len(levels)), np.repeat([s_value for _, s_value, _ in levels], tt.size),
         ((0, 0), (1, 0), (0, 1), (2, 0)))
-    normal = surface.orientation * unit(np.cross(parts[1, 0], parts[0, 1]))
+    normal = outward_normals(surface, parts[1, 0], parts[0, 1])
     for k, (label, _, convex_here) in enumerate(levels):
         rows = slice(k * tt.size, (k + 1) * tt.size)
         stretches += _concave_stretches(label, tt, parts[1, 0][rows], parts[2, 0][rows],

@@ -30,7 +30,7 @@ from .vectors import unit
 if TYPE_CHECKING:
     from .compiled import StreamlineKernel
 
-__all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame", "parameter_pairs"]
+__all__ = ["IsoCurve", "ParametricSurface", "SurfaceFrame", "outward_normals", "parameter_pairs"]
 
 #: The highest total derivative order a surface must provide.
 MAX_ORDER = 2
@@ -62,8 +62,8 @@ def parameter_pairs(t: ArrayLike, s: ArrayLike, grid: bool
     return flat_t, flat_s, shape
 
 
-def _outward(surface: ParametricSurface, xt: NDArray[np.float64], xs: NDArray[np.float64]
-             ) -> NDArray[np.float64]:
+def outward_normals(surface: ParametricSurface, xt: NDArray[np.float64],
+                    xs: NDArray[np.float64]) -> NDArray[np.float64]:
     """Unit normals ``orientation * X_t x X_s``."""
     return surface.orientation * unit(np.cross(xt, xs))
 
@@ -83,7 +83,7 @@ class SurfaceFrame:
         self.xt, self.xs = parts[1, 0].reshape(vec), parts[0, 1].reshape(vec)
         self.xtt, self.xts = parts[2, 0].reshape(vec), parts[1, 1].reshape(vec)
         self.xss = parts[0, 2].reshape(vec)
-        self.normal = _outward(surface, self.xt, self.xs)
+        self.normal = outward_normals(surface, self.xt, self.xs)
         dot = np.einsum
         self.E = dot("...k,...k->...", self.xt, self.xt)
         self.F = dot("...k,...k->...", self.xt, self.xs)
@@ -166,7 +166,7 @@ class ParametricSurface(ABC):
         """Unit normals, oriented outward (``orientation * X_t x X_s``)."""
         flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         parts = self.partials_many(flat_t, flat_s, ((1, 0), (0, 1)))
-        normal = _outward(self, parts[1, 0], parts[0, 1])
+        normal = outward_normals(self, parts[1, 0], parts[0, 1])
         return normal.reshape((*shape, 3))
 
     def points_and_normals(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False
@@ -174,7 +174,7 @@ class ParametricSurface(ABC):
         """Points and outward unit normals from one evaluation of the three partials."""
         flat_t, flat_s, shape = parameter_pairs(t, s, grid)
         parts = self.partials_many(flat_t, flat_s, ((0, 0), (1, 0), (0, 1)))
-        normal = _outward(self, parts[1, 0], parts[0, 1])
+        normal = outward_normals(self, parts[1, 0], parts[0, 1])
         return parts[0, 0].reshape((*shape, 3)), normal.reshape((*shape, 3))
 
     def principal_curvatures(self, t: ArrayLike, s: ArrayLike, *, grid: bool = False

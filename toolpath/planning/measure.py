@@ -59,7 +59,7 @@ from machines.kinematics import forward, solve_inverse
 
 from ..joint_refine import joints_checked, machine_key
 from ..path import MoveKind, Toolpath
-from ..surface import ParametricSurface
+from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
 from ..vectors import unit
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
@@ -988,7 +988,7 @@ class _Seeds(NamedTuple):
             # one evaluation of the three partials: points, normals and X_s
             parts = surface.partials_many(st, ss, ((0, 0), (1, 0), (0, 1)))
             seed_q, x_s = parts[0, 0], parts[0, 1]
-            seed_n = surface.orientation * unit(np.cross(parts[1, 0], x_s))
+            seed_n = outward_normals(surface, parts[1, 0], x_s)
         else:
             seed_q = seed_n = x_s = np.zeros((0, 3))
         others = _OtherPasses(seed_q, sp)
