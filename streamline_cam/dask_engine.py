@@ -285,15 +285,22 @@ class DaskJobs:
         client = self._connected()
         key = f"toolpath-job-{job_dir.name}-{uuid.uuid4().hex[:8]}"
         topic = f"{key}-progress" if progress else None
-        if progress is not None:
-            client.subscribe_topic(topic, lambda event: progress(**event[1]))
+        packed = pack_job(request, verify=verify)
         try:
-            future = submit_job(client, pack_job(request, verify=verify), key,
-                                progress_topic=topic)
-            outcome = _outcome_of(future)
-        finally:
-            if topic is not None and not self._closed:
-                client.unsubscribe_topic(topic)
+            if topic is not None:
+                client.subscribe_topic(topic, lambda event: progress(**event[1]))
+            try:
+                outcome = _outcome_of(submit_job(client, packed, key, progress_topic=topic))
+            finally:
+                if topic is not None and not self._closed:
+                    client.unsubscribe_topic(topic)
+        except Exception:
+            # close() may shut the client at any point of the above, from another thread:
+            # whatever the closed client then raises means the service stops, not a failure
+            if self._closed:
+                raise JobInterrupted("the service stopped while the job ran on the cluster") \
+                    from None
+            raise
         if self._closed:
             raise JobInterrupted("the service stopped while the job ran on the cluster")
         if outcome.ok:

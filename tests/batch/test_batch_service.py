@@ -5,12 +5,16 @@ from __future__ import annotations
 import time
 import warnings
 
+import pytest
 from _batch_support import strip_csv
 
 with warnings.catch_warnings():  # starlette asks for httpx2; httpx is what we have
     warnings.filterwarnings("ignore", message="Using `httpx` with `starlette.testclient`")
     from fastapi.testclient import TestClient
 
+from streamline_cam.dask_engine import DaskJobs
+from streamline_cam.job_task import JobInterrupted
+from streamline_cam.pipeline import JobRequest
 from streamline_cam.service import ServiceConfig, create_app
 
 TIMEOUT_S = 120.0
@@ -54,3 +58,21 @@ def test_the_service_runs_its_jobs_on_the_scheduler(client, tmp_path):
     # the worker's files came back into the service's job folder
     assert {"part.nc", "report.json", "surface.json", "toolpath.npz"} <= {
         p.name for p in (tmp_path / "service" / "jobs" / ids[0]).iterdir()}
+
+
+class _StopsOnceConnected(DaskJobs):
+    """The service stops (from another thread) right after the job took its client."""
+
+    def _connected(self):
+        connected = super()._connected()
+        self.close()
+        return connected
+
+
+def test_a_stop_between_connecting_and_submitting_interrupts_the_job(client, tmp_path):
+    sections = tmp_path / "strip.csv"
+    sections.write_bytes(strip_csv())
+    jobs = _StopsOnceConnected(client.scheduler.address)
+    with pytest.raises(JobInterrupted):
+        jobs.run(JobRequest(sections, scallop_mm=0.5), tmp_path / "job",
+                 progress=lambda stage, fraction: None)
