@@ -122,7 +122,12 @@ def test_blade_standing_under_joint_interpolation(blade):
 
 
 def test_the_scallop_is_the_largest_of_the_seeds_cusps():
-    measured = _planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    request = {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "axis_mode": "3"}
+    measured = _planned(CAP, "ball:6", **request)
+    # the inputs rebuilt here are the plan's own: its report reads the same figures
+    _, report = plan_finishing(CAP, "ball:6", **request)
+    assert report.max_chord_error_mm == measured.chord.max_mm
+    assert report.max_scallop_mm == measured.scallop().max_mm
     cusps = measured.seeds(estimate=True, **FEW_RAYS)
     scallop = measured.scallop(estimate=True, **FEW_RAYS)
     found = np.isfinite(cusps.height_mm)
