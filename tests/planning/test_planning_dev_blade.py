@@ -5,7 +5,7 @@ import pytest
 
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning import plan_finishing
+from toolpath.planning import parse_cutter, plan_finishing
 from toolpath.planning.gouge import sample_surface
 from toolpath.planning.local import project_to_surface
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
@@ -80,14 +80,13 @@ def test_flat_end_mill_round_the_leading_edge_in_five_axis(blade, spec):
     # splitting never ended (491,000 points, 2 GB arrays); the measurement seeded on the
     # far side of the nose read a 2.2 mm cut through the blade, and its rim samples
     # missed the contact
-    from toolpath.planning.finishing import _as_cutter
     from toolpath.planning.measure import measure_chord
 
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
     path, rep = plan_finishing(standing, spec, scallop_mm=0.03, chord_tol_mm=0.03,
                                axis_mode="lead-tilt", lead_deg=10.0, measure=False)
     assert rep.n_points < 10_000
-    chord = measure_chord(path, standing, _as_cutter(spec), sample_surface(standing, 1.0))
+    chord = measure_chord(path, standing, parse_cutter(spec), sample_surface(standing, 1.0))
     assert chord.overcut_mm <= 0.03
     # every location touches: the rim's lowest point found within a fraction of a degree
     # (15 deg samples and a parabola read up to 0.065 mm standing off at the nose)

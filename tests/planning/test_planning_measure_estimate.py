@@ -3,19 +3,45 @@
 ``measure_scallop`` estimates every seed's cusp from two centre segments and ray-casts
 only the seeds near the largest; ``estimate=False`` ray-casts every seed (the full
 method, the oracle here). Both must report the same scallop, and the estimate itself must
-stand within a few per cent of the ray cast seed by seed.
+stand within a few per cent of the ray cast seed by seed (``seed_cusps``, the per-seed
+record ``measure_scallop`` takes its figures from).
+
+The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
+toolpath (planned here with ``measure=False``) and its chord measurement on the surface
+samples the gouge stage lays out (``gouge_sample_mm`` apart).
 """
+
+from dataclasses import dataclass
 
 import numpy as np
 import pytest
 
-import toolpath.planning.finishing as finishing
-import toolpath.planning.measure as measure
-from machines import load_machine
+from machines import Machine, load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning import SpherePatch, plan_finishing
+from toolpath.path import Toolpath
+from toolpath.planning import (
+    Cutter,
+    FinishingOptions,
+    SpherePatch,
+    parse_cutter,
+    plan_finishing,
+)
+from toolpath.planning.gouge import sample_surface
+from toolpath.planning.measure import (
+    ESTIMATE_SHARE,
+    ChordMeasurement,
+    CutVolume,
+    SeedCusps,
+    measure_chord,
+    measure_scallop,
+    seed_cusps,
+)
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
+from toolpath.planning.sweep_kernel import ray_ranges
+from toolpath.surface import ParametricSurface
+
+CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
 
 
 @pytest.fixture(scope="module")
@@ -29,22 +55,44 @@ def blade():
 FEW_RAYS = {"estimate_min_seeds": 0, "estimate_top": 16, "estimate_top_share": 0.0}
 
 
-def _measured_inputs(monkeypatch, surface, cutter, **options):
-    """Plan with the measurement on, keeping what ``measure_scallop`` was given."""
-    seen = {}
+@dataclass(frozen=True)
+class Measured:
+    """A plan's toolpath and what its measure stage measures it with."""
 
-    def keep(*args, **kwargs):
-        seen["args"], seen["kwargs"] = args, kwargs
-        return measure.measure_scallop(*args, **kwargs)
+    path: Toolpath
+    surface: ParametricSurface
+    cutter: Cutter
+    request_mm: float
+    chord: ChordMeasurement
+    machine: Machine | None
 
-    monkeypatch.setattr(finishing, "measure_scallop", keep)
-    plan_finishing(surface, cutter, **options)
-    return seen["args"], seen["kwargs"]
+    def scallop(self, **options):
+        return measure_scallop(self.path, self.surface, self.cutter, self.request_mm,
+                               self.chord, machine=self.machine, **options)
+
+    def seeds(self, **options) -> SeedCusps:
+        return seed_cusps(self.path, self.surface, self.cutter, self.request_mm, self.chord,
+                          machine=self.machine, **options)
+
+    def volume(self) -> CutVolume:
+        """The material removed, to the horizon the measurement uses (10 times the request)."""
+        return CutVolume(self.path, self.cutter, max(10.0 * self.request_mm, 0.05),
+                         self.request_mm, self.machine)
 
 
-def _same_scallop(args, kwargs):
-    fast = measure.measure_scallop(*args, **kwargs, estimate=True, **FEW_RAYS)
-    full = measure.measure_scallop(*args, **kwargs, estimate=False)
+def _planned(surface, spec, *, machine=None, **options) -> Measured:
+    """Plan without the measurement; measure the chord as ``plan_finishing`` does."""
+    path, _ = plan_finishing(surface, spec, machine=machine, measure=False, **options)
+    cutter = parse_cutter(spec)
+    sample_mm = FinishingOptions(**options).resolved(cutter).gouge_sample_mm
+    chord = measure_chord(path, surface, cutter, sample_surface(surface, sample_mm),
+                          machine=machine)
+    return Measured(path, surface, cutter, options["scallop_mm"], chord, machine)
+
+
+def _same_scallop(measured: Measured):
+    fast = measured.scallop(estimate=True, **FEW_RAYS)
+    full = measured.scallop(estimate=False)
     assert full.n_cast == full.n_samples
     assert fast.n_cast < 0.9 * fast.n_samples  # the estimate did decide where to cast
     assert fast.max_mm == pytest.approx(full.max_mm, rel=0.02)
@@ -54,75 +102,78 @@ def _same_scallop(args, kwargs):
     return fast, full
 
 
-def test_sphere_cap_three_and_five_axis(monkeypatch):
-    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+def test_sphere_cap_three_and_five_axis():
     for axis in ({"axis_mode": "3"}, {"axis_mode": "lead-tilt", "lead_deg": 10.0}):
-        _same_scallop(*_measured_inputs(monkeypatch, cap, "ball:6", scallop_mm=0.02,
-                                        chord_tol_mm=0.02, **axis))
+        _same_scallop(_planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, **axis))
 
 
-def test_blade_lying_with_uncut_areas(monkeypatch, blade):
+def test_blade_lying_with_uncut_areas(blade):
     lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
-    fast, _ = _same_scallop(*_measured_inputs(monkeypatch, lying, "ball:10", scallop_mm=0.06,
-                                              chord_tol_mm=0.03, axis_mode="3"))
+    fast, _ = _same_scallop(_planned(lying, "ball:10", scallop_mm=0.06, chord_tol_mm=0.03,
+                                     axis_mode="3"))
     assert fast.uncut_fraction > 0.1  # the far side: interior and overall maxima differ
 
 
-def test_blade_standing_under_joint_interpolation(monkeypatch, blade):
+def test_blade_standing_under_joint_interpolation(blade):
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    args, kwargs = _measured_inputs(monkeypatch, standing, "ball:6", scallop_mm=0.03,
-                                    chord_tol_mm=0.03, axis_mode="lead-tilt", lead_deg=10.0,
-                                    machine=load_machine("trunnion-ac"))
-    _same_scallop(args, kwargs)
+    _same_scallop(_planned(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.03,
+                           axis_mode="lead-tilt", lead_deg=10.0,
+                           machine=load_machine("trunnion-ac")))
 
 
-def _estimates_over_ray_cast(monkeypatch, surface, **options):
+def test_the_scallop_is_the_largest_of_the_seeds_cusps():
+    request = {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "axis_mode": "3"}
+    measured = _planned(CAP, "ball:6", **request)
+    # the inputs rebuilt here are the plan's own: its report reads the same figures
+    _, report = plan_finishing(CAP, "ball:6", **request)
+    assert report.max_chord_error_mm == measured.chord.max_mm
+    assert report.max_scallop_mm == measured.scallop().max_mm
+    cusps = measured.seeds(estimate=True, **FEW_RAYS)
+    scallop = measured.scallop(estimate=True, **FEW_RAYS)
+    found = np.isfinite(cusps.height_mm)
+    k = np.nanargmax(cusps.height_mm)
+    assert scallop.max_mm == cusps.height_mm[k] > 0.0
+    assert (scallop.t, scallop.s) == (cusps.t[k], cusps.cusp_s[k])
+    assert scallop.n_samples == len(cusps.t) and scallop.n_cast == cusps.cast.sum()
+    assert found.sum() > 0.5 * cusps.cast.sum()
+    # a seed not cast has no height; every estimate the cast skipped stands below the top
+    assert not np.isfinite(cusps.height_mm[~cusps.cast]).any()
+    skipped = ~cusps.cast & np.isfinite(cusps.estimate_mm)
+    assert skipped.any()
+    assert cusps.estimate_mm[skipped].max() < ESTIMATE_SHARE * scallop.max_mm
+
+
+def _estimates_over_ray_cast(surface, **options):
     """Each seed's estimate over its ray cast cusp, where both stand and the cusp is high.
 
     (Cusps above half the largest, away from the passes' ends.)
     """
-    args, kwargs = _measured_inputs(monkeypatch, surface, "ball:6", **options)
-    seen = {}
-    real_estimates, real_cusps = measure._ball_cusp_estimates, measure._cusps
-
-    def estimates(*a, **k):
-        seen["guess"] = real_estimates(*a, **k)
-        seen["t"], seen["s"] = a[2].t, a[2].s
-        return seen["guess"]
-
-    def cusps(volume, surface, t, s0, s1, own):
-        h, s = real_cusps(volume, surface, t, s0, s1, own)
-        seen.setdefault("cast", []).append((t, s0, h))
-        return h, s
-
-    monkeypatch.setattr(measure, "_ball_cusp_estimates", estimates)
-    monkeypatch.setattr(measure, "_cusps", cusps)
-    measure.measure_scallop(*args, **kwargs, estimate=True, **FEW_RAYS)
-    seen.pop("cast")
-    measure.measure_scallop(*args, **kwargs, estimate=False)
-    t, s0, h = (np.concatenate(c) for c in zip(*seen["cast"], strict=True))
-    full = dict(zip(zip(t.tolist(), s0.tolist(), strict=True), h.tolist(), strict=True))
-    guess = seen["guess"]
-    h = np.array([full.get(key, np.nan)
-                  for key in zip(seen["t"].tolist(), seen["s"].tolist(), strict=True)])
+    measured = _planned(surface, "ball:6", **options)
+    fast = measured.seeds(estimate=True, **FEW_RAYS)
+    full = measured.seeds(estimate=False)
+    np.testing.assert_array_equal(fast.t, full.t)
+    np.testing.assert_array_equal(fast.s, full.s)
+    assert full.cast.all() and np.isnan(full.estimate_mm).all()
+    # a seed's ray cast is its own: the same cusp whichever others are cast with it
+    np.testing.assert_allclose(fast.height_mm[fast.cast], full.height_mm[fast.cast],
+                               rtol=1e-9, atol=0.0)
+    guess, h = fast.estimate_mm, full.height_mm
     both = np.isfinite(guess) & np.isfinite(h) & (h > 0.5 * np.nanmax(h))
     # at the passes' ends (the patch's edges t = 0, 1) the nearest pieces are the links',
     # and the estimate reads the ridge as sunk (below the ray cast, which a dense scan of
     # those brackets confirms): the interior's cusps, as high, are cast there
-    both &= (seen["t"] > 1e-9) & (seen["t"] < 1.0 - 1e-9)
+    both &= (fast.t > 1e-9) & (fast.t < 1.0 - 1e-9)
     assert both.sum() > 100
     return guess[both] / h[both]
 
 
-def test_the_estimate_stands_near_the_ray_cast_seed_by_seed(monkeypatch):
-    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
-    ratio = _estimates_over_ray_cast(monkeypatch, cap, scallop_mm=0.02, chord_tol_mm=0.02,
-                                     axis_mode="3")
+def test_the_estimate_stands_near_the_ray_cast_seed_by_seed():
+    ratio = _estimates_over_ray_cast(CAP, scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
     assert np.median(ratio) == pytest.approx(1.0, abs=0.05)
     assert ratio.min() > 0.95  # the share the ray cast is asked for leaves room
 
 
-def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve(monkeypatch):
+def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve():
     # on a large sphere in 5 axes the ridge between two passes' nearest segments lies
     # inside their neighbouring pieces (the passes curve) by about a seventh of its
     # height; the crossing of the two sides sinks by half of that: reading it whole, or
@@ -130,11 +181,11 @@ def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve(monkeypatch):
     # asked for (ESTIMATE_SHARE), and most seeds are cast
     dome = SpherePatch(radius_mm=150.0, longitude_deg=(-6.0, 6.0),
                        colatitude_deg=(50.0, 60.0))
-    ratio = _estimates_over_ray_cast(monkeypatch, dome, scallop_mm=0.005, chord_tol_mm=0.01,
+    ratio = _estimates_over_ray_cast(dome, scallop_mm=0.005, chord_tol_mm=0.01,
                                      axis_mode="lead-tilt", lead_deg=10.0)
     low, high = np.quantile(ratio, [0.05, 0.95])
     assert low > 0.98 and high < 1.02
-    assert ratio.max() < measure.ESTIMATE_SHARE
+    assert ratio.max() < ESTIMATE_SHARE
 
 
 @pytest.mark.parametrize(("cutter", "request_mm", "brackets", "axis"), [
@@ -146,54 +197,45 @@ def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve(monkeypatch):
     ("bull:8:1", 0.05, 6, {"axis_mode": "3"}),
     ("bull:8:1", 0.05, 6, {"axis_mode": "lead-tilt", "lead_deg": 10.0}),
 ])
-def test_the_cusp_search_finds_the_crest_a_dense_scan_finds(monkeypatch, cutter, request_mm,
-                                                             brackets, axis):
-    # the Illinois search (toolpath.planning.roots) on each bracket against the highest
-    # min(h_own, h_other) over 2001 points of it: the crest of the machined surface
-    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
-    args, _ = _measured_inputs(monkeypatch, cap, cutter, scallop_mm=request_mm,
-                               chord_tol_mm=0.02, **axis)
-    path, surface, cutter, request, chord = args
-    volume = measure._CutVolume(path, cutter, max(10.0 * request, 0.05), request)
+def test_the_cusp_search_finds_the_crest_a_dense_scan_finds(cutter, request_mm, brackets,
+                                                             axis):
+    # the Illinois search (toolpath.planning.roots) on the brackets the measurement cast,
+    # against the highest min(h_own, h_other) over 2001 points of each: the crest of the
+    # machined surface
+    measured = _planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02, **axis)
+    cusps = measured.seeds(estimate=False)
+    volume = measured.volume()
+    found = np.isfinite(cusps.height_mm)
+    assert found.sum() >= 0.5 * len(cusps.t)
     rng = np.random.default_rng(7)
-    rows = rng.choice(np.flatnonzero(chord.seeds_s < 0.9), brackets, replace=False)
-    t, s0, own = chord.seeds_t[rows], chord.seeds_s[rows], chord.seeds_pass[rows]
-    s1 = np.minimum(s0 + 0.15, 1.0)
-    h, s = measure._cusps(volume, surface, t, s0, s1, own)
-    found = np.isfinite(h)
-    assert found.sum() >= 2 * brackets // 3
-    for i in np.flatnonzero(found):
-        grid = np.linspace(s0[i], s1[i], 2001)
-        x, n = surface.points_and_normals(np.full(grid.size, t[i]), grid)
+    for i in rng.choice(np.flatnonzero(found), brackets, replace=False):
+        grid = np.linspace(cusps.s[i], cusps.bracket_s[i], 2001)
+        x, n = CAP.points_and_normals(np.full(grid.size, cusps.t[i]), grid)
         owner, item = volume.pairs(x)
-        mine = volume.pass_of[item] == own[i]
-        h_own = volume.height(x, n, *measure.ray_ranges(owner[mine], item[mine], grid.size))
-        h_other = volume.height(x, n, *measure.ray_ranges(owner[~mine], item[~mine],
-                                                          grid.size))
+        mine = volume.pass_of[item] == cusps.pass_index[i]
+        h_own = volume.height(x, n, *ray_ranges(owner[mine], item[mine], grid.size))
+        h_other = volume.height(x, n, *ray_ranges(owner[~mine], item[~mine], grid.size))
         low = np.minimum(h_own, h_other)
         # the first crossing from the seed: where the own pass stops standing lower
         cross = int(np.argmax(h_own > h_other))
         crest = low[max(cross - 1, 0):cross + 1].max()
-        assert h[i] == pytest.approx(crest, rel=0.01, abs=1e-3 * request)
-        assert abs(s[i] - grid[cross]) <= 2.0 * (grid[1] - grid[0])
+        assert cusps.height_mm[i] == pytest.approx(crest, rel=0.01, abs=1e-3 * request_mm)
+        assert abs(cusps.cusp_s[i] - grid[cross]) <= 2.0 * (grid[1] - grid[0])
 
 
 @pytest.mark.parametrize(("cutter", "request_mm"), [("ball:6", 0.02), ("bull:8:1", 0.05)])
-def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(monkeypatch, cutter,
-                                                                         request_mm):
-    # _CutVolume.cut stops each ray at the first piece it enters within the horizon: the
+def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(cutter, request_mm):
+    # CutVolume.cut stops each ray at the first piece it enters within the horizon: the
     # same rays cut as the lowest entries over all their pieces say, near the passes and
     # off the patch's edges (rays that enter only beyond the horizon stay uncut)
-    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
-    args, _ = _measured_inputs(monkeypatch, cap, cutter, scallop_mm=request_mm,
-                               chord_tol_mm=0.02, axis_mode="lead-tilt", lead_deg=10.0)
-    path, surface, cutter, request, _ = args
-    volume = measure._CutVolume(path, cutter, max(10.0 * request, 0.05), request)
+    measured = _planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02,
+                        axis_mode="lead-tilt", lead_deg=10.0)
+    volume = measured.volume()
     g = np.linspace(-0.05, 1.05, 41)
     t, s = (a.ravel() for a in np.meshgrid(np.clip(g, 0.0, 1.0), g, indexing="ij"))
-    q, n = surface.points_and_normals(t, np.clip(s, 0.0, 1.0))
+    q, n = CAP.points_and_normals(t, np.clip(s, 0.0, 1.0))
     q = q + np.where(s > 1.0, 3.0, np.where(s < 0.0, -3.0, 0.0))[:, None] * n  # off the sheet
-    full = np.isfinite(volume.height(q, n, *measure.ray_ranges(*volume.pairs(q), len(q))))
+    full = np.isfinite(volume.height(q, n, *ray_ranges(*volume.pairs(q), len(q))))
     got = volume.cut(q, n)
     np.testing.assert_array_equal(got, full)
     assert 0 < full.sum() < len(full)

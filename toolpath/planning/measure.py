@@ -83,7 +83,8 @@ from .sweep_kernel import (
     tip_plane_floors,
 )
 
-__all__ = ["ChordMeasurement", "ScallopMeasurement", "measure_chord", "measure_scallop"]
+__all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "measure_chord",
+           "measure_scallop", "seed_cusps"]
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -420,8 +421,17 @@ NEAR_WIDTHS = 1.0
 PIECE_SAG_SHARE = 0.03
 
 
-class _CutVolume:
-    """The material the toolpath removes, queried along surface normals."""
+class CutVolume:
+    """The material the toolpath removes, queried along surface normals.
+
+    The feed moves of ``toolpath`` cut in pieces (module docstring; under ``machine``'s
+    joint interpolation where the toolpath was checked for it). :meth:`pairs` gives the
+    pieces near points, :meth:`height` a ray's entry into given pieces (``inf`` beyond
+    ``horizon_mm``), :attr:`pass_of` each piece's pass and :meth:`cut` whether a ray
+    enters within the horizon. ``scallop_mm`` (the request) sets how near a ball's
+    nearby pieces lie (:data:`NEAR_WIDTHS`) and how straight a bowed move's pieces are
+    (:data:`PIECE_SAG_SHARE`).
+    """
 
     def __init__(self, toolpath: Toolpath, cutter: Cutter, horizon_mm: float,
                  scallop_mm: float, machine: Machine | None = None) -> None:
@@ -544,7 +554,7 @@ class _CutVolume:
                                 self.axes0, self.axes1, self.cutter.radius_mm)
 
 
-def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
+def _cusps(volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
            s0: NDArray[np.float64], s1: NDArray[np.float64], own: NDArray[np.int64]
            ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Cusp height and ``s`` between ``s0`` (a contact of pass ``own``) and ``s1``, fixed ``t``.
@@ -587,7 +597,7 @@ def _cusps(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64
 _RayRanges = tuple[NDArray[np.int64], NDArray[np.int64], NDArray[np.int64]]
 
 
-def _bracket_pieces(volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
+def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
                     s0: NDArray[np.float64], s1: NDArray[np.float64], own: NDArray[np.int64]
                     ) -> tuple[_RayRanges, _RayRanges]:
     """The pieces that can reach the rays over each bracket, of its own pass and the others.
@@ -622,12 +632,12 @@ class _HeightDifference:
     """``f(s) = h_own(s) - h_other(s)`` (clipped) along each seed's line of fixed ``t``.
 
     ``h_own`` is the height the seed's own pass leaves, ``h_other`` the other passes'
-    (:meth:`_CutVolume.height` over the pieces of :func:`_bracket_pieces`). Each call
+    (:meth:`CutVolume.height` over the pieces of :func:`_bracket_pieces`). Each call
     keeps, at the end of the bracket on its side (column 0: ``f <= 0``, 1: ``f > 0``),
     ``|f|`` in :attr:`end_f` and ``min(h_own, h_other)`` in :attr:`end_h`.
     """
 
-    def __init__(self, volume: _CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
+    def __init__(self, volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
                  own: _RayRanges, other: _RayRanges) -> None:
         self.volume, self.surface, self.t = volume, surface, t
         self.own, self.other = own, other
@@ -714,7 +724,7 @@ ESTIMATE_TOP_SHARE = 0.01
 ESTIMATE_MIN_SEEDS = 2 * ESTIMATE_TOP
 
 
-def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds
+def _ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: _Seeds
                          ) -> NDArray[np.float64]:
     """Cusp height from each seed towards increasing ``s``, from two centre segments (ball).
 
@@ -756,10 +766,10 @@ def _ball_cusp_estimates(volume: _CutVolume, surface: ParametricSurface, seeds: 
     return out
 
 
-def _ridges_widening(volume: _CutVolume, seeds: _Seeds) -> tuple[NDArray[np.float64], ...]:
+def _ridges_widening(volume: CutVolume, seeds: _Seeds) -> tuple[NDArray[np.float64], ...]:
     """The ridge between each seed's own pass and the next pass (:func:`~.cusp_kernel.ridges`).
 
-    Among the pieces within :attr:`_CutVolume.near_mm` of ``P = Q + R n``; where no other
+    Among the pieces within :attr:`CutVolume.near_mm` of ``P = Q + R n``; where no other
     pass lies there, within 4 times that, and so on up to ``2 R`` and a piece's length (an
     other pass's piece whose midpoint lies farther from ``P`` leaves its tube apart from
     the own pass's: the tubes do not meet). Returns the ridge points, the depths inside
@@ -883,7 +893,8 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     """Measure the material left between passes (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under,
-    the cutter moves as that interpolation moves it (as in :func:`measure_chord`).
+    the cutter moves as that interpolation moves it (as in :func:`measure_chord`). The
+    largest of the seeds' cusps (:func:`seed_cusps`), overall and away from uncut areas.
 
     Parameters
     ----------
@@ -905,19 +916,87 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         largest estimates, or that share of the seeds when more (defaults
         :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`, :data:`ESTIMATE_TOP_SHARE`).
     """
+    return _scallop_result(seed_cusps(
+        toolpath, surface, cutter, scallop_mm, chord, machine=machine, chunk=chunk,
+        estimate=estimate, estimate_min_seeds=estimate_min_seeds, estimate_top=estimate_top,
+        estimate_top_share=estimate_top_share))
+
+
+@dataclass(frozen=True)
+class SeedCusps:
+    """Each seed's cusp: where the search starts, the ball's estimate, the ray cast.
+
+    One row per seed: the chord measurement's seeds short of ``s = 1``
+    (:attr:`ChordMeasurement.seeds_t` and so on), in their order.
+
+    Attributes
+    ----------
+    t, s : ndarray
+        Where the search starts (a contact, or a mid-chord contact above the surface).
+    pass_index : ndarray of int
+        The seed's pass.
+    estimate_mm : ndarray
+        The ball's estimate from the passes' own geometry, mm (``nan``: not estimated, or
+        none stands; ``inf``: the tubes do not meet).
+    cast : ndarray of bool
+        The seeds ray cast.
+    height_mm : ndarray
+        The cusp the ray cast found, mm (``nan``: not cast, or no other pass within the
+        bracket; ``inf``: above the horizon).
+    cusp_s : ndarray
+        Where it is, ``s`` at the seed's ``t`` (``nan`` likewise).
+    bracket_s : ndarray
+        Where the ray cast's bracket ends, ``s`` (``nan``: not cast).
+    clear_of_uncut : ndarray of bool
+        Cusps found farther than a cutter diameter, along the surface, from any uncut
+        sample of the coarse grid.
+    uncut_fraction : float
+        Area fraction of the surface left uncut (coarse grid).
+    """
+
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+    pass_index: NDArray[np.int64]
+    estimate_mm: NDArray[np.float64]
+    cast: NDArray[np.bool_]
+    height_mm: NDArray[np.float64]
+    cusp_s: NDArray[np.float64]
+    bracket_s: NDArray[np.float64]
+    clear_of_uncut: NDArray[np.bool_]
+    uncut_fraction: float
+
+
+def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
+               scallop_mm: float, chord: ChordMeasurement, *,
+               machine: Machine | None = None, chunk: int = 20_000,
+               estimate: bool = True, estimate_min_seeds: int = ESTIMATE_MIN_SEEDS,
+               estimate_top: int = ESTIMATE_TOP,
+               estimate_top_share: float = ESTIMATE_TOP_SHARE) -> SeedCusps:
+    """The cusp searched from each seed (module docstring), seed by seed.
+
+    Parameters as :func:`measure_scallop`, which reports the largest of these cusps.
+    """
     h = float(scallop_mm)
     rho = cutter.corner_radius_mm if cutter.corner_radius_mm > h else cutter.radius_mm
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
-    volume = _CutVolume(toolpath, cutter, max(10.0 * h, 0.05), h, machine)
+    volume = CutVolume(toolpath, cutter, max(10.0 * h, 0.05), h, machine)
     uncut = _UncutArea.on_grid(surface, volume, width)
     seeds, others = _Seeds.of(surface, chord)
     search = _CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)
+    guess = np.full(len(seeds.t), np.nan)
     if volume.ball and estimate and len(seeds.t) > estimate_min_seeds:
         count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
-        _cast_beyond_estimates(search, uncut, count)
+        guess = _cast_beyond_estimates(search, uncut, count)
     else:
         search.run(np.ones(len(seeds.t), dtype=bool))
-    return _scallop_result(search, uncut)
+    found = ~np.isnan(search.height)
+    clear = found.copy()
+    away = uncut.away(surface(seeds.t[found], search.s[found]), seeds.t[found],
+                      search.s[found]) if found.any() else None
+    if away is not None:
+        clear[found] = away
+    return SeedCusps(seeds.t, seeds.s, seeds.pass_, guess, search.cast, search.height,
+                     search.s, search.bracket_s, clear, uncut.fraction)
 
 
 @dataclass(frozen=True)
@@ -936,7 +1015,7 @@ class _UncutArea:
     diameter_mm: float
 
     @classmethod
-    def on_grid(cls, surface: ParametricSurface, volume: _CutVolume, width_mm: float
+    def on_grid(cls, surface: ParametricSurface, volume: CutVolume, width_mm: float
                 ) -> _UncutArea:
         """Grid spacing half the cutter radius along ``t``, ``width_mm`` across."""
         big = volume.cutter.radius_mm
@@ -1002,10 +1081,11 @@ class _CuspSearch:
     From a seed at ``s`` over 2.5 times the distance to the nearest contact of another
     pass (what the toolpath itself shows of the spacing; ``default_gap_mm`` where none),
     ``chunk`` seeds at a time. :attr:`height` and :attr:`s` hold the cusps found (``nan``:
-    none or not cast), :attr:`cast` the seeds cast.
+    none or not cast), :attr:`cast` the seeds cast, :attr:`bracket_s` where their
+    brackets end.
     """
 
-    def __init__(self, volume: _CutVolume, surface: ParametricSurface, seeds: _Seeds,
+    def __init__(self, volume: CutVolume, surface: ParametricSurface, seeds: _Seeds,
                  others: _OtherPasses, default_gap_mm: float, chunk: int) -> None:
         self.volume, self.surface, self.seeds, self.others = volume, surface, seeds, others
         self.default_gap_mm, self.chunk = default_gap_mm, chunk
@@ -1013,6 +1093,7 @@ class _CuspSearch:
         self.height = np.full(m, np.nan)
         self.s = np.full(m, np.nan)
         self.cast = np.zeros(m, dtype=bool)
+        self.bracket_s = np.full(m, np.nan)
 
     def run(self, rows: NDArray[np.bool_]) -> None:
         """Ray cast the seeds ``rows`` not cast yet."""
@@ -1023,6 +1104,7 @@ class _CuspSearch:
         gap = np.where(np.isfinite(gap), gap, self.default_gap_mm)
         speed = np.linalg.norm(seeds.x_s[todo], axis=1)
         s1 = np.minimum(seeds.s[todo] + 2.5 * gap / np.maximum(speed, TINY), 1.0)
+        self.bracket_s[todo] = s1
         room = s1 > seeds.s[todo] + ROUND_OFF  # no room above (s in [0, 1]): no cusp
         # brackets of like length batched together: a batch meets the pieces within
         # reach of its longest bracket
@@ -1035,13 +1117,15 @@ class _CuspSearch:
                                                  seeds.pass_[sl])
 
 
-def _cast_beyond_estimates(search: _CuspSearch, uncut: _UncutArea, count: int) -> None:
+def _cast_beyond_estimates(search: _CuspSearch, uncut: _UncutArea, count: int
+                           ) -> NDArray[np.float64]:
     """A ball's cusps estimated first; the ray cast where the estimate cannot decide.
 
     Every seed's cusp from the passes' own geometry (:func:`_ball_cusp_estimates`); then
     the ray cast where no estimate stands, at the ``count`` largest estimates, and
     wherever an estimate stands above the largest cusp the ray cast found by more than it
     errs (:data:`ESTIMATE_SHARE`; overall, and away from uncut areas as the seeds stand).
+    Returns the estimates.
     """
     seeds = search.seeds
     guess = _ball_cusp_estimates(search.volume, search.surface, seeds)
@@ -1061,21 +1145,20 @@ def _cast_beyond_estimates(search: _CuspSearch, uncut: _UncutArea, count: int) -
             search.run(group & (guess >= ESTIMATE_SHARE * top))
         else:
             search.run(group)
+    return guess
 
 
-def _scallop_result(search: _CuspSearch, uncut: _UncutArea) -> ScallopMeasurement:
+def _scallop_result(cusps: SeedCusps) -> ScallopMeasurement:
     """The largest cusp found, overall and away from the uncut area."""
-    seeds = search.seeds
-    n_cast = int(search.cast.sum())
-    found = ~np.isnan(search.height)
+    n_cast = int(cusps.cast.sum())
+    found = ~np.isnan(cusps.height_mm)
     if not found.any():
-        return ScallopMeasurement(0.0, float("nan"), float("nan"), 0.0, uncut.fraction,
-                                  len(seeds.t), n_cast)
-    ch, ct, cs = search.height[found], seeds.t[found], search.s[found]
+        return ScallopMeasurement(0.0, float("nan"), float("nan"), 0.0, cusps.uncut_fraction,
+                                  len(cusps.t), n_cast)
+    ch, ct, cs = cusps.height_mm[found], cusps.t[found], cusps.cusp_s[found]
     k = int(np.argmax(ch))
-    away = uncut.away(search.surface(ct, cs), ct, cs)
-    interior = ch if away is None else np.where(away, ch, -np.inf)
+    interior = np.where(cusps.clear_of_uncut[found], ch, -np.inf)
     return ScallopMeasurement(max_mm=float(ch[k]), t=float(ct[k]), s=float(cs[k]),
                               interior_max_mm=max(float(interior.max()), 0.0),
-                              uncut_fraction=uncut.fraction, n_samples=len(seeds.t),
+                              uncut_fraction=cusps.uncut_fraction, n_samples=len(cusps.t),
                               n_cast=n_cast)

@@ -733,7 +733,7 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
     fractions = np.asarray(CHORD_FRACTIONS if slopes is None else BALL_FRACTIONS)
     gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
                                  fractions, newton=1, refine_rim=True,
-                                 **joint_moves(machine, q, idx))
+                                 joints=joint_moves(machine, q, idx))
     low, u_low, high, u_high = chord_extremes(gaps, fractions, end_slopes=slopes,
                                               with_samples=True)
     # the model is close, not exact: where an extreme is within 10 % of its limit,
@@ -749,7 +749,7 @@ def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOption
             j = idx[close]
             exact, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t,
                                           pts.s, j, u_at[close, None], newton=1,
-                                          refine_rim=True, **joint_moves(machine, q, j))
+                                          refine_rim=True, joints=joint_moves(machine, q, j))
             value[close] = further(value[close], exact[:, 0])
     return low, high
 

@@ -518,14 +518,14 @@ class MoveEnds(NamedTuple):
 
 
 def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
-                idx: NDArray[np.int64]) -> dict[str, Any]:
-    """:func:`move_gaps` keywords for moves ``idx -> idx + 1`` interpolated in ``joints``.
+                idx: NDArray[np.int64]) -> JointEnds | None:
+    """:func:`move_gaps`'s ``joints`` for moves ``idx -> idx + 1`` interpolated in ``joints``.
 
-    Empty (tip-linear moves) when ``joints`` is None.
+    None (tip-linear moves) when ``joints`` or ``machine`` is None.
     """
-    if joints is None:
-        return {}
-    return {"joints": (machine, joints[idx], joints[idx + 1])}
+    if joints is None or machine is None:
+        return None
+    return machine, joints[idx], joints[idx + 1]
 
 
 def move_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
