@@ -80,6 +80,7 @@ from .sampling import (
 from .sweep_kernel import (
     capsule_entries,
     nearest_entries,
+    piece_ends,
     ray_ranges,
     segment_distances,
     tip_plane_floors,
@@ -453,7 +454,6 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     owner = np.repeat(np.arange(n), pieces)
     # piece j of a move of m pieces runs from the pose at u = j / m to (j + 1) / m: the
     # move's own ends, or one of its inner poses (placed once, shared by two pieces)
-    rank = np.arange(owner.size) - np.repeat(np.cumsum(pieces) - pieces, pieces)
     inner_first = np.cumsum(pieces - 1) - (pieces - 1)
     inner_move = np.repeat(np.arange(n), pieces - 1)
     u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
@@ -464,11 +464,8 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     else:
         machine, q_a, q_b = joints
         tips, axes = forward(machine, q_a[inner_move] * (1 - u) + q_b[inner_move] * u)
-    inner = 2 * n + inner_first[owner] + rank  # index of the pose after piece j's start
-    start = np.where(rank == 0, owner, inner - 1)
-    stop = np.where(rank == pieces[owner] - 1, n + owner, inner)
-    poses, pose_axes = np.concatenate([a, b, tips]), np.concatenate([aa, ab, axes])
-    return poses[start], poses[stop], pose_axes[start], pose_axes[stop], owner
+    (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
+    return p0, p1, x0, x1, owner
 
 
 #: A ball's pieces near a point are sought first within this many widths of the cusp the
@@ -1010,13 +1007,15 @@ class _UncutArea:
         len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
         n_t = int(np.ceil(len_t / (0.5 * big))) + 1
         n_s = int(np.ceil(len_s / width_mm)) + 1
-        frame = surface.frame(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s),
-                              grid=True)
-        q, n = frame.point.reshape(-1, 3), frame.normal.reshape(-1, 3)
-        area = np.sqrt(np.maximum(frame.E * frame.G - frame.F**2, 0.0)).ravel()
+        t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s),
+                           indexing="ij")
+        # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
+        parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
+        q, n = parts[0, 0], outward_normals(surface, parts[1, 0], parts[0, 1])
+        area = np.linalg.norm(np.cross(parts[1, 0], parts[0, 1]), axis=1)
         uncut = ~volume.cut(q, n)
         fraction = float(area[uncut].sum() / max(area.sum(), TINY))
-        grid = frame.point.reshape(n_t, n_s, 3)
+        grid = q.reshape(n_t, n_s, 3)
         reach = (_surface_reach(grid, uncut.reshape(n_t, n_s), bool(surface.closed_t),
                                 2.0 * big) if uncut.any() else None)
         return cls(grid, uncut, fraction, reach, 2.0 * big)
