@@ -41,7 +41,8 @@ from .clearance_kernel import Cutter
 from .cutter_kernel import cutter_distance
 
 __all__ = ["POSES", "Poses", "RayPieces", "Rays", "Segments", "capsule_entries",
-           "nearest_entries", "ray_ranges", "segment_distances", "tip_plane_floors"]
+           "nearest_entries", "piece_ends", "ray_ranges", "segment_distances",
+           "tip_plane_floors"]
 
 #: Poses sampled along a piece before the golden-section search.
 POSES = 9
@@ -455,3 +456,34 @@ def tip_plane_floors(centre: NDArray[np.float64], radius: NDArray[np.float64],
                           Poses(_floats(tips0), _floats(tips1), _floats(axes0), _floats(axes1)),
                           float(radius_mm), out)
     return out
+
+
+@numba.njit(cache=True)
+def _piece_ends(first, last, inner, counts, out0, out1):
+    """The loop of :func:`piece_ends`."""
+    piece = 0
+    k = 0  # the move's first inner pose
+    for m in range(counts.size):
+        c = counts[m]
+        for j in range(c):
+            for col in range(first.shape[1]):
+                out0[piece, col] = first[m, col] if j == 0 else inner[k + j - 1, col]
+                out1[piece, col] = last[m, col] if j == c - 1 else inner[k + j, col]
+            piece += 1
+        k += c - 1
+
+
+def piece_ends(first: NDArray[np.float64], last: NDArray[np.float64],
+               inner: NDArray[np.float64], counts: NDArray[np.int64]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Both ends of every piece of moves cut into ``counts[m]`` pieces each, in order.
+
+    Move ``m`` runs from ``first[m]`` to ``last[m]`` through its ``counts[m] - 1`` inner
+    poses, which ``inner`` holds move after move: its piece ``j`` starts at the move's first
+    pose (``j = 0``) or inner pose ``j - 1`` and ends at inner pose ``j`` or the move's last.
+    Returns the starts and the ends, ``(counts.sum(), d)`` each.
+    """
+    total = int(counts.sum())
+    out0, out1 = np.empty((total, first.shape[1])), np.empty((total, first.shape[1]))
+    _piece_ends(_floats(first), _floats(last), _floats(inner), _ints(counts), out0, out1)
+    return out0, out1
