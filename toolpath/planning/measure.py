@@ -61,7 +61,7 @@ from ..joint_refine import joints_checked, machine_key
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
-from ..vectors import unit
+from ..vectors import move_poses
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
@@ -394,13 +394,14 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     inner_first = np.cumsum(pieces - 1) - (pieces - 1)
     inner_move = np.repeat(np.arange(n), pieces - 1)
     u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
-         / pieces[inner_move])[:, None]
+         / pieces[inner_move])
     if joints is None:
-        tips = a[inner_move] * (1 - u) + b[inner_move] * u
-        axes = unit(aa[inner_move] * (1 - u) + ab[inner_move] * u)
+        tips, axes = move_poses(a[inner_move], aa[inner_move], b[inner_move],
+                                ab[inner_move], u)
     else:
         machine, q_a, q_b = joints
-        tips, axes = forward(machine, q_a[inner_move] * (1 - u) + q_b[inner_move] * u)
+        w = u[:, None]
+        tips, axes = forward(machine, q_a[inner_move] * (1 - w) + q_b[inner_move] * w)
     inner = 2 * n + inner_first[owner] + rank  # index of the pose after piece j's start
     start = np.where(rank == 0, owner, inner - 1)
     stop = np.where(rank == pieces[owner] - 1, n + owner, inner)

@@ -22,6 +22,7 @@ from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
 from ..tolerances import ROUND_OFF, TINY
+from ..vectors import move_poses
 from .cutters import Cutter, CutterKind
 from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
@@ -518,19 +519,17 @@ def insert_move_poses(surface: ParametricSurface, pts: PassPoints, keep: NDArray
     """The cutter's poses inside moves ``after -> after + 1`` (increasing, one each) merged in.
 
     At fraction ``u`` of each move the pose is the move's own: tip and axis interpolated
-    linearly (the axis normalised), as the controller cuts the move; its surface parameters
-    ``(t, s)`` interpolated too (the frame there stands for the contact). Returns the
-    points, ``keep`` on them (the new ones kept) and the new points' rows.
+    linearly (the axis normalised: :func:`~toolpath.vectors.move_poses`), as the controller
+    cuts the move; its surface parameters ``(t, s)`` interpolated too (the frame there
+    stands for the contact). Returns the points, ``keep`` on them (the new ones kept) and
+    the new points' rows.
     """
-    w = u[:, None]
     b = after + 1
-    axes = pts.axes[after] * (1.0 - w) + pts.axes[b] * w
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tips, axes = move_poses(pts.tips[after], pts.axes[after], pts.tips[b], pts.axes[b], u)
     t = pts.t[after] * (1.0 - u) + pts.t[b] * u
     s = pts.s[after] * (1.0 - u) + pts.s[b] * u
     new = PassPoints(t=t, s=s, pid=pts.pid[after], frame=pass_frame(surface, t, s),
-                     nominal=axes, axes=axes,
-                     tips=pts.tips[after] * (1.0 - w) + pts.tips[b] * w,
+                     nominal=axes, axes=axes, tips=tips,
                      direction=pts.direction[after], smoothing=pts.smoothing,
                      cone_pushed=pts.cone_pushed)
     new_at = after + 1 + np.arange(after.size)
