@@ -83,8 +83,8 @@ from .sweep_kernel import (
     tip_plane_floors,
 )
 
-__all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "measure_chord",
-           "measure_scallop", "seed_cusps"]
+__all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "cusp_horizon_mm",
+           "measure_chord", "measure_scallop", "seed_cusps"]
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -420,6 +420,23 @@ NEAR_WIDTHS = 1.0
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
 #: scallop of the bowed path.
 PIECE_SAG_SHARE = 0.03
+
+#: The scallop measurement's horizon, in requested scallops: a ray entering the cut volume
+#: higher than this above the surface counts as uncut (a cusp that tall is a missed
+#: strip, not a scallop to size), and the pieces farther than this are never searched.
+HORIZON_SCALLOPS = 10.0
+#: ... and at least this, mm: a tiny request does not bring the horizon down to the
+#: heights a cut surface stands at anyway (chord tolerances of hundredths of a mm),
+#: which would then read as uncut.
+LEAST_HORIZON_MM = 0.05
+
+
+def cusp_horizon_mm(scallop_mm: float) -> float:
+    """The scallop measurement's horizon for the request ``h``: ``max(10 h, 0.05)`` mm.
+
+    (:data:`HORIZON_SCALLOPS`, :data:`LEAST_HORIZON_MM`.)
+    """
+    return max(HORIZON_SCALLOPS * scallop_mm, LEAST_HORIZON_MM)
 
 
 class CutVolume:
@@ -902,7 +919,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     toolpath, surface, cutter
         What was cut, the design surface and the cutter.
     scallop_mm : float
-        The request; sets the horizon (``max(10 h, 0.05)`` mm).
+        The request; sets the horizon (:func:`cusp_horizon_mm`).
     chord : ChordMeasurement
         From :func:`measure_chord` on the same toolpath: its contacts seed the search.
     chunk : int
@@ -980,7 +997,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     h = float(scallop_mm)
     rho = cutter.corner_radius_mm if cutter.corner_radius_mm > h else cutter.radius_mm
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
-    volume = CutVolume(toolpath, cutter, max(10.0 * h, 0.05), h, machine)
+    volume = CutVolume(toolpath, cutter, cusp_horizon_mm(h), h, machine)
     uncut = _UncutArea.on_grid(surface, volume, width)
     seeds, others = _Seeds.of(surface, chord)
     search = _CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)
