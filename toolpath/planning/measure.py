@@ -84,7 +84,7 @@ from .sweep_kernel import (
 )
 
 __all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "cusp_horizon_mm",
-           "measure_chord", "measure_scallop", "seed_cusps"]
+           "measure_chord", "measure_scallop", "seed_cusps", "split_moves"]
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -374,11 +374,16 @@ def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
     return np.maximum(count, 1).astype(np.int64)
 
 
-def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
-           ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
-           joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
-           ) -> tuple[NDArray[np.float64], ...]:
-    """Split moves into pieces (:func:`_piece_counts`).
+def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
+                ) -> tuple[NDArray[np.float64], ...]:
+    """Split moves ``a -> b`` (tips, axes ``aa -> ab``) into straight pieces.
+
+    Each move gets :func:`_piece_counts` pieces: the tip and the point ``reach_mm`` up the
+    axis travel at most ``step`` mm per piece, and under joint interpolation the pieces
+    stay within about ``sag_mm`` of the bowed path. Returns the pieces' start and end tips,
+    start and end axes, and the move each piece belongs to (in move order).
 
     The piece ends as the control places them: tips linear and axes renormalized, or,
     with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
@@ -463,7 +468,7 @@ class CutVolume:
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         step = 0.125 * big
-        p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
+        p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
         self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
         if self.ball:

@@ -61,6 +61,8 @@ __all__ = [
     "final_axes",
     "frame_take",
     "insert_points",
+    "insert_rows",
+    "middle_past_tilt",
     "nominal_axes",
     "reach_height",
     "refine_chords",
@@ -168,8 +170,8 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _merge(old: NDArray[np.float64], new: NDArray[np.float64], new_at: NDArray[np.int64]
-           ) -> NDArray[np.float64]:
+def insert_rows(old: NDArray[np.float64], new: NDArray[np.float64],
+                new_at: NDArray[np.int64]) -> NDArray[np.float64]:
     """``new``'s rows at the (increasing) rows ``new_at`` of the result, ``old``'s between.
 
     In one compiled pass copying the runs of old rows whole: a few new rows among many
@@ -189,7 +191,7 @@ def _check_places(new_at: NDArray[np.int64], n_new: int, size: int) -> None:
 
 def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
                    new_at: NDArray[np.int64]) -> NDArray[np.float64]:
-    """:func:`_merge` of places already checked."""
+    """:func:`insert_rows` of places already checked."""
     if new.shape[1:] != old.shape[1:]:
         raise ValueError(f"rows of shape {new.shape[1:]} cannot go among rows of shape "
                          f"{old.shape[1:]}")
@@ -670,7 +672,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                 raise PlanningError(
                     "internal error in the chord check: inserting points inside moves moved "
                     "the moves' ends (the axes were smoothed again); please report it")
-            origin = _merge(origin, np.full(where_new.size, -1), np.sort(where_new))
+            origin = insert_rows(origin, np.full(where_new.size, -1), np.sort(where_new))
         n_points = len(pts) if origin is None else len(start) + int((origin < 0).sum())
         if n_points > opts.max_points:
             raise too_many_points(opts, n_points)
@@ -697,8 +699,8 @@ def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,
     added = np.flatnonzero(origin < 0)
     before = _insertion_rows(start.pid, start.t, pts.pid[added], pts.t[added])
     new_at = before + np.arange(added.size)
-    joints = solve_inverse(machine, _merge(start.tips, pts.tips[added], new_at),
-                           _merge(start.axes, pts.axes[added], new_at)).joints
+    joints = solve_inverse(machine, insert_rows(start.tips, pts.tips[added], new_at),
+                           insert_rows(start.axes, pts.axes[added], new_at)).joints
     rows = np.empty(len(pts), dtype=np.int64)
     rows[added] = new_at
     ends = np.flatnonzero(origin >= 0)  # start's row r, after the new points before it
@@ -760,8 +762,8 @@ def _undercut_limit(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
                              pts.frame.s11[idx + 1], pts.axes[idx], pts.axes[idx + 1])
 
 
-def _middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
-                     ) -> NDArray[np.bool_]:
+def middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
+                    ) -> NDArray[np.bool_]:
     """Moves ``idx -> idx + 1`` whose middle axis leans past the tilt cap by half its margin.
 
     The post splits a 5-axis move at its middle with the normalized mean of the ends' axes
@@ -788,7 +790,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
 
     Those cutting deeper than the chord tolerance, standing higher than they may
     (:func:`_undercut_limit`), whose middle leans past the tilt cap
-    (:func:`_middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
+    (:func:`middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the
@@ -796,7 +798,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     themselves stand off), and the report carries it.
     """
     bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
-    bad |= _middle_past_tilt(res, pts, idx)
+    bad |= middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
         bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
     at = np.flatnonzero(bad)
