@@ -65,12 +65,14 @@ from simulator.motion import (
 from simulator.planner import GRBL_PLANNER_BLOCKS, MotionBlock, PlannerQueue
 from simulator.settings import Settings
 
-__all__ = ["MODES", "Alarm", "Controller", "State", "SubmitResult"]
+__all__ = ["MODES", "SYNC_BLOCK_TYPES", "Alarm", "Controller", "State", "SubmitResult"]
 
 _SLOTS = "XYZABC"
 _ZERO6 = (0.0, 0.0, 0.0, 0.0, 0.0, 0.0)
 _N_WORD = re.compile(r"N(\d+)")
-_SYNC_TYPES = (Dwell, Spindle, Coolant, ToolChange, ProgramEnd)
+#: Blocks that wait for the planner to empty before they run (as grbl synchronises
+#: dwells, spindle, coolant, tool changes and program end with motion).
+SYNC_BLOCK_TYPES = (Dwell, Spindle, Coolant, ToolChange, ProgramEnd)
 #: Protocol modes: ``grbl`` (XYZ only, like the firmware) and ``linuxcnc`` (the
 #: machine's axes, G93 inverse time, M6), both over the GRBL serial protocol.
 MODES = ("grbl", "linuxcnc")
@@ -508,7 +510,7 @@ class Controller:
             t = type(b)
             if t is Linear or t is Rapid or t is Arc:
                 motion = b
-            elif isinstance(b, _SYNC_TYPES):
+            elif isinstance(b, SYNC_BLOCK_TYPES):
                 syncs.append(b)
         chords = self._targets(motion, before, after) if motion is not None else []
         bad = self._soft_limit_violation(chords)

@@ -24,7 +24,7 @@ from gcode import ModalState, Program
 from gcode.block_sequence import MoveRun, block_runs
 from gcode.interpreter import KIND_RAPID, interpret
 from gcode.program import Arc, Dwell, Linear, Rapid
-from simulator.controller import _SYNC_TYPES, Alarm, Controller
+from simulator.controller import SYNC_BLOCK_TYPES, Alarm, Controller
 from simulator.motion import block_kinematics_array, junction_speed_sq_array, trapezoid_time_s_array
 from simulator.planner import plan_entry_speeds_sq
 
@@ -192,7 +192,7 @@ def _sync_lines(
             t = type(b)
             if t is Linear or t is Rapid or ln > limit:
                 continue
-            if isinstance(b, _SYNC_TYPES):
+            if isinstance(b, SYNC_BLOCK_TYPES):
                 found[ln] = found.get(ln, 0.0) + (b.seconds if t is Dwell else 0.0)
     keys = sorted(found)
     return np.asarray(keys, dtype=np.int64), np.asarray([found[k] for k in keys])

@@ -46,7 +46,7 @@ from gcode.senders.resume import (
     safe_resume_line,
 )
 
-__all__ = ["GrblRecovery", "HoldChoice"]
+__all__ = ["GrblRecovery", "HoldChoice", "StreamStop"]
 
 
 class HoldChoice(StrEnum):
@@ -56,8 +56,12 @@ class HoldChoice(StrEnum):
     CANCEL = "cancel"
 
 
-class _Stop(Exception):
-    """A fatal stream event, handled by the operation that was running."""
+class StreamStop(Exception):
+    """A fatal stream event, handled by the operation that was running.
+
+    Raised by the sender's event handling (a rejected line, an unexpected reset) and
+    caught by the recovery operations; ``event`` is the event that stopped the stream.
+    """
 
     def __init__(self, event: Event) -> None:
         self.event = event
@@ -180,7 +184,7 @@ class GrblRecovery:
         self.stream.feed_hold(asked)
         try:
             self._wait_stopped(self.timeouts.hold_s + 0.5)
-        except _Stop as stop:
+        except StreamStop as stop:
             ev = stop.event
             if not (isinstance(ev, TimedOut) and ev.what == "hold" and self._status_at < asked):
                 raise
@@ -243,7 +247,7 @@ class GrblRecovery:
         last = self._last_sent.number if self._last_sent and self._last_sent.number else first
         try:
             line = self.locate(job, first, max(first, last))
-        except (SenderError, _Stop):
+        except (SenderError, StreamStop):
             return None
         if line is not None and line > job.last_line_number:
             return None
@@ -256,7 +260,7 @@ class GrblRecovery:
         stream.drop_pending()
         try:
             self._hold_stopped()
-        except _Stop as stop:  # an alarm while stopping: reset anyway
+        except StreamStop as stop:  # an alarm while stopping: reset anyway
             if not isinstance(stop.event, AlarmRaised):
                 raise
         finally:
@@ -299,7 +303,7 @@ class GrblRecovery:
                     resume_line=line,
                 )
             return self._generic_failure(ev, stop_machine=True)
-        except _Stop as again:
+        except StreamStop as again:
             return self._generic_failure(again.event)
         except SenderError as err:
             return err
@@ -337,7 +341,7 @@ class GrblRecovery:
         try:
             self._reset()
             line = self._suggest_after_reset()
-        except (SenderError, _Stop):
+        except (SenderError, StreamStop):
             line = None
         note = "the controller was reset and is locked: home ($H) or unlock ($X) first"
         if ev.code in (1, 3):
@@ -355,7 +359,7 @@ class GrblRecovery:
             try:
                 self.stream.drop_pending()
                 self._hold_and_reset()
-            except (SenderError, _Stop):
+            except (SenderError, StreamStop):
                 pass
         last = self._last_line or None
         if isinstance(ev, TimedOut):

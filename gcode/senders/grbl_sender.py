@@ -63,7 +63,7 @@ from gcode.senders.errors import (
     SenderError,
 )
 from gcode.senders.grbl_messages import Feedback, StatusReport, error_text
-from gcode.senders.grbl_recovery import GrblRecovery, HoldChoice, _Stop
+from gcode.senders.grbl_recovery import GrblRecovery, HoldChoice, StreamStop
 from gcode.senders.grbl_stream import (
     RX_BUFFER_BYTES,
     STATUS_INTERVAL_S,
@@ -343,13 +343,13 @@ class GrblSender(GrblRecovery):
             if self._collect is not None:
                 self._collect.append((ev.line, ev.code))  # type: ignore[union-attr]
                 return
-            raise _Stop(ev)
+            raise StreamStop(ev)
         if t is ControllerReset:
             if ev.expected:  # type: ignore[union-attr]
                 self._banner_at = now
                 self._banner_version = ev.version  # type: ignore[union-attr]
                 return
-            raise _Stop(ev)
+            raise StreamStop(ev)
         if t is Pushed:
             msg = ev.message  # type: ignore[union-attr]
             if isinstance(msg, Feedback):
@@ -367,7 +367,7 @@ class GrblSender(GrblRecovery):
             return
         if t is AlarmRaised and j is not None:
             j.alarm(ev.code, ev.suspect)  # type: ignore[union-attr]
-        raise _Stop(ev)
+        raise StreamStop(ev)
 
     def _progress(self, now: float, *, force: bool = False) -> None:
         if self.on_progress is None:
@@ -487,7 +487,7 @@ class GrblSender(GrblRecovery):
                     f"{name}: no status report and no banner within {boot_wait_s:g} s: is a "
                     f"GRBL 1.1 controller there, at the right baud rate?"
                 ) from None
-            except _Stop as stop:
+            except StreamStop as stop:
                 if not isinstance(stop.event, ControllerReset):
                     raise HandshakeError(f"{name}: unexpected {stop.event!r} at start-up") from None
                 self._banner_at = self.clock()  # the board rebooted when the port opened
@@ -500,11 +500,11 @@ class GrblSender(GrblRecovery):
                 raise HandshakeError(
                     f"{name}: no GRBL banner within {self.timeouts.reset_s:g} s after a soft reset"
                 ) from None
-            except _Stop as stop:
+            except StreamStop as stop:
                 raise HandshakeError(f"{name}: unexpected {stop.event!r} after reset") from None
             self._stale_answers_ok = False
             s = self._fresh_status()
-        except _Stop as stop:
+        except StreamStop as stop:
             raise HandshakeError(
                 f"{name}: unexpected {stop.event!r} during the handshake"
             ) from None
@@ -557,7 +557,7 @@ class GrblSender(GrblRecovery):
                 limit_s=self.timeouts.reset_s,
                 what=f"answer to {text!r}",
             )
-        except _Stop as stop:
+        except StreamStop as stop:
             raise HandshakeError(f"unexpected {stop.event!r} after {text!r}") from None
         finally:
             self._collect = None
@@ -601,7 +601,7 @@ class GrblSender(GrblRecovery):
             self._pump(
                 lambda: self.stream.finished and self._banner_at >= asked, what="leaving check mode"
             )
-        except _Stop as stop:
+        except StreamStop as stop:
             ev = stop.event
             self.stream.drop_pending()
             if isinstance(ev, AlarmRaised):
@@ -687,7 +687,7 @@ class GrblSender(GrblRecovery):
                 self._pump(self._job_done, what="job")
             except KeyboardInterrupt:
                 self._cancel("interrupted (Ctrl-C)")
-        except _Stop as stop:
+        except StreamStop as stop:
             err = self._failure(stop.event)
             self._end(err)
             raise err from None

@@ -94,7 +94,7 @@ def test_traverses_go_over_an_open_part_not_under_it():
 def test_window_means_are_the_interpolated_integral_over_each_window():
     # the compiled moving average equals the mean from np.interp of the cumulative
     # trapezoid integral, windows of any width clipped to their pass (walked or searched)
-    from toolpath.planning.tool_axis import _box_window, _window_average
+    from toolpath.planning.tool_axis import box_window, window_average
 
     # (20,000 points: several of the blocks run in parallel, passes across their edges)
     rng = np.random.default_rng(3)
@@ -105,7 +105,7 @@ def test_window_means_are_the_interpolated_integral_over_each_window():
     lo_x, hi_x = x[pid * per_pass], x[pid * per_pass + per_pass - 1]
     half = rng.random(n) * 40.0
     centred = rng.random(n) < 0.5
-    got = _window_average(values, x, _box_window(x, lo_x, hi_x, half, centred))
+    got = window_average(values, x, box_window(x, lo_x, hi_x, half, centred))
     w = np.where(centred, np.minimum(half, np.minimum(x - lo_x, hi_x - x)), half)
     lo, hi = np.maximum(x - w, lo_x), np.minimum(x + w, hi_x)
     cum = np.r_[np.zeros((1, 3)), np.cumsum(0.5 * (values[1:] + values[:-1])

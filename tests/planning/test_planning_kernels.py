@@ -6,9 +6,9 @@ import pytest
 from toolpath.planning import EllipticBladeSurface, finishing, passes, rate_limit, scallop
 from toolpath.planning.clearance_kernel import bin_samples, clearances
 from toolpath.planning.cutters import parse_cutter
-from toolpath.planning.linking import _distinct_rows
+from toolpath.planning.linking import distinct_rows
 from toolpath.planning.options import FinishingOptions
-from toolpath.planning.passes import MERGE_BLOCK, _merge
+from toolpath.planning.passes import MERGE_BLOCK, insert_rows
 from toolpath.planning.sampling import (
     CHORD_FRACTIONS,
     ball_end_slopes,
@@ -33,14 +33,14 @@ def test_merge_places_new_rows_where_asked_and_old_ones_between(shape, dtype, sh
     want = np.empty((size, *shape), dtype=dtype)
     want[~is_new], want[is_new] = old, new
     new_at = np.flatnonzero(is_new)
-    np.testing.assert_array_equal(_merge(old, new, new_at), want)
+    np.testing.assert_array_equal(insert_rows(old, new, new_at), want)
     with pytest.raises(ValueError, match="increasing places"):  # one place too many
-        _merge(old, new, np.r_[new_at, size - 1])
+        insert_rows(old, new, np.r_[new_at, size - 1])
     if new_at.size > 1:
         with pytest.raises(ValueError, match="increasing places"):
-            _merge(old, new, new_at[::-1])
+            insert_rows(old, new, new_at[::-1])
     with pytest.raises(ValueError, match="cannot go among rows"):  # rows of another shape
-        _merge(old, new[..., None], new_at)
+        insert_rows(old, new[..., None], new_at)
 
 
 def test_samples_binned_by_cell_in_a_stable_order():
@@ -85,7 +85,7 @@ def test_repeated_toolpath_points_dropped_and_axes_made_unit():
     want_pts = pts[keep]
     want_axes = axes[keep] / np.linalg.norm(axes[keep], axis=1, keepdims=True)
     kept = np.empty(len(pts), dtype=np.int64)
-    m = _distinct_rows(pts, axes, kept)
+    m = distinct_rows(pts, axes, kept)
     assert m == keep.sum()
     np.testing.assert_array_equal(kept[:m], np.flatnonzero(keep))
     np.testing.assert_array_equal(pts[:m], want_pts)
@@ -381,7 +381,7 @@ def test_joints_of_split_moves_going_on_alone_are_those_along_the_whole_path():
     alone, where_new, kept = passes.insert_points(surface, cutter, opts, res, layout, alone,
                                                   new_t, start.pid[split][which])
     assert kept
-    origin = passes._merge(origin, np.full(where_new.size, -1), np.sort(where_new))
+    origin = passes.insert_rows(origin, np.full(where_new.size, -1), np.sort(where_new))
     machine = load_machine("trunnion-ac")
     q = passes._joints_along(machine, start, alone, origin)
     whole, _ = passes._merged_back(start, None, alone, origin)

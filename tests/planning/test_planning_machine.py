@@ -57,14 +57,14 @@ def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     # kinematics of the interpolated joints, off the straight chord between the tips, and
     # there are enough of them for the straight pieces to follow the bowed path
     from machines.kinematics import forward
-    from toolpath.planning.measure import _split
+    from toolpath.planning.measure import split_moves
 
     machine = load_machine("trunnion-ac")
     ends = np.array([[10.0, 5.0, 20.0, 10.0, 0.0], [12.0, 6.0, 20.0, 25.0, 40.0]])
     order = [a.letter for a in machine.axes]
     q = ends[:, [("XYZAC".index(letter)) for letter in order]]
     tips, axes = forward(machine, q)
-    p0, p1, x0, x1, _ = _split(tips[:1], tips[1:], axes[:1], axes[1:], 0.5, 3.0, 1e-4,
+    p0, p1, x0, x1, _ = split_moves(tips[:1], tips[1:], axes[:1], axes[1:], 0.5, 3.0, 1e-4,
                                (machine, q[:1], q[1:]))
     u = np.linspace(0.0, 1.0, len(p0) + 1)[:, None]
     expected_tips, expected_axes = forward(machine, q[0] * (1.0 - u) + q[1] * u)
@@ -85,7 +85,7 @@ def test_split_places_pieces_of_many_moves_as_the_full_forward_kinematics():
     # kinematics of its move's interpolated joints (the moves' own ends taken from the
     # tips and axes given, the inner poses solved), and tip-linear without a machine
     from machines.kinematics import forward
-    from toolpath.planning.measure import _split
+    from toolpath.planning.measure import split_moves
 
     machine = load_machine("trunnion-ac")
     order = [a.letter for a in machine.axes]
@@ -95,7 +95,7 @@ def test_split_places_pieces_of_many_moves_as_the_full_forward_kinematics():
     q = canon[:, ["XYZAC".index(letter) for letter in order]]
     tips, axes = forward(machine, q)
     for joints in ((machine, q[:-1], q[1:]), None):
-        p0, p1, x0, x1, owner = _split(tips[:-1], tips[1:], axes[:-1], axes[1:], 0.5, 3.0,
+        p0, p1, x0, x1, owner = split_moves(tips[:-1], tips[1:], axes[:-1], axes[1:], 0.5, 3.0,
                                        1e-4, joints)
         counts = np.bincount(owner, minlength=4)
         assert counts.min() == 1 and counts.max() > 2

@@ -33,6 +33,7 @@ from toolpath.planning.measure import (
     ChordMeasurement,
     CutVolume,
     SeedCusps,
+    cusp_horizon_mm,
     measure_chord,
     measure_scallop,
     seed_cusps,
@@ -75,8 +76,8 @@ class Measured:
                           machine=self.machine, **options)
 
     def volume(self) -> CutVolume:
-        """The material removed, to the horizon the measurement uses (10 times the request)."""
-        return CutVolume(self.path, self.cutter, max(10.0 * self.request_mm, 0.05),
+        """The material removed, to the horizon the measurement uses."""
+        return CutVolume(self.path, self.cutter, cusp_horizon_mm(self.request_mm),
                          self.request_mm, self.machine)
 
 

@@ -1,7 +1,7 @@
 """Moves whose post-split middle leans past the tilt joint's travel are split by the planner.
 
 The post splits a 5-axis move at its middle with the normalized mean of the ends' axes
-(``travel._with_middles`` models it for the travel check); beyond 90 deg from +Z that
+(``travel.with_split_middles`` models it for the travel check); beyond 90 deg from +Z that
 middle leans further than either end. The real-like propeller on ``trunnion-ac`` once
 failed its run there: both ends leaned back to the cap, the middle 0.007 deg past the A
 joint's -120 deg.
@@ -13,8 +13,8 @@ import numpy as np
 import pytest
 
 from toolpath.planning.options import TILT_MARGIN_DEG
-from toolpath.planning.passes import _middle_past_tilt
-from toolpath.planning.travel import _with_middles
+from toolpath.planning.passes import middle_past_tilt
+from toolpath.planning.travel import with_split_middles
 
 REACH_DEG = 120.0
 CAP_DEG = REACH_DEG - TILT_MARGIN_DEG
@@ -42,12 +42,12 @@ def test_moves_left_whole_keep_their_post_middle_within_the_reach(tilt_deg):
     pts = SimpleNamespace(axes=axes)
     res = SimpleNamespace(max_tilt_deg=CAP_DEG)
     idx = np.arange(0, 2 * n, 2)
-    split = _middle_past_tilt(res, pts, idx)
+    split = middle_past_tilt(res, pts, idx)
     # the post's middles of the moves left whole
     tips = np.zeros_like(axes)
     moves = np.zeros(2 * n - 1, dtype=bool)
     moves[idx[~split]] = True
-    _, with_middles, _ = _with_middles(tips, axes, moves)
+    _, with_middles, _ = with_split_middles(tips, axes, moves)
     assert len(with_middles) == 2 * n + int((~split).sum())
     assert _tilt_deg(with_middles).max() <= REACH_DEG
     assert split.any() == (tilt_deg == CAP_DEG)
@@ -57,10 +57,10 @@ def test_moves_left_whole_keep_their_post_middle_within_the_reach(tilt_deg):
 def test_ends_at_the_cap_turned_far_apart_are_split(turn_deg, split):
     axes = np.array([_axis(CAP_DEG, 40.0), _axis(CAP_DEG, 40.0 + turn_deg)])
     res = SimpleNamespace(max_tilt_deg=CAP_DEG)
-    assert _middle_past_tilt(res, SimpleNamespace(axes=axes), np.array([0]))[0] == split
+    assert middle_past_tilt(res, SimpleNamespace(axes=axes), np.array([0]))[0] == split
 
 
 def test_no_cap_splits_nothing():
     axes = np.array([_axis(170.0, 0.0), _axis(170.0, 90.0)])
     res = SimpleNamespace(max_tilt_deg=float("inf"))
-    assert not _middle_past_tilt(res, SimpleNamespace(axes=axes), np.array([0])).any()
+    assert not middle_past_tilt(res, SimpleNamespace(axes=axes), np.array([0])).any()

@@ -24,6 +24,7 @@ from machines.limits import Violation, check_rates, check_travel, min_segment_ti
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM
+from ..vectors import move_poses
 from .avoid import (
     Lifted,
     depth_text,
@@ -341,11 +342,8 @@ def _lifted_moves(cutter: Cutter, pts: PassPoints, keep: NDArray[np.bool_],
 
 def _move_poses(pts: PassPoints, a_i: NDArray[np.int64], u: NDArray[np.float64]
                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Tips and axes at fractions ``u`` of moves ``a_i -> a_i + 1`` (linear, axis normalised)."""
-    w = u[:, None]
-    tips = pts.tips[a_i] * (1 - w) + pts.tips[a_i + 1] * w
-    axes = pts.axes[a_i] * (1 - w) + pts.axes[a_i + 1] * w
-    return tips, axes / np.linalg.norm(axes, axis=1, keepdims=True)
+    """Tips and axes at fractions ``u`` of moves ``a_i -> a_i + 1`` (:func:`move_poses`)."""
+    return move_poses(pts.tips[a_i], pts.axes[a_i], pts.tips[a_i + 1], pts.axes[a_i + 1], u)
 
 
 def _pose_clearance(cutter: Cutter, tips: NDArray[np.float64], axes: NDArray[np.float64],
@@ -714,10 +712,8 @@ def check_links(path: Toolpath, cutter: Cutter, samples: SurfaceSamples,
     owner = np.repeat(np.arange(moves.size), pieces)
     first = np.r_[0, np.cumsum(pieces)[:-1]]
     step = np.arange(pieces.sum()) - first[owner] + 1
-    u = (step / pieces[owner])[:, None]
-    pts = a[owner] * (1 - u) + b[owner] * u
-    axes = ax[moves - 1][owner] * (1 - u) + ax[moves][owner] * u
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    pts, axes = move_poses(a[owner], ax[moves - 1][owner], b[owner], ax[moves][owner],
+                           step / pieces[owner])
     clr = global_clearance(cutter, pts, axes, samples, flutes=opts.check_flutes)
     feed = ~np.isin(kinds[moves][owner], (MoveKind.RAPID, MoveKind.PLUNGE))
     inside = step < pieces[owner]

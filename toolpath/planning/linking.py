@@ -36,7 +36,8 @@ from ..path import MoveKind
 from ..tolerances import LIMIT_SLACK, NO_MEAN_AXIS
 from ..vectors import unit
 
-__all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "extends", "link_runs"]
+__all__ = ["ClearancePlane", "ClearanceSphere", "LinkOptions", "Run", "distinct_rows", "extends",
+           "link_runs"]
 
 _TRAVERSE_STEP_DEG = 10.0
 #: Two directions closer than this (rad) are one: their great circle is undefined (the
@@ -247,7 +248,7 @@ class _Builder:
             passes[at] = block_passes
         kinds[starts] = self.first_kinds
         kept = np.empty(len(pts), dtype=np.int64)
-        m = _distinct_rows(pts, axes, kept)
+        m = distinct_rows(pts, axes, kept)
         pts, axes, kinds, passes = pts[:m], axes[:m], kinds[kept[:m]], passes[kept[:m]]
         feeds = np.where(kinds == MoveKind.RAPID, 0.0,
                          np.where(kinds == MoveKind.PLUNGE, self.plunge, self.feed))
@@ -255,7 +256,7 @@ class _Builder:
 
 
 @numba.njit(cache=True)
-def _distinct_rows(pts, axes, kept):
+def distinct_rows(pts, axes, kept):
     """Drop points repeating the one before (within 1 nm), in place; axes made unit.
 
     ``kept[:m]``: the indices of the ``m`` points left (returned), moved to the front.

@@ -63,7 +63,7 @@ from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
-from ..vectors import unit
+from ..vectors import move_poses
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
 from .cutters import Cutter, CutterKind
@@ -86,8 +86,8 @@ from .sweep_kernel import (
     tip_plane_floors,
 )
 
-__all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "measure_chord",
-           "measure_scallop", "seed_cusps"]
+__all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "cusp_horizon_mm",
+           "measure_chord", "measure_scallop", "seed_cusps", "split_moves"]
 
 @dataclass(frozen=True)
 class ChordMeasurement:
@@ -439,11 +439,16 @@ def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
     return np.maximum(count, 1).astype(np.int64)
 
 
-def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
-           ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
-           joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
-           ) -> tuple[NDArray[np.float64], ...]:
-    """Split moves into pieces (:func:`_piece_counts`).
+def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
+                ) -> tuple[NDArray[np.float64], ...]:
+    """Split moves ``a -> b`` (tips, axes ``aa -> ab``) into straight pieces.
+
+    Each move gets :func:`_piece_counts` pieces: the tip and the point ``reach_mm`` up the
+    axis travel at most ``step`` mm per piece, and under joint interpolation the pieces
+    stay within about ``sag_mm`` of the bowed path. Returns the pieces' start and end tips,
+    start and end axes, and the move each piece belongs to (in move order).
 
     The piece ends as the control places them: tips linear and axes renormalized, or,
     with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
@@ -458,13 +463,14 @@ def _split(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float6
     inner_first = np.cumsum(pieces - 1) - (pieces - 1)
     inner_move = np.repeat(np.arange(n), pieces - 1)
     u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
-         / pieces[inner_move])[:, None]
+         / pieces[inner_move])
     if joints is None:
-        tips = a[inner_move] * (1 - u) + b[inner_move] * u
-        axes = unit(aa[inner_move] * (1 - u) + ab[inner_move] * u)
+        tips, axes = move_poses(a[inner_move], aa[inner_move], b[inner_move],
+                                ab[inner_move], u)
     else:
         machine, q_a, q_b = joints
-        tips, axes = forward(machine, q_a[inner_move] * (1 - u) + q_b[inner_move] * u)
+        w = u[:, None]
+        tips, axes = forward(machine, q_a[inner_move] * (1 - w) + q_b[inner_move] * w)
     (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
     return p0, p1, x0, x1, owner
 
@@ -480,6 +486,23 @@ NEAR_WIDTHS = 1.0
 #: Straight pieces of a joint-interpolated move stay within this share of the requested
 #: scallop of the bowed path.
 PIECE_SAG_SHARE = 0.03
+
+#: The scallop measurement's horizon, in requested scallops: a ray entering the cut volume
+#: higher than this above the surface counts as uncut (a cusp that tall is a missed
+#: strip, not a scallop to size), and the pieces farther than this are never searched.
+HORIZON_SCALLOPS = 10.0
+#: ... and at least this, mm: a tiny request does not bring the horizon down to the
+#: heights a cut surface stands at anyway (chord tolerances of hundredths of a mm),
+#: which would then read as uncut.
+LEAST_HORIZON_MM = 0.05
+
+
+def cusp_horizon_mm(scallop_mm: float) -> float:
+    """The scallop measurement's horizon for the request ``h``: ``max(10 h, 0.05)`` mm.
+
+    (:data:`HORIZON_SCALLOPS`, :data:`LEAST_HORIZON_MM`.)
+    """
+    return max(HORIZON_SCALLOPS * scallop_mm, LEAST_HORIZON_MM)
 
 
 class CutVolume:
@@ -506,7 +529,7 @@ class CutVolume:
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         step = 0.125 * big
-        p0, p1, x0, x1, piece = _split(a, b, xa, xb, step, big, sag, interpolation)
+        p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
         self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
         if self.ball:
@@ -962,7 +985,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     toolpath, surface, cutter
         What was cut, the design surface and the cutter.
     scallop_mm : float
-        The request; sets the horizon (``max(10 h, 0.05)`` mm).
+        The request; sets the horizon (:func:`cusp_horizon_mm`).
     chord : ChordMeasurement
         From :func:`measure_chord` on the same toolpath: its contacts seed the search.
     chunk : int
@@ -1040,7 +1063,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     h = float(scallop_mm)
     rho = cutter.corner_radius_mm if cutter.corner_radius_mm > h else cutter.radius_mm
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
-    volume = CutVolume(toolpath, cutter, max(10.0 * h, 0.05), h, machine)
+    volume = CutVolume(toolpath, cutter, cusp_horizon_mm(h), h, machine)
     uncut = _UncutArea.on_grid(surface, volume, width)
     seeds, others = _Seeds.of(surface, chord)
     search = _CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)

@@ -22,6 +22,7 @@ from machines.kinematics import forward, solve_inverse
 
 from ..surface import ParametricSurface
 from ..tolerances import ROUND_OFF, TINY
+from ..vectors import move_poses
 from .cutters import Cutter, CutterKind
 from .errors import PlanningError, too_many_points
 from .local import PassFrame, pass_frame, tangent_frame
@@ -60,6 +61,8 @@ __all__ = [
     "final_axes",
     "frame_take",
     "insert_points",
+    "insert_rows",
+    "middle_past_tilt",
     "nominal_axes",
     "reach_height",
     "refine_chords",
@@ -167,8 +170,8 @@ def frame_take(frame: PassFrame, idx: NDArray[np.int64]) -> PassFrame:
     return PassFrame(**{f.name: getattr(frame, f.name)[idx] for f in fields(frame)})
 
 
-def _merge(old: NDArray[np.float64], new: NDArray[np.float64], new_at: NDArray[np.int64]
-           ) -> NDArray[np.float64]:
+def insert_rows(old: NDArray[np.float64], new: NDArray[np.float64],
+                new_at: NDArray[np.int64]) -> NDArray[np.float64]:
     """``new``'s rows at the (increasing) rows ``new_at`` of the result, ``old``'s between.
 
     In one compiled pass copying the runs of old rows whole: a few new rows among many
@@ -188,7 +191,7 @@ def _check_places(new_at: NDArray[np.int64], n_new: int, size: int) -> None:
 
 def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
                    new_at: NDArray[np.int64]) -> NDArray[np.float64]:
-    """:func:`_merge` of places already checked."""
+    """:func:`insert_rows` of places already checked."""
     if new.shape[1:] != old.shape[1:]:
         raise ValueError(f"rows of shape {new.shape[1:]} cannot go among rows of shape "
                          f"{old.shape[1:]}")
@@ -518,19 +521,17 @@ def insert_move_poses(surface: ParametricSurface, pts: PassPoints, keep: NDArray
     """The cutter's poses inside moves ``after -> after + 1`` (increasing, one each) merged in.
 
     At fraction ``u`` of each move the pose is the move's own: tip and axis interpolated
-    linearly (the axis normalised), as the controller cuts the move; its surface parameters
-    ``(t, s)`` interpolated too (the frame there stands for the contact). Returns the
-    points, ``keep`` on them (the new ones kept) and the new points' rows.
+    linearly (the axis normalised: :func:`~toolpath.vectors.move_poses`), as the controller
+    cuts the move; its surface parameters ``(t, s)`` interpolated too (the frame there
+    stands for the contact). Returns the points, ``keep`` on them (the new ones kept) and
+    the new points' rows.
     """
-    w = u[:, None]
     b = after + 1
-    axes = pts.axes[after] * (1.0 - w) + pts.axes[b] * w
-    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    tips, axes = move_poses(pts.tips[after], pts.axes[after], pts.tips[b], pts.axes[b], u)
     t = pts.t[after] * (1.0 - u) + pts.t[b] * u
     s = pts.s[after] * (1.0 - u) + pts.s[b] * u
     new = PassPoints(t=t, s=s, pid=pts.pid[after], frame=pass_frame(surface, t, s),
-                     nominal=axes, axes=axes,
-                     tips=pts.tips[after] * (1.0 - w) + pts.tips[b] * w,
+                     nominal=axes, axes=axes, tips=tips,
                      direction=pts.direction[after], smoothing=pts.smoothing,
                      cone_pushed=pts.cone_pushed)
     new_at = after + 1 + np.arange(after.size)
@@ -671,7 +672,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                 raise PlanningError(
                     "internal error in the chord check: inserting points inside moves moved "
                     "the moves' ends (the axes were smoothed again); please report it")
-            origin = _merge(origin, np.full(where_new.size, -1), np.sort(where_new))
+            origin = insert_rows(origin, np.full(where_new.size, -1), np.sort(where_new))
         n_points = len(pts) if origin is None else len(start) + int((origin < 0).sum())
         if n_points > opts.max_points:
             raise too_many_points(opts, n_points)
@@ -698,8 +699,8 @@ def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,
     added = np.flatnonzero(origin < 0)
     before = _insertion_rows(start.pid, start.t, pts.pid[added], pts.t[added])
     new_at = before + np.arange(added.size)
-    joints = solve_inverse(machine, _merge(start.tips, pts.tips[added], new_at),
-                           _merge(start.axes, pts.axes[added], new_at)).joints
+    joints = solve_inverse(machine, insert_rows(start.tips, pts.tips[added], new_at),
+                           insert_rows(start.axes, pts.axes[added], new_at)).joints
     rows = np.empty(len(pts), dtype=np.int64)
     rows[added] = new_at
     ends = np.flatnonzero(origin >= 0)  # start's row r, after the new points before it
@@ -761,8 +762,8 @@ def _undercut_limit(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
                              pts.frame.s11[idx + 1], pts.axes[idx], pts.axes[idx + 1])
 
 
-def _middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
-                     ) -> NDArray[np.bool_]:
+def middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
+                    ) -> NDArray[np.bool_]:
     """Moves ``idx -> idx + 1`` whose middle axis leans past the tilt cap by half its margin.
 
     The post splits a 5-axis move at its middle with the normalized mean of the ends' axes
@@ -789,7 +790,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
 
     Those cutting deeper than the chord tolerance, standing higher than they may
     (:func:`_undercut_limit`), whose middle leans past the tilt cap
-    (:func:`_middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
+    (:func:`middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the
@@ -797,7 +798,7 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     themselves stand off), and the report carries it.
     """
     bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
-    bad |= _middle_past_tilt(res, pts, idx)
+    bad |= middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
         bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
     at = np.flatnonzero(bad)

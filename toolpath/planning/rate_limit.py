@@ -47,6 +47,21 @@ FIRST_TRIAL_RATE = 1e-9
 #: lean-cone half-width: at the pole (90 deg) the azimuth is undefined, and the floor (an
 #: elevation of 89.94 deg) keeps the half-width finite (the ``acos`` argument is clipped).
 _LEAST_POLAR_COS = 1e-3
+#: The feed's component round the pole (``feed . (pole x n)``, of unit vectors) beyond
+#: which the feed has a side, ahead being increasing azimuth if positive, and the lean
+#: tube is narrowed to keep the nominal lead: a feed nearly along the meridian (within
+#: about 17 deg of it, for a normal square to the pole) has no clear "ahead", and its
+#: sign could flip from one point to the next.
+LEAD_SIDE_LEAST_SHARE = 0.3
+#: The azimuth's path (:func:`_azimuth_path`) keeps at least this share of the rate limit
+#: where the elevation alone would turn at the limit: the axis can still turn round the
+#: pole there (the in-plane rate is tightened afterwards, :data:`RATE_ROUNDS`), and the
+#: path's abscissa keeps increasing.
+LEAST_AZIMUTH_ROOM_SHARE = 0.1
+#: Floor of the cosine of the elevation in the azimuth's path: near the pole a turn of the
+#: azimuth moves the axis by ``cos(elevation)`` as much, and the floor (84 deg) keeps the
+#: path's length finite.
+LEAST_PATH_COS = 0.1
 
 
 class _Passes(NamedTuple):
@@ -289,9 +304,9 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
             # the way the feed runs round the pole: ahead is increasing azimuth if > 0
             side = _cross(pole, normals[i])
             ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
-            if ahead > 0.3:
+            if ahead > LEAD_SIDE_LEAST_SHARE:
                 lo[j] = max(lo[j], min(lead, hi[j]))
-            elif ahead < -0.3:
+            elif ahead < -LEAD_SIDE_LEAST_SHARE:
                 hi[j] = min(hi[j], max(lead, lo[j]))
         want[j] = min(max(phi_n[j] + _wrap_pi(az_w - phi_n[j]), lo[j]), hi[j])
     return lo, hi, want, beta
@@ -310,8 +325,8 @@ def _azimuth_path(x, beta, a, rho):
     for j in range(1, m):
         dx = x[a + j] - x[a + j - 1]
         slope = (beta[j] - beta[j - 1]) / max(dx, SAME_POINT_MM)
-        room = math.sqrt(max(rho * rho - slope * slope, (0.1 * rho) ** 2))
-        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), 0.1)
+        room = math.sqrt(max(rho * rho - slope * slope, (LEAST_AZIMUTH_ROOM_SHARE * rho) ** 2))
+        cos_mid = max(math.cos(0.5 * (beta[j] + beta[j - 1])), LEAST_PATH_COS)
         x_phi[j] = x_phi[j - 1] + dx * room / cos_mid
     return x_phi
 

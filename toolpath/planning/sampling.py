@@ -612,8 +612,8 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
     ----------
     gaps : ndarray, shape (m, k)
         Gaps measured at the ``k`` ``fractions`` of each move (3, or 1 with
-        ``end_slopes``; clipped to +-1e3 mm for the model: a failed projection must not
-        make it overflow).
+        ``end_slopes``; clipped to +-:data:`MODEL_GAP_CLIP_MM` for the model: a failed
+        projection must not make it overflow).
     end_slopes : ndarray, shape (m, 2), optional
         ``g'(0)`` and ``g'(1)``, mm per unit ``u``.
     with_samples : bool
@@ -684,13 +684,18 @@ def _gap_model(u, a, b, c):
 
 #: Rows per block of :func:`_model_extremes` run in parallel.
 _EXTREMES_BLOCK = 4096
+#: The measured gaps enter the move's model clipped to +- this, mm: a failed projection
+#: (a gap of a metre or ``inf``) must not make the cubic's coefficients overflow, and a
+#: clipped gap still exceeds any tolerance by far.
+MODEL_GAP_CLIP_MM = 1e3
 
 
 @numba.njit(cache=True, parallel=True)
 def _model_extremes(values, inverse, n_grid, samples, out):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
-    The model's coefficients are ``inverse @ values[i]`` (clipped to +-1e3). Its
+    The model's coefficients are ``inverse @ values[i]`` (clipped to
+    +-:data:`MODEL_GAP_CLIP_MM`). Its
     extremes are at the ends (0) or where ``g'`` (a cubic) vanishes: ``g'`` is sampled at
     ``n_grid`` points on [0, 1] and each sign change solved by bracketed Newton steps
     (every bump and dip, beside an end too; two roots within one step, a wiggle of no
@@ -708,7 +713,7 @@ def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
     for i in range(first, stop):
         a = b = c = 0.0
         for k in range(3):
-            g = min(max(values[i, k], -1e3), 1e3)
+            g = min(max(values[i, k], -MODEL_GAP_CLIP_MM), MODEL_GAP_CLIP_MM)
             a += inverse[0, k] * g
             b += inverse[1, k] * g
             c += inverse[2, k] * g

@@ -191,8 +191,15 @@ def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
     return found
 
 
+#: Rays climbing less steeply than this towards the spindle (``n . axis``, the cosine of
+#: the angle to the axis, below 0.1: within 6 deg of the tip's plane) get no tip-plane
+#: bound: the plane is met ``1 / rise`` times as far along the ray as the tip moves off
+#: it, so a turning axis moves the bound by up to ``2 R / rise`` per unit of change, which
+#: :data:`TURN_SLACK_RADII` covers only down to this rise.
+LEAST_RISE = 0.1
 #: Slack of the tip-plane bound per unit of axis change across a piece, in cutter radii
-#: (a turning axis moves the cutting end by at most 2 R times the change; 10 times that).
+#: (a turning axis moves the cutting end by at most 2 R times the change; over a rise of
+#: at least :data:`LEAST_RISE`, 10 times that).
 TURN_SLACK_RADII = 20.0
 
 
@@ -204,13 +211,14 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
     axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``, linear in
     the tip along a piece with a fixed axis, so the smaller of the two ends bounds the
     piece; a turning axis moves it by at most :data:`TURN_SLACK_RADII` ``R`` times the
-    axis change. Rays not climbing towards the spindle get no bound (``-inf``).
+    axis change. Rays not climbing towards the spindle by more than :data:`LEAST_RISE` get
+    no bound (``-inf``).
     """
     bound = np.inf
     for end in range(2):
         tip, axis = (p0, a0) if end == 0 else (p1, a1)
         rise = n[0] * axis[0] + n[1] * axis[1] + n[2] * axis[2]
-        if rise <= 0.1:
+        if rise <= LEAST_RISE:
             return -np.inf
         at = ((tip[0] - q[0]) * axis[0] + (tip[1] - q[1]) * axis[1]
               + (tip[2] - q[2]) * axis[2]) / rise

@@ -42,6 +42,7 @@ __all__ = [
     "AxisSmoothing",
     "TiltLean",
     "angle_deg",
+    "box_window",
     "keep_out_of_cone",
     "lead_tilt_axes",
     "keep_min_lean",
@@ -51,6 +52,7 @@ __all__ = [
     "segment_turn_rates",
     "slerp",
     "smooth_axes",
+    "window_average",
 ]
 
 #: The workpiece +Z (the axis tilt and the singular cone are measured from).
@@ -168,9 +170,9 @@ def _pass_coordinate(arclen_mm: NDArray[np.float64], pass_id: NDArray[np.int64]
     return local + offsets[which] + np.arange(n) * SAME_POINT_MM, starts, ends, which
 
 
-def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
-                half_width: NDArray[np.float64], centred: NDArray[np.bool_]
-                ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+def box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray[np.float64],
+               half_width: NDArray[np.float64], centred: NDArray[np.bool_]
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """The window ``[x - w, x + w]`` of each point, within its pass.
 
     Where ``centred``, ``w`` is at most the distance to the nearer pass end (no lag: a
@@ -184,9 +186,9 @@ def _box_window(x: NDArray[np.float64], lo_x: NDArray[np.float64], hi_x: NDArray
     return np.maximum(x - half, lo_x), np.minimum(x + half, hi_x)
 
 
-def _window_average(values: NDArray[np.float64], x: NDArray[np.float64],
-                    window: tuple[NDArray[np.float64], NDArray[np.float64]]
-                    ) -> NDArray[np.float64]:
+def window_average(values: NDArray[np.float64], x: NDArray[np.float64],
+                   window: tuple[NDArray[np.float64], NDArray[np.float64]]
+                   ) -> NDArray[np.float64]:
     """Mean of the piecewise-linear ``values(x)`` over each point's window (a box filter).
 
     From the cumulative trapezoid integral (:func:`_window_means`).
@@ -401,8 +403,8 @@ def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
         lo_x, hi_x = x[starts][which], x[ends][which]
         w_pt = np.full(n, float(smoothing_mm))
         c_pt = np.ones(n, dtype=bool)
-        window = _box_window(x, lo_x, hi_x, w_pt, c_pt)
-        twice = _window_average(_window_average(nominal, x, window), x, window)
+        window = box_window(x, lo_x, hi_x, w_pt, c_pt)
+        twice = window_average(window_average(nominal, x, window), x, window)
         # a window spanning opposite normals can average to nothing: keep the nominal
         _unit_or_nominal(twice, nominal, WEAK_AVERAGE)
         axes, limited = limit_lean(twice, normals, max_lean_deg)
@@ -566,9 +568,9 @@ def _spread(need: NDArray[np.float64], arclen_mm: NDArray[np.float64],
     widest = np.empty(n)
     _running_max(need, arclen, pass_id, w, widest)
     x, starts, ends, which = _pass_coordinate(arclen, pass_id)
-    window = _box_window(x, x[starts][which], x[ends][which], np.full(n, w),
+    window = box_window(x, x[starts][which], x[ends][which], np.full(n, w),
                          np.zeros(n, dtype=bool))
-    return np.maximum(_window_average(widest[:, None], x, window)[:, 0], need)
+    return np.maximum(window_average(widest[:, None], x, window)[:, 0], need)
 
 
 def lean_within_tilt(axes: NDArray[np.float64], normals: NDArray[np.float64],

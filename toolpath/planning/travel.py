@@ -40,7 +40,7 @@ from machines.limits import TRAVEL_TOLERANCE, Violation, check_travel
 
 from ..tolerances import LENGTH_SLACK_MM, NO_MEAN_AXIS
 
-__all__ = ["TRAVEL_MARGIN_MM", "AxisRange", "TravelFit", "fit_travel"]
+__all__ = ["TRAVEL_MARGIN_MM", "AxisRange", "TravelFit", "fit_travel", "with_split_middles"]
 
 TRAVEL_MARGIN_MM: Final[float] = 0.01
 """Room kept inside each linear limit when the part is moved, mm: ten steps of the
@@ -132,9 +132,9 @@ def _linear_joints(machine: Machine, tips: NDArray[np.float64], axes: NDArray[np
     return joints, g, linear_jacobian(machine, joints)
 
 
-def _with_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
-                  split: NDArray[np.bool_] | None
-                  ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
+def with_split_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
+                       split: NDArray[np.bool_] | None
+                       ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     """The poses with the middle poses of the moves ``split`` added, in path order.
 
     Returns the tips, the axes and the path point each row stands for (a middle: the point
@@ -178,7 +178,7 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
         Room kept inside each limit (:data:`TRAVEL_MARGIN_MM`).
     split_moves : array_like of bool, shape (n - 1,), optional
         Moves the post splits for the machine's joint interpolation (every one but the
-        rapids): their middle poses must fit too (:func:`_with_middles`).
+        rapids): their middle poses must fit too (:func:`with_split_middles`).
 
     Returns
     -------
@@ -188,7 +188,7 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     w = np.asarray(axes, dtype=float)
     owner = np.arange(len(tips))
     if machine.kinematics.is_five_axis:
-        tips, w, owner = _with_middles(tips, w, None if split_moves is None
+        tips, w, owner = with_split_middles(tips, w, None if split_moves is None
                                        else np.asarray(split_moves, dtype=bool))
     joints, g, jac = _linear_joints(machine, tips, w)
     letters = "XYZ"
