@@ -377,6 +377,8 @@ def _point_partials(t, s, sf, order, out, i, work):
 #: (The same source: numba's cache keeps both under the one function's name.) Its integer
 #: arguments are passed as ``np.int64(k)``: a bare constant is typed ``Literal[int](k)`` and
 #: numba compiled one specialisation per constant (four, some 5 s each on a cold start).
+#: :func:`_partials_block` calls it too, with the same argument types: the one compile
+#: serves both (inlined there it cost 2.5 s more of compiling on a cold start, issue 27).
 _partials_at = numba.njit(cache=True)(_point_partials.py_func)
 
 
@@ -404,7 +406,7 @@ def _partials_block(t, s, sf, order, out, lo, hi):
     """:func:`streamline_partials` for points ``lo .. hi - 1``."""
     work = _scratch()
     for i in range(lo, hi):
-        _point_partials(t[i], s[i], sf, order, out, i, work)
+        _partials_at(t[i], s[i], sf, order, out, i, work)
 
 
 @numba.njit(cache=True, parallel=True)

@@ -124,10 +124,10 @@ def _frame(surface: ParametricSurface, t: ArrayLike, s: ArrayLike,
                      s22=scalars[4], kg=scalars[5])
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _frame_rows(x, xt, xs, xtt, xts, xss, orientation, vectors, scalars):
     """:class:`PassFrame`'s vectors and scalars at each row from the partials."""
-    for i in numba.prange(x.shape[0]):
+    for i in range(x.shape[0]):
         e = xt[i, 0] * xt[i, 0] + xt[i, 1] * xt[i, 1] + xt[i, 2] * xt[i, 2]
         f = xt[i, 0] * xs[i, 0] + xt[i, 1] * xs[i, 1] + xt[i, 2] * xs[i, 2]
         g = xs[i, 0] * xs[i, 0] + xs[i, 1] * xs[i, 1] + xs[i, 2] * xs[i, 2]

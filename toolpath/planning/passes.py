@@ -212,15 +212,15 @@ def _merge_checked(old: NDArray[np.float64], new: NDArray[np.float64],
     return out
 
 
-#: Merged rows per parallel block of :func:`_merge_rows`.
+#: Merged rows per block of :func:`_merge_rows` (each block finds its first new row).
 MERGE_BLOCK = 16384
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _merge_rows(old, new, new_at, out, width):
     """The rows of ``width`` words of flat arrays: runs of old rows copied whole."""
     size = out.size // width
-    for block in numba.prange((size + MERGE_BLOCK - 1) // MERGE_BLOCK):
+    for block in range((size + MERGE_BLOCK - 1) // MERGE_BLOCK):
         lo = block * MERGE_BLOCK
         hi = min(lo + MERGE_BLOCK, size)
         j = np.searchsorted(new_at, lo)  # the first new row at or after lo

@@ -5,7 +5,8 @@ tilted) turn too fast, and a moving average cannot help: averaged over both face
 thin blade the normals cancel. :func:`rate_limited_axes` treats each pass as a turn about
 an axis ``B`` and limits the axis' azimuth about ``B`` inside a tube round the normal's
 (the lean limit): the axis starts turning before the edge and finishes after it. Compiled
-per pass (numba, in parallel).
+per pass (numba; one thread: a pass takes microseconds, and a parallel loop here cost
+about 3 s of compiling on a cold start, issue 27).
 """
 
 from __future__ import annotations
@@ -203,15 +204,15 @@ def _covariances(v, bounds, out):
                 out[k, c, d] = acc / (b - a)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _limit_passes(rows, poles, bounds, rule, out):
-    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]`` (in parallel).
+    """:func:`rate_limited_axes` on each pass ``bounds[k]:bounds[k + 1]``.
 
     ``poles[k]`` holds the pass's candidate turning axes: the next is tried while the
     rate is not met, and the pass keeps the slowest result.
     """
     limit_deg = math.degrees(rule.rho)
-    for k in numba.prange(bounds.size - 1):
+    for k in range(bounds.size - 1):
         a, b = bounds[k], bounds[k + 1]
         best = np.inf
         trial = np.empty((b - a, 3))

@@ -21,6 +21,11 @@ rate that fits is used and reported. Finally axes can be pushed out of the singu
 than the machine's tilt joint reaches are leaned back toward +Z (:func:`lean_within_tilt`,
 PowerMill's tool-axis limits, NX's tilt avoidance): by a lean smoothed along the pass,
 bounded by the lean from the normal.
+
+The row kernels here run on one thread: each takes a millisecond or so on a job's
+points, while a parallel loop costs a second or more of compiling on a cold start
+(issue 27; the parallel loops are kept where the work is: projection, clearance,
+measure).
 """
 
 from __future__ import annotations
@@ -68,9 +73,9 @@ def angle_deg(a: ArrayLike, b: ArrayLike) -> NDArray[np.float64]:
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _angles_deg(a, b, out):
-    for i in numba.prange(a.shape[0]):
+    for i in range(a.shape[0]):
         out[i] = angle_deg_at(a, b, i, i)
 
 
@@ -96,10 +101,10 @@ def lead_tilt_axes(normals: ArrayLike, feed_dirs: ArrayLike, lead_deg: float,
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _lead_tilt_rows(n, f, cos_lead, sin_lead, cos_tilt, sin_tilt, out):
     """:func:`lead_tilt_axes` row by row."""
-    for i in numba.prange(n.shape[0]):
+    for i in range(n.shape[0]):
         b0 = n[i, 1] * f[i, 2] - n[i, 2] * f[i, 1]
         b1 = n[i, 2] * f[i, 0] - n[i, 0] * f[i, 2]
         b2 = n[i, 0] * f[i, 1] - n[i, 1] * f[i, 0]
@@ -145,9 +150,9 @@ def segment_turn_rates(axes: NDArray[np.float64], arclen_mm: NDArray[np.float64]
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _turn_rates(axes, arclen, same, out):
-    for i in numba.prange(out.size):
+    for i in range(out.size):
         out[i] = segment_rate(axes, i, arclen[i + 1] - arclen[i]) if same[i] else 0.0
 
 
@@ -204,10 +209,10 @@ def window_average(values: NDArray[np.float64], x: NDArray[np.float64],
 WEAK_AVERAGE = 0.2
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _unit_or_nominal(averaged, nominal, weak):
     """``averaged`` normalized in place; rows shorter than ``weak`` take ``nominal``."""
-    for i in numba.prange(averaged.shape[0]):
+    for i in range(averaged.shape[0]):
         size = math.sqrt(averaged[i, 0] * averaged[i, 0] + averaged[i, 1] * averaged[i, 1]
                          + averaged[i, 2] * averaged[i, 2])
         for k in range(3):
@@ -237,18 +242,18 @@ def _walk(x, v, j):
     return j
 
 
-#: Points per block of :func:`_window_means` run in parallel.
+#: Points per block of :func:`_window_means` (each block starts by bisection).
 _WINDOW_BLOCK = 8192
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _window_means(values, x, lo, hi, out):
     """``out[i]``: mean of the piecewise-linear ``values(x)`` over ``[lo[i], hi[i]]``.
 
     From the cumulative trapezoid integral, interpolated linearly (``np.interp``). The
     window ends grow with ``i`` (within a pass they are ``x`` moved by a width that the
     pass ends clip, and passes follow each other), so their segments are found by walking
-    on from the previous ones (blocks of points in parallel, each starting by bisection).
+    on from the previous ones (in blocks of points, each starting by bisection).
     """
     n, m = values.shape
     if n < 2:
@@ -261,7 +266,7 @@ def _window_means(values, x, lo, hi, out):
         for k in range(m):
             cum[i, k] = cum[i - 1, k] + 0.5 * (values[i, k] + values[i - 1, k]) * (x[i]
                                                                                    - x[i - 1])
-    for block in numba.prange((n + _WINDOW_BLOCK - 1) // _WINDOW_BLOCK):
+    for block in range((n + _WINDOW_BLOCK - 1) // _WINDOW_BLOCK):
         first = block * _WINDOW_BLOCK
         j_lo, j_hi = segment_index(x, lo[first]), segment_index(x, hi[first])
         for i in range(first, min(first + _WINDOW_BLOCK, n)):
@@ -327,10 +332,10 @@ def limit_lean(axes: NDArray[np.float64], normals: NDArray[np.float64], max_lean
     return out, over
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over):
     """:func:`limit_lean` row by row."""
-    for i in numba.prange(axes.shape[0]):
+    for i in range(axes.shape[0]):
         dot = axes[i, 0] * normals[i, 0] + axes[i, 1] * normals[i, 1] + axes[i, 2] * normals[i, 2]
         # (unit vectors: the cosine decides unless it is within round-off of the limit's)
         if abs(dot - cos_lean) > LIMIT_SLACK:
