@@ -297,11 +297,24 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     view_t = np.r_[t[k:n] - cut_t, t[0:k] + 1.0 - cut_t, 1.0] if k else t
     back = np.argsort(order[:-1], kind="stable")  # view row of each original sample
 
+    def on_loop(view_knots: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The loop's parameters of the view's knots: ``(κ + t_k) mod 1``, or the sample's.
+
+        A knot on a view sample maps to exactly that sample's ``t``. The sum rounds: a
+        knot the mend put on a sample (the join of a curvature jump,
+        :mod:`toolpath.adaptive`) came back past it, the sample fell into the span before,
+        and on a nose sampled one span apart the span after held no data point
+        (Schoenberg-Whitney); every jump-knot mend failed so on a DCA-style TE beside the
+        seam (``tests/toolpath/test_mend.py``, seed 62), left 1.1 um concave.
+        """
+        row = np.minimum(np.searchsorted(view_t, view_knots), n)
+        on_sample = view_t[row] == view_knots
+        return np.where(on_sample, t[order[row]], np.mod(view_knots + cut_t, 1.0))
+
     def to_period(knots: NDArray[np.float64]) -> NDArray[np.float64]:
         if k == 0:
             return from_clamped(knots, seam)
-        inner = np.sort(np.r_[np.mod(interior_knots(np.asarray(knots, float)) + cut_t, 1.0),
-                              cut_t])
+        inner = np.sort(np.r_[on_loop(interior_knots(np.asarray(knots, float))), cut_t])
         # the seam must be a knot (the stored vector's base interval starts there): the
         # view's simple knot nearest to it moves there, so the count stays the view's (a
         # copy of a corner's knot would leave the corner C1: on a propeller-style TE wedge

@@ -139,7 +139,11 @@ HARD = [("dca", 2), ("dca", 13), ("prop", 16), ("prop", 19), ("blunt", 7), ("blu
         # the last two of the 600: a nose meeting its flank G1 (curvature 2.5/mm to
         # 0.01/mm at one sample) that a C2 fit rings across however dense its knots; a
         # double knot at the join sample mends it
-        ("prop", 10), ("prop", 84)]
+        ("prop", 10), ("prop", 84),
+        # on an AMD EPYC CI runner: a DCA TE ring beside the seam that every jump knot
+        # failed to mend (the knot on a sample came back from the driver's view rounded
+        # past it, leaving a span with no data point), left 1.1 um concave
+        ("dca", 62)]
 
 
 @pytest.mark.parametrize("style,seed", HARD)
