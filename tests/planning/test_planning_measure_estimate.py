@@ -1,10 +1,11 @@
-"""The ball's cusp estimate from the passes' own geometry against the full ray cast.
+"""The cusp estimate from the passes' own geometry against the full ray cast.
 
-``measure_scallop`` estimates every seed's cusp from two centre segments and ray-casts
-only the seeds near the largest; ``estimate=False`` ray-casts every seed (the full
-method, the oracle here). Both must report the same scallop, and the estimate itself must
-stand within a few per cent of the ray cast seed by seed (``seed_cusps``, the per-seed
-record ``measure_scallop`` takes its figures from).
+``measure_scallop`` estimates every seed's cusp from two centre segments (ball) or two
+sections across the passes (flat and bull-nose) and ray-casts only the seeds near the
+largest; ``estimate=False`` ray-casts every seed (the full method, the oracle here).
+Both must report the same scallop, and the estimate itself must stand within a few per
+cent of the ray cast seed by seed (``seed_cusps``, the per-seed record
+``measure_scallop`` takes its figures from).
 
 The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
 toolpath (planned here with ``measure=False``) and its chord measurement on the surface
@@ -103,21 +104,24 @@ def _same_scallop(measured: Measured):
     return fast, full
 
 
-def test_sphere_cap_three_and_five_axis():
+@pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1", "bull:10:2", "flat:6"])
+def test_sphere_cap_three_and_five_axis(cutter):
     for axis in ({"axis_mode": "3"}, {"axis_mode": "lead-tilt", "lead_deg": 10.0}):
-        _same_scallop(_planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, **axis))
+        _same_scallop(_planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, **axis))
 
 
-def test_blade_lying_with_uncut_areas(blade):
+@pytest.mark.parametrize("cutter", ["ball:10", "bull:8:1"])
+def test_blade_lying_with_uncut_areas(blade, cutter):
     lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
-    fast, _ = _same_scallop(_planned(lying, "ball:10", scallop_mm=0.06, chord_tol_mm=0.03,
+    fast, _ = _same_scallop(_planned(lying, cutter, scallop_mm=0.06, chord_tol_mm=0.03,
                                      axis_mode="3"))
     assert fast.uncut_fraction > 0.1  # the far side: interior and overall maxima differ
 
 
-def test_blade_standing_under_joint_interpolation(blade):
+@pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])
+def test_blade_standing_under_joint_interpolation(blade, cutter):
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    _same_scallop(_planned(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.03,
+    _same_scallop(_planned(standing, cutter, scallop_mm=0.03, chord_tol_mm=0.03,
                            axis_mode="lead-tilt", lead_deg=10.0,
                            machine=load_machine("trunnion-ac")))
 
@@ -144,12 +148,12 @@ def test_the_scallop_is_the_largest_of_the_seeds_cusps():
     assert cusps.estimate_mm[skipped].max() < ESTIMATE_SHARE * scallop.max_mm
 
 
-def _estimates_over_ray_cast(surface, **options):
+def _estimates_over_ray_cast(surface, cutter="ball:6", **options):
     """Each seed's estimate over its ray cast cusp, where both stand and the cusp is high.
 
     (Cusps above half the largest, away from the passes' ends.)
     """
-    measured = _planned(surface, "ball:6", **options)
+    measured = _planned(surface, cutter, **options)
     fast = measured.seeds(estimate=True, **FEW_RAYS)
     full = measured.seeds(estimate=False)
     np.testing.assert_array_equal(fast.t, full.t)
@@ -187,6 +191,22 @@ def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve():
     low, high = np.quantile(ratio, [0.05, 0.95])
     assert low > 0.98 and high < 1.02
     assert ratio.max() < ESTIMATE_SHARE
+
+
+@pytest.mark.parametrize("cutter", ["bull:8:1", "bull:10:2", "flat:6"])
+def test_the_section_estimate_stands_near_the_ray_cast_seed_by_seed(cutter):
+    # flat and bull-nose cutters: the two passes' sections across them (the ring's ellipse
+    # widened by the corner radius, torus_profile) met where they cross, 3-axis (the flat
+    # bottom and the corner round, one section) and 5-axis (a lead of 10 degrees on
+    # zigzag passes: the neighbouring contacts stand 2 R apart along the passes)
+    ratio = _estimates_over_ray_cast(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02,
+                                     axis_mode="3")
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
+    assert np.quantile(ratio, 0.05) > 0.9
+    ratio = _estimates_over_ray_cast(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02,
+                                     axis_mode="lead-tilt", lead_deg=10.0)
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.1)
+    assert ratio.min() > 0.9
 
 
 @pytest.mark.parametrize(("cutter", "request_mm", "brackets", "axis"), [

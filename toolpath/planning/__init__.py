@@ -61,8 +61,9 @@ rotary_rate
     Rotary joint rates along the cut against the axes' limits.
 blunt_edge
     An open blade's unfitted edge face, reported as left uncut.
-measure, sweep_kernel, cusp_kernel
-    Scallop and chord error measured on the result (compiled sweeps, cusp estimates).
+measure, sweep_kernel, cusp_kernel, torus_profile
+    Scallop and chord error measured on the result (compiled sweeps, cusp estimates; a
+    flat or bull-nose cutter's section across its pass).
 roots
     The one Illinois regula falsi with a bisection fallback, row by row.
 report

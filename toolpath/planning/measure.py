@@ -63,10 +63,10 @@ from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
-from ..vectors import move_poses
+from ..vectors import move_poses, unit
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
-from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, ridges
-from .cutters import Cutter, CutterKind
+from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, nearest_pieces, ridges
+from .cutters import Cutter, CutterKind, radial_directions
 from .gouge import SurfaceSamples
 from .roots import illinois_roots
 from .sampling import (
@@ -85,6 +85,7 @@ from .sweep_kernel import (
     segment_distances,
     tip_plane_floors,
 )
+from .torus_profile import profile_ridges
 
 __all__ = ["ChordMeasurement", "CutVolume", "ScallopMeasurement", "SeedCusps", "cusp_horizon_mm",
            "measure_chord", "measure_scallop", "seed_cusps", "split_moves"]
@@ -559,13 +560,13 @@ class CutVolume:
 
     @property
     def near_cells(self) -> SampleCells:
-        """A ball's pieces' midpoints binned (when first asked) in cells twice :attr:`near_mm`.
+        """The pieces' midpoints binned (when first asked) in cells twice :attr:`near_mm`.
 
         (Finer cells cost more to lay out over the part's box than they save;) and at least
         as many pieces as cells: a few pieces over a large part leave most cells empty.
         """
         if self._near_cells is None:
-            mid = 0.5 * (self.a + self.b)
+            mid = 0.5 * (self.piece_a + self.piece_b)
             sparse = float(np.prod(np.ptp(mid, axis=0) + self.near_mm) / len(mid)) ** (1 / 3)
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
         return self._near_cells
@@ -838,16 +839,151 @@ def _ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: _
     x, inside, state = _ridges_widening(volume, seeds)
     out[state == RIDGE_OPEN] = np.inf
     ok = np.flatnonzero(state == RIDGE_FOUND)
-    xs = seeds.x_s[ok]
-    s_c = np.clip(seeds.s[ok] + np.einsum("ij,ij->i", x[ok] - seeds.q[ok], xs)
-                  / np.maximum(np.einsum("ij,ij->i", xs, xs), TINY), 0.0, 1.0)
-    foot_c, n_c = surface.points_and_normals(seeds.t[ok], s_c)
-    height = np.einsum("ij,ij->i", x[ok] - foot_c, n_c)
+    height = _ridge_heights(surface, seeds, ok, x[ok])
     # the two passes' own curving sinks the ridge into their neighbouring pieces (on the
     # R150 dome by 14 % of its height: the ray cast reads 6 % below X), a fold or a third
     # pass deeper
     out[ok] = height - RIDGE_SINK_SHARE * inside[ok].max(axis=1)
     return out
+
+
+def _ridge_heights(surface: ParametricSurface, seeds: _Seeds, rows: NDArray[np.int64],
+                   x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Height of ridge points ``x`` over the surface near seeds ``rows``, mm.
+
+    ``(X - X(t, s_c)) . n(t, s_c)`` over the surface point one first-order step from the
+    seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``.
+    """
+    xs = seeds.x_s[rows]
+    s_c = np.clip(seeds.s[rows] + np.einsum("ij,ij->i", x - seeds.q[rows], xs)
+                  / np.maximum(np.einsum("ij,ij->i", xs, xs), TINY), 0.0, 1.0)
+    foot_c, n_c = surface.points_and_normals(seeds.t[rows], s_c)
+    return np.einsum("ij,ij->i", x - foot_c, n_c)
+
+
+def _torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: _Seeds
+                          ) -> NDArray[np.float64]:
+    """Cusp height from each seed towards increasing ``s`` for a flat or bull-nose cutter.
+
+    The pieces of the seed's own pass and of the next pass on the ``+s`` side nearest to
+    it (:func:`~.cusp_kernel.nearest_pieces`, from the own ring centre as the nearest
+    piece's axis puts it: within :attr:`CutVolume.near_mm`, where none within 4 times
+    that, and so on up to ``2 R`` and a piece's length), the poses of their passes that
+    touch nearest the seed's contact (:func:`_contact_poses`), and the two sections across
+    the way the cutter's point at the contact moves (:func:`~.torus_profile.profile_ridges`:
+    the ring's ellipse widened by ``r``): where they meet is the bottom of the ridge ``X``
+    (moved along that way into the plane across it through the seed), its height over
+    the surface as for the ball (:func:`_ridge_heights`).
+
+    Returns NaN where no next pass lies within that reach, the own piece has no length or
+    the sections do not meet nearest the surface (the ray cast decides there).
+    """
+    n_seed = len(seeds.t)
+    out = np.full(n_seed, np.nan)
+    if not n_seed or not len(volume.pass_of):
+        return out
+    cutter = volume.cutter
+    big, r = cutter.radius_mm, cutter.corner_radius_mm
+    a, e = volume.piece_a, volume.piece_b - volume.piece_a
+    corner = seeds.q + r * seeds.n
+    # the own ring centre as the axis of the piece whose ring centre is nearest puts it
+    _, near = cKDTree(a + 0.5 * e).query(corner, workers=-1)
+    inward, _ = radial_directions(seeds.n, unit(volume.axes0[near] + volume.axes1[near]))
+    target = corner + (big - r) * inward
+    found = np.full((n_seed, 2), -1, dtype=np.int64)
+    todo = np.arange(n_seed)
+    apart, limit = volume.near_mm, 2.0 * big + volume.step_mm
+    while todo.size:
+        found[todo] = nearest_pieces(target[todo], seeds.x_s[todo], seeds.pass_[todo],
+                                     volume.near_cells, apart, a, e, volume.pass_of)
+        todo = todo[(found[todo] < 0).any(axis=1)]
+        if apart >= limit:
+            break
+        apart = min(4.0 * apart, limit)
+    ok = np.flatnonzero((found >= 0).all(axis=1))
+    own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
+                                                    seeds.n[ok])
+    next_c, next_axis, _, next_ok = _contact_poses(volume, found[ok, 1], corner[ok],
+                                                   seeds.n[ok])
+    live = own_ok & next_ok & (np.einsum("ij,ij->i", e[j_own], e[j_own]) > TINY)
+    ok, j_own = ok[live], j_own[live]
+    own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
+    # the sections across the way the cutter's point at the contact moves (the ring
+    # centre's way tilts off it as the axis turns, a radius from the contact)
+    n = seeds.n[ok]
+    ring_a, _ = radial_directions(n, volume.axes0[j_own])
+    ring_b, _ = radial_directions(n, volume.axes1[j_own])
+    u = unit(e[j_own] - (big - r) * (ring_b - ring_a))
+    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, u, n, radius_mm=big,
+                            corner_radius_mm=r, flute_length_mm=cutter.flute_length_mm)
+    # the section stands alike all along the piece: met across the seed's own point
+    x -= np.einsum("ij,ij->i", x - seeds.q[ok], u)[:, None] * u
+    out[ok[met]] = _ridge_heights(surface, seeds, ok[met], x[met])
+    return out
+
+
+#: A pass's pose whose contact lies nearest a seed's is sought this many pieces either
+#: side of the piece nearest to it (:func:`_contact_poses`): a bull-nose with a lead
+#: touches ``(R - r) cos(lead)`` ahead of its axis, two of them on zigzag passes ``2 R``
+#: apart along them, 8 to 16 pieces of ``R / 8``.
+CONTACT_WINDOW = 24
+
+#: ... and found there only where its foot lies across the piece from the target (along
+#: it within this share of a piece's length: a bend between pieces, not a pass's end).
+CONTACT_ALONG_SHARE = 0.25
+
+
+def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[np.float64],
+                   normal: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64],
+                              NDArray[np.bool_]]:
+    """The poses of the passes of ``piece`` whose contacts lie nearest the seeds'.
+
+    A pose (ring centre ``C``, axis ``a``) touches a surface of normal ``n`` at the
+    corner-circle centre ``C + (R - r) w``, ``w = -n_perp / |n_perp|``,
+    ``n_perp = n - (n . a) a``: over the pieces of the pass within
+    :data:`CONTACT_WINDOW` of ``piece``, the foot of ``corner + (R - r) n_perp / |n_perp|``
+    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it. Where the
+    neighbouring poses tilt alike, the sections across the pass met at those poses
+    stand as the contacts do (a pose's contact can lie a radius ahead of its ring centre,
+    where a curved pass has moved on). Returns ``C``, ``a`` (normalized-linear), the piece
+    and False where the nearest lies at the window's edge or the pass ends short of the
+    target (:data:`CONTACT_ALONG_SHARE`).
+    """
+    ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
+    a, e, pass_of = volume.piece_a, volume.piece_b - volume.piece_a, volume.pass_of
+    m, shift = len(piece), np.arange(-CONTACT_WINDOW, CONTACT_WINDOW + 1)
+    best = np.empty(m, dtype=np.int64)
+    # the axis turns little over the window: the target as the piece's axis puts it
+    inward, _ = radial_directions(normal, unit(volume.axes0[piece] + volume.axes1[piece]))
+    target = corner + ring * inward
+    for lo in range(0, m, 10_000):
+        rows = slice(lo, lo + 10_000)
+        cand = np.clip(piece[rows, None] + shift, 0, len(pass_of) - 1)
+        near = target[rows, None]
+        foot, _ = _foot_on(a[cand], e[cand], near)
+        dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
+        dist[pass_of[cand] != pass_of[piece[rows], None]] = np.inf
+        best[rows] = np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None], 1)[:, 0]
+    edge = np.abs(best - piece) >= CONTACT_WINDOW
+    axis_mid = unit(volume.axes0[best] + volume.axes1[best])
+    inward, _ = radial_directions(normal, axis_mid)
+    target = corner + ring * inward
+    centre, f = _foot_on(a[best], e[best], target)
+    # a foot at the pass's end short of the target: that pose's contact lies beyond it
+    edge |= np.abs(np.einsum("ij,ij->i", target - centre, unit(e[best]))) > (
+        CONTACT_ALONG_SHARE * volume.step_mm)
+    f = f[:, None]
+    axis = unit(volume.axes0[best] * (1.0 - f) + volume.axes1[best] * f)
+    return centre, axis, best, ~edge
+
+
+def _foot_on(a: NDArray[np.float64], e: NDArray[np.float64], p: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Nearest points to ``p`` on segments ``a + f e`` (``0 <= f <= 1``) and ``f``."""
+    f = np.clip(np.einsum("...j,...j->...", p - a, e)
+                / np.maximum(np.einsum("...j,...j->...", e, e), TINY), 0.0, 1.0)
+    return a + f[..., None] * e, f
 
 
 def _ridges_widening(volume: CutVolume, seeds: _Seeds) -> tuple[NDArray[np.float64], ...]:
@@ -991,8 +1127,9 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     chunk : int
         Seeds per vectorized batch.
     estimate : bool
-        Ball cutters, more than ``estimate_min_seeds`` seeds: estimate every seed's
-        cusp from the passes' own geometry (:func:`_ball_cusp_estimates`) and ray-cast
+        More than ``estimate_min_seeds`` seeds: estimate every seed's cusp from the
+        passes' own geometry (:func:`_ball_cusp_estimates`, flat and bull-nose cutters
+        :func:`_torus_cusp_estimates`) and ray-cast
         only the seeds of the largest estimates and those the estimate cannot tell;
         False ray-casts every seed (the full method).
     estimate_min_seeds, estimate_top, estimate_top_share
@@ -1020,7 +1157,7 @@ class SeedCusps:
     pass_index : ndarray of int
         The seed's pass.
     estimate_mm : ndarray
-        The ball's estimate from the passes' own geometry, mm (``nan``: not estimated, or
+        The estimate from the passes' own geometry, mm (``nan``: not estimated, or
         none stands; ``inf``: the tubes do not meet).
     cast : ndarray of bool
         The seeds ray cast.
@@ -1068,7 +1205,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     seeds, others = _Seeds.of(surface, chord)
     search = _CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)
     guess = np.full(len(seeds.t), np.nan)
-    if volume.ball and estimate and len(seeds.t) > estimate_min_seeds:
+    if estimate and len(seeds.t) > estimate_min_seeds:
         count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
         guess = _cast_beyond_estimates(search, uncut, count)
     else:
@@ -1205,16 +1342,18 @@ class _CuspSearch:
 
 def _cast_beyond_estimates(search: _CuspSearch, uncut: _UncutArea, count: int
                            ) -> NDArray[np.float64]:
-    """A ball's cusps estimated first; the ray cast where the estimate cannot decide.
+    """The cusps estimated first; the ray cast where the estimate cannot decide.
 
-    Every seed's cusp from the passes' own geometry (:func:`_ball_cusp_estimates`); then
+    Every seed's cusp from the passes' own geometry (:func:`_ball_cusp_estimates`,
+    :func:`_torus_cusp_estimates`); then
     the ray cast where no estimate stands, at the ``count`` largest estimates, and
     wherever an estimate stands above the largest cusp the ray cast found by more than it
     errs (:data:`ESTIMATE_SHARE`; overall, and away from uncut areas as the seeds stand).
     Returns the estimates.
     """
     seeds = search.seeds
-    guess = _ball_cusp_estimates(search.volume, search.surface, seeds)
+    estimates = _ball_cusp_estimates if search.volume.ball else _torus_cusp_estimates
+    guess = estimates(search.volume, search.surface, seeds)
     groups = [np.ones(len(seeds.t), dtype=bool)]
     away = uncut.away(seeds.q, seeds.t, seeds.s)
     if away is not None:
