@@ -25,4 +25,11 @@ def move_poses(tip_a: NDArray[np.float64], axis_a: NDArray[np.float64],
     half-turn with no axis between, give a zero axis). Rows in, rows out.
     """
     w = u[:, None]
-    return tip_a * (1 - w) + tip_b * w, unit(axis_a * (1 - w) + axis_b * w)
+    return tip_a * (1 - w) + tip_b * w, move_axes(axis_a, axis_b, u)
+
+
+def move_axes(axis_a: NDArray[np.float64], axis_b: NDArray[np.float64],
+              u: NDArray[np.float64]) -> NDArray[np.float64]:
+    """The tool axes of :func:`move_poses` alone: ``unit((1 - u) axis_a + u axis_b)``."""
+    w = u[:, None]
+    return unit(axis_a * (1 - w) + axis_b * w)

@@ -63,7 +63,7 @@ from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
-from ..vectors import move_poses, unit
+from ..vectors import move_axes, move_poses, unit
 from .clearance_kernel import SampleCells, bin_samples, pairs_within
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, nearest_pieces, ridges
 from .cutters import Cutter, CutterKind, radial_directions
@@ -973,9 +973,7 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     # a foot at the pass's end short of the target: that pose's contact lies beyond it
     edge |= np.abs(np.einsum("ij,ij->i", target - centre, unit(e[best]))) > (
         CONTACT_ALONG_SHARE * volume.step_mm)
-    f = f[:, None]
-    axis = unit(volume.axes0[best] * (1.0 - f) + volume.axes1[best] * f)
-    return centre, axis, best, ~edge
+    return centre, move_axes(volume.axes0[best], volume.axes1[best], f), best, ~edge
 
 
 def _foot_on(a: NDArray[np.float64], e: NDArray[np.float64], p: NDArray[np.float64]
