@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["move_poses", "unit"]
+__all__ = ["move_axes", "move_poses", "unit"]
 
 
 def unit(v: NDArray[np.float64]) -> NDArray[np.float64]:

@@ -96,7 +96,7 @@ def test_window_means_are_the_interpolated_integral_over_each_window():
     # trapezoid integral, windows of any width clipped to their pass (walked or searched)
     from toolpath.planning.tool_axis import box_window, window_average
 
-    # (20,000 points: several of the blocks run in parallel, passes across their edges)
+    # (20,000 points: the blocks run one after another, passes across their edges)
     rng = np.random.default_rng(3)
     n, per_pass = 20_000, 2_500
     x = np.cumsum(rng.random(n) + 0.01)
