@@ -9,10 +9,10 @@ gaps, the same cusp seeds.
 
 import numpy as np
 import pytest
+from measured_plans import planned
 
-import toolpath.planning.finishing as finishing
 import toolpath.planning.measure as measure
-from toolpath.planning import EllipticBladeSurface, SpherePatch, plan_finishing
+from toolpath.planning import EllipticBladeSurface, SpherePatch
 
 #: Feet found from either seed agree to within the Newton search's convergence (its last
 #: step moves a foot by under a micrometre; the next by far less): mm and parameter.
@@ -20,17 +20,11 @@ SAME_GAP_MM = 1e-9
 SAME_PARAMETER = 1e-7
 
 
-def _chord_inputs(monkeypatch, surface, cutter, **options):
-    """Plan with the measurement on, keeping what ``measure_chord`` was given."""
-    seen = {}
-
-    def keep(*args, **kwargs):
-        seen["args"], seen["kwargs"] = args, kwargs
-        return measure.measure_chord(*args, **kwargs)
-
-    monkeypatch.setattr(finishing, "measure_chord", keep)
-    plan_finishing(surface, cutter, **options)
-    return seen["args"], seen["kwargs"]
+def _chord_inputs(surface, cutter, **options):
+    """What the plan's measure stage gives ``measure_chord`` (:mod:`measured_plans`)."""
+    measured = planned(surface, cutter, **options)
+    args = (measured.path, measured.surface, measured.cutter, measured.samples)
+    return args, {"machine": measured.machine}
 
 
 def _same_contacts(args, kwargs):
@@ -47,24 +41,27 @@ def _same_contacts(args, kwargs):
 
 @pytest.mark.parametrize("axis", [{"axis_mode": "3"},
                                   {"axis_mode": "lead-tilt", "lead_deg": 10.0}])
-def test_sphere_cap_contacts_match_the_full_method(monkeypatch, axis):
+def test_sphere_cap_contacts_match_the_full_method(axis):
     cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
-    _same_contacts(*_chord_inputs(monkeypatch, cap, "ball:6", scallop_mm=0.02,
+    _same_contacts(*_chord_inputs(cap, "ball:6", scallop_mm=0.02,
                                   chord_tol_mm=0.01, **axis))
 
 
-def test_closed_blade_spiral_across_the_seam(monkeypatch):
+def test_closed_blade_spiral_across_the_seam():
     # one spiral round closed sections: runs cross the seam, where t wraps
     blade = EllipticBladeSurface()
     assert blade.closed_t
-    _same_contacts(*_chord_inputs(monkeypatch, blade, "ball:6", scallop_mm=0.05,
+    _same_contacts(*_chord_inputs(blade, "ball:6", scallop_mm=0.05,
                                   chord_tol_mm=0.02, axis_mode="lead-tilt", lead_deg=10.0,
                                   linking="spiral"))
 
 
-def test_flat_and_bull_nose_contacts_keep_their_own_seeds(monkeypatch):
+def test_flat_and_bull_nose_contacts_keep_their_own_seeds():
+    # a guard of the policy, not of a computation: only a ball's contacts are seeded from
+    # the anchors' (a flat or bull-nose cutter's disc search and re-seed check keep a
+    # sample of their own for every location)
     cap = SpherePatch(radius_mm=50.0, longitude_deg=(-10.0, 10.0), colatitude_deg=(20.0, 30.0))
-    args, kwargs = _chord_inputs(monkeypatch, cap, "bull:8:1", scallop_mm=0.05,
+    args, kwargs = _chord_inputs(cap, "bull:8:1", scallop_mm=0.05,
                                  chord_tol_mm=0.02)
     fast = measure.measure_chord(*args, **kwargs)
     full = measure.measure_chord(*args, **kwargs, contact_stride=1)

@@ -7,41 +7,21 @@ Both must report the same scallop, and the estimate itself must stand within a f
 cent of the ray cast seed by seed (``seed_cusps``, the per-seed record
 ``measure_scallop`` takes its figures from).
 
-The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
-toolpath (planned here with ``measure=False``) and its chord measurement on the surface
-samples the gouge stage lays out (``gouge_sample_mm`` apart).
+The measurement is given what ``plan_finishing``'s measure stage gives it
+(:mod:`measured_plans`).
 """
-
-from dataclasses import dataclass
 
 import numpy as np
 import pytest
+from measured_plans import Measured, planned
 
-from machines import Machine, load_machine
+from machines import load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.path import Toolpath
-from toolpath.planning import (
-    Cutter,
-    FinishingOptions,
-    SpherePatch,
-    parse_cutter,
-    plan_finishing,
-)
-from toolpath.planning.gouge import sample_surface
-from toolpath.planning.measure import (
-    ESTIMATE_SHARE,
-    ChordMeasurement,
-    CutVolume,
-    SeedCusps,
-    cusp_horizon_mm,
-    measure_chord,
-    measure_scallop,
-    seed_cusps,
-)
+from toolpath.planning import SpherePatch, plan_finishing
+from toolpath.planning.measure import ESTIMATE_SHARE
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
 from toolpath.planning.sweep_kernel import ray_ranges
-from toolpath.surface import ParametricSurface
 
 CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
 
@@ -55,41 +35,6 @@ def blade():
 
 #: The estimate decides on small plans too, ray casting only the 16 largest.
 FEW_RAYS = {"estimate_min_seeds": 0, "estimate_top": 16, "estimate_top_share": 0.0}
-
-
-@dataclass(frozen=True)
-class Measured:
-    """A plan's toolpath and what its measure stage measures it with."""
-
-    path: Toolpath
-    surface: ParametricSurface
-    cutter: Cutter
-    request_mm: float
-    chord: ChordMeasurement
-    machine: Machine | None
-
-    def scallop(self, **options):
-        return measure_scallop(self.path, self.surface, self.cutter, self.request_mm,
-                               self.chord, machine=self.machine, **options)
-
-    def seeds(self, **options) -> SeedCusps:
-        return seed_cusps(self.path, self.surface, self.cutter, self.request_mm, self.chord,
-                          machine=self.machine, **options)
-
-    def volume(self) -> CutVolume:
-        """The material removed, to the horizon the measurement uses."""
-        return CutVolume(self.path, self.cutter, cusp_horizon_mm(self.request_mm),
-                         self.request_mm, self.machine)
-
-
-def _planned(surface, spec, *, machine=None, **options) -> Measured:
-    """Plan without the measurement; measure the chord as ``plan_finishing`` does."""
-    path, _ = plan_finishing(surface, spec, machine=machine, measure=False, **options)
-    cutter = parse_cutter(spec)
-    sample_mm = FinishingOptions(**options).resolved(cutter).gouge_sample_mm
-    chord = measure_chord(path, surface, cutter, sample_surface(surface, sample_mm),
-                          machine=machine)
-    return Measured(path, surface, cutter, options["scallop_mm"], chord, machine)
 
 
 def _same_scallop(measured: Measured):
@@ -107,13 +52,13 @@ def _same_scallop(measured: Measured):
 @pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1", "bull:10:2", "flat:6"])
 def test_sphere_cap_three_and_five_axis(cutter):
     for axis in ({"axis_mode": "3"}, {"axis_mode": "lead-tilt", "lead_deg": 10.0}):
-        _same_scallop(_planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, **axis))
+        _same_scallop(planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, **axis))
 
 
 @pytest.mark.parametrize("cutter", ["ball:10", "bull:8:1"])
 def test_blade_lying_with_uncut_areas(blade, cutter):
     lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
-    fast, _ = _same_scallop(_planned(lying, cutter, scallop_mm=0.06, chord_tol_mm=0.03,
+    fast, _ = _same_scallop(planned(lying, cutter, scallop_mm=0.06, chord_tol_mm=0.03,
                                      axis_mode="3"))
     assert fast.uncut_fraction > 0.1  # the far side: interior and overall maxima differ
 
@@ -121,14 +66,14 @@ def test_blade_lying_with_uncut_areas(blade, cutter):
 @pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])
 def test_blade_standing_under_joint_interpolation(blade, cutter):
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    _same_scallop(_planned(standing, cutter, scallop_mm=0.03, chord_tol_mm=0.03,
+    _same_scallop(planned(standing, cutter, scallop_mm=0.03, chord_tol_mm=0.03,
                            axis_mode="lead-tilt", lead_deg=10.0,
                            machine=load_machine("trunnion-ac")))
 
 
 def test_the_scallop_is_the_largest_of_the_seeds_cusps():
     request = {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "axis_mode": "3"}
-    measured = _planned(CAP, "ball:6", **request)
+    measured = planned(CAP, "ball:6", **request)
     # the inputs rebuilt here are the plan's own: its report reads the same figures
     _, report = plan_finishing(CAP, "ball:6", **request)
     assert report.max_chord_error_mm == measured.chord.max_mm
@@ -153,7 +98,7 @@ def _estimates_over_ray_cast(surface, cutter="ball:6", **options):
 
     (Cusps above half the largest, away from the passes' ends.)
     """
-    measured = _planned(surface, cutter, **options)
+    measured = planned(surface, cutter, **options)
     fast = measured.seeds(estimate=True, **FEW_RAYS)
     full = measured.seeds(estimate=False)
     np.testing.assert_array_equal(fast.t, full.t)
@@ -223,7 +168,7 @@ def test_the_cusp_search_finds_the_crest_a_dense_scan_finds(cutter, request_mm, 
     # the Illinois search (toolpath.planning.roots) on the brackets the measurement cast,
     # against the highest min(h_own, h_other) over 2001 points of each: the crest of the
     # machined surface
-    measured = _planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02, **axis)
+    measured = planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02, **axis)
     cusps = measured.seeds(estimate=False)
     volume = measured.volume()
     found = np.isfinite(cusps.height_mm)
@@ -249,7 +194,7 @@ def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(cutter,
     # CutVolume.cut stops each ray at the first piece it enters within the horizon: the
     # same rays cut as the lowest entries over all their pieces say, near the passes and
     # off the patch's edges (rays that enter only beyond the horizon stay uncut)
-    measured = _planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02,
+    measured = planned(CAP, cutter, scallop_mm=request_mm, chord_tol_mm=0.02,
                         axis_mode="lead-tilt", lead_deg=10.0)
     volume = measured.volume()
     g = np.linspace(-0.05, 1.05, 41)

@@ -1,0 +1,61 @@
+"""Plans and what their measure stage measures them with, rebuilt from public names.
+
+The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
+toolpath (planned here with ``measure=False``) and its chord measurement on the surface
+samples the gouge stage lays out (``gouge_sample_mm`` apart).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from machines import Machine
+from toolpath.path import Toolpath
+from toolpath.planning import Cutter, FinishingOptions, parse_cutter, plan_finishing
+from toolpath.planning.gouge import SurfaceSamples, sample_surface
+from toolpath.planning.measure import (
+    ChordMeasurement,
+    CutVolume,
+    SeedCusps,
+    cusp_horizon_mm,
+    measure_chord,
+    measure_scallop,
+    seed_cusps,
+)
+from toolpath.surface import ParametricSurface
+
+
+@dataclass(frozen=True)
+class Measured:
+    """A plan's toolpath and what its measure stage measures it with."""
+
+    path: Toolpath
+    surface: ParametricSurface
+    cutter: Cutter
+    request_mm: float
+    samples: SurfaceSamples
+    chord: ChordMeasurement
+    machine: Machine | None
+
+    def scallop(self, **options):
+        return measure_scallop(self.path, self.surface, self.cutter, self.request_mm,
+                               self.chord, machine=self.machine, **options)
+
+    def seeds(self, **options) -> SeedCusps:
+        return seed_cusps(self.path, self.surface, self.cutter, self.request_mm, self.chord,
+                          machine=self.machine, **options)
+
+    def volume(self) -> CutVolume:
+        """The material removed, to the horizon the measurement uses."""
+        return CutVolume(self.path, self.cutter, cusp_horizon_mm(self.request_mm),
+                         self.request_mm, self.machine)
+
+
+def planned(surface, spec, *, machine=None, **options) -> Measured:
+    """Plan without the measurement; measure the chord as ``plan_finishing`` does."""
+    path, _ = plan_finishing(surface, spec, machine=machine, measure=False, **options)
+    cutter = parse_cutter(spec)
+    sample_mm = FinishingOptions(**options).resolved(cutter).gouge_sample_mm
+    samples = sample_surface(surface, sample_mm)
+    chord = measure_chord(path, surface, cutter, samples, machine=machine)
+    return Measured(path, surface, cutter, options["scallop_mm"], samples, chord, machine)
