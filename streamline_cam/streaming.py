@@ -51,7 +51,9 @@ class StreamControl:
     once a requested feed hold has stopped the machine, :meth:`decide` (``on_hold``), which
     waits for :meth:`resume` or :meth:`cancel`. ``state`` is ``queued`` (not sending yet),
     ``running``, ``held`` (stopped by a feed hold, waiting for a decision) or ``stopping``
-    (a cancel is under way); the caller records how the run ended.
+    (a cancel is under way); the caller records how the run ended. ``revision`` counts the
+    changes: it goes up after each state change and progress report, so of two snapshots
+    of the stream, the one taken at the higher revision is the newer.
 
     Parameters
     ----------
@@ -73,8 +75,12 @@ class StreamControl:
         self.machine_position: tuple[float, ...] | None = None
         self.axes = "xyz"
         """Axis letters of the reported positions, in report order (lower case)."""
+        self.revision = 0
+        """Changes so far; read it before ``state`` for a consistent snapshot."""
 
     def _changed(self) -> None:
+        with self._lock:
+            self.revision += 1
         if self.on_change is not None:
             self.on_change(self)
 
@@ -158,6 +164,7 @@ class StreamControl:
         with self._lock:
             self.state = "ended"
             self._sender = None
+            self.revision += 1
 
 
 def _send(job: Job, machine: Machine, url: str, journal_path: Path, dialect_name: str | None,

@@ -110,6 +110,10 @@ class StreamView(BaseModel):
     eta_s: float | None = Field(None, description="time left at the rate so far, s")
     elapsed_s: float | None = None
     alarm: str | None = Field(None, description="the controller's alarm, if one stopped it")
+    revision: int | None = Field(
+        None, description="changes of the live status so far: of two views of this stream, "
+        "the one with the higher revision is the newer (an answer to hold can arrive after "
+        "the event that says the stream is held)")
 
 
 class JobView(BaseModel):

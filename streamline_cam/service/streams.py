@@ -230,8 +230,9 @@ class StreamRunner:
         control = self._control(stream_id)
         if control is None:
             return {}
+        revision = control.revision  # before the state: a later change has a higher one
         report = control.progress_report
-        live: dict[str, Any] = {"held": control.state == "held",
+        live: dict[str, Any] = {"revision": revision, "held": control.state == "held",
                                 "alarm": self._alarms.get(stream_id)}
         if report is not None:
             live |= {

@@ -186,9 +186,13 @@ def test_hold_resume_and_run_to_the_programs_last_point(service_client, finished
         early = client.post(f"{url}/resume")
         assert early.status_code == 409 and "only a held stream" in early.json()["detail"]
         _wait(client, url, lambda v: (v["line"] or 0) >= 20)
-        assert client.post(f"{url}/hold").status_code == 202
+        asked = client.post(f"{url}/hold")
+        assert asked.status_code == 202
         held = _wait(client, url, lambda v: v["state"] == "held", timeout=20)
         assert held["controller_state"] == "Hold" and held["percent"] < 100
+        # the answer to hold may still say running; its revision tells it is the older view
+        if asked.json()["state"] == "running":
+            assert asked.json()["revision"] < held["revision"]
         twice = client.post(f"{url}/hold")
         assert twice.status_code == 409 and "is held" in twice.json()["detail"]
         time.sleep(0.5)
@@ -198,6 +202,7 @@ def test_hold_resume_and_run_to_the_programs_last_point(service_client, finished
         assert client.post(f"{url}/resume").status_code == 202
         moving = _wait(client, url, lambda v: v["state"] != "held")
         assert moving["state"] in ("running", "done")
+        assert moving["revision"] > still["revision"] == held["revision"]
         done = _wait(client, url, lambda v: v["state"] in END_STATES)
         assert done["state"] == "done", done["error"]
         assert done["result"]["exactly_once"] and done["alarm"] is None

@@ -200,10 +200,19 @@ def test_stream_to_the_simulator_with_hold_and_resume(server, browser, finished,
     page.wait_for_selector("#viewport[data-machine=shown]")
     page.locator("#viewport").screenshot(path=str(tmp_path / "step-1-machine-tool.png"))
 
+    # The answer to hold is kept back until the stream's event has said "held": an answer
+    # taken while the machine still decelerated, arriving late, must not undo that.
+    answers = []
+    page.route("**/streams/*/hold", lambda route: answers.append((route, route.fetch())))
     page.click("#m-hold")
     page.wait_for_selector("#machine-panel[data-stream-state=held]")
+    (route, answer), = answers
+    with page.expect_response("**/streams/*/hold"):
+        route.fulfill(response=answer)
+    page.unroute("**/streams/*/hold")
     held_at, held_line = page.inner_text("#m-position"), page.inner_text("#m-line")
     page.wait_for_timeout(600)
+    assert page.get_attribute("#machine-panel", "data-stream-state") == "held"
     assert (page.inner_text("#m-position"), page.inner_text("#m-line")) == (held_at, held_line)
     assert page.is_enabled("#m-resume") and not page.is_enabled("#m-hold")
     _shot(page, tmp_path, "2-held")

@@ -19,6 +19,20 @@ function position(p) {
     .map((a) => `${a.toUpperCase()} ${values[a].toFixed(3)}`).join("  ");
 }
 
+/** Whether `view` is an older view of the stream than `shown`.
+ *
+ * Answers to hold, resume and cancel and the `stream` events travel separately, so an answer
+ * taken just before the stream became held can arrive after the event that says it is held.
+ * A stream only moves forward (queued, then running or held, then its end), and between
+ * running and held the service's `revision` orders its views. */
+function isOlder(view, shown) {
+  const ended = (s) => Boolean(s.state) && !MOVING.has(s.state);
+  if (ended(shown)) return !ended(view);
+  if (view.state === "queued" && shown.state !== "queued") return true;
+  return Number.isInteger(view.revision) && Number.isInteger(shown.revision)
+    && view.revision < shown.revision;
+}
+
 export class MachinePanel {
   constructor(root) {
     const $ = (id) => root.querySelector(`#${id}`);
@@ -86,6 +100,7 @@ export class MachinePanel {
     if (!this.job || stream.job_id !== this.job.id) return;
     if (this.stream && this.stream.id !== stream.id && MOVING.has(this.stream.state)
         && !MOVING.has(stream.state)) return;  // an old stream's late news
+    if (this.stream?.id === stream.id && isOlder(stream, this.stream)) return;
     this.stream = this.stream?.id === stream.id ? { ...this.stream, ...stream } : stream;
     this.render();
   }
