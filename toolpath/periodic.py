@@ -71,6 +71,7 @@ __all__ = [
     "periodic_violation",
     "seam_multiplicity",
     "to_clamped",
+    "view_knots_on_loop",
 ]
 
 
@@ -268,6 +269,24 @@ def _cut_view(period: NDArray[np.float64], cut_t: float) -> NDArray[np.float64]:
     return clamped_knots(np.sort(moved[moved > 0.0]))
 
 
+def view_knots_on_loop(view_knots: NDArray[np.float64], view_t: NDArray[np.float64],
+                       loop_t: NDArray[np.float64], cut_t: float) -> NDArray[np.float64]:
+    """The loop's parameters of knots of a view cut open at ``cut_t``: ``(κ + t_k) mod 1``.
+
+    ``view_t`` (increasing, ``[0, 1]``) are the view's samples and ``loop_t`` the loop's
+    parameter of each. A knot that is exactly a view sample maps to that sample's own
+    ``loop_t``, not to the rounded sum: a knot the mend put on a sample (the join of a
+    curvature jump, :mod:`toolpath.adaptive`) came back past it, the sample fell into the
+    span before, and on a nose sampled one span apart the span after held no data point
+    (Schoenberg-Whitney); every jump-knot mend failed so on a DCA-style TE beside the seam
+    (``tests/toolpath/test_mend.py``, seed 62), left 1.1 um concave.
+    """
+    view_knots = np.asarray(view_knots, dtype=float)
+    row = np.minimum(np.searchsorted(view_t, view_knots), view_t.size - 1)
+    on_sample = view_t[row] == view_knots
+    return np.where(on_sample, loop_t[row], np.mod(view_knots + cut_t, 1.0))
+
+
 def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
                        seed_values: NDArray[np.float64], fit_at, options, *,
                        seam: int = 1, fair_check=None):
@@ -298,18 +317,7 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     back = np.argsort(order[:-1], kind="stable")  # view row of each original sample
 
     def on_loop(view_knots: NDArray[np.float64]) -> NDArray[np.float64]:
-        """The loop's parameters of the view's knots: ``(κ + t_k) mod 1``, or the sample's.
-
-        A knot on a view sample maps to exactly that sample's ``t``. The sum rounds: a
-        knot the mend put on a sample (the join of a curvature jump,
-        :mod:`toolpath.adaptive`) came back past it, the sample fell into the span before,
-        and on a nose sampled one span apart the span after held no data point
-        (Schoenberg-Whitney); every jump-knot mend failed so on a DCA-style TE beside the
-        seam (``tests/toolpath/test_mend.py``, seed 62), left 1.1 um concave.
-        """
-        row = np.minimum(np.searchsorted(view_t, view_knots), n)
-        on_sample = view_t[row] == view_knots
-        return np.where(on_sample, t[order[row]], np.mod(view_knots + cut_t, 1.0))
+        return view_knots_on_loop(view_knots, view_t, t[order], cut_t)
 
     def to_period(knots: NDArray[np.float64]) -> NDArray[np.float64]:
         if k == 0:
