@@ -15,6 +15,11 @@ from typing import NamedTuple
 import numpy as np
 import pytest
 
+try:
+    import fcntl
+except ImportError:  # (Windows)
+    fcntl = None
+
 from streamline_cam.background_compile import (
     ENV_SWITCH,
     KERNELS_FILE,
@@ -43,11 +48,11 @@ def total(pair, weights):
 '''
 
 # Runs a job around ``background_compile`` (argv: "wait" lets the helper finish, "raise"
-# leaves the job by an error at once); prints whether the helper started, its exit code
-# after the job, whether its process is gone, and whether the job then loaded the kernel
-# (cache hits) or compiled it.
+# leaves the job by an error at once, "hang": see the killed job's test); prints whether the
+# helper started, its exit code after the job, whether its process is gone, and whether the
+# job then loaded the kernel (cache hits) or compiled it.
 JOB = '''
-import json, os, sys
+import json, os, sys, time
 import numpy as np
 import toolpath  # noqa: F401  (the kernel cache's hook, as every command)
 from streamline_cam.background_compile import Kernel, background_compile
@@ -56,12 +61,20 @@ kernel = Kernel("kernel_mod", "total", (
     {"tuple": ["float64", "float64"], "class": "kernel_mod:Pair"},
     {"array": "float64", "ndim": 1, "layout": "C", "readonly": False}), "plan")
 helper = None
+if sys.argv[1] == "hang":  # (the kernel's lock file, then wait for the test to hold it)
+    import kernel_mod
+    print(kernel_mod.total._cache._cache_file._index_path + ".lock", flush=True)
+    sys.stdin.readline()
 try:
     with background_compile([kernel]) as helper:
         if helper is not None and sys.argv[1] == "wait":
             helper.wait(timeout=120)  # (the helper ends by itself once it has compiled)
         if sys.argv[1] == "raise":
             raise RuntimeError("the job failed")
+        if sys.argv[1] == "hang":  # (until the test kills this process)
+            print(json.dumps({"helper": helper and helper.pid}), flush=True)
+            while True:
+                time.sleep(1.0)
 except RuntimeError:
     pass
 gone = True
@@ -145,3 +158,45 @@ def test_the_recorded_kernels_are_current():
     recorded = json.loads(KERNELS_FILE.read_text(encoding="utf-8"))
     assert recorded_jobs()["jobs"] == recorded["jobs"], (
         f"python -m streamline_cam.background_compile --record {KERNELS_FILE}")
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` runs (a zombie left to a parent that does not reap is not)."""
+    try:
+        state = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0]
+    except (OSError, IndexError):
+        return False
+    return state not in ("Z", "X")
+
+
+@pytest.mark.skipif(fcntl is None or not Path("/proc/self/stat").exists(),
+                    reason="flock and /proc")
+def test_a_killed_job_s_helper_ends_by_itself(tmp_path):
+    import signal
+    import time
+
+    (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE, encoding="utf-8")
+    env = {name: value for name, value in os.environ.items() if name != ENV_SWITCH}
+    env |= {"PYTHONPATH": os.pathsep.join((str(tmp_path), str(ROOT))),
+            "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    job = subprocess.Popen([sys.executable, "-c", JOB, "hang"], cwd=tmp_path, env=env,
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    lock = os.open(job.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+    try:
+        # this test holds the kernel's compile lock: the helper waits for it, still running
+        # when the job dies
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        try:
+            job.stdin.write("go\n")
+            job.stdin.flush()
+            helper = json.loads(job.stdout.readline())["helper"]
+            assert helper is not None and _running(helper)
+        finally:
+            job.send_signal(signal.SIGKILL)  # (no clean-up in the job: its pipe just closes)
+            job.wait(timeout=60)
+        deadline = time.monotonic() + 60.0  # (a bound, not a timing assertion)
+        while _running(helper) and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert not _running(helper)
+    finally:
+        os.close(lock)
