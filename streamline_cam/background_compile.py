@@ -18,8 +18,9 @@ Not needed for correctness: a kernel the helper did not reach, or whose recorded
 longer match, compiles in the job as before; a helper that fails or is slow changes only
 the time. The helper stops with the job (on an error or Ctrl-C too), and by itself when the
 job's process is gone (its standard input closes). It starts only when the kernel cache
-misses one of the job's kernels, and only for the ``toolpath plan`` and ``toolpath run``
-commands: a warm job, a service worker or a batch worker never starts one.
+misses one of the job's kernels and the process may use more than one core, and only for the
+``toolpath plan`` and ``toolpath run`` commands: a warm job, a service worker or a batch
+worker never starts one.
 ``TOOLPATH_BACKGROUND_COMPILE=0`` turns it off.
 """
 
@@ -195,6 +196,13 @@ def say_on_stderr(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
+def _cores() -> int:
+    """The cores this process may run on (one core: a helper would only take turns)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
 def _switched_off(environ: Mapping[str, str]) -> bool:
     return environ.get(ENV_SWITCH, "").strip().lower() in ("0", "off", "no", "false")
 
@@ -205,11 +213,11 @@ def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | N
     """Around a job: on a cold cache, a helper process compiling ``kernels`` last first.
 
     Yields the helper process, or None when none started (a warm cache, nothing recorded,
-    ``TOOLPATH_BACKGROUND_COMPILE=0``, no process could start). ``say`` gets one line when
+    one core, ``TOOLPATH_BACKGROUND_COMPILE=0``, no process could start). ``say`` gets one line when
     it starts. On leaving (an error and Ctrl-C too) the helper is stopped and waited for.
     """
     helper = None
-    if kernels and not _switched_off(os.environ) and cache_is_cold(kernels):
+    if kernels and _cores() > 1 and not _switched_off(os.environ) and cache_is_cold(kernels):
         helper = _start_helper(kernels)
         if helper is not None and say is not None:
             say(f"toolpath: the kernel cache lacks this job's kernels: compiling them, a "

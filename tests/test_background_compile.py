@@ -30,6 +30,10 @@ from streamline_cam.background_compile import (
 )
 
 ROOT = Path(__file__).resolve().parents[1]
+#: On one core no helper starts (it would only take turns with the job).
+ONE_CORE = pytest.mark.skipif(
+    len(os.sched_getaffinity(0)) < 2 if hasattr(os, "sched_getaffinity")
+    else (os.cpu_count() or 1) < 2, reason="one core: no helper")
 
 KERNEL_MODULE = '''
 from typing import NamedTuple
@@ -102,6 +106,7 @@ def _job(folder: Path, how: str, **environ: str) -> dict:
     return json.loads(done.stdout.splitlines()[-1])
 
 
+@ONE_CORE
 def test_a_cold_cache_starts_the_helper_a_warm_one_does_not(tmp_path):
     (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE, encoding="utf-8")
     cold = _job(tmp_path, "wait")
@@ -112,6 +117,7 @@ def test_a_cold_cache_starts_the_helper_a_warm_one_does_not(tmp_path):
     assert warm["started"] is False and warm["hits"] == 1
 
 
+@ONE_CORE
 def test_a_failed_job_stops_the_helper_and_the_switch_turns_it_off(tmp_path):
     (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE, encoding="utf-8")
     off = _job(tmp_path, "raise", **{ENV_SWITCH: "0"})
@@ -169,6 +175,7 @@ def _running(pid: int) -> bool:
     return state not in ("Z", "X")
 
 
+@ONE_CORE
 @pytest.mark.skipif(fcntl is None or not Path("/proc/self/stat").exists(),
                     reason="flock and /proc")
 def test_a_killed_job_s_helper_ends_by_itself(tmp_path):
