@@ -105,23 +105,27 @@ def run_plan(args: argparse.Namespace) -> int:
 
     from toolpath.planning.finishing import plan_finishing
 
-    output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
-    surface = placed_surface(load_surface(args.surface), args)
-    options: dict[str, Any] = {
-        "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
-        "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
-        "extend_mm": args.extend, "min_cone_deg": args.min_cone,
-        "measure": not args.no_measure} | gouge_options(args)
-    with tqdm(total=100, desc="planning", unit="%", file=sys.stderr, leave=False,
-              bar_format="{desc:<22}{bar}| {percentage:3.0f}% {elapsed}") as bar:
-        def progress(stage: str, fraction: float) -> None:
-            bar.set_description_str(f"planning: {stage}")
-            bar.update(max(0, round(100 * fraction) - bar.n))
+    from ..background_compile import background_compile, job_kernels, say_on_stderr
 
-        path, report = plan_finishing(
-            surface, args.cutter, scallop_mm=args.scallop, chord_tol_mm=args.chord_tol,
-            axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
-            linking=args.linking, machine=args.machine, progress=progress, **options)
+    output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
+    # on a cold kernel cache, a second process compiles the later stages' kernels
+    with background_compile(job_kernels(args.axis, ("plan",)), say=say_on_stderr):
+        surface = placed_surface(load_surface(args.surface), args)
+        options: dict[str, Any] = {
+            "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
+            "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
+            "extend_mm": args.extend, "min_cone_deg": args.min_cone,
+            "measure": not args.no_measure} | gouge_options(args)
+        with tqdm(total=100, desc="planning", unit="%", file=sys.stderr, leave=False,
+                  bar_format="{desc:<22}{bar}| {percentage:3.0f}% {elapsed}") as bar:
+            def progress(stage: str, fraction: float) -> None:
+                bar.set_description_str(f"planning: {stage}")
+                bar.update(max(0, round(100 * fraction) - bar.n))
+
+            path, report = plan_finishing(
+                surface, args.cutter, scallop_mm=args.scallop, chord_tol_mm=args.chord_tol,
+                axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
+                linking=args.linking, machine=args.machine, progress=progress, **options)
     if output:
         path.save(output)
     if plot:

@@ -126,6 +126,7 @@ def _setup_lines(report: dict) -> list[str]:
 
 
 def _run(args: argparse.Namespace) -> int:
+    from ..background_compile import background_compile, job_kernels, say_on_stderr
     from ..pipeline import run_job
     from ..progress import StageBars
     from ..streaming import make_streamer
@@ -137,9 +138,13 @@ def _run(args: argparse.Namespace) -> int:
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
     stream = make_streamer(target, dialect=args.dialect) if target else None
+    # on a cold kernel cache, a second process compiles the later stages' kernels
+    stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())
     try:
-        result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
-                         stream=stream, plots=args.plots, verify=args.verify)
+        with background_compile(job_kernels(args.axis, stages),
+                                say=None if args.quiet else say_on_stderr):
+            result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
+                             stream=stream, plots=args.plots, verify=args.verify)
     finally:
         bars.close()
     if args.output and Path(args.output) != result.files["gcode"]:

@@ -343,7 +343,8 @@ def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over)
         else:
             over[i] = angle_deg_at(axes, normals, i, i) > max_lean_deg
         if not over[i]:
-            out[i, :] = axes[i, :]
+            for k in range(3):  # (a slice copy would compile numba's shape-error text: ~2 s)
+                out[i, k] = axes[i, k]
             continue
         size2 = 0.0
         for k in range(3):

@@ -1,0 +1,397 @@
+"""A cold job's later kernels compiled in a second process while it runs (issue 27).
+
+The first job after an install compiles every kernel it calls (numba, ``cache=True``), one
+after the other, on one core: the fit's, then the planner's stage by stage, the post's,
+the check's, the verifier's. On a cold kernel cache, :func:`background_compile` starts a
+helper process at the beginning of the job that compiles the same kernels for the same
+argument types, **last stage first**, while the job compiles its own from the first stage
+on. Where the two meet, a kernel the helper compiled is loaded by the job (the kernel
+cache's per-kernel lock makes the job wait for a compile in progress, then load it,
+:mod:`toolpath.kernel_cache`), so two cores share the compiling.
+
+The helper needs each kernel's argument types before the job has made its arguments: they
+are recorded from real jobs in ``data/job_kernels.json`` (:data:`KERNELS_FILE`), per axis
+mode and job stage, in the order the jobs first call them (``python -m
+streamline_cam.background_compile --record FILE`` writes it; a test checks it is current).
+
+Not needed for correctness: a kernel the helper did not reach, or whose recorded types no
+longer match, compiles in the job as before; a helper that fails or is slow changes only
+the time. The helper stops with the job (on an error or Ctrl-C too), and by itself when the
+job's process is gone (its standard input closes). It starts only when the kernel cache
+misses one of the job's kernels and the process may use more than one core, and only for the
+``toolpath plan`` and ``toolpath run`` commands: a warm job, a service worker or a batch
+worker never starts one.
+``TOOLPATH_BACKGROUND_COMPILE=0`` turns it off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib
+import json
+import os
+import subprocess
+import sys
+import threading
+from collections.abc import Callable, Iterator, Mapping, Sequence
+from pathlib import Path
+from typing import Any, Final, NamedTuple
+
+__all__ = ["ENV_SWITCH", "KERNELS_FILE", "Kernel", "background_compile", "cache_is_cold",
+           "compile_kernels", "decode_type", "encode_type", "job_kernels", "record_job_kernels",
+           "recorded_jobs", "say_on_stderr"]
+
+#: The recorded kernels and argument types of the jobs (see the module's text).
+KERNELS_FILE: Final = Path(__file__).resolve().parent / "data" / "job_kernels.json"
+#: Environment variable: ``0`` (or ``off``, ``no``, ``false``) turns the helper off.
+ENV_SWITCH: Final = "TOOLPATH_BACKGROUND_COMPILE"
+#: Packages whose kernels are recorded.
+OUR_PACKAGES: Final = ("toolpath", "verification", "gcode", "machines", "streamline_cam")
+#: The helper's module, run with ``python -m``.
+HELPER_MODULE: Final = "streamline_cam.background_compile"
+#: Seconds the job waits for a stopped helper to end before it kills it.
+STOP_WAIT_S: Final = 5.0
+
+
+class Kernel(NamedTuple):
+    """One recorded kernel call: where the kernel lives and its argument types (JSON form)."""
+
+    module: str
+    name: str
+    args: tuple[Any, ...]
+    stage: str
+
+    def as_json(self) -> dict[str, Any]:
+        """The kernel as a JSON object."""
+        return {"module": self.module, "name": self.name, "stage": self.stage,
+                "args": list(self.args)}
+
+
+# -- argument types <-> JSON ---------------------------------------------------------------
+
+def encode_type(kind: Any) -> Any:
+    """A numba argument type as JSON: a scalar's name, an array, a (named) tuple.
+
+    Raises ValueError for other types (such a kernel is not recorded).
+    """
+    from numba.core import types
+
+    if isinstance(kind, types.Array) and isinstance(kind.dtype, (types.Number, types.Boolean)):
+        return {"array": str(kind.dtype), "ndim": kind.ndim, "layout": kind.layout,
+                "readonly": not kind.mutable}
+    if isinstance(kind, types.BaseTuple):
+        entry: dict[str, Any] = {"tuple": [encode_type(item) for item in kind.types]}
+        cls = getattr(kind, "instance_class", tuple)
+        if cls is not tuple:
+            entry["class"] = f"{cls.__module__}:{cls.__qualname__}"
+        return entry
+    if isinstance(kind, (types.Integer, types.Float, types.Boolean)):
+        return str(kind)
+    raise ValueError(f"argument type {kind} is not recorded")
+
+
+def _scalar(name: str) -> Any:
+    from numba.core import types
+
+    kind = types.boolean if name == "bool" else getattr(types, name, None)
+    if not isinstance(kind, (types.Integer, types.Float, types.Boolean)):
+        raise ValueError(f"unknown scalar type {name!r}")
+    return kind
+
+
+def _named(path: str) -> type:
+    """The class ``module:qualname``."""
+    module, _, qualname = path.partition(":")
+    found: Any = importlib.import_module(module)
+    for part in qualname.split("."):
+        found = getattr(found, part)
+    return found
+
+
+def decode_type(entry: Any) -> Any:
+    """The numba type of an :func:`encode_type` entry (ValueError, ImportError if stale)."""
+    from numba.core import types
+
+    if isinstance(entry, str):
+        return _scalar(entry)
+    if "array" in entry:
+        return types.Array(_scalar(entry["array"]), entry["ndim"], entry["layout"],
+                           readonly=entry["readonly"])
+    items = [decode_type(item) for item in entry["tuple"]]
+    cls = _named(entry["class"]) if "class" in entry else None
+    return types.BaseTuple.from_types(items, cls)
+
+
+def _dispatcher(kernel: Kernel) -> Any:
+    """The kernel's numba dispatcher (ImportError, AttributeError if gone)."""
+    found: Any = importlib.import_module(kernel.module)
+    for part in kernel.name.split("."):
+        found = getattr(found, part)
+    if not hasattr(found, "compile") or not hasattr(found, "py_func"):
+        raise AttributeError(f"{kernel.module}.{kernel.name} is not a compiled kernel")
+    return found
+
+
+# -- the recorded jobs ----------------------------------------------------------------------
+
+def job_kernels(axis_mode: str, stages: Sequence[str],
+                path: Path = KERNELS_FILE) -> list[Kernel]:
+    """The recorded kernels of a job in ``axis_mode`` reached in ``stages``, in call order.
+
+    Empty when the file is missing or unreadable, or the axis mode is not recorded.
+    """
+    try:
+        recorded = json.loads(path.read_text(encoding="utf-8"))["jobs"][axis_mode]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    return [Kernel(k["module"], k["name"], tuple(k["args"]), k["stage"])
+            for k in recorded if k["stage"] in stages]
+
+
+def cache_is_cold(kernels: Sequence[Kernel]) -> bool:
+    """Whether the kernel cache lacks one of ``kernels`` (or holds it for an older source).
+
+    Reads only whether each kernel's cache index exists and is newer than its source (the
+    index lists the compiled signatures; it is written after the source it was made from).
+    A kernel that cannot be found counts as present (nothing to compile ahead for it).
+    """
+    for kernel in kernels:
+        try:
+            dispatcher = _dispatcher(kernel)
+        except (ImportError, AttributeError):
+            continue
+        index = getattr(getattr(dispatcher._cache, "_cache_file", None), "_index_path", None)
+        if index is None:
+            continue
+        try:
+            source = os.stat(dispatcher.py_func.__code__.co_filename).st_mtime
+            if os.stat(index).st_mtime < source:
+                return True
+        except FileNotFoundError:
+            return True
+        except OSError:
+            continue
+    return False
+
+
+def compile_kernels(kernels: Sequence[Kernel]) -> int:
+    """Compile (or load from the cache) ``kernels`` here, last first; returns how many.
+
+    A kernel that is gone, has a stale record, or fails to compile is skipped: the job
+    compiles it itself when it calls it.
+    """
+    done = 0
+    for kernel in reversed(kernels):
+        try:
+            dispatcher = _dispatcher(kernel)
+            dispatcher.compile(tuple(decode_type(arg) for arg in kernel.args))
+        except Exception:  # (anything: the helper's work is optional)
+            continue
+        done += 1
+    return done
+
+
+def say_on_stderr(text: str) -> None:
+    """Print ``text`` on standard error (a command's note that the helper started)."""
+    print(text, file=sys.stderr, flush=True)
+
+
+def _cores() -> int:
+    """The cores this process may run on (one core: a helper would only take turns)."""
+    if hasattr(os, "sched_getaffinity"):
+        return len(os.sched_getaffinity(0))
+    return os.cpu_count() or 1
+
+
+def _switched_off(environ: Mapping[str, str]) -> bool:
+    return environ.get(ENV_SWITCH, "").strip().lower() in ("0", "off", "no", "false")
+
+
+@contextlib.contextmanager
+def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | None = None
+                       ) -> Iterator[subprocess.Popen | None]:
+    """Around a job: on a cold cache, a helper process compiling ``kernels`` last first.
+
+    Yields the helper process, or None when none started (a warm cache, nothing recorded,
+    one core, ``TOOLPATH_BACKGROUND_COMPILE=0``, no process could start). ``say`` gets one line when
+    it starts. On leaving (an error and Ctrl-C too) the helper is stopped and waited for.
+    """
+    helper = None
+    if kernels and _cores() > 1 and not _switched_off(os.environ) and cache_is_cold(kernels):
+        helper = _start_helper(kernels)
+        if helper is not None and say is not None:
+            say(f"toolpath: the kernel cache lacks this job's kernels: compiling them, a "
+                f"second process from the last stage back ({ENV_SWITCH}=0 turns it off)")
+    try:
+        yield helper
+    finally:
+        if helper is not None:
+            _stop_helper(helper)
+
+
+def _start_helper(kernels: Sequence[Kernel]) -> subprocess.Popen | None:
+    """Start ``python -m streamline_cam.background_compile`` with ``kernels`` on its stdin."""
+    env = {**os.environ, "NUMBA_NUM_THREADS": "1", ENV_SWITCH: "0"}
+    try:
+        helper = subprocess.Popen(
+            [sys.executable, "-m", HELPER_MODULE], stdin=subprocess.PIPE,
+            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
+            start_new_session=True)  # (Ctrl-C goes to the job, which stops the helper)
+    except OSError:  # (no process could start: the job goes on alone)
+        return None
+    try:
+        assert helper.stdin is not None
+        helper.stdin.write(json.dumps([k.as_json() for k in kernels]).encode() + b"\n")
+        helper.stdin.flush()
+    except OSError:  # (it died at once)
+        _stop_helper(helper)
+        return None
+    return helper
+
+
+def _stop_helper(helper: subprocess.Popen) -> None:
+    """End the helper: close its stdin, terminate it, kill it if it does not end."""
+    with contextlib.suppress(OSError):
+        if helper.stdin is not None:
+            helper.stdin.close()
+    if helper.poll() is None:
+        helper.terminate()
+        try:
+            helper.wait(timeout=STOP_WAIT_S)
+        except subprocess.TimeoutExpired:
+            helper.kill()
+            helper.wait()
+
+
+def _helper_main() -> int:
+    """The helper process: kernels from stdin's first line, compiled; exits on stdin's EOF."""
+    line = sys.stdin.buffer.readline()
+
+    def exit_when_the_job_is_gone() -> None:
+        # (the file descriptor, not sys.stdin: a daemon thread holding the buffer's lock
+        # would abort the interpreter's shutdown)
+        while os.read(sys.stdin.fileno(), 4096):  # (b"" when the job closes it or ends)
+            pass
+        os._exit(0)
+
+    threading.Thread(target=exit_when_the_job_is_gone, daemon=True).start()
+    import toolpath  # noqa: F401  (the kernel cache's folder and lock, before numba loads)
+
+    try:
+        kernels = [Kernel(k["module"], k["name"], tuple(k["args"]), k["stage"])
+                   for k in json.loads(line)]
+    except (ValueError, KeyError, TypeError):
+        return 2
+    compile_kernels(kernels)
+    return 0
+
+
+# -- recording ------------------------------------------------------------------------------
+
+#: The recorded jobs: axis mode -> (bundled blade, machine), coarse and verified, like the
+#: warm-up's (:mod:`streamline_cam.warmup`): the open development blade and the closed
+#: propeller blade, so that both kinds of section reach their kernels.
+RECORDED_JOBS: Final = {
+    "3": (("dev_blade_15x142.csv", "grbl-router"),),
+    "lead-tilt": (("dev_blade_15x142.csv", "trunnion-ac"), ("dev_prop_7x100.csv", "trunnion-ac")),
+}
+
+
+@contextlib.contextmanager
+def _calls_from_python(stage: list[str]) -> Iterator[list[Kernel]]:
+    """Record each cached kernel of ours the first time Python calls it (with its types).
+
+    Only first calls in this process are seen: run in a fresh process.
+    """
+    from numba.core import dispatcher, sigutils
+
+    compile_ = dispatcher.Dispatcher.compile
+    calls: list[Kernel] = []
+    seen: set[tuple[str, str, str]] = set()
+    depth = [0]
+
+    def compile(self: Any, sig: Any) -> Any:
+        func = self.py_func
+        if depth[0] == 0 and func.__module__.split(".")[0] in OUR_PACKAGES \
+                and getattr(self._cache, "_cache_file", None) is not None:
+            args, _ = sigutils.normalize_signature(sig)
+            with contextlib.suppress(ValueError):
+                encoded = tuple(encode_type(arg) for arg in args)
+                key = (func.__module__, func.__qualname__, json.dumps(encoded))
+                if key not in seen:
+                    seen.add(key)
+                    calls.append(Kernel(func.__module__, func.__qualname__, encoded, stage[0]))
+        depth[0] += 1
+        try:
+            return compile_(self, sig)
+        finally:
+            depth[0] -= 1
+
+    dispatcher.Dispatcher.compile = compile
+    try:
+        yield calls
+    finally:
+        dispatcher.Dispatcher.compile = compile_
+
+
+def record_job_kernels(axis_mode: str) -> list[Kernel]:
+    """Run the :data:`RECORDED_JOBS` of ``axis_mode`` here and record their kernels.
+
+    In a fresh process (kernels called before are not seen): in the order the jobs first
+    call them, each with the job stage that did; a later job adds only what is new.
+    """
+    import tempfile
+    import warnings
+
+    import toolpath  # noqa: F401  (the kernel cache's hook first)
+    from toolpath.paper_examples import bundled_data_path
+
+    from .pipeline import STAGES, JobRequest, run_job
+    from .warmup import COARSE
+
+    stage = ["fit"]
+
+    def progress(name: str, _fraction: float) -> None:
+        stage[0] = name
+
+    with _calls_from_python(stage) as calls, \
+            tempfile.TemporaryDirectory(prefix="toolpath-record-") as folder:
+        for name, machine in RECORDED_JOBS[axis_mode]:
+            request = JobRequest(bundled_data_path(name), machine=machine,
+                                 axis_mode=axis_mode, **COARSE)
+            with warnings.catch_warnings():
+                warnings.simplefilter("ignore")
+                run_job(request, Path(folder) / name, progress=progress, verify=True)
+    return sorted(calls, key=lambda kernel: STAGES.index(kernel.stage))  # (stable)
+
+
+def recorded_jobs() -> dict[str, Any]:
+    """:data:`KERNELS_FILE`'s content as recorded now: each axis mode in a fresh process."""
+    import numba
+
+    jobs = {}
+    for axis_mode in RECORDED_JOBS:
+        done = subprocess.run([sys.executable, "-m", HELPER_MODULE, "--record-mode", axis_mode],
+                              capture_output=True, text=True, check=True, timeout=1200)
+        jobs[axis_mode] = json.loads(done.stdout)
+    return {"numba": numba.__version__,
+            "note": "python -m streamline_cam.background_compile --record FILE writes it",
+            "jobs": jobs}
+
+
+def _record_main(argv: list[str]) -> int:
+    """``--record FILE``: write :func:`recorded_jobs`; ``--record-mode MODE``: print one."""
+    if argv[0] == "--record-mode":
+        print(json.dumps([k.as_json() for k in record_job_kernels(argv[1])]))
+        return 0
+    data = recorded_jobs()
+    Path(argv[1]).write_text(json.dumps(data, indent=1) + "\n", encoding="utf-8")
+    print(f"wrote {argv[1]}: " + ", ".join(f"{mode} {len(kernels)} kernels"
+                                          for mode, kernels in data["jobs"].items()))
+    return 0
+
+
+if __name__ == "__main__":
+    if sys.argv[1:2] in (["--record"], ["--record-mode"]) and len(sys.argv) == 3:
+        sys.exit(_record_main(sys.argv[1:]))
+    sys.exit(_helper_main())
