@@ -263,21 +263,25 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         gap[between], t[between], s[between] = cutter_gap(
             surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
             newton=BALL_CONTACT_NEWTON)
-        unsure = _unsure_between(surface, runs, gap, t, s)
+        unsure = _unsure_between(surface, runs, centres, gap, t, s)
         if unsure.size:
             search_from_samples(unsure)
     return _EndContacts(ends, gap, t, s)
 
 
-def _unsure_between(surface: ParametricSurface, runs: _Runs, gap: NDArray[np.float64],
-                    t: NDArray[np.float64], s: NDArray[np.float64]) -> NDArray[np.int64]:
+def _unsure_between(surface: ParametricSurface, runs: _Runs, centres: NDArray[np.float64],
+                    gap: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64]
+                    ) -> NDArray[np.int64]:
     """The locations between anchors whose seeded foot may be a wrong local one.
 
     A ball's foot searched from the anchors' interpolated contacts is a local minimum of
     the distance from its centre; it is the closest point where the anchors' feet lie on
-    one smooth stretch of the surface and the foot map between them is near linear. Two
+    one smooth stretch of the surface and the foot map between them is near linear. Three
     signs that it is not:
 
+    * a foot found for a location next to it along the run, or for either anchor, lies
+      nearer to its centre than its own foot (by more than :data:`FOOT_SLACK_MM`): its
+      own is then not the closest point, for certain;
     * the anchors' feet lie farther apart than :data:`FOOT_SPREAD` times the centres'
       path between them: the closest point jumped, and the interpolated seeds may lie on
       the wrong side of the jump (the whole stride is unsure);
@@ -285,17 +289,21 @@ def _unsure_between(surface: ParametricSurface, runs: _Runs, gap: NDArray[np.flo
       foot farther than its neighbours' (a wrong local minimum, or a location the
       planner lifted over something between the anchors).
 
-    Either way those locations are searched again from their own nearest sample (the
-    full method). Rows index ``gap``, ``t``, ``s`` (every location).
+    Any of them sends the location back to its own nearest sample (the full method).
+    Rows index ``centres``, ``gap``, ``t``, ``s`` (every location).
     """
     between, before, after = runs.between, runs.before, runs.after
-    rise = gap[between] > np.maximum(gap[before], gap[after]) + FOOT_SLACK_MM
-    anchors = np.union1d(before, after)
-    feet = np.empty((gap.size, 3))
-    feet[anchors] = surface(t[anchors], s[anchors])
+    feet = surface(t, s)
+    here = centres[between]
+    own = np.linalg.norm(here - feet[between], axis=1)
+    # the run's locations are consecutive rows: between - 1 and between + 1 are on it
+    nearer = np.zeros(between.size, dtype=bool)
+    for other in (before, after, between - 1, between + 1):
+        nearer |= np.linalg.norm(here - feet[other], axis=1) < own - FOOT_SLACK_MM
     spread = np.linalg.norm(feet[after] - feet[before], axis=1)
     jump = spread > FOOT_SPREAD * runs.span + FOOT_SLACK_MM
-    return between[rise | jump]
+    rise = gap[between] > np.maximum(gap[before], gap[after]) + FOOT_SLACK_MM
+    return between[nearer | jump | rise]
 
 
 class _Runs(NamedTuple):
