@@ -4,7 +4,8 @@
 ``contact_stride``-th location along a run of cutting moves and seeds the locations
 between from those contacts; ``contact_stride=1`` seeds every location from its own
 nearest sample (the full method, the oracle here). Both must find the same feet: the same
-gaps, the same cusp seeds.
+gaps, the same cusp seeds, also where a seed interpolated between the anchors' feet would
+start in another local minimum's basin (a groove narrower than the ball).
 """
 
 import numpy as np
@@ -12,12 +13,19 @@ import pytest
 from measured_plans import planned
 
 import toolpath.planning.measure as measure
-from toolpath.planning import EllipticBladeSurface, SpherePatch
+from toolpath.path import MoveKind, Toolpath
+from toolpath.planning import EllipticBladeSurface, SpherePatch, parse_cutter
+from toolpath.planning.gouge import sample_surface
+from toolpath.surface import ParametricSurface
 
 #: Feet found from either seed agree to within the Newton search's convergence (its last
 #: step moves a foot by under a micrometre; the next by far less): mm and parameter.
 SAME_GAP_MM = 1e-9
 SAME_PARAMETER = 1e-7
+#: ... and over a groove's flat shoulders, where the distance changes only to second order
+#: with the foot's place, the converged foot is less exact than its distance: 1e-6 of the
+#: groove's 20 mm patch is 20 nm (a wrong foot lies tenths of a mm away).
+SAME_SHOULDER_PARAMETER = 1e-6
 
 
 def _chord_inputs(surface, cutter, **options):
@@ -69,3 +77,76 @@ def test_flat_and_bull_nose_contacts_keep_their_own_seeds():
         assert getattr(fast, name) == getattr(full, name)
     for name in ("seeds_t", "seeds_s", "seeds_pass"):
         assert np.array_equal(getattr(fast, name), getattr(full, name))
+
+
+class _GroovedPlane(ParametricSurface):
+    """``z = -d exp(-(x - c)^2 / (2 w^2))`` over ``x = L t``, ``y = L_y s``: a groove along y.
+
+    Narrower than a ball of radius 3 (``w`` a few tenths of a mm): a ball over it touches
+    its two shoulders, and from a centre off its middle the far shoulder is a local
+    minimum of the distance too.
+    """
+
+    def __init__(self, depth_mm=2.0, width_mm=0.4, length_mm=20.0, centre_mm=10.0,
+                 span_mm=10.0):
+        self.d, self.w, self.length, self.c, self.span = (depth_mm, width_mm, length_mm,
+                                                          centre_mm, span_mm)
+
+    def _partials(self, t, s, dt, ds):
+        u = (self.length * t - self.c) / self.w
+        z = -self.d * np.exp(-0.5 * u * u)
+        zero = np.zeros_like(t)
+        if (dt, ds) == (0, 0):
+            return np.stack([self.length * t, self.span * s, z], axis=1)
+        if (dt, ds) == (1, 0):
+            return np.stack([np.full_like(t, self.length), zero,
+                             -u / self.w * z * self.length], axis=1)
+        if (dt, ds) == (0, 1):
+            return np.stack([zero, np.full_like(t, self.span), zero], axis=1)
+        if (dt, ds) == (2, 0):
+            return np.stack([zero, zero, (u * u - 1.0) / self.w**2 * z * self.length**2],
+                            axis=1)
+        return np.zeros((t.size, 3))
+
+
+def _passes_over_the_groove(groove, dip_mm):
+    """Straight 3-axis passes along x, 0.25 mm steps, starting 0.05 mm later each pass.
+
+    The ball dips into the groove (its tip ``dip_mm`` below the plane at the middle, a
+    bell of 0.8 mm), so it cuts the shoulders there; the passes' offsets put anchors at
+    each place round the groove.
+    """
+    tips, kinds, passes = [], [], []
+    for k, y in enumerate(np.linspace(1.0, 9.0, 5)):
+        x = np.arange(2.0 + 0.05 * k, 18.0, 0.25)
+        z = -dip_mm * np.exp(-0.5 * ((x - groove.c) / 0.8) ** 2)
+        tips.append(np.stack([x, np.full_like(x, y), z], axis=1))
+        kinds.append(np.r_[MoveKind.RAPID, np.full(x.size - 1, MoveKind.CUT)])
+        passes.append(np.full(x.size, k))
+    tips = np.concatenate(tips)
+    return Toolpath(tips, np.tile([0.0, 0.0, 1.0], (len(tips), 1)),
+                    np.concatenate(kinds).astype(np.uint8), np.full(len(tips), 1000.0),
+                    np.concatenate(passes).astype(np.int32))
+
+
+@pytest.mark.parametrize(("depth_mm", "width_mm", "dip_mm"), [
+    # anchors on either shoulder: seeds between them start in the groove, some on the
+    # wrong wall, and from there Newton climbs to the far shoulder (a gouge read as a gap)
+    (2.0, 0.4, 0.2),
+    # shallower and narrower, the ball deeper in: a foot on the far shoulder reads a gouge
+    # of 0.258 mm as 0.163 mm, its gap between the anchors' and their feet close enough;
+    # only a neighbour's foot nearer to the centre than its own gives it away
+    (0.5, 0.2, 0.3),
+])
+def test_groove_narrower_than_the_ball_matches_the_full_method(depth_mm, width_mm, dip_mm):
+    groove = _GroovedPlane(depth_mm=depth_mm, width_mm=width_mm)
+    path = _passes_over_the_groove(groove, dip_mm)
+    args = (path, groove, parse_cutter("ball:6"), sample_surface(groove, 0.25))
+    fast = measure.measure_chord(*args)
+    full = measure.measure_chord(*args, contact_stride=1)
+    assert full.overcut_mm > 0.05  # the shoulders are cut
+    for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm"):
+        assert getattr(fast, name) == pytest.approx(getattr(full, name), abs=SAME_GAP_MM)
+    assert np.array_equal(fast.seeds_pass, full.seeds_pass)
+    assert np.abs(fast.seeds_t - full.seeds_t).max() < SAME_SHOULDER_PARAMETER
+    assert np.abs(fast.seeds_s - full.seeds_s).max() < SAME_SHOULDER_PARAMETER

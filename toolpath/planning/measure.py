@@ -5,11 +5,12 @@ toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 
 **Chord error.** Every cutter location on a cutting move is first projected onto the
 surface (Newton from the nearest of a grid of surface samples; a ball's, at every fourth
-location along a run of moves, the others from those contacts interpolated; a foot farther
-than the sample nearest its point is searched again from there): its gap checks that it
-touches. A flat or bull-nose cutter's lowest rim point is sought finely everywhere
-(``refine_rim`` of :func:`~toolpath.planning.sampling.cutter_gap`). Then the cutter is
-placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
+location along a run of moves, the others from those contacts interpolated, and from their
+own nearest sample where the feet either side jumped or the foot found stands farther off
+than theirs; a foot farther than the sample nearest its point is searched again from
+there): its gap checks that it touches. A flat or bull-nose cutter's lowest rim point is
+sought finely everywhere (``refine_rim`` of :func:`~toolpath.planning.sampling.cutter_gap`).
+Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
 axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
 it; for a toolpath checked under a 5-axis machine's joint interpolation, its joints
 linear, as that machine moves it), and, on the
@@ -136,8 +137,18 @@ def _checked_joints(toolpath: Toolpath, machine: Machine | None
 
 #: A ball's contacts along a run of cutting moves are searched from the nearest surface
 #: sample at every this many locations (and at the run's last); the others from those
-#: contacts (:func:`_run_anchors`): the same feet, in a quarter of the k-d tree's queries.
+#: contacts (:func:`_run_anchors`), unless the guard of :func:`_unsure_between` sends them
+#: back to their own sample: the same feet, in about a quarter of the k-d tree's queries.
 CONTACT_STRIDE = 4
+
+#: Where the closest surface point moves continuously with the ball's centre, it moves at
+#: most ``rho / (rho - d)`` times as far (``rho`` the surface's concave radius along the
+#: motion, ``d`` the centre's distance, about the ball radius; on convex parts less than
+#: the centre). Anchors' feet farther apart than this many times the centres' path between
+#: them: the closest point jumped (across a groove, between two sheets) or the surface
+#: curves concavely tighter than twice the distance, and seeds interpolated between those
+#: feet can start in another local minimum's basin (:func:`_unsure_between`).
+FOOT_SPREAD = 2.0
 
 #: Newton steps for a ball's contact, then more while a step still moves the foot by over
 #: :data:`~.local.CONVERGED_MM` (from the nearest sample, three leave the gap within
@@ -156,8 +167,8 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     each move is placed as that interpolation places it (the tip bows off the chord
     where rotary axes turn). ``contact_stride``: a ball's contacts searched from the
     nearest surface sample at every this many locations along a run of cutting moves,
-    the others from theirs (:func:`_run_anchors`; 1: every one from its sample, the full
-    method).
+    the others from theirs (:func:`_run_anchors`) unless their foot may be a wrong local
+    one (:func:`_unsure_between`); 1: every one from its sample, the full method.
     """
     joints = _checked_joints(toolpath, machine)
     move = _cutting_moves(toolpath)
@@ -222,7 +233,9 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     locations between the anchors :func:`_run_anchors` picks (every ``stride``-th) are
     seeded from the anchors' contacts instead, interpolated along the run (as
     :func:`~.sampling.move_gaps` seeds the points inside a move): a k-d tree query of a
-    point a radius off the surface costs several times its Newton search.
+    point a radius off the surface costs several times its Newton search. Those whose
+    foot may be a wrong local one (:func:`_unsure_between`) are then searched from their
+    own nearest sample after all.
     """
     pos, axes = toolpath.positions_mm, toolpath.tool_axes
     at_end = np.zeros(len(toolpath.kinds), dtype=bool)
@@ -231,37 +244,97 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     ball = cutter.kind is CutterKind.BALL
     lift = cutter.radius_mm if ball else cutter.corner_radius_mm
     centres = pos[ends] + lift * axes[ends]
-    anchor, between, before, after, w = _run_anchors(ends, move, centres,
-                                                     stride if ball else 1)
-    _, nearest = samples.tree.query(centres[anchor], k=1, workers=-1)
+    runs = _run_anchors(ends, move, centres, stride if ball else 1)
     gap, t, s = np.empty(ends.size), np.empty(ends.size), np.empty(ends.size)
-    for lo in range(0, anchor.size, chunk):
-        rows = anchor[lo:lo + chunk]
-        gap[rows], t[rows], s[rows] = _contact_gaps(surface, cutter, samples, pos[ends[rows]],
-                                                    axes[ends[rows]], nearest[lo:lo + chunk])
+
+    def search_from_samples(rows: NDArray[np.int64]) -> None:
+        _, nearest = samples.tree.query(centres[rows], k=1, workers=-1)
+        for lo in range(0, rows.size, chunk):
+            part = rows[lo:lo + chunk]
+            gap[part], t[part], s[part] = _contact_gaps(
+                surface, cutter, samples, pos[ends[part]], axes[ends[part]],
+                nearest[lo:lo + chunk])
+
+    search_from_samples(runs.anchor)
+    between, before, after, w = runs.between, runs.before, runs.after, runs.w
     if between.size:
         t0 = seam_lerp_rows(t[before], t[after], w[:, None], bool(surface.closed_t)).ravel()
         s0 = s[before] + w * (s[after] - s[before])
         gap[between], t[between], s[between] = cutter_gap(
             surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
             newton=BALL_CONTACT_NEWTON)
+        unsure = _unsure_between(surface, runs, centres, gap, t, s)
+        if unsure.size:
+            search_from_samples(unsure)
     return _EndContacts(ends, gap, t, s)
 
 
+def _unsure_between(surface: ParametricSurface, runs: _Runs, centres: NDArray[np.float64],
+                    gap: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64]
+                    ) -> NDArray[np.int64]:
+    """The locations between anchors whose seeded foot may be a wrong local one.
+
+    A ball's foot searched from the anchors' interpolated contacts is a local minimum of
+    the distance from its centre; it is the closest point where the anchors' feet lie on
+    one smooth stretch of the surface and the foot map between them is near linear. Three
+    signs that it is not:
+
+    * a foot found for a location next to it along the run, or for either anchor, lies
+      nearer to its centre than its own foot (by more than :data:`FOOT_SLACK_MM`): its
+      own is then not the closest point, for certain;
+    * the anchors' feet lie farther apart than :data:`FOOT_SPREAD` times the centres'
+      path between them: the closest point jumped, and the interpolated seeds may lie on
+      the wrong side of the jump (the whole stride is unsure);
+    * the gap found stands above both anchors' by more than :data:`FOOT_SLACK_MM`: a
+      foot farther than its neighbours' (a wrong local minimum, or a location the
+      planner lifted over something between the anchors).
+
+    Any of them sends the location back to its own nearest sample (the full method).
+    Rows index ``centres``, ``gap``, ``t``, ``s`` (every location).
+    """
+    between, before, after = runs.between, runs.before, runs.after
+    feet = surface(t, s)
+    here = centres[between]
+    own = np.linalg.norm(here - feet[between], axis=1)
+    # the run's locations are consecutive rows: between - 1 and between + 1 are on it
+    nearer = np.zeros(between.size, dtype=bool)
+    for other in (before, after, between - 1, between + 1):
+        nearer |= np.linalg.norm(here - feet[other], axis=1) < own - FOOT_SLACK_MM
+    spread = np.linalg.norm(feet[after] - feet[before], axis=1)
+    jump = spread > FOOT_SPREAD * runs.span + FOOT_SLACK_MM
+    rise = gap[between] > np.maximum(gap[before], gap[after]) + FOOT_SLACK_MM
+    return between[nearer | jump | rise]
+
+
+class _Runs(NamedTuple):
+    """Anchors along runs of cutting moves and how the locations between follow them.
+
+    ``anchor``: the locations with a seed of their own; ``between``: the others, each
+    with the anchors ``before`` and ``after`` it, its share ``w`` of the way between
+    them and the length ``span`` of the centres' path between them (mm).
+    """
+
+    anchor: NDArray[np.int64]
+    between: NDArray[np.int64]
+    before: NDArray[np.int64]
+    after: NDArray[np.int64]
+    w: NDArray[np.float64]
+    span: NDArray[np.float64]
+
+
 def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
-                 centres: NDArray[np.float64], stride: int
-                 ) -> tuple[NDArray[np.int64], ...]:
+                 centres: NDArray[np.float64], stride: int) -> _Runs:
     """Which of the locations ``ends`` get a seed of their own, and how the others do.
 
     Locations ``j`` and ``j + 1`` of ``ends`` joined by a cutting move ``move`` run on;
     along each run every ``stride``-th location and the last are anchors. Returns the
-    anchors, the others, the anchors before and after each other one, and its share ``w``
-    of the way between them along the path of ``centres``.
+    anchors, the others, the anchors before and after each other one, its share ``w`` of
+    the way between them along the path of ``centres`` and that path's length.
     """
     n = ends.size
     if stride <= 1 or n < 2:
         empty = np.zeros(0, dtype=np.int64)
-        return np.arange(n), empty, empty, empty, np.zeros(0)
+        return _Runs(np.arange(n), empty, empty, empty, np.zeros(0), np.zeros(0))
     starts = np.zeros(int(ends[-1]) + 1, dtype=bool)
     starts[move] = True
     broken = np.concatenate([[True], ~starts[ends[:-1]]])  # a run starts here
@@ -277,7 +350,7 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
     span = arc[after] - arc[before]
     w = np.where(span > 0.0, (arc[between] - arc[before]) / np.where(span > 0.0, span, 1.0),
                  (between - before) / (after - before))
-    return np.flatnonzero(anchor), between, before, after, w
+    return _Runs(np.flatnonzero(anchor), between, before, after, w, span)
 
 
 def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
