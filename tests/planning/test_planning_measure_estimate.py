@@ -138,6 +138,12 @@ def test_the_estimate_sinks_the_ridge_by_half_as_the_passes_curve():
     assert ratio.max() < ESTIMATE_SHARE
 
 
+#: The estimate may read high (more seeds cast) but not this far low: the cast rule
+#: (ESTIMATE_SHARE) skips a seed whose estimate stands below the largest cusp cast, so a
+#: seed read low whose true cusp tops it would go unmeasured.
+LEAST_ESTIMATE_SHARE = 0.97
+
+
 @pytest.mark.parametrize("cutter", ["bull:8:1", "bull:10:2", "flat:6"])
 def test_the_section_estimate_stands_near_the_ray_cast_seed_by_seed(cutter):
     # flat and bull-nose cutters: the two passes' sections across them (the ring's ellipse
@@ -147,11 +153,26 @@ def test_the_section_estimate_stands_near_the_ray_cast_seed_by_seed(cutter):
     ratio = _estimates_over_ray_cast(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02,
                                      axis_mode="3")
     assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
-    assert np.quantile(ratio, 0.05) > 0.9
+    # at a move joint of either pass the two passes' pieces run a few degrees apart:
+    # each prism meets the plane of the seed's line of t along its own way (read along
+    # the own pass's, the next section stood too narrow: down to 0.87)
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
     ratio = _estimates_over_ray_cast(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02,
                                      axis_mode="lead-tilt", lead_deg=10.0)
-    assert np.median(ratio) == pytest.approx(1.0, abs=0.1)
-    assert ratio.min() > 0.9
+    # (the higher of the next pass's two sections: along its way and along the own's)
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.12)
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
+
+
+def test_the_section_estimate_does_not_read_low_round_the_leading_edge(blade):
+    # the lying blade in 3 axes: round its leading edge the passes bend sharply and cross
+    # the lines of t aslant, and the cusp changes along them within a tenth of a mm; a
+    # ridge met in the plane across the own pass (not that of the seed's line of t, where
+    # the ray cast meets it) and measured over the surface there read down to 0.19
+    lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
+    ratio = _estimates_over_ray_cast(lying, "bull:8:1", scallop_mm=0.06, chord_tol_mm=0.03,
+                                     axis_mode="3")
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
 
 
 @pytest.mark.parametrize(("cutter", "request_mm", "brackets", "axis"), [

@@ -942,14 +942,19 @@ def _torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: 
     it (:func:`~.cusp_kernel.nearest_pieces`, from the own ring centre as the nearest
     piece's axis puts it: within :attr:`CutVolume.near_mm`, where none within 4 times
     that, and so on up to ``2 R`` and a piece's length), the poses of their passes that
-    touch nearest the seed's contact (:func:`_contact_poses`), and the two sections across
-    the way the cutter's point at the contact moves (:func:`~.torus_profile.profile_ridges`:
-    the ring's ellipse widened by ``r``): where they meet is the bottom of the ridge ``X``
-    (moved along that way into the plane across it through the seed), its height over
-    the surface as for the ball (:func:`_ridge_heights`).
+    touch nearest the seed's contact (:func:`_contact_poses`), and the two passes'
+    sections in the plane of the seed's line of ``t`` through its contact (normal
+    ``X_s x n``: where the ray cast meets the ridge), each pass's prism along the way its
+    cutter's point at the contact moves (:func:`_contact_way`;
+    :func:`~.torus_profile.profile_ridges`: the ring's ellipse widened by ``r``, seen
+    aslant where a way crosses the plane aslant, as at a move joint): where they meet is
+    the bottom of the ridge ``X``, its height over the surface as for the ball
+    (:func:`_ridge_heights`).
 
-    Returns NaN where no next pass lies within that reach, the own piece has no length or
-    the sections do not meet nearest the surface (the ray cast decides there).
+    Returns NaN where no next pass lies within that reach, the own piece has no length,
+    a pass runs across that plane more steeply than
+    :data:`~.torus_profile.LEAST_WAY_COSINE` or the sections do not meet nearest the
+    surface (the ray cast decides there).
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -976,23 +981,34 @@ def _torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: 
     ok = np.flatnonzero((found >= 0).all(axis=1))
     own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
                                                     seeds.n[ok])
-    next_c, next_axis, _, next_ok = _contact_poses(volume, found[ok, 1], corner[ok],
-                                                   seeds.n[ok])
+    next_c, next_axis, j_next, next_ok = _contact_poses(volume, found[ok, 1], corner[ok],
+                                                        seeds.n[ok])
     live = own_ok & next_ok & (np.einsum("ij,ij->i", e[j_own], e[j_own]) > TINY)
-    ok, j_own = ok[live], j_own[live]
+    ok, j_own, j_next = ok[live], j_own[live], j_next[live]
     own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
-    # the sections across the way the cutter's point at the contact moves (the ring
-    # centre's way tilts off it as the axis turns, a radius from the contact)
+    # the sections in the plane of the seed's line of t (where the ray cast meets the
+    # ridge), each pass's prism along the way the cutter's point at the contact moves
     n = seeds.n[ok]
-    ring_a, _ = radial_directions(n, volume.axes0[j_own])
-    ring_b, _ = radial_directions(n, volume.axes1[j_own])
-    u = unit(e[j_own] - (big - r) * (ring_b - ring_a))
-    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, u, n, radius_mm=big,
+    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, _contact_way(volume, n, j_own),
+                            _contact_way(volume, n, j_next), n, through=seeds.q[ok],
+                            across=unit(np.cross(seeds.x_s[ok], n)), radius_mm=big,
                             corner_radius_mm=r, flute_length_mm=cutter.flute_length_mm)
-    # the section stands alike all along the piece: met across the seed's own point
-    x -= np.einsum("ij,ij->i", x - seeds.q[ok], u)[:, None] * u
     out[ok[met]] = _ridge_heights(surface, seeds, ok[met], x[met])
     return out
+
+
+def _contact_way(volume: CutVolume, normal: NDArray[np.float64], piece: NDArray[np.int64]
+                 ) -> NDArray[np.float64]:
+    """Unit way the cutter's point touching a surface of ``normal`` moves along ``piece``.
+
+    The ring centre's way tilts off it as the axis turns, a radius ``R - r`` from the
+    contact: ``e - (R - r) (w_b - w_a)`` with ``w`` the ring's inward directions at the
+    piece's ends (:func:`~.cutters.radial_directions`).
+    """
+    ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
+    ring_a, _ = radial_directions(normal, volume.axes0[piece])
+    ring_b, _ = radial_directions(normal, volume.axes1[piece])
+    return unit(volume.piece_b[piece] - volume.piece_a[piece] - ring * (ring_b - ring_a))
 
 
 #: A pass's pose whose contact lies nearest a seed's is sought this many pieces either

@@ -18,7 +18,10 @@ outward normal ``m`` (unit, 2-D)
 ellipse's minor axis ``(R - r) / |a . u| + r``: the cutter's effective radius across the
 pass). :func:`profile_ridges` meets two such sections, the seed's own pass's and the next
 pass's, where their sides facing each other cross nearest the surface: the bottom of the
-cusp's ridge, as two tubes' circles meet for a ball.
+cusp's ridge, as two tubes' circles meet for a ball. A prism along another way ``w`` meets
+the plane across ``u`` in the solid's projection along ``w`` (oblique: ``P`` as above with
+``v - (v . u) / (w . u) w`` for ``v``), the ring's ellipse then ``S = (R - r)^2 P (I - a a')
+P'`` and the corner's ``r^2 P P'``, no longer a circle.
 """
 
 from __future__ import annotations
@@ -29,7 +32,7 @@ from numpy.typing import NDArray
 from ..tolerances import TINY
 from ..vectors import unit
 
-__all__ = ["PROFILE_SAMPLES", "profile_ridges"]
+__all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "profile_ridges"]
 
 #: Boundary points per section side. Their normals turn from ``0.25 pi/2`` past straight
 #: down to horizontal, spaced as the square of an even step (dense near the contact,
@@ -38,33 +41,62 @@ __all__ = ["PROFILE_SAMPLES", "profile_ridges"]
 #: their sag high, under a per cent of the cusp on the sweep's cutters and requests.
 PROFILE_SAMPLES = 64
 
+#: A pass's section is met only where its way crosses the plane within 60 degrees of
+#: square (its cosine to the plane's normal at least this): the projection along the way
+#: widens the section by ``1 / cos``, twice at 60 degrees, and a pass that aslant to the
+#: seed's line of ``t`` is turning or linking, no straight prism: the ray cast decides.
+LEAST_WAY_COSINE = 0.5
+
+#: The next pass's section about its pose's centre carried along the own way is taken
+#: too where that centre stands off the plane by more than this share of ``R`` (a lead
+#: puts it ``2 (R - r) cos(lead)`` off, a contact across the pass a few hundredths): there
+#: the two ways carry it apart; nearer, they carry it alike and its own way's prism holds.
+POSE_OFF_PLANE_SHARE = 0.25
+
+
+def _oblique(way: NDArray[np.float64], across: NDArray[np.float64], x: NDArray[np.float64],
+             y: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Projection along ``way`` onto the plane of axes ``x, y`` whose normal is ``across``.
+
+    ``P v = (x . v', y . v')``, ``v' = v - (v . across) / (way . across) way`` (along
+    ``across`` itself the orthogonal projection): a prism swept along ``way`` meets that
+    plane in its section's image under ``P``. All (m, 3), unit; returns ``P`` (m, 2, 3).
+    """
+    slant = np.einsum("ij,ij->i", way, across)[:, None]
+    px = x - (np.einsum("ij,ij->i", x, way)[:, None] / slant) * across
+    py = y - (np.einsum("ij,ij->i", y, way)[:, None] / slant) * across
+    return np.stack([px, py], axis=1)
+
 
 def _section_side(centre: NDArray[np.float64], axis: NDArray[np.float64],
-                  along: NDArray[np.float64], x: NDArray[np.float64], y: NDArray[np.float64],
-                  psi: NDArray[np.float64], ring_mm: float, corner_mm: float, lift_mm: float
+                  proj: NDArray[np.float64], psi: NDArray[np.float64], ring_mm: float,
+                  corner_mm: float, lift_mm: float
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Boundary points ``b(m)`` (module docstring) at normals ``m = (sin psi, -cos psi)``.
 
-    ``centre`` (m, 2) in the plane's axes ``x, y`` (m, 3); ``psi`` (m, k) or (k,).
+    The section, in a plane, of the prism the solid of ``axis`` sweeps: the solid's image
+    under the projection ``proj`` (m, 2, 3; :func:`_oblique`). The ring circle projects to
+    the ellipse ``S = ring^2 P (I - a a') P'``, the corner balls to ellipses ``Q = r^2 P P'``
+    (circles when orthogonal): support points ``S m / sqrt(m' S m)`` and
+    ``r Q m / sqrt(m' Q m)``. ``centre`` (m, 2) in the plane's axes; ``psi`` (m, k) or (k,).
     Returns their ``x`` and ``y``, (m, k).
     """
-    e1 = np.cross(axis, along)
-    side = np.linalg.norm(e1, axis=1)
-    # the axis along the move: the ring projects to a circle, any e1 across a will do
-    e1 = np.where((side > 1e-9)[:, None], e1, x - np.einsum("ij,ij->i", x, axis)[:, None] * axis)
-    e1 = unit(e1)
-    e2 = np.cross(axis, e1)
-    p1 = np.stack([np.einsum("ij,ij->i", e1, x), np.einsum("ij,ij->i", e1, y)], axis=1)
-    p2 = np.stack([np.einsum("ij,ij->i", e2, x), np.einsum("ij,ij->i", e2, y)], axis=1)
-    s = ring_mm**2 * (p1[:, :, None] * p1[:, None, :] + p2[:, :, None] * p2[:, None, :])
-    pa = np.stack([np.einsum("ij,ij->i", axis, x), np.einsum("ij,ij->i", axis, y)], axis=1)
+    pa = np.einsum("ikj,ij->ik", proj, axis)
+    q = np.einsum("ikj,ilj->ikl", proj, proj)
+    s = ring_mm**2 * (q - pa[:, :, None] * pa[:, None, :])
     mx, my = np.sin(psi), -np.cos(psi)
-    smx = s[:, 0, 0, None] * mx + s[:, 0, 1, None] * my
-    smy = s[:, 1, 0, None] * mx + s[:, 1, 1, None] * my
-    norm = np.sqrt(np.maximum(mx * smx + my * smy, TINY))
+
+    def support(shape: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+        sx = shape[:, 0, 0, None] * mx + shape[:, 0, 1, None] * my
+        sy = shape[:, 1, 0, None] * mx + shape[:, 1, 1, None] * my
+        norm = np.sqrt(np.maximum(mx * sx + my * sy, TINY))
+        return sx / norm, sy / norm
+
+    ex, ey = support(s)
+    cx, cy = support(q)
     up = (mx * pa[:, 0, None] + my * pa[:, 1, None]) > 0.0
-    bx = centre[:, 0, None] + smx / norm + corner_mm * mx + lift_mm * up * pa[:, 0, None]
-    by = centre[:, 1, None] + smy / norm + corner_mm * my + lift_mm * up * pa[:, 1, None]
+    bx = centre[:, 0, None] + ex + corner_mm * cx + lift_mm * up * pa[:, 0, None]
+    by = centre[:, 1, None] + ey + corner_mm * cy + lift_mm * up * pa[:, 1, None]
     return np.maximum.accumulate(bx, axis=1), by  # x never falls along a lower side
 
 
@@ -87,24 +119,40 @@ def _on_merged(x: NDArray[np.float64], before: NDArray[np.int64], xp: NDArray[np
 
 def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
                    own_axis: NDArray[np.float64], next_axis: NDArray[np.float64],
-                   along: NDArray[np.float64], normal: NDArray[np.float64], *,
-                   radius_mm: float, corner_radius_mm: float, flute_length_mm: float,
-                   samples: int = PROFILE_SAMPLES
+                   along: NDArray[np.float64], next_along: NDArray[np.float64],
+                   normal: NDArray[np.float64], *, through: NDArray[np.float64],
+                   across: NDArray[np.float64], radius_mm: float, corner_radius_mm: float,
+                   flute_length_mm: float, samples: int = PROFILE_SAMPLES
                    ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """The bottom of the ridge between two passes' sections across the own pass (module doc).
+    """The bottom of the ridge between two passes' sections in a plane (module docstring).
 
-    The own section's side towards the next (normals from a little past straight down,
-    ``-y``, to ``+x``, with ``x`` across towards the next centre) and the next's side
-    towards the own, each a polyline through :data:`PROFILE_SAMPLES` boundary points, rise
-    and fall across: where the own side first stands at or above the next's, they cross.
+    The plane passes through ``through`` with normal ``across`` (the seed's contact and
+    line of ``t``: the ridge lies where the ray cast seeks it, not a ridge's length along
+    the passes, where on a tight bend it stands lower or higher). The own pass's prism
+    runs along ``along``, the next pass's along ``next_along``: each meets the plane in
+    its solid projected along its way (:func:`_oblique`; ``1 / cos`` of its angle to
+    ``across`` wider, as at a move joint, where the two ways differ by the joint's turn),
+    about where the way carries its ring centre into the plane. The next pass's section
+    is also taken about its centre carried along the own way (the pose itself: its
+    contact a lead's ``R - r`` ahead of its ring centre, near the plane, where its own
+    way would carry the centre across as far as the pass bends over that reach) where
+    that centre stands off the plane by over :data:`POSE_OFF_PLANE_SHARE` of ``R``, and
+    the higher crossing kept (the cast rule needs an estimate that does not read low). The
+    own section's side towards the next (normals from a little past straight down, ``-y``,
+    to ``+x``, with ``x`` across towards the next centre) and the next's side towards the
+    own, each a polyline through :data:`PROFILE_SAMPLES` boundary points, rise and fall
+    across: where the own side first stands at or above the next's, they cross.
 
     Parameters
     ----------
     own_centre, next_centre : ndarray, shape (m, 3)
         Ring centres of the own pass's pose over the contact and of the next pass's
         pose nearest to it, mm.
-    own_axis, next_axis, along, normal : ndarray, shape (m, 3)
-        Their unit tool axes, the own pass's unit direction and the surface normal.
+    own_axis, next_axis, along, next_along, normal : ndarray, shape (m, 3)
+        Their unit tool axes, the own and the next pass's unit directions and the
+        surface normal.
+    through, across : ndarray, shape (m, 3)
+        A point of the plane (mm) and its unit normal.
     radius_mm, corner_radius_mm, flute_length_mm : float
         ``R``, ``r`` and ``L``, mm.
 
@@ -114,22 +162,61 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         The ridge's bottom, mm (where ``found``).
     found : ndarray of bool, shape (m,)
         False where the sides do not cross nearest the surface (the next section below
-        the own contact, or the two apart).
+        the own contact, or the two apart) in either of the next's sections, or a pass
+        runs more steeply across the plane than :data:`LEAST_WAY_COSINE`.
     """
     m = len(own_centre)
-    u = unit(along)
-    y = unit(normal - np.einsum("ij,ij->i", normal, u)[:, None] * u)
-    x = np.cross(y, u)
-    d = next_centre - own_centre
-    x *= np.where(np.einsum("ij,ij->i", d, x) < 0.0, -1.0, 1.0)[:, None]
+    nu = unit(across)
+    # the ways as lines (a zigzag pass runs back), both crossing the plane forwards
+    slant_own = np.einsum("ij,ij->i", along, nu)
+    slant_next = np.einsum("ij,ij->i", next_along, nu)
+    steep = (np.abs(slant_own) < LEAST_WAY_COSINE) | (np.abs(slant_next) < LEAST_WAY_COSINE)
+    u = unit(along) * np.where(slant_own < 0.0, -1.0, 1.0)[:, None]
+    w = unit(next_along) * np.where(slant_next < 0.0, -1.0, 1.0)[:, None]
+    u[steep] = w[steep] = nu[steep]
+    y = unit(normal - np.einsum("ij,ij->i", normal, nu)[:, None] * nu)
+    x = np.cross(y, nu)
+
+    def carried(v: NDArray[np.float64], way: NDArray[np.float64]) -> NDArray[np.float64]:
+        """``v`` carried along ``way`` into the plane (through the origin)."""
+        return v - (np.einsum("ij,ij->i", v, nu) / np.einsum("ij,ij->i", way, nu))[:, None] * way
+
+    origin = through + carried(own_centre - through, u)
+    d = next_centre - origin
+    ways = (w, u)
+    centres = [carried(d, way) for way in ways]
+    x *= np.where(np.einsum("ij,ij->i", centres[0], x) < 0.0, -1.0, 1.0)[:, None]
     t = np.linspace(-0.5, 1.0, samples)
     psi = 0.5 * np.pi * t * np.abs(t)
     ring, lift = radius_mm - corner_radius_mm, flute_length_mm - corner_radius_mm
-    own_c = np.zeros((m, 2))
-    next_c = np.stack([np.einsum("ij,ij->i", d, x), np.einsum("ij,ij->i", d, y)], axis=1)
-    x1, y1 = _section_side(own_c, own_axis, u, x, y, psi, ring, corner_radius_mm, lift)
-    x2, y2 = _section_side(next_c, next_axis, u, x, y, -psi[::-1], ring, corner_radius_mm,
-                           lift)
+    x1, y1 = _section_side(np.zeros((m, 2)), own_axis, _oblique(u, nu, x, y), psi, ring,
+                           corner_radius_mm, lift)
+    best_x, best_y = np.zeros(m), np.full(m, -np.inf)
+    found = ~steep
+    # the pose's own section only where its centre stands off the plane by a lead's reach
+    off = np.abs(np.einsum("ij,ij->i", d, nu)) > POSE_OFF_PLANE_SHARE * radius_mm
+    for way, c, rows in zip(ways, centres, (np.arange(m), np.flatnonzero(off)), strict=True):
+        next_c = np.stack([np.einsum("ij,ij->i", c[rows], x[rows]),
+                           np.einsum("ij,ij->i", c[rows], y[rows])], axis=1)
+        x2, y2 = _section_side(next_c, next_axis[rows], _oblique(way[rows], nu[rows], x[rows],
+                                                                 y[rows]), -psi[::-1], ring,
+                               corner_radius_mm, lift)
+        x_r, y_r = _crossing(x1[rows], y1[rows], x2, y2)
+        found[rows] &= np.isfinite(y_r)
+        higher = y_r > best_y[rows]  # nan (not met) never is
+        best_x[rows[higher]], best_y[rows[higher]] = x_r[higher], y_r[higher]
+    point = origin + np.where(found, best_x, 0.0)[:, None] * x + np.where(
+        found, best_y, 0.0)[:, None] * y
+    return point, found
+
+
+def _crossing(x1: NDArray[np.float64], y1: NDArray[np.float64], x2: NDArray[np.float64],
+              y2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where the own side ``(x1, y1)`` first stands at or above the next's ``(x2, y2)``.
+
+    Polylines (m, k), ``x`` rising. Returns ``x, y`` of the crossing (``nan``: none).
+    """
+    m, samples = x1.shape
     # both polylines at all their points (sorted together): linear between neighbours
     both = np.concatenate([x1, x2], axis=1)
     order = np.argsort(both, axis=1, kind="stable")
@@ -159,6 +246,4 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     y_r = np.where(np.isposinf(f1) & np.isfinite(f0), g2[rows, j - 1], ya + lam * (yb - ya))
     y_r = np.where(np.isneginf(f0), g1[rows, j], y_r)
     found &= np.isfinite(x_r) & np.isfinite(y_r)
-    point = own_centre + np.where(found, x_r, 0.0)[:, None] * x + np.where(
-        found, y_r, 0.0)[:, None] * y
-    return point, found
+    return np.where(found, x_r, np.nan), np.where(found, y_r, np.nan)
