@@ -23,7 +23,7 @@ from __future__ import annotations
 import threading
 from collections.abc import Callable
 from pathlib import Path
-from typing import Any, Final
+from typing import Any, Final, NamedTuple
 
 from gcode.dialects import dialect_by_name
 from gcode.senders.grbl_sender import GrblSender
@@ -34,7 +34,7 @@ from gcode.senders.progress import Progress
 from gcode.senders.serial_link import open_serial_link
 from machines import Machine
 
-__all__ = ["GRBL_AXES", "SIMULATE", "StreamControl", "make_streamer"]
+__all__ = ["GRBL_AXES", "SIMULATE", "StreamControl", "StreamSnapshot", "make_streamer"]
 
 #: The built-in simulator's target name (``simulate`` or ``simulate:SPEED``).
 SIMULATE: Final[str] = "simulate"
@@ -42,6 +42,15 @@ SIMULATE: Final[str] = "simulate"
 GRBL_AXES: Final[str] = "xyzabc"
 
 Streamer = Callable[..., dict[str, Any]]
+
+
+class StreamSnapshot(NamedTuple):
+    """One consistent view of a :class:`StreamControl` (:meth:`StreamControl.snapshot`)."""
+
+    revision: int
+    state: str
+    progress_report: Progress | None
+    machine_position: tuple[float, ...] | None
 
 
 class StreamControl:
@@ -76,19 +85,24 @@ class StreamControl:
         self.axes = "xyz"
         """Axis letters of the reported positions, in report order (lower case)."""
         self.revision = 0
-        """Changes so far; read it before ``state`` for a consistent snapshot."""
+        """Changes so far, counted in the same locked step as each change (:meth:`snapshot`)."""
 
     def _changed(self) -> None:
-        with self._lock:
-            self.revision += 1
         if self.on_change is not None:
             self.on_change(self)
+
+    def snapshot(self) -> StreamSnapshot:
+        """The revision, state and latest report, taken together."""
+        with self._lock:
+            return StreamSnapshot(self.revision, self.state, self.progress_report,
+                                  self.machine_position)
 
     def start(self) -> None:
         """The run has begun (connecting): holds and cancels are taken from now on."""
         with self._lock:
             if self.state == "queued":
                 self.state = "running"
+            self.revision += 1
         self._changed()
 
     def attach(self, sender: GrblSender) -> None:
@@ -99,15 +113,18 @@ class StreamControl:
                 self.state = "running"
             if self._hold_asked:
                 sender.request_hold()
+            self.revision += 1
         self._changed()
 
     def progress(self, report: Progress) -> None:
         """``on_progress`` of the sender: keep the latest report."""
         sender = self._sender
         status = sender.status if sender is not None else None
-        self.progress_report = report
-        if status is not None and status.machine_position is not None:
-            self.machine_position = tuple(status.machine_position)
+        with self._lock:
+            self.progress_report = report
+            if status is not None and status.machine_position is not None:
+                self.machine_position = tuple(status.machine_position)
+            self.revision += 1
         self._changed()
 
     def hold(self) -> bool:
@@ -147,15 +164,17 @@ class StreamControl:
 
         Returns ``"resume"`` or ``"cancel"``.
         """
-        self.progress_report = report
         with self._lock:
+            self.progress_report = report
             if self._decision is None:
                 self.state = "held"
+            self.revision += 1
         self._changed()
         with self._lock:
             self._decided.wait_for(lambda: self._decision is not None)
             decision, self._decision, self._hold_asked = self._decision, None, False
             self.state = "running" if decision == "resume" else "stopping"
+            self.revision += 1
         self._changed()
         return str(decision)
 

@@ -230,15 +230,15 @@ class StreamRunner:
         control = self._control(stream_id)
         if control is None:
             return {}
-        revision = control.revision  # before the state: a later change has a higher one
-        report = control.progress_report
-        live: dict[str, Any] = {"revision": revision, "held": control.state == "held",
+        now = control.snapshot()
+        report = now.progress_report
+        live: dict[str, Any] = {"revision": now.revision, "held": now.state == "held",
                                 "alarm": self._alarms.get(stream_id)}
         if report is not None:
             live |= {
                 "position_mm": _axes(report.position, control.axes),
                 "position_source": report.position_source or None,
-                "machine_position_mm": _axes(control.machine_position, control.axes),
+                "machine_position_mm": _axes(now.machine_position, control.axes),
                 "controller_state": report.state or None,
                 "line": report.done, "source_line": report.line,
                 "total_lines": report.total, "percent": round(report.percent, 2),
