@@ -39,7 +39,7 @@ from typing import Any, Final, NamedTuple
 
 __all__ = ["ENV_SWITCH", "KERNELS_FILE", "Kernel", "background_compile", "cache_is_cold",
            "compile_kernels", "decode_type", "encode_type", "job_kernels", "record_job_kernels",
-           "recorded_jobs", "say_on_stderr"]
+           "recorded_jobs", "say_on_stderr", "usable_cores"]
 
 #: The recorded kernels and argument types of the jobs (see the module's text).
 KERNELS_FILE: Final = Path(__file__).resolve().parent / "data" / "job_kernels.json"
@@ -49,6 +49,8 @@ ENV_SWITCH: Final = "TOOLPATH_BACKGROUND_COMPILE"
 OUR_PACKAGES: Final = ("toolpath", "verification", "gcode", "machines", "streamline_cam")
 #: The helper's module, run with ``python -m``.
 HELPER_MODULE: Final = "streamline_cam.background_compile"
+#: The argument that makes the module the helper (anything else is refused with usage).
+HELPER_FLAG: Final = "--helper"
 #: Seconds the job waits for a stopped helper to end before it kills it.
 STOP_WAIT_S: Final = 5.0
 
@@ -196,11 +198,23 @@ def say_on_stderr(text: str) -> None:
     print(text, file=sys.stderr, flush=True)
 
 
-def _cores() -> int:
-    """The cores this process may run on (one core: a helper would only take turns)."""
-    if hasattr(os, "sched_getaffinity"):
-        return len(os.sched_getaffinity(0))
-    return os.cpu_count() or 1
+#: cgroup v2 file of the CPU quota (``max`` or ``QUOTA PERIOD`` in microseconds).
+CGROUP_CPU_MAX: Final = Path("/sys/fs/cgroup/cpu.max")
+
+
+def usable_cores() -> int:
+    """The cores this process may use (one core: a helper would only take turns).
+
+    The smaller of the CPU affinity and a container's CPU quota (``docker --cpus=1`` leaves
+    every host core in the affinity but gives one core's time).
+    """
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (
+        os.cpu_count() or 1)
+    with contextlib.suppress(OSError, ValueError):
+        quota, period = CGROUP_CPU_MAX.read_text().split()[:2]
+        if quota != "max":
+            cores = min(cores, max(1, int(int(quota) / int(period))))
+    return cores
 
 
 def _switched_off(environ: Mapping[str, str]) -> bool:
@@ -217,7 +231,7 @@ def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | N
     it starts. On leaving (an error and Ctrl-C too) the helper is stopped and waited for.
     """
     helper = None
-    if kernels and _cores() > 1 and not _switched_off(os.environ) and cache_is_cold(kernels):
+    if kernels and usable_cores() > 1 and not _switched_off(os.environ) and cache_is_cold(kernels):
         helper = _start_helper(kernels)
         if helper is not None and say is not None:
             say(f"toolpath: the kernel cache lacks this job's kernels: compiling them, a "
@@ -234,7 +248,7 @@ def _start_helper(kernels: Sequence[Kernel]) -> subprocess.Popen | None:
     env = {**os.environ, "NUMBA_NUM_THREADS": "1", ENV_SWITCH: "0"}
     try:
         helper = subprocess.Popen(
-            [sys.executable, "-m", HELPER_MODULE], stdin=subprocess.PIPE,
+            [sys.executable, "-m", HELPER_MODULE, HELPER_FLAG], stdin=subprocess.PIPE,
             stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, env=env,
             start_new_session=True)  # (Ctrl-C goes to the job, which stops the helper)
     except OSError:  # (no process could start: the job goes on alone)
@@ -308,11 +322,12 @@ def _calls_from_python(stage: list[str]) -> Iterator[list[Kernel]]:
     compile_ = dispatcher.Dispatcher.compile
     calls: list[Kernel] = []
     seen: set[tuple[str, str, str]] = set()
-    depth = [0]
+    depth = threading.local()  # calls made while compiling another kernel are not first calls
 
     def compile(self: Any, sig: Any) -> Any:
         func = self.py_func
-        if depth[0] == 0 and func.__module__.split(".")[0] in OUR_PACKAGES \
+        level = getattr(depth, "level", 0)
+        if level == 0 and func.__module__.split(".")[0] in OUR_PACKAGES \
                 and getattr(self._cache, "_cache_file", None) is not None:
             args, _ = sigutils.normalize_signature(sig)
             with contextlib.suppress(ValueError):
@@ -321,11 +336,11 @@ def _calls_from_python(stage: list[str]) -> Iterator[list[Kernel]]:
                 if key not in seen:
                     seen.add(key)
                     calls.append(Kernel(func.__module__, func.__qualname__, encoded, stage[0]))
-        depth[0] += 1
+        depth.level = level + 1
         try:
             return compile_(self, sig)
         finally:
-            depth[0] -= 1
+            depth.level = level
 
     dispatcher.Dispatcher.compile = compile
     try:
@@ -371,8 +386,12 @@ def recorded_jobs() -> dict[str, Any]:
 
     jobs = {}
     for axis_mode in RECORDED_JOBS:
-        done = subprocess.run([sys.executable, "-m", HELPER_MODULE, "--record-mode", axis_mode],
-                              capture_output=True, text=True, check=True, timeout=1200)
+        command = [sys.executable, "-m", HELPER_MODULE, "--record-mode", axis_mode]
+        done = subprocess.run(command, capture_output=True, text=True, timeout=1200)
+        if done.returncode != 0:
+            raise RuntimeError(f"recording the {axis_mode!r} jobs' kernels failed "
+                               f"(exit {done.returncode}): {' '.join(command[1:])}\n"
+                               f"{done.stderr[-3000:]}")
         jobs[axis_mode] = json.loads(done.stdout)
     return {"numba": numba.__version__,
             "note": "python -m streamline_cam.background_compile --record FILE writes it",
@@ -391,7 +410,13 @@ def _record_main(argv: list[str]) -> int:
     return 0
 
 
+USAGE: Final = (f"usage: python -m {HELPER_MODULE} --record FILE | --record-mode MODE\n"
+                "(the job starts the helper itself)")
+
 if __name__ == "__main__":
+    if sys.argv[1:] == [HELPER_FLAG]:
+        sys.exit(_helper_main())
     if sys.argv[1:2] in (["--record"], ["--record-mode"]) and len(sys.argv) == 3:
         sys.exit(_record_main(sys.argv[1:]))
-    sys.exit(_helper_main())
+    print(USAGE, file=sys.stderr)
+    sys.exit(2)

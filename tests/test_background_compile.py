@@ -9,6 +9,7 @@ import json
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 from typing import NamedTuple
 
@@ -27,13 +28,12 @@ from streamline_cam.background_compile import (
     encode_type,
     job_kernels,
     recorded_jobs,
+    usable_cores,
 )
 
 ROOT = Path(__file__).resolve().parents[1]
 #: On one core no helper starts (it would only take turns with the job).
-ONE_CORE = pytest.mark.skipif(
-    len(os.sched_getaffinity(0)) < 2 if hasattr(os, "sched_getaffinity")
-    else (os.cpu_count() or 1) < 2, reason="one core: no helper")
+ONE_CORE = pytest.mark.skipif(usable_cores() < 2, reason="one core: no helper")
 
 KERNEL_MODULE = '''
 from typing import NamedTuple
@@ -122,7 +122,10 @@ def test_a_failed_job_stops_the_helper_and_the_switch_turns_it_off(tmp_path):
     (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE, encoding="utf-8")
     off = _job(tmp_path, "raise", **{ENV_SWITCH: "0"})
     assert off["started"] is False and off["hits"] == 0  # the job compiled it itself
-    (tmp_path / "kernel_mod.py").write_text(KERNEL_MODULE + "\n# changed\n", encoding="utf-8")
+    source = tmp_path / "kernel_mod.py"
+    source.write_text(KERNEL_MODULE + "\n# changed\n", encoding="utf-8")
+    later = time.time() + 10  # newer than the index on file systems with coarse times too
+    os.utime(source, (later, later))
     failed = _job(tmp_path, "raise")  # a source newer than its cache index: cold
     assert failed["started"] is True and failed["gone"] is True
     assert failed["code"] is not None and failed["value"] == 7.0
