@@ -12,16 +12,10 @@ from dataclasses import dataclass
 from machines import Machine
 from toolpath.path import Toolpath
 from toolpath.planning import Cutter, FinishingOptions, parse_cutter, plan_finishing
+from toolpath.planning.chord_measure import ChordMeasurement, measure_chord
+from toolpath.planning.cut_volume import CutVolume, cusp_horizon_mm
 from toolpath.planning.gouge import SurfaceSamples, sample_surface
-from toolpath.planning.measure import (
-    ChordMeasurement,
-    CutVolume,
-    SeedCusps,
-    cusp_horizon_mm,
-    measure_chord,
-    measure_scallop,
-    seed_cusps,
-)
+from toolpath.planning.measure import SeedCusps, measure_scallop, seed_cusps
 from toolpath.surface import ParametricSurface
 
 

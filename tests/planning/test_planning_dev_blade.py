@@ -80,7 +80,7 @@ def test_flat_end_mill_round_the_leading_edge_in_five_axis(blade, spec):
     # splitting never ended (491,000 points, 2 GB arrays); the measurement seeded on the
     # far side of the nose read a 2.2 mm cut through the blade, and its rim samples
     # missed the contact
-    from toolpath.planning.measure import measure_chord
+    from toolpath.planning.chord_measure import measure_chord
 
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
     path, rep = plan_finishing(standing, spec, scallop_mm=0.03, chord_tol_mm=0.03,

@@ -57,7 +57,7 @@ def test_scallop_measurement_moves_the_cutter_as_the_joints_interpolate():
     # kinematics of the interpolated joints, off the straight chord between the tips, and
     # there are enough of them for the straight pieces to follow the bowed path
     from machines.kinematics import forward
-    from toolpath.planning.measure import split_moves
+    from toolpath.planning.cut_volume import split_moves
 
     machine = load_machine("trunnion-ac")
     ends = np.array([[10.0, 5.0, 20.0, 10.0, 0.0], [12.0, 6.0, 20.0, 25.0, 40.0]])
@@ -85,7 +85,7 @@ def test_split_places_pieces_of_many_moves_as_the_full_forward_kinematics():
     # kinematics of its move's interpolated joints (the moves' own ends taken from the
     # tips and axes given, the inner poses solved), and tip-linear without a machine
     from machines.kinematics import forward
-    from toolpath.planning.measure import split_moves
+    from toolpath.planning.cut_volume import split_moves
 
     machine = load_machine("trunnion-ac")
     order = [a.letter for a in machine.axes]

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from measured_plans import planned
 
-import toolpath.planning.measure as measure
+import toolpath.planning.chord_measure as chord_measure
 from toolpath.path import MoveKind, Toolpath
 from toolpath.planning import EllipticBladeSurface, SpherePatch, parse_cutter
 from toolpath.planning.gouge import sample_surface
@@ -36,8 +36,8 @@ def _chord_inputs(surface, cutter, **options):
 
 
 def _same_contacts(args, kwargs):
-    fast = measure.measure_chord(*args, **kwargs)
-    full = measure.measure_chord(*args, **kwargs, contact_stride=1)
+    fast = chord_measure.measure_chord(*args, **kwargs)
+    full = chord_measure.measure_chord(*args, **kwargs, contact_stride=1)
     assert full.n_moves == fast.n_moves > 100
     for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm"):
         assert getattr(fast, name) == pytest.approx(getattr(full, name), abs=SAME_GAP_MM)
@@ -71,8 +71,8 @@ def test_flat_and_bull_nose_contacts_keep_their_own_seeds():
     cap = SpherePatch(radius_mm=50.0, longitude_deg=(-10.0, 10.0), colatitude_deg=(20.0, 30.0))
     args, kwargs = _chord_inputs(cap, "bull:8:1", scallop_mm=0.05,
                                  chord_tol_mm=0.02)
-    fast = measure.measure_chord(*args, **kwargs)
-    full = measure.measure_chord(*args, **kwargs, contact_stride=1)
+    fast = chord_measure.measure_chord(*args, **kwargs)
+    full = chord_measure.measure_chord(*args, **kwargs, contact_stride=1)
     for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm", "worst_point"):
         assert getattr(fast, name) == getattr(full, name)
     for name in ("seeds_t", "seeds_s", "seeds_pass"):
@@ -142,8 +142,8 @@ def test_groove_narrower_than_the_ball_matches_the_full_method(depth_mm, width_m
     groove = _GroovedPlane(depth_mm=depth_mm, width_mm=width_mm)
     path = _passes_over_the_groove(groove, dip_mm)
     args = (path, groove, parse_cutter("ball:6"), sample_surface(groove, 0.25))
-    fast = measure.measure_chord(*args)
-    full = measure.measure_chord(*args, contact_stride=1)
+    fast = chord_measure.measure_chord(*args)
+    full = chord_measure.measure_chord(*args, contact_stride=1)
     assert full.overcut_mm > 0.05  # the shoulders are cut
     for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm"):
         assert getattr(fast, name) == pytest.approx(getattr(full, name), abs=SAME_GAP_MM)

@@ -1,14 +1,15 @@
 """The planner's reported scallop and chord error, checked by the independent verifier on
 blade patches (issue 28).
 
-The planner measures its result with its own models (``toolpath/planning/measure.py``); the
-verifier (``verification/``) replays the toolpath through the machine's joint interpolation
-and measures the material left along each design sample's normal, sharing none of that
-code. On small patches of the bundled development blades (fitted from their sections: the
-planner and the verifier see the same fitted surface), 3-axis and 5-axis, ball, flat and
-bull-nose cutters, at coarse tolerances so each case takes a few seconds (a flat or
-bull-nose cutter in 5-axis with fewer refined extremes, :data:`FIVE_AXIS_CUTTER`: its swept
-solid, cut into short pieces where the axis turns, has the most candidates per sample):
+The planner measures its result with its own models (``toolpath/planning/measure.py``,
+``chord_measure.py`` and the modules they use); the verifier (``verification/``) replays
+the toolpath through the machine's joint interpolation and measures the material left along
+each design sample's normal, sharing none of that code. On small patches of the bundled
+development blades (fitted from their sections: the planner and the verifier see the same
+fitted surface), 3-axis and 5-axis, ball, flat and bull-nose cutters, at coarse tolerances
+so each case takes a few seconds (a flat or bull-nose cutter in 5-axis with fewer refined
+extremes, :data:`FIVE_AXIS_CUTTER`: its swept solid, cut into short pieces where the axis
+turns, has the most candidates per sample):
 
 * what the planner reports agrees with what the verifier finds within :data:`AGREEMENT`
   (relative) or :data:`AGREEMENT_MM` (absolute, for figures near zero);

@@ -61,9 +61,26 @@ rotary_rate
     Rotary joint rates along the cut against the axes' limits.
 blunt_edge
     An open blade's unfitted edge face, reported as left uncut.
-measure, sweep_kernel, cusp_kernel, torus_profile
-    Scallop and chord error measured on the result (compiled sweeps, cusp estimates; a
-    flat or bull-nose cutter's section across its pass).
+chord_measure
+    Chord error measured on the result: the cutter's contacts and gaps along the moves.
+measure_joints
+    A checked toolpath's joints, solved once for both measurements of a plan.
+cut_volume
+    The material the feed moves remove (``CutVolume``), cut in pieces, queried along rays.
+sweep_kernel
+    The cut volume's compiled ray entries (ball capsules, flat and bull-nose solids).
+cusp_search
+    Cusps ray cast from the chord measurement's seeds (``CuspSearch``, ``SearchSeeds``).
+cusp_estimates
+    Cusps estimated from the passes' own geometry (ball tubes, flat and bull-nose sections).
+cusp_kernel
+    Where two passes' ball tubes meet near a seed (compiled, for the estimate).
+torus_profile
+    Where two passes of a flat or bull-nose cutter meet across the passes.
+uncut_area
+    The area no cutter comes near, and distances over the surface to it.
+measure
+    Scallop measured on the result: estimates, ray casts, uncut area (``SeedCusps``).
 roots
     The one Illinois regula falsi with a bisection fallback, row by row.
 report

@@ -8,7 +8,7 @@ the nearest segment of the seed's own pass and the nearest of another pass on th
 side, and returns where their tubes of radius ``R`` meet nearest the surface, and how deep
 that point lies inside the tubes of a third pass's pieces and of the two passes' other
 pieces (see
-:func:`toolpath.planning.measure._ball_cusp_estimates` for the geometry).
+:func:`toolpath.planning.cusp_estimates.ball_cusp_estimates` for the geometry).
 :func:`nearest_pieces` finds the same two pieces for a flat or bull-nose cutter, whose
 ring-centre segments stand aside from the contact (:mod:`.torus_profile` meets them).
 """

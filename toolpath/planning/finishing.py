@@ -15,7 +15,7 @@ Stages (each timed in the report):
    and a gouge check of every non-cutting position;
 7. **machine**: inverse kinematics, travel (raise or report) and rate limits, time;
 8. **measure**: scallop and chord error measured on the result
-   (:mod:`~toolpath.planning.measure`).
+   (:mod:`~toolpath.planning.chord_measure`, :mod:`~toolpath.planning.measure`).
 """
 
 from __future__ import annotations
@@ -40,13 +40,14 @@ from ..tolerances import ANGLE_SLACK_DEG, FLAT_PER_MM, LIMIT_SLACK, TINY
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
 from .blunt_edge import blunt_face
 from .checks import GougeStats, MachineStats, check_links, gouge_stage, machine_stage
+from .chord_measure import ChordMeasurement, measure_chord
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
 from .errors import GougeError, PlanTravelLimitError, UnreachableRegionError, too_many_points
 from .gouge import local_margin, sample_surface
 from .linking import ClearancePlane, ClearanceSphere, LinkOptions, Run, extends, link_runs
 from .local import PassFrame, pass_frame
-from .measure import ChordMeasurement, ScallopMeasurement, measure_chord, measure_scallop
+from .measure import ScallopMeasurement, measure_scallop
 from .options import (
     TILT_MARGIN_DEG,
     AxisMode,

@@ -1,8 +1,9 @@
 """What a plan achieved, measured on the result: :class:`PlanningReport`.
 
-The scallop and chord figures come from :mod:`toolpath.planning.measure` (independent of
-the planning formulas); clearances from the global gouge check; unreachable regions from
-the reach and shadow tests of 3-axis plans.
+The scallop and chord figures come from :mod:`toolpath.planning.measure` and
+:mod:`toolpath.planning.chord_measure` (independent of the planning formulas); clearances
+from the global gouge check; unreachable regions from the reach and shadow tests of 3-axis
+plans.
 """
 
 from __future__ import annotations

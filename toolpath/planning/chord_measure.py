@@ -1,0 +1,383 @@
+"""Chord error measured on a finished toolpath, independently of the planner.
+
+Nothing here uses the planner's curvature formulas or its internal parameters: only the
+toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
+
+**Chord error.** Every cutter location on a cutting move is first projected onto the
+surface (Newton from the nearest of a grid of surface samples; a ball's, at every fourth
+location along a run of moves, the others from those contacts interpolated, and from their
+own nearest sample where the feet either side jumped or the foot found stands farther off
+than theirs; a foot farther than the sample nearest its point is searched again from
+there): its gap checks that it touches. A flat or bull-nose cutter's lowest rim point is
+sought finely everywhere (``refine_rim`` of :func:`~toolpath.planning.sampling.cutter_gap`).
+Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
+axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
+it; for a toolpath checked under a 5-axis machine's joint interpolation, its joints
+linear, as that machine moves it), and, on the
+moves that could hold the largest deviation (a model extreme at least
+half the largest sample), once more where a smooth model through those gaps is lowest and
+where it is highest; its signed
+gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
+centre projected onto the surface.
+
+The contacts and the mid-chord contacts above the surface seed the scallop measurement
+(:attr:`ChordMeasurement.seeds_t` and so on; :mod:`.measure`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import NamedTuple
+
+import numpy as np
+from numpy.typing import NDArray
+
+from machines import Machine
+
+from ..path import MoveKind, Toolpath
+from ..projection_kernel import seam_lerp_rows
+from ..surface import ParametricSurface
+from .cutters import Cutter, CutterKind
+from .gouge import SurfaceSamples
+from .measure_joints import checked_joints
+from .sampling import (
+    CHORD_FRACTIONS,
+    JointEnds,
+    MoveEnds,
+    chord_extremes,
+    cutter_gap,
+    move_gaps,
+)
+
+__all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
+           "ChordMeasurement", "measure_chord"]
+
+
+@dataclass(frozen=True)
+class ChordMeasurement:
+    """Largest deviations of the cutter from the surface along cutting moves, mm.
+
+    ``overcut_mm`` is the deepest cut into the surface (>= 0), ``undercut_mm`` the largest
+    gap left above it (>= 0), ``max_mm`` the larger; ``worst_point`` the toolpath point the
+    worst move arrives at; ``contact_mm`` the largest ``|gap|`` at the cutter locations.
+    """
+
+    max_mm: float
+    overcut_mm: float
+    undercut_mm: float
+    worst_point: int
+    contact_mm: float
+    n_moves: int
+    seeds_t: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    seeds_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    seeds_pass: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64),
+                                          repr=False)
+
+
+#: A ball's contacts along a run of cutting moves are searched from the nearest surface
+#: sample at every this many locations (and at the run's last); the others from those
+#: contacts (:func:`_run_anchors`), unless the guard of :func:`_unsure_between` sends them
+#: back to their own sample: the same feet, in about a quarter of the k-d tree's queries.
+CONTACT_STRIDE = 4
+
+#: Where the closest surface point moves continuously with the ball's centre, it moves at
+#: most ``rho / (rho - d)`` times as far (``rho`` the surface's concave radius along the
+#: motion, ``d`` the centre's distance, about the ball radius; on convex parts less than
+#: the centre). Anchors' feet farther apart than this many times the centres' path between
+#: them: the closest point jumped (across a groove, between two sheets) or the surface
+#: curves concavely tighter than twice the distance, and seeds interpolated between those
+#: feet can start in another local minimum's basin (:func:`_unsure_between`).
+FOOT_SPREAD = 2.0
+
+#: Newton steps for a ball's contact, then more while a step still moves the foot by over
+#: :data:`~.local.CONVERGED_MM` (from the nearest sample, three leave the gap within
+#: 1e-12 mm of six on the dev blade).
+BALL_CONTACT_NEWTON = 3
+
+
+def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
+                  samples: SurfaceSamples, *, machine: Machine | None = None,
+                  chunk: int = 100_000, contact_stride: int = CONTACT_STRIDE
+                  ) -> ChordMeasurement:
+    """Measure the chord error of ``toolpath`` (module docstring).
+
+    With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
+    (``Toolpath.joints_checked_for``: the post then leaves them whole), the cutter inside
+    each move is placed as that interpolation places it (the tip bows off the chord
+    where rotary axes turn). ``contact_stride``: a ball's contacts searched from the
+    nearest surface sample at every this many locations along a run of cutting moves,
+    the others from theirs (:func:`_run_anchors`) unless their foot may be a wrong local
+    one (:func:`_unsure_between`); 1: every one from its sample, the full method.
+    """
+    joints = checked_joints(toolpath, machine)
+    move = _cutting_moves(toolpath)
+    if not move.size:
+        return ChordMeasurement(0.0, 0.0, 0.0, -1, 0.0, 0)
+    contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk, contact_stride)
+    contact = float(np.abs(contacts.gap).max())
+    worst = np.zeros(move.size)
+    over = under = 0.0
+    seeds: list[tuple[NDArray[np.float64], ...]] = []
+    for lo in range(0, move.size, chunk):
+        seg = move[lo:lo + chunk]
+        ends, gap_a, gap_b = contacts.of_moves(toolpath, seg)
+        interpolation = None if joints is None else (machine, joints[seg], joints[seg + 1])
+        gap, g3, t3, s3 = _move_chunk_gaps(surface, cutter, ends, gap_a, gap_b,
+                                           max(contact, over, under), interpolation)
+        worst[lo:lo + len(seg)] = np.abs(gap).max(axis=1)
+        over = max(over, float(-gap.min()))
+        under = max(under, float(gap.max()))
+        seeds.append(_cusp_seeds(surface, ends, g3, t3, s3, toolpath.pass_index[seg]))
+    i = int(np.argmax(worst))
+    seeds_t, seeds_s, seeds_p = (np.concatenate(column) for column in zip(*seeds, strict=True))
+    return ChordMeasurement(max_mm=float(worst[i]), overcut_mm=max(over, 0.0),
+                            undercut_mm=max(under, 0.0), worst_point=int(move[i] + 1),
+                            contact_mm=contact, n_moves=int(move.size), seeds_t=seeds_t,
+                            seeds_s=seeds_s, seeds_pass=seeds_p.astype(np.int64))
+
+
+def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:
+    """First points of the cutting moves from a point of a pass to a point of a pass."""
+    kinds, passes = toolpath.kinds, toolpath.pass_index
+    return np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
+
+
+@dataclass(frozen=True)
+class _EndContacts:
+    """The contact of the cutter at every point ``points`` ending a cutting move."""
+
+    points: NDArray[np.int64]
+    gap: NDArray[np.float64]
+    t: NDArray[np.float64]
+    s: NDArray[np.float64]
+
+    def of_moves(self, toolpath: Toolpath, first: NDArray[np.int64]
+                 ) -> tuple[MoveEnds, NDArray[np.float64], NDArray[np.float64]]:
+        """Moves ``first -> first + 1``: their ends with the contacts, and the ends' gaps."""
+        ia = np.searchsorted(self.points, first)
+        ib = ia + 1
+        pos, axes = toolpath.positions_mm, toolpath.tool_axes
+        ends = MoveEnds(pos[first], pos[first + 1], axes[first], axes[first + 1],
+                        self.t[ia], self.t[ib], self.s[ia], self.s[ib])
+        return ends, self.gap[ia], self.gap[ib]
+
+
+def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
+                  samples: SurfaceSamples, move: NDArray[np.int64], chunk: int,
+                  stride: int) -> _EndContacts:
+    """The contact of every cutter location on a cutting move ``move``, once.
+
+    Seeded by the surface sample nearest to the cutter's centre (ball) or corner-circle
+    centre on the axis (:func:`_contact_gaps`), ``chunk`` locations at a time. A ball's
+    locations between the anchors :func:`_run_anchors` picks (every ``stride``-th) are
+    seeded from the anchors' contacts instead, interpolated along the run (as
+    :func:`~.sampling.move_gaps` seeds the points inside a move): a k-d tree query of a
+    point a radius off the surface costs several times its Newton search. Those whose
+    foot may be a wrong local one (:func:`_unsure_between`) are then searched from their
+    own nearest sample after all.
+    """
+    pos, axes = toolpath.positions_mm, toolpath.tool_axes
+    at_end = np.zeros(len(toolpath.kinds), dtype=bool)
+    at_end[move] = at_end[move + 1] = True
+    ends = np.flatnonzero(at_end)
+    ball = cutter.kind is CutterKind.BALL
+    lift = cutter.radius_mm if ball else cutter.corner_radius_mm
+    centres = pos[ends] + lift * axes[ends]
+    runs = _run_anchors(ends, move, centres, stride if ball else 1)
+    gap, t, s = np.empty(ends.size), np.empty(ends.size), np.empty(ends.size)
+
+    def search_from_samples(rows: NDArray[np.int64]) -> None:
+        _, nearest = samples.tree.query(centres[rows], k=1, workers=-1)
+        for lo in range(0, rows.size, chunk):
+            part = rows[lo:lo + chunk]
+            gap[part], t[part], s[part] = _contact_gaps(
+                surface, cutter, samples, pos[ends[part]], axes[ends[part]],
+                nearest[lo:lo + chunk])
+
+    search_from_samples(runs.anchor)
+    between, before, after, w = runs.between, runs.before, runs.after, runs.w
+    if between.size:
+        t0 = seam_lerp_rows(t[before], t[after], w[:, None], bool(surface.closed_t)).ravel()
+        s0 = s[before] + w * (s[after] - s[before])
+        gap[between], t[between], s[between] = cutter_gap(
+            surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
+            newton=BALL_CONTACT_NEWTON)
+        unsure = _unsure_between(surface, runs, centres, gap, t, s)
+        if unsure.size:
+            search_from_samples(unsure)
+    return _EndContacts(ends, gap, t, s)
+
+
+def _unsure_between(surface: ParametricSurface, runs: _Runs, centres: NDArray[np.float64],
+                    gap: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64]
+                    ) -> NDArray[np.int64]:
+    """The locations between anchors whose seeded foot may be a wrong local one.
+
+    A ball's foot searched from the anchors' interpolated contacts is a local minimum of
+    the distance from its centre; it is the closest point where the anchors' feet lie on
+    one smooth stretch of the surface and the foot map between them is near linear. Three
+    signs that it is not:
+
+    * a foot found for a location next to it along the run, or for either anchor, lies
+      nearer to its centre than its own foot (by more than :data:`FOOT_SLACK_MM`): its
+      own is then not the closest point, for certain;
+    * the anchors' feet lie farther apart than :data:`FOOT_SPREAD` times the centres'
+      path between them: the closest point jumped, and the interpolated seeds may lie on
+      the wrong side of the jump (the whole stride is unsure);
+    * the gap found stands above both anchors' by more than :data:`FOOT_SLACK_MM`: a
+      foot farther than its neighbours' (a wrong local minimum, or a location the
+      planner lifted over something between the anchors).
+
+    Any of them sends the location back to its own nearest sample (the full method).
+    Rows index ``centres``, ``gap``, ``t``, ``s`` (every location).
+    """
+    between, before, after = runs.between, runs.before, runs.after
+    feet = surface(t, s)
+    here = centres[between]
+    own = np.linalg.norm(here - feet[between], axis=1)
+    # the run's locations are consecutive rows: between - 1 and between + 1 are on it
+    nearer = np.zeros(between.size, dtype=bool)
+    for other in (before, after, between - 1, between + 1):
+        nearer |= np.linalg.norm(here - feet[other], axis=1) < own - FOOT_SLACK_MM
+    spread = np.linalg.norm(feet[after] - feet[before], axis=1)
+    jump = spread > FOOT_SPREAD * runs.span + FOOT_SLACK_MM
+    rise = gap[between] > np.maximum(gap[before], gap[after]) + FOOT_SLACK_MM
+    return between[nearer | jump | rise]
+
+
+class _Runs(NamedTuple):
+    """Anchors along runs of cutting moves and how the locations between follow them.
+
+    ``anchor``: the locations with a seed of their own; ``between``: the others, each
+    with the anchors ``before`` and ``after`` it, its share ``w`` of the way between
+    them and the length ``span`` of the centres' path between them (mm).
+    """
+
+    anchor: NDArray[np.int64]
+    between: NDArray[np.int64]
+    before: NDArray[np.int64]
+    after: NDArray[np.int64]
+    w: NDArray[np.float64]
+    span: NDArray[np.float64]
+
+
+def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
+                 centres: NDArray[np.float64], stride: int) -> _Runs:
+    """Which of the locations ``ends`` get a seed of their own, and how the others do.
+
+    Locations ``j`` and ``j + 1`` of ``ends`` joined by a cutting move ``move`` run on;
+    along each run every ``stride``-th location and the last are anchors. Returns the
+    anchors, the others, the anchors before and after each other one, its share ``w`` of
+    the way between them along the path of ``centres`` and that path's length.
+    """
+    n = ends.size
+    if stride <= 1 or n < 2:
+        empty = np.zeros(0, dtype=np.int64)
+        return _Runs(np.arange(n), empty, empty, empty, np.zeros(0), np.zeros(0))
+    starts = np.zeros(int(ends[-1]) + 1, dtype=bool)
+    starts[move] = True
+    broken = np.concatenate([[True], ~starts[ends[:-1]]])  # a run starts here
+    run = np.cumsum(broken) - 1
+    first = np.flatnonzero(broken)
+    last = np.append(first[1:], n) - 1
+    rank = np.arange(n) - first[run]
+    anchor = (rank % stride == 0) | (np.arange(n) == last[run])
+    between = np.flatnonzero(~anchor)
+    before = between - rank[between] % stride
+    after = np.minimum(before + stride, last[run[between]])
+    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centres, axis=0), axis=1))])
+    span = arc[after] - arc[before]
+    w = np.where(span > 0.0, (arc[between] - arc[before]) / np.where(span > 0.0, span, 1.0),
+                 (between - before) / (after - before))
+    return _Runs(np.flatnonzero(anchor), between, before, after, w, span)
+
+
+def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
+                     gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
+                     joints: JointEnds | None) -> tuple[NDArray[np.float64], ...]:
+    """Gaps along moves: at both ends, at ``CHORD_FRACTIONS`` and at the model's extremes.
+
+    Measured at three places, then once more where the gap model through them is lowest
+    and where it is highest (:func:`~.sampling.chord_extremes`), on the moves whose
+    extreme could be the largest: within half of the largest gap so far (``top_mm`` and
+    the three places'). ``joints``: the moves' ends under a machine's joint
+    interpolation, as for :func:`~.sampling.move_gaps`.
+
+    Returns ``gap`` (m, 7: end, three places, lowest, highest, end) and the three places'
+    gaps, ``t`` and ``s`` (m, 3).
+    """
+    u = np.asarray(CHORD_FRACTIONS, dtype=float)
+    m = len(gap_a)
+    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=2, refine_rim=True, joints=joints)
+    low, u_low, high, u_high = chord_extremes(g3, u)
+    top = max(float(np.abs(g3).max()), top_mm)
+    g_star = np.zeros((m, 2))
+    for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
+        sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
+        if sel.size:
+            g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
+                                         newton=2, refine_rim=True,
+                                         joints=_joint_rows(joints, sel))[0][:, 0]
+    gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
+    return gap, g3, t3, s3
+
+
+def _joint_rows(joints: JointEnds | None, rows: NDArray[np.int64]) -> JointEnds | None:
+    """The moves ``rows`` of moves' ends under joint interpolation (None stays None)."""
+    return None if joints is None else (joints[0], joints[1][rows], joints[2][rows])
+
+
+def _cusp_seeds(surface: ParametricSurface, ends: MoveEnds, g3: NDArray[np.float64],
+                t3: NDArray[np.float64], s3: NDArray[np.float64], passes: NDArray[np.int32]
+                ) -> tuple[NDArray[np.float64], ...]:
+    """Where the scallop search starts: ``t``, ``s`` and pass of each seed.
+
+    The cusps are highest where the moves stand highest: at the contacts (each move's
+    first), and at the middle of the moves that stand above the surface there.
+    """
+    mid = int(np.argmin(np.abs(np.asarray(CHORD_FRACTIONS, dtype=float) - 0.5)))
+    tc = np.concatenate([ends.t_a[:, None], t3[:, mid:mid + 1]], axis=1)
+    sc = np.concatenate([ends.s_a[:, None], s3[:, mid:mid + 1]], axis=1)
+    use = np.stack([np.ones(len(tc), dtype=bool), g3[:, mid] > 0.0], axis=1)
+    seeds_t = np.mod(tc, 1.0)[use] if surface.closed_t else tc[use]
+    return seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use]
+
+
+#: A flat or bull-nose contact's foot farther from its corner-circle centre than the
+#: sample nearest to that centre by more than this (mm) is not its closest point: a
+#: micrometre, above the Newton search's residual on the foot and far below any chord
+#: tolerance (:func:`_contact_gaps`).
+FOOT_SLACK_MM = 1e-6
+
+
+def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
+                  tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                  seeds: NDArray[np.int64]) -> tuple[NDArray[np.float64], ...]:
+    """Gap, ``t`` and ``s`` of the cutter at each location, searched from sample ``seeds``.
+
+    A foot found farther from its cutter point ``K = X + (gap + r) n`` than the sample
+    nearest to ``K`` is not its closest point (that sample is a surface point nearer to
+    ``K``): round a thin edge a search started on the
+    far side ends there, and a flat cutter's rim just clear of the near side then reads
+    as cutting through the part. Those locations are searched again from the sample
+    nearest to ``K`` (twice at most).
+    """
+    r = cutter.corner_radius_mm
+    ball = cutter.kind is CutterKind.BALL
+    gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, samples.t[seeds], samples.s[seeds],
+                           newton=BALL_CONTACT_NEWTON if ball else 6, refine_rim=True)
+    if ball:
+        return gap, t, s
+    rows = np.arange(len(tips_mm))
+    for _ in range(2):
+        x, n = surface.points_and_normals(t[rows], s[rows])
+        k = x + (gap[rows] + r)[:, None] * n
+        near_mm, near = samples.tree.query(k, workers=-1)
+        wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
+        rows, near = rows[wrong], near[wrong]
+        if not rows.size:
+            break
+        gap[rows], t[rows], s[rows] = cutter_gap(
+            surface, cutter, tips_mm[rows], axes[rows], samples.t[near], samples.s[near],
+            newton=6, refine_rim=True)
+    return gap, t, s

@@ -1,0 +1,253 @@
+"""Each seed's cusp estimated from the passes' own geometry, without ray casting.
+
+A ball's from the two tubes round its centre's segments (:func:`ball_cusp_estimates`); a
+flat or bull-nose cutter's from the two passes' sections in the plane of the seed's line of
+``t`` (:func:`torus_cusp_estimates`). The scallop measurement ray casts where the estimate
+cannot decide (:mod:`.measure`).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+from scipy.spatial import cKDTree
+
+from ..surface import ParametricSurface
+from ..tolerances import TINY
+from ..vectors import move_axes, unit
+from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, nearest_pieces, ridges
+from .cusp_search import SearchSeeds
+from .cut_volume import CutVolume
+from .cutters import radial_directions
+from .torus_profile import profile_ridges
+
+__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "RIDGE_SINK_SHARE", "ball_cusp_estimates",
+           "torus_cusp_estimates"]
+
+
+#: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
+#: lower envelope drops by ``delta`` (the passes' own curving, a pass folding back, a
+#: third pass), its crossing with the other side's, whose slopes across are about
+#: opposite (``+-d / R``), drops by about half of it.
+RIDGE_SINK_SHARE = 0.5
+
+
+def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: SearchSeeds
+                        ) -> NDArray[np.float64]:
+    """Cusp height from each seed towards increasing ``s``, from two centre segments (ball).
+
+    A ball sweeps the tubes of radius ``R`` round its centre's segments. Near the seed,
+    ``P = Q + R n`` with ``Q`` its surface point, take the nearest segment of its own pass
+    and the nearest of another pass on the ``+s`` side (``(C - P) . X_s > 0``), their points
+    ``C1`` and ``C2`` nearest to ``P``, among the pieces whose midpoints lie within
+    ``near_mm`` of ``P`` (:data:`~.cut_volume.NEAR_WIDTHS`; where no other pass lies there, within 4
+    times that, and so on up to ``2 R`` and a piece's length: beyond, the tubes are apart).
+    Across the own segment (direction ``u``) the two tubes are circles ``2 d`` apart (``d``
+    half the across part ``D`` of ``C2 - C1``), meeting at
+    ``X = C1 + D / 2 - sqrt(R^2 - d^2) v`` (``v`` across ``u`` and ``D``, pointing away
+    from the surface): the bottom of the cusp's ridge
+    (:func:`~.cusp_kernel.ridges`). Its height is ``(X - X(t, s_c)) . n(t, s_c)`` over the
+    surface point one first-order step from the seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``,
+    less :data:`RIDGE_SINK_SHARE` of how deep ``X`` lies in a nearby tube of a third pass
+    (passes closing up, links) or of the two passes' other pieces (their curving, a fold).
+
+    Returns NaN where no other pass lies on that side within that reach or a
+    segment has no length (the ray cast decides there), ``inf`` where the tubes do not
+    meet (``d >= R``: material between the passes).
+    """
+    n_seed = len(seeds.t)
+    out = np.full(n_seed, np.nan)
+    if not n_seed or not len(volume.pass_of):
+        return out
+    x, inside, state = _ridges_widening(volume, seeds)
+    out[state == RIDGE_OPEN] = np.inf
+    ok = np.flatnonzero(state == RIDGE_FOUND)
+    height = _ridge_heights(surface, seeds, ok, x[ok])
+    # the two passes' own curving sinks the ridge into their neighbouring pieces (on the
+    # R150 dome by 14 % of its height: the ray cast reads 6 % below X), a fold or a third
+    # pass deeper
+    out[ok] = height - RIDGE_SINK_SHARE * inside[ok].max(axis=1)
+    return out
+
+
+def _ridge_heights(surface: ParametricSurface, seeds: SearchSeeds, rows: NDArray[np.int64],
+                   x: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Height of ridge points ``x`` over the surface near seeds ``rows``, mm.
+
+    ``(X - X(t, s_c)) . n(t, s_c)`` over the surface point one first-order step from the
+    seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``.
+    """
+    xs = seeds.x_s[rows]
+    s_c = np.clip(seeds.s[rows] + np.einsum("ij,ij->i", x - seeds.q[rows], xs)
+                  / np.maximum(np.einsum("ij,ij->i", xs, xs), TINY), 0.0, 1.0)
+    foot_c, n_c = surface.points_and_normals(seeds.t[rows], s_c)
+    return np.einsum("ij,ij->i", x - foot_c, n_c)
+
+
+def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: SearchSeeds
+                         ) -> NDArray[np.float64]:
+    """Cusp height from each seed towards increasing ``s`` for a flat or bull-nose cutter.
+
+    The pieces of the seed's own pass and of the next pass on the ``+s`` side nearest to
+    it (:func:`~.cusp_kernel.nearest_pieces`, from the own ring centre as the nearest
+    piece's axis puts it: within :attr:`CutVolume.near_mm`, where none within 4 times
+    that, and so on up to ``2 R`` and a piece's length), the poses of their passes that
+    touch nearest the seed's contact (:func:`_contact_poses`), and the two passes'
+    sections in the plane of the seed's line of ``t`` through its contact (normal
+    ``X_s x n``: where the ray cast meets the ridge), each pass's prism along the way its
+    cutter's point at the contact moves (:func:`_contact_way`;
+    :func:`~.torus_profile.profile_ridges`: the ring's ellipse widened by ``r``, seen
+    aslant where a way crosses the plane aslant, as at a move joint): where they meet is
+    the bottom of the ridge ``X``, its height over the surface as for the ball
+    (:func:`_ridge_heights`).
+
+    Returns NaN where no next pass lies within that reach, the own piece has no length,
+    a pass runs across that plane more steeply than
+    :data:`~.torus_profile.LEAST_WAY_COSINE` or the sections do not meet nearest the
+    surface (the ray cast decides there).
+    """
+    n_seed = len(seeds.t)
+    out = np.full(n_seed, np.nan)
+    if not n_seed or not len(volume.pass_of):
+        return out
+    cutter = volume.cutter
+    big, r = cutter.radius_mm, cutter.corner_radius_mm
+    a, e = volume.piece_a, volume.piece_b - volume.piece_a
+    corner = seeds.q + r * seeds.n
+    # the own ring centre as the axis of the piece whose ring centre is nearest puts it
+    _, near = cKDTree(a + 0.5 * e).query(corner, workers=-1)
+    inward, _ = radial_directions(seeds.n, unit(volume.axes0[near] + volume.axes1[near]))
+    target = corner + (big - r) * inward
+    found = np.full((n_seed, 2), -1, dtype=np.int64)
+    todo = np.arange(n_seed)
+    apart, limit = volume.near_mm, 2.0 * big + volume.step_mm
+    while todo.size:
+        found[todo] = nearest_pieces(target[todo], seeds.x_s[todo], seeds.pass_[todo],
+                                     volume.near_cells, apart, a, e, volume.pass_of)
+        todo = todo[(found[todo] < 0).any(axis=1)]
+        if apart >= limit:
+            break
+        apart = min(4.0 * apart, limit)
+    ok = np.flatnonzero((found >= 0).all(axis=1))
+    own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
+                                                    seeds.n[ok])
+    next_c, next_axis, j_next, next_ok = _contact_poses(volume, found[ok, 1], corner[ok],
+                                                        seeds.n[ok])
+    live = own_ok & next_ok & (np.einsum("ij,ij->i", e[j_own], e[j_own]) > TINY)
+    ok, j_own, j_next = ok[live], j_own[live], j_next[live]
+    own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
+    # the sections in the plane of the seed's line of t (where the ray cast meets the
+    # ridge), each pass's prism along the way the cutter's point at the contact moves
+    n = seeds.n[ok]
+    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, _contact_way(volume, n, j_own),
+                            _contact_way(volume, n, j_next), n, through=seeds.q[ok],
+                            across=unit(np.cross(seeds.x_s[ok], n)), radius_mm=big,
+                            corner_radius_mm=r, flute_length_mm=cutter.flute_length_mm)
+    out[ok[met]] = _ridge_heights(surface, seeds, ok[met], x[met])
+    return out
+
+
+def _contact_way(volume: CutVolume, normal: NDArray[np.float64], piece: NDArray[np.int64]
+                 ) -> NDArray[np.float64]:
+    """Unit way the cutter's point touching a surface of ``normal`` moves along ``piece``.
+
+    The ring centre's way tilts off it as the axis turns, a radius ``R - r`` from the
+    contact: ``e - (R - r) (w_b - w_a)`` with ``w`` the ring's inward directions at the
+    piece's ends (:func:`~.cutters.radial_directions`).
+    """
+    ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
+    ring_a, _ = radial_directions(normal, volume.axes0[piece])
+    ring_b, _ = radial_directions(normal, volume.axes1[piece])
+    return unit(volume.piece_b[piece] - volume.piece_a[piece] - ring * (ring_b - ring_a))
+
+
+#: A pass's pose whose contact lies nearest a seed's is sought this many pieces either
+#: side of the piece nearest to it (:func:`_contact_poses`): a bull-nose with a lead
+#: touches ``(R - r) cos(lead)`` ahead of its axis, two of them on zigzag passes ``2 R``
+#: apart along them, 8 to 16 pieces of ``R / 8``.
+CONTACT_WINDOW = 24
+
+#: ... and found there only where its foot lies across the piece from the target (along
+#: it within this share of a piece's length: a bend between pieces, not a pass's end).
+CONTACT_ALONG_SHARE = 0.25
+
+
+def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[np.float64],
+                   normal: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64],
+                              NDArray[np.bool_]]:
+    """The poses of the passes of ``piece`` whose contacts lie nearest the seeds'.
+
+    A pose (ring centre ``C``, axis ``a``) touches a surface of normal ``n`` at the
+    corner-circle centre ``C + (R - r) w``, ``w = -n_perp / |n_perp|``,
+    ``n_perp = n - (n . a) a``: over the pieces of the pass within
+    :data:`CONTACT_WINDOW` of ``piece``, the foot of ``corner + (R - r) n_perp / |n_perp|``
+    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it. Where the
+    neighbouring poses tilt alike, the sections across the pass met at those poses
+    stand as the contacts do (a pose's contact can lie a radius ahead of its ring centre,
+    where a curved pass has moved on). Returns ``C``, ``a`` (normalized-linear), the piece
+    and False where the nearest lies at the window's edge or the pass ends short of the
+    target (:data:`CONTACT_ALONG_SHARE`).
+    """
+    ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
+    a, e, pass_of = volume.piece_a, volume.piece_b - volume.piece_a, volume.pass_of
+    m, shift = len(piece), np.arange(-CONTACT_WINDOW, CONTACT_WINDOW + 1)
+    best = np.empty(m, dtype=np.int64)
+    # the axis turns little over the window: the target as the piece's axis puts it
+    inward, _ = radial_directions(normal, unit(volume.axes0[piece] + volume.axes1[piece]))
+    target = corner + ring * inward
+    for lo in range(0, m, 10_000):
+        rows = slice(lo, lo + 10_000)
+        cand = np.clip(piece[rows, None] + shift, 0, len(pass_of) - 1)
+        near = target[rows, None]
+        foot, _ = _foot_on(a[cand], e[cand], near)
+        dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
+        dist[pass_of[cand] != pass_of[piece[rows], None]] = np.inf
+        best[rows] = np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None], 1)[:, 0]
+    edge = np.abs(best - piece) >= CONTACT_WINDOW
+    axis_mid = unit(volume.axes0[best] + volume.axes1[best])
+    inward, _ = radial_directions(normal, axis_mid)
+    target = corner + ring * inward
+    centre, f = _foot_on(a[best], e[best], target)
+    # a foot at the pass's end short of the target: that pose's contact lies beyond it
+    edge |= np.abs(np.einsum("ij,ij->i", target - centre, unit(e[best]))) > (
+        CONTACT_ALONG_SHARE * volume.step_mm)
+    return centre, move_axes(volume.axes0[best], volume.axes1[best], f), best, ~edge
+
+
+def _foot_on(a: NDArray[np.float64], e: NDArray[np.float64], p: NDArray[np.float64]
+             ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Nearest points to ``p`` on segments ``a + f e`` (``0 <= f <= 1``) and ``f``."""
+    f = np.clip(np.einsum("...j,...j->...", p - a, e)
+                / np.maximum(np.einsum("...j,...j->...", e, e), TINY), 0.0, 1.0)
+    return a + f[..., None] * e, f
+
+
+def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.float64], ...]:
+    """The ridge between each seed's own pass and the next pass (:func:`~.cusp_kernel.ridges`).
+
+    Among the pieces within :attr:`CutVolume.near_mm` of ``P = Q + R n``; where no other
+    pass lies there, within 4 times that, and so on up to ``2 R`` and a piece's length (an
+    other pass's piece whose midpoint lies farther from ``P`` leaves its tube apart from
+    the own pass's: the tubes do not meet). Returns the ridge points, the depths inside
+    the other tubes and the states (``RIDGE_*``).
+    """
+    n_seed = len(seeds.t)
+    big = volume.cutter.radius_mm
+    centre = seeds.q + big * seeds.n
+    seg = volume.b - volume.a
+    x = np.zeros((n_seed, 3))
+    inside = np.zeros((n_seed, 2))
+    state = np.full(n_seed, RIDGE_NO_PASS)
+    todo = np.arange(n_seed)
+    radius = volume.near_mm
+    limit = 2.0 * big + volume.step_mm
+    while todo.size:
+        x[todo], inside[todo], state[todo] = ridges(
+            centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
+            volume.near_cells, radius, volume.a, seg, volume.pass_of, big)
+        todo = todo[state[todo] == RIDGE_NO_PASS]
+        if radius >= limit:
+            break
+        radius = min(4.0 * radius, limit)
+    return x, inside, state

@@ -1,0 +1,274 @@
+"""The material a toolpath removes, queried along surface normals (the scallop's measure).
+
+Only the toolpath's arrays, the cutter solid and, for a toolpath checked under a 5-axis
+machine's joint interpolation, that machine. For a ball, exactly, the union of capsules
+swept by the ball centre along each feed move (cut in pieces of ``R/8``, their ends placed
+as the control places them: under a 5-axis machine's joint interpolation, by its forward
+kinematics); for flat and bull-nose cutters, the union of the cutter solid over the poses
+of each piece (tip linear, axis normalized-linear), the ray met at each pose exactly and
+the earliest pose found by search (:mod:`.sweep_kernel`; a straight sweep of the cutter's
+cross-section would carry its points ahead of and behind the contact under ``Q`` even where
+the axis turns them away, round a tight leading edge). Heights beyond the horizon (10 times
+the request, at least 0.05 mm, :func:`cusp_horizon_mm`) count as *uncut*.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numpy.typing import NDArray
+
+from machines import Machine
+from machines.kinematics import forward
+
+from ..path import MoveKind, Toolpath
+from ..vectors import move_poses
+from .clearance_kernel import SampleCells, bin_samples, pairs_within
+from .cutters import Cutter, CutterKind
+from .measure_joints import checked_joints
+from .sweep_kernel import (
+    capsule_entries,
+    nearest_entries,
+    piece_ends,
+    ray_ranges,
+    tip_plane_floors,
+)
+
+__all__ = ["HORIZON_SCALLOPS", "LEAST_HORIZON_MM", "NEAR_WIDTHS", "PIECE_SAG_SHARE",
+           "CutVolume", "cusp_horizon_mm", "split_moves"]
+
+
+def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
+                   ) -> tuple[NDArray[np.float64] | None, ...]:
+    """Ends of the feed moves that cut: tips, axes, pass, joints (None: tip-linear).
+
+    Rapids and plunges do not cut; a move's pass is its start's (else its end's, else -1).
+    """
+    k = toolpath.kinds[1:]
+    cutting = (k == MoveKind.CUT) | (k == MoveKind.LINK) | (k == MoveKind.LEAD_IN) | (
+        k == MoveKind.LEAD_OUT)
+    i = np.flatnonzero(cutting)
+    p, a = toolpath.positions_mm, toolpath.tool_axes
+    owner = np.where(toolpath.pass_index[i] >= 0, toolpath.pass_index[i],
+                     toolpath.pass_index[i + 1])
+    ends = (None, None) if joints is None else (joints[i], joints[i + 1])
+    return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64), *ends
+
+
+def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                  ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                  joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                  ) -> NDArray[np.int64]:
+    """Pieces per move, so that the tip and the point ``reach_mm`` up the axis travel <= ``step``.
+
+    Under joint interpolation also so that the straight pieces stay within about ``sag_mm``
+    of the bowed path (the bow at mid-move, ``d``, falls as ``d / n^2`` over ``n`` pieces).
+    """
+    c_a, c_b = a + reach_mm * aa, b + reach_mm * ab
+    length = np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c_b - c_a, axis=1))
+    count = np.ceil(length / step)
+    if joints is not None:
+        machine, q_a, q_b = joints
+        tip, axis = forward(machine, 0.5 * (q_a + q_b))
+        bow = np.maximum(np.linalg.norm(tip - 0.5 * (a + b), axis=1),
+                         np.linalg.norm(tip + reach_mm * axis - 0.5 * (c_a + c_b), axis=1))
+        count = np.maximum(count, np.ceil(np.sqrt(bow / sag_mm)))
+    return np.maximum(count, 1).astype(np.int64)
+
+
+def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
+                ) -> tuple[NDArray[np.float64], ...]:
+    """Split moves ``a -> b`` (tips, axes ``aa -> ab``) into straight pieces.
+
+    Each move gets :func:`_piece_counts` pieces: the tip and the point ``reach_mm`` up the
+    axis travel at most ``step`` mm per piece, and under joint interpolation the pieces
+    stay within about ``sag_mm`` of the bowed path. Returns the pieces' start and end tips,
+    start and end axes, and the move each piece belongs to (in move order).
+
+    The piece ends as the control places them: tips linear and axes renormalized, or,
+    with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
+    kinematics (the tip bows off the chord where the rotary axes turn) inside the move,
+    its own ends at the move's ends (the poses ``q_a``, ``q_b`` were solved for).
+    """
+    pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    n = len(a)
+    owner = np.repeat(np.arange(n), pieces)
+    # piece j of a move of m pieces runs from the pose at u = j / m to (j + 1) / m: the
+    # move's own ends, or one of its inner poses (placed once, shared by two pieces)
+    inner_first = np.cumsum(pieces - 1) - (pieces - 1)
+    inner_move = np.repeat(np.arange(n), pieces - 1)
+    u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
+         / pieces[inner_move])
+    if joints is None:
+        tips, axes = move_poses(a[inner_move], aa[inner_move], b[inner_move],
+                                ab[inner_move], u)
+    else:
+        machine, q_a, q_b = joints
+        w = u[:, None]
+        tips, axes = forward(machine, q_a[inner_move] * (1 - w) + q_b[inner_move] * w)
+    (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
+    return p0, p1, x0, x1, owner
+
+
+#: A ball's pieces near a point are sought first within this many widths of the cusp the
+#: request leaves on a plane (``2 sqrt(h (2 R - h))``), plus half a piece's length: the
+#: neighbouring passes on either side where the passes are planned for that cusp (farther
+#: apart on convex parts: :func:`~.cusp_estimates.ball_cusp_estimates` widens the search
+#: where it finds no other pass).
+NEAR_WIDTHS = 1.0
+
+
+#: Straight pieces of a joint-interpolated move stay within this share of the requested
+#: scallop of the bowed path.
+PIECE_SAG_SHARE = 0.03
+
+#: The scallop measurement's horizon, in requested scallops: a ray entering the cut volume
+#: higher than this above the surface counts as uncut (a cusp that tall is a missed
+#: strip, not a scallop to size), and the pieces farther than this are never searched.
+HORIZON_SCALLOPS = 10.0
+#: ... and at least this, mm: a tiny request does not bring the horizon down to the
+#: heights a cut surface stands at anyway (chord tolerances of hundredths of a mm),
+#: which would then read as uncut.
+LEAST_HORIZON_MM = 0.05
+
+
+def cusp_horizon_mm(scallop_mm: float) -> float:
+    """The scallop measurement's horizon for the request ``h``: ``max(10 h, 0.05)`` mm.
+
+    (:data:`HORIZON_SCALLOPS`, :data:`LEAST_HORIZON_MM`.)
+    """
+    return max(HORIZON_SCALLOPS * scallop_mm, LEAST_HORIZON_MM)
+
+
+class CutVolume:
+    """The material the toolpath removes, queried along surface normals.
+
+    The feed moves of ``toolpath`` cut in pieces (module docstring; under ``machine``'s
+    joint interpolation where the toolpath was checked for it). :meth:`pairs` gives the
+    pieces near points, :meth:`height` a ray's entry into given pieces (``inf`` beyond
+    ``horizon_mm``), :attr:`pass_of` each piece's pass and :meth:`cut` whether a ray
+    enters within the horizon. ``scallop_mm`` (the request) sets how near a ball's
+    nearby pieces lie (:data:`NEAR_WIDTHS`) and how straight a bowed move's pieces are
+    (:data:`PIECE_SAG_SHARE`).
+    """
+
+    def __init__(self, toolpath: Toolpath, cutter: Cutter, horizon_mm: float,
+                 scallop_mm: float, machine: Machine | None = None) -> None:
+        self.cutter = cutter
+        self.horizon = horizon_mm
+        self.scallop_mm = scallop_mm
+        joints = checked_joints(toolpath, machine)
+        a, b, xa, xb, owner, q_a, q_b = _feed_segments(toolpath, joints)
+        interpolation = None if joints is None else (machine, q_a, q_b)
+        sag = PIECE_SAG_SHARE * scallop_mm  # straight pieces on a bowed (joint) path
+        big, r = cutter.radius_mm, cutter.corner_radius_mm
+        self.ball = cutter.kind is CutterKind.BALL
+        step = 0.125 * big
+        p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
+        self.reach = big + horizon_mm + 0.5 * step
+        self.segment_reach = big + horizon_mm
+        if self.ball:
+            self.a, self.b = p0 + big * x0, p1 + big * x1  # centres
+            mid = 0.5 * (self.a + self.b)
+            self.piece_a, self.piece_b = self.a, self.b
+            # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
+            # point R above it (plus a piece's half length and a margin for curvature)
+            self.lift = big
+            self.lateral = (np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + 0.5 * step
+                            + 0.05 * big)
+        else:
+            # pieces with their end tips and axes (the cutter solid over their poses)
+            self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
+            mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
+            self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
+            self.lift = r
+            self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
+        self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
+        self.cells = bin_samples(mid, self.reach) if len(mid) else None
+        # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
+        # about the spacing of passes on a plane for the request (:data:`NEAR_WIDTHS`)
+        self.near_mm = (NEAR_WIDTHS * 2.0 * np.sqrt(scallop_mm * (2.0 * big - scallop_mm))
+                        + 0.5 * step)
+        self.step_mm = step
+        self._near_cells: SampleCells | None = None
+
+    @property
+    def near_cells(self) -> SampleCells:
+        """The pieces' midpoints binned (when first asked) in cells twice :attr:`near_mm`.
+
+        (Finer cells cost more to lay out over the part's box than they save;) and at least
+        as many pieces as cells: a few pieces over a large part leave most cells empty.
+        """
+        if self._near_cells is None:
+            mid = 0.5 * (self.piece_a + self.piece_b)
+            sparse = float(np.prod(np.ptp(mid, axis=0) + self.near_mm) / len(mid)) ** (1 / 3)
+            self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
+        return self._near_cells
+
+    def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
+        """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
+
+        A ball's pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the
+        sheet of ball centres) are tried first: a ray one of them cuts is cut whatever the
+        others do (the height is the lowest entry); the rest meet all their pieces
+        (:meth:`height`).
+        """
+        out = np.zeros(len(q), dtype=bool)
+        rest = np.arange(len(q))
+        if self.ball and len(self.pass_of) and len(q):
+            owner, item = pairs_within(self.near_cells, q + self.lift * n, 0.5 * self.near_mm)
+            lo, hi, item = ray_ranges(owner, item, len(q))
+            out = np.isfinite(self.height(q, n, lo, hi, item, first=True))
+            rest = np.flatnonzero(~out)
+        for i in range(0, len(rest), 100_000):
+            rows = rest[i:i + 100_000]
+            out[rows] = np.isfinite(self.height(q[rows], n[rows],
+                                                *ray_ranges(*self.pairs(q[rows]), len(rows)),
+                                                first=True))
+        return out
+
+    def pairs(self, q: NDArray[np.float64], radius: float | None = None
+              ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """Candidate (query, piece) pairs: piece centres within ``radius`` of each point.
+
+        The default radius is the cutter's reach.
+        """
+        if self.cells is None:
+            return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
+        owner, item = pairs_within(self.cells, q, self.reach if radius is None else radius)
+        return owner, item
+
+    def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
+               hi: NDArray[np.int64], item: NDArray[np.int64], *, first: bool = False
+               ) -> NDArray[np.float64]:
+        """Entry distance along ``n`` into the removed material (inf: beyond the horizon).
+
+        Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``. With ``first``, whether it
+        enters within the horizon is all that counts: the first piece it enters there
+        gives the height (finite, not the lowest), the others are not tried.
+        """
+        stop = self.horizon if first else 0.0
+        if not self.ball:
+            out = nearest_entries(q, n, lo, hi, item, self.tips0, self.tips1, self.axes0,
+                                  self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
+                                  radius_mm=self.cutter.radius_mm,
+                                  flute_length_mm=self.cutter.flute_length_mm,
+                                  horizon_mm=self.horizon, stop_mm=stop)
+        else:
+            out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm,
+                                  stop_mm=stop)
+        return np.where(out > self.horizon, np.inf, out)
+
+    def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
+                   owner: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
+        """A lower bound of the entry for rays from anywhere near ``centre[owner]``.
+
+        Pairs of points ``owner`` with pieces ``item``; the rays start within
+        ``radius[owner]`` of the point. A point below the tip's plane by ``depth`` meets
+        it at least ``depth`` up any ray (``n.a <= 1``; a ray not climbing never does),
+        and points within ``radius`` of the centre lie at most ``radius`` deeper or
+        shallower than it (compiled: :func:`.sweep_kernel.tip_plane_floors`).
+        """
+        return tip_plane_floors(centre, radius, owner, item, self.tips0, self.tips1,
+                                self.axes0, self.axes1, self.cutter.radius_mm)

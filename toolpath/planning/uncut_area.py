@@ -1,0 +1,116 @@
+"""The area no cutter comes near, and distances over the surface to it.
+
+A coarse grid (spacing half the cutter radius along ``t``, one stepover across) gives the
+uncut area (rays that enter no cut within the horizon, :meth:`~.cut_volume.CutVolume.cut`);
+distances from it are taken along the surface (shortest paths over the grid), round a thin
+part's edges rather than through it.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import scipy.sparse
+import scipy.sparse.csgraph
+from numpy.typing import NDArray
+
+from ..surface import ParametricSurface, outward_normals
+from ..tolerances import LENGTH_SLACK_MM, TINY
+from .cut_volume import CutVolume
+
+__all__ = ["UncutArea"]
+
+
+@dataclass(frozen=True)
+class UncutArea:
+    """The coarse grid's points no cutter comes near, and distances over the surface to them.
+
+    ``grid`` holds the points ``(n_t, n_s, 3)``, ``uncut`` the uncut ones; ``reach`` the
+    distance from each grid node to the nearest uncut one (:func:`_surface_reach`; None:
+    nothing uncut), followed up to a cutter diameter (``diameter_mm``).
+    """
+
+    grid: NDArray[np.float64]
+    uncut: NDArray[np.bool_]
+    fraction: float
+    reach: NDArray[np.float64] | None
+    diameter_mm: float
+
+    @classmethod
+    def on_grid(cls, surface: ParametricSurface, volume: CutVolume, width_mm: float
+                ) -> UncutArea:
+        """Grid spacing half the cutter radius along ``t``, ``width_mm`` across."""
+        big = volume.cutter.radius_mm
+        g = np.linspace(0.0, 1.0, 33)
+        pts = surface(g, g, grid=True)
+        len_t = np.linalg.norm(np.diff(pts, axis=0), axis=2).sum(axis=0).max() * 1.02
+        len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
+        n_t = int(np.ceil(len_t / (0.5 * big))) + 1
+        n_s = int(np.ceil(len_s / width_mm)) + 1
+        t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s),
+                           indexing="ij")
+        # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
+        parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
+        q, n = parts[0, 0], outward_normals(surface, parts[1, 0], parts[0, 1])
+        area = np.linalg.norm(np.cross(parts[1, 0], parts[0, 1]), axis=1)
+        uncut = ~volume.cut(q, n)
+        fraction = float(area[uncut].sum() / max(area.sum(), TINY))
+        grid = q.reshape(n_t, n_s, 3)
+        reach = (_surface_reach(grid, uncut.reshape(n_t, n_s), bool(surface.closed_t),
+                                2.0 * big) if uncut.any() else None)
+        return cls(grid, uncut, fraction, reach, 2.0 * big)
+
+    def away(self, points: NDArray[np.float64], t: NDArray[np.float64],
+             s: NDArray[np.float64]) -> NDArray[np.bool_] | None:
+        """Points farther than a cutter diameter from the uncut area (None: none uncut)."""
+        if self.reach is None:
+            return None
+        return _distance_from(self.reach, self.grid, points, t, s) > self.diameter_mm
+
+
+def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed: bool,
+                   limit_mm: float) -> NDArray[np.float64]:
+    """Distance over the surface from every node of the sample grid to the nearest source, mm.
+
+    Shortest paths on the sample grid ``(n_t, n_s, 3)`` (its rows at ``t = i / (n_t - 1)``,
+    columns likewise in ``s``), edges to the 8 neighbours weighted by their chord (the
+    seam joined on closed sections), from every source node at once. Over a thin part
+    this is the way round its edge, not through its thickness. Paths are followed up to
+    ``limit_mm``: a distance beyond it may read ``inf``.
+    """
+    n_t, n_s = sources.shape
+    node = np.arange(n_t * n_s).reshape(n_t, n_s)
+    pairs = [(node[1:, :], node[:-1, :]), (node[:, 1:], node[:, :-1]),
+             (node[1:, 1:], node[:-1, :-1]), (node[1:, :-1], node[:-1, 1:])]
+    if closed:
+        pairs.append((node[0, :], node[-1, :]))
+    a = np.concatenate([p[0].ravel() for p in pairs])
+    b = np.concatenate([p[1].ravel() for p in pairs])
+    flat = grid.reshape(-1, 3)
+    # a stored 0 is no edge to the graph: coincident nodes (a collapsed row) keep theirs
+    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), LENGTH_SLACK_MM)
+    graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
+    return scipy.sparse.csgraph.dijkstra(graph, directed=False,
+                                         indices=np.flatnonzero(sources.ravel()),
+                                         min_only=True, limit=limit_mm)
+
+
+def _distance_from(reach: NDArray[np.float64], grid: NDArray[np.float64],
+                   points: NDArray[np.float64], t: NDArray[np.float64],
+                   s: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Distance over the surface from ``points`` (at ``t, s``) to the nearest source, mm.
+
+    Through the best of the four grid nodes around each point (:func:`_surface_reach`).
+    """
+    n_t, n_s = grid.shape[:2]
+    node = np.arange(n_t * n_s).reshape(n_t, n_s)
+    flat = grid.reshape(-1, 3)
+    i0 = np.clip(np.floor(t * (n_t - 1)).astype(np.int64), 0, n_t - 2)
+    j0 = np.clip(np.floor(s * (n_s - 1)).astype(np.int64), 0, n_s - 2)
+    best = np.full(len(points), np.inf)
+    for di in (0, 1):
+        for dj in (0, 1):
+            k = node[i0 + di, j0 + dj]
+            best = np.minimum(best, reach[k] + np.linalg.norm(points - flat[k], axis=1))
+    return best
