@@ -93,6 +93,11 @@ def test_the_scallop_is_the_largest_of_the_seeds_cusps():
     assert cusps.estimate_mm[skipped].max() < ESTIMATE_SHARE * scallop.max_mm
 
 
+#: The share of the high interior seeds that must have an estimate (the lowest, 78 %, is
+#: flat:6 on the sphere cap in 5 axes, where some passes run too steeply across the plane).
+LEAST_ESTIMATED = 0.7
+
+
 def _estimates_over_ray_cast(surface, cutter="ball:6", **options):
     """Each seed's estimate over its ray cast cusp, where both stand and the cusp is high.
 
@@ -108,12 +113,16 @@ def _estimates_over_ray_cast(surface, cutter="ball:6", **options):
     np.testing.assert_allclose(fast.height_mm[fast.cast], full.height_mm[fast.cast],
                                rtol=1e-9, atol=0.0)
     guess, h = fast.estimate_mm, full.height_mm
-    both = np.isfinite(guess) & np.isfinite(h) & (h > 0.5 * np.nanmax(h))
+    high = np.isfinite(h) & (h > 0.5 * np.nanmax(h))
     # at the passes' ends (the patch's edges t = 0, 1) the nearest pieces are the links',
     # and the estimate reads the ridge as sunk (below the ray cast, which a dense scan of
     # those brackets confirms): the interior's cusps, as high, are cast there
-    both &= (fast.t > 1e-9) & (fast.t < 1.0 - 1e-9)
+    high &= (fast.t > 1e-9) & (fast.t < 1.0 - 1e-9)
+    both = high & np.isfinite(guess)
     assert both.sum() > 100
+    # a seed without an estimate is cast: an estimate that gave up where it reads low
+    # would pass the ratios below while testing nothing
+    assert both.sum() >= LEAST_ESTIMATED * high.sum(), (both.sum(), high.sum())
     return guess[both] / h[both]
 
 
