@@ -68,6 +68,11 @@ class Kernel(NamedTuple):
         return {"module": self.module, "name": self.name, "stage": self.stage,
                 "args": list(self.args)}
 
+    @classmethod
+    def from_json(cls, entry: Mapping[str, Any]) -> Kernel:
+        """The kernel of an :meth:`as_json` object (KeyError, TypeError if malformed)."""
+        return cls(entry["module"], entry["name"], tuple(entry["args"]), entry["stage"])
+
 
 # -- argument types <-> JSON ---------------------------------------------------------------
 
@@ -101,8 +106,8 @@ def _scalar(name: str) -> Any:
     return kind
 
 
-def _named(path: str) -> type:
-    """The class ``module:qualname``."""
+def _named(path: str) -> Any:
+    """The object ``module:qualname`` (a record class, a kernel)."""
     module, _, qualname = path.partition(":")
     found: Any = importlib.import_module(module)
     for part in qualname.split("."):
@@ -126,9 +131,7 @@ def decode_type(entry: Any) -> Any:
 
 def _dispatcher(kernel: Kernel) -> Any:
     """The kernel's numba dispatcher (ImportError, AttributeError if gone)."""
-    found: Any = importlib.import_module(kernel.module)
-    for part in kernel.name.split("."):
-        found = getattr(found, part)
+    found = _named(f"{kernel.module}:{kernel.name}")
     if not hasattr(found, "compile") or not hasattr(found, "py_func"):
         raise AttributeError(f"{kernel.module}.{kernel.name} is not a compiled kernel")
     return found
@@ -146,8 +149,7 @@ def job_kernels(axis_mode: str, stages: Sequence[str],
         recorded = json.loads(path.read_text(encoding="utf-8"))["jobs"][axis_mode]
     except (OSError, ValueError, KeyError, TypeError):
         return []
-    return [Kernel(k["module"], k["name"], tuple(k["args"]), k["stage"])
-            for k in recorded if k["stage"] in stages]
+    return [Kernel.from_json(k) for k in recorded if k["stage"] in stages]
 
 
 def cache_is_cold(kernels: Sequence[Kernel]) -> bool:
@@ -292,8 +294,7 @@ def _helper_main() -> int:
     import toolpath  # noqa: F401  (the kernel cache's folder and lock, before numba loads)
 
     try:
-        kernels = [Kernel(k["module"], k["name"], tuple(k["args"]), k["stage"])
-                   for k in json.loads(line)]
+        kernels = [Kernel.from_json(k) for k in json.loads(line)]
     except (ValueError, KeyError, TypeError):
         return 2
     compile_kernels(kernels)

@@ -8,6 +8,8 @@ cannot decide (:mod:`.measure`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -119,15 +121,13 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     inward, _ = radial_directions(seeds.n, unit(volume.axes0[near] + volume.axes1[near]))
     target = corner + (big - r) * inward
     found = np.full((n_seed, 2), -1, dtype=np.int64)
-    todo = np.arange(n_seed)
-    apart, limit = volume.near_mm, 2.0 * big + volume.step_mm
-    while todo.size:
+
+    def search(todo: NDArray[np.int64], apart_mm: float) -> NDArray[np.bool_]:
         found[todo] = nearest_pieces(target[todo], seeds.x_s[todo], seeds.pass_[todo],
-                                     volume.near_cells, apart, a, e, volume.pass_of)
-        todo = todo[(found[todo] < 0).any(axis=1)]
-        if apart >= limit:
-            break
-        apart = min(4.0 * apart, limit)
+                                     volume.near_cells, apart_mm, a, e, volume.pass_of)
+        return (found[todo] < 0).any(axis=1)
+
+    _widening(volume, n_seed, search)
     ok = np.flatnonzero((found >= 0).all(axis=1))
     own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
                                                     seeds.n[ok])
@@ -239,15 +239,29 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     x = np.zeros((n_seed, 3))
     inside = np.zeros((n_seed, 2))
     state = np.full(n_seed, RIDGE_NO_PASS)
-    todo = np.arange(n_seed)
-    radius = volume.near_mm
-    limit = 2.0 * big + volume.step_mm
-    while todo.size:
+
+    def search(todo: NDArray[np.int64], radius_mm: float) -> NDArray[np.bool_]:
         x[todo], inside[todo], state[todo] = ridges(
             centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
-            volume.near_cells, radius, volume.a, seg, volume.pass_of, big)
-        todo = todo[state[todo] == RIDGE_NO_PASS]
-        if radius >= limit:
-            break
-        radius = min(4.0 * radius, limit)
+            volume.near_cells, radius_mm, volume.a, seg, volume.pass_of, big)
+        return state[todo] == RIDGE_NO_PASS
+
+    _widening(volume, n_seed, search)
     return x, inside, state
+
+
+def _widening(volume: CutVolume, count: int,
+              search: Callable[[NDArray[np.int64], float], NDArray[np.bool_]]) -> None:
+    """Run ``search(rows, reach_mm)`` over rows ``0 .. count - 1`` with a reach that widens.
+
+    First within :attr:`CutVolume.near_mm`; the rows ``search`` reports as not found again
+    within 4 times that, and so on up to ``2 R`` and a piece's length (beyond it another
+    pass's tube cannot meet the own pass's).
+    """
+    todo = np.arange(count)
+    reach, limit = volume.near_mm, 2.0 * volume.cutter.radius_mm + volume.step_mm
+    while todo.size:
+        todo = todo[search(todo, reach)]
+        if reach >= limit:
+            break
+        reach = min(4.0 * reach, limit)
