@@ -45,6 +45,7 @@ from .projection_kernel import (
     seam_lerp,
     trial,
 )
+from .row_threads import run_in_threads
 
 __all__ = ["MOVES_CHUNK", "MoveStarts", "Moves", "NewtonSearch", "StreamlineKernel",
            "SurfaceArrays", "move_points", "n_partials", "project_points",
@@ -387,21 +388,17 @@ _partials_at = numba.njit(cache=True)(_point_partials.py_func)
 #: partials already at hand, to second order: :func:`_taylor_signed`).
 SMALL_STEP_SHARE = 0.1
 
-#: Points per block of the compiled loops run in parallel (each block its own scratch).
-BLOCK = 1024
 
-
-@numba.njit(cache=True, parallel=True)
 def streamline_partials(t, s, sf, order, out):
     """Fill ``out[j, i]`` with the ``j``-th partial (order of :data:`ORDERS`) at point ``i``.
 
-    ``sf``: the surface's :class:`SurfaceArrays`.
+    ``sf``: the surface's :class:`SurfaceArrays`. Slices of the points in threads
+    (:func:`~toolpath.row_threads.run_in_threads`, :func:`_partials_block`).
     """
-    for block in numba.prange((t.size + BLOCK - 1) // BLOCK):
-        _partials_block(t, s, sf, order, out, block * BLOCK, min((block + 1) * BLOCK, t.size))
+    run_in_threads(_partials_block, t.size, t, s, sf, order, out)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _partials_block(t, s, sf, order, out, lo, hi):
     """:func:`streamline_partials` for points ``lo .. hi - 1``."""
     work = _scratch()
@@ -409,7 +406,6 @@ def _partials_block(t, s, sf, order, out, lo, hi):
         _partials_at(t[i], s[i], sf, order, out, i, work)
 
 
-@numba.njit(cache=True, parallel=True)
 def project_points(p, sf, search, t, s, dist):
     """Newton projection of points ``p[i]`` from ``(t[i], s[i])``, in place; ``dist[i]``.
 
@@ -418,26 +414,31 @@ def project_points(p, sf, search, t, s, dist):
     ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
     the foot (one more evaluation of the first partials there). The search
     (:func:`_project_one`, the steps of :mod:`toolpath.projection_kernel`) is inlined
-    here, the one compiled loop that runs it (points inside moves come here too:
-    :meth:`StreamlineKernel.project_moves`); then the corner rule at a closed surface's
-    seam (:func:`_seam_signed`).
+    in :func:`_project_block`, the one compiled loop that runs it (points inside moves
+    come here too: :meth:`StreamlineKernel.project_moves`); then the corner rule at a
+    closed surface's seam (:func:`_seam_signed`). Slices of the points in threads
+    (:func:`~toolpath.row_threads.run_in_threads`).
     """
-    m = p.shape[0]
-    for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        work = _scratch()
-        fr = np.empty((6, 1, 3))
-        pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
-        # each point is copied into a one-row array of this thread's, searched as row 0:
-        # faster than searching p[j] where it lies (measured 10-15 %)
-        q1 = np.empty((1, 3))
-        t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
-        for j in range(block * BLOCK, min((block + 1) * BLOCK, m)):
-            q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
-            t1[0], s1[0] = t[j], s[j]
-            _project_one(q1, 0, t1, s1, sf, search, d1, work, fr, pt)
-            if search.closed and search.orientation != 0.0:
-                _seam_signed(q1, 0, t1, s1, sf, search.orientation, d1, work, pt)
-            t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
+    run_in_threads(_project_block, p.shape[0], p, sf, search, t, s, dist)
+
+
+@numba.njit(cache=True, nogil=True)
+def _project_block(p, sf, search, t, s, dist, lo, hi):
+    """:func:`project_points` for points ``lo .. hi - 1``."""
+    work = _scratch()
+    fr = np.empty((6, 1, 3))
+    pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
+    # each point is copied into a one-row array of this thread's, searched as row 0:
+    # faster than searching p[j] where it lies (measured 10-15 %)
+    q1 = np.empty((1, 3))
+    t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
+    for j in range(lo, hi):
+        q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
+        t1[0], s1[0] = t[j], s[j]
+        _project_one(q1, 0, t1, s1, sf, search, d1, work, fr, pt)
+        if search.closed and search.orientation != 0.0:
+            _seam_signed(q1, 0, t1, s1, sf, search.orientation, d1, work, pt)
+        t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
 @numba.njit(cache=True)
@@ -567,7 +568,7 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
     and the distance there is the second-order expansion from the partials at hand
     (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
     distance, the same distance to a nanometre). (The kernels then apply the corner rule
-    at a closed surface's seam: :func:`_seam_signed`.) Inlined in :func:`project_points`
+    at a closed surface's seam: :func:`_seam_signed`.) Inlined in :func:`_project_block`
     alone (points inside moves come there too).
     """
     closed, iterations, extra, converged_mm, orientation = search

@@ -25,6 +25,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..row_threads import run_in_threads
 from .cutter_kernel import cutter_distance
 
 __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
@@ -223,10 +224,10 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
     capsule = Capsule(float(low_mm), float(max(high_mm, low_mm)), float(reach_mm),
                       float(reach_mm) * float(reach_mm), float(near_radius_mm * near_radius_mm),
                       has_contacts)
-    _clearances(cells, np.ascontiguousarray(tips_mm, dtype=float),
-                np.ascontiguousarray(axes, dtype=float), contacts, capsule,
-                Cutter(float(corner_mm), float(radius_mm), float(flute_mm)), near, far,
-                near_i, far_i)
+    run_in_threads(_clearance_rows, n, cells, np.ascontiguousarray(tips_mm, dtype=float),
+                   np.ascontiguousarray(axes, dtype=float), contacts, capsule,
+                   Cutter(float(corner_mm), float(radius_mm), float(flute_mm)), near, far,
+                   near_i, far_i)
     return near, far, near_i, far_i
 
 
@@ -355,9 +356,10 @@ def _index_range(x0, x1, pad, origin, cell, n):
             min(math.floor((hi - origin) / cell) + 1, n))
 
 
-@numba.njit(cache=True, parallel=True)
-def _clearances(binned, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i):
-    """The loop of :func:`clearances`, blocks of locations in parallel.
+@numba.njit(cache=True, nogil=True)
+def _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i,
+                    lo, hi):
+    """The loop of :func:`clearances` for locations ``lo .. hi - 1`` (slices in threads).
 
     The segment ``p0 + u d`` (``u`` in ``[0, 1]``) is clipped to each row of cells (in
     ``y``, widened by ``reach``), the piece left to each column of the row (in ``x``),
@@ -366,20 +368,6 @@ def _clearances(binned, tips, axes, contacts, capsule, cutter, near, far, near_i
     ``reach`` (as a cube), or where a lower bound of the box's distance to the piece
     (:func:`_box_bound`) exceeds ``reach``; the samples of the others are each tested
     (:func:`_cell_clearances`).
-    """
-    m = tips.shape[0]
-    for block in numba.prange((m + BLOCK - 1) // BLOCK):
-        _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, near_i,
-                        far_i, block * BLOCK, min((block + 1) * BLOCK, m))
-
-
-@numba.njit(cache=True)
-def _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, near_i, far_i,
-                    lo, hi):
-    """:func:`_clearances` for locations ``lo .. hi - 1``.
-
-    A serial function the parallel loop calls, not its body: numba compiles a parallel
-    loop's body twice (typed and lowered again as a kernel of its own).
     """
     points, index, cell_start, origin, shape, cell, box, column = binned
     low, high, reach = capsule.low, capsule.high, capsule.reach
@@ -463,26 +451,28 @@ def _cell_clearances(points, index, first, stop, tip, axis, contact, capsule, cu
     return near_mm, near_at, far_mm, far_at
 
 
-@numba.njit(cache=True, parallel=True)
-def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size):
-    """Count (``items`` empty) or list the points within ``radius`` of each query."""
+@numba.njit(cache=True, nogil=True)
+def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size, lo, hi):
+    """Count (``items`` empty) or list the points within ``radius`` of queries ``lo .. hi - 1``.
+
+    (Slices of the queries in threads: :func:`~toolpath.row_threads.run_in_threads`.)
+    """
     points, index, cell_start, origin, shape, cell, box, _ = binned
-    for block in numba.prange((queries.shape[0] + BLOCK - 1) // BLOCK):
-        cells = np.empty(scratch_size, dtype=np.int64)
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, queries.shape[0])):
-            c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
-            found = 0
-            for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
-                cid = cells[m]
-                for j in range(cell_start[cid], cell_start[cid + 1]):
-                    e0 = points[j, 0] - c0
-                    e1 = points[j, 1] - c1
-                    e2 = points[j, 2] - c2
-                    if e0 * e0 + e1 * e1 + e2 * e2 <= radius * radius:
-                        if items.size:
-                            items[starts[i] + found] = index[j]
-                        found += 1
-            counts[i] = found
+    cells = np.empty(scratch_size, dtype=np.int64)
+    for i in range(lo, hi):
+        c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
+        found = 0
+        for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
+            cid = cells[m]
+            for j in range(cell_start[cid], cell_start[cid + 1]):
+                e0 = points[j, 0] - c0
+                e1 = points[j, 1] - c1
+                e2 = points[j, 2] - c2
+                if e0 * e0 + e1 * e1 + e2 * e2 <= radius * radius:
+                    if items.size:
+                        items[starts[i] + found] = index[j]
+                    found += 1
+        counts[i] = found
 
 
 def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
@@ -497,9 +487,10 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     starts = np.zeros(len(q), dtype=np.int64)
     args = (cells, q, float(radius_mm))
     scratch = cell_scratch_size(radius_mm, cells.cell_mm)
-    _pairs_within(*args, counts, starts, np.zeros(0, dtype=np.int64), scratch)
+    run_in_threads(_pairs_within, len(q), *args, counts, starts, np.zeros(0, dtype=np.int64),
+                   scratch)
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)
     if items.size:
-        _pairs_within(*args, counts, starts, items, scratch)
+        run_in_threads(_pairs_within, len(q), *args, counts, starts, items, scratch)
     return np.repeat(np.arange(len(q)), counts), items

@@ -22,6 +22,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..row_threads import run_in_threads
 from .clearance_kernel import BLOCK, SampleCells, cell_scratch_size, cells_near
 
 __all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "nearest_pieces",
@@ -73,9 +74,9 @@ def _near(points, jj, px, py, pz, reach):
     return d0 * d0 + d1 * d1 + d2 * d2 <= reach * reach
 
 
-@numba.njit(cache=True, parallel=True)
-def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out):
-    """The loop of :func:`ridges`, blocks of seeds in parallel.
+@numba.njit(cache=True, nogil=True)
+def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out, lo, hi):
+    """The loop of :func:`ridges` for seeds ``lo .. hi - 1`` (slices of them in threads).
 
     ``seeds`` (:class:`Seeds`), the pieces' midpoints binned
     (:class:`~.clearance_kernel.SampleCells`), ``pieces`` (:class:`Pieces`), into ``out``
@@ -87,72 +88,71 @@ def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out):
     points, index, cell_start, origin, shape, cell, box, _ = binned
     a, e, pass_of = pieces
     point, inside, state = out
-    for block in numba.prange((centre.shape[0] + BLOCK - 1) // BLOCK):
-        cells = np.empty(scratch_size, dtype=np.int64)
-        near = np.empty(room, dtype=np.int64)
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, centre.shape[0])):
-            px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
-            n_cells = cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
-            d_own, d_other = math.inf, math.inf
-            j_own, j_other = -1, -1
-            o0 = o1 = o2 = q0 = q1 = q2 = 0.0
-            n_near = 0
-            for m in range(n_cells):
-                for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
-                    if not _near(points, jj, px, py, pz, reach):
-                        continue
-                    j = index[jj]
-                    near[n_near] = j
-                    n_near += 1
-                    f0, f1, f2 = _foot(px, py, pz, a, e, j)
-                    w0, w1, w2 = f0 - px, f1 - py, f2 - pz
-                    dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
-                    if pass_of[j] == own[i]:
-                        if dist < d_own:
-                            d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
-                    elif (w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0
-                          and dist < d_other):
-                        d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
-            if j_own < 0 or j_other < 0:
-                state[i] = RIDGE_NO_PASS
-                continue
-            u0, u1, u2 = e[j_own, 0], e[j_own, 1], e[j_own, 2]
-            length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
-            if length <= 0.0:
-                state[i] = RIDGE_NO_LENGTH
-                continue
-            u0, u1, u2 = u0 / length, u1 / length, u2 / length
-            d0, d1, d2 = q0 - o0, q1 - o1, q2 - o2
-            along = d0 * u0 + d1 * u1 + d2 * u2
-            c0, c1, c2 = d0 - along * u0, d1 - along * u1, d2 - along * u2  # across
-            half = 0.5 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-            v0, v1, v2 = u1 * c2 - u2 * c1, u2 * c0 - u0 * c2, u0 * c1 - u1 * c0
-            v_len = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
-            if v_len <= 0.0:
-                state[i] = RIDGE_NO_LENGTH
-                continue
-            if half >= radius:
-                state[i] = RIDGE_OPEN
-                continue
-            up = v0 * normal[i, 0] + v1 * normal[i, 1] + v2 * normal[i, 2]
-            drop = math.sqrt(radius * radius - half * half) * (1.0 if up >= 0.0 else -1.0) / v_len
-            x0 = o0 + 0.5 * c0 - drop * v0
-            x1 = o1 + 0.5 * c1 - drop * v1
-            x2 = o2 + 0.5 * c2 - drop * v2
-            third = 0.0
-            two = 0.0
-            for k in range(n_near):
-                j = near[k]
-                f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
-                depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
-                if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
-                    two = max(two, depth)
-                else:
-                    third = max(third, depth)
-            point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
-            inside[i, 0] = third
-            inside[i, 1] = two
-            state[i] = RIDGE_FOUND
+    cells = np.empty(scratch_size, dtype=np.int64)
+    near = np.empty(room, dtype=np.int64)
+    for i in range(lo, hi):
+        px, py, pz = centre[i, 0], centre[i, 1], centre[i, 2]
+        n_cells = cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
+        d_own, d_other = math.inf, math.inf
+        j_own, j_other = -1, -1
+        o0 = o1 = o2 = q0 = q1 = q2 = 0.0
+        n_near = 0
+        for m in range(n_cells):
+            for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
+                if not _near(points, jj, px, py, pz, reach):
+                    continue
+                j = index[jj]
+                near[n_near] = j
+                n_near += 1
+                f0, f1, f2 = _foot(px, py, pz, a, e, j)
+                w0, w1, w2 = f0 - px, f1 - py, f2 - pz
+                dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
+                if pass_of[j] == own[i]:
+                    if dist < d_own:
+                        d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
+                elif (w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0
+                      and dist < d_other):
+                    d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
+        if j_own < 0 or j_other < 0:
+            state[i] = RIDGE_NO_PASS
+            continue
+        u0, u1, u2 = e[j_own, 0], e[j_own, 1], e[j_own, 2]
+        length = math.sqrt(u0 * u0 + u1 * u1 + u2 * u2)
+        if length <= 0.0:
+            state[i] = RIDGE_NO_LENGTH
+            continue
+        u0, u1, u2 = u0 / length, u1 / length, u2 / length
+        d0, d1, d2 = q0 - o0, q1 - o1, q2 - o2
+        along = d0 * u0 + d1 * u1 + d2 * u2
+        c0, c1, c2 = d0 - along * u0, d1 - along * u1, d2 - along * u2  # across
+        half = 0.5 * math.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+        v0, v1, v2 = u1 * c2 - u2 * c1, u2 * c0 - u0 * c2, u0 * c1 - u1 * c0
+        v_len = math.sqrt(v0 * v0 + v1 * v1 + v2 * v2)
+        if v_len <= 0.0:
+            state[i] = RIDGE_NO_LENGTH
+            continue
+        if half >= radius:
+            state[i] = RIDGE_OPEN
+            continue
+        up = v0 * normal[i, 0] + v1 * normal[i, 1] + v2 * normal[i, 2]
+        drop = math.sqrt(radius * radius - half * half) * (1.0 if up >= 0.0 else -1.0) / v_len
+        x0 = o0 + 0.5 * c0 - drop * v0
+        x1 = o1 + 0.5 * c1 - drop * v1
+        x2 = o2 + 0.5 * c2 - drop * v2
+        third = 0.0
+        two = 0.0
+        for k in range(n_near):
+            j = near[k]
+            f0, f1, f2 = _foot(x0, x1, x2, a, e, j)
+            depth = radius - math.sqrt((f0 - x0) ** 2 + (f1 - x1) ** 2 + (f2 - x2) ** 2)
+            if pass_of[j] == own[i] or pass_of[j] == pass_of[j_other]:
+                two = max(two, depth)
+            else:
+                third = max(third, depth)
+        point[i, 0], point[i, 1], point[i, 2] = x0, x1, x2
+        inside[i, 0] = third
+        inside[i, 1] = two
+        state[i] = RIDGE_FOUND
 
 
 def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArray[np.float64],
@@ -202,8 +202,8 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         scratch = cell_scratch_size(reach_mm, cells.cell_mm)
         # room for the pieces of the fullest cells a seed can meet
         room = min(len(cells.index), scratch * int(np.diff(cells.cell_start).max()))
-        _ridges(seeds, cells, float(reach_mm), scratch, room, pieces, float(radius_mm),
-                Ridges(point, inside, state))
+        run_in_threads(_ridges, m, seeds, cells, float(reach_mm), scratch, room, pieces,
+                       float(radius_mm), Ridges(point, inside, state))
     return point, inside, state
 
 

@@ -39,6 +39,7 @@ from machines.kinematics import forward
 
 from ..compiled import Moves
 from ..projection_kernel import seam_lerp_rows
+from ..row_threads import run_in_threads
 from ..surface import ParametricSurface
 from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF
 from .cutters import Cutter, CutterKind, disc_basis
@@ -474,10 +475,10 @@ def _nlerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _lerp_rows(a, b, u, unit, out):
     m, k = u.shape
-    for i in numba.prange(m):
+    for i in range(m):
         for j in range(k):
             w = u[i, j]
             row = i * k + j
@@ -637,8 +638,9 @@ def chord_extremes(gaps: NDArray[np.float64], fractions: ArrayLike = CHORD_FRACT
         raise ValueError(f"the gap model takes three conditions, got {basis.shape[0]} "
                          f"({u.size} fractions{slopes})")
     out = np.empty((4, len(gaps)))
-    _model_extremes(np.ascontiguousarray(values), np.linalg.inv(basis), _GRID,
-                    np.ascontiguousarray(gaps if with_samples else gaps[:, :0]), out)
+    run_in_threads(_model_extremes_rows, len(gaps), np.ascontiguousarray(values),
+                   np.linalg.inv(basis), _GRID,
+                   np.ascontiguousarray(gaps if with_samples else gaps[:, :0]), out)
     return out[0], out[1], out[2], out[3]
 
 
@@ -682,18 +684,17 @@ def _gap_model(u, a, b, c):
     return u * (1.0 - u) * (a + b * u + c * u * u)
 
 
-#: Rows per block of :func:`_model_extremes` run in parallel.
-_EXTREMES_BLOCK = 4096
 #: The measured gaps enter the move's model clipped to +- this, mm: a failed projection
 #: (a gap of a metre or ``inf``) must not make the cubic's coefficients overflow, and a
 #: clipped gap still exceeds any tolerance by far.
 MODEL_GAP_CLIP_MM = 1e3
 
 
-@numba.njit(cache=True, parallel=True)
-def _model_extremes(values, inverse, n_grid, samples, out):
+@numba.njit(cache=True, nogil=True)
+def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
     """Per row: ``out[0:2]`` the model's lowest value and where, ``out[2:4]`` its highest.
 
+    Rows ``first .. stop - 1`` (slices of them in threads: :func:`run_in_threads`).
     The model's coefficients are ``inverse @ values[i]`` (clipped to
     +-:data:`MODEL_GAP_CLIP_MM`). Its
     extremes are at the ends (0) or where ``g'`` (a cubic) vanishes: ``g'`` is sampled at
@@ -701,14 +702,6 @@ def _model_extremes(values, inverse, n_grid, samples, out):
     (every bump and dip, beside an end too; two roots within one step, a wiggle of no
     depth, would cancel). The extremes also over ``samples[i]`` (none: no columns).
     """
-    for block in numba.prange((values.shape[0] + _EXTREMES_BLOCK - 1) // _EXTREMES_BLOCK):
-        _model_extremes_rows(values, inverse, n_grid, samples, out, block * _EXTREMES_BLOCK,
-                             min((block + 1) * _EXTREMES_BLOCK, values.shape[0]))
-
-
-@numba.njit(cache=True)
-def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
-    """:func:`_model_extremes` of rows ``first .. stop - 1``."""
     step = 1.0 / (n_grid - 1)
     for i in range(first, stop):
         a = b = c = 0.0

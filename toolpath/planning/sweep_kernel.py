@@ -348,13 +348,13 @@ def _capsule_entry(q, n, a, b, r2):
     return best
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _capsule_entries(rays, pieces, segments, r2, stop, out):
     """The loop of :func:`capsule_entries`: :class:`Rays`, :class:`RayPieces`, :class:`Segments`."""
     q, n = rays
     lo, hi, item = pieces
     a, b = segments
-    for i in numba.prange(lo.size):
+    for i in range(lo.size):
         best = np.inf
         for k in range(lo[i], hi[i]):
             best = min(best, _capsule_entry(q[i], n[i], a[item[k]], b[item[k]], r2))
@@ -412,12 +412,12 @@ def _segment_distance(p0, p1, q0, q1):
     return math.sqrt(total)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _segment_distances(first, owner, second, item, out):
     """The loop of :func:`segment_distances` (two :class:`Segments`)."""
     p0, p1 = first
     a, b = second
-    for k in numba.prange(owner.size):
+    for k in range(owner.size):
         out[k] = _segment_distance(p0[owner[k]], p1[owner[k]], a[item[k]], b[item[k]])
 
 
