@@ -108,7 +108,7 @@ def run_plan(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
 
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
-    # on a cold kernel cache, a second process compiles the later stages' kernels
+    # on a cold kernel cache, helper processes compile the job's kernels too
     with background_compile(job_kernels(args.axis, ("plan",)), say=say_on_stderr):
         surface = placed_surface(load_surface(args.surface), args)
         options: dict[str, Any] = {

@@ -138,7 +138,7 @@ def _run(args: argparse.Namespace) -> int:
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
     stream = make_streamer(target, dialect=args.dialect) if target else None
-    # on a cold kernel cache, a second process compiles the later stages' kernels
+    # on a cold kernel cache, helper processes compile the job's kernels too
     stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())
     try:
         with background_compile(job_kernels(args.axis, stages),
