@@ -33,7 +33,13 @@ from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Final
 
-from .background_compile import Kernel, compile_kernel, recorded_kernels, usable_cores
+from .background_compile import (
+    Kernel,
+    compile_kernel,
+    recorded_kernels,
+    usable_cores,
+    work_ahead,
+)
 
 __all__ = ["both_ends", "load_kernels", "warm_kernel", "warm_up"]
 
@@ -50,15 +56,22 @@ def both_ends(count: int) -> list[int]:
     return order
 
 
-def warm_kernel(kernel: Kernel, wait: bool) -> tuple[str, float]:
+def warm_kernel(kernel: Kernel, wait: bool, meanwhile: Sequence[Kernel] = ()
+                ) -> tuple[str, float]:
     """Compile ``kernel`` into the cache (:func:`~.background_compile.compile_kernel`).
 
     Returns what was done (``"compiled"``, ``"cached"``, with ``wait=False`` ``"busy"``, or
-    ``"failed: ..."`` with the error) and the CPU seconds it took.
+    ``"failed: ..."`` with the error) and the CPU seconds it took. While the compile waits
+    for another process's compile of a kernel it calls, the first free kernels of
+    ``meanwhile`` compile here (:func:`~.background_compile.work_ahead`; handed out later,
+    they are found in the cache).
     """
+    from toolpath.kernel_cache import working_while_waiting
+
     cpu = time.process_time()
     try:
-        state = compile_kernel(kernel, wait=wait)
+        with working_while_waiting(work_ahead(meanwhile)):
+            state = compile_kernel(kernel, wait=wait)
     except Exception as exc:  # (any error of numba's: reported, and the kernel skipped)
         reason = (str(exc).strip().splitlines() or [""])[0][:200]
         state = f"failed: {type(exc).__name__}: {reason}"
@@ -135,8 +148,13 @@ def _in_processes(workers: int, kernels: Sequence[Kernel], pending: list[int],
     spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
     with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
                              initializer=_one_thread) as pool:
-        running: dict[Future, int] = {pool.submit(warm_kernel, kernels[i], False): i
-                                      for i in pending}
+        def submit(index: int, wait: bool) -> None:
+            later = [kernels[i] for i in pending[pending.index(index) + 1:]]
+            running[pool.submit(warm_kernel, kernels[index], wait, later)] = index
+
+        running: dict[Future, int] = {}
+        for index in pending:
+            submit(index, False)
         try:
             while running:
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
@@ -144,7 +162,7 @@ def _in_processes(workers: int, kernels: Sequence[Kernel], pending: list[int],
                     index = running.pop(future)
                     state, cpu_s = future.result()
                     if state == "busy":
-                        running[pool.submit(warm_kernel, kernels[index], True)] = index
+                        submit(index, True)
                         continue
                     progress.done(index, state, cpu_s)
                     pending.remove(index)
