@@ -320,11 +320,13 @@ def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | N
             what = "a second process" if len(helpers) == 1 else f"{len(helpers)} more processes"
             say(f"toolpath: the kernel cache lacks this job's kernels: compiling them in "
                 f"{what} too ({ENV_SWITCH}=0 turns it off)")
-    from toolpath.kernel_cache import working_while_waiting
+    meanwhile: contextlib.AbstractContextManager = contextlib.nullcontext()
+    if helpers:  # (the job compiles its next free kernel while it waits for a helper's)
+        from toolpath.kernel_cache import working_while_waiting
 
+        meanwhile = working_while_waiting(work_ahead(kernels))
     try:
-        with (working_while_waiting(work_ahead(kernels)) if helpers
-              else contextlib.nullcontext()):
+        with meanwhile:
             yield helpers
     finally:
         for helper in helpers:
