@@ -19,10 +19,10 @@ chord 0.01; ``--quick``: scallop 0.05, chord 0.02), with the stage split of the 
 cache (what ``make install`` runs) and the 5-axis plan right after it: the first job of an
 install that ran the warm-up.
 
-``--split`` prints only where the warm-up's compiling goes: its jobs one after the other
-in one process on an empty cache, with the CPU seconds of each kernel's compile (its own,
-without the kernels it calls; numba's ``numba:compile`` events) and the kernels compiled
-for more than one signature (each should have one).
+``--split`` prints only where the warm-up's compiling goes: the recorded kernels compiled
+one after the other in one process on an empty cache, with the CPU seconds of each
+kernel's compile (its own, without the kernels it calls; numba's ``numba:compile`` events)
+and the kernels compiled for more than one signature (each should have one).
 
 Beside each figure: the issue's "today" figures, and the ratios the targets name, measured
 in this run: ``cold - warm`` against the 15 s cold-start target, ``--help`` and ``check``
@@ -113,7 +113,7 @@ class Table:
 
 
 def compile_split() -> None:
-    """The warm-up's jobs in this process, and the CPU seconds of each kernel's compile.
+    """The warm-up's kernels compiled in this process, and the CPU seconds of each compile.
 
     Run with an empty ``NUMBA_CACHE_DIR`` (``--split`` sets one). A compile's own time is
     its time less that of the compiles it started (the kernels it calls).

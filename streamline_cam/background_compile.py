@@ -1,27 +1,29 @@
-"""A cold job's later kernels compiled in a second process while it runs (issue 27).
+"""A cold job's kernels compiled in helper processes while it runs (issue 27).
 
 The first job after an install compiles every kernel it calls (numba, ``cache=True``), one
 after the other, on one core: the fit's, then the planner's stage by stage, the post's,
-the check's, the verifier's. On a cold kernel cache, :func:`background_compile` starts a
-helper process at the beginning of the job that compiles the same kernels for the same
-argument types, **last stage first**, while the job compiles its own from the first stage
-on. Where the two meet, a kernel the helper compiled is loaded by the job (the kernel
-cache's per-kernel lock makes the job wait for a compile in progress, then load it,
-:mod:`toolpath.kernel_cache`), so two cores share the compiling.
+the check's, the verifier's. On a cold kernel cache, :func:`background_compile` starts
+helper processes at the beginning of the job (one per usable core but the job's) that
+compile the same kernels for the same argument types into the cache while the job
+compiles its own from the first stage on. The processes share the list instead of waiting
+for each other (:func:`toolpath.kernel_cache.compile_if_free`): a helper starts half way
+into it (:func:`helper_order`), goes on to the end, then back from half way, and skips a
+kernel the cache holds or another process compiles; the job loads what a helper compiled,
+and when it calls a kernel a helper compiles at that moment, it compiles the next free
+kernel of its own meanwhile (:func:`work_ahead`) instead of waiting idle.
 
-The helper needs each kernel's argument types before the job has made its arguments: they
+The helpers need each kernel's argument types before the job has made its arguments: they
 are recorded from real jobs in ``data/job_kernels.json`` (:data:`KERNELS_FILE`), per axis
 mode and job stage, in the order the jobs first call them (``python -m
 streamline_cam.background_compile --record FILE`` writes it; a test checks it is current).
 
-Not needed for correctness: a kernel the helper did not reach, or whose recorded types no
-longer match, compiles in the job as before; a helper that fails or is slow changes only
-the time. The helper stops with the job (on an error or Ctrl-C too), and by itself when the
-job's process is gone (its standard input closes). It starts only when the kernel cache
-misses one of the job's kernels and the process may use more than one core, and only for the
-``toolpath plan`` and ``toolpath run`` commands: a warm job, a service worker or a batch
-worker never starts one.
-``TOOLPATH_BACKGROUND_COMPILE=0`` turns it off.
+Not needed for correctness: a kernel no helper reached, or whose recorded types no longer
+match, compiles in the job as before; a helper that fails or is slow changes only the
+time. The helpers stop with the job (on an error or Ctrl-C too), and by themselves when the
+job's process is gone (their standard input closes). They start only when the kernel cache
+misses one of the job's kernels and the process may use more than one core, and only for
+the ``toolpath plan`` and ``toolpath run`` commands: a warm job, a service worker or a
+batch worker never starts one. ``TOOLPATH_BACKGROUND_COMPILE=0`` turns them off.
 """
 
 from __future__ import annotations
@@ -37,9 +39,10 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
-__all__ = ["ENV_SWITCH", "KERNELS_FILE", "Kernel", "background_compile", "cache_is_cold",
-           "compile_kernels", "decode_type", "encode_type", "job_kernels", "record_job_kernels",
-           "recorded_jobs", "say_on_stderr", "usable_cores"]
+__all__ = ["COARSE", "ENV_SWITCH", "KERNELS_FILE", "Kernel", "background_compile",
+           "cache_is_cold", "compile_kernel", "compile_kernels", "decode_type", "encode_type",
+           "helper_order", "job_kernels", "record_job_kernels", "recorded_jobs",
+           "recorded_kernels", "say_on_stderr", "usable_cores", "work_ahead"]
 
 #: The recorded kernels and argument types of the jobs (see the module's text).
 KERNELS_FILE: Final = Path(__file__).resolve().parent / "data" / "job_kernels.json"
@@ -152,6 +155,25 @@ def job_kernels(axis_mode: str, stages: Sequence[str],
     return [Kernel.from_json(k) for k in recorded if k["stage"] in stages]
 
 
+def recorded_kernels(path: Path = KERNELS_FILE) -> list[Kernel]:
+    """Every recorded kernel of every axis mode once, stage by stage (for the warm-up).
+
+    Stages in the order the jobs reach them; within one, the first axis mode's call order.
+    Empty when the file is missing or unreadable.
+    """
+    try:
+        jobs = json.loads(path.read_text(encoding="utf-8"))["jobs"]
+    except (OSError, ValueError, KeyError, TypeError):
+        return []
+    kernels: dict[tuple[str, str, str], Kernel] = {}
+    for recorded in jobs.values():
+        for entry in recorded:
+            kernel = Kernel.from_json(entry)
+            kernels.setdefault((kernel.module, kernel.name, json.dumps(kernel.args)), kernel)
+    stages = list(dict.fromkeys(kernel.stage for kernel in kernels.values()))
+    return sorted(kernels.values(), key=lambda kernel: stages.index(kernel.stage))
+
+
 def cache_is_cold(kernels: Sequence[Kernel]) -> bool:
     """Whether the kernel cache lacks one of ``kernels`` (or holds it for an older source).
 
@@ -178,21 +200,74 @@ def cache_is_cold(kernels: Sequence[Kernel]) -> bool:
     return False
 
 
-def compile_kernels(kernels: Sequence[Kernel]) -> int:
-    """Compile (or load from the cache) ``kernels`` here, last first; returns how many.
+def compile_kernel(kernel: Kernel, *, wait: bool = True) -> str:
+    """Compile ``kernel`` into the kernel cache unless it is there; what was done.
 
-    A kernel that is gone, has a stale record, or fails to compile is skipped: the job
-    compiles it itself when it calls it.
+    :func:`toolpath.kernel_cache.compile_if_free`'s answer: ``"cached"`` (not loaded),
+    ``"compiled"``, or with ``wait=False`` ``"busy"`` (another process compiles it now).
+    Raises ImportError, AttributeError for a kernel that is gone, ValueError for a stale
+    record, numba's errors for a failed compile.
     """
-    done = 0
-    for kernel in reversed(kernels):
-        try:
-            dispatcher = _dispatcher(kernel)
-            dispatcher.compile(tuple(decode_type(arg) for arg in kernel.args))
-        except Exception:  # (anything: the helper's work is optional)
-            continue
-        done += 1
+    from toolpath.kernel_cache import compile_if_free
+
+    dispatcher = _dispatcher(kernel)
+    return compile_if_free(dispatcher, tuple(decode_type(arg) for arg in kernel.args),
+                           wait=wait)
+
+
+def compile_kernels(kernels: Sequence[Kernel]) -> int:
+    """Compile ``kernels`` into the kernel cache here, in this order; returns how many.
+
+    A kernel the cache holds already is skipped (not loaded), and so is one another
+    process compiles at the moment (the job, or a second helper: each takes the next
+    kernel nobody has). While a compile here waits for another process's compile of a
+    kernel it calls, the next free kernel compiles meanwhile (:func:`work_ahead`). A kernel
+    that is gone, has a stale record, or fails to compile is skipped too: the job compiles
+    it when it calls it.
+    """
+    from toolpath.kernel_cache import working_while_waiting
+
+    compile_next, done = work_ahead(kernels), 0
+    with working_while_waiting(compile_next):
+        while compile_next():
+            done += 1
     return done
+
+
+def helper_order(kernels: Sequence[Kernel], helper: int = 0, helpers: int = 1
+                 ) -> list[Kernel]:
+    """The order in which helper ``helper`` (of ``helpers``) takes a job's ``kernels``.
+
+    From its own share's start on to the last kernel, then from that start back to the
+    first: helper ``i`` starts ``(i + 1) / (helpers + 1)`` of the way into the list (one
+    helper: half way). The job compiles from the first kernel on as it calls them, so
+    each process first takes kernels nobody else will need before it; a process that
+    runs out of its share takes the next free kernel of another's (the first the job will
+    call among those left, or the last the job reaches before the helper's start).
+    """
+    start = len(kernels) * (helper + 1) // (helpers + 1)
+    return [*kernels[start:], *reversed(kernels[:start])]
+
+
+def work_ahead(kernels: Sequence[Kernel]) -> Callable[[], bool]:
+    """A process's work while it waits for another's compile: its next free kernel.
+
+    Each call compiles the first of ``kernels`` not taken yet that neither this process
+    nor the cache has and no other process compiles now; False when none is left. (The
+    job's, in call order; a helper's, in its :func:`helper_order`.)
+    """
+    left = list(kernels)
+
+    def compile_next() -> bool:
+        while left:
+            try:
+                if compile_kernel(left.pop(0), wait=False) == "compiled":
+                    return True
+            except Exception:  # (the job compiles it when it calls it, and reports why)
+                continue
+        return False
+
+    return compile_next
 
 
 def say_on_stderr(text: str) -> None:
@@ -225,23 +300,36 @@ def _switched_off(environ: Mapping[str, str]) -> bool:
 
 @contextlib.contextmanager
 def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | None = None
-                       ) -> Iterator[subprocess.Popen | None]:
-    """Around a job: on a cold cache, a helper process compiling ``kernels`` last first.
+                       ) -> Iterator[list[subprocess.Popen]]:
+    """Around a job: on a cold cache, helper processes compiling the job's ``kernels``.
 
-    Yields the helper process, or None when none started (a warm cache, nothing recorded,
-    one core, ``TOOLPATH_BACKGROUND_COMPILE=0``, no process could start). ``say`` gets one line when
-    it starts. On leaving (an error and Ctrl-C too) the helper is stopped and waited for.
+    One helper per usable core but the job's (:func:`usable_cores`), at most one per
+    kernel, each taking the kernels in its :func:`helper_order`; they and the job share the
+    list (none compiles a kernel another does, see the module's text). Yields the
+    helper processes: none on a warm cache, with nothing recorded, on one core, with
+    ``TOOLPATH_BACKGROUND_COMPILE=0``, or when no process could start. ``say`` gets one line
+    when they start. On leaving (an error and Ctrl-C too) the helpers are stopped and
+    waited for.
     """
-    helper = None
-    if kernels and usable_cores() > 1 and not _switched_off(os.environ) and cache_is_cold(kernels):
-        helper = _start_helper(kernels)
-        if helper is not None and say is not None:
-            say(f"toolpath: the kernel cache lacks this job's kernels: compiling them, a "
-                f"second process from the last stage back ({ENV_SWITCH}=0 turns it off)")
+    helpers: list[subprocess.Popen] = []
+    count = min(usable_cores() - 1, len(kernels))
+    if count > 0 and not _switched_off(os.environ) and cache_is_cold(kernels):
+        helpers = [helper for helper in (_start_helper(helper_order(kernels, i, count))
+                                         for i in range(count)) if helper is not None]
+        if helpers and say is not None:
+            what = "a second process" if len(helpers) == 1 else f"{len(helpers)} more processes"
+            say(f"toolpath: the kernel cache lacks this job's kernels: compiling them in "
+                f"{what} too ({ENV_SWITCH}=0 turns it off)")
+    meanwhile: contextlib.AbstractContextManager = contextlib.nullcontext()
+    if helpers:  # (the job compiles its next free kernel while it waits for a helper's)
+        from toolpath.kernel_cache import working_while_waiting
+
+        meanwhile = working_while_waiting(work_ahead(kernels))
     try:
-        yield helper
+        with meanwhile:
+            yield helpers
     finally:
-        if helper is not None:
+        for helper in helpers:
             _stop_helper(helper)
 
 
@@ -303,13 +391,16 @@ def _helper_main() -> int:
 
 # -- recording ------------------------------------------------------------------------------
 
-#: The recorded jobs: axis mode -> (bundled blade, machine), coarse and verified, like the
-#: warm-up's (:mod:`streamline_cam.warmup`): the open development blade and the closed
-#: propeller blade, so that both kinds of section reach their kernels.
+#: The recorded jobs: axis mode -> (bundled blade, machine), coarse (:data:`COARSE`) and
+#: verified: the open development blade and the closed propeller blade, so that both kinds
+#: of section reach their kernels.
 RECORDED_JOBS: Final = {
     "3": (("dev_blade_15x142.csv", "grbl-router"),),
     "lead-tilt": (("dev_blade_15x142.csv", "trunnion-ac"), ("dev_prop_7x100.csv", "trunnion-ac")),
 }
+
+#: The recorded jobs' settings: the kernels matter here, not the figures.
+COARSE: Final = {"scallop_mm": 0.05, "chord_tol_mm": 0.02}
 
 
 @contextlib.contextmanager
@@ -363,7 +454,6 @@ def record_job_kernels(axis_mode: str) -> list[Kernel]:
     from toolpath.paper_examples import bundled_data_path
 
     from .pipeline import STAGES, JobRequest, run_job
-    from .warmup import COARSE
 
     stage = ["fit"]
 

@@ -3,17 +3,21 @@
 The planner's kernels (numba, ``cache=True``) are compiled on first use and kept in the
 kernel cache (:mod:`toolpath.kernel_cache`: next to the sources, or a user cache folder
 when the package folder is read-only), so the first job after an install pays for them
-and every later process loads them. The warm-up runs that first job ahead of time: two
-small jobs on bundled blades at coarse settings (3-axis on ``grbl-router``: the development
-blade, open sections, verified; 5-axis on ``trunnion-ac``: the propeller blade, closed
-sections, a spiral), which compile every kernel a job reaches for the argument types jobs
-pass. The two jobs run at once, one process each (on a machine of one core, one after the
-other): the kernel cache lets one process compile each kernel while the other waits and
-loads it, so the jobs share the compiling. :func:`load_kernels` is the per-process
-counterpart for long-lived workers (a Dask worker, before its first job): one small job
-that loads the cached kernels in a second or two. Nothing depends on either: a kernel it did
-not reach compiles when a job first calls it, and a warm-up job that stops (bad data would
-be a bug) is reported and skipped.
+and every later process loads them. The warm-up compiles them ahead of time, without
+running a job: the kernels the recorded jobs call, for the argument types they pass
+(:data:`~.background_compile.KERNELS_FILE`: every axis mode, every stage from the fit to
+the verifier; the kernels they call compile with them). They are shared among one process
+per usable core, handed out from both ends of the list (the first stages' kernels and the
+last stages' call few kernels in common, so two processes seldom need the same one at
+once); each process takes the next kernel nobody has taken. A kernel the cache holds
+already is skipped (not loaded); one that another process compiles at that moment (as a
+kernel it calls) is checked again once that process is done. A line per stage as its
+kernels are done shows the progress.
+
+Nothing depends on it: a kernel it did not reach compiles when a job first calls it, and a
+kernel that fails to compile (a stale record would be a bug) is reported and skipped.
+:func:`load_kernels` is the per-process counterpart for long-lived workers (a Dask worker,
+before its first job): one small job that loads the cached kernels in a second or two.
 """
 
 from __future__ import annotations
@@ -22,68 +26,146 @@ import multiprocessing
 import os
 import tempfile
 import time
-import warnings
-from collections.abc import Callable
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections import Counter
+from collections.abc import Callable, Sequence
+from concurrent.futures import FIRST_COMPLETED, Future, ProcessPoolExecutor, wait
 from concurrent.futures.process import BrokenProcessPool
 from pathlib import Path
 from typing import Final
 
-from gcode.errors import GCodeError
-from machines.errors import MachineError
-from toolpath.errors import ToolpathError
-from toolpath.paper_examples import bundled_data_path
+from .background_compile import (
+    Kernel,
+    compile_kernel,
+    recorded_kernels,
+    usable_cores,
+    work_ahead,
+)
 
-__all__ = ["COARSE", "WARM_JOBS", "load_kernels", "warm_up"]
-
-#: The warm-up's jobs: (label, bundled blade, machine, axis mode, verify). Coarse settings
-#: (COARSE): the kernels matter here, not the figures. One verification reaches the
-#: verifier's code; a second (5-axis) compiles nothing more and ran 9-12 s. Run at once, the
-#: 3-axis job compiles most of the shared planner kernels (it reaches them sooner) while
-#: the 5-axis one compiles its tool-axis kernels.
-WARM_JOBS = (("3-axis", "dev_blade_15x142.csv", "grbl-router", "3", True),
-             ("5-axis", "dev_prop_7x100.csv", "trunnion-ac", "lead-tilt", False))
-COARSE = {"scallop_mm": 0.05, "chord_tol_mm": 0.02}
+__all__ = ["both_ends", "load_kernels", "warm_kernel", "warm_up"]
 
 
-def warm_up(say: Callable[[str], None] | None = None, processes: int | None = None) -> float:
-    """Run the warm-up jobs in a temporary folder; returns the seconds taken.
+def both_ends(count: int) -> list[int]:
+    """The indices ``0 .. count - 1`` from both ends in turn: 0, count - 1, 1, count - 2, ..."""
+    order = []
+    low, high = 0, count - 1
+    while low <= high:
+        order.append(low)
+        if high != low:
+            order.append(high)
+        low, high = low + 1, high - 1
+    return order
 
-    ``say`` gets one line as each job starts and ends (progress), e.g. ``print``. The jobs
-    run at once in up to ``processes`` processes (default: one per core, at most one per
-    job): compiling is single-threaded, and the kernel cache has each kernel compiled by
-    one process while the others wait for it and load it
-    (:func:`toolpath.kernel_cache.hook_numba`), so the jobs share the compiling.
+
+def warm_kernel(kernel: Kernel, wait: bool, meanwhile: Sequence[Kernel] = ()
+                ) -> tuple[str, float]:
+    """Compile ``kernel`` into the cache (:func:`~.background_compile.compile_kernel`).
+
+    Returns what was done (``"compiled"``, ``"cached"``, with ``wait=False`` ``"busy"``, or
+    ``"failed: ..."`` with the error) and the CPU seconds it took. While the compile waits
+    for another process's compile of a kernel it calls, the first free kernels of
+    ``meanwhile`` compile here (:func:`~.background_compile.work_ahead`; handed out later,
+    they are found in the cache).
+    """
+    from toolpath.kernel_cache import working_while_waiting
+
+    cpu = time.process_time()
+    try:
+        with working_while_waiting(work_ahead(meanwhile)):
+            state = compile_kernel(kernel, wait=wait)
+    except Exception as exc:  # (any error of numba's: reported, and the kernel skipped)
+        reason = (str(exc).strip().splitlines() or [""])[0][:200]
+        state = f"failed: {type(exc).__name__}: {reason}"
+    return state, time.process_time() - cpu
+
+
+class _Progress:
+    """Counts the kernels done per stage; a line when a stage's last one is done."""
+
+    def __init__(self, kernels: Sequence[Kernel], say: Callable[[str], None]) -> None:
+        self.kernels, self.say = kernels, say
+        self.left = Counter(kernel.stage for kernel in kernels)
+        self.states: Counter[str] = Counter()
+        self.cpu_s = 0.0
+        self.start = time.perf_counter()
+
+    def opening(self, processes: int) -> str:
+        stages = ", ".join(f"{stage} {count}" for stage, count in self.left.items())
+        return (f"warm-up: compiling the {len(self.kernels)} kernels jobs call ({stages}) "
+                f"in {processes} process{'es' if processes > 1 else ''} ...")
+
+    def closing(self) -> str:
+        counts = ", ".join(f"{count} {state}" for state, count in sorted(self.states.items()))
+        return f"warm-up: {counts} (cpu {self.cpu_s:.1f} s in the compiling processes)"
+
+    def done(self, index: int, state: str, cpu_s: float) -> None:
+        kernel = self.kernels[index]
+        self.cpu_s += cpu_s
+        self.states[state if not state.startswith("failed") else "failed"] += 1
+        if state.startswith("failed"):
+            self.say(f"warm-up: {kernel.module}.{kernel.name} did not compile ({state[8:]}); "
+                     "skipped: a job compiles it when it calls it")
+        self.left[kernel.stage] -= 1
+        if self.left[kernel.stage] == 0:
+            self.say(f"warm-up: {kernel.stage} kernels done "
+                     f"({time.perf_counter() - self.start:.1f} s)")
+
+
+def warm_up(say: Callable[[str], None] | None = None, processes: int | None = None,
+            kernels: Sequence[Kernel] | None = None) -> float:
+    """Compile ``kernels`` (default: the recorded jobs') into the cache; returns the seconds.
+
+    ``say`` gets the progress (a line at the start, one per stage as its kernels are done,
+    one per kernel that failed), e.g. ``print``. Up to ``processes`` processes (default:
+    one per usable core, :func:`~.background_compile.usable_cores`) share the kernels, taken
+    from both ends of the list; one process compiles them here, in order.
     """
     say = say or (lambda _text: None)
     start = time.perf_counter()
-    workers = max(1, min(len(WARM_JOBS), processes or os.cpu_count() or 1))
-    with tempfile.TemporaryDirectory(prefix="toolpath-warm-up-") as folder:
-        for i, (label, name, machine, _axis_mode, verify) in enumerate(WARM_JOBS, 1):
-            say(f"warm-up {i}/{len(WARM_JOBS)}: {label} job on {machine} ({name}: fit, plan, "
-                f"post, check{', verify' if verify else ''}) ...")
-        pending = set(range(len(WARM_JOBS)))
-        if workers > 1:
-            try:
-                _in_processes(workers, folder, say, pending)
-            except (OSError, BrokenProcessPool) as exc:  # (no /dev/shm, a worker killed)
-                say(f"warm-up: a worker process failed ({exc}); the rest runs here")
-        for i in sorted(pending):
-            say(_warm_job(i, folder))
+    kernels = list(recorded_kernels() if kernels is None else kernels)
+    workers = max(1, min(len(kernels), processes or usable_cores()))
+    progress = _Progress(kernels, say)
+    say(progress.opening(workers))
+    pending = both_ends(len(kernels))
+    if workers > 1:
+        try:
+            _in_processes(workers, kernels, pending, progress)
+        except (OSError, BrokenProcessPool) as exc:  # (no /dev/shm, a worker killed)
+            say(f"warm-up: a worker process failed ({exc}); the rest compiles here")
+    for index in list(pending):
+        progress.done(index, *warm_kernel(kernels[index], True))
+        pending.remove(index)
+    say(progress.closing())
     return time.perf_counter() - start
 
 
-def _in_processes(workers: int, folder: str, say: Callable[[str], None],
-                  pending: set[int]) -> None:
-    """Run the jobs ``pending`` at once in ``workers`` processes; each done one leaves it."""
+def _in_processes(workers: int, kernels: Sequence[Kernel], pending: list[int],
+                  progress: _Progress) -> None:
+    """Compile the kernels ``pending`` in ``workers`` processes; each done one leaves it.
+
+    A kernel found busy (another worker compiles it as one its kernel calls) is handed out
+    again, to wait for that compile and find it in the cache.
+    """
     spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
     with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
                              initializer=_one_thread) as pool:
-        futures = {pool.submit(_warm_job, i, folder): i for i in sorted(pending)}
+        def submit(index: int, wait: bool) -> None:
+            later = [kernels[i] for i in pending[pending.index(index) + 1:]]
+            running[pool.submit(warm_kernel, kernels[index], wait, later)] = index
+
+        running: dict[Future, int] = {}
+        for index in pending:
+            submit(index, False)
         try:
-            for done in as_completed(futures):
-                say(done.result())
-                pending.discard(futures[done])
+            while running:
+                done, _ = wait(running, return_when=FIRST_COMPLETED)
+                for future in done:
+                    index = running.pop(future)
+                    state, cpu_s = future.result()
+                    if state == "busy":
+                        submit(index, True)
+                        continue
+                    progress.done(index, state, cpu_s)
+                    pending.remove(index)
         except KeyboardInterrupt:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
@@ -92,30 +174,10 @@ def _in_processes(workers: int, folder: str, say: Callable[[str], None],
 def _one_thread() -> None:
     """Compiled loops run on one thread in a warm-up process (the processes share the cores).
 
-    (Read by numba when it loads, before the job; the compiled code does not depend on it.)
+    (Read by numba when it loads, before the first kernel; compiled code does not depend
+    on it.)
     """
     os.environ["NUMBA_NUM_THREADS"] = "1"
-
-
-def _warm_job(index: int, folder: str) -> str:
-    """Run warm-up job ``index`` (of :data:`WARM_JOBS`) under ``folder``; its progress line."""
-    from .pipeline import JobRequest, run_job
-
-    label, name, machine, axis_mode, verify = WARM_JOBS[index]
-    head = f"warm-up {index + 1}/{len(WARM_JOBS)}: {label}"
-    job_start, job_cpu = time.perf_counter(), time.process_time()
-    request = JobRequest(bundled_data_path(name), machine=machine, axis_mode=axis_mode,
-                         **COARSE)
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")  # figures of coarse settings do not matter here
-        try:
-            result = run_job(request, Path(folder) / label, verify=verify)
-        except (ToolpathError, GCodeError, MachineError) as exc:
-            return f"{head} stopped ({exc}); what it did not reach compiles on first use"
-    stages = ", ".join(f"{stage} {seconds:.1f}"
-                       for stage, seconds in result.report["seconds"].items())
-    return (f"{head} done in {time.perf_counter() - job_start:.1f} s, cpu "
-            f"{time.process_time() - job_cpu:.1f} s ({stages} s)")
 
 
 #: The job of :func:`load_kernels`: a coarse plan on a small blade-like strip, enough to

@@ -26,6 +26,7 @@ from streamline_cam.background_compile import (
     KERNELS_FILE,
     decode_type,
     encode_type,
+    helper_order,
     job_kernels,
     recorded_jobs,
     usable_cores,
@@ -47,8 +48,13 @@ class Pair(NamedTuple):
 
 
 @numba.njit(cache=True)
+def weight_sum(weights):
+    return weights.sum()
+
+
+@numba.njit(cache=True)
 def total(pair, weights):
-    return pair.a + pair.b * weights.sum()
+    return pair.a + pair.b * weight_sum(weights)
 '''
 
 # Runs a job around ``background_compile`` (argv: "wait" lets the helper finish, "raise"
@@ -65,12 +71,14 @@ kernel = Kernel("kernel_mod", "total", (
     {"tuple": ["float64", "float64"], "class": "kernel_mod:Pair"},
     {"array": "float64", "ndim": 1, "layout": "C", "readonly": False}), "plan")
 helper = None
-if sys.argv[1] == "hang":  # (the kernel's lock file, then wait for the test to hold it)
-    import kernel_mod
-    print(kernel_mod.total._cache._cache_file._index_path + ".lock", flush=True)
+if sys.argv[1] == "hang":  # (the lock file of the kernel's callee, then wait for the test
+    import kernel_mod      # to hold it)
+    print(kernel_mod.weight_sum._cache._cache_file._index_path + ".lock", flush=True)
     sys.stdin.readline()
 try:
-    with background_compile([kernel]) as helper:
+    with background_compile([kernel]) as helpers:
+        helper = helpers[0] if helpers else None  # (one kernel: one helper at most)
+        assert len(helpers) <= 1
         if helper is not None and sys.argv[1] == "wait":
             helper.wait(timeout=120)  # (the helper ends by itself once it has compiled)
         if sys.argv[1] == "raise":
@@ -151,6 +159,17 @@ def test_argument_types_survive_json():
         encode_type(typeof("text"))
 
 
+def test_helpers_start_inside_the_list_and_come_back_to_its_front():
+    kernels = list("abcdefgh")
+    # one helper: from half way to the end, then back; the job takes them from the front
+    assert helper_order(kernels) == list("efghdcba")
+    # three helpers start a quarter apart; each still gets every kernel (it skips taken ones)
+    orders = [helper_order(kernels, i, 3) for i in range(3)]
+    assert [order[0] for order in orders] == ["c", "e", "g"]
+    assert all(sorted(order) == kernels for order in orders)
+    assert helper_order([]) == []
+
+
 def test_a_plan_is_given_its_later_kernels_and_a_5_axis_one_its_axis_kernels():
     plan5 = job_kernels("lead-tilt", ("plan",))
     plan3 = job_kernels("3", ("plan",))
@@ -203,8 +222,8 @@ def test_a_killed_job_s_helper_ends_by_itself(tmp_path):
                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     lock = os.open(job.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
     try:
-        # this test holds the kernel's compile lock: the helper waits for it, still running
-        # when the job dies
+        # this test holds the compile lock of the kernel's callee: the helper, compiling the
+        # kernel, waits for it, still running when the job dies
         fcntl.flock(lock, fcntl.LOCK_EX)
         try:
             job.stdin.write("go\n")

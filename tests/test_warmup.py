@@ -1,18 +1,44 @@
-"""``toolpath warm-up``: jobs of both kinds of blade, 3-axis and 5-axis (issue 27)."""
+"""``toolpath warm-up``: the recorded jobs' kernels compiled without a job (issue 27)."""
 
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from streamline_cam import warmup
+from streamline_cam.background_compile import (
+    RECORDED_JOBS,
+    job_kernels,
+    recorded_kernels,
+)
 from streamline_cam.cli import main
-from streamline_cam.warmup import WARM_JOBS
 from toolpath import as_sections, read_sections
 from toolpath.paper_examples import bundled_data_path
 
+ROOT = Path(__file__).resolve().parents[1]
 
-def test_the_warm_up_jobs_cover_open_and_closed_blades_3_and_5_axis():
-    kinds = {}
-    for _label, name, machine, axis_mode, _verify in WARM_JOBS:
-        kinds[axis_mode] = (as_sections(read_sections(bundled_data_path(name))).closed, machine)
-    # 3-axis on the open development blade, 5-axis (a spiral) round closed sections
-    assert kinds == {"3": (False, "grbl-router"), "lead-tilt": (True, "trunnion-ac")}
-    assert any(job[-1] for job in WARM_JOBS)  # the verifier is reached too
+
+def test_the_recorded_jobs_cover_open_and_closed_blades_3_and_5_axis():
+    kinds = {(mode, as_sections(read_sections(bundled_data_path(name))).closed, machine)
+             for mode, jobs in RECORDED_JOBS.items() for name, machine in jobs}
+    # 3-axis on the open development blade; 5-axis on it and round closed sections
+    assert kinds == {("3", False, "grbl-router"), ("lead-tilt", False, "trunnion-ac"),
+                     ("lead-tilt", True, "trunnion-ac")}
+
+
+def test_the_warm_up_compiles_every_recorded_kernel_once_stage_by_stage():
+    kernels = recorded_kernels()
+    every = {(k.module, k.name, json.dumps(k.args)) for mode in RECORDED_JOBS
+             for k in job_kernels(mode, ("fit", "plan", "post", "check", "verify"))}
+    assert len(kernels) == len(every)
+    assert {(k.module, k.name, json.dumps(k.args)) for k in kernels} == every
+    stages = [k.stage for k in kernels]
+    assert stages == sorted(stages, key=["fit", "plan", "verify"].index)  # the verifier's too
+    assert warmup.both_ends(5) == [0, 4, 1, 3, 2] and warmup.both_ends(0) == []
+    assert sorted(warmup.both_ends(8)) == list(range(8))
 
 
 def test_warm_up_is_a_documented_command(capsys):
@@ -23,22 +49,122 @@ def test_warm_up_is_a_documented_command(capsys):
     assert "compile" in capsys.readouterr().out
 
 
-def test_jobs_a_failed_worker_pool_did_not_finish_run_in_this_process(monkeypatch):
-    from streamline_cam import warmup
-
+def test_kernels_a_failed_worker_pool_did_not_finish_compile_in_this_process(monkeypatch):
     ran, said = [], []
+    kernels = recorded_kernels()[:3]
 
-    def pool_that_breaks(workers, folder, say, pending):
-        say(warmup._warm_job(0, folder))  # the first job finished in a worker
-        pending.discard(0)
+    def pool_that_breaks(workers, kernels_, pending, progress):
+        progress.done(pending[0], "compiled", 1.0)  # the first kernel done in a worker
+        pending.remove(pending[0])
         raise OSError("no /dev/shm")
 
-    def job(index, folder):
-        ran.append(index)
-        return f"job {index} done"
+    def compile_here(kernel, wait):
+        ran.append(kernel)
+        return "compiled", 0.5
 
     monkeypatch.setattr(warmup, "_in_processes", pool_that_breaks)
-    monkeypatch.setattr(warmup, "_warm_job", job)
-    warmup.warm_up(said.append, processes=2)
-    assert ran == list(range(len(WARM_JOBS)))  # each job once: none lost, none repeated
+    monkeypatch.setattr(warmup, "warm_kernel", compile_here)
+    warmup.warm_up(said.append, processes=2, kernels=kernels)
+    assert sorted(ran) == sorted(kernels[1:])  # each kernel once: none lost, none repeated
     assert any("worker process failed (no /dev/shm)" in line for line in said)
+    assert said[-1].startswith("warm-up: 3 compiled")
+
+
+KERNEL_MODULE = '''
+import numba
+
+
+@numba.njit(cache=True)
+def inner(x):
+    return x.sum()
+
+
+@numba.njit(cache=True)
+def outer(x):
+    return inner(x) * 2.0
+
+
+@numba.njit(cache=True)
+def broken(x):
+    return x.no_such_attribute
+'''
+
+# Warms up the module's kernels (one fails to compile, one is gone) in two processes, then
+# calls the good ones here: they come from the cache.
+WARM = '''
+import json, sys
+import numpy as np
+from streamline_cam.background_compile import Kernel
+from streamline_cam.warmup import warm_up
+
+ARRAY = {"array": "float64", "ndim": 1, "layout": "C", "readonly": False}
+kernels = [Kernel("kmod", name, (ARRAY,), stage) for name, stage in
+           (("inner", "fit"), ("broken", "plan"), ("outer", "plan"), ("gone", "verify"))]
+if __name__ == "__main__":
+    said = []
+    warm_up(said.append, processes=2, kernels=kernels)
+    import kmod
+    value = kmod.outer(np.ones(3))
+    hits = {name: sum(getattr(kmod, name).stats.cache_hits.values())
+            for name in ("inner", "outer")}
+    print(json.dumps({"said": said, "value": value, "hits": hits}))
+'''
+
+
+def test_a_kernel_that_fails_to_compile_is_reported_and_skipped(tmp_path):
+    (tmp_path / "kmod.py").write_text(KERNEL_MODULE, encoding="utf-8")
+    (tmp_path / "warm.py").write_text(WARM, encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(ROOT))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "warm.py"], cwd=tmp_path, env=env,
+                          capture_output=True, text=True, timeout=600)
+    assert done.returncode == 0, done.stderr
+    result = json.loads(done.stdout.splitlines()[-1])
+    said = "\n".join(result["said"])
+    assert "kmod.broken did not compile (TypingError" in said
+    assert "kmod.gone did not compile (AttributeError" in said
+    assert all(f"{stage} kernels done" in said for stage in ("fit", "plan", "verify"))
+    assert result["said"][-1].startswith("warm-up: 2 compiled, 2 failed")
+    # outer called from Python loads from the cache: the warm-up compiled it (and inner)
+    assert result["value"] == 6.0 and result["hits"] == {"inner": 0, "outer": 1}
+
+
+# A coarse 5-axis job as a user runs it, counting what numba compiles for our kernels.
+JOB = '''
+import json, sys
+from numba.core import event
+from streamline_cam.cli import main
+
+compiled = []
+
+
+class Compiles(event.Listener):
+    def on_start(self, ev):
+        func = ev.data["dispatcher"].py_func
+        compiled.append(f"{func.__module__}.{func.__qualname__}")
+
+    def on_end(self, ev):
+        pass
+
+
+event.register("numba:compile", Compiles())
+code = main(["run", sys.argv[1], "--machine", "trunnion-ac", "--axis", "lead-tilt",
+             "--lead", "10", "--scallop", "0.05", "--chord-tol", "0.02", "--quiet",
+             "-o", "job/part.nc"])
+print(json.dumps({"code": code, "compiled": compiled}))
+'''
+
+
+@pytest.mark.slow
+def test_after_the_warm_up_a_5_axis_job_compiles_nothing(tmp_path):
+    env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    warm = subprocess.run([sys.executable, "-m", "streamline_cam.cli", "warm-up"], cwd=tmp_path,
+                          env=env, capture_output=True, text=True, timeout=1800)
+    assert warm.returncode == 0, warm.stderr
+    assert "did not compile" not in warm.stderr, warm.stderr
+    blade = str(bundled_data_path("dev_blade_15x142.csv"))
+    job = subprocess.run([sys.executable, "-c", JOB, blade], cwd=tmp_path, env=env,
+                         capture_output=True, text=True, timeout=1800)
+    assert job.returncode == 0, job.stderr
+    result = json.loads(job.stdout.splitlines()[-1])
+    assert result["code"] == 0 and result["compiled"] == []

@@ -26,6 +26,11 @@ when numba gets imported, so that commands which never load numba do not pay for
   look-up before it) holds a lock file beside the kernel's index, so processes starting on
   an empty cache at once (the warm-up's jobs, a service's or a batch's workers) never
   compile the same kernel twice.
+
+:func:`compile_if_free` is the same compile for a process that compiles ahead of a job
+(the job's helper, the warm-up): it skips a kernel the disk cache holds already (without
+loading it) and, if asked, one another process compiles at the moment, so that such
+processes share a list of kernels instead of waiting for each other.
 """
 
 from __future__ import annotations
@@ -40,14 +45,15 @@ import time
 from collections.abc import Callable, Iterator, MutableMapping
 from pathlib import Path
 from types import ModuleType
-from typing import Any
+from typing import Any, Final
 
 try:
     import fcntl
 except ImportError:  # (Windows: no lock across processes; each may compile a kernel)
     fcntl = None
 
-__all__ = ["choose_cache_dir", "ensure_kernel_cache", "hook_numba"]
+__all__ = ["BUSY", "CACHED", "COMPILED", "choose_cache_dir", "compile_if_free",
+           "ensure_kernel_cache", "hook_numba", "in_disk_cache", "working_while_waiting"]
 
 PACKAGE_DIR = Path(__file__).resolve().parent
 
@@ -194,6 +200,20 @@ LOCK_WAIT_S = 600.0
 LOCK_POLL_S = 0.05
 
 
+def _try_lock(handle: int) -> bool | None:
+    """Take an exclusive ``flock`` on ``handle`` now: True; False if another holds it.
+
+    None where the file system has no locks (``flock`` raises, e.g. NFS mounted ``nolock``).
+    """
+    try:
+        fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        return True
+    except BlockingIOError:
+        return False
+    except OSError:
+        return None
+
+
 def _wait_for_lock(handle: int, wait_s: float = LOCK_WAIT_S) -> bool:
     """Take an exclusive ``flock`` on ``handle`` within ``wait_s`` seconds; False if not.
 
@@ -201,16 +221,42 @@ def _wait_for_lock(handle: int, wait_s: float = LOCK_WAIT_S) -> bool:
     ``nolock``): the kernel then compiles unlocked, as numba alone would.
     """
     deadline = time.monotonic() + wait_s
-    while True:
-        try:
-            fcntl.flock(handle, fcntl.LOCK_EX | fcntl.LOCK_NB)
-            return True
-        except BlockingIOError:
-            if time.monotonic() >= deadline:
-                return False
+    while (taken := _try_lock(handle)) is False and time.monotonic() < deadline:
+        if not _work_while_waiting():
             time.sleep(LOCK_POLL_S)
-        except OSError:
-            return False
+    return bool(taken)
+
+
+#: What this process may do instead of sleeping while it waits for another process's
+#: compile (innermost last; see :func:`working_while_waiting`), and whether it does it now.
+_WHILE_WAITING: list[Callable[[], bool]] = []
+_WORKING: list[bool] = [False]
+
+
+@contextlib.contextmanager
+def working_while_waiting(work: Callable[[], bool]) -> Iterator[None]:
+    """Inside, a wait for another process's compile of a kernel runs ``work`` meanwhile.
+
+    ``work()`` does one piece of work (e.g. compiles a kernel this process will call later,
+    which nobody compiles yet) and returns whether it found one; when it finds none, the
+    wait sleeps as before. A wait inside ``work`` itself only sleeps (no nesting).
+    """
+    _WHILE_WAITING.append(work)
+    try:
+        yield
+    finally:
+        _WHILE_WAITING.remove(work)
+
+
+def _work_while_waiting() -> bool:
+    """Run the innermost :func:`working_while_waiting` work once; whether it did some."""
+    if not _WHILE_WAITING or _WORKING[0]:
+        return False
+    _WORKING[0] = True
+    try:
+        return _WHILE_WAITING[-1]()
+    finally:
+        _WORKING[0] = False
 
 
 #: Lock files this process holds (path -> depth), so that a nested compile of the same
@@ -245,29 +291,96 @@ def _compile_once(compile_: Callable[[Any, Any], Any]) -> Callable[[Any, Any], A
 
 
 @contextlib.contextmanager
-def _file_lock(path: str) -> Iterator[None]:
-    """Hold an exclusive lock on ``path`` (created if missing); a no-op where it cannot."""
+def _file_lock(path: str, wait_s: float = LOCK_WAIT_S) -> Iterator[bool]:
+    """Hold an exclusive lock on ``path`` (created if missing); a no-op where it cannot.
+
+    Waits up to ``wait_s`` seconds for another process's lock, then goes on without it.
+    Yields True (held, or no lock to be had), or False, holding nothing, when ``wait_s`` is
+    0 and another process holds the lock.
+    """
     if _HELD.get(path):
         _HELD[path] += 1
         try:
-            yield
+            yield True
         finally:
             _HELD[path] -= 1
         return
     try:
         handle = os.open(path, os.O_RDWR | os.O_CREAT, 0o666)
     except OSError:  # (a read-only cache: numba will not save there either)
-        yield
+        yield True
         return
     try:
-        if not _wait_for_lock(handle):  # (no locks on this file system, or held too long)
-            yield
+        taken = _try_lock(handle)
+        if taken is False and wait_s > 0.0:  # (held too long: compile unlocked)
+            taken = _wait_for_lock(handle, wait_s) or None
+        if taken is False:  # (another process holds it, and we do not wait)
+            yield False
+            return
+        if taken is None:  # (no locks on this file system, or held too long)
+            yield True
             return
         _HELD[path] = 1
         try:
-            yield
+            yield True
         finally:
             del _HELD[path]
             fcntl.flock(handle, fcntl.LOCK_UN)
     finally:
         os.close(handle)
+
+
+#: What :func:`compile_if_free` did: found it in the disk cache (not loaded), found another
+#: process compiling it (with ``wait=False``), compiled it (and saved it to the cache).
+CACHED: Final = "cached"
+BUSY: Final = "busy"
+COMPILED: Final = "compiled"
+
+
+def _index_path(dispatcher: Any) -> str | None:
+    """The path of the kernel's cache index, or None for a kernel without a disk cache."""
+    return getattr(getattr(dispatcher._cache, "_cache_file", None), "_index_path", None)
+
+
+def in_disk_cache(dispatcher: Any, args: tuple[Any, ...]) -> bool:
+    """Whether the kernel cache holds ``dispatcher`` compiled for the numba types ``args``.
+
+    Reads the kernel's cache index only (the key numba looks up: the signature, the target
+    machine and a hash of the kernel's bytecode); loads nothing.
+    """
+    cache = dispatcher._cache
+    if _index_path(dispatcher) is None:
+        return False
+    key = cache._index_key(tuple(args), dispatcher.targetctx.codegen())
+    return key in cache._cache_file._load_index()
+
+
+def compile_if_free(dispatcher: Any, args: tuple[Any, ...], *, wait: bool = True) -> str:
+    """Compile ``dispatcher`` for the numba types ``args`` into the cache, unless it is there.
+
+    Under the kernel's lock file (as :func:`hook_numba`'s compile): :data:`CACHED` when the
+    cache holds the kernel already (it is not loaded here: a process compiling ahead of a
+    job does not need it), else compiled and saved: :data:`COMPILED`. A kernel this process
+    compiles already (further up its stack) is :data:`BUSY`; with ``wait=False``, so is a
+    kernel whose lock another process holds (it compiles the kernel, or a kernel calling
+    it): left to it, at once. Compile errors are raised.
+    """
+    from numba.core.compiler_lock import global_compiler_lock
+
+    args = tuple(args)
+    index_path = _index_path(dispatcher)
+    if args in dispatcher.overloads:
+        return CACHED
+    if index_path is None or fcntl is None:
+        dispatcher.compile(args)
+        return COMPILED
+    if _HELD.get(index_path + ".lock"):  # (this process compiles it now, further up)
+        return BUSY
+    with global_compiler_lock, _file_lock(index_path + ".lock",
+                                          LOCK_WAIT_S if wait else 0.0) as held:
+        if not held:
+            return BUSY
+        if in_disk_cache(dispatcher, args):
+            return CACHED
+        dispatcher.compile(args)
+        return COMPILED

@@ -101,15 +101,16 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run_plan(args: argparse.Namespace) -> int:
     """Plan, print the report, write the outputs; returns the exit code."""
-    from tqdm import tqdm
-
-    from toolpath.planning.finishing import plan_finishing
-
     from ..background_compile import background_compile, job_kernels, say_on_stderr
 
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
-    # on a cold kernel cache, a second process compiles the later stages' kernels
+    # on a cold kernel cache, helper processes compile the job's kernels too (started
+    # before the planner's modules load: the cache check loads one kernel's module)
     with background_compile(job_kernels(args.axis, ("plan",)), say=say_on_stderr):
+        from tqdm import tqdm
+
+        from toolpath.planning.finishing import plan_finishing
+
         surface = placed_surface(load_surface(args.surface), args)
         options: dict[str, Any] = {
             "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),

@@ -127,7 +127,6 @@ def _setup_lines(report: dict) -> list[str]:
 
 def _run(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
-    from ..pipeline import run_job
     from ..progress import StageBars
     from ..streaming import make_streamer
 
@@ -138,11 +137,14 @@ def _run(args: argparse.Namespace) -> int:
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
     stream = make_streamer(target, dialect=args.dialect) if target else None
-    # on a cold kernel cache, a second process compiles the later stages' kernels
+    # on a cold kernel cache, helper processes compile the job's kernels too (started
+    # before the pipeline's modules load: the cache check loads one kernel's module)
     stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())
     try:
         with background_compile(job_kernels(args.axis, stages),
                                 say=None if args.quiet else say_on_stderr):
+            from ..pipeline import run_job
+
             result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
                              stream=stream, plots=args.plots, verify=args.verify)
     finally:

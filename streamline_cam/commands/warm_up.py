@@ -1,7 +1,8 @@
 """``toolpath warm-up``: compile the kernels a job uses, once per install (``make install``).
 
-Optional: a job compiles what it needs on first use; this runs two small jobs
-ahead of time (:mod:`streamline_cam.warmup`) so the first real one starts warm.
+Optional: a job compiles what it needs on first use; this compiles the kernels jobs call
+ahead of time, without a job (:mod:`streamline_cam.warmup`), so the first real one starts
+warm.
 """
 
 from __future__ import annotations
@@ -16,16 +17,17 @@ def register(commands: argparse._SubParsersAction) -> None:
     """Add the ``warm-up`` sub-command."""
     p = commands.add_parser(
         "warm-up", help="compile the planner's kernels once (make install runs it)",
-        description="Run two small jobs (3-axis, verified, and 5-axis) on the bundled "
-        "blades, at once in two processes, so that the kernels every job uses are compiled "
-        "and cached before the first real job. Optional: without it the first job compiles "
-        "them.")
+        description="Compile the kernels that jobs call (3- and 5-axis, fit to verify, "
+        "for the argument types recorded from real jobs) and cache them before the first "
+        "real job, in one process per core, a line per stage on stderr. Optional: without "
+        "it the first job compiles them; a kernel that fails to compile is reported and "
+        "left to the job.")
     p.add_argument("--quiet", action="store_true", help="print nothing")
     p.set_defaults(handler=run)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Warm up, printing each job as it starts and ends (stderr); returns 0."""
+    """Warm up, printing the progress (stderr); returns 0."""
     from ..warmup import warm_up
 
     def say(text: str) -> None:

@@ -174,3 +174,109 @@ def test_a_lock_held_too_long_is_given_up_and_a_free_one_taken(tmp_path):
     finally:
         os.close(waiter)
         os.close(holder)
+
+
+# Two kernels; the process prints each step. "ahead": calls ``first`` (whose lock the test
+# holds) while ``working_while_waiting`` may compile ``second``; "free": compile_if_free of
+# both, twice, and of ``first`` without waiting.
+TWO_KERNELS = '''
+import numba
+
+
+@numba.njit(cache=True)
+def first(x):
+    return x + 1.0
+
+
+@numba.njit(cache=True)
+def second(x):
+    return x * 2.0
+'''
+
+WHILE_WAITING = '''
+import sys
+from numba.core import types
+from toolpath.kernel_cache import compile_if_free, working_while_waiting
+import two_kernels
+
+print(two_kernels.first._cache._cache_file._index_path + ".lock", flush=True)
+sys.stdin.readline()  # (the test holds first's lock now)
+left = [two_kernels.second]
+
+
+def work():
+    if not left:
+        return False
+    print(compile_if_free(left.pop(), (types.float64,)), "second", flush=True)
+    return True
+
+
+with working_while_waiting(work):
+    print(two_kernels.first(1.0), flush=True)
+print(sum(two_kernels.second.stats.cache_misses.values()), flush=True)
+'''
+
+
+@pytest.mark.skipif(fcntl is None, reason="no flock here")
+def test_a_process_waiting_for_another_s_compile_compiles_its_next_kernel(tmp_path):
+    import subprocess
+    import sys
+
+    (tmp_path / "two_kernels.py").write_text(TWO_KERNELS, encoding="utf-8")
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    run = subprocess.Popen([sys.executable, "-c", WHILE_WAITING], cwd=tmp_path, env=env,
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    lock = os.open(run.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # "another process" compiles first
+        run.stdin.write("go\n")
+        run.stdin.flush()
+        # while it waits for first's lock, it compiles second
+        assert run.stdout.readline().split() == ["compiled", "second"]
+        fcntl.flock(lock, fcntl.LOCK_UN)
+        out, _ = run.communicate(timeout=120)
+    finally:
+        os.close(lock)
+    assert run.returncode == 0
+    assert out.split() == ["2.0", "1"]  # then it compiled first itself; second once
+
+
+FREE = '''
+import json, os, sys
+from numba.core import types
+from toolpath.kernel_cache import compile_if_free
+import two_kernels
+
+states = [compile_if_free(two_kernels.second, (types.float64,))]
+lock = two_kernels.first._cache._cache_file._index_path + ".lock"
+print(lock, flush=True)
+sys.stdin.readline()  # (the test holds first's lock now)
+states.append(compile_if_free(two_kernels.first, (types.float64,), wait=False))
+print(json.dumps(states), flush=True)
+'''
+
+
+@pytest.mark.skipif(fcntl is None, reason="no flock here")
+def test_compile_if_free_compiles_once_and_leaves_a_busy_kernel(tmp_path):
+    import json
+    import subprocess
+    import sys
+
+    (tmp_path / "two_kernels.py").write_text(TWO_KERNELS, encoding="utf-8")
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    for expected in (["compiled", "busy"], ["cached", "busy"]):  # (second run: the cache)
+        run = subprocess.Popen([sys.executable, "-c", FREE], cwd=tmp_path, env=env,
+                               stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        lock = os.open(run.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+        try:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            run.stdin.write("go\n")
+            run.stdin.flush()
+            out, _ = run.communicate(timeout=120)
+        finally:
+            os.close(lock)
+        assert run.returncode == 0 and json.loads(out) == expected
