@@ -22,7 +22,7 @@ from machines.kinematics import forward
 
 from ..path import MoveKind, Toolpath
 from ..vectors import move_poses
-from .clearance_kernel import SampleCells, bin_samples, pairs_within
+from .clearance_kernel import SampleCells, bin_samples, pairs_within, points_box
 from .cutters import Cutter, CutterKind
 from .measure_joints import checked_joints
 from .sweep_kernel import (
@@ -100,13 +100,16 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
     inner_move = np.repeat(np.arange(n), pieces - 1)
     u = ((np.arange(inner_move.size) - inner_first[inner_move] + 1)
          / pieces[inner_move])
+    # each move's rows once per inner pose: x[inner_move], in a third of its time
+    def per_inner(x: NDArray[np.float64]) -> NDArray[np.float64]:
+        return np.repeat(x, pieces - 1, axis=0)
+
     if joints is None:
-        tips, axes = move_poses(a[inner_move], aa[inner_move], b[inner_move],
-                                ab[inner_move], u)
+        tips, axes = move_poses(per_inner(a), per_inner(aa), per_inner(b), per_inner(ab), u)
     else:
         machine, q_a, q_b = joints
         w = u[:, None]
-        tips, axes = forward(machine, q_a[inner_move] * (1 - w) + q_b[inner_move] * w)
+        tips, axes = forward(machine, per_inner(q_a) * (1 - w) + per_inner(q_b) * w)
     (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
     return p0, p1, x0, x1, owner
 
@@ -202,7 +205,8 @@ class CutVolume:
         """
         if self._near_cells is None:
             mid = 0.5 * (self.piece_a + self.piece_b)
-            sparse = float(np.prod(np.ptp(mid, axis=0) + self.near_mm) / len(mid)) ** (1 / 3)
+            lo, hi = points_box(mid)  # numpy's ptp(axis=0) of (n, 3) runs ten times slower
+            sparse = float(np.prod(hi - lo + self.near_mm) / len(mid)) ** (1 / 3)
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
         return self._near_cells
 
