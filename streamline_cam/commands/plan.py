@@ -104,6 +104,8 @@ def run_plan(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
 
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
+    # a bad surface file is one error line, before anything is said of compiling
+    loaded = load_surface(args.surface)
     # on a cold kernel cache, helper processes compile the job's kernels too (started
     # before the planner's modules load: the cache check loads one kernel's module)
     with background_compile(job_kernels(args.axis, ("plan",)), say=say_on_stderr):
@@ -111,7 +113,7 @@ def run_plan(args: argparse.Namespace) -> int:
 
         from toolpath.planning.finishing import plan_finishing
 
-        surface = placed_surface(load_surface(args.surface), args)
+        surface = placed_surface(loaded, args)
         options: dict[str, Any] = {
             "fixed_axis": parse_vector(args.fixed_axis, "--fixed-axis"),
             "feed_mm_per_min": args.feed, "clearance_mm": args.clearance,
