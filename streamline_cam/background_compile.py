@@ -39,7 +39,7 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
-__all__ = ["COARSE", "ENV_SWITCH", "KERNELS_FILE", "Kernel", "background_compile",
+__all__ = ["COARSE", "ENV_SWITCH", "KERNELS_FILE", "Kernel", "MAX_HELPERS", "background_compile",
            "cache_is_cold", "compile_kernel", "compile_kernels", "decode_type", "encode_type",
            "helper_order", "job_kernels", "record_job_kernels", "recorded_jobs",
            "recorded_kernels", "say_on_stderr", "usable_cores", "work_ahead"]
@@ -298,21 +298,28 @@ def _switched_off(environ: Mapping[str, str]) -> bool:
     return environ.get(ENV_SWITCH, "").strip().lower() in ("0", "off", "no", "false")
 
 
+#: At most this many helper processes: a job's 30-40 recorded kernels keep four processes
+#: busy to the end, while each process loads numba and the kernels' modules (a few hundred
+#: MB): on a many-core machine more would cost memory, not time.
+MAX_HELPERS = 3
+
+
 @contextlib.contextmanager
 def background_compile(kernels: Sequence[Kernel], say: Callable[[str], None] | None = None
                        ) -> Iterator[list[subprocess.Popen]]:
     """Around a job: on a cold cache, helper processes compiling the job's ``kernels``.
 
-    One helper per usable core but the job's (:func:`usable_cores`), at most one per
-    kernel, each taking the kernels in its :func:`helper_order`; they and the job share the
-    list (none compiles a kernel another does, see the module's text). Yields the
-    helper processes: none on a warm cache, with nothing recorded, on one core, with
-    ``TOOLPATH_BACKGROUND_COMPILE=0``, or when no process could start. ``say`` gets one line
+    One helper per usable core but the job's (:func:`usable_cores`), at most
+    :data:`MAX_HELPERS` and one per kernel, each taking the kernels in its
+    :func:`helper_order`; they and the job share the list (none compiles a kernel another
+    does, see the module's text). Yields the helper processes: none on a warm cache, with
+    nothing recorded, on one core, with ``TOOLPATH_BACKGROUND_COMPILE=0``, or when no
+    process could start. ``say`` gets one line
     when they start. On leaving (an error and Ctrl-C too) the helpers are stopped and
     waited for.
     """
     helpers: list[subprocess.Popen] = []
-    count = min(usable_cores() - 1, len(kernels))
+    count = min(usable_cores() - 1, MAX_HELPERS, len(kernels))
     if count > 0 and not _switched_off(os.environ) and cache_is_cold(kernels):
         helpers = [helper for helper in (_start_helper(helper_order(kernels, i, count))
                                          for i in range(count)) if helper is not None]

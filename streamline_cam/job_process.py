@@ -21,7 +21,8 @@ it zeroing huge pages (``perf``: ``clear_page_erms`` under ``do_huge_pmd_anonymo
 * numpy's huge-page advice off (``NUMPY_MADVISE_HUGEPAGE=0``, set at runtime): the arrays
   are reused instead, so they fault once, in small pages.
 
-**Idle threads.** The compiled kernels run their loops on numba's OpenMP threads; between
+**Idle threads.** The verifier's compiled kernels run their loops on numba's OpenMP
+threads (the plan's kernels run row slices in Python threads, :mod:`toolpath.row_threads`); between
 two parallel loops GNU OpenMP's idle threads spin (``GOMP_SPINCOUNT``) instead of
 sleeping, and a job runs thousands of short loops with numpy work between them. With
 ``OMP_WAIT_POLICY=PASSIVE`` (unless the environment sets it) they sleep: the plan stage's

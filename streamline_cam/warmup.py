@@ -41,7 +41,7 @@ from .background_compile import (
     work_ahead,
 )
 
-__all__ = ["both_ends", "load_kernels", "warm_kernel", "warm_up"]
+__all__ = ["MAX_WARM_PROCESSES", "both_ends", "load_kernels", "warm_kernel", "warm_up"]
 
 
 def both_ends(count: int) -> list[int]:
@@ -110,19 +110,25 @@ class _Progress:
                      f"({time.perf_counter() - self.start:.1f} s)")
 
 
+#: At most this many warm-up processes by default (one per usable core below that): the
+#: recorded kernels keep about four busy, and each loads numba and the kernels' modules.
+MAX_WARM_PROCESSES = 4
+
+
 def warm_up(say: Callable[[str], None] | None = None, processes: int | None = None,
             kernels: Sequence[Kernel] | None = None) -> float:
     """Compile ``kernels`` (default: the recorded jobs') into the cache; returns the seconds.
 
     ``say`` gets the progress (a line at the start, one per stage as its kernels are done,
     one per kernel that failed), e.g. ``print``. Up to ``processes`` processes (default:
-    one per usable core, :func:`~.background_compile.usable_cores`) share the kernels, taken
-    from both ends of the list; one process compiles them here, in order.
+    one per usable core, :func:`~.background_compile.usable_cores`, at most
+    :data:`MAX_WARM_PROCESSES`) share the kernels, taken from both ends of the list; one
+    process compiles them here, in order.
     """
     say = say or (lambda _text: None)
     start = time.perf_counter()
     kernels = list(recorded_kernels() if kernels is None else kernels)
-    workers = max(1, min(len(kernels), processes or usable_cores()))
+    workers = max(1, min(len(kernels), processes or min(usable_cores(), MAX_WARM_PROCESSES)))
     progress = _Progress(kernels, say)
     say(progress.opening(workers))
     pending = both_ends(len(kernels))

@@ -238,8 +238,7 @@ class Scratch(NamedTuple):
 def _scratch():
     """A fresh :class:`Scratch`.
 
-    A call: inlined into a parallel loop, the named tuple of arrays fails numba's array
-    analysis (an ``IndexError`` while compiling).
+    A call, so that each row slice (:mod:`toolpath.row_threads`) has its own scratch.
     """
     return Scratch(np.empty((3, 4)), np.empty((3, 4)), np.empty((6, 3)), np.empty((3, 3)),
                    np.empty((6, 3)))

@@ -249,8 +249,16 @@ def working_while_waiting(work: Callable[[], bool]) -> Iterator[None]:
 
 
 def _work_while_waiting() -> bool:
-    """Run the innermost :func:`working_while_waiting` work once; whether it did some."""
-    if not _WHILE_WAITING or _WORKING[0]:
+    """Run the innermost :func:`working_while_waiting` work once; whether it did some.
+
+    Only in a top-level wait: while this process compiles another kernel (one that calls
+    the kernel it waits for), the wait only sleeps. Work done there would
+    run inside numba's compile of that outer kernel: a kernel reaching the outer one would
+    be typed as recursion and cached broken (later processes loading it crash), and one
+    reaching a kernel another process holds while that one waits for the outer kernel's
+    lock would stall both for :data:`LOCK_WAIT_S`.
+    """
+    if not _WHILE_WAITING or _WORKING[0] or _COMPILING[0] > 1:
         return False
     _WORKING[0] = True
     try:
@@ -262,6 +270,10 @@ def _work_while_waiting() -> bool:
 #: Lock files this process holds (path -> depth), so that a nested compile of the same
 #: kernel does not wait for itself.
 _HELD: dict[str, int] = {}
+#: How many of numba's compiles this process runs one inside the other (a kernel's
+#: compile compiles the kernels it calls). Like :data:`_HELD` and the waiting work, read
+#: and changed only under numba's compiler lock, which every thread takes to compile.
+_COMPILING: list[int] = [0]
 
 
 def _compile_once(compile_: Callable[[Any, Any], Any]) -> Callable[[Any, Any], Any]:
@@ -277,13 +289,21 @@ def _compile_once(compile_: Callable[[Any, Any], Any]) -> Callable[[Any, Any], A
     from numba.core.compiler_lock import global_compiler_lock
 
     def compile(self: Any, sig: Any) -> Any:
+        with global_compiler_lock:
+            _COMPILING[0] += 1
+            try:
+                return _locked(self, sig)
+            finally:
+                _COMPILING[0] -= 1
+
+    def _locked(self: Any, sig: Any) -> Any:
         index_path = getattr(getattr(self._cache, "_cache_file", None), "_index_path", None)
         if index_path is None or fcntl is None:
             return compile_(self, sig)
         args, _ = sigutils.normalize_signature(sig)
         if tuple(args) in self.overloads:
             return compile_(self, sig)
-        with global_compiler_lock, _file_lock(index_path + ".lock"):
+        with _file_lock(index_path + ".lock"):
             return compile_(self, sig)
 
     compile.__doc__ = compile_.__doc__

@@ -2,6 +2,7 @@
 
 import os
 import tempfile
+import time
 from pathlib import Path
 
 import pytest
@@ -242,6 +243,47 @@ def test_a_process_waiting_for_another_s_compile_compiles_its_next_kernel(tmp_pa
     assert run.returncode == 0
     assert out.split() == ["2.0", "1"]  # then it compiled first itself; second once
 
+
+
+# "nested": the waited-for kernel is called by one this process compiles (``outer``)
+NESTED_KERNELS = TWO_KERNELS + '''
+
+@numba.njit(cache=True)
+def outer(x):
+    return 3.0 * first(x)
+'''
+
+NESTED_WAIT = WHILE_WAITING.replace("two_kernels.first(1.0)", "two_kernels.outer(1.0)").replace(
+    "print(sum(two_kernels.second.stats.cache_misses.values()), flush=True)",
+    "print(len(left), flush=True)")
+
+
+@pytest.mark.skipif(fcntl is None, reason="no flock here")
+def test_a_wait_inside_another_kernel_s_compile_only_sleeps(tmp_path):
+    """Work done there would run inside numba's compile of the outer kernel: a kernel
+    reaching it would be typed as recursion and cached broken, and a lock held by another
+    process could close a cycle."""
+    import subprocess
+    import sys
+
+    (tmp_path / "two_kernels.py").write_text(NESTED_KERNELS, encoding="utf-8")
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    run = subprocess.Popen([sys.executable, "-c", NESTED_WAIT], cwd=tmp_path, env=env,
+                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+    lock = os.open(run.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+    try:
+        fcntl.flock(lock, fcntl.LOCK_EX)  # "another process" compiles first
+        run.stdin.write("go\n")
+        run.stdin.flush()
+        time.sleep(1.5)  # it compiles outer and waits for first (polled every 0.05 s)
+        fcntl.flock(lock, fcntl.LOCK_UN)
+        out, _ = run.communicate(timeout=120)
+    finally:
+        os.close(lock)
+    assert run.returncode == 0
+    assert out.split() == ["6.0", "1"]  # outer's value; second left alone
 
 FREE = '''
 import json, os, sys

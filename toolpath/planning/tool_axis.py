@@ -24,8 +24,8 @@ bounded by the lean from the normal.
 
 The row kernels here run on one thread: each takes a millisecond or so on a job's
 points, while a parallel loop costs a second or more of compiling on a cold start
-(issue 27; the parallel loops are kept where the work is: projection, clearance,
-measure).
+(issue 27; where the work is, projection, clearance, measure, the rows run in
+threads: :mod:`toolpath.row_threads`).
 """
 
 from __future__ import annotations
