@@ -218,22 +218,30 @@ print(sum(two_kernels.second.stats.cache_misses.values()), flush=True)
 '''
 
 
-@pytest.mark.skipif(fcntl is None, reason="no flock here")
-def test_a_process_waiting_for_another_s_compile_compiles_its_next_kernel(tmp_path):
+def _waiting_for_first(tmp_path, kernels: str, script: str):
+    """``script`` run in a process over the module ``kernels``, told to go on once this
+    test holds the lock of its kernel ``first`` (as another process compiling it would);
+    returns the process and the lock's handle (locked)."""
     import subprocess
     import sys
 
-    (tmp_path / "two_kernels.py").write_text(TWO_KERNELS, encoding="utf-8")
+    (tmp_path / "two_kernels.py").write_text(kernels, encoding="utf-8")
     root = Path(__file__).resolve().parents[2]
     env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
            "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    run = subprocess.Popen([sys.executable, "-c", WHILE_WAITING], cwd=tmp_path, env=env,
+    run = subprocess.Popen([sys.executable, "-c", script], cwd=tmp_path, env=env,
                            stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
     lock = os.open(run.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+    fcntl.flock(lock, fcntl.LOCK_EX)  # "another process" compiles first
+    run.stdin.write("go\n")
+    run.stdin.flush()
+    return run, lock
+
+
+@pytest.mark.skipif(fcntl is None, reason="no flock here")
+def test_a_process_waiting_for_another_s_compile_compiles_its_next_kernel(tmp_path):
+    run, lock = _waiting_for_first(tmp_path, TWO_KERNELS, WHILE_WAITING)
     try:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # "another process" compiles first
-        run.stdin.write("go\n")
-        run.stdin.flush()
         # while it waits for first's lock, it compiles second
         assert run.stdout.readline().split() == ["compiled", "second"]
         fcntl.flock(lock, fcntl.LOCK_UN)
@@ -242,7 +250,6 @@ def test_a_process_waiting_for_another_s_compile_compiles_its_next_kernel(tmp_pa
         os.close(lock)
     assert run.returncode == 0
     assert out.split() == ["2.0", "1"]  # then it compiled first itself; second once
-
 
 
 # "nested": the waited-for kernel is called by one this process compiles (``outer``)
@@ -263,20 +270,8 @@ def test_a_wait_inside_another_kernel_s_compile_only_sleeps(tmp_path):
     """Work done there would run inside numba's compile of the outer kernel: a kernel
     reaching it would be typed as recursion and cached broken, and a lock held by another
     process could close a cycle."""
-    import subprocess
-    import sys
-
-    (tmp_path / "two_kernels.py").write_text(NESTED_KERNELS, encoding="utf-8")
-    root = Path(__file__).resolve().parents[2]
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
-           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    run = subprocess.Popen([sys.executable, "-c", NESTED_WAIT], cwd=tmp_path, env=env,
-                           stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-    lock = os.open(run.stdout.readline().strip(), os.O_RDWR | os.O_CREAT)
+    run, lock = _waiting_for_first(tmp_path, NESTED_KERNELS, NESTED_WAIT)
     try:
-        fcntl.flock(lock, fcntl.LOCK_EX)  # "another process" compiles first
-        run.stdin.write("go\n")
-        run.stdin.flush()
         time.sleep(1.5)  # it compiles outer and waits for first (polled every 0.05 s)
         fcntl.flock(lock, fcntl.LOCK_UN)
         out, _ = run.communicate(timeout=120)
