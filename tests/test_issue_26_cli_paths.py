@@ -9,14 +9,21 @@ its work (``streamline_cam.cli_files``), and the toolpath and surface readers na
 from __future__ import annotations
 
 import json
+import os
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
 
+from streamline_cam.background_compile import ENV_SWITCH
 from streamline_cam.cli import main
 from toolpath import MoveKind, Toolpath
 from toolpath.paper_examples import bundled_data_path
 from toolpath.planning.analytic import PlaneSurface
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 @pytest.fixture(scope="module")
@@ -142,3 +149,26 @@ def test_a_port_out_of_range_is_refused_by_serve(capsys, port):
     err = capsys.readouterr().err  # argparse: the usage, then the error
     assert "Traceback" not in err
     assert err.splitlines()[-1].endswith(f"expected a port number 0-65535, got '{port}'")
+
+
+@pytest.mark.parametrize(("content", "said"), [
+    (bytes(range(255, -1, -1)), "points.csv: cannot read the file"),
+    (b"section,x,y,z\n0,0,0,0\n0,1,0,0\n1,0,0,1\n1,1,0,1\n", "at least 4 sections, got 2"),
+])
+def test_bad_points_for_run_on_a_cold_kernel_cache_are_one_line(tmp_path, content, said):
+    """``run`` reads and checks its points before its compile helpers start and say so.
+
+    A process of its own on an empty kernel cache: with a warm one nothing is said of
+    compiling, so an in-process test passes either way.
+    """
+    points = tmp_path / "points.csv"
+    points.write_bytes(content)
+    env = {name: value for name, value in os.environ.items() if name != ENV_SWITCH}
+    env |= {"PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+    done = subprocess.run([sys.executable, "-m", "streamline_cam.cli", "run", str(points),
+                           "-o", str(tmp_path / "job" / "part.nc")],
+                          cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 2
+    assert "Traceback" not in done.stderr and done.stderr.count("\n") == 1, done.stderr
+    assert done.stderr.startswith("toolpath: error: ") and said in done.stderr, done.stderr
+    assert not (tmp_path / "job").exists()

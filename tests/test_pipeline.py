@@ -117,7 +117,8 @@ def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
                          {"gcode": gcode})
 
     monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
-    code = cli.main(["run", "sections.csv", "--verify", "--quiet"])
+    blade = str(bundled_data_path("dev_blade_15x142.csv"))  # (run reads it before the job)
+    code = cli.main(["run", blade, "--verify", "--quiet"])
     err = capsys.readouterr().err
     assert code == (1 if exceeded else 0)
     assert gcode.exists()  # the outputs are kept

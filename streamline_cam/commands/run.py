@@ -125,6 +125,22 @@ def _setup_lines(report: dict) -> list[str]:
     return lines
 
 
+def _check_points(points: Path, closed: bool | None) -> None:
+    """Read and check the blade sections as the job will (``toolpath fit surface`` too).
+
+    Raises
+    ------
+    DataFileError
+        The file cannot be read as ``section,x,y,z`` CSV (naming the file and line).
+    InvalidPointsError
+        Its sections cannot make a surface (:func:`toolpath.as_sections`: too few,
+        repeated points, ...).
+    """
+    from toolpath import as_sections, read_sections
+
+    as_sections(read_sections(points), closed=closed)
+
+
 def _run(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
     from ..progress import StageBars
@@ -134,6 +150,9 @@ def _run(args: argparse.Namespace) -> int:
            else output_folder("job", "the output folder"))
     if args.output and Path(args.output).is_dir():
         raise CommandLineError(f"-o {args.output}: cannot write: it is a folder")
+    # a bad points file is one error line, before anything is said of compiling (the job
+    # reads the file again: a few milliseconds)
+    _check_points(Path(args.points), args.closed)
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
     stream = make_streamer(target, dialect=args.dialect) if target else None

@@ -63,12 +63,15 @@ def test_blade_lying_with_uncut_areas(blade, cutter):
     assert fast.uncut_fraction > 0.1  # the far side: interior and overall maxima differ
 
 
-@pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])
-def test_blade_standing_under_joint_interpolation(blade, cutter):
+@pytest.mark.parametrize(("cutter", "request_mm"), [("ball:6", 0.03), ("bull:8:1", 0.1)])
+def test_blade_standing_under_joint_interpolation(blade, cutter, request_mm):
+    # (the bull-nose on a coarser request: 14,000 seeds, not 36,000, each ray cast in
+    # full for the comparison; about 40 % of them have no estimate round the edges and
+    # are cast either way)
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    _same_scallop(planned(standing, cutter, scallop_mm=0.03, chord_tol_mm=0.03,
-                           axis_mode="lead-tilt", lead_deg=10.0,
-                           machine=load_machine("trunnion-ac")))
+    _same_scallop(planned(standing, cutter, scallop_mm=request_mm,
+                           chord_tol_mm=min(request_mm, 0.05), axis_mode="lead-tilt",
+                           lead_deg=10.0, machine=load_machine("trunnion-ac")))
 
 
 def test_the_scallop_is_the_largest_of_the_seeds_cusps():
