@@ -128,7 +128,6 @@ def _setup_lines(report: dict) -> list[str]:
 def _run(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
     from ..progress import StageBars
-    from ..streaming import make_streamer
 
     out = (output_folder(Path(args.output).parent, "-o", shown=args.output) if args.output
            else output_folder("job", "the output folder"))
@@ -136,7 +135,11 @@ def _run(args: argparse.Namespace) -> int:
         raise CommandLineError(f"-o {args.output}: cannot write: it is a folder")
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
-    stream = make_streamer(target, dialect=args.dialect) if target else None
+    stream = None
+    if target:  # the senders (and their serial port modules) load only to stream
+        from ..streaming import make_streamer
+
+        stream = make_streamer(target, dialect=args.dialect)
     # on a cold kernel cache, helper processes compile the job's kernels too (started
     # before the pipeline's modules load: the cache check loads one kernel's module)
     stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())
