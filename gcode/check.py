@@ -54,6 +54,7 @@ __all__ = [
     "Issue",
     "IssueCode",
     "Severity",
+    "check_file",
     "check_program",
     "check_text",
     "machine_dialect",
@@ -302,6 +303,16 @@ def check_text(
     list of Issue
         Sorted by line.
     """
+    return _check_parsed(text, machine, dialect, offsets)[0]
+
+
+def _check_parsed(
+    text: str,
+    machine: Machine,
+    dialect: Dialect | None,
+    offsets: Mapping[int, Sequence[float]] | None,
+) -> tuple[list[Issue], Program, bool]:
+    """:func:`check_text`'s issues, the program parsed, and whether every block parsed."""
     d = dialect if dialect is not None else dialect_by_name(machine.dialect)
     program, errors = parse_with_errors(text, machine_dialect(machine, d))
     issues = [_issue_of_error(e) for e in errors]
@@ -316,7 +327,47 @@ def check_text(
         issues += _travel_issues(machine, seg) + _rate_issues(machine, seg)
     order = {c: n for n, c in enumerate(IssueCode)}
     issues.sort(key=lambda i: (i.line if i.line is not None else 0, order[i.code]))
-    return issues
+    return issues, program, not errors
+
+
+def check_file(
+    path: str | Path,
+    machine: Machine,
+    dialect: Dialect | None = None,
+    *,
+    offsets: Mapping[int, Sequence[float]] | None = None,
+) -> tuple[list[Issue], Program | None]:
+    """Check a G-code file (:func:`check_program`), and hand on the program it parsed.
+
+    The check parses the file strictly for the machine's dialect, as
+    :func:`gcode.parser.parse_file` with :func:`machine_dialect` does: where every block
+    parsed, that program is the very one such a parse returns (a job's verification
+    replays it instead of reading the file twice); where a block failed, None (the strict
+    parse would stop there).
+
+    Parameters
+    ----------
+    path : str or Path
+        The G-code file.
+    machine, dialect, offsets
+        As for :func:`check_program`.
+
+    Returns
+    -------
+    issues : list of Issue
+        As :func:`check_program` returns them.
+    program : Program or None
+        The parsed program, blocks in execution order, lines of the file; None when a
+        block failed to parse.
+
+    Raises
+    ------
+    OSError
+        When the file cannot be read.
+    """
+    text = Path(path).read_text(encoding="utf-8", errors="replace")
+    issues, program, parsed = _check_parsed(text, machine, dialect, offsets)
+    return issues, program if parsed else None
 
 
 def check_program(
@@ -356,5 +407,4 @@ def check_program(
         text, emit_issue = _program_text(program_or_path, d)
         issues = check_text(text, machine, d, offsets=offsets)
         return issues if emit_issue is None else [*issues, emit_issue]
-    text = Path(program_or_path).read_text(encoding="utf-8", errors="replace")
-    return check_text(text, machine, d, offsets=offsets)
+    return check_file(program_or_path, machine, d, offsets=offsets)[0]

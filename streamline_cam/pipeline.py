@@ -20,7 +20,7 @@ from typing import Any
 
 import numpy as np
 
-from gcode.check import Severity, check_program
+from gcode.check import Severity, check_file
 from gcode.dialects import dialect_by_name
 from gcode.emitter import emit_file
 from gcode.post import PostOptions, post
@@ -158,25 +158,32 @@ def _toolpath_plots(surface: Any, path: Any, out_dir: Path) -> dict[str, Path]:
 
 
 def verify_program(gcode: Path, surface: Any, machine: Any, cutter_spec: str, dialect: Any,
-                   scallop_mm: float) -> Any:
+                   scallop_mm: float, *, parsed: Any = None) -> Any:
     """Material-removal check of the program ``gcode`` against the design ``surface``.
 
     The job's verify stage, and the service's deviation map of a finished job (which the
     job does not keep): one check, so the map's extremes are the report's figures.
+    ``parsed``: the program of ``gcode`` as the check parsed it
+    (:func:`gcode.check.check_file`), verified rather than the file read again.
     """
     from toolpath.planning.cutters import parse_cutter
     from verification.options import VerifyOptions
     from verification.verify import verify_file
+    from verification.verify import verify_program as verify_parsed
 
+    options = VerifyOptions(scallop_mm=scallop_mm)
+    if parsed is not None:
+        return verify_parsed(parsed, surface, machine, parse_cutter(cutter_spec),
+                             options=options)
     return verify_file(gcode, surface, machine, parse_cutter(cutter_spec), dialect=dialect,
-                       options=VerifyOptions(scallop_mm=scallop_mm))
+                       options=options)
 
 
 def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
-            dialect: Any, plots: bool) -> dict[str, Any]:
-    """Material-removal check of the written program against the design surface."""
+            dialect: Any, plots: bool, parsed: Any) -> dict[str, Any]:
+    """Material-removal check of the written program (as the check parsed it, if it did)."""
     outcome = verify_program(files["gcode"], surface, machine, request.cutter, dialect,
-                             request.scallop_mm)
+                             request.scallop_mm, parsed=parsed)
     if plots:
         from verification.plotting import plot_deviation_map
 
@@ -368,7 +375,9 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
 
     start = time.perf_counter()
     report_progress("check", 0.0)
-    issues = check_program(files["gcode"], machine, dialect)
+    # the file parsed once: its program goes on to the verification
+    issues, parsed = check_file(files["gcode"], machine, dialect)
+    parsed = parsed if verify else None
     errors = [i for i in issues if i.severity is Severity.ERROR]
     report["check"] = {"errors": len(errors), "warnings": len(issues) - len(errors),
                        "issues": [str(i) for i in issues[:50]]}
@@ -378,7 +387,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     if verify:
         start = time.perf_counter()
         report_progress("verify", 0.0)
-        report["verify"] = _verify(files, surface, machine, request, dialect, plots)
+        report["verify"] = _verify(files, surface, machine, request, dialect, plots, parsed)
         report["verify"]["verdict"] = verify_verdict(report)
         seconds["verify"] = time.perf_counter() - start
         report_progress("verify", 1.0)

@@ -80,3 +80,16 @@ def test_an_export_named_like_its_module_stays_the_export():
 
     assert callable(post) and post.__module__ == "gcode.post"
     assert callable(replay) and replay.__module__ == "verification.replay"
+
+
+def test_run_loads_the_senders_only_to_stream(tmp_path):
+    # a job that fails on its points file has gone through the command's set-up
+    probe = PROBE.replace("json.loads(sys.argv[2])", "sys.argv[2].split()")
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run(
+        [sys.executable, "-c", probe,
+         json.dumps(["run", "missing.csv", "--quiet", "-o", str(tmp_path / "part.nc")]),
+         "streamline_cam.streaming gcode.senders.grbl_sender"],
+        cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr
+    assert json.loads(done.stdout.splitlines()[-1]) == {"code": 2, "heavy": []}

@@ -159,10 +159,10 @@ class DeviationStats:
             mean = float((a_cut * d_cut).sum() / total)
             rms = float(np.sqrt((a_cut * d_cut * d_cut).sum() / total))
             order = np.argsort(d_cut)
-            cum = np.cumsum(a_cut[order])
-            cum = (cum - 0.5 * a_cut[order]) / total
-            pct = {f"p{p:g}": float(np.interp(p / 100.0, cum, d_cut[order]))
-                   for p in PERCENTILES}
+            a_sorted, d_sorted = a_cut[order], d_cut[order]
+            cum = np.cumsum(a_sorted)
+            cum = (cum - 0.5 * a_sorted) / total
+            pct = {f"p{p:g}": float(np.interp(p / 100.0, cum, d_sorted)) for p in PERCENTILES}
             lo, hi = float(d_cut.min()), float(d_cut.max())
             counts, edges = np.histogram(d_cut, bins=bins, range=(lo, hi if hi > lo else lo + 1e-9),
                                          weights=a_cut)

@@ -144,7 +144,6 @@ def _check_points(points: Path, closed: bool | None) -> None:
 def _run(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
     from ..progress import StageBars
-    from ..streaming import make_streamer
 
     out = (output_folder(Path(args.output).parent, "-o", shown=args.output) if args.output
            else output_folder("job", "the output folder"))
@@ -155,7 +154,11 @@ def _run(args: argparse.Namespace) -> int:
     _check_points(Path(args.points), args.closed)
     bars = StageBars(disable=args.quiet)
     target = "simulate" if args.simulate else args.send
-    stream = make_streamer(target, dialect=args.dialect) if target else None
+    stream = None
+    if target:  # the senders (and their serial port modules) load only to stream
+        from ..streaming import make_streamer
+
+        stream = make_streamer(target, dialect=args.dialect)
     # on a cold kernel cache, helper processes compile the job's kernels too (started
     # before the pipeline's modules load: the cache check loads one kernel's module)
     stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())

@@ -139,3 +139,28 @@ def test_missing_file_raises_os_error(tmp_path):
 def test_issue_text_has_line_severity_and_code():
     issue = Issue(7, IssueCode.SOFT_LIMIT, "axis X reaches 812 mm")
     assert str(issue) == "line 7: error soft-limit: axis X reaches 812 mm"
+
+
+def test_a_checked_file_hands_on_the_program_a_strict_parse_reads(tmp_path):
+    from gcode import check_file, emit_file, parse_file
+    from gcode.check import machine_dialect
+
+    program = post(blade_5axis(), TRUNNION, LINUXCNC)
+    path = tmp_path / "p.nc"
+    emit_file(program, LINUXCNC, path)
+    issues, parsed = check_file(path, TRUNNION)
+    assert issues == check_program(path, TRUNNION) == []
+    # the very program verification would read from the file: blocks and their lines
+    assert parsed == parse_file(path, machine_dialect(TRUNNION, LINUXCNC))
+    # where a block fails, the strict parse stops: nothing is handed on, the issue stays
+    bad = tmp_path / "bad.nc"
+    bad.write_text(MIXED, encoding="utf-8")
+    issues, parsed = check_file(bad, GRBL_ROUTER)
+    assert parsed is None
+    assert _by_line(issues) == _by_line(check_program(bad, GRBL_ROUTER))
+    # warnings only (a feed over the machine's rate): the program goes on
+    warned = tmp_path / "warned.nc"
+    warned.write_text("G21 G90 G94\nG0 X0 Y0 Z5\nG1 X200 F20000\nM30\n", encoding="utf-8")
+    issues, parsed = check_file(warned, GRBL_ROUTER)
+    assert issues and all(i.severity is Severity.WARNING for i in issues)
+    assert parsed == parse_file(warned, machine_dialect(GRBL_ROUTER, GRBL))

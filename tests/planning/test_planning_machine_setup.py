@@ -176,3 +176,20 @@ def test_run_command_leaves_the_travel_to_the_placement_unless_told():
     assert "on_limit" not in request_from_args(Path("blade.csv"), args).planning_options
     args = _parser().parse_args(["run", "blade.csv", "--on-limit", "raise"])
     assert request_from_args(Path("blade.csv"), args).planning_options["on_limit"] == "raise"
+
+
+@pytest.mark.parametrize("inside_mm", [1.0, 0.5 * TRAVEL_MARGIN_MM])
+def test_a_path_within_the_margin_stays_and_one_past_it_moves_by_the_excess(inside_mm):
+    # the router's X travel ends at 0 (x = 400 with its work origin): a row of tips whose
+    # last point ends inside_mm short of it; within the margin no linear program is needed
+    machine = load_machine("grbl-router")
+    end = -machine.work_origin[0] - inside_mm
+    tips = np.column_stack([np.linspace(end - 20.0, end, 40), np.zeros(40), np.zeros(40)])
+    fit = fit_travel(machine, tips, np.tile(Z, (40, 1)))
+    assert fit.fits and fit.uniform and not fit.binding
+    if inside_mm >= TRAVEL_MARGIN_MM:
+        assert fit.offset_mm.tolist() == [0.0, 0.0, 0.0]
+        assert fit.ranges[0].needed_mm[1] == pytest.approx(-inside_mm)
+    else:  # the full method: back by what the margin lacks
+        assert fit.offset_mm[0] == pytest.approx(inside_mm - TRAVEL_MARGIN_MM, abs=1e-9)
+        assert fit.offset_mm[1:].tolist() == [0.0, 0.0]

@@ -206,9 +206,12 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     if raise_only:
         bounds[5] = (0.0, 0.0)  # d_z >= 0
     cost = np.r_[np.ones(6), _OVERRUN_WEIGHT]
-    active = [np.argsort(b)[:_ROUND_ROWS] for _, b in blocks]
     x = np.zeros(7)
-    for _ in range(_MAX_ROUNDS):
+    # every cost is positive: where no shift is needed (x = 0 keeps every row, b >= 0)
+    # no other x is as cheap, and the rounds of linear programs are skipped
+    rounds = 0 if all(bool((b >= 0.0).all()) for _, b in blocks) else _MAX_ROUNDS
+    active = [np.argsort(b)[:_ROUND_ROWS] for _, b in blocks] if rounds else []
+    for _ in range(rounds):
         rows_a = [np.column_stack([a[idx], -a[idx], -np.ones(idx.size)])
                   for (a, _), idx in zip(blocks, active, strict=True)]
         rows_b = [b[idx] for (_, b), idx in zip(blocks, active, strict=True)]
