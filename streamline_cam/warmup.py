@@ -15,13 +15,16 @@ kernel it calls) is checked again once that process is done. A line per stage as
 kernels are done shows the progress.
 
 Nothing depends on it: a kernel it did not reach compiles when a job first calls it, and a
-kernel that fails to compile (a stale record would be a bug) is reported and skipped.
+kernel that fails to compile (a stale record would be a bug) is reported and skipped; so is
+one whose compile kills its process (a crash in numba or LLVM): never compiled again here,
+where it would end the warm-up (:func:`_in_processes` finds which kernel it was).
 :func:`load_kernels` is the per-process counterpart for long-lived workers (a Dask worker,
 before its first job): one small job that loads the cached kernels in a second or two.
 """
 
 from __future__ import annotations
 
+import json
 import multiprocessing
 import os
 import tempfile
@@ -36,6 +39,7 @@ from typing import Final
 from .background_compile import (
     Kernel,
     compile_kernel,
+    encode_type,
     recorded_kernels,
     usable_cores,
     work_ahead,
@@ -135,7 +139,7 @@ def warm_up(say: Callable[[str], None] | None = None, processes: int | None = No
     if workers > 1:
         try:
             _in_processes(workers, kernels, pending, progress)
-        except (OSError, BrokenProcessPool) as exc:  # (no /dev/shm, a worker killed)
+        except (OSError, BrokenProcessPool) as exc:  # (no /dev/shm; one died, not compiling)
             say(f"warm-up: a worker process failed ({exc}); the rest compiles here")
     for index in list(pending):
         progress.done(index, *warm_kernel(kernels[index], True))
@@ -148,25 +152,68 @@ def _in_processes(workers: int, kernels: Sequence[Kernel], pending: list[int],
                   progress: _Progress) -> None:
     """Compile the kernels ``pending`` in ``workers`` processes; each done one leaves it.
 
+    A worker process that dies (a compile that crashed it, the pool then unusable) takes
+    the kernel it was compiling along: that kernel is reported and skipped, the kernels not
+    done yet go on in a new pool. Which kernel it was: each worker keeps, in a file of its
+    own, the recorded kernels it is compiling at the moment (:func:`_start_worker`); the
+    innermost of each worker's were being compiled when the pool broke. One such kernel is
+    the culprit; of several (one per worker), each is compiled again alone in a pool of one
+    process, and the one that kills that process is the culprit. Raises BrokenProcessPool
+    when a worker died compiling none (the caller compiles the rest itself), OSError when
+    no process could start.
+    """
+    alone: list[int] = []
+    with tempfile.TemporaryDirectory(prefix="toolpath-warm-up-") as folder:
+        while shared := [index for index in pending if index not in alone]:
+            suspects = _pool_round(workers, kernels, shared, pending, progress, folder)
+            if suspects is None:
+                break
+            if not suspects:
+                raise BrokenProcessPool("a warm-up process ended while compiling nothing")
+            if len(suspects) == 1:
+                _died(suspects[0], pending, progress)
+            else:
+                alone += suspects
+        for index in alone:
+            if index in pending and _pool_round(1, kernels, [index], pending, progress,
+                                                folder) is not None:
+                _died(index, pending, progress)
+
+
+def _died(index: int, pending: list[int], progress: _Progress) -> None:
+    progress.done(index, "failed: the process compiling it died", 0.0)
+    pending.remove(index)
+
+
+def _pool_round(workers: int, kernels: Sequence[Kernel], indices: Sequence[int],
+                pending: list[int], progress: _Progress, folder: str) -> list[int] | None:
+    """The kernels ``indices`` in a pool of ``workers``: None, or those in compile if it broke.
+
     A kernel found busy (another worker compiles it as one its kernel calls) is handed out
-    again, to wait for that compile and find it in the cache.
+    again, to wait for that compile and find it in the cache. Done kernels leave
+    ``pending``. If a worker dies, returns the kernels the workers were compiling then.
     """
     spawn = multiprocessing.get_context("spawn")  # (no fork of a process running numba)
-    with ProcessPoolExecutor(max_workers=workers, mp_context=spawn,
-                             initializer=_one_thread) as pool:
+    marks = tempfile.mkdtemp(dir=folder)  # (this pool's workers' files)
+    by_key = {_key(kernels[index]): index for index in indices}
+    with ProcessPoolExecutor(max_workers=workers, mp_context=spawn, initializer=_start_worker,
+                             initargs=(marks, list(by_key))) as pool:
         def submit(index: int, wait: bool) -> None:
-            later = [kernels[i] for i in pending[pending.index(index) + 1:]]
+            later = [kernels[i] for i in indices[indices.index(index) + 1:] if i in pending]
             running[pool.submit(warm_kernel, kernels[index], wait, later)] = index
 
         running: dict[Future, int] = {}
-        for index in pending:
+        for index in indices:
             submit(index, False)
         try:
             while running:
                 done, _ = wait(running, return_when=FIRST_COMPLETED)
                 for future in done:
                     index = running.pop(future)
-                    state, cpu_s = future.result()
+                    try:
+                        state, cpu_s = future.result()
+                    except BrokenProcessPool:
+                        return _compiling(marks, by_key, pending)
                     if state == "busy":
                         submit(index, True)
                         continue
@@ -175,6 +222,64 @@ def _in_processes(workers: int, kernels: Sequence[Kernel], pending: list[int],
         except KeyboardInterrupt:
             pool.shutdown(wait=False, cancel_futures=True)
             raise
+    return None
+
+
+def _key(kernel: Kernel) -> str:
+    """A recorded kernel as one string (name and argument types)."""
+    return json.dumps([kernel.module, kernel.name, list(kernel.args)])
+
+
+def _compiling(marks: str, by_key: dict[str, int], pending: Sequence[int]) -> list[int]:
+    """The kernels each worker of ``marks`` was compiling last (its innermost), not done."""
+    found = set()
+    for mark in Path(marks).iterdir():
+        try:
+            keys = json.loads(mark.read_text(encoding="utf-8"))
+        except (OSError, ValueError):  # (a worker's file, half written when it died)
+            continue
+        if keys and by_key.get(keys[-1]) in pending:
+            found.add(by_key[keys[-1]])
+    return sorted(found)
+
+
+def _start_worker(marks: str, keys: Sequence[str]) -> None:
+    """A warm-up process: one thread for compiled loops, and its compiles written down.
+
+    The process's file in ``marks`` lists, innermost last, the kernels of ``keys``
+    (:func:`_key`) it is compiling (numba's ``numba:compile`` events; a kernel loaded
+    from the cache has none), rewritten whole (a new file renamed over the old) at each
+    start and end of one.
+    """
+    _one_thread()
+    import toolpath  # noqa: F401  (the kernel cache's folder and lock, before numba loads)
+
+    wanted, path = set(keys), Path(marks) / str(os.getpid())
+    from numba.core import event
+    opened: list[str | None] = []  # each compile begun and not ended: its key, if wanted
+
+    def write() -> None:
+        path.with_suffix(".new").write_text(json.dumps([k for k in opened if k]),
+                                            encoding="utf-8")
+        os.replace(path.with_suffix(".new"), path)
+
+    class Compiles(event.Listener):
+        def on_start(self, ev: event.Event) -> None:
+            func = ev.data["dispatcher"].py_func
+            try:
+                args = [encode_type(arg) for arg in ev.data["args"]]
+            except ValueError:
+                args = None
+            key = json.dumps([func.__module__, func.__qualname__, args])
+            opened.append(key if key in wanted else None)
+            if opened[-1]:
+                write()
+
+        def on_end(self, ev: event.Event) -> None:
+            if opened.pop():
+                write()
+
+    event.register("numba:compile", Compiles())
 
 
 def _one_thread() -> None:

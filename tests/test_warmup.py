@@ -71,7 +71,10 @@ def test_kernels_a_failed_worker_pool_did_not_finish_compile_in_this_process(mon
 
 
 KERNEL_MODULE = '''
+import os
+
 import numba
+from numba.extending import overload
 
 
 @numba.njit(cache=True)
@@ -87,6 +90,21 @@ def outer(x):
 @numba.njit(cache=True)
 def broken(x):
     return x.no_such_attribute
+
+
+def die():
+    pass
+
+
+@overload(die)
+def _die_while_compiling():
+    os._exit(70)  # (as a crash in LLVM would: the process compiling is gone)
+
+
+@numba.njit(cache=True)
+def killer(x):
+    die()
+    return x.sum()
 '''
 
 # Warms up the module's kernels (one fails to compile, one is gone) in two processes, then
@@ -98,8 +116,8 @@ from streamline_cam.background_compile import Kernel
 from streamline_cam.warmup import warm_up
 
 ARRAY = {"array": "float64", "ndim": 1, "layout": "C", "readonly": False}
-kernels = [Kernel("kmod", name, (ARRAY,), stage) for name, stage in
-           (("inner", "fit"), ("broken", "plan"), ("outer", "plan"), ("gone", "verify"))]
+kernels = [Kernel("kmod", name, (ARRAY,), stage)  # (arguments: name:stage)
+           for name, stage in (entry.split(":") for entry in sys.argv[1:])]
 if __name__ == "__main__":
     said = []
     warm_up(said.append, processes=2, kernels=kernels)
@@ -111,21 +129,37 @@ if __name__ == "__main__":
 '''
 
 
-def test_a_kernel_that_fails_to_compile_is_reported_and_skipped(tmp_path):
-    (tmp_path / "kmod.py").write_text(KERNEL_MODULE, encoding="utf-8")
-    (tmp_path / "warm.py").write_text(WARM, encoding="utf-8")
-    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(ROOT))),
-           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
-    done = subprocess.run([sys.executable, "warm.py"], cwd=tmp_path, env=env,
+def _warm_up_kmod(folder, *kernels):
+    """Run WARM on ``kernels`` (``name:stage``) of KERNEL_MODULE; its result and exit code."""
+    (folder / "kmod.py").write_text(KERNEL_MODULE, encoding="utf-8")
+    (folder / "warm.py").write_text(WARM, encoding="utf-8")
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(folder), str(ROOT))),
+           "NUMBA_CACHE_DIR": str(folder / "cache")}
+    done = subprocess.run([sys.executable, "warm.py", *kernels], cwd=folder, env=env,
                           capture_output=True, text=True, timeout=600)
-    assert done.returncode == 0, done.stderr
-    result = json.loads(done.stdout.splitlines()[-1])
+    assert done.returncode == 0, f"warm-up exit {done.returncode}: {done.stderr[-2000:]}"
+    return json.loads(done.stdout.splitlines()[-1])
+
+
+def test_a_kernel_that_fails_to_compile_is_reported_and_skipped(tmp_path):
+    result = _warm_up_kmod(tmp_path, "inner:fit", "broken:plan", "outer:plan", "gone:verify")
     said = "\n".join(result["said"])
     assert "kmod.broken did not compile (TypingError" in said
     assert "kmod.gone did not compile (AttributeError" in said
     assert all(f"{stage} kernels done" in said for stage in ("fit", "plan", "verify"))
     assert result["said"][-1].startswith("warm-up: 2 compiled, 2 failed")
     # outer called from Python loads from the cache: the warm-up compiled it (and inner)
+    assert result["value"] == 6.0 and result["hits"] == {"inner": 0, "outer": 1}
+
+
+@pytest.mark.parametrize("order", [("killer", "inner", "outer"), ("inner", "killer", "outer")])
+def test_a_kernel_whose_compile_kills_its_process_is_reported_and_skipped(tmp_path, order):
+    # two workers: the killer alone in flight, or beside another kernel when it dies
+    result = _warm_up_kmod(tmp_path, *(f"{name}:plan" for name in order))
+    said = "\n".join(result["said"])
+    assert "kmod.killer did not compile (the process compiling it died)" in said
+    assert "worker process failed" not in said  # (nothing compiled in the warm-up's process)
+    assert result["said"][-1].startswith("warm-up: 2 compiled, 1 failed")
     assert result["value"] == 6.0 and result["hits"] == {"inner": 0, "outer": 1}
 
 

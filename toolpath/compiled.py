@@ -18,6 +18,13 @@ arrays. Here the same mathematics runs point by point in machine code (numba):
 The compiled loops take a surface as :class:`SurfaceArrays` and the search's settings as
 :class:`NewtonSearch` (named tuples).
 
+Kernels called only by other kernels are compiled ``no_cpython_wrapper=True,
+no_cfunc_wrapper=True`` (here and in the planner's kernel modules): without the two wrappers
+that let Python (or C) call them, which a first run compiled for each of them (about a
+tenth of a CPU second each; Python must never call one: it would crash). None is inlined
+by numba (``inline="always"``): numba's inlining made the search's compile slower and its
+code slower too (issue 27: measured 25 % less CPU to project points without it).
+
 A surface offers this through :class:`StreamlineKernel` (``surface.kernel()``); surfaces
 without one (analytic test surfaces, B-spline baselines) keep the numpy path.
 """
@@ -234,7 +241,7 @@ class Scratch(NamedTuple):
     w: NDArray[np.float64]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _scratch():
     """A fresh :class:`Scratch`.
 
@@ -272,7 +279,7 @@ class MoveStarts(NamedTuple):
     s: NDArray[np.float64]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _locate(breaks, x):
     """Interval index of ``x`` (clamped to the domain) and the offset from its left end."""
     n = breaks.size
@@ -290,7 +297,7 @@ def _locate(breaks, x):
     return lo, x - breaks[lo]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _monomials(u, out):
     """``out[a, p] = d^a u^p / du^a`` for ``a = 0, 1, 2``."""
     out[0, 0], out[0, 1], out[0, 2], out[0, 3] = 1.0, u, u * u, u * u * u
@@ -304,7 +311,7 @@ def n_partials(order):
     return (order + 1) * (order + 2) // 2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _point_partials(t, s, sf, order, out, i, work):
     """Write X (and partials up to ``order``) at ``(t, s)`` into ``out[:, i]``.
 
@@ -372,14 +379,14 @@ def _point_partials(t, s, sf, order, out, i, work):
             out[j, i, k] = acc + off[k] if j == 0 else acc
 
 
-#: :func:`_point_partials` as a call, not inlined: the Newton search calls it from five
-#: places, and inlining it there (10 % faster) made the first compile take a minute.
-#: (The same source: numba's cache keeps both under the one function's name.) Its integer
-#: arguments are passed as ``np.int64(k)``: a bare constant is typed ``Literal[int](k)`` and
-#: numba compiled one specialisation per constant (four, some 5 s each on a cold start).
-#: :func:`_partials_block` calls it too, with the same argument types: the one compile
-#: serves both (inlined there it cost 2.5 s more of compiling on a cold start, issue 27).
-_partials_at = numba.njit(cache=True)(_point_partials.py_func)
+#: The kernels' call of :func:`_point_partials`: a call, not inlined: the Newton search calls it
+#: from five places, and inlining it there (10 % faster) made the first compile take a
+#: minute. Its integer arguments are passed as ``np.int64(k)``: a bare constant is typed
+#: ``Literal[int](k)`` and numba compiled one specialisation per constant (four, some 5 s
+#: each on a cold start). :func:`_partials_block` calls it too, with the same argument
+#: types: the one compile serves both (inlined there it cost 2.5 s more of compiling on a
+#: cold start, issue 27).
+_partials_at = _point_partials
 
 
 #: A Newton step predicted to move the foot by less than this share of ``converged_mm``
@@ -412,8 +419,8 @@ def project_points(p, sf, search, t, s, dist):
     ``orientation`` 0 the distance ``|p - X|``; with ``+-1`` the signed distance
     ``(p - X) . n`` along the outward normal ``n = orientation X_t x X_s / |X_t x X_s|`` at
     the foot (one more evaluation of the first partials there). The search
-    (:func:`_project_one`, the steps of :mod:`toolpath.projection_kernel`) is inlined
-    in :func:`_project_block`, the one compiled loop that runs it (points inside moves
+    (:func:`_project_one`, the steps of :mod:`toolpath.projection_kernel`) is called
+    by :func:`_project_block`, the one compiled loop that runs it (points inside moves
     come here too: :meth:`StreamlineKernel.project_moves`); then the corner rule at a
     closed surface's seam (:func:`_seam_signed`). Slices of the points in threads
     (:func:`~toolpath.row_threads.run_in_threads`).
@@ -456,7 +463,7 @@ def move_points(moves, closed, out):
             _move_point(moves, first[j], u[j, q], closed, out, j * k + q)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _seam_normal(t, s, sf, orientation, work, pt, x, n):
     """Point and outward unit normal at ``(t, s)``: into ``x`` and ``n``."""
     _partials_at(t, s, sf, np.int64(1), pt, np.int64(0), work)
@@ -470,7 +477,7 @@ def _seam_normal(t, s, sf, orientation, work, pt, x, n):
         x[k] = pt[0, 0, k]
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _seam_signed(p, i, t, s, sf, orientation, dist, work, pt):
     """The corner rule at a closed surface's seam for point ``i``, in place.
 
@@ -492,7 +499,7 @@ def _seam_signed(p, i, t, s, sf, orientation, dist, work, pt):
         t[i], dist[i] = 0.0, signed
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _move_point(moves, a, f, closed, out, i):
     """The point ``lift_mm`` up the axis a fraction ``f`` along the move ``a -> a + 1``.
 
@@ -516,7 +523,7 @@ def _move_point(moves, a, f, closed, out, i):
     s1[i] = ss[a] * (1.0 - f) + ss[b] * f
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _second_order(fr, k, dt, ds):
     """Component ``k`` of ``X(t + dt, s + ds)`` to second order from the partials ``fr``."""
     return (fr[0, 0, k] + fr[1, 0, k] * dt + fr[2, 0, k] * ds
@@ -524,7 +531,7 @@ def _second_order(fr, k, dt, ds):
                      + fr[5, 0, k] * ds * ds))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _taylor_signed(p, i, fr, dt, ds, orientation):
     """Signed distance ``(p - X) . n`` at ``(t + dt, s + ds)`` from the partials at ``(t, s)``.
 
@@ -551,7 +558,7 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
     return scale * ((p[i, 0] - x0) * n0 + (p[i, 1] - x1) * n1 + (p[i, 2] - x2) * n2)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
     """The foot of ``p[i]`` from ``(t[i], s[i])`` and its distance ``dist[i]``, in place.
 
@@ -567,7 +574,7 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
     and the distance there is the second-order expansion from the partials at hand
     (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
     distance, the same distance to a nanometre). (The kernels then apply the corner rule
-    at a closed surface's seam: :func:`_seam_signed`.) Inlined in :func:`_project_block`
+    at a closed surface's seam: :func:`_seam_signed`.) Called by :func:`_project_block`
     alone (points inside moves come there too).
     """
     closed, iterations, extra, converged_mm, orientation = search

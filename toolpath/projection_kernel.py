@@ -74,7 +74,7 @@ DEGENERATE_SHARE = ROUND_OFF
 NO_FARTHER_SHARE = ROUND_OFF
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def wrap_t(t, closed):
     """``t`` folded into the domain: ``t - floor(t)`` on closed sections, else clipped."""
     if closed:
@@ -82,13 +82,13 @@ def wrap_t(t, closed):
     return min(max(t, 0.0), 1.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def clamp_s(s):
     """``s`` clipped to [0, 1] (``s`` runs between end sections: never closed)."""
     return min(max(s, 0.0), 1.0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def seam_lerp(ta, tb, f, closed):
     """The parameter a fraction ``f`` from ``ta`` to ``tb``: across the seam the short way.
 
@@ -104,7 +104,7 @@ def seam_lerp(ta, tb, f, closed):
     return t - math.floor(t) if closed else t
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def newton_step(fr, j, p, i):
     """The clipped Newton step towards the foot of ``p[i]`` and ``|X - p|^2`` now.
 
@@ -135,13 +135,13 @@ def newton_step(fr, j, p, i):
     return step_t, step_s, d0 * d0 + d1 * d1 + d2 * d2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def trial(t, s, step_t, step_s, closed):
     """The parameters a step leads to, kept in the domain (the seam rule)."""
     return wrap_t(t - step_t, closed), clamp_s(s - step_s)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def no_farther(dist2, here):
     """Whether a trial point at squared distance ``dist2`` is no farther than ``here``.
 
@@ -187,7 +187,7 @@ SEAM_WINDOW_T = 1e-3
 SEAM_SLACK_MM = 1e-6
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True)
 def near_seam(t):
     """Whether a foot at ``t`` is within :data:`SEAM_WINDOW_T` of a closed surface's seam."""
     return min(t, 1.0 - t) <= SEAM_WINDOW_T

@@ -11,12 +11,17 @@ the interpreter's lock), for the compile cost of the plain kernel alone.
 Each row must be independent of the others, as in a ``prange`` loop: the result is the
 same whatever the split. The threads are as many as numba's (``numba.get_num_threads()``:
 ``NUMBA_NUM_THREADS``, or ``numba.set_num_threads`` in the calling thread), so a worker
-limited to one thread runs the loop in its own thread, as a parallel kernel would.
+limited to one thread runs the loop in its own thread, as a parallel kernel would. Thread
+``k`` of ``w`` takes slices ``k, k + w, k + 2 w, ...`` (the calling thread is thread 0, the
+others come from one pool of threads kept for the process): interleaved, so that a run of
+costly rows is shared out, and fixed, so that the same call splits the same way each time.
 """
 
 from __future__ import annotations
 
 import itertools
+import os
+import threading
 from collections.abc import Callable
 from concurrent.futures import ThreadPoolExecutor
 from typing import Any
@@ -28,8 +33,8 @@ __all__ = ["MIN_ROWS_PER_THREAD", "SLICES_PER_THREAD", "row_slices", "run_in_thr
 #: Fewer rows than this per thread run in the calling thread alone: below it, starting
 #: threads costs more than it saves.
 MIN_ROWS_PER_THREAD = 1024
-#: Slices per thread: a few, so that a thread whose rows are quick takes another slice
-#: while a slow one finishes (rows differ in cost, e.g. Newton iterations).
+#: Slices per thread: a few, so that rows of different cost (e.g. Newton iterations) are
+#: shared out among the threads.
 SLICES_PER_THREAD = 4
 
 
@@ -48,18 +53,72 @@ def row_slices(n_rows: int, threads: int) -> list[tuple[int, int]]:
     return list(itertools.pairwise(bounds))
 
 
-def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any) -> None:
+def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any,
+                   threads: int | None = None) -> None:
     """Call ``block(*args, lo, hi)`` over rows ``0 .. n_rows - 1``, in numba's threads.
 
     ``block`` is a kernel compiled with ``nogil=True`` that writes its rows' results in
-    place (its return value is dropped); the slices are :func:`row_slices`. An exception
-    in a slice is raised here, after every slice has ended.
+    place (its return value is dropped); the slices are :func:`row_slices` for ``threads``
+    threads (default ``numba.get_num_threads()``). An exception in a slice is raised here
+    once every thread has ended (a thread stops at its first error). Raises TypeError for
+    a ``block`` that is not a ``nogil`` kernel: it would hold the interpreter's lock, and
+    the threads would take turns.
     """
-    slices = row_slices(n_rows, numba.get_num_threads())
-    if len(slices) == 1:
-        block(*args, *slices[0])
+    _check_nogil(block)
+    threads = numba.get_num_threads() if threads is None else threads
+    slices = row_slices(n_rows, threads)
+    if len(slices) <= 1:
+        for lo, hi in slices:
+            block(*args, lo, hi)
         return
-    with ThreadPoolExecutor(max_workers=numba.get_num_threads()) as pool:
-        done = [pool.submit(block, *args, lo, hi) for lo, hi in slices]
-    for future in done:
+    workers = min(threads, len(slices))
+
+    def run_share(first: int) -> None:
+        for lo, hi in slices[first::workers]:
+            block(*args, lo, hi)
+
+    others = [_pool().submit(run_share, k) for k in range(1, workers)]
+    try:
+        run_share(0)
+    finally:
+        for future in others:
+            future.exception()  # (waits for it: none goes on past this call)
+    for future in others:
         future.result()
+
+
+def _check_nogil(block: Callable[..., Any]) -> None:
+    options = getattr(block, "targetoptions", None)
+    if not isinstance(options, dict) or not options.get("nogil", False):
+        name = getattr(block, "__qualname__", None) or getattr(
+            getattr(block, "py_func", None), "__qualname__", repr(block))
+        raise TypeError(f"run_in_threads needs a kernel compiled with numba.njit(nogil=True); "
+                        f"{name!r} is not one (it would hold the interpreter's lock in every "
+                        "thread)")
+
+
+_POOL: ThreadPoolExecutor | None = None
+_POOL_LOCK = threading.Lock()
+
+
+def _pool() -> ThreadPoolExecutor:
+    """The process's pool of row threads, made at the first call that needs one.
+
+    As many threads as numba may use (``NUMBA_NUM_THREADS``), less the calling thread's.
+    """
+    global _POOL
+    with _POOL_LOCK:
+        if _POOL is None:
+            _POOL = ThreadPoolExecutor(max_workers=max(1, numba.config.NUMBA_NUM_THREADS - 1),
+                                       thread_name_prefix="row-thread")
+        return _POOL
+
+
+def _forget_pool() -> None:
+    """In a forked child: the parent's pool threads are not there (a new pool when needed)."""
+    global _POOL, _POOL_LOCK
+    _POOL, _POOL_LOCK = None, threading.Lock()
+
+
+if hasattr(os, "register_at_fork"):
+    os.register_at_fork(after_in_child=_forget_pool)

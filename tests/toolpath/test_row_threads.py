@@ -1,5 +1,7 @@
 """Row slices run in threads: every row once, the same result as one call over all rows."""
 
+import threading
+
 import numba
 import numpy as np
 import pytest
@@ -31,19 +33,64 @@ def _square_rows(x, out, lo, hi):
         out[i] = x[i] * x[i] + i
 
 
+@numba.njit(nogil=True)
+def _mark_rows(visits, slice_lo, thread, lo, hi):
+    """Each row: how often a slice wrote it, which slice and which thread (its ident)."""
+    with numba.objmode(ident="uint64"):
+        ident = threading.get_ident()
+    for i in range(lo, hi):
+        visits[i] += 1
+        slice_lo[i] = lo
+        thread[i] = ident
+
+
 def test_threads_give_the_one_call_result():
     x = np.random.default_rng(7).normal(size=20 * MIN_ROWS_PER_THREAD + 3)
     whole, sliced = np.full_like(x, np.nan), np.full_like(x, np.nan)
     _square_rows(x, whole, 0, x.size)
-    run_in_threads(_square_rows, x.size, x, sliced)
+    run_in_threads(_square_rows, x.size, x, sliced, threads=3)
     np.testing.assert_array_equal(sliced, whole)
 
 
-def test_an_error_in_a_slice_is_raised():
-    def fails_late(lo, hi):
-        if hi == 20 * MIN_ROWS_PER_THREAD:
-            raise ValueError(f"rows {lo}..{hi}")
+@pytest.mark.filterwarnings("ignore:.*Code running in object mode")
+@pytest.mark.parametrize("threads", [2, 3, 4])
+def test_each_row_once_in_its_slice_from_several_threads(threads):
+    # (threads given: several whatever NUMBA_NUM_THREADS is, one pool for every call)
+    n = 10 * MIN_ROWS_PER_THREAD + 5
+    visits, slice_lo = np.zeros(n, dtype=np.int64), np.full(n, -1, dtype=np.int64)
+    thread = np.zeros(n, dtype=np.uint64)
+    run_in_threads(_mark_rows, n, visits, slice_lo, thread, threads=threads)
+    assert (visits == 1).all()  # none missing, none twice
+    slices = row_slices(n, threads)
+    assert len(slices) > threads
+    expected = np.concatenate([np.full(hi - lo, lo) for lo, hi in slices])
+    np.testing.assert_array_equal(slice_lo, expected)
+    assert len(set(thread.tolist())) >= 2
+    for lo, hi in slices:  # a slice runs in one thread
+        assert len(set(thread[lo:hi].tolist())) == 1
 
-    if numba.get_num_threads() > 1:
-        with pytest.raises(ValueError, match="rows"):
-            run_in_threads(fails_late, 20 * MIN_ROWS_PER_THREAD)
+
+@numba.njit(nogil=True)
+def _fails_in_the_last_slice(n, lo, hi):
+    if hi == n:
+        raise ValueError("the last slice failed")
+
+
+def test_an_error_in_a_slice_is_raised():
+    for threads in (1, 2, 3):
+        with pytest.raises(ValueError, match="the last slice failed"):
+            run_in_threads(_fails_in_the_last_slice, 20 * MIN_ROWS_PER_THREAD,
+                           20 * MIN_ROWS_PER_THREAD, threads=threads)
+
+
+@numba.njit
+def _holds_the_lock(out, lo, hi):
+    out[lo:hi] = 1.0
+
+
+def test_a_kernel_without_nogil_is_refused():
+    out = np.zeros(4 * MIN_ROWS_PER_THREAD)
+    for block in (_holds_the_lock, _holds_the_lock.py_func):
+        with pytest.raises(TypeError, match=r"nogil=True.*_holds_the_lock"):
+            run_in_threads(block, out.size, out, threads=2)
+    assert not out.any()

@@ -241,7 +241,7 @@ def _gap(x, lo, size):
     return 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
     """The cells a sphere meets, into ``out``; how many.
 

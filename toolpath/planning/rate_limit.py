@@ -227,7 +227,7 @@ def _limit_passes(rows, poles, bounds, rule, out):
                 break
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _limit_pass(rows, pole, a, b, rule, out):
     """One pass (``rows`` ``a:b``) about one pole into ``out``; returns its largest rate.
 
@@ -270,7 +270,7 @@ def _limit_pass(rows, pole, a, b, rule, out):
     return best
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
     """Bounds ``lo``, ``hi`` of the azimuth about ``pole``, the wanted one, the elevation.
 
@@ -313,7 +313,7 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
     return lo, hi, want, beta
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _azimuth_path(x, beta, a, rho):
     """A path along which the azimuth may turn 1 per unit at the rate limit ``rho``.
 
@@ -332,14 +332,14 @@ def _azimuth_path(x, beta, a, rho):
     return x_phi
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _cross(a, b):
     """``a x b`` of two 3-vectors, a new array (numba's ``np.cross`` is slow to compile)."""
     return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
                      a[0] * b[1] - a[1] * b[0]])
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _polar(v, pole, ex, ey):
     """Azimuth and elevation of ``v`` about ``pole`` (rad)."""
     up = v[0] * pole[0] + v[1] * pole[1] + v[2] * pole[2]
@@ -348,7 +348,7 @@ def _polar(v, pole, ex, ey):
     return az, math.asin(min(max(up, -1.0), 1.0))
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _wrap_pi(angle):
     """``angle`` folded into [-pi, pi)."""
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
@@ -377,7 +377,7 @@ def segment_rate(axes, i, length):
     return np.inf if turn > ANGLE_SLACK_DEG else 0.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _fit_tube(x, lo, hi, want, rate, phi):
     """:func:`_rate_tube` on one pass, its ends pinned if the rate allows it.
 
@@ -434,7 +434,7 @@ def _least_rate(x, lo, hi):
     return max(0.0, forward, backward)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _max_slope(x, top, bottom, sense):
     """Largest ``(bottom[k] - top[j]) / (sense (x[k] - x[j]))`` over ``j`` before ``k``.
 

@@ -101,7 +101,7 @@ def _distance(q, n, lam, tip, axis, cutter):
                            cutter.corner, cutter.radius, cutter.flute)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _entry(q, n, tip, axis, cutter, horizon):
     """First ``l`` in ``[0, horizon]`` with ``q + l n`` in the cutter at one pose; inf if none.
 
@@ -146,7 +146,7 @@ def _entry(q, n, tip, axis, cutter, horizon):
     return root_hi
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
     """:func:`_entry` with piece ``j`` of ``poses`` at ``u`` (``tip``, ``axis``: scratch)."""
     tip0, tip1, axis0, axis1 = poses
@@ -161,7 +161,7 @@ def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
     return _entry(q, n, tip, axis, cutter, horizon)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
     """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays)."""
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
@@ -203,7 +203,7 @@ LEAST_RISE = 0.1
 TURN_SLACK_RADII = 20.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
     """A lower bound of the ray's entry into the piece: where it meets the tip's plane.
 
@@ -311,7 +311,7 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _capsule_entry(q, n, a, b, r2):
     """Entry of the ray ``q + l n`` into the capsule round ``ab`` (0 inside, inf: misses)."""
     d0, d1, d2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
@@ -381,7 +381,7 @@ def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
     return out
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _segment_distance(p0, p1, q0, q1):
     """Distance between segments ``p0 p1`` and ``q0 q1`` (clamped closest points)."""
     d1 = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2])

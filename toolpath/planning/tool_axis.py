@@ -219,7 +219,7 @@ def _unit_or_nominal(averaged, nominal, weak):
             averaged[i, k] = nominal[i, k] if size < weak else averaged[i, k] / size
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def segment_index(x, v):
     """``j`` with ``x[j] <= v < x[j + 1]`` (clamped to ``[0, x.size - 2]``), by bisection."""
     lo, hi = 0, x.size - 1
