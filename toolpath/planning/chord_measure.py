@@ -18,7 +18,11 @@ moves that could hold the largest deviation (a model extreme at least
 half the largest sample), once more where a smooth model through those gaps is lowest and
 where it is highest; its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
-centre projected onto the surface.
+centre projected onto the surface. A ball is placed at ``u = 1/2`` only: the gap of its
+centre ``C(u)`` is the distance to the surface less ``R``, whose gradient at an end is the
+unit normal ``n`` at the end's contact, so the model's slopes at the ends are exactly
+``g' = n . C'`` (:func:`_ball_slopes`) and the two projections at ``1/4`` and ``3/4``
+are not needed to fix it.
 
 The contacts and the mid-chord contacts above the surface seed the scallop measurement
 (:attr:`ChordMeasurement.seeds_t` and so on; :mod:`.measure`).
@@ -36,7 +40,7 @@ from machines import Machine
 
 from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
-from ..surface import ParametricSurface
+from ..surface import ParametricSurface, outward_normals
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .measure_joints import checked_joints
@@ -44,9 +48,11 @@ from .sampling import (
     CHORD_FRACTIONS,
     JointEnds,
     MoveEnds,
+    ball_end_slopes,
     chord_extremes,
     cutter_gap,
     move_gaps,
+    move_poses,
 )
 
 __all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
@@ -72,6 +78,13 @@ class ChordMeasurement:
     seeds_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
     seeds_pass: NDArray[np.int64] = field(default_factory=lambda: np.zeros(0, dtype=np.int64),
                                           repr=False)
+    #: The seeds' surface points (mm), outward unit normals and ``X_s`` (mm per unit
+    #: ``s``), (n, 3) each, as :meth:`~.cusp_search.SearchSeeds.of` needs them (empty:
+    #: not given, evaluated there).
+    seeds_q: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    seeds_n: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
+    seeds_x_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)),
+                                           repr=False)
 
 
 #: A ball's contacts along a run of cutting moves are searched from the nearest surface
@@ -94,11 +107,18 @@ FOOT_SPREAD = 2.0
 #: 1e-12 mm of six on the dev blade).
 BALL_CONTACT_NEWTON = 3
 
+#: Step in ``u`` of the one-sided difference giving a ball centre's velocity at a move's
+#: ends under joint interpolation (:func:`_ball_slopes`): its error, ``u`` times the
+#: centre's acceleration (a rotary turn of 0.01 rad over a 200 mm lever: 0.02 mm per
+#: unit ``u`` squared) over two, stays under 1e-6 mm per unit ``u``, and the round-off
+#: of positions of hundreds of mm over it, 1e-9.
+SLOPE_STEP_U = 1e-4
+
 
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, *, machine: Machine | None = None,
-                  chunk: int = 100_000, contact_stride: int = CONTACT_STRIDE
-                  ) -> ChordMeasurement:
+                  chunk: int = 100_000, contact_stride: int = CONTACT_STRIDE,
+                  end_slopes: bool = True) -> ChordMeasurement:
     """Measure the chord error of ``toolpath`` (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
@@ -108,6 +128,9 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     nearest surface sample at every this many locations along a run of cutting moves,
     the others from theirs (:func:`_run_anchors`) unless their foot may be a wrong local
     one (:func:`_unsure_between`); 1: every one from its sample, the full method.
+    ``end_slopes``: a ball's gap model from its exact slopes at the ends and the gap at
+    ``u = 1/2`` (module docstring); False: from the gaps at ``u = 1/4, 1/2, 3/4`` (the
+    full method, as for flat and bull-nose cutters).
     """
     joints = checked_joints(toolpath, machine)
     move = _cutting_moves(toolpath)
@@ -120,20 +143,26 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     seeds: list[tuple[NDArray[np.float64], ...]] = []
     for lo in range(0, move.size, chunk):
         seg = move[lo:lo + chunk]
-        ends, gap_a, gap_b = contacts.of_moves(toolpath, seg)
+        ends, ia, ib = contacts.of_moves(toolpath, seg)
         interpolation = None if joints is None else (machine, joints[seg], joints[seg + 1])
-        gap, g3, t3, s3 = _move_chunk_gaps(surface, cutter, ends, gap_a, gap_b,
-                                           max(contact, over, under), interpolation)
+        slopes = None
+        if end_slopes and cutter.kind is CutterKind.BALL:
+            slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
+                                  contacts.normal[ib], interpolation)
+        gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia], contacts.gap[ib],
+                                    max(contact, over, under), interpolation, slopes)
         worst[lo:lo + len(seg)] = np.abs(gap).max(axis=1)
         over = max(over, float(-gap.min()))
         under = max(under, float(gap.max()))
-        seeds.append(_cusp_seeds(surface, ends, g3, t3, s3, toolpath.pass_index[seg]))
+        seeds.append(_cusp_seeds(surface, contacts, ia, ends, mid, toolpath.pass_index[seg]))
     i = int(np.argmax(worst))
-    seeds_t, seeds_s, seeds_p = (np.concatenate(column) for column in zip(*seeds, strict=True))
+    seeds_t, seeds_s, seeds_p, seeds_q, seeds_n, seeds_x_s = (
+        np.concatenate(column) for column in zip(*seeds, strict=True))
     return ChordMeasurement(max_mm=float(worst[i]), overcut_mm=max(over, 0.0),
                             undercut_mm=max(under, 0.0), worst_point=int(move[i] + 1),
                             contact_mm=contact, n_moves=int(move.size), seeds_t=seeds_t,
-                            seeds_s=seeds_s, seeds_pass=seeds_p.astype(np.int64))
+                            seeds_s=seeds_s, seeds_pass=seeds_p.astype(np.int64),
+                            seeds_q=seeds_q, seeds_n=seeds_n, seeds_x_s=seeds_x_s)
 
 
 def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:
@@ -144,22 +173,29 @@ def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:
 
 @dataclass(frozen=True)
 class _EndContacts:
-    """The contact of the cutter at every point ``points`` ending a cutting move."""
+    """The contact of the cutter at every point ``points`` ending a cutting move.
+
+    ``gap`` (mm), the contact's ``t``, ``s``, its surface point (mm), outward unit normal
+    and ``X_s`` (mm per unit ``s``).
+    """
 
     points: NDArray[np.int64]
     gap: NDArray[np.float64]
     t: NDArray[np.float64]
     s: NDArray[np.float64]
+    point: NDArray[np.float64]
+    normal: NDArray[np.float64]
+    x_s: NDArray[np.float64]
 
     def of_moves(self, toolpath: Toolpath, first: NDArray[np.int64]
-                 ) -> tuple[MoveEnds, NDArray[np.float64], NDArray[np.float64]]:
-        """Moves ``first -> first + 1``: their ends with the contacts, and the ends' gaps."""
+                 ) -> tuple[MoveEnds, NDArray[np.int64], NDArray[np.int64]]:
+        """Moves ``first -> first + 1``: their ends with the contacts, and the ends' rows."""
         ia = np.searchsorted(self.points, first)
         ib = ia + 1
         pos, axes = toolpath.positions_mm, toolpath.tool_axes
         ends = MoveEnds(pos[first], pos[first + 1], axes[first], axes[first + 1],
                         self.t[ia], self.t[ib], self.s[ia], self.s[ib])
-        return ends, self.gap[ia], self.gap[ib]
+        return ends, ia, ib
 
 
 def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
@@ -202,15 +238,24 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         gap[between], t[between], s[between] = cutter_gap(
             surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
             newton=BALL_CONTACT_NEWTON)
-        unsure = _unsure_between(surface, runs, centres, gap, t, s)
-        if unsure.size:
-            search_from_samples(unsure)
-    return _EndContacts(ends, gap, t, s)
+    point, normal, x_s = _points_normals_x_s(surface, t, s)
+    unsure = _unsure_between(runs, centres, point, gap) if between.size else between
+    if unsure.size:
+        search_from_samples(unsure)
+        point[unsure], normal[unsure], x_s[unsure] = _points_normals_x_s(surface, t[unsure],
+                                                                         s[unsure])
+    return _EndContacts(ends, gap, t, s, point, normal, x_s)
 
 
-def _unsure_between(surface: ParametricSurface, runs: _Runs, centres: NDArray[np.float64],
-                    gap: NDArray[np.float64], t: NDArray[np.float64], s: NDArray[np.float64]
-                    ) -> NDArray[np.int64]:
+def _points_normals_x_s(surface: ParametricSurface, t: NDArray[np.float64],
+                        s: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
+    """Surface points, outward unit normals and ``X_s`` at ``t``, ``s`` (one evaluation)."""
+    parts = surface.partials_many(t, s, ((0, 0), (1, 0), (0, 1)))
+    return parts[0, 0], outward_normals(surface, parts[1, 0], parts[0, 1]), parts[0, 1]
+
+
+def _unsure_between(runs: _Runs, centres: NDArray[np.float64], feet: NDArray[np.float64],
+                    gap: NDArray[np.float64]) -> NDArray[np.int64]:
     """The locations between anchors whose seeded foot may be a wrong local one.
 
     A ball's foot searched from the anchors' interpolated contacts is a local minimum of
@@ -229,10 +274,9 @@ def _unsure_between(surface: ParametricSurface, runs: _Runs, centres: NDArray[np
       planner lifted over something between the anchors).
 
     Any of them sends the location back to its own nearest sample (the full method).
-    Rows index ``centres``, ``gap``, ``t``, ``s`` (every location).
+    Rows index ``centres``, the feet's points ``feet`` and ``gap`` (every location).
     """
     between, before, after = runs.between, runs.before, runs.after
-    feet = surface(t, s)
     here = centres[between]
     own = np.linalg.norm(here - feet[between], axis=1)
     # the run's locations are consecutive rows: between - 1 and between + 1 are on it
@@ -294,32 +338,64 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
 
 def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                      gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
-                     joints: JointEnds | None) -> tuple[NDArray[np.float64], ...]:
-    """Gaps along moves: at both ends, at ``CHORD_FRACTIONS`` and at the model's extremes.
+                     joints: JointEnds | None, slopes: NDArray[np.float64] | None
+                     ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], ...]]:
+    """Gaps along moves: at both ends, inside, and at the model's extremes.
 
-    Measured at three places, then once more where the gap model through them is lowest
+    Measured at ``CHORD_FRACTIONS`` (with the ends' ``slopes`` ``g'(0)``, ``g'(1)``, at
+    ``u = 1/2`` only), then once more where the gap model through them is lowest
     and where it is highest (:func:`~.sampling.chord_extremes`), on the moves whose
     extreme could be the largest: within half of the largest gap so far (``top_mm`` and
-    the three places'). ``joints``: the moves' ends under a machine's joint
+    the places measured). ``joints``: the moves' ends under a machine's joint
     interpolation, as for :func:`~.sampling.move_gaps`.
 
-    Returns ``gap`` (m, 7: end, three places, lowest, highest, end) and the three places'
-    gaps, ``t`` and ``s`` (m, 3).
+    Returns ``gap`` (m, k + 4: end, the k places, lowest, highest, end) and the gap, ``t``
+    and ``s`` at ``u = 1/2`` (m,).
     """
-    u = np.asarray(CHORD_FRACTIONS, dtype=float)
+    u = np.asarray((0.5,) if slopes is not None else CHORD_FRACTIONS, dtype=float)
     m = len(gap_a)
     g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=2, refine_rim=True, joints=joints)
-    low, u_low, high, u_high = chord_extremes(g3, u)
+    low, u_low, high, u_high = chord_extremes(g3, u, end_slopes=slopes)
     top = max(float(np.abs(g3).max()), top_mm)
+    # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
+    # the model's from its slopes has no samples at 1/4 and 3/4 to show them)
+    tops = (top, top if slopes is None else max(float(high.max()), float(g3.max())))
     g_star = np.zeros((m, 2))
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
-        sel = np.flatnonzero(np.abs(value) >= 0.5 * top)
+        sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
             g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
                                          newton=2, refine_rim=True,
                                          joints=_joint_rows(joints, sel))[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
-    return gap, g3, t3, s3
+    mid = int(np.argmin(np.abs(u - 0.5)))
+    return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
+
+
+def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64],
+                 normal_b: NDArray[np.float64], joints: JointEnds | None
+                 ) -> NDArray[np.float64]:
+    """``g'(0)``, ``g'(1)`` of a ball's gap along each move, mm per unit ``u`` (m, 2).
+
+    The gap is the signed distance of the centre ``C(u)`` less ``R``; its gradient at an
+    end is the unit normal at that end's contact (``normal_a``, ``normal_b``: the centre
+    stands on it), so ``g' = n . C'``. Tip-linear: ``C'`` exactly
+    (:func:`~.sampling.ball_end_slopes`); under the machine's ``joints``: by the
+    one-sided difference over :data:`SLOPE_STEP_U` of the centres the joints place.
+    """
+    m = len(normal_a)
+    if joints is None:
+        tips = np.stack([ends.tips_a, ends.tips_b], axis=1).reshape(-1, 3)
+        axes = np.stack([ends.axes_a, ends.axes_b], axis=1).reshape(-1, 3)
+        normals = np.stack([normal_a, normal_b], axis=1).reshape(-1, 3)
+        return ball_end_slopes(radius_mm, tips, axes, normals, np.arange(0, 2 * m, 2))
+    u = np.array([0.0, SLOPE_STEP_U, 1.0 - SLOPE_STEP_U, 1.0])
+    tips, axes = move_poses(ends, np.broadcast_to(u, (m, u.size)), joints)
+    centres = (tips + radius_mm * axes).reshape(m, u.size, 3)
+    out = np.empty((m, 2))
+    out[:, 0] = np.einsum("ij,ij->i", centres[:, 1] - centres[:, 0], normal_a) / SLOPE_STEP_U
+    out[:, 1] = np.einsum("ij,ij->i", centres[:, 3] - centres[:, 2], normal_b) / SLOPE_STEP_U
+    return out
 
 
 def _joint_rows(joints: JointEnds | None, rows: NDArray[np.int64]) -> JointEnds | None:
@@ -327,20 +403,32 @@ def _joint_rows(joints: JointEnds | None, rows: NDArray[np.int64]) -> JointEnds 
     return None if joints is None else (joints[0], joints[1][rows], joints[2][rows])
 
 
-def _cusp_seeds(surface: ParametricSurface, ends: MoveEnds, g3: NDArray[np.float64],
-                t3: NDArray[np.float64], s3: NDArray[np.float64], passes: NDArray[np.int32]
-                ) -> tuple[NDArray[np.float64], ...]:
-    """Where the scallop search starts: ``t``, ``s`` and pass of each seed.
+def _cusp_seeds(surface: ParametricSurface, contacts: _EndContacts, first: NDArray[np.int64],
+                ends: MoveEnds, mid: tuple[NDArray[np.float64], ...],
+                passes: NDArray[np.int32]) -> tuple[NDArray[np.float64], ...]:
+    """Where the scallop search starts: ``t``, ``s``, pass, point, normal and ``X_s``.
 
     The cusps are highest where the moves stand highest: at the contacts (each move's
-    first), and at the middle of the moves that stand above the surface there.
+    first, rows ``first`` of ``contacts``), and at the middle of the moves that stand
+    above the surface there (``mid``: the gap, ``t`` and ``s`` at ``u = 1/2``).
     """
-    mid = int(np.argmin(np.abs(np.asarray(CHORD_FRACTIONS, dtype=float) - 0.5)))
-    tc = np.concatenate([ends.t_a[:, None], t3[:, mid:mid + 1]], axis=1)
-    sc = np.concatenate([ends.s_a[:, None], s3[:, mid:mid + 1]], axis=1)
-    use = np.stack([np.ones(len(tc), dtype=bool), g3[:, mid] > 0.0], axis=1)
+    g_mid, t_mid, s_mid = mid
+    above = g_mid > 0.0
+    m = len(g_mid)
+    tc = np.stack([ends.t_a, t_mid], axis=1)
+    sc = np.stack([ends.s_a, s_mid], axis=1)
+    use = np.stack([np.ones(m, dtype=bool), above], axis=1)
     seeds_t = np.mod(tc, 1.0)[use] if surface.closed_t else tc[use]
-    return seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use]
+    t_above = np.mod(t_mid[above], 1.0) if surface.closed_t else t_mid[above]
+    frames = []
+    for contact, at_mid in zip((contacts.point, contacts.normal, contacts.x_s),
+                               _points_normals_x_s(surface, t_above, s_mid[above]),
+                               strict=True):
+        both = np.empty((m, 2, 3))
+        both[:, 0] = contact[first]
+        both[above, 1] = at_mid
+        frames.append(both[use])
+    return (seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use], *frames)
 
 
 #: A flat or bull-nose contact's foot farther from its corner-circle centre than the

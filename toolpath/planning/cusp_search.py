@@ -45,10 +45,15 @@ class SearchSeeds(NamedTuple):
            ) -> tuple[SearchSeeds, _OtherPasses]:
         """The chord measurement's seeds short of ``s = 1`` (``rows`` among all of them).
 
+        Their points, normals and ``X_s`` as the chord measurement carries them, else
+        evaluated here.
+
         And the contacts of every seed (:class:`_OtherPasses`).
         """
         st, ss, sp = chord.seeds_t, chord.seeds_s, chord.seeds_pass
-        if st.size:
+        if len(chord.seeds_q) == st.size:  # carried from the chord measurement
+            seed_q, seed_n, x_s = chord.seeds_q, chord.seeds_n, chord.seeds_x_s
+        elif st.size:
             # one evaluation of the three partials: points, normals and X_s
             parts = surface.partials_many(st, ss, ((0, 0), (1, 0), (0, 1)))
             seed_q, x_s = parts[0, 0], parts[0, 1]

@@ -72,8 +72,13 @@ class SurfaceSamples:
 
     @cached_property
     def tree(self) -> cKDTree:
-        """A k-d tree over the points (built on first use: only the measurement asks)."""
-        return cKDTree(self.points)
+        """A k-d tree over the points (built on first use: only the measurement asks).
+
+        Split at the midpoints, nodes not shrunk to their points: on the grid's evenly
+        spread points built in 0.4 times the time of a balanced, compact tree, and
+        queried in 0.6 to 0.7 times (the same nearest points).
+        """
+        return cKDTree(self.points, balanced_tree=False, compact_nodes=False)
 
     def cells(self, reach_mm: float) -> SampleCells:
         """The samples binned for queries of radius up to ``reach_mm`` (kept for reuse)."""

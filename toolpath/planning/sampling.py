@@ -64,6 +64,7 @@ __all__ = [
     "joint_moves",
     "pass_densities",
     "move_gaps",
+    "move_poses",
     "split_evenly",
 ]
 
@@ -529,6 +530,20 @@ def joint_moves(machine: Machine | None, joints: NDArray[np.float64] | None,
     return machine, joints[idx], joints[idx + 1]
 
 
+def move_poses(ends: MoveEnds, fractions: NDArray[np.float64], joints: JointEnds | None
+               ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Tips and unit tool axes (m k, 3) at ``fractions`` (m, k) of each move, move by move.
+
+    Tip linear and axis normalized-linear without ``joints``; with ``joints = (machine,
+    q_a, q_b)`` the forward kinematics of the joints linear (as :func:`move_gaps`).
+    """
+    if joints is None:
+        return (_lerp(ends.tips_a, ends.tips_b, fractions),
+                _nlerp(ends.axes_a, ends.axes_b, fractions))
+    machine, q_a, q_b = joints
+    return forward(machine, _lerp(q_a, q_b, fractions))
+
+
 def move_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
               fractions: NDArray[np.float64], *, newton: int = 2, refine_rim: bool = False,
               joints: JointEnds | None = None
@@ -552,12 +567,7 @@ def move_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     m = len(ends.tips_a)
     u = np.asarray(fractions, dtype=float)
     u = np.broadcast_to(u, (m, u.shape[-1]))
-    if joints is None:
-        tips = _lerp(ends.tips_a, ends.tips_b, u)
-        axes = _nlerp(ends.axes_a, ends.axes_b, u)
-    else:
-        machine, q_a, q_b = joints
-        tips, axes = forward(machine, _lerp(q_a, q_b, u))
+    tips, axes = move_poses(ends, u, joints)
     t0 = seam_lerp_rows(np.ascontiguousarray(ends.t_a, dtype=float),
                         np.ascontiguousarray(ends.t_b, dtype=float),
                         _kernel_rows(u), bool(surface.closed_t)).ravel()

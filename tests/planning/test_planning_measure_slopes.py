@@ -1,0 +1,91 @@
+"""A ball's chord measured from its exact end slopes and one gap, against three gaps.
+
+``measure_chord`` fits a ball's gap model along each move to the slopes ``g' = n . C'``
+at the ends (the gradient of the centre's distance is the normal at its contact) and the
+gap at ``u = 1/2``; ``end_slopes=False`` fits it to the gaps at ``u = 1/4, 1/2, 3/4``
+(the full method, the oracle here). Both place the cutter once more where their model is
+lowest and highest, so both must report the same chord error, and the same cusp seeds.
+The seeds' points, normals and ``X_s`` it carries must be those the scallop search would
+evaluate (``SearchSeeds.of`` of a measurement without them).
+
+The measurement is given what ``plan_finishing``'s measure stage gives it
+(:mod:`measured_plans`).
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from measured_plans import planned
+
+from machines import load_machine
+from toolpath import fit_streamline_surface
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning import EllipticBladeSurface, SpherePatch
+from toolpath.planning.chord_measure import measure_chord
+from toolpath.planning.cusp_search import SearchSeeds
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
+
+CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+
+#: The two models place the extra cutter positions a little apart: the largest gaps they
+#: find agree to this share of the largest (issue 27 asks the same figures within 2 %).
+SAME_CHORD_SHARE = 0.005
+
+
+@pytest.fixture(scope="module")
+def blade():
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    sections = rows[:, 1:].reshape(15, 142, 3)[::2]  # every other section: a shorter fit
+    return fit_streamline_surface(sections, tol=0.01, closed=False)
+
+
+def _same_chord(measured):
+    args = (measured.path, measured.surface, measured.cutter, measured.samples)
+    fast = measured.chord
+    full = measure_chord(*args, machine=measured.machine, end_slopes=False)
+    assert full.n_moves == fast.n_moves > 100
+    for name in ("max_mm", "overcut_mm", "undercut_mm"):
+        assert getattr(fast, name) == pytest.approx(getattr(full, name),
+                                                    abs=SAME_CHORD_SHARE * full.max_mm)
+    assert fast.contact_mm == full.contact_mm
+    for name in ("seeds_t", "seeds_s", "seeds_pass", "seeds_q", "seeds_n", "seeds_x_s"):
+        np.testing.assert_array_equal(getattr(fast, name), getattr(full, name))
+    assert full.max_mm > 0.0
+    return fast
+
+
+@pytest.mark.parametrize("axis", [{"axis_mode": "3"},
+                                  {"axis_mode": "lead-tilt", "lead_deg": 10.0}])
+def test_sphere_cap_chord_from_end_slopes(axis):
+    _same_chord(planned(CAP, "ball:6", scallop_mm=0.01, chord_tol_mm=0.01, **axis))
+
+
+def test_closed_blade_spiral_chord_from_end_slopes():
+    _same_chord(planned(EllipticBladeSurface(), "ball:6", scallop_mm=0.05, chord_tol_mm=0.02,
+                        axis_mode="lead-tilt", lead_deg=10.0, linking="spiral"))
+
+
+def test_blade_standing_chord_from_end_slopes_under_joint_interpolation(blade):
+    # the joints linear: the centre's velocity at the ends by a one-sided difference
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    measured = planned(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.01,
+                       axis_mode="lead-tilt", lead_deg=10.0,
+                       machine=load_machine("trunnion-ac"))
+    assert measured.path.joints_checked_for is not None
+    _same_chord(measured)
+
+
+@pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])
+def test_seeds_carry_the_frame_the_search_would_evaluate(cutter):
+    measured = planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=10.0)
+    chord = measured.chord
+    assert chord.seeds_q.shape == chord.seeds_n.shape == chord.seeds_x_s.shape == (
+        chord.seeds_t.size, 3)
+    bare = dataclasses.replace(chord, seeds_q=np.zeros((0, 3)), seeds_n=np.zeros((0, 3)),
+                               seeds_x_s=np.zeros((0, 3)))
+    carried, _ = SearchSeeds.of(measured.surface, chord)
+    evaluated, _ = SearchSeeds.of(measured.surface, bare)
+    for a, b in zip(carried, evaluated, strict=True):
+        np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
