@@ -184,6 +184,18 @@ def test_the_section_estimate_does_not_read_low_round_the_leading_edge(blade):
     assert ratio.min() >= LEAST_ESTIMATE_SHARE
 
 
+def test_the_ball_estimate_does_not_read_low_round_the_leading_edge(blade):
+    # the standing blade in 5 axes: round its 0.2 mm leading edge the ball's centres curve
+    # about as tightly as the tube (kappa R near 1), the ridge between two straight
+    # pieces' tubes lies up to twice its height inside the neighbouring pieces, and sunk
+    # by half of that it read down to -1 times the ray cast (a cusp the cast would skip)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    ratio = _estimates_over_ray_cast(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.03,
+                                     axis_mode="lead-tilt", lead_deg=10.0,
+                                     machine=load_machine("trunnion-ac"))
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
+
+
 @pytest.mark.parametrize(("cutter", "request_mm", "brackets", "axis"), [
     ("ball:6", 0.02, 12, {"axis_mode": "3"}),
     ("ball:6", 0.02, 12, {"axis_mode": "lead-tilt", "lead_deg": 10.0}),

@@ -23,8 +23,9 @@ from .cut_volume import CutVolume
 from .cutters import radial_directions
 from .torus_profile import profile_ridges
 
-__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "RIDGE_SINK_SHARE", "ball_cusp_estimates",
-           "torus_cusp_estimates"]
+__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "END_REACH", "GENTLE_CURVING",
+           "NEAR_PIECE_CANDIDATES", "RIDGE_SINK_SHARE", "SHALLOW_SINK", "SINK_UNASKED",
+           "ball_cusp_estimates", "torus_cusp_estimates"]
 
 
 #: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
@@ -32,6 +33,27 @@ __all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "RIDGE_SINK_SHARE", "ball_cu
 #: third pass), its crossing with the other side's, whose slopes across are about
 #: opposite (``+-d / R``), drops by about half of it.
 RIDGE_SINK_SHARE = 0.5
+
+#: ... only where both passes' centres curve gently near the ridge, ``kappa R`` below this
+#: (``kappa`` their curvature over ``R / 2`` either way, the tighter side; ``R`` the
+#: ball's): on the R150 dome ``kappa R`` is 0.02 (0.05 near the links), round the dev
+#: blade's 0.2 mm leading edge up to 1 (the centres' circle barely wider than the tube),
+#: at a link turning at a pass's end about 1. There a straight piece's tube stands far
+#: off the pass's, the ridge lies up to twice its height inside the neighbouring pieces
+#: and sunk by half of it read down to -1 times the ray cast (standing dev blade, 5-axis,
+#: ball 6); unsunk it reads 0.99 to 2.3 times it (:func:`ball_cusp_estimates`).
+GENTLE_CURVING = 0.1
+
+#: ... and only where that depth is at most this share of the ridge's height (the dome's
+#: curving puts it 0.11 to 0.15 deep): round the leading edge's flanks a deeper one sunk
+#: by half read down to 0.92 times the ray cast.
+SHALLOW_SINK = 0.15
+
+#: A ridge less deep than this share of its height sinks by half of it without asking
+#: how the passes curve (:data:`GENTLE_CURVING`): by at most 1 % where they curve
+#: tightly, where the half is no measure; most ridges (on the standing dev blade 85 %)
+#: lie that shallow, and the curving costs two nearest-piece searches per seed.
+SINK_UNASKED = 0.02
 
 
 def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: SearchSeeds
@@ -51,11 +73,16 @@ def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: Se
     (:func:`~.cusp_kernel.ridges`). Its height is ``(X - X(t, s_c)) . n(t, s_c)`` over the
     surface point one first-order step from the seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``,
     less :data:`RIDGE_SINK_SHARE` of how deep ``X`` lies in a nearby tube of a third pass
-    (passes closing up, links) or of the two passes' other pieces (their curving, a fold).
+    (passes closing up, links) or of the two passes' other pieces (their curving, a fold),
+    where both passes curve gently (:data:`GENTLE_CURVING`) and that depth is shallow
+    (:data:`SHALLOW_SINK`). Elsewhere (round a tight leading edge, at a link) the half
+    depth is no measure of the sinking: the height is left unsunk, at or above the
+    cusp (the two straight tubes remove less than the passes), where the ray cast
+    decides as it stands high.
 
-    Returns NaN where no other pass lies on that side within that reach or a
-    segment has no length (the ray cast decides there), ``inf`` where the tubes do not
-    meet (``d >= R``: material between the passes).
+    Returns NaN where no other pass lies on that side within that reach, a segment has
+    no length or ``X`` lies by a pass's end (:data:`END_REACH`; the ray cast decides
+    there), ``inf`` where the tubes do not meet (``d >= R``: material between the passes).
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -67,9 +94,109 @@ def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: Se
     height = _ridge_heights(surface, seeds, ok, x[ok])
     # the two passes' own curving sinks the ridge into their neighbouring pieces (on the
     # R150 dome by 14 % of its height: the ray cast reads 6 % below X), a fold or a third
-    # pass deeper
-    out[ok] = height - RIDGE_SINK_SHARE * inside[ok].max(axis=1)
+    # pass deeper; where the passes curve tightly or it lies deep, by no known share
+    depth = inside[ok].max(axis=1)
+    sink = np.where((depth > 0.0) & (depth <= SHALLOW_SINK * height), RIDGE_SINK_SHARE * depth,
+                    0.0)
+    rows = np.flatnonzero((sink > 0.0) & (depth > SINK_UNASKED * height))
+    if rows.size:
+        big = volume.cutter.radius_mm
+        tree = cKDTree(0.5 * (volume.a + volume.b))
+        ridge, own = x[ok[rows]], seeds.pass_[ok[rows]]
+        seed_centre = seeds.q[ok[rows]] + big * seeds.n[ok[rows]]
+        curving = np.maximum(_pass_curving(volume, tree, seed_centre, own),
+                             _pass_curving(volume, tree, ridge, _next_pass(volume, tree, ridge,
+                                                                            own)))
+        sink[rows[curving * big >= GENTLE_CURVING]] = 0.0
+    out[ok] = height - sink
+    out[ok[_near_pass_ends(volume, x[ok])]] = np.nan
     return out
+
+
+#: A ridge within this many ``R`` of a pass's first or last centre is not estimated: on a
+#: tube's end cap (exactly ``R``), the nearest piece of a pass that ends there, not a tube
+#: running past (on the dev blade in 3 axes a zigzag's turn, where the ray cast finds a
+#: cusp 13 times the estimate's; at the patch's edges, 0.005 to 0.4 times).
+END_REACH = 1.05
+
+
+def _near_pass_ends(volume: CutVolume, x: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Whether points ``x`` lie within :data:`END_REACH` ``R`` of a pass's end centres."""
+    if not len(x):
+        return np.zeros(0, dtype=bool)
+    start = np.flatnonzero(np.diff(volume.pass_of)) + 1
+    ends = np.concatenate([volume.a[np.concatenate([[0], start])],
+                           volume.b[np.concatenate([start, [len(volume.pass_of)]]) - 1]])
+    dist, _ = cKDTree(ends).query(x)
+    return dist <= END_REACH * volume.cutter.radius_mm
+
+
+#: Pieces whose midpoints are searched, nearest first, for a pass's piece near a point
+#: (:func:`_pass_curving`): passes lie a few pieces' lengths apart, the piece is among
+#: the nearest few.
+NEAR_PIECE_CANDIDATES = 16
+
+
+def _pass_curving(volume: CutVolume, tree: cKDTree, point: NDArray[np.float64],
+                  pass_: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Curvature of pass ``pass_`` near ``point`` (:func:`_piece_curving`), 1/mm.
+
+    At the pass's piece whose midpoint (in ``tree``) lies nearest ``point`` (among
+    :data:`NEAR_PIECE_CANDIDATES`; ``inf`` where none is that pass's).
+    """
+    _, near = tree.query(point, k=min(NEAR_PIECE_CANDIDATES, len(volume.pass_of)))
+    near = near.reshape(len(point), -1)
+    mine = volume.pass_of[near] == pass_[:, None]
+    piece = near[np.arange(len(point)), np.argmax(mine, axis=1)]
+    return np.where(mine.any(axis=1), _piece_curving(volume, piece), np.inf)
+
+
+def _piece_curving(volume: CutVolume, piece: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Mean curvature of the centre path (ball) or ring-centre path within ``R / 2`` of pieces.
+
+    From each piece to its pass's pieces ``R / 2`` before and after: the turn over the
+    length between their midpoints, 1/mm, the tighter side (a link turning at a pass's
+    end, a tight edge). (A straight move's pieces run on in line and the turn between two
+    moves lies at their joint: one piece's neighbours would read no turn or all of it.)
+    """
+    e = volume.piece_b - volume.piece_a
+    length = _norms(e)
+    # each piece's pass's first and last piece (a pass's pieces run on in order)
+    new_pass = np.flatnonzero(np.diff(volume.pass_of)) + 1
+    first = np.concatenate([[0], new_pass])
+    last = np.concatenate([new_pass, [len(e)]]) - 1
+    run = np.searchsorted(first, piece, side="right") - 1
+    mid = np.cumsum(length) - 0.5 * length  # along the path, mm
+    way = unit(e)
+    curving = np.zeros(len(piece))
+    for side in (-0.5, 0.5):
+        other = np.clip(np.searchsorted(mid, mid[piece] + side * volume.cutter.radius_mm),
+                        first[run], last[run])
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", way[piece], way[other]), -1.0, 1.0))
+        curving = np.maximum(curving, turn / np.maximum(np.abs(mid[other] - mid[piece]), TINY))
+    return curving
+
+
+def _next_pass(volume: CutVolume, tree: cKDTree, x: NDArray[np.float64],
+               own: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The pass other than ``own`` whose piece lies nearest ridge points ``x`` (-1: none).
+
+    Among the :data:`NEAR_PIECE_CANDIDATES` pieces whose midpoints (in ``tree``) lie
+    nearest: the next pass's tube passes through the ridge.
+    """
+    e = volume.b - volume.a
+    _, near = tree.query(x, k=min(NEAR_PIECE_CANDIDATES, len(e)))
+    near = near.reshape(len(x), -1)
+    foot, _ = _foot_on(volume.a[near], e[near], x[:, None, :])
+    dist = np.einsum("ijk,ijk->ij", x[:, None, :] - foot, x[:, None, :] - foot)
+    dist[volume.pass_of[near] == own[:, None]] = np.inf
+    best = np.argmin(dist, axis=1)
+    rows = np.arange(len(x))
+    return np.where(np.isfinite(dist[rows, best]), volume.pass_of[near[rows, best]], -1)
+
+
+def _norms(v: NDArray[np.float64]) -> NDArray[np.float64]:
+    return np.sqrt(np.einsum("ij,ij->i", v, v))
 
 
 def _ridge_heights(surface: ParametricSurface, seeds: SearchSeeds, rows: NDArray[np.int64],
