@@ -71,6 +71,14 @@ def test_blade_standing_under_joint_interpolation(blade, cutter):
                            machine=load_machine("trunnion-ac")))
 
 
+def test_the_ball_estimate_casts_the_cusp_at_a_pass_s_end(blade):
+    # in 3 axes a zigzag's turn at a pass's end left a cusp 6 times the others (0.35 mm);
+    # its ridge lies on a tube's end cap, where the two straight tubes' ridge read 0.1
+    # times it: the ray cast skipped it and the scallop read 0.054 mm
+    _same_scallop(planned(blade, "ball:3", scallop_mm=0.05, chord_tol_mm=0.02,
+                           axis_mode="3", on_gouge="lift"))
+
+
 def test_the_scallop_is_the_largest_of_the_seeds_cusps():
     request = {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "axis_mode": "3"}
     measured = planned(CAP, "ball:6", **request)
