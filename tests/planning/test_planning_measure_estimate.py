@@ -74,6 +74,14 @@ def test_blade_standing_under_joint_interpolation(blade, cutter, request_mm):
                            lead_deg=10.0, machine=load_machine("trunnion-ac")))
 
 
+def test_the_ball_estimate_casts_the_cusp_at_a_pass_s_end(blade):
+    # in 3 axes a zigzag's turn at a pass's end left a cusp 6 times the others (0.35 mm);
+    # its ridge lies on a tube's end cap, where the two straight tubes' ridge read 0.1
+    # times it: the ray cast skipped it and the scallop read 0.054 mm
+    _same_scallop(planned(blade, "ball:3", scallop_mm=0.05, chord_tol_mm=0.02,
+                           axis_mode="3", on_gouge="lift"))
+
+
 def test_the_scallop_is_the_largest_of_the_seeds_cusps():
     request = {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "axis_mode": "3"}
     measured = planned(CAP, "ball:6", **request)
@@ -184,6 +192,18 @@ def test_the_section_estimate_does_not_read_low_round_the_leading_edge(blade):
     lying = centred_on_table(blade, rotation_from_spec("x:90"), base_height_mm=0.0)
     ratio = _estimates_over_ray_cast(lying, "bull:8:1", scallop_mm=0.06, chord_tol_mm=0.03,
                                      axis_mode="3")
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
+
+
+def test_the_ball_estimate_does_not_read_low_round_the_leading_edge(blade):
+    # the standing blade in 5 axes: round its 0.2 mm leading edge the ball's centres curve
+    # about as tightly as the tube (kappa R near 1), the ridge between two straight
+    # pieces' tubes lies up to twice its height inside the neighbouring pieces, and sunk
+    # by half of that it read down to -1 times the ray cast (a cusp the cast would skip)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    ratio = _estimates_over_ray_cast(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.03,
+                                     axis_mode="lead-tilt", lead_deg=10.0,
+                                     machine=load_machine("trunnion-ac"))
     assert ratio.min() >= LEAST_ESTIMATE_SHARE
 
 

@@ -23,7 +23,8 @@ from .cut_volume import CutVolume
 from .cutters import radial_directions
 from .torus_profile import profile_ridges
 
-__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "RIDGE_SINK_SHARE", "ball_cusp_estimates",
+__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING",
+           "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates",
            "torus_cusp_estimates"]
 
 
@@ -32,6 +33,35 @@ __all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "RIDGE_SINK_SHARE", "ball_cu
 #: third pass), its crossing with the other side's, whose slopes across are about
 #: opposite (``+-d / R``), drops by about half of it.
 RIDGE_SINK_SHARE = 0.5
+
+#: ... only where both passes' centres curve gently near the ridge, ``kappa R`` below this
+#: (``kappa`` their curvature over ``R / 2`` either way at the ridge's two pieces, the
+#: tighter side; ``R`` the ball's): on the R150 dome ``kappa R`` is 0.02 to 0.07, on the
+#: R50 cap's parallels up to 0.3; round the dev blade's 0.2 mm leading edge up to 1 (the
+#: centres' circle barely wider than the tube), at a link turning at a pass's end more.
+#: There a straight piece's tube stands far off the pass's and sunk by half the ridge
+#: read down to -1 times the ray cast (standing dev blade, 5-axis, ball 6); below 0.3
+#: (and no deeper than the ridge's height, :func:`ball_cusp_estimates`) the half reads
+#: 0.87 to 1.0 times it where the ray cast finds a cusp above half the largest (0.92 and
+#: up but on the lying dev blade at scallop 0.005 mm; dev blade, propeller, blunt rotor,
+#: R50 cap, R150 dome, elliptic blade; 3 and 5 axes; ball 3 and 6; scallop 0.005 to
+#: 0.05 mm).
+GENTLE_CURVING = 0.3
+
+#: Where they curve more tightly the ridge sinks by this share of that depth: there the
+#: ray cast stood 0.13 to 0.3 of it below the ridge (the 5th percentile to the median,
+#: ``kappa R`` 0.7 to 1.5, cusps above half the largest), and half of it read down to
+#: 0.3 times the ray cast; unsunk, the ridges of the propeller's edge read up to 1.3
+#: times it and crowded the largest cusp out of the largest estimates (its ray cast
+#: skipped, the measured largest cusp 2 % low).
+TIGHT_SINK_SHARE = 0.15
+
+#: Where the ridge lies deeper in those tubes than it stands high, the cusp is taken as
+#: this share of the flat cusp (:func:`ball_cusp_estimates`): the ray cast read 0 to 1.04
+#: times the flat cusp there (nearly 0 where the passes' curving cuts the ridge away: a
+#: third of those on the elliptic blade, whose flat cusps stand 1.05 times its largest
+#: cusp; taken whole they rank above the true largest cusps and all seeds are cast).
+DEEP_FLAT_SHARE = 0.95
 
 
 def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: SearchSeeds
@@ -48,28 +78,102 @@ def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: Se
     half the across part ``D`` of ``C2 - C1``), meeting at
     ``X = C1 + D / 2 - sqrt(R^2 - d^2) v`` (``v`` across ``u`` and ``D``, pointing away
     from the surface): the bottom of the cusp's ridge
-    (:func:`~.cusp_kernel.ridges`). Its height is ``(X - X(t, s_c)) . n(t, s_c)`` over the
-    surface point one first-order step from the seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``,
-    less :data:`RIDGE_SINK_SHARE` of how deep ``X`` lies in a nearby tube of a third pass
-    (passes closing up, links) or of the two passes' other pieces (their curving, a fold).
+    (:func:`~.cusp_kernel.ridges`). Its height ``H`` is ``(X - X(t, s_c)) . n(t, s_c)`` over
+    the surface point one first-order step from the seed,
+    ``s_c = s + (X - Q) . X_s / |X_s|^2``. ``X`` lies ``delta`` deep in a nearby tube of a
+    third pass (passes closing up, links) or of the two passes' other pieces (their
+    curving, a fold):
 
-    Returns NaN where no other pass lies on that side within that reach or a
-    segment has no length (the ray cast decides there), ``inf`` where the tubes do not
-    meet (``d >= R``: material between the passes).
+    * where ``delta <= H``, the cusp is ``H`` less :data:`RIDGE_SINK_SHARE` of ``delta``
+      where both passes curve gently at the two segments (:data:`GENTLE_CURVING`), less
+      :data:`TIGHT_SINK_SHARE` of it where they curve tightly (the half is no measure
+      there; the straight tubes remove less than the passes: ``H`` is at or above the
+      cusp, where the ray cast decides as it stands high);
+    * where ``delta > H`` (round a tight leading edge, where the passes' curving cuts
+      deeper than the straight tubes' ridge stands), the material under ``X`` is cut and
+      the ridge stands elsewhere, about as high as the two tubes' meeting over a plane
+      ``R`` below their centres, ``R - sqrt(R^2 - d^2)`` (the flat cusp), or lower: the
+      cusp is ``H`` or :data:`DEEP_FLAT_SHARE` of the flat cusp, the lower.
+
+    Returns NaN where no other pass lies on that side within that reach, a segment has
+    no length or is a pass's first or last (``X`` may lie on the tube's end cap: the ray
+    cast decides there), ``inf`` where the tubes do not meet (``d >= R``: material
+    between the passes).
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
     if not n_seed or not len(volume.pass_of):
         return out
-    x, inside, state = _ridges_widening(volume, seeds)
+    x, inside, state, pieces = _ridges_widening(volume, seeds)
     out[state == RIDGE_OPEN] = np.inf
     ok = np.flatnonzero(state == RIDGE_FOUND)
+    own, other = pieces[ok, 0], pieces[ok, 1]
     height = _ridge_heights(surface, seeds, ok, x[ok])
-    # the two passes' own curving sinks the ridge into their neighbouring pieces (on the
-    # R150 dome by 14 % of its height: the ray cast reads 6 % below X), a fold or a third
-    # pass deeper
-    out[ok] = height - RIDGE_SINK_SHARE * inside[ok].max(axis=1)
+    depth = inside[ok].max(axis=1)
+    big = volume.cutter.radius_mm
+    curving = np.maximum(_piece_curving(volume, own), _piece_curving(volume, other))
+    share = np.where(curving * big < GENTLE_CURVING, RIDGE_SINK_SHARE, TIGHT_SINK_SHARE)
+    estimate = height - share * depth
+    deep = np.flatnonzero(depth > height)
+    flat = _flat_cusps(volume, seeds.q[ok[deep]] + big * seeds.n[ok[deep]], own[deep],
+                       other[deep])
+    estimate[deep] = np.minimum(height[deep], DEEP_FLAT_SHARE * flat)
+    out[ok] = estimate
+    out[ok[_ends_pass(volume, own) | _ends_pass(volume, other)]] = np.nan
     return out
+
+
+def _flat_cusps(volume: CutVolume, centre: NDArray[np.float64], own: NDArray[np.int64],
+                other: NDArray[np.int64]) -> NDArray[np.float64]:
+    """``R - sqrt(R^2 - d^2)``: where tubes round pieces ``own`` and ``other`` meet over a plane.
+
+    ``d`` half the across part (across ``own``) of ``C2 - C1``, the pieces' points nearest
+    to ``centre`` (:func:`ball_cusp_estimates`), mm.
+    """
+    e = volume.b - volume.a
+    near_own, _ = _foot_on(volume.a[own], e[own], centre)
+    near_other, _ = _foot_on(volume.a[other], e[other], centre)
+    u = unit(e[own])
+    apart = near_other - near_own
+    apart -= np.einsum("ij,ij->i", apart, u)[:, None] * u
+    big = volume.cutter.radius_mm
+    half_sq = np.minimum(0.25 * np.einsum("ij,ij->i", apart, apart), big * big)
+    return big - np.sqrt(big * big - half_sq)
+
+
+def _ends_pass(volume: CutVolume, piece: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Whether each piece is its pass's first or last (a pass's pieces run on in order)."""
+    pass_of = volume.pass_of
+    before = pass_of[np.maximum(piece - 1, 0)]
+    after = pass_of[np.minimum(piece + 1, len(pass_of) - 1)]
+    return ((piece == 0) | (piece == len(pass_of) - 1) | (before != pass_of[piece])
+            | (after != pass_of[piece]))
+
+
+def _piece_curving(volume: CutVolume, piece: NDArray[np.int64]) -> NDArray[np.float64]:
+    """Mean curvature of the centre path within ``R / 2`` of pieces, 1/mm.
+
+    From each piece to its pass's pieces ``R / 2`` before and after: the turn over the
+    length between their midpoints, the tighter side (a link turning at a pass's end, a
+    tight edge). (A straight move's pieces run on in line and the turn between two moves
+    lies at their joint: one piece's neighbours would read no turn or all of it.)
+    """
+    e = volume.b - volume.a
+    length = np.sqrt(np.einsum("ij,ij->i", e, e))
+    # each piece's pass's first and last piece (a pass's pieces run on in order)
+    new_pass = np.flatnonzero(np.diff(volume.pass_of)) + 1
+    first = np.concatenate([[0], new_pass])
+    last = np.concatenate([new_pass, [len(e)]]) - 1
+    run = np.searchsorted(first, piece, side="right") - 1
+    mid = np.cumsum(length) - 0.5 * length  # along the path, mm
+    way = unit(e[piece])
+    curving = np.zeros(len(piece))
+    for side in (-0.5, 0.5):
+        near = np.clip(np.searchsorted(mid, mid[piece] + side * volume.cutter.radius_mm),
+                       first[run], last[run])
+        turn = np.arccos(np.clip(np.einsum("ij,ij->i", way, unit(e[near])), -1.0, 1.0))
+        curving = np.maximum(curving, turn / np.maximum(np.abs(mid[near] - mid[piece]), TINY))
+    return curving
 
 
 def _ridge_heights(surface: ParametricSurface, seeds: SearchSeeds, rows: NDArray[np.int64],
@@ -230,7 +334,7 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     pass lies there, within 4 times that, and so on up to ``2 R`` and a piece's length (an
     other pass's piece whose midpoint lies farther from ``P`` leaves its tube apart from
     the own pass's: the tubes do not meet). Returns the ridge points, the depths inside
-    the other tubes and the states (``RIDGE_*``).
+    the other tubes, the states (``RIDGE_*``) and the two pieces met.
     """
     n_seed = len(seeds.t)
     big = volume.cutter.radius_mm
@@ -239,15 +343,16 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     x = np.zeros((n_seed, 3))
     inside = np.zeros((n_seed, 2))
     state = np.full(n_seed, RIDGE_NO_PASS)
+    pieces = np.full((n_seed, 2), -1, dtype=np.int64)
 
     def search(todo: NDArray[np.int64], radius_mm: float) -> NDArray[np.bool_]:
-        x[todo], inside[todo], state[todo] = ridges(
+        x[todo], inside[todo], state[todo], pieces[todo] = ridges(
             centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
             volume.near_cells, radius_mm, volume.a, seg, volume.pass_of, big)
         return state[todo] == RIDGE_NO_PASS
 
     _widening(volume, n_seed, search)
-    return x, inside, state
+    return x, inside, state, pieces
 
 
 def _widening(volume: CutVolume, count: int,

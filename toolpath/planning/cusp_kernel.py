@@ -57,6 +57,7 @@ class Ridges(NamedTuple):
     point: NDArray[np.float64]
     inside: NDArray[np.float64]
     state: NDArray[np.int64]
+    pieces: NDArray[np.int64]
 
 
 @numba.njit(cache=True, inline="always")
@@ -87,7 +88,7 @@ def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out, lo, h
     centre, normal, x_s, own = seeds
     points, index, cell_start, origin, shape, cell, box, _ = binned
     a, e, pass_of = pieces
-    point, inside, state = out
+    point, inside, state, found = out
     cells = np.empty(scratch_size, dtype=np.int64)
     near = np.empty(room, dtype=np.int64)
     for i in range(lo, hi):
@@ -113,6 +114,8 @@ def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out, lo, h
                 elif (w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0
                       and dist < d_other):
                     d_other, j_other, q0, q1, q2 = dist, j, f0, f1, f2
+        found[i, 0] = j_own
+        found[i, 1] = j_other
         if j_own < 0 or j_other < 0:
             state[i] = RIDGE_NO_PASS
             continue
@@ -158,8 +161,9 @@ def _ridges(seeds, binned, reach, scratch_size, room, pieces, radius, out, lo, h
 def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArray[np.float64],
            own: NDArray[np.int64], cells: SampleCells, reach_mm: float, a: NDArray[np.float64],
            e: NDArray[np.float64], pass_of: NDArray[np.int64], radius_mm: float
-           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
-    """Ridge points, their depth inside other tubes (mm, >= 0) and a state per seed.
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64],
+                      NDArray[np.int64]]:
+    """Ridge points, their depth inside other tubes (mm, >= 0), a state and the two pieces.
 
     Parameters
     ----------
@@ -189,11 +193,15 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
     state : ndarray of int64, shape (m,)
         :data:`RIDGE_FOUND`, :data:`RIDGE_NO_PASS`, :data:`RIDGE_NO_LENGTH` or
         :data:`RIDGE_OPEN`.
+    pieces : ndarray of int64, shape (m, 2)
+        The nearest piece of the own pass and of the other pass on the ``+s`` side whose
+        tubes meet there (-1: none met).
     """
     m = centre.shape[0]
     point = np.zeros((m, 3))
     inside = np.zeros((m, 2))
     state = np.zeros(m, dtype=np.int64)
+    found = np.full((m, 2), -1, dtype=np.int64)
     if m:
         f = np.ascontiguousarray
         seeds = Seeds(f(centre, dtype=float), f(normal, dtype=float), f(x_s, dtype=float),
@@ -203,8 +211,8 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
         # room for the pieces of the fullest cells a seed can meet
         room = min(len(cells.index), scratch * int(np.diff(cells.cell_start).max()))
         run_in_threads(_ridges, m, seeds, cells, float(reach_mm), scratch, room, pieces,
-                       float(radius_mm), Ridges(point, inside, state))
-    return point, inside, state
+                       float(radius_mm), Ridges(point, inside, state, found))
+    return point, inside, state, found
 
 
 @numba.njit(cache=True, parallel=True)
