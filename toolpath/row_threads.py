@@ -88,6 +88,8 @@ def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any,
 
 
 def _check_nogil(block: Callable[..., Any]) -> None:
+    if numba.config.DISABLE_JIT:  # (numba's debug mode: njit returns the Python function)
+        return
     options = getattr(block, "targetoptions", None)
     if not isinstance(options, dict) or not options.get("nogil", False):
         name = getattr(block, "__qualname__", None) or getattr(

@@ -1,5 +1,8 @@
 """Row slices run in threads: every row once, the same result as one call over all rows."""
 
+import os
+import subprocess
+import sys
 import threading
 
 import numba
@@ -94,3 +97,21 @@ def test_a_kernel_without_nogil_is_refused():
         with pytest.raises(TypeError, match=r"nogil=True.*_holds_the_lock"):
             run_in_threads(block, out.size, out, threads=2)
     assert not out.any()
+
+
+def test_numba_s_debug_mode_runs_the_python_rows():
+    """Under ``NUMBA_DISABLE_JIT=1`` ``njit`` returns the Python function: still run it."""
+    script = ("import numba, numpy as np\n"
+              "from toolpath.row_threads import run_in_threads\n"
+              "@numba.njit(nogil=True)\n"
+              "def rows(out, lo, hi):\n"
+              "    for i in range(lo, hi):\n"
+              "        out[i] = 2 * i\n"
+              "out = np.zeros(5000)\n"
+              "run_in_threads(rows, 5000, out, threads=2)\n"
+              "assert (out == 2 * np.arange(5000)).all()\n"
+              "print('ok')\n")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "NUMBA_DISABLE_JIT": "1"})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "ok"

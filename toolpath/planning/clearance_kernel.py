@@ -29,7 +29,7 @@ from ..row_threads import run_in_threads
 from .cutter_kernel import cutter_distance
 
 __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
-           "cell_scratch_size", "cells_near", "clearances", "pairs_within", "points_box"]
+           "cell_scratch_size", "clearances", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -241,6 +241,7 @@ def _gap(x, lo, size):
     return 0.0
 
 
+# (kernel-only, not exported: no Python wrapper, so a call from Python crashes the process)
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
     """The cells a sphere meets, into ``out``; how many.

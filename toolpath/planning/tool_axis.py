@@ -53,7 +53,6 @@ __all__ = [
     "keep_min_lean",
     "lean_within_tilt",
     "limit_lean",
-    "segment_index",
     "segment_turn_rates",
     "slerp",
     "smooth_axes",
@@ -219,6 +218,7 @@ def _unit_or_nominal(averaged, nominal, weak):
             averaged[i, k] = nominal[i, k] if size < weak else averaged[i, k] / size
 
 
+# (kernel-only, not exported: no Python wrapper, so a call from Python crashes the process)
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def segment_index(x, v):
     """``j`` with ``x[j] <= v < x[j + 1]`` (clamped to ``[0, x.size - 2]``), by bisection."""
