@@ -93,6 +93,10 @@ class ChordMeasurement:
 #: back to their own sample: the same feet, in about a quarter of the k-d tree's queries.
 CONTACT_STRIDE = 4
 
+#: A ball's undercut (gap above the surface) under this share of the largest gap is taken
+#: as the projection's rounding (about 1e-12 of it on convex parts) and not followed up.
+UNDERCUT_NOISE = 1e-6
+
 #: Where the closest surface point moves continuously with the ball's centre, it moves at
 #: most ``rho / (rho - d)`` times as far (``rho`` the surface's concave radius along the
 #: motion, ``d`` the centre's distance, about the ball radius; on convex parts less than
@@ -359,7 +363,10 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     top = max(float(np.abs(g3).max()), top_mm)
     # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
     # the model's from its slopes has no samples at 1/4 and 3/4 to show them)
-    tops = (top, top if slopes is None else max(float(high.max()), float(g3.max())))
+    # (gaps under UNDERCUT_NOISE of the largest are the projection's rounding: a pass that
+    # only overcuts has its model's highest point at an end, where it is known already)
+    tops = (top, top if slopes is None else max(float(high.max()), float(g3.max()),
+                                                UNDERCUT_NOISE * top))
     g_star = np.zeros((m, 2))
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
