@@ -2,6 +2,7 @@
 
 import json
 import os
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -159,7 +160,8 @@ def test_a_kernel_whose_compile_kills_its_process_is_reported_and_skipped(tmp_pa
     said = "\n".join(result["said"])
     assert "kmod.killer did not compile (the process compiling it died)" in said
     assert "worker process failed" not in said  # (nothing compiled in the warm-up's process)
-    assert result["said"][-1].startswith("warm-up: 2 compiled, 1 failed")
+    # inner is compiled by itself or, when outer's compile got there first, found cached
+    assert re.match(r"warm-up: (2 compiled|1 cached, 1 compiled), 1 failed", result["said"][-1])
     assert result["value"] == 6.0 and result["hits"] == {"inner": 0, "outer": 1}
 
 
