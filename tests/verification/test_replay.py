@@ -78,3 +78,37 @@ def test_simplify_keeps_every_vertex_within_tolerance(rng):
         worst = max(worst, float(np.linalg.norm(v - f[:, None] * e, axis=1).max()))
     assert worst <= 0.005
     assert np.linalg.norm(np.diff(circle[keep], axis=0), axis=1).max() <= 5.0
+
+
+def _simplify_checking_every_chord(points, tol_mm, max_length_mm):
+    """The rounds of :func:`simplify_polyline` with every chord checked in every round."""
+    keep, idle, parity = list(range(points.shape[0])), 0, 1
+    while len(keep) > 2 and idle < 2:
+        drop = []
+        for p in range(max(parity, 1), len(keep) - 1, 2):
+            a, c = keep[p - 1], keep[p + 1]
+            ac = points[c] - points[a]
+            aa = float(ac @ ac)
+            if aa > max_length_mm ** 2:
+                continue
+            v = points[a + 1:c] - points[a]
+            f = np.clip(v @ ac / (aa if aa > 0.0 else 1.0), 0.0, 1.0)
+            if np.linalg.norm(v - f[:, None] * ac, axis=1).max() <= tol_mm:
+                drop.append(p)
+        keep = [k for i, k in enumerate(keep) if i not in set(drop)]
+        idle = 0 if drop else idle + 1
+        parity = 1 - parity
+    return np.array(keep)
+
+
+@pytest.mark.parametrize("noise_mm", [0.0005, 0.002])
+def test_simplify_skips_only_chords_it_already_refused(rng, noise_mm):
+    # a chord refused once is not checked again while its ends stay: the vertices kept are
+    # those of rounds that check every chord (on noise near the tolerance many chords are
+    # refused, then offered again with a new end)
+    t = np.linspace(0.0, 2.0 * np.pi, 2500)
+    wavy = np.column_stack([30 * np.cos(t), 30 * np.sin(t) + 0.01 * np.sin(40 * t),
+                            noise_mm * rng.normal(size=t.size)])
+    for tol_mm, longest_mm in ((0.002, 5.0), (0.004, 0.8)):
+        np.testing.assert_array_equal(simplify_polyline(wavy, tol_mm, longest_mm),
+                                      _simplify_checking_every_chord(wavy, tol_mm, longest_mm))
