@@ -16,8 +16,9 @@ only the others (leads, links, plunges) are split here.
 
 The first round reads the joints the planner solved for the path
 (:attr:`Toolpath.solved_joints`, :func:`known_joints`) instead of solving them again; a
-round after a split solves the new path's joints whole (the branch and unwrap rules of
-:func:`machines.kinematics.solve_inverse` look along the whole path).
+round after a split decides C along the whole new path (the branch and unwrap rules of
+:func:`machines.kinematics.solve_inverse` look along all of it) and computes the other
+joints only for the new points and those whose C came out otherwise (``previous``).
 """
 
 from __future__ import annotations
@@ -177,11 +178,15 @@ def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
     checked = joints_checked(path, machine)
     # the last round's joints and deviations, by the new rows of its points (-1: new)
     last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None = None
-    known = known_joints(path, machine)  # the first round's points are the path's own
+    # the first round's points are the path's own (their joints known, if the path carries
+    # them); a later round's rows of the round before keep their joints where C came out
+    # the same (solve_inverse's ``previous``)
+    solution = known_joints(path, machine)
     for _ in range(MAX_ROUNDS):
-        joints = known.joints if known is not None else solve_inverse(machine, tips,
-                                                                      axes).joints
-        known = None
+        if solution is None or last is not None:
+            solution = solve_inverse(machine, tips, axes, previous=None if last is None
+                                     else (solution, last[2]))
+        joints = solution.joints
         deviation = _deviation_again(machine, tips, joints, last)
         rapid = kinds[1:] == MoveKind.RAPID
         split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)
