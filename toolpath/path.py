@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import zipfile
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from functools import cached_property
 from pathlib import Path
@@ -179,9 +179,11 @@ class Toolpath:
         object.__setattr__(self, "metadata", {str(k): str(v) for k, v in self.metadata.items()})
         if self.joints_checked_for is not None:
             object.__setattr__(self, "joints_checked_for", str(self.joints_checked_for))
-        if self.solved_joints is not None and not self.solved_joints.solved_for(
-                self.positions_mm, self.tool_axes):
-            object.__setattr__(self, "solved_joints", None)
+        solved = self.solved_joints
+        if solved is not None:  # kept for these very points only, holding this path's arrays
+            object.__setattr__(self, "solved_joints", replace(
+                solved, positions_mm=self.positions_mm, tool_axes=self.tool_axes)
+                if solved.solved_for(self.positions_mm, self.tool_axes) else None)
 
     # ------------------------------------------------------------------ figures
     def __len__(self) -> int:

@@ -47,9 +47,12 @@ def test_the_plan_carries_the_joints_of_its_own_points(planned):
     np.testing.assert_array_equal(known.joints, full.joints)
     np.testing.assert_array_equal(known.in_cone, full.in_cone)
     np.testing.assert_array_equal(known.axis_error_deg, full.axis_error_deg)
-    # kept through a change that leaves the points (the job adds its placement text)
+    # kept through a change that leaves the points (the job adds its placement text),
+    # holding the path's own arrays (no second copy of the points)
     renamed = dataclasses.replace(path, metadata={**path.metadata, "placement": "x"})
     assert known_joints(renamed, machine) is known
+    assert renamed.solved_joints.positions_mm is renamed.positions_mm
+    assert renamed.solved_joints.tool_axes is renamed.tool_axes
 
 
 def test_other_points_or_another_machine_do_not_use_them(planned):
