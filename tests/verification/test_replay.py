@@ -112,3 +112,26 @@ def test_simplify_skips_only_chords_it_already_refused(rng, noise_mm):
     for tol_mm, longest_mm in ((0.002, 5.0), (0.004, 0.8)):
         np.testing.assert_array_equal(simplify_polyline(wavy, tol_mm, longest_mm),
                                       _simplify_checking_every_chord(wavy, tol_mm, longest_mm))
+
+
+@pytest.mark.parametrize("name", ["trunnion-ac", "head-table-bc"])
+def test_instances_posed_while_counting_steps_are_those_posed_afresh(rng, name):
+    # moves without rotary travel, small and large turns (several rounds of counting):
+    # every instance is the pose at u = j / n of its move, bit for bit
+    from verification.replay import _instances, _pose, _sample_u, _substeps
+
+    machine = load_machine(name)
+    n = 600
+    j1 = np.cumsum(rng.normal(0.0, 1.0, (n, machine.n_axes)), axis=0)
+    rotary = [i for i, a in enumerate(machine.axes) if a.is_rotary]
+    turn = rng.choice([0.0, 0.5, 30.0], size=(n, 1)) * rng.normal(size=(n, len(rotary)))
+    j1[:, rotary] = 10.0 + np.cumsum(turn, axis=0)
+    j0 = np.vstack([j1[:1] - 1.0, j1[:-1]])
+    counts, _, posed = _substeps(machine, j0, j1, 1e-3, 3.0)
+    assert len(posed) >= 2 and (counts == 1).any() and counts.max() > 10
+    move, u = _sample_u(counts)
+    tips, axes, _ = _pose(machine, j0, j1, move, u, 3.0)
+    got_move, got_tips, got_axes = _instances(machine, j0, j1, counts, posed, 3.0)
+    np.testing.assert_array_equal(got_move, move)
+    np.testing.assert_array_equal(got_tips, tips)
+    np.testing.assert_array_equal(got_axes, axes)
