@@ -96,7 +96,7 @@ from gcode.program import (
 from machines import Machine, UnreachableOrientationError, Wrap
 from machines.limits import min_segment_times
 from toolpath import MoveKind, Toolpath
-from toolpath.joint_refine import refine_with_joints
+from toolpath.joint_refine import path_joints, refine_with_joints
 from toolpath.tolerances import ROUND_OFF
 
 __all__ = ["DEFAULT_CLEARANCE_MM", "PostOptions", "post"]
@@ -200,7 +200,7 @@ def _check_machine_dialect(machine: Machine, dialect: Dialect) -> None:
 
 def _joints(toolpath: Toolpath, machine: Machine) -> npt.NDArray[np.float64]:
     try:
-        return toolpath.to_machine(machine).joints
+        return path_joints(toolpath, machine).joints  # (those the planner solved, if any)
     except UnreachableOrientationError as exc:
         raise PostError(
             ErrorCode.UNSUPPORTED_COMMAND,

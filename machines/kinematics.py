@@ -321,8 +321,8 @@ def _angles(
     w: NDArray[np.float64],
     start: NDArray[np.float64] | None,
     cone_deg: float,
-) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_], NDArray[np.float64]]:
-    """Tilt, C, in-cone mask and axis error (deg) for unit tool axes ``w`` along a path."""
+) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """C and the in-cone mask for unit tool axes ``w`` along a path (rules 1-4)."""
     kin = machine.kinematics
     n = len(w)
     phi_d = _azimuth_of_d(kin)
@@ -380,13 +380,39 @@ def _angles(
                 c[inside] = np.interp(inside, np.r_[-1, out], np.r_[c_start, c_out])
     else:
         c[:] = 0.0 if c_start is None else c_start
-    # signed tilt in the plane C allows (exact outside the cone, best fit inside)
-    psi = np.radians(phi_d - c)
+    return c, in_cone
+
+
+def _tilts(kin: KinematicType, w: NDArray[np.float64], c: NDArray[np.float64]
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Signed tilt and axis error (deg) of unit axes ``w`` in the planes their C allows.
+
+    Exact outside the cone, the best fit inside it: the achieved axis is ``w`` projected on
+    the plane of ``h`` (the lean direction at that C) and Z; the error is its angle. Row by
+    row (a row's values depend on its own ``w`` and ``c`` only).
+    """
+    psi = np.radians(_azimuth_of_d(kin) - c)
     h0, h1 = np.cos(psi), np.sin(psi)
     t = np.degrees(np.arctan2(w[:, 0] * h0 + w[:, 1] * h1, w[:, 2]))
-    # the achieved axis is w projected on the plane of h and Z: the error is its angle
     err = np.degrees(np.arcsin(np.minimum(np.abs(w[:, 0] * h1 - w[:, 1] * h0), 1.0)))
-    return t, c, in_cone, err
+    return t, err
+
+
+def _linear_joints(machine: Machine, q: NDArray[np.float64], t: NDArray[np.float64],
+                   c: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Linear joints ``G`` (n, 3) of tips ``q`` at tilt ``t`` and C ``c`` (row by row)."""
+    kin = machine.kinematics
+    origin = np.asarray(machine.work_origin)
+    k = _tilt_index(kin)
+    p = np.asarray(machine.rotary_centre)
+    if kin.tilting_head:
+        tip_m = _rot(origin + q - p, 2, c) + p
+        u = _rot(np.broadcast_to(_Z, (len(q), 3)), k, t)
+        lp = machine.head_pivot_length
+        return tip_m + (lp + machine.tool_length) * u - lp * _Z
+    pc = p + np.asarray(machine.c_offset)
+    tip_m = _rot(_rot(origin + q - pc, 2, c) + pc - p, k, t) + p
+    return tip_m + machine.tool_length * _Z
 
 
 def solve_inverse(
@@ -397,6 +423,7 @@ def solve_inverse(
     start: ArrayLike | None = None,
     cone_deg: float = SINGULAR_CONE_DEG,
     axis_tol_deg: float = XYZ_AXIS_TOL_DEG,
+    previous: tuple[InverseSolution, NDArray[np.int64]] | None = None,
 ) -> InverseSolution:
     """Joint values along a path, with the cone and achieved-axis report.
 
@@ -417,6 +444,14 @@ def solve_inverse(
     axis_tol_deg : float, optional
         3-axis machines only: largest accepted angle of a tool axis from +Z, deg
         (default :data:`XYZ_AXIS_TOL_DEG`).
+    previous : (InverseSolution, ndarray of int64), optional
+        5-axis: the solution of a path these points came from (a path with points
+        inserted), and per row of ``tips`` its row there (``-1``: a new point), whose tip
+        and axis must be this row's. C, the branch and the cone are decided along the
+        whole path as always; a row whose C and cone come out as before keeps its tilt,
+        linear joints and axis error (they follow from the row's own point, C and cone
+        alone), so only new rows and rows whose C moved are computed. The result is the
+        one without ``previous``, value for value.
 
     Returns
     -------
@@ -467,20 +502,28 @@ def solve_inverse(
         in_cone = np.zeros(n, dtype=bool)
         err = off
     else:
-        t, c, in_cone, err = _angles(machine, w, st, cone_deg)
-        k = _tilt_index(kin)
-        p = np.asarray(machine.rotary_centre)
-        if kin.tilting_head:
-            tip_m = _rot(origin + q - p, 2, c) + p
-            u = _rot(np.broadcast_to(_Z, (n, 3)), k, t)
-            lp = machine.head_pivot_length
-            g = tip_m + (lp + machine.tool_length) * u - lp * _Z
+        c, in_cone = _angles(machine, w, st, cone_deg)
+        order = _order(machine)
+        # rows solved before with the same point, the same C and cone: the same numbers in,
+        # the same out (every later step is row by row)
+        if previous is None:
+            t, err = _tilts(kin, w, c)
+            canon[:, 3] = t
+            canon[:, :3] = _linear_joints(machine, q, t, c)
         else:
-            pc = p + np.asarray(machine.c_offset)
-            tip_m = _rot(_rot(origin + q - pc, 2, c) + pc - p, k, t) + p
-            g = tip_m + machine.tool_length * _Z
-        canon[:, :3] = g
-        canon[:, 3] = t
+            old_sol, was = previous
+            if np.shape(was) != (n,) or (was >= len(old_sol.joints)).any():
+                raise KinematicsError(
+                    f"previous rows must be {n} row numbers below {len(old_sol.joints)} "
+                    f"(or -1), got shape {np.shape(was)!r}")
+            row = np.maximum(was, 0)
+            canon[:, :4] = old_sol.joints[:, order[:4]][row]
+            err = old_sol.axis_error_deg[row]
+            fresh = np.flatnonzero((was < 0) | (old_sol.joints[row, order[4]] != c)
+                                   | (old_sol.in_cone[row] != in_cone))
+            t, err[fresh] = _tilts(kin, w[fresh], c[fresh])
+            canon[fresh, 3] = t
+            canon[fresh, :3] = _linear_joints(machine, q[fresh], t, c[fresh])
         canon[:, 4] = c
     joints = np.empty_like(canon)
     joints[:, _order(machine)] = canon

@@ -13,6 +13,12 @@ A planner that already checked its cutting moves under this machine's joint inte
 (against the surface, and sideways) sets the toolpath's ``joints_checked_for`` to
 :func:`machine_key`; those moves (cutting, within one pass) are then left whole, and
 only the others (leads, links, plunges) are split here.
+
+The first round reads the joints the planner solved for the path
+(:attr:`Toolpath.solved_joints`, :func:`known_joints`) instead of solving them again; a
+round after a split decides C along the whole new path (the branch and unwrap rules of
+:func:`machines.kinematics.solve_inverse` look along all of it) and computes the other
+joints only for the new points and those whose C came out otherwise (``previous``).
 """
 
 from __future__ import annotations
@@ -25,14 +31,15 @@ import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
-from machines.kinematics import forward, solve_inverse
+from machines.kinematics import InverseSolution, forward, solve_inverse
 
 from .errors import InvalidParameterError
-from .path import MoveKind, Toolpath
+from .path import MoveKind, SolvedJoints, Toolpath
 from .vectors import unit
 
 __all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm", "joints_checked",
-           "machine_key", "refine_for_joint_interpolation", "refine_with_joints"]
+           "known_joints", "machine_key", "path_joints", "refine_for_joint_interpolation",
+           "refine_with_joints", "with_solved_joints"]
 
 #: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
 #: sphere) under joint interpolation, mm: a rotary swing otherwise sweeps the tool far off
@@ -64,6 +71,36 @@ def joints_checked(path: Toolpath, machine: Machine) -> bool:
     """Whether ``path``'s cutting moves were checked under ``machine``'s interpolation."""
     return path.joints_checked_for is not None and path.joints_checked_for == machine_key(
         machine)
+
+
+def known_joints(path: Toolpath, machine: Machine) -> InverseSolution | None:
+    """The joints ``path`` carries for ``machine`` (:attr:`Toolpath.solved_joints`), or None.
+
+    They are ``solve_inverse(machine, path.positions_mm, path.tool_axes)`` as solved
+    before: the path keeps them only for its very points, and they count only for a
+    machine of the same :func:`machine_key`.
+    """
+    solved = path.solved_joints
+    if solved is None or solved.machine_key != machine_key(machine):
+        return None
+    return solved.solution
+
+
+def path_joints(path: Toolpath, machine: Machine) -> InverseSolution:
+    """``path``'s joints on ``machine``: those it carries (:func:`known_joints`), else solved."""
+    known = known_joints(path, machine)
+    if known is not None:
+        return known
+    return solve_inverse(machine, path.positions_mm, path.tool_axes)
+
+
+def with_solved_joints(path: Toolpath, machine: Machine) -> Toolpath:
+    """``path`` carrying its joints on ``machine`` (solved here unless it carries them)."""
+    if known_joints(path, machine) is not None:
+        return path
+    solution = solve_inverse(machine, path.positions_mm, path.tool_axes)
+    return dataclasses.replace(path, solved_joints=SolvedJoints(
+        machine_key(machine), path.positions_mm, path.tool_axes, solution))
 
 
 def joint_path_deviation_mm(machine: Machine, tips_mm: NDArray[np.float64],
@@ -141,8 +178,15 @@ def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
     checked = joints_checked(path, machine)
     # the last round's joints and deviations, by the new rows of its points (-1: new)
     last: tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]] | None = None
+    # the first round's points are the path's own (their joints known, if the path carries
+    # them); a later round's rows of the round before keep their joints where C came out
+    # the same (solve_inverse's ``previous``)
+    solution = known_joints(path, machine)
     for _ in range(MAX_ROUNDS):
-        joints = solve_inverse(machine, tips, axes).joints
+        if solution is None or last is not None:
+            solution = solve_inverse(machine, tips, axes, previous=None if last is None
+                                     else (solution, last[2]))
+        joints = solution.joints
         deviation = _deviation_again(machine, tips, joints, last)
         rapid = kinds[1:] == MoveKind.RAPID
         split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)

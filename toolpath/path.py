@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import zipfile
 import zlib
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from enum import IntEnum
 from functools import cached_property
 from pathlib import Path
@@ -26,7 +26,7 @@ from machines.limits import min_segment_times
 
 from .errors import DataFileError, InvalidParameterError
 
-__all__ = ["TOOLPATH_FORMAT_VERSION", "MoveKind", "Toolpath"]
+__all__ = ["TOOLPATH_FORMAT_VERSION", "MoveKind", "SolvedJoints", "Toolpath"]
 
 #: Bumped whenever the ``.npz`` layout changes incompatibly; ``load`` refuses other
 #: versions. Arrays added since (``joints_checked_for``) are optional: older files read.
@@ -46,6 +46,44 @@ class MoveKind(IntEnum):
     LEAD_OUT = 4  #: departing arc or line off the surface
     LINK = 5  #: feed move between passes without retracting (zig-zag, spiral step)
     RETRACT = 6  #: feeding up to clearance
+
+
+@dataclass(frozen=True, eq=False)
+class SolvedJoints:
+    """A toolpath's joints on one machine, solved once and handed on with the path.
+
+    The planner's machine stage solves the inverse kinematics of its path
+    (:func:`machines.kinematics.solve_inverse`); the joint measurement, the rotary rates
+    and the post read them here instead of solving the same points again. A
+    :class:`Toolpath` keeps them only while its points are the very points solved
+    (``positions_mm`` and ``tool_axes`` equal, value for value): a path made with other
+    points (shifted, split) drops them, and its joints are solved anew.
+
+    Attributes
+    ----------
+    machine_key : str
+        :func:`toolpath.joint_refine.machine_key` of the machine they were solved for.
+    positions_mm, tool_axes : ndarray, shape (n, 3)
+        The tool tips (mm, workpiece frame) and unit tool axes solved.
+    solution : InverseSolution
+        ``solve_inverse(machine, positions_mm, tool_axes)`` (joints in mm and unwrapped
+        deg, machine axis order; the in-cone mask and achieved-axis error).
+    """
+
+    machine_key: str
+    positions_mm: NDArray[np.float64]
+    tool_axes: NDArray[np.float64]
+    solution: InverseSolution
+
+    def solved_for(self, positions_mm: NDArray[np.float64], tool_axes: NDArray[np.float64]
+                   ) -> bool:
+        """Whether these are the joints of exactly these points (same values, same order)."""
+        return (_same(self.positions_mm, positions_mm) and _same(self.tool_axes, tool_axes)
+                and len(self.solution.joints) == len(positions_mm))
+
+
+def _same(a: NDArray[Any], b: NDArray[Any]) -> bool:
+    return a is b or (a.shape == b.shape and bool(np.array_equal(a, b)))
 
 
 def _frozen(array: ArrayLike, dtype: Any) -> NDArray[Any]:
@@ -78,6 +116,10 @@ class Toolpath:
         interpolation the planner checked the cutting moves under (the post then leaves
         them whole, :func:`~toolpath.joint_refine.refine_for_joint_interpolation`); None
         when they were not checked so.
+    solved_joints : SolvedJoints or None
+        The path's joints on a machine, solved once (:func:`toolpath.joint_refine.known_joints`
+        reads them); dropped on construction unless solved for exactly these points, and
+        not saved to a file.
     """
 
     positions_mm: NDArray[np.float64]
@@ -87,6 +129,7 @@ class Toolpath:
     pass_index: NDArray[np.int32]
     metadata: dict[str, str] = field(default_factory=dict)
     joints_checked_for: str | None = None
+    solved_joints: SolvedJoints | None = None
 
     def __post_init__(self) -> None:
         pos = np.asarray(self.positions_mm, dtype=float)
@@ -136,6 +179,11 @@ class Toolpath:
         object.__setattr__(self, "metadata", {str(k): str(v) for k, v in self.metadata.items()})
         if self.joints_checked_for is not None:
             object.__setattr__(self, "joints_checked_for", str(self.joints_checked_for))
+        solved = self.solved_joints
+        if solved is not None:  # kept for these very points only, holding this path's arrays
+            object.__setattr__(self, "solved_joints", replace(
+                solved, positions_mm=self.positions_mm, tool_axes=self.tool_axes)
+                if solved.solved_for(self.positions_mm, self.tool_axes) else None)
 
     # ------------------------------------------------------------------ figures
     def __len__(self) -> int:

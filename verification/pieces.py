@@ -165,7 +165,9 @@ def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
     Rounds alternate between odd and even kept vertices; a vertex is dropped when every
     original vertex between its two kept neighbours lies within ``tol_mm`` of the chord
     joining them (checked exactly: the spans of one round are disjoint, so a round costs
-    one pass over the polyline) and that chord is at most ``max_length_mm`` long. The
+    one pass over the polyline; a chord refused once is not checked again while both its
+    ends stay kept, as the same numbers refuse it again) and that chord is at most
+    ``max_length_mm`` long. The
     original polyline then lies within ``tol_mm`` of the kept one (the distance of a
     segment's points from a chord is largest at its ends).
 
@@ -188,23 +190,29 @@ def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
     idle = 0
     parity = 1
     max2 = max_length_mm * max_length_mm
+    # per vertex, the kept neighbours of the last chord that failed to replace it: the same
+    # chord fails again (the same numbers in), so it is not checked again
+    tried_a = np.full(n, -1, dtype=np.int64)
+    tried_c = np.full(n, -1, dtype=np.int64)
     while keep.shape[0] > 2 and idle < 2:
         p = np.arange(max(parity, 1), keep.shape[0] - 1, 2)
         a_i, c_i = keep[p - 1], keep[p + 1]
+        new = (tried_a[keep[p]] != a_i) | (tried_c[keep[p]] != c_i)
+        p, a_i, c_i = p[new], a_i[new], c_i[new]
+        tried_a[keep[p]], tried_c[keep[p]] = a_i, c_i  # (a dropped vertex is never asked)
         ac = points[c_i] - points[a_i]
         aa = np.einsum("ij,ij->i", ac, ac)
         short = aa <= max2
         p, a_i, c_i, ac, aa = p[short], a_i[short], c_i[short], ac[short], aa[short]
-        inner = c_i - a_i - 1  # original vertices strictly between the chord's ends
+        inner = c_i - a_i - 1  # original vertices strictly between the chord's ends (>= 1)
+        first = np.cumsum(inner) - inner
         owner = np.repeat(np.arange(p.shape[0]), inner)
-        k = np.arange(owner.shape[0]) - np.repeat(np.cumsum(inner) - inner, inner)
+        k = np.arange(owner.shape[0]) - np.repeat(first, inner)
         v = points[a_i[owner] + 1 + k] - points[a_i[owner]]
         f = np.clip(np.einsum("ij,ij->i", v, ac[owner]) / np.where(aa > 0.0, aa, 1.0)[owner],
                     0.0, 1.0)
         dist = row_norms(v - f[:, None] * ac[owner])
-        worst = np.zeros(p.shape[0])
-        if owner.shape[0]:
-            np.maximum.at(worst, owner, dist)
+        worst = np.maximum.reduceat(dist, first) if p.shape[0] else np.zeros(0)
         drop = worst <= tol_mm
         if drop.any():
             mask = np.ones(keep.shape[0], dtype=bool)

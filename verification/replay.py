@@ -191,24 +191,40 @@ def _pose(machine: Machine, j0: FloatArray, j1: FloatArray, move: IntArray, u: F
 
 
 def _midpoint_errors(machine: Machine, j0: FloatArray, j1: FloatArray, moves: IntArray,
-                     counts: IntArray, radius_mm: float) -> FloatArray:
-    """Largest midpoint-to-chord distance over the steps of each listed move (tip, centre)."""
+                     counts: IntArray, radius_mm: float
+                     ) -> tuple[FloatArray, IntArray, FloatArray, FloatArray]:
+    """Largest midpoint-to-chord distance over the steps of each listed move (tip, centre).
+
+    Also the instances it posed on the way (the steps' ends ``u = j / n``, by move and
+    ``j``, :func:`_sample_u` of the listed moves): the list's index of each, tips, axes.
+    """
     c = counts[moves]
     move_local, u = _sample_u(c)
     move = moves[move_local]
     du = 1.0 / c[move_local]
-    tip1, _, cen1 = _pose(machine, j0, j1, move, u, radius_mm)
+    tip1, axis1, cen1 = _pose(machine, j0, j1, move, u, radius_mm)
     tip0, _, cen0 = _pose(machine, j0, j1, move, u - du, radius_mm)
     tipm, _, cenm = _pose(machine, j0, j1, move, u - 0.5 * du, radius_mm)
     err = np.maximum(row_norms(tipm - 0.5 * (tip0 + tip1)),
                      row_norms(cenm - 0.5 * (cen0 + cen1)))
     out = np.zeros(moves.shape[0])
     np.maximum.at(out, move_local, err)
-    return out
+    return out, move_local, tip1, axis1
+
+
+#: Instances posed while counting a move's steps, at its final count: the moves (sorted),
+#: then their instances' tips and axes in :func:`_sample_u` order.
+_Posed = tuple[IntArray, FloatArray, FloatArray]
 
 
 def _substeps(machine: Machine, j0: FloatArray, j1: FloatArray, chord_tol_mm: float,
-              radius_mm: float) -> tuple[IntArray, FloatArray]:
+              radius_mm: float) -> tuple[IntArray, FloatArray, list[_Posed]]:
+    """Steps per move, each move's rotary travel, and the instances posed at the counts.
+
+    A move whose steps keep the tolerance in a round keeps its count from then on: the
+    instances that round posed for it are its instances (the same joints and ``u`` in,
+    the same poses out), handed on so that :func:`replay` does not pose them again.
+    """
     n = j0.shape[0]
     counts = np.ones(n, dtype=np.int64)
     rot_cols = [i for i, a in enumerate(machine.axes) if a.is_rotary]
@@ -216,9 +232,12 @@ def _substeps(machine: Machine, j0: FloatArray, j1: FloatArray, chord_tol_mm: fl
               else np.zeros(n))
     todo = np.flatnonzero(rotary > 0.0)
     counts[todo] = np.maximum(1, np.ceil(rotary[todo] / _INITIAL_STEP_DEG)).astype(np.int64)
+    posed: list[_Posed] = []
     while todo.shape[0]:
-        err = _midpoint_errors(machine, j0, j1, todo, counts, radius_mm)
+        err, local, tips, axes = _midpoint_errors(machine, j0, j1, todo, counts, radius_mm)
         bad = err > chord_tol_mm
+        kept = ~bad[local]
+        posed.append((todo[~bad], tips[kept], axes[kept]))
         if not bad.any():
             break
         todo = todo[bad]
@@ -229,7 +248,30 @@ def _substeps(machine: Machine, j0: FloatArray, j1: FloatArray, chord_tol_mm: fl
                 f"a block cannot be sampled within chord_tol_mm={chord_tol_mm!r}: it would "
                 f"need more than {MAX_SUBSTEPS} steps (rotary travel "
                 f"{float(rotary[todo].max()):.6g} deg)")
-    return counts, rotary
+    return counts, rotary, posed
+
+
+def _instances(machine: Machine, j0: FloatArray, j1: FloatArray, counts: IntArray,
+               posed: list[_Posed], radius_mm: float
+               ) -> tuple[IntArray, FloatArray, FloatArray]:
+    """Every move's instances (``u = j / n``, :func:`_sample_u`): move index, tips, axes.
+
+    Those :func:`_substeps` posed at the final counts are placed, the others (moves that
+    turn no rotary axis) posed here: the values :func:`_pose` gives for all of them.
+    """
+    move, u = _sample_u(counts)
+    tips = np.empty((move.shape[0], 3))
+    axes = np.empty((move.shape[0], 3))
+    first = np.cumsum(counts) - counts  # each move's first instance
+    placed = np.zeros(counts.shape[0], dtype=bool)
+    for moves, t, a in posed:
+        c = counts[moves]
+        rows = np.arange(t.shape[0]) + np.repeat(first[moves] - (np.cumsum(c) - c), c)
+        tips[rows], axes[rows] = t, a
+        placed[moves] = True
+    rest = np.flatnonzero(~placed[move])
+    tips[rest], axes[rest], _ = _pose(machine, j0, j1, move[rest], u[rest], radius_mm)
+    return move, tips, axes
 
 
 def _chord_deviation(tips: FloatArray, move: IntArray, counts: IntArray) -> FloatArray:
@@ -302,9 +344,8 @@ def replay(program: Program, machine: Machine, *, chord_tol_mm: float, radius_mm
     j0, j1 = j0[1:], j1[1:]
     if j0.shape[0] and np.abs(j0[0] - joint_columns(machine, start)[0]).max() > 0.0:
         j0[0] = joint_columns(machine, start)[0]  # pragma: no cover - contiguous segments
-    counts, rotary = _substeps(machine, j0, j1, chord_tol_mm, radius_mm)
-    move, u = _sample_u(counts)
-    tips, axes, _ = _pose(machine, j0, j1, move, u, radius_mm)
+    counts, rotary, posed = _substeps(machine, j0, j1, chord_tol_mm, radius_mm)
+    move, tips, axes = _instances(machine, j0, j1, counts, posed, radius_mm)
     tip0, axis0 = forward(machine, joint_columns(machine, start))
     tips = np.concatenate((tip0, tips))
     axes = np.concatenate((axis0, axes))

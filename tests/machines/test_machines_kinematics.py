@@ -307,3 +307,39 @@ def test_empty_path(any_machine):
     assert j.shape == (0, any_machine.n_axes)
     tips, axes = forward(any_machine, j)
     assert tips.shape == axes.shape == (0, 3)
+
+
+def _with_middles(tips, axes, at):
+    """The path with a point inserted in the middle of each move ``at -> at + 1``."""
+    mid_axes = axes[at] + axes[at + 1]
+    mid_axes /= np.linalg.norm(mid_axes, axis=1, keepdims=True)
+    was = np.insert(np.arange(len(tips)), at + 1, -1)
+    return (np.insert(tips, at + 1, 0.5 * (tips[at] + tips[at + 1]), axis=0),
+            np.insert(axes, at + 1, mid_axes, axis=0), was)
+
+
+def _wandering_path(rng, n=400):
+    """Tips and axes that cross the vertical, turn the azimuth fast and slowly, lean far."""
+    tilt = np.concatenate([np.linspace(60, 0, n // 4), np.zeros(n // 8),
+                           np.linspace(0, 100, n - n // 4 - n // 8)])
+    azimuth = np.cumsum(rng.normal(0.0, 25.0, n))
+    tips = np.cumsum(rng.normal(0.0, 1.0, (n, 3)), axis=0)
+    return tips, axis_from_angles(tilt, azimuth)
+
+
+def test_solving_again_after_inserts_gives_the_whole_solve(five_axis, rng):
+    # rows kept from the path before (their C and cone unchanged) must be the values a
+    # whole solve gives, bit for bit; inserts inside the cone move the C carried through
+    # it by index, and one across a fast azimuth turn can change the branch of what follows
+    tips, axes = _wandering_path(rng)
+    before = solve_inverse(five_axis, tips, axes)
+    cone = np.flatnonzero(before.in_cone[:-1])
+    for at in (np.arange(0, len(tips) - 1, 7), cone[::3], np.arange(len(tips) - 1)):
+        new_tips, new_axes, was = _with_middles(tips, axes, at)
+        whole = solve_inverse(five_axis, new_tips, new_axes)
+        again = solve_inverse(five_axis, new_tips, new_axes, previous=(before, was))
+        np.testing.assert_array_equal(again.joints, whole.joints)
+        np.testing.assert_array_equal(again.in_cone, whole.in_cone)
+        np.testing.assert_array_equal(again.axis_error_deg, whole.axis_error_deg)
+    with pytest.raises(KinematicsError, match="previous rows"):
+        solve_inverse(five_axis, tips, axes, previous=(before, np.arange(len(tips) + 1)))

@@ -78,3 +78,60 @@ def test_simplify_keeps_every_vertex_within_tolerance(rng):
         worst = max(worst, float(np.linalg.norm(v - f[:, None] * e, axis=1).max()))
     assert worst <= 0.005
     assert np.linalg.norm(np.diff(circle[keep], axis=0), axis=1).max() <= 5.0
+
+
+def _simplify_checking_every_chord(points, tol_mm, max_length_mm):
+    """The rounds of :func:`simplify_polyline` with every chord checked in every round."""
+    keep, idle, parity = list(range(points.shape[0])), 0, 1
+    while len(keep) > 2 and idle < 2:
+        drop = []
+        for p in range(max(parity, 1), len(keep) - 1, 2):
+            a, c = keep[p - 1], keep[p + 1]
+            ac = points[c] - points[a]
+            aa = float(ac @ ac)
+            if aa > max_length_mm ** 2:
+                continue
+            v = points[a + 1:c] - points[a]
+            f = np.clip(v @ ac / (aa if aa > 0.0 else 1.0), 0.0, 1.0)
+            if np.linalg.norm(v - f[:, None] * ac, axis=1).max() <= tol_mm:
+                drop.append(p)
+        keep = [k for i, k in enumerate(keep) if i not in set(drop)]
+        idle = 0 if drop else idle + 1
+        parity = 1 - parity
+    return np.array(keep)
+
+
+@pytest.mark.parametrize("noise_mm", [0.0005, 0.002])
+def test_simplify_skips_only_chords_it_already_refused(rng, noise_mm):
+    # a chord refused once is not checked again while its ends stay: the vertices kept are
+    # those of rounds that check every chord (on noise near the tolerance many chords are
+    # refused, then offered again with a new end)
+    t = np.linspace(0.0, 2.0 * np.pi, 2500)
+    wavy = np.column_stack([30 * np.cos(t), 30 * np.sin(t) + 0.01 * np.sin(40 * t),
+                            noise_mm * rng.normal(size=t.size)])
+    for tol_mm, longest_mm in ((0.002, 5.0), (0.004, 0.8)):
+        np.testing.assert_array_equal(simplify_polyline(wavy, tol_mm, longest_mm),
+                                      _simplify_checking_every_chord(wavy, tol_mm, longest_mm))
+
+
+@pytest.mark.parametrize("name", ["trunnion-ac", "head-table-bc"])
+def test_instances_posed_while_counting_steps_are_those_posed_afresh(rng, name):
+    # moves without rotary travel, small and large turns (several rounds of counting):
+    # every instance is the pose at u = j / n of its move, bit for bit
+    from verification.replay import _instances, _pose, _sample_u, _substeps
+
+    machine = load_machine(name)
+    n = 600
+    j1 = np.cumsum(rng.normal(0.0, 1.0, (n, machine.n_axes)), axis=0)
+    rotary = [i for i, a in enumerate(machine.axes) if a.is_rotary]
+    turn = rng.choice([0.0, 0.5, 30.0], size=(n, 1)) * rng.normal(size=(n, len(rotary)))
+    j1[:, rotary] = 10.0 + np.cumsum(turn, axis=0)
+    j0 = np.vstack([j1[:1] - 1.0, j1[:-1]])
+    counts, _, posed = _substeps(machine, j0, j1, 1e-3, 3.0)
+    assert len(posed) >= 2 and (counts == 1).any() and counts.max() > 10
+    move, u = _sample_u(counts)
+    tips, axes, _ = _pose(machine, j0, j1, move, u, 3.0)
+    got_move, got_tips, got_axes = _instances(machine, j0, j1, counts, posed, 3.0)
+    np.testing.assert_array_equal(got_move, move)
+    np.testing.assert_array_equal(got_tips, tips)
+    np.testing.assert_array_equal(got_axes, axes)

@@ -18,9 +18,9 @@ import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
-from machines.kinematics import solve_inverse
 from machines.limits import Violation, check_rates, check_travel, min_segment_times
 
+from ..joint_refine import path_joints
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM
@@ -736,8 +736,12 @@ def gouge_error_link(i: int, kind: str, depth: float, where: NDArray[np.float64]
 
 
 def machine_stage(path: Toolpath, mach: Machine, opts: FinishingOptions) -> MachineStats:
-    """Joints, travel and rate violations and the time; raises on travel when asked."""
-    sol = solve_inverse(mach, path.positions_mm, path.tool_axes)
+    """Joints, travel and rate violations and the time; raises on travel when asked.
+
+    The joints are those ``path`` carries (:func:`~toolpath.joint_refine.with_solved_joints`),
+    else solved here.
+    """
+    sol = path_joints(path, mach)
     travel = check_travel(mach, sol.joints)
     feeds = path.feeds_mm_per_min[1:]
     lengths = path.segment_lengths_mm

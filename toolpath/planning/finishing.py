@@ -33,7 +33,7 @@ from machines.kinematics import tilt_reach_deg
 from machines.limits import Side, Violation
 
 from ..errors import InvalidParameterError
-from ..joint_refine import machine_key
+from ..joint_refine import machine_key, with_solved_joints
 from ..path import MoveKind, Toolpath
 from ..surface import ParametricSurface, as_surface
 from ..tolerances import ANGLE_SLACK_DEG, FLAT_PER_MM, LIMIT_SLACK, TINY
@@ -769,7 +769,10 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     check_links(path, cutter, samples, opts, res)
 
     clock.stage("machine")
-    machined = machine_stage(path, mach, opts) if mach is not None else None
+    machined = None
+    if mach is not None:  # the joints solved once: the measure, the rates and the post read them
+        path = with_solved_joints(path, mach)
+        machined = machine_stage(path, mach, opts)
 
     clock.stage("measure")
     scallop = chord = None

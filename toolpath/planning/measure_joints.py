@@ -10,7 +10,7 @@ from numpy.typing import NDArray
 from machines import Machine
 from machines.kinematics import solve_inverse
 
-from ..joint_refine import joints_checked, machine_key
+from ..joint_refine import joints_checked, known_joints, machine_key
 from ..path import Toolpath
 
 __all__ = ["checked_joints"]
@@ -26,10 +26,15 @@ def checked_joints(toolpath: Toolpath, machine: Machine | None
     """Joints of every point if ``toolpath`` was checked under ``machine``'s interpolation.
 
     (``Toolpath.joints_checked_for``: the post then leaves its cutting moves whole).
-    None otherwise.
+    None otherwise. Those ``toolpath`` carries (:attr:`Toolpath.solved_joints`, the plan's
+    machine stage solved them), else solved here once for the chord and the scallop
+    measurement.
     """
     if machine is None or not joints_checked(toolpath, machine):
         return None
+    known = known_joints(toolpath, machine)
+    if known is not None:
+        return known.joints
     key = machine_key(machine)
     for ref, known, joints in _JOINTS_SOLVED:
         if ref() is toolpath and known == key:

@@ -4,8 +4,9 @@ Round a blade's leading and trailing edges the tool axis fans through up to 180 
 few mm of path; the tool-axis turn rate (:mod:`~toolpath.planning.rate_limit`) bounds the
 axis in the workpiece, but the joints turn faster near the machine's singular cone (the
 rotary table spins to follow a small turn of an axis near its own). This module measures
-the joints themselves, as the post writes them (the machine's inverse kinematics,
-unwrapped): for each rotary joint ``q`` and cutting segment ``k`` (feed moves between
+the joints themselves, as the post writes them (the machine's inverse kinematics of the
+whole path, unwrapped: those the path carries, :func:`~toolpath.joint_refine.path_joints`):
+for each rotary joint ``q`` and cutting segment ``k`` (feed moves between
 the first and the last cutting move) the rate ``|q_{k+1} - q_k| / L_k`` in deg per mm of
 tool-tip path, and ``|dq| / L * f / 60`` in deg/s at the segment's programmed feed
 ``f`` (mm/min), against the axis' ``max_rate`` (deg/min / 60). Where a joint would
@@ -24,8 +25,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from machines import Machine
-from machines.kinematics import solve_inverse
 
+from ..joint_refine import path_joints
 from ..path import MoveKind, Toolpath
 from ..tolerances import LENGTH_SLACK_MM, LIMIT_SLACK
 
@@ -109,8 +110,7 @@ def rotary_rates(path: Toolpath, machine: Machine) -> RotaryRates | None:
     if not rotary or cutting.size < 2:
         return None
     first, last = int(cutting[0]), int(cutting[-1])
-    joints = solve_inverse(machine, path.positions_mm[first:last + 1],
-                           path.tool_axes[first:last + 1]).joints
+    joints = path_joints(path, machine).joints[first:last + 1]
     feeds = path.feeds_mm_per_min[first + 1:last + 1]
     lengths = path.segment_lengths_mm[first:last]
     steps = np.abs(np.diff(joints[:, rotary], axis=0))
