@@ -541,9 +541,10 @@ def _taylor_signed(p, i, fr, dt, ds, orientation):
     by ``h`` the distance is off by ``O(h^3)`` (the foot) plus ``|p - X| O(h^2 k')`` (the
     normal), far below a nanometre for the steps :data:`SMALL_STEP_SHARE` admits.
     """
-    x0 = _second_order(fr, 0, dt, ds)
-    x1 = _second_order(fr, 1, dt, ds)
-    x2 = _second_order(fr, 2, dt, ds)
+    # (np.int64: a bare constant is typed as a literal, one compile of _second_order each)
+    x0 = _second_order(fr, np.int64(0), dt, ds)
+    x1 = _second_order(fr, np.int64(1), dt, ds)
+    x2 = _second_order(fr, np.int64(2), dt, ds)
     a0 = fr[1, 0, 0] + fr[3, 0, 0] * dt + fr[4, 0, 0] * ds
     a1 = fr[1, 0, 1] + fr[3, 0, 1] * dt + fr[4, 0, 1] * ds
     a2 = fr[1, 0, 2] + fr[3, 0, 2] * dt + fr[4, 0, 2] * ds

@@ -231,7 +231,9 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
     return near, far, near_i, far_i
 
 
-@numba.njit(cache=True, inline="always")
+# (the kernel-only helpers here are calls, not inlined by numba (``inline="always"``):
+# inlined, _clearance_rows and _pairs_within took about 1 CPU s more to compile, issue 27)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _gap(x, lo, size):
     """Distance from ``x`` to the interval ``[lo, lo + size]``."""
     if x < lo:
@@ -275,7 +277,7 @@ def cells_near(c0, c1, c2, radius, origin, shape, cell, box, out):
     return count
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _span_gap(x, lo, hi):
     """Distance from ``x`` to ``[lo, hi]`` (``inf`` for an empty span, ``lo > hi``)."""
     if lo > hi:
@@ -297,7 +299,7 @@ def cell_scratch_size(radius_mm: float, cell_mm: float) -> int:
 BLOCK = 256
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _clip(start, step, lo, hi, u0, u1):
     """``[u0, u1]`` narrowed to where ``start + u step`` lies in ``[lo, hi]``.
 
@@ -314,7 +316,7 @@ def _clip(start, step, lo, hi, u0, u1):
     return max(u0, a), min(u1, b)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _box_distance(p0, p1, p2, d0, d1, d2, u, box, cid):
     """Distance from ``p + u d`` to cell ``cid``'s box, and its derivative in ``u``."""
     e0 = p0 + u * d0
@@ -329,7 +331,7 @@ def _box_distance(p0, p1, p2, d0, d1, d2, u, box, cid):
     return size, (e0 * d0 + e1 * d1 + e2 * d2) / size
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box, cid):
     """A lower bound of the distance from cell ``cid``'s box to ``p + u d``, ``w0 <= u <= w1``.
 
@@ -346,7 +348,7 @@ def _box_bound(p0, p1, p2, d0, d1, d2, w0, w1, box, cid):
     return f0 + g0 * ((f1 - f0 + g0 * w0 - g1 * w1) / (g0 - g1) - w0)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _index_range(x0, x1, pad, origin, cell, n):
     """The cells ``lo .. hi - 1`` (within ``0 .. n``) meeting ``[x0, x1]`` widened by ``pad``.
 
@@ -419,7 +421,7 @@ def _clearance_rows(binned, tips, axes, contacts, capsule, cutter, near, far, ne
         near[i], far[i], near_i[i], far_i[i] = near_mm, far_mm, near_at, far_at
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _cell_clearances(points, index, first, stop, tip, axis, contact, capsule, cutter, best):
     """The smallest clearances so far, near and far, with samples ``first .. stop - 1``.
 

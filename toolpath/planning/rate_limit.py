@@ -195,7 +195,8 @@ def _covariances(v, bounds, out):
         for i in range(a, b):
             for c in range(3):
                 mean[c] += v[i, c]
-        mean /= b - a
+        for c in range(3):  # (a loop: an array division compiled numpy's ufunc machinery)
+            mean[c] /= b - a
         for c in range(3):
             for d in range(3):
                 acc = 0.0
@@ -241,7 +242,9 @@ def _limit_pass(rows, pole, a, b, rule, out):
     # a basis (ex, ey) of the plane normal to the pole
     ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     ex = _cross(pole, ref)
-    ex /= math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
+    size = math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
+    for c in range(3):  # (a loop: an array division compiled numpy's ufunc machinery)
+        ex[c] /= size
     ey = _cross(pole, ex)
     lo, hi, want, beta = _azimuth_tube(rows, pole, ex, ey, a, b, rule)
     x_phi = _azimuth_path(x, beta, a, rule.rho)
@@ -428,9 +431,17 @@ def _least_rate(x, lo, hi):
     for i in range(1, x.size):
         if not x[i] > x[i - 1]:
             return np.inf
-    forward = _max_slope(x, hi, lo - TUBE_SLACK_RAD, 1.0)
-    # (reversed copies: views of another layout would compile _max_slope again)
-    backward = _max_slope(x[::-1].copy(), hi[::-1].copy(), lo[::-1] - TUBE_SLACK_RAD, -1.0)
+    # (loops, not array expressions, which compiled numpy's ufunc machinery; reversed
+    # copies: views of another layout would compile _max_slope again)
+    n = x.size
+    bottom, x_back, top_back = np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        bottom[i] = lo[i] - TUBE_SLACK_RAD
+    forward = _max_slope(x, hi, bottom, 1.0)
+    for i in range(n):
+        x_back[i], top_back[i] = x[n - 1 - i], hi[n - 1 - i]
+        bottom[i] = lo[n - 1 - i] - TUBE_SLACK_RAD
+    backward = _max_slope(x_back, top_back, bottom, -1.0)
     return max(0.0, forward, backward)
 
 
