@@ -85,6 +85,11 @@ class ChordMeasurement:
     seeds_n: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)), repr=False)
     seeds_x_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 3)),
                                            repr=False)
+    #: The contact's ``t`` and ``s`` at each toolpath point ending a cutting move, ``nan``
+    #: at the others (empty: not given); the uncut area's grid finds its pieces by them
+    #: (:meth:`~.uncut_area.UncutArea.on_grid`).
+    contact_t: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
+    contact_s: NDArray[np.float64] = field(default_factory=lambda: np.zeros(0), repr=False)
 
 
 #: A ball's contacts along a run of cutting moves are searched from the nearest surface
@@ -160,13 +165,17 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         under = max(under, float(gap.max()))
         seeds.append(_cusp_seeds(surface, contacts, ia, ends, mid, toolpath.pass_index[seg]))
     i = int(np.argmax(worst))
+    contact_t = np.full(len(toolpath.kinds), np.nan)
+    contact_s = contact_t.copy()
+    contact_t[contacts.points], contact_s[contacts.points] = contacts.t, contacts.s
     seeds_t, seeds_s, seeds_p, seeds_q, seeds_n, seeds_x_s = (
         np.concatenate(column) for column in zip(*seeds, strict=True))
     return ChordMeasurement(max_mm=float(worst[i]), overcut_mm=max(over, 0.0),
                             undercut_mm=max(under, 0.0), worst_point=int(move[i] + 1),
                             contact_mm=contact, n_moves=int(move.size), seeds_t=seeds_t,
                             seeds_s=seeds_s, seeds_pass=seeds_p.astype(np.int64),
-                            seeds_q=seeds_q, seeds_n=seeds_n, seeds_x_s=seeds_x_s)
+                            seeds_q=seeds_q, seeds_n=seeds_n, seeds_x_s=seeds_x_s,
+                            contact_t=contact_t, contact_s=contact_s)
 
 
 def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:

@@ -39,9 +39,10 @@ __all__ = ["HORIZON_SCALLOPS", "LEAST_HORIZON_MM", "NEAR_WIDTHS", "PIECE_SAG_SHA
 
 def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
                    ) -> tuple[NDArray[np.float64] | None, ...]:
-    """Ends of the feed moves that cut: tips, axes, pass, joints (None: tip-linear).
+    """Ends of the feed moves that cut: tips, axes, pass, joints (None: tip-linear), start.
 
-    Rapids and plunges do not cut; a move's pass is its start's (else its end's, else -1).
+    Rapids and plunges do not cut; a move's pass is its start's (else its end's, else -1);
+    ``start`` is the toolpath point each move leaves from.
     """
     k = toolpath.kinds[1:]
     cutting = (k == MoveKind.CUT) | (k == MoveKind.LINK) | (k == MoveKind.LEAD_IN) | (
@@ -51,7 +52,7 @@ def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
     owner = np.where(toolpath.pass_index[i] >= 0, toolpath.pass_index[i],
                      toolpath.pass_index[i + 1])
     ends = (None, None) if joints is None else (joints[i], joints[i + 1])
-    return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64), *ends
+    return p[i], p[i + 1], a[i], a[i + 1], owner.astype(np.int64), *ends, i
 
 
 def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
@@ -162,7 +163,7 @@ class CutVolume:
         self.horizon = horizon_mm
         self.scallop_mm = scallop_mm
         joints = checked_joints(toolpath, machine)
-        a, b, xa, xb, owner, q_a, q_b = _feed_segments(toolpath, joints)
+        a, b, xa, xb, owner, q_a, q_b, start = _feed_segments(toolpath, joints)
         interpolation = None if joints is None else (machine, q_a, q_b)
         sag = PIECE_SAG_SHARE * scallop_mm  # straight pieces on a bowed (joint) path
         big, r = cutter.radius_mm, cutter.corner_radius_mm
@@ -188,6 +189,7 @@ class CutVolume:
             self.lift = r
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
+        self._move_start, self._piece_move = start, piece
         self.cells = bin_samples(mid, self.reach) if len(mid) else None
         # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
         # about the spacing of passes on a plane for the request (:data:`NEAR_WIDTHS`)
@@ -210,20 +212,40 @@ class CutVolume:
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
         return self._near_cells
 
-    def cut(self, q: NDArray[np.float64], n: NDArray[np.float64]) -> NDArray[np.bool_]:
+    def piece_moves(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
+        """Each piece's move's first toolpath point, and the piece's middle along it.
+
+        The middle as the fraction ``u`` of the way along the move (a move's pieces split
+        it evenly).
+        """
+        piece = self._piece_move
+        count = np.bincount(piece, minlength=len(self._move_start))
+        first = np.cumsum(count) - count
+        rank = np.arange(len(piece)) - first[piece]
+        return self._move_start[piece], (rank + 0.5) / count[piece]
+
+    def cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
+            candidate: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
         """Rays along ``n`` from ``q`` that enter the removed material within the horizon.
 
-        A ball's pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the
-        sheet of ball centres) are tried first: a ray one of them cuts is cut whatever the
-        others do (the height is the lowest entry); the rest meet all their pieces
-        (:meth:`height`).
+        Each ray's ``candidate`` piece (-1: none), if given, is tried first, then a ball's
+        pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the sheet of
+        ball centres): a ray one of them cuts is cut whatever the others do (the height is
+        the lowest entry); the rest meet all their pieces (:meth:`height`).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
-        if self.ball and len(self.pass_of) and len(q):
-            owner, item = pairs_within(self.near_cells, q + self.lift * n, 0.5 * self.near_mm)
-            lo, hi, item = ray_ranges(owner, item, len(q))
-            out = np.isfinite(self.height(q, n, lo, hi, item, first=True))
+        if candidate is not None and len(self.pass_of):
+            rows = np.flatnonzero(candidate >= 0)
+            one = np.arange(rows.size)
+            out[rows] = np.isfinite(self.height(q[rows], n[rows], one, one + 1,
+                                                candidate[rows], first=True))
+            rest = np.flatnonzero(~out)
+        if self.ball and len(self.pass_of) and rest.size:
+            owner, item = pairs_within(self.near_cells, q[rest] + self.lift * n[rest],
+                                       0.5 * self.near_mm)
+            lo, hi, item = ray_ranges(owner, item, rest.size)
+            out[rest] = np.isfinite(self.height(q[rest], n[rest], lo, hi, item, first=True))
             rest = np.flatnonzero(~out)
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]

@@ -190,7 +190,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     rho = cutter.corner_radius_mm if cutter.corner_radius_mm > h else cutter.radius_mm
     width = 2.0 * np.sqrt(h * (2.0 * rho - h))
     volume = CutVolume(toolpath, cutter, cusp_horizon_mm(h), h, machine)
-    uncut = UncutArea.on_grid(surface, volume, width)
+    uncut = UncutArea.on_grid(surface, volume, width, (chord.contact_t, chord.contact_s))
     seeds, others = SearchSeeds.of(surface, chord)
     search = CuspSearch(volume, surface, seeds, others, 3.0 * width, chunk)
     guess = np.full(len(seeds.t), np.nan)

@@ -4,6 +4,13 @@ A coarse grid (spacing half the cutter radius along ``t``, one stepover across) 
 uncut area (rays that enter no cut within the horizon, :meth:`~.cut_volume.CutVolume.cut`);
 distances from it are taken along the surface (shortest paths over the grid), round a thin
 part's edges rather than through it.
+
+Where the chord measurement's contacts are given, each grid node first tries the one piece
+whose middle's ``(t, s)``, interpolated between its move's contacts, rounds to the node
+(:func:`_node_pieces`): a ray that piece cuts within the horizon is cut whatever the others
+do, and the cutter that left a contact stands over the nodes round it. Only the nodes it
+does not cut are searched among the pieces near them: the same uncut area, most nodes
+without a search.
 """
 
 from __future__ import annotations
@@ -15,6 +22,7 @@ import scipy.sparse
 import scipy.sparse.csgraph
 from numpy.typing import NDArray
 
+from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from .cut_volume import CutVolume
@@ -38,9 +46,15 @@ class UncutArea:
     diameter_mm: float
 
     @classmethod
-    def on_grid(cls, surface: ParametricSurface, volume: CutVolume, width_mm: float
+    def on_grid(cls, surface: ParametricSurface, volume: CutVolume, width_mm: float,
+                contacts: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
                 ) -> UncutArea:
-        """Grid spacing half the cutter radius along ``t``, ``width_mm`` across."""
+        """Grid spacing half the cutter radius along ``t``, ``width_mm`` across.
+
+        ``contacts``: the contacts' ``t`` and ``s`` at each toolpath point (``nan`` where
+        none, :attr:`~.chord_measure.ChordMeasurement.contact_t`): each node tries the
+        piece they place at it first (module docstring; the same area, found faster).
+        """
         big = volume.cutter.radius_mm
         g = np.linspace(0.0, 1.0, 33)
         pts = surface(g, g, grid=True)
@@ -54,7 +68,9 @@ class UncutArea:
         parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
         q, n = parts[0, 0], outward_normals(surface, parts[1, 0], parts[0, 1])
         area = np.linalg.norm(np.cross(parts[1, 0], parts[0, 1]), axis=1)
-        uncut = ~volume.cut(q, n)
+        candidate = (None if contacts is None else
+                     _node_pieces(volume, *contacts, bool(surface.closed_t), n_t, n_s))
+        uncut = ~volume.cut(q, n, candidate)
         fraction = float(area[uncut].sum() / max(area.sum(), TINY))
         grid = q.reshape(n_t, n_s, 3)
         reach = (_surface_reach(grid, uncut.reshape(n_t, n_s), bool(surface.closed_t),
@@ -67,6 +83,32 @@ class UncutArea:
         if self.reach is None:
             return None
         return _distance_from(self.reach, self.grid, points, t, s) > self.diameter_mm
+
+
+def _node_pieces(volume: CutVolume, contact_t: NDArray[np.float64],
+                 contact_s: NDArray[np.float64], closed: bool, n_t: int, n_s: int
+                 ) -> NDArray[np.int64] | None:
+    """A piece for each node of the ``(n_t, n_s)`` grid from the contacts' ``(t, s)`` (-1: none).
+
+    A piece of a move between two contacts stands at the ``(t, s)`` interpolated between
+    theirs at its middle (the short way across a closed section's seam); the node it
+    rounds to gets it (one of them where several do). Pieces of other moves (links, leads)
+    place none. None where no contacts are given.
+    """
+    if not len(contact_t) or not len(volume.pass_of):
+        return None
+    start, u = volume.piece_moves()
+    ta, tb, sa, sb = contact_t[start], contact_t[start + 1], contact_s[start], contact_s[start + 1]
+    rows = np.flatnonzero(np.isfinite(ta) & np.isfinite(tb) & np.isfinite(sa) & np.isfinite(sb))
+    if not rows.size:
+        return None
+    t = seam_lerp_rows(ta[rows], tb[rows], u[rows, None], closed).ravel()
+    s = sa[rows] + u[rows] * (sb[rows] - sa[rows])
+    i = np.rint(np.clip(np.mod(t, 1.0) if closed else t, 0.0, 1.0) * (n_t - 1))
+    j = np.rint(np.clip(s, 0.0, 1.0) * (n_s - 1))
+    node = np.full(n_t * n_s, -1, dtype=np.int64)
+    node[i.astype(np.int64) * n_s + j.astype(np.int64)] = rows
+    return node
 
 
 def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed: bool,
