@@ -290,4 +290,17 @@ def test_the_section_estimate_meets_the_next_pass_round_the_leading_edge(blade):
     assert high.sum() > 100
     ratio = guess[rows][high] / h[high]
     assert ratio.min() >= LEAST_ESTIMATE_SHARE
-    assert np.quantile(ratio, 0.95) < ESTIMATE_SHARE + 0.05  # the next pass, not the one after
+    # the next pass met, not the one after (twice as far: about 3 times the cusp)
+    assert np.quantile(ratio, 0.95) < 1.5
+
+
+def test_the_section_estimate_does_not_read_low_where_passes_bend_away(blade):
+    # the standing blade in 3 axes: on its concave side the passes' ring centres bend
+    # away from the surface, the sweep lands material off the plane higher than the prism
+    # along the way, and the prisms' crossing read down to 0.968 times the ray cast (on
+    # straight passes, or bending towards the surface, 1.000 and up)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    ratio = _estimates_over_ray_cast(standing, "bull:8:1", scallop_mm=0.03, chord_tol_mm=0.03,
+                                     axis_mode="3")
+    assert ratio.min() >= 0.995  # the ray cast's own tolerance
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
