@@ -19,6 +19,8 @@ from machines import load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
 from toolpath.planning import SpherePatch, plan_finishing
+from toolpath.planning.cusp_estimates import torus_cusp_estimates
+from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
 from toolpath.planning.measure import ESTIMATE_SHARE
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
 from toolpath.planning.sweep_kernel import ray_ranges
@@ -258,3 +260,47 @@ def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(cutter,
     got = volume.cut(q, n)
     np.testing.assert_array_equal(got, full)
     assert 0 < full.sum() < len(full)
+
+
+def test_the_section_estimate_meets_the_next_pass_round_the_leading_edge(blade):
+    # the standing blade in 5 axes with a bull-nose keeping a 10 degree lead: round the
+    # leading edge a zigzag's neighbouring passes tilt their axes far apart, the next
+    # pass's ring centres stand farther from the own pass's than the pass after it (the
+    # estimate met that one: 2.6 to 3.5 times the ray cast, every such seed cast), the
+    # contact lies more pieces away than one window, and where the cutter turns round its
+    # contact no prism holds (the estimate read down to -0.8 times the ray cast)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    measured = planned(standing, "bull:8:1", scallop_mm=0.03, chord_tol_mm=0.03,
+                       axis_mode="lead-tilt", lead_deg=10.0,
+                       machine=load_machine("trunnion-ac"))
+    volume = measured.volume()
+    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
+    guess = torus_cusp_estimates(volume, measured.surface, seeds)
+    edge = (seeds.t > 0.4) & (seeds.t < 0.6)
+    assert np.isfinite(guess[edge]).mean() > 0.2
+    # the ray cast (the full method) at a sample of the estimated seeds round the edge
+    rng = np.random.default_rng(3)
+    rows = rng.choice(np.flatnonzero(edge & np.isfinite(guess)), 400, replace=False)
+    search = CuspSearch(volume, measured.surface, seeds, others, 1.0, 20_000)
+    cast = np.zeros(len(seeds.t), dtype=bool)
+    cast[rows] = True
+    search.run(cast)
+    h = search.height[rows]
+    high = np.isfinite(h) & (h > 0.5 * np.nanmax(search.height))
+    assert high.sum() > 100
+    ratio = guess[rows][high] / h[high]
+    assert ratio.min() >= LEAST_ESTIMATE_SHARE
+    # the next pass met, not the one after (twice as far: about 3 times the cusp)
+    assert np.quantile(ratio, 0.95) < 1.5
+
+
+def test_the_section_estimate_does_not_read_low_where_passes_bend_away(blade):
+    # the standing blade in 3 axes: on its concave side the passes' ring centres bend
+    # away from the surface, the sweep lands material off the plane higher than the prism
+    # along the way, and the prisms' crossing read down to 0.968 times the ray cast (on
+    # straight passes, or bending towards the surface, 1.000 and up)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    ratio = _estimates_over_ray_cast(standing, "bull:8:1", scallop_mm=0.03, chord_tol_mm=0.03,
+                                     axis_mode="3")
+    assert ratio.min() >= 0.995  # the ray cast's own tolerance
+    assert np.median(ratio) == pytest.approx(1.0, abs=0.03)

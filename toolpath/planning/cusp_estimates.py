@@ -23,9 +23,9 @@ from .cut_volume import CutVolume
 from .cutters import radial_directions
 from .torus_profile import profile_ridges
 
-__all__ = ["CONTACT_ALONG_SHARE", "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING",
-           "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates",
-           "torus_cusp_estimates"]
+__all__ = ["BEND_AWAY", "BEND_AWAY_SHARE", "CONTACT_ALONG_SHARE", "CONTACT_WALKS",
+           "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING", "PIVOT_TURN",
+           "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates", "torus_cusp_estimates"]
 
 
 #: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
@@ -202,11 +202,14 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
                          ) -> NDArray[np.float64]:
     """Cusp height from each seed towards increasing ``s`` for a flat or bull-nose cutter.
 
-    The pieces of the seed's own pass and of the next pass on the ``+s`` side nearest to
-    it (:func:`~.cusp_kernel.nearest_pieces`, from the own ring centre as the nearest
-    piece's axis puts it: within :attr:`CutVolume.near_mm`, where none within 4 times
-    that, and so on up to ``2 R`` and a piece's length), the poses of their passes that
-    touch nearest the seed's contact (:func:`_contact_poses`), and the two passes'
+    The piece of the seed's own pass nearest to it (:func:`~.cusp_kernel.nearest_pieces`,
+    from the own ring centre as the own pass's nearest piece's axis puts it: within
+    :attr:`CutVolume.near_mm`, where none within 4 times that, and so on up to ``2 R``
+    and a piece's length) and the next pass's: that of the nearest seed of another pass
+    on the ``+s`` side (the contacts, not the ring centres, show which pass is next:
+    round a leading edge a zigzag's lead tilts neighbouring passes' axes far apart), the
+    poses of their passes that touch nearest the seed's contact (:func:`_contact_poses`),
+    and the two passes'
     sections in the plane of the seed's line of ``t`` through its contact (normal
     ``X_s x n``: where the ray cast meets the ridge), each pass's prism along the way its
     cutter's point at the contact moves (:func:`_contact_way`;
@@ -216,9 +219,9 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     (:func:`_ridge_heights`).
 
     Returns NaN where no next pass lies within that reach, the own piece has no length,
-    a pass runs across that plane more steeply than
-    :data:`~.torus_profile.LEAST_WAY_COSINE` or the sections do not meet nearest the
-    surface (the ray cast decides there).
+    a pass's cutter turns round its contact (:data:`PIVOT_TURN`), a pass runs across that
+    plane more steeply than :data:`~.torus_profile.LEAST_WAY_COSINE` or the sections do
+    not meet nearest the surface (the ray cast decides there).
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -228,8 +231,10 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     big, r = cutter.radius_mm, cutter.corner_radius_mm
     a, e = volume.piece_a, volume.piece_b - volume.piece_a
     corner = seeds.q + r * seeds.n
-    # the own ring centre as the axis of the piece whose ring centre is nearest puts it
-    _, near = cKDTree(a + 0.5 * e).query(corner, workers=-1)
+    # the own ring centre as the axis of the own pass's piece whose ring centre is nearest
+    # puts it (round a leading edge another pass's nearest pose stands tilted far off)
+    near = _nearest_of(cKDTree(a + 0.5 * e), volume.pass_of, corner, seeds.pass_)
+    near = np.maximum(near, 0)
     inward, _ = radial_directions(seeds.n, unit(volume.axes0[near] + volume.axes1[near]))
     target = corner + (big - r) * inward
     found = np.full((n_seed, 2), -1, dtype=np.int64)
@@ -240,37 +245,139 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
         return (found[todo] < 0).any(axis=1)
 
     _widening(volume, n_seed, search)
+    # the next pass as the contacts show it: the pass of the nearest contact of another
+    # pass on the +s side, at its own piece (the ring centres' nearest can skip a pass
+    # round a leading edge, where a zigzag's lead tilts the two ways' axes far apart)
+    beside = _nearest_of(cKDTree(seeds.q), seeds.pass_, seeds.q, seeds.pass_, same=False,
+                         towards=seeds.x_s)
+    known = (beside >= 0) & (found[np.maximum(beside, 0), 0] >= 0)
+    found[known, 1] = found[beside[known], 0]
     ok = np.flatnonzero((found >= 0).all(axis=1))
     own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
                                                     seeds.n[ok])
     next_c, next_axis, j_next, next_ok = _contact_poses(volume, found[ok, 1], corner[ok],
                                                         seeds.n[ok])
     live = own_ok & next_ok & (np.einsum("ij,ij->i", e[j_own], e[j_own]) > TINY)
-    ok, j_own, j_next = ok[live], j_own[live], j_next[live]
+    n = seeds.n[ok]
+    own_way, own_turn = _contact_way(volume, n, j_own)
+    next_way, next_turn = _contact_way(volume, n, j_next)
+    # a cutter turning round its contact sweeps no prism: the ray cast decides there
+    gap = np.where(beside[ok] >= 0, np.linalg.norm(seeds.q[np.maximum(beside[ok], 0)]
+                                                   - seeds.q[ok], axis=1),
+                   np.linalg.norm(next_c - own_c, axis=1))
+    live &= np.maximum(own_turn, next_turn) * gap < PIVOT_TURN
+    ok, own_way, next_way = ok[live], own_way[live], next_way[live]
     own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
     # the sections in the plane of the seed's line of t (where the ray cast meets the
     # ridge), each pass's prism along the way the cutter's point at the contact moves
     n = seeds.n[ok]
-    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, _contact_way(volume, n, j_own),
-                            _contact_way(volume, n, j_next), n, through=seeds.q[ok],
-                            across=unit(np.cross(seeds.x_s[ok], n)), radius_mm=big,
-                            corner_radius_mm=r, flute_length_mm=cutter.flute_length_mm)
-    out[ok[met]] = _ridge_heights(surface, seeds, ok[met], x[met])
+    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, own_way, next_way, n,
+                            through=seeds.q[ok], across=unit(np.cross(seeds.x_s[ok], n)),
+                            radius_mm=big, corner_radius_mm=r,
+                            flute_length_mm=cutter.flute_length_mm)
+    # a pass bending away from the surface sweeps less than its prism: margin the ridge
+    away = np.maximum(_bend_away(volume, j_own[live], n), _bend_away(volume, j_next[live], n))
+    share = np.where(away * big > BEND_AWAY, 1.0 + BEND_AWAY_SHARE, 1.0)
+    out[ok[met]] = share[met] * _ridge_heights(surface, seeds, ok[met], x[met])
+    return out
+
+
+#: Where a pass's ring centres bend away from the surface (``kappa_n R`` above this,
+#: ``kappa_n`` their curvature along the surface normal, :func:`_bend_away`), its sweep
+#: lands off-plane material ``kappa_n w^2 / 2`` higher than its prism along the way (``w``
+#: the material's distance from the plane) and the ridge stands higher than the prisms'
+#: crossing: ...
+BEND_AWAY = 0.004
+
+#: ... by up to this share of it: on the standing dev blade in 3 axes (bull:8:1, scallop
+#: 0.03 mm) the estimate over the ray cast read 1.000 and up where the passes run
+#: straight or bend towards the surface and down to 0.968 where they bend away
+#: (``kappa_n`` 0.003 to 0.03 per mm, cusps above half the largest).
+BEND_AWAY_SHARE = 0.04
+
+
+def _bend_away(volume: CutVolume, piece: NDArray[np.int64], normal: NDArray[np.float64]
+               ) -> NDArray[np.float64]:
+    """Curvature of a pass's ring centres at ``piece`` along ``normal`` (away from it), 1/mm.
+
+    The turn of the pieces' direction from 2 pieces before to 2 after (within the pass)
+    over the distance between their midpoints, its part along ``normal``.
+    """
+    a, b, pass_of = volume.piece_a, volume.piece_b, volume.pass_of
+    last = len(pass_of) - 1
+    before, after = np.maximum(piece - 2, 0), np.minimum(piece + 2, last)
+    before = np.where(pass_of[before] == pass_of[piece], before, piece)
+    after = np.where(pass_of[after] == pass_of[piece], after, piece)
+    turn = unit(b[after] - a[after]) - unit(b[before] - a[before])
+    apart = np.linalg.norm(0.5 * (a[after] + b[after] - a[before] - b[before]), axis=1)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        bend = np.where(apart > TINY, np.einsum("ij,ij->i", turn, normal) / apart, 0.0)
+    return bend
+
+
+def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.float64],
+                pass_: NDArray[np.int64], *, same: bool = True,
+                towards: NDArray[np.float64] | None = None) -> NDArray[np.int64]:
+    """The nearest of ``tree``'s points of the pass ``pass_`` (``same``) or of another pass.
+
+    Per ``point`` (m, 3), with pass ``pass_`` (m,); ``pass_of`` the tree's points' passes.
+    With ``towards`` (m, 3), only points ``p`` with ``(p - point) . towards > 0``. The
+    nearest 16, then 64 and so on up to 1024 (a pass's points can crowd round a tight
+    edge). Returns the index, -1 where none.
+    """
+    out = np.full(len(point), -1, dtype=np.int64)
+    n = tree.n
+    todo, k = np.arange(len(point)), 16
+    while todo.size and n:
+        dist, idx = tree.query(point[todo], k=min(k, n), workers=-1)
+        dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
+        idx_ok = np.minimum(idx, n - 1)
+        pick = (pass_of[idx_ok] == pass_[todo, None]) == same
+        pick &= np.isfinite(dist)
+        if towards is not None:
+            ahead = tree.data[idx_ok] - point[todo, None]
+            pick &= np.einsum("ijk,ik->ij", ahead, towards[todo]) > 0.0
+        hit = pick.any(axis=1)
+        out[todo[hit]] = idx_ok[hit, np.argmax(pick[hit], axis=1)]
+        todo = todo[~hit]
+        if k >= min(n, 1024):
+            break
+        k *= 4
     return out
 
 
 def _contact_way(volume: CutVolume, normal: NDArray[np.float64], piece: NDArray[np.int64]
-                 ) -> NDArray[np.float64]:
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """Unit way the cutter's point touching a surface of ``normal`` moves along ``piece``.
 
     The ring centre's way tilts off it as the axis turns, a radius ``R - r`` from the
     contact: ``e - (R - r) (w_b - w_a)`` with ``w`` the ring's inward directions at the
-    piece's ends (:func:`~.cutters.radial_directions`).
+    piece's ends (:func:`~.cutters.radial_directions`). And how fast the axis turns
+    along it: the angle between the ends' axes over that way's length, rad/mm (``inf``
+    where the cutter turns on the spot).
     """
     ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
     ring_a, _ = radial_directions(normal, volume.axes0[piece])
     ring_b, _ = radial_directions(normal, volume.axes1[piece])
-    return unit(volume.piece_b[piece] - volume.piece_a[piece] - ring * (ring_b - ring_a))
+    way = volume.piece_b[piece] - volume.piece_a[piece] - ring * (ring_b - ring_a)
+    length = np.sqrt(np.einsum("ij,ij->i", way, way))
+    turn = np.arccos(np.clip(np.einsum("ij,ij->i", volume.axes0[piece], volume.axes1[piece]),
+                             -1.0, 1.0))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        rate = np.where(turn > 0.0, turn / length, 0.0)
+    return unit(way), rate
+
+
+#: A pass's prism holds only where its cutter turns by less than this many radians while
+#: its contact moves as far as the next pass's contact stands from the seed (the own or
+#: the next pass's rate, :func:`_contact_way`): a cutter turning round its contact (a
+#: bull-nose keeping its lead round the standing dev blade's leading edge) sweeps, off
+#: the plane, material that a prism along the way would carry into it deeper than the
+#: turning cutter reaches, and the ridge reads low. There the estimate over the ray cast
+#: read 0.994 and up below 0.05, down to 0.95 at 0.05 to 0.15 and to -0.8 at 0.2 and
+#: more (bull:8:1 and bull:10:2, lead 10 degrees, scallop 0.03 and 0.1 mm, cusps above
+#: half the largest).
+PIVOT_TURN = 0.05
 
 
 #: A pass's pose whose contact lies nearest a seed's is sought this many pieces either
@@ -278,6 +385,13 @@ def _contact_way(volume: CutVolume, normal: NDArray[np.float64], piece: NDArray[
 #: touches ``(R - r) cos(lead)`` ahead of its axis, two of them on zigzag passes ``2 R``
 #: apart along them, 8 to 16 pieces of ``R / 8``.
 CONTACT_WINDOW = 24
+
+#: ... and sought again about the nearest, with the target as its axis puts it, until it
+#: stays, up to this many windows in all (round the standing dev blade's leading edge,
+#: where a bull-nose turns round the edge with a lead, the axis turns 0.6 to 0.9 degrees
+#: a piece and the contact lies 21 to 27 pieces of 0.08 mm from the piece nearest the
+#: seed).
+CONTACT_WALKS = 4
 
 #: ... and found there only where its foot lies across the piece from the target (along
 #: it within this share of a piece's length: a bend between pieces, not a pass's end).
@@ -294,29 +408,41 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     corner-circle centre ``C + (R - r) w``, ``w = -n_perp / |n_perp|``,
     ``n_perp = n - (n . a) a``: over the pieces of the pass within
     :data:`CONTACT_WINDOW` of ``piece``, the foot of ``corner + (R - r) n_perp / |n_perp|``
-    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it. Where the
-    neighbouring poses tilt alike, the sections across the pass met at those poses
-    stand as the contacts do (a pose's contact can lie a radius ahead of its ring centre,
-    where a curved pass has moved on). Returns ``C``, ``a`` (normalized-linear), the piece
-    and False where the nearest lies at the window's edge or the pass ends short of the
-    target (:data:`CONTACT_ALONG_SHARE`).
+    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it,
+    sought again about that piece with its axis until it stays (:data:`CONTACT_WALKS`
+    windows at most). Where the neighbouring poses tilt alike, the sections across the
+    pass met at those poses stand as the contacts do (a pose's contact can lie a radius
+    ahead of its ring centre, where a curved pass has moved on). Returns ``C``, ``a``
+    (normalized-linear), the piece and False where the nearest lies at the last window's
+    edge or the pass ends short of the target (:data:`CONTACT_ALONG_SHARE`).
     """
     ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
     a, e, pass_of = volume.piece_a, volume.piece_b - volume.piece_a, volume.pass_of
-    m, shift = len(piece), np.arange(-CONTACT_WINDOW, CONTACT_WINDOW + 1)
-    best = np.empty(m, dtype=np.int64)
-    # the axis turns little over the window: the target as the piece's axis puts it
-    inward, _ = radial_directions(normal, unit(volume.axes0[piece] + volume.axes1[piece]))
-    target = corner + ring * inward
-    for lo in range(0, m, 10_000):
-        rows = slice(lo, lo + 10_000)
-        cand = np.clip(piece[rows, None] + shift, 0, len(pass_of) - 1)
-        near = target[rows, None]
-        foot, _ = _foot_on(a[cand], e[cand], near)
-        dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
-        dist[pass_of[cand] != pass_of[piece[rows], None]] = np.inf
-        best[rows] = np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None], 1)[:, 0]
-    edge = np.abs(best - piece) >= CONTACT_WINDOW
+    shift = np.arange(-CONTACT_WINDOW, CONTACT_WINDOW + 1)
+    best = piece.copy()
+    todo = np.arange(len(piece))
+    edge = np.zeros(len(piece), dtype=bool)
+    for _ in range(CONTACT_WALKS):
+        start = best[todo]
+        # the axis turns little over the window: the target as the piece's axis puts it
+        inward, _ = radial_directions(normal[todo], unit(volume.axes0[start]
+                                                         + volume.axes1[start]))
+        target = corner[todo] + ring * inward
+        for lo in range(0, len(todo), 10_000):
+            rows = slice(lo, lo + 10_000)
+            cand = np.clip(start[rows, None] + shift, 0, len(pass_of) - 1)
+            near = target[rows, None]
+            foot, _ = _foot_on(a[cand], e[cand], near)
+            dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
+            dist[pass_of[cand] != pass_of[start[rows], None]] = np.inf
+            best[todo[rows]] = np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None],
+                                                  1)[:, 0]
+        # moved: the target as the new piece's axis puts it (round a tight edge the axis
+        # turns fast along the pass), and at the window's edge the contact lies farther
+        edge[todo] = np.abs(best[todo] - start) >= CONTACT_WINDOW
+        todo = todo[best[todo] != start]
+        if not todo.size:
+            break
     axis_mid = unit(volume.axes0[best] + volume.axes1[best])
     inward, _ = radial_directions(normal, axis_mid)
     target = corner + ring * inward
