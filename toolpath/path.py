@@ -75,6 +75,12 @@ class SolvedJoints:
     tool_axes: NDArray[np.float64]
     solution: InverseSolution
 
+    def __post_init__(self) -> None:
+        # shared by every reader and every copy of the path: nobody may change them
+        for array in (self.solution.joints, self.solution.in_cone,
+                      self.solution.axis_error_deg):
+            array.setflags(write=False)
+
     def solved_for(self, positions_mm: NDArray[np.float64], tool_axes: NDArray[np.float64]
                    ) -> bool:
         """Whether these are the joints of exactly these points (same values, same order)."""
@@ -83,7 +89,9 @@ class SolvedJoints:
 
 
 def _same(a: NDArray[Any], b: NDArray[Any]) -> bool:
-    return a is b or (a.shape == b.shape and bool(np.array_equal(a, b)))
+    """Equal bit for bit (-0.0 and +0.0 differ: an axis's sign of zero picks C's branch)."""
+    return a is b or (a.shape == b.shape and a.dtype == b.dtype
+                      and np.ascontiguousarray(a).tobytes() == np.ascontiguousarray(b).tobytes())
 
 
 def _frozen(array: ArrayLike, dtype: Any) -> NDArray[Any]:

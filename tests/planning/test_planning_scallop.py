@@ -130,3 +130,8 @@ def test_points_equidistribute_the_density_pass_by_pass():
     grid = np.outer(np.ones(t_grid.size), 1.0 + s_grid)  # density 1 + s
     got = pass_densities(t_grid, s_grid, grid, np.array([0.25, 0.0]), np.array([0.25, 1.0]))
     np.testing.assert_allclose(got, [np.full(t_grid.size, 1.25), 1.0 + t_grid], rtol=1e-12)
+
+
+def test_pass_levels_refuse_a_grid_of_one_level():
+    with pytest.raises(ValueError, match="at least two probe levels"):
+        pass_levels([0.0], [0.1])

@@ -116,3 +116,23 @@ def test_the_post_writes_the_same_program_from_carried_joints(planned, checked):
     dialect = dialect_by_name(machine.dialect)
     assert (emit_lines(post(path, machine), dialect)
             == emit_lines(post(_bare(path), machine), dialect))
+
+
+def test_an_axis_whose_zero_changes_sign_drops_them(planned):
+    # -0.0 and +0.0 compare equal but can put C on opposite branches (head-table-bc: C -180
+    # and +180 for the axis (-0.5, -/+0.0, 0.866)): joints are kept for the very bits solved
+    path, machine = planned
+    axes = np.array(path.tool_axes)
+    axes[0] = (-0.5, 0.0, np.sqrt(0.75))
+    path = with_solved_joints(dataclasses.replace(path, tool_axes=axes), machine)
+    assert known_joints(path, machine) is not None
+    axes = np.array(path.tool_axes)
+    axes[0, 1] = -0.0
+    assert known_joints(dataclasses.replace(path, tool_axes=axes), machine) is None
+
+
+def test_the_carried_joints_cannot_be_changed_in_place(planned):
+    path, machine = planned
+    known = known_joints(path, machine)
+    with pytest.raises(ValueError):
+        known.joints[:, 4] += 360.0

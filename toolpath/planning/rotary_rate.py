@@ -103,6 +103,12 @@ class RotaryRates:
 def rotary_rates(path: Toolpath, machine: Machine) -> RotaryRates | None:
     """Measure the rotary joints along ``path`` on ``machine``.
 
+    The joints are the whole planned path's (:func:`path_joints`), taken between its first
+    and last cutting move: C's branch and turns follow from the moves before the first cut,
+    as on the machine, not from a solve of the cutting stretch alone. The post may still
+    insert points (joint-interpolation refinement) that move C a little inside the
+    singular cone; the report describes the planned path.
+
     None when the machine has no rotary joint or the path no two cutting moves.
     """
     rotary = [k for k, a in enumerate(machine.axes) if a.kind.value == "rotary"]

@@ -513,6 +513,9 @@ def pass_levels(s_grid: ArrayLike, allowed_ds: ArrayLike, *, lookahead: float = 
     """
     grid = np.asarray(s_grid, dtype=float)
     allowed = np.asarray(allowed_ds, dtype=float)
+    if grid.ndim != 1 or grid.size < 2 or allowed.shape != grid.shape:
+        raise ValueError(f"pass levels need at least two probe levels and one allowed step "
+                         f"per level, got {grid.size} levels and {allowed.size} steps")
     if (allowed <= 0.0).any() or np.isnan(allowed).any():
         i = int(np.argmax(~(allowed > 0.0)))
         raise PlanningError(f"no positive stepover at s={grid[i]:.6g}: the cutter cannot "
