@@ -15,9 +15,10 @@ Commands: ``toolpath --help``; ``toolpath check`` of the 5-axis program; ``toolp
 and chord 0.02 mm: the issue's 127 s / 8.1 s row); ``toolpath run --verify`` on the dev
 blade, 3-axis on ``grbl-router`` and 5-axis on ``trunnion-ac`` (ball 6, scallop 0.005,
 chord 0.01; ``--quick``: scallop 0.05, chord 0.02), with the stage split of the run's report
-(``seconds``) and the planner's own (``plan.seconds``). Then ``toolpath warm-up`` on an empty
-cache (what ``make install`` runs) and the 5-axis plan right after it: the first job of an
-install that ran the warm-up.
+(``seconds``), the planner's own (``plan.seconds``) and the wall seconds outside the stages
+(start-up and imports, writing the files, the interpreter's exit). Then ``toolpath warm-up``
+on an empty cache (what ``make install`` runs) and the 5-axis plan right after it: the first
+job of an install that ran the warm-up.
 
 ``--split`` prints only where the warm-up's compiling goes: the recorded kernels compiled
 one after the other in one process on an empty cache, with the CPU seconds of each
@@ -82,6 +83,11 @@ def _report(stdout: str) -> dict:
 
 def _stages(seconds: dict | None) -> str:
     return " ".join(f"{k} {v:.1f}" for k, v in (seconds or {}).items())
+
+
+def _outside_stages(wall_s: float, seconds: dict | None) -> float:
+    """Wall seconds of a run outside its stages: start-up, imports, files, the exit."""
+    return wall_s - sum((seconds or {}).values())
 
 
 def _verdict(seconds: float, target_s: float) -> str:
@@ -220,7 +226,9 @@ def main() -> None:
                 table.row(f"run {label} + verify", tuple(cold), tuple(warm))
                 report = _report(out)
                 print(f"{'':<4}stages (warm): {_stages(report.get('seconds'))}; planner: "
-                      f"{_stages(report.get('plan', {}).get('seconds'))}", flush=True)
+                      f"{_stages(report.get('plan', {}).get('seconds'))}; outside them "
+                      f"{_outside_stages(warm[0], report.get('seconds')):.1f} (start-up, "
+                      "files, exit)", flush=True)
 
         if not args.skip_warm_up:
             cache = next(caches)

@@ -30,13 +30,22 @@ CPU time went from 3.6-4.2 s to 2.9 s at a load of 8 (two spinning threads on tw
 take the CPU other work needs). It is read when the OpenMP runtime loads, so it is set
 before the first parallel kernel runs.
 
+**Exit.** When the interpreter exits it runs the cyclic garbage collector over every object
+left (several full collections while it tears the modules down): with numba's and scipy's
+type registries loaded, 150,000 objects and ~0.4 s of CPU time for memory the system takes
+back anyway. An exit handler freezes them first (:func:`gc.freeze`: the collector leaves
+frozen objects alone); objects are still freed by their reference counts, and the standard
+streams flushed as always. Only at exit: a long-lived process collects as before.
+
 On a C library without ``mallopt`` (musl, macOS, Windows) the malloc settings are skipped.
 """
 
 from __future__ import annotations
 
+import atexit
 import ctypes
 import functools
+import gc
 import os
 import sys
 from collections.abc import Callable
@@ -58,6 +67,7 @@ _M_TRIM_THRESHOLD: Final[int] = -1
 _M_MMAP_THRESHOLD: Final[int] = -3
 
 _done = False
+_freezes_at_exit = False
 
 
 def _libc_function(name: str) -> Any:
@@ -113,6 +123,14 @@ def release_freed_memory() -> bool:
     return True
 
 
+def _freeze_at_exit() -> None:
+    """Freeze every object when the interpreter exits (once per process; module's text)."""
+    global _freezes_at_exit
+    if not _freezes_at_exit:
+        atexit.register(gc.freeze)
+        _freezes_at_exit = True
+
+
 def prepare_job_process() -> bool:
     """Set this process up for jobs (see the module's text); idempotent and cheap.
 
@@ -122,6 +140,7 @@ def prepare_job_process() -> bool:
     if _done:
         return True
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
+    _freeze_at_exit()
     from verification.pages import madvise_switch  # numpy's switch, 1.26 and 2.x
 
     set_hugepage = madvise_switch()

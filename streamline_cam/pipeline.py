@@ -29,6 +29,7 @@ from machines import load_machine
 from toolpath import as_sections, read_sections
 from toolpath.arrays import as_positive_length
 from toolpath.errors import InvalidParameterError
+from toolpath.joint_refine import known_joints
 from toolpath.path import MoveKind
 from toolpath.placement import place_points, translated_surface
 from toolpath.planning.errors import PlanTravelLimitError
@@ -203,7 +204,8 @@ def _fit_to_travel(path: Any, surface: Any, placement: Any, plan_report: Any, ma
     :class:`~toolpath.planning.errors.PlanTravelLimitError` names the binding limits.
     """
     fit = fit_travel(machine, path.positions_mm, path.tool_axes, lateral=mode != "none",
-                     split_moves=path.kinds[1:] != MoveKind.RAPID)
+                     split_moves=path.kinds[1:] != MoveKind.RAPID,
+                     joints=known_joints(path, machine))
     if not fit.fits or (mode == "none" and fit.offset_mm.any()):
         if fit.binding:
             cause = ("no placement of the part keeps the path inside the travel: "

@@ -2,12 +2,17 @@
 
 import os
 import platform
+import subprocess
+import sys
+from pathlib import Path
 
 import pytest
 
 from streamline_cam import job_process
 from streamline_cam.job_process import as_job, prepare_job_process, release_freed_memory
 from verification.pages import madvise_switch
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def test_numpy_asks_for_no_huge_pages_and_openmp_waits_passively():
@@ -45,3 +50,18 @@ def test_no_c_library_calls_off_linux(monkeypatch):
     monkeypatch.setattr(job_process.sys, "platform", "win32")
     assert job_process.release_freed_memory() is False
     assert job_process._mallopt(-3, 1024) is False
+
+
+def test_a_job_process_exits_without_collecting_what_it_loaded():
+    # an exit handler registered before the job's runs after its own: by then every object
+    # is frozen, so the interpreter's exit does not walk them again (issue 27)
+    code = ("import atexit, gc\n"
+            "atexit.register(lambda: print('frozen', gc.get_freeze_count() > 0))\n"
+            "from streamline_cam.job_process import prepare_job_process\n"
+            "prepare_job_process()\n"
+            "prepare_job_process()\n"
+            "print('running', gc.get_freeze_count())\n")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split("\n")[:2] == ["running 0", "frozen True"]

@@ -75,6 +75,33 @@ def test_part_taller_than_the_travel_names_the_binding_axis():
     assert binding.needed_mm[1] - binding.needed_mm[0] == pytest.approx(900.0)
 
 
+@pytest.mark.parametrize("name", ["trunnion-ac", "head-table-bc"])
+def test_travel_fit_from_the_joints_a_path_carries_is_the_fit_solved_anew(name):
+    # a 5-axis path whose axis swings round, too low for the travel: the fit reads the
+    # joints the path carries and solves only the middles of the split moves (issue 27)
+    from toolpath.errors import InvalidParameterError
+
+    machine = load_machine(name)
+    n = 120
+    angle = np.linspace(0.0, 3.0 * np.pi, n)
+    tilt = np.radians(np.linspace(5.0, 40.0, n))
+    axes = np.column_stack([np.sin(tilt) * np.cos(angle), np.sin(tilt) * np.sin(angle),
+                            np.cos(tilt)])
+    tips = np.column_stack([20.0 * np.cos(angle / 3.0), np.linspace(-15.0, 15.0, n),
+                            np.full(n, -900.0)])
+    split = np.arange(n - 1) % 7 != 0
+    known = solve_inverse(machine, tips, axes)
+    anew = fit_travel(machine, tips, axes, split_moves=split)
+    carried = fit_travel(machine, tips, axes, split_moves=split, joints=known)
+    assert anew.offset_mm[2] > 0.0
+    np.testing.assert_array_equal(carried.offset_mm, anew.offset_mm)
+    assert (carried.fits, carried.ranges, carried.violations, carried.uniform) == (
+        anew.fits, anew.ranges, anew.violations, anew.uniform)
+    with pytest.raises(InvalidParameterError, match="119 rows solved for a path of 120"):
+        fit_travel(machine, tips, axes, split_moves=split,
+                   joints=solve_inverse(machine, tips[1:], axes[1:]))
+
+
 def test_head_table_job_raises_the_blade_into_the_z_travel(tmp_path):
     from streamline_cam.pipeline import JobRequest, run_job
 

@@ -18,7 +18,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
-from machines.kinematics import forward, solve_inverse
+from machines.kinematics import InverseSolution, forward, solve_inverse
 
 from ..surface import ParametricSurface
 from ..tolerances import ROUND_OFF, TINY
@@ -646,6 +646,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     five_axis = machine is not None and machine.kinematics.is_five_axis
     defer = opts.axis_mode is not AxisMode.LEAD_TILT or pts.smoothing is not None
     origin: NDArray[np.int64] | None = None
+    start_joints: InverseSolution | None = None
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = unchecked = 0.0
     for _ in range(max_rounds):
@@ -655,7 +656,12 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         idx = np.flatnonzero(seg_ok)
         if not idx.size:
             break
-        q = _joints_along(machine, start, pts, origin) if five_axis else None
+        q = None
+        if five_axis:
+            solved = _joints_along(machine, start, pts, origin, start_joints)
+            if pts is start:  # (the later rounds' merged paths keep its rows' joints)
+                start_joints = solved
+            q = solved.joints
         low, high = _gap_extremes(surface, cutter, res, pts, idx, machine, q)
         bad = _moves_to_split(cutter, res, pts, idx, low, high, machine, q)
         gap = np.maximum(-low, high)
@@ -698,25 +704,38 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
 
 
 def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,
-                  origin: NDArray[np.int64] | None) -> NDArray[np.float64]:
-    """The joints at ``pts``' rows, solved along the whole path.
+                  origin: NDArray[np.int64] | None,
+                  start_joints: InverseSolution | None = None) -> InverseSolution:
+    """The joints at ``pts``' rows (the solution's rows), solved along the whole path.
 
     ``pts`` is the path itself (``origin`` None) or the split moves going on alone: their
     ends (``origin``: rows of ``start``) and new points (-1), merged into ``start`` for the
-    solve as :func:`_merged_back` merges them (tips and axes only).
+    solve as :func:`_merged_back` merges them (tips and axes only). ``start_joints``:
+    ``start``'s own joints, solved before: the merged path's rows of ``start`` keep theirs
+    where C comes out the same (``solve_inverse``'s ``previous``: the same joints, computed
+    for the new points only).
     """
     if origin is None:
-        return solve_inverse(machine, pts.tips, pts.axes).joints
+        return solve_inverse(machine, pts.tips, pts.axes)
     added = np.flatnonzero(origin < 0)
     before = _insertion_rows(start.pid, start.t, pts.pid[added], pts.t[added])
     new_at = before + np.arange(added.size)
-    joints = solve_inverse(machine, insert_rows(start.tips, pts.tips[added], new_at),
-                           insert_rows(start.axes, pts.axes[added], new_at)).joints
+    previous = None
+    if start_joints is not None:
+        was = np.full(len(start) + added.size, -1, dtype=np.int64)
+        old = np.ones(was.size, dtype=bool)
+        old[new_at] = False
+        was[old] = np.arange(len(start))
+        previous = (start_joints, was)
+    solved = solve_inverse(machine, insert_rows(start.tips, pts.tips[added], new_at),
+                           insert_rows(start.axes, pts.axes[added], new_at),
+                           previous=previous)
     rows = np.empty(len(pts), dtype=np.int64)
     rows[added] = new_at
     ends = np.flatnonzero(origin >= 0)  # start's row r, after the new points before it
     rows[ends] = origin[ends] + np.searchsorted(before, origin[ends], side="right")
-    return joints[rows]
+    return InverseSolution(solved.joints[rows], solved.in_cone[rows],
+                           solved.axis_error_deg[rows])
 
 
 def _gap_extremes(surface: ParametricSurface, cutter: Cutter, res: PlannedOptions,

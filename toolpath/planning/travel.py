@@ -35,9 +35,10 @@ import scipy.optimize
 from numpy.typing import ArrayLike, NDArray
 
 from machines import Machine
-from machines.kinematics import linear_jacobian, solve_inverse
+from machines.kinematics import InverseSolution, linear_jacobian, solve_inverse
 from machines.limits import TRAVEL_TOLERANCE, Violation, check_travel
 
+from ..errors import InvalidParameterError
 from ..tolerances import LENGTH_SLACK_MM, NO_MEAN_AXIS
 
 __all__ = ["TRAVEL_MARGIN_MM", "AxisRange", "TravelFit", "fit_travel", "with_split_middles"]
@@ -120,16 +121,17 @@ class TravelFit:
         return f"moved by ({d[0]:.3f}, {d[1]:.3f}, {d[2]:.3f}) mm"
 
 
-def _linear_joints(machine: Machine, tips: NDArray[np.float64], axes: NDArray[np.float64]
-                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.float64]]:
-    """All joints, the linear joints ``G`` (n, 3) and their Jacobian ``J`` (n, 3, 3) in ``d``.
+def _linear_joints(machine: Machine, tips: NDArray[np.float64], axes: NDArray[np.float64],
+                   previous: tuple[InverseSolution, NDArray[np.int64]] | None = None
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """All joints and the linear joints ``G`` (n, 3).
 
-    ``G`` is affine in the tips at the poses' rotary joints (which the axes alone set), so
-    ``J`` is exact: :func:`~machines.kinematics.linear_jacobian`.
+    ``previous``: the joints of the path's own points and each row's point there (-1: a
+    middle), as :func:`~machines.kinematics.solve_inverse` takes them (the same joints,
+    computed for the middles only).
     """
-    joints = solve_inverse(machine, tips, axes).joints
-    g = joints[:, [machine.index(letter) for letter in "XYZ"]]
-    return joints, g, linear_jacobian(machine, joints)
+    joints = solve_inverse(machine, tips, axes, previous=previous).joints
+    return joints, joints[:, [machine.index(letter) for letter in "XYZ"]]
 
 
 def with_split_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
@@ -160,7 +162,8 @@ def with_split_middles(tips: NDArray[np.float64], axes: NDArray[np.float64],
 def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
                raise_only: bool = True, lateral: bool = True,
                margin_mm: float = TRAVEL_MARGIN_MM,
-               split_moves: ArrayLike | None = None) -> TravelFit:
+               split_moves: ArrayLike | None = None,
+               joints: InverseSolution | None = None) -> TravelFit:
     """The smallest shift of the part that keeps a path inside the linear travel.
 
     Parameters
@@ -179,6 +182,10 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     split_moves : array_like of bool, shape (n - 1,), optional
         Moves the post splits for the machine's joint interpolation (every one but the
         rapids): their middle poses must fit too (:func:`with_split_middles`).
+    joints : InverseSolution, optional
+        ``solve_inverse(machine, tips_mm, axes)`` solved before (the joints a
+        :class:`~toolpath.path.Toolpath` carries, :func:`~toolpath.joint_refine.known_joints`):
+        on a 5-axis machine only the middles' joints are computed (the same result).
 
     Returns
     -------
@@ -187,19 +194,28 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     tips = np.asarray(tips_mm, dtype=float)
     w = np.asarray(axes, dtype=float)
     owner = np.arange(len(tips))
+    previous = None
     if machine.kinematics.is_five_axis:
+        n = len(tips)
         tips, w, owner = with_split_middles(tips, w, None if split_moves is None
                                        else np.asarray(split_moves, dtype=bool))
-    joints, g, jac = _linear_joints(machine, tips, w)
+        if joints is not None:
+            if len(joints.joints) != n:
+                raise InvalidParameterError(
+                    f"joints: {len(joints.joints)} rows solved for a path of {n} points")
+            # a path point keeps its row; a middle (just before its owner) is new
+            point = np.r_[owner[:-1] != owner[1:], True]
+            previous = (joints, np.where(point, owner, -1))
+    joints_all, g = _linear_joints(machine, tips, w, previous)
     letters = "XYZ"
     limits = [machine.axis(letter) for letter in letters]
-    blocks = []  # (A, b) of A d <= b per axis and side, over x = (d+ (3), d- (3), e)
+    sides = []  # (k, sign, b) of sign J_k d - e <= b per limited axis k and side
     for k, ax in enumerate(limits):
         if not ax.is_limited:
             continue
         # upper: J d - e <= hi - m - g ; lower: -J d - e <= g - lo - m
-        blocks.append((jac[:, k, :], ax.max - margin_mm - g[:, k]))
-        blocks.append((-jac[:, k, :], g[:, k] - ax.min - margin_mm))
+        sides.append((k, 1.0, ax.max - margin_mm - g[:, k]))
+        sides.append((k, -1.0, g[:, k] - ax.min - margin_mm))
     bounds = [(0.0, None)] * 7
     if not lateral:
         bounds[0] = bounds[1] = bounds[3] = bounds[4] = (0.0, 0.0)
@@ -209,8 +225,12 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
     x = np.zeros(7)
     # every cost is positive: where no shift is needed (x = 0 keeps every row, b >= 0)
     # no other x is as cheap, and the rounds of linear programs are skipped
-    rounds = 0 if all(bool((b >= 0.0).all()) for _, b in blocks) else _MAX_ROUNDS
-    active = [np.argsort(b)[:_ROUND_ROWS] for _, b in blocks] if rounds else []
+    rounds = 0 if all(bool((b >= 0.0).all()) for _, _, b in sides) else _MAX_ROUNDS
+    active = [np.argsort(b)[:_ROUND_ROWS] for _, _, b in sides] if rounds else []
+    # ``G`` is affine in the tips at the poses' rotary joints (which the axes alone set),
+    # so its Jacobian ``J`` (n, 3, 3) in ``d`` is exact; needed only to move the part
+    jac = linear_jacobian(machine, joints_all) if rounds else None
+    blocks = [(sign * jac[:, k, :], b) for k, sign, b in sides] if jac is not None else []
     for _ in range(rounds):
         rows_a = [np.column_stack([a[idx], -a[idx], -np.ones(idx.size)])
                   for (a, _), idx in zip(blocks, active, strict=True)]
@@ -232,16 +252,18 @@ def fit_travel(machine: Machine, tips_mm: ArrayLike, axes: ArrayLike, *,
             break
     d = x[:3] - x[3:6]
     d[np.abs(d) < LENGTH_SLACK_MM] = 0.0
-    step = jac @ d
-    moved = g + step
-    shifted = joints.copy()
-    shifted[:, [machine.index(letter) for letter in letters]] = moved
+    moved, shifted, uniform = g, joints_all, True
+    if jac is not None and d.any():
+        step = jac @ d
+        moved = g + step
+        shifted = joints_all.copy()
+        shifted[:, [machine.index(letter) for letter in letters]] = moved
+        uniform = float(np.ptp(step, axis=0).max()) < LENGTH_SLACK_MM
     violations = tuple(dataclasses.replace(v, index=int(owner[v.index]))
                        for v in check_travel(machine, shifted))
     ranges = tuple(AxisRange(letter, (float(moved[:, k].min()), float(moved[:, k].max())),
                              (ax.min, ax.max))
                    for k, (letter, ax) in enumerate(zip(letters, limits, strict=True))
                    if ax.is_limited and len(moved))
-    uniform = not len(step) or float(np.ptp(step, axis=0).max()) < LENGTH_SLACK_MM
     return TravelFit(offset_mm=d, fits=not violations, ranges=ranges, violations=violations,
                      uniform=uniform)
