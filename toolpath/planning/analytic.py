@@ -88,6 +88,17 @@ class AnalyticSurface(ParametricSurface):
         xs = self._partials(np.array([t]), np.array([s]), 0, 1)[0]
         self.orientation = 1.0 if float(np.cross(xt, xs) @ outward) >= 0.0 else -1.0
 
+    def closest_parameters(self, points_mm: NDArray[np.float64]
+                           ) -> tuple[NDArray[np.float64], ...] | None:
+        """The closest surface points' ``t``, ``s`` in closed form, where there is one.
+
+        Returns ``t``, ``s`` and ``exact`` (n,): the rows whose closest point on the
+        surface's own closed form lies within the unit square (the others are the clamped
+        parameters, a seed only); None where the surface has no closed form
+        (:func:`~.local.project_to_surface` then searches every point by Newton's method).
+        """
+        return None
+
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
@@ -197,6 +208,27 @@ class SpherePatch(AnalyticSurface):
 
     def _partials(self, t, s, dt, ds):
         return self._partials_of(self._trig(t, s), dt, ds)
+
+    def closest_parameters(self, points_mm: NDArray[np.float64]
+                           ) -> tuple[NDArray[np.float64], ...]:
+        """The closest points' ``t``, ``s``: the sphere's radial projection (exact).
+
+        Every point but the centre has its closest sphere point on the ray from the centre
+        through it (outside or inside alike), at longitude ``atan2(dy, dx)`` and colatitude
+        ``atan2(sqrt(dx^2 + dy^2), dz)`` of ``d = p - C``; the longitude is taken within
+        half a turn of the patch's middle. ``exact`` where that lies within the patch (to
+        :data:`~toolpath.tolerances.ROUND_OFF` in ``t`` and ``s``, then clamped) and ``d``
+        is not 0; the other rows' parameters clamped to the patch are a seed only.
+        """
+        d = np.asarray(points_mm, dtype=float).reshape(-1, 3) - self.centre
+        rho = np.hypot(d[:, 0], d[:, 1])
+        mid_ph = self._ph0 + 0.5 * self._dph
+        turn = np.mod(np.arctan2(d[:, 1], d[:, 0]) - mid_ph + np.pi, 2.0 * np.pi) - np.pi
+        t = 0.5 + turn / self._dph
+        s = (np.arctan2(rho, d[:, 2]) - self._th0) / self._dth
+        exact = ((t >= -ROUND_OFF) & (t <= 1.0 + ROUND_OFF) & (s >= -ROUND_OFF)
+                 & (s <= 1.0 + ROUND_OFF) & ((rho > 0.0) | (d[:, 2] != 0.0)))
+        return np.clip(t, 0.0, 1.0), np.clip(s, 0.0, 1.0), exact
 
     def _partials_of(self, trig, dt, ds):
         """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""
