@@ -423,26 +423,46 @@ class EllipticBladeSurface(AnalyticSurface):
         return {"semi_axes_hub_mm": list(self.hub), "semi_axes_tip_mm": list(self.tip),
                 "z_range_mm": list(self.z_range)}
 
+    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                      orders: tuple[tuple[int, int], ...]
+                      ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Several partials at once, the sine and cosine computed once for all of them.
+
+        (The same values as :meth:`_partials` order by order: a frame's six partials took
+        six times the trigonometry, most of a Newton step's cost on this surface.)
+        """
+        trig = self._trig(t, s)
+        return {order: self._partials_of(trig, *order) for order in orders}
+
+    def _trig(self, t, s):
+        """``cos 2 pi t``, ``sin 2 pi t``, ``a(s)``, ``b(s)`` and ``s`` at flat ``t``, ``s``."""
+        th = 2.0 * np.pi * t
+        a0, b0 = self.hub
+        return (np.cos(th), np.sin(th), a0 + s * (self.tip[0] - a0),
+                b0 + s * (self.tip[1] - b0), s)
+
     def _partials(self, t, s, dt, ds):
+        return self._partials_of(self._trig(t, s), dt, ds)
+
+    def _partials_of(self, trig, dt, ds):
+        """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""
         w = 2.0 * np.pi
         a0, b0 = self.hub
         da, db = self.tip[0] - a0, self.tip[1] - b0
         height = self.z_range[1] - self.z_range[0]
-        th = w * t
-        c, sn = np.cos(th), np.sin(th)
-        a, b = a0 + s * da, b0 + s * db
-        zero = np.zeros_like(t)
+        c, sn, a, b, s = trig
+        zero = np.zeros_like(s)
         if (dt, ds) == (0, 0):
             return np.stack([a * c, b * sn, self.z_range[0] + s * height], axis=1)
         if (dt, ds) == (1, 0):
             return np.stack([-a * w * sn, b * w * c, zero], axis=1)
         if (dt, ds) == (0, 1):
-            return np.stack([da * c, db * sn, np.full_like(t, height)], axis=1)
+            return np.stack([da * c, db * sn, np.full_like(s, height)], axis=1)
         if (dt, ds) == (2, 0):
             return np.stack([-a * w * w * c, -b * w * w * sn, zero], axis=1)
         if (dt, ds) == (1, 1):
             return np.stack([-da * w * sn, db * w * c, zero], axis=1)
-        return np.zeros((t.size, 3))
+        return np.zeros((s.size, 3))
 
 
 _KINDS: dict[str, type[AnalyticSurface]] = {

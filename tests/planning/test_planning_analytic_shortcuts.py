@@ -1,4 +1,8 @@
-"""A sphere's closest points in closed form against the Newton search they replace."""
+"""Analytic surfaces' shortcuts against the full method they replace.
+
+A sphere's closest points in closed form (the Newton search), several partials from one
+evaluation of the trigonometry (each partial on its own).
+"""
 
 import numpy as np
 import pytest
@@ -63,3 +67,13 @@ def test_surfaces_without_a_closed_form_are_searched():
     points, t, s = _points_off(blade, 50, 3.0, 0.0, 3)
     *_, dc = project_to_surface(blade, points, t, s, iterations=3)
     assert dc == pytest.approx(3.0, abs=1e-9)
+
+
+@pytest.mark.parametrize("surface", [SPHERES[1], EllipticBladeSurface()])
+def test_partials_at_once_are_each_partial(surface):
+    rng = np.random.default_rng(4)
+    t, s = rng.random(300), rng.random(300)
+    orders = ((0, 0), (1, 0), (0, 1), (2, 0), (1, 1), (0, 2))
+    many = surface.partials_many(t, s, orders)
+    for dt, ds in orders:
+        assert np.array_equal(many[dt, ds], surface.derivative(t, s, dt=dt, ds=ds))
