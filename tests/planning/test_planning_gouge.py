@@ -102,17 +102,19 @@ def test_retilt_cannot_save_a_ball_in_a_small_hollow():
 
 def test_projection_keeps_going_until_the_foot_point_is_found():
     # one Newton step asked for, from a start far along the pass: the search goes on for
-    # the points not yet converged (a half-found foot gives a meaningless signed distance)
+    # the points not yet converged (a half-found foot gives a meaningless signed distance);
+    # the Newton search itself (project_to_surface takes a sphere's feet in closed form)
     from toolpath.planning import SpherePatch
-    from toolpath.planning.local import project_to_surface
+    from toolpath.planning.local import _newton_search
 
     sphere = SpherePatch(radius_mm=50.0, longitude_deg=(-40.0, 40.0),
                          colatitude_deg=(15.0, 60.0))
     target_t, target_s = np.array([0.8, 0.3]), np.array([0.5, 0.6])
     foot = sphere(target_t, target_s)
     points = foot + 3.0 * sphere.normal(target_t, target_s)
-    t, s, dist = project_to_surface(sphere, points, np.array([0.2, 0.35]),
-                                    np.array([0.5, 0.55]), iterations=1)
+    t, s, x = _newton_search(sphere, points, np.array([0.2, 0.35]), np.array([0.5, 0.55]),
+                             iterations=1)
+    dist = np.linalg.norm(x - points, axis=1)
     assert t == pytest.approx(target_t, abs=1e-7) and s == pytest.approx(target_s, abs=1e-7)
     assert dist == pytest.approx([3.0, 3.0], abs=1e-9)
 

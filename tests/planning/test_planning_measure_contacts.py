@@ -16,6 +16,7 @@ import toolpath.planning.chord_measure as chord_measure
 from toolpath.path import MoveKind, Toolpath
 from toolpath.planning import EllipticBladeSurface, SpherePatch, parse_cutter
 from toolpath.planning.gouge import sample_surface
+from toolpath.planning.setup import PlacedSurface
 from toolpath.surface import ParametricSurface
 
 #: Feet found from either seed agree to within the Newton search's convergence (its last
@@ -53,6 +54,31 @@ def test_sphere_cap_contacts_match_the_full_method(axis):
     cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
     _same_contacts(*_chord_inputs(cap, "ball:6", scallop_mm=0.02,
                                   chord_tol_mm=0.01, **axis))
+
+
+@pytest.mark.parametrize("axis", [{"axis_mode": "3"},
+                                  {"axis_mode": "lead-tilt", "lead_deg": 10.0}])
+def test_sphere_contacts_in_closed_form_match_the_newton_search(axis):
+    # a ball's contact on a sphere is its centre's radial projection, every location's own
+    # seed (SpherePatch.closest_parameters); the same sphere placed where it is
+    # (PlacedSurface: no closed form) is searched by Newton from the surface samples
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
+    args, kwargs = _chord_inputs(cap, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01, **axis)
+    path, _, cutter, samples = args
+    placed = PlacedSurface(cap, np.eye(3))
+    assert getattr(placed, "closest_parameters", None) is None
+    closed = chord_measure.measure_chord(*args, **kwargs)
+    for stride in (chord_measure.CONTACT_STRIDE, 1):
+        newton = chord_measure.measure_chord(path, placed, cutter, samples, **kwargs,
+                                             contact_stride=stride)
+        for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm"):
+            assert getattr(closed, name) == pytest.approx(getattr(newton, name),
+                                                          abs=SAME_GAP_MM)
+        assert np.array_equal(closed.seeds_pass, newton.seeds_pass)
+        assert np.abs(closed.seeds_t - newton.seeds_t).max() < SAME_PARAMETER
+        assert np.abs(closed.seeds_s - newton.seeds_s).max() < SAME_PARAMETER
+        assert np.abs(closed.seeds_q - newton.seeds_q).max() < SAME_GAP_MM
+    assert closed.max_mm > 0.0
 
 
 def test_closed_blade_spiral_across_the_seam():

@@ -18,10 +18,10 @@ from measured_plans import Measured, planned
 from machines import load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning import SpherePatch, plan_finishing
+from toolpath.planning import EllipticBladeSurface, SpherePatch, plan_finishing
 from toolpath.planning.cusp_estimates import torus_cusp_estimates
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
-from toolpath.planning.measure import ESTIMATE_SHARE
+from toolpath.planning.measure import ESTIMATE_SHARE, ESTIMATE_TOP, ESTIMATE_TOP_MOST
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
 from toolpath.planning.sweep_kernel import ray_ranges
 
@@ -36,7 +36,8 @@ def blade():
 
 
 #: The estimate decides on small plans too, ray casting only the 16 largest.
-FEW_RAYS = {"estimate_min_seeds": 0, "estimate_top": 16, "estimate_top_share": 0.0}
+FEW_RAYS = {"estimate_min_seeds": 0, "estimate_top": 16, "estimate_top_share": 0.0,
+            "estimate_top_most": 16}
 
 
 def _same_scallop(measured: Measured):
@@ -74,6 +75,28 @@ def test_blade_standing_under_joint_interpolation(blade, cutter, request_mm):
     _same_scallop(planned(standing, cutter, scallop_mm=request_mm,
                            chord_tol_mm=min(request_mm, 0.05), axis_mode="lead-tilt",
                            lead_deg=10.0, machine=load_machine("trunnion-ac")))
+
+
+def test_few_of_the_largest_estimates_are_cast_and_more_where_they_rank_poorly():
+    # bench_toolpath's R50 cap: the estimate ranks the seeds well, and casting the 256
+    # largest finds the largest cusp (1024 were cast); its elliptic blade in 5 axes: more
+    # estimates stand above what the 256 largest find than were cast, and casting twice
+    # as many, and so on, finds it; both the full method's figures exactly
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-40.0, 40.0), colatitude_deg=(15.0, 60.0))
+    request = {"scallop_mm": 0.005, "chord_tol_mm": 0.01}
+    cases = [(cap, {"axis_mode": "3"}),
+             (EllipticBladeSurface(), {"axis_mode": "lead-tilt", "lead_deg": 10.0,
+                                       "linking": "spiral"})]
+    casts = []
+    for surface, options in cases:
+        measured = planned(surface, "ball:6", **request, **options)
+        fast, full = measured.scallop(), measured.scallop(estimate=False)
+        assert fast.max_mm == full.max_mm > 0.0
+        assert fast.interior_max_mm == full.interior_max_mm
+        without = np.count_nonzero(~np.isfinite(measured.seeds().estimate_mm))
+        casts.append(fast.n_cast - without)  # of the seeds with an estimate
+    assert casts[0] < ESTIMATE_TOP_MOST // 2
+    assert casts[1] > 2 * ESTIMATE_TOP
 
 
 def test_the_ball_estimate_casts_the_cusp_at_a_pass_s_end(blade):

@@ -88,6 +88,17 @@ class AnalyticSurface(ParametricSurface):
         xs = self._partials(np.array([t]), np.array([s]), 0, 1)[0]
         self.orientation = 1.0 if float(np.cross(xt, xs) @ outward) >= 0.0 else -1.0
 
+    def closest_parameters(self, points_mm: NDArray[np.float64]
+                           ) -> tuple[NDArray[np.float64], ...] | None:
+        """The closest surface points' ``t``, ``s`` in closed form, where there is one.
+
+        Returns ``t``, ``s`` and ``exact`` (n,): the rows whose closest point on the
+        surface's own closed form lies within the unit square (the others are the clamped
+        parameters, a seed only); None where the surface has no closed form
+        (:func:`~.local.project_to_surface` then searches every point by Newton's method).
+        """
+        return None
+
     def __repr__(self) -> str:
         args = ", ".join(f"{k}={v!r}" for k, v in self.params().items())
         return f"{type(self).__name__}({args})"
@@ -197,6 +208,27 @@ class SpherePatch(AnalyticSurface):
 
     def _partials(self, t, s, dt, ds):
         return self._partials_of(self._trig(t, s), dt, ds)
+
+    def closest_parameters(self, points_mm: NDArray[np.float64]
+                           ) -> tuple[NDArray[np.float64], ...]:
+        """The closest points' ``t``, ``s``: the sphere's radial projection (exact).
+
+        Every point but the centre has its closest sphere point on the ray from the centre
+        through it (outside or inside alike), at longitude ``atan2(dy, dx)`` and colatitude
+        ``atan2(sqrt(dx^2 + dy^2), dz)`` of ``d = p - C``; the longitude is taken within
+        half a turn of the patch's middle. ``exact`` where that lies within the patch (to
+        :data:`~toolpath.tolerances.ROUND_OFF` in ``t`` and ``s``, then clamped) and ``d``
+        is not 0; the other rows' parameters clamped to the patch are a seed only.
+        """
+        d = np.asarray(points_mm, dtype=float).reshape(-1, 3) - self.centre
+        rho = np.hypot(d[:, 0], d[:, 1])
+        mid_ph = self._ph0 + 0.5 * self._dph
+        turn = np.mod(np.arctan2(d[:, 1], d[:, 0]) - mid_ph + np.pi, 2.0 * np.pi) - np.pi
+        t = 0.5 + turn / self._dph
+        s = (np.arctan2(rho, d[:, 2]) - self._th0) / self._dth
+        exact = ((t >= -ROUND_OFF) & (t <= 1.0 + ROUND_OFF) & (s >= -ROUND_OFF)
+                 & (s <= 1.0 + ROUND_OFF) & ((rho > 0.0) | (d[:, 2] != 0.0)))
+        return np.clip(t, 0.0, 1.0), np.clip(s, 0.0, 1.0), exact
 
     def _partials_of(self, trig, dt, ds):
         """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""
@@ -391,26 +423,46 @@ class EllipticBladeSurface(AnalyticSurface):
         return {"semi_axes_hub_mm": list(self.hub), "semi_axes_tip_mm": list(self.tip),
                 "z_range_mm": list(self.z_range)}
 
+    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                      orders: tuple[tuple[int, int], ...]
+                      ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Several partials at once, the sine and cosine computed once for all of them.
+
+        (The same values as :meth:`_partials` order by order: a frame's six partials took
+        six times the trigonometry, most of a Newton step's cost on this surface.)
+        """
+        trig = self._trig(t, s)
+        return {order: self._partials_of(trig, *order) for order in orders}
+
+    def _trig(self, t, s):
+        """``cos 2 pi t``, ``sin 2 pi t``, ``a(s)``, ``b(s)`` and ``s`` at flat ``t``, ``s``."""
+        th = 2.0 * np.pi * t
+        a0, b0 = self.hub
+        return (np.cos(th), np.sin(th), a0 + s * (self.tip[0] - a0),
+                b0 + s * (self.tip[1] - b0), s)
+
     def _partials(self, t, s, dt, ds):
+        return self._partials_of(self._trig(t, s), dt, ds)
+
+    def _partials_of(self, trig, dt, ds):
+        """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""
         w = 2.0 * np.pi
         a0, b0 = self.hub
         da, db = self.tip[0] - a0, self.tip[1] - b0
         height = self.z_range[1] - self.z_range[0]
-        th = w * t
-        c, sn = np.cos(th), np.sin(th)
-        a, b = a0 + s * da, b0 + s * db
-        zero = np.zeros_like(t)
+        c, sn, a, b, s = trig
+        zero = np.zeros_like(s)
         if (dt, ds) == (0, 0):
             return np.stack([a * c, b * sn, self.z_range[0] + s * height], axis=1)
         if (dt, ds) == (1, 0):
             return np.stack([-a * w * sn, b * w * c, zero], axis=1)
         if (dt, ds) == (0, 1):
-            return np.stack([da * c, db * sn, np.full_like(t, height)], axis=1)
+            return np.stack([da * c, db * sn, np.full_like(s, height)], axis=1)
         if (dt, ds) == (2, 0):
             return np.stack([-a * w * w * c, -b * w * w * sn, zero], axis=1)
         if (dt, ds) == (1, 1):
             return np.stack([-da * w * sn, db * w * c, zero], axis=1)
-        return np.zeros((t.size, 3))
+        return np.zeros((s.size, 3))
 
 
 _KINDS: dict[str, type[AnalyticSurface]] = {

@@ -8,7 +8,8 @@ surface (Newton from the nearest of a grid of surface samples; a ball's, at ever
 location along a run of moves, the others from those contacts interpolated, and from their
 own nearest sample where the feet either side jumped or the foot found stands farther off
 than theirs; a foot farther than the sample nearest its point is searched again from
-there): its gap checks that it touches. A flat or bull-nose cutter's lowest rim point is
+there; on a sphere its centre's closest point, in closed form): its gap checks that it
+touches. A flat or bull-nose cutter's lowest rim point is
 sought finely everywhere (``refine_rim`` of :func:`~toolpath.planning.sampling.cutter_gap`).
 Then the cutter is placed at ``u = 1/4, 1/2, 3/4`` of each move (tip linear,
 axis normalized-linear, as a 5-axis control with tool-centre-point interpolation moves
@@ -223,7 +224,9 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     :func:`~.sampling.move_gaps` seeds the points inside a move): a k-d tree query of a
     point a radius off the surface costs several times its Newton search. Those whose
     foot may be a wrong local one (:func:`_unsure_between`) are then searched from their
-    own nearest sample after all.
+    own nearest sample after all. Where the surface gives a ball centre's closest point
+    in closed form (``closest_parameters``: a sphere), that is every location's seed (and
+    its foot): no samples, no anchors.
     """
     pos, axes = toolpath.positions_mm, toolpath.tool_axes
     at_end = np.zeros(len(toolpath.kinds), dtype=bool)
@@ -232,16 +235,27 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     ball = cutter.kind is CutterKind.BALL
     lift = cutter.radius_mm if ball else cutter.corner_radius_mm
     centres = pos[ends] + lift * axes[ends]
-    runs = _run_anchors(ends, move, centres, stride if ball else 1)
+    # a ball's contact is its centre's closest point: where the surface gives that in
+    # closed form (a sphere), it is every location's own seed, exact
+    closest = getattr(surface, "closest_parameters", None) if ball else None
+    feet = closest(centres) if closest is not None and ends.size else None
+    runs = _run_anchors(ends, move, centres, stride if ball and feet is None else 1)
     gap, t, s = np.empty(ends.size), np.empty(ends.size), np.empty(ends.size)
 
     def search_from_samples(rows: NDArray[np.int64]) -> None:
-        _, nearest = samples.tree.query(centres[rows], k=1, workers=-1)
+        t0, s0 = np.empty(rows.size), np.empty(rows.size)
+        seeded = np.zeros(rows.size, dtype=bool)
+        if feet is not None:
+            seeded = feet[2][rows]
+            t0[seeded], s0[seeded] = feet[0][rows[seeded]], feet[1][rows[seeded]]
+        if not seeded.all():
+            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1, workers=-1)
+            t0[~seeded], s0[~seeded] = samples.t[nearest], samples.s[nearest]
         for lo in range(0, rows.size, chunk):
             part = rows[lo:lo + chunk]
             gap[part], t[part], s[part] = _contact_gaps(
                 surface, cutter, samples, pos[ends[part]], axes[ends[part]],
-                nearest[lo:lo + chunk])
+                t0[lo:lo + chunk], s0[lo:lo + chunk])
 
     search_from_samples(runs.anchor)
     between, before, after, w = runs.between, runs.before, runs.after, runs.w
@@ -456,8 +470,9 @@ FOOT_SLACK_MM = 1e-6
 
 def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
                   tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
-                  seeds: NDArray[np.int64]) -> tuple[NDArray[np.float64], ...]:
-    """Gap, ``t`` and ``s`` of the cutter at each location, searched from sample ``seeds``.
+                  t0: NDArray[np.float64], s0: NDArray[np.float64]
+                  ) -> tuple[NDArray[np.float64], ...]:
+    """Gap, ``t`` and ``s`` of the cutter at each location, searched from ``(t0, s0)``.
 
     A foot found farther from its cutter point ``K = X + (gap + r) n`` than the sample
     nearest to ``K`` is not its closest point (that sample is a surface point nearer to
@@ -468,7 +483,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     """
     r = cutter.corner_radius_mm
     ball = cutter.kind is CutterKind.BALL
-    gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, samples.t[seeds], samples.s[seeds],
+    gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, t0, s0,
                            newton=BALL_CONTACT_NEWTON if ball else 6, refine_rim=True)
     if ball:
         return gap, t, s

@@ -192,6 +192,27 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
         return kernel.project(p, t0, s0, iterations, EXTRA_ITERATIONS, CONVERGED_MM)
     t = np.array(np.broadcast_to(np.asarray(t0, dtype=float), (len(p),)))
     s = np.array(np.broadcast_to(np.asarray(s0, dtype=float), (len(p),)))
+    closest = getattr(surface, "closest_parameters", None)
+    found = closest(p) if closest is not None and iterations and len(p) else None
+    if found is not None:  # the closed form's exact feet; Newton for the rows it leaves
+        t_exact, s_exact, exact = found
+        t[exact], s[exact] = t_exact[exact], s_exact[exact]
+        rest = np.flatnonzero(~exact)
+        if rest.size:
+            t[rest], s[rest], _ = _newton_search(surface, p[rest], t[rest], s[rest],
+                                                 iterations)
+        return t, s, np.linalg.norm(surface(t, s) - p, axis=1)
+    t, s, x = _newton_search(surface, p, t, s, iterations)
+    return t, s, np.linalg.norm(x - p, axis=1)
+
+
+def _newton_search(surface: ParametricSurface, p: NDArray[np.float64],
+                   t: NDArray[np.float64], s: NDArray[np.float64], iterations: int
+                   ) -> tuple[NDArray[np.float64], ...]:
+    """:func:`project_to_surface`'s Newton steps from ``t``, ``s`` (updated in place).
+
+    Returns ``t``, ``s`` and the feet's points (mm).
+    """
     x = np.empty_like(p)
     active = np.arange(len(p))
     moved = np.full(len(p), np.inf)
@@ -204,7 +225,7 @@ def project_to_surface(surface: ParametricSurface, points_mm: ArrayLike, t0: Arr
             surface, p[active], t[active], s[active])
     if not iterations:
         x = surface(t, s)
-    return t, s, np.linalg.norm(x - p, axis=1)
+    return t, s, x
 
 
 def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: ArrayLike,

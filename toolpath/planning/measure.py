@@ -35,8 +35,8 @@ from .cut_volume import CutVolume, cusp_horizon_mm
 from .cutters import Cutter
 from .uncut_area import UncutArea
 
-__all__ = ["ESTIMATE_MIN_SEEDS", "ESTIMATE_SHARE", "ESTIMATE_TOP", "ESTIMATE_TOP_SHARE",
-           "ScallopMeasurement", "SeedCusps", "measure_scallop", "seed_cusps"]
+__all__ = ["ESTIMATE_MIN_SEEDS", "ESTIMATE_SHARE", "ESTIMATE_TOP", "ESTIMATE_TOP_MOST",
+           "ESTIMATE_TOP_SHARE", "ScallopMeasurement", "SeedCusps", "measure_scallop", "seed_cusps"]
 
 
 @dataclass(frozen=True)
@@ -78,17 +78,25 @@ class ScallopMeasurement:
 ESTIMATE_SHARE = 1.03
 
 
-#: Seeds of the largest estimates ray cast (per group, at least): on planned passes the
+#: Seeds of the largest estimates ray cast first (per group): on planned passes the
 #: largest cusp is among them, or one within a fraction of a per cent of it where the
-#: cusps are all alike (the estimate then ranks seeds by its few per cent of error).
-ESTIMATE_TOP = 1024
+#: cusps are all alike (the estimate then ranks seeds by its few per cent of error) ...
+ESTIMATE_TOP = 256
 
 #: ... or this share of the seeds, when more.
 ESTIMATE_TOP_SHARE = 0.01
 
+#: Where more estimates than were cast stand above the largest cusp found by more than
+#: they err (:data:`ESTIMATE_SHARE`: the estimate ranks the seeds poorly there, as on the
+#: elliptic blade in 5 axes), twice as many of the largest are cast, and so on up to this
+#: many: with 256 and then this, the same largest cusp, overall and away from uncut
+#: areas, as 1024 cast at once on every ball row of ``bench_toolpath.py`` and its
+#: ``--sweep``, with about half the ray casts (a fifth on the R50 cap).
+ESTIMATE_TOP_MOST = 1024
+
 #: Fewer seeds are all ray cast: the estimate would leave few to skip (it costs about a
 #: fifteenth of a seed's ray cast per seed).
-ESTIMATE_MIN_SEEDS = 2 * ESTIMATE_TOP
+ESTIMATE_MIN_SEEDS = 2 * ESTIMATE_TOP_MOST
 
 
 def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
@@ -96,7 +104,8 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
                     machine: Machine | None = None, chunk: int = 20_000,
                     estimate: bool = True, estimate_min_seeds: int = ESTIMATE_MIN_SEEDS,
                     estimate_top: int = ESTIMATE_TOP,
-                    estimate_top_share: float = ESTIMATE_TOP_SHARE) -> ScallopMeasurement:
+                    estimate_top_share: float = ESTIMATE_TOP_SHARE,
+                    estimate_top_most: int = ESTIMATE_TOP_MOST) -> ScallopMeasurement:
     """Measure the material left between passes (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under,
@@ -121,15 +130,17 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         bull-nose cutters :func:`~.cusp_estimates.torus_cusp_estimates`) and ray-cast only
         the seeds of the largest estimates and those the estimate cannot tell;
         False ray-casts every seed (the full method).
-    estimate_min_seeds, estimate_top, estimate_top_share
+    estimate_min_seeds, estimate_top, estimate_top_share, estimate_top_most
         Fewer seeds are all ray cast; else at least the ``estimate_top`` seeds of the
-        largest estimates, or that share of the seeds when more (defaults
-        :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`, :data:`ESTIMATE_TOP_SHARE`).
+        largest estimates, or that share of the seeds when more, and twice as many while
+        more estimates than that stand above what they find, up to ``estimate_top_most``
+        (defaults :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`,
+        :data:`ESTIMATE_TOP_SHARE`, :data:`ESTIMATE_TOP_MOST`).
     """
     return _scallop_result(seed_cusps(
         toolpath, surface, cutter, scallop_mm, chord, machine=machine, chunk=chunk,
         estimate=estimate, estimate_min_seeds=estimate_min_seeds, estimate_top=estimate_top,
-        estimate_top_share=estimate_top_share))
+        estimate_top_share=estimate_top_share, estimate_top_most=estimate_top_most))
 
 
 @dataclass(frozen=True)
@@ -181,7 +192,8 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                machine: Machine | None = None, chunk: int = 20_000,
                estimate: bool = True, estimate_min_seeds: int = ESTIMATE_MIN_SEEDS,
                estimate_top: int = ESTIMATE_TOP,
-               estimate_top_share: float = ESTIMATE_TOP_SHARE) -> SeedCusps:
+               estimate_top_share: float = ESTIMATE_TOP_SHARE,
+               estimate_top_most: int = ESTIMATE_TOP_MOST) -> SeedCusps:
     """The cusp searched from each seed (module docstring), seed by seed.
 
     Parameters as :func:`measure_scallop`, which reports the largest of these cusps.
@@ -196,7 +208,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     guess = np.full(len(seeds.t), np.nan)
     if estimate and len(seeds.t) > estimate_min_seeds:
         count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
-        guess = _cast_beyond_estimates(search, uncut, count)
+        guess = _cast_beyond_estimates(search, uncut, count, max(count, estimate_top_most))
     else:
         search.run(np.ones(len(seeds.t), dtype=bool))
     found = ~np.isnan(search.height)
@@ -209,16 +221,17 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                      search.s, search.bracket_s, clear, uncut.fraction)
 
 
-def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int
+def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int, most: int
                            ) -> NDArray[np.float64]:
     """The cusps estimated first; the ray cast where the estimate cannot decide.
 
     Every seed's cusp from the passes' own geometry (:func:`~.cusp_estimates.ball_cusp_estimates`,
     :func:`~.cusp_estimates.torus_cusp_estimates`); then
-    the ray cast where no estimate stands, at the ``count`` largest estimates, and
-    wherever an estimate stands above the largest cusp the ray cast found by more than it
-    errs (:data:`ESTIMATE_SHARE`; overall, and away from uncut areas as the seeds stand).
-    Returns the estimates.
+    the ray cast where no estimate stands, at the ``count`` largest estimates (twice as
+    many while more estimates than that stand above the largest cusp cast by more than
+    they err, up to ``most``), and wherever an estimate stands above the largest cusp the
+    ray cast found by more than it errs (:data:`ESTIMATE_SHARE`; overall, and away from
+    uncut areas as the seeds stand). Returns the estimates.
     """
     seeds = search.seeds
     estimates = ball_cusp_estimates if search.volume.ball else torus_cusp_estimates
@@ -231,6 +244,18 @@ def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int
     for group in groups:
         first |= _largest_first(guess, group, count)
     search.run(first)
+    for group in groups:
+        top = count
+        while top < most:  # the estimate ranks poorly here: cast more of the largest
+            measured = group & search.cast & np.isfinite(search.height)
+            if not measured.any():  # (the whole group is cast below)
+                break
+            top_mm = float(search.height[measured].max())
+            if np.count_nonzero(group & ~search.cast & (guess >= ESTIMATE_SHARE * top_mm)
+                                ) <= top:
+                break
+            top = min(2 * top, most)
+            search.run(_largest_first(guess, group, top))
     for group in groups:
         measured = group & search.cast & np.isfinite(search.height)
         if measured.any():
