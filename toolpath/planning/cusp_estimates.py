@@ -23,10 +23,11 @@ from .cut_volume import CutVolume
 from .cutters import radial_directions
 from .torus_profile import profile_ridges
 
-__all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_SHARE", "CARRY_PIECES", "CARRY_TURN",
-           "CONTACT_ALONG_SHARE", "CONTACT_WALKS", "CONTACT_WINDOW",
-           "DEEP_FLAT_SHARE", "GENTLE_CURVING", "PIVOT_TURN", "RIDGE_SINK_SHARE",
-           "TIGHT_SINK_SHARE", "ball_cusp_estimates", "torus_cusp_estimates"]
+__all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
+           "BEND_AWAY_SHARE", "CARRY_PIECES", "CARRY_TURN", "CONTACT_ALONG_SHARE",
+           "CONTACT_WALKS", "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING",
+           "PIVOT_TURN", "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates",
+           "torus_cusp_estimates"]
 
 
 #: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
@@ -294,8 +295,11 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     met &= np.abs(np.einsum("ij,ij->i", next_way, next_axis)) <= AXIS_WAY_COSINE
     x = ridge.point
     # a pass bending away from the surface sweeps less than its prism: margin the ridge
-    away = np.maximum(_bend_away(volume, j_own[live], n), _bend_away(volume, j_next[live], n))
-    share = np.where(away * big > BEND_AWAY, 1.0 + BEND_AWAY_SHARE, 1.0)
+    # by a share growing with the bend, and cast where it bends more tightly
+    bend = big * np.maximum(_bend_away(volume, j_own[live], n),
+                            _bend_away(volume, j_next[live], n))
+    met &= bend <= BEND_AWAY_CAP
+    share = np.where(bend > BEND_AWAY, 1.0 + BEND_AWAY_SHARE + BEND_AWAY_GROWTH * bend, 1.0)
     out[ok[met]] = share[met] * _ridge_heights(surface, seeds, ok[met], x[met])
     return out
 
@@ -307,11 +311,23 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
 #: crossing: ...
 BEND_AWAY = 0.004
 
-#: ... by up to this share of it: on the standing dev blade in 3 axes (bull:8:1, scallop
-#: 0.03 mm) the estimate over the ray cast read 1.000 and up where the passes run
-#: straight or bend towards the surface and down to 0.968 where they bend away
-#: (``kappa_n`` 0.003 to 0.03 per mm, cusps above half the largest).
-BEND_AWAY_SHARE = 0.04
+#: ... by this share of it, and :data:`BEND_AWAY_GROWTH` times ``kappa_n R`` more: the
+#: estimate over the ray cast read 1.000 and up where the passes run straight or bend
+#: towards the surface, and without a margin down to 0.968 where they bend away on the
+#: standing dev blade in 3 axes (bull:8:1, scallop 0.03 mm, ``kappa_n R`` 0.02 to 0.05),
+#: 0.88 on the lying one's far side in 5 axes (bull:8:1 and flat:6, scallop 0.1 mm, lead
+#: 10 degrees, ``kappa_n R`` 0.05 to 0.1): the shortfall grows with the bend. With
+#: ``0.02 + 2 kappa_n R`` the lowest read 1.007 on those three (``0.04 + 1.0 kappa_n R``
+#: 0.98; the former flat 0.04, 0.915).
+BEND_AWAY_SHARE = 0.02
+
+#: ... (per unit of ``kappa_n R``) ...
+BEND_AWAY_GROWTH = 2.0
+
+#: ... up to this ``kappa_n R``; beyond, the ray cast decides (a margin of 0.22 of the
+#: cusp and more ranks a seed's estimate far above its cusp; the bend's shortfall was
+#: measured below it).
+BEND_AWAY_CAP = 0.1
 
 
 def _bend_away(volume: CutVolume, piece: NDArray[np.int64], normal: NDArray[np.float64]
