@@ -23,9 +23,11 @@ from .cut_volume import CutVolume
 from .cutters import radial_directions
 from .torus_profile import profile_ridges
 
-__all__ = ["BEND_AWAY", "BEND_AWAY_SHARE", "CONTACT_ALONG_SHARE", "CONTACT_WALKS",
-           "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING", "PIVOT_TURN",
-           "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates", "torus_cusp_estimates"]
+__all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
+           "BEND_AWAY_SHARE", "CARRY_PIECES", "CARRY_TURN", "CONTACT_ALONG_SHARE",
+           "CONTACT_WALKS", "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING",
+           "PIVOT_TURN", "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates",
+           "torus_cusp_estimates"]
 
 
 #: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
@@ -220,8 +222,10 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
 
     Returns NaN where no next pass lies within that reach, the own piece has no length,
     a pass's cutter turns round its contact (:data:`PIVOT_TURN`), a pass runs across that
-    plane more steeply than :data:`~.torus_profile.LEAST_WAY_COSINE` or the sections do
-    not meet nearest the surface (the ray cast decides there).
+    plane more steeply than :data:`~.torus_profile.LEAST_WAY_COSINE`, the sections do
+    not meet nearest the surface, a pass ends or turns before the pose whose cutter leaves
+    the ridge (:func:`_runs_on`) or runs along its cutter's axis (:data:`AXIS_WAY_COSINE`):
+    the ray cast decides there.
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -277,13 +281,25 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     # the sections in the plane of the seed's line of t (where the ray cast meets the
     # ridge), each pass's prism along the way the cutter's point at the contact moves
     n = seeds.n[ok]
-    x, met = profile_ridges(own_c, next_c, own_axis, next_axis, own_way, next_way, n,
-                            through=seeds.q[ok], across=unit(np.cross(seeds.x_s[ok], n)),
-                            radius_mm=big, corner_radius_mm=r,
-                            flute_length_mm=cutter.flute_length_mm)
+    across = unit(np.cross(seeds.x_s[ok], n))
+    ridge = profile_ridges(own_c, next_c, own_axis, next_axis, own_way, next_way, n,
+                           through=seeds.q[ok], across=across, radius_mm=big,
+                           corner_radius_mm=r, flute_length_mm=cutter.flute_length_mm)
+    # each prism holds only where its pass runs on, straight, to the pose that leaves the
+    # ridge, and does not run along its cutter's axis (AXIS_WAY_COSINE)
+    met = ridge.found & _runs_on(volume, j_own[live], own_c, own_axis, ridge.own_way,
+                                 ridge.own_normal, ridge.point, across)
+    met &= _runs_on(volume, j_next[live], next_c, next_axis, ridge.next_way, ridge.next_normal,
+                    ridge.point, across)
+    met &= np.abs(np.einsum("ij,ij->i", own_way, own_axis)) <= AXIS_WAY_COSINE
+    met &= np.abs(np.einsum("ij,ij->i", next_way, next_axis)) <= AXIS_WAY_COSINE
+    x = ridge.point
     # a pass bending away from the surface sweeps less than its prism: margin the ridge
-    away = np.maximum(_bend_away(volume, j_own[live], n), _bend_away(volume, j_next[live], n))
-    share = np.where(away * big > BEND_AWAY, 1.0 + BEND_AWAY_SHARE, 1.0)
+    # by a share growing with the bend, and cast where it bends more tightly
+    bend = big * np.maximum(_bend_away(volume, j_own[live], n),
+                            _bend_away(volume, j_next[live], n))
+    met &= bend <= BEND_AWAY_CAP
+    share = np.where(bend > BEND_AWAY, 1.0 + BEND_AWAY_SHARE + BEND_AWAY_GROWTH * bend, 1.0)
     out[ok[met]] = share[met] * _ridge_heights(surface, seeds, ok[met], x[met])
     return out
 
@@ -295,11 +311,23 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
 #: crossing: ...
 BEND_AWAY = 0.004
 
-#: ... by up to this share of it: on the standing dev blade in 3 axes (bull:8:1, scallop
-#: 0.03 mm) the estimate over the ray cast read 1.000 and up where the passes run
-#: straight or bend towards the surface and down to 0.968 where they bend away
-#: (``kappa_n`` 0.003 to 0.03 per mm, cusps above half the largest).
-BEND_AWAY_SHARE = 0.04
+#: ... by this share of it, and :data:`BEND_AWAY_GROWTH` times ``kappa_n R`` more: the
+#: estimate over the ray cast read 1.000 and up where the passes run straight or bend
+#: towards the surface, and without a margin down to 0.968 where they bend away on the
+#: standing dev blade in 3 axes (bull:8:1, scallop 0.03 mm, ``kappa_n R`` 0.02 to 0.05),
+#: 0.88 on the lying one's far side in 5 axes (bull:8:1 and flat:6, scallop 0.1 mm, lead
+#: 10 degrees, ``kappa_n R`` 0.05 to 0.1): the shortfall grows with the bend. With
+#: ``0.02 + 2 kappa_n R`` the lowest read 1.007 on those three (``0.04 + 1.0 kappa_n R``
+#: 0.98; the former flat 0.04, 0.915).
+BEND_AWAY_SHARE = 0.02
+
+#: ... (per unit of ``kappa_n R``) ...
+BEND_AWAY_GROWTH = 2.0
+
+#: ... up to this ``kappa_n R``; beyond, the ray cast decides (a margin of 0.22 of the
+#: cusp and more ranks a seed's estimate far above its cusp; the bend's shortfall was
+#: measured below it).
+BEND_AWAY_CAP = 0.1
 
 
 def _bend_away(volume: CutVolume, piece: NDArray[np.int64], normal: NDArray[np.float64]
@@ -319,6 +347,81 @@ def _bend_away(volume: CutVolume, piece: NDArray[np.int64], normal: NDArray[np.f
     with np.errstate(divide="ignore", invalid="ignore"):
         bend = np.where(apart > TINY, np.einsum("ij,ij->i", turn, normal) / apart, 0.0)
     return bend
+
+
+def _runs_on(volume: CutVolume, piece: NDArray[np.int64], centre: NDArray[np.float64],
+             axis: NDArray[np.float64], way: NDArray[np.float64], normal: NDArray[np.float64],
+             ridge: NDArray[np.float64], across: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Whether a pass runs on, straight, from its pose to the pose that leaves the ridge.
+
+    A prism along ``way`` meets the plane of normal ``nu = across`` through ``ridge`` in
+    its section (:func:`~.torus_profile.profile_ridges`); the section's point of outward
+    normal ``m`` (in the plane) there is the cutter's support point ``P`` in the direction
+    ``N = m - (m . way) / (nu . way) nu`` (across the way), ``P = C + r N + (R - r) N_a +
+    (L - r) a [N . a > 0]`` (``N_a`` the unit part of ``N`` across the axis ``a``: corner,
+    ring, flank), carried into the plane ``lambda = (ridge - P) . nu / (way . nu)``
+    along the way: the pose ``C + lambda way``. The pass holds it only where it runs that
+    far from the pose on ``piece`` (its pieces walked, :data:`CARRY_PIECES` at most) with
+    no piece turned off the way by more than :data:`CARRY_TURN`: at a pass's end, or where
+    it turns to link, the prism carries the cutter into the plane from poses the pass
+    never takes.
+    """
+    cutter = volume.cutter
+    a, b, pass_of = volume.piece_a, volume.piece_b, volume.pass_of
+    big, small = cutter.radius_mm, cutter.corner_radius_mm
+    slant = np.einsum("ij,ij->i", way, across)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sup = unit(normal - (np.einsum("ij,ij->i", normal, way) / slant)[:, None] * across)
+        up = np.einsum("ij,ij->i", sup, axis)
+        support = (centre + small * sup + (big - small) * unit(sup - up[:, None] * axis)
+                   + ((cutter.flute_length_mm - small) * (up > 0.0))[:, None] * axis)
+        carry = np.einsum("ij,ij->i", ridge - support, across) / slant
+    # walked along the piece (forward) or against it, from the pose
+    forward = (np.einsum("ij,ij->i", way, b[piece] - a[piece]) >= 0.0) == (carry >= 0.0)
+    least_cos = np.cos(CARRY_TURN)
+    pos, k, left = centre.copy(), piece.copy(), np.abs(carry)
+    held = np.isfinite(left)
+    todo = np.flatnonzero(held)
+    for _ in range(CARRY_PIECES):
+        if not todo.size:
+            break
+        e = b[k[todo]] - a[k[todo]]
+        held[todo] &= np.abs(np.einsum("ij,ij->i", unit(e), way[todo])) >= least_cos
+        end = np.where(forward[todo, None], b[k[todo]], a[k[todo]])
+        run = np.linalg.norm(end - pos[todo], axis=1)
+        on = todo[left[todo] > run]
+        pos[on], left[on] = end[left[todo] > run], left[on] - run[left[todo] > run]
+        k[on] += np.where(forward[on], 1, -1)
+        # the pass ends short of that pose
+        inside = (k[on] >= 0) & (k[on] < len(pass_of))
+        inside[inside] = pass_of[k[on][inside]] == pass_of[piece[on][inside]]
+        held[on[~inside]] = False
+        todo = on[inside & held[on]]
+    held[todo] = False  # farther than CARRY_PIECES pieces
+    return held
+
+
+#: The pass is walked at most this many pieces from the pose to the pose whose cutter
+#: leaves the ridge (:func:`_runs_on`; pieces of ``R / 8``: a flank carried into the
+#: plane from farther is cast) ...
+CARRY_PIECES = 32
+
+#: ... and none of them may turn off the way by more than this, rad: round the lying dev
+#: blade's leading edge (3 axes) the passes run down the wall to the lowest reachable
+#: point and turn there to link, the next pass's tip 0.45 mm over the seed's plane; the
+#: prism carried its cutter into the plane and the estimate read down to 0.07 times the
+#: ray cast (flat:6, scallop 0.06 and 0.1 mm). Below 0.4 rad more seeds are cast
+#: (0.1: 1 in 7 on the lying blade, flat:6) with no low estimate left.
+CARRY_TURN = 0.4
+
+#: A pass whose way runs along its cutter's axis more closely than this cosine is cast:
+#: the prism along it squashes the cutter's whole height (the corner's outer rim ``r`` up,
+#: the flank) into the section, which the pass sweeps only if it runs on straight over
+#: that height. Round the lying dev blade's leading edge, where the 3-axis passes run down
+#: the wall (``|way . a|`` 0.8 to 0.95) and stop, the bull-noses' estimates read down to
+#: 0.16 times the ray cast (bull:8:1 and bull:10:2, scallop 0.1 mm; 0.8 casts twice as many
+#: seeds there with none read low either way).
+AXIS_WAY_COSINE = 0.9
 
 
 def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.float64],

@@ -26,13 +26,16 @@ P'`` and the corner's ``r^2 P P'``, no longer a circle.
 
 from __future__ import annotations
 
+from typing import NamedTuple
+
 import numpy as np
 from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
 
-__all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "profile_ridges"]
+__all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
+           "profile_ridges"]
 
 #: Boundary points per section side. Their normals turn from ``0.25 pi/2`` past straight
 #: down to horizontal, spaced as the square of an even step (dense near the contact,
@@ -52,6 +55,25 @@ LEAST_WAY_COSINE = 0.5
 #: puts it ``2 (R - r) cos(lead)`` off, a contact across the pass a few hundredths): there
 #: the two ways carry it apart; nearer, they carry it alike and its own way's prism holds.
 POSE_OFF_PLANE_SHARE = 0.25
+
+
+class RidgeProfile(NamedTuple):
+    """Where two passes' sections meet (:func:`profile_ridges`), and what met there.
+
+    ``point`` (m, 3): the ridge's bottom, mm (where ``found``); ``found`` (m,): False where
+    the sides do not cross nearest the surface, or a pass runs too steeply across the
+    plane; ``own_normal``, ``next_normal`` (m, 3): each section's outward unit normal at
+    the crossing, in the plane (the sample nearest it); ``own_way``, ``next_way`` (m, 3):
+    the ways the two prisms run along there (the next's along the own way where its pose's
+    section stood higher).
+    """
+
+    point: NDArray[np.float64]
+    found: NDArray[np.bool_]
+    own_normal: NDArray[np.float64]
+    next_normal: NDArray[np.float64]
+    own_way: NDArray[np.float64]
+    next_way: NDArray[np.float64]
 
 
 def _oblique(way: NDArray[np.float64], across: NDArray[np.float64], x: NDArray[np.float64],
@@ -122,8 +144,7 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
                    along: NDArray[np.float64], next_along: NDArray[np.float64],
                    normal: NDArray[np.float64], *, through: NDArray[np.float64],
                    across: NDArray[np.float64], radius_mm: float, corner_radius_mm: float,
-                   flute_length_mm: float, samples: int = PROFILE_SAMPLES
-                   ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+                   flute_length_mm: float, samples: int = PROFILE_SAMPLES) -> RidgeProfile:
     """The bottom of the ridge between two passes' sections in a plane (module docstring).
 
     The plane passes through ``through`` with normal ``across`` (the seed's contact and
@@ -158,12 +179,13 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
 
     Returns
     -------
-    point : ndarray, shape (m, 3)
-        The ridge's bottom, mm (where ``found``).
-    found : ndarray of bool, shape (m,)
-        False where the sides do not cross nearest the surface (the next section below
-        the own contact, or the two apart) in either of the next's sections, or a pass
-        runs more steeply across the plane than :data:`LEAST_WAY_COSINE`.
+    RidgeProfile
+        The ridge's bottom (mm) and whether it was found: not where the sides do not
+        cross nearest the surface (the next section below the own contact, or the two
+        apart) in either of the next's sections, or a pass runs more steeply across the
+        plane than :data:`LEAST_WAY_COSINE`; each section's outward normal at the
+        crossing and the way its prism runs along (to find the pose that leaves the
+        ridge, :func:`~.cusp_estimates.torus_cusp_estimates`).
     """
     m = len(own_centre)
     nu = unit(across)
@@ -192,6 +214,8 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     x1, y1 = _section_side(np.zeros((m, 2)), own_axis, _oblique(u, nu, x, y), psi, ring,
                            corner_radius_mm, lift)
     best_x, best_y = np.zeros(m), np.full(m, -np.inf)
+    # each side's outward normal at the crossing kept (psi), and the next's way
+    own_psi, next_psi, next_way = np.zeros(m), np.zeros(m), w.copy()
     found = ~steep
     # the pose's own section only where its centre stands off the plane by a lead's reach
     off = np.abs(np.einsum("ij,ij->i", d, nu)) > POSE_OFF_PLANE_SHARE * radius_mm
@@ -205,9 +229,25 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         found[rows] &= np.isfinite(y_r)
         higher = y_r > best_y[rows]  # nan (not met) never is
         best_x[rows[higher]], best_y[rows[higher]] = x_r[higher], y_r[higher]
+        hit = rows[higher]
+        own_psi[hit] = psi[_nearest_sample(x1[hit], y1[hit], x_r[higher], y_r[higher])]
+        next_psi[hit] = -psi[::-1][_nearest_sample(x2[higher], y2[higher], x_r[higher],
+                                                   y_r[higher])]
+        next_way[rows[higher]] = way[rows[higher]]
     point = origin + np.where(found, best_x, 0.0)[:, None] * x + np.where(
         found, best_y, 0.0)[:, None] * y
-    return point, found
+
+    def normal_at(angle: NDArray[np.float64]) -> NDArray[np.float64]:
+        """The outward normal ``m = (sin psi, -cos psi)`` in the plane, 3-D."""
+        return np.sin(angle)[:, None] * x - np.cos(angle)[:, None] * y
+
+    return RidgeProfile(point, found, normal_at(own_psi), normal_at(next_psi), u, next_way)
+
+
+def _nearest_sample(xs: NDArray[np.float64], ys: NDArray[np.float64], x: NDArray[np.float64],
+                    y: NDArray[np.float64]) -> NDArray[np.int64]:
+    """Per row, the sample ``(xs, ys)`` (m, k) nearest to ``(x, y)`` (m,)."""
+    return np.argmin((xs - x[:, None]) ** 2 + (ys - y[:, None]) ** 2, axis=1)
 
 
 def _crossing(x1: NDArray[np.float64], y1: NDArray[np.float64], x2: NDArray[np.float64],
