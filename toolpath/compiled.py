@@ -433,7 +433,10 @@ def _project_block(p, sf, search, t, s, dist, lo, hi):
     """:func:`project_points` for points ``lo .. hi - 1``."""
     work = _scratch()
     fr = np.empty((6, 1, 3))
-    pt = np.zeros((6, 1, 3))  # (the second partials stay 0: read, times a zero step)
+    pt = np.empty((6, 1, 3))
+    for k in range(6):  # (the second partials stay 0: read, times a zero step; a loop,
+        for c in range(3):  # as np.zeros compiled three more of numba's kernels)
+            pt[k, 0, c] = 0.0
     # each point is copied into a one-row array of this thread's, searched as row 0:
     # faster than searching p[j] where it lies (measured 10-15 %)
     q1 = np.empty((1, 3))

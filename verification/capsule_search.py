@@ -14,6 +14,11 @@ candidate pairs at a few nanoseconds each, spread over the cores.
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the capsule
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
 behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing (:func:`pair_value`).
+
+The small tests several compiled loops share (:func:`is_candidate`, :func:`centre_cell`,
+:func:`enters_before`, :func:`pair_value`) compile once each, without the wrappers Python
+would call them through (Python must not call them), rather than inlined by numba: numba
+compiled an inlined copy at every call site, slower on a cold start (issue 27).
 """
 
 from __future__ import annotations
@@ -86,7 +91,7 @@ def column_slots(i: int, j: int, k0: int, k1: int, cx: float, cy: float, cz: flo
     return starts[column + lo_k], starts[column + hi_k + 1]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def is_candidate(slot: int, mid: FloatArray, cx: float, cy: float, cz: float,
                  lim2: float) -> bool:
     """Whether the midpoint in ``slot`` lies within ``sqrt(lim2)`` of the centre ``c``.
@@ -98,7 +103,7 @@ def is_candidate(slot: int, mid: FloatArray, cx: float, cy: float, cz: float,
     return mx * mx + my * my + mz * mz <= lim2
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def enters_before(slot: int, mid: FloatArray, half: FloatArray, px: float, py: float,
                   pz: float, dx: float, dy: float, dz: float, outer: float,
                   limit: float) -> bool:
@@ -116,7 +121,7 @@ def enters_before(slot: int, mid: FloatArray, half: FloatArray, px: float, py: f
     return not (room < 0.0 or t - math.sqrt(room) >= limit)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def pair_value(lam_in: float, lam_out: float, cosine: float, behind_cosine: float
                ) -> tuple[float, bool]:
     """Material a piece met in ``[lam_in, lam_out]`` leaves on a dexel, and whether from behind.
@@ -143,7 +148,7 @@ def pair_values(lam_in: FloatArray, lam_out: FloatArray, cosine: FloatArray,
     return value, behind
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def centre_cell(c: float, origin: float, cell: float, n_cells: int, span: int) -> int:
     """The cell of a search centre along one axis; a far (or non-finite) one beyond reach.
 

@@ -60,15 +60,20 @@ class Ridges(NamedTuple):
     pieces: NDArray[np.int64]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _foot(px, py, pz, a, e, j):
+    """The point of piece ``j`` (``a[j] + f e[j]``, ``0 <= f <= 1``) nearest to ``P``.
+
+    (This and :func:`_near` are compiled once each, not inlined by numba: numba compiled
+    an inlined copy at each of their call sites, slower to compile on a cold start.)
+    """
     ee = e[j, 0] * e[j, 0] + e[j, 1] * e[j, 1] + e[j, 2] * e[j, 2]
     f = ((px - a[j, 0]) * e[j, 0] + (py - a[j, 1]) * e[j, 1] + (pz - a[j, 2]) * e[j, 2])
     f = min(max(f / ee, 0.0), 1.0) if ee > 0.0 else 0.0
     return a[j, 0] + f * e[j, 0], a[j, 1] + f * e[j, 1], a[j, 2] + f * e[j, 2]
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _near(points, jj, px, py, pz, reach):
     """Whether binned midpoint ``jj`` lies within ``reach`` of ``P``."""
     d0, d1, d2 = points[jj, 0] - px, points[jj, 1] - py, points[jj, 2] - pz

@@ -160,9 +160,8 @@ def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArr
     bounds = np.r_[starts, len(normals)]
     v = np.ascontiguousarray(normals)
     cov = np.empty((len(starts), 3, 3))
-    _covariances(v, bounds, cov)
     turns = np.empty((len(starts), 3, 3))
-    _turn_moments(v, bounds, turns)
+    _pass_moments(v, bounds, cov, turns)
     poles = np.empty((len(starts), 2, 3))
     poles[:, 0] = np.linalg.eigh(cov)[1][:, :, 0]
     poles[:, 1] = np.linalg.eigh(turns)[1][:, :, 2]
@@ -170,39 +169,35 @@ def _turn_axes(normals: NDArray[np.float64], starts: NDArray[np.int64]) -> NDArr
 
 
 @numba.njit(cache=True)
-def _turn_moments(v, bounds, out):
-    """``out[k]``: sum of ``c c^T`` over ``c = v_i x v_(i+1)`` in ``bounds[k]:bounds[k+1]``."""
+def _pass_moments(v, bounds, cov, turns):
+    """Per pass ``k`` (rows ``bounds[k]:bounds[k + 1]`` of ``v``): covariance and turn moments.
+
+    ``cov[k]``: the covariance of the rows; ``turns[k]``: the sum of ``c c^T`` over
+    ``c = v_i x v_(i+1)``. (One kernel for both: one compile on a cold start, issue 27.)
+    """
     for k in range(bounds.size - 1):
+        a, b = bounds[k], bounds[k + 1]
+        m0 = m1 = m2 = 0.0
+        for i in range(a, b):
+            m0 += v[i, 0]
+            m1 += v[i, 1]
+            m2 += v[i, 2]
+        mean = (m0 / (b - a), m1 / (b - a), m2 / (b - a))
         for c in range(3):
             for d in range(3):
-                out[k, c, d] = 0.0
-        for i in range(bounds[k], bounds[k + 1] - 1):
+                acc = 0.0
+                for i in range(a, b):
+                    acc += (v[i, c] - mean[c]) * (v[i, d] - mean[d])
+                cov[k, c, d] = acc / (b - a)
+                turns[k, c, d] = 0.0
+        for i in range(a, b - 1):
             c0 = v[i, 1] * v[i + 1, 2] - v[i, 2] * v[i + 1, 1]
             c1 = v[i, 2] * v[i + 1, 0] - v[i, 0] * v[i + 1, 2]
             c2 = v[i, 0] * v[i + 1, 1] - v[i, 1] * v[i + 1, 0]
             cv = (c0, c1, c2)
             for c in range(3):
                 for d in range(3):
-                    out[k, c, d] += cv[c] * cv[d]
-
-
-@numba.njit(cache=True)
-def _covariances(v, bounds, out):
-    """``out[k]``: covariance of the rows ``bounds[k]:bounds[k + 1]`` of ``v``."""
-    for k in range(bounds.size - 1):
-        a, b = bounds[k], bounds[k + 1]
-        mean = np.zeros(3)
-        for i in range(a, b):
-            for c in range(3):
-                mean[c] += v[i, c]
-        for c in range(3):  # (a loop: an array division compiled numpy's ufunc machinery)
-            mean[c] /= b - a
-        for c in range(3):
-            for d in range(3):
-                acc = 0.0
-                for i in range(a, b):
-                    acc += (v[i, c] - mean[c]) * (v[i, d] - mean[d])
-                out[k, c, d] = acc / (b - a)
+                    turns[k, c, d] += cv[c] * cv[d]
 
 
 @numba.njit(cache=True)
@@ -239,12 +234,11 @@ def _limit_pass(rows, pole, a, b, rule, out):
     limit_deg = math.degrees(rule.rho)
     x = rows.x
     m = b - a
-    # a basis (ex, ey) of the plane normal to the pole
-    ref = np.array([1.0, 0.0, 0.0]) if abs(pole[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    # a basis (ex, ey) of the plane normal to the pole (tuples: no arrays to compile)
+    ref = (1.0, 0.0, 0.0) if abs(pole[0]) < 0.9 else (0.0, 1.0, 0.0)
     ex = _cross(pole, ref)
     size = math.sqrt(ex[0] ** 2 + ex[1] ** 2 + ex[2] ** 2)
-    for c in range(3):  # (a loop: an array division compiled numpy's ufunc machinery)
-        ex[c] /= size
+    ex = (ex[0] / size, ex[1] / size, ex[2] / size)
     ey = _cross(pole, ex)
     lo, hi, want, beta = _azimuth_tube(rows, pole, ex, ey, a, b, rule)
     x_phi = _azimuth_path(x, beta, a, rule.rho)
@@ -306,7 +300,7 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
             az_l, _ = _polar(nominal[i], pole, ex, ey)
             lead = phi_n[j] + _wrap_pi(az_l - phi_n[j])
             # the way the feed runs round the pole: ahead is increasing azimuth if > 0
-            side = _cross(pole, normals[i])
+            side = _cross(pole, (normals[i, 0], normals[i, 1], normals[i, 2]))
             ahead = feed[i, 0] * side[0] + feed[i, 1] * side[1] + feed[i, 2] * side[2]
             if ahead > LEAD_SIDE_LEAST_SHARE:
                 lo[j] = max(lo[j], min(lead, hi[j]))
@@ -337,9 +331,13 @@ def _azimuth_path(x, beta, a, rho):
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _cross(a, b):
-    """``a x b`` of two 3-vectors, a new array (numba's ``np.cross`` is slow to compile)."""
-    return np.array([a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
-                     a[0] * b[1] - a[1] * b[0]])
+    """``a x b`` of two 3-vectors (an array and a tuple), a tuple.
+
+    (numba's ``np.cross`` is slow to compile, and a new array compiled numpy's array
+    constructor.)
+    """
+    return (a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2],
+            a[0] * b[1] - a[1] * b[0])
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -357,7 +355,7 @@ def _wrap_pi(angle):
     return (angle + math.pi) % (2.0 * math.pi) - math.pi
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def angle_deg_at(a, b, i, j):
     """The angle between unit rows ``a[i]`` and ``b[j]``, deg (``atan2(|a x b|, a . b)``)."""
     c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
@@ -367,7 +365,7 @@ def angle_deg_at(a, b, i, j):
     return math.degrees(math.atan2(math.sqrt(c0 * c0 + c1 * c1 + c2 * c2), dot))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def segment_rate(axes, i, length):
     """Turn of the axis from row ``i`` to ``i + 1`` per ``length``, deg/mm.
 

@@ -94,8 +94,13 @@ def _ints(a: NDArray) -> NDArray[np.int64]:
     return np.ascontiguousarray(a, dtype=np.int64)
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _distance(q, n, lam, tip, axis, cutter):
+    """Signed distance (mm) of the ray's point ``q + lam n`` to the cutter at one pose.
+
+    (Compiled once, not inlined by numba: numba compiled an inlined copy at each of the
+    six call sites of :func:`_entry`, seconds on a cold start.)
+    """
     return cutter_distance(q[0] + lam * n[0] - tip[0], q[1] + lam * n[1] - tip[1],
                            q[2] + lam * n[2] - tip[2], axis[0], axis[1], axis[2],
                            cutter.corner, cutter.radius, cutter.flute)
