@@ -20,9 +20,14 @@ from .fit_report import (
     fit_curve_by_method,
     fit_surface_by_method,
 )
-from .job_process import prepare_job_process
+from .job_process import freeze_at_exit, prepare_job_process
 
-__all__ = ["main"]
+__all__ = ["ONE_SHOT_COMMANDS", "main"]
+
+#: Commands whose process does one job and exits: their objects are frozen at exit, so the
+#: interpreter's exit skips its collections (:func:`~.job_process.freeze_at_exit`); the
+#: service, batch, sender and simulator exit as Python does.
+ONE_SHOT_COMMANDS = frozenset({"fit", "plan", "post", "run", "check", "verify", "gcode-info"})
 
 
 def add_closure_arguments(parser: argparse.ArgumentParser, what: str = "sections") -> None:
@@ -131,6 +136,8 @@ def main(argv: list[str] | None = None) -> int:
     argv = sys.argv[1:] if argv is None else argv
     args = _parser(argv[0] if argv else None).parse_args(argv)
     prepare_job_process()  # memory reuse, idle threads asleep (streamline_cam.job_process)
+    if args.command in ONE_SHOT_COMMANDS:
+        freeze_at_exit()  # skip the exit's collections (streamline_cam.job_process)
     try:
         handler = getattr(args, "handler", None)
         if handler is not None:

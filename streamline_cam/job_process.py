@@ -33,9 +33,13 @@ before the first parallel kernel runs.
 **Exit.** When the interpreter exits it runs the cyclic garbage collector over every object
 left (several full collections while it tears the modules down): with numba's and scipy's
 type registries loaded, 150,000 objects and ~0.4 s of CPU time for memory the system takes
-back anyway. An exit handler freezes them first (:func:`gc.freeze`: the collector leaves
-frozen objects alone); objects are still freed by their reference counts, and the standard
-streams flushed as always. Only at exit: a long-lived process collects as before.
+back anyway. :func:`freeze_at_exit` registers an exit handler that freezes them first
+(:func:`gc.freeze`: the collector leaves frozen objects alone). Objects are still freed by
+their reference counts and the standard streams flushed, but an object kept alive only by a
+reference cycle is then never finalised (a file it holds is not flushed, a temporary file
+not removed). So only the command line's one-shot commands, whose job closes what it opens,
+ask for it (``toolpath run``, ``plan``, ``post``, ``check``, ``verify``, ``fit``...); a
+service, batch, sender or simulator process, and any library caller, exit as Python does.
 
 On a C library without ``mallopt`` (musl, macOS, Windows) the malloc settings are skipped.
 """
@@ -51,8 +55,8 @@ import sys
 from collections.abc import Callable
 from typing import Any, Final, TypeVar
 
-__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "as_job", "prepare_job_process",
-           "release_freed_memory"]
+__all__ = ["MMAP_THRESHOLD_BYTES", "TRIM_THRESHOLD_BYTES", "as_job", "freeze_at_exit",
+           "prepare_job_process", "release_freed_memory"]
 
 F = TypeVar("F", bound=Callable[..., Any])
 
@@ -123,8 +127,11 @@ def release_freed_memory() -> bool:
     return True
 
 
-def _freeze_at_exit() -> None:
-    """Freeze every object when the interpreter exits (once per process; module's text)."""
+def freeze_at_exit() -> None:
+    """Freeze every object when the interpreter exits (once per process).
+
+    For one-shot command-line processes only (module's text).
+    """
     global _freezes_at_exit
     if not _freezes_at_exit:
         atexit.register(gc.freeze)
@@ -140,7 +147,6 @@ def prepare_job_process() -> bool:
     if _done:
         return True
     os.environ.setdefault("OMP_WAIT_POLICY", "PASSIVE")
-    _freeze_at_exit()
     from verification.pages import madvise_switch  # numpy's switch, 1.26 and 2.x
 
     set_hugepage = madvise_switch()

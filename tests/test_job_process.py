@@ -52,16 +52,38 @@ def test_no_c_library_calls_off_linux(monkeypatch):
     assert job_process._mallopt(-3, 1024) is False
 
 
-def test_a_job_process_exits_without_collecting_what_it_loaded():
-    # an exit handler registered before the job's runs after its own: by then every object
-    # is frozen, so the interpreter's exit does not walk them again (issue 27)
-    code = ("import atexit, gc\n"
-            "atexit.register(lambda: print('frozen', gc.get_freeze_count() > 0))\n"
-            "from streamline_cam.job_process import prepare_job_process\n"
-            "prepare_job_process()\n"
-            "prepare_job_process()\n"
-            "print('running', gc.get_freeze_count())\n")
+def _exit_of(code: str) -> list[str]:
+    """What a Python process running ``code`` prints, through its exit handlers."""
     done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split("\n")[:2] == ["running 0", "frozen True"]
+    return done.stdout.strip().split("\n")
+
+
+def test_a_one_shot_command_exits_without_collecting_what_it_loaded(tmp_path):
+    # an exit handler registered before the command's runs after its own: by then every
+    # object is frozen, so the interpreter's exit does not walk them again (issue 27)
+    program = tmp_path / "part.nc"
+    program.write_text("G21 G90\nG1 X1 Y2 F100\nM2\n", encoding="ascii")
+    code = ("import atexit, gc\n"
+            "atexit.register(lambda: print('frozen', gc.get_freeze_count() > 0))\n"
+            "from streamline_cam.cli import main\n"
+            f"main(['gcode-info', {str(program)!r}])\n"
+            "print('running', gc.get_freeze_count())\n")
+    printed = _exit_of(code)
+    assert printed[-2:] == ["running 0", "frozen True"]
+
+
+def test_a_job_in_a_long_lived_process_leaves_the_exit_as_python_does(tmp_path):
+    # a service or library caller: an object kept alive only by a reference cycle is still
+    # finalised at exit (its file flushed), which a frozen exit would skip
+    out = tmp_path / "held.bin"
+    code = ("from streamline_cam.job_process import as_job, prepare_job_process\n"
+            "prepare_job_process()\n"
+            "as_job(lambda: None)()\n"
+            "class Holder: pass\n"
+            "h = Holder(); h.me = h\n"
+            f"h.out = open({str(out)!r}, 'wb'); h.out.write(b'x' * 100)\n"
+            "print('running')\n")
+    assert _exit_of(code) == ["running"]
+    assert out.read_bytes() == b"x" * 100
