@@ -16,13 +16,15 @@ The oracle is the ray cast (:class:`~toolpath.planning.cusp_search.CuspSearch`, 
 method) of the seeds round the edge whose cusps are estimated.
 """
 
+from types import SimpleNamespace
+
 import numpy as np
 import pytest
 from measured_plans import planned
 
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning.cusp_estimates import torus_cusp_estimates
+from toolpath.planning.cusp_estimates import _runs_on, torus_cusp_estimates
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
 
@@ -81,3 +83,42 @@ def test_the_section_estimate_margins_the_ridge_as_far_as_the_passes_bend_away(l
     ratio = guess[far][high] / h[high]
     assert ratio.min() >= LEAST_ESTIMATE_SHARE, np.sort(ratio)[:5]
     assert np.median(ratio) < 1.2  # a margin, not a guess far above every cusp
+
+
+def _pieces(runs):
+    """A cut volume's pieces (only what :func:`_runs_on` reads): ``runs`` of (pass, points),
+    each run's consecutive points a piece; a bull-nose 8 mm, corner 1 mm, flutes 20 mm."""
+    a, b, pass_of = [], [], []
+    for index, points in runs:
+        points = np.asarray(points, dtype=float)
+        a += list(points[:-1])
+        b += list(points[1:])
+        pass_of += [index] * (len(points) - 1)
+    cutter = SimpleNamespace(radius_mm=4.0, corner_radius_mm=1.0, flute_length_mm=20.0)
+    return SimpleNamespace(piece_a=np.array(a), piece_b=np.array(b),
+                           pass_of=np.array(pass_of), cutter=cutter)
+
+
+def _holds(volume, piece, centre_x, ridge_x):
+    """Whether the pass through (centre_x, 0, 0) on ``piece``, way +x, axis +z, holds the
+    pose that leaves a ridge at (ridge_x, 0, 0) in the plane x = ridge_x (normal +y)."""
+    row = np.array
+    return bool(_runs_on(volume, row([piece]), row([[centre_x, 0.0, 0.0]]),
+                         row([[0.0, 0.0, 1.0]]), row([[1.0, 0.0, 0.0]]),
+                         row([[0.0, 1.0, 0.0]]), row([[ridge_x, 0.0, 0.0]]),
+                         row([[1.0, 0.0, 0.0]]))[0])
+
+
+def test_a_pass_holds_a_pose_only_where_it_cuts_on_to_it():
+    # one pass cut over x 0..5, then, after a rapid under the same pass index, over 8..10:
+    # the pose past x = 5 is never taken (the walk read the rapid as cut)
+    xs = np.arange(11.0)
+    line = [[x, 0.0, 0.0] for x in xs]
+    split = _pieces([(0, line[:6]), (0, line[8:])])
+    assert _holds(split, 3, 3.5, 4.5)
+    assert not _holds(split, 3, 3.5, 5.5)
+    assert not _holds(split, 3, 3.5, 6.5)
+    # a pass out to x = 10 and straight back under one index never reaches x = 12
+    spike = _pieces([(0, line + line[::-1][1:])])
+    assert _holds(spike, 5, 5.5, 9.5)
+    assert not _holds(spike, 5, 5.5, 12.0)

@@ -15,7 +15,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ..surface import ParametricSurface
-from ..tolerances import TINY
+from ..tolerances import LENGTH_SLACK_MM, TINY
 from ..vectors import move_axes, unit
 from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, nearest_pieces, ridges
 from .cusp_search import SearchSeeds
@@ -362,7 +362,8 @@ def _runs_on(volume: CutVolume, piece: NDArray[np.int64], centre: NDArray[np.flo
     ring, flank), carried into the plane ``lambda = (ridge - P) . nu / (way . nu)``
     along the way: the pose ``C + lambda way``. The pass holds it only where it runs that
     far from the pose on ``piece`` (its pieces walked, :data:`CARRY_PIECES` at most) with
-    no piece turned off the way by more than :data:`CARRY_TURN`: at a pass's end, or where
+    no piece turned off the way by more than :data:`CARRY_TURN` (nor back along it) and no
+    gap between its pieces (a rapid between two cut runs of one pass): at a pass's end, or where
     it turns to link, the prism carries the cutter into the plane from poses the pass
     never takes.
     """
@@ -376,8 +377,10 @@ def _runs_on(volume: CutVolume, piece: NDArray[np.int64], centre: NDArray[np.flo
         support = (centre + small * sup + (big - small) * unit(sup - up[:, None] * axis)
                    + ((cutter.flute_length_mm - small) * (up > 0.0))[:, None] * axis)
         carry = np.einsum("ij,ij->i", ridge - support, across) / slant
-    # walked along the piece (forward) or against it, from the pose
+    # walked along the piece (forward) or against it, from the pose, towards ``toward``
     forward = (np.einsum("ij,ij->i", way, b[piece] - a[piece]) >= 0.0) == (carry >= 0.0)
+    toward = np.where(carry >= 0.0, 1.0, -1.0)[:, None] * way
+    step = np.where(forward, 1, -1)
     least_cos = np.cos(CARRY_TURN)
     pos, k, left = centre.copy(), piece.copy(), np.abs(carry)
     held = np.isfinite(left)
@@ -385,18 +388,23 @@ def _runs_on(volume: CutVolume, piece: NDArray[np.int64], centre: NDArray[np.flo
     for _ in range(CARRY_PIECES):
         if not todo.size:
             break
-        e = b[k[todo]] - a[k[todo]]
-        held[todo] &= np.abs(np.einsum("ij,ij->i", unit(e), way[todo])) >= least_cos
-        end = np.where(forward[todo, None], b[k[todo]], a[k[todo]])
-        run = np.linalg.norm(end - pos[todo], axis=1)
-        on = todo[left[todo] > run]
-        pos[on], left[on] = end[left[todo] > run], left[on] - run[left[todo] > run]
-        k[on] += np.where(forward[on], 1, -1)
+        kt, fw = k[todo], forward[todo, None]
+        start, end = np.where(fw, a[kt], b[kt]), np.where(fw, b[kt], a[kt])
+        # the piece goes on the way (not back along it), from where the last one ended
+        # (a pass's cut runs may be split by a rapid under one pass index)
+        held[todo] &= np.einsum("ij,ij->i", unit(end - start), toward[todo]) >= least_cos
+        held[todo] &= ((kt == piece[todo])
+                       | (np.linalg.norm(start - pos[todo], axis=1) <= LENGTH_SLACK_MM))
+        run = np.einsum("ij,ij->i", end - pos[todo], toward[todo])  # along the way
+        goes_on = held[todo] & (left[todo] > run)
+        on = todo[goes_on]
+        pos[on], left[on] = end[goes_on], left[on] - run[goes_on]
+        k[on] += step[on]
         # the pass ends short of that pose
         inside = (k[on] >= 0) & (k[on] < len(pass_of))
         inside[inside] = pass_of[k[on][inside]] == pass_of[piece[on][inside]]
         held[on[~inside]] = False
-        todo = on[inside & held[on]]
+        todo = on[inside]
     held[todo] = False  # farther than CARRY_PIECES pieces
     return held
 
