@@ -36,7 +36,8 @@ from .cutters import Cutter
 from .uncut_area import UncutArea
 
 __all__ = ["ESTIMATE_MIN_SEEDS", "ESTIMATE_SHARE", "ESTIMATE_TOP", "ESTIMATE_TOP_MOST",
-           "ESTIMATE_TOP_SHARE", "ScallopMeasurement", "SeedCusps", "measure_scallop", "seed_cusps"]
+           "ESTIMATE_TOP_SHARE", "ScallopMeasurement", "SeedCusps", "cast_beyond_estimates",
+           "measure_scallop", "seed_cusps"]
 
 
 @dataclass(frozen=True)
@@ -86,12 +87,10 @@ ESTIMATE_TOP = 256
 #: ... or this share of the seeds, when more.
 ESTIMATE_TOP_SHARE = 0.01
 
-#: Where more estimates than were cast stand above the largest cusp found by more than
-#: they err (:data:`ESTIMATE_SHARE`: the estimate ranks the seeds poorly there, as on the
-#: elliptic blade in 5 axes), twice as many of the largest are cast, and so on up to this
-#: many: with 256 and then this, the same largest cusp, overall and away from uncut
-#: areas, as 1024 cast at once on every ball row of ``bench_toolpath.py`` and its
-#: ``--sweep``, with about half the ray casts (a fifth on the R50 cap).
+#: Where an estimate not cast still reaches the largest cusp found (the estimate ranks the
+#: seeds poorly there, as on the elliptic blade in 5 axes, or a cluster of alike cusps
+#: reads a little high), twice as many of the largest are cast, and so on up to this many:
+#: a cusp the first cast missed is then found wherever the estimates do not read low.
 ESTIMATE_TOP_MOST = 1024
 
 #: Fewer seeds are all ray cast: the estimate would leave few to skip (it costs about a
@@ -208,7 +207,13 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     guess = np.full(len(seeds.t), np.nan)
     if estimate and len(seeds.t) > estimate_min_seeds:
         count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
-        guess = _cast_beyond_estimates(search, uncut, count, max(count, estimate_top_most))
+        estimates = ball_cusp_estimates if volume.ball else torus_cusp_estimates
+        guess = estimates(volume, surface, seeds)
+        groups = [np.ones(len(seeds.t), dtype=bool)]
+        away = uncut.away(seeds.q, seeds.t, seeds.s)
+        if away is not None:
+            groups.append(away)
+        cast_beyond_estimates(search, guess, groups, count, max(count, estimate_top_most))
     else:
         search.run(np.ones(len(seeds.t), dtype=bool))
     found = ~np.isnan(search.height)
@@ -221,25 +226,19 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                      search.s, search.bracket_s, clear, uncut.fraction)
 
 
-def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int, most: int
-                           ) -> NDArray[np.float64]:
-    """The cusps estimated first; the ray cast where the estimate cannot decide.
+def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
+                          groups: list[NDArray[np.bool_]], count: int, most: int) -> None:
+    """Ray cast where the estimates cannot decide the largest cusp of each group.
 
-    Every seed's cusp from the passes' own geometry (:func:`~.cusp_estimates.ball_cusp_estimates`,
-    :func:`~.cusp_estimates.torus_cusp_estimates`); then
-    the ray cast where no estimate stands, at the ``count`` largest estimates (twice as
-    many while more estimates than that stand above the largest cusp cast by more than
-    they err, up to ``most``), and wherever an estimate stands above the largest cusp the
-    ray cast found by more than it errs (:data:`ESTIMATE_SHARE`; overall, and away from
-    uncut areas as the seeds stand). Returns the estimates.
+    ``guess``: every seed's cusp from the passes' own geometry
+    (:func:`~.cusp_estimates.ball_cusp_estimates`,
+    :func:`~.cusp_estimates.torus_cusp_estimates`; NaN where none stands); ``groups``:
+    masks of the seeds whose largest cusp is reported (all, and away from uncut areas as
+    the seeds stand). Cast: where no estimate stands, the ``count`` largest estimates of each
+    group (twice as many while any estimate not cast reaches the largest cusp cast, up to
+    ``most``), and wherever an estimate stands above the largest cusp the ray cast found by
+    more than it errs (:data:`ESTIMATE_SHARE`). ``search`` holds the casts.
     """
-    seeds = search.seeds
-    estimates = ball_cusp_estimates if search.volume.ball else torus_cusp_estimates
-    guess = estimates(search.volume, search.surface, seeds)
-    groups = [np.ones(len(seeds.t), dtype=bool)]
-    away = uncut.away(seeds.q, seeds.t, seeds.s)
-    if away is not None:
-        groups.append(away)
     first = ~np.isfinite(guess)
     for group in groups:
         first |= _largest_first(guess, group, count)
@@ -251,9 +250,8 @@ def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int, mos
             if not measured.any():  # (the whole group is cast below)
                 break
             top_mm = float(search.height[measured].max())
-            if np.count_nonzero(group & ~search.cast & (guess >= ESTIMATE_SHARE * top_mm)
-                                ) <= top:
-                break
+            if not np.any(group & ~search.cast & (guess >= top_mm)):
+                break  # (no seed left uncast whose estimate reaches what was found)
             top = min(2 * top, most)
             search.run(_largest_first(guess, group, top))
     for group in groups:
@@ -264,7 +262,6 @@ def _cast_beyond_estimates(search: CuspSearch, uncut: UncutArea, count: int, mos
             search.run(group & (guess >= ESTIMATE_SHARE * top))
         else:
             search.run(group)
-    return guess
 
 
 def _largest_first(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int
