@@ -32,9 +32,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["candidate_slots", "centre_cell", "column_slots", "enters_before", "group_ball",
-           "is_candidate", "lowest_capsule_entries", "own_slots", "pair_value", "pair_values",
-           "walk_shape"]
+__all__ = ["candidate_slots", "column_slots", "group_ball", "lowest_capsule_entries",
+           "own_slots", "pair_values", "walk_shape"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]

@@ -24,9 +24,7 @@ __all__ = [
     "LEAST_RATE_SLACK",
     "RATE_MARGIN",
     "RATE_ROUNDS",
-    "angle_deg_at",
     "rate_limited_axes",
-    "segment_rate",
 ]
 
 #: Rounds of :func:`rate_limited_axes` that tighten a pass's in-plane rate where the axis'
@@ -357,7 +355,10 @@ def _wrap_pi(angle):
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def angle_deg_at(a, b, i, j):
-    """The angle between unit rows ``a[i]`` and ``b[j]``, deg (``atan2(|a x b|, a . b)``)."""
+    """The angle between unit rows ``a[i]`` and ``b[j]``, deg (``atan2(|a x b|, a . b)``).
+
+    For kernels only: compiled without a Python wrapper (not in ``__all__``).
+    """
     c0 = a[i, 1] * b[j, 2] - a[i, 2] * b[j, 1]
     c1 = a[i, 2] * b[j, 0] - a[i, 0] * b[j, 2]
     c2 = a[i, 0] * b[j, 1] - a[i, 1] * b[j, 0]
