@@ -142,7 +142,27 @@ class PlaneSurface(AnalyticSurface):
         return np.zeros((n, 3))
 
 
-class SpherePatch(AnalyticSurface):
+class _SharedTrigonometry:
+    """A surface whose partials share one evaluation of its trigonometry.
+
+    ``_trig(t, s)`` computes it, ``_partials_of(trig, dt, ds)`` a partial from it.
+
+    (:meth:`partials_many` gives the same values as :meth:`_partials` order by order: a
+    frame's six partials took six times the trigonometry, most of a Newton step's cost.)
+    """
+
+    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
+                      orders: tuple[tuple[int, int], ...]
+                      ) -> dict[tuple[int, int], NDArray[np.float64]]:
+        """Several partials at once, the trigonometry computed once for all of them."""
+        trig = self._trig(t, s)
+        return {order: self._partials_of(trig, *order) for order in orders}
+
+    def _partials(self, t, s, dt, ds):
+        return self._partials_of(self._trig(t, s), dt, ds)
+
+
+class SpherePatch(_SharedTrigonometry, AnalyticSurface):
     """Part of a sphere: ``t`` along the longitude, ``s`` along the colatitude.
 
     Parameters
@@ -189,25 +209,12 @@ class SpherePatch(AnalyticSurface):
                 "longitude_deg": list(self.lon), "colatitude_deg": list(self.colat),
                 "inside": self.inside}
 
-    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
-                      orders: tuple[tuple[int, int], ...]
-                      ) -> dict[tuple[int, int], NDArray[np.float64]]:
-        """Several partials at once, the sines and cosines computed once for all of them.
-
-        (The same values as :meth:`_partials` order by order: a frame's six partials took
-        six times the trigonometry, most of a Newton step's cost on this surface.)
-        """
-        trig = self._trig(t, s)
-        return {order: self._partials_of(trig, *order) for order in orders}
-
     def _trig(self, t, s):
         """``sin ph, cos ph, sin th, cos th`` and zeros at flat ``t``, ``s``."""
         ph = self._ph0 + t * self._dph
         th = self._th0 + s * self._dth
         return np.sin(ph), np.cos(ph), np.sin(th), np.cos(th), np.zeros_like(t)
 
-    def _partials(self, t, s, dt, ds):
-        return self._partials_of(self._trig(t, s), dt, ds)
 
     def closest_parameters(self, points_mm: NDArray[np.float64]
                            ) -> tuple[NDArray[np.float64], ...]:
@@ -388,7 +395,7 @@ class PocketSurface(AnalyticSurface):
         return np.stack([zero, zero, ly * ly * g * (1.0 / w2 - dyc**2 / w2**2)], axis=1)
 
 
-class EllipticBladeSurface(AnalyticSurface):
+class EllipticBladeSurface(_SharedTrigonometry, AnalyticSurface):
     """Closed elliptic sections stacked along z: a blade-like closed surface.
 
     ``X(t, s) = (a(s) cos 2 pi t, b(s) sin 2 pi t, z0 + s H)`` with ``a``, ``b`` linear in
@@ -423,17 +430,6 @@ class EllipticBladeSurface(AnalyticSurface):
         return {"semi_axes_hub_mm": list(self.hub), "semi_axes_tip_mm": list(self.tip),
                 "z_range_mm": list(self.z_range)}
 
-    def partials_many(self, t: NDArray[np.float64], s: NDArray[np.float64],
-                      orders: tuple[tuple[int, int], ...]
-                      ) -> dict[tuple[int, int], NDArray[np.float64]]:
-        """Several partials at once, the sine and cosine computed once for all of them.
-
-        (The same values as :meth:`_partials` order by order: a frame's six partials took
-        six times the trigonometry, most of a Newton step's cost on this surface.)
-        """
-        trig = self._trig(t, s)
-        return {order: self._partials_of(trig, *order) for order in orders}
-
     def _trig(self, t, s):
         """``cos 2 pi t``, ``sin 2 pi t``, ``a(s)``, ``b(s)`` and ``s`` at flat ``t``, ``s``."""
         th = 2.0 * np.pi * t
@@ -441,8 +437,6 @@ class EllipticBladeSurface(AnalyticSurface):
         return (np.cos(th), np.sin(th), a0 + s * (self.tip[0] - a0),
                 b0 + s * (self.tip[1] - b0), s)
 
-    def _partials(self, t, s, dt, ds):
-        return self._partials_of(self._trig(t, s), dt, ds)
 
     def _partials_of(self, trig, dt, ds):
         """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""
