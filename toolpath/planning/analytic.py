@@ -215,7 +215,6 @@ class SpherePatch(_SharedTrigonometry, AnalyticSurface):
         th = self._th0 + s * self._dth
         return np.sin(ph), np.cos(ph), np.sin(th), np.cos(th), np.zeros_like(t)
 
-
     def closest_parameters(self, points_mm: NDArray[np.float64]
                            ) -> tuple[NDArray[np.float64], ...]:
         """The closest points' ``t``, ``s``: the sphere's radial projection (exact).
@@ -436,7 +435,6 @@ class EllipticBladeSurface(_SharedTrigonometry, AnalyticSurface):
         a0, b0 = self.hub
         return (np.cos(th), np.sin(th), a0 + s * (self.tip[0] - a0),
                 b0 + s * (self.tip[1] - b0), s)
-
 
     def _partials_of(self, trig, dt, ds):
         """The partial ``(dt, ds)`` from :meth:`_trig`'s values."""

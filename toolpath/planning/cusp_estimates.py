@@ -363,9 +363,9 @@ def _runs_on(volume: CutVolume, piece: NDArray[np.int64], centre: NDArray[np.flo
     along the way: the pose ``C + lambda way``. The pass holds it only where it runs that
     far from the pose on ``piece`` (its pieces walked, :data:`CARRY_PIECES` at most) with
     no piece turned off the way by more than :data:`CARRY_TURN` (nor back along it) and no
-    gap between its pieces (a rapid between two cut runs of one pass): at a pass's end, or where
-    it turns to link, the prism carries the cutter into the plane from poses the pass
-    never takes.
+    gap between its pieces (a rapid between two cut runs of one pass): at a pass's end, or
+    where it turns to link, the prism carries the cutter into the plane from poses the
+    pass never takes.
     """
     cutter = volume.cutter
     a, b, pass_of = volume.piece_a, volume.piece_b, volume.pass_of

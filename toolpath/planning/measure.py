@@ -132,7 +132,7 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
     estimate_min_seeds, estimate_top, estimate_top_share, estimate_top_most
         Fewer seeds are all ray cast; else at least the ``estimate_top`` seeds of the
         largest estimates, or that share of the seeds when more, and twice as many while
-        more estimates than that stand above what they find, up to ``estimate_top_most``
+        any estimate not cast reaches the largest cusp cast, up to ``estimate_top_most``
         (defaults :data:`ESTIMATE_MIN_SEEDS`, :data:`ESTIMATE_TOP`,
         :data:`ESTIMATE_TOP_SHARE`, :data:`ESTIMATE_TOP_MOST`).
     """
@@ -234,10 +234,10 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
     (:func:`~.cusp_estimates.ball_cusp_estimates`,
     :func:`~.cusp_estimates.torus_cusp_estimates`; NaN where none stands); ``groups``:
     masks of the seeds whose largest cusp is reported (all, and away from uncut areas as
-    the seeds stand). Cast: where no estimate stands, the ``count`` largest estimates of each
-    group (twice as many while any estimate not cast reaches the largest cusp cast, up to
-    ``most``), and wherever an estimate stands above the largest cusp the ray cast found by
-    more than it errs (:data:`ESTIMATE_SHARE`). ``search`` holds the casts.
+    the seeds stand). Cast: where no estimate stands, the ``count`` largest estimates of
+    each group (twice as many while any estimate not cast reaches the largest cusp cast,
+    up to ``most``), and wherever an estimate stands above the largest cusp the ray cast
+    found by more than it errs (:data:`ESTIMATE_SHARE`). ``search`` holds the casts.
     """
     first = ~np.isfinite(guess)
     for group in groups:

@@ -233,7 +233,7 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         own_psi[hit] = psi[_nearest_sample(x1[hit], y1[hit], x_r[higher], y_r[higher])]
         next_psi[hit] = -psi[::-1][_nearest_sample(x2[higher], y2[higher], x_r[higher],
                                                    y_r[higher])]
-        next_way[rows[higher]] = way[rows[higher]]
+        next_way[hit] = way[hit]
     point = origin + np.where(found, best_x, 0.0)[:, None] * x + np.where(
         found, best_y, 0.0)[:, None] * y
 
