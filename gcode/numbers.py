@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import math
 import re
-from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
@@ -104,6 +103,8 @@ def format_number(
     if abs(value) < 1e15:
         q = round(value * (10**decimals))
     else:  # beyond 2**50 floats are (nearly) integers: exact decimal rounding
+        from fractions import Fraction  # only here: it loads the decimal module
+
         q = round(Fraction(value) * 10**decimals)  # exact, half to even
     digits = str(abs(q))
     sign = "-" if q < 0 else ""
@@ -120,7 +121,8 @@ def format_number(
 
 #: Digits of 0..9999, four ASCII codes each (zero padded): whole parts are written four
 #: digits per table look-up instead of one digit per division.
-_DIGITS4 = np.array([list(f"{i:04d}".encode()) for i in range(10_000)], dtype=np.uint8)
+_DIGITS4 = (ord("0") + np.arange(10_000)[:, None] // np.array([1000, 100, 10, 1]) % 10
+            ).astype(np.uint8)
 # the same rows as one uint32 each: a 1-D gather is far cheaper than a 2-D one
 _DIGITS4_U32 = np.ascontiguousarray(_DIGITS4).view(np.uint32).ravel()
 # keep masks of a right-aligned 4-digit field by digit count 0..4, as uint32 rows
@@ -132,8 +134,9 @@ _KEEP4_LEFT_U32 = (
     np.array([[1] * k + [0] * (4 - k) for k in range(5)], dtype=np.uint8).view(np.uint32).ravel()
 )
 # fraction lengths left after trimming trailing zeros, for up to 4 decimals
+# (``decimals`` less one per trailing zero of the fraction's digits; none left for 0)
 _FRAC_TRIMMED = {
-    d: np.array([len(f"{i:0{d}d}".rstrip("0")) for i in range(10**d)], dtype=np.int8)
+    d: (d - sum(np.arange(10**d) % 10**k == 0 for k in range(1, d + 1))).astype(np.int8)
     for d in range(1, 5)
 }
 
