@@ -19,8 +19,9 @@ ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "scipy", "matplotlib", "fastapi", "uvicorn")
 #: What no help text needs: numpy, the service's event loop, the senders' serial ports.
 NOT_FOR_HELP = (*HEAVY, "numpy", "asyncio", "serial", "pymodbus", "tqdm")
-#: ``check`` reads the program with numpy; it needs no planner, post, sender or service.
-NOT_FOR_CHECK = (*HEAVY, "asyncio", "serial", "pymodbus", "tqdm", "gcode.post",
+#: ``check`` reads the program with numpy; it needs no planner, post, emitter (a file is
+#: checked as written), sender or service.
+NOT_FOR_CHECK = (*HEAVY, "asyncio", "serial", "pymodbus", "tqdm", "gcode.post", "gcode.emitter",
                  "gcode.senders.job", "toolpath.planning.finishing", "toolpath.surface",
                  "streamline_cam.fit_report", "streamline_cam.service.config")
 COMMANDS = sorted(info.name.replace("_", "-") for info in
@@ -79,8 +80,9 @@ def test_check_loads_only_what_checking_needs(tmp_path):
 
 def test_a_planning_command_still_finds_the_planner(tmp_path):
     # the lazy package namespaces resolve every exported name
-    code = ("import gcode, toolpath, toolpath.planning, verification, simulator\n"
-            "for package in (gcode, toolpath, toolpath.planning, verification, simulator):\n"
+    code = ("import gcode, machines, toolpath, toolpath.planning, verification, simulator\n"
+            "for package in (gcode, machines, toolpath, toolpath.planning, verification,\n"
+            "                simulator):\n"
             "    for name in package.__all__:\n"
             "        getattr(package, name)\n"
             "    assert set(package.__all__) <= set(dir(package))\n"
