@@ -13,6 +13,8 @@ modal
     Modal groups, frozen ``ModalState`` and its transition rules.
 numbers
     The one number formatter (scalar and vectorized) and the strict number reader.
+decimals
+    ``Decimals`` per ``NumberKind``: the number grid a dialect writes (no numpy).
 dialects
     ``Dialect`` data and the ``GRBL``, ``LINUXCNC``, ``FANUC``, ``GENERIC`` presets.
 writer
@@ -29,6 +31,8 @@ machine_frame
     Machine joints <-> program words (work origin as G54, controller rotary values).
 arcfit
     ``fit_arcs``: circular arcs through runs of planar points, verified within a tolerance.
+post_defaults
+    The post's default clearance and arc tolerance (no numpy: ``toolpath post --help``).
 post
     ``post(toolpath, machine, dialect, options=PostOptions())``: ``Toolpath`` -> ``Program``
     (kinematics, G93 for 5-axis moves, rate limits, arcs, safe start and end).
@@ -92,8 +96,8 @@ _EXPORTS = {
     "ModalState": "gcode.modal",
     "MotionMode": "gcode.modal",
     "MM_PER_INCH": "gcode.numbers",
-    "Decimals": "gcode.numbers",
-    "NumberKind": "gcode.numbers",
+    "Decimals": "gcode.decimals",
+    "NumberKind": "gcode.decimals",
     "format_array": "gcode.numbers",
     "format_number": "gcode.numbers",
     "read_number": "gcode.numbers",

@@ -31,6 +31,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from gcode.post_defaults import DEFAULT_ARC_TOLERANCE_MM
+
 __all__ = [
     "ARC_MAX_RADIUS_MM",
     "ARC_MAX_SWEEP_DEG",
@@ -41,9 +43,6 @@ __all__ = [
     "fit_arcs",
 ]
 
-#: Default arc-fitting tolerance (mm): 5 um, the finest scallop the planner is asked for,
-#: five times the 1 um coordinate resolution so rounding of the written arc stays inside.
-DEFAULT_ARC_TOLERANCE_MM = 0.005
 #: Fewest points an arc replaces (3 line segments -> 1 arc block: the program shortens).
 ARC_MIN_POINTS = 4
 #: Larger radii stay lines (mm): nearly straight runs gain nothing from an arc, and huge

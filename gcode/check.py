@@ -39,7 +39,6 @@ import numpy as np
 import numpy.typing as npt
 
 from gcode.dialects import Dialect, dialect_by_name
-from gcode.emitter import emit
 from gcode.errors import DialectError, ErrorCode, GCodeError
 from gcode.interpreter import KIND_RAPID, Segments, interpret
 from gcode.machine_frame import joint_columns, machine_axis_names, work_offsets
@@ -269,6 +268,8 @@ def _program_text(program: Program, dialect: Dialect) -> tuple[str, Issue | None
     relaxed = replace(
         dialect, axes=AXES, max_line_length=None, arcs=True, inverse_time=True, tool_change=True
     )
+    from gcode.emitter import emit  # a program object only: checking a file needs no emitter
+
     out = _StringWriter()
     try:
         emit(program, relaxed, out)

@@ -21,7 +21,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from enum import Enum
 
-from gcode.numbers import Decimals
+from gcode.decimals import Decimals
 from gcode.program import (
     AXES,
     Block,

@@ -30,14 +30,12 @@ from __future__ import annotations
 
 import math
 import re
-from dataclasses import dataclass
-from enum import Enum
-from fractions import Fraction
 from functools import lru_cache
 
 import numpy as np
 import numpy.typing as npt
 
+from gcode.decimals import Decimals, NumberKind
 from gcode.errors import ErrorCode, SyntaxGCodeError
 
 __all__ = [
@@ -67,77 +65,6 @@ _NUMBER_RE = re.compile(NUMBER_PATTERN)
 
 # Values whose scaled magnitude exceeds this leave the int64 vector path.
 _VECTOR_LIMIT = 2.0**62
-
-
-class NumberKind(Enum):
-    """Kinds of values that get their own number of decimals."""
-
-    COORD_MM = "coordinate, mm"
-    COORD_INCH = "coordinate, inch"
-    ANGLE = "rotary angle, degrees"
-    FEED_MM = "feed, mm/min"
-    FEED_INCH = "feed, inch/min"
-    INVERSE_TIME = "inverse-time feed, 1/min"
-    SPINDLE = "spindle speed, rev/min"
-    DWELL = "dwell, s"
-
-
-@dataclass(frozen=True, slots=True)
-class Decimals:
-    """Decimals written for each kind of value.
-
-    Parameters
-    ----------
-    coord_mm : int
-        3: 1 um, finer than the step size of hobby and most industrial machines, and the
-        resolution GRBL reports (``N_DECIMAL_COORDVALUE_MM``).
-    coord_inch : int
-        4: 0.0001 in = 2.54 um, GRBL's ``N_DECIMAL_COORDVALUE_INCH``.
-    angle : int
-        3: 0.001 degree, about 1.7 um of arc at 100 mm radius.
-    feed_mm : int
-        1: 0.1 mm/min; feeds are not positions and need no more.
-    feed_inch : int
-        2: 0.01 in/min = 0.254 mm/min.
-    inverse_time : int
-        4: inverse-time F (1/min) of slow long moves can be well below 1, where a
-        relative resolution better than 0.1 % needs 4 decimals.
-    spindle : int
-        0: whole rev/min.
-    dwell : int
-        3: 1 ms.
-    """
-
-    coord_mm: int = 3
-    coord_inch: int = 4
-    angle: int = 3
-    feed_mm: int = 1
-    feed_inch: int = 2
-    inverse_time: int = 4
-    spindle: int = 0
-    dwell: int = 3
-
-    def __post_init__(self) -> None:
-        for name in self.__dataclass_fields__:
-            d = getattr(self, name)
-            if not isinstance(d, int) or not 0 <= d <= 9:
-                raise ValueError(f"Decimals.{name} must be an int in 0..9, got {d!r}")
-
-    def of(self, kind: NumberKind) -> int:
-        """Return the decimals for ``kind``."""
-        return int(getattr(self, _KIND_FIELD[kind]))
-
-
-_KIND_FIELD = {
-    NumberKind.COORD_MM: "coord_mm",
-    NumberKind.COORD_INCH: "coord_inch",
-    NumberKind.ANGLE: "angle",
-    NumberKind.FEED_MM: "feed_mm",
-    NumberKind.FEED_INCH: "feed_inch",
-    NumberKind.INVERSE_TIME: "inverse_time",
-    NumberKind.SPINDLE: "spindle",
-    NumberKind.DWELL: "dwell",
-}
 
 
 def _not_finite(value: float) -> SyntaxGCodeError:
@@ -176,6 +103,8 @@ def format_number(
     if abs(value) < 1e15:
         q = round(value * (10**decimals))
     else:  # beyond 2**50 floats are (nearly) integers: exact decimal rounding
+        from fractions import Fraction  # only here: it loads the decimal module
+
         q = round(Fraction(value) * 10**decimals)  # exact, half to even
     digits = str(abs(q))
     sign = "-" if q < 0 else ""
@@ -192,7 +121,8 @@ def format_number(
 
 #: Digits of 0..9999, four ASCII codes each (zero padded): whole parts are written four
 #: digits per table look-up instead of one digit per division.
-_DIGITS4 = np.array([list(f"{i:04d}".encode()) for i in range(10_000)], dtype=np.uint8)
+_DIGITS4 = (ord("0") + np.arange(10_000)[:, None] // np.array([1000, 100, 10, 1]) % 10
+            ).astype(np.uint8)
 # the same rows as one uint32 each: a 1-D gather is far cheaper than a 2-D one
 _DIGITS4_U32 = np.ascontiguousarray(_DIGITS4).view(np.uint32).ravel()
 # keep masks of a right-aligned 4-digit field by digit count 0..4, as uint32 rows
@@ -204,8 +134,9 @@ _KEEP4_LEFT_U32 = (
     np.array([[1] * k + [0] * (4 - k) for k in range(5)], dtype=np.uint8).view(np.uint32).ravel()
 )
 # fraction lengths left after trimming trailing zeros, for up to 4 decimals
+# (``decimals`` less one per trailing zero of the fraction's digits; none left for 0)
 _FRAC_TRIMMED = {
-    d: np.array([len(f"{i:0{d}d}".rstrip("0")) for i in range(10**d)], dtype=np.int8)
+    d: (d - sum(np.arange(10**d) % 10**k == 0 for k in range(1, d + 1))).astype(np.int8)
     for d in range(1, 5)
 }
 

@@ -71,6 +71,7 @@ from gcode.machine_frame import (
     work_offset_vector,
 )
 from gcode.numbers import MM_PER_INCH, format_number
+from gcode.post_defaults import DEFAULT_CLEARANCE_MM
 from gcode.program import (
     AXES,
     Arc,
@@ -101,9 +102,6 @@ from toolpath.tolerances import ROUND_OFF
 
 __all__ = ["DEFAULT_CLEARANCE_MM", "PostOptions", "post"]
 
-#: Default clearance above the highest point of the path (mm): clears clamps and chips
-#: at rapid rate without a long way back down.
-DEFAULT_CLEARANCE_MM = 5.0
 #: Largest distance of the tool tip from the planned chord under joint interpolation, mm.
 DEFAULT_JOINT_TOLERANCE_MM = 0.002
 # Plane bits of a move: the plane's normal coordinate does not change.

@@ -13,9 +13,11 @@ axes
     :class:`AxisKind`.
 machine
     :class:`Machine`, :class:`KinematicType`, :func:`load_machine` (by name or path),
-    :func:`list_machines`, :func:`machine_from_mapping`. Shipped definitions:
+    :func:`machine_from_mapping`. Shipped definitions:
     ``grbl-router`` (3-axis, grbl), ``trunnion-ac`` (table-table A/C, linuxcnc),
     ``head-table-bc`` (B head, C table, linuxcnc).
+catalog
+    :func:`list_machines`: the shipped definitions by name (standard library only).
 kinematics
     :func:`inverse` / :func:`solve_inverse` (tip + tool axis in the workpiece frame ->
     joints, with branch choice, C unwrap and the singular cone), :func:`forward`,
@@ -25,6 +27,9 @@ limits
     :class:`Violation` records; :func:`raise_for_violations`.
 errors
     :class:`MachineError` and its subclasses.
+
+The names above load on first use (PEP 562), so ``import machines.errors`` or a command's
+``--help`` does not load numpy.
 
 Examples
 --------
@@ -36,52 +41,55 @@ Examples
 []
 """
 
-from machines.axes import Axis, AxisKind, Wrap
-from machines.errors import (
-    KinematicsError,
-    LimitError,
-    MachineDefinitionError,
-    MachineError,
-    RateLimitError,
-    TravelLimitError,
-    UnknownAxisError,
-    UnknownMachineError,
-    UnreachableOrientationError,
-)
-from machines.kinematics import (
-    SINGULAR_CONE_DEG,
-    XYZ_AXIS_TOL_DEG,
-    InverseSolution,
-    controller_values,
-    forward,
-    inverse,
-    solve_inverse,
-)
-from machines.limits import (
-    Quantity,
-    Side,
-    Violation,
-    check_rates,
-    check_travel,
-    min_segment_times,
-    raise_for_violations,
-)
-from machines.machine import (
-    KinematicType,
-    Machine,
-    list_machines,
-    load_machine,
-    machine_from_mapping,
-)
-from machines.units import (
-    MM_PER_INCH,
-    Unit,
-    convert_feed,
-    convert_joints,
-    convert_length,
-    from_mm,
-    to_mm,
-)
+from __future__ import annotations
+
+import importlib
+from typing import Any
+
+from machines.catalog import list_machines
+
+#: Exported names -> defining module, imported on first use (PEP 562): a command's
+#: ``--help``, or ``import machines.errors``, does not load numpy and the kinematics.
+_EXPORTS = {
+    "Axis": "machines.axes",
+    "AxisKind": "machines.axes",
+    "Wrap": "machines.axes",
+    "KinematicsError": "machines.errors",
+    "LimitError": "machines.errors",
+    "MachineDefinitionError": "machines.errors",
+    "MachineError": "machines.errors",
+    "RateLimitError": "machines.errors",
+    "TravelLimitError": "machines.errors",
+    "UnknownAxisError": "machines.errors",
+    "UnknownMachineError": "machines.errors",
+    "UnreachableOrientationError": "machines.errors",
+    "SINGULAR_CONE_DEG": "machines.kinematics",
+    "XYZ_AXIS_TOL_DEG": "machines.kinematics",
+    "InverseSolution": "machines.kinematics",
+    "controller_values": "machines.kinematics",
+    "forward": "machines.kinematics",
+    "inverse": "machines.kinematics",
+    "solve_inverse": "machines.kinematics",
+    "Quantity": "machines.limits",
+    "Side": "machines.limits",
+    "Violation": "machines.limits",
+    "check_rates": "machines.limits",
+    "check_travel": "machines.limits",
+    "min_segment_times": "machines.limits",
+    "raise_for_violations": "machines.limits",
+    "KinematicType": "machines.machine",
+    "Machine": "machines.machine",
+    "load_machine": "machines.machine",
+    "machine_from_mapping": "machines.machine",
+    "MM_PER_INCH": "machines.units",
+    "Unit": "machines.units",
+    "convert_feed": "machines.units",
+    "convert_joints": "machines.units",
+    "convert_length": "machines.units",
+    "from_mm": "machines.units",
+    "to_mm": "machines.units",
+}
+
 
 __all__ = [
     "MM_PER_INCH",
@@ -123,3 +131,15 @@ __all__ = [
     "solve_inverse",
     "to_mm",
 ]
+
+
+def __getattr__(name: str) -> Any:
+    if name not in _EXPORTS:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    value = getattr(importlib.import_module(_EXPORTS[name]), name)
+    globals()[name] = value  # the next read is a plain attribute
+    return value
+
+
+def __dir__() -> list[str]:
+    return sorted(set(globals()) | set(_EXPORTS))

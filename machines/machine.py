@@ -30,11 +30,11 @@ import math
 import tomllib
 from dataclasses import dataclass, field
 from enum import StrEnum
-from importlib import resources
 from pathlib import Path
 from typing import Any
 
 from machines.axes import Axis, AxisKind, Wrap
+from machines.catalog import list_machines, shipped_definitions
 from machines.errors import (
     MachineDefinitionError,
     MachineError,
@@ -451,23 +451,6 @@ def machine_from_mapping(data: dict[str, Any], *, source: str = "<mapping>") -> 
         raise r.fail(str(exc), key) from None
 
 
-def _data_dir() -> Any:
-    return resources.files("machines").joinpath("data")
-
-
-def list_machines() -> list[str]:
-    """Names of the shipped machine definitions, sorted.
-
-    Returns
-    -------
-    list of str
-        One name per ``machines/data/<name>.toml``.
-    """
-    return sorted(
-        p.name[: -len(".toml")] for p in _data_dir().iterdir() if p.name.endswith(".toml")
-    )
-
-
 def _read_toml(text: str, source: str) -> Machine:
     try:
         data = tomllib.loads(text)
@@ -506,7 +489,7 @@ def load_machine(name_or_path: str | Path) -> Machine:
         or text_name.endswith(".toml")
     )
     if not looks_like_path:
-        resource = _data_dir().joinpath(f"{text_name}.toml")
+        resource = shipped_definitions().joinpath(f"{text_name}.toml")
         if resource.is_file():
             return _read_toml(resource.read_text(encoding="utf-8"), str(resource))
     path = Path(name_or_path)

@@ -13,7 +13,6 @@ import argparse
 import sys
 import time
 
-from machines import load_machine
 from simulator.faults import FAULT_NAMES
 
 __all__ = ["add_arguments", "main", "run"]
@@ -54,6 +53,8 @@ def _status_line(snap: dict[str, object]) -> str:
 
 def _work_offsets(args: argparse.Namespace) -> dict[int, tuple[float, ...]] | None:
     """G54 = the machine's work origin (A/B/C 0) unless ``--g54 zero``."""
+    from machines import load_machine  # the machine model (numpy): loaded to run, not to parse
+
     if args.g54 == "zero":
         return None
     origin = load_machine(args.machine).work_origin

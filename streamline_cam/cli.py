@@ -10,16 +10,10 @@ import sys
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
-from toolpath.arrays import as_curve_points, as_positive_length
 from toolpath.errors import ToolpathError
+from toolpath.fit_methods import CURVE_METHODS, SURFACE_METHODS
 
 from .cli_files import CommandLineError, describe_os_error, output_file, output_folder
-from .fit_report import (
-    CURVE_METHODS,
-    SURFACE_METHODS,
-    fit_curve_by_method,
-    fit_surface_by_method,
-)
 from .job_process import freeze_at_exit, prepare_job_process
 
 __all__ = ["ONE_SHOT_COMMANDS", "main"]
@@ -94,6 +88,9 @@ def _register_command_modules(commands: argparse._SubParsersAction,
 
 def _fit_curve(args: argparse.Namespace) -> int:
     from toolpath import read_points
+    from toolpath.arrays import as_curve_points, as_positive_length
+
+    from .fit_report import fit_curve_by_method
 
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
@@ -115,6 +112,9 @@ def _fit_curve(args: argparse.Namespace) -> int:
 
 def _fit_surface(args: argparse.Namespace) -> int:
     from toolpath import as_sections, read_sections
+    from toolpath.arrays import as_positive_length
+
+    from .fit_report import fit_surface_by_method
 
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")

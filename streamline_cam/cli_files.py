@@ -16,9 +16,12 @@ from __future__ import annotations
 import json
 import os
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from toolpath.errors import DataFileError, ToolpathError
-from toolpath.surface import ParametricSurface
+
+if TYPE_CHECKING:
+    from toolpath.surface import ParametricSurface
 
 __all__ = ["CommandLineError", "describe_os_error", "load_surface", "output_file",
            "output_folder", "read_text"]

@@ -11,7 +11,7 @@ from numpy.typing import NDArray
 
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
-from toolpath.linear_system import LINEAR_MODELS
+from toolpath.fit_methods import CURVE_METHODS, LINEAR_MODELS, SURFACE_METHODS
 
 __all__ = [
     "CURVE_METHODS",
@@ -21,9 +21,6 @@ __all__ = [
     "fit_curve_by_method",
     "fit_surface_by_method",
 ]
-
-CURVE_METHODS = ("streamline", "bspline", *LINEAR_MODELS)
-
 
 @dataclass(frozen=True)
 class CurveFitReport:
@@ -153,7 +150,6 @@ def _between_data_lines(mm: float | None, section: int | None, t: float | None,
     return [f"between data      {mm:.6f} mm ({basis}{where})"]
 
 
-SURFACE_METHODS = ("streamline", "bspline")
 #: What ``between_data_mm`` is (``toolpath.between_data``).
 BETWEEN_DATA_BASIS = ("estimate: fit vs the data's interpolating cubic between points "
                       "+ interpolation error")

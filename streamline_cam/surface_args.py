@@ -8,9 +8,8 @@ be given the same options as ``plan`` so both see the surface where it was cut.
 from __future__ import annotations
 
 import argparse
+import math
 from typing import TYPE_CHECKING
-
-import numpy as np
 
 from toolpath.errors import InvalidParameterError
 
@@ -26,7 +25,7 @@ def parse_vector(text: str, name: str) -> tuple[float, float, float]:
         values = tuple(float(v) for v in text.split(","))
     except ValueError:
         values = ()
-    if len(values) != 3 or not all(np.isfinite(values)):
+    if len(values) != 3 or not all(map(math.isfinite, values)):
         raise InvalidParameterError(f"{name} must be three numbers x,y,z, got {text!r}")
     return values  # type: ignore[return-value]
 
@@ -45,6 +44,8 @@ def add_placement_arguments(parser: argparse.ArgumentParser) -> None:
 
 def placed_surface(surface: ParametricSurface, args: argparse.Namespace) -> ParametricSurface:
     """The surface in the workpiece frame as the placement arguments say."""
+    import numpy as np
+
     from toolpath.planning.setup import PlacedSurface, centred_on_table, rotation_from_spec
 
     rotation = rotation_from_spec(args.rotate)

@@ -1,11 +1,14 @@
 """Start-up: commands load the heavy packages only where they use them (issue 27).
 
-A behaviour test, not a timing test: a fresh interpreter runs ``toolpath --help`` or
-``toolpath check`` and reports which of numba, scipy, matplotlib, fastapi it imported.
+A behaviour test, not a timing test: a fresh interpreter runs ``toolpath --help``, a
+command's ``--help`` or ``toolpath check`` and reports which of the heavy packages it
+imported. Help loads none of them, not even numpy: a command module declares its parser
+from numpy-free modules and loads its work in its handler (``streamline_cam.commands``).
 """
 
 import json
 import os
+import pkgutil
 import subprocess
 import sys
 from pathlib import Path
@@ -14,6 +17,15 @@ import pytest
 
 ROOT = Path(__file__).resolve().parents[1]
 HEAVY = ("numba", "scipy", "matplotlib", "fastapi", "uvicorn")
+#: What no help text needs: numpy, the service's event loop, the senders' serial ports.
+NOT_FOR_HELP = (*HEAVY, "numpy", "asyncio", "serial", "pymodbus", "tqdm")
+#: ``check`` reads the program with numpy; it needs no planner, post, emitter (a file is
+#: checked as written), sender or service.
+NOT_FOR_CHECK = (*HEAVY, "asyncio", "serial", "pymodbus", "tqdm", "gcode.post", "gcode.emitter",
+                 "gcode.senders.job", "toolpath.planning.finishing", "toolpath.surface",
+                 "streamline_cam.fit_report", "streamline_cam.service.config")
+COMMANDS = sorted(info.name.replace("_", "-") for info in
+                  pkgutil.iter_modules([str(ROOT / "streamline_cam" / "commands")]))
 
 PROBE = """
 import contextlib, io, json, sys
@@ -29,32 +41,48 @@ print(json.dumps({"code": code, "heavy": sorted(m for m in json.loads(sys.argv[2
 """
 
 
-def _run(argv: list[str], cwd: Path) -> dict:
+def _run(argv: list[str], cwd: Path, heavy: tuple[str, ...] = HEAVY) -> dict:
     env = {**os.environ, "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(argv), json.dumps(HEAVY)],
+    done = subprocess.run([sys.executable, "-c", PROBE, json.dumps(argv), json.dumps(heavy)],
                           cwd=cwd, env=env, capture_output=True, text=True, timeout=120)
     assert done.returncode == 0, done.stderr
     return json.loads(done.stdout.splitlines()[-1])
 
 
-@pytest.mark.parametrize("argv", [["--help"], ["check", "--help"], ["plan", "--help"],
-                                  ["verify", "--help"], ["run", "--help"]])
-def test_help_loads_no_heavy_package(argv, tmp_path):
-    result = _run(argv, tmp_path)
+def test_every_command_is_asked_for_its_help():
+    assert {"check", "plan", "post", "run", "send", "serve", "verify"} <= set(COMMANDS)
+
+
+@pytest.mark.parametrize("argv", [["--help"], ["fit", "--help"], ["fit", "curve", "--help"],
+                                  ["fit", "surface", "--help"], ["demo", "--help"],
+                                  *([command, "--help"] for command in COMMANDS)],
+                         ids=" ".join)
+def test_help_loads_no_heavy_package_nor_numpy(argv, tmp_path):
+    result = _run(argv, tmp_path, NOT_FOR_HELP)
     assert result == {"code": 0, "heavy": []}
 
 
-def test_check_loads_no_heavy_package(tmp_path):
+@pytest.mark.parametrize("argv", [["plan", "--no-such-flag"], ["check", "x.nc"],
+                                  ["post", "x.npz", "--machine", "m", "--coolant", "hot"],
+                                  ["send", "x.nc", "--port", "p", "--mode", "fast"]],
+                         ids=" ".join)
+def test_a_bad_flag_is_refused_without_numpy(argv, tmp_path):
+    result = _run(argv, tmp_path, NOT_FOR_HELP)
+    assert result == {"code": 2, "heavy": []}
+
+
+def test_check_loads_only_what_checking_needs(tmp_path):
     program = tmp_path / "part.nc"
     program.write_text("G21 G90\nG0 X0 Y0 Z5\nG1 X10 Y5 Z-1 F600\nM2\n", encoding="utf-8")
-    result = _run(["check", str(program), "--machine", "grbl-router"], tmp_path)
+    result = _run(["check", str(program), "--machine", "grbl-router"], tmp_path, NOT_FOR_CHECK)
     assert result == {"code": 0, "heavy": []}
 
 
 def test_a_planning_command_still_finds_the_planner(tmp_path):
     # the lazy package namespaces resolve every exported name
-    code = ("import gcode, toolpath, toolpath.planning, verification, simulator\n"
-            "for package in (gcode, toolpath, toolpath.planning, verification, simulator):\n"
+    code = ("import gcode, machines, toolpath, toolpath.planning, verification, simulator\n"
+            "for package in (gcode, machines, toolpath, toolpath.planning, verification,\n"
+            "                simulator):\n"
             "    for name in package.__all__:\n"
             "        getattr(package, name)\n"
             "    assert set(package.__all__) <= set(dir(package))\n"

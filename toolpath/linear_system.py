@@ -30,11 +30,11 @@ from numpy.typing import NDArray
 
 from .arrays import as_curve_points
 from .errors import ConvergenceWarning, InvalidParameterError
+from .fit_methods import LINEAR_MODELS
 from .parametrize import curve_parameters
 
 __all__ = ["LINEAR_MODELS", "LinearSystemCurve", "fit_linear_system"]
 
-LINEAR_MODELS = ("P0", "P1-1", "P1-2", "P2")
 #: P0's budget of residual evaluations, per unknown plus one (``d² + 1``: one forward
 #: difference Jacobian): 20 Levenberg-Marquardt steps. The paper's curves need 1-7 steps
 #: (Example 5: 33 evaluations of the 100 allowed in 2-D); scipy's default

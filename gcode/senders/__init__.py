@@ -13,6 +13,8 @@ grbl_sender, grbl_recovery
     reset) and where to resume.
 link, serial_link
     The link interface; pyserial devices, ``socket://`` URLs and pseudo-terminals.
+stream_options
+    What a user chooses for a stream: ``StreamMode`` (pacing) and ``DEFAULT_BAUD``.
 modbus_map
     The Modbus register map for streaming G-code blocks, as pure data (no pymodbus):
     register table, block-slot layout, commands, states, CRC-16 and word encoding. The

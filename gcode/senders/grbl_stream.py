@@ -64,7 +64,6 @@ import math
 from collections import deque
 from collections.abc import Iterable
 from dataclasses import dataclass
-from enum import StrEnum
 
 from gcode.senders.grbl_events import (
     AlarmRaised,
@@ -89,6 +88,7 @@ from gcode.senders.grbl_messages import (
     parse_message,
 )
 from gcode.senders.job import JobLine
+from gcode.senders.stream_options import StreamMode
 
 __all__ = [
     "RX_BUFFER_BYTES",
@@ -114,13 +114,6 @@ RX_BUFFER_BYTES = 128
 STATUS_INTERVAL_S = 0.2
 
 RT_STATUS, RT_HOLD, RT_RESUME, RT_RESET = b"?", b"!", b"~", b"\x18"
-
-
-class StreamMode(StrEnum):
-    """How lines are paced."""
-
-    CHAR_COUNT = "char-count"
-    SEND_RESPONSE = "send-response"
 
 
 @dataclass(frozen=True, slots=True)

@@ -20,11 +20,10 @@ import time
 import serial
 
 from gcode.senders.errors import LinkLostError
+from gcode.senders.stream_options import DEFAULT_BAUD
 
 __all__ = ["DEFAULT_BAUD", "SerialLink", "open_serial_link", "port_problem"]
 
-#: GRBL 1.1's default baud rate (8N1).
-DEFAULT_BAUD = 115200
 _CHUNK_BYTES = 65536
 _POLL_S = 0.002  # fallback polling step for ports without a file descriptor
 

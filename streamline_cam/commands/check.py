@@ -5,9 +5,8 @@ from __future__ import annotations
 import argparse
 import sys
 
-from gcode.check import Severity, check_program
 from gcode.dialects import dialect_by_name, dialect_names
-from machines import list_machines, load_machine
+from machines.catalog import list_machines
 
 __all__ = ["register"]
 
@@ -29,6 +28,9 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Print ``FILE:LINE: severity code: message`` per issue; 1 on errors, else 0."""
+    from gcode.check import Severity, check_program
+    from machines import load_machine
+
     machine = load_machine(args.machine)
     dialect = dialect_by_name(args.dialect) if args.dialect else None
     try:

@@ -4,11 +4,8 @@ from __future__ import annotations
 
 import argparse
 
-from gcode.check import machine_dialect
 from gcode.dialects import dialect_by_name, dialect_names
-from gcode.parser import parse
-from gcode.summary import summarize
-from machines import list_machines, load_machine
+from machines.catalog import list_machines
 
 from ..cli_files import read_text
 
@@ -32,6 +29,11 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Parse the file strictly and print its summary, one ``name: value`` per line."""
+    from gcode.check import machine_dialect
+    from gcode.parser import parse
+    from gcode.summary import summarize
+    from machines import load_machine
+
     machine = load_machine(args.machine) if args.machine else None
     name = args.dialect or (machine.dialect if machine is not None else "generic")
     dialect = dialect_by_name(name)

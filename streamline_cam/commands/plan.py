@@ -16,9 +16,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from machines import list_machines
-from toolpath.planning.cutters import CUTTER_SPEC_HELP
-from toolpath.planning.options import DEFAULT_FEED_MM_PER_MIN, GOUGE_TOL_MM
+from machines.catalog import list_machines
+from toolpath.planning.defaults import CUTTER_SPEC_HELP, DEFAULT_FEED_MM_PER_MIN, GOUGE_TOL_MM
 
 from ..cli_files import load_surface, output_file
 from ..surface_args import add_placement_arguments, parse_vector, placed_surface

@@ -5,14 +5,10 @@ from __future__ import annotations
 import argparse
 import sys
 
-from gcode.arcfit import DEFAULT_ARC_TOLERANCE_MM
 from gcode.dialects import dialect_by_name, dialect_names
-from gcode.emitter import emit
-from gcode.post import DEFAULT_CLEARANCE_MM, PostOptions, post
+from gcode.post_defaults import DEFAULT_ARC_TOLERANCE_MM, DEFAULT_CLEARANCE_MM
 from gcode.program import CoolantMode, Units
-from gcode.writer import TextWriter
-from machines import list_machines, load_machine
-from toolpath import Toolpath
+from machines.catalog import list_machines
 
 from ..cli_files import output_file
 
@@ -50,6 +46,12 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Post the toolpath; print a one-line summary to stderr when writing a file."""
+    from gcode.emitter import emit
+    from gcode.post import PostOptions, post
+    from gcode.writer import TextWriter
+    from machines import load_machine
+    from toolpath import Toolpath
+
     output = output_file(args.output, "-o")
     machine = load_machine(args.machine)
     dialect = dialect_by_name(args.dialect) if args.dialect else None

@@ -15,20 +15,19 @@ import signal
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from gcode.dialects import dialect_by_name
-from gcode.senders.errors import JobCancelledError, PreflightError, SenderError
-from gcode.senders.grbl_sender import GrblSender, HoldChoice
-from gcode.senders.grbl_stream import StreamMode
-from gcode.senders.job import Job
-from gcode.senders.journal import JobJournal, read_journal
-from gcode.senders.preflight import preflight
-from gcode.senders.progress import Progress, ProgressBar, format_progress
-from gcode.senders.resume import ResumePlan, plan_resume
-from gcode.senders.serial_link import DEFAULT_BAUD, open_serial_link, port_problem
-from machines import list_machines, load_machine
+from gcode.senders.stream_options import DEFAULT_BAUD, StreamMode
+from machines.catalog import list_machines
 
 from ..cli_files import output_file
+
+if TYPE_CHECKING:  # the senders (and pyserial) load when the command runs, not to parse
+    from gcode.senders.grbl_sender import HoldChoice
+    from gcode.senders.job import Job
+    from gcode.senders.journal import JobJournal
+    from gcode.senders.progress import Progress, ProgressBar
+    from gcode.senders.resume import ResumePlan
 
 __all__ = ["register", "run"]
 
@@ -92,6 +91,9 @@ def _say(text: str) -> None:
 
 def _prompt(progress: Progress) -> HoldChoice:
     """Ask resume or cancel on the terminal (EOF or a second Ctrl-C cancels)."""
+    from gcode.senders.grbl_sender import HoldChoice
+    from gcode.senders.progress import format_progress
+
     _say(f"\nfeed hold: {format_progress(progress)}")
     previous = signal.signal(signal.SIGINT, signal.default_int_handler)
     try:
@@ -122,6 +124,14 @@ def _resume_hint(args: argparse.Namespace, line: int | None) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Run ``toolpath send``; returns the exit status."""
+    from gcode.dialects import dialect_by_name
+    from gcode.senders.errors import JobCancelledError, PreflightError, SenderError
+    from gcode.senders.job import Job
+    from gcode.senders.preflight import preflight
+    from gcode.senders.progress import ProgressBar
+    from gcode.senders.serial_link import port_problem
+    from machines import load_machine
+
     output_file(args.journal, "--journal")  # before the port opens
     if args.port is not None:
         problem = port_problem(args.port)
@@ -184,6 +194,8 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _journal(args: argparse.Namespace, job: Job, mode: str, start: int | None) -> JobJournal | None:
+    from gcode.senders.journal import JobJournal
+
     if not args.journal:
         return None
     return JobJournal(
@@ -200,6 +212,10 @@ def _with_sigint(request_hold: Callable[[], None], fn: Callable[[], int]) -> int
 
 
 def _run_grbl(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | None) -> int:
+    from gcode.senders.grbl_sender import GrblSender
+    from gcode.senders.journal import read_journal
+    from gcode.senders.serial_link import open_serial_link
+
     link = open_serial_link(args.port, baud=args.baud)
     sender = GrblSender(link, mode=args.mode, dialect=dialect, on_progress=bar, on_message=_say)
     try:
@@ -286,7 +302,9 @@ def _finish(result, bar: ProgressBar | None) -> int:
 
 
 def _run_modbus(args: argparse.Namespace, job: Job, dialect, bar: ProgressBar | None) -> int:
+    from gcode.senders.journal import read_journal
     from gcode.senders.modbus_sender import ModbusLink, ModbusSender
+    from gcode.senders.resume import plan_resume
 
     try:
         link = ModbusLink(args.modbus)

@@ -4,12 +4,14 @@ from __future__ import annotations
 
 import argparse
 import ipaddress
-import socket
 import sys
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ..cli_files import CommandLineError, output_folder
 from ..cli_types import positive_int
+
+if TYPE_CHECKING:
+    import socket
 
 __all__ = ["register", "serve"]
 
@@ -47,6 +49,8 @@ def _bind(host: str, port: int) -> socket.socket:
     Listening before the banner is printed: a client that reads the banner can connect at
     once (the connection waits in the backlog until uvicorn accepts it).
     """
+    import socket  # loaded to serve, not to parse
+
     family, kind, proto, _, address = socket.getaddrinfo(
         host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)[0]
     sock = socket.socket(family, kind, proto)

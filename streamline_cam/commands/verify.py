@@ -17,8 +17,8 @@ import sys
 
 from gcode.dialects import dialect_by_name, dialect_names
 from gcode.errors import GCodeError
-from machines import list_machines, load_machine
-from toolpath.planning.cutters import CUTTER_SPEC_HELP, parse_cutter
+from machines.catalog import list_machines
+from toolpath.planning.defaults import CUTTER_SPEC_HELP
 from verification.options import (
     DEFAULT_HORIZON_MM,
     DEFAULT_STOCK_MM,
@@ -84,6 +84,8 @@ def register(commands: argparse._SubParsersAction) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Verify; 0 when no gouge exceeds the limit, 1 otherwise, 2 on unreadable files."""
+    from machines import load_machine
+    from toolpath.planning.cutters import parse_cutter
     from verification import verify_file
 
     plot = output_file(args.plot, "--plot")

@@ -9,13 +9,12 @@ from pathlib import Path
 from types import MappingProxyType
 from typing import Final
 
-from .events import HEARTBEAT_S
-
 __all__ = [
     "DEFAULT_MAX_QUEUED",
     "DEFAULT_MAX_UPLOAD_BYTES",
     "DEFAULT_STREAM_TARGETS",
     "EXECUTORS",
+    "HEARTBEAT_S",
     "MAX_ATTEMPTS",
     "ServiceConfig",
     "default_workers",
@@ -35,6 +34,9 @@ simulator by default; real machines are added by the operator (``--target NAME=P
 never by the HTTP client, so a request cannot open an arbitrary port."""
 
 EXECUTORS: Final[tuple[str, ...]] = ("process", "thread")
+
+HEARTBEAT_S: Final[float] = 15.0
+"""A comment line after this long without an event (s): idle connections stay open."""
 
 MAX_ATTEMPTS: Final[int] = 3
 """A job cut short this many times by a crash (its worker process or the service killed
@@ -78,7 +80,7 @@ class ServiceConfig:
         waited for by a thread here. None (default): the local pool of ``executor``.
     heartbeat_s : float
         Seconds between ``: ping`` comments on an idle ``/events`` stream (> 0; see
-        :data:`~streamline_cam.service.events.HEARTBEAT_S`): shorter behind a proxy that
+        :data:`HEARTBEAT_S`): shorter behind a proxy that
         drops connections idle for less.
     """
 

@@ -26,6 +26,7 @@ from contextlib import closing
 from pathlib import Path
 from typing import Any, Final
 
+from .config import HEARTBEAT_S
 from .store import JobRecord, JobStore, StreamRecord
 
 __all__ = [
@@ -40,8 +41,6 @@ __all__ = [
 
 log = logging.getLogger(__name__)
 
-HEARTBEAT_S: Final[float] = 15.0
-"""A comment line after this long without an event (s): idle connections stay open."""
 WATCH_INTERVAL_S: Final[float] = 0.1
 """How often the watcher asks SQLite whether the store changed (s), while anyone listens."""
 RECENT_S: Final[float] = 10.0

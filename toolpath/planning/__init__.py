@@ -25,6 +25,8 @@ finishing
     ``plan_finishing``: probe, spacing, passes, chords, gouge, linking, machine, measure.
 options
     ``FinishingOptions`` (the request) and ``PlannedOptions`` (what the plan works to).
+defaults
+    The request's defaults (feed, gouge tolerance) and the cutter-spec grammar, numpy-free.
 cutters, cutter_kernel
     Ball, flat and bull-nose solids, tips from contacts, shadows; their compiled pieces.
 analytic

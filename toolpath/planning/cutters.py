@@ -45,6 +45,7 @@ from numpy.typing import ArrayLike, NDArray
 
 from ..errors import InvalidParameterError
 from ..vectors import unit
+from .defaults import CUTTER_SPEC_HELP
 
 __all__ = [
     "CUTTER_SPEC_HELP",
@@ -54,12 +55,6 @@ __all__ = [
     "parse_cutter",
     "radial_directions",
 ]
-
-CUTTER_SPEC_HELP: Final[str] = (
-    "KIND:DIAMETER[:CORNER_RADIUS][:flute=LENGTH], all in mm, the number after the kind "
-    "being the DIAMETER (industry convention): ball:6 is a 6 mm ball-nose (radius 3 mm), "
-    "flat:10 a 10 mm flat end mill, bull:10:2 a 10 mm bull-nose with a 2 mm corner radius; "
-    "kinds: ball, flat, bull")
 
 FLAT_EDGE_CURVATURE_PER_MM: Final[float] = 1.0e6
 """Curvature used for the sharp bottom edge of a flat end mill (1/mm): a 1 nm radius,

@@ -7,12 +7,14 @@ problem is, so a machinist can find it on the part.
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from machines.errors import TravelLimitError
-from machines.limits import Violation
 
 from ..errors import ToolpathError
+
+if TYPE_CHECKING:
+    from machines.limits import Violation
 
 __all__ = [
     "GougeError",

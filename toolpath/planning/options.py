@@ -16,6 +16,7 @@ import numpy as np
 from ..errors import InvalidParameterError
 from ..tolerances import NULL_VECTOR
 from .cutters import Cutter, CutterKind
+from .defaults import DEFAULT_FEED_MM_PER_MIN
 from .resolution import GOUGE_TOL_MM, MAX_RESERVE_SHARE
 
 __all__ = [
@@ -34,11 +35,6 @@ __all__ = [
 
 ProgressCallback = Callable[[str, float], None]
 """``progress(stage, fraction)``: ``fraction`` in [0, 1] over the whole plan."""
-
-DEFAULT_FEED_MM_PER_MIN: Final[float] = 1500.0
-"""A finishing feed for a 6 mm carbide ball in steel or titanium at ~10 000 rpm
-(0.05 mm/tooth, 3 flutes); the machine's rate limits slow it where needed."""
-
 
 CONCAVE_UNDERCUT_SHARE: Final[float] = 0.25
 """Share of the scallop allowance given to the chord undercut where passes are concave.

@@ -25,13 +25,9 @@ from machines import Machine
 from machines.axes import AxisKind
 from machines.kinematics import forward, solve_inverse
 
-__all__ = ["GOUGE_TOL_MM", "MAX_RESERVE_SHARE", "rounding_reserve_mm"]
+from .defaults import GOUGE_TOL_MM
 
-GOUGE_TOL_MM: Final[float] = 1e-3
-"""Penetration counted as a gouge, mm: the 1 um grid the G-code writes coordinates to
-(rounding to it moves the cutter by up to about that: a shallower cut is not one a program
-can avoid), far above the 1e-12 mm round-off of exact contacts, and a tenth of a finishing
-chord tolerance (chords dip into convex surfaces by up to that by design)."""
+__all__ = ["GOUGE_TOL_MM", "MAX_RESERVE_SHARE", "rounding_reserve_mm"]
 
 #: The reserve never takes more than this share of a tolerance; where the grid would need
 #: more, the request is finer than the machine's resolution can honour (reported).
