@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -249,7 +250,8 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             seeded = feet[2][rows]
             t0[seeded], s0[seeded] = feet[0][rows[seeded]], feet[1][rows[seeded]]
         if not seeded.all():
-            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1, workers=-1)
+            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1,
+                                            workers=numba.get_num_threads())
             t0[~seeded], s0[~seeded] = samples.t[nearest], samples.s[nearest]
         for lo in range(0, rows.size, chunk):
             part = rows[lo:lo + chunk]
@@ -491,7 +493,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     for _ in range(2):
         x, n = surface.points_and_normals(t[rows], s[rows])
         k = x + (gap[rows] + r)[:, None] * n
-        near_mm, near = samples.tree.query(k, workers=-1)
+        near_mm, near = samples.tree.query(k, workers=numba.get_num_threads())
         wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:
