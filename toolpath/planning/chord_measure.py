@@ -467,22 +467,29 @@ def _cusp_seeds(surface: ParametricSurface, contacts: _EndContacts, first: NDArr
     above the surface there (``mid``: the gap, ``t`` and ``s`` at ``u = 1/2``).
     """
     g_mid, t_mid, s_mid = mid
-    above = g_mid > 0.0
+    is_above = g_mid > 0.0
+    above = np.flatnonzero(is_above)
     m = len(g_mid)
-    tc = np.stack([ends.t_a, t_mid], axis=1)
-    sc = np.stack([ends.s_a, s_mid], axis=1)
-    use = np.stack([np.ones(m, dtype=bool), above], axis=1)
-    seeds_t = np.mod(tc, 1.0)[use] if surface.closed_t else tc[use]
+    # each move's contact, then its middle where that stands above the surface: the
+    # contacts' rows among the seeds (after the middles of the moves before), and the
+    # middles' right after theirs
+    at = np.arange(m) + np.cumsum(is_above) - is_above
+    mid_at = at[above] + 1
+    n = m + above.size
     t_above = np.mod(t_mid[above], 1.0) if surface.closed_t else t_mid[above]
+    seeds_t, seeds_s, seeds_pass = np.empty(n), np.empty(n), np.empty(n, dtype=passes.dtype)
+    seeds_t[at] = np.mod(ends.t_a, 1.0) if surface.closed_t else ends.t_a
+    seeds_t[mid_at] = t_above
+    seeds_s[at], seeds_s[mid_at] = ends.s_a, s_mid[above]
+    seeds_pass[at], seeds_pass[mid_at] = passes, passes[above]
     frames = []
     for contact, at_mid in zip((contacts.point, contacts.normal, contacts.x_s),
                                _points_normals_x_s(surface, t_above, s_mid[above]),
                                strict=True):
-        both = np.empty((m, 2, 3))
-        both[:, 0] = contact[first]
-        both[above, 1] = at_mid
-        frames.append(both[use])
-    return (seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use], *frames)
+        frame = np.empty((n, 3))
+        frame[at], frame[mid_at] = contact[first], at_mid
+        frames.append(frame)
+    return (seeds_t, seeds_s, seeds_pass, *frames)
 
 
 #: A flat or bull-nose contact's foot farther from its corner-circle centre than the
