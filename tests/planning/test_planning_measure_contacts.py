@@ -90,6 +90,28 @@ def test_closed_blade_spiral_across_the_seam():
                                   linking="spiral"))
 
 
+@pytest.mark.parametrize("surface, options", [
+    (EllipticBladeSurface(), {"axis_mode": "lead-tilt", "lead_deg": 10.0, "linking": "spiral"}),
+    (PlacedSurface(SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0),
+                               colatitude_deg=(15.0, 40.0)), np.eye(3)), {"axis_mode": "3"}),
+], ids=["closed blade, 5-axis", "sphere placed (Newton), 3-axis"])
+def test_seeded_contacts_take_one_newton_step_and_match_more_steps(surface, options):
+    # a ball's contacts seeded by their neighbours' feet (between anchors, inside moves)
+    # take SEEDED_CONTACT_NEWTON steps, then more only while the foot still moves; six
+    # steps everywhere (the full method) find the same feet
+    args, kwargs = _chord_inputs(surface, "ball:6", scallop_mm=0.02, chord_tol_mm=0.01,
+                                 **options)
+    assert chord_measure.SEEDED_CONTACT_NEWTON < 6
+    fast = chord_measure.measure_chord(*args, **kwargs)
+    full = chord_measure.measure_chord(*args, **kwargs, seeded_newton=6)
+    assert full.n_moves == fast.n_moves > 100
+    for name in ("max_mm", "overcut_mm", "undercut_mm", "contact_mm"):
+        assert getattr(fast, name) == pytest.approx(getattr(full, name), abs=SAME_GAP_MM)
+    assert np.array_equal(fast.seeds_pass, full.seeds_pass)
+    assert np.abs(fast.seeds_t - full.seeds_t).max() < SAME_PARAMETER
+    assert np.abs(fast.seeds_s - full.seeds_s).max() < SAME_PARAMETER
+
+
 def test_flat_and_bull_nose_contacts_keep_their_own_seeds():
     # a guard of the policy, not of a computation: only a ball's contacts are seeded from
     # the anchors' (a flat or bull-nose cutter's disc search and re-seed check keep a

@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -57,7 +58,7 @@ from .sampling import (
 )
 
 __all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
-           "ChordMeasurement", "measure_chord"]
+           "SEEDED_CONTACT_NEWTON", "ChordMeasurement", "measure_chord"]
 
 
 @dataclass(frozen=True)
@@ -112,10 +113,20 @@ UNDERCUT_NOISE = 1e-6
 #: feet can start in another local minimum's basin (:func:`_unsure_between`).
 FOOT_SPREAD = 2.0
 
-#: Newton steps for a ball's contact, then more while a step still moves the foot by over
+#: Newton steps for a ball's contact searched from the nearest surface sample, then more
+#: while a step still moves the foot by over
 #: :data:`~.local.CONVERGED_MM` (from the nearest sample, three leave the gap within
 #: 1e-12 mm of six on the dev blade).
 BALL_CONTACT_NEWTON = 3
+
+#: Newton steps for a ball's contact searched from a seed its neighbours give (between
+#: anchors: their feet interpolated; inside a move: its ends' feet interpolated), then
+#: more while a step still moves the foot by over :data:`~.local.CONVERGED_MM` (the next
+#: would move it by about that squared over the radius of curvature): such a seed lies
+#: near the foot, and the fixed steps every point paid for beyond the first changed the
+#: gaps by at most 1.4e-10 mm against six steps on bench_toolpath's rows (seeds' ``t``,
+#: ``s`` by 3e-8).
+SEEDED_CONTACT_NEWTON = 1
 
 #: Step in ``u`` of the one-sided difference giving a ball centre's velocity at a move's
 #: ends under joint interpolation (:func:`_ball_slopes`): its error, ``u`` times the
@@ -128,7 +139,8 @@ SLOPE_STEP_U = 1e-4
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, *, machine: Machine | None = None,
                   chunk: int = 100_000, contact_stride: int = CONTACT_STRIDE,
-                  end_slopes: bool = True) -> ChordMeasurement:
+                  end_slopes: bool = True,
+                  seeded_newton: int = SEEDED_CONTACT_NEWTON) -> ChordMeasurement:
     """Measure the chord error of ``toolpath`` (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
@@ -140,13 +152,17 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     one (:func:`_unsure_between`); 1: every one from its sample, the full method.
     ``end_slopes``: a ball's gap model from its exact slopes at the ends and the gap at
     ``u = 1/2`` (module docstring); False: from the gaps at ``u = 1/4, 1/2, 3/4`` (the
-    full method, as for flat and bull-nose cutters).
+    full method, as for flat and bull-nose cutters). ``seeded_newton``: the Newton steps
+    every ball contact seeded by its neighbours' feet takes (between anchors, inside
+    moves), then more while the foot still moves (:data:`SEEDED_CONTACT_NEWTON`; more
+    steps: the full method).
     """
     joints = checked_joints(toolpath, machine)
     move = _cutting_moves(toolpath)
     if not move.size:
         return ChordMeasurement(0.0, 0.0, 0.0, -1, 0.0, 0)
-    contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk, contact_stride)
+    contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk, contact_stride,
+                             seeded_newton)
     contact = float(np.abs(contacts.gap).max())
     worst = np.zeros(move.size)
     over = under = 0.0
@@ -160,7 +176,8 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
                                   contacts.normal[ib], interpolation)
         gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia], contacts.gap[ib],
-                                    max(contact, over, under), interpolation, slopes)
+                                    max(contact, over, under), interpolation, slopes,
+                                    seeded_newton)
         worst[lo:lo + len(seg)] = np.abs(gap).max(axis=1)
         over = max(over, float(-gap.min()))
         under = max(under, float(gap.max()))
@@ -214,7 +231,7 @@ class _EndContacts:
 
 def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, move: NDArray[np.int64], chunk: int,
-                  stride: int) -> _EndContacts:
+                  stride: int, seeded_newton: int = SEEDED_CONTACT_NEWTON) -> _EndContacts:
     """The contact of every cutter location on a cutting move ``move``, once.
 
     Seeded by the surface sample nearest to the cutter's centre (ball) or corner-circle
@@ -222,7 +239,8 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     locations between the anchors :func:`_run_anchors` picks (every ``stride``-th) are
     seeded from the anchors' contacts instead, interpolated along the run (as
     :func:`~.sampling.move_gaps` seeds the points inside a move): a k-d tree query of a
-    point a radius off the surface costs several times its Newton search. Those whose
+    point a radius off the surface costs several times its Newton search, which takes
+    ``seeded_newton`` steps there, then more while the foot moves. Those whose
     foot may be a wrong local one (:func:`_unsure_between`) are then searched from their
     own nearest sample after all. Where the surface gives a ball centre's closest point
     in closed form (``closest_parameters``: a sphere), that is every location's seed (and
@@ -249,7 +267,8 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             seeded = feet[2][rows]
             t0[seeded], s0[seeded] = feet[0][rows[seeded]], feet[1][rows[seeded]]
         if not seeded.all():
-            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1, workers=-1)
+            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1,
+                                            workers=numba.get_num_threads())
             t0[~seeded], s0[~seeded] = samples.t[nearest], samples.s[nearest]
         for lo in range(0, rows.size, chunk):
             part = rows[lo:lo + chunk]
@@ -264,7 +283,7 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         s0 = s[before] + w * (s[after] - s[before])
         gap[between], t[between], s[between] = cutter_gap(
             surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
-            newton=BALL_CONTACT_NEWTON)
+            newton=seeded_newton)
     point, normal, x_s = _points_normals_x_s(surface, t, s)
     unsure = _unsure_between(runs, centres, point, gap) if between.size else between
     if unsure.size:
@@ -365,7 +384,8 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
 
 def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                      gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
-                     joints: JointEnds | None, slopes: NDArray[np.float64] | None
+                     joints: JointEnds | None, slopes: NDArray[np.float64] | None,
+                     seeded_newton: int = SEEDED_CONTACT_NEWTON
                      ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], ...]]:
     """Gaps along moves: at both ends, inside, and at the model's extremes.
 
@@ -374,14 +394,18 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     and where it is highest (:func:`~.sampling.chord_extremes`), on the moves whose
     extreme could be the largest: within half of the largest gap so far (``top_mm`` and
     the places measured). ``joints``: the moves' ends under a machine's joint
-    interpolation, as for :func:`~.sampling.move_gaps`.
+    interpolation, as for :func:`~.sampling.move_gaps`. A ball's Newton search takes
+    ``seeded_newton`` steps and more while its foot moves (seeded between the ends'
+    feet), a flat or bull-nose cutter's two.
 
     Returns ``gap`` (m, k + 4: end, the k places, lowest, highest, end) and the gap, ``t``
     and ``s`` at ``u = 1/2`` (m,).
     """
     u = np.asarray((0.5,) if slopes is not None else CHORD_FRACTIONS, dtype=float)
     m = len(gap_a)
-    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=2, refine_rim=True, joints=joints)
+    newton = seeded_newton if cutter.kind is CutterKind.BALL else 2
+    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=newton, refine_rim=True,
+                           joints=joints)
     low, u_low, high, u_high = chord_extremes(g3, u, end_slopes=slopes)
     top = max(float(np.abs(g3).max()), top_mm)
     # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
@@ -395,7 +419,7 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
             g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
-                                         newton=2, refine_rim=True,
+                                         newton=newton, refine_rim=True,
                                          joints=_joint_rows(joints, sel))[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
@@ -443,22 +467,29 @@ def _cusp_seeds(surface: ParametricSurface, contacts: _EndContacts, first: NDArr
     above the surface there (``mid``: the gap, ``t`` and ``s`` at ``u = 1/2``).
     """
     g_mid, t_mid, s_mid = mid
-    above = g_mid > 0.0
+    is_above = g_mid > 0.0
+    above = np.flatnonzero(is_above)
     m = len(g_mid)
-    tc = np.stack([ends.t_a, t_mid], axis=1)
-    sc = np.stack([ends.s_a, s_mid], axis=1)
-    use = np.stack([np.ones(m, dtype=bool), above], axis=1)
-    seeds_t = np.mod(tc, 1.0)[use] if surface.closed_t else tc[use]
+    # each move's contact, then its middle where that stands above the surface: the
+    # contacts' rows among the seeds (after the middles of the moves before), and the
+    # middles' right after theirs
+    at = np.arange(m) + np.cumsum(is_above) - is_above
+    mid_at = at[above] + 1
+    n = m + above.size
     t_above = np.mod(t_mid[above], 1.0) if surface.closed_t else t_mid[above]
+    seeds_t, seeds_s, seeds_pass = np.empty(n), np.empty(n), np.empty(n, dtype=passes.dtype)
+    seeds_t[at] = np.mod(ends.t_a, 1.0) if surface.closed_t else ends.t_a
+    seeds_t[mid_at] = t_above
+    seeds_s[at], seeds_s[mid_at] = ends.s_a, s_mid[above]
+    seeds_pass[at], seeds_pass[mid_at] = passes, passes[above]
     frames = []
     for contact, at_mid in zip((contacts.point, contacts.normal, contacts.x_s),
                                _points_normals_x_s(surface, t_above, s_mid[above]),
                                strict=True):
-        both = np.empty((m, 2, 3))
-        both[:, 0] = contact[first]
-        both[above, 1] = at_mid
-        frames.append(both[use])
-    return (seeds_t, sc[use], np.broadcast_to(passes[:, None], use.shape)[use], *frames)
+        frame = np.empty((n, 3))
+        frame[at], frame[mid_at] = contact[first], at_mid
+        frames.append(frame)
+    return (seeds_t, seeds_s, seeds_pass, *frames)
 
 
 #: A flat or bull-nose contact's foot farther from its corner-circle centre than the
@@ -491,7 +522,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     for _ in range(2):
         x, n = surface.points_and_normals(t[rows], s[rows])
         k = x + (gap[rows] + r)[:, None] * n
-        near_mm, near = samples.tree.query(k, workers=-1)
+        near_mm, near = samples.tree.query(k, workers=numba.get_num_threads())
         wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:

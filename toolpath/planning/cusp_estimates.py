@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -446,7 +447,7 @@ def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.flo
     n = tree.n
     todo, k = np.arange(len(point)), 16
     while todo.size and n:
-        dist, idx = tree.query(point[todo], k=min(k, n), workers=-1)
+        dist, idx = tree.query(point[todo], k=min(k, n), workers=numba.get_num_threads())
         dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
         idx_ok = np.minimum(idx, n - 1)
         pick = (pass_of[idx_ok] == pass_[todo, None]) == same

@@ -14,6 +14,7 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
@@ -270,7 +271,8 @@ class _OtherPasses:
         todo = np.arange(len(rows))
         k = 16
         while todo.size and k <= 1024:
-            dist, idx = self.tree.query(self.points[rows[todo]], k=min(k, n), workers=-1)
+            dist, idx = self.tree.query(self.points[rows[todo]], k=min(k, n),
+                                        workers=numba.get_num_threads())
             dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
             other = self.passes[np.minimum(idx, n - 1)] != self.passes[rows[todo]][:, None]
             other &= np.isfinite(dist)
