@@ -34,7 +34,8 @@ dexels
 search
     ``Dexels``, ``grid_search``: the searches over the sample grid, deviations.
 extremes
-    ``extreme``: the deepest gouge, largest excess and scallop, refined on finer grids.
+    ``extreme``, ``extremes``: the deepest gouge, largest excess and scallop, refined on
+    finer grids (an extreme two asks share searched once).
 report
     ``VerificationReport`` (JSON via ``to_dict``), ``Location``, ``BlockGouge``,
     ``DeviationStats``, ``JointDeviation``, ``DeviationMap``.

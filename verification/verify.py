@@ -45,7 +45,7 @@ from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex, near_search_radius_mm
 from .errors import VerificationError
-from .extremes import Extreme, border, extreme
+from .extremes import Extreme, border, extremes
 from .options import DexelMethod, VerifyOptions
 from .pages import with_small_pages
 from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
@@ -201,13 +201,10 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     band = max(math.sqrt(2.0 * shape * horizon), samples.spacing_t_mm, samples.spacing_s_mm)
     interior = cut & ~away & ~border(~cut | away, math.ceil(band / samples.spacing_t_mm),
                                      math.ceil(band / samples.spacing_s_mm))
-    kw = {"refine": opts.refine, "collision": opts.collision}
-    max_gouge = extreme(ev, surface, samples, res, dev_grid, cut, largest=False,
-                         limit=-tol, **kw)
-    max_excess = extreme(ev, surface, samples, res, dev_grid, cut, largest=True,
-                          limit=-np.inf, **kw)
-    max_scallop = extreme(ev, surface, samples, res, dev_grid, interior, largest=True,
-                           limit=-np.inf, **kw)
+    max_gouge, max_excess, max_scallop = extremes(
+        ev, surface, samples, res, dev_grid,
+        [(cut, False, -tol), (cut, True, -np.inf), (interior, True, -np.inf)],
+        refine=opts.refine, collision=opts.collision)
     lap("refine")
     stats = DeviationStats.of(dev_grid, samples.area_mm2, tol)
     timings["total"] = float(sum(timings.values()))
