@@ -30,6 +30,8 @@ def test_glibc_takes_the_malloc_settings():
 def test_a_job_hands_its_freed_memory_back_when_it_ends_even_by_an_error(monkeypatch):
     calls = []
     monkeypatch.setattr(job_process, "release_freed_memory", lambda: calls.append("released"))
+    # a long-lived process (a test before may have run a one-shot command in this one)
+    monkeypatch.setattr(job_process, "_freezes_at_exit", False)
 
     @as_job
     def failing_job():
@@ -87,3 +89,17 @@ def test_a_job_in_a_long_lived_process_leaves_the_exit_as_python_does(tmp_path):
             "print('running')\n")
     assert _exit_of(code) == ["running"]
     assert out.read_bytes() == b"x" * 100
+
+
+def test_a_one_shot_process_leaves_the_freed_memory_to_its_exit(tmp_path):
+    # issue 27: the trim after the job only costs time where the exit hands the memory
+    # back; a long-lived process (above) still trims after every job
+    code = ("from streamline_cam import job_process\n"
+            "calls = []\n"
+            "job_process.release_freed_memory = lambda: calls.append('released')\n"
+            "job_process.as_job(lambda: None)()\n"
+            "print('long-lived', calls)\n"
+            "job_process.freeze_at_exit()\n"
+            "job_process.as_job(lambda: None)()\n"
+            "print('one-shot', calls)\n")
+    assert _exit_of(code) == ["long-lived ['released']", "one-shot ['released']"]

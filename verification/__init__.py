@@ -34,7 +34,8 @@ dexels
 search
     ``Dexels``, ``grid_search``: the searches over the sample grid, deviations.
 extremes
-    ``extreme``: the deepest gouge, largest excess and scallop, refined on finer grids.
+    ``extreme``, ``extremes``: the deepest gouge, largest excess and scallop, refined on
+    finer grids (an extreme two asks share searched once).
 report
     ``VerificationReport`` (JSON via ``to_dict``), ``Location``, ``BlockGouge``,
     ``DeviationStats``, ``JointDeviation``, ``DeviationMap``.
@@ -42,7 +43,8 @@ pages
     ``small_pages``: numpy's huge-page request off while a verification runs.
 verify
     ``verify_program``, ``verify_file``, ``verify_toolpath`` (a planner's toolpath as the
-    machine runs it, unrounded), ``program_of_toolpath``, ``load_surface``.
+    machine runs it, unrounded), ``program_of_toolpath``, ``load_surface``,
+    ``design_samples`` (the samples a verification measures on, to take ahead).
 plotting
     ``plot_deviation_map``: the PNG deviation map (the only matplotlib user).
 errors
@@ -86,6 +88,7 @@ _EXPORTS = {
     "VerificationReport": ".report",
     "DesignSamples": ".samples",
     "sample_design": ".samples",
+    "design_samples": ".verify",
     "load_surface": ".verify",
     "program_of_toolpath": ".verify",
     "verify_file": ".verify",
@@ -106,6 +109,7 @@ __all__ = [
     "VerificationError",
     "VerificationReport",
     "VerifyOptions",
+    "design_samples",
     "load_surface",
     "program_of_toolpath",
     "replay",

@@ -9,6 +9,7 @@ uncut stock.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Final
 
@@ -21,7 +22,7 @@ from .dexels import DexelResult
 from .samples import DesignSamples, surface_points_normals
 from .search import Dexels
 
-__all__ = ["Extreme", "border", "extreme"]
+__all__ = ["Extreme", "border", "extreme", "extremes"]
 
 FloatArray = NDArray[np.float64]
 
@@ -59,15 +60,14 @@ def _local_extremes(dev: FloatArray, eligible: NDArray[np.bool_], largest: bool,
     return cand[np.argsort(-val.ravel()[cand])]
 
 
-def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, dev: FloatArray,
-            eligible: NDArray[np.bool_], *, largest: bool, limit: float, k: int,
-            collision: bool) -> Extreme | None:
-    """Three levels of 9 x 9 near searches around the ``k`` most extreme local extremes.
+def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
+            cand: NDArray[np.int64], *, largest: bool, collision: bool) -> Extreme | None:
+    """Three levels of 9 x 9 near searches around the local extremes ``cand``.
 
-    The best point of each candidate is searched once more with the collision search (when
+    ``cand``: flat sample indices, most extreme first (:func:`_local_extremes`). The best
+    point of each candidate is searched once more with the collision search (when
     asked), so a deep gouge only that search sees is measured exactly.
     """
-    cand = _local_extremes(dev, eligible, largest, limit, k)
     if cand.shape[0] == 0:
         return None
     n_s = samples.shape[1]
@@ -103,20 +103,47 @@ def extreme(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
              res: DexelResult, dev: FloatArray, eligible: NDArray[np.bool_], *,
              largest: bool, limit: float, refine: int, collision: bool) -> Extreme | None:
     """The most extreme deviation among eligible samples beyond ``limit``, refined."""
-    flat = np.where(eligible & np.isfinite(dev), dev, np.nan).ravel()
-    if np.isnan(flat).all():
-        return None
-    i = int(np.nanargmax(flat) if largest else np.nanargmin(flat))
-    sign = 1.0 if largest else -1.0
+    return extremes(ev, surface, samples, res, dev, [(eligible, largest, limit)],
+                    refine=refine, collision=collision)[0]
+
+
+def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
+             res: DexelResult, dev: FloatArray,
+             asks: Sequence[tuple[NDArray[np.bool_], bool, float]], *, refine: int,
+             collision: bool) -> list[Extreme | None]:
+    """:func:`extreme` of each ask ``(eligible, largest, limit)``, searching each start once.
+
+    An extreme depends on its mask only through the most extreme eligible sample and the
+    ``refine`` local extremes its refinement starts from: an ask with the same sense,
+    limit, sample and starts as an earlier one (the largest scallop is most often the
+    largest excess, away from the uncut flanks) has the very same searches, so it takes
+    the earlier one's result instead of running them again.
+    """
     n_s = samples.shape[1]
-    best = Extreme(float(flat[i]), float(samples.t[i // n_s]), float(samples.s[i % n_s]),
-                    samples.points.reshape(-1, 3)[i], int(res.move[i]), bool(res.shank[i]))
-    if refine:
-        fine = _refine(ev, surface, samples, dev, eligible, largest=largest, limit=limit,
-                       k=refine, collision=collision)
-        if fine is not None and sign * fine.dev >= sign * best.dev:
-            best = fine
-    return best if sign * best.dev > sign * limit else None
+    found: dict[tuple[bool, float, int, bytes], Extreme | None] = {}
+    out: list[Extreme | None] = []
+    for eligible, largest, limit in asks:
+        flat = np.where(eligible & np.isfinite(dev), dev, np.nan).ravel()
+        if np.isnan(flat).all():
+            out.append(None)
+            continue
+        i = int(np.nanargmax(flat) if largest else np.nanargmin(flat))
+        cand = (_local_extremes(dev, eligible, largest, limit, refine) if refine
+                else np.zeros(0, dtype=np.int64))
+        key = (largest, limit, i, cand.tobytes())
+        if key not in found:
+            sign = 1.0 if largest else -1.0
+            best = Extreme(float(flat[i]), float(samples.t[i // n_s]),
+                           float(samples.s[i % n_s]), samples.points.reshape(-1, 3)[i],
+                           int(res.move[i]), bool(res.shank[i]))
+            if refine:
+                fine = _refine(ev, surface, samples, cand, largest=largest,
+                                      collision=collision)
+                if fine is not None and sign * fine.dev >= sign * best.dev:
+                    best = fine
+            found[key] = best if sign * best.dev > sign * limit else None
+        out.append(found[key])
+    return out
 
 
 def border(bad: NDArray[np.bool_], rt: int, rs: int) -> NDArray[np.bool_]:

@@ -45,7 +45,7 @@ from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex, near_search_radius_mm
 from .errors import VerificationError
-from .extremes import Extreme, border, extreme
+from .extremes import Extreme, border, extremes
 from .options import DexelMethod, VerifyOptions
 from .pages import with_small_pages
 from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
@@ -58,12 +58,12 @@ from .report import (
     Location,
     VerificationReport,
 )
-from .samples import sample_design
+from .samples import DesignSamples, sample_design
 from .search import Dexels, grid_search
 from .vectors import row_norms
 
-__all__ = ["load_surface", "program_of_toolpath", "verify_file", "verify_program",
-           "verify_toolpath"]
+__all__ = ["design_samples", "load_surface", "program_of_toolpath", "verify_file",
+           "verify_program", "verify_toolpath"]
 
 FloatArray = NDArray[np.float64]
 
@@ -115,9 +115,35 @@ def _joints(motion: ToolMotion, tol: float) -> JointDeviation:
 
 
 @with_small_pages
+def design_samples(surface: ParametricSurface, cutter: Cutter, *,
+                   options: VerifyOptions | None = None) -> DesignSamples:
+    """The samples of ``surface`` that :func:`verify_program` measures on (same arguments).
+
+    They depend on the surface, the cutter and the options alone, not on the program: a
+    caller that knows those before the program is written may take the samples ahead (the
+    job does, in a thread while it posts and checks the program) and hand them to
+    :func:`verify_program` as ``samples``.
+
+    Raises
+    ------
+    VerificationError
+        For a surface that is not a ParametricSurface or has no extent.
+    """
+    opts = options if options is not None else VerifyOptions()
+    if not isinstance(surface, ParametricSurface):
+        raise VerificationError(f"surface must be a ParametricSurface, got "
+                                f"{type(surface).__name__}")
+    corner = None if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
+    cfg = opts.resolved(cutter.radius_mm, corner)
+    return sample_design(surface, spacing_t_mm=cfg["spacing_t_mm"],
+                         spacing_s_mm=cfg["spacing_s_mm"], max_samples=opts.max_samples)
+
+
+@with_small_pages
 def verify_program(program: Program, surface: ParametricSurface, machine: Machine,
                    cutter: Cutter, *, options: VerifyOptions | None = None,
-                   offsets: dict[int, tuple[float, ...]] | None = None) -> VerificationReport:
+                   offsets: dict[int, tuple[float, ...]] | None = None,
+                   samples: DesignSamples | None = None) -> VerificationReport:
     """Replay a program on a machine and compare what it cuts with the design surface.
 
     Parameters
@@ -135,6 +161,9 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
         Resolution, horizons, tolerances.
     offsets : dict, optional
         Work offsets G54-G59 (mm, degrees); the machine's work origin when None.
+    samples : DesignSamples, optional
+        :func:`design_samples` of this surface, cutter and options, taken beforehand
+        (default: taken here, after the replay).
 
     Returns
     -------
@@ -165,8 +194,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     motion = replay(program, machine, chord_tol_mm=opts.replay_tol_mm, radius_mm=radius,
                     offsets=offsets)
     lap("replay")
-    samples = sample_design(surface, spacing_t_mm=cfg["spacing_t_mm"],
-                            spacing_s_mm=cfg["spacing_s_mm"], max_samples=opts.max_samples)
+    if samples is None:
+        samples = design_samples(surface, cutter, options=opts)
     lap("samples")
     method = opts.method
     if method is DexelMethod.AUTO:
@@ -201,13 +230,10 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     band = max(math.sqrt(2.0 * shape * horizon), samples.spacing_t_mm, samples.spacing_s_mm)
     interior = cut & ~away & ~border(~cut | away, math.ceil(band / samples.spacing_t_mm),
                                      math.ceil(band / samples.spacing_s_mm))
-    kw = {"refine": opts.refine, "collision": opts.collision}
-    max_gouge = extreme(ev, surface, samples, res, dev_grid, cut, largest=False,
-                         limit=-tol, **kw)
-    max_excess = extreme(ev, surface, samples, res, dev_grid, cut, largest=True,
-                          limit=-np.inf, **kw)
-    max_scallop = extreme(ev, surface, samples, res, dev_grid, interior, largest=True,
-                           limit=-np.inf, **kw)
+    max_gouge, max_excess, max_scallop = extremes(
+        ev, surface, samples, res, dev_grid,
+        [(cut, False, -tol), (cut, True, -np.inf), (interior, True, -np.inf)],
+        refine=opts.refine, collision=opts.collision)
     lap("refine")
     stats = DeviationStats.of(dev_grid, samples.area_mm2, tol)
     timings["total"] = float(sum(timings.values()))
@@ -361,14 +387,15 @@ def load_surface(path: str | Path) -> ParametricSurface:
 
 def verify_file(path: str | Path, surface: ParametricSurface, machine: Machine,
                 cutter: Cutter, *, dialect: Dialect | None = None,
-                options: VerifyOptions | None = None) -> VerificationReport:
+                options: VerifyOptions | None = None,
+                samples: DesignSamples | None = None) -> VerificationReport:
     """Parse a G-code file strictly and verify it (see :func:`verify_program`).
 
     Parameters
     ----------
     path : str or Path
         The G-code file.
-    surface, machine, cutter, options
+    surface, machine, cutter, options, samples
         As for :func:`verify_program`.
     dialect : Dialect, optional
         What the controller accepts; the machine's dialect (restricted to its axes) when
@@ -381,7 +408,8 @@ def verify_file(path: str | Path, surface: ParametricSurface, machine: Machine,
     """
     d = dialect if dialect is not None else dialect_by_name(machine.dialect)
     program = parse_file(path, machine_dialect(machine, d))
-    return verify_program(program, surface, machine, cutter, options=options)
+    return verify_program(program, surface, machine, cutter, options=options,
+                          samples=samples)
 
 
 def program_of_toolpath(toolpath: Toolpath, machine: Machine) -> Program:

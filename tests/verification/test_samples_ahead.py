@@ -1,0 +1,59 @@
+"""Issue 27: the job's verification takes its design samples ahead.
+
+The design samples depend on the surface, the cutter and the options alone
+(:func:`verification.verify.design_samples`): the job takes them in a thread while it posts
+and checks the program (:func:`streamline_cam.pipeline.sample_ahead`), and the verification
+given them reports what it reports when it takes them itself.
+"""
+
+import numpy as np
+import pytest
+from verify_programs import zigzag_raster
+
+from gcode import GRBL, emit_text, parse
+from streamline_cam.pipeline import sample_ahead
+from toolpath.planning.analytic import PlaneSurface
+from verification import VerificationError, VerifyOptions, design_samples, verify_program
+from verification.samples import sample_design
+
+
+def _plane_raster():
+    levels = np.arange(0, 8) * 0.6
+    program = parse(emit_text(zigzag_raster(levels, -5.0, 25.0), GRBL), GRBL)
+    plane = PlaneSurface((0.0, 0.0, 0.0), (20.0, 0.0, 0.0), (0.0, float(levels[-1]), 0.0))
+    return program, plane
+
+
+def test_verification_on_samples_taken_ahead_reports_the_same(router, ball6):
+    program, plane = _plane_raster()
+    options = VerifyOptions(scallop_mm=0.03)
+    own = verify_program(program, plane, router, ball6, options=options).to_dict()
+    samples = design_samples(plane, ball6, options=options)
+    ahead = verify_program(program, plane, router, ball6, options=options,
+                           samples=samples).to_dict()
+    for report in (own, ahead):
+        report.pop("timings_s")
+    assert ahead == own
+    assert tuple(ahead["samples"]) == samples.shape
+
+
+def test_verification_measures_on_the_samples_it_is_given(router, ball6):
+    program, plane = _plane_raster()
+    coarse = sample_design(plane, spacing_t_mm=0.5, spacing_s_mm=0.25, max_samples=10_000)
+    report = verify_program(program, plane, router, ball6, samples=coarse)
+    assert report.samples == coarse.shape == (41, 18)
+
+
+def test_samples_taken_in_a_thread_are_the_verifications_own(ball6):
+    _, plane = _plane_raster()
+    taken = sample_ahead(plane, "ball:6", 0.03)()
+    own = design_samples(plane, ball6, options=VerifyOptions(scallop_mm=0.03))
+    assert taken.shape == own.shape
+    np.testing.assert_array_equal(taken.points, own.points)
+    np.testing.assert_array_equal(taken.area_mm2, own.area_mm2)
+
+
+def test_a_sampling_error_is_raised_where_the_samples_are_asked_for():
+    samples = sample_ahead("not a surface", "ball:6", 0.03)  # started: no error yet
+    with pytest.raises(VerificationError, match="ParametricSurface"):
+        samples()
