@@ -133,7 +133,14 @@ __all__ = [
 ]
 
 
+#: The package's modules, reachable as attributes as when ``__init__`` imported them all.
+_SUBMODULES = frozenset({"axes", "catalog", "errors", "kinematics", "limits", "machine",
+                         "units"})
+
+
 def __getattr__(name: str) -> Any:
+    if name in _SUBMODULES:
+        return importlib.import_module(f"{__name__}.{name}")
     if name not in _EXPORTS:
         raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
     value = getattr(importlib.import_module(_EXPORTS[name]), name)
@@ -142,4 +149,4 @@ def __getattr__(name: str) -> Any:
 
 
 def __dir__() -> list[str]:
-    return sorted(set(globals()) | set(_EXPORTS))
+    return sorted(set(globals()) | set(_EXPORTS) | _SUBMODULES)

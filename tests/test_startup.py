@@ -121,3 +121,17 @@ def test_run_loads_the_senders_only_to_stream(tmp_path):
         cwd=tmp_path, env=env, capture_output=True, text=True, timeout=300)
     assert done.returncode == 0, done.stderr
     assert json.loads(done.stdout.splitlines()[-1]) == {"code": 2, "heavy": []}
+
+
+def test_the_machines_modules_stay_reachable_as_attributes():
+    # before the lazy exports, ``import machines`` imported every module of the package
+    code = ("import machines\n"
+            "for name in ('axes', 'catalog', 'errors', 'kinematics', 'limits', 'machine',\n"
+            "             'units'):\n"
+            "    assert getattr(machines, name).__name__ == 'machines.' + name\n"
+            "    assert name in dir(machines)\n"
+            "print(machines.kinematics.forward.__module__)")
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.strip() == "machines.kinematics"
