@@ -4,7 +4,11 @@ Both projections onto a surface take their steps here, so they cannot drift apar
 compiled one (:mod:`toolpath.compiled`, point by point over a streamline surface's kernel)
 and the numpy one (:func:`toolpath.planning.local.project_to_surface`, for surfaces without
 a kernel, on rows of partials). The functions are numba kernels; the ``*_rows`` ones run
-the same scalar rule over arrays for the numpy caller.
+the same scalar rule over arrays for the numpy caller. The scalar steps only kernels call
+(:func:`newton_step`, :func:`trial`, :func:`clamp_s`, :func:`seam_lerp`,
+:func:`near_seam`) are compiled without the wrappers that let Python call them (not in
+``__all__``; a first run compiled those wrappers for each, issue 27); :func:`wrap_t`,
+:func:`no_farther` and :func:`seam_corner` keep theirs.
 
 **Newton step.** The foot of ``p`` minimizes ``f(t, s) = |X(t, s) - p|^2 / 2``: with
 ``d = X - p`` the gradient is ``(d.X_t, d.X_s)`` and the Hessian
@@ -43,17 +47,12 @@ __all__ = [
     "SEAM_SLACK_MM",
     "SEAM_WINDOW_T",
     "STEP_CLIP",
-    "clamp_s",
     "halve_rows",
-    "near_seam",
-    "newton_step",
     "newton_step_rows",
     "no_farther",
     "seam_corner",
     "seam_corner_rows",
-    "seam_lerp",
     "seam_lerp_rows",
-    "trial",
     "wrap_t",
 ]
 
@@ -82,13 +81,13 @@ def wrap_t(t, closed):
     return min(max(t, 0.0), 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def clamp_s(s):
     """``s`` clipped to [0, 1] (``s`` runs between end sections: never closed)."""
     return min(max(s, 0.0), 1.0)
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def seam_lerp(ta, tb, f, closed):
     """The parameter a fraction ``f`` from ``ta`` to ``tb``: across the seam the short way.
 
@@ -104,7 +103,7 @@ def seam_lerp(ta, tb, f, closed):
     return t - math.floor(t) if closed else t
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def newton_step(fr, j, p, i):
     """The clipped Newton step towards the foot of ``p[i]`` and ``|X - p|^2`` now.
 
@@ -135,7 +134,7 @@ def newton_step(fr, j, p, i):
     return step_t, step_s, d0 * d0 + d1 * d1 + d2 * d2
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def trial(t, s, step_t, step_s, closed):
     """The parameters a step leads to, kept in the domain (the seam rule)."""
     return wrap_t(t - step_t, closed), clamp_s(s - step_s)
@@ -187,7 +186,7 @@ SEAM_WINDOW_T = 1e-3
 SEAM_SLACK_MM = 1e-6
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def near_seam(t):
     """Whether a foot at ``t`` is within :data:`SEAM_WINDOW_T` of a closed surface's seam."""
     return min(t, 1.0 - t) <= SEAM_WINDOW_T

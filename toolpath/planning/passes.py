@@ -276,16 +276,10 @@ def _arclen_rows(points, normals, lift, pid, out):
         if i == 0 or pid[i] != pid[i - 1]:
             out[i] = 0.0
             continue
-        out[i] = out[i - 1] + _lifted_step(points, normals, lift, i)
+        out[i] = out[i - 1] + _lifted_distance(points, normals, i - 1, points, normals, i, lift)
 
 
-@numba.njit(cache=True, inline="always")
-def _lifted_step(points, normals, lift, i):
-    """Distance from row ``i - 1`` to row ``i`` of the points moved ``lift`` along the normals."""
-    return _lifted_distance(points, normals, i - 1, points, normals, i, lift)
-
-
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _lifted_distance(points_a, normals_a, i, points_b, normals_b, j, lift):
     """Distance from row ``i`` of one set to row ``j`` of another, both lifted ``lift``."""
     size2 = 0.0
@@ -315,7 +309,9 @@ def _split_fractions(old: PassFrame, new: PassFrame, after_old: NDArray[np.int64
 @numba.njit(cache=True)
 def _split_fraction_rows(old_points, old_normals, new_points, new_normals, lift, after_old,
                          out):
-    j = 0
+    # (np.int64: a bare 0 is typed Literal[int](0) at first, and _lifted_distance was
+    # compiled for that too)
+    j = np.int64(0)
     while j < after_old.size:
         end = j  # new points j .. end split the move ending at old row after_old[j]
         while end + 1 < after_old.size and after_old[end + 1] == after_old[j]:

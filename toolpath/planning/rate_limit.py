@@ -6,7 +6,11 @@ thin blade the normals cancel. :func:`rate_limited_axes` treats each pass as a t
 an axis ``B`` and limits the axis' azimuth about ``B`` inside a tube round the normal's
 (the lean limit): the axis starts turning before the edge and finishes after it. Compiled
 per pass (numba; one thread: a pass takes microseconds, and a parallel loop here cost
-about 3 s of compiling on a cold start, issue 27).
+about 3 s of compiling on a cold start, issue 27). The parts of one pass's limit called
+from one place each (:func:`_limit_pass`, :func:`_azimuth_tube`, :func:`_azimuth_path`,
+:func:`_fit_tube`) are inlined by numba into :func:`_limit_passes`: a kernel compiled on
+its own links in and optimizes again the machine code of everything it calls, so each
+level of calls compiled the whole rate limit below it once more.
 """
 
 from __future__ import annotations
@@ -221,7 +225,7 @@ def _limit_passes(rows, poles, bounds, rule, out):
                 break
 
 
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@numba.njit(cache=True, inline="always")
 def _limit_pass(rows, pole, a, b, rule, out):
     """One pass (``rows`` ``a:b``) about one pole into ``out``; returns its largest rate.
 
@@ -265,7 +269,7 @@ def _limit_pass(rows, pole, a, b, rule, out):
     return best
 
 
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@numba.njit(cache=True, inline="always")
 def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
     """Bounds ``lo``, ``hi`` of the azimuth about ``pole``, the wanted one, the elevation.
 
@@ -308,7 +312,7 @@ def _azimuth_tube(rows, pole, ex, ey, a, b, rule):
     return lo, hi, want, beta
 
 
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@numba.njit(cache=True, inline="always")
 def _azimuth_path(x, beta, a, rho):
     """A path along which the azimuth may turn 1 per unit at the rate limit ``rho``.
 
@@ -379,7 +383,7 @@ def segment_rate(axes, i, length):
     return np.inf if turn > ANGLE_SLACK_DEG else 0.0
 
 
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+@numba.njit(cache=True, inline="always")
 def _fit_tube(x, lo, hi, want, rate, phi):
     """:func:`_rate_tube` on one pass, its ends pinned if the rate allows it.
 

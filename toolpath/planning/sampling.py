@@ -740,7 +740,7 @@ def _model_extremes_rows(values, inverse, n_grid, samples, out, first, stop):
         out[0, i], out[1, i], out[2, i], out[3, i] = low, at_low, high, at_high
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _gap_slope(u, a, b, c):
     """``g'(u) = (1 - 2u) p + (u - u^2) p'`` with ``p = a + b u + c u^2``."""
     return (1.0 - 2.0 * u) * (a + b * u + c * u * u) + (u - u * u) * (b + 2.0 * c * u)

@@ -224,7 +224,7 @@ SHADOW_HALVINGS = 20
 CHORD_HALVINGS = 30
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _section_height(y, z, x, k, lever):
     """Height of the cutter point ``(y, z)`` (``x`` along the pass) above the section circle.
 
@@ -238,7 +238,7 @@ def _section_height(y, z, x, k, lever):
     return (2.0 * z - k * (y * y + z * z)) / (1.0 + math.sqrt((k * y) ** 2 + (1.0 - k * z) ** 2))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _section_arc(y, z, x, k, lever):
     """Arc from the contact to the foot of the (lifted) point.
 
@@ -250,7 +250,7 @@ def _section_arc(y, z, x, k, lever):
     return y
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _lifted(z, x, lever):
     d = lever + max(z, 0.0)
     if d < math.inf:
@@ -381,7 +381,7 @@ def _shadow_arcs(a11, a12, a21, a22, d1, d2, h, k, lever, r, out):
                                             xa + u_lo * (xb - xa), k[i], lever[i]))
 
 
-@numba.njit(cache=True, inline="always")
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _cast(shadow, origin, theta):
     """The cutter point casting boundary point ``theta``, from the contact: ``y, z, x``."""
     a11, a12, a21, a22, d1, d2, r = shadow
