@@ -188,6 +188,38 @@ def verify_program(gcode: Path, surface: Any, machine: Any, cutter_spec: str, di
                        samples=samples)
 
 
+def in_thread(task: Callable[[], Any], name: str) -> Callable[[], Any]:
+    """Start ``task()`` in a thread; returns a getter that waits for its result.
+
+    The getter raises what ``task`` raised. The thread keeps the caller's budget of
+    compiled-kernel threads (``numba.set_num_threads`` holds per thread, and a new thread
+    would start from ``NUMBA_NUM_THREADS``): a job limited to one thread, as a batch task
+    is, stays within it.
+    """
+    import numba
+
+    kernel_threads = numba.get_num_threads()
+    box: dict[str, Any] = {}
+
+    def run() -> None:
+        numba.set_num_threads(kernel_threads)
+        try:
+            box["result"] = task()
+        except BaseException as exc:  # handed to the getter, raised in the caller's thread
+            box["error"] = exc
+
+    worker = threading.Thread(target=run, name=name, daemon=True)
+    worker.start()
+
+    def result() -> Any:
+        worker.join()
+        if "error" in box:
+            raise box["error"]
+        return box["result"]
+
+    return result
+
+
 def sample_ahead(surface: Any, cutter_spec: str, scallop_mm: float
                  ) -> Callable[[], Any]:
     """Start taking the verification's design samples in a thread; returns their getter.
@@ -196,29 +228,13 @@ def sample_ahead(surface: Any, cutter_spec: str, scallop_mm: float
     (:func:`verification.verify.design_samples`), so the job takes them while it posts
     and checks the program: those stages run in one thread, and on a 2-core machine the
     sampling (0.25 s on the issue-27 blade) then costs no wall time. The getter waits for
-    them and raises what the sampling raised.
+    them and raises what the sampling raised (:func:`in_thread`).
     """
     from verification.verify import design_samples
 
     cutter, options = _verify_setup(cutter_spec, scallop_mm)
-    box: dict[str, Any] = {}
-
-    def take() -> None:
-        try:
-            box["samples"] = design_samples(surface, cutter, options=options)
-        except BaseException as exc:  # handed to the getter, raised in the job's thread
-            box["error"] = exc
-
-    worker = threading.Thread(target=take, name="verify-samples", daemon=True)
-    worker.start()
-
-    def samples() -> Any:
-        worker.join()
-        if "error" in box:
-            raise box["error"]
-        return box["samples"]
-
-    return samples
+    return in_thread(lambda: design_samples(surface, cutter, options=options),
+                     "verify-samples")
 
 
 def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,

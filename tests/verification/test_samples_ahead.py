@@ -57,3 +57,31 @@ def test_a_sampling_error_is_raised_where_the_samples_are_asked_for():
     samples = sample_ahead("not a surface", "ball:6", 0.03)  # started: no error yet
     with pytest.raises(VerificationError, match="ParametricSurface"):
         samples()
+
+
+@pytest.mark.skipif(__import__("numba").config.NUMBA_NUM_THREADS < 2,
+                    reason="needs a kernel-thread budget above one to lower")
+def test_sampling_ahead_keeps_the_callers_kernel_thread_budget():
+    # numba.set_num_threads holds per thread: a batch task limited to one thread must
+    # not take its samples on every core
+    import numba
+
+    from streamline_cam.pipeline import in_thread
+
+    before = numba.get_num_threads()
+    numba.set_num_threads(1)
+    try:
+        assert in_thread(numba.get_num_threads, "budget")() == 1
+    finally:
+        numba.set_num_threads(before)
+
+
+def test_a_failure_in_the_thread_is_raised_by_the_getter():
+    from streamline_cam.pipeline import in_thread
+
+    def fail():
+        raise VerificationError("no extent")
+
+    getter = in_thread(fail, "fails")
+    with pytest.raises(VerificationError, match="no extent"):
+        getter()
