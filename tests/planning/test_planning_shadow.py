@@ -218,6 +218,56 @@ def test_ray_entry_into_a_turning_cutter_equals_dense_poses():
             else got[k] == np.inf
 
 
+
+@pytest.mark.parametrize("spec", ["bull:8:1", "flat:6"])
+def test_a_ray_among_many_pieces_enters_where_dense_poses_of_all_of_them_say(spec):
+    # a pass, its axes leaning to and fro, and one on the far side of a thin wall (axes
+    # reversed: rays falling away from it), rays from beside them into the cutters' sides
+    # and corners: the entry among all the pieces (tried nearest first, those that cannot
+    # be entered before the best so far skipped) is the first height at which some of 51
+    # poses of each piece holds the ray's point
+    from toolpath.planning.sweep_kernel import nearest_entries
+
+    cutter = parse_cutter(spec)
+    rng = np.random.default_rng(5)
+    u = np.linspace(-3.0, 3.0, 13)
+    p0, p1, a0, a1 = [], [], [], []
+    for side in (1.0, -1.0):
+        lean = np.radians(5.0 * np.sin(u))
+        axis = side * np.c_[np.sin(lean), np.zeros(u.size), np.cos(lean)]
+        tip = np.c_[u, np.zeros(u.size), side * (0.5 + 0.03 * u ** 2)]
+        p0 += [tip[:-1]]
+        p1 += [tip[1:]]
+        a0 += [axis[:-1]]
+        a1 += [axis[1:]]
+    p0, p1, a0, a1 = (np.concatenate(x) for x in (p0, p1, a0, a1))
+    m, k = 40, len(p0)
+    q = np.c_[rng.uniform(-2.0, 2.0, m), rng.uniform(-cutter.radius_mm - 0.3,
+                                                      cutter.radius_mm + 0.3, m),
+              rng.uniform(-0.1, 0.1, m)]
+    n = rng.normal(size=(m, 3)) * [0.2, 0.2, 1.0] + [0.0, 0.0, 1.0]
+    # and some beside the far pass, into its side, falling away from its spindle
+    side = np.sign(q[:8, 1])
+    q[:8, 1:] = np.c_[side * (cutter.radius_mm + 0.2), np.full(8, -0.8)]
+    n[:8] = np.c_[np.zeros(8), -0.9 * side, np.full(8, 0.3)]
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    got = nearest_entries(q, n, np.arange(m) * k, np.arange(1, m + 1) * k,
+                          np.tile(np.arange(k), m), p0, p1, a0, a1,
+                          corner_radius_mm=cutter.corner_radius_mm, radius_mm=cutter.radius_mm,
+                          flute_length_mm=cutter.flute_length_mm, horizon_mm=0.6)
+    w = np.linspace(0.0, 1.0, 51)[:, None, None]
+    tips = (p0 + w * (p1 - p0)).reshape(-1, 3)
+    axes = (a0 + w * (a1 - a0)).reshape(-1, 3)
+    axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+    heights = np.linspace(0.0, 0.6, 601)
+    for i in range(m):
+        expected = _first_height_inside(heights, lambda lifts, i=i: (cutter.signed_distance(
+            (q[i] + lifts[:, None] * n[i])[:, None], tips, axes) <= 0.0).any(axis=1), block=20)
+        assert got[i] == pytest.approx(expected, abs=2e-3) if np.isfinite(expected) \
+            else got[i] == np.inf
+    assert 0.2 * m < np.isfinite(got).sum() < 0.9 * m
+
+
 @pytest.mark.parametrize("scallop_mm", [0.1, 0.25])
 def test_bull_nose_rolling_round_a_tight_edge_keeps_the_scallop(scallop_mm):
     # a thin elliptic section (0.27 mm radius at its ends) and a bull-nose 8 mm across in

@@ -23,8 +23,16 @@ capsule, and the ray's entry is the first non-negative root among the cylinder's
 (foot inside the segment) and the two end spheres (:func:`capsule_entries`).
 
 Each ray comes with its pieces (``item[lo:hi]``, :func:`ray_ranges`); rays are computed in
-parallel and keep only their first entry. :func:`nearest_entries` skips the pieces whose
-tip plane the ray meets after it (a lower bound: :func:`_tip_plane_bound`).
+parallel and keep only their first entry. :func:`nearest_entries` tries first the pieces
+whose end poses stand nearest the ray's origin, and skips those it cannot enter before the
+best entry so far ``L``: the ones whose tip plane it meets after ``L``, or leaves behind
+before it starts (:func:`_tip_plane_bound`), and the ones whose tip segment stays farther
+from the ray's segment than the part of the cutter within ``L`` of the tip plane reaches
+(:func:`_tip_reach`). Both are lower bounds of the exact entry: skipped pieces could not
+have lowered the result. Past a first entry, a piece none of whose :data:`POSES` samples
+the ray enters before ``L`` is not refined either (:func:`_samples_enter`): only a dip of
+the entry between samples, below them all, could have lowered the result (by up to
+4e-4 mm in 0.5 % of the bull-nose rays of the dev blade sweep's rows).
 """
 
 from __future__ import annotations
@@ -196,9 +204,23 @@ def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
     return found
 
 
-#: Rays climbing less steeply than this towards the spindle (``n . axis``, the cosine of
-#: the angle to the axis, below 0.1: within 6 deg of the tip's plane) get no tip-plane
-#: bound: the plane is met ``1 / rise`` times as far along the ray as the tip moves off
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _samples_enter(q, n, poses, j, cutter, within, tip, axis):
+    """Whether the ray enters piece ``j`` within ``within`` at a sample of :func:`_pair_entry`.
+
+    At one of its :data:`POSES` poses (``tip``, ``axis``: scratch arrays).
+
+    Where none does, the search would refine round a sample entering beyond ``within``.
+    """
+    for m in range(POSES):
+        if _entry_at(m / (POSES - 1), q, n, poses, j, cutter, within, tip, axis) <= within:
+            return True
+    return False
+
+
+#: Rays climbing (or falling) less steeply than this towards the spindle (``|n . axis|``,
+#: the cosine of the angle to the axis, below 0.1: within 6 deg of the tip's plane) get
+#: no tip-plane bound: the plane is met ``1 / rise`` times as far along the ray as the tip moves off
 #: it, so a turning axis moves the bound by up to ``2 R / rise`` per unit of change, which
 #: :data:`TURN_SLACK_RADII` covers only down to this rise.
 LEAST_RISE = 0.1
@@ -216,20 +238,52 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
     axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``, linear in
     the tip along a piece with a fixed axis, so the smaller of the two ends bounds the
     piece; a turning axis moves it by at most :data:`TURN_SLACK_RADII` ``R`` times the
-    axis change. Rays not climbing towards the spindle by more than :data:`LEAST_RISE` get
-    no bound (``-inf``).
+    axis change. A ray falling away from the spindle by more than :data:`LEAST_RISE` at
+    both ends is on the spindle side only up to that ``l``: where even the larger, with
+    the slack, lies behind its origin it never enters (``inf``). Other rays get no bound
+    (``-inf``).
     """
     bound = np.inf
+    latest = -np.inf
+    climbs = 0
     for end in range(2):
         tip, axis = (p0, a0) if end == 0 else (p1, a1)
         rise = n[0] * axis[0] + n[1] * axis[1] + n[2] * axis[2]
-        if rise <= LEAST_RISE:
+        if rise > LEAST_RISE:
+            climbs += 1
+        elif rise < -LEAST_RISE:
+            climbs -= 1
+        else:
             return -np.inf
         at = ((tip[0] - q[0]) * axis[0] + (tip[1] - q[1]) * axis[1]
               + (tip[2] - q[2]) * axis[2]) / rise
         bound = min(bound, at)
+        latest = max(latest, at)
     turn = math.sqrt((a1[0] - a0[0]) ** 2 + (a1[1] - a0[1]) ** 2 + (a1[2] - a0[2]) ** 2)
-    return bound - TURN_SLACK_RADII * big * turn
+    slack = TURN_SLACK_RADII * big * turn
+    if climbs == 2:
+        return bound - slack
+    if climbs == -2 and latest + slack < -TOUCH_MM / LEAST_RISE:
+        return np.inf
+    return -np.inf
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _tip_reach(cutter, height):
+    """How far from its tip the cutter's points up to ``height`` above the tip plane lie, mm.
+
+    A point ``h`` above the tip plane (``0 <= h <= height``) lies within the profile's
+    radius of the axis, ``R - r + sqrt(r^2 - (r - h)^2)`` below the corner's top
+    (``h < r``), ``R`` above it; both grow with ``h``, so the point is within
+    ``sqrt(height^2 + radius(height)^2)`` of the tip (plus :data:`TOUCH_MM`, how far
+    outside an entry may be found).
+    """
+    r = cutter.corner
+    if height >= r:
+        radius = cutter.radius
+    else:
+        radius = cutter.radius - r + math.sqrt(max(r * r - (r - height) ** 2, 0.0))
+    return math.sqrt(height * height + radius * radius) + TOUCH_MM
 
 
 @numba.njit(cache=True, parallel=True)
@@ -239,6 +293,14 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     ``rays`` (:class:`Rays`) meet ``pieces`` (:class:`RayPieces`) of ``poses``
     (:class:`Poses`) of the ``cutter`` (:class:`~.clearance_kernel.Cutter`), into ``out``;
     a ray stops at an entry within ``stop``.
+
+    Pieces are tried nearest first: by the signed distance of the ray's origin to the
+    cutter at the nearer of the piece's end poses. Before the best entry so far ``L``
+    (or the horizon), the ray's point ``x = q + l n`` lies at most ``L - b`` above the
+    tip plane of any pose (``b``: the tip-plane bound, ``n.a <= 1``), so it can be inside
+    only within :func:`_tip_reach` of ``L - b`` of the pose's tip, on the tip segment: a
+    piece whose tip segment stays farther than that from the ray's segment up to the
+    horizon is skipped, as one whose tip plane the ray meets after ``L``.
     """
     q, n = rays
     lo_k, hi_k, item = pieces
@@ -251,13 +313,25 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
             axis = np.empty(3)
             values = np.empty(POSES)
             bounds = np.empty(hi - lo)
+            apart = np.empty(hi - lo)
+            nearness = np.empty(hi - lo)
+            far = np.empty(3)
+            for k in range(3):
+                far[k] = q[i, k] + horizon * n[i, k]
             for k in range(lo, hi):
                 j = item[k]
                 bounds[k - lo] = _tip_plane_bound(q[i], n[i], tip0[j], tip1[j], axis0[j],
                                                   axis1[j], cutter.radius)
-            for m in np.argsort(bounds):
-                if bounds[m] > min(best, horizon):
-                    break
+                apart[k - lo] = _segment_distance(q[i], far, tip0[j], tip1[j])
+                nearness[k - lo] = min(_distance(q[i], n[i], 0.0, tip0[j], axis0[j], cutter),
+                                       _distance(q[i], n[i], 0.0, tip1[j], axis1[j], cutter))
+            for m in np.argsort(nearness):
+                reach = min(best, horizon)
+                if bounds[m] > reach or apart[m] > _tip_reach(cutter, reach - bounds[m]):
+                    continue
+                if best < horizon and not _samples_enter(q[i], n[i], poses, item[lo + m],
+                                                         cutter, best, tip, axis):
+                    continue
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
                                              tip, axis, values))
                 if best <= stop:
@@ -284,9 +358,10 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
                     ) -> NDArray[np.float64]:
     """Each ray's first entry into the material removed by its pieces, mm.
 
-    Pieces are tried in the order of their tip-plane bounds, up to the best entry found,
-    or up to the first entry within ``stop_mm`` (0: the first entry, exactly; the
-    horizon: whether the ray enters within it, as soon as one piece says so).
+    Pieces are tried nearest first, skipping those that cannot be entered before the best
+    entry found (:func:`_nearest_entries`), or up to the first entry within ``stop_mm``
+    (0: the first entry, exactly; the horizon: whether the ray enters within it, as soon
+    as one piece says so).
 
     Parameters
     ----------
