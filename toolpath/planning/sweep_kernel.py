@@ -29,10 +29,7 @@ best entry so far ``L``: the ones whose tip plane it meets after ``L``, or leave
 before it starts (:func:`_tip_plane_bound`), and the ones whose tip segment stays farther
 from the ray's segment than the part of the cutter within ``L`` of the tip plane reaches
 (:func:`_tip_reach`). Both are lower bounds of the exact entry: skipped pieces could not
-have lowered the result. Past a first entry, a piece none of whose :data:`POSES` samples
-the ray enters before ``L`` is not refined either (:func:`_samples_enter`): only a dip of
-the entry between samples, below them all, could have lowered the result (by up to
-4e-4 mm in 0.5 % of the bull-nose rays of the dev blade sweep's rows).
+have lowered the result, which stays the same.
 """
 
 from __future__ import annotations
@@ -204,20 +201,6 @@ def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
     return found
 
 
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _samples_enter(q, n, poses, j, cutter, within, tip, axis):
-    """Whether the ray enters piece ``j`` within ``within`` at a sample of :func:`_pair_entry`.
-
-    At one of its :data:`POSES` poses (``tip``, ``axis``: scratch arrays).
-
-    Where none does, the search would refine round a sample entering beyond ``within``.
-    """
-    for m in range(POSES):
-        if _entry_at(m / (POSES - 1), q, n, poses, j, cutter, within, tip, axis) <= within:
-            return True
-    return False
-
-
 #: Rays climbing (or falling) less steeply than this towards the spindle (``|n . axis|``,
 #: the cosine of the angle to the axis, below 0.1: within 6 deg of the tip's plane) get
 #: no tip-plane bound: the plane is met ``1 / rise`` times as far along the ray as the tip moves off
@@ -328,9 +311,6 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
             for m in np.argsort(nearness):
                 reach = min(best, horizon)
                 if bounds[m] > reach or apart[m] > _tip_reach(cutter, reach - bounds[m]):
-                    continue
-                if best < horizon and not _samples_enter(q[i], n[i], poses, item[lo + m],
-                                                         cutter, best, tip, axis):
                     continue
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
                                              tip, axis, values))
