@@ -331,6 +331,45 @@ def test_capsule_entries_and_segment_distances_equal_dense_samples():
         assert dist[k] <= sampled + 1e-12
 
 
+def test_segment_distances_to_a_point_take_its_foot_on_the_other_segment():
+    # a segment of zero length (a repeated tip, an axis turning in place) is a point: the
+    # distance is to its foot on the other segment, whichever side it is given on
+    from toolpath.planning.sweep_kernel import segment_distances
+
+    one = np.array([0])
+    point = np.array([[1.0, 1.0, 0.0]])
+    start, end = np.array([[-3.0, 0.0, 0.0]]), np.array([[3.0, 0.0, 0.0]])
+    assert segment_distances(start, end, one, point, point, one)[0] == pytest.approx(1.0)
+    assert segment_distances(point, point, one, start, end, one)[0] == pytest.approx(1.0)
+    assert segment_distances(point, point, one, 2 * point, 2 * point, one)[0] == (
+        pytest.approx(np.sqrt(2.0)))
+
+
+def test_ray_entry_into_a_piece_of_zero_length_or_a_long_turning_one():
+    # no piece is skipped on a bound that does not hold: a flat end mill standing still
+    # (its tip segment a point), and a long piece whose axis turns 10 deg, the ray
+    # starting just above the middle pose's tip plane
+    from toolpath.planning.sweep_kernel import nearest_entries
+
+    one = np.array([0])
+    tip, up = np.array([[0.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    q, n = np.array([[-4.0, 0.5, -5.0]]), np.array([[0.6, 0.0, 0.8]])
+    got = nearest_entries(q, n, one, one + 1, one, tip, tip.copy(), up, up.copy(),
+                          corner_radius_mm=0.0, radius_mm=2.0, flute_length_mm=10.0,
+                          horizon_mm=8.0)
+    assert got[0] == pytest.approx(5.0 / 0.8)  # through the tip plane, 0.56 mm off axis
+    turn = np.radians(10.0)
+    end_tip, end_axis = np.array([[20.0, 0.0, -2.0]]), np.array([[np.sin(turn), 0, np.cos(turn)]])
+    middle_axis = (up + end_axis)[0] / np.linalg.norm(up + end_axis)
+    inside = 0.5 * (tip + end_tip)[0] + 0.01 * middle_axis
+    for climb in (1.0, -1.0):
+        n = np.array([[0.0, 0.0, climb]])
+        got = nearest_entries(inside[None] - 0.05 * n, n, one, one + 1, one, tip, end_tip,
+                              up, end_axis, corner_radius_mm=0.0, radius_mm=0.1,
+                              flute_length_mm=1.0, horizon_mm=1.0)
+        assert got[0] < 0.05  # the middle pose holds the ray's point 0.05 mm along it
+
+
 def test_each_ray_takes_the_nearest_of_its_own_pieces():
     # pairs listed in any order, rays with no piece, one, or several: ray_ranges groups
     # them, and a ray's entry is the smallest over its own pieces (inf with none)

@@ -211,6 +211,12 @@ LEAST_RISE = 0.1
 #: (a turning axis moves the cutting end by at most 2 R times the change; over a rise of
 #: at least :data:`LEAST_RISE`, 10 times that).
 TURN_SLACK_RADII = 20.0
+#: Slack of the tip-plane bound per unit of axis change and mm of tip travel across a
+#: piece: with both the tip and the axis moving, the tip plane's offset along the ray is
+#: quadratic in the pose, off the line through its ends by up to a quarter of the tip's
+#: travel times the axis change, met ``1 / rise`` as far along the ray (``1 / (4 *
+#: LEAST_RISE)``): long turning pieces.
+TURN_SLACK_PER_MM = 0.25 / LEAST_RISE
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -220,11 +226,11 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
     The cutter lies on the spindle side of the plane through its tip perpendicular to its
     axis; along the ray ``q + l n`` that plane is at ``l = (tip - q).a / (n.a)``, linear in
     the tip along a piece with a fixed axis, so the smaller of the two ends bounds the
-    piece; a turning axis moves it by at most :data:`TURN_SLACK_RADII` ``R`` times the
-    axis change. A ray falling away from the spindle by more than :data:`LEAST_RISE` at
-    both ends is on the spindle side only up to that ``l``: where even the larger, with
-    the slack, lies behind its origin it never enters (``inf``). Other rays get no bound
-    (``-inf``).
+    piece; a turning axis moves it by at most :data:`TURN_SLACK_RADII` ``R`` plus
+    :data:`TURN_SLACK_PER_MM` times the tip's travel, times the axis change. A ray falling
+    away from the spindle by more than :data:`LEAST_RISE` at both ends is on the spindle
+    side only up to that ``l``: where even the larger, with the slack, lies behind its
+    origin it never enters (``inf``). Other rays get no bound (``-inf``).
     """
     bound = np.inf
     latest = -np.inf
@@ -243,7 +249,8 @@ def _tip_plane_bound(q, n, p0, p1, a0, a1, big):
         bound = min(bound, at)
         latest = max(latest, at)
     turn = math.sqrt((a1[0] - a0[0]) ** 2 + (a1[1] - a0[1]) ** 2 + (a1[2] - a0[2]) ** 2)
-    slack = TURN_SLACK_RADII * big * turn
+    travel = math.sqrt((p1[0] - p0[0]) ** 2 + (p1[1] - p0[1]) ** 2 + (p1[2] - p0[2]) ** 2)
+    slack = (TURN_SLACK_RADII * big + TURN_SLACK_PER_MM * travel) * turn
     if climbs == 2:
         return bound - slack
     if climbs == -2 and latest + slack < -TOUCH_MM / LEAST_RISE:
@@ -452,19 +459,22 @@ def _segment_distance(p0, p1, q0, q1):
     f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
     c = d1[0] * r[0] + d1[1] * r[1] + d1[2] * r[2]
     b = d1[0] * d2[0] + d1[1] * d2[1] + d1[2] * d2[2]
-    den = a * e - b * b
-    safe_a = a if a > TINY else 1.0
     sc = 0.0
-    if den > ROUND_OFF * (a * e + TINY):
-        sc = min(max((b * f - c * e) / den, 0.0), 1.0)
-    tc = (b * sc + f) / (e if e > TINY else 1.0)
-    if tc < 0.0:
-        sc = min(max(-c / safe_a, 0.0), 1.0)
-    elif tc > 1.0:
-        sc = min(max((b - c) / safe_a, 0.0), 1.0)
-    tc = min(max(tc, 0.0), 1.0)
-    if not a > TINY:
-        sc = 0.0
+    tc = 0.0
+    if a <= TINY and e > TINY:  # the first is a point: its foot on the second
+        tc = min(max(f / e, 0.0), 1.0)
+    elif a > TINY and e <= TINY:  # the second is a point: its foot on the first
+        sc = min(max(-c / a, 0.0), 1.0)
+    elif a > TINY:
+        den = a * e - b * b
+        if den > ROUND_OFF * (a * e + TINY):
+            sc = min(max((b * f - c * e) / den, 0.0), 1.0)
+        tc = (b * sc + f) / e
+        if tc < 0.0:
+            sc = min(max(-c / a, 0.0), 1.0)
+        elif tc > 1.0:
+            sc = min(max((b - c) / a, 0.0), 1.0)
+        tc = min(max(tc, 0.0), 1.0)
     total = 0.0
     for k in range(3):
         g = r[k] + sc * d1[k] - tc * d2[k]
