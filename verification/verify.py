@@ -114,6 +114,19 @@ def _joints(motion: ToolMotion, tol: float) -> JointDeviation:
         blocks_over_tol=int((dev > tol).sum()), substeps=int(motion.substeps.sum()))
 
 
+def _settings(surface: ParametricSurface, cutter: Cutter, opts: VerifyOptions
+              ) -> tuple[float | None, dict[str, float]]:
+    """The cutter's corner radius (None: a ball) and ``opts`` resolved for that cutter.
+
+    Raises VerificationError for a surface that is not a ParametricSurface.
+    """
+    if not isinstance(surface, ParametricSurface):
+        raise VerificationError(f"surface must be a ParametricSurface, got "
+                                f"{type(surface).__name__}")
+    corner = None if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
+    return corner, opts.resolved(cutter.radius_mm, corner)
+
+
 @with_small_pages
 def design_samples(surface: ParametricSurface, cutter: Cutter, *,
                    options: VerifyOptions | None = None) -> DesignSamples:
@@ -130,11 +143,7 @@ def design_samples(surface: ParametricSurface, cutter: Cutter, *,
         For a surface that is not a ParametricSurface or has no extent.
     """
     opts = options if options is not None else VerifyOptions()
-    if not isinstance(surface, ParametricSurface):
-        raise VerificationError(f"surface must be a ParametricSurface, got "
-                                f"{type(surface).__name__}")
-    corner = None if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
-    cfg = opts.resolved(cutter.radius_mm, corner)
+    _, cfg = _settings(surface, cutter, opts)
     return sample_design(surface, spacing_t_mm=cfg["spacing_t_mm"],
                          spacing_s_mm=cfg["spacing_s_mm"], max_samples=opts.max_samples)
 
@@ -177,12 +186,8 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
         For a program without motion or invalid options.
     """
     opts = options if options is not None else VerifyOptions()
-    if not isinstance(surface, ParametricSurface):
-        raise VerificationError(f"surface must be a ParametricSurface, got "
-                                f"{type(surface).__name__}")
+    corner, cfg = _settings(surface, cutter, opts)
     radius = cutter.radius_mm
-    corner = None if cutter.kind is CutterKind.BALL else cutter.corner_radius_mm
-    cfg = opts.resolved(radius, corner)
     clock = {"start": time.perf_counter()}
     timings: dict[str, float] = {}
 
