@@ -50,6 +50,8 @@ from machines.catalog import list_machines
 
 #: Exported names -> defining module, imported on first use (PEP 562): a command's
 #: ``--help``, or ``import machines.errors``, does not load numpy and the kinematics.
+#: (The other packages share :func:`toolpath.lazy.lazy_exports`; this leaf package imports
+#: nothing of ours, so it keeps its own two functions below.)
 _EXPORTS = {
     "Axis": "machines.axes",
     "AxisKind": "machines.axes",

@@ -203,9 +203,9 @@ def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
 
 #: Rays climbing (or falling) less steeply than this towards the spindle (``|n . axis|``,
 #: the cosine of the angle to the axis, below 0.1: within 6 deg of the tip's plane) get
-#: no tip-plane bound: the plane is met ``1 / rise`` times as far along the ray as the tip moves off
-#: it, so a turning axis moves the bound by up to ``2 R / rise`` per unit of change, which
-#: :data:`TURN_SLACK_RADII` covers only down to this rise.
+#: no tip-plane bound: the plane is met ``1 / rise`` times as far along the ray as the tip
+#: moves off it, so a turning axis moves the bound by up to ``2 R / rise`` per unit of
+#: change, which :data:`TURN_SLACK_RADII` covers only down to this rise.
 LEAST_RISE = 0.1
 #: Slack of the tip-plane bound per unit of axis change across a piece, in cutter radii
 #: (a turning axis moves the cutting end by at most 2 R times the change; over a rise of
