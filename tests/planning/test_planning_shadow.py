@@ -421,3 +421,116 @@ def test_shadow_boundary_point_is_the_torus_support_point_and_its_depth():
             assert x == pytest.approx(far @ ex, abs=0.05)
             assert z == pytest.approx(far @ ez, abs=0.05)
             assert depth == pytest.approx(far @ d, abs=0.05)
+
+
+def _turning_pieces(rng):
+    """Pieces of a flat or bull-nose cutter's moves: tips and unit axes at their ends.
+
+    A pass leaning to and fro; long pieces turning 10 to 30 deg; pieces of zero length
+    turning on the spot (the tip fixed) or standing still; a pass with its axes reversed
+    (rays climbing towards it fall away from its spindle).
+    """
+    u = np.linspace(-3.0, 3.0, 25)
+    lean = np.radians(8.0 * np.sin(2.0 * u))
+    axis = np.c_[np.sin(lean), np.zeros(u.size), np.cos(lean)]
+    tip = np.c_[u, np.zeros(u.size), 0.5 + 0.03 * u ** 2]
+    p0, p1, a0, a1 = [tip[:-1]], [tip[1:]], [axis[:-1]], [axis[1:]]
+    p0 += [tip[:-1] * [1.0, 1.0, -1.0] + [0.0, 2.0, 0.0]]
+    p1 += [tip[1:] * [1.0, 1.0, -1.0] + [0.0, 2.0, 0.0]]
+    a0 += [-axis[:-1]]
+    a1 += [-axis[1:]]
+    for place, turn in enumerate(np.radians([10.0, 20.0, 30.0])):
+        start = np.array([0.0, 20.0 * (place + 1), 0.0])  # apart from the rest
+        first = rng.normal(size=3)
+        first /= np.linalg.norm(first)
+        side = np.cross(first, rng.normal(size=3))
+        side /= np.linalg.norm(side)
+        last = np.cos(turn) * first + np.sin(turn) * side
+        for travel in (6.0, 0.0):  # a long turning piece, and one turning on the spot
+            p0 += [(start + 10.0 * (travel == 0.0))[None]]
+            p1 += [(start + 10.0 * (travel == 0.0) + travel * rng.normal(size=3) / 1.7)[None]]
+            a0 += [first[None]]
+            a1 += [last[None]]
+    p0 += [np.array([[0.0, -20.0, 0.0]])]  # standing still
+    p1 += [np.array([[0.0, -20.0, 0.0]])]
+    a0 += [np.array([[0.0, 0.0, 1.0]])]
+    a1 += [np.array([[0.0, 0.0, 1.0]])]
+    return [np.concatenate(x) for x in (p0, p1, a0, a1)]
+
+
+@pytest.mark.parametrize("spec", ["bull:8:1", "flat:6"])
+def test_a_ray_beside_a_long_or_turning_piece_enters_where_dense_poses_say(spec):
+    # rays from beside a piece's middle poses, into its cutters: where the piece is long
+    # or turns, its end poses stand far off the ray while a middle one holds it near its
+    # origin (the pieces skipped on their end poses' distance, the searches skipped on
+    # the best sample's, must not be these); the entry is the first height at which some
+    # of 801 poses (101 a piece of the pass) holds the ray's point, rays alone or with the
+    # others of their pass
+    from toolpath.planning.sweep_kernel import nearest_entries
+
+    cutter = parse_cutter(spec)
+    rng = np.random.default_rng(11)
+    p0, p1, a0, a1 = _turning_pieces(rng)
+    m, k = 120, len(p0)
+    home = np.r_[rng.integers(0, k, m - 60), rng.integers(k - 8, k, 60)]
+    w = rng.uniform(0.2, 0.8, (m, 1))
+    axis = a0[home] + w * (a1[home] - a0[home])
+    axis /= np.linalg.norm(axis, axis=1, keepdims=True)
+    # across the axis and the way (where the piece moves), or any way across the axis
+    side = np.cross(axis, p1[home] - p0[home] + rng.normal(scale=1e-3, size=(m, 3)))
+    side /= np.linalg.norm(side, axis=1, keepdims=True)
+    q = (p0[home] + w * (p1[home] - p0[home])
+         + (cutter.radius_mm + rng.uniform(0.0, 0.3, (m, 1))) * side
+         + rng.uniform(-0.3, 1.0, (m, 1)) * axis)
+    n = -side + rng.normal(scale=0.3, size=(m, 3)) + rng.uniform(-0.5, 0.5, (m, 1)) * axis
+    # and every other ray from over the flutes' top (the end poses of a turning piece
+    # swing it farthest off)
+    top = np.arange(m) % 2 == 1
+    q[top] = (p0[home] + w * (p1[home] - p0[home]) + rng.uniform(-3.0, 3.0, (m, 1)) * side
+              + (cutter.flute_length_mm + rng.uniform(0.0, 0.3, (m, 1))) * axis)[top]
+    n[top] = (-axis + rng.normal(scale=0.3, size=(m, 3)))[top]
+    n /= np.linalg.norm(n, axis=1, keepdims=True)
+    kw = dict(corner_radius_mm=cutter.corner_radius_mm, radius_mm=cutter.radius_mm,
+              flute_length_mm=cutter.flute_length_mm, horizon_mm=0.6)
+    one = np.arange(m)
+    alone = nearest_entries(q, n, one, one + 1, home, p0, p1, a0, a1, **kw)
+    # the pass's 24 pieces for rays beside it (the others lie apart from each other)
+    passes = home < 24
+    lo = np.where(passes, 0, home)
+    hi = np.where(passes, 24, home + 1)
+    among = nearest_entries(q, n, one * k + lo, one * k + hi, np.tile(np.arange(k), m),
+                            p0, p1, a0, a1, **kw)
+    heights = np.linspace(0.0, 0.6, 601)
+    for i in range(m):
+        u = np.linspace(0.0, 1.0, 101 if passes[i] else 801)[:, None, None]
+        tips = (p0[lo[i]:hi[i]] + u * (p1[lo[i]:hi[i]] - p0[lo[i]:hi[i]])).reshape(-1, 3)
+        axes = (a0[lo[i]:hi[i]] + u * (a1[lo[i]:hi[i]] - a0[lo[i]:hi[i]])).reshape(-1, 3)
+        axes /= np.linalg.norm(axes, axis=1, keepdims=True)
+        expected = _first_height_inside(heights, lambda lifts, i=i, tips=tips, axes=axes: (
+            cutter.signed_distance((q[i] + lifts[:, None] * n[i])[:, None], tips, axes)
+            <= 0.0).any(axis=1),
+            block=10)
+        got = among[i] if passes[i] else alone[i]
+        assert got == pytest.approx(expected, abs=2e-3) if np.isfinite(expected) \
+            else got == np.inf
+    entered = (among > 0.0) & np.isfinite(among)
+    assert entered.sum() > 0.3 * m and np.isinf(among).sum() > 0.02 * m
+
+
+def test_a_search_between_samples_beats_an_earlier_tried_pieces_entry():
+    # a bull-nose moving 6 mm in one piece, a ray rising under its corner between the
+    # piece's first two sampled poses (both enter it 0.035 up), and a still cutter tried
+    # first (nearest) that it enters 0.033 up: the search between the samples still runs
+    # and finds the pose right over the ray, 3.2 mm off its axis, 0.0302 up
+    from toolpath.planning.sweep_kernel import nearest_entries
+
+    cutter = parse_cutter("bull:8:1")
+    x_ray = -3.0 + 0.375
+    tips0 = np.array([[-3.0, 0.0, 0.0], [x_ray, 3.2, 0.023]])
+    tips1 = np.array([[3.0, 0.0, 0.0], [x_ray, 3.2, 0.023]])
+    axes = np.tile([0.0, 0.0, 1.0], (2, 1))
+    q, n = np.array([[x_ray, 3.2, -0.01]]), np.array([[0.0, 0.0, 1.0]])
+    got = nearest_entries(q, n, np.array([0]), np.array([2]), np.array([0, 1]), tips0, tips1,
+                          axes, axes.copy(), corner_radius_mm=1.0, radius_mm=4.0,
+                          flute_length_mm=cutter.flute_length_mm, horizon_mm=0.3)
+    assert got[0] == pytest.approx(0.01 + 1.0 - np.sqrt(1.0 - 0.2 ** 2), abs=1e-6)

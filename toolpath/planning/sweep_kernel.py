@@ -28,8 +28,12 @@ whose end poses stand nearest the ray's origin, and skips those it cannot enter 
 best entry so far ``L``: the ones whose tip plane it meets after ``L``, or leaves behind
 before it starts (:func:`_tip_plane_bound`), and the ones whose tip segment stays farther
 from the ray's segment than the part of the cutter within ``L`` of the tip plane reaches
-(:func:`_tip_reach`). Both are lower bounds of the exact entry: skipped pieces could not
-have lowered the result, which stays the same.
+(:func:`_tip_reach`), and the ones whose end poses stand farther from the ray's origin than
+``L`` and how far a pose within half the piece of an end moves the cutter past the ray's
+points (:func:`_pose_floor`). A piece entered no earlier than ``L`` at its samples gets no
+golden-section search where no pose it would try can hold a point of the ray before ``L``
+(:func:`_pair_entry`). All are lower bounds of the exact entry: skipped pieces and searches
+could not have lowered the result, which stays the same.
 """
 
 from __future__ import annotations
@@ -41,7 +45,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from ..tolerances import ROUND_OFF, TINY
+from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF, TINY
 from .clearance_kernel import Cutter
 from .cutter_kernel import cutter_distance
 
@@ -157,8 +161,8 @@ def _entry(q, n, tip, axis, cutter, horizon):
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
-    """:func:`_entry` with piece ``j`` of ``poses`` at ``u`` (``tip``, ``axis``: scratch)."""
+def _pose_at(u, poses, j, tip, axis):
+    """Piece ``j`` of ``poses`` at ``u``: its tip and unit axis into ``tip``, ``axis``."""
     tip0, tip1, axis0, axis1 = poses
     size = 0.0
     for k in range(3):
@@ -168,12 +172,69 @@ def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
     size = math.sqrt(size)
     for k in range(3):
         axis[k] /= size
-    return _entry(q, n, tip, axis, cutter, horizon)
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
-    """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays)."""
+def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
+    """:func:`_entry` with piece ``j`` of ``poses`` at ``u`` (``tip``, ``axis``: scratch)."""
+    _pose_at(u, poses, j, tip, axis)
+    return _entry(q, n, tip, axis, cutter, horizon)
+
+
+#: Axes turning by more than this across a piece (rad) get no pose bound
+#: (:func:`_piece_motion`): its turn rate grows without bound as the turn nears pi.
+LARGEST_BOUNDED_TURN = 0.98 * math.pi
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _piece_motion(tip0, tip1, axis0, axis1):
+    """How fast piece's poses move: the tip's travel (mm) and the axis's turn rate (rad).
+
+    Both per unit of ``u``. The tip moves linearly, ``|p1 - p0|``; the axis
+    ``normalize(a0 + u (a1 - a0))`` runs along the great circle from ``a0`` to ``a1`` (the
+    angle ``T`` apart) at ``d phi / du = sin T / |a0 + u (a1 - a0)|^2``, at most
+    ``sin T / cos^2(T / 2) = 2 tan(T / 2)`` (the norm is least at ``u = 1/2``); ``inf``
+    beyond :data:`LARGEST_BOUNDED_TURN`.
+    """
+    travel = math.sqrt((tip1[0] - tip0[0]) ** 2 + (tip1[1] - tip0[1]) ** 2
+                       + (tip1[2] - tip0[2]) ** 2)
+    chord = math.sqrt((axis1[0] - axis0[0]) ** 2 + (axis1[1] - axis0[1]) ** 2
+                      + (axis1[2] - axis0[2]) ** 2)
+    half_turn = math.asin(min(0.5 * chord, 1.0))
+    if 2.0 * half_turn > LARGEST_BOUNDED_TURN:
+        return travel, np.inf
+    return travel, 2.0 * math.tan(half_turn) * (1.0 + ROUND_OFF)
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _pose_shift(travel, turn_rate, du, arm):
+    """How far a piece's cutter moves past a point over ``du`` of ``u``, at most, mm.
+
+    From the pose at ``u`` to one at ``v`` (``|v - u| <= du``) the cutter turns about its
+    tip by at most ``theta = turn_rate du`` (:func:`_piece_motion`; its axial symmetry
+    leaves no other turn) and the tip moves by ``d = travel du``: seen from the cutter, a
+    point ``arm`` from the tip at ``u`` moves by at most ``d + theta (arm + d)`` (a turn by
+    ``theta`` moves a point ``rho`` from its centre by ``2 rho sin(theta / 2)``), and its
+    distance to the cutter (1-Lipschitz outside it) changes by no more
+    (plus :data:`~toolpath.tolerances.LENGTH_SLACK_MM` for round-off).
+    """
+    shift = du * travel
+    return shift + du * turn_rate * (arm + shift) + LENGTH_SLACK_MM
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
+    """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays).
+
+    Where the samples' best entry lies beyond ``below`` (the ray's best entry so far), the
+    golden-section search is skipped if it cannot find an entry up to ``below``: the ray's
+    distance ``g_b`` to the cutter at the best sample's pose is convex and positive up to
+    that pose's entry, so non-increasing, at least ``g_b(below)`` before ``below``; the
+    poses the search tries lie within one sample's spacing of that pose, moving the cutter
+    past the ray's points by at most :func:`_pose_shift`: where ``g_b(below)`` exceeds that
+    (and :data:`TOUCH_MM`), none of them holds a point of the ray up to ``below`` (the
+    result, the smallest entry over the ray's pieces, stays the same).
+    """
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
     best = 0
     for m in range(POSES):
@@ -181,6 +242,14 @@ def _pair_entry(q, n, poses, j, cutter, horizon, tip, axis, values):
         if values[m] < values[best]:
             best = m
     found = values[best]
+    if below < found < np.inf:
+        tip0, tip1, axis0, axis1 = poses
+        travel, turn_rate = _piece_motion(tip0[j], tip1[j], axis0[j], axis1[j])
+        _pose_at(best / (POSES - 1), poses, j, tip, axis)
+        arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
+        shift = _pose_shift(travel, turn_rate, 1.0 / (POSES - 1), arm + below)
+        if _distance(q, n, below, tip, axis, cutter) > shift + TOUCH_MM:
+            return found
     if found > 0.0 and found < np.inf:
         lo = max(best - 1, 0) / (POSES - 1)
         hi = min(best + 1, POSES - 1) / (POSES - 1)
@@ -276,6 +345,26 @@ def _tip_reach(cutter, height):
     return math.sqrt(height * height + radius * radius) + TOUCH_MM
 
 
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _pose_floor(q, near0, near1, tip0, tip1, axis0, axis1, horizon):
+    """A lower bound of the ray's distance to the cutter at any pose of a piece, up to ``l``.
+
+    Take ``l`` off it for the bound at ``q + l n`` (``l <= horizon``). ``near0``,
+    ``near1``: the signed distances of the ray's origin ``q`` to the cutter at the piece's
+    end poses. A pose at ``u`` lies within half the piece of an end: seen from the cutter
+    there, the ray's point ``q + l n`` (at least ``near - l`` from it, the distance being
+    1-Lipschitz) moves by at most :func:`_pose_shift` over ``du = 1/2``, ``arm`` at most
+    ``|q - tip| + horizon``. The smaller of the two ends' bounds.
+    """
+    travel, turn_rate = _piece_motion(tip0, tip1, axis0, axis1)
+    floor = np.inf
+    for end in range(2):
+        tip, near = (tip0, near0) if end == 0 else (tip1, near1)
+        arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
+        floor = min(floor, near - _pose_shift(travel, turn_rate, 0.5, arm + horizon))
+    return floor
+
+
 @numba.njit(cache=True, parallel=True)
 def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     """The loop of :func:`nearest_entries`, rays in parallel.
@@ -290,7 +379,8 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     tip plane of any pose (``b``: the tip-plane bound, ``n.a <= 1``), so it can be inside
     only within :func:`_tip_reach` of ``L - b`` of the pose's tip, on the tip segment: a
     piece whose tip segment stays farther than that from the ray's segment up to the
-    horizon is skipped, as one whose tip plane the ray meets after ``L``.
+    horizon is skipped, as one whose tip plane the ray meets after ``L``, and one whose
+    poses all stand farther than ``L`` from the ray's origin (:func:`_pose_floor`).
     """
     q, n = rays
     lo_k, hi_k, item = pieces
@@ -305,6 +395,7 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
             bounds = np.empty(hi - lo)
             apart = np.empty(hi - lo)
             nearness = np.empty(hi - lo)
+            floors = np.empty(hi - lo)
             far = np.empty(3)
             for k in range(3):
                 far[k] = q[i, k] + horizon * n[i, k]
@@ -313,14 +404,19 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
                 bounds[k - lo] = _tip_plane_bound(q[i], n[i], tip0[j], tip1[j], axis0[j],
                                                   axis1[j], cutter.radius)
                 apart[k - lo] = _segment_distance(q[i], far, tip0[j], tip1[j])
-                nearness[k - lo] = min(_distance(q[i], n[i], 0.0, tip0[j], axis0[j], cutter),
-                                       _distance(q[i], n[i], 0.0, tip1[j], axis1[j], cutter))
+                near0 = _distance(q[i], n[i], 0.0, tip0[j], axis0[j], cutter)
+                near1 = _distance(q[i], n[i], 0.0, tip1[j], axis1[j], cutter)
+                nearness[k - lo] = min(near0, near1)
+                floors[k - lo] = _pose_floor(q[i], near0, near1, tip0[j], tip1[j], axis0[j],
+                                             axis1[j], horizon)
             for m in np.argsort(nearness):
                 reach = min(best, horizon)
                 if bounds[m] > reach or apart[m] > _tip_reach(cutter, reach - bounds[m]):
                     continue
+                if floors[m] - reach > TOUCH_MM:
+                    continue
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
-                                             tip, axis, values))
+                                             reach, tip, axis, values))
                 if best <= stop:
                     break
         out[i] = best
