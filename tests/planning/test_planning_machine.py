@@ -111,3 +111,25 @@ def test_split_places_pieces_of_many_moves_as_the_full_forward_kinematics():
             np.testing.assert_allclose(np.r_[p0[rows], p1[rows[-1:]]], want_tips, atol=1e-9)
             np.testing.assert_allclose(np.r_[x0[rows], x1[rows[-1:]]], want_axes, atol=1e-12)
             np.testing.assert_array_equal(p0[rows[1:]], p1[rows[:-1]])  # shared ends
+
+
+def test_a_balls_pieces_are_the_split_moves_centres():
+    # split_centres (a ball's pieces: its centres' ends) gives the very numbers of
+    # split_moves' tips and axes, R up the axis, tip-linear and under joint interpolation
+    from machines.kinematics import forward
+    from toolpath.planning.cut_volume import split_centres, split_moves
+
+    machine = load_machine("trunnion-ac")
+    order = [a.letter for a in machine.axes]
+    canon = np.array([[10.0, 5.0, 20.0, 10.0, 0.0], [10.1, 5.0, 20.0, 10.0, 0.0],
+                      [12.0, 6.0, 20.0, 25.0, 40.0], [20.0, 6.1, 20.0, 25.5, 41.0]])
+    q = canon[:, ["XYZAC".index(letter) for letter in order]]
+    tips, axes = forward(machine, q)
+    for joints in ((machine, q[:-1], q[1:]), None):
+        args = (tips[:-1], tips[1:], axes[:-1], axes[1:], 0.5, 3.0, 1e-4, joints)
+        p0, p1, x0, x1, owner = split_moves(*args)
+        c0, c1, centre_owner = split_centres(*args)
+        assert len(p0) > 4
+        np.testing.assert_array_equal(c0, p0 + 3.0 * x0)
+        np.testing.assert_array_equal(c1, p1 + 3.0 * x1)
+        np.testing.assert_array_equal(centre_owner, owner)

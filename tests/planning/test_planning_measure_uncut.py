@@ -46,3 +46,50 @@ def test_the_contacts_pieces_find_the_uncut_area_the_full_search_finds(scramble)
     assert np.array_equal(fast.uncut, full.uncut)
     assert fast.fraction == full.fraction
     assert np.array_equal(fast.reach, full.reach)
+
+
+def _reach_over_every_edge(grid, sources, closed, limit_mm):
+    """The full method: Dijkstra from every source over all the grid's 8-neighbour edges."""
+    import scipy.sparse
+    import scipy.sparse.csgraph
+
+    n_t, n_s = sources.shape
+    node = np.arange(n_t * n_s).reshape(n_t, n_s)
+    pairs = [(node[1:, :], node[:-1, :]), (node[:, 1:], node[:, :-1]),
+             (node[1:, 1:], node[:-1, :-1]), (node[1:, :-1], node[:-1, 1:])]
+    if closed:
+        pairs.append((node[0, :], node[-1, :]))
+    a = np.concatenate([p[0].ravel() for p in pairs])
+    b = np.concatenate([p[1].ravel() for p in pairs])
+    flat = grid.reshape(-1, 3)
+    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), 1e-9)
+    graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size,) * 2).tocsr()
+    return scipy.sparse.csgraph.dijkstra(graph, directed=False,
+                                         indices=np.flatnonzero(sources.ravel()),
+                                         min_only=True, limit=limit_mm)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_distances_from_the_uncut_border_are_those_from_every_uncut_node(closed):
+    # a large uncut area (its inside never walked) and scattered uncut nodes, on a wavy
+    # sheet whose seam joins on closed sections, with a collapsed row: the distances the
+    # search from the uncut area's border finds are those from every uncut node
+    from toolpath.planning.uncut_area import _surface_reach
+    from toolpath.tolerances import LENGTH_SLACK_MM
+
+    assert LENGTH_SLACK_MM == 1e-9  # (the full method's edge floor above)
+    n_t, n_s = 40, 30
+    t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), indexing="ij")
+    rng = np.random.default_rng(5)
+    grid = np.stack([20.0 * np.cos(2 * np.pi * t), 12.0 * np.sin(2 * np.pi * t) + 3.0 * s,
+                     25.0 * s + np.sin(7.0 * t)], axis=2) + rng.normal(0.0, 0.05, (n_t, n_s, 3))
+    grid[1] = grid[0]
+    sources = rng.random((n_t, n_s)) < 0.02
+    sources[5:25, 3:20] = True
+    for limit_mm in (4.0, 12.0, np.inf):
+        full = _reach_over_every_edge(grid, sources, closed, limit_mm)
+        fast = _surface_reach(grid, sources, closed, limit_mm)
+        within = full <= limit_mm
+        assert within.sum() > sources.sum()
+        assert np.array_equal(fast[within], full[within])
+        assert np.all(fast[~within] > limit_mm)

@@ -166,11 +166,10 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     """
     m = len(t)
     mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
-    ends = surface(t, s1) - surface(t, s0)
-    half = 0.5 * np.linalg.norm(ends, axis=1)
+    p0, p1 = surface(t, s0), surface(t, s1)
+    half = 0.5 * np.linalg.norm(p1 - p0, axis=1)
     owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
         half.max()) if m else 0.0)
-    p0, p1 = surface(t, s0), surface(t, s1)
     sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
     if not volume.ball:
         near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon

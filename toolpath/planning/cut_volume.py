@@ -34,7 +34,7 @@ from .sweep_kernel import (
 )
 
 __all__ = ["HORIZON_SCALLOPS", "LEAST_HORIZON_MM", "NEAR_WIDTHS", "PIECE_SAG_SHARE",
-           "CutVolume", "cusp_horizon_mm", "split_moves"]
+           "CutVolume", "cusp_horizon_mm", "split_centres", "split_moves"]
 
 
 def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
@@ -92,9 +92,37 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
     kinematics (the tip bows off the chord where the rotary axes turn) inside the move,
     its own ends at the move's ends (the poses ``q_a``, ``q_b`` were solved for).
     """
+    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
+    return p0, p1, x0, x1, np.repeat(np.arange(len(a)), pieces)
+
+
+def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                  ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                  joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                  = None) -> tuple[NDArray[np.float64], ...]:
+    """:func:`split_moves`' pieces as the points ``reach_mm`` up the axis (a ball's centres).
+
+    The same pieces; their start and end points ``tip + reach_mm axis`` (the same numbers
+    as :func:`split_moves`' tips and axes give), and the move each belongs to: a ball's
+    pieces need no more, in one assembly of the pieces' ends instead of two.
+    """
+    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    c0, c1 = piece_ends(a + reach_mm * aa, b + reach_mm * ab, tips + reach_mm * axes, pieces)
+    return c0, c1, np.repeat(np.arange(len(a)), pieces)
+
+
+def _inner_poses(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
+                 ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
+                 joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                 ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
+    """Pieces per move (:func:`_piece_counts`) and the tips and axes of the inner poses.
+
+    Move after move, its ``pieces - 1`` inner poses at ``u = j / pieces`` (as
+    :func:`split_moves` places them).
+    """
     pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     n = len(a)
-    owner = np.repeat(np.arange(n), pieces)
     # piece j of a move of m pieces runs from the pose at u = j / m to (j + 1) / m: the
     # move's own ends, or one of its inner poses (placed once, shared by two pieces)
     inner_first = np.cumsum(pieces - 1) - (pieces - 1)
@@ -111,8 +139,7 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
         machine, q_a, q_b = joints
         w = u[:, None]
         tips, axes = forward(machine, per_inner(q_a) * (1 - w) + per_inner(q_b) * w)
-    (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
-    return p0, p1, x0, x1, owner
+    return pieces, tips, axes
 
 
 #: A ball's pieces near a point are sought first within this many widths of the cusp the
@@ -169,11 +196,10 @@ class CutVolume:
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         step = 0.125 * big
-        p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
         self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
-        if self.ball:
-            self.a, self.b = p0 + big * x0, p1 + big * x1  # centres
+        if self.ball:  # the centres' pieces
+            self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation)
             mid = 0.5 * (self.a + self.b)
             self.piece_a, self.piece_b = self.a, self.b
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
@@ -183,6 +209,7 @@ class CutVolume:
                             + 0.05 * big)
         else:
             # pieces with their end tips and axes (the cutter solid over their poses)
+            p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1

@@ -23,7 +23,7 @@ import scipy.sparse.csgraph
 from numpy.typing import NDArray
 
 from ..projection_kernel import seam_lerp_rows
-from ..surface import ParametricSurface, outward_normals
+from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from .cut_volume import CutVolume
 
@@ -66,8 +66,10 @@ class UncutArea:
                            indexing="ij")
         # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
         parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
-        q, n = parts[0, 0], outward_normals(surface, parts[1, 0], parts[0, 1])
-        area = np.linalg.norm(np.cross(parts[1, 0], parts[0, 1]), axis=1)
+        q, across = parts[0, 0], np.cross(parts[1, 0], parts[0, 1])
+        area = np.linalg.norm(across, axis=1)
+        # outward_normals' unit normals from the cross product and its length at hand
+        n = surface.orientation * (across / np.where(area > 0.0, area, 1.0)[:, None])
         candidate = (None if contacts is None else
                      _node_pieces(volume, *contacts, bool(surface.closed_t), n_t, n_s))
         uncut = ~volume.cut(q, n, candidate)
@@ -120,6 +122,12 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
     seam joined on closed sections), from every source node at once. Over a thin part
     this is the way round its edge, not through its thickness. Paths are followed up to
     ``limit_mm``: a distance beyond it may read ``inf``.
+
+    A shortest path from the sources to another node leaves them for good at its last
+    source, which has a neighbour that is no source (a border source), and runs on over
+    no-source nodes only. So the search runs from the border sources over the edges with
+    a no-source end (the same sums along the same paths: the same distances), and the
+    sources read 0: the inside of a large uncut area is never walked.
     """
     n_t, n_s = sources.shape
     node = np.arange(n_t * n_s).reshape(n_t, n_s)
@@ -129,13 +137,22 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
         pairs.append((node[0, :], node[-1, :]))
     a = np.concatenate([p[0].ravel() for p in pairs])
     b = np.concatenate([p[1].ravel() for p in pairs])
+    source = sources.ravel()
+    keep = ~(source[a] & source[b])  # (an edge between two sources is on no such path)
+    a, b = a[keep], b[keep]
+    border = np.zeros(node.size, dtype=bool)
+    border[a[source[a]]] = border[b[source[b]]] = True
     flat = grid.reshape(-1, 3)
     # a stored 0 is no edge to the graph: coincident nodes (a collapsed row) keep theirs
     weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), LENGTH_SLACK_MM)
     graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
-    return scipy.sparse.csgraph.dijkstra(graph, directed=False,
-                                         indices=np.flatnonzero(sources.ravel()),
-                                         min_only=True, limit=limit_mm)
+    reach = np.full(node.size, np.inf)
+    if border.any():
+        reach = scipy.sparse.csgraph.dijkstra(graph, directed=False,
+                                              indices=np.flatnonzero(border),
+                                              min_only=True, limit=limit_mm)
+    reach[source] = 0.0
+    return reach
 
 
 def _distance_from(reach: NDArray[np.float64], grid: NDArray[np.float64],
