@@ -112,8 +112,12 @@ def hook_numba() -> None:
     """Patch numba's kernel cache (see the module's text) now, or when numba is imported.
 
     Loads nothing: with numba not yet imported, a one-time import hook patches it right
-    after its import. Patching twice is a no-op.
+    after its import. Patching twice is a no-op. Also speeds up numba's type inference
+    (:mod:`toolpath.typing_speed`: plain error messages, asked for before numba loads).
     """
+    from .typing_speed import plain_error_messages
+
+    plain_error_messages()
     if "numba" in sys.modules:
         _patch_numba()
     elif not any(isinstance(finder, _NumbaImportHook) for finder in sys.meta_path):
@@ -152,8 +156,15 @@ class _PatchAfterLoad(importlib.abc.Loader):
 
 
 def _patch_numba() -> None:
-    """Make numba's cache drop stale indexes and compile each kernel in one process."""
+    """Make numba's cache drop stale indexes and compile each kernel in one process.
+
+    And its type inference skip work that decides nothing (:mod:`toolpath.typing_speed`).
+    """
     from numba.core import caching, dispatcher
+
+    from .typing_speed import speed_up_typing
+
+    speed_up_typing()
 
     # (numba's internals as of 0.68: a numba without them is left as it is)
     index_file = getattr(caching, "IndexDataCacheFile", None)

@@ -1,0 +1,76 @@
+"""numba's type inference, sped up (toolpath.typing_speed), types and reports as before.
+
+Each test runs a fresh interpreter where that matters (numba reads its colour switch once,
+when it loads).
+"""
+
+import operator
+import subprocess
+import sys
+import textwrap
+from pathlib import Path
+
+import pytest
+
+import toolpath  # noqa: F401  (numba patched when it loads)
+from toolpath.typing_speed import NO_HIGHLIGHT, plain_error_messages
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def test_a_failed_compile_explains_itself_without_escape_codes():
+    script = textwrap.dedent("""
+        import toolpath, numba, numpy as np
+
+        @numba.njit
+        def bad(a):
+            return a.no_such_attribute
+
+        try:
+            bad(np.ones(2))
+        except numba.core.errors.TypingError as exc:
+            print(repr(str(exc)))
+    """)
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
+                          env=env, check=True)
+    assert "no_such_attribute" in done.stdout
+    assert "\\x1b[" not in done.stdout
+
+
+def test_the_users_own_colour_choice_is_kept():
+    environ = {NO_HIGHLIGHT: ""}
+    plain_error_messages(environ)
+    assert environ == {NO_HIGHLIGHT: ""}
+    environ = {}
+    plain_error_messages(environ)
+    assert environ == {NO_HIGHLIGHT: "1"}
+
+
+def test_the_array_operator_rule_declines_operands_that_are_no_arrays():
+    from numba.core import types
+    from numba.core.registry import cpu_target
+    from numba.core.typing.npydecl import NumpyRulesArrayOperator
+
+    rule = type("Add", (NumpyRulesArrayOperator,), {"key": operator.add})(
+        cpu_target.typing_context)
+    # (strings: no numpy loop; the rule looked them up and failed before it declined)
+    assert rule.generic((types.unicode_type, types.unicode_type), {}) is None
+    assert rule.generic((types.float64, types.int64), {}) is None
+    for array in (types.float64[:], types.Optional(types.float64[:])):
+        result = rule.generic((array, types.float64), {}).return_type
+        assert (result.dtype, result.ndim) == (types.float64, 1)
+
+
+@pytest.mark.parametrize("options", [{}, {"release_gil": True, "boundscheck": False,
+                                          "error_model": "numpy", "no_cpython_wrapper": True}])
+def test_compile_flags_hold_the_values_their_options_give(options):
+    from numba.core.compiler import Flags
+
+    flags = Flags()
+    for name, value in options.items():
+        setattr(flags, name, value)
+    by_option = {name: getattr(flags, name) for name in flags.options}
+    assert list(flags.values().items()) == list(by_option.items())
+    assert flags == Flags(flags) and hash(flags) == hash(Flags(flags))
+    assert (flags == Flags()) == (not options)

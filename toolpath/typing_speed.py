@@ -1,0 +1,102 @@
+"""numba's type inference without three costs that decide nothing (issue 27, cold start).
+
+Compiling the planner's kernels on an empty cache is half numba's own Python (typing the
+kernels and the library functions they call), and three of its habits repeat work whose
+answer is known; :func:`speed_up_typing` (run when numba is imported, see
+:mod:`toolpath.kernel_cache`) removes them without changing any type, so the compiled code
+and what it computes are the same:
+
+* **each failed typing attempt's message was coloured by colorama** (an ``init`` and a
+  ``deinit`` of the terminal per message, about 28,000 of them for a 5-axis plan's kernels,
+  some 0.5 CPU s); messages are only shown when a compile fails. The environment variable
+  numba reads for this (:data:`NO_HIGHLIGHT`) is set, unless the user set it, before
+  numba loads (:func:`plain_error_messages`); error messages lose only their escape codes;
+* **every scalar operator was first typed as a numpy ufunc** (``a + b`` on two floats
+  searched numpy's loops of ``add``, about 11,000 searches), and the answer then thrown
+  away because no argument is an array: numba's array-operator rule now declines at once
+  when no argument is an array (:func:`_arrays_only`), as it did after the search;
+* **each look-up of an overload's compiled implementation hashed and compared the
+  compile's flags** by building a dict of all ~40 options through their properties
+  (about 120,000 times); :func:`_quick_values` builds the same dict from the class's
+  defaults updated with the options set.
+"""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable, MutableMapping
+from typing import Any, Final
+
+__all__ = ["NO_HIGHLIGHT", "plain_error_messages", "speed_up_typing"]
+
+#: numba's switch (read when ``numba.core.errors`` loads): error messages without colour.
+NO_HIGHLIGHT: Final = "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"
+
+
+def plain_error_messages(environ: MutableMapping[str, str] = os.environ) -> None:
+    """Ask numba for uncoloured error messages (before it loads), unless the user chose."""
+    environ.setdefault(NO_HIGHLIGHT, "1")
+
+
+def speed_up_typing() -> None:
+    """Patch numba's operator rule and flag values (see the module's text); numba loaded.
+
+    A numba without the internals patched here (0.68's) is left as it is; patching twice
+    is a no-op.
+    """
+    from numba.core import targetconfig
+    from numba.core.typing import npydecl
+
+    rule = getattr(npydecl, "NumpyRulesArrayOperator", None)
+    if callable(getattr(rule, "generic", None)) and not getattr(rule, "_streamline_cam", False):
+        rule.generic = _arrays_only(rule.generic)
+        rule._streamline_cam = True
+    config = getattr(targetconfig, "TargetConfig", None)
+    if callable(getattr(config, "values", None)) and hasattr(config, "options") \
+            and not getattr(config.values, "_streamline_cam", False):
+        config.values = _quick_values(config.values)
+
+
+def _arrays_only(generic: Callable[..., Any]) -> Callable[..., Any]:
+    """The array-operator rule of numba, declining (None) at once when no argument is an array.
+
+    The rule returned None in that case anyway, after typing the operator as a ufunc:
+    the types it gives, and those other rules give, are unchanged.
+    """
+    from numba.core import types
+
+    def is_array(kind: Any) -> bool:
+        kind = kind.type if isinstance(kind, types.Optional) else kind
+        return isinstance(kind, types.ArrayCompatible)
+
+    def rule(self: Any, args: Any, kws: Any) -> Any:
+        if not any(map(is_array, args)) and not any(map(is_array, (kws or {}).values())):
+            return None
+        return generic(self, args, kws)
+
+    return rule
+
+
+def _quick_values(values: Callable[[Any], dict]) -> Callable[[Any], dict]:
+    """``TargetConfig.values``: each option's value, from the class's defaults and the set.
+
+    The same dict, in the same order, as numba's (one property call per option); a config
+    holding an option its class does not declare (none does) goes the old way.
+    """
+    defaults: dict[type, dict[str, Any]] = {}
+
+    def quick(self: Any) -> dict:
+        cls = type(self)
+        known = defaults.get(cls)
+        if known is None:
+            known = defaults[cls] = {name: option.default
+                                     for name, option in cls.options.items()}
+        own = self._values
+        if not own.keys() <= known.keys():
+            return values(self)
+        merged = dict(known)
+        merged.update(own)
+        return merged
+
+    quick._streamline_cam = True  # type: ignore[attr-defined]
+    return quick
