@@ -133,3 +133,9 @@ def test_a_balls_pieces_are_the_split_moves_centres():
         np.testing.assert_array_equal(c0, p0 + 3.0 * x0)
         np.testing.assert_array_equal(c1, p1 + 3.0 * x1)
         np.testing.assert_array_equal(centre_owner, owner)
+        # single-precision input: the same float64 numbers, not sums taken in float32
+        low = tuple(x.astype(np.float32) for x in args[:4]) + args[4:]
+        c0_low, c1_low, _ = split_centres(*low)
+        p0, p1, x0, x1, _ = split_moves(*low)
+        np.testing.assert_array_equal(c0_low, p0 + 3.0 * x0)
+        np.testing.assert_array_equal(c1_low, p1 + 3.0 * x1)

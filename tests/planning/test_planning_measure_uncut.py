@@ -93,3 +93,14 @@ def test_distances_from_the_uncut_border_are_those_from_every_uncut_node(closed)
         assert within.sum() > sources.sum()
         assert np.array_equal(fast[within], full[within])
         assert np.all(fast[~within] > limit_mm)
+
+
+def test_a_negative_reach_limit_is_refused_whatever_the_sources():
+    # (the search runs only from border sources: with none, scipy's own check is not hit)
+    from toolpath.planning.uncut_area import _surface_reach
+
+    grid = np.zeros((4, 5, 3))
+    grid[..., 0], grid[..., 1] = np.meshgrid(np.arange(4.0), np.arange(5.0), indexing="ij")
+    for sources in (np.ones((4, 5), bool), np.zeros((4, 5), bool)):
+        with pytest.raises(ValueError, match="limit must be >= 0 mm"):
+            _surface_reach(grid, sources, False, -1.0)

@@ -107,6 +107,7 @@ def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
     as :func:`split_moves`' tips and axes give), and the move each belongs to: a ball's
     pieces need no more, in one assembly of the pieces' ends instead of two.
     """
+    a, b, aa, ab = (np.asarray(x, dtype=np.float64) for x in (a, b, aa, ab))
     pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     c0, c1 = piece_ends(a + reach_mm * aa, b + reach_mm * ab, tips + reach_mm * axes, pieces)
     return c0, c1, np.repeat(np.arange(len(a)), pieces)

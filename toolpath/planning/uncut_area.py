@@ -129,6 +129,8 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
     a no-source end (the same sums along the same paths: the same distances), and the
     sources read 0: the inside of a large uncut area is never walked.
     """
+    if not limit_mm >= 0.0:
+        raise ValueError(f"the reach's limit must be >= 0 mm, got {limit_mm!r}")
     n_t, n_s = sources.shape
     node = np.arange(n_t * n_s).reshape(n_t, n_s)
     pairs = [(node[1:, :], node[:-1, :]), (node[:, 1:], node[:, :-1]),
