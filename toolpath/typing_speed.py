@@ -23,6 +23,7 @@ and what it computes are the same:
 
 from __future__ import annotations
 
+import functools
 import os
 from collections.abc import Callable, MutableMapping
 from typing import Any, Final
@@ -41,12 +42,16 @@ def plain_error_messages(environ: MutableMapping[str, str] = os.environ) -> None
 def speed_up_typing() -> None:
     """Patch numba's operator rule and flag values (see the module's text); numba loaded.
 
-    A numba without the internals patched here (0.68's) is left as it is; patching twice
-    is a no-op.
+    A numba without the internals patched here (0.68's) is left as it is: modules or names
+    missing, or quick flag values that differ from numba's own on a default and a changed
+    set of compile flags (:func:`_same_values`); patching twice is a no-op.
     """
-    from numba.core import targetconfig
-    from numba.core.typing import npydecl
-
+    try:
+        from numba.core import targetconfig
+        from numba.core.compiler import Flags
+        from numba.core.typing import npydecl
+    except ImportError:
+        return
     rule = getattr(npydecl, "NumpyRulesArrayOperator", None)
     if callable(getattr(rule, "generic", None)) and not getattr(rule, "_streamline_cam", False):
         rule.generic = _arrays_only(rule.generic)
@@ -54,7 +59,26 @@ def speed_up_typing() -> None:
     config = getattr(targetconfig, "TargetConfig", None)
     if callable(getattr(config, "values", None)) and hasattr(config, "options") \
             and not getattr(config.values, "_streamline_cam", False):
-        config.values = _quick_values(config.values)
+        quick = _quick_values(config.values)
+        if _same_values(Flags, config.values, quick):
+            config.values = quick
+
+
+def _same_values(flags_class: type, values: Callable[[Any], dict],
+                 quick: Callable[[Any], dict]) -> bool:
+    """Whether ``quick`` gives numba's ``values`` (keys, order, values) on two sets of flags.
+
+    The default flags and flags with two options changed; any error reads as "not the same"
+    (numba's internals are not those :func:`_quick_values` reads).
+    """
+    try:
+        changed = flags_class()
+        changed.nrt = True
+        changed.error_model = "numpy"
+        return all(list(quick(flags).items()) == list(values(flags).items())
+                   for flags in (flags_class(), changed))
+    except Exception:  # (any difference of internals: leave numba as it is)
+        return False
 
 
 def _arrays_only(generic: Callable[..., Any]) -> Callable[..., Any]:
@@ -69,6 +93,7 @@ def _arrays_only(generic: Callable[..., Any]) -> Callable[..., Any]:
         kind = kind.type if isinstance(kind, types.Optional) else kind
         return isinstance(kind, types.ArrayCompatible)
 
+    @functools.wraps(generic)
     def rule(self: Any, args: Any, kws: Any) -> Any:
         if not any(map(is_array, args)) and not any(map(is_array, (kws or {}).values())):
             return None

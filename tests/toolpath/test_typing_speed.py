@@ -74,3 +74,28 @@ def test_compile_flags_hold_the_values_their_options_give(options):
     assert list(flags.values().items()) == list(by_option.items())
     assert flags == Flags(flags) and hash(flags) == hash(Flags(flags))
     assert (flags == Flags()) == (not options)
+
+
+def test_the_installed_numba_is_the_one_patched():
+    # (the tests above hold on an unpatched numba too: here, that the patch is on)
+    from numba.core import targetconfig
+    from numba.core.typing.npydecl import NumpyRulesArrayOperator
+
+    assert getattr(NumpyRulesArrayOperator, "_streamline_cam", False)
+    assert NumpyRulesArrayOperator.generic.__name__ == "generic"
+    assert getattr(targetconfig.TargetConfig.values, "_streamline_cam", False)
+
+
+def test_quick_flag_values_that_differ_from_numbas_are_not_used():
+    from numba.core.compiler import Flags
+
+    from toolpath.typing_speed import _same_values
+
+    def numbas(flags):
+        return {name: getattr(flags, name) for name in flags.options}
+
+    def stale(flags):  # (a numba whose getter no longer reads the options set)
+        return {name: option.default for name, option in type(flags).options.items()}
+
+    assert _same_values(Flags, numbas, numbas)
+    assert not _same_values(Flags, numbas, stale)

@@ -237,7 +237,7 @@ def _merge_rows(old, new, new_at, out, width):
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _first_at_least(ascending, value):
-    """``np.searchsorted(ascending, value)``: the first index whose entry is >= ``value``.
+    """The first index whose entry is >= ``value``: ``np.searchsorted`` of integers.
 
     Bisection. (numba's ``np.searchsorted`` compiles its generic comparison, complex
     numbers' included: about 0.5 CPU s of a cold start, issue 27.)
