@@ -266,11 +266,19 @@ def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequ
             samples: Pending | None = None) -> dict[str, Any]:
     """Material-removal check of the written program (as the check parsed it, if it did).
 
-    ``samples``: the getter of the design samples :func:`sample_ahead` is taking.
+    ``samples``: the getter of the design samples :func:`sample_ahead` is taking; the
+    report's timings then give their own time and the time waited for them
+    (:meth:`~verification.report.VerificationReport.with_samples_taken_ahead`).
     """
+    taken, wait_s = None, 0.0
+    if samples is not None:
+        start = time.perf_counter()
+        taken = samples()
+        wait_s = time.perf_counter() - start
     outcome = verify_program(files["gcode"], surface, machine, request.cutter, dialect,
-                             request.scallop_mm, parsed=parsed,
-                             samples=None if samples is None else samples())
+                             request.scallop_mm, parsed=parsed, samples=taken)
+    if samples is not None and samples.seconds is not None:
+        outcome = outcome.with_samples_taken_ahead(samples.seconds, wait_s)
     if plots:
         from verification.plotting import plot_deviation_map
 

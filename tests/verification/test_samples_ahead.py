@@ -123,3 +123,32 @@ def test_samples_taken_ahead_keep_to_their_own_thread():
     assert len(noting.threads) == 1  # the samples' thread alone, no row thread
     assert threading.get_ident() not in noting.threads  # (and not the caller's)
     assert pending.seconds > 0.0
+
+
+def test_samples_taken_ahead_report_their_own_time_and_the_wait(router, ball6):
+    program, plane = _plane_raster()
+    options = VerifyOptions(scallop_mm=0.03)
+    report = verify_program(program, plane, router, ball6, options=options,
+                            samples=design_samples(plane, ball6, options=options))
+    ahead = report.with_samples_taken_ahead(0.25, 0.05)
+    assert list(ahead.timings_s) == ["replay", "samples", "samples_wait", "pieces", "search",
+                                     "refine", "total"]
+    assert ahead.timings_s["samples"] == 0.25 and ahead.timings_s["samples_wait"] == 0.05
+    own = sum(v for k, v in ahead.timings_s.items() if k not in ("samples", "total"))
+    assert ahead.timings_s["total"] == pytest.approx(own)  # the wait, not the samples
+    assert ahead.to_dict()["timings_s"] == ahead.timings_s  # (in the JSON as well)
+    assert ahead.max_scallop == report.max_scallop
+
+
+def test_a_verified_job_reports_the_time_its_samples_took_ahead(tmp_path):
+    from pathlib import Path
+
+    from streamline_cam.pipeline import JobRequest, run_job
+    from toolpath.paper_examples import bundled_data_path
+
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=0.05,
+                         chord_tol_mm=0.02)
+    timings = run_job(request, tmp_path, verify=True).report["verify"]["timings_s"]
+    assert timings["samples"] > 0.0 and timings["samples_wait"] >= 0.0
+    assert timings["total"] == pytest.approx(
+        sum(v for k, v in timings.items() if k not in ("samples", "total")))
