@@ -188,65 +188,97 @@ def verify_program(gcode: Path, surface: Any, machine: Any, cutter_spec: str, di
                        samples=samples)
 
 
-def in_thread(task: Callable[[], Any], name: str) -> Callable[[], Any]:
-    """Start ``task()`` in a thread; returns a getter that waits for its result.
+class Pending:
+    """A task running in a daemon thread (:func:`in_thread`); calling it waits for its result.
 
-    The getter raises what ``task`` raised. The thread keeps the caller's budget of
-    compiled-kernel threads (``numba.set_num_threads`` holds per thread, and a new thread
-    would start from ``NUMBA_NUM_THREADS``): a job limited to one thread, as a batch task
-    is, stays within it.
+    The call raises what the task raised. ``seconds`` is the task's own wall time in its
+    thread, s (None until it has ended). Nothing joins the thread but the call: a caller
+    that no longer needs the result (a job that failed) drops it and does not wait.
+    """
+
+    def __init__(self, task: Callable[[], Any], name: str, kernel_threads: int) -> None:
+        self.seconds: float | None = None
+        self._box: dict[str, Any] = {}
+        self._thread = threading.Thread(target=self._run, args=(task, kernel_threads),
+                                        name=name, daemon=True)
+        self._thread.start()
+
+    def _run(self, task: Callable[[], Any], kernel_threads: int) -> None:
+        import numba
+
+        numba.set_num_threads(kernel_threads)
+        start = time.perf_counter()
+        try:
+            self._box["result"] = task()
+        except BaseException as exc:  # handed to the caller, raised in its thread
+            self._box["error"] = exc
+        self.seconds = time.perf_counter() - start
+
+    def __call__(self) -> Any:
+        self._thread.join()
+        if "error" in self._box:
+            raise self._box["error"]
+        return self._box["result"]
+
+
+def in_thread(task: Callable[[], Any], name: str, *, kernel_threads: int | None = None
+              ) -> Pending:
+    """Start ``task()`` in a daemon thread; returns the :class:`Pending` that waits for it.
+
+    ``kernel_threads``: the thread's budget of compiled-kernel threads (row slices in
+    :mod:`toolpath.row_threads`); default the caller's (``numba.set_num_threads`` holds per
+    thread, and a new thread would start from ``NUMBA_NUM_THREADS``): a job limited to one
+    thread, as a batch task is, stays within it.
     """
     import numba
 
-    kernel_threads = numba.get_num_threads()
-    box: dict[str, Any] = {}
-
-    def run() -> None:
-        numba.set_num_threads(kernel_threads)
-        try:
-            box["result"] = task()
-        except BaseException as exc:  # handed to the getter, raised in the caller's thread
-            box["error"] = exc
-
-    worker = threading.Thread(target=run, name=name, daemon=True)
-    worker.start()
-
-    def result() -> Any:
-        worker.join()
-        if "error" in box:
-            raise box["error"]
-        return box["result"]
-
-    return result
+    budget = numba.get_num_threads()
+    return Pending(task, name, budget if kernel_threads is None
+                   else max(1, min(kernel_threads, budget)))
 
 
-def sample_ahead(surface: Any, cutter_spec: str, scallop_mm: float
-                 ) -> Callable[[], Any]:
+def sample_ahead(surface: Any, cutter_spec: str, scallop_mm: float) -> Pending:
     """Start taking the verification's design samples in a thread; returns their getter.
 
     They depend on the surface and the cutter alone
     (:func:`verification.verify.design_samples`), so the job takes them while it posts
     and checks the program: those stages run in one thread, and on a 2-core machine the
-    sampling (0.25 s on the issue-27 blade) then costs no wall time. The getter waits for
-    them and raises what the sampling raised (:func:`in_thread`).
+    sampling (0.3 CPU s on the issue-27 blade at scallop 0.005 mm, 1057 x 946 samples)
+    then costs no wall time. The getter waits for them and raises what the sampling raised
+    (:class:`Pending`; ``seconds``: the sampling's own time).
+
+    The samples' kernels run in their own thread alone (one kernel thread): none of their
+    row slices goes to the process's pool of row threads, which the interpreter joins when
+    it exits. So a job that fails before its verification (a program the post refuses)
+    exits at once, dropping the samples, instead of waiting for the pool's share of them
+    (up to the whole sampling); and the post's and check's own row slices never queue
+    behind them.
     """
     from verification.verify import design_samples
 
     cutter, options = _verify_setup(cutter_spec, scallop_mm)
     return in_thread(lambda: design_samples(surface, cutter, options=options),
-                     "verify-samples")
+                     "verify-samples", kernel_threads=1)
 
 
 def _verify(files: dict[str, Path], surface: Any, machine: Any, request: JobRequest,
             dialect: Any, plots: bool, parsed: Any,
-            samples: Callable[[], Any] | None = None) -> dict[str, Any]:
+            samples: Pending | None = None) -> dict[str, Any]:
     """Material-removal check of the written program (as the check parsed it, if it did).
 
-    ``samples``: the getter of the design samples :func:`sample_ahead` is taking.
+    ``samples``: the getter of the design samples :func:`sample_ahead` is taking; the
+    report's timings then give their own time and the time waited for them
+    (:meth:`~verification.report.VerificationReport.with_samples_taken_ahead`).
     """
+    taken, wait_s = None, 0.0
+    if samples is not None:
+        start = time.perf_counter()
+        taken = samples()
+        wait_s = time.perf_counter() - start
     outcome = verify_program(files["gcode"], surface, machine, request.cutter, dialect,
-                             request.scallop_mm, parsed=parsed,
-                             samples=None if samples is None else samples())
+                             request.scallop_mm, parsed=parsed, samples=taken)
+    if samples is not None and samples.seconds is not None:
+        outcome = outcome.with_samples_taken_ahead(samples.seconds, wait_s)
     if plots:
         from verification.plotting import plot_deviation_map
 

@@ -113,11 +113,8 @@ def hook_numba() -> None:
 
     Loads nothing: with numba not yet imported, a one-time import hook patches it right
     after its import. Patching twice is a no-op. Also speeds up numba's type inference
-    (:mod:`toolpath.typing_speed`: plain error messages, asked for before numba loads).
+    (:mod:`toolpath.typing_speed`: plain error messages among others).
     """
-    from .typing_speed import plain_error_messages
-
-    plain_error_messages()
     if "numba" in sys.modules:
         _patch_numba()
     elif not any(isinstance(finder, _NumbaImportHook) for finder in sys.meta_path):

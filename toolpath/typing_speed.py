@@ -8,9 +8,10 @@ and what it computes are the same:
 
 * **each failed typing attempt's message was coloured by colorama** (an ``init`` and a
   ``deinit`` of the terminal per message, about 28,000 of them for a 5-axis plan's kernels,
-  some 0.5 CPU s); messages are only shown when a compile fails. The environment variable
-  numba reads for this (:data:`NO_HIGHLIGHT`) is set, unless the user set it, before
-  numba loads (:func:`plain_error_messages`); error messages lose only their escape codes;
+  some 0.5 CPU s); messages are only shown when a compile fails. numba's colour scheme of
+  this process is one that returns messages as they are (:func:`plain_error_messages`),
+  unless the user set numba's switch (:data:`NO_HIGHLIGHT`): error messages lose only their
+  escape codes, and the environment that child processes inherit is left as it was;
 * **every scalar operator was first typed as a numpy ufunc** (``a + b`` on two floats
   searched numpy's loops of ``add``, about 11,000 searches), and the answer then thrown
   away because no argument is an array: numba's array-operator rule now declines at once
@@ -25,27 +26,65 @@ from __future__ import annotations
 
 import functools
 import os
-from collections.abc import Callable, MutableMapping
+import sys
+from collections.abc import Callable, Mapping
 from typing import Any, Final
 
 __all__ = ["NO_HIGHLIGHT", "plain_error_messages", "speed_up_typing"]
 
-#: numba's switch (read when ``numba.core.errors`` loads): error messages without colour.
+#: numba's switch (an environment variable, read when ``numba.core.errors`` loads; numba
+#: 0.68 keeps no setting for it in ``numba.config``): error messages without colour.
 NO_HIGHLIGHT: Final = "NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"
 
 
-def plain_error_messages(environ: MutableMapping[str, str] = os.environ) -> None:
-    """Ask numba for uncoloured error messages (before it loads), unless the user chose."""
-    environ.setdefault(NO_HIGHLIGHT, "1")
+def plain_error_messages(environ: Mapping[str, str] = os.environ) -> bool:
+    """Uncoloured numba error messages in this process, unless the user chose; numba loaded.
+
+    numba makes its colour scheme as it loads, from the switch it read (several of its
+    modules keep the scheme as ``_termcolor``); the scheme set here in its place returns
+    each message as it is. Setting the switch itself would pass it on to every child
+    process. Returns whether the scheme was set: not when ``environ`` holds the switch (the
+    user's choice, which numba follows), nor with a numba whose internals are not 0.68's.
+    """
+    if NO_HIGHLIGHT in environ:
+        return False
+    try:
+        from numba.core import errors
+    except ImportError:
+        return False
+    base = getattr(errors, "_DummyColorScheme", None)
+    if not isinstance(base, type) or not hasattr(errors, "_termcolor_inst"):
+        return False
+    made = errors._termcolor_inst
+    if getattr(made, "_streamline_cam", False):
+        return True
+    plain = _plain_scheme(base)()
+    errors._termcolor_inst = plain
+    for name, module in list(sys.modules.items()):
+        if made is not None and name.startswith("numba.") \
+                and getattr(module, "_termcolor", None) is made:
+            module._termcolor = plain
+    return True
+
+
+def _plain_scheme(base: type) -> type:
+    """A subclass of numba's colour scheme ``base`` that returns each message as it is."""
+    def as_it_is(self: Any, msg: str) -> str:
+        return msg
+
+    methods: dict[str, Any] = {name: as_it_is for name in (
+        "code", "errmsg", "filename", "indicate", "highlight", "reset")}
+    return type("PlainScheme", (base,), {**methods, "_streamline_cam": True})
 
 
 def speed_up_typing() -> None:
-    """Patch numba's operator rule and flag values (see the module's text); numba loaded.
+    """Patch numba's messages, operator rule and flag values (module's text); numba loaded.
 
     A numba without the internals patched here (0.68's) is left as it is: modules or names
     missing, or quick flag values that differ from numba's own on a default and a changed
     set of compile flags (:func:`_same_values`); patching twice is a no-op.
     """
+    plain_error_messages()
     try:
         from numba.core import targetconfig
         from numba.core.compiler import Flags

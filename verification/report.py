@@ -7,7 +7,7 @@ outward normal, mm: positive is excess (scallops, uncut stock), negative a gouge
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
 import numpy as np
@@ -265,7 +265,13 @@ class VerificationReport:
     pairs : int
         Candidate (dexel, piece) pairs tested.
     timings_s : dict of str to float
-        Seconds per stage.
+        Seconds per stage, in this order: ``replay``; ``samples``, taking the design
+        samples (given samples taken ahead in another thread, as ``toolpath run
+        --verify`` takes them while it posts and checks the program: the time they took
+        there, :meth:`with_samples_taken_ahead`); ``samples_wait``, only then: the time
+        the verification waited for them (0 when they were ready); ``pieces``;
+        ``search``; ``refine``; ``total``, the verification's own time (the wait counted,
+        samples taken ahead not).
     faces_away_area_mm2 : float
         Area facing away from every tool axis the program cuts with (a fixed-axis
         program's one axis; a 5-axis program's range of axes), mm^2: no move cuts to it,
@@ -320,6 +326,24 @@ class VerificationReport:
     def max_scallop_mm(self) -> float:
         """Largest scallop away from uncut areas, mm (NaN when there is no such area)."""
         return float("nan") if self.max_scallop is None else self.max_scallop.deviation_mm
+
+    def with_samples_taken_ahead(self, samples_s: float, wait_s: float) -> VerificationReport:
+        """The report with the timings of design samples taken ahead in another thread.
+
+        The verification given them timed only handing them over (``samples`` ~0):
+        ``samples`` becomes their own time ``samples_s`` where they were taken, the new
+        ``samples_wait`` the time ``wait_s`` the verification waited for them, and
+        ``total`` counts the wait instead.
+        """
+        timings: dict[str, float] = {}
+        for name, seconds in self.timings_s.items():
+            if name == "samples":
+                timings.update(samples=float(samples_s), samples_wait=float(wait_s))
+            elif name == "total":
+                timings[name] = seconds - self.timings_s.get("samples", 0.0) + float(wait_s)
+            else:
+                timings[name] = seconds
+        return replace(self, timings_s=timings)
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-able form (NaN written as None), without the deviation map."""

@@ -5,7 +5,8 @@ Stages (each timed in the report):
 1. **replay** (:mod:`verification.replay`): the program through the interpreter and the
    machine's forward kinematics, joints interpolated within blocks as the controller does;
 2. **samples** (:mod:`verification.samples`): the design surface on a grid fine enough for
-   the scallop asked for;
+   the scallop asked for (or given, taken ahead: :func:`design_samples`; their timings
+   then come from the caller, :meth:`VerificationReport.with_samples_taken_ahead`);
 3. **pieces** (:mod:`verification.pieces`): the swept ball as capsules (flat and
    bull-nose cutters: swept cutter pieces measured by :mod:`verification.torus`), the
    shank at resampled instances;

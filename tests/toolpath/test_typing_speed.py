@@ -38,13 +38,33 @@ def test_a_failed_compile_explains_itself_without_escape_codes():
     assert "\\x1b[" not in done.stdout
 
 
+_COLOURED = textwrap.dedent("""
+    import os, toolpath, numba, numpy as np
+
+    @numba.njit
+    def bad(a):
+        return a.no_such_attribute
+
+    try:
+        bad(np.ones(2))
+    except numba.core.errors.TypingError as exc:
+        print("\\x1b[" in str(exc), os.environ.get("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"))
+""")
+
+
+def test_plain_messages_leave_the_environment_children_inherit_alone():
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", _COLOURED], capture_output=True, text=True,
+                          env=env, check=True)
+    assert done.stdout.split() == ["False", "None"]  # no escape codes, no variable set
+
+
 def test_the_users_own_colour_choice_is_kept():
-    environ = {NO_HIGHLIGHT: ""}
-    plain_error_messages(environ)
-    assert environ == {NO_HIGHLIGHT: ""}
-    environ = {}
-    plain_error_messages(environ)
-    assert environ == {NO_HIGHLIGHT: "1"}
+    assert not plain_error_messages({NO_HIGHLIGHT: ""})
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), NO_HIGHLIGHT: ""}
+    done = subprocess.run([sys.executable, "-c", _COLOURED], capture_output=True, text=True,
+                          env=env, check=True)
+    assert done.stdout.split() == ["True"]  # numba's colours, as the user asked
 
 
 def test_the_array_operator_rule_declines_operands_that_are_no_arrays():

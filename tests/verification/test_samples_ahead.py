@@ -6,6 +6,9 @@ and checks the program (:func:`streamline_cam.pipeline.sample_ahead`), and the v
 given them reports what it reports when it takes them itself.
 """
 
+import threading
+
+import numba
 import numpy as np
 import pytest
 from verify_programs import zigzag_raster
@@ -13,6 +16,7 @@ from verify_programs import zigzag_raster
 from gcode import GRBL, emit_text, parse
 from streamline_cam.pipeline import sample_ahead
 from toolpath.planning.analytic import PlaneSurface
+from toolpath.row_threads import MIN_ROWS_PER_THREAD, run_in_threads
 from verification import VerificationError, VerifyOptions, design_samples, verify_program
 from verification.samples import sample_design
 
@@ -59,13 +63,11 @@ def test_a_sampling_error_is_raised_where_the_samples_are_asked_for():
         samples()
 
 
-@pytest.mark.skipif(__import__("numba").config.NUMBA_NUM_THREADS < 2,
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2,
                     reason="needs a kernel-thread budget above one to lower")
 def test_sampling_ahead_keeps_the_callers_kernel_thread_budget():
     # numba.set_num_threads holds per thread: a batch task limited to one thread must
     # not take its samples on every core
-    import numba
-
     from streamline_cam.pipeline import in_thread
 
     before = numba.get_num_threads()
@@ -85,3 +87,68 @@ def test_a_failure_in_the_thread_is_raised_by_the_getter():
     getter = in_thread(fail, "fails")
     with pytest.raises(VerificationError, match="no extent"):
         getter()
+
+
+@numba.njit(nogil=True)
+def _note_thread(thread, lo, hi):
+    """Each row: the ident of the thread that evaluated it."""
+    with numba.objmode(ident="uint64"):
+        ident = threading.get_ident()
+    for i in range(lo, hi):
+        thread[i] = ident
+
+
+class _ThreadNotingPlane(PlaneSurface):
+    """A plane whose every evaluation of many points also notes the threads it ran in."""
+
+    def partials_many(self, t, s, orders):
+        thread = np.zeros(np.size(t), dtype=np.uint64)
+        run_in_threads(_note_thread, thread.size, thread)
+        self.threads.update(thread.tolist())
+        return super().partials_many(t, s, orders)
+
+
+@pytest.mark.filterwarnings("ignore:.*Code running in object mode")
+@pytest.mark.skipif(numba.config.NUMBA_NUM_THREADS < 2,
+                    reason="with one kernel thread every row runs in the caller anyway")
+def test_samples_taken_ahead_keep_to_their_own_thread():
+    # the interpreter joins the pool of row threads when it exits: a job that failed
+    # before its verification must not wait there for its samples' share of the rows
+    _, plane = _plane_raster()
+    noting = _ThreadNotingPlane(plane.origin, plane.u, plane.v)
+    noting.threads = set()
+    pending = sample_ahead(noting, "ball:6", 0.03)
+    samples = pending()
+    assert samples.size >= 2 * MIN_ROWS_PER_THREAD  # (enough rows to share out)
+    assert len(noting.threads) == 1  # the samples' thread alone, no row thread
+    assert threading.get_ident() not in noting.threads  # (and not the caller's)
+    assert pending.seconds > 0.0
+
+
+def test_samples_taken_ahead_report_their_own_time_and_the_wait(router, ball6):
+    program, plane = _plane_raster()
+    options = VerifyOptions(scallop_mm=0.03)
+    report = verify_program(program, plane, router, ball6, options=options,
+                            samples=design_samples(plane, ball6, options=options))
+    ahead = report.with_samples_taken_ahead(0.25, 0.05)
+    assert list(ahead.timings_s) == ["replay", "samples", "samples_wait", "pieces", "search",
+                                     "refine", "total"]
+    assert ahead.timings_s["samples"] == 0.25 and ahead.timings_s["samples_wait"] == 0.05
+    own = sum(v for k, v in ahead.timings_s.items() if k not in ("samples", "total"))
+    assert ahead.timings_s["total"] == pytest.approx(own)  # the wait, not the samples
+    assert ahead.to_dict()["timings_s"] == ahead.timings_s  # (in the JSON as well)
+    assert ahead.max_scallop == report.max_scallop
+
+
+def test_a_verified_job_reports_the_time_its_samples_took_ahead(tmp_path):
+    from pathlib import Path
+
+    from streamline_cam.pipeline import JobRequest, run_job
+    from toolpath.paper_examples import bundled_data_path
+
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=0.05,
+                         chord_tol_mm=0.02)
+    timings = run_job(request, tmp_path, verify=True).report["verify"]["timings_s"]
+    assert timings["samples"] > 0.0 and timings["samples_wait"] >= 0.0
+    assert timings["total"] == pytest.approx(
+        sum(v for k, v in timings.items() if k not in ("samples", "total")))
