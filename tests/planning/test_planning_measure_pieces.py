@@ -3,8 +3,13 @@
 from itertools import pairwise
 
 import numpy as np
+import pytest
+from measured_plans import planned
 
+from toolpath.planning import SpherePatch
 from toolpath.planning.sweep_kernel import piece_ends
+
+CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
 
 
 def test_each_move_runs_from_its_first_pose_through_its_inner_poses_to_its_last():
@@ -28,3 +33,30 @@ def test_no_moves_no_pieces():
     starts, stops = piece_ends(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
                                np.zeros(0, dtype=np.int64))
     assert starts.shape == stops.shape == (0, 3)
+
+
+def _pairs_brute_force(middles, queries, radius_mm):
+    """The full method: every (query, piece) whose middle lies within the radius, sorted."""
+    d2 = ((queries[:, None, :] - middles[None, :, :]) ** 2).sum(axis=2)
+    owner, item = np.nonzero(d2 <= radius_mm * radius_mm)
+    return sorted(zip(owner.tolist(), item.tolist(), strict=True))
+
+
+@pytest.mark.parametrize("spec", ["ball:6", "bull:8:1"])
+def test_the_pieces_near_points_are_every_piece_whose_middle_lies_within_the_radius(spec):
+    # a ball's pairs come from the cells binned for its estimate (finer than its reach),
+    # a flat or bull-nose cutter's from the reach's: the same pairs either way
+    measured = planned(CAP, spec, scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    volume = measured.volume()
+    middles = 0.5 * (volume.piece_a + volume.piece_b)
+    rng = np.random.default_rng(5)
+    rows = rng.choice(len(middles), 150, replace=False)
+    queries = middles[rows] + rng.normal(scale=0.3, size=(150, 3))
+    for radius_mm in (0.3 * volume.near_mm, volume.lateral + 0.4, volume.reach, None):
+        owner, item = volume.pairs(queries, radius_mm)
+        assert np.all(np.diff(owner) >= 0)  # grouped by query, in order
+        got = sorted(zip(owner.tolist(), item.tolist(), strict=True))
+        expected = _pairs_brute_force(middles, queries, radius_mm or volume.reach)
+        assert len(expected) >= 50
+        assert got == expected
+    assert np.array_equal(volume.piece_vectors, volume.piece_b - volume.piece_a)

@@ -133,7 +133,7 @@ def _flat_cusps(volume: CutVolume, centre: NDArray[np.float64], own: NDArray[np.
     ``d`` half the across part (across ``own``) of ``C2 - C1``, the pieces' points nearest
     to ``centre`` (:func:`ball_cusp_estimates`), mm.
     """
-    e = volume.b - volume.a
+    e = volume.piece_vectors
     near_own, _ = _foot_on(volume.a[own], e[own], centre)
     near_other, _ = _foot_on(volume.a[other], e[other], centre)
     u = unit(e[own])
@@ -163,7 +163,7 @@ def _piece_curving(volume: CutVolume, piece: NDArray[np.int64]) -> NDArray[np.fl
     of at least half as many pieces as there are, every piece's at once (the midpoints'
     positions along the path rise: one ordered search a side), else only those asked.
     """
-    e = volume.b - volume.a
+    e = volume.piece_vectors
     length = np.sqrt(np.einsum("ij,ij->i", e, e))
     safe = np.where(length > 0.0, length, 1.0)
     # each piece's pass's first and last piece (a pass's pieces run on in order)
@@ -591,7 +591,7 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     n_seed = len(seeds.t)
     big = volume.cutter.radius_mm
     centre = seeds.q + big * seeds.n
-    seg = volume.b - volume.a
+    seg = volume.piece_vectors
     x = np.zeros((n_seed, 3))
     inside = np.zeros((n_seed, 2))
     state = np.full(n_seed, RIDGE_NO_PASS)

@@ -218,7 +218,9 @@ class CutVolume:
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner[piece] if len(piece) else np.zeros(0, dtype=np.int64)
         self._move_start, self._piece_move = start, piece
-        self.cells = bin_samples(mid, self.reach) if len(mid) else None
+        self._mid = mid
+        self._cells: SampleCells | None = None
+        self._piece_vectors: NDArray[np.float64] | None = None
         # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
         # about the spacing of passes on a plane for the request (:data:`NEAR_WIDTHS`)
         self.near_mm = (NEAR_WIDTHS * 2.0 * np.sqrt(scallop_mm * (2.0 * big - scallop_mm))
@@ -234,11 +236,31 @@ class CutVolume:
         as many pieces as cells: a few pieces over a large part leave most cells empty.
         """
         if self._near_cells is None:
-            mid = 0.5 * (self.piece_a + self.piece_b)
+            # (a ball's midpoints are its pieces' own, as binned in :attr:`cells`)
+            mid = self._mid if self.ball else 0.5 * (self.piece_a + self.piece_b)
             lo, hi = points_box(mid)  # numpy's ptp(axis=0) of (n, 3) runs ten times slower
             sparse = float(np.prod(hi - lo + self.near_mm) / len(mid)) ** (1 / 3)
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
         return self._near_cells
+
+    @property
+    def cells(self) -> SampleCells | None:
+        """The pieces' midpoints binned (when first asked) in cells of the cutter's reach.
+
+        None without pieces. (A ball's rays over a bracket meet their pieces in
+        :attr:`near_cells`: these are binned only where a ray meets every piece within the
+        cutter's reach, as :meth:`cut`'s last search.)
+        """
+        if self._cells is None and len(self._mid):
+            self._cells = bin_samples(self._mid, self.reach)
+        return self._cells
+
+    @property
+    def piece_vectors(self) -> NDArray[np.float64]:
+        """Each piece's ``piece_b - piece_a``, mm (worked out once, when first asked)."""
+        if self._piece_vectors is None:
+            self._piece_vectors = self.piece_b - self.piece_a
+        return self._piece_vectors
 
     def piece_moves(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
         """Each piece's move's first toolpath point, and the piece's middle along it.
@@ -286,12 +308,17 @@ class CutVolume:
               ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
         """Candidate (query, piece) pairs: piece centres within ``radius`` of each point.
 
-        The default radius is the cutter's reach.
+        The default radius is the cutter's reach. A ball's pieces within less (a bracket's
+        rays, :func:`~.cusp_search._bracket_pieces`) are met in :attr:`near_cells` (the
+        estimate's, binned anyway: the same pairs whatever the cells, without binning the
+        reach's cells for a few brackets).
         """
-        if self.cells is None:
+        if not len(self.pass_of):
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
-        owner, item = pairs_within(self.cells, q, self.reach if radius is None else radius)
-        return owner, item
+        if radius is None:
+            radius = self.reach
+        cells = self.near_cells if self.ball and radius < self.reach else self.cells
+        return pairs_within(cells, q, radius)
 
     def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
                hi: NDArray[np.int64], item: NDArray[np.int64], *, first: bool = False
