@@ -141,7 +141,10 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     more than ``2 m`` cannot hold the true extreme, and every other start is refined
     again with :meth:`FineModel.around` searches, from its coarse end and from its grid
     start, over a quarter of a grid step and finer (the coarse model's bumps along a
-    cusp's ridge may have led its own levels to another top). The fine
+    cusp's ridge may have led its own levels to another top). The fine model is built
+    around the coarse ends and the grid starts both, for design points within the fine
+    levels' drift (``sum(_FINE_SCALES)`` grid steps) of one of them: every point the
+    fine levels search starts at one of them and drifts no farther. The fine
     value is also taken at the grid starts ``(start_t, start_s)`` themselves (a contact
     only the collision search sees leads the levels nowhere), the more extreme kept.
 
@@ -157,8 +160,8 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     keep = np.flatnonzero(score >= top - 2.0 * fine.model_tol_mm)
     step = float(np.hypot(samples.spacing_t_mm, samples.spacing_s_mm))
     scales = _FINE_SCALES
-    # the levels drift from the coarse ends, which lie this far from the grid starts
-    margin = (sum(scales) + sum(_REFINE_SCALES)) * step
+    # the levels start at a coarse end or a grid start and drift from it by at most this
+    margin = sum(scales) * step
     c = fine.coarse
     # the near search's last level must hold the most material kept; a gouge deeper than
     # the near search was sized for: sized for it, as the grid search does
@@ -166,9 +169,10 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     level = fine.level_for_mm(most) if largest else c.horizons[0]
     deepest = float(-coarse.dev[keep].min()) + fine.model_tol_mm
     depth = c.depth if largest else min(max(1.25 * deepest, c.depth), c.radius + c.horizon)
-    ev = fine.around(coarse.points[keep], surface_points_normals(
-        surface, coarse.t[keep], coarse.s[keep])[1], conv[keep], margin_mm=margin,
-        level_mm=level, depth_mm=depth)
+    starts, start_normals, _ = surface_points_normals(surface, start_t[keep], start_s[keep])
+    ev = fine.around(np.concatenate((coarse.points[keep], starts)), np.concatenate((
+        surface_points_normals(surface, coarse.t[keep], coarse.s[keep])[1], start_normals)),
+        np.tile(conv[keep], 2), margin_mm=margin, level_mm=level, depth_mm=depth)
     if ev is None:
         return None
     kw = {"largest": largest, "collision": collision, "contacts": c}
