@@ -87,9 +87,11 @@ class FineModel:
         assert rows is not None
         n_inst = rows.of_instance.shape[0]
         path = pieces.path_arc_mm
-        lo = np.clip(np.searchsorted(path, pieces.arc0_mm[hit], side="right") - 2, 0, n_inst - 1)
-        hi = np.clip(np.searchsorted(path, pieces.arc1_mm[hit], side="left") + 1, 0, n_inst - 1)
-        count = hi - lo + 1
+        # every instance whose arc lies in [arc0, arc1] and one either side (a centre
+        # standing still while the axis turns repeats its arc over several instances)
+        lo = np.clip(np.searchsorted(path, pieces.arc0_mm[hit], side="left") - 1, 0, n_inst - 1)
+        hi = np.clip(np.searchsorted(path, pieces.arc1_mm[hit], side="right"), 0, n_inst - 1)
+        count = np.maximum(hi - lo + 1, 1)
         inst = np.repeat(lo, count) + (np.arange(count.sum())
                                        - np.repeat(np.cumsum(count) - count, count))
         return np.unique(rows.of_instance[inst])

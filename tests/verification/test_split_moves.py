@@ -94,3 +94,21 @@ def test_coarse_model_alone_may_differ_by_its_tolerance(dome_programs):
     tol = VerifyOptions().replay_tol_mm + VerifyOptions().merge_tol_mm
     assert b.max_gouge_mm == pytest.approx(a.max_gouge_mm, abs=2 * tol)
     assert b.max_scallop_mm == pytest.approx(a.max_scallop_mm, abs=2 * tol)
+
+
+def test_a_centre_standing_still_keeps_every_joint_segment_it_stands_for():
+    # (a flat cutter turning about its tip: its pieces' arcs along the centre's path repeat
+    # over several instances; the fine model replays every segment between them)
+    from types import SimpleNamespace
+
+    from verification.fine_model import FineModel
+
+    model = FineModel.__new__(FineModel)
+    for still in (1, 2, 3, 4, 6):
+        path_arc_mm = np.array([0.0] + [1.0] * still + [2.0, 3.0])
+        model.motion = SimpleNamespace(rows=SimpleNamespace(
+            of_instance=np.arange(path_arc_mm.size)))
+        pieces = SimpleNamespace(path_arc_mm=path_arc_mm, arc0_mm=np.array([1.0]),
+                                 arc1_mm=np.array([1.0]))
+        rows = model._rows(pieces, np.array([0]))
+        assert set(range(1, still + 2)) <= set(rows.tolist())
