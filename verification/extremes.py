@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from toolpath.surface import ParametricSurface
 
 from .dexels import DexelResult
-from .fine_model import FineModel
+from .fine_model import FineModel, box_centres
 from .samples import DesignSamples, surface_points_normals
 from .search import Dexels
 
@@ -66,6 +66,12 @@ def _local_extremes(dev: FloatArray, eligible: NDArray[np.bool_], largest: bool,
     return cand[np.argsort(-val.ravel()[cand])]
 
 
+def _grid_steps(samples: DesignSamples) -> tuple[float, float]:
+    """The parameter steps the refinement's levels are scaled by, in ``t`` and ``s``."""
+    n_t, n_s = samples.shape
+    return 1.0 / max(n_t - 1, 1), 1.0 / max(n_s - 1, 1)
+
+
 @dataclass(frozen=True)
 class _Refined:
     """Per start of a refinement: the value found (mm), its parameters, point, move, shank."""
@@ -103,9 +109,7 @@ def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, ti: 
     or with ``contacts`` the collision search of those searches, of which only what the
     near search does not model counts (the shank, a piece from behind).
     """
-    n_t, n_s = samples.shape
-    dt = 1.0 / max(n_t - 1, 1)
-    ds = 1.0 / max(n_s - 1, 1)
+    dt, ds = _grid_steps(samples)
     off = np.linspace(-1.0, 1.0, _REFINE_GRID)
     ot, os_ = (a.ravel() for a in np.meshgrid(off, off, indexing="ij"))
     closed = bool(getattr(surface, "closed_t", False))
@@ -142,9 +146,9 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     again with :meth:`FineModel.around` searches, from its coarse end and from its grid
     start, over a quarter of a grid step and finer (the coarse model's bumps along a
     cusp's ridge may have led its own levels to another top). The fine model is built
-    around the coarse ends and the grid starts both, for design points within the fine
-    levels' drift (``sum(_FINE_SCALES)`` grid steps) of one of them: every point the
-    fine levels search starts at one of them and drifts no farther. The fine
+    for the near searches at every design point of the parameter boxes, ``sum(_FINE_SCALES)``
+    grid steps on either side of a coarse end or a grid start, that the fine levels may
+    visit (:func:`~verification.fine_model.box_centres`). The fine
     value is also taken at the grid starts ``(start_t, start_s)`` themselves (a contact
     only the collision search sees leads the levels nowhere), the more extreme kept.
 
@@ -158,10 +162,6 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     if not np.isfinite(top):
         return None
     keep = np.flatnonzero(score >= top - 2.0 * fine.model_tol_mm)
-    step = float(np.hypot(samples.spacing_t_mm, samples.spacing_s_mm))
-    scales = _FINE_SCALES
-    # the levels start at a coarse end or a grid start and drift from it by at most this
-    margin = sum(scales) * step
     c = fine.coarse
     # the near search's last level must hold the most material kept; a gouge deeper than
     # the near search was sized for: sized for it, as the grid search does
@@ -169,12 +169,18 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     level = fine.level_for_mm(most) if largest else c.horizons[0]
     deepest = float(-coarse.dev[keep].min()) + fine.model_tol_mm
     depth = c.depth if largest else min(max(1.25 * deepest, c.depth), c.radius + c.horizon)
-    starts, start_normals, _ = surface_points_normals(surface, start_t[keep], start_s[keep])
-    ev = fine.around(np.concatenate((coarse.points[keep], starts)), np.concatenate((
-        surface_points_normals(surface, coarse.t[keep], coarse.s[keep])[1], start_normals)),
-        np.tile(conv[keep], 2), margin_mm=margin, level_mm=level, depth_mm=depth)
+    # every point the fine levels search lies in the parameter box of a coarse end or a
+    # grid start whose half-width is the levels' summed scales (each level is centred on
+    # a point of the previous one's box): the fine model holds the near searches there
+    dt, ds = _grid_steps(samples)
+    wide = sum(_FINE_SCALES)
+    centres, slack = box_centres(surface, np.concatenate((coarse.t[keep], start_t[keep])),
+                                 np.concatenate((coarse.s[keep], start_s[keep])),
+                                 wide * dt, wide * ds, c.corner)
+    ev = fine.around(centres, slack, np.tile(conv[keep], 2), level_mm=level, depth_mm=depth)
     if ev is None:
         return None
+    scales = _FINE_SCALES
     kw = {"largest": largest, "collision": collision, "contacts": c}
     at_ends = _refine(ev, surface, samples, coarse.t[keep], coarse.s[keep], conv[keep],
                       scales=(), **kw)
