@@ -137,31 +137,29 @@ def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, ti: 
 def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignSamples,
                    start_t: FloatArray, start_s: FloatArray, coarse: _Refined,
                    conv: FloatArray, *, largest: bool, collision: bool) -> Extreme | None:
-    """The starts that may hold the extreme, refined again with the fine model.
+    """Every start refined again with the fine model.
 
-    Each coarse value lies within the coarse model's tolerance ``m`` of the true one at
-    the same point, so the most extreme coarse value over a neighbourhood is within ``m``
-    of the true extreme over it: a start whose coarse value trails the leading one by
-    more than ``2 m`` cannot hold the true extreme, and every other start is refined
-    again with :meth:`FineModel.around` searches, from its coarse end and from its grid
-    start, over a quarter of a grid step and finer (the coarse model's bumps along a
-    cusp's ridge may have led its own levels to another top). The fine model is built
-    for the near searches at every design point of the parameter boxes, ``sum(_FINE_SCALES)``
-    grid steps on either side of a coarse end or a grid start, that the fine levels may
-    visit (:func:`~verification.fine_model.box_centres`). The fine
-    value is also taken at the grid starts ``(start_t, start_s)`` themselves (a contact
-    only the collision search sees leads the levels nowhere), the more extreme kept.
+    Each start is refined again with :meth:`FineModel.around` searches, from its coarse
+    end and from its grid start, over a quarter of a grid step and finer (the coarse
+    model's bumps along a cusp's ridge may have led its own levels to another top). The
+    fine model is built for the near searches at every design point of the parameter
+    boxes, ``sum(_FINE_SCALES)`` grid steps on either side of a coarse end or a grid
+    start, that the fine levels may visit (:func:`~verification.fine_model.box_centres`).
+    The fine value is also taken at the coarse ends and the grid starts ``(start_t,
+    start_s)`` themselves with the collision search (a contact only that search sees
+    leads the levels nowhere), the most extreme kept.
 
-    The fine values at the coarse ends and the grid starts come first: they are true
-    values (to the fine tolerance), so a start whose coarse value plus ``m`` falls short
-    of the most extreme of them cannot lead, and is not refined further.
+    No start is left out on its coarse value: the coarse levels measured it at the
+    points they visited only, and the fine levels visit others, up to a third of a grid
+    step away, where nothing bounds the coarse value short of a slope bound of the cut
+    (a cusp's flank rises at up to ``rho / R`` for a near-search radius ``rho``: tens of
+    micrometres over a third of a step, far more than the model's tolerance).
     """
     sign = 1.0 if largest else -1.0
     score = coarse.score(sign)
-    top = float(score.max())
-    if not np.isfinite(top):
+    keep = np.flatnonzero(np.isfinite(score))
+    if keep.shape[0] == 0:
         return None
-    keep = np.flatnonzero(score >= top - 2.0 * fine.model_tol_mm)
     c = fine.coarse
     # the near search's last level must hold the most material kept; a gouge deeper than
     # the near search was sized for: sized for it, as the grid search does
@@ -186,16 +184,11 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
                       scales=(), **kw)
     at_starts = _refine(ev, surface, samples, start_t[keep], start_s[keep], conv[keep],
                         scales=(), **kw)
-    # a start whose coarse value, plus the coarse model's tolerance, falls short of a fine
-    # value already found cannot lead: only the others are refined at all levels
-    found = max(float(at_ends.score(sign).max()), float(at_starts.score(sign).max()))
-    go = keep[score[keep] + fine.model_tol_mm >= found]
-    best = [at_ends.extreme(sign), at_starts.extreme(sign)]
-    if go.shape[0]:
-        # from both: the coarse model's bumps may have led its levels to another top
-        best.append(_refine(ev, surface, samples, np.concatenate((coarse.t[go], start_t[go])),
-                            np.concatenate((coarse.s[go], start_s[go])), np.tile(conv[go], 2),
-                            scales=scales, **kw).extreme(sign))
+    # from both: the coarse model's bumps may have led its levels to another top
+    levels = _refine(ev, surface, samples, np.concatenate((coarse.t[keep], start_t[keep])),
+                     np.concatenate((coarse.s[keep], start_s[keep])), np.tile(conv[keep], 2),
+                     scales=scales, **kw)
+    best = [at_ends.extreme(sign), at_starts.extreme(sign), levels.extreme(sign)]
     known = [e for e in best if e is not None]
     return max(known, key=lambda e: sign * e.dev) if known else None
 
