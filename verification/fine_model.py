@@ -12,7 +12,7 @@ modelled far better at little cost: :meth:`FineModel.around`
    and the joint-space segments of the replay they stand for (``motion.rows``, one
    instance either side);
 2. samples those stretches again in joint space to a fine chord tolerance
-   (``VerifyOptions.extremes_tol_mm``, 10 nm; :func:`~verification.replay.replay_rows`)
+   (``VerifyOptions.extremes_tol_mm``, 30 nm; :func:`~verification.replay.replay_rows`)
    and keeps every chord (no merging);
 3. builds the near pieces and a near-search index of those stretches alone, whose levels
    stop at the level asked for.
@@ -241,12 +241,14 @@ class FineModel:
         joins = (mid > gap_lo[j]) & (mid < gap_hi[j]) if gap_hi.shape[0] else np.zeros(
             mid.shape[0], dtype=bool)
         fine = fine.taken(~joins)
+        # always the compiled walk: the very walk the coarse searches use (checked against
+        # the pair search there), whereas pairs over the dense fine pieces grow as their
+        # square; an uncompiled coarse index (a test's oracle) is not copied here
         old = ev.index
         box = float(np.max(reach)) + ev.corner
         index = SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
                            middles.min(axis=0) - box, middles.max(axis=0) + box,
                            base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
-                           max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm,
-                           compiled=old.compiled)
+                           max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)
         return Dexels(index, ev.radius, levels, depth_mm, ev.method, corner_radius=ev.corner,
                       model_tol_mm=self.chord_tol_mm)
