@@ -12,7 +12,7 @@ modelled far better at little cost: :meth:`FineModel.around`
    and the joint-space segments of the replay they stand for (``motion.rows``, one
    instance either side);
 2. samples those stretches again in joint space to a fine chord tolerance
-   (``VerifyOptions.extremes_tol_mm``, 30 nm; :func:`~verification.replay.replay_rows`)
+   (``VerifyOptions.extremes_tol_mm``, 20 nm; :func:`~verification.replay.replay_rows`)
    and keeps every chord (no merging);
 3. builds the near pieces and a near-search index of those stretches alone, whose levels
    stop at the level asked for.
