@@ -303,9 +303,10 @@ def issue27(surface, machine, program, blocks: int, baseline: bool) -> None:
         print(f"    {what} {d:.6f} / {b:.6f} mm = {d / b:.4f} ({1000 * (d - b):+.3f} um; target "
               f"within {100 * SAME_FIGURE_RATIO:g} %): {'met' if verdicts[-1] else 'NOT met'}")
     print(f"    issue 27 targets: {'all met' if all(verdicts) else 'NOT all met'} (the "
-          f"verifier's model tolerance is {model_um:g} um: replay {1000 * opts.replay_tol_mm:g} "
-          f"+ merge {1000 * opts.merge_tol_mm:g} um, placed per move, so one path cut in "
-          f"different moves may measure up to that apart)")
+          f"verifier's whole-program model tolerance is {model_um:g} um: replay "
+          f"{1000 * opts.replay_tol_mm:g} + merge {1000 * opts.merge_tol_mm:g} um, placed per "
+          f"move; the extremes reported are re-measured with the path around them replayed "
+          f"to {1e6 * (opts.extremes_tol_mm or 0.0):g} nm, every chord kept)")
     if fine is not None:
         b, d = fine
         print(f"    with a finer model ({', '.join(f'{k} {v:g}' for k, v in FINE_MODEL.items())}"

@@ -59,6 +59,7 @@ from .grid import PieceGrid
 from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
+from .vectors import row_norms
 
 __all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "MIN_TARGET_CELL_MM", "DexelResult", "SweepIndex",
            "near_search_radius_mm"]
@@ -284,6 +285,40 @@ class SweepIndex:
                 else:
                     self._cutters(qi, piece, pieces, points, dirs, out)
         return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+
+    def pieces_within(self, which: str, centres: FloatArray, radii_mm: FloatArray
+                      ) -> IntArray:
+        """Pieces (indices into :meth:`pieces`, sorted) within ``radii_mm`` of a centre.
+
+        Exact point-segment distances, over the grid's candidates.
+
+        Parameters
+        ----------
+        which : {"near", "far"}
+            Ball pieces, or ball and shank pieces.
+        centres : ndarray, shape (q, 3)
+            Points, mm.
+        radii_mm : ndarray, shape (q,)
+            Distance from each point, mm.
+        """
+        pieces = self.pieces(which)
+        if centres.shape[0] == 0 or pieces.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        reach = radii_mm + pieces.max_half_mm
+        grid = self._grid(which, float(np.median(reach)))
+        spans = grid.span_of(reach)
+        found = []
+        for span in np.unique(spans):
+            sel = np.flatnonzero(spans == span)
+            for query, piece in grid.candidate_batches(centres[sel], int(span),
+                                                       max_pairs=self.max_pairs):
+                v = centres[sel[query]] - pieces.a[piece]
+                ee = pieces.ee[piece]
+                f = np.clip(np.einsum("ij,ij->i", v, pieces.e[piece])
+                            / np.where(ee > 0.0, ee, 1.0), 0.0, 1.0)
+                gap = row_norms(v - f[:, None] * pieces.e[piece])
+                found.append(piece[gap <= radii_mm[sel[query]]])
+        return np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
 
     def _capsules(self, qi: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,
                   dirs: FloatArray, out: DexelResult) -> None:

@@ -19,6 +19,7 @@ from numpy.typing import NDArray
 from toolpath.surface import ParametricSurface
 
 from .dexels import DexelResult
+from .fine_model import FineModel, box_centres
 from .samples import DesignSamples, surface_points_normals
 from .search import Dexels
 
@@ -27,6 +28,11 @@ __all__ = ["Extreme", "border", "extreme", "extremes"]
 FloatArray = NDArray[np.float64]
 
 _REFINE_GRID: Final[int] = 9
+#: Half-widths of the refinement's levels, in grid steps.
+_REFINE_SCALES: Final[tuple[float, ...]] = (1.0, 0.25, 0.0625)
+#: The fine model's levels, from the coarse ends and the grid starts: a quarter of a step
+#: down to 1/256 of one.
+_FINE_SCALES: Final[tuple[float, ...]] = (0.25, 0.0625, 0.015625)
 
 
 @dataclass(frozen=True)
@@ -60,57 +66,146 @@ def _local_extremes(dev: FloatArray, eligible: NDArray[np.bool_], largest: bool,
     return cand[np.argsort(-val.ravel()[cand])]
 
 
-def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
-            cand: NDArray[np.int64], *, largest: bool, collision: bool) -> Extreme | None:
-    """Three levels of 9 x 9 near searches around the local extremes ``cand``.
+def _grid_steps(samples: DesignSamples) -> tuple[float, float]:
+    """The parameter steps the refinement's levels are scaled by, in ``t`` and ``s``."""
+    n_t, n_s = samples.shape
+    return 1.0 / max(n_t - 1, 1), 1.0 / max(n_s - 1, 1)
 
-    ``cand``: flat sample indices, most extreme first (:func:`_local_extremes`). The best
-    point of each candidate is searched once more with the collision search (when
-    asked), so a deep gouge only that search sees is measured exactly.
+
+@dataclass(frozen=True)
+class _Refined:
+    """Per start of a refinement: the value found (mm), its parameters, point, move, shank."""
+
+    dev: FloatArray
+    t: FloatArray
+    s: FloatArray
+    points: FloatArray
+    move: NDArray[np.int64]
+    shank: NDArray[np.bool_]
+
+    def score(self, sign: float) -> FloatArray:
+        """``sign x dev``, ``-inf`` where nothing was found."""
+        return np.where(np.isfinite(self.dev), sign * self.dev, -np.inf)
+
+    def extreme(self, sign: float) -> Extreme | None:
+        """The most extreme of the starts' values (None when none is finite)."""
+        score = self.score(sign)
+        i = int(np.argmax(score))
+        if not np.isfinite(score[i]):
+            return None
+        return Extreme(float(self.dev[i]), float(self.t[i]), float(self.s[i]),
+                       self.points[i], int(self.move[i]), bool(self.shank[i]))
+
+
+def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, ti: FloatArray,
+            si: FloatArray, conv: FloatArray, *, largest: bool, collision: bool,
+            scales: Sequence[float] = _REFINE_SCALES, contacts: Dexels | None = None
+            ) -> _Refined:
+    """Levels of 9 x 9 near searches around each start ``(ti, si)``.
+
+    The levels span ``scales`` grid steps on either side, each centred on the best of the
+    previous. The best point of each start is searched once more with the collision search
+    (when asked), so a deep gouge only that search sees is measured exactly: ``ev``'s own,
+    or with ``contacts`` the collision search of those searches, of which only what the
+    near search does not model counts (the shank, a piece from behind).
     """
-    if cand.shape[0] == 0:
-        return None
-    n_s = samples.shape[1]
-    ti, si = samples.t[cand // n_s], samples.s[cand % n_s]
-    dt = 1.0 / max(samples.shape[0] - 1, 1)
-    ds = 1.0 / max(n_s - 1, 1)
-    conv = samples.convexity_per_mm.ravel()[cand]
+    dt, ds = _grid_steps(samples)
     off = np.linspace(-1.0, 1.0, _REFINE_GRID)
     ot, os_ = (a.ravel() for a in np.meshgrid(off, off, indexing="ij"))
     closed = bool(getattr(surface, "closed_t", False))
     sign = 1.0 if largest else -1.0
-    rows = np.arange(cand.shape[0])
-    for scale in (1.0, 0.25, 0.0625):
+    rows = np.arange(ti.shape[0])
+    for scale in scales:
         t = ti[:, None] + scale * dt * ot[None, :]
         s = np.clip(si[:, None] + scale * ds * os_[None, :], 0.0, 1.0)
         t = np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)
         pts, nrm, _ = surface_points_normals(surface, t.ravel(), s.ravel())
         res = ev.search(pts, nrm, np.repeat(conv, off.size ** 2))
-        d = ev.deviation(res, nrm).reshape(cand.shape[0], -1)
+        d = ev.deviation(res, nrm).reshape(ti.shape[0], -1)
         pick = np.argmax(np.where(np.isfinite(d), sign * d, -np.inf), axis=1)
         ti, si = t[rows, pick], s[rows, pick]
     pts, nrm, _ = surface_points_normals(surface, ti, si)
-    res = ev.search(pts, nrm, conv, far=collision)
-    score = np.where(np.isfinite(d := ev.deviation(res, nrm)), sign * d, -np.inf)
-    i = int(np.argmax(score))
-    if not np.isfinite(score[i]):
+    res = ev.search(pts, nrm, conv, far=collision and contacts is None)
+    if collision and contacts is not None:
+        far = contacts.search(pts, nrm, conv, near=False, far=True, below_mm=res.lam_mm)
+        other = far.shank | far.behind
+        res = res.merged(DexelResult(np.where(other, far.lam_mm, np.inf), far.move,
+                                     far.shank, far.behind))
+    return _Refined(ev.deviation(res, nrm), ti, si, pts, res.move, res.shank)
+
+
+def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignSamples,
+                   start_t: FloatArray, start_s: FloatArray, coarse: _Refined,
+                   conv: FloatArray, *, largest: bool, collision: bool) -> Extreme | None:
+    """Every start refined again with the fine model.
+
+    Each start is refined again with :meth:`FineModel.around` searches, from its coarse
+    end and from its grid start, over a quarter of a grid step and finer (the coarse
+    model's bumps along a cusp's ridge may have led its own levels to another top). The
+    fine model is built for the near searches at every design point of the parameter
+    boxes, ``sum(_FINE_SCALES)`` grid steps on either side of a coarse end or a grid
+    start, that the fine levels may visit (:func:`~verification.fine_model.box_centres`).
+    The fine value is also taken at the coarse ends and the grid starts ``(start_t,
+    start_s)`` themselves with the collision search (a contact only that search sees
+    leads the levels nowhere), the most extreme kept.
+
+    No start is left out on its coarse value: the coarse levels measured it at the
+    points they visited only, and the fine levels visit others, up to a third of a grid
+    step away, where nothing bounds the coarse value short of a slope bound of the cut
+    (a cusp's flank rises at up to ``rho / R`` for a near-search radius ``rho``: tens of
+    micrometres over a third of a step, far more than the model's tolerance).
+    """
+    sign = 1.0 if largest else -1.0
+    score = coarse.score(sign)
+    keep = np.flatnonzero(np.isfinite(score))
+    if keep.shape[0] == 0:
         return None
-    return Extreme(float(d[i]), float(ti[i]), float(si[i]), pts[i], int(res.move[i]),
-                    bool(res.shank[i]))
+    c = fine.coarse
+    # the near search's last level must hold the most material kept; a gouge deeper than
+    # the near search was sized for: sized for it, as the grid search does
+    most = float(np.max(coarse.dev[keep])) + fine.model_tol_mm
+    level = fine.level_for_mm(most) if largest else c.horizons[0]
+    deepest = float(-coarse.dev[keep].min()) + fine.model_tol_mm
+    depth = c.depth if largest else min(max(1.25 * deepest, c.depth), c.radius + c.horizon)
+    # every point the fine levels search lies in the parameter box of a coarse end or a
+    # grid start whose half-width is the levels' summed scales (each level is centred on
+    # a point of the previous one's box): the fine model holds the near searches there
+    dt, ds = _grid_steps(samples)
+    wide = sum(_FINE_SCALES)
+    centres, slack = box_centres(surface, np.concatenate((coarse.t[keep], start_t[keep])),
+                                 np.concatenate((coarse.s[keep], start_s[keep])),
+                                 wide * dt, wide * ds, c.corner)
+    ev = fine.around(centres, slack, np.tile(conv[keep], 2), level_mm=level, depth_mm=depth)
+    if ev is None:
+        return None
+    scales = _FINE_SCALES
+    kw = {"largest": largest, "collision": collision, "contacts": c}
+    at_ends = _refine(ev, surface, samples, coarse.t[keep], coarse.s[keep], conv[keep],
+                      scales=(), **kw)
+    at_starts = _refine(ev, surface, samples, start_t[keep], start_s[keep], conv[keep],
+                        scales=(), **kw)
+    # from both: the coarse model's bumps may have led its levels to another top
+    levels = _refine(ev, surface, samples, np.concatenate((coarse.t[keep], start_t[keep])),
+                     np.concatenate((coarse.s[keep], start_s[keep])), np.tile(conv[keep], 2),
+                     scales=scales, **kw)
+    best = [at_ends.extreme(sign), at_starts.extreme(sign), levels.extreme(sign)]
+    known = [e for e in best if e is not None]
+    return max(known, key=lambda e: sign * e.dev) if known else None
 
 
 def extreme(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
              res: DexelResult, dev: FloatArray, eligible: NDArray[np.bool_], *,
-             largest: bool, limit: float, refine: int, collision: bool) -> Extreme | None:
+             largest: bool, limit: float, refine: int, collision: bool,
+             fine: FineModel | None = None) -> Extreme | None:
     """The most extreme deviation among eligible samples beyond ``limit``, refined."""
     return extremes(ev, surface, samples, res, dev, [(eligible, largest, limit)],
-                    refine=refine, collision=collision)[0]
+                    refine=refine, collision=collision, fine=fine)[0]
 
 
 def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
              res: DexelResult, dev: FloatArray,
              asks: Sequence[tuple[NDArray[np.bool_], bool, float]], *, refine: int,
-             collision: bool) -> list[Extreme | None]:
+             collision: bool, fine: FineModel | None = None) -> list[Extreme | None]:
     """:func:`extreme` of each ask ``(eligible, largest, limit)``, searching each start once.
 
     An extreme depends on its mask only through the most extreme eligible sample and the
@@ -118,6 +213,12 @@ def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
     limit, sample and starts as an earlier one (the largest scallop is most often the
     largest excess, away from the uncut flanks) has the very same searches, so it takes
     the earlier one's result instead of running them again.
+
+    With a ``fine`` model the figures are those of the fine model (:func:`_refine_finely`):
+    the same whatever moves the path is written in. Its candidates are taken from
+    ``limit`` widened by the coarse model's tolerance, so an extreme the coarse model puts
+    short of the limit (a gouge shallower than the gouge tolerance) but the fine model
+    beyond it is still found; it is reported only if its fine value is beyond ``limit``.
     """
     n_s = samples.shape[1]
     found: dict[tuple[bool, float, int, bytes], Extreme | None] = {}
@@ -128,20 +229,27 @@ def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
             out.append(None)
             continue
         i = int(np.nanargmax(flat) if largest else np.nanargmin(flat))
-        cand = (_local_extremes(dev, eligible, largest, limit, refine) if refine
-                else np.zeros(0, dtype=np.int64))
+        sign = 1.0 if largest else -1.0
+        widen = fine.model_tol_mm if fine is not None else 0.0
+        cand = (_local_extremes(dev, eligible, largest, limit - sign * widen, refine)
+                if refine else np.zeros(0, dtype=np.int64))
         key = (largest, limit, i, cand.tobytes())
         if key not in found:
-            sign = 1.0 if largest else -1.0
-            best = Extreme(float(flat[i]), float(samples.t[i // n_s]),
-                           float(samples.s[i % n_s]), samples.points.reshape(-1, 3)[i],
-                           int(res.move[i]), bool(res.shank[i]))
-            if refine:
-                fine = _refine(ev, surface, samples, cand, largest=largest,
-                                      collision=collision)
-                if fine is not None and sign * fine.dev >= sign * best.dev:
-                    best = fine
-            found[key] = best if sign * best.dev > sign * limit else None
+            best: Extreme | None = Extreme(
+                float(flat[i]), float(samples.t[i // n_s]), float(samples.s[i % n_s]),
+                samples.points.reshape(-1, 3)[i], int(res.move[i]), bool(res.shank[i]))
+            if cand.shape[0]:
+                conv = samples.convexity_per_mm.ravel()[cand]
+                t0, s0 = samples.t[cand // n_s], samples.s[cand % n_s]
+                coarse = _refine(ev, surface, samples, t0, s0, conv, largest=largest,
+                                 collision=collision)
+                refined = (coarse.extreme(sign) if fine is None else
+                           _refine_finely(fine, surface, samples, t0, s0, coarse, conv,
+                                          largest=largest, collision=collision))
+                if refined is not None and (fine is not None
+                                            or sign * refined.dev >= sign * best.dev):
+                    best = refined
+            found[key] = best if best is not None and sign * best.dev > sign * limit else None
         out.append(found[key])
     return out
 

@@ -130,6 +130,13 @@ class Pieces:
                       cat("shank"), cat("axis"), cat("arc0_mm"), cat("arc1_mm"),
                       self.path_arc_mm, self.path_move, cat("height_mm"))
 
+    def taken(self, rows: NDArray[np.bool_] | IntArray) -> Pieces:
+        """The pieces at ``rows`` (a mask or indices); the path arrays unchanged."""
+        return Pieces(self.a[rows], self.e[rows], self.ee[rows], self.mid[rows],
+                      self.half_mm[rows], self.move[rows], self.shank[rows], self.axis[rows],
+                      self.arc0_mm[rows], self.arc1_mm[rows], self.path_arc_mm,
+                      self.path_move, self.height_mm[rows])
+
     def moves_at(self, piece: IntArray, points_mm: FloatArray) -> IntArray:
         """Motion block nearest each point along its piece (ball: by path length).
 

@@ -46,7 +46,7 @@ from machines import Machine, Wrap, forward
 from .errors import VerificationError
 from .vectors import row_norms
 
-__all__ = ["MAX_SUBSTEPS", "ToolMotion", "replay"]
+__all__ = ["MAX_SUBSTEPS", "JointRows", "ToolMotion", "replay", "replay_rows"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -95,6 +95,9 @@ class ToolMotion:
     first_swept : int
         Motion blocks before this one (in motion order) start from an unknown position
         and are not swept.
+    rows : JointRows or None
+        The joint-space segments the instances sample (None: not kept), so that any
+        stretch of the path can be sampled again more finely (:func:`replay_rows`).
     """
 
     tips_mm: FloatArray
@@ -108,6 +111,7 @@ class ToolMotion:
     tip_deviation_mm: FloatArray
     chord_tol_mm: float
     first_swept: int = 0
+    rows: JointRows | None = None
 
     @property
     def n_moves(self) -> int:
@@ -118,6 +122,27 @@ class ToolMotion:
     def n_instances(self) -> int:
         """Tool instances (sampled positions)."""
         return int(self.tips_mm.shape[0])
+
+
+@dataclass(frozen=True, eq=False)
+class JointRows:
+    """The joint-space segments of a replay (blocks, arcs cut into chords), in order.
+
+    Attributes
+    ----------
+    start, end : ndarray, shape (k, n_axes)
+        Joint values at each segment's ends (machine units: mm, deg; rotary axes
+        unwrapped as the controller moves them).
+    move : ndarray of int64, shape (k,)
+        Motion block (0-based, motion order) of each segment.
+    of_instance : ndarray of int64, shape (m,)
+        Segment each tool instance ends (instance 0, where the first segment starts: 0).
+    """
+
+    start: FloatArray
+    end: FloatArray
+    move: IntArray
+    of_instance: IntArray
 
 
 def _first_known(program: Program, machine: Machine) -> int:
@@ -361,4 +386,62 @@ def replay(program: Program, machine: Machine, *, chord_tol_mm: float, radius_mm
         move_of_instance=np.concatenate(([known], source[move])).astype(np.int64),
         block_index=np.flatnonzero(is_motion).astype(np.int64), line=lines, rapid=rapid,
         substeps=steps, rotary_deg=rot, tip_deviation_mm=dev, chord_tol_mm=float(chord_tol_mm),
-        first_swept=known + 1)
+        first_swept=known + 1,
+        rows=JointRows(j0, j1, source.astype(np.int64),
+                       np.concatenate(([0], move)).astype(np.int64)))
+
+
+def replay_rows(motion: ToolMotion, machine: Machine, rows: IntArray, *,
+                chord_tol_mm: float, radius_mm: float) -> tuple[ToolMotion, IntArray]:
+    """Some segments of a replay sampled again, to ``chord_tol_mm``, in one batch.
+
+    The same joint interpolation as :func:`replay` (steps doubled-and-more until every
+    step's tip and ball-centre midpoints lie within the tolerance of its chord), on
+    stretches of the path only: a finer model of the tool where it matters, at the cost
+    of those stretches.
+
+    Parameters
+    ----------
+    motion : ToolMotion
+        A replay that kept its segments (``motion.rows``).
+    machine : Machine
+        The machine it was replayed on.
+    rows : ndarray of int64
+        Segments (indices into ``motion.rows``), sorted, unique; each run of consecutive
+        ones is a stretch.
+    chord_tol_mm, radius_mm : float
+        As for :func:`replay`.
+
+    Returns
+    -------
+    motion : ToolMotion
+        Per stretch: an instance where its first segment starts, then its segments'
+        instances; moves, blocks and lines numbered as in ``motion`` (``rows`` None).
+        Consecutive instances of two stretches are not joined by the tool.
+    starts : ndarray of int64
+        The instance each stretch starts at (the first is 0).
+
+    Raises
+    ------
+    VerificationError
+        When ``motion`` kept no segments, or a segment cannot be sampled finely enough.
+    """
+    kept = motion.rows
+    if kept is None:
+        raise VerificationError("this replay kept no joint segments to sample again")
+    if not (chord_tol_mm > 0.0):
+        raise VerificationError(f"chord_tol_mm must be > 0 mm, got {chord_tol_mm!r}")
+    j0, j1 = kept.start[rows], kept.end[rows]
+    counts, _, posed = _substeps(machine, j0, j1, chord_tol_mm, radius_mm)
+    move, tips, axes = _instances(machine, j0, j1, counts, posed, radius_mm)
+    first = np.flatnonzero(np.r_[True, np.diff(rows) > 1])  # each stretch's first segment
+    tip0, axis0 = forward(machine, j0[first])
+    # a stretch's start goes before its first segment's instances
+    ends = np.cumsum(counts) - counts  # instance (without starts) of each segment's first
+    at = ends[first]
+    source = kept.move[rows]
+    starts = at + np.arange(first.shape[0])
+    return replace(motion, tips_mm=np.insert(tips, at, tip0, axis=0),
+                   axes=np.insert(axes, at, axis0, axis=0),
+                   move_of_instance=np.insert(source[move], at, source[first]),
+                   chord_tol_mm=float(chord_tol_mm), rows=None), starts.astype(np.int64)

@@ -66,6 +66,12 @@ class Dexels:
         self.horizon = horizons[-1]
         self.method = method
 
+    def near_radius_mm(self, level_mm: float, depth_mm: float, convexity: FloatArray
+                       ) -> FloatArray:
+        """Near-search radius around ``P + r n`` at a level, mm (:func:`near_search_radius_mm`)."""
+        return near_search_radius_mm(self.corner, level_mm, depth_mm, convexity,
+                                     core_radius_mm=self.radius - self.corner)
+
     def directions(self, normals: FloatArray) -> tuple[FloatArray, FloatArray]:
         """Dexel directions (rows) and their cosine with the normal."""
         if self.method is DexelMethod.Z:
@@ -118,9 +124,7 @@ class Dexels:
             for level in self.horizons:
                 # the first level meets every dexel: no copies of the rows
                 every = todo.shape[0] == points.shape[0]
-                r = near_search_radius_mm(self.corner, level, g,
-                                          convexity if every else convexity[todo],
-                                          core_radius_mm=self.radius - self.corner)
+                r = self.near_radius_mm(level, g, convexity if every else convexity[todo])
                 part = (self.index.search("near", points, dirs, centres, r) if every else
                         self.index.search("near", points[todo], dirs[todo], centres[todo], r))
                 scatter(out, todo, part, merge=True)

@@ -13,7 +13,10 @@ Stages (each timed in the report):
 4. **near** and **collision** searches (:mod:`verification.dexels`): the material left on
    every dexel, and the block that left it;
 5. **refine**: the largest excesses and deepest gouges re-measured on three levels of finer
-   grids around them (the top of a cusp is a kink a grid misses by ``spacing x slope``);
+   grids around them (the top of a cusp is a kink a grid misses by ``spacing x slope``),
+   then those that may be the extreme once more with the path around them replayed finely
+   (:mod:`verification.fine_model`): the reported extremes do not depend on how the path
+   is cut into moves;
 6. the report (:mod:`verification.report`).
 
 The design surface must be given in the workpiece frame the program was posted for (the
@@ -25,6 +28,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from dataclasses import replace
 from pathlib import Path
 from typing import Any, Final
 
@@ -47,6 +51,7 @@ from toolpath.surface import ParametricSurface
 from .dexels import SweepIndex, near_search_radius_mm
 from .errors import VerificationError
 from .extremes import Extreme, border, extremes
+from .fine_model import FineModel
 from .options import DexelMethod, VerifyOptions
 from .pages import with_small_pages
 from .pieces import Pieces, ball_pieces, cutter_pieces, shank_pieces
@@ -207,6 +212,7 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     if method is DexelMethod.AUTO:
         method = DexelMethod.NORMAL
     ball, shank = _pieces(motion, cutter, cfg, opts)
+    assert shank is not None
     horizon, depth = cfg["horizon_mm"], cfg["gouge_search_mm"]
     levels = opts.levels()
     shape = radius if corner is None else corner
@@ -219,6 +225,15 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                        max_pairs=opts.max_pairs, corner_radius_mm=corner)
     ev = Dexels(index, radius, levels, depth, method, corner_radius=corner,
                 model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm)
+    fine = None
+    if opts.extremes_tol_mm is not None and (opts.merge_tol_mm > 0.0
+                                             or opts.replay_tol_mm > opts.extremes_tol_mm):
+        fine_opts = replace(opts, merge_tol_mm=0.0, replay_tol_mm=opts.extremes_tol_mm)
+        fine = FineModel(motion, machine, ev,
+                         lambda stretch: _pieces(stretch, cutter, cfg, fine_opts,
+                                                 shank=False)[0],
+                         model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm,
+                         chord_tol_mm=opts.extremes_tol_mm)
     lap("pieces")
     stride = None
     if opts.collision:
@@ -239,7 +254,7 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     max_gouge, max_excess, max_scallop = extremes(
         ev, surface, samples, res, dev_grid,
         [(cut, False, -tol), (cut, True, -np.inf), (interior, True, -np.inf)],
-        refine=opts.refine, collision=opts.collision)
+        refine=opts.refine, collision=opts.collision, fine=fine)
     lap("refine")
     stats = DeviationStats.of(dev_grid, samples.area_mm2, tol)
     timings["total"] = float(sum(timings.values()))
@@ -337,28 +352,30 @@ def _past_square_to_all(normals: FloatArray, axes: FloatArray, limit: float
     return away
 
 
-def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions
-            ) -> tuple[Pieces, Pieces]:
+def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions,
+            *, shank: bool = True) -> tuple[Pieces, Pieces | None]:
     """The swept cutter's near pieces and its shank pieces (:mod:`verification.pieces`).
 
     A flat or bull-nose piece is the bottom ``max(R, 2 r)`` of the cutter (core height
     ``max(R - 2 r, 0)``): a gouge deeper than that is the collision search's, as a ball's
     deeper than ``2 R``. Its axis turns along it by at most what moves a cutter point by
     the replay tolerance, so the number of pieces grows with ``reach x rotation``.
+    ``shank=False``: the near pieces only (None for the shank).
     """
     radius, flutes = cutter.radius_mm, cutter.flute_length_mm
     if cutter.kind is CutterKind.BALL:
         return (ball_pieces(motion, radius, cfg["max_piece_mm"], merge_tol_mm=opts.merge_tol_mm),
                 shank_pieces(motion, radius, flutes, cfg["shank_spacing_mm"],
-                             cfg["shank_piece_mm"]))
+                             cfg["shank_piece_mm"]) if shank else None)
     corner = cutter.corner_radius_mm
     height = max(radius - 2.0 * corner, 0.0)
     reach = math.hypot(radius - corner, height) + corner
     near = cutter_pieces(motion, corner, height, cfg["max_piece_mm"], reach_mm=reach,
                          rot_tol_mm=opts.replay_tol_mm, merge_tol_mm=opts.merge_tol_mm)
-    shank = shank_pieces(motion, corner, flutes - corner, cfg["shank_spacing_mm"],
-                         cfg["shank_piece_mm"])
-    return near, shank
+    if not shank:
+        return near, None
+    return near, shank_pieces(motion, corner, flutes - corner, cfg["shank_spacing_mm"],
+                              cfg["shank_piece_mm"])
 
 
 def load_surface(path: str | Path) -> ParametricSurface:

@@ -1,0 +1,79 @@
+"""The fine model around the extremes holds every near search its levels may make.
+
+The fine levels move a design point ``P`` by up to a third of a grid step, but the near
+search runs around the centre ``c = P + R n``, which on a convex surface moves
+``(1 + R kappa)`` times as fast: a 3 mm ball on a 1.5 mm convex dome moves its centre 3
+times as far as the point. The stretches of path the fine model replays must cover the
+near search around every centre of the parameter box the levels may visit, not only a
+margin of the design point's own drift around the box's middle.
+"""
+
+import math
+
+import numpy as np
+from verify_programs import five_axis_cap
+
+from machines import load_machine
+from toolpath.planning.analytic import SpherePatch
+from toolpath.planning.cutters import parse_cutter
+from verification.dexels import SweepIndex
+from verification.fine_model import FineModel, box_centres
+from verification.options import DexelMethod
+from verification.pieces import ball_pieces
+from verification.replay import replay
+from verification.samples import surface_points_normals
+from verification.search import Dexels
+
+DOME_MM = 1.5
+BALL_MM = 3.0
+LEVEL_MM, DEPTH_MM = 0.02, 0.02
+
+
+def _convex_dome_model():
+    """A ball on 5-axis passes over a small convex dome; its coarse searches and fine model."""
+    machine = load_machine("trunnion-ac")
+    ball = parse_cutter("ball:6")
+    step_deg = math.degrees(0.1 / DOME_MM)
+    program = five_axis_cap(machine, ball, DOME_MM, longitude_deg=(-60.0, 60.0),
+                            colatitudes_deg=np.arange(20.0, 80.0, step_deg), points=60)
+    motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=BALL_MM)
+    coarse = ball_pieces(motion, BALL_MM, 0.5, merge_tol_mm=1e-3)
+    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), BALL_MM,
+                       np.full(3, -DOME_MM), np.full(3, DOME_MM), base_cell_mm=0.25,
+                       reach_limit_mm=BALL_MM + LEVEL_MM + DEPTH_MM)
+    ev = Dexels(index, BALL_MM, (LEVEL_MM,), DEPTH_MM, DexelMethod.NORMAL)
+    fine = FineModel(motion, machine, ev, lambda stretch: ball_pieces(stretch, BALL_MM, 0.5),
+                     model_tol_mm=1.5e-3, chord_tol_mm=1e-5)
+    dome = SpherePatch(radius_mm=DOME_MM, longitude_deg=(-40.0, 40.0),
+                       colatitude_deg=(30.0, 70.0))
+    return dome, ev, fine
+
+
+def test_the_fine_model_holds_the_near_search_of_every_point_of_its_boxes():
+    dome, ev, fine = _convex_dome_model()
+    t0, s0 = np.array([0.5]), np.array([0.5])
+    half_t, half_s = 0.02, 0.03  # 0.032 mm and 0.031 mm of the dome at its middle
+    conv = np.array([1.0 / DOME_MM])
+    centres, slack = box_centres(dome, t0, s0, half_t, half_s, ev.corner)
+    held = set(fine.rows_around(centres, slack, conv, level_mm=LEVEL_MM,
+                                depth_mm=DEPTH_MM)[0].tolist())
+    # every point of the box, on a grid finer than the one measured, and at random
+    off = np.linspace(-1.0, 1.0, 33)
+    t = np.concatenate(((t0 + half_t * off[:, None] + 0 * off).ravel(),
+                        t0 + half_t * np.random.default_rng(3).uniform(-1, 1, 300)))
+    s = np.concatenate(((s0 + half_s * off[None, :] + 0 * off[:, None]).ravel(),
+                        s0 + half_s * np.random.default_rng(4).uniform(-1, 1, 300)))
+    points, normals, _ = surface_points_normals(dome, t, s)
+    mid, mid_normal, _ = surface_points_normals(dome, t0, s0)
+    c = points + ev.corner * normals
+    r_c = ev.near_radius_mm(LEVEL_MM, DEPTH_MM, np.repeat(conv, c.shape[0]))
+    needed = set(fine.rows_within(c, r_c).tolist())
+    assert needed and needed <= held
+    # the centres move (1 + R / rho) = 3 times as far as the points: a margin of twice the
+    # points' drift around the middle's centre misses stretches some of those searches need
+    drift = float(np.max(np.linalg.norm(points - mid, axis=1)))
+    c0 = mid + ev.corner * mid_normal
+    assert float(np.max(np.linalg.norm(c - c0, axis=1))) > 2.5 * drift
+    old = set(fine.rows_within(c0, ev.near_radius_mm(LEVEL_MM, DEPTH_MM, conv)
+                               + 2.0 * drift).tolist())
+    assert not needed <= old

@@ -1,0 +1,254 @@
+"""The swept cutter modelled finely around a few points: figures free of how moves cut a path.
+
+The whole-program model keeps its pieces within ``replay_tol_mm + merge_tol_mm`` (0.5 + 1
+um by default) of the true sweep, *per move*: the replay samples each block at its own
+``u = j / n`` and merging starts afresh wherever the instances differ, so one path written
+as a few long moves or as many short ones is measured up to that apart (1.5 um is 20 % of
+a 8 um gouge, a third of a 5 um scallop). Around a handful of points the sweep can be
+modelled far better at little cost: :meth:`FineModel.around`
+
+1. lists the coarse near pieces that come within ``reach`` of the near-search centres
+   the caller's searches may use (:meth:`~verification.dexels.SweepIndex.pieces_within`),
+   and the joint-space segments of the replay they stand for (``motion.rows``, one
+   instance either side);
+2. samples those stretches again in joint space to a fine chord tolerance
+   (``VerifyOptions.extremes_tol_mm``, 20 nm; :func:`~verification.replay.replay_rows`)
+   and keeps every chord (no merging);
+3. builds the near pieces and a near-search index of those stretches alone, whose levels
+   stop at the level asked for.
+
+Soundness: every coarse piece lies within ``model_tol`` of the true sweep, and every fine
+piece within ``chord_tol`` of it, so a stretch none of whose coarse pieces comes within
+``r + model_tol + chord_tol`` of a near-search centre ``c`` has no fine piece within ``r``
+of ``c``: the stretches left out cannot change what a near search of radius ``r`` around
+``c`` finds. The searches the fine model must answer are those at every design point the
+caller's levels may visit, each around its own centre ``c = P + r_c n`` (``r_c`` the
+corner radius, the ball's radius for a ball). That centre moves faster than the design
+point on a convex surface: ``dc = dP + r_c dn`` and ``|dn| <= kappa |dP|``, so by up to
+``(1 + r_c kappa)`` times as much (3 to 5 times for a 3 mm ball on a 1 mm convex edge),
+and a parameter box maps to a sheared, stretched patch of space. Rather than bound
+``kappa`` and the shear, :func:`box_centres` measures the centres themselves on a grid over
+each parameter box the levels may visit (the wrap of a closed ``t`` and the clip of an
+open one as the levels apply them), with the longest diagonal of a cell of that grid as
+how far a centre inside the cell may stand from the cell's corners. :meth:`FineModel.around`
+keeps every stretch that comes within ``r`` of a ball holding those centres, widened by
+the slack.
+The collision search (shank, from behind) stays the coarse model's.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Final
+
+import numpy as np
+from numpy.typing import NDArray
+
+from machines import Machine
+from toolpath.surface import ParametricSurface
+
+from .dexels import SweepIndex
+from .pieces import Pieces
+from .replay import ToolMotion, replay_rows
+from .samples import surface_points_normals
+from .search import Dexels
+from .vectors import row_norms
+
+__all__ = ["BOX_GRID", "FineModel", "PiecesOf", "box_centres"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+#: The swept cutter's near pieces of replayed stretches, modelled finely (no merging).
+PiecesOf = Callable[[ToolMotion], Pieces]
+
+#: Centres measured per side of a parameter box (:func:`box_centres`).
+BOX_GRID: Final[int] = 9
+
+
+def box_centres(surface: ParametricSurface, t: FloatArray, s: FloatArray, half_t: float,
+                half_s: float, corner_mm: float) -> tuple[FloatArray, FloatArray]:
+    """Near-search centres over parameter boxes, and how far any centre of a box may stray.
+
+    The box of each ``(t, s)`` is ``[t - half_t, t + half_t] x [s - half_s, s + half_s]``,
+    ``t`` wrapped on a closed-``t`` surface and both clipped to ``[0, 1]`` otherwise (as
+    the refinement's levels treat the points they search). Its centres ``P + r_c n`` are
+    measured on a ``BOX_GRID x BOX_GRID`` grid of it; a point of the box lies in one of the
+    grid's cells, and where the map ``(t, s) -> c`` is affine over a cell, a centre in it
+    is a convex combination of the cell's corner centres, within half the cell's longest
+    diagonal of one of them. The slack returned, the longest diagonal of any cell of the
+    box, is twice that: the other half covers the map's departure from affine over a
+    cell (``|c''| h^2 / 8``, for a cell ``h`` of a twelfth of a grid step a small fraction
+    of the ``|c'| h`` diagonal itself).
+
+    Parameters
+    ----------
+    surface : ParametricSurface
+        The design surface.
+    t, s : ndarray, shape (k,)
+        The boxes' middles.
+    half_t, half_s : float
+        The boxes' half-widths in ``t`` and ``s``.
+    corner_mm : float
+        ``r_c``: the near search's centres stand this far along the normal, mm.
+
+    Returns
+    -------
+    centres : ndarray, shape (k, BOX_GRID ** 2, 3)
+        The centres measured, box by box, mm.
+    slack_mm : ndarray, shape (k,)
+        Of each box: how far a centre anywhere in it may stand from the nearest centre
+        measured, mm.
+    """
+    off = np.linspace(-1.0, 1.0, BOX_GRID)
+    tt = t[:, None, None] + half_t * off[None, :, None] + np.zeros((1, 1, BOX_GRID))
+    ss = s[:, None, None] + half_s * off[None, None, :] + np.zeros((1, BOX_GRID, 1))
+    closed = bool(getattr(surface, "closed_t", False))
+    tt = np.mod(tt, 1.0) if closed else np.clip(tt, 0.0, 1.0)
+    ss = np.clip(ss, 0.0, 1.0)
+    points, normals, _ = surface_points_normals(surface, tt.ravel(), ss.ravel())
+    c = (points + corner_mm * normals).reshape(t.shape[0], BOX_GRID, BOX_GRID, 3)
+    diagonal = np.maximum(row_norms((c[:, 1:, 1:] - c[:, :-1, :-1]).reshape(-1, 3)),
+                          row_norms((c[:, 1:, :-1] - c[:, :-1, 1:]).reshape(-1, 3)))
+    slack = diagonal.reshape(t.shape[0], -1).max(axis=1)
+    return c.reshape(t.shape[0], -1, 3), slack
+
+
+class FineModel:
+    """Fine near searches around given points, from the coarse model of the whole program.
+
+    Parameters
+    ----------
+    motion : ToolMotion
+        The replay (it must have kept its joint segments, ``motion.rows``).
+    machine : Machine
+        The machine it was replayed on.
+    coarse : Dexels
+        The whole-program searches (their index finds the stretches; their levels, depth
+        and method are the fine searches' too).
+    pieces_of : callable
+        ``motion -> near pieces`` of replayed stretches, without merging.
+    model_tol_mm : float
+        How far the coarse pieces may stand from the true sweep, mm (replay + merge).
+    chord_tol_mm : float
+        The fine replay's chord tolerance, mm.
+    """
+
+    def __init__(self, motion: ToolMotion, machine: Machine, coarse: Dexels,
+                 pieces_of: PiecesOf, *, model_tol_mm: float, chord_tol_mm: float) -> None:
+        self.motion, self.machine, self.coarse = motion, machine, coarse
+        self.pieces_of = pieces_of
+        self.model_tol_mm = model_tol_mm
+        self.chord_tol_mm = chord_tol_mm
+
+    def level_for_mm(self, deviation_mm: float) -> float:
+        """The first near-search level at or above ``deviation_mm`` (else the horizon)."""
+        return next((h for h in self.coarse.horizons if h >= deviation_mm),
+                    self.coarse.horizon)
+
+    def _rows(self, pieces: Pieces, hit: IntArray) -> IntArray:
+        """Joint segments (sorted, unique) the listed near pieces stand for."""
+        rows = self.motion.rows
+        assert rows is not None
+        n_inst = rows.of_instance.shape[0]
+        path = pieces.path_arc_mm
+        # every instance whose arc lies in [arc0, arc1] and one either side (a centre
+        # standing still while the axis turns repeats its arc over several instances)
+        lo = np.clip(np.searchsorted(path, pieces.arc0_mm[hit], side="left") - 1, 0, n_inst - 1)
+        hi = np.clip(np.searchsorted(path, pieces.arc1_mm[hit], side="right"), 0, n_inst - 1)
+        count = np.maximum(hi - lo + 1, 1)
+        inst = np.repeat(lo, count) + (np.arange(count.sum())
+                                       - np.repeat(np.cumsum(count) - count, count))
+        return np.unique(rows.of_instance[inst])
+
+    def rows_within(self, centres: FloatArray, radii_mm: FloatArray) -> IntArray:
+        """Joint segments (sorted, unique) whose sweep may come within ``radii_mm`` of a centre.
+
+        Those of every coarse near piece within ``radii_mm + model_tol + chord_tol``: a
+        coarse piece stands within ``model_tol`` of the true sweep, a fine one within
+        ``chord_tol`` of it.
+        """
+        ev = self.coarse
+        hit = ev.index.pieces_within("near", centres,
+                                     radii_mm + self.model_tol_mm + self.chord_tol_mm)
+        if hit.shape[0] == 0:
+            return np.zeros(0, dtype=np.int64)
+        return self._rows(ev.index.pieces("near"), hit)
+
+    def rows_around(self, centres: FloatArray, slack_mm: FloatArray,
+                    convexity_per_mm: FloatArray, *, level_mm: float, depth_mm: float
+                    ) -> tuple[IntArray, FloatArray, FloatArray]:
+        """Joint segments the near searches around any centre of some boxes may need.
+
+        Each box's centres (:func:`box_centres`) are enclosed in one ball, about their
+        mean, of radius their farthest distance from it plus the box's slack: a centre
+        anywhere in the box lies in that ball, and the near search around it (radius
+        ``r``) within ``r`` more of it. One query per box rather than per centre.
+
+        Returns
+        -------
+        rows : ndarray of int64
+            :meth:`rows_within` those balls widened by ``r``.
+        middles : ndarray, shape (k, 3)
+            The balls' centres, mm.
+        reach_mm : ndarray, shape (k,)
+            Their radii plus ``r``, mm.
+        """
+        ev = self.coarse
+        middles = centres.mean(axis=1)
+        spread = np.sqrt(np.max(np.sum((centres - middles[:, None, :]) ** 2, axis=2), axis=1))
+        reach = ev.near_radius_mm(level_mm, depth_mm, convexity_per_mm) + spread + slack_mm
+        return self.rows_within(middles, reach), middles, reach
+
+    def around(self, centres: FloatArray, slack_mm: FloatArray, convexity_per_mm: FloatArray,
+               *, level_mm: float, depth_mm: float) -> Dexels | None:
+        """Fine near searches, exact up to ``level_mm``, around any centre of some boxes.
+
+        Parameters
+        ----------
+        centres : ndarray, shape (k, q, 3)
+            Per box, near-search centres ``P + r_c n`` measured over it, mm
+            (:func:`box_centres`).
+        slack_mm : ndarray, shape (k,)
+            Per box: the searches hold for any centre this close to one of its ``centres``.
+        convexity_per_mm : ndarray, shape (k,)
+            The convexity each box's near searches are sized with, 1/mm.
+        level_mm : float
+            Last level of the near search (one of the coarse levels): more material than
+            this is reported as beyond the horizon.
+        depth_mm : float
+            Gouge depth the near search is sized for, mm.
+
+        Returns
+        -------
+        Dexels or None
+            None when no piece comes near (nothing cut there).
+        """
+        ev = self.coarse
+        levels = (*(h for h in ev.horizons if h < level_mm), level_mm)
+        rows, middles, reach = self.rows_around(centres, slack_mm, convexity_per_mm,
+                                                level_mm=level_mm, depth_mm=depth_mm)
+        if rows.shape[0] == 0:
+            return None
+        stretch, starts = replay_rows(self.motion, self.machine, rows,
+                                      chord_tol_mm=self.chord_tol_mm, radius_mm=ev.radius)
+        fine = self.pieces_of(stretch)
+        # no piece joins one stretch's end to the next one's start
+        arc = fine.path_arc_mm
+        gap_lo, gap_hi = arc[starts[1:] - 1], arc[starts[1:]]
+        mid = 0.5 * (fine.arc0_mm + fine.arc1_mm)
+        j = np.minimum(np.searchsorted(gap_hi, mid, side="left"), max(gap_hi.shape[0] - 1, 0))
+        joins = (mid > gap_lo[j]) & (mid < gap_hi[j]) if gap_hi.shape[0] else np.zeros(
+            mid.shape[0], dtype=bool)
+        fine = fine.taken(~joins)
+        # always the compiled walk: the very walk the coarse searches use (checked against
+        # the pair search there), whereas pairs over the dense fine pieces grow as their
+        # square; an uncompiled coarse index (a test's oracle) is not copied here
+        old = ev.index
+        box = float(np.max(reach)) + ev.corner
+        index = SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
+                           middles.min(axis=0) - box, middles.max(axis=0) + box,
+                           base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
+                           max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)
+        return Dexels(index, ev.radius, levels, depth_mm, ev.method, corner_radius=ev.corner,
+                      model_tol_mm=self.chord_tol_mm)
