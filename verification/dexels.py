@@ -249,7 +249,7 @@ class SweepIndex:
         pieces = self.pieces(which)
         if q == 0 or pieces.size == 0:
             return out
-        reach = radii_mm + pieces.max_half_mm
+        reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
         grid = self._grid(which, float(np.median(reach)))
         spans = grid.span_of(reach)
         if self.corner_radius_mm is None and self.compiled:
@@ -290,7 +290,11 @@ class SweepIndex:
                       ) -> IntArray:
         """Pieces (indices into :meth:`pieces`, sorted) within ``radii_mm`` of a centre.
 
-        Exact point-segment distances, over the grid's candidates.
+        A piece's reach is its core: the segment its bottom centre moves along and up to
+        ``height_mm`` above it along its axis (a flat or bull-nose cutter's flank; 0 for a
+        ball). A core point ``z`` up the axis stands at most ``z`` farther from the centre
+        than its foot on the segment, so a piece is kept where its exact point-segment
+        distance is within ``radii_mm + height_mm``, over the grid's candidates.
 
         Parameters
         ----------
@@ -304,7 +308,7 @@ class SweepIndex:
         pieces = self.pieces(which)
         if centres.shape[0] == 0 or pieces.size == 0:
             return np.zeros(0, dtype=np.int64)
-        reach = radii_mm + pieces.max_half_mm
+        reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
         grid = self._grid(which, float(np.median(reach)))
         spans = grid.span_of(reach)
         found = []
@@ -317,7 +321,7 @@ class SweepIndex:
                 f = np.clip(np.einsum("ij,ij->i", v, pieces.e[piece])
                             / np.where(ee > 0.0, ee, 1.0), 0.0, 1.0)
                 gap = row_norms(v - f[:, None] * pieces.e[piece])
-                found.append(piece[gap <= radii_mm[sel[query]]])
+                found.append(piece[gap <= radii_mm[sel[query]] + pieces.height_mm[piece]])
         return np.unique(np.concatenate(found)) if found else np.zeros(0, dtype=np.int64)
 
     def _capsules(self, qi: IntArray, piece: IntArray, pieces: Pieces, points: FloatArray,

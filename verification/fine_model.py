@@ -245,7 +245,7 @@ class FineModel:
         # the pair search there), whereas pairs over the dense fine pieces grow as their
         # square; an uncompiled coarse index (a test's oracle) is not copied here
         old = ev.index
-        box = float(np.max(reach)) + ev.corner
+        box = float(np.max(reach)) + ev.corner + fine.max_height_mm
         index = SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
                            middles.min(axis=0) - box, middles.max(axis=0) + box,
                            base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,

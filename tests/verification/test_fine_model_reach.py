@@ -11,11 +11,14 @@ margin of the design point's own drift around the box's middle.
 import math
 
 import numpy as np
+import pytest
 from verify_programs import five_axis_cap
 
+from gcode import GRBL, Linear, Program, Rapid, emit_text, parse
 from machines import load_machine
-from toolpath.planning.analytic import SpherePatch
+from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
+from verification import VerifyOptions, verify_program
 from verification.dexels import SweepIndex
 from verification.fine_model import FineModel, box_centres
 from verification.options import DexelMethod
@@ -77,3 +80,20 @@ def test_the_fine_model_holds_the_near_search_of_every_point_of_its_boxes():
     old = set(fine.rows_within(c0, ev.near_radius_mm(LEVEL_MM, DEPTH_MM, conv)
                                + 2.0 * drift).tolist())
     assert not needed <= old
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:0.5"])
+def test_a_flank_gouge_high_up_the_cutter_stays_in_the_fine_model(spec):
+    # one pass with the tip at z 0 gouges a wall leaning in over it with the cutter's
+    # flank 2.5 mm up; a second pass higher up leaves material there. The gouging pass's
+    # segment stands farther from the near-search centre than the reach of a ball, but its
+    # core reaches the wall: the fine model must replay it, or the gouge drops out
+    blocks = [Rapid(z=5.0), Rapid(x=-8.0, y=0.0), Linear(z=0.0, feed=300.0),
+              Linear(x=8.0, y=0.0, z=0.0, feed=800.0), Rapid(z=5.0),
+              Rapid(x=8.0, y=-0.1), Linear(z=1.5, feed=300.0),
+              Linear(x=-8.0, y=-0.1, z=1.5, feed=800.0), Rapid(z=5.0)]
+    program = parse(emit_text(Program(tuple(blocks)), GRBL), GRBL)
+    wall = PlaneSurface((-2.0, 3.0, 0.5), (4.0, 0.0, 0.0), (0.0, -0.05, 2.0))
+    report = verify_program(program, wall, load_machine("grbl-router"), parse_cutter(spec),
+                            options=VerifyOptions(spacing_mm=0.1, scallop_mm=0.05))
+    assert report.max_gouge_mm == pytest.approx(0.05, abs=1e-3)
