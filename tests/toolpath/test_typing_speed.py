@@ -18,27 +18,7 @@ from toolpath.typing_speed import NO_HIGHLIGHT, plain_error_messages
 ROOT = Path(__file__).resolve().parents[2]
 
 
-def test_a_failed_compile_explains_itself_without_escape_codes():
-    script = textwrap.dedent("""
-        import toolpath, numba, numpy as np
-
-        @numba.njit
-        def bad(a):
-            return a.no_such_attribute
-
-        try:
-            bad(np.ones(2))
-        except numba.core.errors.TypingError as exc:
-            print(repr(str(exc)))
-    """)
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True,
-                          env=env, check=True)
-    assert "no_such_attribute" in done.stdout
-    assert "\\x1b[" not in done.stdout
-
-
-_COLOURED = textwrap.dedent("""
+_FAILED_COMPILE = textwrap.dedent("""
     import os, toolpath, numba, numpy as np
 
     @numba.njit
@@ -48,23 +28,32 @@ _COLOURED = textwrap.dedent("""
     try:
         bad(np.ones(2))
     except numba.core.errors.TypingError as exc:
-        print("\\x1b[" in str(exc), os.environ.get("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"))
+        print("no_such_attribute" in str(exc), "\\x1b[" in str(exc),
+              os.environ.get("NUMBA_DISABLE_ERROR_MESSAGE_HIGHLIGHTING"))
 """)
 
 
+def _failed_compile(**environ: str) -> list[str]:
+    """In a child process: whether a failed compile's message names the attribute, holds
+    escape codes, and what numba's colour switch in the environment is."""
+    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), **environ}
+    done = subprocess.run([sys.executable, "-c", _FAILED_COMPILE], capture_output=True,
+                          text=True, env=env, check=True)
+    return done.stdout.split()
+
+
+def test_a_failed_compile_explains_itself_without_escape_codes():
+    names, coloured, _ = _failed_compile()
+    assert names == "True" and coloured == "False"
+
+
 def test_plain_messages_leave_the_environment_children_inherit_alone():
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT)}
-    done = subprocess.run([sys.executable, "-c", _COLOURED], capture_output=True, text=True,
-                          env=env, check=True)
-    assert done.stdout.split() == ["False", "None"]  # no escape codes, no variable set
+    assert _failed_compile()[2] == "None"  # the variable is not set for children
 
 
 def test_the_users_own_colour_choice_is_kept():
     assert not plain_error_messages({NO_HIGHLIGHT: ""})
-    env = {"PATH": "/usr/bin:/bin", "PYTHONPATH": str(ROOT), NO_HIGHLIGHT: ""}
-    done = subprocess.run([sys.executable, "-c", _COLOURED], capture_output=True, text=True,
-                          env=env, check=True)
-    assert done.stdout.split() == ["True"]  # numba's colours, as the user asked
+    assert _failed_compile(**{NO_HIGHLIGHT: ""})[:2] == ["True", "True"]  # numba's colours
 
 
 def test_the_array_operator_rule_declines_operands_that_are_no_arrays():
