@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from toolpath.surface import ParametricSurface
 
 from .dexels import DexelResult
-from .fine_model import FineModel, box_centres
+from .fine_model import FineModel, box_centres, on_surface
 from .samples import DesignSamples, surface_points_normals
 from .search import Dexels
 
@@ -112,13 +112,11 @@ def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, ti: 
     dt, ds = _grid_steps(samples)
     off = np.linspace(-1.0, 1.0, _REFINE_GRID)
     ot, os_ = (a.ravel() for a in np.meshgrid(off, off, indexing="ij"))
-    closed = bool(getattr(surface, "closed_t", False))
     sign = 1.0 if largest else -1.0
     rows = np.arange(ti.shape[0])
     for scale in scales:
-        t = ti[:, None] + scale * dt * ot[None, :]
-        s = np.clip(si[:, None] + scale * ds * os_[None, :], 0.0, 1.0)
-        t = np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)
+        t, s = on_surface(surface, ti[:, None] + scale * dt * ot[None, :],
+                          si[:, None] + scale * ds * os_[None, :])
         pts, nrm, _ = surface_points_normals(surface, t.ravel(), s.ravel())
         res = ev.search(pts, nrm, np.repeat(conv, off.size ** 2))
         d = ev.deviation(res, nrm).reshape(ti.shape[0], -1)
@@ -172,23 +170,20 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     # a point of the previous one's box): the fine model holds the near searches there
     dt, ds = _grid_steps(samples)
     wide = sum(_FINE_SCALES)
-    centres, slack = box_centres(surface, np.concatenate((coarse.t[keep], start_t[keep])),
-                                 np.concatenate((coarse.s[keep], start_s[keep])),
-                                 wide * dt, wide * ds, c.corner)
-    ev = fine.around(centres, slack, np.tile(conv[keep], 2), level_mm=level, depth_mm=depth)
+    both_t = np.concatenate((coarse.t[keep], start_t[keep]))
+    both_s = np.concatenate((coarse.s[keep], start_s[keep]))
+    both_conv = np.tile(conv[keep], 2)
+    centres, slack = box_centres(surface, both_t, both_s, wide * dt, wide * ds, c.corner)
+    ev = fine.around(centres, slack, both_conv, level_mm=level, depth_mm=depth)
     if ev is None:
         return None
-    scales = _FINE_SCALES
     kw = {"largest": largest, "collision": collision, "contacts": c}
-    at_ends = _refine(ev, surface, samples, coarse.t[keep], coarse.s[keep], conv[keep],
-                      scales=(), **kw)
-    at_starts = _refine(ev, surface, samples, start_t[keep], start_s[keep], conv[keep],
-                        scales=(), **kw)
-    # from both: the coarse model's bumps may have led its levels to another top
-    levels = _refine(ev, surface, samples, np.concatenate((coarse.t[keep], start_t[keep])),
-                     np.concatenate((coarse.s[keep], start_s[keep])), np.tile(conv[keep], 2),
-                     scales=scales, **kw)
-    best = [at_ends.extreme(sign), at_starts.extreme(sign), levels.extreme(sign)]
+    # at the coarse ends and grid starts themselves, then from both through the fine
+    # levels: the coarse model's bumps may have led its levels to another top
+    at_both = _refine(ev, surface, samples, both_t, both_s, both_conv, scales=(), **kw)
+    levels = _refine(ev, surface, samples, both_t, both_s, both_conv, scales=_FINE_SCALES,
+                     **kw)
+    best = [at_both.extreme(sign), levels.extreme(sign)]
     known = [e for e in best if e is not None]
     return max(known, key=lambda e: sign * e.dev) if known else None
 

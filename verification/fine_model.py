@@ -54,7 +54,7 @@ from .samples import surface_points_normals
 from .search import Dexels
 from .vectors import row_norms
 
-__all__ = ["BOX_GRID", "FineModel", "PiecesOf", "box_centres"]
+__all__ = ["BOX_GRID", "FineModel", "PiecesOf", "box_centres", "on_surface"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -64,6 +64,18 @@ PiecesOf = Callable[[ToolMotion], Pieces]
 
 #: Centres measured per side of a parameter box (:func:`box_centres`).
 BOX_GRID: Final[int] = 9
+
+
+def on_surface(surface: ParametricSurface, t: FloatArray, s: FloatArray
+               ) -> tuple[FloatArray, FloatArray]:
+    """Parameters brought onto the surface: ``t`` wrapped if closed, else both clipped.
+
+    ``t`` is wrapped on a closed-``t`` surface and clipped to ``[0, 1]`` otherwise, ``s``
+    clipped: the refinement's levels and :func:`box_centres` alike (the boxes hold the
+    points the levels search only if both treat them the same).
+    """
+    closed = bool(getattr(surface, "closed_t", False))
+    return (np.mod(t, 1.0) if closed else np.clip(t, 0.0, 1.0)), np.clip(s, 0.0, 1.0)
 
 
 def box_centres(surface: ParametricSurface, t: FloatArray, s: FloatArray, half_t: float,
@@ -103,9 +115,7 @@ def box_centres(surface: ParametricSurface, t: FloatArray, s: FloatArray, half_t
     off = np.linspace(-1.0, 1.0, BOX_GRID)
     tt = t[:, None, None] + half_t * off[None, :, None] + np.zeros((1, 1, BOX_GRID))
     ss = s[:, None, None] + half_s * off[None, None, :] + np.zeros((1, BOX_GRID, 1))
-    closed = bool(getattr(surface, "closed_t", False))
-    tt = np.mod(tt, 1.0) if closed else np.clip(tt, 0.0, 1.0)
-    ss = np.clip(ss, 0.0, 1.0)
+    tt, ss = on_surface(surface, tt, ss)
     points, normals, _ = surface_points_normals(surface, tt.ravel(), ss.ravel())
     c = (points + corner_mm * normals).reshape(t.shape[0], BOX_GRID, BOX_GRID, 3)
     diagonal = np.maximum(row_norms((c[:, 1:, 1:] - c[:, :-1, :-1]).reshape(-1, 3)),
