@@ -380,7 +380,10 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     only within :func:`_tip_reach` of ``L - b`` of the pose's tip, on the tip segment: a
     piece whose tip segment stays farther than that from the ray's segment up to the
     horizon is skipped, as one whose tip plane the ray meets after ``L``, and one whose
-    poses all stand farther than ``L`` from the ray's origin (:func:`_pose_floor`).
+    poses all stand farther than ``L`` from the ray's origin (:func:`_pose_floor`). The
+    first two tests hold at ``L`` = the horizon already for most of a ray's pieces (the
+    other passes' within a bracket's reach): those are set aside before the distances to
+    their end poses are worked out (``L`` only falls, :func:`_tip_reach` rises with it).
     """
     q, n = rays
     lo_k, hi_k, item = pieces
@@ -404,6 +407,12 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
                 bounds[k - lo] = _tip_plane_bound(q[i], n[i], tip0[j], tip1[j], axis0[j],
                                                   axis1[j], cutter.radius)
                 apart[k - lo] = _segment_distance(q[i], far, tip0[j], tip1[j])
+                if bounds[k - lo] > horizon or apart[k - lo] > _tip_reach(
+                        cutter, horizon - bounds[k - lo]):
+                    # skipped below whatever the best entry (reach <= horizon): no
+                    # distances to its end poses
+                    nearness[k - lo] = floors[k - lo] = np.inf
+                    continue
                 near0 = _distance(q[i], n[i], 0.0, tip0[j], axis0[j], cutter)
                 near1 = _distance(q[i], n[i], 0.0, tip1[j], axis1[j], cutter)
                 nearness[k - lo] = min(near0, near1)
