@@ -121,7 +121,12 @@ def _entry(q, n, tip, axis, cutter, horizon):
 
     ``cutter``: :class:`~.clearance_kernel.Cutter`.
     """
-    g = _distance(q, n, 0.0, tip, axis, cutter)
+    return _entry_from(q, n, tip, axis, cutter, horizon, _distance(q, n, 0.0, tip, axis, cutter))
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _entry_from(q, n, tip, axis, cutter, horizon, g):
+    """:func:`_entry` given ``g``, the distance of the ray's origin to the cutter there."""
     if g <= TOUCH_MM:
         return 0.0
     lam = 0.0
@@ -234,17 +239,38 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
     past the ray's points by at most :func:`_pose_shift`: where ``g_b(below)`` exceeds that
     (and :data:`TOUCH_MM`), none of them holds a point of the ray up to ``below`` (the
     result, the smallest entry over the ray's pieces, stays the same).
+
+    Before any entry is sought, the distances ``g_k`` of the ray's origin to the cutter
+    at the sampled poses: every pose of the piece lies within half a sample's spacing of
+    one, moving the cutter past the ray's points (``arm_k + below`` from that pose's tip
+    at most) by at most :func:`_pose_shift`, and a point ``l`` up the ray stands at least
+    ``g_k - l`` from that pose (1-Lipschitz). Where ``min_k (g_k - shift_k) - below``
+    exceeds :data:`TOUCH_MM`, the ray enters no pose up to ``below``: ``inf`` (the ray's
+    smallest entry stays the same), without the entries (on the standing dev blade,
+    bull:8:1, 63 % of the pieces tried).
     """
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
+    tip0, tip1, axis0, axis1 = poses
+    travel, turn_rate = _piece_motion(tip0[j], tip1[j], axis0[j], axis1[j])
+    # the samples' distances from the ray's origin first: every pose lies within half a
+    # sample's spacing of one of them
+    floor = np.inf
+    for m in range(POSES):
+        _pose_at(m / (POSES - 1), poses, j, tip, axis)
+        values[m] = _distance(q, n, 0.0, tip, axis, cutter)
+        arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
+        floor = min(floor, values[m] - _pose_shift(travel, turn_rate, 0.5 / (POSES - 1),
+                                                   arm + below))
+    if floor - below > TOUCH_MM:
+        return np.inf
     best = 0
     for m in range(POSES):
-        values[m] = _entry_at(m / (POSES - 1), q, n, poses, j, cutter, horizon, tip, axis)
+        _pose_at(m / (POSES - 1), poses, j, tip, axis)
+        values[m] = _entry_from(q, n, tip, axis, cutter, horizon, values[m])
         if values[m] < values[best]:
             best = m
     found = values[best]
     if below < found < np.inf:
-        tip0, tip1, axis0, axis1 = poses
-        travel, turn_rate = _piece_motion(tip0[j], tip1[j], axis0[j], axis1[j])
         _pose_at(best / (POSES - 1), poses, j, tip, axis)
         arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
         shift = _pose_shift(travel, turn_rate, 1.0 / (POSES - 1), arm + below)
