@@ -228,8 +228,12 @@ def _pose_shift(travel, turn_rate, du, arm):
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
+def _pair_entry(q, n, poses, j, cutter, horizon, below, stop, tip, axis, values):
     """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays).
+
+    A sampled pose's entry within ``stop`` is returned at once (the ray stops there,
+    :func:`_nearest_entries`: with ``stop`` 0 it is the piece's entry, 0; with the
+    horizon, an entry within it, all the ray is asked).
 
     Where the samples' best entry lies beyond ``below`` (the ray's best entry so far), the
     golden-section search is skipped if it cannot find an entry up to ``below``: the ray's
@@ -267,6 +271,8 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
     for m in range(POSES):
         _pose_at(m / (POSES - 1), poses, j, tip, axis)
         values[m] = _entry_from(q, n, tip, axis, cutter, horizon, values[m])
+        if values[m] <= stop:
+            return values[m]
         if values[m] < values[best]:
             best = m
     found = values[best]
@@ -451,7 +457,7 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
                 if floors[m] - reach > TOUCH_MM:
                     continue
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
-                                             reach, tip, axis, values))
+                                             reach, stop, tip, axis, values))
                 if best <= stop:
                     break
         out[i] = best
@@ -479,7 +485,7 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
     Pieces are tried nearest first, skipping those that cannot be entered before the best
     entry found (:func:`_nearest_entries`), or up to the first entry within ``stop_mm``
     (0: the first entry, exactly; the horizon: whether the ray enters within it, as soon
-    as one piece says so).
+    as one sampled pose of a piece says so).
 
     Parameters
     ----------
