@@ -2,12 +2,14 @@
 
 :func:`toolpath.planning.sweep_kernel.nearest_entries` skips pieces and golden-section
 searches on lower bounds of the entry (the tip plane, the tip's reach, the poses' shift
-over a piece). Here the same method without any skip, pose by pose (each pose's entry the
-first root of the ray's convex distance to the cutter, by ternary search and bisection;
-the entry into a piece the best of its :data:`~toolpath.planning.sweep_kernel.POSES`
-samples, refined by the golden-section search between the best one's neighbours; the
-ray's entry the smallest over its pieces), written in numpy from the cutter's exact
-signed distance, must give the same numbers on random pieces and rays.
+over a piece, the sampled poses' distances from the ray's origin less their shift over half
+a sample's spacing: without that shift the test fails). Here the same method without any
+skip, pose by pose (each pose's entry the first root of the ray's convex distance to the
+cutter, by ternary search and bisection; the entry into a piece the best of its
+:data:`~toolpath.planning.sweep_kernel.POSES` samples, refined by the golden-section
+search between the best one's neighbours; the ray's entry the smallest over its pieces),
+written in numpy from the cutter's exact signed distance, must give the same numbers on
+random pieces and rays.
 """
 
 import numpy as np

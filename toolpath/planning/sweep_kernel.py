@@ -121,7 +121,12 @@ def _entry(q, n, tip, axis, cutter, horizon):
 
     ``cutter``: :class:`~.clearance_kernel.Cutter`.
     """
-    g = _distance(q, n, 0.0, tip, axis, cutter)
+    return _entry_from(q, n, tip, axis, cutter, horizon, _distance(q, n, 0.0, tip, axis, cutter))
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _entry_from(q, n, tip, axis, cutter, horizon, g):
+    """:func:`_entry` given ``g``, the distance of the ray's origin to the cutter there."""
     if g <= TOUCH_MM:
         return 0.0
     lam = 0.0
@@ -223,8 +228,12 @@ def _pose_shift(travel, turn_rate, du, arm):
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
+def _pair_entry(q, n, poses, j, cutter, horizon, below, stop, tip, axis, values):
     """The entry of the ray ``q + l n`` into piece ``j`` (the last three: scratch arrays).
+
+    A sampled pose's entry within ``stop`` is returned at once (the ray stops there,
+    :func:`_nearest_entries`: with ``stop`` 0 it is the piece's entry, 0; with the
+    horizon, an entry within it, all the ray is asked).
 
     Where the samples' best entry lies beyond ``below`` (the ray's best entry so far), the
     golden-section search is skipped if it cannot find an entry up to ``below``: the ray's
@@ -234,17 +243,40 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, tip, axis, values):
     past the ray's points by at most :func:`_pose_shift`: where ``g_b(below)`` exceeds that
     (and :data:`TOUCH_MM`), none of them holds a point of the ray up to ``below`` (the
     result, the smallest entry over the ray's pieces, stays the same).
+
+    Before any entry is sought, the distances ``g_k`` of the ray's origin to the cutter
+    at the sampled poses: every pose of the piece lies within half a sample's spacing of
+    one, moving the cutter past the ray's points (``arm_k + below`` from that pose's tip
+    at most) by at most :func:`_pose_shift`, and a point ``l`` up the ray stands at least
+    ``g_k - l`` from that pose (1-Lipschitz). Where ``min_k (g_k - shift_k) - below``
+    exceeds :data:`TOUCH_MM`, the ray enters no pose up to ``below``: ``inf`` (the ray's
+    smallest entry stays the same), without the entries (on the standing dev blade,
+    bull:8:1, 63 % of the pieces tried).
     """
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
+    tip0, tip1, axis0, axis1 = poses
+    travel, turn_rate = _piece_motion(tip0[j], tip1[j], axis0[j], axis1[j])
+    # the samples' distances from the ray's origin first: every pose lies within half a
+    # sample's spacing of one of them
+    floor = np.inf
+    for m in range(POSES):
+        _pose_at(m / (POSES - 1), poses, j, tip, axis)
+        values[m] = _distance(q, n, 0.0, tip, axis, cutter)
+        arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
+        floor = min(floor, values[m] - _pose_shift(travel, turn_rate, 0.5 / (POSES - 1),
+                                                   arm + below))
+    if floor - below > TOUCH_MM:
+        return np.inf
     best = 0
     for m in range(POSES):
-        values[m] = _entry_at(m / (POSES - 1), q, n, poses, j, cutter, horizon, tip, axis)
+        _pose_at(m / (POSES - 1), poses, j, tip, axis)
+        values[m] = _entry_from(q, n, tip, axis, cutter, horizon, values[m])
+        if values[m] <= stop:
+            return values[m]
         if values[m] < values[best]:
             best = m
     found = values[best]
     if below < found < np.inf:
-        tip0, tip1, axis0, axis1 = poses
-        travel, turn_rate = _piece_motion(tip0[j], tip1[j], axis0[j], axis1[j])
         _pose_at(best / (POSES - 1), poses, j, tip, axis)
         arm = math.sqrt((q[0] - tip[0]) ** 2 + (q[1] - tip[1]) ** 2 + (q[2] - tip[2]) ** 2)
         shift = _pose_shift(travel, turn_rate, 1.0 / (POSES - 1), arm + below)
@@ -380,7 +412,10 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
     only within :func:`_tip_reach` of ``L - b`` of the pose's tip, on the tip segment: a
     piece whose tip segment stays farther than that from the ray's segment up to the
     horizon is skipped, as one whose tip plane the ray meets after ``L``, and one whose
-    poses all stand farther than ``L`` from the ray's origin (:func:`_pose_floor`).
+    poses all stand farther than ``L`` from the ray's origin (:func:`_pose_floor`). The
+    first two tests hold at ``L`` = the horizon already for most of a ray's pieces (the
+    other passes' within a bracket's reach): those are set aside before the distances to
+    their end poses are worked out (``L`` only falls, :func:`_tip_reach` rises with it).
     """
     q, n = rays
     lo_k, hi_k, item = pieces
@@ -404,6 +439,12 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
                 bounds[k - lo] = _tip_plane_bound(q[i], n[i], tip0[j], tip1[j], axis0[j],
                                                   axis1[j], cutter.radius)
                 apart[k - lo] = _segment_distance(q[i], far, tip0[j], tip1[j])
+                if bounds[k - lo] > horizon or apart[k - lo] > _tip_reach(
+                        cutter, horizon - bounds[k - lo]):
+                    # skipped below whatever the best entry (reach <= horizon): no
+                    # distances to its end poses
+                    nearness[k - lo] = floors[k - lo] = np.inf
+                    continue
                 near0 = _distance(q[i], n[i], 0.0, tip0[j], axis0[j], cutter)
                 near1 = _distance(q[i], n[i], 0.0, tip1[j], axis1[j], cutter)
                 nearness[k - lo] = min(near0, near1)
@@ -416,7 +457,7 @@ def _nearest_entries(rays, pieces, poses, cutter, horizon, stop, out):
                 if floors[m] - reach > TOUCH_MM:
                     continue
                 best = min(best, _pair_entry(q[i], n[i], poses, item[lo + m], cutter, horizon,
-                                             reach, tip, axis, values))
+                                             reach, stop, tip, axis, values))
                 if best <= stop:
                     break
         out[i] = best
@@ -444,7 +485,7 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
     Pieces are tried nearest first, skipping those that cannot be entered before the best
     entry found (:func:`_nearest_entries`), or up to the first entry within ``stop_mm``
     (0: the first entry, exactly; the horizon: whether the ray enters within it, as soon
-    as one piece says so).
+    as one sampled pose of a piece says so).
 
     Parameters
     ----------
