@@ -55,7 +55,7 @@ from numpy.typing import NDArray
 
 from .capsule import line_capsule_interval
 from .capsule_search import lowest_capsule_entries, pair_values
-from .grid import PieceGrid
+from .grid import MAX_CELLS, PieceGrid
 from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
@@ -178,6 +178,9 @@ class SweepIndex:
     corner_radius_mm : float or None
         Corner radius ``r`` of a flat or bull-nose cutter, mm (None: a ball, measured with
         the capsule kernel).
+    max_cells : int
+        Most cells of a grid (:data:`~verification.grid.MAX_CELLS` by default; its cell
+        grows to stay within it). Any grid finds the same pieces within a search's reach.
     compiled : bool
         Walk the grid in compiled code (the default): ball pieces measured in the walk
         (:func:`~verification.capsule_search.lowest_capsule_entries`), flat and bull-nose
@@ -194,6 +197,7 @@ class SweepIndex:
     reach_limit_mm: float
     max_pairs: int = 2_000_000
     corner_radius_mm: float | None = None
+    max_cells: int = MAX_CELLS
     compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
@@ -205,14 +209,27 @@ class SweepIndex:
             self._pieces[which] = self.ball if which == "near" else self.ball.concat(self.shank)
         return self._pieces[which]
 
-    def _grid(self, which: str, reach_mm: float) -> PieceGrid:
+    def _level(self, reach_mm: float) -> int:
+        """``k`` of the grid whose cell ``base_cell_mm * 2^k`` suits searches of this reach."""
         target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
-        k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+        return max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+
+    def _grid(self, which: str, reach_mm: float, *, built: bool = False) -> PieceGrid:
+        """The grid for searches of ``reach_mm``, built and kept on first use.
+
+        ``built``: rather a grid already built for these pieces, the one nearest in cell
+        (only the cells walked differ, not the pieces found), than a new one.
+        """
+        k = self._level(reach_mm)
+        have = [level for kind, level in self._grids if kind == which]
+        if built and have and (which, k) not in self._grids:
+            k = min(have, key=lambda level: abs(level - k))
         if (which, k) not in self._grids:
             pieces = self.pieces(which)
             cell = self.base_cell_mm * 2.0**k
             margin = self.reach_limit_mm + pieces.max_half_mm
-            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
+            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell,
+                                   max_cells=self.max_cells)
             self._grids[which, k] = grid
             # the fields the compiled walks read, in the grid's order (read as met)
             self._sorted[id(grid)] = tuple(
@@ -309,7 +326,8 @@ class SweepIndex:
         if centres.shape[0] == 0 or pieces.size == 0:
             return np.zeros(0, dtype=np.int64)
         reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
-        grid = self._grid(which, float(np.median(reach)))
+        # a few points: whichever grid the searches built walks them (no grid of its own)
+        grid = self._grid(which, float(np.median(reach)), built=True)
         spans = grid.span_of(reach)
         found = []
         for span in np.unique(spans):

@@ -58,7 +58,7 @@ class PieceGrid:
 
     @classmethod
     def build(cls, midpoints: FloatArray, lo_mm: FloatArray, hi_mm: FloatArray,
-              cell_mm: float) -> PieceGrid:
+              cell_mm: float, *, max_cells: int = MAX_CELLS) -> PieceGrid:
         """Register pieces by midpoint over the box ``[lo, hi]``.
 
         Parameters
@@ -68,7 +68,9 @@ class PieceGrid:
         lo_mm, hi_mm : ndarray, shape (3,)
             The box queries can reach, mm; pieces outside are left out.
         cell_mm : float
-            Wanted cell side, mm (enlarged when the grid would exceed :data:`MAX_CELLS`).
+            Wanted cell side, mm (enlarged when the grid would exceed ``max_cells``).
+        max_cells : int
+            Most cells of the grid (default :data:`MAX_CELLS`).
 
         Returns
         -------
@@ -78,8 +80,8 @@ class PieceGrid:
         span = np.maximum(np.asarray(hi_mm, dtype=float) - lo, 1e-9)
         cell = float(cell_mm)
         volume_cells = float(np.prod(span / cell + 1.0))
-        if volume_cells > MAX_CELLS:
-            cell *= (volume_cells / MAX_CELLS) ** (1.0 / 3.0) * 1.01
+        if volume_cells > max_cells:
+            cell *= (volume_cells / max_cells) ** (1.0 / 3.0) * 1.01
         dims_arr = np.maximum(np.ceil(span / cell).astype(np.int64) + 1, 1)
         dims = (int(dims_arr[0]), int(dims_arr[1]), int(dims_arr[2]))
         # far (or non-finite) midpoints: a cell outside the grid, left out
