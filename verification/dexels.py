@@ -55,7 +55,7 @@ from numpy.typing import NDArray
 
 from .capsule import line_capsule_interval
 from .capsule_search import lowest_capsule_entries, pair_values
-from .grid import MAX_CELLS, PieceGrid
+from .grid import PieceGrid
 from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
@@ -178,9 +178,6 @@ class SweepIndex:
     corner_radius_mm : float or None
         Corner radius ``r`` of a flat or bull-nose cutter, mm (None: a ball, measured with
         the capsule kernel).
-    max_cells : int
-        Most cells of a grid (:data:`~verification.grid.MAX_CELLS` by default; its cell
-        grows to stay within it). Any grid finds the same pieces within a search's reach.
     compiled : bool
         Walk the grid in compiled code (the default): ball pieces measured in the walk
         (:func:`~verification.capsule_search.lowest_capsule_entries`), flat and bull-nose
@@ -197,7 +194,6 @@ class SweepIndex:
     reach_limit_mm: float
     max_pairs: int = 2_000_000
     corner_radius_mm: float | None = None
-    max_cells: int = MAX_CELLS
     compiled: bool = True
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
@@ -228,8 +224,7 @@ class SweepIndex:
             pieces = self.pieces(which)
             cell = self.base_cell_mm * 2.0**k
             margin = self.reach_limit_mm + pieces.max_half_mm
-            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell,
-                                   max_cells=self.max_cells)
+            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
             self._grids[which, k] = grid
             # the fields the compiled walks read, in the grid's order (read as met)
             self._sorted[id(grid)] = tuple(

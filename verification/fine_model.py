@@ -19,8 +19,8 @@ modelled far better at little cost: :meth:`FineModel.around`
 
 :meth:`FineModel.around_each` does so for several asks at once (the deepest gouge's and the
 largest scallop's refinements): their stretches are replayed in one batch, a segment two
-asks share once, and indexed once, on a grid of at most :data:`FINE_CELLS_PER_PIECE` cells
-per piece; each ask keeps its own levels and depth.
+asks share once, and indexed once (its grids sized by its few pieces,
+:data:`~verification.grid.CELLS_PER_PIECE`); each ask keeps its own levels and depth.
 
 Soundness: every coarse piece lies within ``model_tol`` of the true sweep, and every fine
 piece within ``chord_tol`` of it, so a stretch none of whose coarse pieces comes within
@@ -70,13 +70,6 @@ PiecesOf = Callable[[ToolMotion], Pieces]
 
 #: Centres measured per side of a parameter box (:func:`box_centres`).
 BOX_GRID: Final[int] = 9
-
-#: Most cells of the fine index's grids per fine piece. The fine pieces gather around a
-#: few points scattered over the part, so a grid over their whole box at the coarse cell
-#: is nearly all empty cells (16 M for 44 k pieces on the blade), each paid for in its
-#: build (8 bytes, a counting sort over every cell); a coarser cell only gives the few
-#: fine searches more candidates to reject by distance (the pieces found are the same).
-FINE_CELLS_PER_PIECE: Final[int] = 8
 
 
 def on_surface(surface: ParametricSurface, t: FloatArray, s: FloatArray
@@ -319,5 +312,4 @@ class FineModel:
         return SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
                           middles.min(axis=0) - box, middles.max(axis=0) + box,
                           base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
-                          max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm,
-                          max_cells=min(old.max_cells, FINE_CELLS_PER_PIECE * max(fine.size, 1)))
+                          max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)

@@ -3,24 +3,25 @@
 :meth:`verification.fine_model.FineModel.around_each` replays the stretches every ask
 needs in one batch (a segment two asks share once) and indexes them once, each ask with
 its own searches; each ask's searches find what its own fine model (the full method,
-:meth:`~verification.fine_model.FineModel.around` of that ask alone) finds. The fine
-index's grid holds at most ``FINE_CELLS_PER_PIECE`` cells per piece, and the coarse index
-answers which pieces come near with a grid it already built.
+:meth:`~verification.fine_model.FineModel.around` of that ask alone) finds. The coarse
+index answers which pieces come near with a grid it already built. A grid holds at most
+``CELLS_PER_PIECE`` cells per piece, and finds what a grid of the search's own cell finds.
 """
 
 import math
 
 import numpy as np
-import pytest
 from verify_programs import DEPTH_MM, LEVEL_MM, convex_dome_model, five_axis_cap
 
 import verification.fine_model as fine_model
+import verification.grid as grid_module
 from machines import load_machine
 from toolpath.planning.analytic import SpherePatch
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
 from verification.dexels import SweepIndex
-from verification.fine_model import FINE_CELLS_PER_PIECE, FineAsk, FineModel, box_centres
+from verification.fine_model import FineAsk, FineModel, box_centres
+from verification.grid import CELLS_PER_PIECE
 from verification.samples import surface_points_normals
 
 BOXES = [((0.45, 0.5), (0.04, 0.06)), ((0.5, 0.55), (0.04, 0.06)), ((0.9, 0.1), (0.02, 0.03))]
@@ -66,8 +67,7 @@ def test_asks_share_one_replay_and_one_index_and_find_what_each_alone_finds(monk
     index = shared[0].index
     grid = index._grid("near", 0.3)
     # (a grid's bound is met to within its whole cells on each side)
-    assert index.max_cells == FINE_CELLS_PER_PIECE * index.ball.size
-    assert np.prod(grid.dims) <= 1.25 * index.max_cells
+    assert np.prod(grid.dims) <= 1.25 * CELLS_PER_PIECE * index.ball.size
     for (_, t0, s0, half), one, both in zip(asks, alone, shared, strict=True):
         pts, nrm, _ = _points(dome, t0, s0, half)
         conv = np.full(pts.shape[0], 1.0 / 1.5)
@@ -102,25 +102,28 @@ def test_pieces_within_walks_a_grid_already_built_and_finds_the_same_pieces():
     np.testing.assert_array_equal(found, own)
 
 
-@pytest.mark.parametrize("max_cells", [64, 512, 4096])
-def test_a_grid_of_few_cells_finds_the_same_values(max_cells):
+def test_a_grid_of_few_cells_per_piece_finds_the_same_values(monkeypatch):
     dome, ev, _ = convex_dome_model()
-    full = ev.index
-    small = SweepIndex(full.ball, full.shank, full.radius_mm, full.lo_mm, full.hi_mm,
-                       base_cell_mm=full.base_cell_mm, reach_limit_mm=full.reach_limit_mm,
-                       max_cells=max_cells)
+    # a tenth of the pieces over the same box: a grid of the search's cell is mostly empty
+    old = ev.index
+    sparse = old.ball.taken(np.arange(old.ball.size) % 10 == 0)
+    ev.index = SweepIndex(sparse, old.shank, old.radius_mm, old.lo_mm, old.hi_mm,
+                          base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm)
     rng = np.random.default_rng(6)
     points, normals, _ = surface_points_normals(dome, rng.uniform(0, 1, 400),
                                                 rng.uniform(0, 1, 400))
     conv = np.full(400, 1.0 / 1.5)
-    a = ev.search(points, normals, conv)
-    ev.index = small
-    b = ev.search(points, normals, conv)
-    cells = [np.prod(g.dims) for g in (*full._grids.values(), *small._grids.values())]
-    assert cells[1] < cells[0] and cells[1] <= 2 * max_cells
-    assert np.isfinite(a.lam_mm).sum() > 300
-    np.testing.assert_array_equal(b.lam_mm, a.lam_mm)
-    np.testing.assert_array_equal(b.move, a.move)
+    few = ev.search(points, normals, conv)
+    (grid,) = ev.index._grids.values()
+    # the full method: a grid of the search's own cell, however many cells it takes
+    monkeypatch.setattr(grid_module, "CELLS_PER_PIECE", 10**9)
+    ev.index._grids.clear()
+    full = ev.search(points, normals, conv)
+    (fine_grid,) = ev.index._grids.values()
+    assert np.prod(grid.dims) <= 1.25 * CELLS_PER_PIECE * sparse.size < np.prod(fine_grid.dims)
+    assert np.isfinite(full.lam_mm).sum() > 100
+    np.testing.assert_array_equal(few.lam_mm, full.lam_mm)
+    np.testing.assert_array_equal(few.move, full.move)
 
 
 def test_a_verification_replays_its_refinements_stretches_once(monkeypatch):
