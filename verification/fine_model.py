@@ -263,9 +263,14 @@ class FineModel:
         The stretches every ask may need (:meth:`rows_around`, each with its own level and
         depth) are replayed together, a segment two asks share once, and indexed once;
         each ask gets its own searches (levels up to its ``level_mm``, its depth) over
-        that index. Exact for each ask: its searches around its centres meet only pieces
-        of its own stretches (the soundness argument above), which every stretch of the
-        union models alike, segment by segment.
+        that index. Each ask's searches around its centres meet only pieces of its own
+        segments (the soundness argument above), and the replay samples every segment on
+        its own, so they meet the pieces its own model holds; the one difference is where
+        another ask's segment comes just before one of its stretches: the stretch then
+        starts at that segment's end (posed at ``u = 1``) rather than at its own first
+        segment's start, the same joints up to their last bit. Figures the same, bit for
+        bit, on the bench's blade programs (``tests/verification/test_fine_model_shared.py``
+        checks it on a dome).
 
         Returns
         -------
