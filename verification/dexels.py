@@ -205,9 +205,21 @@ class SweepIndex:
             self._pieces[which] = self.ball if which == "near" else self.ball.concat(self.shank)
         return self._pieces[which]
 
-    def _grid(self, which: str, reach_mm: float) -> PieceGrid:
+    def _level(self, reach_mm: float) -> int:
+        """``k`` of the grid whose cell ``base_cell_mm * 2^k`` suits searches of this reach."""
         target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
-        k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+        return max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+
+    def _grid(self, which: str, reach_mm: float, *, built: bool = False) -> PieceGrid:
+        """The grid for searches of ``reach_mm``, built and kept on first use.
+
+        ``built``: rather a grid already built for these pieces, the one nearest in cell
+        (only the cells walked differ, not the pieces found), than a new one.
+        """
+        k = self._level(reach_mm)
+        have = [level for kind, level in self._grids if kind == which]
+        if built and have and (which, k) not in self._grids:
+            k = min(have, key=lambda level: abs(level - k))
         if (which, k) not in self._grids:
             pieces = self.pieces(which)
             cell = self.base_cell_mm * 2.0**k
@@ -309,7 +321,8 @@ class SweepIndex:
         if centres.shape[0] == 0 or pieces.size == 0:
             return np.zeros(0, dtype=np.int64)
         reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
-        grid = self._grid(which, float(np.median(reach)))
+        # a few points: whichever grid the searches built walks them (no grid of its own)
+        grid = self._grid(which, float(np.median(reach)), built=True)
         spans = grid.span_of(reach)
         found = []
         for span in np.unique(spans):

@@ -19,7 +19,7 @@ from numpy.typing import NDArray
 from toolpath.surface import ParametricSurface
 
 from .dexels import DexelResult
-from .fine_model import FineModel, box_centres, on_surface
+from .fine_model import FineAsk, FineModel, box_centres, on_surface
 from .samples import DesignSamples, surface_points_normals
 from .search import Dexels
 
@@ -132,20 +132,28 @@ def _refine(ev: Dexels, surface: ParametricSurface, samples: DesignSamples, ti: 
     return _Refined(ev.deviation(res, nrm), ti, si, pts, res.move, res.shank)
 
 
-def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignSamples,
-                   start_t: FloatArray, start_s: FloatArray, coarse: _Refined,
-                   conv: FloatArray, *, largest: bool, collision: bool) -> Extreme | None:
-    """Every start refined again with the fine model.
+@dataclass(frozen=True, eq=False)
+class _FineStarts:
+    """One refinement's starts for the fine model (coarse ends, grid starts) and its ask."""
 
-    Each start is refined again with :meth:`FineModel.around` searches, from its coarse
-    end and from its grid start, over a quarter of a grid step and finer (the coarse
-    model's bumps along a cusp's ridge may have led its own levels to another top). The
-    fine model is built for the near searches at every design point of the parameter
-    boxes, ``sum(_FINE_SCALES)`` grid steps on either side of a coarse end or a grid
-    start, that the fine levels may visit (:func:`~verification.fine_model.box_centres`).
-    The fine value is also taken at the coarse ends and the grid starts ``(start_t,
-    start_s)`` themselves with the collision search (a contact only that search sees
-    leads the levels nowhere), the most extreme kept.
+    t: FloatArray
+    s: FloatArray
+    conv: FloatArray
+    ask: FineAsk
+
+
+def _fine_starts(fine: FineModel, surface: ParametricSurface, samples: DesignSamples,
+                 start_t: FloatArray, start_s: FloatArray, coarse: _Refined,
+                 conv: FloatArray, *, largest: bool) -> _FineStarts | None:
+    """What a refinement asks of the fine model (None: no start found anything).
+
+    Every start is refined again with the fine model's searches
+    (:meth:`~verification.fine_model.FineModel.around_each`), from its coarse end and from
+    its grid start, over a quarter of a grid step and finer (the coarse model's bumps along
+    a cusp's ridge may have led its own levels to another top). The fine model is built
+    for the near searches at every design point of the parameter boxes,
+    ``sum(_FINE_SCALES)`` grid steps on either side of a coarse end or a grid start, that
+    the fine levels may visit (:func:`~verification.fine_model.box_centres`).
 
     No start is left out on its coarse value: the coarse levels measured it at the
     points they visited only, and the fine levels visit others, up to a third of a grid
@@ -154,8 +162,7 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     micrometres over a third of a step, far more than the model's tolerance).
     """
     sign = 1.0 if largest else -1.0
-    score = coarse.score(sign)
-    keep = np.flatnonzero(np.isfinite(score))
+    keep = np.flatnonzero(np.isfinite(coarse.score(sign)))
     if keep.shape[0] == 0:
         return None
     c = fine.coarse
@@ -174,15 +181,27 @@ def _refine_finely(fine: FineModel, surface: ParametricSurface, samples: DesignS
     both_s = np.concatenate((coarse.s[keep], start_s[keep]))
     both_conv = np.tile(conv[keep], 2)
     centres, slack = box_centres(surface, both_t, both_s, wide * dt, wide * ds, c.corner)
-    ev = fine.around(centres, slack, both_conv, level_mm=level, depth_mm=depth)
-    if ev is None:
-        return None
-    kw = {"largest": largest, "collision": collision, "contacts": c}
+    return _FineStarts(both_t, both_s, both_conv,
+                       FineAsk(centres, slack, both_conv, level, depth))
+
+
+def _refine_finely(ev: Dexels, coarse: Dexels, surface: ParametricSurface,
+                   samples: DesignSamples, starts: _FineStarts, *, largest: bool,
+                   collision: bool) -> Extreme | None:
+    """The fine value of a refinement: its starts searched with the fine model ``ev``.
+
+    ``ev`` holds the fine searches of the starts' ask, ``coarse`` the whole program's.
+    The fine value is taken at the coarse ends and the grid starts themselves with the
+    collision search (a contact only that search sees leads the levels nowhere), and
+    from both through the fine levels, the most extreme kept.
+    """
+    sign = 1.0 if largest else -1.0
+    kw = {"largest": largest, "collision": collision, "contacts": coarse}
     # at the coarse ends and grid starts themselves, then from both through the fine
     # levels: the coarse model's bumps may have led its levels to another top
-    at_both = _refine(ev, surface, samples, both_t, both_s, both_conv, scales=(), **kw)
-    levels = _refine(ev, surface, samples, both_t, both_s, both_conv, scales=_FINE_SCALES,
-                     **kw)
+    at_both = _refine(ev, surface, samples, starts.t, starts.s, starts.conv, scales=(), **kw)
+    levels = _refine(ev, surface, samples, starts.t, starts.s, starts.conv,
+                     scales=_FINE_SCALES, **kw)
     best = [at_both.extreme(sign), levels.extreme(sign)]
     known = [e for e in best if e is not None]
     return max(known, key=lambda e: sign * e.dev) if known else None
@@ -214,14 +233,19 @@ def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
     ``limit`` widened by the coarse model's tolerance, so an extreme the coarse model puts
     short of the limit (a gouge shallower than the gouge tolerance) but the fine model
     beyond it is still found; it is reported only if its fine value is beyond ``limit``.
+    The fine model is built once for every ask's refinement
+    (:meth:`~verification.fine_model.FineModel.around_each`): the stretches of path they
+    share replayed and indexed once.
     """
     n_s = samples.shape[1]
     found: dict[tuple[bool, float, int, bytes], Extreme | None] = {}
-    out: list[Extreme | None] = []
+    keys: list[tuple[bool, float, int, bytes] | None] = []
+    # with a fine model: each refinement's fine starts, the fine model built once for all
+    pending: list[tuple[tuple[bool, float, int, bytes], bool, Extreme, _FineStarts]] = []
     for eligible, largest, limit in asks:
         flat = np.where(eligible & np.isfinite(dev), dev, np.nan).ravel()
         if np.isnan(flat).all():
-            out.append(None)
+            keys.append(None)
             continue
         i = int(np.nanargmax(flat) if largest else np.nanargmin(flat))
         sign = 1.0 if largest else -1.0
@@ -229,24 +253,41 @@ def extremes(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,
         cand = (_local_extremes(dev, eligible, largest, limit - sign * widen, refine)
                 if refine else np.zeros(0, dtype=np.int64))
         key = (largest, limit, i, cand.tobytes())
-        if key not in found:
-            best: Extreme | None = Extreme(
-                float(flat[i]), float(samples.t[i // n_s]), float(samples.s[i % n_s]),
-                samples.points.reshape(-1, 3)[i], int(res.move[i]), bool(res.shank[i]))
-            if cand.shape[0]:
-                conv = samples.convexity_per_mm.ravel()[cand]
-                t0, s0 = samples.t[cand // n_s], samples.s[cand % n_s]
-                coarse = _refine(ev, surface, samples, t0, s0, conv, largest=largest,
-                                 collision=collision)
-                refined = (coarse.extreme(sign) if fine is None else
-                           _refine_finely(fine, surface, samples, t0, s0, coarse, conv,
-                                          largest=largest, collision=collision))
-                if refined is not None and (fine is not None
-                                            or sign * refined.dev >= sign * best.dev):
+        keys.append(key)
+        if key in found:
+            continue
+        best: Extreme | None = Extreme(
+            float(flat[i]), float(samples.t[i // n_s]), float(samples.s[i % n_s]),
+            samples.points.reshape(-1, 3)[i], int(res.move[i]), bool(res.shank[i]))
+        if cand.shape[0]:
+            conv = samples.convexity_per_mm.ravel()[cand]
+            t0, s0 = samples.t[cand // n_s], samples.s[cand % n_s]
+            coarse = _refine(ev, surface, samples, t0, s0, conv, largest=largest,
+                             collision=collision)
+            if fine is None:
+                refined = coarse.extreme(sign)
+                if refined is not None and sign * refined.dev >= sign * best.dev:
                     best = refined
-            found[key] = best if best is not None and sign * best.dev > sign * limit else None
-        out.append(found[key])
-    return out
+            else:
+                # the fine model's value (once it is built for every ask), else the grid's
+                starts = _fine_starts(fine, surface, samples, t0, s0, coarse, conv,
+                                      largest=largest)
+                if starts is not None:
+                    pending.append((key, largest, best, starts))
+        found[key] = _beyond(best, largest, limit)
+    if fine is not None and pending:
+        models = fine.around_each([starts.ask for _, _, _, starts in pending])
+        for (key, largest, best, starts), model in zip(pending, models, strict=True):
+            refined = None if model is None else _refine_finely(
+                model, ev, surface, samples, starts, largest=largest, collision=collision)
+            found[key] = _beyond(best if refined is None else refined, largest, key[1])
+    return [None if key is None else found[key] for key in keys]
+
+
+def _beyond(best: Extreme | None, largest: bool, limit: float) -> Extreme | None:
+    """``best`` where it lies beyond ``limit`` (above it for the largest, else below)."""
+    sign = 1.0 if largest else -1.0
+    return best if best is not None and sign * best.dev > sign * limit else None
 
 
 def border(bad: NDArray[np.bool_], rt: int, rs: int) -> NDArray[np.bool_]:

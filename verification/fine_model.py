@@ -17,6 +17,11 @@ modelled far better at little cost: :meth:`FineModel.around`
 3. builds the near pieces and a near-search index of those stretches alone, whose levels
    stop at the level asked for.
 
+:meth:`FineModel.around_each` does so for several asks at once (the deepest gouge's and the
+largest scallop's refinements): their stretches are replayed in one batch, a segment two
+asks share once, and indexed once (its grids sized by its few pieces,
+:data:`~verification.grid.CELLS_PER_PIECE`); each ask keeps its own levels and depth.
+
 Soundness: every coarse piece lies within ``model_tol`` of the true sweep, and every fine
 piece within ``chord_tol`` of it, so a stretch none of whose coarse pieces comes within
 ``r + model_tol + chord_tol`` of a near-search centre ``c`` has no fine piece within ``r``
@@ -38,7 +43,8 @@ The collision search (shank, from behind) stays the coarse model's.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 from typing import Final
 
 import numpy as np
@@ -54,7 +60,7 @@ from .samples import surface_points_normals
 from .search import Dexels
 from .vectors import row_norms
 
-__all__ = ["BOX_GRID", "FineModel", "PiecesOf", "box_centres", "on_surface"]
+__all__ = ["BOX_GRID", "FineAsk", "FineModel", "PiecesOf", "box_centres", "on_surface"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -122,6 +128,33 @@ def box_centres(surface: ParametricSurface, t: FloatArray, s: FloatArray, half_t
                           row_norms((c[:, 1:, :-1] - c[:, :-1, 1:]).reshape(-1, 3)))
     slack = diagonal.reshape(t.shape[0], -1).max(axis=1)
     return c.reshape(t.shape[0], -1, 3), slack
+
+
+@dataclass(frozen=True, eq=False)
+class FineAsk:
+    """Near searches one refinement asks of the fine model (:meth:`FineModel.around_each`).
+
+    Attributes
+    ----------
+    centres : ndarray, shape (k, q, 3)
+        Per box, near-search centres ``P + r_c n`` measured over it, mm
+        (:func:`box_centres`).
+    slack_mm : ndarray, shape (k,)
+        Per box: the searches hold for any centre this close to one of its ``centres``.
+    convexity_per_mm : ndarray, shape (k,)
+        The convexity each box's near searches are sized with, 1/mm.
+    level_mm : float
+        Last level of the near search (one of the coarse levels): more material than this
+        is reported as beyond the horizon.
+    depth_mm : float
+        Gouge depth the near search is sized for, mm.
+    """
+
+    centres: FloatArray
+    slack_mm: FloatArray
+    convexity_per_mm: FloatArray
+    level_mm: float
+    depth_mm: float
 
 
 class FineModel:
@@ -214,32 +247,57 @@ class FineModel:
                *, level_mm: float, depth_mm: float) -> Dexels | None:
         """Fine near searches, exact up to ``level_mm``, around any centre of some boxes.
 
-        Parameters
-        ----------
-        centres : ndarray, shape (k, q, 3)
-            Per box, near-search centres ``P + r_c n`` measured over it, mm
-            (:func:`box_centres`).
-        slack_mm : ndarray, shape (k,)
-            Per box: the searches hold for any centre this close to one of its ``centres``.
-        convexity_per_mm : ndarray, shape (k,)
-            The convexity each box's near searches are sized with, 1/mm.
-        level_mm : float
-            Last level of the near search (one of the coarse levels): more material than
-            this is reported as beyond the horizon.
-        depth_mm : float
-            Gouge depth the near search is sized for, mm.
+        One :class:`FineAsk` of :meth:`around_each` (its parameters are the ask's fields).
 
         Returns
         -------
         Dexels or None
             None when no piece comes near (nothing cut there).
         """
+        return self.around_each([FineAsk(centres, slack_mm, convexity_per_mm, level_mm,
+                                         depth_mm)])[0]
+
+    def around_each(self, asks: Sequence[FineAsk]) -> list[Dexels | None]:
+        """Fine near searches for each ask, from one replay and one index of them all.
+
+        The stretches every ask may need (:meth:`rows_around`, each with its own level and
+        depth) are replayed together, a segment two asks share once, and indexed once;
+        each ask gets its own searches (levels up to its ``level_mm``, its depth) over
+        that index. Each ask's searches around its centres meet only pieces of its own
+        segments (the soundness argument above), and the replay samples every segment on
+        its own, so they meet the pieces its own model holds; the one difference is where
+        another ask's segment comes just before one of its stretches: the stretch then
+        starts at that segment's end (posed at ``u = 1``) rather than at its own first
+        segment's start, the same joints up to their last bit. Figures the same, bit for
+        bit, on the bench's blade programs (``tests/verification/test_fine_model_shared.py``
+        checks it on a dome).
+
+        Returns
+        -------
+        list of Dexels or None
+            Per ask; None where no piece comes near its boxes (nothing cut there).
+        """
         ev = self.coarse
-        levels = (*(h for h in ev.horizons if h < level_mm), level_mm)
-        rows, middles, reach = self.rows_around(centres, slack_mm, convexity_per_mm,
-                                                level_mm=level_mm, depth_mm=depth_mm)
-        if rows.shape[0] == 0:
-            return None
+        found = [self.rows_around(a.centres, a.slack_mm, a.convexity_per_mm,
+                                  level_mm=a.level_mm, depth_mm=a.depth_mm) for a in asks]
+        near = [i for i, (rows, _, _) in enumerate(found) if rows.shape[0]]
+        out: list[Dexels | None] = [None] * len(asks)
+        if not near:
+            return out
+        index = self._index(np.unique(np.concatenate([found[i][0] for i in near])),
+                            np.concatenate([found[i][1] for i in near]),
+                            np.concatenate([found[i][2] for i in near]))
+        for i in near:
+            level = asks[i].level_mm
+            levels = (*(h for h in ev.horizons if h < level), level)
+            out[i] = Dexels(index, ev.radius, levels, asks[i].depth_mm, ev.method,
+                            corner_radius=ev.corner, model_tol_mm=self.chord_tol_mm)
+        return out
+
+    def _index(self, rows: IntArray, middles: FloatArray, reach_mm: FloatArray
+               ) -> SweepIndex:
+        """The near pieces of some joint segments replayed finely, indexed around balls."""
+        ev = self.coarse
         stretch, starts = replay_rows(self.motion, self.machine, rows,
                                       chord_tol_mm=self.chord_tol_mm, radius_mm=ev.radius)
         fine = self.pieces_of(stretch)
@@ -255,10 +313,8 @@ class FineModel:
         # the pair search there), whereas pairs over the dense fine pieces grow as their
         # square; an uncompiled coarse index (a test's oracle) is not copied here
         old = ev.index
-        box = float(np.max(reach)) + ev.corner + fine.max_height_mm
-        index = SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
-                           middles.min(axis=0) - box, middles.max(axis=0) + box,
-                           base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
-                           max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)
-        return Dexels(index, ev.radius, levels, depth_mm, ev.method, corner_radius=ev.corner,
-                      model_tol_mm=self.chord_tol_mm)
+        box = float(np.max(reach_mm)) + ev.corner + fine.max_height_mm
+        return SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,
+                          middles.min(axis=0) - box, middles.max(axis=0) + box,
+                          base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
+                          max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)

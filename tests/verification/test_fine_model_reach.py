@@ -8,52 +8,22 @@ near search around every centre of the parameter box the levels may visit, not o
 margin of the design point's own drift around the box's middle.
 """
 
-import math
 
 import numpy as np
 import pytest
-from verify_programs import five_axis_cap
+from verify_programs import DEPTH_MM, DOME_MM, LEVEL_MM, convex_dome_model
 
 from gcode import GRBL, Linear, Program, Rapid, emit_text, parse
 from machines import load_machine
-from toolpath.planning.analytic import PlaneSurface, SpherePatch
+from toolpath.planning.analytic import PlaneSurface
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
-from verification.dexels import SweepIndex
-from verification.fine_model import FineModel, box_centres
-from verification.options import DexelMethod
-from verification.pieces import ball_pieces
-from verification.replay import replay
+from verification.fine_model import box_centres
 from verification.samples import surface_points_normals
-from verification.search import Dexels
-
-DOME_MM = 1.5
-BALL_MM = 3.0
-LEVEL_MM, DEPTH_MM = 0.02, 0.02
-
-
-def _convex_dome_model():
-    """A ball on 5-axis passes over a small convex dome; its coarse searches and fine model."""
-    machine = load_machine("trunnion-ac")
-    ball = parse_cutter("ball:6")
-    step_deg = math.degrees(0.1 / DOME_MM)
-    program = five_axis_cap(machine, ball, DOME_MM, longitude_deg=(-60.0, 60.0),
-                            colatitudes_deg=np.arange(20.0, 80.0, step_deg), points=60)
-    motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=BALL_MM)
-    coarse = ball_pieces(motion, BALL_MM, 0.5, merge_tol_mm=1e-3)
-    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), BALL_MM,
-                       np.full(3, -DOME_MM), np.full(3, DOME_MM), base_cell_mm=0.25,
-                       reach_limit_mm=BALL_MM + LEVEL_MM + DEPTH_MM)
-    ev = Dexels(index, BALL_MM, (LEVEL_MM,), DEPTH_MM, DexelMethod.NORMAL)
-    fine = FineModel(motion, machine, ev, lambda stretch: ball_pieces(stretch, BALL_MM, 0.5),
-                     model_tol_mm=1.5e-3, chord_tol_mm=1e-5)
-    dome = SpherePatch(radius_mm=DOME_MM, longitude_deg=(-40.0, 40.0),
-                       colatitude_deg=(30.0, 70.0))
-    return dome, ev, fine
 
 
 def test_the_fine_model_holds_the_near_search_of_every_point_of_its_boxes():
-    dome, ev, fine = _convex_dome_model()
+    dome, ev, fine = convex_dome_model()
     t0, s0 = np.array([0.5]), np.array([0.5])
     half_t, half_s = 0.02, 0.03  # 0.032 mm and 0.031 mm of the dome at its middle
     conv = np.array([1.0 / DOME_MM])

@@ -95,3 +95,43 @@ def five_axis_cap(machine: Machine, cutter, sphere_radius_mm: float, *,
         blocks += [block(lifted[0], Rapid), *(block(r, Linear, feed=800.0) for r in words),
                    block(lifted[1], Rapid)]
     return Program(tuple(blocks))
+
+
+DOME_MM = 1.5
+BALL_MM = 3.0
+LEVEL_MM, DEPTH_MM = 0.02, 0.02
+
+
+def convex_dome_model():
+    """A ball on 5-axis passes over a small convex dome; its coarse searches and fine model.
+
+    Returns the dome (a :class:`~toolpath.planning.analytic.SpherePatch` of radius
+    ``DOME_MM``), the whole-program searches (one level ``LEVEL_MM``, depth ``DEPTH_MM``)
+    and the :class:`~verification.fine_model.FineModel` over them.
+    """
+    from machines import load_machine
+    from toolpath.planning.analytic import SpherePatch
+    from toolpath.planning.cutters import parse_cutter
+    from verification.dexels import SweepIndex
+    from verification.fine_model import FineModel
+    from verification.options import DexelMethod
+    from verification.pieces import ball_pieces
+    from verification.replay import replay
+    from verification.search import Dexels
+
+    machine = load_machine("trunnion-ac")
+    ball = parse_cutter("ball:6")
+    step_deg = math.degrees(0.1 / DOME_MM)
+    program = five_axis_cap(machine, ball, DOME_MM, longitude_deg=(-60.0, 60.0),
+                            colatitudes_deg=np.arange(20.0, 80.0, step_deg), points=60)
+    motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=BALL_MM)
+    coarse = ball_pieces(motion, BALL_MM, 0.5, merge_tol_mm=1e-3)
+    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), BALL_MM,
+                       np.full(3, -DOME_MM), np.full(3, DOME_MM), base_cell_mm=0.25,
+                       reach_limit_mm=BALL_MM + LEVEL_MM + DEPTH_MM)
+    ev = Dexels(index, BALL_MM, (LEVEL_MM,), DEPTH_MM, DexelMethod.NORMAL)
+    fine = FineModel(motion, machine, ev, lambda stretch: ball_pieces(stretch, BALL_MM, 0.5),
+                     model_tol_mm=1.5e-3, chord_tol_mm=1e-5)
+    dome = SpherePatch(radius_mm=DOME_MM, longitude_deg=(-40.0, 40.0),
+                       colatitude_deg=(30.0, 70.0))
+    return dome, ev, fine
