@@ -327,7 +327,8 @@ class CutVolume:
 
         Ray ``i`` meets the pieces ``item[lo[i]:hi[i]]``. With ``first``, whether it
         enters within the horizon is all that counts: the first piece it enters there
-        gives the height (finite, not the lowest), the others are not tried.
+        gives the height (finite, not the lowest: an entry at one of that piece's sampled
+        poses), the others are not tried.
         """
         stop = self.horizon if first else 0.0
         if not self.ball:

@@ -30,10 +30,14 @@ before it starts (:func:`_tip_plane_bound`), and the ones whose tip segment stay
 from the ray's segment than the part of the cutter within ``L`` of the tip plane reaches
 (:func:`_tip_reach`), and the ones whose end poses stand farther from the ray's origin than
 ``L`` and how far a pose within half the piece of an end moves the cutter past the ray's
-points (:func:`_pose_floor`). A piece entered no earlier than ``L`` at its samples gets no
-golden-section search where no pose it would try can hold a point of the ray before ``L``
-(:func:`_pair_entry`). All are lower bounds of the exact entry: skipped pieces and searches
-could not have lowered the result, which stays the same.
+points (:func:`_pose_floor`). Within a piece (:func:`_pair_entry`): where the ray's origin
+stands farther from every sampled pose than ``L`` and how far the poses within half a
+sample's spacing move the cutter past the ray's points (:func:`_pose_shift`), no entry is
+sought; a sampled pose entered within the ray's stop ends the piece; a piece entered no
+earlier than ``L`` at its samples gets no golden-section search where no pose it would try
+can hold a point of the ray before ``L``. All are lower bounds of the exact entry: skipped
+pieces and searches could not have lowered the result, which stays the same (with a stop
+above 0, the ray's entry is one within the stop, not the lowest).
 """
 
 from __future__ import annotations
