@@ -11,18 +11,22 @@ index answers which pieces come near with a grid it already built. A grid holds 
 import math
 
 import numpy as np
-from verify_programs import DEPTH_MM, LEVEL_MM, convex_dome_model, five_axis_cap
+from verify_programs import DEPTH_MM, LEVEL_MM, convex_dome_model, five_axis_cap, zigzag_raster
 
 import verification.fine_model as fine_model
 import verification.grid as grid_module
 from machines import load_machine
-from toolpath.planning.analytic import SpherePatch
+from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
 from verification.dexels import SweepIndex
 from verification.fine_model import FineAsk, FineModel, box_centres
 from verification.grid import CELLS_PER_PIECE
+from verification.options import DexelMethod
+from verification.pieces import ball_pieces
+from verification.replay import replay
 from verification.samples import surface_points_normals
+from verification.search import Dexels
 
 BOXES = [((0.45, 0.5), (0.04, 0.06)), ((0.5, 0.55), (0.04, 0.06)), ((0.9, 0.1), (0.02, 0.03))]
 
@@ -152,3 +156,65 @@ def test_a_verification_replays_its_refinements_stretches_once(monkeypatch):
 
 
 FINE_AROUND_EACH = FineModel.around_each
+
+
+def _same_deviations(one, both, pts, nrm, conv):
+    """Shared and alone searches: the same entries, moves and deviations."""
+    a, b = one.search(pts, nrm, conv), both.search(pts, nrm, conv)
+    np.testing.assert_array_equal(b.lam_mm, a.lam_mm)
+    np.testing.assert_array_equal(b.move, a.move)
+    np.testing.assert_array_equal(both.deviation(b, nrm), one.deviation(a, nrm))
+    return a
+
+
+def test_an_ask_keeps_its_own_level_and_depth_beside_a_coarser_one():
+    """A finer ask beside a coarser one: its own levels, not the largest (the union's)."""
+    dome, ev, fine = convex_dome_model()
+    (coarse, _, _, _), (finer, t0, s0, half) = (_ask(dome, ev, (0.5, 0.45), (0.02, 0.02)),
+                                                _ask(dome, ev, (0.5, 0.55), (0.02, 0.02)))
+    finer = FineAsk(finer.centres, finer.slack_mm, finer.convexity_per_mm,
+                    0.5 * LEVEL_MM, 0.5 * DEPTH_MM)
+    one = fine.around(finer.centres, finer.slack_mm, finer.convexity_per_mm,
+                      level_mm=finer.level_mm, depth_mm=finer.depth_mm)
+    both = fine.around_each([coarse, finer])[1]
+    assert both.horizons == one.horizons and both.depth == one.depth
+    pts, nrm, _ = _points(dome, t0, s0, half)
+    conv = np.full(pts.shape[0], 1.0 / 1.5)
+    for shift_mm in (0.0, -0.015, 0.005):
+        _same_deviations(one, both, pts + shift_mm * nrm, nrm, conv)
+
+
+def test_asks_far_apart_and_in_either_order_find_what_each_alone_finds():
+    """Asks at opposite corners of a raster, the later one first: the union's box and rows
+    hold both (neither ask's alone)."""
+    radius_mm, level_mm, depth_mm = 3.0, 0.02, 0.02
+    machine = load_machine("grbl-router")
+    plane = PlaneSurface(origin_mm=(0.0, 0.0, 0.0), t_vector_mm=(40.0, 0.0, 0.0),
+                         s_vector_mm=(0.0, 30.0, 0.0))
+    program = zigzag_raster(np.arange(0.0, 30.01, 0.5), -5.0, 45.0, shift={20: -0.01})
+    motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=radius_mm)
+    coarse = ball_pieces(motion, radius_mm, 0.5, merge_tol_mm=1e-3)
+    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), radius_mm,
+                       np.zeros(3), np.array([40.0, 30.0, 0.0]), base_cell_mm=0.25,
+                       reach_limit_mm=radius_mm + level_mm + depth_mm)
+    ev = Dexels(index, radius_mm, (level_mm,), depth_mm, DexelMethod.NORMAL)
+    fine = FineModel(motion, machine, ev, lambda stretch: ball_pieces(stretch, radius_mm, 0.5),
+                     model_tol_mm=1.5e-3, chord_tol_mm=1e-5)
+
+    def ask(middle):
+        centres, slack = box_centres(plane, np.array([middle[0]]), np.array([middle[1]]),
+                                     0.01, 0.01, ev.corner)
+        return FineAsk(centres, slack, np.zeros(1), level_mm, depth_mm)
+
+    off = np.linspace(-1.0, 1.0, 9)
+    for first, second in (((0.9, 0.9), (0.1, 0.1)), ((0.1, 0.1), (0.9, 0.9))):
+        asks = [ask(first), ask(second)]
+        shared = fine.around_each(asks)
+        for middle, a, both in zip((first, second), asks, shared, strict=True):
+            one = fine.around(a.centres, a.slack_mm, a.convexity_per_mm, level_mm=level_mm,
+                              depth_mm=depth_mm)
+            t = np.repeat(middle[0] + 0.01 * off, 9)
+            s = np.tile(middle[1] + 0.01 * off, 9)
+            pts, nrm, _ = surface_points_normals(plane, t, s)
+            found = _same_deviations(one, both, pts, nrm, np.zeros(pts.shape[0]))
+            assert np.isfinite(found.lam_mm).all()
