@@ -212,8 +212,19 @@ def test_ray_entry_into_a_turning_cutter_equals_dense_poses():
     axes /= np.linalg.norm(axes, axis=1, keepdims=True)
     heights = np.linspace(0.0, 3.0, 3001)
     for k in range(40):
-        expected = _first_height_inside(heights, lambda lifts, k=k: (cutter.signed_distance(
-            (q[k] + lifts[:, None] * n[k])[:, None], tips, axes) <= 0.0).any(axis=1))
+
+        def inside(lifts, k=k):
+            # (signed_distance is exact, so it changes by no more than the point moves: a
+            # block of heights whose middle stands farther than ``reach`` outside every
+            # pose has no height inside one, and its 100 x 2001 distances are not needed)
+            reach = 0.5 * (lifts[-1] - lifts[0])
+            middle = q[k] + 0.5 * (lifts[0] + lifts[-1]) * n[k]
+            if cutter.signed_distance(middle, tips, axes).min() > reach + 1e-9:
+                return np.zeros(len(lifts), dtype=bool)
+            return (cutter.signed_distance((q[k] + lifts[:, None] * n[k])[:, None], tips,
+                                           axes) <= 0.0).any(axis=1)
+
+        expected = _first_height_inside(heights, inside)
         assert got[k] == pytest.approx(expected, abs=2e-3) if np.isfinite(expected) \
             else got[k] == np.inf
 
@@ -315,8 +326,20 @@ def test_capsule_entries_and_segment_distances_equal_dense_samples():
     heights = np.linspace(0.0, 6.0, 6001)
     for k in range(30):
         axis = a[k] + u[:, None] * (b[k] - a[k])
-        expected = _first_height_inside(heights, lambda lifts, k=k, axis=axis: (np.linalg.norm(
-            (q[k] + lifts[:, None] * n[k])[:, None] - axis[None], axis=2) <= 0.7).any(axis=1))
+
+        def inside(lifts, k=k, axis=axis):
+            # a block of heights spans a stretch of the ray (n is a unit vector) within
+            # ``reach`` of its middle: when no sample stands within 0.7 + reach of the
+            # middle, none stands within 0.7 of any of its heights (triangle inequality),
+            # and the block's 100 x 2001 distances are not needed to say so
+            reach = 0.5 * (lifts[-1] - lifts[0])
+            middle = q[k] + 0.5 * (lifts[0] + lifts[-1]) * n[k]
+            if np.linalg.norm(axis - middle, axis=1).min() > 0.7 + reach + 1e-9:
+                return np.zeros(len(lifts), dtype=bool)
+            return (np.linalg.norm((q[k] + lifts[:, None] * n[k])[:, None] - axis[None],
+                                   axis=2) <= 0.7).any(axis=1)
+
+        expected = _first_height_inside(heights, inside)
         if np.isfinite(expected):
             assert got[k] == pytest.approx(expected, abs=2e-3)
         else:
@@ -411,12 +434,15 @@ def test_shadow_boundary_point_is_the_torus_support_point_and_its_depth():
                                          ez[None])
         b1, b2 = disc_basis(axis[None])
         rim = (big - r) * (np.cos(around)[:, None] * b1 + np.sin(around)[:, None] * b2)
-        torus = (rim[:, None] + ball.reshape(1, -1, 3)).reshape(-1, 3)
+        # the torus samples are every rim sample plus every ball sample: the one farthest
+        # along nu is the farthest rim sample plus the farthest ball sample (without the
+        # 721 x 7381 sums)
+        ball_samples = ball.reshape(-1, 3)
         for theta in np.linspace(-np.pi, np.pi, 9):
             x, z, depth = shadow_point(*(c[0] for c in shadow.matrix),
                                        *(c[0] for c in shadow.depth_matrix), r, theta)
             nu = np.sin(theta) * ex - np.cos(theta) * ez
-            far = torus[np.argmax(torus @ nu)]
+            far = rim[np.argmax(rim @ nu)] + ball_samples[np.argmax(ball_samples @ nu)]
             assert np.sin(theta) * x - np.cos(theta) * z == pytest.approx(far @ nu, abs=1e-3)
             assert x == pytest.approx(far @ ex, abs=0.05)
             assert z == pytest.approx(far @ ez, abs=0.05)
