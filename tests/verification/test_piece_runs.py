@@ -12,7 +12,7 @@ import functools
 
 import numpy as np
 import pytest
-from verify_programs import five_axis_cap
+from verify_programs import five_axis_cap, five_axis_line
 
 import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
@@ -107,3 +107,20 @@ def test_a_thin_wall_cut_on_top_and_nicked_from_behind(monkeypatch, router, spec
                        Rapid(z=5.0)))
     _same(*_both(monkeypatch, program, underside, router, parse_cutter(spec),
                  options=VerifyOptions(spacing_mm=0.1)))
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_a_turning_tool_through_a_plate_from_behind(monkeypatch, spec):
+    # the underside of a plate 0.2 mm above the tip: the cutter pokes 0.2 mm out through
+    # it while the axis turns (runs of many pieces). Seen from the underside the runs come
+    # from behind and leave the dexels just 0.2 mm past the design point: a run may be
+    # dropped only where its dilated sweep leaves at or below it
+    machine = load_machine("trunnion-ac")
+    cutter = parse_cutter(spec)
+    program = five_axis_line(machine, cutter, 4, tilt_deg=(5.0, 12.0), length_mm=4.0,
+                             lean="y")
+    underside = PlaneSurface((0.0, -2.0, 0.2), (0.0, 4.0, 0.0), (4.0, 0.0, 0.0))
+    fast, exact = _both(monkeypatch, program, underside, machine, cutter,
+                        options=VerifyOptions(spacing_mm=0.2, refine=4))
+    assert exact.max_gouge_mm == pytest.approx(0.2, abs=0.01)
+    _same(fast, exact)
