@@ -1,7 +1,7 @@
 """Material-removal verification on the development blade (issue 9).
 
 Run:  python benchmarks/bench_verify.py [--blocks 1000000] [--skip-5axis] [--samples N]
-      [--bull bull:6:1] [--bull5 bull:8:1] [--bull5-scallop MM] [--skip-bull]
+      [--bull bull:6:1] [--bull5 [bull:8:1]] [--bull5-scallop MM] [--skip-bull]
       [--only-5axis] [--skip-baseline]
 
 In one run:
@@ -34,11 +34,12 @@ In one run:
    blade gouge and scallop within 1 %; when those differ by more, both programs once more
    with a finer verifier model (:data:`FINE_MODEL`). ``--only-5axis`` runs just the 5-axis
    rows;
-8. bull-nose 5-axis row, after the issue-27 rows: the standing blade planned with
-   ``--bull5`` (default ``bull:8:1``) at ``--bull5-scallop`` (default 0.005 mm), posted
-   and verified in a fresh process: time, CPU, peak memory, gouge and scallop (a turning
-   axis cuts a bull-nose's pieces short: :mod:`verification.piece_runs`).
-   ``--skip-bull`` leaves out both bull-nose rows.
+8. bull-nose 5-axis row, asked for with ``--bull5 [SPEC]`` (``bull:8:1`` when bare),
+   after the issue-27 rows: the standing blade planned with it at ``--bull5-scallop``
+   (default 0.005 mm), posted and verified in a fresh process: time, CPU, peak memory,
+   gouge and scallop (a turning axis cuts a bull-nose's pieces short:
+   :mod:`verification.piece_runs`). Opt-in while its refinement (the fine model's pieces,
+   25 times shorter again) takes minutes; ``--skip-bull`` leaves out both bull rows.
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.
@@ -458,8 +459,10 @@ def main(argv: list[str] | None = None) -> int:
     ap.add_argument("--bull", default="bull:6:1", help="bull-nose cutter of the bull row")
     ap.add_argument("--skip-bull", action="store_true",
                     help="leave out both bull-nose rows (3-axis and 5-axis)")
-    ap.add_argument("--bull5", default="bull:8:1",
-                    help="bull-nose cutter of the 5-axis bull row")
+    ap.add_argument("--bull5", nargs="?", const="bull:8:1", default=None,
+                    help="add the 5-axis bull-nose row with this cutter (bull:8:1 when "
+                         "given bare; left out by default: its verification's refinement "
+                         "still takes minutes and many GB, see bull5_row)")
     ap.add_argument("--bull5-scallop", type=float, default=SCALLOP_MM,
                     help="scallop of the 5-axis bull row, mm")
     ap.add_argument("--skip-baseline", action="store_true",
@@ -510,7 +513,7 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  5-axis planner/post failed: {exc!r}")
         else:
             issue27(standing, m5, program5, args.blocks, not args.skip_baseline)
-        if not args.skip_bull:
+        if args.bull5 is not None and not args.skip_bull:
             bull5_row(standing, args.bull5, args.bull5_scallop)
         if args.only_5axis:
             return 0
