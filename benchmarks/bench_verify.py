@@ -1,7 +1,8 @@
 """Material-removal verification on the development blade (issue 9).
 
 Run:  python benchmarks/bench_verify.py [--blocks 1000000] [--skip-5axis] [--samples N]
-      [--bull bull:6:1] [--skip-bull] [--only-5axis] [--skip-baseline]
+      [--bull bull:6:1] [--bull5 [bull:8:1]] [--bull5-scallop MM] [--skip-bull]
+      [--only-5axis] [--skip-baseline]
 
 In one run:
 
@@ -32,7 +33,13 @@ In one run:
    scallop. Then each issue-27 target, met or not: times against 5 s and 40 s, dense /
    blade gouge and scallop within 1 %; when those differ by more, both programs once more
    with a finer verifier model (:data:`FINE_MODEL`). ``--only-5axis`` runs just the 5-axis
-   rows.
+   rows;
+8. bull-nose 5-axis row, asked for with ``--bull5 [SPEC]`` (``bull:8:1`` when bare),
+   after the issue-27 rows: the standing blade planned with it at ``--bull5-scallop``
+   (default 0.005 mm), posted and verified in a fresh process: time, CPU, peak memory,
+   gouge and scallop (a turning axis cuts a bull-nose's pieces short:
+   :mod:`verification.piece_runs`). Opt-in while its refinement (the fine model's pieces,
+   25 times shorter again) takes minutes; ``--skip-bull`` leaves out both bull rows.
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.
@@ -162,11 +169,12 @@ def brute_force_s(program, surface, machine, cutter, n_dexels: int, seed: int = 
 
 
 def verify_child(argv: list[str]) -> int:
-    """``--child PROGRAM SURFACE.pkl MACHINE DIALECT [oracle|fine]``: parse, verify, one JSON line.
+    """``--child PROGRAM SURFACE.pkl MACHINE DIALECT [oracle|fine] [cutter=SPEC] [scallop=MM]``.
 
-    Run in a fresh process so its peak memory (``ru_maxrss``) is the verification's own;
-    ``oracle`` verifies with the candidate-pair search the compiled walk replaced, ``fine``
-    with the finer model :data:`FINE_MODEL`.
+    Parse, verify, print one JSON line. Run in a fresh process so its peak memory
+    (``ru_maxrss``) is the verification's own; ``oracle`` verifies with the candidate-pair
+    search the compiled walk replaced, ``fine`` with the finer model :data:`FINE_MODEL`;
+    ``cutter`` and ``scallop`` default to :data:`CUTTER` and :data:`SCALLOP_MM`.
     """
     import functools
     import json
@@ -177,9 +185,13 @@ def verify_child(argv: list[str]) -> int:
     from verification.dexels import SweepIndex
 
     path, surface_pkl, machine_name, dialect_name = argv[:4]
-    if argv[4:] == ["oracle"]:
+    settings = dict(a.split("=", 1) for a in argv[4:] if "=" in a)
+    modes = [a for a in argv[4:] if "=" not in a]
+    if modes == ["oracle"]:
         verify_module.SweepIndex = functools.partial(SweepIndex, compiled=False)
-    model = FINE_MODEL if argv[4:] == ["fine"] else {}
+    model = FINE_MODEL if modes == ["fine"] else {}
+    cutter = parse_cutter(settings.get("cutter", CUTTER))
+    scallop = float(settings.get("scallop", SCALLOP_MM))
     with open(surface_pkl, "rb") as f:
         surface = pickle.load(f)
     machine = load_machine(machine_name)
@@ -187,9 +199,8 @@ def verify_child(argv: list[str]) -> int:
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     text, t_read = timed(lambda: open(path, encoding="utf-8").read())
     program, t_parse = timed(lambda: parse(text, dialect))
-    rep, t_verify = timed(lambda: verify_program(program, surface, machine,
-                                                 parse_cutter(CUTTER),
-                                                 options=VerifyOptions(scallop_mm=SCALLOP_MM,
+    rep, t_verify = timed(lambda: verify_program(program, surface, machine, cutter,
+                                                 options=VerifyOptions(scallop_mm=scallop,
                                                                        **model)))
     cpu1 = resource.getrusage(resource.RUSAGE_SELF)
     print(json.dumps({"lines": len(text.splitlines()), "parse_s": t_read + t_parse,
@@ -402,13 +413,58 @@ def bull_row(surface, spec: str, blocks: int, opts) -> None:
           f"/ chord {CHORD_MM} mm")
 
 
+def bull5_row(standing, spec: str, scallop_mm: float) -> None:
+    """Bull-nose 5-axis: the standing blade planned with ``spec``, verified in a fresh process.
+
+    The case a flat or bull-nose cutter's pieces are cut short in (the turning axis: a
+    piece per micrometre of path), whose search walks runs of them
+    (:mod:`verification.piece_runs`). Time, CPU, peak memory, gouge and scallop.
+    """
+    import pickle
+    import tempfile
+
+    print(f"bull-nose 5-axis {spec} (trunnion-ac, blade standing, y:-90, lead 10 deg, "
+          f"scallop {scallop_mm} mm); load average "
+          + " ".join(f"{v:.2f}" for v in os.getloadavg()))
+    machine = load_machine("trunnion-ac")
+    try:
+        (tp, planner), t_plan = timed(lambda: plan_finishing(
+            standing, spec, scallop_mm=scallop_mm, chord_tol_mm=CHORD_MM, machine=machine,
+            axis_mode="lead-tilt", lead_deg=10.0))
+        program = post(tp, machine, options=PostOptions(coolant=None))
+    except Exception as exc:
+        print(f"  planner/post failed: {exc!r}")
+        return
+    with tempfile.TemporaryDirectory() as tmp:
+        surface_pkl = os.path.join(tmp, "surface.pkl")
+        with open(surface_pkl, "wb") as f:
+            pickle.dump(standing, f)
+        path = os.path.join(tmp, "bull5.ngc")
+        with open(path, "w", encoding="utf-8") as f:
+            f.write(emit_text(program, LINUXCNC))
+        r = run_child(path, surface_pkl, machine.name, "linuxcnc", f"cutter={spec}",
+                      f"scallop={scallop_mm}")
+    print(f"  planned in {t_plan:.1f} s; {r['lines']:,} lines: parse {r['parse_s']:.1f} s + "
+          f"verify {r['verify_s']:.1f} s (CPU user {r['user_s']:.1f} + sys {r['sys_s']:.1f} s"
+          f", peak {r['peak_mb']:.0f} MB); gouge {r['gouge_mm']:.6f} mm, scallop "
+          f"{r['scallop_mm']:.6f} mm (planner {planner.max_scallop_mm:.6f} mm)")
+    print("    stages, s: " + ", ".join(f"{k} {v:.2f}" for k, v in r["timings_s"].items()))
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--blocks", type=int, default=1_000_000)
     ap.add_argument("--samples", type=int, default=VerifyOptions().max_samples)
     ap.add_argument("--skip-5axis", action="store_true")
     ap.add_argument("--bull", default="bull:6:1", help="bull-nose cutter of the bull row")
-    ap.add_argument("--skip-bull", action="store_true")
+    ap.add_argument("--skip-bull", action="store_true",
+                    help="leave out both bull-nose rows (3-axis and 5-axis)")
+    ap.add_argument("--bull5", nargs="?", const="bull:8:1", default=None,
+                    help="add the 5-axis bull-nose row with this cutter (bull:8:1 when "
+                         "given bare; left out by default: its verification's refinement "
+                         "still takes minutes and many GB, see bull5_row)")
+    ap.add_argument("--bull5-scallop", type=float, default=SCALLOP_MM,
+                    help="scallop of the 5-axis bull row, mm")
     ap.add_argument("--skip-baseline", action="store_true",
                     help="issue 27: leave out the old pair search on the 5-axis program")
     ap.add_argument("--only-5axis", action="store_true",
@@ -457,6 +513,8 @@ def main(argv: list[str] | None = None) -> int:
             print(f"  5-axis planner/post failed: {exc!r}")
         else:
             issue27(standing, m5, program5, args.blocks, not args.skip_baseline)
+        if args.bull5 is not None and not args.skip_bull:
+            bull5_row(standing, args.bull5, args.bull5_scallop)
         if args.only_5axis:
             return 0
 

@@ -56,6 +56,7 @@ from numpy.typing import NDArray
 from .capsule import line_capsule_interval
 from .capsule_search import lowest_capsule_entries, pair_values
 from .grid import PieceGrid
+from .piece_runs import PieceRuns, piece_runs
 from .pieces import Pieces
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
@@ -198,6 +199,8 @@ class SweepIndex:
     _grids: dict[tuple[str, int], PieceGrid] = field(default_factory=dict, repr=False)
     _pieces: dict[str, Pieces] = field(default_factory=dict, repr=False)
     _sorted: dict[int, tuple[FloatArray, ...]] = field(default_factory=dict, repr=False)
+    _runs: dict[tuple[str, int], tuple[PieceGrid, PieceRuns]] = field(default_factory=dict,
+                                                                      repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -233,6 +236,26 @@ class SweepIndex:
                           pieces.axis, pieces.height_mm))
         return self._grids[which, k]
 
+    def _run_grid(self, which: str, reach_mm: float) -> tuple[PieceGrid, PieceRuns]:
+        """Flat/bull-nose pieces' runs (:mod:`verification.piece_runs`), gridded by midpoint.
+
+        The cell as :meth:`_grid` picks it; the runs returned are in the grid's order.
+        """
+        target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
+        k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+        if (which, k) not in self._runs:
+            pieces = self.pieces(which)
+            same = next((v[1] for (w, _), v in self._runs.items() if w == which), None)
+            runs = same if same is not None else piece_runs(
+                pieces, core_radius_mm=self.radius_mm - self._corner,
+                corner_radius_mm=self._corner)
+            # a run's midpoint stands within its spread of its pieces'
+            margin = self.reach_limit_mm + pieces.max_half_mm + runs.max_spread_mm
+            grid = PieceGrid.build(runs.mid, self.lo_mm - margin, self.hi_mm + margin,
+                                   self.base_cell_mm * 2.0**k)
+            self._runs[which, k] = grid, runs.taken(grid.order)
+        return self._runs[which, k]
+
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                radii_mm: FloatArray, *, below_mm: FloatArray | None = None) -> DexelResult:
         """Lowest entries along dexels among pieces within ``radii`` of ``centres``.
@@ -262,22 +285,24 @@ class SweepIndex:
         if q == 0 or pieces.size == 0:
             return out
         reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
+        if self.corner_radius_mm is not None and self.compiled:
+            # the same, flat and bull-nose pieces: over runs of consecutive pieces, bounds
+            # and exact entries in the walk
+            runs_grid, runs = self._run_grid(which, float(np.median(reach)))
+            lam, hit, behind, pairs = lowest_sweep_entries(
+                runs_grid, runs_grid.span_of(reach + runs.max_spread_mm), points, dirs,
+                centres, reach, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
+                pieces.axis, pieces.height_mm, core_radius_mm=self.radius_mm - self._corner,
+                corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm)
+            return _scattered(out, lam, hit, behind, pairs, pieces, points)
         grid = self._grid(which, float(np.median(reach)))
         spans = grid.span_of(reach)
-        if self.corner_radius_mm is None and self.compiled:
+        if self.compiled:
             # one walk, each dexel over its own span of cells
             mid, half, a, e, ee, axis, _ = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_capsule_entries(
                 grid, spans, points, dirs, centres, reach, mid, half, a, e, ee, axis,
                 self.radius_mm, BEHIND_COSINE, below_mm=below_mm)
-            return _scattered(out, lam, hit, behind, pairs, pieces, points)
-        if self.compiled:
-            # the same, flat and bull-nose pieces: bounds and exact entries in the walk
-            mid, half, a, e, _, axis, height = self._sorted[id(grid)]
-            lam, hit, behind, pairs = lowest_sweep_entries(
-                grid, spans, points, dirs, centres, reach, mid, half, a, e, axis, height,
-                core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
-                behind_cosine=BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         pairs = 0
         for span in np.unique(spans):

@@ -5,21 +5,34 @@ The same search as the candidate pairs of :class:`~verification.grid.PieceGrid` 
 tests), without storing a pair. Expanded as numpy pairs, every candidate's bound is stored
 and the pairs it cannot rule out are measured in numpy: on a 5-axis program, whose pieces
 are short (cut where the axis turns), that is tens of millions of pairs and minutes of a
-verification. Here each dexel walks its candidates (every piece whose midpoint lies within
-the search radius of its centre, over the cells of
-:func:`~verification.capsule_search.candidate_slots`, listed once) twice:
+verification. Here each dexel walks the runs of consecutive pieces
+(:mod:`verification.piece_runs`: each inside its reference piece dilated by ``delta``)
+whose midpoints lie within the search radius plus their spread of its centre, over the
+cells of :func:`~verification.capsule_search.candidate_slots`:
 
-1. the piece whose cheap lower bound on the entry (:func:`~verification.torus.sweep_bound`:
-   a bounding capsule cut by a slab) is lowest, measured exactly
-   (:func:`~verification.torus.sweep_interval`): usually the piece that leaves the least;
-2. every other piece whose bound lies below the best value found so far, measured.
+1. every such run whose cheap lower bound on the entry (:func:`~verification.torus.sweep_bound`
+   of its dilated reference: a bounding capsule cut by a slab) lies below the best so far;
+2. best first: the run of lowest bound has its *floor* measured, the dilated reference's
+   exact entry (``inf`` where the dilated sweep leaves the dexel at or below the design
+   point: no piece inside it reaches there, the other side of a thin blade); the run of
+   lowest floor, when no cheap bound lies lower, is opened: halved, each half's own
+   reference and dilation measured, while a half's floor lies below the best, down to
+   single pieces, which are the candidates (midpoint within the search radius) and are
+   measured exactly (:func:`~verification.torus.sweep_interval`) where their own bound
+   lies below the best.
+
+A floor is a lower bound on what every piece of its run leaves, so a run or half skipped
+holds no piece below the best: the same minimum as every candidate measured (a piece
+that leaves ``p`` leaves it from within ``delta`` of the reference, see
+:mod:`verification.piece_runs`). On the bull-nose 5-axis blade (16,000 candidate pieces
+per dexel, thousands of them measured) a dexel measures about a hundred floors and a
+dozen pieces.
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
 behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing
 (:func:`~verification.capsule_search.pair_value`). Of equal values the
-one measured first is kept: the piece of lowest bound (of equal bounds the first in the
-grid's order), then the others in the grid's order.
+one measured first is kept (in the order above).
 """
 
 from __future__ import annotations
@@ -30,14 +43,26 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, pair_value, walk_shape
+from .capsule_search import (
+    WALK_BLOCK,
+    candidate_slots,
+    enters_before,
+    is_candidate,
+    pair_value,
+    walk_shape,
+)
 from .grid import PieceGrid
-from .torus import sweep_bound, sweep_interval
+from .piece_runs import PieceRuns, span_reference
+from .torus import sweep_bound, sweep_entry, sweep_exit, sweep_interval
 
 __all__ = ["lowest_sweep_entries"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+#: Entries of a run's halving stack: each level of halving leaves at most one half
+#: waiting, and a run of ``n`` pieces is halved ``ceil(log2 n)`` times.
+_STACK = 64
 
 
 @numba.njit(cache=True)
@@ -51,81 +76,184 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     return pair_value(lam_in, lam_out, cosine, behind_cosine)
 
 
+@numba.njit(cache=True)
+def _floor(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray, axis: FloatArray,
+           height: float, core_radius: float, dilated_radius: float, lo: float, hi: float,
+           best: float) -> float:
+    """A lower bound on what any piece inside a dilated sweep leaves on a dexel.
+
+    The dilated sweep's entry (its bounds ``lo, hi`` from
+    :func:`~verification.torus.sweep_bound`); ``inf`` where it leaves the line at or below
+    the design point (a piece inside it then leaves nothing: the other side of a thin
+    blade), and ``lo`` itself when that is not below ``best`` (nothing measured).
+    """
+    if not lo < best:
+        return lo
+    entry = sweep_entry(p, d, c0, chord, axis, height, core_radius, dilated_radius, lo, hi)
+    if not entry < best:
+        return entry
+    if entry < 0.0 and not sweep_exit(p, d, c0, chord, axis, height, core_radius,
+                                      dilated_radius, entry, hi) > 0.0:
+        return math.inf
+    return entry
+
+
 @numba.njit(cache=True, parallel=True)
-def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
+def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: FloatArray,
           spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
-          starts: IntArray, order: IntArray, mid: FloatArray, half: FloatArray, a: FloatArray,
+          starts: IntArray, run_mid: FloatArray, run_half: FloatArray,
+          run_spread: FloatArray, run_start: IntArray, run_stop: IntArray, run_c0: FloatArray,
+          run_chord: FloatArray, run_axis: FloatArray, run_height: FloatArray,
+          run_dilation: FloatArray, mid: FloatArray, half: FloatArray, a: FloatArray,
           e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
           corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
           behind: NDArray[np.bool_], pairs: IntArray) -> None:
     # every piece's cutter lies within this plus its half length of its midpoint (the
     # bound of :func:`~verification.torus.sweep_bound` about the core's mid-height path,
-    # which stands L / 2 above the midpoint)
+    # which stands L / 2 above the midpoint); a run's within this plus its own half
     top = 0.5 * height.max()
     outer = math.sqrt(core_radius * core_radius + top * top) + corner_radius + top
+    widest = run_spread.max()
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
+        kept = np.empty(WALK_BLOCK, dtype=np.int64)
         bounds = np.empty(WALK_BLOCK)
+        tops = np.empty(WALK_BLOCK)
+        pending = np.empty(WALK_BLOCK, dtype=np.int64)
+        floors_of = np.empty(WALK_BLOCK)
+        # the halving's stack (depth at most twice log2 of a run's pieces) and scratch
+        lows = np.empty(_STACK, dtype=np.int64)
+        highs = np.empty(_STACK, dtype=np.int64)
+        floors = np.empty(_STACK)
+        halves = np.empty(2)
+        chord = np.empty(3)
         for q in range(b * WALK_BLOCK, min(n_q, (b + 1) * WALK_BLOCK)):
             p, d = points[q], dirs[q]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-            buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
-                                     starts, mid, buf)
-            if bounds.shape[0] < buf.shape[0]:
+            lim2 = reach[q] * reach[q]
+            wide = reach[q] + widest
+            buf, n = candidate_slots(cx, cy, cz, wide * wide, spans[q], dims, origin, cell,
+                                     starts, run_mid, buf)
+            if bounds.shape[0] < n:
+                kept = np.empty(buf.shape[0], dtype=np.int64)
                 bounds = np.empty(buf.shape[0])
+                tops = np.empty(buf.shape[0])
+                pending = np.empty(buf.shape[0], dtype=np.int64)
+                floors_of = np.empty(buf.shape[0])
             best = lam[q]
-            best_slot = -1
+            best_piece = -1
             best_behind = False
-            # walk 0: every candidate's bound (NaN where the bounding ball already puts
-            # it no lower than the lowest so far), the piece of lowest bound measured
-            lowest, lowest_slot = best, -1
+            met = 0
+            # walk 0: the runs that may hold a candidate and enter below the best so far,
+            # with the bounds of their dilated reference pieces
+            m = 0
             for c in range(n):
                 slot = buf[c]
-                bounds[c] = np.nan
-                if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1], d[2],
-                                     outer, lowest):
+                own = reach[q] + run_spread[slot]
+                if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
                     continue
-                lo, _ = sweep_bound(p, d, a[slot], e[slot], axis[slot], height[slot],
-                                    core_radius, corner_radius)
-                bounds[c] = lo
-                if lo < lowest:
-                    lowest, lowest_slot = lo, slot
-            if lowest_slot >= 0:
-                value, back = _value(p, d, a[lowest_slot], e[lowest_slot], axis[lowest_slot],
-                                     height[lowest_slot], core_radius, corner_radius,
-                                     behind_cosine)
-                if value < best:
-                    best, best_slot, best_behind = value, lowest_slot, back
-                # walk 1: the others whose bound lies below the best, in the grid's order
-                for c in range(n):
-                    slot = buf[c]
-                    if slot == lowest_slot:
+                if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
+                                     d[2], outer, best):
+                    continue
+                lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                                     run_height[slot], core_radius,
+                                     corner_radius + run_dilation[slot])
+                if not lo < best:
+                    continue
+                kept[m], bounds[m], tops[m] = slot, lo, hi
+                m += 1
+            # walk 1, best first: the runs by their cheap bounds; the next one's dilated
+            # reference entered (a lower bound on all its pieces: its floor) unless a run
+            # already floored lies lower, which is then opened, halved while a half may
+            # still hold a piece below the best (a low best early prunes the rest)
+            rank = np.argsort(bounds[:m])
+            u = 0
+            waiting = 0
+            while True:
+                w = -1
+                for x in range(waiting):
+                    if w < 0 or floors_of[x] < floors_of[w]:
+                        w = x
+                cheap = bounds[rank[u]] if u < m else math.inf
+                if w >= 0 and floors_of[w] <= cheap:
+                    if not floors_of[w] < best:
+                        break
+                    v = pending[w]
+                    waiting -= 1
+                    pending[w], floors_of[w] = pending[waiting], floors_of[waiting]
+                elif not cheap < best:
+                    break
+                else:
+                    v = rank[u]
+                    u += 1
+                    slot = kept[v]
+                    if run_stop[slot] - run_start[slot] > 1:
+                        met += 1
+                        floor = _floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                                       run_height[slot], core_radius,
+                                       corner_radius + run_dilation[slot], bounds[v], tops[v],
+                                       best)
+                        if floor < best:
+                            bounds[v] = floor
+                            pending[waiting], floors_of[waiting] = v, floor
+                            waiting += 1
                         continue
-                    lo = bounds[c]
-                    if np.isnan(lo):
-                        if not enters_before(slot, mid, half, p[0], p[1], p[2], d[0], d[1],
+                slot = kept[v]
+                lows[0], highs[0], floors[0] = run_start[slot], run_stop[slot], bounds[v]
+                depth = 1
+                while depth > 0:
+                    depth -= 1
+                    i, j = lows[depth], highs[depth]
+                    if not floors[depth] < best:
+                        continue
+                    if j - i == 1:
+                        if not is_candidate(i, mid, cx, cy, cz, lim2):
+                            continue
+                        met += 1
+                        if not enters_before(i, mid, half, p[0], p[1], p[2], d[0], d[1],
                                              d[2], outer, best):
                             continue
-                        lo, _ = sweep_bound(p, d, a[slot], e[slot], axis[slot], height[slot],
+                        lo, _ = sweep_bound(p, d, a[i], e[i], axis[i], height[i],
                                             core_radius, corner_radius)
-                    if not lo < best:
+                        if not lo < best:
+                            continue
+                        value, back = _value(p, d, a[i], e[i], axis[i], height[i],
+                                             core_radius, corner_radius, behind_cosine)
+                        if value < best:
+                            best, best_piece, best_behind = value, i, back
                         continue
-                    value, back = _value(p, d, a[slot], e[slot], axis[slot], height[slot],
-                                         core_radius, corner_radius, behind_cosine)
-                    if value < best:
-                        best, best_slot, best_behind = value, slot, back
+                    # the two halves, the one entered lower on top of the stack
+                    h = (i + j) // 2
+                    for side in range(2):
+                        lo_i, hi_j = (i, h) if side == 0 else (h, j)
+                        entry = -math.inf
+                        if hi_j - lo_i > 1:
+                            met += 1
+                            ref, grow = span_reference(lo_i, hi_j - 1, a, e, axis, height,
+                                                       core_radius, corner_radius, chord)
+                            lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
+                                                 core_radius, corner_radius + grow)
+                            entry = _floor(p, d, a[lo_i], chord, axis[ref], height[ref],
+                                           core_radius, corner_radius + grow, lo, hi, best)
+                        halves[side] = entry
+                    for side in (1, 0) if halves[0] <= halves[1] else (0, 1):
+                        if halves[side] < best:
+                            lows[depth] = i if side == 0 else h
+                            highs[depth] = h if side == 0 else j
+                            floors[depth] = halves[side]
+                            depth += 1
             lam[q] = best
-            piece[q] = order[best_slot] if best_slot >= 0 else -1
+            piece[q] = best_piece
             behind[q] = best_behind
-            pairs[q] = n
+            pairs[q] = met
 
 
 def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
                          dirs: FloatArray, centres: FloatArray, reach_mm: FloatArray,
-                         sorted_mid: FloatArray, sorted_half_mm: FloatArray,
-                         a: FloatArray, e: FloatArray, axis: FloatArray, height_mm: FloatArray,
-                         *, core_radius_mm: float, corner_radius_mm: float,
+                         runs: PieceRuns, mid: FloatArray, half_mm: FloatArray, a: FloatArray,
+                         e: FloatArray, axis: FloatArray, height_mm: FloatArray, *,
+                         core_radius_mm: float, corner_radius_mm: float,
                          behind_cosine: float,
                          below_mm: FloatArray | None = None
                          ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
@@ -134,21 +262,22 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     Parameters
     ----------
     grid : PieceGrid
-        The pieces by cell.
+        The runs by the cell of their midpoints (:attr:`PieceRuns.mid`).
     span : ndarray of int64, shape (q,)
-        Cells searched on each side of a centre's cell (covers ``reach_mm``).
+        Cells searched on each side of a centre's cell (covers ``reach_mm`` plus the
+        widest run's spread).
     points, dirs : ndarray, shape (q, 3)
         Dexel origins (mm) and unit directions.
     centres : ndarray, shape (q, 3)
         Search centres, mm.
     reach_mm : ndarray, shape (q,)
         A piece is a candidate when its midpoint lies within this of the centre, mm.
-    sorted_mid, sorted_half_mm : ndarray, shapes (n, 3), (n,)
-        The pieces' midpoints and half lengths in the grid's order (``mid[grid.order]``),
-        mm.
-    a, e, axis, height_mm : ndarray
-        The pieces' core bottom centres at their starts, chords, axes and core heights
-        (:class:`~verification.pieces.Pieces`), in the grid's order too.
+    runs : PieceRuns
+        The pieces' runs (:func:`~verification.piece_runs.piece_runs`) in the grid's order
+        (:meth:`PieceRuns.taken` of ``grid.order``).
+    mid, half_mm, a, e, axis, height_mm : ndarray
+        The pieces' midpoints, half lengths, core bottom centres at their starts, chords,
+        axes and core heights (:class:`~verification.pieces.Pieces`), in their own order.
     core_radius_mm, corner_radius_mm : float
         ``rho0 = R - r`` and ``r``, mm.
     behind_cosine : float
@@ -166,7 +295,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     behind : ndarray of bool
         It came from behind.
     pairs : int
-        Candidate pairs met.
+        Runs and candidate pieces met.
     """
     q = points.shape[0]
     lam = np.full(q, np.inf) if below_mm is None else np.array(below_mm, dtype=float)
@@ -179,10 +308,12 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     f = np.ascontiguousarray
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
         _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              f(reach_mm * reach_mm, dtype=float), spans, dims,
-              f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, grid.order,
-              f(sorted_mid), f(sorted_half_mm), f(a, dtype=float), f(e, dtype=float),
-              f(axis, dtype=float), f(height_mm, dtype=float), float(core_radius_mm),
-              float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+              f(reach_mm, dtype=float), spans, dims, f(grid.origin_mm, dtype=float),
+              float(grid.cell_mm), grid.starts, runs.mid, runs.half_mm, runs.spread_mm,
+              runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
+              runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
+              f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
+              f(height_mm, dtype=float), float(core_radius_mm), float(corner_radius_mm),
+              float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

@@ -60,7 +60,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 
 __all__ = ["CONVERGED_MM", "core_signed_distance", "line_sweep_interval", "sweep_bound",
-           "sweep_distance", "sweep_entry_bound", "sweep_interval"]
+           "sweep_distance", "sweep_entry", "sweep_entry_bound", "sweep_exit",
+           "sweep_interval"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -245,6 +246,32 @@ def sweep_bound(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 
 
 @numba.njit(cache=True)
+def sweep_entry(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+                axis: FloatArray, height: float, core_radius: float, corner_radius: float,
+                lo: float, hi: float) -> float:
+    """Entry ``lam_in`` of one line into one swept cutter, from its bounds ``lo, hi``.
+
+    ``lo, hi`` are :func:`sweep_bound`'s; ``+inf`` where the line misses. The Newton
+    steps approach from the left: the value returned is at most the true entry.
+    """
+    if not math.isfinite(lo):
+        return math.inf
+    return _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, lo, hi, 1.0)
+
+
+@numba.njit(cache=True)
+def sweep_exit(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+               axis: FloatArray, height: float, core_radius: float, corner_radius: float,
+               entry: float, hi: float) -> float:
+    """Exit ``lam_out`` of one line from one swept cutter it enters at ``entry``.
+
+    ``hi`` is :func:`sweep_bound`'s upper bound. The Newton steps approach from the right:
+    the value returned is at least the true exit.
+    """
+    return _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, hi, entry, -1.0)
+
+
+@numba.njit(cache=True)
 def sweep_interval(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
                    axis: FloatArray, height: float, core_radius: float, corner_radius: float,
                    exit_wanted: bool) -> tuple[float, float]:
@@ -255,14 +282,12 @@ def sweep_interval(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArr
     misses.
     """
     lo, hi = sweep_bound(p, d, c0, chord, axis, height, core_radius, corner_radius)
-    if not math.isfinite(lo):
-        return math.inf, -math.inf
-    entry = _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, lo, hi, 1.0)
+    entry = sweep_entry(p, d, c0, chord, axis, height, core_radius, corner_radius, lo, hi)
     if not math.isfinite(entry):
         return math.inf, -math.inf
     if exit_wanted:
-        return entry, _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, hi,
-                              entry, -1.0)
+        return entry, sweep_exit(p, d, c0, chord, axis, height, core_radius, corner_radius,
+                                 entry, hi)
     if entry < 0.0:
         f0, _, _, _ = _inner_min(p[0] - c0[0], p[1] - c0[1], p[2] - c0[2], chord, axis,
                                  height, core_radius, corner_radius)

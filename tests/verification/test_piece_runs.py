@@ -1,0 +1,126 @@
+"""Runs of flat/bull-nose pieces: each inside its dilated reference, and the same search.
+
+The compiled walk measures a run's dilated reference piece first and its pieces only
+where that enters below the best value so far (:mod:`verification.piece_runs`): a
+shortcut that must hold every piece (checked point by point against the swept-cutter
+distance) and leave the very values the pair search over every piece finds (the oracle,
+``compiled=False``), on programs whose pieces the turning axis cuts short and on a thin
+wall met from behind, where a run below the design point must count for nothing.
+"""
+
+import functools
+
+import numpy as np
+import pytest
+from verify_programs import five_axis_cap, five_axis_line
+
+import verification.verify as verify_module
+from gcode import Linear, Program, Rapid
+from machines import load_machine
+from toolpath.planning.analytic import PlaneSurface, SpherePatch
+from toolpath.planning.cutters import parse_cutter
+from verification import VerifyOptions, verify_program
+from verification.dexels import SweepIndex
+from verification.piece_runs import piece_runs
+from verification.replay import replay
+from verification.torus import sweep_distance
+from verification.verify import _pieces, _settings
+
+
+def _both(monkeypatch, *args, **kwargs):
+    fast = verify_program(*args, **kwargs)
+    with monkeypatch.context() as m:
+        m.setattr(verify_module, "SweepIndex", functools.partial(SweepIndex, compiled=False))
+        exact = verify_program(*args, **kwargs)
+    return fast, exact
+
+
+def _same(fast, exact):
+    a, b = fast.deviation_map.deviation_mm, exact.deviation_map.deviation_mm
+    assert np.array_equal(np.isnan(a), np.isnan(b))
+    assert np.array_equal(np.isinf(a), np.isinf(b))
+    finite = np.isfinite(a)
+    np.testing.assert_allclose(a[finite], b[finite], rtol=0.0, atol=1e-9)
+    for name in ("max_gouge_mm", "max_scallop_mm", "max_excess_mm"):
+        assert getattr(fast, name) == pytest.approx(getattr(exact, name), abs=1e-9,
+                                                         nan_ok=True)
+
+
+def _cap(spec):
+    machine = load_machine("trunnion-ac")
+    cutter = parse_cutter(spec)
+    program = five_axis_cap(machine, cutter, 20.0, colatitudes_deg=(20.0, 26.0, 32.0),
+                            longitude_deg=(-20.0, 20.0), points=40, lead_deg=10.0)
+    return machine, cutter, program
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_every_piece_of_a_run_lies_inside_its_dilated_reference(rng, spec):
+    machine, cutter, program = _cap(spec)
+    opts = VerifyOptions()
+    _, cfg = _settings(SpherePatch(radius_mm=20.0), cutter, opts)
+    motion = replay(program, machine, chord_tol_mm=opts.replay_tol_mm,
+                    radius_mm=cutter.radius_mm)
+    pieces, _ = _pieces(motion, cutter, cfg, opts, shank=False)
+    corner = cutter.corner_radius_mm
+    core = cutter.radius_mm - corner
+    runs = piece_runs(pieces, core_radius_mm=core, corner_radius_mm=corner)
+    long = np.flatnonzero(runs.stop - runs.start >= 8)
+    assert long.shape[0] > 10  # the turning axis cuts pieces short: runs hold many
+    for run in rng.choice(long, size=8, replace=False):
+        k = rng.integers(runs.start[run], runs.stop[run], size=300)
+        # points around the pieces, inside and out, and one point per piece on its path
+        x = (pieces.a[k] + rng.uniform(0.0, 1.0, (300, 1)) * pieces.e[k]
+             + rng.normal(0.0, 1.0, (300, 3)) * rng.uniform(0.0, cutter.radius_mm + 0.5,
+                                                               (300, 1)))
+        own = sweep_distance(x, pieces.a[k], pieces.e[k], pieces.axis[k], pieces.height_mm[k],
+                             core_radius_mm=core, corner_radius_mm=corner)
+        n = x.shape[0]
+        ref = sweep_distance(x, np.repeat(runs.c0[[run]], n, axis=0),
+                             np.repeat(runs.chord[[run]], n, axis=0),
+                             np.repeat(runs.axis[[run]], n, axis=0),
+                             np.repeat(runs.height_mm[[run]], n),
+                             core_radius_mm=core, corner_radius_mm=corner)
+        # outside a piece its distance is exact: the dilated reference is no farther
+        outside = own >= 0.0
+        assert np.all(ref[outside] - runs.dilation_mm[run] <= own[outside] + 1e-12)
+        # inside a piece: inside the dilated reference
+        assert np.all(ref[~outside] <= runs.dilation_mm[run])
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_five_axis_passes_over_a_sphere_give_the_pair_searchs_values(monkeypatch, spec):
+    machine, cutter, program = _cap(spec)
+    sphere = SpherePatch(radius_mm=20.0, colatitude_deg=(21.0, 31.0),
+                         longitude_deg=(-15.0, 15.0))
+    _same(*_both(monkeypatch, program, sphere, machine, cutter,
+                 options=VerifyOptions(spacing_mm=0.25, horizon_mm=0.2, refine=4)))
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_a_thin_wall_cut_on_top_and_nicked_from_behind(monkeypatch, router, spec):
+    # the underside of a 0.5 mm plate: one pass on top, one dipping 0.3 mm through it
+    underside = PlaneSurface((0.0, 0.0, 0.0), (0.0, 10.0, 0.0), (10.0, 0.0, 0.0))
+    program = Program((Rapid(x=-5.0, y=5.0, z=5.0), Linear(z=0.5, feed=300.0),
+                       Linear(x=15.0, feed=800.0), Rapid(z=5.0), Rapid(x=-5.0, y=2.0),
+                       Linear(z=-0.3, feed=300.0), Linear(x=15.0, y=3.0, feed=800.0),
+                       Rapid(z=5.0)))
+    _same(*_both(monkeypatch, program, underside, router, parse_cutter(spec),
+                 options=VerifyOptions(spacing_mm=0.1)))
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_a_turning_tool_through_a_plate_from_behind(monkeypatch, spec):
+    # the underside of a plate 0.2 mm above the tip: the cutter pokes 0.2 mm out through
+    # it while the axis turns (runs of many pieces). Seen from the underside the runs come
+    # from behind and leave the dexels just 0.2 mm past the design point: a run may be
+    # dropped only where its dilated sweep leaves at or below it
+    machine = load_machine("trunnion-ac")
+    cutter = parse_cutter(spec)
+    program = five_axis_line(machine, cutter, 4, tilt_deg=(5.0, 12.0), length_mm=4.0,
+                             lean="y")
+    underside = PlaneSurface((0.0, -2.0, 0.2), (0.0, 4.0, 0.0), (4.0, 0.0, 0.0))
+    fast, exact = _both(monkeypatch, program, underside, machine, cutter,
+                        options=VerifyOptions(spacing_mm=0.2, refine=4))
+    assert exact.max_gouge_mm == pytest.approx(0.2, abs=0.01)
+    _same(fast, exact)

@@ -1,0 +1,300 @@
+r"""Runs of consecutive flat or bull-nose pieces, each held inside one dilated piece.
+
+A flat or bull-nose piece holds its axis fixed, so where a 5-axis program turns the axis
+the replay's chords are cut into pieces each turning it by what moves a cutter point by the
+replay tolerance (:func:`~verification.pieces.cutter_pieces`): a micrometre or two of path
+per piece, hundreds of thousands of pieces on a blade, and some sixteen thousand of them
+within a dexel's search radius. Their cheap bound (a capsule cut by a slab,
+:func:`~verification.torus.sweep_bound`) is loose across the passes (a bull-nose's flat
+bottom puts every neighbouring pass at about the same slab height), so thousands of pieces
+per dexel were measured exactly: the bull-nose 5-axis blade took over 28 CPU minutes.
+
+A *run* is a stretch of consecutive pieces ``k = i..j`` (same core height, same kind)
+held inside one reference piece dilated by ``delta``:
+
+* the reference: axis ``A`` of the run's middle piece, core bottom centre moving along the
+  segment from the first piece's start ``a_i`` to the last one's end ``a_j + e_j``;
+* the cutter with axis ``a_k`` is the one with axis ``A`` turned by the smallest rotation
+  taking ``A`` to ``a_k`` (a solid of revolution about its axis), which moves a point
+  ``y`` from the core's bottom centre by at most ``|a_k - A| |y|``, and every cutter point
+  lies within ``rho_k = hypot(R - r, L_k) + r`` of that centre: within ``|a_k - A| rho_k``
+  of the reference cutter;
+* piece ``k``'s core centre path lies within ``p_k`` of the reference segment, ``p_k`` the
+  larger distance of its two ends from it (a point's distance from a segment is convex
+  along another segment);
+
+so piece ``k``'s sweep lies within ``delta = max_k (|a_k - A| rho_k + p_k)`` of the
+reference sweep, that is inside the reference sweep with the corner radius ``r + delta``
+(the set within ``r + delta`` of the swept core). A line's entry into that dilated sweep is
+therefore a lower bound on its entry into every piece of the run, and on the material any
+of them leaves (:func:`~verification.capsule_search.pair_value` is the entry or more).
+:mod:`verification.sweep_search` measures that entry once per run and the run's pieces
+only where it lies below the best value so far: the same minimum as piece by piece.
+
+The entries are found by Newton steps from the left that stop within ``CONVERGED_MM`` of
+the boundary (:mod:`verification.torus`); a piece's measured entry is a point within that
+of its sweep, hence within ``delta + CONVERGED_MM`` of the reference one. The dilation
+stored adds :data:`ENTRY_MARGIN_MM` for it, so the run's measured entry never exceeds a
+piece's measured entry.
+
+A run takes, from its first piece, as many pieces as keep its ``delta`` within
+``max_dilation_mm``, its length within ``max_length_mm`` and its count within
+``max_pieces`` (found by doubling, then halving, the count): a jump in the path (a rapid,
+the next pass) or a change of core height or kind starts a new one.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+from typing import Final
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from .pieces import Pieces
+from .torus import CONVERGED_MM
+
+__all__ = ["ENTRY_MARGIN_MM", "RUN_DILATION_MM", "RUN_LENGTH_MM", "RUN_PIECES", "PieceRuns",
+           "piece_runs", "span_reference"]
+
+FloatArray = NDArray[np.float64]
+IntArray = NDArray[np.int64]
+
+RUN_DILATION_MM: Final[float] = 0.03
+"""Largest dilation of a run's reference piece, mm. A run is opened where its dilated
+entry lies below the best value so far, then halved (each half's own, smaller dilation
+measured) down to single pieces: on the bull-nose 5-axis blade (pieces turning the axis by
+about a micrometre at the cutter's reach) 16 to 60 um take about as long; 4 um twice as
+long."""
+
+RUN_PIECES: Final[int] = 4096
+"""Most pieces in one run (the fine model's pieces, 25 times shorter than the whole
+program's, fill their dilation with thousands)."""
+
+RUN_LENGTH_MM: Final[float] = 1.0
+"""Longest run, mm: a run is a candidate wherever one of its pieces may be, so its spread
+widens every dexel's walk over the runs' grid (long straight pieces of a 3-axis program
+would otherwise make runs metres long)."""
+
+ENTRY_MARGIN_MM: Final[float] = 2.0 * CONVERGED_MM
+"""Added to every run's dilation: a piece's entry as measured (a point within
+``CONVERGED_MM`` of its sweep) stays at or after the run's."""
+
+#: Relative widening of a measured dilation (the rounding of its sums).
+_ROUNDING: Final[float] = 1e-9
+
+
+@dataclass(frozen=True, eq=False)
+class PieceRuns:
+    """Runs of consecutive pieces and the dilated reference piece holding each.
+
+    Attributes
+    ----------
+    start, stop : ndarray of int64, shape (k,)
+        The run's pieces are ``start <= piece < stop`` (indices into the pieces).
+    c0, chord, axis : ndarray, shape (k, 3)
+        The reference piece: core bottom centre at its start, its travel (mm), unit axis.
+    height_mm : ndarray, shape (k,)
+        Core height of the run's pieces, mm.
+    dilation_mm : ndarray, shape (k,)
+        ``delta`` plus :data:`ENTRY_MARGIN_MM`: every piece lies inside the reference
+        sweep with corner radius ``r + dilation``, mm.
+    mid : ndarray, shape (k, 3)
+        Midpoint of the reference segment, mm.
+    spread_mm : ndarray, shape (k,)
+        Farthest piece midpoint from ``mid``, mm.
+    half_mm : ndarray, shape (k,)
+        ``max (|mid_k - mid| + half_k)`` over the run: every piece's solid lies within a
+        piece's bounding radius about its own midpoint plus this of ``mid``, mm.
+    """
+
+    start: IntArray
+    stop: IntArray
+    c0: FloatArray
+    chord: FloatArray
+    axis: FloatArray
+    height_mm: FloatArray
+    dilation_mm: FloatArray
+    mid: FloatArray
+    spread_mm: FloatArray
+    half_mm: FloatArray
+
+    @property
+    def size(self) -> int:
+        """Number of runs."""
+        return int(self.start.shape[0])
+
+    def taken(self, rows: IntArray) -> PieceRuns:
+        """The runs at ``rows``, every field contiguous (the grid's order, for a walk)."""
+        f = np.ascontiguousarray
+        return PieceRuns(f(self.start[rows]), f(self.stop[rows]), f(self.c0[rows]),
+                         f(self.chord[rows]), f(self.axis[rows]), f(self.height_mm[rows]),
+                         f(self.dilation_mm[rows]), f(self.mid[rows]), f(self.spread_mm[rows]),
+                         f(self.half_mm[rows]))
+
+    @property
+    def max_spread_mm(self) -> float:
+        """Largest spread of a run, mm (0 when empty)."""
+        return float(self.spread_mm.max()) if self.size else 0.0
+
+
+@numba.njit(cache=True)
+def _segment_gap(px: float, py: float, pz: float, s: FloatArray, dx: float, dy: float,
+                 dz: float, dd: float) -> float:
+    """Distance of a point from the segment ``s -> s + D`` (``dd = |D|^2``)."""
+    vx, vy, vz = px - s[0], py - s[1], pz - s[2]
+    f = 0.0
+    if dd > 0.0:
+        f = min(max((vx * dx + vy * dy + vz * dz) / dd, 0.0), 1.0)
+    vx, vy, vz = vx - f * dx, vy - f * dy, vz - f * dz
+    return math.sqrt(vx * vx + vy * vy + vz * vz)
+
+
+@numba.njit(cache=True)
+def _dilation(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatArray,
+              height: FloatArray, core_radius: float, corner_radius: float) -> float:
+    """``delta`` of the pieces ``first..last`` about their reference (module docstring)."""
+    ref = (first + last) // 2
+    s = a[first]
+    dx = a[last, 0] + e[last, 0] - s[0]
+    dy = a[last, 1] + e[last, 1] - s[1]
+    dz = a[last, 2] + e[last, 2] - s[2]
+    dd = dx * dx + dy * dy + dz * dz
+    worst = 0.0
+    for k in range(first, last + 1):
+        tx, ty, tz = axis[k, 0] - axis[ref, 0], axis[k, 1] - axis[ref, 1], axis[k, 2] - axis[ref, 2]
+        turn = math.sqrt(tx * tx + ty * ty + tz * tz) * (
+            math.hypot(core_radius, height[k]) + corner_radius)
+        g0 = _segment_gap(a[k, 0], a[k, 1], a[k, 2], s, dx, dy, dz, dd)
+        g1 = _segment_gap(a[k, 0] + e[k, 0], a[k, 1] + e[k, 1], a[k, 2] + e[k, 2], s, dx, dy,
+                          dz, dd)
+        worst = max(worst, turn + max(g0, g1))
+    return worst
+
+
+@numba.njit(cache=True)
+def span_reference(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatArray,
+                   height: FloatArray, core_radius: float, corner_radius: float,
+                   chord: FloatArray) -> tuple[int, float]:
+    """The reference piece of pieces ``first..last`` (one run, or a part of one).
+
+    Writes its chord ``a_last + e_last - a_first`` into ``chord``; returns the piece whose
+    axis it holds (the middle one) and its dilation (``delta`` of the module docstring,
+    widened for rounding, plus :data:`ENTRY_MARGIN_MM`). Its core starts at ``a[first]``.
+    """
+    for c in range(3):
+        chord[c] = a[last, c] + e[last, c] - a[first, c]
+    delta = _dilation(first, last, a, e, axis, height, core_radius, corner_radius)
+    return (first + last) // 2, delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM
+
+
+@numba.njit(cache=True)
+def _fits(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatArray,
+          height: FloatArray, shank: NDArray[np.bool_], core_radius: float,
+          corner_radius: float, max_dilation: float, max_length: float) -> float:
+    """The dilation of pieces ``first..last`` as one run, or ``-1`` where they cannot be one."""
+    for k in range(first + 1, last + 1):
+        if height[k] != height[first] or shank[k] != shank[first]:
+            return -1.0
+    gx = a[last, 0] + e[last, 0] - a[first, 0]
+    gy = a[last, 1] + e[last, 1] - a[first, 1]
+    gz = a[last, 2] + e[last, 2] - a[first, 2]
+    if not gx * gx + gy * gy + gz * gz <= max_length * max_length:
+        return -1.0
+    delta = _dilation(first, last, a, e, axis, height, core_radius, corner_radius)
+    return delta if delta <= max_dilation else -1.0
+
+
+@numba.njit(cache=True)
+def _runs(a: FloatArray, e: FloatArray, axis: FloatArray, height: FloatArray,
+          shank: NDArray[np.bool_], core_radius: float, corner_radius: float,
+          max_dilation: float, max_pieces: int, max_length: float
+          ) -> tuple[IntArray, FloatArray]:
+    """Runs from each first piece: the longest that fits, found by doubling then halving.
+
+    A run's dilation is measured whole for each length tried (``O(m log m)`` per run of
+    ``m`` pieces); the length kept is one that fits, not always the longest.
+    """
+    n = a.shape[0]
+    starts = np.empty(n + 1, dtype=np.int64)
+    dil = np.empty(n)
+    k = 0
+    i = 0
+    while i < n:
+        good, delta = 1, 0.0
+        bad = 2
+        # doubling: the first length that does not fit (or the most allowed)
+        while True:
+            size = min(bad, max_pieces, n - i)
+            if size <= good:
+                bad = size + 1
+                break
+            trial = _fits(i, i + size - 1, a, e, axis, height, shank, core_radius,
+                          corner_radius, max_dilation, max_length)
+            if trial < 0.0:
+                bad = size
+                break
+            good, delta = size, trial
+            bad = 2 * size
+        # halving between the last length that fits and the first that does not
+        while bad - good > 1:
+            size = (good + bad) // 2
+            trial = _fits(i, i + size - 1, a, e, axis, height, shank, core_radius,
+                          corner_radius, max_dilation, max_length)
+            if trial < 0.0:
+                bad = size
+            else:
+                good, delta = size, trial
+        starts[k] = i
+        dil[k] = delta
+        k += 1
+        i += good
+    starts[k] = n
+    return starts[:k + 1].copy(), dil[:k].copy()
+
+
+def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float,
+               max_dilation_mm: float = RUN_DILATION_MM, max_pieces: int = RUN_PIECES,
+               max_length_mm: float = RUN_LENGTH_MM) -> PieceRuns:
+    """Consecutive pieces gathered in runs, each inside its dilated reference piece.
+
+    Parameters
+    ----------
+    pieces : Pieces
+        Flat or bull-nose pieces (and shank pieces), in path order.
+    core_radius_mm, corner_radius_mm : float
+        ``rho0 = R - r`` and ``r``, mm.
+    max_dilation_mm : float
+        A run grows while its ``delta`` stays within this, mm.
+    max_pieces : int
+        Most pieces in a run.
+    max_length_mm : float
+        Longest run (its reference segment), mm.
+
+    Returns
+    -------
+    PieceRuns
+    """
+    f = np.ascontiguousarray
+    a, e, axis = f(pieces.a, dtype=float), f(pieces.e, dtype=float), f(pieces.axis, dtype=float)
+    bounds, delta = _runs(a, e, axis, f(pieces.height_mm, dtype=float),
+                          f(pieces.shank, dtype=np.bool_), float(core_radius_mm),
+                          float(corner_radius_mm), float(max_dilation_mm), int(max_pieces),
+                          float(max_length_mm))
+    start, stop = bounds[:-1], bounds[1:]
+    last = stop - 1
+    c0 = a[start]
+    chord = a[last] + e[last] - c0
+    ref_axis = axis[(start + last) // 2]
+    mid = c0 + 0.5 * chord
+    owner = np.repeat(np.arange(start.shape[0]), stop - start)
+    off = np.sqrt(np.sum((pieces.mid - mid[owner]) ** 2, axis=1))
+    spread = np.zeros(start.shape[0])
+    half = np.zeros(start.shape[0])
+    np.maximum.at(spread, owner, off)
+    np.maximum.at(half, owner, off + pieces.half_mm)
+    return PieceRuns(start, stop, f(c0), f(chord), f(ref_axis), f(pieces.height_mm[start]),
+                     delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM, f(mid),
+                     spread * (1.0 + _ROUNDING), half * (1.0 + _ROUNDING))
