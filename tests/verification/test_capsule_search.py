@@ -7,44 +7,17 @@ an earlier search found. Both must leave the same material on every dexel, trace
 same block.
 """
 
-import functools
 
 import numpy as np
 import pytest
+from search_oracle import assert_same_material, compiled_and_oracle
 from verify_programs import five_axis_line, zigzag_raster
 
-import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
 from machines import load_machine
 from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
-from verification import VerifyOptions, verify_program
-from verification.dexels import SweepIndex
-
-
-def _both(monkeypatch, *args, **kwargs):
-    fast = verify_program(*args, **kwargs)
-    with monkeypatch.context() as m:
-        m.setattr(verify_module, "SweepIndex", functools.partial(SweepIndex, compiled=False))
-        exact = verify_program(*args, **kwargs)
-    return fast, exact
-
-
-def _same(fast, exact):
-    a, b = fast.deviation_map.deviation_mm, exact.deviation_map.deviation_mm
-    assert np.array_equal(np.isnan(a), np.isnan(b))
-    assert np.array_equal(np.isinf(a), np.isinf(b))
-    finite = np.isfinite(a)
-    np.testing.assert_allclose(a[finite], b[finite], rtol=0.0, atol=1e-9)
-    same_block = fast.deviation_map.block_index == exact.deviation_map.block_index
-    assert same_block.mean() > 0.999  # ties between abutting pieces may pick either
-    for name in ("max_gouge_mm", "max_scallop_mm", "max_excess_mm"):
-        assert getattr(fast, name) == pytest.approx(getattr(exact, name), abs=1e-9,
-                                                         nan_ok=True)
-    for f, e in ((fast.max_gouge, exact.max_gouge), (fast.max_scallop, exact.max_scallop)):
-        assert (f is None) == (e is None)
-        if f is not None:
-            assert (f.line, f.rapid, f.shank) == (e.line, e.rapid, e.shank)
+from verification import VerifyOptions
 
 
 def test_a_raster_with_a_deep_pass_and_a_rapid_through_the_part(monkeypatch, router, ball6):
@@ -52,16 +25,16 @@ def test_a_raster_with_a_deep_pass_and_a_rapid_through_the_part(monkeypatch, rou
     crash = Program((*honest.blocks[:-1], Rapid(x=-6.0, y=1.2, z=-4.0),
                      Rapid(x=16.0, y=1.2, z=-4.0), Rapid(z=5.0)))
     plane = PlaneSurface((0.0, 0.0, 0.0), (10.0, 0.0, 0.0), (0.0, 2.4, 0.0))
-    _same(*_both(monkeypatch, crash, plane, router, ball6,
-                 options=VerifyOptions(spacing_mm=0.1)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, crash, plane, router, ball6, options=VerifyOptions(spacing_mm=0.1)))
 
 
 def test_a_thin_wall_nicked_from_behind(monkeypatch, router, ball6):
     underside = PlaneSurface((0.0, 0.0, 0.0), (0.0, 10.0, 0.0), (10.0, 0.0, 0.0))
     program = Program((Rapid(x=-5.0, y=5.0, z=5.0), Linear(z=-0.3, feed=300.0),
                        Linear(x=15.0, feed=800.0), Rapid(z=5.0)))
-    _same(*_both(monkeypatch, program, underside, router, ball6,
-                 options=VerifyOptions(spacing_mm=0.1)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, program, underside, router, ball6, options=VerifyOptions(spacing_mm=0.1)))
 
 
 @pytest.mark.parametrize("machine_name", ["trunnion-ac", "head-table-bc"])
@@ -69,8 +42,9 @@ def test_five_axis_blocks_swinging_the_tool(monkeypatch, ball6, machine_name):
     machine = load_machine(machine_name)
     program = five_axis_line(machine, ball6, 40, tilt_deg=(5.0, 60.0), lean="y")
     plane = PlaneSurface((0.0, -2.0, 0.0), (20.0, 0.0, 0.0), (0.0, 4.0, 0.0))
-    _same(*_both(monkeypatch, program, plane, machine, ball6,
-                 options=VerifyOptions(spacing_mm=0.08, scallop_mm=0.005)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, program, plane, machine, ball6,
+        options=VerifyOptions(spacing_mm=0.08, scallop_mm=0.005)))
 
 
 def test_a_sphere_raster_with_uncut_stock(monkeypatch, router, ball6):
@@ -83,8 +57,9 @@ def test_a_sphere_raster_with_uncut_stock(monkeypatch, router, ball6):
         z = np.sqrt(np.maximum(33.0**2 - xs**2 - y**2, 0.0)) - 3.0
         blocks += [Linear(x=float(x), y=float(y), z=float(h), feed=900.0)
                    for x, h in zip(xs, z, strict=True)]
-    _same(*_both(monkeypatch, Program(tuple(blocks)), sphere, router, ball6,
-                 options=VerifyOptions(spacing_mm=0.15)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, Program(tuple(blocks)), sphere, router, ball6,
+        options=VerifyOptions(spacing_mm=0.15)))
 
 
 @pytest.mark.parametrize("spec", ["flat:6", "bull:6:1"])
@@ -95,8 +70,9 @@ def test_flat_and_bull_nose_five_axis_blocks(monkeypatch, spec):
     program = five_axis_line(machine, cutter, 4, tilt_deg=(5.0, 12.0), length_mm=4.0,
                              lean="y")
     plane = PlaneSurface((0.0, -2.0, 0.0), (4.0, 0.0, 0.0), (0.0, 4.0, 0.0))
-    _same(*_both(monkeypatch, program, plane, machine, cutter,
-                 options=VerifyOptions(spacing_mm=0.3, horizon_mm=0.1, refine=4)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, program, plane, machine, cutter,
+        options=VerifyOptions(spacing_mm=0.3, horizon_mm=0.1, refine=4)))
 
 
 @pytest.mark.parametrize("spec", ["flat:6", "bull:6:1"])
@@ -105,5 +81,6 @@ def test_flat_and_bull_nose_raster_with_a_deep_pass_and_a_rapid(monkeypatch, rou
     crash = Program((*honest.blocks[:-1], Rapid(x=-6.0, y=6.0, z=-4.0),
                      Rapid(x=12.0, y=6.0, z=-4.0), Rapid(z=5.0)))
     plane = PlaneSurface((0.0, 0.0, 0.0), (6.0, 0.0, 0.0), (0.0, 8.0, 0.0))
-    _same(*_both(monkeypatch, crash, plane, router, parse_cutter(spec),
-                 options=VerifyOptions(spacing_mm=0.2, refine=4)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, crash, plane, router, parse_cutter(spec),
+        options=VerifyOptions(spacing_mm=0.2, refine=4)))

@@ -8,42 +8,20 @@ distance) and leave the very values the pair search over every piece finds (the 
 wall met from behind, where a run below the design point must count for nothing.
 """
 
-import functools
-
 import numpy as np
 import pytest
+from search_oracle import assert_same_material, compiled_and_oracle
 from verify_programs import five_axis_cap, five_axis_line
 
-import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
 from machines import load_machine
 from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
-from verification import VerifyOptions, verify_program
-from verification.dexels import SweepIndex
+from verification import VerifyOptions
 from verification.piece_runs import piece_runs
 from verification.replay import replay
 from verification.torus import sweep_distance
 from verification.verify import _pieces, _settings
-
-
-def _both(monkeypatch, *args, **kwargs):
-    fast = verify_program(*args, **kwargs)
-    with monkeypatch.context() as m:
-        m.setattr(verify_module, "SweepIndex", functools.partial(SweepIndex, compiled=False))
-        exact = verify_program(*args, **kwargs)
-    return fast, exact
-
-
-def _same(fast, exact):
-    a, b = fast.deviation_map.deviation_mm, exact.deviation_map.deviation_mm
-    assert np.array_equal(np.isnan(a), np.isnan(b))
-    assert np.array_equal(np.isinf(a), np.isinf(b))
-    finite = np.isfinite(a)
-    np.testing.assert_allclose(a[finite], b[finite], rtol=0.0, atol=1e-9)
-    for name in ("max_gouge_mm", "max_scallop_mm", "max_excess_mm"):
-        assert getattr(fast, name) == pytest.approx(getattr(exact, name), abs=1e-9,
-                                                         nan_ok=True)
 
 
 def _cap(spec):
@@ -93,8 +71,9 @@ def test_five_axis_passes_over_a_sphere_give_the_pair_searchs_values(monkeypatch
     machine, cutter, program = _cap(spec)
     sphere = SpherePatch(radius_mm=20.0, colatitude_deg=(21.0, 31.0),
                          longitude_deg=(-15.0, 15.0))
-    _same(*_both(monkeypatch, program, sphere, machine, cutter,
-                 options=VerifyOptions(spacing_mm=0.25, horizon_mm=0.2, refine=4)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, program, sphere, machine, cutter,
+        options=VerifyOptions(spacing_mm=0.25, horizon_mm=0.2, refine=4)))
 
 
 @pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
@@ -105,8 +84,9 @@ def test_a_thin_wall_cut_on_top_and_nicked_from_behind(monkeypatch, router, spec
                        Linear(x=15.0, feed=800.0), Rapid(z=5.0), Rapid(x=-5.0, y=2.0),
                        Linear(z=-0.3, feed=300.0), Linear(x=15.0, y=3.0, feed=800.0),
                        Rapid(z=5.0)))
-    _same(*_both(monkeypatch, program, underside, router, parse_cutter(spec),
-                 options=VerifyOptions(spacing_mm=0.1)))
+    assert_same_material(*compiled_and_oracle(
+        monkeypatch, program, underside, router, parse_cutter(spec),
+        options=VerifyOptions(spacing_mm=0.1)))
 
 
 @pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
@@ -120,7 +100,7 @@ def test_a_turning_tool_through_a_plate_from_behind(monkeypatch, spec):
     program = five_axis_line(machine, cutter, 4, tilt_deg=(5.0, 12.0), length_mm=4.0,
                              lean="y")
     underside = PlaneSurface((0.0, -2.0, 0.2), (0.0, 4.0, 0.0), (4.0, 0.0, 0.0))
-    fast, exact = _both(monkeypatch, program, underside, machine, cutter,
-                        options=VerifyOptions(spacing_mm=0.2, refine=4))
+    fast, exact = compiled_and_oracle(monkeypatch, program, underside, machine, cutter,
+                                      options=VerifyOptions(spacing_mm=0.2, refine=4))
     assert exact.max_gouge_mm == pytest.approx(0.2, abs=0.01)
-    _same(fast, exact)
+    assert_same_material(fast, exact)
