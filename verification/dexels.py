@@ -158,7 +158,8 @@ class SweepIndex:
 
     A search of radius ``rho`` uses the grid whose cell is closest to ``rho / 2`` among
     ``base_cell_mm * 2^k`` (so about ``5^3`` cells are scanned per query cell whatever the
-    level of the iterative deepening); grids are built once and kept.
+    level of the iterative deepening, fewer where :data:`~verification.grid.CELLS_PER_PIECE`
+    coarsens the cell); grids are built once and kept.
 
     Parameters
     ----------

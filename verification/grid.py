@@ -32,7 +32,9 @@ MAX_CELLS: Final[int] = 16_000_000
 """Largest dense grid (cells); the cell grows to stay below it (128 MB of offsets)."""
 
 CELLS_PER_PIECE: Final[int] = 8
-"""Most cells of a grid per piece registered; the cell grows to stay below it.
+"""Cells of a grid per piece given to it (those outside the box too), about at most: the
+cell grows by the cube root of the excess, so a box only a few cells thick (or a grid of a
+handful of pieces) may keep a few times more.
 
 The pieces lie on a sheet (the swept cutter along the surface) or gather around a few
 points (the verifier's fine model), so a grid over their box at the search's cell is
