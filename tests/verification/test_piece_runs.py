@@ -18,7 +18,9 @@ from machines import load_machine
 from toolpath.planning.analytic import PlaneSurface, SpherePatch
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions
+from verification.dexels import SweepIndex
 from verification.piece_runs import piece_runs
+from verification.pieces import Pieces
 from verification.replay import replay
 from verification.torus import sweep_distance
 from verification.verify import _pieces, _settings
@@ -104,3 +106,77 @@ def test_a_turning_tool_through_a_plate_from_behind(monkeypatch, spec):
                                       options=VerifyOptions(spacing_mm=0.2, refine=4))
     assert exact.max_gouge_mm == pytest.approx(0.2, abs=0.01)
     assert_same_material(fast, exact)
+
+
+def _turning_pieces(rng, *, turn_per_mm, flute_mm, paths=3, steps=400):
+    """Flat/bull-nose pieces along wandering paths whose axis turns ``turn_per_mm``
+    (rad/mm, at random up to twice that per step), with jumps and new turn directions."""
+    a, e, axes = [], [], []
+    for _ in range(paths):
+        tip = rng.uniform(-3.0, 3.0, 3)
+        axis = rng.normal(size=3)
+        axis[2] = abs(axis[2]) + 0.5
+        axis /= np.linalg.norm(axis)
+        way = rng.normal(size=3)
+        way /= np.linalg.norm(way)
+        side = np.cross(axis, rng.normal(size=3))
+        side /= np.linalg.norm(side)
+        step_mm = rng.uniform(0.001, 0.05)
+        for _ in range(steps):
+            a.append(tip.copy())
+            e.append(way * step_mm)
+            axes.append(axis.copy())
+            tip = tip + way * step_mm
+            if rng.random() < 0.02:
+                tip = tip + rng.normal(size=3) * 0.3
+            angle = turn_per_mm * step_mm * rng.uniform(0.0, 2.0)
+            axis = np.cos(angle) * axis + np.sin(angle) * side
+            side = np.cross(np.cross(axis, side), axis)
+            side /= np.linalg.norm(side)
+            if rng.random() < 0.05:
+                side = np.cross(axis, rng.normal(size=3))
+                side /= np.linalg.norm(side)
+            way = way + rng.normal(size=3) * 0.2
+            way /= np.linalg.norm(way)
+    a, e, axes = np.array(a), np.array(e), np.array(axes)
+    ee = np.einsum("ij,ij->i", e, e)
+    m = a.shape[0]
+    return Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(m, dtype=np.int64),
+                  np.zeros(m, dtype=bool), axes, np.full(m, np.nan), np.full(m, np.nan),
+                  np.zeros(1), np.zeros(1, dtype=np.int64), np.full(m, flute_mm))
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+def test_pieces_turning_fast_on_long_flutes_give_the_pair_searchs_values(seed):
+    # a turn strays a point of the cutter farthest at the top of its flank (16 mm up): the
+    # rotation bound must count the core's height, not the radius alone
+    radius_mm, corner_mm = 3.0, 1.0
+    rng = np.random.default_rng(seed)
+    for turn_per_mm in (5.0, 40.0):
+        pieces = _turning_pieces(rng, turn_per_mm=turn_per_mm, flute_mm=16.0)
+        k = rng.integers(0, pieces.size, 3000)
+        centre = pieces.a[k] + rng.uniform(0.0, 1.0, (3000, 1)) * pieces.e[k]
+        axis = pieces.axis[k]
+        out = rng.normal(size=(3000, 3))
+        out -= np.einsum("ij,ij->i", out, axis)[:, None] * axis
+        out /= np.linalg.norm(out, axis=1, keepdims=True)
+        kind = rng.integers(0, 3, 3000)  # near the flank, anywhere inside, at the tip
+        up = np.where(kind == 2, -corner_mm + rng.normal(0.0, 0.05, 3000),
+                      rng.uniform(-corner_mm, 16.0 + corner_mm, 3000))
+        across = np.where(kind == 0, radius_mm + rng.normal(0.0, 0.05, 3000),
+                          rng.uniform(0.0, radius_mm + 0.3, 3000))
+        points = centre + out * across[:, None] + axis * up[:, None]
+        dirs = rng.normal(size=(3000, 3))
+        back = rng.random(3000) < 0.5
+        dirs[back] = -axis[back] + rng.normal(size=(back.sum(), 3)) * 0.3
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        reach = np.full(3000, rng.uniform(0.5, 3.0))
+        none_taken = pieces.taken(np.zeros(pieces.size, dtype=bool))
+        found = [SweepIndex(pieces, none_taken, radius_mm, points.min(0), points.max(0), 0.25,
+                            30.0, corner_radius_mm=corner_mm, compiled=compiled
+                            ).search("near", points, dirs, points, reach).lam_mm
+                 for compiled in (True, False)]
+        assert np.array_equal(np.isinf(found[0]), np.isinf(found[1]))
+        finite = np.isfinite(found[1])
+        assert finite.sum() > 2000
+        np.testing.assert_allclose(found[0][finite], found[1][finite], rtol=0.0, atol=1e-9)
