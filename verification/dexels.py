@@ -242,8 +242,7 @@ class SweepIndex:
 
         The cell as :meth:`_grid` picks it; the runs returned are in the grid's order.
         """
-        target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
-        k = max(0, int(np.round(np.log2(target / self.base_cell_mm))))
+        k = self._level(reach_mm)
         if (which, k) not in self._runs:
             pieces = self.pieces(which)
             same = next((v[1] for (w, _), v in self._runs.items() if w == which), None)
