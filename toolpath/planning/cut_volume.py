@@ -27,6 +27,7 @@ from .cutters import Cutter, CutterKind
 from .measure_joints import checked_joints
 from .sweep_kernel import (
     capsule_entries,
+    centre_pieces,
     nearest_entries,
     piece_ends,
     ray_ranges,
@@ -105,9 +106,15 @@ def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
 
     The same pieces; their start and end points ``tip + reach_mm axis`` (the same numbers
     as :func:`split_moves`' tips and axes give), and the move each belongs to: a ball's
-    pieces need no more, in one assembly of the pieces' ends instead of two.
+    pieces need no more, in one assembly of the pieces' ends instead of two. Tip-linear
+    (no ``joints``), each point is placed once in a compiled loop
+    (:func:`~.sweep_kernel.centre_pieces`), with no arrays of the inner poses.
     """
     a, b, aa, ab = (np.asarray(x, dtype=np.float64) for x in (a, b, aa, ab))
+    if joints is None:
+        pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, None)
+        c0, c1 = centre_pieces(a, b, aa, ab, pieces, reach_mm)
+        return c0, c1, np.repeat(np.arange(len(a)), pieces)
     pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     c0, c1 = piece_ends(a + reach_mm * aa, b + reach_mm * ab, tips + reach_mm * axes, pieces)
     return c0, c1, np.repeat(np.arange(len(a)), pieces)
