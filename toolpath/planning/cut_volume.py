@@ -269,17 +269,15 @@ class CutVolume:
             self._piece_vectors = self.piece_b - self.piece_a
         return self._piece_vectors
 
-    def piece_moves(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """Each piece's move's first toolpath point, and the piece's middle along it.
+    @property
+    def move_starts(self) -> NDArray[np.int64]:
+        """Each feed move's first toolpath point (the moves :attr:`piece_move` numbers)."""
+        return self._move_start
 
-        The middle as the fraction ``u`` of the way along the move (a move's pieces split
-        it evenly).
-        """
-        piece = self._piece_move
-        count = np.bincount(piece, minlength=len(self._move_start))
-        first = np.cumsum(count) - count
-        rank = np.arange(len(piece)) - first[piece]
-        return self._move_start[piece], (rank + 0.5) / count[piece]
+    @property
+    def piece_move(self) -> NDArray[np.int64]:
+        """Each piece's feed move (rising: a move's pieces run on in order)."""
+        return self._piece_move
 
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
             candidate: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
