@@ -11,6 +11,8 @@ pieces (see
 :func:`toolpath.planning.cusp_estimates.ball_cusp_estimates` for the geometry).
 :func:`nearest_pieces` finds the same two pieces for a flat or bull-nose cutter, whose
 ring-centre segments stand aside from the contact (:mod:`.torus_profile` meets them).
+:func:`path_curving` gives how tightly the centre path curves round pieces (the estimate's
+sink rule).
 """
 
 from __future__ import annotations
