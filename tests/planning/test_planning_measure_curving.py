@@ -1,11 +1,13 @@
 """How tightly the ball centres' path curves near each piece (the cusp estimate's sink rule).
 
-:func:`~toolpath.planning.cusp_estimates._piece_curving` takes every piece at once where it
-is asked of many, else those asked alone; here both are checked against its definition
-taken piece by piece, and against a circle's curvature.
+:func:`~toolpath.planning.cusp_estimates._piece_curving` (compiled,
+:func:`~toolpath.planning.cusp_kernel.path_curving`, its neighbours walked to) is checked
+against its definition taken piece by piece, whether asked of every piece or of a few,
+against a circle's curvature, and at a pass's end.
 """
 
 import numpy as np
+import pytest
 
 from toolpath.path import MoveKind, Toolpath
 from toolpath.planning import parse_cutter
@@ -62,3 +64,23 @@ def test_every_piece_s_curving_is_its_definition():
     # the line's pieces within R / 2 of the kink see its whole turn, the others none
     on_line = np.array(inner)[volume.pass_of[inner] == 1]
     assert curving[on_line].min() == 0.0 and curving[on_line].max() > 0.1
+
+
+def test_a_pass_s_end_piece_reads_no_turn_from_itself():
+    # the last piece of a pass has no piece R / 2 beyond it: the walk stops on the piece
+    # itself, whose direction against its own reads cos 1 - 1e-16 here (rounding), a turn
+    # of 1.5e-8 rad over no length; without the guard that read 1e292 per mm
+    from toolpath.planning.cusp_kernel import path_curving
+
+    last = [0.21289824318069073, 0.24718083778387828, 0.07346489669355873]
+    norm = np.sqrt(last[0] * last[0] + last[1] * last[1] + last[2] * last[2])
+    assert sum(x / norm * x for x in last) / norm < 1.0  # (the premise: rounding)
+    e = np.array([[0.3, 0.0, 0.0]] * 12 + [last] + [[0.0, 0.3, 0.0]] * 3)
+    pass_of = np.array([0] * 13 + [1] * 3)
+    curving = path_curving(np.arange(len(e)), e, pass_of, 3.0, 1e-300)
+    assert np.isfinite(curving).all()
+    # the last piece: only the turn from the piece R / 2 behind it (the 9th, whose
+    # midpoint is the first at or beyond 1.5 mm back), over the way between
+    back = 3.6 + 0.5 * norm - (0.15 + 0.3 * 8)
+    assert curving[12] == pytest.approx(np.arccos(last[0] / norm) / back, rel=1e-9)
+    assert curving[13:].max() == 0.0  # (the next pass runs straight)

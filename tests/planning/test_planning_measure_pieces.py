@@ -29,6 +29,33 @@ def test_each_move_runs_from_its_first_pose_through_its_inner_poses_to_its_last(
     assert np.array_equal(stops, np.array([b for _, b in expected]))
 
 
+def test_a_ball_s_centre_pieces_are_the_poses_chained_even_through_a_half_turn():
+    # centre_pieces places each pose once in a compiled loop: the same numbers as the
+    # poses' tips and axes (move_poses) chained by piece_ends, R up the axis; a half-turn
+    # (opposite axes) has a zero axis half way, kept zero (unit's rule), not 0 / 0
+    from toolpath.planning.sweep_kernel import centre_pieces
+    from toolpath.vectors import move_poses
+
+    rng = np.random.default_rng(11)
+    counts = np.array([1, 3, 2, 4, 1, 2])
+    tip_a, tip_b = rng.normal(size=(6, 3)), rng.normal(size=(6, 3))
+    axis_a = rng.normal(size=(6, 3))
+    axis_a /= np.linalg.norm(axis_a, axis=1)[:, None]
+    axis_b = axis_a + 0.3 * rng.normal(size=(6, 3))
+    axis_b /= np.linalg.norm(axis_b, axis=1)[:, None]
+    axis_b[3] = -axis_a[3]  # (a half-turn over 4 pieces: the axis at u = 1/2 is zero)
+    move = np.repeat(np.arange(6), counts - 1)
+    u = np.concatenate([np.arange(1, c) / c for c in counts])
+    tips, axes = move_poses(tip_a[move], axis_a[move], tip_b[move], axis_b[move], u)
+    assert not np.abs(axes).sum(axis=1).all()  # (the premise: one zero axis)
+    expected = piece_ends(tip_a + 3.0 * axis_a, tip_b + 3.0 * axis_b, tips + 3.0 * axes,
+                          counts)
+    got = centre_pieces(tip_a, tip_b, axis_a, axis_b, counts, 3.0)
+    assert np.isfinite(got[0]).all() and np.isfinite(got[1]).all()
+    np.testing.assert_array_equal(got[0], expected[0])
+    np.testing.assert_array_equal(got[1], expected[1])
+
+
 def test_no_moves_no_pieces():
     starts, stops = piece_ends(np.zeros((0, 3)), np.zeros((0, 3)), np.zeros((0, 3)),
                                np.zeros(0, dtype=np.int64))

@@ -104,3 +104,52 @@ def test_a_negative_reach_limit_is_refused_whatever_the_sources():
     for sources in (np.ones((4, 5), bool), np.zeros((4, 5), bool)):
         with pytest.raises(ValueError, match="limit must be >= 0 mm"):
             _surface_reach(grid, sources, False, -1.0)
+
+
+def _node_pieces_by_definition(start, piece_move, contact_t, contact_s, closed, n_t, n_s):
+    """Each piece's middle ``(t, s)`` between its move's contacts, rounded to a node."""
+    count = np.bincount(piece_move, minlength=len(start))
+    rank = np.arange(len(piece_move)) - (np.cumsum(count) - count)[piece_move]
+    u = (rank + 0.5) / count[piece_move]
+    a = start[piece_move]
+    ta, tb, sa, sb = contact_t[a], contact_t[a + 1], contact_s[a], contact_s[a + 1]
+    rows = np.flatnonzero(np.isfinite(ta) & np.isfinite(tb) & np.isfinite(sa)
+                          & np.isfinite(sb))
+    ta, tb, sa, sb, u = ta[rows], tb[rows], sa[rows], sb[rows], u[rows]
+    if closed:  # the short way across the seam
+        tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
+    t = ta * (1.0 - u) + tb * u
+    t = np.mod(t, 1.0) if closed else t
+    s = sa + u * (sb - sa)
+    i = np.rint(np.clip(t, 0.0, 1.0) * (n_t - 1)).astype(np.int64)
+    j = np.rint(np.clip(s, 0.0, 1.0) * (n_s - 1)).astype(np.int64)
+    node = np.full(n_t * n_s, -1, dtype=np.int64)
+    for piece, k in zip(rows, i * n_s + j, strict=True):  # the last one placed stays
+        node[k] = piece
+    return node
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_each_node_gets_the_piece_its_move_s_contacts_place_there(closed):
+    # the compiled placement against the definition, piece by piece: moves of 1 to 5
+    # pieces, a link between contacts-less points, moves across a closed seam, several
+    # pieces at one node
+    from types import SimpleNamespace
+
+    from toolpath.planning.uncut_area import _node_pieces
+
+    rng = np.random.default_rng(7)
+    n_points = 400
+    contact_t = np.mod(np.cumsum(rng.uniform(0.0, 0.02, n_points)), 1.0)
+    contact_s = np.clip(0.5 + np.cumsum(rng.normal(0.0, 0.01, n_points)), -0.1, 1.1)
+    contact_t[100:110] = np.nan  # (a link: no contacts there)
+    start = np.sort(rng.choice(n_points - 1, 300, replace=False))
+    piece_move = np.repeat(np.arange(len(start)), rng.integers(1, 6, len(start)))
+    volume = SimpleNamespace(move_starts=start, piece_move=piece_move,
+                             pass_of=np.zeros(len(piece_move), dtype=np.int64))
+    for n_t, n_s in ((41, 23), (7, 5)):
+        node = _node_pieces(volume, contact_t, contact_s, closed, n_t, n_s)
+        expected = _node_pieces_by_definition(start, piece_move, contact_t, contact_s, closed,
+                                              n_t, n_s)
+        np.testing.assert_array_equal(node, expected)
+        assert (node >= 0).sum() > 5

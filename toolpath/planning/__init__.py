@@ -70,13 +70,15 @@ measure_joints
 cut_volume
     The material the feed moves remove (``CutVolume``), cut in pieces, queried along rays.
 sweep_kernel
-    The cut volume's compiled ray entries (ball capsules, flat and bull-nose solids).
+    The cut volume's compiled ray entries (ball capsules, flat and bull-nose solids), a
+    ball's centre pieces.
 cusp_search
     Cusps ray cast from the chord measurement's seeds (``CuspSearch``, ``SearchSeeds``).
 cusp_estimates
     Cusps estimated from the passes' own geometry (ball tubes, flat and bull-nose sections).
 cusp_kernel
-    Where two passes' ball tubes meet near a seed (compiled, for the estimate).
+    Where two passes' ball tubes meet near a seed, how the centre path curves (compiled,
+    for the estimate).
 torus_profile
     Where two passes of a flat or bull-nose cutter meet across the passes.
 uncut_area

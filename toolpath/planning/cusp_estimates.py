@@ -18,7 +18,14 @@ from scipy.spatial import cKDTree
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from ..vectors import move_axes, unit
-from .cusp_kernel import RIDGE_FOUND, RIDGE_NO_PASS, RIDGE_OPEN, nearest_pieces, ridges
+from .cusp_kernel import (
+    RIDGE_FOUND,
+    RIDGE_NO_PASS,
+    RIDGE_OPEN,
+    nearest_pieces,
+    path_curving,
+    ridges,
+)
 from .cusp_search import SearchSeeds
 from .cut_volume import CutVolume
 from .cutters import radial_directions
@@ -159,32 +166,11 @@ def _piece_curving(volume: CutVolume, piece: NDArray[np.int64]) -> NDArray[np.fl
     From each piece to its pass's pieces ``R / 2`` before and after: the turn over the
     length between their midpoints, the tighter side (a link turning at a pass's end, a
     tight edge). (A straight move's pieces run on in line and the turn between two moves
-    lies at their joint: one piece's neighbours would read no turn or all of it.) Asked
-    of at least half as many pieces as there are, every piece's at once (the midpoints'
-    positions along the path rise: one ordered search a side), else only those asked.
+    lies at their joint: one piece's neighbours would read no turn or all of it.)
+    Compiled, piece by piece (:func:`~.cusp_kernel.path_curving`).
     """
-    e = volume.piece_vectors
-    length = np.sqrt(np.einsum("ij,ij->i", e, e))
-    safe = np.where(length > 0.0, length, 1.0)
-    # each piece's pass's first and last piece (a pass's pieces run on in order)
-    new_pass = np.flatnonzero(np.diff(volume.pass_of)) + 1
-    first = np.concatenate([[0], new_pass])
-    last = np.concatenate([new_pass, [len(e)]]) - 1
-    mid = np.cumsum(length) - 0.5 * length  # along the path, mm
-    every = 2 * len(piece) >= len(e)
-    if every:
-        count = last - first + 1
-        lo, hi, way, at = np.repeat(first, count), np.repeat(last, count), e / safe[:, None], mid
-    else:
-        run = np.searchsorted(first, piece, side="right") - 1
-        lo, hi, way, at = first[run], last[run], e[piece] / safe[piece, None], mid[piece]
-    curving = np.zeros(len(at))
-    for side in (-0.5, 0.5):
-        near = np.clip(np.searchsorted(mid, at + side * volume.cutter.radius_mm), lo, hi)
-        cos = np.einsum("ij,ij->i", way, e[near]) / safe[near]
-        turn = np.arccos(np.clip(cos, -1.0, 1.0))
-        curving = np.maximum(curving, turn / np.maximum(np.abs(mid[near] - at), TINY))
-    return curving[piece] if every else curving
+    return path_curving(piece, volume.piece_vectors, volume.pass_of, volume.cutter.radius_mm,
+                        TINY)
 
 
 def _ridge_heights(surface: ParametricSurface, seeds: SearchSeeds, rows: NDArray[np.int64],

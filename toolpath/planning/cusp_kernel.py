@@ -11,6 +11,8 @@ pieces (see
 :func:`toolpath.planning.cusp_estimates.ball_cusp_estimates` for the geometry).
 :func:`nearest_pieces` finds the same two pieces for a flat or bull-nose cutter, whose
 ring-centre segments stand aside from the contact (:mod:`.torus_profile` meets them).
+:func:`path_curving` gives how tightly the centre path curves round pieces (the estimate's
+sink rule).
 """
 
 from __future__ import annotations
@@ -26,7 +28,7 @@ from ..row_threads import run_in_threads
 from .clearance_kernel import BLOCK, SampleCells, cell_scratch_size, cells_near
 
 __all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "nearest_pieces",
-           "ridges"]
+           "path_curving", "ridges"]
 
 RIDGE_FOUND = 1  #: the tubes meet: ``point`` and ``inside`` hold the ridge
 RIDGE_NO_PASS = 0  #: no other pass on the ``+s`` side among the pieces given
@@ -305,3 +307,69 @@ def nearest_pieces(target: NDArray[np.float64], x_s: NDArray[np.float64],
         _nearest_pieces(f(target, dtype=float), f(x_s, dtype=float), f(own, dtype=np.int64),
                         cells, reach, float(apart_mm), scratch, pieces, found)
     return found
+
+
+@numba.njit(cache=True)
+def _path_curving(piece, e, length, mid, first, last, half_span, tiny, out):
+    """The loop of :func:`path_curving`.
+
+    The neighbours are walked to from the piece (``mid`` rises along the path: the first
+    piece whose midpoint lies at or beyond ``mid[i] -+ half_span``, as an ordered search
+    over all of them finds it, kept within the pass): a few pieces each way.
+    """
+    for k in range(piece.size):
+        i = piece[k]
+        run = np.searchsorted(first, i, side="right") - 1
+        lo, hi = first[run], last[run]
+        safe_i = length[i] if length[i] > 0.0 else 1.0
+        w0, w1, w2 = e[i, 0] / safe_i, e[i, 1] / safe_i, e[i, 2] / safe_i
+        at = mid[i]
+        curving = 0.0
+        for side in range(2):
+            near = i
+            if side == 0:  # the first at or beyond at - half_span, at least lo
+                value = at - half_span
+                while near > lo and mid[near - 1] >= value:
+                    near -= 1
+            else:  # the first at or beyond at + half_span (past i), at most hi
+                value = at + half_span
+                near = i + 1
+                while near <= hi and mid[near] < value:
+                    near += 1
+                near = min(near, hi)
+            if near == i:  # (a pass's end: no neighbour that side, no turn)
+                continue
+            safe = length[near] if length[near] > 0.0 else 1.0
+            cos = (w0 * e[near, 0] + w1 * e[near, 1] + w2 * e[near, 2]) / safe
+            turn = math.acos(min(max(cos, -1.0), 1.0))
+            curving = max(curving, turn / max(abs(mid[near] - at), tiny))
+        out[k] = curving
+
+
+def path_curving(piece: NDArray[np.int64], e: NDArray[np.float64],
+                 pass_of: NDArray[np.int64], span_mm: float, tiny: float
+                 ) -> NDArray[np.float64]:
+    """Mean curvature of the centre path over ``span_mm`` round each of the pieces ``piece``, 1/mm.
+
+    Pieces of vectors ``e`` (mm) run on in order, pass after pass (``pass_of``). From a
+    piece to its pass's piece whose midpoint lies ``span_mm / 2`` before and after its own
+    along the path (the first at or beyond it, the pass's first or last piece at most):
+    the turn between the two pieces' directions over the length between their midpoints
+    (``tiny`` at least), the larger of the two sides; a pass's end piece has no neighbour
+    beyond the end (no turn that side). (A zero-length piece has no direction: its turn
+    reads 90 degrees.)
+    """
+    if not span_mm > 0.0:
+        raise ValueError(f"the span of the path's curving must be > 0 mm, got {span_mm!r}")
+    length = np.sqrt(np.einsum("ij,ij->i", e, e))
+    # each pass's first and last piece
+    new_pass = np.flatnonzero(np.diff(pass_of)) + 1
+    first = np.concatenate([[0], new_pass]).astype(np.int64)
+    last = (np.concatenate([new_pass, [len(e)]]) - 1).astype(np.int64)
+    mid = np.cumsum(length) - 0.5 * length  # along the path, mm
+    out = np.empty(len(piece))
+    if out.size:
+        f = np.ascontiguousarray
+        _path_curving(f(piece, dtype=np.int64), f(e, dtype=float), length, mid, first, last,
+                      0.5 * float(span_mm), float(tiny), out)
+    return out

@@ -27,6 +27,7 @@ from .cutters import Cutter, CutterKind
 from .measure_joints import checked_joints
 from .sweep_kernel import (
     capsule_entries,
+    centre_pieces,
     nearest_entries,
     piece_ends,
     ray_ranges,
@@ -105,9 +106,15 @@ def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
 
     The same pieces; their start and end points ``tip + reach_mm axis`` (the same numbers
     as :func:`split_moves`' tips and axes give), and the move each belongs to: a ball's
-    pieces need no more, in one assembly of the pieces' ends instead of two.
+    pieces need no more, in one assembly of the pieces' ends instead of two. Tip-linear
+    (no ``joints``), each point is placed once in a compiled loop
+    (:func:`~.sweep_kernel.centre_pieces`), with no arrays of the inner poses.
     """
     a, b, aa, ab = (np.asarray(x, dtype=np.float64) for x in (a, b, aa, ab))
+    if joints is None:
+        pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, None)
+        c0, c1 = centre_pieces(a, b, aa, ab, pieces, reach_mm)
+        return c0, c1, np.repeat(np.arange(len(a)), pieces)
     pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
     c0, c1 = piece_ends(a + reach_mm * aa, b + reach_mm * ab, tips + reach_mm * axes, pieces)
     return c0, c1, np.repeat(np.arange(len(a)), pieces)
@@ -262,17 +269,15 @@ class CutVolume:
             self._piece_vectors = self.piece_b - self.piece_a
         return self._piece_vectors
 
-    def piece_moves(self) -> tuple[NDArray[np.int64], NDArray[np.float64]]:
-        """Each piece's move's first toolpath point, and the piece's middle along it.
+    @property
+    def move_starts(self) -> NDArray[np.int64]:
+        """Each feed move's first toolpath point (the moves :attr:`piece_move` numbers)."""
+        return self._move_start
 
-        The middle as the fraction ``u`` of the way along the move (a move's pieces split
-        it evenly).
-        """
-        piece = self._piece_move
-        count = np.bincount(piece, minlength=len(self._move_start))
-        first = np.cumsum(count) - count
-        rank = np.arange(len(piece)) - first[piece]
-        return self._move_start[piece], (rank + 0.5) / count[piece]
+    @property
+    def piece_move(self) -> NDArray[np.int64]:
+        """Each piece's feed move (rising: a move's pieces run on in order)."""
+        return self._piece_move
 
     def cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
             candidate: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:

@@ -54,7 +54,7 @@ from .clearance_kernel import Cutter
 from .cutter_kernel import cutter_distance
 
 __all__ = ["POSES", "Poses", "RayPieces", "Rays", "Segments", "capsule_entries",
-           "nearest_entries", "piece_ends", "ray_ranges", "segment_distances",
+           "centre_pieces", "nearest_entries", "piece_ends", "ray_ranges", "segment_distances",
            "tip_plane_floors"]
 
 #: Poses sampled along a piece before the golden-section search.
@@ -705,4 +705,59 @@ def piece_ends(first: NDArray[np.float64], last: NDArray[np.float64],
     total = int(counts.sum())
     out0, out1 = np.empty((total, first.shape[1])), np.empty((total, first.shape[1]))
     _piece_ends(_floats(first), _floats(last), _floats(inner), _ints(counts), out0, out1)
+    return out0, out1
+
+
+@numba.njit(cache=True)
+def _centre_pieces(tip_a, tip_b, axis_a, axis_b, counts, reach, out0, out1):
+    """The loop of :func:`centre_pieces`."""
+    piece = 0
+    for m in range(counts.size):
+        c = counts[m]
+        # the move's first pose, then each inner pose once (the end of one piece, the
+        # start of the next), then the move's last
+        s0 = tip_a[m, 0] + reach * axis_a[m, 0]
+        s1 = tip_a[m, 1] + reach * axis_a[m, 1]
+        s2 = tip_a[m, 2] + reach * axis_a[m, 2]
+        for j in range(c):
+            out0[piece, 0], out0[piece, 1], out0[piece, 2] = s0, s1, s2
+            if j == c - 1:
+                s0 = tip_b[m, 0] + reach * axis_b[m, 0]
+                s1 = tip_b[m, 1] + reach * axis_b[m, 1]
+                s2 = tip_b[m, 2] + reach * axis_b[m, 2]
+            else:
+                u = (j + 1) / c
+                w = 1.0 - u
+                x0 = axis_a[m, 0] * w + axis_b[m, 0] * u
+                x1 = axis_a[m, 1] * w + axis_b[m, 1] * u
+                x2 = axis_a[m, 2] * w + axis_b[m, 2] * u
+                norm = math.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+                if norm > 0.0:
+                    x0, x1, x2 = x0 / norm, x1 / norm, x2 / norm
+                s0 = tip_a[m, 0] * w + tip_b[m, 0] * u + reach * x0
+                s1 = tip_a[m, 1] * w + tip_b[m, 1] * u + reach * x1
+                s2 = tip_a[m, 2] * w + tip_b[m, 2] * u + reach * x2
+            out1[piece, 0], out1[piece, 1], out1[piece, 2] = s0, s1, s2
+            piece += 1
+
+
+def centre_pieces(tip_a: NDArray[np.float64], tip_b: NDArray[np.float64],
+                  axis_a: NDArray[np.float64], axis_b: NDArray[np.float64],
+                  counts: NDArray[np.int64], reach_mm: float
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """The pieces of the points ``reach_mm`` up the axis of moves cut in ``counts[m]`` pieces.
+
+    Tip-linear moves ``tip_a -> tip_b`` with normalized-linear axes ``axis_a -> axis_b``
+    (:func:`~toolpath.vectors.move_poses`): piece ``j`` of move ``m`` runs from the pose at
+    ``u = j / c`` to ``(j + 1) / c`` (``c = counts[m]``), the move's own ends at ``u = 0``
+    and 1 (a zero axis between opposite ones stays zero). The same points as
+    :func:`piece_ends` over those poses' ``tip + reach_mm axis``, each inner pose placed
+    once, without the (n, 3) arrays of the inner poses. Returns the starts and the ends,
+    ``(counts.sum(), 3)`` each.
+    """
+    total = int(counts.sum())
+    out0, out1 = np.empty((total, 3)), np.empty((total, 3))
+    if total:
+        _centre_pieces(_floats(tip_a), _floats(tip_b), _floats(axis_a), _floats(axis_b),
+                       _ints(counts), float(reach_mm), out0, out1)
     return out0, out1

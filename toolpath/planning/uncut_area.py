@@ -15,14 +15,16 @@ without a search.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
+import numba
 import numpy as np
 import scipy.sparse
 import scipy.sparse.csgraph
 from numpy.typing import NDArray
 
-from ..projection_kernel import seam_lerp_rows
+from ..projection_kernel import seam_lerp
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from .cut_volume import CutVolume
@@ -94,23 +96,53 @@ def _node_pieces(volume: CutVolume, contact_t: NDArray[np.float64],
 
     A piece of a move between two contacts stands at the ``(t, s)`` interpolated between
     theirs at its middle (the short way across a closed section's seam); the node it
-    rounds to gets it (one of them where several do). Pieces of other moves (links, leads)
-    place none. None where no contacts are given.
+    rounds to gets it (the last of them where several do). Pieces of other moves (links,
+    leads) place none. None where no contacts are given. Compiled, piece by piece
+    (:func:`_place_pieces`).
     """
     if not len(contact_t) or not len(volume.pass_of):
         return None
-    start, u = volume.piece_moves()
-    ta, tb, sa, sb = contact_t[start], contact_t[start + 1], contact_s[start], contact_s[start + 1]
-    rows = np.flatnonzero(np.isfinite(ta) & np.isfinite(tb) & np.isfinite(sa) & np.isfinite(sb))
-    if not rows.size:
-        return None
-    t = seam_lerp_rows(ta[rows], tb[rows], u[rows, None], closed).ravel()
-    s = sa[rows] + u[rows] * (sb[rows] - sa[rows])
-    i = np.rint(np.clip(np.mod(t, 1.0) if closed else t, 0.0, 1.0) * (n_t - 1))
-    j = np.rint(np.clip(s, 0.0, 1.0) * (n_s - 1))
+    start, piece_move = volume.move_starts, volume.piece_move
     node = np.full(n_t * n_s, -1, dtype=np.int64)
-    node[i.astype(np.int64) * n_s + j.astype(np.int64)] = rows
-    return node
+    placed = _place_pieces(np.ascontiguousarray(start, dtype=np.int64),
+                           np.ascontiguousarray(piece_move, dtype=np.int64),
+                           np.ascontiguousarray(contact_t, dtype=float),
+                           np.ascontiguousarray(contact_s, dtype=float), closed, n_t, n_s,
+                           node)
+    return node if placed else None
+
+
+@numba.njit(cache=True)
+def _place_pieces(start, piece_move, contact_t, contact_s, closed, n_t, n_s, node):
+    """The loop of :func:`_node_pieces`: into ``node``; whether any piece was placed.
+
+    A move's pieces run on in order (``piece_move`` rises): piece ``k`` of a move of ``c``
+    has its middle at ``u = (k + 1/2) / c``.
+    """
+    placed = False
+    first = 0
+    total = piece_move.size
+    while first < total:
+        m = piece_move[first]
+        end = first
+        while end < total and piece_move[end] == m:
+            end += 1
+        c = end - first
+        a = start[m]
+        ta, tb, sa, sb = contact_t[a], contact_t[a + 1], contact_s[a], contact_s[a + 1]
+        if np.isfinite(ta) and np.isfinite(tb) and np.isfinite(sa) and np.isfinite(sb):
+            for k in range(c):
+                u = (k + 0.5) / c
+                t = seam_lerp(ta, tb, u, closed)
+                if closed:
+                    t = t - math.floor(t)
+                sv = sa + u * (sb - sa)
+                i = np.rint(min(max(t, 0.0), 1.0) * (n_t - 1))
+                j = np.rint(min(max(sv, 0.0), 1.0) * (n_s - 1))
+                node[int(i) * n_s + int(j)] = first + k
+                placed = True
+        first = end
+    return placed
 
 
 def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed: bool,
