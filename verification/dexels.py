@@ -63,7 +63,7 @@ from .torus import line_sweep_interval, sweep_entry_bound
 from .vectors import row_norms
 
 __all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "MIN_TARGET_CELL_MM", "DexelResult", "SweepIndex",
-           "near_search_radius_mm"]
+           "grid_margin_mm", "near_search_radius_mm", "reach_beyond_mm"]
 
 #: Search radii per grid cell (the cell nearest ``reach / CELL_PER_REACH`` is used).
 CELL_PER_REACH = 2.0
@@ -113,6 +113,56 @@ def near_search_radius_mm(radius_mm: float, horizon_mm: float, depth_mm: float,
     return core_radius_mm + np.minimum(reach, radius_mm + horizon_mm + depth_mm)
 
 
+def grid_margin_mm(reach_limit_mm: float, pieces: Pieces, *, spread_mm: float = 0.0) -> float:
+    r"""How far beyond the box a grid must hold midpoints for a search to see every candidate.
+
+    A search around ``c`` of radius ``rho`` takes as candidate every piece whose midpoint
+    ``m`` lies within ``rho + h + H`` of ``c`` (:meth:`SweepIndex.search`; ``h`` the longest
+    half piece, ``H`` the tallest core: a flat or bull-nose piece's flank, a shank piece,
+    stands up to ``H`` along its axis above its segment, and every point of the segment lies
+    within ``h`` of ``m``), the pieces a search over all of them takes. A grid registers
+    the midpoints within ``M`` of the box (the box widened by ``M`` on every side), and
+
+    ``dist(m, box) <= dist(c, box) + |m - c| <= dist(c, box) + rho + h + H <= D + h + H``
+
+    with ``D`` (``reach_limit_mm``) the farthest any search's ball reaches beyond the box,
+    ``dist(c, box) + rho``. So ``M = D + h + H`` holds every candidate; less can drop one:
+    a flat cutter's flank touching the box's edge with its bottom ``H`` beyond it, or a
+    near search's centre ``P + r n`` standing ``r`` beyond the box (``D`` counts both, the
+    piece grid's former ``D + h`` neither).
+
+    Runs of pieces (:mod:`verification.piece_runs`) are gridded by their own midpoint
+    ``mu``, within their spread ``s`` of every piece's midpoint, and the walk takes a run
+    whose ``mu`` lies within ``rho + h + H + s`` of ``c``: the run of a candidate has
+    ``dist(mu, box) <= M + s``, so the runs' grid needs ``M + max s`` (``spread_mm``), the
+    same argument with the run for the piece. Both grids take their margin here.
+
+    Parameters
+    ----------
+    reach_limit_mm : float
+        ``D``: the farthest a search's ball reaches beyond the box, mm.
+    pieces : Pieces
+        The pieces the grid holds (their ``h`` and ``H``).
+    spread_mm : float
+        Largest spread of a run about its midpoint, mm (0: a grid of pieces).
+
+    Returns
+    -------
+    float
+        The margin, mm.
+    """
+    return reach_limit_mm + pieces.max_half_mm + pieces.max_height_mm + spread_mm
+
+
+def reach_beyond_mm(centres: FloatArray, radii_mm: FloatArray, lo_mm: FloatArray,
+                    hi_mm: FloatArray) -> float:
+    """``max (dist(c, box) + rho)`` over searches: how far beyond ``[lo, hi]`` they reach, mm."""
+    if centres.shape[0] == 0:
+        return 0.0
+    out = np.maximum(np.maximum(lo_mm - centres, centres - hi_mm), 0.0)
+    return float(np.max(row_norms(out) + radii_mm))
+
+
 @dataclass(frozen=True, eq=False)
 class DexelResult:
     """Per dexel: the lowest entry of a piece that reaches the design point, and its block.
@@ -159,7 +209,8 @@ class SweepIndex:
     A search of radius ``rho`` uses the grid whose cell is closest to ``rho / 2`` among
     ``base_cell_mm * 2^k`` (so about ``5^3`` cells are scanned per query cell whatever the
     level of the iterative deepening, fewer where :data:`~verification.grid.CELLS_PER_PIECE`
-    coarsens the cell); grids are built once and kept.
+    coarsens the cell); grids are built once and kept, and built again, wider, only for a
+    search that reaches farther beyond the box than the one kept was built for.
 
     Parameters
     ----------
@@ -173,8 +224,10 @@ class SweepIndex:
     base_cell_mm : float
         Smallest grid cell, mm.
     reach_limit_mm : float
-        Largest search radius any query may use, mm (pieces farther than this from the
-        box cannot be candidates and are left out of the grids).
+        How far beyond the box a search's ball is expected to reach (its centre's
+        distance from the box plus its radius), mm: the grids hold every piece such a
+        search takes (:func:`grid_margin_mm`). A search that reaches farther rebuilds the
+        grid it walks for its own reach, so none misses a piece.
     max_pairs : int
         Candidate pairs per batch.
     corner_radius_mm : float or None
@@ -202,6 +255,8 @@ class SweepIndex:
     _sorted: dict[int, tuple[FloatArray, ...]] = field(default_factory=dict, repr=False)
     _runs: dict[tuple[str, int], tuple[PieceGrid, PieceRuns]] = field(default_factory=dict,
                                                                       repr=False)
+    _piece_runs: dict[str, PieceRuns] = field(default_factory=dict, repr=False)
+    _covers: dict[int, float] = field(default_factory=dict, repr=False)
 
     def pieces(self, which: str) -> Pieces:
         """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
@@ -214,46 +269,61 @@ class SweepIndex:
         target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
         return max(0, int(np.round(np.log2(target / self.base_cell_mm))))
 
-    def _grid(self, which: str, reach_mm: float, *, built: bool = False) -> PieceGrid:
+    def _grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0, *,
+              built: bool = False) -> PieceGrid:
         """The grid for searches of ``reach_mm``, built and kept on first use.
 
-        ``built``: rather a grid already built for these pieces, the one nearest in cell
-        (only the cells walked differ, not the pieces found), than a new one.
+        ``beyond_mm``: how far beyond the box the searches reach (:func:`reach_beyond_mm`);
+        a kept grid that holds less is built again for it. ``built``: rather a grid
+        already built for these pieces, the one nearest in cell (only the cells walked
+        differ, not the pieces found), than a new one.
         """
         k = self._level(reach_mm)
         have = [level for kind, level in self._grids if kind == which]
         if built and have and (which, k) not in self._grids:
             k = min(have, key=lambda level: abs(level - k))
-        if (which, k) not in self._grids:
+        grid = self._grids.get((which, k))
+        if grid is None or self._covers[id(grid)] < beyond_mm:
+            if grid is not None:
+                del self._sorted[id(grid)], self._covers[id(grid)]
             pieces = self.pieces(which)
-            cell = self.base_cell_mm * 2.0**k
-            margin = self.reach_limit_mm + pieces.max_half_mm
-            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin, cell)
+            cover = max(self.reach_limit_mm, beyond_mm)
+            margin = grid_margin_mm(cover, pieces)
+            grid = PieceGrid.build(pieces.mid, self.lo_mm - margin, self.hi_mm + margin,
+                                   self.base_cell_mm * 2.0**k)
             self._grids[which, k] = grid
+            self._covers[id(grid)] = cover
             # the fields the compiled walks read, in the grid's order (read as met)
             self._sorted[id(grid)] = tuple(
                 np.ascontiguousarray(v[grid.order], dtype=float)
                 for v in (pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee,
                           pieces.axis, pieces.height_mm))
-        return self._grids[which, k]
+        return grid
 
-    def _run_grid(self, which: str, reach_mm: float) -> tuple[PieceGrid, PieceRuns]:
+    def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0
+                  ) -> tuple[PieceGrid, PieceRuns]:
         """Flat/bull-nose pieces' runs (:mod:`verification.piece_runs`), gridded by midpoint.
 
-        The cell as :meth:`_grid` picks it; the runs returned are in the grid's order.
+        The cell as :meth:`_grid` picks it, the margin :func:`grid_margin_mm` with the
+        runs' spread; the runs returned are in the grid's order.
         """
         k = self._level(reach_mm)
-        if (which, k) not in self._runs:
+        kept = self._runs.get((which, k))
+        if kept is None or self._covers[id(kept[0])] < beyond_mm:
+            if kept is not None:
+                del self._covers[id(kept[0])]
             pieces = self.pieces(which)
-            same = next((v[1] for (w, _), v in self._runs.items() if w == which), None)
-            runs = same if same is not None else piece_runs(
-                pieces, core_radius_mm=self.radius_mm - self._corner,
-                corner_radius_mm=self._corner)
-            # a run's midpoint stands within its spread of its pieces'
-            margin = self.reach_limit_mm + pieces.max_half_mm + runs.max_spread_mm
+            if which not in self._piece_runs:
+                self._piece_runs[which] = piece_runs(
+                    pieces, core_radius_mm=self.radius_mm - self._corner,
+                    corner_radius_mm=self._corner)
+            runs = self._piece_runs[which]
+            cover = max(self.reach_limit_mm, beyond_mm)
+            margin = grid_margin_mm(cover, pieces, spread_mm=runs.max_spread_mm)
             grid = PieceGrid.build(runs.mid, self.lo_mm - margin, self.hi_mm + margin,
                                    self.base_cell_mm * 2.0**k)
             self._runs[which, k] = grid, runs.taken(grid.order)
+            self._covers[id(grid)] = cover
         return self._runs[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
@@ -285,17 +355,18 @@ class SweepIndex:
         if q == 0 or pieces.size == 0:
             return out
         reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
+        beyond = reach_beyond_mm(centres, radii_mm, self.lo_mm, self.hi_mm)
         if self.corner_radius_mm is not None and self.compiled:
             # the same, flat and bull-nose pieces: over runs of consecutive pieces, bounds
             # and exact entries in the walk
-            runs_grid, runs = self._run_grid(which, float(np.median(reach)))
+            runs_grid, runs = self._run_grid(which, float(np.median(reach)), beyond)
             lam, hit, behind, pairs = lowest_sweep_entries(
                 runs_grid, runs_grid.span_of(reach + runs.max_spread_mm), points, dirs,
                 centres, reach, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
                 pieces.axis, pieces.height_mm, core_radius_mm=self.radius_mm - self._corner,
                 corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
-        grid = self._grid(which, float(np.median(reach)))
+        grid = self._grid(which, float(np.median(reach)), beyond)
         spans = grid.span_of(reach)
         if self.compiled:
             # one walk, each dexel over its own span of cells
@@ -347,7 +418,8 @@ class SweepIndex:
             return np.zeros(0, dtype=np.int64)
         reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
         # a few points: whichever grid the searches built walks them (no grid of its own)
-        grid = self._grid(which, float(np.median(reach)), built=True)
+        grid = self._grid(which, float(np.median(reach)),
+                          reach_beyond_mm(centres, radii_mm, self.lo_mm, self.hi_mm), built=True)
         spans = grid.span_of(reach)
         found = []
         for span in np.unique(spans):

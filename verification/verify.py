@@ -219,9 +219,12 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
     near_cell = float(near_search_radius_mm(shape, levels[0], depth, np.zeros(1),
                                             core_radius_mm=radius - shape)[0])
     pts = samples.points.reshape(-1, 3)
+    # how far beyond the samples' box the searches reach: a near search around P + r n
+    # within R + e + g, a collision search around P within R + e + L (its radius counts
+    # the cores' height); a deeper search, or one past the box, widens its grid itself
     index = SweepIndex(ball, shank, radius, pts.min(axis=0), pts.max(axis=0),
                        base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
-                       reach_limit_mm=radius + horizon + depth,
+                       reach_limit_mm=radius + horizon + max(shape + depth, ball.max_height_mm),
                        max_pairs=opts.max_pairs, corner_radius_mm=corner)
     ev = Dexels(index, radius, levels, depth, method, corner_radius=corner,
                 model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm)
