@@ -85,6 +85,9 @@ def _assert_same_blocks(runs):
         assert differ == 0, f"{name}: {differ} dexels traced to another block"
         assert ([(g.block_index, g.area_mm2, g.depth_mm) for g in rep.gouging_blocks]
                 == [(g.block_index, g.area_mm2, g.depth_mm) for g in ref.gouging_blocks]), name
+        # deepest first, of equally deep blocks the earlier first
+        keys = [(-g.depth_mm, g.block_index) for g in rep.gouging_blocks]
+        assert keys == sorted(keys), name
         for f, e in ((rep.max_gouge, ref.max_gouge), (rep.max_scallop, ref.max_scallop)):
             assert (f is None) == (e is None), name
             if f is not None:
