@@ -7,18 +7,38 @@ pieces and as the oracle of the tests), without storing a pair: for each dexel t
 (for a few neighbouring dexels at once, over a ball holding theirs, then sorted out per
 dexel: the same candidates for a fraction of the walking), every piece whose midpoint lies
 within the search radius is met with
-:func:`~verification.capsule.capsule_interval`, and only the lowest value is kept (the
-first of equal ones, as the pair fold keeps it). Memory is the output; the cost is the
+:func:`~verification.capsule.capsule_interval`, and only the lowest value is kept (of
+equal ones the first in program order: :func:`ranks_before`). Memory is the output; the cost is the
 candidate pairs at a few nanoseconds each, spread over the cores.
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the capsule
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
 behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing (:func:`pair_value`).
 
+**The tie rule** (every search's, :func:`ranks_before`): of pieces leaving exactly the
+same value on a dexel (bit-equal; a flat bottom on a floor, passes overlapping on a plane)
+the one of smallest piece index, the first in program order (the near search's pieces are
+in path order; the collision search's are those, then the shank's), gives the dexel its
+piece, hence its block. Equal means bit-equal: every search measures a (dexel, piece) pair
+with the same compiled kernel (the numpy paths call it row by row), so a pair's value is
+the same bits in every search, and the order ``(value, piece)`` is a total order, whose
+minimum is the same however the candidates are split (grid cells, levels of the iterative
+deepening, batches, searches merged afterwards, an index shared between asks). Within an
+epsilon it would not be: "within e of the least" depends on the least, so two partial
+results cannot be merged without every near-tie they set aside, and a chain of values each
+within e of the next has no first. Values that differ only by rounding (1e-15 mm) are not
+tied: the lower keeps the dexel, in every search alike, and the depth reported is the
+least value whichever piece is named. A bound may stand a rounding above the value it
+bounds (a run's floor is a Newton entry within ``CONVERGED_MM`` of the true one), so a
+set of pieces that may hold a tied piece of smaller index is dropped only when its bound
+exceeds the best by :data:`TIE_SLACK_MM` (:func:`tie_limit`): only near-ties are measured
+more.
+
 The small tests several compiled loops share (:func:`is_candidate`, :func:`centre_cell`,
-:func:`enters_before`, :func:`pair_value`) compile once each, without the wrappers Python
-would call them through (Python must not call them), rather than inlined by numba: numba
-compiled an inlined copy at every call site, slower on a cold start (issue 27).
+:func:`enters_before`, :func:`pair_value`, :func:`ranks_before`, :func:`tie_limit`)
+compile once each, without the wrappers Python would call them through (Python must not
+call them), rather than inlined by numba: numba compiled an inlined copy at every call
+site, slower on a cold start (issue 27).
 """
 
 from __future__ import annotations
@@ -32,8 +52,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["candidate_slots", "column_slots", "group_ball", "lowest_capsule_entries",
-           "own_slots", "pair_values", "walk_shape"]
+__all__ = ["TIE_SLACK_MM", "candidate_slots", "column_slots", "group_ball",
+           "lowest_capsule_entries", "own_slots", "pair_values", "walk_shape"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -55,6 +75,35 @@ WALK_GROUP = 4
 #: A group is walked together only while its ball stays within this many times its
 #: widest member's radius (a row's end, a far or non-finite centre: each on its own).
 GROUP_REACH = 2.0
+#: How far above the best value a lower bound may stand and still hold a piece tied with
+#: the best (bounds and values round apart; a floor's Newton entry stops within 1e-7 mm
+#: of the true one, :data:`~verification.torus.CONVERGED_MM`), mm: a set of pieces that
+#: may hold a tied piece of smaller index is measured unless its bound is farther above.
+TIE_SLACK_MM = 1e-6
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def ranks_before(value: float, piece: int, best: float, best_piece: int) -> bool:
+    """Whether ``(value, piece)`` comes before ``(best, best_piece)``: the tie rule.
+
+    Lower values first; of equal (bit-equal) values the smaller piece index. A best of no
+    piece (``best_piece < 0``: nothing yet, or a value another search found, which only
+    less replaces) is ranked before only by a lower value.
+    """
+    return value < best or (value == best and 0 <= piece < best_piece)
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def tie_limit(best: float, lowest_piece: int, best_piece: int) -> float:
+    """A set of pieces whose bound is not below this holds none that ranks before the best.
+
+    ``best`` itself when its smallest piece index ``lowest_piece`` cannot win a tie (not
+    below ``best_piece``), else ``best`` plus :data:`TIE_SLACK_MM` (a bound rounded above
+    a tied value must not drop it).
+    """
+    if 0 <= lowest_piece < best_piece:
+        return best + TIE_SLACK_MM
+    return best
 
 
 @numba.njit(cache=True)
@@ -287,6 +336,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
           piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray) -> None:
+    # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
+    # found
     # pieces (a, e, ee, axis) in the grid's order, read by slot; dexels in blocks, each
     # block's first piece tried the one that left least on the block's previous dexel;
     # within a block, groups of WALK_GROUP dexels walk the grid once (group_ball)
@@ -315,6 +366,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
                 buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
                                          starts, mid, buf)
             best = lam[q]
+            best_piece = piece[q]
             best_slot = -1
             best_behind = False
             first = -1
@@ -324,18 +376,22 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
                 slot = first if c < 0 else buf[c]
                 if slot < 0 or (c >= 0 and slot == first):
                     continue
-                # of equal values the first in the grid's order, as a walk in that order
-                if capsule_entry_bound(slot, mid, half, e, px, py, pz, dx, dy, dz,
-                                       radius) > best:
+                # of equal values the first in program order (ranks_before); the usual
+                # drop (a bound beyond any tie) tested first, without the piece's index
+                bound = capsule_entry_bound(slot, mid, half, e, px, py, pz, dx, dy, dz,
+                                            radius)
+                if bound > best and (bound >= best + TIE_SLACK_MM or not bound < tie_limit(
+                        best, order[slot], best_piece)):
                     continue
+                index = order[slot]
                 lam_in, lam_out = capsule_interval(
                     px, py, pz, dx, dy, dz, a[slot, 0], a[slot, 1], a[slot, 2], e[slot, 0],
                     e[slot, 1], e[slot, 2], ee[slot], r2)
                 value, back = pair_value(lam_in, lam_out,
                                          axis[slot, 0] * dx + axis[slot, 1] * dy
                                          + axis[slot, 2] * dz, behind_cosine)
-                if value < best or (value == best and 0 <= slot < best_slot):
-                    best, best_slot, best_behind = value, slot, back
+                if ranks_before(value, index, best, best_piece):
+                    best, best_slot, best_piece, best_behind = value, slot, index, back
             seed = best_slot
             lam[q] = best
             piece[q] = order[best_slot] if best_slot >= 0 else -1
@@ -354,14 +410,17 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
                            centres: FloatArray, reach_mm: FloatArray, sorted_mid: FloatArray,
                            sorted_half_mm: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
                            axis: FloatArray, radius_mm: float, behind_cosine: float, *,
-                           below_mm: FloatArray | None = None
+                           below_mm: FloatArray | None = None,
+                           below_piece: IntArray | None = None
                            ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
     """Per dexel the lowest value among capsules within ``reach_mm`` of its centre.
 
-    With ``below_mm`` (a value already known on each dexel, which the caller keeps where
-    it is lower) only values below it are sought: a capsule whose bound on its entry is
-    not below the best so far is skipped unmeasured, so a search for what another search
-    missed meets few capsules.
+    Of equal values the piece of smallest index (:func:`ranks_before`). With ``below_mm``
+    (a value already known on each dexel, which the caller keeps where it is lower) only
+    values below it are sought (or equal ones of a piece before ``below_piece``, its
+    piece in the same numbering): a capsule whose bound on its entry is not below the
+    best so far is skipped unmeasured, so a search for what another search missed meets
+    few capsules.
 
     Parameters
     ----------
@@ -388,12 +447,14 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
         ``a . d`` below which a piece comes from behind.
     below_mm : ndarray, shape (q,), optional
         Seek only values below these, mm (default: all).
+    below_piece : ndarray of int64, shape (q,), optional
+        The pieces of ``below_mm`` (``-1``: none, only less is sought).
 
     Returns
     -------
     lam : ndarray, shape (q,)
-        Lowest value, mm (``inf``: no candidate reached the design point, or none below
-        ``below_mm``).
+        Lowest value, mm (``inf``: no candidate reached the design point, or none
+        ranking before ``below_mm``).
     piece : ndarray of int64
         Its piece (``-1`` where none).
     behind : ndarray of bool
@@ -406,10 +467,12 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
     if below_mm is not None:
         lam[:] = below_mm
     piece = np.full(q, -1, dtype=np.int64)
+    if below_mm is not None and below_piece is not None:
+        piece[:] = below_piece
     behind = np.zeros(q, dtype=np.bool_)
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
-        return lam, piece, behind, 0
+        return np.full(q, np.inf), np.full(q, -1, dtype=np.int64), behind, 0
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time

@@ -44,6 +44,14 @@ inside the grid walk (:mod:`verification.sweep_search`), storing no pair.
 
 Candidates come from :class:`~verification.grid.PieceGrid`; pairs are processed in
 batches of at most ``max_pairs``, so memory is bounded whatever the program's length.
+
+**Ties.** Where several pieces leave exactly the same value (a flat bottom on a floor,
+passes overlapping on a plane), the dexel goes to the piece of smallest index, the first
+in program order, in every search and in every merge of two searches' results
+(:meth:`DexelResult.merged`, :func:`~verification.search.scatter`): the order
+``(value, piece)`` of :func:`~verification.capsule_search.ranks_before`, where the reasons
+for bit-equality are. A result carries its pieces for that, numbered as the collision
+search's pieces (:meth:`SweepIndex.pieces`: the near search's, then the shank's).
 """
 
 from __future__ import annotations
@@ -54,7 +62,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capsule import line_capsule_interval
-from .capsule_search import lowest_capsule_entries, pair_values
+from .capsule_search import TIE_SLACK_MM, lowest_capsule_entries, pair_values
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, piece_runs
 from .pieces import Pieces
@@ -63,7 +71,8 @@ from .torus import line_sweep_interval, sweep_entry_bound
 from .vectors import row_norms
 
 __all__ = ["BEHIND_COSINE", "CELL_PER_REACH", "MIN_TARGET_CELL_MM", "DexelResult", "SweepIndex",
-           "grid_margin_mm", "near_search_radius_mm", "reach_beyond_mm"]
+           "grid_margin_mm", "near_search_radius_mm", "ranks_before_rows",
+           "reach_beyond_mm"]
 
 #: Search radii per grid cell (the cell nearest ``reach / CELL_PER_REACH`` is used).
 CELL_PER_REACH = 2.0
@@ -79,6 +88,16 @@ BEHIND_COSINE = -0.5
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
+
+
+def ranks_before_rows(lam_mm: FloatArray, piece: IntArray, best_mm: FloatArray,
+                      best_piece: IntArray) -> NDArray[np.bool_]:
+    """Where ``(lam_mm, piece)`` ranks before ``(best_mm, best_piece)``, row by row.
+
+    :func:`~verification.capsule_search.ranks_before` (the tie rule) on arrays: lower
+    first; of bit-equal values the smaller piece index, where both are known (``>= 0``).
+    """
+    return (lam_mm < best_mm) | ((lam_mm == best_mm) & (piece >= 0) & (piece < best_piece))
 
 
 def near_search_radius_mm(radius_mm: float, horizon_mm: float, depth_mm: float,
@@ -179,6 +198,10 @@ class DexelResult:
         The piece came from behind (its tool axis against the dexel).
     pairs : int
         Candidate pairs tested.
+    piece : ndarray of int64, shape (q,), optional
+        That piece, numbered as :meth:`SweepIndex.pieces` ``("far")`` numbers them (``-1``
+        where none, or unknown: from another model, whose numbers do not compare); the
+        tie rule's second key (default: all ``-1``).
     """
 
     lam_mm: FloatArray
@@ -186,6 +209,12 @@ class DexelResult:
     shank: NDArray[np.bool_]
     behind: NDArray[np.bool_]
     pairs: int = 0
+    piece: IntArray = None  # type: ignore[assignment]  # filled in __post_init__
+
+    def __post_init__(self) -> None:
+        if self.piece is None:
+            object.__setattr__(self, "piece", np.full(self.lam_mm.shape[0], -1,
+                                                      dtype=np.int64))
 
     @staticmethod
     def empty(q: int) -> DexelResult:
@@ -194,12 +223,13 @@ class DexelResult:
                            np.zeros(q, dtype=np.bool_), np.zeros(q, dtype=np.bool_))
 
     def merged(self, other: DexelResult) -> DexelResult:
-        """Elementwise the lower of two results on the same dexels."""
-        take = other.lam_mm < self.lam_mm
+        """Elementwise the first of two results on the same dexels (the tie rule)."""
+        take = ranks_before_rows(other.lam_mm, other.piece, self.lam_mm, self.piece)
         return DexelResult(np.where(take, other.lam_mm, self.lam_mm),
                            np.where(take, other.move, self.move),
                            np.where(take, other.shank, self.shank),
-                           np.where(take, other.behind, self.behind), self.pairs + other.pairs)
+                           np.where(take, other.behind, self.behind), self.pairs + other.pairs,
+                           np.where(take, other.piece, self.piece))
 
 
 @dataclass(eq=False)
@@ -327,7 +357,8 @@ class SweepIndex:
         return self._runs[which, k]
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-               radii_mm: FloatArray, *, below_mm: FloatArray | None = None) -> DexelResult:
+               radii_mm: FloatArray, *, below_mm: FloatArray | None = None,
+               below_piece: IntArray | None = None) -> DexelResult:
         """Lowest entries along dexels among pieces within ``radii`` of ``centres``.
 
         Parameters
@@ -344,6 +375,9 @@ class SweepIndex:
             Values already known on the dexels, which the caller keeps where lower: the
             compiled ball search then seeks only lower ones (elsewhere a dexel may hold
             any value or none; the lower of the two is the same).
+        below_piece : ndarray of int64, shape (q,), optional
+            The pieces of ``below_mm`` (``-1``: none): an equal value of a piece before
+            it is sought too (the tie rule).
 
         Returns
         -------
@@ -364,7 +398,8 @@ class SweepIndex:
                 runs_grid, runs_grid.span_of(reach + runs.max_spread_mm), points, dirs,
                 centres, reach, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
                 pieces.axis, pieces.height_mm, core_radius_mm=self.radius_mm - self._corner,
-                corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm)
+                corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm,
+                below_piece=below_piece)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         grid = self._grid(which, float(np.median(reach)), beyond)
         spans = grid.span_of(reach)
@@ -373,7 +408,7 @@ class SweepIndex:
             mid, half, a, e, ee, axis, _ = self._sorted[id(grid)]
             lam, hit, behind, pairs = lowest_capsule_entries(
                 grid, spans, points, dirs, centres, reach, mid, half, a, e, ee, axis,
-                self.radius_mm, BEHIND_COSINE, below_mm=below_mm)
+                self.radius_mm, BEHIND_COSINE, below_mm=below_mm, below_piece=below_piece)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         pairs = 0
         for span in np.unique(spans):
@@ -392,7 +427,7 @@ class SweepIndex:
                     self._capsules(qi, piece, pieces, points, dirs, out)
                 else:
                     self._cutters(qi, piece, pieces, points, dirs, out)
-        return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+        return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs, out.piece)
 
     def pieces_within(self, which: str, centres: FloatArray, radii_mm: FloatArray
                       ) -> IntArray:
@@ -450,7 +485,8 @@ class SweepIndex:
                                      pieces.axis[piece], pieces.height_mm[piece],
                                      core_radius_mm=self.radius_mm - self._corner,
                                      corner_radius_mm=self._corner)
-        todo = np.flatnonzero(bound < out.lam_mm[qi])
+        # a bound may round above a tied value: pairs within the tie slack are measured
+        todo = np.flatnonzero(bound < out.lam_mm[qi] + TIE_SLACK_MM)
         if todo.shape[0] == 0:
             return
         # round 1: per dexel the pair of lowest bound (pairs are sorted by dexel)
@@ -459,7 +495,7 @@ class SweepIndex:
         first = ordered[np.r_[True, qi[ordered][1:] != qi[ordered][:-1]]]
         self._measure(qi[first], piece[first], pieces, points, dirs, out)
         rows = np.setdiff1d(todo, first, assume_unique=True)
-        rows = rows[bound[rows] < out.lam_mm[qi[rows]]]
+        rows = rows[bound[rows] < out.lam_mm[qi[rows]] + TIE_SLACK_MM]
         self._measure(qi[rows], piece[rows], pieces, points, dirs, out)
 
     @property
@@ -488,7 +524,8 @@ def _scattered(out: DexelResult, lam: FloatArray, hit: IntArray, behind: NDArray
     out.move[qi] = pieces.moves_at(hit, points[qi])
     out.shank[qi] = pieces.shank[hit]
     out.behind[qi] = behind[qi]
-    return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs)
+    out.piece[qi] = hit
+    return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs, out.piece)
 
 
 def _values(lam_in: FloatArray, lam_out: FloatArray, axis: FloatArray, dirs: FloatArray
@@ -501,19 +538,26 @@ def _values(lam_in: FloatArray, lam_out: FloatArray, axis: FloatArray, dirs: Flo
 
 def _fold_min(query: IntArray, value: FloatArray, behind: NDArray[np.bool_], piece: IntArray,
               pieces: Pieces, points: FloatArray, out: DexelResult) -> None:
-    """Fold per-pair values into per-query minima (pairs are grouped by query)."""
+    """Fold per-pair values into per-query firsts (pairs are grouped by query).
+
+    Per query the least value, of equal ones the smallest piece index, taken where it
+    ranks before what ``out`` holds (the tie rule, :meth:`DexelResult.before`).
+    """
     starts = np.flatnonzero(np.r_[True, query[1:] != query[:-1]])
     best = np.minimum.reduceat(value, starts)
     group = np.repeat(np.arange(starts.shape[0]), np.diff(np.r_[starts, query.shape[0]]))
     hit = np.flatnonzero((value == best[group]) & np.isfinite(value))
     if hit.shape[0] == 0:
         return
+    # of the tied pairs of each query, the one of smallest piece index
+    hit = hit[np.lexsort((piece[hit], group[hit]))]
     g = group[hit]
     first = hit[np.r_[True, g[1:] != g[:-1]]]
     gq = query[first]
-    better = value[first] < out.lam_mm[gq]
+    better = ranks_before_rows(value[first], piece[first], out.lam_mm[gq], out.piece[gq])
     gq, first = gq[better], first[better]
     out.lam_mm[gq] = value[first]
     out.move[gq] = pieces.moves_at(piece[first], points[gq])
     out.shank[gq] = pieces.shank[piece[first]]
     out.behind[gq] = behind[first]
+    out.piece[gq] = piece[first]

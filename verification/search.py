@@ -14,7 +14,7 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
-from .dexels import DexelResult, SweepIndex, near_search_radius_mm
+from .dexels import DexelResult, SweepIndex, near_search_radius_mm, ranks_before_rows
 from .options import DexelMethod
 from .samples import DesignSamples
 from .vectors import row_norms
@@ -87,7 +87,8 @@ class Dexels:
 
     def search(self, points: FloatArray, normals: FloatArray, convexity: FloatArray,
                *, near: bool = True, far: bool = False, depth: float | None = None,
-               below_mm: FloatArray | None = None) -> DexelResult:
+               below_mm: FloatArray | None = None,
+               below_piece: NDArray[np.int64] | None = None) -> DexelResult:
         """Near and/or collision search at design points.
 
         Parameters
@@ -105,6 +106,9 @@ class Dexels:
             Material already known on the dexels, which the caller keeps where it is
             lower: the collision search then seeks only less (where it finds none, the
             result holds the near search's, or nothing).
+        below_piece : ndarray of int64, shape (q,), optional
+            The pieces of ``below_mm`` (``-1``: none): an equal value of a piece before
+            it is sought too (the tie rule of :mod:`verification.dexels`).
 
         Returns
         -------
@@ -127,6 +131,8 @@ class Dexels:
                 r = self.near_radius_mm(level, g, convexity if every else convexity[todo])
                 part = (self.index.search("near", points, dirs, centres, r) if every else
                         self.index.search("near", points[todo], dirs[todo], centres[todo], r))
+                # the first of both (the tie rule): a tied piece of smaller index may lie
+                # only in the wider ball
                 scatter(out, todo, part, merge=True)
                 todo = todo[~(part.lam_mm * cos[todo] <= level)]
                 if todo.shape[0] == 0:
@@ -135,10 +141,17 @@ class Dexels:
             # a flat/bull-nose piece's core stands up to its height above its segment
             r = np.full(points.shape[0], self.radius + self.horizon
                         + self.index.ball.max_height_mm)
+            low, low_piece = out.lam_mm, out.piece
+            if below_mm is not None:
+                given = ranks_before_rows(below_mm, np.full_like(low_piece, -1)
+                                          if below_piece is None else below_piece,
+                                          low, low_piece)
+                low = np.where(given, below_mm, low)
+                low_piece = np.where(given, -1 if below_piece is None else below_piece,
+                                     low_piece)
             scatter(out, np.arange(points.shape[0]),
-                     self.index.search("far", points, dirs, points, r, below_mm=(
-                         out.lam_mm if below_mm is None else np.minimum(out.lam_mm, below_mm))),
-                     merge=True)
+                     self.index.search("far", points, dirs, points, r, below_mm=low,
+                                       below_piece=low_piece), merge=True)
         return out
 
     def deviation(self, result: DexelResult, normals: FloatArray) -> FloatArray:
@@ -221,7 +234,7 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         cs = _coarse_positions(n_s, collision_stride)
         coarse = (ct[:, None] * n_s + cs[None, :]).ravel()
         far = ev.search(pts[coarse], nrm[coarse], conv[coarse], near=False, far=True,
-                        below_mm=res.lam_mm[coarse])
+                        below_mm=res.lam_mm[coarse], below_piece=res.piece[coarse])
         near_lam, near_move = res.lam_mm[coarse], res.move[coarse]
         # a shank piece starts at the cutter end (a ball's centre), so at its instance it
         # holds the very cutter the near search's merged pieces approximate from inside:
@@ -247,17 +260,24 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         if collide.any():
             idx = windows.around(collide)
             scatter(res, idx, ev.search(pts[idx], nrm[idx], conv[idx], near=False, far=True,
-                                        below_mm=res.lam_mm[idx]), merge=True)
+                                        below_mm=res.lam_mm[idx], below_piece=res.piece[idx]),
+                     merge=True)
     return res, ev.deviation(res, nrm)
 
 
 def scatter(res: DexelResult, idx: NDArray[np.int64], part: DexelResult, *,
              merge: bool = False) -> None:
-    """Write ``part`` (results at ``idx``) into ``res``; with ``merge`` only where lower."""
-    take = part.lam_mm < res.lam_mm[idx] if merge else np.ones(idx.shape[0], dtype=bool)
+    """Write ``part`` (results at ``idx``) into ``res``; with ``merge`` only where first.
+
+    First: lower, or of equal value a piece before (the tie rule,
+    :func:`~verification.dexels.ranks_before_rows`).
+    """
+    take = (ranks_before_rows(part.lam_mm, part.piece, res.lam_mm[idx], res.piece[idx])
+            if merge else np.ones(idx.shape[0], dtype=bool))
     sel = idx[take]
     res.lam_mm[sel] = part.lam_mm[take]
     res.move[sel] = part.move[take]
     res.shank[sel] = part.shank[take]
     res.behind[sel] = part.behind[take]
+    res.piece[sel] = part.piece[take]
     object.__setattr__(res, "pairs", res.pairs + part.pairs)

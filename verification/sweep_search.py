@@ -31,8 +31,11 @@ dozen pieces.
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
 behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing
-(:func:`~verification.capsule_search.pair_value`). Of equal values the
-one measured first is kept (in the order above).
+(:func:`~verification.capsule_search.pair_value`). Of equal values the piece of smallest
+index, the first in program order (the tie rule of
+:mod:`verification.capsule_search`, :func:`~verification.capsule_search.ranks_before`):
+a run, half or piece is dropped when its bound is not below the best, or, when it holds a
+piece before the best one, not below :func:`~verification.capsule_search.tie_limit`.
 """
 
 from __future__ import annotations
@@ -44,11 +47,14 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capsule_search import (
+    TIE_SLACK_MM,
     WALK_BLOCK,
     candidate_slots,
     enters_before,
     is_candidate,
     pair_value,
+    ranks_before,
+    tie_limit,
     walk_shape,
 )
 from .grid import PieceGrid
@@ -108,6 +114,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
           corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
           behind: NDArray[np.bool_], pairs: IntArray) -> None:
+    # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
+    # found; a bound is compared with tie_limit(best, its run's or half's first piece)
     # every piece's cutter lies within this plus its half length of its midpoint (the
     # bound of :func:`~verification.torus.sweep_bound` about the core's mid-height path,
     # which stands L / 2 above the midpoint); a run's within this plus its own half
@@ -142,7 +150,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 pending = np.empty(buf.shape[0], dtype=np.int64)
                 floors_of = np.empty(buf.shape[0])
             best = lam[q]
-            best_piece = -1
+            best_piece = piece[q]
+            found = -1
             best_behind = False
             met = 0
             # walk 0: the runs that may hold a candidate and enter below the best so far,
@@ -153,13 +162,14 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 own = reach[q] + run_spread[slot]
                 if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
                     continue
+                limit = tie_limit(best, run_start[slot], best_piece)
                 if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
-                                     d[2], outer, best):
+                                     d[2], outer, limit):
                     continue
                 lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                      run_height[slot], core_radius,
                                      corner_radius + run_dilation[slot])
-                if not lo < best:
+                if not lo < limit:
                     continue
                 kept[m], bounds[m], tops[m] = slot, lo, hi
                 m += 1
@@ -176,25 +186,30 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                     if w < 0 or floors_of[x] < floors_of[w]:
                         w = x
                 cheap = bounds[rank[u]] if u < m else math.inf
+                # no bound below this, none below any run's tie limit: done
+                if not min(cheap, floors_of[w] if w >= 0 else math.inf) < (
+                        best + TIE_SLACK_MM if best_piece > 0 else best):
+                    break
                 if w >= 0 and floors_of[w] <= cheap:
-                    if not floors_of[w] < best:
-                        break
                     v = pending[w]
                     waiting -= 1
                     pending[w], floors_of[w] = pending[waiting], floors_of[waiting]
-                elif not cheap < best:
-                    break
+                    if not bounds[v] < tie_limit(best, run_start[kept[v]], best_piece):
+                        continue
                 else:
                     v = rank[u]
                     u += 1
                     slot = kept[v]
+                    limit = tie_limit(best, run_start[slot], best_piece)
+                    if not bounds[v] < limit:
+                        continue
                     if run_stop[slot] - run_start[slot] > 1:
                         met += 1
                         floor = _floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                        run_height[slot], core_radius,
                                        corner_radius + run_dilation[slot], bounds[v], tops[v],
-                                       best)
-                        if floor < best:
+                                       limit)
+                        if floor < limit:
                             bounds[v] = floor
                             pending[waiting], floors_of[waiting] = v, floor
                             waiting += 1
@@ -205,23 +220,24 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 while depth > 0:
                     depth -= 1
                     i, j = lows[depth], highs[depth]
-                    if not floors[depth] < best:
+                    limit = tie_limit(best, i, best_piece)
+                    if not floors[depth] < limit:
                         continue
                     if j - i == 1:
                         if not is_candidate(i, mid, cx, cy, cz, lim2):
                             continue
                         met += 1
                         if not enters_before(i, mid, half, p[0], p[1], p[2], d[0], d[1],
-                                             d[2], outer, best):
+                                             d[2], outer, limit):
                             continue
                         lo, _ = sweep_bound(p, d, a[i], e[i], axis[i], height[i],
                                             core_radius, corner_radius)
-                        if not lo < best:
+                        if not lo < limit:
                             continue
                         value, back = _value(p, d, a[i], e[i], axis[i], height[i],
                                              core_radius, corner_radius, behind_cosine)
-                        if value < best:
-                            best, best_piece, best_behind = value, i, back
+                        if ranks_before(value, i, best, best_piece):
+                            best, best_piece, found, best_behind = value, i, i, back
                         continue
                     # the two halves, the one entered lower on top of the stack
                     h = (i + j) // 2
@@ -235,16 +251,17 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                             lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
                                                  core_radius, corner_radius + grow)
                             entry = _floor(p, d, a[lo_i], chord, axis[ref], height[ref],
-                                           core_radius, corner_radius + grow, lo, hi, best)
+                                           core_radius, corner_radius + grow, lo, hi,
+                                           tie_limit(best, lo_i, best_piece))
                         halves[side] = entry
                     for side in (1, 0) if halves[0] <= halves[1] else (0, 1):
-                        if halves[side] < best:
+                        if halves[side] < tie_limit(best, i if side == 0 else h, best_piece):
                             lows[depth] = i if side == 0 else h
                             highs[depth] = h if side == 0 else j
                             floors[depth] = halves[side]
                             depth += 1
             lam[q] = best
-            piece[q] = best_piece
+            piece[q] = found
             behind[q] = best_behind
             pairs[q] = met
 
@@ -255,9 +272,13 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
                          e: FloatArray, axis: FloatArray, height_mm: FloatArray, *,
                          core_radius_mm: float, corner_radius_mm: float,
                          behind_cosine: float,
-                         below_mm: FloatArray | None = None
+                         below_mm: FloatArray | None = None,
+                         below_piece: IntArray | None = None
                          ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
     """Per dexel the lowest value among flat/bull-nose pieces within ``reach_mm``.
+
+    Of equal values the piece of smallest index
+    (:func:`~verification.capsule_search.ranks_before`).
 
     Parameters
     ----------
@@ -284,6 +305,9 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
         ``a . d`` below which a piece comes from behind.
     below_mm : ndarray, shape (q,), optional
         Seek only values below these, mm (default: all).
+    below_piece : ndarray of int64, shape (q,), optional
+        The pieces of ``below_mm`` (``-1``: none): an equal value of a piece before it
+        is sought too.
 
     Returns
     -------
@@ -300,10 +324,12 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     q = points.shape[0]
     lam = np.full(q, np.inf) if below_mm is None else np.array(below_mm, dtype=float)
     piece = np.full(q, -1, dtype=np.int64)
+    if below_mm is not None and below_piece is not None:
+        piece[:] = below_piece
     behind = np.zeros(q, dtype=np.bool_)
     pairs = np.zeros(q, dtype=np.int64)
     if q == 0 or grid.n_pieces == 0:
-        return np.full(q, np.inf), piece, behind, 0
+        return np.full(q, np.inf), np.full(q, -1, dtype=np.int64), behind, 0
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time

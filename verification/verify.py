@@ -99,7 +99,9 @@ def _gouging_blocks(motion: ToolMotion, dev: FloatArray, move: NDArray[np.int64]
     first = np.flatnonzero(np.r_[True, mv[1:] != mv[:-1]])
     areas = np.add.reduceat(area.ravel()[g], first)
     deepest = g[first]  # sorted by deviation within each move: the first is the deepest
-    rank = np.argsort(d[deepest])[:_MAX_GOUGING_BLOCKS]
+    # deepest first; of equally deep blocks the earlier first (the tie rule of
+    # verification.dexels: ``first`` is in block order, a stable sort keeps it)
+    rank = np.argsort(d[deepest], kind="stable")[:_MAX_GOUGING_BLOCKS]
     pts = points.reshape(-1, 3)
     return tuple(
         BlockGouge(block_index=int(motion.block_index[mv[first[r]]]),

@@ -135,3 +135,37 @@ def convex_dome_model():
     dome = SpherePatch(radius_mm=DOME_MM, longitude_deg=(-40.0, 40.0),
                        colatitude_deg=(30.0, 70.0))
     return dome, ev, fine
+
+
+def tilted_raster(machine: Machine, cutter, y_levels, x0: float, x1: float, *,
+                  blocks_per_pass: int, tilt_deg: float = 15.0, depth_mm: float = 0.05
+                  ) -> Program:
+    """5-axis zigzag passes along X over the plane z = 0, ``depth_mm`` into it, axis leaned.
+
+    Each pass runs at one Y level in ``blocks_per_pass`` equal blocks with the tool axis
+    leaned ``tilt_deg`` in the YZ plane (the same axis throughout: every block of a pass
+    cuts the plane as deep as the others, a tie-heavy program); joints from the machine's
+    inverse kinematics, links lifted 5 mm.
+    """
+    th = math.radians(tilt_deg)
+    axis = np.array([0.0, math.sin(th), math.cos(th)])
+    blocks: list = []
+    for k, y in enumerate(y_levels):
+        x = np.linspace(x0, x1, blocks_per_pass + 1)
+        if k % 2:
+            x = x[::-1]
+        n = x.shape[0]
+        contacts = np.column_stack([x, np.full(n, float(y)), np.full(n, -depth_mm)])
+        axes = np.tile(axis, (n, 1))
+        tips = cutter.tips_from_contacts(contacts, np.tile([0.0, 0.0, 1.0], (n, 1)), axes)
+        words = program_values(machine, inverse(machine, tips, axes))
+        lifted = program_values(machine, inverse(machine, tips[[0, -1]] + 5.0 * axes[[0, -1]],
+                                                 axes[[0, -1]]))
+
+        def block(row, cls, **kw):
+            return cls(**{NAMES[i]: float(round(row[i], 4)) for i in range(6)
+                          if not np.isnan(row[i])}, **kw)
+
+        blocks += [block(lifted[0], Rapid), *(block(r, Linear, feed=800.0) for r in words),
+                   block(lifted[1], Rapid)]
+    return Program(tuple(blocks))

@@ -1,0 +1,119 @@
+"""One tie rule: of equal values on a dexel, the piece first in program order gives the block.
+
+Programs where many pieces leave exactly the same material on a dexel (a raster cut 0.05 mm
+into a floor by a flat end mill, a bull-nose or a ball; passes split into many blocks; a
+5-axis raster with a leaned axis) are verified with every search: the compiled walks, the
+pair search (the reference), other grids, other levels of the iterative deepening, the fine
+model built for each ask rather than shared. Every one must trace each dexel to the same
+block as the pair search, and so give the same gouging blocks with the same areas and the
+extremes at the same blocks.
+"""
+
+import numpy as np
+import pytest
+from verify_programs import tilted_raster
+
+import verification.verify as verify_module
+from gcode import Linear, Program, Rapid
+from machines import load_machine
+from toolpath.planning.analytic import PlaneSurface
+from toolpath.planning.cutters import parse_cutter
+from verification import VerifyOptions, verify_program
+from verification.dexels import SweepIndex
+from verification.fine_model import FineModel
+
+DEPTH_MM = 0.05
+
+
+def _split_raster(y_levels, x0, x1, *, blocks_per_pass, depth_mm=DEPTH_MM):
+    """A 3-axis zigzag ``depth_mm`` into the plane z = 0, each pass in equal blocks."""
+    blocks = [Rapid(z=5.0), Rapid(x=x0, y=float(y_levels[0])), Linear(z=-depth_mm, feed=300.0)]
+    for k, y in enumerate(y_levels):
+        x = np.linspace(x0, x1, blocks_per_pass + 1)
+        if k % 2:
+            x = x[::-1]
+        blocks.append(Linear(x=float(x[0]), y=float(y), feed=800.0))
+        blocks += [Linear(x=float(v), feed=800.0) for v in x[1:]]
+    blocks.append(Rapid(z=5.0))
+    return Program(tuple(blocks))
+
+
+def _index_with(m, *, cell_scale=1.0, **changes):
+    """``verify_module.SweepIndex`` replaced by one built with ``changes``, its grid's base
+    cell times ``cell_scale``."""
+
+    def build(*args, base_cell_mm, **kw):
+        return SweepIndex(*args, base_cell_mm=base_cell_mm * cell_scale, **kw, **changes)
+
+    m.setattr(verify_module, "SweepIndex", build)
+
+
+def _fine_model_per_ask(m):
+    """The fine model built for each ask alone, not one index shared by the asks."""
+    shared = FineModel.around_each
+    m.setattr(FineModel, "around_each",
+              lambda self, asks: [shared(self, [ask])[0] for ask in asks])
+
+
+def _every_search(monkeypatch, program, surface, machine, cutter, options):
+    """The report of each search: the pair search first (the reference)."""
+    other_levels = VerifyOptions(**{**options.__dict__, "first_level_mm": 0.003})
+    variants = {
+        "pair search": (lambda m: _index_with(m, compiled=False), options),
+        "compiled walk": (lambda m: None, options),
+        "coarser grid": (lambda m: _index_with(m, cell_scale=4.0), options),
+        "finer grid": (lambda m: _index_with(m, cell_scale=0.5), options),
+        "other levels": (lambda m: None, other_levels),
+        "fine model per ask": (_fine_model_per_ask, options),
+    }
+    runs = {}
+    for name, (setup, opts) in variants.items():
+        with monkeypatch.context() as m:
+            setup(m)
+            runs[name] = verify_program(program, surface, machine, cutter, options=opts)
+    return runs
+
+
+def _assert_same_blocks(runs):
+    ref = runs["pair search"]
+    assert ref.max_gouge is not None  # the floor is gouged: a tie-heavy program
+    for name, rep in runs.items():
+        a, b = rep.deviation_map, ref.deviation_map
+        np.testing.assert_allclose(a.deviation_mm, b.deviation_mm, rtol=0.0, atol=1e-9,
+                                   err_msg=name)
+        differ = int((a.block_index != b.block_index).sum())
+        assert differ == 0, f"{name}: {differ} dexels traced to another block"
+        assert ([(g.block_index, g.area_mm2, g.depth_mm) for g in rep.gouging_blocks]
+                == [(g.block_index, g.area_mm2, g.depth_mm) for g in ref.gouging_blocks]), name
+        # deepest first, of equally deep blocks the earlier first
+        keys = [(-g.depth_mm, g.block_index) for g in rep.gouging_blocks]
+        assert keys == sorted(keys), name
+        for f, e in ((rep.max_gouge, ref.max_gouge), (rep.max_scallop, ref.max_scallop)):
+            assert (f is None) == (e is None), name
+            if f is not None:
+                assert (f.block_index, f.shank) == (e.block_index, e.shank), name
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1", "ball:6"])
+def test_a_raster_into_a_floor_gives_every_search_the_same_blocks(monkeypatch, router, spec):
+    # passes 4 mm apart, each in 6 blocks, the last one run again (a spring pass): a flat
+    # bottom overlaps the next pass's, consecutive blocks of a pass share their ends
+    program = _split_raster(np.r_[np.arange(4) * 4.0, 12.0], -6.0, 14.0, blocks_per_pass=6)
+    plane = PlaneSurface((0.0, -1.0, 0.0), (8.0, 0.0, 0.0), (0.0, 12.0, 0.0))
+    runs = _every_search(monkeypatch, program, plane, router, parse_cutter(spec),
+                         VerifyOptions(spacing_mm=0.1, refine=4))
+    _assert_same_blocks(runs)
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1", "ball:6"])
+def test_a_five_axis_raster_into_a_floor_gives_every_search_the_same_blocks(monkeypatch,
+                                                                          spec):
+    machine = load_machine("trunnion-ac")
+    cutter = parse_cutter(spec)
+    # the last pass run again (a spring pass)
+    program = tilted_raster(machine, cutter, np.r_[np.arange(3) * 3.0, 6.0], -4.0, 12.0,
+                            blocks_per_pass=8, depth_mm=DEPTH_MM)
+    plane = PlaneSurface((0.0, -1.0, 0.0), (8.0, 0.0, 0.0), (0.0, 8.0, 0.0))
+    runs = _every_search(monkeypatch, program, plane, machine, cutter,
+                         VerifyOptions(spacing_mm=0.15, refine=4))
+    _assert_same_blocks(runs)
