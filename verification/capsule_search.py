@@ -28,11 +28,10 @@ epsilon it would not be: "within e of the least" depends on the least, so two pa
 results cannot be merged without every near-tie they set aside, and a chain of values each
 within e of the next has no first. Values that differ only by rounding (1e-15 mm) are not
 tied: the lower keeps the dexel, in every search alike, and the depth reported is the
-least value whichever piece is named. A bound may stand a rounding above the value it
-bounds (a run's floor is a Newton entry within ``CONVERGED_MM`` of the true one), so a
-set of pieces that may hold a tied piece of smaller index is dropped only when its bound
-exceeds the best by :data:`TIE_SLACK_MM` (:func:`tie_limit`): only near-ties are measured
-more.
+least value whichever piece is named. A bound may equal the value it bounds, or stand a
+rounding above it (see :data:`TIE_SLACK_MM`), so a set of pieces that may hold a tied
+piece of smaller index is dropped only when its bound exceeds the best by
+:data:`TIE_SLACK_MM` (:func:`tie_limit`): only near-ties are measured more.
 
 The small tests several compiled loops share (:func:`is_candidate`, :func:`centre_cell`,
 :func:`enters_before`, :func:`pair_value`, :func:`ranks_before`, :func:`tie_limit`)
@@ -76,9 +75,18 @@ WALK_GROUP = 4
 #: widest member's radius (a row's end, a far or non-finite centre: each on its own).
 GROUP_REACH = 2.0
 #: How far above the best value a lower bound may stand and still hold a piece tied with
-#: the best (bounds and values round apart; a floor's Newton entry stops within 1e-7 mm
-#: of the true one, :data:`~verification.torus.CONVERGED_MM`), mm: a set of pieces that
-#: may hold a tied piece of smaller index is measured unless its bound is farther above.
+#: the best, mm: a set of pieces that may hold a tied piece of smaller index is measured
+#: unless its bound is farther above. It covers bounds that are exact, not loose: (i) a
+#: bound equal to the value it bounds, met by a strict ``<`` test (a flat bottom's lower
+#: limit ``zlo`` in :func:`~verification.torus.sweep_bound`, in the sweep walk and the
+#: pair search's ``_cutters``); (ii) :func:`capsule_entry_bound` one rounding
+#: step above the capsule's entry (measured: 10,175 of 100,000 vertical dexels on a pass
+#: line past a piece's end, by at most 4.4e-16 mm). It does NOT cover the Newton floors
+#: of runs and halves: a Newton entry stops at ``|F| <= 1e-7`` (a distance), so along a
+#: dexel it may stand ~1e-7/slope off (2.2e-6 mm measured on a bull dexel), more than
+#: this slack; those floors stay sound by the
+#: :data:`~verification.piece_runs.ENTRY_MARGIN_MM` carried in their dilation (and the
+#: span reference's), which must not be removed on the strength of this slack.
 TIE_SLACK_MM = 1e-6
 
 

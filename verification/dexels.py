@@ -485,7 +485,8 @@ class SweepIndex:
                                      pieces.axis[piece], pieces.height_mm[piece],
                                      core_radius_mm=self.radius_mm - self._corner,
                                      corner_radius_mm=self._corner)
-        # a bound may round above a tied value: pairs within the tie slack are measured
+        # a bound may equal a tied value (a flat bottom's zlo): pairs within the tie slack
+        # are measured (TIE_SLACK_MM says what it covers)
         todo = np.flatnonzero(bound < out.lam_mm[qi] + TIE_SLACK_MM)
         if todo.shape[0] == 0:
             return
