@@ -8,7 +8,7 @@ pieces and as the oracle of the tests), without storing a pair: for each dexel t
 dexel: the same candidates for a fraction of the walking), every piece whose midpoint lies
 within the search radius is met with
 :func:`~verification.capsule.capsule_interval`, and only the lowest value is kept (of
-equal ones the first in program order: :func:`ranks_before`). Memory is the output; the cost is the
+equal ones the smallest piece index: :func:`ranks_before`). Memory is the output; the cost is the
 candidate pairs at a few nanoseconds each, spread over the cores.
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the capsule
@@ -17,8 +17,9 @@ behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing (:func:`pair
 
 **The tie rule** (every search's, :func:`ranks_before`): of pieces leaving exactly the
 same value on a dexel (bit-equal; a flat bottom on a floor, passes overlapping on a plane)
-the one of smallest piece index, the first in program order (the near search's pieces are
-in path order; the collision search's are those, then the shank's), gives the dexel its
+the one of smallest piece index (the near search's pieces are in path order; the
+collision search's are the ball pieces in path order, then the shank pieces, so an equal
+shank piece of an earlier block loses to a later block's ball piece), gives the dexel its
 piece, hence its block. Equal means bit-equal: every search measures a (dexel, piece) pair
 with the same compiled kernel (the numpy paths call it row by row), so a pair's value is
 the same bits in every search, and the order ``(value, piece)`` is a total order, whose
@@ -384,7 +385,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
                 slot = first if c < 0 else buf[c]
                 if slot < 0 or (c >= 0 and slot == first):
                     continue
-                # of equal values the first in program order (ranks_before); the usual
+                # of equal values the smallest piece index (ranks_before); the usual
                 # drop (a bound beyond any tie) tested first, without the piece's index
                 bound = capsule_entry_bound(slot, mid, half, e, px, py, pz, dx, dy, dz,
                                             radius)

@@ -46,8 +46,9 @@ Candidates come from :class:`~verification.grid.PieceGrid`; pairs are processed 
 batches of at most ``max_pairs``, so memory is bounded whatever the program's length.
 
 **Ties.** Where several pieces leave exactly the same value (a flat bottom on a floor,
-passes overlapping on a plane), the dexel goes to the piece of smallest index, the first
-in program order, in every search and in every merge of two searches' results
+passes overlapping on a plane), the dexel goes to the piece of smallest index (ball
+pieces in path order, then shank pieces: an equal shank piece of an earlier block loses
+to a later block's ball piece), in every search and in every merge of two searches' results
 (:meth:`DexelResult.merged`, :func:`~verification.search.scatter`): the order
 ``(value, piece)`` of :func:`~verification.capsule_search.ranks_before`, where the reasons
 for bit-equality are. A result carries its pieces for that, numbered as the collision

@@ -32,7 +32,7 @@ The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when th
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
 behind (``a . d < BEHIND_COSINE`` and ``lam_in < 0``), else nothing
 (:func:`~verification.capsule_search.pair_value`). Of equal values the piece of smallest
-index, the first in program order (the tie rule of
+index, ball pieces in path order, then shank pieces (the tie rule of
 :mod:`verification.capsule_search`, :func:`~verification.capsule_search.ranks_before`):
 a run, half or piece is dropped when its bound is not below the best, or, when it holds a
 piece before the best one, not below :func:`~verification.capsule_search.tie_limit`.
