@@ -49,7 +49,13 @@ class Extreme:
 
 def _local_extremes(dev: FloatArray, eligible: NDArray[np.bool_], largest: bool, limit: float,
                     k: int) -> NDArray[np.int64]:
-    """Flat indices of up to ``k`` local extremes among eligible samples, most extreme first."""
+    """Flat indices of up to ``k`` local extremes among eligible samples, most extreme first.
+
+    Of equally extreme samples the earliest (smallest flat index) are kept and put first:
+    on a floor cut flat every value is equal, and the refinement's first start gives the
+    extreme its block, so the choice must not depend on how a partition or an unstable
+    sort happens to order ties.
+    """
     sign = 1.0 if largest else -1.0
     val = np.where(eligible & np.isfinite(dev), sign * dev, -np.inf)
     pad = np.pad(val, 1, constant_values=-np.inf)
@@ -61,9 +67,15 @@ def _local_extremes(dev: FloatArray, eligible: NDArray[np.bool_], largest: bool,
                 continue
             np.maximum(top, pad[di:di + n_t, dj:dj + n_s], out=top)
     cand = np.flatnonzero(((val >= top) & np.isfinite(val) & (val > sign * limit)).ravel())
+    key = -val.ravel()[cand]  # cand is increasing: index order among ties
     if cand.shape[0] > k:
-        cand = cand[np.argpartition(-val.ravel()[cand], k - 1)[:k]]
-    return cand[np.argsort(-val.ravel()[cand])]
+        # the k-th key; every key below it, then the earliest of those equal to it
+        kth = np.partition(key, k - 1)[k - 1]
+        keep = key < kth
+        at = np.flatnonzero(key == kth)[:k - int(np.count_nonzero(keep))]
+        keep[at] = True
+        cand, key = cand[keep], key[keep]
+    return cand[np.argsort(key, kind="stable")]
 
 
 def _grid_steps(samples: DesignSamples) -> tuple[float, float]:

@@ -20,6 +20,7 @@ from toolpath.planning.analytic import PlaneSurface
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
 from verification.dexels import SweepIndex
+from verification.extremes import _local_extremes
 from verification.fine_model import FineModel
 
 DEPTH_MM = 0.05
@@ -117,3 +118,25 @@ def test_a_five_axis_raster_into_a_floor_gives_every_search_the_same_blocks(monk
     runs = _every_search(monkeypatch, program, plane, machine, cutter,
                          VerifyOptions(spacing_mm=0.15, refine=4))
     _assert_same_blocks(runs)
+
+
+def test_equally_deep_samples_refine_from_the_earliest():
+    # every sample of a floor is equally deep: the starts are the first k in index order
+    dev = np.full((99, 99), -0.05)
+    dev[0, 5] = -0.06  # one deeper, first; then the earliest of the rest
+    starts = _local_extremes(dev, np.ones(dev.shape, bool), False, 0.0, 4)
+    assert starts.tolist() == [5, 0, 1, 2]
+    assert _local_extremes(np.full((99, 99), 0.02), np.ones((99, 99), bool), True, 0.0,
+                           4).tolist() == [0, 1, 2, 3]
+
+
+def test_the_deepest_gouge_of_a_floor_is_at_the_earliest_gouging_block(router):
+    # a flat raster 0.05 mm into a floor: every sample equally deep, so the deepest gouge
+    # is the earliest of the tied blocks (the first listed: equally deep in block order)
+    program = _split_raster(np.r_[np.arange(4) * 4.0, 12.0], -6.0, 14.0, blocks_per_pass=6)
+    plane = PlaneSurface((0.0, -1.0, 0.0), (8.0, 0.0, 0.0), (0.0, 12.0, 0.0))
+    rep = verify_program(program, plane, router, parse_cutter("flat:6"),
+                         options=VerifyOptions(spacing_mm=0.1, refine=4))
+    depths = {g.depth_mm for g in rep.gouging_blocks}
+    assert len(depths) == 1  # tied
+    assert rep.max_gouge.block_index == rep.gouging_blocks[0].block_index == 4
