@@ -19,9 +19,10 @@ from machines import load_machine
 from toolpath.planning.analytic import PlaneSurface
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
-from verification.dexels import SweepIndex
+from verification.dexels import DexelResult, SweepIndex, ranks_before_rows
 from verification.extremes import _local_extremes
 from verification.fine_model import FineModel
+from verification.search import scatter
 
 DEPTH_MM = 0.05
 
@@ -140,3 +141,25 @@ def test_the_deepest_gouge_of_a_floor_is_at_the_earliest_gouging_block(router):
     depths = {g.depth_mm for g in rep.gouging_blocks}
     assert len(depths) == 1  # tied
     assert rep.max_gouge.block_index == rep.gouging_blocks[0].block_index == 4
+
+
+def _rows(lam_mm, move, piece):
+    n = len(lam_mm)
+    return DexelResult(np.array(lam_mm, float), np.array(move), np.zeros(n, bool),
+                       np.zeros(n, bool), 0, np.array(piece))
+
+
+def test_merges_of_rows_follow_the_tie_rule():
+    # equal values: piece 3 before piece 5 (either side); an unknown piece (-1) wins no
+    # tie and loses none it holds; a lower value always wins
+    best = _rows([1.0, 1.0, 1.0, 1.0, 1.0], [10] * 5, [5, 3, -1, 5, 5])
+    new = _rows([1.0, 1.0, 1.0, 0.5, 1.0], [20] * 5, [3, 5, 3, -1, -1])
+    first = [True, False, False, True, False]
+    assert ranks_before_rows(new.lam_mm, new.piece, best.lam_mm, best.piece).tolist() == first
+    merged = best.merged(new)
+    assert merged.move.tolist() == [20, 10, 10, 20, 10]
+    assert merged.piece.tolist() == [3, 3, -1, -1, 5]
+    out = _rows([9.0, 1.0, 1.0, 1.0, 1.0, 1.0], [0] + [10] * 5, [0, 5, 3, -1, 5, 5])
+    scatter(out, np.arange(1, 6), new, merge=True)
+    assert out.move.tolist() == [0, 20, 10, 10, 20, 10]
+    assert out.piece.tolist() == [0, 3, 3, -1, -1, 5]
