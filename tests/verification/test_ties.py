@@ -163,3 +163,43 @@ def test_merges_of_rows_follow_the_tie_rule():
     scatter(out, np.arange(1, 6), new, merge=True)
     assert out.move.tolist() == [0, 20, 10, 10, 20, 10]
     assert out.piece.tolist() == [0, 3, 3, -1, -1, 5]
+
+
+def _searches_of(monkeypatch, program, surface, machine, cutter, options):
+    """The :class:`~verification.search.Dexels` and samples ``verify_program`` searched."""
+    seen = {}
+    grid_search = verify_module.grid_search
+
+    def spy(ev, samples, stride):
+        seen.update(ev=ev, samples=samples)
+        return grid_search(ev, samples, stride)
+
+    with monkeypatch.context() as m:
+        m.setattr(verify_module, "grid_search", spy)
+        verify_program(program, surface, machine, cutter, options=options)
+    return seen["ev"], seen["samples"]
+
+
+def test_the_collision_search_below_a_piece_finds_an_equal_earlier_piece(monkeypatch,
+                                                                        router):
+    # a ball raster 0.05 mm into a floor, its last pass run again: the near search's piece
+    # on each dexel; the collision search below (value, a later piece) finds that piece
+    # again (equal, earlier), below (value, that piece) nothing
+    program = _split_raster(np.r_[np.arange(4) * 4.0, 12.0], -6.0, 14.0, blocks_per_pass=6)
+    plane = PlaneSurface((0.0, -1.0, 0.0), (8.0, 0.0, 0.0), (0.0, 12.0, 0.0))
+    ev, samples = _searches_of(monkeypatch, program, plane, router, parse_cutter("ball:6"),
+                               VerifyOptions(spacing_mm=0.4, refine=0))
+    pts, nrm = samples.points.reshape(-1, 3), samples.normals.reshape(-1, 3)
+    conv = samples.convexity_per_mm.ravel()
+    near = ev.search(pts, nrm, conv)
+    hit = np.isfinite(near.lam_mm)
+    assert hit.mean() > 0.5 and (near.piece[hit] >= 0).all()
+    later = np.where(hit, near.piece + 1, -1)
+    far = ev.search(pts, nrm, conv, near=False, far=True, below_mm=near.lam_mm,
+                    below_piece=later)
+    np.testing.assert_array_equal(far.lam_mm[hit], near.lam_mm[hit])
+    np.testing.assert_array_equal(far.piece[hit], near.piece[hit])
+    np.testing.assert_array_equal(far.move[hit], near.move[hit])
+    same = ev.search(pts, nrm, conv, near=False, far=True, below_mm=near.lam_mm,
+                     below_piece=near.piece)
+    assert not np.isfinite(same.lam_mm[hit]).any()
