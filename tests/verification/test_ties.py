@@ -22,6 +22,7 @@ from verification import VerifyOptions, verify_program
 from verification.dexels import DexelResult, SweepIndex, ranks_before_rows
 from verification.extremes import _local_extremes
 from verification.fine_model import FineModel
+from verification.pieces import Pieces
 from verification.search import scatter
 
 DEPTH_MM = 0.05
@@ -203,3 +204,41 @@ def test_the_collision_search_below_a_piece_finds_an_equal_earlier_piece(monkeyp
     same = ev.search(pts, nrm, conv, near=False, far=True, below_mm=near.lam_mm,
                      below_piece=near.piece)
     assert not np.isfinite(same.lam_mm[hit]).any()
+
+
+def _pass_line(spans_x, z_mm):
+    """Ball pieces along the line y = 0 at height ``z_mm``, one per ``(x0, x1)``, in order."""
+    a = np.array([[x0, 0.0, z_mm] for x0, _ in spans_x])
+    e = np.array([[x1 - x0, 0.0, 0.0] for x0, x1 in spans_x])
+    ee = np.einsum("ij,ij->i", e, e)
+    n = a.shape[0]
+    arc0 = np.r_[0.0, np.cumsum(np.sqrt(ee))[:-1]]
+    arc1 = arc0 + np.sqrt(ee)
+    ball = Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(n), np.zeros(n, bool),
+                  np.tile([0.0, 0.0, 1.0], (n, 1)), arc0, arc1, np.r_[arc0, arc1[-1]],
+                  np.r_[np.arange(n), n - 1], np.full(n, 10.0))
+    return ball, ball.taken(np.zeros(n, bool))
+
+
+def test_the_capsule_walk_finds_an_earlier_piece_whose_bound_rounds_above_its_value():
+    # a ball pass (x -5 -> -2 -> 1) and a spring pass split elsewhere (-5 -> 0 -> 1): past
+    # x = 1 pieces 1 and 3 leave bit-equal values on many vertical dexels (their end
+    # spheres are one), piece 1's bound a rounding above it on some; the walk meets piece
+    # 3 first (seeded by a dexel it wins, or nearer the dexel), and must still measure 1
+    radius = 3.0
+    ball, shank = _pass_line([(-5.0, -2.0), (-2.0, 1.0), (-5.0, 0.0), (0.0, 1.0)],
+                             radius - DEPTH_MM)
+    q = 2000
+    x = 1.0 + np.random.default_rng(0).uniform(0.0, 0.05, q)
+    points = np.c_[x, np.zeros(q), np.zeros(q)]
+    dirs = np.tile([0.0, 0.0, 1.0], (q, 1))
+    found = {}
+    for compiled in (False, True):
+        index = SweepIndex(ball, shank, radius, np.full(3, -10.0), np.full(3, 10.0),
+                           base_cell_mm=1.0, reach_limit_mm=20.0, compiled=compiled)
+        found[compiled] = index.search("near", points, dirs, points + radius * dirs,
+                                       np.full(q, 2.0))
+    tied = found[False].piece == 1
+    assert tied.sum() > q // 2  # ties (or piece 1 lower): the pair search names piece 1
+    np.testing.assert_array_equal(found[True].lam_mm, found[False].lam_mm)
+    np.testing.assert_array_equal(found[True].piece, found[False].piece)
