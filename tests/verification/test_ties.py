@@ -22,8 +22,9 @@ from verification import VerifyOptions, verify_program
 from verification.dexels import DexelResult, SweepIndex, ranks_before_rows
 from verification.extremes import _local_extremes
 from verification.fine_model import FineModel
+from verification.options import DexelMethod
 from verification.pieces import Pieces
-from verification.search import scatter
+from verification.search import Dexels, scatter
 
 DEPTH_MM = 0.05
 
@@ -216,7 +217,7 @@ def _pass_line(spans_x, z_mm):
     arc1 = arc0 + np.sqrt(ee)
     ball = Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(n), np.zeros(n, bool),
                   np.tile([0.0, 0.0, 1.0], (n, 1)), arc0, arc1, np.r_[arc0, arc1[-1]],
-                  np.r_[np.arange(n), n - 1], np.full(n, 10.0))
+                  np.r_[np.arange(n), n - 1], np.zeros(n))
     return ball, ball.taken(np.zeros(n, bool))
 
 
@@ -242,3 +243,22 @@ def test_the_capsule_walk_finds_an_earlier_piece_whose_bound_rounds_above_its_va
     assert tied.sum() > q // 2  # ties (or piece 1 lower): the pair search names piece 1
     np.testing.assert_array_equal(found[True].lam_mm, found[False].lam_mm)
     np.testing.assert_array_equal(found[True].piece, found[False].piece)
+
+
+def test_a_wider_level_finds_an_equal_earlier_piece_the_first_one_missed():
+    # two ball pieces ending at (1, 0, 3.25): piece 0 long (from x = -7), piece 1 short
+    # (from x = 0.5); a vertical dexel at x = 2 meets both on their common end sphere,
+    # bit-equal (3.25 - sqrt(8): every sum exact). The first level's ball holds only the
+    # short piece's midpoint, the second both: the levels' merge must give piece 0
+    radius = 3.0
+    ball, shank = _pass_line([(-7.0, 1.0), (0.5, 1.0)], radius + 0.25)
+    index = SweepIndex(ball, shank, radius, np.full(3, -10.0), np.full(3, 10.0),
+                       base_cell_mm=1.0, reach_limit_mm=20.0)
+    ev = Dexels(index, radius, (0.01, 0.5), 0.1, DexelMethod.NORMAL)
+    point, normal = np.array([[2.0, 0.0, 0.0]]), np.array([[0.0, 0.0, 1.0]])
+    first = index.search("near", point, normal, point + radius * normal,
+                         ev.near_radius_mm(0.01, 0.1, np.zeros(1)))
+    assert first.piece.tolist() == [1]  # only the short piece in the first level
+    res = ev.search(point, normal, np.zeros(1))
+    assert res.lam_mm[0] == first.lam_mm[0] == 3.25 - np.sqrt(8.0)
+    assert res.piece.tolist() == [0]
