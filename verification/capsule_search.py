@@ -52,7 +52,7 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
-__all__ = ["TIE_SLACK_MM", "candidate_slots", "column_slots", "group_ball",
+__all__ = ["ROUNDING_SLACK_MM", "TIE_SLACK_MM", "candidate_slots", "column_slots", "group_ball",
            "lowest_capsule_entries", "own_slots", "pair_values", "walk_shape"]
 
 FloatArray = NDArray[np.float64]
@@ -90,6 +90,13 @@ GROUP_REACH = 2.0
 #: span reference's), which must not be removed on the strength of this slack.
 TIE_SLACK_MM = 1e-6
 
+#: How far above the best value a bound may stand from rounding alone, mm: a set of pieces
+#: of any index whose bound is not this far above is measured, so a value below the best
+#: by a few rounding steps (4.4e-16 mm measured, two pass pieces ending at one point)
+#: keeps the dexel in every search alike, as the pair search, which measures all, finds
+#: it; a few units in the last place of coordinates up to a few metres.
+ROUNDING_SLACK_MM = 1e-11
+
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def ranks_before(value: float, piece: int, best: float, best_piece: int) -> bool:
@@ -106,13 +113,14 @@ def ranks_before(value: float, piece: int, best: float, best_piece: int) -> bool
 def tie_limit(best: float, lowest_piece: int, best_piece: int) -> float:
     """A set of pieces whose bound is not below this holds none that ranks before the best.
 
-    ``best`` itself when its smallest piece index ``lowest_piece`` cannot win a tie (not
-    below ``best_piece``), else ``best`` plus :data:`TIE_SLACK_MM` (a bound rounded above
-    a tied value must not drop it).
+    ``best`` plus :data:`TIE_SLACK_MM` when its smallest piece index ``lowest_piece`` may
+    win a tie (below ``best_piece``: a bound rounded above a tied value must not drop
+    it), else plus :data:`ROUNDING_SLACK_MM` (a bound rounded above a value lower by
+    rounding must not drop it either).
     """
     if 0 <= lowest_piece < best_piece:
         return best + TIE_SLACK_MM
-    return best
+    return best + ROUNDING_SLACK_MM
 
 
 @numba.njit(cache=True)
@@ -389,7 +397,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
                 # drop (a bound beyond any tie) tested first, without the piece's index
                 bound = capsule_entry_bound(slot, mid, half, e, px, py, pz, dx, dy, dz,
                                             radius)
-                if bound > best and (bound >= best + TIE_SLACK_MM or not bound < tie_limit(
+                if bound >= best + ROUNDING_SLACK_MM and (
+                        bound >= best + TIE_SLACK_MM or not bound < tie_limit(
                         best, order[slot], best_piece)):
                     continue
                 index = order[slot]

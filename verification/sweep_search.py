@@ -47,6 +47,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from .capsule_search import (
+    ROUNDING_SLACK_MM,
     TIE_SLACK_MM,
     WALK_BLOCK,
     candidate_slots,
@@ -188,7 +189,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 cheap = bounds[rank[u]] if u < m else math.inf
                 # no bound below this, none below any run's tie limit: done
                 if not min(cheap, floors_of[w] if w >= 0 else math.inf) < (
-                        best + TIE_SLACK_MM if best_piece > 0 else best):
+                        best + (TIE_SLACK_MM if best_piece > 0 else ROUNDING_SLACK_MM)):
                     break
                 if w >= 0 and floors_of[w] <= cheap:
                     v = pending[w]

@@ -221,15 +221,22 @@ def _pass_line(spans_x, z_mm):
     return ball, ball.taken(np.zeros(n, bool))
 
 
-def test_the_capsule_walk_finds_an_earlier_piece_whose_bound_rounds_above_its_value():
-    # a ball pass (x -5 -> -2 -> 1) and a spring pass split elsewhere (-5 -> 0 -> 1): past
-    # x = 1 pieces 1 and 3 leave bit-equal values on many vertical dexels (their end
-    # spheres are one), piece 1's bound a rounding above it on some; the walk meets piece
-    # 3 first (seeded by a dexel it wins, or nearer the dexel), and must still measure 1
+@pytest.mark.parametrize("spans_x, lower_by_rounding", [
+    # the walk meets the later piece 3 first and must still measure piece 1, bit-equal
+    ([(-5.0, -2.0), (-2.0, 1.0), (-5.0, 0.0), (0.0, 1.0)], False),
+    # splits swapped: on a few dexels piece 3 is a rounding step (4e-16 mm) lower than
+    # piece 1, whose value the walk meets first (seeded by the previous dexel) and whose
+    # bound for piece 3 rounds above that value: piece 3 must still be measured
+    ([(-5.0, 0.0), (0.0, 1.0), (-5.0, -2.0), (-2.0, 1.0)], True),
+])
+def test_the_capsule_walk_finds_a_piece_whose_bound_rounds_above_its_value(
+        spans_x, lower_by_rounding):
+    # a ball pass and a spring pass split elsewhere: past x = 1 pieces 1 and 3 leave equal
+    # values (to rounding) on vertical dexels, their end spheres being one; the walk must
+    # name the piece the pair search (which measures all) names
     radius = 3.0
-    ball, shank = _pass_line([(-5.0, -2.0), (-2.0, 1.0), (-5.0, 0.0), (0.0, 1.0)],
-                             radius - DEPTH_MM)
-    q = 2000
+    ball, shank = _pass_line(spans_x, radius - DEPTH_MM)
+    q = 4000
     x = 1.0 + np.random.default_rng(0).uniform(0.0, 0.05, q)
     points = np.c_[x, np.zeros(q), np.zeros(q)]
     dirs = np.tile([0.0, 0.0, 1.0], (q, 1))
@@ -241,6 +248,8 @@ def test_the_capsule_walk_finds_an_earlier_piece_whose_bound_rounds_above_its_va
                                        np.full(q, 2.0))
     tied = found[False].piece == 1
     assert tied.sum() > q // 2  # ties (or piece 1 lower): the pair search names piece 1
+    if lower_by_rounding:
+        assert (found[False].piece == 3).any()
     np.testing.assert_array_equal(found[True].lam_mm, found[False].lam_mm)
     np.testing.assert_array_equal(found[True].piece, found[False].piece)
 
