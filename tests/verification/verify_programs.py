@@ -51,13 +51,25 @@ def five_axis_line(machine: Machine, cutter, n_blocks: int, *, tilt_deg=(10.0, 5
     tips = cutter.tips_from_contacts(contacts, normals, axes)
     words = program_values(machine, inverse(machine, tips, axes))
 
-    def block(row, cls, **kw):
-        return cls(**{NAMES[k]: float(round(row[k], 4)) for k in range(6)
-                      if not np.isnan(row[k])}, **kw)
-
     above = words[0].copy()
     above[2] += 10.0
-    return Program((block(above, Rapid), *(block(r, Linear, feed=500.0) for r in words)))
+    return Program((_block(above, Rapid), *(_block(r, Linear, feed=500.0) for r in words)))
+
+
+def _block(row, cls, **kw):
+    """A block of the joint words ``row`` (NaN: word left out), rounded to 0.1 um."""
+    return cls(**{NAMES[i]: float(round(row[i], 4)) for i in range(6)
+                  if not np.isnan(row[i])}, **kw)
+
+
+def _lifted_pass(machine: Machine, tips, axes) -> list:
+    """One pass at feed 800 through the poses ``tips``/``axes``, entered and left 5 mm up
+    the axis by rapids; joints from the machine's inverse kinematics."""
+    words = program_values(machine, inverse(machine, tips, axes))
+    lifted = program_values(machine, inverse(machine, tips[[0, -1]] + 5.0 * axes[[0, -1]],
+                                             axes[[0, -1]]))
+    return [_block(lifted[0], Rapid), *(_block(r, Linear, feed=800.0) for r in words),
+            _block(lifted[1], Rapid)]
 
 
 def five_axis_cap(machine: Machine, cutter, sphere_radius_mm: float, *,
@@ -84,16 +96,7 @@ def five_axis_cap(machine: Machine, cutter, sphere_radius_mm: float, *,
         lead = math.radians(lead_deg)
         axes = math.cos(lead) * normals + math.sin(lead) * along
         tips = cutter.tips_from_contacts(sphere_radius_mm * radial, normals, axes)
-        words = program_values(machine, inverse(machine, tips, axes))
-        lifted = program_values(machine, inverse(machine, tips[[0, -1]] + 5.0 * axes[[0, -1]],
-                                                 axes[[0, -1]]))
-
-        def block(row, cls, **kw):
-            return cls(**{NAMES[i]: float(round(row[i], 4)) for i in range(6)
-                          if not np.isnan(row[i])}, **kw)
-
-        blocks += [block(lifted[0], Rapid), *(block(r, Linear, feed=800.0) for r in words),
-                   block(lifted[1], Rapid)]
+        blocks += _lifted_pass(machine, tips, axes)
     return Program(tuple(blocks))
 
 
@@ -158,14 +161,5 @@ def tilted_raster(machine: Machine, cutter, y_levels, x0: float, x1: float, *,
         contacts = np.column_stack([x, np.full(n, float(y)), np.full(n, -depth_mm)])
         axes = np.tile(axis, (n, 1))
         tips = cutter.tips_from_contacts(contacts, np.tile([0.0, 0.0, 1.0], (n, 1)), axes)
-        words = program_values(machine, inverse(machine, tips, axes))
-        lifted = program_values(machine, inverse(machine, tips[[0, -1]] + 5.0 * axes[[0, -1]],
-                                                 axes[[0, -1]]))
-
-        def block(row, cls, **kw):
-            return cls(**{NAMES[i]: float(round(row[i], 4)) for i in range(6)
-                          if not np.isnan(row[i])}, **kw)
-
-        blocks += [block(lifted[0], Rapid), *(block(r, Linear, feed=800.0) for r in words),
-                   block(lifted[1], Rapid)]
+        blocks += _lifted_pass(machine, tips, axes)
     return Program(tuple(blocks))
