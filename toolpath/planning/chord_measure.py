@@ -418,12 +418,37 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
+            start = None if slopes is None else _feet_between(
+                ends.take(sel), t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
             g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
                                          newton=newton, refine_rim=True,
-                                         joints=_joint_rows(joints, sel))[0][:, 0]
+                                         joints=_joint_rows(joints, sel), start=start)[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
     return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
+
+
+def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],
+                  u: NDArray[np.float64], closed: bool
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where a ball's search at ``u`` along each move starts: its three feet's parabola.
+
+    The feet of the centre at ``u = 0, 1/2, 1`` (the contacts and the middle's ``t_mid``,
+    ``s_mid``) are known; the parameters through them quadratic in ``u`` (Lagrange,
+    ``t`` unwrapped within half a turn of the first foot on ``closed`` surfaces, then
+    folded) leave the seed off the foot by the third derivative of the foot's path
+    times ``u (u - 1/2)(u - 1) / 6``, where the ends' chord alone leaves the second's
+    times ``u (1 - u) / 2``: the Newton search from there mostly stops after its first
+    step (:data:`SEEDED_CONTACT_NEWTON`; then more while the foot moves), on the same
+    foot. Returns ``t``, ``s`` (m, 1).
+    """
+    la, lm, lb = 2.0 * (u - 0.5) * (u - 1.0), 4.0 * u * (1.0 - u), 2.0 * u * (u - 0.5)
+    dt_mid, dt_b = t_mid - ends.t_a, ends.t_b - ends.t_a
+    if closed:
+        dt_mid, dt_b = dt_mid - np.round(dt_mid), dt_b - np.round(dt_b)
+    t = ends.t_a + lm * dt_mid + lb * dt_b
+    s = la * ends.s_a + lm * s_mid + lb * ends.s_b
+    return (np.mod(t, 1.0) if closed else t)[:, None], s[:, None]
 
 
 def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64],
