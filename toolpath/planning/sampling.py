@@ -679,18 +679,22 @@ def ball_end_slopes(radius_mm: float, tips_mm: NDArray[np.float64], axes: NDArra
     return out
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True)
 def _ball_end_slopes(radius, tips, axes, normals, first, out):
-    for j in numba.prange(first.size):
+    # scalars, one row after the other: a few dozen flops a row, where the differences
+    # as arrays (two allocations a row) and numba's parallel loop cost 250 ns a row
+    for j in range(first.size):
         i = first[j]
-        d_tip = tips[i + 1] - tips[i]
-        d_axis = axes[i + 1] - axes[i]
         for col in range(2):
-            a, n = axes[i + col], normals[i + col]
-            along = a[0] * d_axis[0] + a[1] * d_axis[1] + a[2] * d_axis[2]
+            c = i + col
+            along = 0.0
+            for k in range(3):
+                along += axes[c, k] * (axes[i + 1, k] - axes[i, k])
             slope = 0.0
             for k in range(3):
-                slope += (d_tip[k] + radius * (d_axis[k] - along * a[k])) * n[k]
+                d_axis = axes[i + 1, k] - axes[i, k]
+                slope += ((tips[i + 1, k] - tips[i, k]) + radius * (d_axis - along * axes[c, k])
+                          ) * normals[c, k]
             out[j, col] = slope
 
 
