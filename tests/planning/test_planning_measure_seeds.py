@@ -24,6 +24,7 @@ from toolpath.planning.chord_measure import (
     _end_contacts,
     _feet_between,
     _move_chunk_gaps,
+    _nearest_samples,
     measure_chord,
 )
 from toolpath.planning.local import CONVERGED_MM
@@ -108,3 +109,19 @@ def test_every_moves_extremes_same_as_the_full_search(name, request):
         gaps[newton] = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], 0.0, None, slopes, newton)[0]
     np.testing.assert_allclose(gaps[1], gaps[6], rtol=0.0, atol=1e-9)
+
+
+def test_nearest_samples_within_a_reach_are_the_tree_s_nearest(spiral):
+    # points a ball radius off the surface, and some lifted far above: those have no
+    # sample within the reach and are asked again without one
+    samples = spiral.samples
+    rng = np.random.default_rng(3)
+    rows = rng.choice(len(samples.points), 500, replace=False)
+    normals = spiral.surface.normal(samples.t[rows], samples.s[rows])
+    lift = np.where(np.arange(rows.size) % 5 == 0, 40.0, 3.0)
+    points = samples.points[rows] + lift[:, None] * normals
+    near = _nearest_samples(samples, points, 3.0)
+    assert near.max() < len(samples.points)
+    # as near as the tree's nearest (where two samples tie, e.g. on a closed seam, either)
+    found = np.linalg.norm(samples.points[near] - points, axis=1)
+    np.testing.assert_array_equal(found, samples.tree.query(points)[0])
