@@ -4,7 +4,8 @@ Nothing here uses the planner's curvature formulas or its internal parameters: o
 toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 
 **Chord error.** Every cutter location on a cutting move is first projected onto the
-surface (Newton from the nearest of a grid of surface samples; a ball's, at every fourth
+surface (Newton from the nearest of a grid of surface samples, sought within a reach
+first: :func:`_nearest_samples`; a ball's, at every fourth
 location along a run of moves, the others from those contacts interpolated, and from their
 own nearest sample where the feet either side jumped or the foot found stands farther off
 than theirs; a foot farther than the sample nearest its point is searched again from
@@ -17,7 +18,8 @@ it; for a toolpath checked under a 5-axis machine's joint interpolation, its joi
 linear, as that machine moves it), and, on the
 moves that could hold the largest deviation (a model extreme at least
 half the largest sample), once more where a smooth model through those gaps is lowest and
-where it is highest; its signed
+where it is highest (a ball's search there starting on the parabola through its feet at
+``u = 0, 1/2, 1``: :func:`_feet_between`); its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
 centre projected onto the surface. A ball is placed at ``u = 1/2`` only: the gap of its
 centre ``C(u)`` is the distance to the surface less ``R``, whose gradient at an end is the
