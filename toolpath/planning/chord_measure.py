@@ -4,7 +4,8 @@ Nothing here uses the planner's curvature formulas or its internal parameters: o
 toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 
 **Chord error.** Every cutter location on a cutting move is first projected onto the
-surface (Newton from the nearest of a grid of surface samples; a ball's, at every fourth
+surface (Newton from the nearest of a grid of surface samples, sought within a reach
+first: :func:`_nearest_samples`; a ball's, at every fourth
 location along a run of moves, the others from those contacts interpolated, and from their
 own nearest sample where the feet either side jumped or the foot found stands farther off
 than theirs; a foot farther than the sample nearest its point is searched again from
@@ -17,7 +18,8 @@ it; for a toolpath checked under a 5-axis machine's joint interpolation, its joi
 linear, as that machine moves it), and, on the
 moves that could hold the largest deviation (a model extreme at least
 half the largest sample), once more where a smooth model through those gaps is lowest and
-where it is highest; its signed
+where it is highest (a ball's search there starting on the parabola through its feet at
+``u = 0, 1/2, 1``: :func:`_feet_between`); its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
 centre projected onto the surface. A ball is placed at ``u = 1/2`` only: the gap of its
 centre ``C(u)`` is the distance to the surface less ``R``, whose gradient at an end is the
@@ -267,8 +269,7 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             seeded = feet[2][rows]
             t0[seeded], s0[seeded] = feet[0][rows[seeded]], feet[1][rows[seeded]]
         if not seeded.all():
-            _, nearest = samples.tree.query(centres[rows[~seeded]], k=1,
-                                            workers=numba.get_num_threads())
+            nearest = _nearest_samples(samples, centres[rows[~seeded]], lift)
             t0[~seeded], s0[~seeded] = samples.t[nearest], samples.s[nearest]
         for lo in range(0, rows.size, chunk):
             part = rows[lo:lo + chunk]
@@ -291,6 +292,31 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         point[unsure], normal[unsure], x_s[unsure] = _points_normals_x_s(surface, t[unsure],
                                                                          s[unsure])
     return _EndContacts(ends, gap, t, s, point, normal, x_s)
+
+
+#: The nearest sample of a point ``lift`` off the surface is first sought within
+#: ``lift`` and this many sample spacings (:func:`_nearest_samples`).
+NEAREST_REACH_SPACINGS = 1.0
+
+
+def _nearest_samples(samples: SurfaceSamples, points: NDArray[np.float64], lift_mm: float
+                     ) -> NDArray[np.int64]:
+    """The index of the sample nearest to each point (a cutter point ``lift_mm`` off).
+
+    A cutter location's point stands about ``lift_mm`` off the surface, whose samples lie
+    :attr:`~.gouge.SurfaceSamples.spacing_mm` apart: the k-d tree is first asked within
+    ``lift_mm`` and :data:`NEAREST_REACH_SPACINGS` spacings, which prunes its search from
+    the start (a fifth of its time on the dev blade); the nearest sample within that
+    reach is the nearest of all. The points with none there (lifted higher) are asked
+    again without a reach: the same samples as one unbounded query.
+    """
+    reach = lift_mm + NEAREST_REACH_SPACINGS * samples.spacing_mm
+    tree, workers = samples.tree, numba.get_num_threads()
+    _, nearest = tree.query(points, k=1, workers=workers, distance_upper_bound=reach)
+    missed = np.flatnonzero(nearest >= tree.n)
+    if missed.size:
+        nearest[missed] = tree.query(points[missed], k=1, workers=workers)[1]
+    return nearest
 
 
 def _points_normals_x_s(surface: ParametricSurface, t: NDArray[np.float64],
@@ -418,12 +444,37 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
+            start = None if slopes is None else _feet_between(
+                ends.take(sel), t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
             g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
                                          newton=newton, refine_rim=True,
-                                         joints=_joint_rows(joints, sel))[0][:, 0]
+                                         joints=_joint_rows(joints, sel), start=start)[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
     return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
+
+
+def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],
+                  u: NDArray[np.float64], closed: bool
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where a ball's search at ``u`` along each move starts: its three feet's parabola.
+
+    The feet of the centre at ``u = 0, 1/2, 1`` (the contacts and the middle's ``t_mid``,
+    ``s_mid``) are known; the parameters through them quadratic in ``u`` (Lagrange,
+    ``t`` unwrapped within half a turn of the first foot on ``closed`` surfaces, then
+    folded) leave the seed off the foot by the third derivative of the foot's path
+    times ``u (u - 1/2)(u - 1) / 6``, where the ends' chord alone leaves the second's
+    times ``u (1 - u) / 2``: the Newton search from there mostly stops after its first
+    step (:data:`SEEDED_CONTACT_NEWTON`; then more while the foot moves), on the same
+    foot. Returns ``t``, ``s`` (m, 1).
+    """
+    la, lm, lb = 2.0 * (u - 0.5) * (u - 1.0), 4.0 * u * (1.0 - u), 2.0 * u * (u - 0.5)
+    dt_mid, dt_b = t_mid - ends.t_a, ends.t_b - ends.t_a
+    if closed:
+        dt_mid, dt_b = dt_mid - np.round(dt_mid), dt_b - np.round(dt_b)
+    t = ends.t_a + lm * dt_mid + lb * dt_b
+    s = la * ends.s_a + lm * s_mid + lb * ends.s_b
+    return (np.mod(t, 1.0) if closed else t)[:, None], s[:, None]
 
 
 def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64],
