@@ -39,6 +39,12 @@ how far a centre inside the cell may stand from the cell's corners. :meth:`FineM
 keeps every stretch that comes within ``r`` of a ball holding those centres, widened by
 the slack.
 The collision search (shank, from behind) stays the coarse model's.
+
+A flat or bull-nose cutter's fine pieces hold their axis fixed, so where the axis turns the
+stretches near the boxes are millions of pieces (over 20 GB on the bull-nose 5-axis
+blade): its fine searches are answered per batch of dexels from the segments that can
+decide them only (:mod:`verification.fine_lazy`; ``FineModel(lazy=False)`` keeps the full
+method above, the tests' oracle).
 """
 
 from __future__ import annotations
@@ -54,6 +60,7 @@ from machines import Machine
 from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex
+from .fine_lazy import LazyFineSweeps
 from .pieces import Pieces
 from .replay import ToolMotion, replay_rows
 from .samples import surface_points_normals
@@ -175,14 +182,26 @@ class FineModel:
         How far the coarse pieces may stand from the true sweep, mm (replay + merge).
     chord_tol_mm : float
         The fine replay's chord tolerance, mm.
+    lazy : bool
+        Flat/bull-nose searches answered per batch of dexels from the segments that can
+        decide them (:class:`~verification.fine_lazy.LazyFineSweeps`); False: every
+        segment near the boxes replayed and indexed at once (the full method).
     """
 
     def __init__(self, motion: ToolMotion, machine: Machine, coarse: Dexels,
-                 pieces_of: PiecesOf, *, model_tol_mm: float, chord_tol_mm: float) -> None:
+                 pieces_of: PiecesOf, *, model_tol_mm: float, chord_tol_mm: float,
+                 lazy: bool = True) -> None:
         self.motion, self.machine, self.coarse = motion, machine, coarse
         self.pieces_of = pieces_of
         self.model_tol_mm = model_tol_mm
         self.chord_tol_mm = chord_tol_mm
+        self.lazy = lazy
+
+    @property
+    def builds_lazily(self) -> bool:
+        """Flat/bull-nose searches answered per batch (:mod:`verification.fine_lazy`)."""
+        index = self.coarse.index
+        return self.lazy and index.corner_radius_mm is not None and index.compiled
 
     def level_for_mm(self, deviation_mm: float) -> float:
         """The first near-search level at or above ``deviation_mm`` (else the horizon)."""
@@ -284,9 +303,13 @@ class FineModel:
         out: list[Dexels | None] = [None] * len(asks)
         if not near:
             return out
-        index = self._index(np.unique(np.concatenate([found[i][0] for i in near])),
-                            np.concatenate([found[i][1] for i in near]),
-                            np.concatenate([found[i][2] for i in near]))
+        index: SweepIndex | LazyFineSweeps
+        if self.builds_lazily:
+            index = LazyFineSweeps(self)
+        else:
+            index = self._index(np.unique(np.concatenate([found[i][0] for i in near])),
+                                np.concatenate([found[i][1] for i in near]),
+                                np.concatenate([found[i][2] for i in near]))
         for i in near:
             level = asks[i].level_mm
             levels = (*(h for h in ev.horizons if h < level), level)
