@@ -15,6 +15,7 @@ import pytest
 from verify_programs import five_axis_cap
 
 import verification.fine_lazy as fine_lazy
+import verification.fine_model as fine_model
 from gcode import Program
 from machines import load_machine
 from toolpath.planning.analytic import SpherePatch
@@ -33,7 +34,7 @@ COARSE_TOL_MM = 5e-3
 LIFT_MM = 4e-3
 
 
-def _model(lazy: bool):
+def _model(lazy: bool | None, full_pieces: int = fine_model.FULL_PIECES):
     machine, bull = load_machine("trunnion-ac"), parse_cutter("bull:6:1")
     radius, corner = bull.radius_mm, bull.corner_radius_mm
     height = max(radius - 2.0 * corner, 0.0)
@@ -62,17 +63,22 @@ def _model(lazy: bool):
     fine = FineModel(motion, machine, ev,
                      lambda stretch: cutter_pieces(stretch, corner, height, 0.5, reach_mm=reach,
                                                    rot_tol_mm=1e-4),
-                     model_tol_mm=COARSE_TOL_MM, chord_tol_mm=1e-4, lazy=lazy)
+                     model_tol_mm=COARSE_TOL_MM, chord_tol_mm=1e-4,
+                     pieces_per_rad=reach / (2.0 * 1e-4), lazy=lazy, full_pieces=full_pieces)
     sphere = SpherePatch(radius_mm=SPHERE_MM, longitude_deg=(-8.0, 8.0),
                          colatitude_deg=(42.0, 48.0))
     return sphere, ev, fine
 
 
-def _searches(sphere, ev, fine, middle, half):
+def _ask(sphere, ev, middle, half):
     t0, s0 = np.array([middle[0]]), np.array([middle[1]])
     centres, slack = box_centres(sphere, t0, s0, half[0], half[1], ev.corner)
-    ask = FineAsk(centres, slack, np.full(1, 1.0 / SPHERE_MM), LEVEL_MM, DEPTH_MM)
-    (model,) = fine.around_each([ask])
+    return FineAsk(centres, slack, np.full(1, 1.0 / SPHERE_MM), LEVEL_MM, DEPTH_MM)
+
+
+def _searches(sphere, ev, fine, middle, half):
+    t0, s0 = np.array([middle[0]]), np.array([middle[1]])
+    (model,) = fine.around_each([_ask(sphere, ev, middle, half)])
     off = np.linspace(-1.0, 1.0, 21)
     t = (t0 + half[0] * off[:, None] + 0.0 * off).ravel()
     s = (s0 + half[1] * off[None, :] + 0.0 * off[:, None]).ravel()
@@ -87,7 +93,7 @@ BOXES = [((0.5, 0.5), (0.03, 0.05)), ((0.3, 0.7), (0.02, 0.02))]
 def test_the_lazy_fine_model_finds_what_the_full_one_finds(middle, half):
     sphere, ev, full_fine = _model(lazy=False)
     _, _, lazy_fine = _model(lazy=True)
-    assert lazy_fine.builds_lazily and not full_fine.builds_lazily
+    assert lazy_fine.can_build_lazily and not full_fine.can_build_lazily
     full, pts, nrm = _searches(sphere, ev, full_fine, middle, half)
     lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, middle, half)
     assert isinstance(lazy.index, fine_lazy.LazyFineSweeps)
@@ -120,3 +126,21 @@ def test_the_segments_of_each_lowest_coarse_piece_alone_are_not_enough(monkeypat
         assert (b.lam_mm >= a.lam_mm - 1e-12).all()  # fewer pieces: never lower
         differs |= bool(np.any(b.lam_mm > a.lam_mm + 1e-9))
     assert differs
+
+
+def test_the_full_method_where_its_model_is_small_the_lazy_one_where_large():
+    """``lazy=None``: the full method's pieces counted before it builds them decide."""
+    sphere, ev, full_fine = _model(lazy=False)
+    full, _, _ = _searches(sphere, ev, full_fine, *BOXES[0])
+    built = full.index.pieces("near").size
+    ask = _ask(sphere, ev, *BOXES[0])
+    rows, _, _ = full_fine.rows_around(ask.centres, ask.slack_mm, ask.convexity_per_mm,
+                                       level_mm=LEVEL_MM, depth_mm=DEPTH_MM)
+    counted = full_fine.full_pieces(rows)
+    # the axis split dominates: the count is within a few pieces per segment of the model
+    assert built - 3 * rows.shape[0] <= counted <= built
+    assert built > 10 * rows.shape[0]  # the axis turns: many pieces per segment
+    for budget, lazy in ((counted - 1, True), (counted, False), (10 * counted, False)):
+        _, ev, fine = _model(lazy=None, full_pieces=budget)
+        (model,) = fine.around_each([_ask(sphere, ev, *BOXES[0])])
+        assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
