@@ -331,14 +331,19 @@ class SweepIndex:
                           pieces.axis, pieces.height_mm))
         return grid
 
-    def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0
-                  ) -> tuple[PieceGrid, PieceRuns]:
+    def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0, *,
+                  built: bool = False) -> tuple[PieceGrid, PieceRuns]:
         """Flat/bull-nose pieces' runs (:mod:`verification.piece_runs`), gridded by midpoint.
 
         The cell as :meth:`_grid` picks it, the margin :func:`grid_margin_mm` with the
-        runs' spread; the runs returned are in the grid's order.
+        runs' spread; the runs returned are in the grid's order. ``built``: rather the
+        runs' grid already built nearest in cell (the walk finds the same runs, over other
+        cells) than a new grid and a copy of the runs in its order.
         """
         k = self._level(reach_mm)
+        have = [level for kind, level in self._runs if kind == which]
+        if built and have and (which, k) not in self._runs:
+            k = min(have, key=lambda level: abs(level - k))
         kept = self._runs.get((which, k))
         if kept is None or self._covers[id(kept[0])] < beyond_mm:
             if kept is not None:
@@ -429,7 +434,8 @@ class SweepIndex:
     def sweep_entries(self, which: str, points: FloatArray, dirs: FloatArray,
                       centres: FloatArray, reach_mm: FloatArray, *,
                       below_mm: FloatArray | None = None,
-                      below_piece: IntArray | None = None, beyond_mm: float | None = None
+                      below_piece: IntArray | None = None, beyond_mm: float | None = None,
+                      built: bool = False
                       ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
         """Flat/bull-nose pieces: the lowest entry per dexel and its piece (compiled walk).
 
@@ -437,12 +443,14 @@ class SweepIndex:
         :meth:`pieces` whose midpoints lie within ``reach_mm`` of the centres (the
         piece's index into :meth:`pieces`, ``-1`` where none). ``beyond_mm``: how far
         beyond the box the searches reach (default: ``reach_mm`` about the centres, which
-        holds the pieces' halves and heights already).
+        holds the pieces' halves and heights already). ``built``: over a runs' grid
+        already built if any (:meth:`_run_grid`).
         """
         pieces = self.pieces(which)
         if beyond_mm is None:
             beyond_mm = reach_beyond_mm(centres, reach_mm, self.lo_mm, self.hi_mm)
-        runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), beyond_mm)
+        runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), beyond_mm,
+                                         built=built)
         return lowest_sweep_entries(
             runs_grid, runs_grid.span_of(reach_mm + runs.max_spread_mm), points, dirs,
             centres, reach_mm, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
@@ -456,13 +464,14 @@ class SweepIndex:
         """Flat/bull-nose pieces whose widened sweep may enter a dexel below ``below_mm``.
 
         Indices into :meth:`pieces`, sorted: the sweep widened by ``widen_mm``
-        (:func:`~verification.sweep_below.pieces_entering_below`).
+        (:func:`~verification.sweep_below.pieces_entering_below`), walked over a runs'
+        grid already built if any (:meth:`_run_grid`).
         """
         pieces = self.pieces(which)
         if points.shape[0] == 0 or pieces.size == 0:
             return np.zeros(0, dtype=np.int64)
         runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), reach_beyond_mm(
-            centres, reach_mm, self.lo_mm, self.hi_mm))
+            centres, reach_mm, self.lo_mm, self.hi_mm), built=True)
         marked = pieces_entering_below(
             runs_grid, runs_grid.span_of(reach_mm + runs.max_spread_mm), points, dirs,
             centres, reach_mm, below_mm, runs, pieces.mid, pieces.half_mm, pieces.a,

@@ -128,7 +128,8 @@ class LazyFineSweeps:
         # (no longer than a coarse one) of the midpoint of a coarse piece standing for it
         reach = radii_mm + w + 3.0 * pieces.max_half_mm + pieces.max_height_mm
         # 1. the segments of each dexel's lowest coarse piece: U_q
-        _, hit, _, _ = coarse.sweep_entries("near", points, dirs, centres, reach)
+        # (over the coarse runs' grid the coarse searches built: no second one)
+        _, hit, _, _ = coarse.sweep_entries("near", points, dirs, centres, reach, built=True)
         first = fine._rows(pieces, np.unique(hit[hit >= 0]))
         res = self._search_rows(first, points, dirs, centres, radii_mm, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q
