@@ -67,6 +67,7 @@ from .capsule_search import TIE_SLACK_MM, lowest_capsule_entries, pair_values
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, piece_runs
 from .pieces import Pieces
+from .sweep_below import pieces_entering_below
 from .sweep_search import lowest_sweep_entries
 from .torus import line_sweep_interval, sweep_entry_bound
 from .vectors import row_norms
@@ -331,14 +332,19 @@ class SweepIndex:
                           pieces.axis, pieces.height_mm))
         return grid
 
-    def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0
-                  ) -> tuple[PieceGrid, PieceRuns]:
+    def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0, *,
+                  built: bool = False) -> tuple[PieceGrid, PieceRuns]:
         """Flat/bull-nose pieces' runs (:mod:`verification.piece_runs`), gridded by midpoint.
 
         The cell as :meth:`_grid` picks it, the margin :func:`grid_margin_mm` with the
-        runs' spread; the runs returned are in the grid's order.
+        runs' spread; the runs returned are in the grid's order. ``built``: rather the
+        runs' grid already built nearest in cell (the walk finds the same runs, over other
+        cells) than a new grid and a copy of the runs in its order.
         """
         k = self._level(reach_mm)
+        have = [level for kind, level in self._runs if kind == which]
+        if built and have and (which, k) not in self._runs:
+            k = min(have, key=lambda level: abs(level - k))
         kept = self._runs.get((which, k))
         if kept is None or self._covers[id(kept[0])] < beyond_mm:
             if kept is not None:
@@ -394,13 +400,9 @@ class SweepIndex:
         if self.corner_radius_mm is not None and self.compiled:
             # the same, flat and bull-nose pieces: over runs of consecutive pieces, bounds
             # and exact entries in the walk
-            runs_grid, runs = self._run_grid(which, float(np.median(reach)), beyond)
-            lam, hit, behind, pairs = lowest_sweep_entries(
-                runs_grid, runs_grid.span_of(reach + runs.max_spread_mm), points, dirs,
-                centres, reach, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
-                pieces.axis, pieces.height_mm, core_radius_mm=self.radius_mm - self._corner,
-                corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm,
-                below_piece=below_piece)
+            lam, hit, behind, pairs = self.sweep_entries(
+                which, points, dirs, centres, reach, below_mm=below_mm, below_piece=below_piece,
+                beyond_mm=beyond)
             return _scattered(out, lam, hit, behind, pairs, pieces, points)
         grid = self._grid(which, float(np.median(reach)), beyond)
         spans = grid.span_of(reach)
@@ -429,6 +431,55 @@ class SweepIndex:
                 else:
                     self._cutters(qi, piece, pieces, points, dirs, out)
         return DexelResult(out.lam_mm, out.move, out.shank, out.behind, pairs, out.piece)
+
+    def sweep_entries(self, which: str, points: FloatArray, dirs: FloatArray,
+                      centres: FloatArray, reach_mm: FloatArray, *,
+                      below_mm: FloatArray | None = None,
+                      below_piece: IntArray | None = None, beyond_mm: float | None = None,
+                      built: bool = False
+                      ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
+        """Flat/bull-nose pieces: the lowest entry per dexel and its piece (compiled walk).
+
+        :func:`~verification.sweep_search.lowest_sweep_entries` over the runs of
+        :meth:`pieces` whose midpoints lie within ``reach_mm`` of the centres (the
+        piece's index into :meth:`pieces`, ``-1`` where none). ``beyond_mm``: how far
+        beyond the box the searches reach (default: ``reach_mm`` about the centres, which
+        holds the pieces' halves and heights already). ``built``: over a runs' grid
+        already built if any (:meth:`_run_grid`).
+        """
+        pieces = self.pieces(which)
+        if beyond_mm is None:
+            beyond_mm = reach_beyond_mm(centres, reach_mm, self.lo_mm, self.hi_mm)
+        runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), beyond_mm,
+                                         built=built)
+        return lowest_sweep_entries(
+            runs_grid, runs_grid.span_of(reach_mm + runs.max_spread_mm), points, dirs,
+            centres, reach_mm, runs, pieces.mid, pieces.half_mm, pieces.a, pieces.e,
+            pieces.axis, pieces.height_mm, core_radius_mm=self.radius_mm - self._corner,
+            corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm,
+            below_piece=below_piece)
+
+    def pieces_entering_below(self, which: str, points: FloatArray, dirs: FloatArray,
+                              centres: FloatArray, reach_mm: FloatArray,
+                              below_mm: FloatArray, widen_mm: float) -> IntArray:
+        """Flat/bull-nose pieces whose widened sweep may enter a dexel below ``below_mm``.
+
+        Indices into :meth:`pieces`, sorted: the sweep widened by ``widen_mm``
+        (:func:`~verification.sweep_below.pieces_entering_below`), walked over a runs'
+        grid already built if any (:meth:`_run_grid`).
+        """
+        pieces = self.pieces(which)
+        if points.shape[0] == 0 or pieces.size == 0:
+            return np.zeros(0, dtype=np.int64)
+        runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), reach_beyond_mm(
+            centres, reach_mm, self.lo_mm, self.hi_mm), built=True)
+        marked = pieces_entering_below(
+            runs_grid, runs_grid.span_of(reach_mm + runs.max_spread_mm), points, dirs,
+            centres, reach_mm, below_mm, runs, pieces.mid, pieces.half_mm, pieces.a,
+            pieces.e, pieces.axis, pieces.height_mm,
+            core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
+            widen_mm=widen_mm)
+        return np.flatnonzero(marked).astype(np.int64)
 
     def pieces_within(self, which: str, centres: FloatArray, radii_mm: FloatArray
                       ) -> IntArray:

@@ -39,6 +39,14 @@ how far a centre inside the cell may stand from the cell's corners. :meth:`FineM
 keeps every stretch that comes within ``r`` of a ball holding those centres, widened by
 the slack.
 The collision search (shank, from behind) stays the coarse model's.
+
+A flat or bull-nose cutter's fine pieces hold their axis fixed, so where the axis turns the
+stretches near the boxes are millions of pieces (over 20 GB on the bull-nose 5-axis
+blade): its fine searches are answered per batch of dexels from the segments that can
+decide them only (:mod:`verification.fine_lazy`; ``FineModel(lazy=False)`` keeps the full
+method above, the tests' oracle). Lazily only where the full model would be large
+(:meth:`FineModel.full_pieces` over :data:`FULL_PIECES`): per batch the lazy searches
+replay the deciding segments again, three to four times slower on a small program.
 """
 
 from __future__ import annotations
@@ -50,17 +58,19 @@ from typing import Final
 import numpy as np
 from numpy.typing import NDArray
 
-from machines import Machine
+from machines import Machine, forward
 from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex
+from .fine_lazy import LazyFineSweeps
 from .pieces import Pieces
 from .replay import ToolMotion, replay_rows
 from .samples import surface_points_normals
 from .search import Dexels
 from .vectors import row_norms
 
-__all__ = ["BOX_GRID", "FineAsk", "FineModel", "PiecesOf", "box_centres", "on_surface"]
+__all__ = ["BOX_GRID", "FULL_PIECES", "FineAsk", "FineModel", "PiecesOf", "box_centres",
+           "on_surface"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -70,6 +80,18 @@ PiecesOf = Callable[[ToolMotion], Pieces]
 
 #: Centres measured per side of a parameter box (:func:`box_centres`).
 BOX_GRID: Final[int] = 9
+
+#: Most fine pieces the full method builds at once (:meth:`FineModel.full_pieces`): a
+#: memory budget of about 1.7 GB. The full fine model holds per piece its fields
+#: (:class:`~verification.pieces.Pieces`, ~20 floats), their copies in its runs' grid
+#: order, the runs' prefix sums and the replayed instances it came from: head -n 3000 of
+#: the bull-nose blade program builds 3.44 million pieces in a verify whose whole peak RSS
+#: is 1.49 GB (head -n 700: 0.93 million, 0.63 GB), so under 430 bytes a piece. The whole
+#: program's would be tens of millions (killed at 23 GB); beyond the budget the searches
+#: are answered per batch of dexels (:class:`~verification.fine_lazy.LazyFineSweeps`),
+#: which costs more CPU where the full model is small (head -n 700: verify CPU 121 s
+#: against 44 s; head -n 3000: 166 s against main's full method's 159 s).
+FULL_PIECES: Final[int] = 4_000_000
 
 
 def on_surface(surface: ParametricSurface, t: FloatArray, s: FloatArray
@@ -175,14 +197,65 @@ class FineModel:
         How far the coarse pieces may stand from the true sweep, mm (replay + merge).
     chord_tol_mm : float
         The fine replay's chord tolerance, mm.
+    pieces_per_rad : float
+        Fine pieces a segment is cut into per radian its tool axis turns
+        (:func:`~verification.pieces.cutter_pieces`: ``reach / (2 rot_tol)``); 0 for a
+        ball, whose pieces do not split by the turn.
+    lazy : bool or None
+        Flat/bull-nose searches answered per batch of dexels from the segments that can
+        decide them (:class:`~verification.fine_lazy.LazyFineSweeps`); False: every
+        segment near the boxes replayed and indexed at once (the full method); None: lazily
+        where the full method would build more than ``full_pieces`` pieces.
+    full_pieces : int
+        The full method's budget of fine pieces (:data:`FULL_PIECES`).
     """
 
     def __init__(self, motion: ToolMotion, machine: Machine, coarse: Dexels,
-                 pieces_of: PiecesOf, *, model_tol_mm: float, chord_tol_mm: float) -> None:
+                 pieces_of: PiecesOf, *, model_tol_mm: float, chord_tol_mm: float,
+                 pieces_per_rad: float = 0.0, lazy: bool | None = None,
+                 full_pieces: int = FULL_PIECES) -> None:
         self.motion, self.machine, self.coarse = motion, machine, coarse
         self.pieces_of = pieces_of
         self.model_tol_mm = model_tol_mm
         self.chord_tol_mm = chord_tol_mm
+        self.pieces_per_rad = pieces_per_rad
+        self.lazy = lazy
+        self.full_pieces_budget = full_pieces
+
+    @property
+    def can_build_lazily(self) -> bool:
+        """Flat/bull-nose searches may be answered per batch (:mod:`verification.fine_lazy`)."""
+        index = self.coarse.index
+        return self.lazy is not False and index.corner_radius_mm is not None and index.compiled
+
+    def builds_lazily(self, rows: IntArray) -> bool:
+        """The searches over ``rows`` are answered per batch rather than by the full method.
+
+        Always when ``lazy`` is True, never when False (or for a ball); when None, where
+        :meth:`full_pieces` of ``rows`` exceeds the budget.
+        """
+        if not self.can_build_lazily:
+            return False
+        return self.lazy is True or self.full_pieces(rows) > self.full_pieces_budget
+
+    def full_pieces(self, rows: IntArray) -> int:
+        """About how many fine pieces the full method would build for ``rows``, before it does.
+
+        Per segment ``max(1, ceil(pieces_per_rad * turn))``, ``turn`` the angle its tool
+        axis turns through from its start to its middle and on to its end (forward
+        kinematics at three joint positions, not the replay): the axis split of
+        :func:`~verification.pieces.cutter_pieces`, which dominates where the axis turns
+        (the chord rule's and the length's splits add a few per segment). A lower bound
+        on the turn, so the count is an estimate, not a bound; either method is exact.
+        """
+        kept = self.motion.rows
+        if kept is None or rows.shape[0] == 0:
+            return int(rows.shape[0])
+        j0, j1 = kept.start[rows], kept.end[rows]
+        a0, am, a1 = (forward(self.machine, j)[1] for j in (j0, 0.5 * (j0 + j1), j1))
+        turn = sum(np.arccos(np.clip(np.einsum("ij,ij->i", u, v), -1.0, 1.0))
+                   for u, v in ((a0, am), (am, a1)))
+        return int(np.maximum(1.0, np.ceil(self.pieces_per_rad * turn)).sum())
 
     def level_for_mm(self, deviation_mm: float) -> float:
         """The first near-search level at or above ``deviation_mm`` (else the horizon)."""
@@ -284,9 +357,14 @@ class FineModel:
         out: list[Dexels | None] = [None] * len(asks)
         if not near:
             return out
-        index = self._index(np.unique(np.concatenate([found[i][0] for i in near])),
-                            np.concatenate([found[i][1] for i in near]),
-                            np.concatenate([found[i][2] for i in near]))
+        index: SweepIndex | LazyFineSweeps
+        rows = np.unique(np.concatenate([found[i][0] for i in near]))
+        if self.builds_lazily(rows):
+            index = LazyFineSweeps(self)
+        else:
+            index = self._index(rows,
+                                np.concatenate([found[i][1] for i in near]),
+                                np.concatenate([found[i][2] for i in near]))
         for i in near:
             level = asks[i].level_mm
             levels = (*(h for h in ev.horizons if h < level), level)

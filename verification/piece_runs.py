@@ -85,6 +85,12 @@ ENTRY_MARGIN_MM: Final[float] = 2.0 * CONVERGED_MM
 #: Relative widening of a measured dilation (the rounding of its sums).
 _ROUNDING: Final[float] = 1e-9
 
+#: Relative (and absolute, mm) widening of a span's path length from the run's prefix
+#: sums: up to :data:`RUN_PIECES` terms of a run at most a few millimetres long, each
+#: rounded by 1e-16 relative, so under 1e-12 mm; the semi-minor axis it feeds grows as the
+#: square root of the length's error, hence the margin.
+_PREFIX_ROUNDING: Final[float] = 1e-11
+
 
 @dataclass(frozen=True, eq=False)
 class PieceRuns:
@@ -108,6 +114,11 @@ class PieceRuns:
     half_mm : ndarray, shape (k,)
         ``max (|mid_k - mid| + half_k)`` over the run: every piece's solid lies within a
         piece's bounding radius about its own midpoint plus this of ``mid``, mm.
+    along_mm, turned : ndarray, shape (pieces,)
+        Per piece (in the pieces' order, whatever the runs' order), from its run's first
+        piece: the path length to its start through the pieces and the gaps between
+        them, mm, and the steps ``|a_{m+1} - a_m|`` of the axis summed
+        (:func:`span_reference` bounds any span's dilation from them).
     """
 
     start: IntArray
@@ -120,6 +131,8 @@ class PieceRuns:
     mid: FloatArray
     spread_mm: FloatArray
     half_mm: FloatArray
+    along_mm: FloatArray
+    turned: FloatArray
 
     @property
     def size(self) -> int:
@@ -132,7 +145,7 @@ class PieceRuns:
         return PieceRuns(f(self.start[rows]), f(self.stop[rows]), f(self.c0[rows]),
                          f(self.chord[rows]), f(self.axis[rows]), f(self.height_mm[rows]),
                          f(self.dilation_mm[rows]), f(self.mid[rows]), f(self.spread_mm[rows]),
-                         f(self.half_mm[rows]))
+                         f(self.half_mm[rows]), self.along_mm, self.turned)
 
     @property
     def max_spread_mm(self) -> float:
@@ -176,18 +189,59 @@ def _dilation(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatAr
 
 @numba.njit(cache=True)
 def span_reference(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatArray,
-                   height: FloatArray, core_radius: float, corner_radius: float,
-                   chord: FloatArray) -> tuple[int, float]:
-    """The reference piece of pieces ``first..last`` (one run, or a part of one).
+                   height: FloatArray, along: FloatArray, turned: FloatArray,
+                   core_radius: float, corner_radius: float, chord: FloatArray
+                   ) -> tuple[int, float]:
+    """The reference piece of pieces ``first..last`` of one run, and a bound on its dilation.
 
     Writes its chord ``a_last + e_last - a_first`` into ``chord``; returns the piece whose
-    axis it holds (the middle one) and its dilation (``delta`` of the module docstring,
-    widened for rounding, plus :data:`ENTRY_MARGIN_MM`). Its core starts at ``a[first]``.
+    axis it holds (the middle one) and a bound on its dilation (``delta`` of the module
+    docstring, widened for rounding, plus :data:`ENTRY_MARGIN_MM`), in constant time from
+    the run's prefix sums (:attr:`PieceRuns.along_mm`, :attr:`PieceRuns.turned`) rather
+    than a pass over the pieces (a walk halves a run of thousands of fine pieces per dexel):
+
+    * turn: ``|a_k - A|`` is at most the sum of the steps ``|a_{m+1} - a_m|`` between ``k``
+      and the reference, so at most ``max(T_ref - T_first, T_last - T_ref)``;
+    * path: the pieces' ends lie on the polyline from ``s0 = a_first`` to
+      ``s1 = a_last + e_last`` through every piece and the gaps between them, of length
+      ``Lp``; a point ``x`` of it has ``|x - s0| + |x - s1| <= Lp`` (a spheroid with foci
+      ``s0, s1``), hence stands within its semi-minor axis ``sqrt(Lp^2 - c^2) / 2`` of the
+      segment (``c = |s1 - s0|``).
+
+    Its core starts at ``a[first]``; the pieces share one core height (a run's).
     """
     for c in range(3):
         chord[c] = a[last, c] + e[last, c] - a[first, c]
-    delta = _dilation(first, last, a, e, axis, height, core_radius, corner_radius)
-    return (first + last) // 2, delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM
+    ref = (first + last) // 2
+    turn = max(turned[ref] - turned[first], turned[last] - turned[ref])
+    ex, ey, ez = e[last, 0], e[last, 1], e[last, 2]
+    length = along[last] - along[first] + math.sqrt(ex * ex + ey * ey + ez * ez)
+    length = length * (1.0 + _PREFIX_ROUNDING) + _PREFIX_ROUNDING
+    cc = chord[0] * chord[0] + chord[1] * chord[1] + chord[2] * chord[2]
+    off = 0.5 * math.sqrt(max(length * length - cc, 0.0))
+    delta = turn * (math.hypot(core_radius, height[ref]) + corner_radius) + off
+    return ref, delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM
+
+
+@numba.njit(cache=True)
+def _prefixes(a: FloatArray, e: FloatArray, axis: FloatArray, start: IntArray,
+              stop: IntArray) -> tuple[FloatArray, FloatArray]:
+    """Per piece, from its run's first: path length to its start, and the axis steps summed."""
+    along = np.zeros(a.shape[0])
+    turned = np.zeros(a.shape[0])
+    for r in range(start.shape[0]):
+        for k in range(start[r] + 1, stop[r]):
+            gx = a[k, 0] - a[k - 1, 0] - e[k - 1, 0]
+            gy = a[k, 1] - a[k - 1, 1] - e[k - 1, 1]
+            gz = a[k, 2] - a[k - 1, 2] - e[k - 1, 2]
+            ex, ey, ez = e[k - 1, 0], e[k - 1, 1], e[k - 1, 2]
+            along[k] = (along[k - 1] + math.sqrt(ex * ex + ey * ey + ez * ez)
+                        + math.sqrt(gx * gx + gy * gy + gz * gz))
+            tx = axis[k, 0] - axis[k - 1, 0]
+            ty = axis[k, 1] - axis[k - 1, 1]
+            tz = axis[k, 2] - axis[k - 1, 2]
+            turned[k] = turned[k - 1] + math.sqrt(tx * tx + ty * ty + tz * tz)
+    return along, turned
 
 
 @numba.njit(cache=True)
@@ -297,4 +351,5 @@ def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float
     np.maximum.at(half, owner, off + pieces.half_mm)
     return PieceRuns(start, stop, f(c0), f(chord), f(ref_axis), f(pieces.height_mm[start]),
                      delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM, f(mid),
-                     spread * (1.0 + _ROUNDING), half * (1.0 + _ROUNDING))
+                     spread * (1.0 + _ROUNDING), half * (1.0 + _ROUNDING),
+                     *_prefixes(a, e, axis, start, stop))

@@ -62,7 +62,7 @@ from .grid import PieceGrid
 from .piece_runs import PieceRuns, span_reference
 from .torus import sweep_bound, sweep_entry, sweep_exit, sweep_interval
 
-__all__ = ["lowest_sweep_entries"]
+__all__ = ["floor_entry", "lowest_sweep_entries"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -84,7 +84,7 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 
 
 @numba.njit(cache=True)
-def _floor(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray, axis: FloatArray,
+def floor_entry(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray, axis: FloatArray,
            height: float, core_radius: float, dilated_radius: float, lo: float, hi: float,
            best: float) -> float:
     """A lower bound on what any piece inside a dilated sweep leaves on a dexel.
@@ -112,7 +112,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           run_spread: FloatArray, run_start: IntArray, run_stop: IntArray, run_c0: FloatArray,
           run_chord: FloatArray, run_axis: FloatArray, run_height: FloatArray,
           run_dilation: FloatArray, mid: FloatArray, half: FloatArray, a: FloatArray,
-          e: FloatArray, axis: FloatArray, height: FloatArray, core_radius: float,
+          e: FloatArray, axis: FloatArray, height: FloatArray, along: FloatArray,
+          turned: FloatArray, core_radius: float,
           corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
           behind: NDArray[np.bool_], pairs: IntArray) -> None:
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
@@ -206,7 +207,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                         continue
                     if run_stop[slot] - run_start[slot] > 1:
                         met += 1
-                        floor = _floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                        floor = floor_entry(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                        run_height[slot], core_radius,
                                        corner_radius + run_dilation[slot], bounds[v], tops[v],
                                        limit)
@@ -248,12 +249,13 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                         if hi_j - lo_i > 1:
                             met += 1
                             ref, grow = span_reference(lo_i, hi_j - 1, a, e, axis, height,
-                                                       core_radius, corner_radius, chord)
+                                                       along, turned, core_radius,
+                                                       corner_radius, chord)
                             lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
                                                  core_radius, corner_radius + grow)
-                            entry = _floor(p, d, a[lo_i], chord, axis[ref], height[ref],
-                                           core_radius, corner_radius + grow, lo, hi,
-                                           tie_limit(best, lo_i, best_piece))
+                            entry = floor_entry(p, d, a[lo_i], chord, axis[ref],
+                                                height[ref], core_radius, corner_radius + grow,
+                                                lo, hi, tie_limit(best, lo_i, best_piece))
                         halves[side] = entry
                     for side in (1, 0) if halves[0] <= halves[1] else (0, 1):
                         if halves[side] < tie_limit(best, i if side == 0 else h, best_piece):
@@ -340,7 +342,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
               runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
               runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
               f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
-              f(height_mm, dtype=float), float(core_radius_mm), float(corner_radius_mm),
-              float(behind_cosine), lam, piece, behind, pairs)
+              f(height_mm, dtype=float), runs.along_mm, runs.turned, float(core_radius_mm),
+              float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

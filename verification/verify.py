@@ -238,7 +238,9 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                          lambda stretch: _pieces(stretch, cutter, cfg, fine_opts,
                                                  shank=False)[0],
                          model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm,
-                         chord_tol_mm=opts.extremes_tol_mm)
+                         chord_tol_mm=opts.extremes_tol_mm,
+                         pieces_per_rad=(0.0 if cutter.kind is CutterKind.BALL else
+                                         _core(cutter)[1] / (2.0 * opts.extremes_tol_mm)))
     lap("pieces")
     stride = None
     if opts.collision:
@@ -357,6 +359,17 @@ def _past_square_to_all(normals: FloatArray, axes: FloatArray, limit: float
     return away
 
 
+def _core(cutter: Cutter) -> tuple[float, float]:
+    """A flat or bull-nose piece's core height ``max(R - 2 r, 0)`` and reach, mm.
+
+    The reach ``hypot(R - r, L) + r`` bounds how far a point of the piece's cutter stands
+    from its core centre (:func:`_pieces`).
+    """
+    radius, corner = cutter.radius_mm, cutter.corner_radius_mm
+    height = max(radius - 2.0 * corner, 0.0)
+    return height, math.hypot(radius - corner, height) + corner
+
+
 def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: VerifyOptions,
             *, shank: bool = True) -> tuple[Pieces, Pieces | None]:
     """The swept cutter's near pieces and its shank pieces (:mod:`verification.pieces`).
@@ -373,8 +386,7 @@ def _pieces(motion: ToolMotion, cutter: Cutter, cfg: dict[str, float], opts: Ver
                 shank_pieces(motion, radius, flutes, cfg["shank_spacing_mm"],
                              cfg["shank_piece_mm"]) if shank else None)
     corner = cutter.corner_radius_mm
-    height = max(radius - 2.0 * corner, 0.0)
-    reach = math.hypot(radius - corner, height) + corner
+    height, reach = _core(cutter)
     near = cutter_pieces(motion, corner, height, cfg["max_piece_mm"], reach_mm=reach,
                          rot_tol_mm=opts.replay_tol_mm, merge_tol_mm=opts.merge_tol_mm)
     if not shank:

@@ -1,0 +1,146 @@
+"""Issue 27: the bull-nose fine model built per batch, from the segments that can decide.
+
+:class:`verification.fine_lazy.LazyFineSweeps` answers the fine model's near searches of a
+flat or bull-nose cutter from the joint segments whose coarse pieces, widened by the
+models' tolerances, may enter a dexel below a value fine pieces already reach; the full
+method (:meth:`~verification.fine_model.FineModel.around_each` without it) replays every
+segment near the boxes. Both on 5-axis passes over a sphere, the axis turning along them.
+"""
+
+import math
+from dataclasses import replace
+
+import numpy as np
+import pytest
+from verify_programs import five_axis_cap
+
+import verification.fine_lazy as fine_lazy
+import verification.fine_model as fine_model
+from gcode import Program
+from machines import load_machine
+from toolpath.planning.analytic import SpherePatch
+from toolpath.planning.cutters import parse_cutter
+from verification.dexels import SweepIndex
+from verification.fine_model import FineAsk, FineModel, box_centres
+from verification.options import DexelMethod
+from verification.pieces import cutter_pieces
+from verification.replay import replay
+from verification.samples import surface_points_normals
+from verification.search import Dexels
+
+SPHERE_MM = 12.0
+LEVEL_MM, DEPTH_MM = 0.02, 0.02
+COARSE_TOL_MM = 5e-3
+LIFT_MM = 4e-3
+
+
+def _model(lazy: bool | None, full_pieces: int = fine_model.FULL_PIECES):
+    machine, bull = load_machine("trunnion-ac"), parse_cutter("bull:6:1")
+    radius, corner = bull.radius_mm, bull.corner_radius_mm
+    height = max(radius - 2.0 * corner, 0.0)
+    reach = math.hypot(radius - corner, height) + corner
+    step_deg = math.degrees(0.35 / SPHERE_MM)
+    # the passes twice, the second time in more blocks and a micrometre deeper; the coarse
+    # model lifts the second copy's pieces by 4 um (within its tolerance of the sweep), so
+    # it names the first copy's pieces where the fine model finds the second's lower
+    once, again = (five_axis_cap(machine, bull, SPHERE_MM - deeper_mm,
+                                 longitude_deg=(-12.0, 12.0),
+                                 colatitudes_deg=np.arange(40.0, 50.0, step_deg),
+                                 points=points, lead_deg=10.0)
+                   for points, deeper_mm in ((25, 0.0), (37, 1e-3)))
+    program = Program(once.blocks + again.blocks)
+    motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=radius)
+    # the coarse model: every chord, its second copy's pieces lifted along the axis by
+    # nearly the tolerance it declares (how far it may stand from the true sweep)
+    coarse = cutter_pieces(motion, corner, height, 0.5, reach_mm=reach, rot_tol_mm=5e-4)
+    lifted = LIFT_MM * (coarse.move >= len(once.blocks))[:, None] * coarse.axis
+    coarse = replace(coarse, a=coarse.a + lifted, mid=coarse.mid + lifted)
+    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), radius,
+                       np.full(3, -SPHERE_MM), np.full(3, SPHERE_MM), base_cell_mm=0.25,
+                       reach_limit_mm=radius + LEVEL_MM + DEPTH_MM, corner_radius_mm=corner)
+    ev = Dexels(index, radius, (0.005, LEVEL_MM), DEPTH_MM, DexelMethod.NORMAL,
+                corner_radius=corner)
+    fine = FineModel(motion, machine, ev,
+                     lambda stretch: cutter_pieces(stretch, corner, height, 0.5, reach_mm=reach,
+                                                   rot_tol_mm=1e-4),
+                     model_tol_mm=COARSE_TOL_MM, chord_tol_mm=1e-4,
+                     pieces_per_rad=reach / (2.0 * 1e-4), lazy=lazy, full_pieces=full_pieces)
+    sphere = SpherePatch(radius_mm=SPHERE_MM, longitude_deg=(-8.0, 8.0),
+                         colatitude_deg=(42.0, 48.0))
+    return sphere, ev, fine
+
+
+def _ask(sphere, ev, middle, half):
+    t0, s0 = np.array([middle[0]]), np.array([middle[1]])
+    centres, slack = box_centres(sphere, t0, s0, half[0], half[1], ev.corner)
+    return FineAsk(centres, slack, np.full(1, 1.0 / SPHERE_MM), LEVEL_MM, DEPTH_MM)
+
+
+def _searches(sphere, ev, fine, middle, half):
+    t0, s0 = np.array([middle[0]]), np.array([middle[1]])
+    (model,) = fine.around_each([_ask(sphere, ev, middle, half)])
+    off = np.linspace(-1.0, 1.0, 21)
+    t = (t0 + half[0] * off[:, None] + 0.0 * off).ravel()
+    s = (s0 + half[1] * off[None, :] + 0.0 * off[:, None]).ravel()
+    pts, nrm, _ = surface_points_normals(sphere, t, s)
+    return model, pts, nrm
+
+
+BOXES = [((0.5, 0.5), (0.03, 0.05)), ((0.3, 0.7), (0.02, 0.02))]
+
+
+@pytest.mark.parametrize("middle, half", BOXES)
+def test_the_lazy_fine_model_finds_what_the_full_one_finds(middle, half):
+    sphere, ev, full_fine = _model(lazy=False)
+    _, _, lazy_fine = _model(lazy=True)
+    assert lazy_fine.can_build_lazily and not full_fine.can_build_lazily
+    full, pts, nrm = _searches(sphere, ev, full_fine, middle, half)
+    lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, middle, half)
+    assert isinstance(lazy.index, fine_lazy.LazyFineSweeps)
+    lazy.index.batch = 40  # several batches, each with its own segments
+    conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    for shift_mm in (0.0, 0.004, -0.003, 0.012):
+        p = pts + shift_mm * nrm
+        a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
+        assert np.isfinite(a.lam_mm).all()
+        np.testing.assert_allclose(b.lam_mm, a.lam_mm, rtol=0.0, atol=1e-12)
+        np.testing.assert_array_equal(b.move, a.move)
+    # the work: fewer segments than the full method replays for the box
+    assert 0 < lazy.index.rows_built
+
+
+def test_the_segments_of_each_lowest_coarse_piece_alone_are_not_enough(monkeypatch):
+    """The guard of the shortcut: without the widened coarse pieces entering below ``U_q``
+    (step 2) the values differ, so the test above checks it."""
+    sphere, ev, full_fine = _model(lazy=False)
+    _, _, lazy_fine = _model(lazy=True)
+    full, pts, nrm = _searches(sphere, ev, full_fine, *BOXES[0])
+    lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
+    conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    monkeypatch.setattr(type(lazy_fine.coarse.index), "pieces_entering_below",
+                        lambda self, *args: np.zeros(0, dtype=np.int64))
+    differs = False
+    for shift_mm in (0.0, 0.004, -0.003, 0.012):
+        p = pts + shift_mm * nrm
+        a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
+        assert (b.lam_mm >= a.lam_mm - 1e-12).all()  # fewer pieces: never lower
+        differs |= bool(np.any(b.lam_mm > a.lam_mm + 1e-9))
+    assert differs
+
+
+def test_the_full_method_where_its_model_is_small_the_lazy_one_where_large():
+    """``lazy=None``: the full method's pieces counted before it builds them decide."""
+    sphere, ev, full_fine = _model(lazy=False)
+    full, _, _ = _searches(sphere, ev, full_fine, *BOXES[0])
+    built = full.index.pieces("near").size
+    ask = _ask(sphere, ev, *BOXES[0])
+    rows, _, _ = full_fine.rows_around(ask.centres, ask.slack_mm, ask.convexity_per_mm,
+                                       level_mm=LEVEL_MM, depth_mm=DEPTH_MM)
+    counted = full_fine.full_pieces(rows)
+    # the axis split dominates: the count is within a few pieces per segment of the model
+    assert built - 3 * rows.shape[0] <= counted <= built
+    assert built > 10 * rows.shape[0]  # the axis turns: many pieces per segment
+    for budget, lazy in ((counted - 1, True), (counted, False), (10 * counted, False)):
+        _, ev, fine = _model(lazy=None, full_pieces=budget)
+        (model,) = fine.around_each([_ask(sphere, ev, *BOXES[0])])
+        assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
