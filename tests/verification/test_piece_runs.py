@@ -183,3 +183,62 @@ def test_pieces_turning_fast_on_long_flutes_give_the_pair_searchs_values(seed):
         finite = np.isfinite(found[1])
         assert finite.sum() > 2000
         np.testing.assert_allclose(found[0][finite], found[1][finite], rtol=0.0, atol=1e-9)
+
+
+def _turning_run(rng, n, step_mm, bend):
+    """``n`` pieces end to end (small random gaps), the path bending by ``bend`` per piece,
+    the axis turning by up to a few hundredths of a radian per piece."""
+    def unit(v):
+        return v / np.linalg.norm(v)
+
+    axes = [unit(rng.normal(size=3))]
+    for _ in range(n - 1):
+        axes.append(unit(axes[-1] + rng.normal(size=3) * 10 ** rng.uniform(-5.0, -1.5)))
+    a, e = np.zeros((n, 3)), np.zeros((n, 3))
+    p, heading = np.zeros(3), unit(rng.normal(size=3))
+    for k in range(n):
+        heading = unit(heading + bend * rng.normal(size=3))
+        a[k] = p
+        e[k] = heading * step_mm * rng.uniform(0.0, 1.5)
+        p = a[k] + e[k] + rng.normal(size=3) * step_mm * 0.3 * (rng.random() < 0.3)
+    return a, e, np.array(axes)
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6", "bull:8:2"])
+def test_a_half_runs_constant_time_bound_holds_its_pieces(rng, spec):
+    # the walk halves runs and bounds each half's dilation from prefix sums
+    # (span_reference): the axis steps summed and the path's length (the spheroid about
+    # the chord); every piece of the half lies inside its reference dilated by that bound
+    from verification.piece_runs import ENTRY_MARGIN_MM, _dilation, _prefixes, span_reference
+
+    cutter = parse_cutter(spec)
+    corner = cutter.corner_radius_mm
+    core = cutter.radius_mm - corner
+    height = cutter.radius_mm - 2.0 * corner if corner else 0.0
+    for _ in range(40):
+        n = int(rng.integers(2, 40))
+        a, e, axes = _turning_run(rng, n, 10 ** rng.uniform(-4.0, -1.0),
+                                  float(rng.choice([0.0, 0.3, 2.0])))
+        h = np.full(n, height)
+        along, turned = _prefixes(a, e, axes, np.array([0]), np.array([n]))
+        for _ in range(5):
+            first = int(rng.integers(0, n - 1))
+            last = int(rng.integers(first + 1, n))
+            chord = np.empty(3)
+            ref, bound = span_reference(first, last, a, e, axes, h, along, turned, core,
+                                        corner, chord)
+            bound -= ENTRY_MARGIN_MM
+            assert _dilation(first, last, a, e, axes, h, core, corner) <= bound * (1 + 1e-9)
+            k = rng.integers(first, last + 1, size=200)
+            x = (a[k] + rng.uniform(0.0, 1.0, (200, 1)) * e[k]
+                 + rng.normal(0.0, 1.0, (200, 3)) * rng.uniform(0.0, cutter.radius_mm + 0.5,
+                                                                   (200, 1)))
+            own = sweep_distance(x, a[k], e[k], axes[k], h[k], core_radius_mm=core,
+                                 corner_radius_mm=corner)
+            far = sweep_distance(x, np.repeat(a[[first]], 200, axis=0),
+                                 np.repeat(chord[None, :], 200, axis=0),
+                                 np.repeat(axes[[ref]], 200, axis=0), np.full(200, height),
+                                 core_radius_mm=core, corner_radius_mm=corner)
+            outside = own >= 0.0
+            assert np.all(far[outside] - bound <= own[outside] + 1e-12)
+            assert np.all(far[~outside] <= bound + 1e-12)
