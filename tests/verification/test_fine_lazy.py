@@ -34,7 +34,8 @@ COARSE_TOL_MM = 5e-3
 LIFT_MM = 4e-3
 
 
-def _model(lazy: bool | None, full_pieces: int = fine_model.FULL_PIECES):
+def _model(lazy: bool | None, full_pieces: int = fine_model.FULL_PIECES, *,
+           spring: bool = False):
     machine, bull = load_machine("trunnion-ac"), parse_cutter("bull:6:1")
     radius, corner = bull.radius_mm, bull.corner_radius_mm
     height = max(radius - 2.0 * corner, 0.0)
@@ -48,12 +49,15 @@ def _model(lazy: bool | None, full_pieces: int = fine_model.FULL_PIECES):
                                  colatitudes_deg=np.arange(40.0, 50.0, step_deg),
                                  points=points, lead_deg=10.0)
                    for points, deeper_mm in ((25, 0.0), (37, 1e-3)))
-    program = Program(once.blocks + again.blocks)
+    # spring: the same blocks twice, bit-equal values (ties); the coarse model lifts the
+    # FIRST copy, so it names the second, and the fine search must name the first again
+    program = Program(once.blocks + (once if spring else again).blocks)
     motion = replay(program, machine, chord_tol_mm=5e-4, radius_mm=radius)
-    # the coarse model: every chord, its second copy's pieces lifted along the axis by
-    # nearly the tolerance it declares (how far it may stand from the true sweep)
+    # the coarse model: every chord, one copy's pieces lifted along the axis by nearly the
+    # tolerance it declares (how far it may stand from the true sweep)
     coarse = cutter_pieces(motion, corner, height, 0.5, reach_mm=reach, rot_tol_mm=5e-4)
-    lifted = LIFT_MM * (coarse.move >= len(once.blocks))[:, None] * coarse.axis
+    lifted = LIFT_MM * ((coarse.move < len(once.blocks)) if spring else (
+        coarse.move >= len(once.blocks)))[:, None] * coarse.axis
     coarse = replace(coarse, a=coarse.a + lifted, mid=coarse.mid + lifted)
     index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), radius,
                        np.full(3, -SPHERE_MM), np.full(3, SPHERE_MM), base_cell_mm=0.25,
@@ -89,10 +93,12 @@ def _searches(sphere, ev, fine, middle, half):
 BOXES = [((0.5, 0.5), (0.03, 0.05)), ((0.3, 0.7), (0.02, 0.02))]
 
 
+@pytest.mark.parametrize("spring", [False, True], ids=["deeper copy", "tied copy"])
 @pytest.mark.parametrize("middle, half", BOXES)
-def test_the_lazy_fine_model_finds_what_the_full_one_finds(middle, half):
-    sphere, ev, full_fine = _model(lazy=False)
-    _, _, lazy_fine = _model(lazy=True)
+def test_the_lazy_fine_model_finds_what_the_full_one_finds(middle, half, spring):
+    # values and blocks alike: on the tied copy the tie rule's earliest block
+    sphere, ev, full_fine = _model(lazy=False, spring=spring)
+    _, _, lazy_fine = _model(lazy=True, spring=spring)
     assert lazy_fine.can_build_lazily and not full_fine.can_build_lazily
     full, pts, nrm = _searches(sphere, ev, full_fine, middle, half)
     lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, middle, half)
