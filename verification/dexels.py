@@ -57,6 +57,7 @@ search's pieces (:meth:`SweepIndex.pieces`: the near search's, then the shank's)
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass, field
 
 import numpy as np
@@ -301,6 +302,19 @@ class SweepIndex:
         target = max(reach_mm / CELL_PER_REACH, MIN_TARGET_CELL_MM)
         return max(0, int(np.round(np.log2(target / self.base_cell_mm))))
 
+    def _kept_level(self, kept: Mapping[tuple[str, int], object], which: str,
+                    reach_mm: float, built: bool) -> int:
+        """The grid level for searches of ``reach_mm`` (:meth:`_level`).
+
+        ``built``: rather the level of a grid of ``kept`` already built for these pieces,
+        the one nearest in cell.
+        """
+        k = self._level(reach_mm)
+        have = [level for kind, level in kept if kind == which]
+        if built and have and (which, k) not in kept:
+            k = min(have, key=lambda level: abs(level - k))
+        return k
+
     def _grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0, *,
               built: bool = False) -> PieceGrid:
         """The grid for searches of ``reach_mm``, built and kept on first use.
@@ -310,10 +324,7 @@ class SweepIndex:
         already built for these pieces, the one nearest in cell (only the cells walked
         differ, not the pieces found), than a new one.
         """
-        k = self._level(reach_mm)
-        have = [level for kind, level in self._grids if kind == which]
-        if built and have and (which, k) not in self._grids:
-            k = min(have, key=lambda level: abs(level - k))
+        k = self._kept_level(self._grids, which, reach_mm, built)
         grid = self._grids.get((which, k))
         if grid is None or self._covers[id(grid)] < beyond_mm:
             if grid is not None:
@@ -341,10 +352,7 @@ class SweepIndex:
         runs' grid already built nearest in cell (the walk finds the same runs, over other
         cells) than a new grid and a copy of the runs in its order.
         """
-        k = self._level(reach_mm)
-        have = [level for kind, level in self._runs if kind == which]
-        if built and have and (which, k) not in self._runs:
-            k = min(have, key=lambda level: abs(level - k))
+        k = self._kept_level(self._runs, which, reach_mm, built)
         kept = self._runs.get((which, k))
         if kept is None or self._covers[id(kept[0])] < beyond_mm:
             if kept is not None:

@@ -143,12 +143,11 @@ class Dexels:
                         + self.index.ball.max_height_mm)
             low, low_piece = out.lam_mm, out.piece
             if below_mm is not None:
-                given = ranks_before_rows(below_mm, np.full_like(low_piece, -1)
-                                          if below_piece is None else below_piece,
-                                          low, low_piece)
+                given_piece = (np.full_like(low_piece, -1) if below_piece is None
+                               else below_piece)
+                given = ranks_before_rows(below_mm, given_piece, low, low_piece)
                 low = np.where(given, below_mm, low)
-                low_piece = np.where(given, -1 if below_piece is None else below_piece,
-                                     low_piece)
+                low_piece = np.where(given, given_piece, low_piece)
             scatter(out, np.arange(points.shape[0]),
                      self.index.search("far", points, dirs, points, r, below_mm=low,
                                        below_piece=low_piece), merge=True)
