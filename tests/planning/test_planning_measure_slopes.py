@@ -89,3 +89,21 @@ def test_seeds_carry_the_frame_the_search_would_evaluate(cutter):
     evaluated, _ = SearchSeeds.of(measured.surface, bare)
     for a, b in zip(carried, evaluated, strict=True):
         np.testing.assert_allclose(a, b, rtol=0.0, atol=1e-12)
+
+
+def test_seeds_at_the_far_edge_are_left_out_the_others_kept_whole():
+    # every seed short of s = 1: the columns are the measurement's own; one at s = 1 (no
+    # room for a cusp above it): the others' rows, in order
+    measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=10.0)
+    chord = measured.chord
+    chord = dataclasses.replace(chord, seeds_s=np.minimum(chord.seeds_s, 0.5))  # all short
+    whole, _ = SearchSeeds.of(measured.surface, chord)
+    assert np.array_equal(whole.rows, np.arange(chord.seeds_t.size))
+    at_edge = chord.seeds_s.copy()
+    at_edge[7] = 1.0
+    some, _ = SearchSeeds.of(measured.surface, dataclasses.replace(chord, seeds_s=at_edge))
+    keep = np.flatnonzero(np.arange(chord.seeds_t.size) != 7)
+    assert np.array_equal(some.rows, keep)
+    for a, b in zip(some[:-1], whole[:-1], strict=True):
+        assert np.array_equal(a, b[keep])

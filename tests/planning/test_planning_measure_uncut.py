@@ -14,6 +14,7 @@ from measured_plans import planned
 from toolpath.path import MoveKind
 from toolpath.planning import SpherePatch
 from toolpath.planning.chord_measure import measure_chord
+from toolpath.planning.sweep_kernel import ray_ranges
 from toolpath.planning.uncut_area import UncutArea
 
 CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
@@ -153,3 +154,23 @@ def test_each_node_gets_the_piece_its_move_s_contacts_place_there(closed):
                                               n_t, n_s)
         np.testing.assert_array_equal(node, expected)
         assert (node >= 0).sum() > 5
+
+
+@pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])
+def test_rays_cut_are_those_entering_a_piece_within_the_horizon(cutter):
+    # the full method: every ray meets every piece within the cutter's reach; cut() skips
+    # the rays that have none there (counted first), and tries candidates and near pieces
+    measured = planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    middle = int(measured.path.pass_index.max()) // 2
+    path = _without_passes(measured.path, np.arange(middle - 3, middle + 4))
+    measured = dataclasses.replace(measured, path=path)
+    volume = measured.volume()
+    g = np.linspace(0.0, 1.0, 61)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    full = np.isfinite(volume.height(q, n, *ray_ranges(*volume.pairs(q), len(q)), first=True))
+    assert full.any() and (~full).any()
+    assert np.array_equal(volume.cut(q, n), full)
+    # rays with no piece within the reach: the uncut strip's, and rays far off the part
+    off = q + 5.0 * volume.cutter.radius_mm * n
+    assert not volume.cut(off, n).any()

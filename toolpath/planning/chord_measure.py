@@ -444,9 +444,10 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
+            those = ends.take(sel)
             start = None if slopes is None else _feet_between(
-                ends.take(sel), t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
-            g_star[sel, col] = move_gaps(surface, cutter, ends.take(sel), u_at[sel, None],
+                those, t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
+            g_star[sel, col] = move_gaps(surface, cutter, those, u_at[sel, None],
                                          newton=newton, refine_rim=True,
                                          joints=_joint_rows(joints, sel), start=start)[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)

@@ -29,7 +29,7 @@ from ..row_threads import run_in_threads
 from .cutter_kernel import cutter_distance
 
 __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
-           "cell_scratch_size", "clearances", "pairs_within", "points_box"]
+           "cell_scratch_size", "clearances", "counts_within", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -478,6 +478,21 @@ def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size, 
         counts[i] = found
 
 
+def counts_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
+                  ) -> NDArray[np.int64]:
+    """How many of the binned points lie within ``radius_mm`` of each query.
+
+    The first of :func:`pairs_within`'s two passes (a query with none has no pair: asked
+    alone, it needs no second pass).
+    """
+    q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
+    counts = np.zeros(len(q), dtype=np.int64)
+    run_in_threads(_pairs_within, len(q), cells, q, float(radius_mm), counts,
+                   np.zeros(len(q), dtype=np.int64), np.zeros(0, dtype=np.int64),
+                   cell_scratch_size(radius_mm, cells.cell_mm))
+    return counts
+
+
 def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
                  ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
     """Every (query, point) pair closer than ``radius_mm``, grouped by query in order.
@@ -486,12 +501,10 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     points in the array given to :func:`bin_samples`).
     """
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
-    counts = np.zeros(len(q), dtype=np.int64)
+    counts = counts_within(cells, q, radius_mm)
     starts = np.zeros(len(q), dtype=np.int64)
     args = (cells, q, float(radius_mm))
     scratch = cell_scratch_size(radius_mm, cells.cell_mm)
-    run_in_threads(_pairs_within, len(q), *args, counts, starts, np.zeros(0, dtype=np.int64),
-                   scratch)
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)
     if items.size:

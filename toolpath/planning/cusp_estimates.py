@@ -584,6 +584,11 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     pieces = np.full((n_seed, 2), -1, dtype=np.int64)
 
     def search(todo: NDArray[np.int64], radius_mm: float) -> NDArray[np.bool_]:
+        if todo.size == n_seed:  # every seed (the first reach): no copies of them
+            out = ridges(centre, seeds.n, seeds.x_s, seeds.pass_, volume.near_cells,
+                         radius_mm, volume.a, seg, volume.pass_of, big)
+            x[:], inside[:], state[:], pieces[:] = out
+            return state == RIDGE_NO_PASS
         x[todo], inside[todo], state[todo], pieces[todo] = ridges(
             centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
             volume.near_cells, radius_mm, volume.a, seg, volume.pass_of, big)

@@ -63,7 +63,10 @@ class SearchSeeds(NamedTuple):
             seed_q = seed_n = x_s = np.zeros((0, 3))
         others = _OtherPasses(seed_q, sp)
         live = np.flatnonzero(ss < 1.0 - ROUND_OFF)
-        return cls(*(a[live] for a in (st, ss, sp, x_s, seed_q, seed_n)), live), others
+        columns = (st, ss, sp, x_s, seed_q, seed_n)
+        if live.size < st.size:  # (else the arrays as they are: no copies of every seed)
+            columns = tuple(a[live] for a in columns)
+        return cls(*columns, live), others
 
 
 class CuspSearch:

@@ -22,7 +22,13 @@ from machines.kinematics import forward
 
 from ..path import MoveKind, Toolpath
 from ..vectors import move_poses
-from .clearance_kernel import SampleCells, bin_samples, pairs_within, points_box
+from .clearance_kernel import (
+    SampleCells,
+    bin_samples,
+    counts_within,
+    pairs_within,
+    points_box,
+)
 from .cutters import Cutter, CutterKind
 from .measure_joints import checked_joints
 from .sweep_kernel import (
@@ -286,12 +292,17 @@ class CutVolume:
         Each ray's ``candidate`` piece (-1: none), if given, is tried first, then a ball's
         pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the sheet of
         ball centres): a ray one of them cuts is cut whatever the others do (the height is
-        the lowest entry); the rest meet all their pieces (:meth:`height`).
+        the lowest entry); the rest meet all their pieces (:meth:`height`), those with any
+        within the cutter's reach (counted first: an uncut area's rays have none).
         """
         out = np.zeros(len(q), dtype=bool)
         rest = np.arange(len(q))
         if candidate is not None and len(self.pass_of):
             rows = np.flatnonzero(candidate >= 0)
+            # in the pieces' order (each ray's result is its own, whatever the order): the
+            # pieces are then read from memory in turn, not at random (a grid's rows
+            # cross the passes; 0.4 times the time on the R150 dome's 140,000 rays)
+            rows = rows[np.argsort(candidate[rows], kind="stable")]
             one = np.arange(rows.size)
             out[rows] = np.isfinite(self.height(q[rows], n[rows], one, one + 1,
                                                 candidate[rows], first=True))
@@ -302,8 +313,13 @@ class CutVolume:
             lo, hi, item = ray_ranges(owner, item, rest.size)
             out[rest] = np.isfinite(self.height(q[rest], n[rest], lo, hi, item, first=True))
             rest = np.flatnonzero(~out)
+        if not len(self.pass_of):
+            return out
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]
+            # a ray with no piece's midpoint within the reach enters none within the horizon
+            # (an uncut area's rays, most of these): the others alone meet their pieces
+            rows = rows[counts_within(self.cells, q[rows], self.reach) > 0]
             out[rows] = np.isfinite(self.height(q[rows], n[rows],
                                                 *ray_ranges(*self.pairs(q[rows]), len(rows)),
                                                 first=True))
