@@ -430,7 +430,9 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     plan_dict = _jsonable(plan_report) | {
         "planned_for_scallop_mm": scallop_mm, "planned_for_chord_tol_mm": chord_mm,
         "attempts": attempts,
-        "scallop_request_mm": request.scallop_mm, "chord_tol_mm": request.chord_tol_mm}
+        "scallop_request_mm": request.scallop_mm, "chord_tol_mm": request.chord_tol_mm,
+        # the plan measures its toolpath; as written the G-code's rounding may add this
+        "written_scallop_bound_mm": plan_report.written_scallop_bound_mm}
     plan_dict.pop("unreachable_spans", None)  # per pass; the regions summarize them
     for name in ("rotary_rates", "blunt_face"):  # their report lines, worded once
         figures = getattr(plan_report, name, None)

@@ -46,11 +46,21 @@ def test_coarse_5_axis_job_keeps_the_request_at_the_first_plan(tmp_path):
     request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")),
                          machine="trunnion-ac", axis_mode="lead-tilt", scallop_mm=0.1,
                          chord_tol_mm=0.05)
-    plan = run_job(request, tmp_path).report["plan"]
+    report = run_job(request, tmp_path).report
+    plan = report["plan"]
     assert len(plan["attempts"]) == 1
     assert plan["rounding_reserve_mm"] > 0.5 * np.sqrt(3.0) * 0.001  # rotary joints too
     assert plan["max_chord_error_mm"] <= plan["planned_chord_tol_mm"] < 0.05
     assert plan["max_scallop_mm"] <= plan["planned_scallop_mm"] < 0.1
+    # the plan's figures are its toolpath's: the summary says so, and what the G-code's
+    # rounding may make of its scallop (the verifier measures the program as written)
+    from streamline_cam.commands.run import report_lines
+
+    bound = plan["max_scallop_mm"] + plan["rounding_reserve_mm"]
+    assert plan["written_scallop_bound_mm"] == pytest.approx(bound)
+    assert (f"the toolpath's, before the G-code's rounding of up to "
+            f"{plan['rounding_reserve_mm']:.4f} mm: as written, scallop at most about "
+            f"{bound:.4f} mm") in "\n".join(report_lines(report))
 
 
 def test_a_plan_measured_over_the_request_is_planned_again_tighter(tmp_path, monkeypatch):
