@@ -149,6 +149,8 @@ class LazyFineSweeps:
         ``force``: grown whatever the count.
         """
         new = np.setdiff1d(rows, self._rows, assume_unique=True)
+        if new.shape[0] == 0 and not self._chunks:
+            return None
         if new.shape[0]:
             counted = self.fine.full_pieces(new)
             if not force and self._counted + counted > self.kept_pieces:
@@ -182,7 +184,13 @@ class LazyFineSweeps:
         return index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm)
 
     def _batch(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-               radii_mm: FloatArray, below_mm: FloatArray | None) -> DexelResult:
+               radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool = False
+               ) -> DexelResult:
+        """The two steps for a batch of dexels over the segments kept, grown as they ask.
+
+        ``fresh``: begun with nothing kept (a single dexel then keeps what it needs
+        whatever the budget).
+        """
         fine = self.fine
         coarse = fine.coarse.index
         pieces = coarse.pieces("near")
@@ -191,35 +199,49 @@ class LazyFineSweeps:
         # height added) of the centre, and within w and a coarse and a fine half length
         # (no longer than a coarse one) of the midpoint of a coarse piece standing for it
         reach = radii_mm + w + 3.0 * pieces.max_half_mm + pieces.max_height_mm
-        # 1. the segments of each dexel's lowest coarse piece: U_q
-        # (over the coarse runs' grid the coarse searches built: no second one)
-        _, hit, _, _ = coarse.sweep_entries("near", points, dirs, centres, reach, built=True)
-        first = fine._rows(pieces, np.unique(hit[hit >= 0]))
-        index = self._holding(first) if first.shape[0] or self._index is not None else None
-        if index is None and first.shape[0]:
-            self._drop()
-            index = self._holding(first)
-            if index is None:
-                if points.shape[0] > 1:
-                    return self._halves(points, dirs, centres, radii_mm, below_mm)
-                index = self._holding(first, force=True)
+        # 0. the segments kept (a value they reach is a U_q as good as step 1's)
+        q = points.shape[0]
+        index = self._index
         res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+        todo = np.flatnonzero(res.move < 0)
+        if todo.shape[0]:
+            # 1. where they reach nothing: the segments of each dexel's lowest coarse piece
+            # (over the coarse runs' grid the coarse searches built: no second one)
+            _, hit, _, _ = coarse.sweep_entries("near", points[todo], dirs[todo],
+                                                centres[todo], reach[todo], built=True)
+            first = fine._rows(pieces, np.unique(hit[hit >= 0]))
+            if first.shape[0]:
+                grown = self._holding(first, force=fresh and q == 1)
+                if grown is None:
+                    return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
+                if grown is not index:
+                    index = grown
+                    res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q
         listed = coarse.pieces_entering_below("near", points, dirs, centres, reach,
                                               res.lam_mm, w)
         if listed.shape[0] == 0:
             return res
-        rows = fine._rows(pieces, listed)
-        grown = self._holding(rows)
+        grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)
         if grown is None:
-            if points.shape[0] > 1:
-                return self._halves(points, dirs, centres, radii_mm, below_mm)
-            # one dexel: U_q over what is kept stays a value the segments kept reach;
-            # kept and listed alike are searched
-            grown = self._holding(rows, force=True)
+            return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
         if grown is index:
             return res
         return self._searched(grown, points, dirs, centres, radii_mm, below_mm)
+
+    def _over_budget(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+                     radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool
+                     ) -> DexelResult:
+        """A batch whose segments would pass the budget: afresh, else half by half.
+
+        Afresh: the kept pieces dropped and the batch begun again (the values found so
+        far are of segments no longer kept, so none is reused); begun afresh already: its
+        halves, each with what the other keeps.
+        """
+        if not fresh:
+            self._drop()
+            return self._batch(points, dirs, centres, radii_mm, below_mm, fresh=True)
+        return self._halves(points, dirs, centres, radii_mm, below_mm)
 
     def _halves(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                 radii_mm: FloatArray, below_mm: FloatArray | None) -> DexelResult:
