@@ -91,18 +91,18 @@ class LazyFineSweeps:
         Balls holding every near search asked (centre and radius), mm: the kept index's
         grids cover them (:meth:`FineModel.rows_around
         <verification.fine_model.FineModel.rows_around>`).
-    batch : int
-        Most dexels per pass of the two steps.
-    kept_pieces : int
-        Most fine pieces kept (:data:`KEPT_PIECES`).
+    batch : int, optional
+        Most dexels per pass of the two steps (default :data:`FINE_BATCH`).
+    kept_pieces : int, optional
+        Most fine pieces kept (default :data:`KEPT_PIECES`).
     """
 
     def __init__(self, fine: FineModel, middles: FloatArray, reach_mm: FloatArray, *,
-                 batch: int = FINE_BATCH, kept_pieces: int = KEPT_PIECES) -> None:
+                 batch: int | None = None, kept_pieces: int | None = None) -> None:
         self.fine = fine
         self.middles, self.reach_mm = middles, reach_mm
-        self.batch = batch
-        self.kept_pieces = kept_pieces
+        self.batch = FINE_BATCH if batch is None else batch
+        self.kept_pieces = KEPT_PIECES if kept_pieces is None else kept_pieces
         #: segments replayed finely, summed (a measure of the work)
         self.rows_built = 0
         #: times the kept pieces were dropped for the budget
@@ -172,6 +172,13 @@ class LazyFineSweeps:
         self._rows = np.zeros(0, dtype=np.int64)
         self._chunks, self._counted, self._index = [], 0, None
 
+    @staticmethod
+    def _bound(res: DexelResult, below_mm: FloatArray | None) -> FloatArray:
+        """``U_q``: the value found, else the value given (which the caller keeps)."""
+        if below_mm is None:
+            return res.lam_mm
+        return np.where(res.move >= 0, res.lam_mm, below_mm)
+
     def _searched(self, index: SweepIndex | None, points: FloatArray, dirs: FloatArray,
                   centres: FloatArray, radii_mm: FloatArray, below_mm: FloatArray | None
                   ) -> DexelResult:
@@ -203,7 +210,8 @@ class LazyFineSweeps:
         q = points.shape[0]
         index = self._index
         res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
-        todo = np.flatnonzero(res.move < 0)
+        known = self._bound(res, below_mm)
+        todo = np.flatnonzero(~np.isfinite(known))
         if todo.shape[0]:
             # 1. where they reach nothing: the segments of each dexel's lowest coarse piece
             # (over the coarse runs' grid the coarse searches built: no second one)
@@ -217,9 +225,9 @@ class LazyFineSweeps:
                 if grown is not index:
                     index = grown
                     res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+                    known = self._bound(res, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q
-        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach,
-                                              res.lam_mm, w)
+        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w)
         if listed.shape[0] == 0:
             return res
         grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)
