@@ -45,8 +45,10 @@ stretches near the boxes are millions of pieces (over 20 GB on the bull-nose 5-a
 blade): its fine searches are answered per batch of dexels from the segments that can
 decide them only (:mod:`verification.fine_lazy`; ``FineModel(lazy=False)`` keeps the full
 method above, the tests' oracle). Lazily only where the full model would be large
-(:meth:`FineModel.full_pieces` over :data:`FULL_PIECES`): per batch the lazy searches
-replay the deciding segments again, three to four times slower on a small program.
+(:meth:`FineModel.full_pieces` over :data:`FULL_PIECES`): the lazy searches replay each
+deciding segment once and keep its fine pieces across batches
+(:data:`~verification.fine_lazy.KEPT_PIECES` of them at most), but step 2's walk over the
+coarse pieces runs for every batch.
 """
 
 from __future__ import annotations
