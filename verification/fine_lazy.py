@@ -31,7 +31,20 @@ the fine search (a piece's midpoint within the search radius of the centre) is t
 fewer segments; the coarse pieces are listed from three times their longest half, their
 core height and ``w`` farther (a fine piece is no longer than a coarse one).
 
-Memory is bounded by batch: at most :data:`FINE_BATCH` dexels share one fine index.
+The fine pieces are kept across batches (:data:`KEPT_PIECES` of them at most): a batch's
+searches run over every segment kept so far that its own segments hold, replayed once for
+the whole refinement rather than once per batch (the refinement's levels search the same
+few places again and again). Searching more segments than the two steps name changes
+nothing: the kept segments are segments of the full model, and the minimum over a set of
+them holding those the steps name is the minimum over all (the rule above); of equal
+values the earlier block is kept, as in the full model, since the kept pieces stand in
+block order. The value ``U_q`` of step 1 is then the search over every segment kept,
+which holds the first segments: a lower bound still reached by fine pieces, which lists
+fewer segments in step 2.
+
+Memory is bounded by the budget: when a batch's segments would pass it, the kept pieces
+are dropped, and a batch whose own segments pass it on their own is halved (down to one
+dexel, whose segments are kept whatever their count).
 """
 
 from __future__ import annotations
@@ -41,24 +54,30 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from .dexels import DexelResult
+from .dexels import DexelResult, SweepIndex
 from .piece_runs import ENTRY_MARGIN_MM
+from .pieces import Pieces
 from .search import scatter
 
 if TYPE_CHECKING:
     from .fine_model import FineModel
 
-__all__ = ["FINE_BATCH", "LazyFineSweeps"]
+__all__ = ["FINE_BATCH", "KEPT_PIECES", "LazyFineSweeps"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
 
 FINE_BATCH: Final[int] = 2048
-"""Most dexels answered from one fine index (its segments are those of its dexels)."""
+"""Most dexels answered in one pass of the two steps."""
+
+KEPT_PIECES: Final[int] = 1_500_000
+"""Most fine pieces kept across batches (counted by :meth:`FineModel.full_pieces
+<verification.fine_model.FineModel.full_pieces>` before they are built): about 0.65 GB at
+the fine model's 430 bytes a piece."""
 
 
 class LazyFineSweeps:
-    """Near searches over the fine model, built per batch from the segments that decide.
+    """Near searches over the fine model, from the segments that decide, kept across batches.
 
     Stands in for a :class:`~verification.dexels.SweepIndex` in
     :class:`~verification.search.Dexels` (near searches only: the collision search stays
@@ -68,28 +87,48 @@ class LazyFineSweeps:
     ----------
     fine : FineModel
         The fine model (replay, machine, coarse searches, fine pieces, tolerances).
-    batch : int
-        Most dexels per fine index.
+    middles, reach_mm : ndarray, shapes (k, 3) and (k,)
+        Balls holding every near search asked (centre and radius), mm: the kept index's
+        grids cover them (:meth:`FineModel.rows_around
+        <verification.fine_model.FineModel.rows_around>`).
+    batch : int, optional
+        Most dexels per pass of the two steps (default :data:`FINE_BATCH`).
+    kept_pieces : int, optional
+        Most fine pieces kept (default :data:`KEPT_PIECES`).
     """
 
-    def __init__(self, fine: FineModel, *, batch: int = FINE_BATCH) -> None:
+    def __init__(self, fine: FineModel, middles: FloatArray, reach_mm: FloatArray, *,
+                 batch: int | None = None, kept_pieces: int | None = None) -> None:
         self.fine = fine
-        self.batch = batch
-        #: segments replayed finely per batch, summed (a measure of the work)
+        self.middles, self.reach_mm = middles, reach_mm
+        self.batch = FINE_BATCH if batch is None else batch
+        self.kept_pieces = KEPT_PIECES if kept_pieces is None else kept_pieces
+        #: segments replayed finely, summed (a measure of the work)
         self.rows_built = 0
+        #: times the kept pieces were dropped for the budget
+        self.drops = 0
+        self._rows = np.zeros(0, dtype=np.int64)
+        self._chunks: list[Pieces] = []
+        self._counted = 0
+        self._index: SweepIndex | None = None
 
     @property
     def widen_mm(self) -> float:
         """``w``: how far a fine piece may stand outside the coarse pieces of its stretch, mm."""
         return self.fine.model_tol_mm + self.fine.chord_tol_mm + ENTRY_MARGIN_MM
 
+    @property
+    def rows_kept(self) -> IntArray:
+        """The joint segments whose fine pieces are kept (sorted)."""
+        return self._rows
+
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                radii_mm: FloatArray, *, below_mm: FloatArray | None = None,
                below_piece: IntArray | None = None) -> DexelResult:
         """The fine model's near search (:meth:`~verification.dexels.SweepIndex.search`).
 
-        The pieces found are numbered within their batch's own index, which no other
-        search shares: they are returned as ``-1`` (unknown; of equal values the one
+        The pieces found are numbered within the kept index, which changes as segments are
+        kept or dropped: they are returned as ``-1`` (unknown; of equal values the one
         given or found first is kept), and ``below_piece`` is not used.
         """
         if which != "near":
@@ -104,21 +143,61 @@ class LazyFineSweeps:
         out.piece[:] = -1
         return out
 
-    def _search_rows(self, rows: IntArray, points: FloatArray, dirs: FloatArray,
-                     centres: FloatArray, radii_mm: FloatArray,
-                     below_mm: FloatArray | None) -> DexelResult:
-        """The fine search over the fine pieces of ``rows`` alone."""
-        if rows.shape[0] == 0:
+    def _holding(self, rows: IntArray, *, force: bool = False) -> SweepIndex | None:
+        """The kept index grown to hold ``rows``; None where that would pass the budget.
+
+        ``force``: grown whatever the count.
+        """
+        new = np.setdiff1d(rows, self._rows, assume_unique=True)
+        if new.shape[0] == 0 and not self._chunks:
+            return None
+        if new.shape[0]:
+            counted = self.fine.full_pieces(new)
+            if not force and self._counted + counted > self.kept_pieces:
+                return None
+            self._chunks.append(self.fine.fine_pieces(new))
+            self.rows_built += int(new.shape[0])
+            self._counted += counted
+            self._rows = np.union1d(self._rows, new)
+            self._index = None
+        if self._index is None:
+            kept = _one_path(self._chunks)
+            self._chunks = [kept]
+            self._index = self.fine.index_of(kept, self.middles, self.reach_mm)
+        return self._index
+
+    def _drop(self) -> None:
+        """Every kept piece dropped (the budget)."""
+        self.drops += 1
+        self._rows = np.zeros(0, dtype=np.int64)
+        self._chunks, self._counted, self._index = [], 0, None
+
+    @staticmethod
+    def _bound(res: DexelResult, below_mm: FloatArray | None) -> FloatArray:
+        """``U_q``: the value found, else the value given (which the caller keeps)."""
+        if below_mm is None:
+            return res.lam_mm
+        return np.where(res.move >= 0, res.lam_mm, below_mm)
+
+    def _searched(self, index: SweepIndex | None, points: FloatArray, dirs: FloatArray,
+                  centres: FloatArray, radii_mm: FloatArray, below_mm: FloatArray | None
+                  ) -> DexelResult:
+        """The fine search over ``index`` (None: no segment, nothing found)."""
+        if index is None:
             res = DexelResult.empty(points.shape[0])
             if below_mm is not None:
                 res.lam_mm[:] = below_mm
             return res
-        self.rows_built += int(rows.shape[0])
-        index = self.fine._index(rows, centres, radii_mm)
         return index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm)
 
     def _batch(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-               radii_mm: FloatArray, below_mm: FloatArray | None) -> DexelResult:
+               radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool = False
+               ) -> DexelResult:
+        """The two steps for a batch of dexels over the segments kept, grown as they ask.
+
+        ``fresh``: begun with nothing kept (a single dexel then keeps what it needs
+        whatever the budget).
+        """
         fine = self.fine
         coarse = fine.coarse.index
         pieces = coarse.pieces("near")
@@ -127,17 +206,91 @@ class LazyFineSweeps:
         # height added) of the centre, and within w and a coarse and a fine half length
         # (no longer than a coarse one) of the midpoint of a coarse piece standing for it
         reach = radii_mm + w + 3.0 * pieces.max_half_mm + pieces.max_height_mm
-        # 1. the segments of each dexel's lowest coarse piece: U_q
-        # (over the coarse runs' grid the coarse searches built: no second one)
-        _, hit, _, _ = coarse.sweep_entries("near", points, dirs, centres, reach, built=True)
-        first = fine._rows(pieces, np.unique(hit[hit >= 0]))
-        res = self._search_rows(first, points, dirs, centres, radii_mm, below_mm)
+        # 0. the segments kept (a value they reach is a U_q as good as step 1's)
+        q = points.shape[0]
+        index = self._index
+        res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+        known = self._bound(res, below_mm)
+        todo = np.flatnonzero(~np.isfinite(known))
+        if todo.shape[0]:
+            # 1. where they reach nothing: the segments of each dexel's lowest coarse piece
+            # (over the coarse runs' grid the coarse searches built: no second one)
+            _, hit, _, _ = coarse.sweep_entries("near", points[todo], dirs[todo],
+                                                centres[todo], reach[todo], built=True)
+            first = fine._rows(pieces, np.unique(hit[hit >= 0]))
+            if first.shape[0]:
+                grown = self._holding(first, force=fresh and q == 1)
+                if grown is None:
+                    return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
+                if grown is not index:
+                    index = grown
+                    res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+                    known = self._bound(res, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q
-        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach,
-                                              res.lam_mm, w)
+        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w)
         if listed.shape[0] == 0:
             return res
-        rows = np.union1d(first, fine._rows(pieces, listed))
-        if rows.shape[0] == first.shape[0]:
+        grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)
+        if grown is None:
+            return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
+        if grown is index:
             return res
-        return self._search_rows(rows, points, dirs, centres, radii_mm, below_mm)
+        return self._searched(grown, points, dirs, centres, radii_mm, below_mm)
+
+    def _over_budget(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+                     radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool
+                     ) -> DexelResult:
+        """A batch whose segments would pass the budget: afresh, else half by half.
+
+        Afresh: the kept pieces dropped and the batch begun again (the values found so
+        far are of segments no longer kept, so none is reused); begun afresh already: its
+        halves, each with what the other keeps.
+        """
+        if not fresh:
+            self._drop()
+            return self._batch(points, dirs, centres, radii_mm, below_mm, fresh=True)
+        return self._halves(points, dirs, centres, radii_mm, below_mm)
+
+    def _halves(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+                radii_mm: FloatArray, below_mm: FloatArray | None) -> DexelResult:
+        """A batch whose segments pass the budget, answered half by half."""
+        q = points.shape[0]
+        out = DexelResult.empty(q)
+        for sel in (np.arange(q // 2), np.arange(q // 2, q)):
+            scatter(out, sel, self._batch(points[sel], dirs[sel], centres[sel],
+                                          radii_mm[sel],
+                                          None if below_mm is None else below_mm[sel]))
+        return out
+
+
+def _one_path(chunks: list[Pieces]) -> Pieces:
+    """Fine pieces of several replays as one set, in block order.
+
+    Each replay's path lengths are shifted past the previous one's (one millimetre apart),
+    so :meth:`~verification.pieces.Pieces.moves_at` traces a piece back along its own
+    replay's instances. The pieces are put in block order, as the full model's (its
+    segments replayed in order): of tied pieces the earliest block is found first.
+    """
+    fields: dict[str, list[NDArray[np.generic]]] = {name: [] for name in _FIELDS}
+    paths, moves = [], []
+    shift = 0.0
+    for chunk in chunks:
+        arc = chunk.path_arc_mm
+        at = shift - (float(arc[0]) if arc.shape[0] else 0.0)
+        for name in _FIELDS:
+            fields[name].append(getattr(chunk, name))
+        fields["arc0_mm"][-1] = chunk.arc0_mm + at
+        fields["arc1_mm"][-1] = chunk.arc1_mm + at
+        paths.append(arc + at)
+        moves.append(chunk.path_move)
+        if arc.shape[0]:
+            shift = float(arc[-1]) + at + 1.0
+    cat = {name: np.concatenate(v) for name, v in fields.items()}
+    joined = Pieces(**cat, path_arc_mm=np.concatenate(paths),  # type: ignore[arg-type]
+                    path_move=np.concatenate(moves))
+    return joined.taken(np.argsort(joined.move, kind="stable"))
+
+
+#: The per-piece fields of :class:`~verification.pieces.Pieces`.
+_FIELDS: Final[tuple[str, ...]] = ("a", "e", "ee", "mid", "half_mm", "move", "shank", "axis",
+                                   "arc0_mm", "arc1_mm", "height_mm")

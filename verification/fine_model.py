@@ -45,8 +45,10 @@ stretches near the boxes are millions of pieces (over 20 GB on the bull-nose 5-a
 blade): its fine searches are answered per batch of dexels from the segments that can
 decide them only (:mod:`verification.fine_lazy`; ``FineModel(lazy=False)`` keeps the full
 method above, the tests' oracle). Lazily only where the full model would be large
-(:meth:`FineModel.full_pieces` over :data:`FULL_PIECES`): per batch the lazy searches
-replay the deciding segments again, three to four times slower on a small program.
+(:meth:`FineModel.full_pieces` over :data:`FULL_PIECES`): the lazy searches replay each
+deciding segment once and keep its fine pieces across batches
+(:data:`~verification.fine_lazy.KEPT_PIECES` of them at most), but step 2's walk over the
+coarse pieces runs for every batch.
 """
 
 from __future__ import annotations
@@ -359,12 +361,12 @@ class FineModel:
             return out
         index: SweepIndex | LazyFineSweeps
         rows = np.unique(np.concatenate([found[i][0] for i in near]))
+        middles = np.concatenate([found[i][1] for i in near])
+        reach = np.concatenate([found[i][2] for i in near])
         if self.builds_lazily(rows):
-            index = LazyFineSweeps(self)
+            index = LazyFineSweeps(self, middles, reach)
         else:
-            index = self._index(rows,
-                                np.concatenate([found[i][1] for i in near]),
-                                np.concatenate([found[i][2] for i in near]))
+            index = self._index(rows, middles, reach)
         for i in near:
             level = asks[i].level_mm
             levels = (*(h for h in ev.horizons if h < level), level)
@@ -375,6 +377,10 @@ class FineModel:
     def _index(self, rows: IntArray, middles: FloatArray, reach_mm: FloatArray
                ) -> SweepIndex:
         """The near pieces of some joint segments replayed finely, indexed around balls."""
+        return self.index_of(self.fine_pieces(rows), middles, reach_mm)
+
+    def fine_pieces(self, rows: IntArray) -> Pieces:
+        """The near pieces of some joint segments replayed finely (stretches not joined)."""
         ev = self.coarse
         stretch, starts = replay_rows(self.motion, self.machine, rows,
                                       chord_tol_mm=self.chord_tol_mm, radius_mm=ev.radius)
@@ -386,10 +392,15 @@ class FineModel:
         j = np.minimum(np.searchsorted(gap_hi, mid, side="left"), max(gap_hi.shape[0] - 1, 0))
         joins = (mid > gap_lo[j]) & (mid < gap_hi[j]) if gap_hi.shape[0] else np.zeros(
             mid.shape[0], dtype=bool)
-        fine = fine.taken(~joins)
+        return fine.taken(~joins)
+
+    def index_of(self, fine: Pieces, middles: FloatArray, reach_mm: FloatArray
+                 ) -> SweepIndex:
+        """A near-search index of fine pieces for searches within balls ``(middles, reach)``."""
         # always the compiled walk: the very walk the coarse searches use (checked against
         # the pair search there), whereas pairs over the dense fine pieces grow as their
         # square; an uncompiled coarse index (a test's oracle) is not copied here
+        ev = self.coarse
         old = ev.index
         box = float(np.max(reach_mm)) + ev.corner + fine.max_height_mm
         return SweepIndex(fine, fine.taken(np.zeros(fine.size, dtype=bool)), old.radius_mm,

@@ -150,3 +150,29 @@ def test_the_full_method_where_its_model_is_small_the_lazy_one_where_large():
         _, ev, fine = _model(lazy=None, full_pieces=budget)
         (model,) = fine.around_each([_ask(sphere, ev, *BOXES[0])])
         assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
+
+
+@pytest.mark.parametrize("kept_pieces", [fine_lazy.KEPT_PIECES, 1], ids=["kept", "budget 1"])
+def test_segments_kept_across_batches_are_replayed_once_and_change_nothing(kept_pieces):
+    """Every batch searches the segments kept so far: each replayed once, not per batch,
+    the same values and blocks as the full method; over the budget (one piece: every
+    batch halved down to single dexels, the kept pieces dropped) the same again."""
+    sphere, ev, full_fine = _model(lazy=False, spring=True)
+    _, _, lazy_fine = _model(lazy=True, spring=True)
+    full, pts, nrm = _searches(sphere, ev, full_fine, *BOXES[0])
+    lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
+    sweeps = lazy.index
+    assert isinstance(sweeps, fine_lazy.LazyFineSweeps)
+    sweeps.batch, sweeps.kept_pieces = 40, kept_pieces
+    conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    for shift_mm in (0.0, 0.004, -0.003):
+        p = pts + shift_mm * nrm
+        a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
+        np.testing.assert_allclose(b.lam_mm, a.lam_mm, rtol=0.0, atol=1e-12)
+        np.testing.assert_array_equal(b.move, a.move)
+    if kept_pieces == 1:
+        assert sweeps.drops > 0
+    else:
+        # 11 batches of 40 dexels, levels and shifts: each segment replayed once
+        assert sweeps.drops == 0
+        assert sweeps.rows_built == sweeps.rows_kept.shape[0]

@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 from verify_programs import tilted_raster
 
+import verification.fine_lazy as fine_lazy
 import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
 from machines import load_machine
@@ -59,6 +60,13 @@ def _fine_model_per_ask(m):
               lambda self, asks: [shared(self, [ask])[0] for ask in asks])
 
 
+def _lazy_fine_model(m):
+    """A flat or bull-nose cutter's fine searches answered per batch of 64 dexels from the
+    segments that decide them (:mod:`verification.fine_lazy`), whatever the model's size."""
+    m.setattr(FineModel, "builds_lazily", lambda self, rows: self.can_build_lazily)
+    m.setattr(fine_lazy, "FINE_BATCH", 64)
+
+
 def _every_search(monkeypatch, program, surface, machine, cutter, options):
     """The report of each search: the pair search first (the reference)."""
     other_levels = VerifyOptions(**{**options.__dict__, "first_level_mm": 0.003})
@@ -69,6 +77,7 @@ def _every_search(monkeypatch, program, surface, machine, cutter, options):
         "finer grid": (lambda m: _index_with(m, cell_scale=0.5), options),
         "other levels": (lambda m: None, other_levels),
         "fine model per ask": (_fine_model_per_ask, options),
+        "lazy fine model": (_lazy_fine_model, options),
     }
     runs = {}
     for name, (setup, opts) in variants.items():
