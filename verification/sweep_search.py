@@ -113,17 +113,15 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           run_chord: FloatArray, run_axis: FloatArray, run_height: FloatArray,
           run_dilation: FloatArray, mid: FloatArray, half: FloatArray, a: FloatArray,
           e: FloatArray, axis: FloatArray, height: FloatArray, along: FloatArray,
-          turned: FloatArray, core_radius: float,
-          corner_radius: float, behind_cosine: float, lam: FloatArray, piece: IntArray,
+          turned: FloatArray, core_radius: float, corner_radius: float, behind_cosine: float,
+          outer: float, widest: float, lam: FloatArray, piece: IntArray,
           behind: NDArray[np.bool_], pairs: IntArray) -> None:
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
     # found; a bound is compared with tie_limit(best, its run's or half's first piece)
-    # every piece's cutter lies within this plus its half length of its midpoint (the
-    # bound of :func:`~verification.torus.sweep_bound` about the core's mid-height path,
-    # which stands L / 2 above the midpoint); a run's within this plus its own half
-    top = 0.5 * height.max()
-    outer = math.sqrt(core_radius * core_radius + top * top) + corner_radius + top
-    widest = run_spread.max()
+    # ``outer``: every piece's cutter lies within this plus its half length of its
+    # midpoint, a run's within this plus its own half (:func:`_outer_mm`); ``widest``: the
+    # largest run spread (both taken outside: a reduction here would be a parallel loop
+    # chunked by the walk's chunk size of 1, a task per element, over every piece)
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
@@ -269,6 +267,17 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
             pairs[q] = met
 
 
+def _outer_mm(height_mm: FloatArray, core_radius_mm: float, corner_radius_mm: float) -> float:
+    """Every piece's cutter lies within this plus its half length of its midpoint, mm.
+
+    The bound of :func:`~verification.torus.sweep_bound` about the core's mid-height
+    path, which stands ``L / 2`` above the midpoint: ``sqrt(rho0^2 + (L/2)^2) + r + L/2``
+    for the tallest core ``L``.
+    """
+    top = 0.5 * float(height_mm.max()) if height_mm.shape[0] else 0.0
+    return math.sqrt(core_radius_mm * core_radius_mm + top * top) + corner_radius_mm + top
+
+
 def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
                          dirs: FloatArray, centres: FloatArray, reach_mm: FloatArray,
                          runs: PieceRuns, mid: FloatArray, half_mm: FloatArray, a: FloatArray,
@@ -335,6 +344,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
         return np.full(q, np.inf), np.full(q, -1, dtype=np.int64), behind, 0
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
+    height_mm = f(height_mm, dtype=float)
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
         _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
               f(reach_mm, dtype=float), spans, dims, f(grid.origin_mm, dtype=float),
@@ -342,7 +352,9 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
               runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
               runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
               f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
-              f(height_mm, dtype=float), runs.along_mm, runs.turned, float(core_radius_mm),
-              float(corner_radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+              height_mm, runs.along_mm, runs.turned, float(core_radius_mm),
+              float(corner_radius_mm), float(behind_cosine),
+              _outer_mm(height_mm, core_radius_mm, corner_radius_mm), runs.max_spread_mm,
+              lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())
