@@ -62,7 +62,7 @@ from .grid import PieceGrid
 from .piece_runs import PieceRuns, span_reference
 from .torus import sweep_bound, sweep_entry, sweep_exit, sweep_interval
 
-__all__ = ["floor_entry", "lowest_sweep_entries"]
+__all__ = ["floor_entry", "lowest_sweep_entries", "piece_outer_mm"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -119,9 +119,10 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
     # found; a bound is compared with tie_limit(best, its run's or half's first piece)
     # ``outer``: every piece's cutter lies within this plus its half length of its
-    # midpoint, a run's within this plus its own half (:func:`_outer_mm`); ``widest``: the
-    # largest run spread (both taken outside: a reduction here would be a parallel loop
-    # chunked by the walk's chunk size of 1, a task per element, over every piece)
+    # midpoint, a run's within this plus its own half (:func:`piece_outer_mm`);
+    # ``widest``: the largest run spread (both taken outside: a reduction here would be a
+    # parallel loop chunked by the walk's chunk size of 1, a task per element, over every
+    # piece)
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
@@ -267,7 +268,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
             pairs[q] = met
 
 
-def _outer_mm(height_mm: FloatArray, core_radius_mm: float, corner_radius_mm: float) -> float:
+def piece_outer_mm(height_mm: FloatArray, core_radius_mm: float, corner_radius_mm: float
+                   ) -> float:
     """Every piece's cutter lies within this plus its half length of its midpoint, mm.
 
     The bound of :func:`~verification.torus.sweep_bound` about the core's mid-height
@@ -354,7 +356,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
               f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
               height_mm, runs.along_mm, runs.turned, float(core_radius_mm),
               float(corner_radius_mm), float(behind_cosine),
-              _outer_mm(height_mm, core_radius_mm, corner_radius_mm), runs.max_spread_mm,
+              piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm), runs.max_spread_mm,
               lam, piece, behind, pairs)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())
