@@ -291,11 +291,36 @@ class SweepIndex:
     _piece_runs: dict[str, PieceRuns] = field(default_factory=dict, repr=False)
     _covers: dict[int, float] = field(default_factory=dict, repr=False)
 
+    def __post_init__(self) -> None:
+        # the collision search's pieces are the near search's, then the shank's: one copy
+        # of them, the near search's its first rows (a view), not a second concatenated
+        # copy (1 GB of the 7 M pieces of a bull-nose 5-axis blade program); the caller
+        # drops its own (:attr:`ball` is the view)
+        both = self.ball.concat(self.shank) if self.shank.size else self.ball
+        self.ball = both.taken(slice(0, self.ball.size))
+        self._pieces.update(near=self.ball, far=both)
+
     def pieces(self, which: str) -> Pieces:
-        """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank."""
-        if which not in self._pieces:
-            self._pieces[which] = self.ball if which == "near" else self.ball.concat(self.shank)
+        """The pieces a search uses: ``"near"`` ball only, ``"far"`` ball and shank.
+
+        The near search's are the first rows of the collision search's (the same numbers:
+        the tie rule's piece order).
+        """
         return self._pieces[which]
+
+    def _runs_of(self, which: str) -> PieceRuns:
+        """The runs of :meth:`pieces` (:func:`~verification.piece_runs.piece_runs`).
+
+        Built once over the collision search's pieces: a run never mixes ball and shank
+        pieces, so the near search's are the runs that start among its rows, sharing the
+        prefix sums (indexed by piece, the same numbers).
+        """
+        if which not in self._piece_runs:
+            runs = piece_runs(self._pieces["far"], core_radius_mm=self.radius_mm - self._corner,
+                              corner_radius_mm=self._corner)
+            self._piece_runs["far"] = runs
+            self._piece_runs["near"] = runs.taken(np.flatnonzero(runs.start < self.ball.size))
+        return self._piece_runs[which]
 
     def _level(self, reach_mm: float) -> int:
         """``k`` of the grid whose cell ``base_cell_mm * 2^k`` suits searches of this reach."""
@@ -358,11 +383,7 @@ class SweepIndex:
             if kept is not None:
                 del self._covers[id(kept[0])]
             pieces = self.pieces(which)
-            if which not in self._piece_runs:
-                self._piece_runs[which] = piece_runs(
-                    pieces, core_radius_mm=self.radius_mm - self._corner,
-                    corner_radius_mm=self._corner)
-            runs = self._piece_runs[which]
+            runs = self._runs_of(which)
             cover = max(self.reach_limit_mm, beyond_mm)
             margin = grid_margin_mm(cover, pieces, spread_mm=runs.max_spread_mm)
             grid = PieceGrid.build(runs.mid, self.lo_mm - margin, self.hi_mm + margin,

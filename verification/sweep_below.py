@@ -26,8 +26,6 @@ listed where its own widened floor lies below ``U_q``.
 
 from __future__ import annotations
 
-import math
-
 import numba
 import numpy as np
 from numpy.typing import NDArray
@@ -35,7 +33,7 @@ from numpy.typing import NDArray
 from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, is_candidate, walk_shape
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, span_reference
-from .sweep_search import floor_entry
+from .sweep_search import floor_entry, piece_outer_mm
 from .torus import sweep_bound
 
 __all__ = ["pieces_entering_below"]
@@ -56,13 +54,12 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           run_height: FloatArray, run_dilation: FloatArray, mid: FloatArray,
           half: FloatArray, a: FloatArray, e: FloatArray, axis: FloatArray,
           height: FloatArray, along: FloatArray, turned: FloatArray, core_radius: float,
-          corner_radius: float, widen: float,
+          corner_radius: float, widen: float, outer: float, widest: float,
           marked: NDArray[np.bool_]) -> None:
-    # every widened piece lies within this plus its half length of its midpoint (as the
-    # walk of :mod:`verification.sweep_search`, the corner radius widened)
-    top = 0.5 * height.max()
-    outer = math.sqrt(core_radius * core_radius + top * top) + corner_radius + widen + top
-    widest = run_spread.max()
+    # ``outer``: every widened piece lies within this plus its half length of its midpoint
+    # (:func:`~verification.sweep_search.piece_outer_mm`, the corner radius widened);
+    # ``widest``: the largest run spread (taken outside, as the walk of
+    # :mod:`verification.sweep_search` does: not a parallel reduction chunked by one)
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
@@ -168,6 +165,7 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
         return marked
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
+    height_mm = f(height_mm, dtype=float)
     with numba.parallel_chunksize(1):
         _mark(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
               f(reach_mm, dtype=float), f(below_mm, dtype=float), spans, dims,
@@ -175,7 +173,8 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
               runs.half_mm, runs.spread_mm, runs.start, runs.stop, runs.c0, runs.chord,
               runs.axis, runs.height_mm, runs.dilation_mm, f(mid, dtype=float),
               f(half_mm, dtype=float), f(a, dtype=float), f(e, dtype=float),
-              f(axis, dtype=float), f(height_mm, dtype=float), runs.along_mm, runs.turned,
-              float(core_radius_mm),
-              float(corner_radius_mm), float(widen_mm), marked)
+              f(axis, dtype=float), height_mm, runs.along_mm, runs.turned,
+              float(core_radius_mm), float(corner_radius_mm), float(widen_mm),
+              piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm + widen_mm),
+              runs.max_spread_mm, marked)
     return marked
