@@ -160,7 +160,8 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     that centre stands off the plane by over :data:`POSE_OFF_PLANE_SHARE` of ``R``, and
     the higher crossing kept (the cast rule needs an estimate that does not read low). The
     own section's side towards the next (normals from a little past straight down, ``-y``,
-    to ``+x``, with ``x`` across towards the next centre) and the next's side towards the
+    to ``+x``, with ``x`` across from the own contact towards the next's,
+    :func:`_bottoms_apart`) and the next's side towards the
     own, each a polyline through :data:`PROFILE_SAMPLES` boundary points, rise and fall
     across: where the own side first stands at or above the next's, they cross.
 
@@ -208,9 +209,11 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     ways = (w, u)
     centres = [carried(d, way) for way in ways]
     x *= np.where(np.einsum("ij,ij->i", centres[0], x) < 0.0, -1.0, 1.0)[:, None]
+    ring, lift = radius_mm - corner_radius_mm, flute_length_mm - corner_radius_mm
+    x *= np.where(_bottoms_apart(centres[0], own_axis, next_axis, u, w, nu, x, y, ring,
+                                 corner_radius_mm, lift) < 0.0, -1.0, 1.0)[:, None]
     t = np.linspace(-0.5, 1.0, samples)
     psi = 0.5 * np.pi * t * np.abs(t)
-    ring, lift = radius_mm - corner_radius_mm, flute_length_mm - corner_radius_mm
     x1, y1 = _section_side(np.zeros((m, 2)), own_axis, _oblique(u, nu, x, y), psi, ring,
                            corner_radius_mm, lift)
     best_x, best_y = np.zeros(m), np.full(m, -np.inf)
@@ -242,6 +245,32 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         return np.sin(angle)[:, None] * x - np.cos(angle)[:, None] * y
 
     return RidgeProfile(point, found, normal_at(own_psi), normal_at(next_psi), u, next_way)
+
+
+def _bottoms_apart(next_centre: NDArray[np.float64], own_axis: NDArray[np.float64],
+                   next_axis: NDArray[np.float64], own_way: NDArray[np.float64],
+                   next_way: NDArray[np.float64], across: NDArray[np.float64],
+                   x: NDArray[np.float64], y: NDArray[np.float64], ring_mm: float,
+                   corner_mm: float, lift_mm: float) -> NDArray[np.float64]:
+    """How far along ``x`` the next section's bottom stands beyond the own one's, mm.
+
+    The bottoms are the sections' points of outward normal ``-y`` (``psi = 0``): the two
+    passes' contacts. ``next_centre`` (m, 3) the next ring centre in the plane, relative to
+    the own one (:func:`profile_ridges`). Where a zigzag's lead tilts the two passes' axes
+    apart (the standing dev blade's pass ends, bull:8:1, lead 10 degrees) the next ring
+    centre can stand on the ``+x`` side while its contact stands on the ``-x`` side of the
+    own contact: facing away from each other, the sides met 3.3 mm across, their flanks
+    0.4 mm up (about 450 times the ray cast; the next pass's contact 0.35 mm away).
+    """
+    m = len(next_centre)
+    psi = np.zeros(1)
+    own_x, _ = _section_side(np.zeros((m, 2)), own_axis, _oblique(own_way, across, x, y), psi,
+                             ring_mm, corner_mm, lift_mm)
+    centre = np.stack([np.einsum("ij,ij->i", next_centre, x),
+                       np.einsum("ij,ij->i", next_centre, y)], axis=1)
+    next_x, _ = _section_side(centre, next_axis, _oblique(next_way, across, x, y), psi, ring_mm,
+                              corner_mm, lift_mm)
+    return next_x[:, 0] - own_x[:, 0]
 
 
 def _nearest_sample(xs: NDArray[np.float64], ys: NDArray[np.float64], x: NDArray[np.float64],
