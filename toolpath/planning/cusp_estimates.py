@@ -2,8 +2,9 @@
 
 A ball's from the two tubes round its centre's segments (:func:`ball_cusp_estimates`); a
 flat or bull-nose cutter's from the two passes' sections in the plane of the seed's line of
-``t`` (:func:`torus_cusp_estimates`). The scallop measurement ray casts where the estimate
-cannot decide (:mod:`.measure`).
+``t`` (:func:`torus_cusp_estimates`; where no prism along a pass holds, a bound from one pose
+of each pass). The scallop measurement ray casts where the estimate cannot decide
+(:mod:`.measure`).
 """
 
 from __future__ import annotations
@@ -207,12 +208,14 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     the bottom of the ridge ``X``, its height over the surface as for the ball
     (:func:`_ridge_heights`).
 
-    Returns NaN where no next pass lies within that reach, the own piece has no length,
+    No prism holds where no next pass lies within that reach, the own piece has no length,
     a pass's cutter turns round its contact (:data:`PIVOT_TURN`), a pass runs across that
     plane more steeply than :data:`~.torus_profile.LEAST_WAY_COSINE`, the sections do
     not meet nearest the surface, a pass ends or turns before the pose whose cutter leaves
     the ridge (:func:`_runs_on`) or runs along its cutter's axis (:data:`AXIS_WAY_COSINE`):
-    the ray cast decides there.
+    there, where both contact poses were found facing the seed's surface, the ridge
+    between those two poses' own sections bounds the cusp (:func:`_pose_section_bounds`;
+    bull-noses); elsewhere it returns NaN: the ray cast decides.
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
