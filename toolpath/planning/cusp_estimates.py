@@ -2,8 +2,9 @@
 
 A ball's from the two tubes round its centre's segments (:func:`ball_cusp_estimates`); a
 flat or bull-nose cutter's from the two passes' sections in the plane of the seed's line of
-``t`` (:func:`torus_cusp_estimates`). The scallop measurement ray casts where the estimate
-cannot decide (:mod:`.measure`).
+``t`` (:func:`torus_cusp_estimates`; where no prism along a pass holds, a bound from one pose
+of each pass). The scallop measurement ray casts where the estimate cannot decide
+(:mod:`.measure`).
 """
 
 from __future__ import annotations
@@ -29,7 +30,7 @@ from .cusp_kernel import (
 from .cusp_search import SearchSeeds
 from .cut_volume import CutVolume
 from .cutters import radial_directions
-from .torus_profile import profile_ridges
+from .torus_profile import pose_section_ridges, profile_ridges
 
 __all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
            "BEND_AWAY_SHARE", "CARRY_PIECES", "CARRY_TURN", "CONTACT_ALONG_SHARE",
@@ -207,12 +208,14 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     the bottom of the ridge ``X``, its height over the surface as for the ball
     (:func:`_ridge_heights`).
 
-    Returns NaN where no next pass lies within that reach, the own piece has no length,
+    No prism holds where no next pass lies within that reach, the own piece has no length,
     a pass's cutter turns round its contact (:data:`PIVOT_TURN`), a pass runs across that
     plane more steeply than :data:`~.torus_profile.LEAST_WAY_COSINE`, the sections do
     not meet nearest the surface, a pass ends or turns before the pose whose cutter leaves
     the ridge (:func:`_runs_on`) or runs along its cutter's axis (:data:`AXIS_WAY_COSINE`):
-    the ray cast decides there.
+    there, where both contact poses were found facing the seed's surface, the ridge
+    between those two poses' own sections bounds the cusp (:func:`_pose_section_bounds`;
+    bull-noses); elsewhere it returns NaN: the ray cast decides.
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -263,6 +266,10 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     # against a few um elsewhere): both poses must face the seed's surface
     live &= (np.einsum("ij,ij->i", own_axis, n) > 0.0) & (np.einsum("ij,ij->i", next_axis, n)
                                                           > 0.0)
+    # (both poses found and facing the seed's surface: their sections bound the ridge)
+    posed = own_ok & next_ok & (np.einsum("ij,ij->i", own_axis, n) > 0.0) & (
+        np.einsum("ij,ij->i", next_axis, n) > 0.0)
+    poses = (ok[posed], own_c[posed], next_c[posed], own_axis[posed], next_axis[posed])
     ok, own_way, next_way = ok[live], own_way[live], next_way[live]
     own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
     # the sections in the plane of the seed's line of t (where the ray cast meets the
@@ -288,7 +295,45 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     met &= bend <= BEND_AWAY_CAP
     share = np.where(bend > BEND_AWAY, 1.0 + BEND_AWAY_SHARE + BEND_AWAY_GROWTH * bend, 1.0)
     out[ok[met]] = share[met] * _ridge_heights(surface, seeds, ok[met], x[met])
+    _pose_section_bounds(volume, surface, seeds, out, poses)
     return out
+
+
+def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: SearchSeeds,
+                         out: NDArray[np.float64],
+                         poses: tuple[NDArray[np.float64], ...]) -> None:
+    """Fill ``out`` where no prism held from the two contact poses' sections (in place).
+
+    ``poses``: the rows whose own and next contact poses were found facing the seed's
+    surface, and those poses' ring centres and axes (:func:`torus_cusp_estimates`). Where
+    ``out`` is NaN there (a cutter turning round its contact, a pass ending, bending away,
+    running along its axis), the ridge between the two poses' own sections
+    (:func:`~.torus_profile.pose_section_ridges`: each pose lies inside what its pass
+    removes) over the surface as for the prisms' (:func:`_ridge_heights`).
+    """
+    rows, own_c, next_c, own_axis, next_axis = poses
+    todo = np.flatnonzero(np.isnan(out[rows]))
+    if not todo.size:
+        return
+    rows = rows[todo]
+    n, q = seeds.n[rows], seeds.q[rows]
+    across = unit(np.cross(seeds.x_s[rows], n))
+    cutter = volume.cutter
+    ring = cutter.radius_mm - cutter.corner_radius_mm
+    # the next contact: its ring centre less the ring's way across its axis
+    w_next, _ = radial_directions(n, next_axis[todo])
+    w_own, _ = radial_directions(n, own_axis[todo])
+    contact_next = next_c[todo] - ring * w_next - q
+    contact_own = own_c[todo] - ring * w_own - q
+    apart = contact_next - contact_own
+    reach = np.linalg.norm(apart - np.einsum("ij,ij->i", apart, across)[:, None] * across,
+                           axis=1)
+    point, found = pose_section_ridges(own_c[todo], next_c[todo], own_axis[todo],
+                                       next_axis[todo], n, seeds.x_s[rows], through=q,
+                                       across=across, reach_mm=reach,
+                                       radius_mm=cutter.radius_mm,
+                                       corner_radius_mm=cutter.corner_radius_mm)
+    out[rows[found]] = _ridge_heights(surface, seeds, rows[found], point[found])
 
 
 #: Where a pass's ring centres bend away from the surface (``kappa_n R`` above this,

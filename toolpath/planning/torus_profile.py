@@ -35,6 +35,7 @@ from ..tolerances import TINY
 from ..vectors import unit
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
+           "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
            "profile_ridges"]
 
 #: Boundary points per section side. Their normals turn from ``0.25 pi/2`` past straight
@@ -160,7 +161,8 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     that centre stands off the plane by over :data:`POSE_OFF_PLANE_SHARE` of ``R``, and
     the higher crossing kept (the cast rule needs an estimate that does not read low). The
     own section's side towards the next (normals from a little past straight down, ``-y``,
-    to ``+x``, with ``x`` across towards the next centre) and the next's side towards the
+    to ``+x``, with ``x`` across from the own contact towards the next's,
+    :func:`_bottoms_apart`) and the next's side towards the
     own, each a polyline through :data:`PROFILE_SAMPLES` boundary points, rise and fall
     across: where the own side first stands at or above the next's, they cross.
 
@@ -208,9 +210,11 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
     ways = (w, u)
     centres = [carried(d, way) for way in ways]
     x *= np.where(np.einsum("ij,ij->i", centres[0], x) < 0.0, -1.0, 1.0)[:, None]
+    ring, lift = radius_mm - corner_radius_mm, flute_length_mm - corner_radius_mm
+    x *= np.where(_bottoms_apart(centres[0], own_axis, next_axis, u, w, nu, x, y, ring,
+                                 corner_radius_mm, lift) < 0.0, -1.0, 1.0)[:, None]
     t = np.linspace(-0.5, 1.0, samples)
     psi = 0.5 * np.pi * t * np.abs(t)
-    ring, lift = radius_mm - corner_radius_mm, flute_length_mm - corner_radius_mm
     x1, y1 = _section_side(np.zeros((m, 2)), own_axis, _oblique(u, nu, x, y), psi, ring,
                            corner_radius_mm, lift)
     best_x, best_y = np.zeros(m), np.full(m, -np.inf)
@@ -242,6 +246,32 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         return np.sin(angle)[:, None] * x - np.cos(angle)[:, None] * y
 
     return RidgeProfile(point, found, normal_at(own_psi), normal_at(next_psi), u, next_way)
+
+
+def _bottoms_apart(next_centre: NDArray[np.float64], own_axis: NDArray[np.float64],
+                   next_axis: NDArray[np.float64], own_way: NDArray[np.float64],
+                   next_way: NDArray[np.float64], across: NDArray[np.float64],
+                   x: NDArray[np.float64], y: NDArray[np.float64], ring_mm: float,
+                   corner_mm: float, lift_mm: float) -> NDArray[np.float64]:
+    """How far along ``x`` the next section's bottom stands beyond the own one's, mm.
+
+    The bottoms are the sections' points of outward normal ``-y`` (``psi = 0``): the two
+    passes' contacts. ``next_centre`` (m, 3) the next ring centre in the plane, relative to
+    the own one (:func:`profile_ridges`). Where a zigzag's lead tilts the two passes' axes
+    apart (the standing dev blade's pass ends, bull:8:1, lead 10 degrees) the next ring
+    centre can stand on the ``+x`` side while its contact stands on the ``-x`` side of the
+    own contact: facing away from each other, the sides met 3.3 mm across, their flanks
+    0.4 mm up (about 450 times the ray cast; the next pass's contact 0.35 mm away).
+    """
+    m = len(next_centre)
+    psi = np.zeros(1)
+    own_x, _ = _section_side(np.zeros((m, 2)), own_axis, _oblique(own_way, across, x, y), psi,
+                             ring_mm, corner_mm, lift_mm)
+    centre = np.stack([np.einsum("ij,ij->i", next_centre, x),
+                       np.einsum("ij,ij->i", next_centre, y)], axis=1)
+    next_x, _ = _section_side(centre, next_axis, _oblique(next_way, across, x, y), psi, ring_mm,
+                              corner_mm, lift_mm)
+    return next_x[:, 0] - own_x[:, 0]
 
 
 def _nearest_sample(xs: NDArray[np.float64], ys: NDArray[np.float64], x: NDArray[np.float64],
@@ -287,3 +317,124 @@ def _crossing(x1: NDArray[np.float64], y1: NDArray[np.float64], x2: NDArray[np.f
     y_r = np.where(np.isneginf(f0), g1[rows, j], y_r)
     found &= np.isfinite(x_r) & np.isfinite(y_r)
     return np.where(found, x_r, np.nan), np.where(found, y_r, np.nan)
+
+
+#: Ring points of each pose sampled within its window about the contact
+#: (:func:`pose_section_ridges`): corner balls ``(R - r) dphi`` apart, whose disks' lower
+#: envelope sags at most ``((R - r) dphi)^2 / 8 r`` between them (the bound adds it).
+SECTION_RING_SAMPLES = 65
+
+#: Bisection steps for where the two poses' sections cross (:func:`pose_section_ridges`):
+#: the bracket ends ``2^-steps`` of the contacts' distance apart.
+SECTION_STEPS = 32
+
+
+def _disks(centre: NDArray[np.float64], axis: NDArray[np.float64],
+           normal: NDArray[np.float64], phi: NDArray[np.float64],
+           frame: tuple[NDArray[np.float64], ...], ring_mm: float, corner_mm: float
+           ) -> tuple[NDArray[np.float64], ...]:
+    """The corner balls round ring points ``phi`` (m, S) about the contact, cut by the plane.
+
+    ``frame``: the plane's point, normal and axes ``x, y`` (each (m, 3)). Returns each
+    disk's centre ``x, y`` and squared radius (m, S; negative where the ball misses).
+    """
+    through, nu, x, y = frame
+    w = unit(-(normal - np.einsum("ij,ij->i", normal, axis)[:, None] * axis))
+    v = np.cross(axis, w)
+    p = (centre[:, None] - through[:, None]
+         + ring_mm * (np.cos(phi)[..., None] * w[:, None] + np.sin(phi)[..., None] * v[:, None]))
+    delta = np.einsum("ksj,kj->ks", p, nu)
+    return (np.einsum("ksj,kj->ks", p, x), np.einsum("ksj,kj->ks", p, y),
+            corner_mm * corner_mm - delta * delta)
+
+
+def _envelope(disks: tuple[NDArray[np.float64], ...], at: NDArray[np.float64]
+              ) -> NDArray[np.float64]:
+    """The lowest of the disks' lower arcs at ``at`` (m, n), ``inf`` where none covers."""
+    cx, cy, rho_sq = disks
+    off_sq = rho_sq[:, :, None] - (at[:, None, :] - cx[:, :, None]) ** 2
+    with np.errstate(invalid="ignore"):
+        arc = np.where(off_sq >= 0.0, cy[:, :, None] - np.sqrt(np.maximum(off_sq, 0.0)),
+                       np.inf)
+    return arc.min(axis=1)
+
+
+def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
+                        own_axis: NDArray[np.float64], next_axis: NDArray[np.float64],
+                        normal: NDArray[np.float64], toward: NDArray[np.float64], *,
+                        through: NDArray[np.float64], across: NDArray[np.float64],
+                        reach_mm: NDArray[np.float64], radius_mm: float,
+                        corner_radius_mm: float, chunk: int = 4_000
+                        ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
+    """An upper bound on the ridge between two passes from one pose of each, no prism.
+
+    A pass removes at least its cutter at any one of its poses, so the material left
+    between two passes in a plane stands no higher than where the two poses' sections
+    meet: a bound wherever a prism along the way is none (a cutter turning round its
+    contact, a pass ending or bending away; :func:`~.cusp_estimates.torus_cusp_estimates`).
+    Of each cutter only the balls of radius ``r`` round its ring circle near the contact,
+    ``p(phi) = C + (R - r)(cos phi w + sin phi v)`` (``w`` the ring's way to the contact,
+    across the axis towards ``-n``; ``v = a x w``; ``|phi|`` up to 1.5 times the reach
+    across over ``R - r``, :data:`SECTION_RING_SAMPLES`), are taken: ball ``p`` cuts the
+    plane in a disk of radius ``sqrt(r^2 - delta^2)`` about ``p``'s foot (``delta`` its
+    distance from the plane); each pose's section reads the lowest of its disks' lower
+    arcs. From the own contact (``x = 0``, the own section below the next's) to the next
+    (``x = reach``, above it) the two cross: bisected (:data:`SECTION_STEPS`), over the last
+    bracket ``[x_a, x_b]`` each disk's arc (convex) stands no higher than at its ends, so
+    the lesser of the two sections' ``min_i max(f_i(x_a), f_i(x_b))`` bounds the crossing;
+    plus the disks' sag between neighbours (convex sections: the crossing is the ridge).
+
+    ``normal``, ``toward`` (m, 3): the seed's surface normal and a way from the own contact
+    towards the next (``x``'s sign); ``through``, ``across``: the plane; ``reach_mm``
+    (m,): how far across the next contact stands. Returns the bound's point (m, 3) and
+    whether it was found (not where the sections do not cross between the contacts or a
+    disk covers neither bracket end). Only for corner radius ``r > 0`` (a flat's rim balls
+    have no section).
+    """
+    m = len(own_centre)
+    point, found = np.zeros((m, 3)), np.zeros(m, dtype=bool)
+    ring, r = radius_mm - corner_radius_mm, corner_radius_mm
+    if not m or r <= 0.0:
+        return point, found
+    nu = unit(across)
+    y = unit(normal - np.einsum("ij,ij->i", normal, nu)[:, None] * nu)
+    x = np.cross(y, nu)
+    x *= np.where(np.einsum("ij,ij->i", x, toward) < 0.0, -1.0, 1.0)[:, None]
+    steps = np.linspace(-1.0, 1.0, SECTION_RING_SAMPLES)
+    for lo in range(0, m, chunk):
+        rows = slice(lo, lo + chunk)
+        reach = reach_mm[rows]
+        window = np.minimum(np.arcsin(np.clip(1.5 * reach / max(ring, TINY), 0.0, 1.0))
+                            + 0.05, 0.5 * np.pi)
+        phi = window[:, None] * steps
+        sag = (ring * 2.0 * window / (SECTION_RING_SAMPLES - 1)) ** 2 / (8.0 * r)
+        frame = (through[rows], nu[rows], x[rows], y[rows])
+        own = _disks(own_centre[rows], own_axis[rows], normal[rows], phi, frame, ring, r)
+        nxt = _disks(next_centre[rows], next_axis[rows], normal[rows], phi, frame, ring, r)
+        ends = np.stack([np.zeros_like(reach), reach], axis=1)
+        with np.errstate(invalid="ignore"):
+            gap = _envelope(own, ends) - _envelope(nxt, ends)
+        ok = (gap[:, 0] < 0.0) & (gap[:, 1] > 0.0)
+        xa, xb = ends[:, 0].copy(), ends[:, 1].copy()
+        for _ in range(SECTION_STEPS):
+            mid = 0.5 * (xa + xb)
+            with np.errstate(invalid="ignore"):
+                above = (_envelope(own, mid[:, None]) - _envelope(nxt, mid[:, None]))[:, 0]
+            above = ~(above < 0.0)  # (nan: neither covers; taken as crossed)
+            xb = np.where(above, mid, xb)
+            xa = np.where(above, xa, mid)
+        bracket = np.stack([xa, xb], axis=1)
+        bound = []
+        for disks in (own, nxt):
+            cx, cy, rho_sq = disks
+            off_sq = rho_sq[:, :, None] - (bracket[:, None, :] - cx[:, :, None]) ** 2
+            with np.errstate(invalid="ignore"):
+                arc = np.where(off_sq >= 0.0, cy[:, :, None]
+                               - np.sqrt(np.maximum(off_sq, 0.0)), np.inf)
+            bound.append(arc.max(axis=2).min(axis=1))
+        height = np.minimum(bound[0], bound[1]) + sag
+        ok &= np.isfinite(height)
+        point[rows] = (through[rows] + xb[:, None] * x[rows]
+                       + np.where(ok, height, 0.0)[:, None] * y[rows])
+        found[rows] = ok
+    return point, found
