@@ -72,3 +72,49 @@ def test_a_plate_cut_on_top_and_underneath_gives_the_pair_searchs_values(rng, ti
     assert np.isfinite(exact.lam_mm).mean() > 0.9
     assert np.array_equal(fast.lam_mm, exact.lam_mm)
     assert np.array_equal(fast.piece, exact.piece)
+
+
+def _tangent_dexels(rng, n=20_000):
+    """Dexels whose point lies on a tilted piece's flat bottom, running within 1e-11 to
+    1e-8 rad of the bottom's plane out of the cutter: one bull-nose piece each."""
+    from verification.torus import line_sweep_interval, sweep_entry_bound
+
+    ring_mm = RADIUS_MM - CORNER_MM
+    axis = rng.normal(size=(n, 3)) * 0.05 + [0.0, 0.0, 1.0]
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    tip = rng.uniform(-50.0, 50.0, (n, 3))
+    u = np.cross(axis, [0.0, 1.0, 0.0])
+    u /= np.linalg.norm(u, axis=1)[:, None]
+    v = np.cross(axis, u)
+    turn, radius = rng.uniform(0.0, 2.0 * np.pi, n), rng.uniform(0.0, 0.9 * ring_mm, n)
+    chord = 0.05 * v
+    outward = np.cos(turn)[:, None] * u + np.sin(turn)[:, None] * v
+    points = tip + rng.uniform(0.0, 1.0, (n, 1)) * chord + radius[:, None] * outward
+    dirs = outward - (10.0 ** rng.uniform(-11.5, -8.0, n))[:, None] * axis
+    dirs /= np.linalg.norm(dirs, axis=1)[:, None]
+    c0, height = tip + CORNER_MM * axis, np.full(n, HEIGHT_MM)
+    _, exit_bound = sweep_entry_bound(points, dirs, c0, chord, axis, height,
+                                      core_radius_mm=ring_mm, corner_radius_mm=CORNER_MM)
+    lam_in, lam_out = line_sweep_interval(points, dirs, c0, chord, axis, height,
+                                          core_radius_mm=ring_mm, corner_radius_mm=CORNER_MM)
+    # the exit bound's slab divides a rounding of the point's height by d . a ~ 1e-10
+    torn = (exit_bound < -1e-11) & (lam_out > 0.0) & np.isfinite(lam_in)
+    return points[torn], dirs[torn], c0[torn], chord[torn], axis[torn]
+
+
+def test_a_dexel_in_a_pieces_bottom_plane_finds_what_the_pair_search_finds(rng):
+    # a lone piece's exit bound can read -1e-6 mm where the point lies on its flat bottom
+    # and the dexel runs along it; the pair search decides the piece reaches the point
+    # from its distance to it (0), so the walk must not drop it by that bound (a review's
+    # case: the walk read inf where the pair search read -5.5 mm)
+    cases = _tangent_dexels(rng)
+    assert len(cases[0]) >= 10
+    for point, d, c0, chord, axis in zip(*(c[:40] for c in cases), strict=True):
+        ee = np.array([chord @ chord])
+        piece = Pieces(c0[None], chord[None], ee, (c0 + 0.5 * chord)[None],
+                       0.5 * np.sqrt(ee), np.zeros(1, dtype=np.int64), np.zeros(1, dtype=bool),
+                       axis[None], np.full(1, np.nan), np.full(1, np.nan), np.zeros(1),
+                       np.zeros(1, dtype=np.int64), np.full(1, HEIGHT_MM))
+        fast, exact = (_search(piece, point[None], d[None], compiled) for compiled in
+                       (True, False))
+        assert fast.lam_mm[0] == exact.lam_mm[0] and fast.piece[0] == exact.piece[0]

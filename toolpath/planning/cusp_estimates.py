@@ -561,9 +561,11 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     sought again about that piece with its axis until it stays (:data:`CONTACT_WALKS`
     windows at most). Where the neighbouring poses tilt alike, the sections across the
     pass met at those poses stand as the contacts do (a pose's contact can lie a radius
-    ahead of its ring centre, where a curved pass has moved on). Returns ``C``, ``a``
-    (normalized-linear), the piece and False where the nearest lies at the last window's
-    edge or the pass ends short of the target (:data:`CONTACT_ALONG_SHARE`).
+    ahead of its ring centre, where a curved pass has moved on). Returns the pose the pass
+    takes there (``C = tip + r a``, the tip linear and ``a`` normalized-linear along the
+    piece, as the ray cast's pieces move: a pose inside what the pass removes), the piece
+    and False where the nearest lies at the last window's edge or the pass ends short of
+    the target (:data:`CONTACT_ALONG_SHARE`).
     """
     ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
     a, e, pass_of = volume.piece_a, volume.piece_b - volume.piece_a, volume.pass_of
@@ -595,11 +597,17 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     axis_mid = unit(volume.axes0[best] + volume.axes1[best])
     inward, _ = radial_directions(normal, axis_mid)
     target = corner + ring * inward
-    centre, f = _foot_on(a[best], e[best], target)
+    foot, f = _foot_on(a[best], e[best], target)
     # a foot at the pass's end short of the target: that pose's contact lies beyond it
-    edge |= np.abs(np.einsum("ij,ij->i", target - centre, unit(e[best]))) > (
+    edge |= np.abs(np.einsum("ij,ij->i", target - foot, unit(e[best]))) > (
         CONTACT_ALONG_SHARE * volume.step_mm)
-    return centre, move_axes(volume.axes0[best], volume.axes1[best], f), best, ~edge
+    # the pose the pass takes at f: its tip moves linearly, its axis normalized-linearly
+    # (the ring centre at ``foot`` stands on the unnormalized axis, r (1 - cos(turn / 2))
+    # deep at mid-piece: a pose no pass takes)
+    axis = move_axes(volume.axes0[best], volume.axes1[best], f)
+    tips0, tips1 = volume.tips0[best], volume.tips1[best]
+    centre = tips0 + f[:, None] * (tips1 - tips0) + volume.cutter.corner_radius_mm * axis
+    return centre, axis, best, ~edge
 
 
 def _foot_on(a: NDArray[np.float64], e: NDArray[np.float64], p: NDArray[np.float64]
