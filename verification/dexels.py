@@ -203,8 +203,9 @@ class DexelResult:
         Candidate pairs tested.
     piece : ndarray of int64, shape (q,), optional
         That piece, numbered as :meth:`SweepIndex.pieces` ``("far")`` numbers them (``-1``
-        where none, or unknown: from another model, whose numbers do not compare); the
-        tie rule's second key (default: all ``-1``).
+        where none, or unknown: from another model, whose numbers do not compare; the lazy
+        fine model's tie keys, :func:`~verification.fine_lazy.tie_keys`, order them
+        alike); the tie rule's second key (default: all ``-1``).
     """
 
     lam_mm: FloatArray

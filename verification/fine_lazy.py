@@ -36,11 +36,24 @@ searches run over every segment kept so far that its own segments hold, replayed
 the whole refinement rather than once per batch (the refinement's levels search the same
 few places again and again). Searching more segments than the two steps name changes
 nothing: the kept segments are segments of the full model, and the minimum over a set of
-them holding those the steps name is the minimum over all (the rule above); of equal
-values the earlier block is kept, as in the full model, since the kept pieces stand in
-block order. The value ``U_q`` of step 1 is then the search over every segment kept,
+them holding those the steps name is the minimum over all (the rule above). The value
+``U_q`` of step 1 is then the search over every segment kept,
 which holds the first segments: a lower bound still reached by fine pieces, which lists
 fewer segments in step 2.
+
+**Ties** (:func:`~verification.capsule_search.ranks_before`: of bit-equal values the
+piece the full model numbers first). The kept pieces are renumbered as segments are kept
+or dropped, so a search gives its pieces back by their tie keys (:func:`tie_keys`: block,
+then place among the block's pieces in path order), which order pieces as the full
+model's numbers do whatever is kept: segments are kept by whole blocks
+(:func:`whole_blocks`), so a block's pieces are the same, in the same order, in every
+kept index. The results of batches, of the levels of the iterative deepening (a level
+that finds a tied piece only in its wider ball names it where its key is smaller, as the
+full model does) and of kept indices before and after a drop then merge by the tie rule
+as the full model's do; a key given (``below_piece``) becomes, in the kept index, the
+number of the first kept piece whose key is not below it. Without the keys (every piece
+unknown, ``-1``) the first level's block was kept on such a tie where the full model
+names an earlier one (``test_fine_lazy.py``, the floor raster's leaning dexels).
 
 Memory is bounded by the budget: when a batch's segments would pass it, the kept pieces
 are dropped, and a batch whose own segments pass it on their own is halved (down to one
@@ -49,6 +62,7 @@ dexel, whose segments are kept whatever their count).
 
 from __future__ import annotations
 
+from dataclasses import replace
 from typing import TYPE_CHECKING, Final
 
 import numpy as np
@@ -62,7 +76,8 @@ from .search import scatter
 if TYPE_CHECKING:
     from .fine_model import FineModel
 
-__all__ = ["FINE_BATCH", "KEPT_PIECES", "LazyFineSweeps"]
+__all__ = ["FINE_BATCH", "KEPT_PIECES", "TIE_KEY_BITS", "LazyFineSweeps", "tie_keys",
+           "whole_blocks"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -74,6 +89,10 @@ KEPT_PIECES: Final[int] = 1_500_000
 """Most fine pieces kept across batches (counted by :meth:`FineModel.full_pieces
 <verification.fine_model.FineModel.full_pieces>` before they are built): about 0.65 GB at
 the fine model's 430 bytes a piece."""
+
+
+TIE_KEY_BITS: Final[int] = 32
+"""Bits of a tie key (:func:`tie_keys`) given to a piece's place within its block."""
 
 
 class LazyFineSweeps:
@@ -111,6 +130,7 @@ class LazyFineSweeps:
         self._chunks: list[Pieces] = []
         self._counted = 0
         self._index: SweepIndex | None = None
+        self._keys = np.zeros(0, dtype=np.int64)
 
     @property
     def widen_mm(self) -> float:
@@ -127,9 +147,11 @@ class LazyFineSweeps:
                below_piece: IntArray | None = None) -> DexelResult:
         """The fine model's near search (:meth:`~verification.dexels.SweepIndex.search`).
 
-        The pieces found are numbered within the kept index, which changes as segments are
-        kept or dropped: they are returned as ``-1`` (unknown; of equal values the one
-        given or found first is kept), and ``below_piece`` is not used.
+        The pieces found are returned by their tie keys (:func:`tie_keys`), not by their
+        numbers within the kept index, which change as segments are kept or dropped: the
+        keys order pieces as the full model's numbers do, so results of different batches,
+        levels and kept indices merge by the tie rule as the full model's do;
+        ``below_piece`` is such a key too (``-1``: none).
         """
         if which != "near":
             raise ValueError(f"the lazy fine model answers near searches only, not {which!r}")
@@ -138,17 +160,19 @@ class LazyFineSweeps:
         for lo in range(0, q, self.batch):
             sel = np.arange(lo, min(q, lo + self.batch))
             part = self._batch(points[sel], dirs[sel], centres[sel], radii_mm[sel],
-                               None if below_mm is None else below_mm[sel])
+                               None if below_mm is None else below_mm[sel],
+                               None if below_piece is None else below_piece[sel])
             scatter(out, sel, part)
-        out.piece[:] = -1
         return out
 
     def _holding(self, rows: IntArray, *, force: bool = False) -> SweepIndex | None:
         """The kept index grown to hold ``rows``; None where that would pass the budget.
 
-        ``force``: grown whatever the count.
+        ``force``: grown whatever the count. Every segment of a block the rows belong to
+        is kept with them (:func:`whole_blocks`), so that the tie keys hold.
         """
-        new = np.setdiff1d(rows, self._rows, assume_unique=True)
+        new = np.setdiff1d(whole_blocks(self.fine.segment_moves, rows), self._rows,
+                           assume_unique=True)
         if new.shape[0] == 0 and not self._chunks:
             return None
         if new.shape[0]:
@@ -163,6 +187,7 @@ class LazyFineSweeps:
         if self._index is None:
             kept = _one_path(self._chunks)
             self._chunks = [kept]
+            self._keys = tie_keys(kept.move)
             self._index = self.fine.index_of(kept, self.middles, self.reach_mm)
         return self._index
 
@@ -171,6 +196,7 @@ class LazyFineSweeps:
         self.drops += 1
         self._rows = np.zeros(0, dtype=np.int64)
         self._chunks, self._counted, self._index = [], 0, None
+        self._keys = np.zeros(0, dtype=np.int64)
 
     @staticmethod
     def _bound(res: DexelResult, below_mm: FloatArray | None) -> FloatArray:
@@ -180,19 +206,36 @@ class LazyFineSweeps:
         return np.where(res.move >= 0, res.lam_mm, below_mm)
 
     def _searched(self, index: SweepIndex | None, points: FloatArray, dirs: FloatArray,
-                  centres: FloatArray, radii_mm: FloatArray, below_mm: FloatArray | None
-                  ) -> DexelResult:
-        """The fine search over ``index`` (None: no segment, nothing found)."""
+                  centres: FloatArray, radii_mm: FloatArray, below_mm: FloatArray | None,
+                  below_key: IntArray | None) -> DexelResult:
+        """The fine search over ``index`` (None: no segment, nothing found), pieces as keys.
+
+        A given key becomes the number of the first kept piece whose key is not below it
+        (past the last: none is): the kept pieces before it, and those only, rank before
+        it, so the search seeks what the full model's would; a piece found is given back
+        by its key, the value given by the key given.
+        """
         if index is None:
             res = DexelResult.empty(points.shape[0])
             if below_mm is not None:
                 res.lam_mm[:] = below_mm
+            if below_key is not None:
+                res.piece[:] = below_key
             return res
-        return index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm)
+        keys = self._keys
+        given = None
+        if below_mm is not None and below_key is not None:
+            given = np.where(below_key >= 0, np.searchsorted(keys, below_key, side="left"), -1)
+        res = index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm,
+                           below_piece=given)
+        found = res.move >= 0
+        key = np.where(found, keys[np.where(found, res.piece, 0)] if keys.shape[0] else -1,
+                       -1 if below_key is None else below_key)
+        return replace(res, piece=key.astype(np.int64))
 
     def _batch(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-               radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool = False
-               ) -> DexelResult:
+               radii_mm: FloatArray, below_mm: FloatArray | None,
+               below_key: IntArray | None, fresh: bool = False) -> DexelResult:
         """The two steps for a batch of dexels over the segments kept, grown as they ask.
 
         ``fresh``: begun with nothing kept (a single dexel then keeps what it needs
@@ -209,7 +252,7 @@ class LazyFineSweeps:
         # 0. the segments kept (a value they reach is a U_q as good as step 1's)
         q = points.shape[0]
         index = self._index
-        res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+        res = self._searched(index, points, dirs, centres, radii_mm, below_mm, below_key)
         known = self._bound(res, below_mm)
         todo = np.flatnonzero(~np.isfinite(known))
         if todo.shape[0]:
@@ -221,10 +264,12 @@ class LazyFineSweeps:
             if first.shape[0]:
                 grown = self._holding(first, force=fresh and q == 1)
                 if grown is None:
-                    return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
+                    return self._over_budget(points, dirs, centres, radii_mm, below_mm,
+                                             below_key, fresh)
                 if grown is not index:
                     index = grown
-                    res = self._searched(index, points, dirs, centres, radii_mm, below_mm)
+                    res = self._searched(index, points, dirs, centres, radii_mm, below_mm,
+                                         below_key)
                     known = self._bound(res, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q
         listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w)
@@ -232,14 +277,15 @@ class LazyFineSweeps:
             return res
         grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)
         if grown is None:
-            return self._over_budget(points, dirs, centres, radii_mm, below_mm, fresh)
+            return self._over_budget(points, dirs, centres, radii_mm, below_mm, below_key,
+                                     fresh)
         if grown is index:
             return res
-        return self._searched(grown, points, dirs, centres, radii_mm, below_mm)
+        return self._searched(grown, points, dirs, centres, radii_mm, below_mm, below_key)
 
     def _over_budget(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-                     radii_mm: FloatArray, below_mm: FloatArray | None, fresh: bool
-                     ) -> DexelResult:
+                     radii_mm: FloatArray, below_mm: FloatArray | None,
+                     below_key: IntArray | None, fresh: bool) -> DexelResult:
         """A batch whose segments would pass the budget: afresh, else half by half.
 
         Afresh: the kept pieces dropped and the batch begun again (the values found so
@@ -248,18 +294,21 @@ class LazyFineSweeps:
         """
         if not fresh:
             self._drop()
-            return self._batch(points, dirs, centres, radii_mm, below_mm, fresh=True)
-        return self._halves(points, dirs, centres, radii_mm, below_mm)
+            return self._batch(points, dirs, centres, radii_mm, below_mm, below_key,
+                               fresh=True)
+        return self._halves(points, dirs, centres, radii_mm, below_mm, below_key)
 
     def _halves(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
-                radii_mm: FloatArray, below_mm: FloatArray | None) -> DexelResult:
+                radii_mm: FloatArray, below_mm: FloatArray | None,
+                below_key: IntArray | None) -> DexelResult:
         """A batch whose segments pass the budget, answered half by half."""
         q = points.shape[0]
         out = DexelResult.empty(q)
         for sel in (np.arange(q // 2), np.arange(q // 2, q)):
             scatter(out, sel, self._batch(points[sel], dirs[sel], centres[sel],
                                           radii_mm[sel],
-                                          None if below_mm is None else below_mm[sel]))
+                                          None if below_mm is None else below_mm[sel],
+                                          None if below_key is None else below_key[sel]))
         return out
 
 
@@ -289,6 +338,41 @@ def _one_path(chunks: list[Pieces]) -> Pieces:
     joined = Pieces(**cat, path_arc_mm=np.concatenate(paths),  # type: ignore[arg-type]
                     path_move=np.concatenate(moves))
     return joined.taken(np.argsort(joined.move, kind="stable"))
+
+
+def whole_blocks(segment_moves: IntArray, rows: IntArray) -> IntArray:
+    """Every joint segment (sorted) of the blocks some segments belong to.
+
+    ``segment_moves``: the block of each segment of the replay (nondecreasing: the
+    segments are in path order), ``motion.rows.move``.
+    """
+    moves = np.unique(segment_moves[rows])
+    lo = np.searchsorted(segment_moves, moves, side="left")
+    hi = np.searchsorted(segment_moves, moves, side="right")
+    count = hi - lo
+    return np.repeat(lo, count) + (np.arange(count.sum())
+                                   - np.repeat(np.cumsum(count) - count, count))
+
+
+def tie_keys(move: IntArray) -> IntArray:
+    """Per kept piece, a number that orders pieces as the full fine model's numbers do.
+
+    ``(block << TIE_KEY_BITS) + i``, ``i`` the piece's place among its block's pieces in
+    path order. The full model numbers its pieces in path order (its segments replayed in
+    order), so by block, then by place in the block's path. The kept pieces are each
+    block's whole (:func:`whole_blocks`), replayed in one stretch in path order, and put
+    in block order (:func:`_one_path`): a block's pieces stand together, in path order,
+    the same pieces whichever batch kept them, before or after a drop. The key is then
+    the same for a piece whatever else is kept, and of two pieces the full model holds
+    the one it numbers first has the smaller key (the full model may hold fewer of a
+    block's segments: the place in a block counts the pieces of all of them, which only
+    leaves gaps between the keys). ``move``: the kept pieces' blocks, nondecreasing.
+    """
+    place = np.arange(move.shape[0]) - np.searchsorted(move, move, side="left")
+    if move.shape[0] and (int(place.max()) >> TIE_KEY_BITS or int(move.min()) < 0):
+        raise ValueError(f"a block of over 2**{TIE_KEY_BITS} fine pieces, or a piece of no "
+                         "block: the tie keys cannot order them")
+    return (move.astype(np.int64) << TIE_KEY_BITS) + place
 
 
 #: The per-piece fields of :class:`~verification.pieces.Pieces`.

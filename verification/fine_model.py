@@ -259,6 +259,13 @@ class FineModel:
                    for u, v in ((a0, am), (am, a1)))
         return int(np.maximum(1.0, np.ceil(self.pieces_per_rad * turn)).sum())
 
+    @property
+    def segment_moves(self) -> IntArray:
+        """The block of each joint segment of the replay (``motion.rows.move``)."""
+        rows = self.motion.rows
+        assert rows is not None
+        return rows.move
+
     def level_for_mm(self, deviation_mm: float) -> float:
         """The first near-search level at or above ``deviation_mm`` (else the horizon)."""
         return next((h for h in self.coarse.horizons if h >= deviation_mm),

@@ -16,7 +16,7 @@ from verify_programs import five_axis_cap
 
 import verification.fine_lazy as fine_lazy
 import verification.fine_model as fine_model
-from gcode import Program
+from gcode import Linear, Program, Rapid
 from machines import load_machine
 from toolpath.planning.analytic import SpherePatch
 from toolpath.planning.cutters import parse_cutter
@@ -176,3 +176,62 @@ def test_segments_kept_across_batches_are_replayed_once_and_change_nothing(kept_
         # 11 batches of 40 dexels, levels and shifts: each segment replayed once
         assert sweeps.drops == 0
         assert sweeps.rows_built == sweeps.rows_kept.shape[0]
+
+
+def _floor_raster_model(lazy: bool):
+    """Two passes 1.5 mm apart, 0.05 mm into the plane z = 0 by a bull-nose (flat bottom
+    1 mm in radius), the first one along y = 0; levels 5 um and 0.3 mm."""
+    machine, bull = load_machine("grbl-router"), parse_cutter("bull:4:1")
+    radius, corner = bull.radius_mm, bull.corner_radius_mm
+    height = max(radius - 2.0 * corner, 0.0)
+    reach = math.hypot(radius - corner, height) + corner
+    blocks = [Rapid(z=5.0), Rapid(x=-6.0, y=0.0), Linear(z=-0.05, feed=300.0)]
+    for k, y in enumerate((0.0, 1.5)):
+        x = np.linspace(-6.0, 6.0, 4)[:: 1 - 2 * (k % 2)]
+        blocks += [Linear(x=float(x[0]), y=y, feed=800.0)]
+        blocks += [Linear(x=float(v), feed=800.0) for v in x[1:]]
+    motion = replay(Program((*blocks, Rapid(z=5.0))), machine, chord_tol_mm=5e-4,
+                    radius_mm=radius)
+    coarse = cutter_pieces(motion, corner, height, 0.5, reach_mm=reach, rot_tol_mm=5e-4)
+    index = SweepIndex(coarse, coarse.taken(np.zeros(coarse.size, dtype=bool)), radius,
+                       np.full(3, -12.0), np.full(3, 12.0), base_cell_mm=0.25,
+                       reach_limit_mm=radius + 0.3 + DEPTH_MM, corner_radius_mm=corner)
+    ev = Dexels(index, radius, (0.005, 0.3), DEPTH_MM, DexelMethod.NORMAL,
+                corner_radius=corner)
+    return ev, FineModel(motion, machine, ev,
+                         lambda stretch: cutter_pieces(stretch, corner, height, 0.5,
+                                                       reach_mm=reach, rot_tol_mm=1e-4),
+                         model_tol_mm=COARSE_TOL_MM, chord_tol_mm=1e-4, lazy=lazy)
+
+
+@pytest.mark.parametrize("kept_pieces", [fine_lazy.KEPT_PIECES, 1], ids=["kept", "budget 1"])
+def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces):
+    """Dexels leaning 45 deg under the floor both passes cut (70 um under it): the flat
+    bottoms of both enter each one at the same value, bit for bit; the later pass's pieces
+    stand near the search centre (the first level finds them), the first pass's farther
+    (the second level only). The full model names the first pass's block (the tie rule);
+    so must the lazy one, in batches of 40 dexels, and with the kept pieces dropped."""
+    x, y = np.meshgrid(np.linspace(-2.0, 2.0, 9), np.linspace(-1.0, 2.5, 41), indexing="ij")
+    pts = np.stack([x.ravel(), y.ravel(), np.full(x.size, -0.12)], axis=1)
+    nrm = np.tile([0.0, math.sqrt(0.5), math.sqrt(0.5)], (pts.shape[0], 1))
+    conv = np.zeros(pts.shape[0])
+    found = {}
+    for lazy in (False, True):
+        ev, fine = _floor_raster_model(lazy)
+        ask = FineAsk((pts + ev.corner * nrm)[None], np.zeros(1), np.zeros(1), 0.3, DEPTH_MM)
+        (model,) = fine.around_each([ask])
+        assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
+        if lazy:
+            model.index.batch, model.index.kept_pieces = 40, kept_pieces
+        found[lazy] = model.search(pts, nrm, conv)
+        if not lazy:
+            first = Dexels(model.index, model.radius, model.horizons[:1], model.depth,
+                           model.method, corner_radius=model.corner).search(pts, nrm, conv)
+    a, b = found[False], found[True]
+    # the case: the first level names another block at the very value the second finds
+    tied = (first.lam_mm == a.lam_mm) & (first.move != a.move)
+    assert tied.sum() >= 10
+    np.testing.assert_array_equal(b.lam_mm, a.lam_mm)
+    np.testing.assert_array_equal(b.move, a.move)
+    if kept_pieces == 1:
+        assert model.index.drops > 0
