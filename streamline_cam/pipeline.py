@@ -196,9 +196,14 @@ class Pending:
     that no longer needs the result (a job that failed) drops it and does not wait.
     """
 
-    def __init__(self, task: Callable[[], Any], name: str, kernel_threads: int) -> None:
+    def __init__(self, task: Callable[[], Any], name: str, kernel_threads: int, *,
+                 inline: bool = False) -> None:
         self.seconds: float | None = None
         self._box: dict[str, Any] = {}
+        self._thread: threading.Thread | None = None
+        if inline:  # run now, in the caller's thread (:func:`in_thread`)
+            self._run(task, kernel_threads)
+            return
         self._thread = threading.Thread(target=self._run, args=(task, kernel_threads),
                                         name=name, daemon=True)
         self._thread.start()
@@ -215,7 +220,8 @@ class Pending:
         self.seconds = time.perf_counter() - start
 
     def __call__(self) -> Any:
-        self._thread.join()
+        if self._thread is not None:
+            self._thread.join()
         if "error" in self._box:
             raise self._box["error"]
         return self._box["result"]
@@ -224,13 +230,48 @@ class Pending:
 def in_thread(task: Callable[[], Any], name: str) -> Pending:
     """Start ``task()`` in a daemon thread; returns the :class:`Pending` that waits for it.
 
+    Where compiled kernels cannot run in two threads at once (:func:`kernels_threadsafe`)
+    the task runs here and now instead: the job loses the overlap, not the process.
+
     The thread keeps the caller's budget of compiled-kernel threads
     (``numba.set_num_threads`` holds per thread, and a new thread would start from
     ``NUMBA_NUM_THREADS``): a job limited to one thread, as a batch task is, stays within it.
     """
     import numba
 
-    return Pending(task, name, numba.get_num_threads())
+    return Pending(task, name, numba.get_num_threads(), inline=not kernels_threadsafe())
+
+
+def kernels_threadsafe() -> bool:
+    """Whether compiled ``parallel=True`` kernels may run in two threads at once.
+
+    Numba runs them on its threading layer: ``tbb`` and ``omp`` are threadsafe, while
+    ``workqueue`` (the fallback where neither TBB nor the system's ``libgomp`` loads, e.g.
+    a slim container) aborts the whole process on a launch from a second thread while one
+    runs ("Concurrent access has been detected"). The layer is chosen at the first launch
+    from ``NUMBA_THREADING_LAYER`` (``default``: tbb, then omp, then workqueue; ``safe``:
+    tbb; ``threadsafe``: tbb or omp) and the pools that load; this tells which it will
+    be without launching one.
+    """
+    import numba
+
+    layer = str(numba.config.THREADING_LAYER).lower()
+    if layer in ("tbb", "omp", "safe", "threadsafe"):
+        return True  # (numba refuses to start if that layer does not load)
+    if layer == "workqueue":
+        return False
+    return _loads("tbbpool") or _loads("omppool")
+
+
+def _loads(pool: str) -> bool:
+    """Whether numba's threading-layer extension ``pool`` (and the library it needs) loads."""
+    import importlib
+
+    try:
+        importlib.import_module(f"numba.np.ufunc.{pool}")
+    except ImportError:
+        return False
+    return True
 
 
 def sample_ahead(surface: Any, cutter_spec: str, scallop_mm: float) -> Pending:
