@@ -80,3 +80,14 @@ def test_a_task_run_in_place_hands_over_its_error(monkeypatch):
     with pytest.raises(ValueError, match="bad samples"):
         pending()
     assert pending.seconds is not None
+
+
+def test_serve_refuses_thread_workers_under_the_workqueue_layer(tmp_path):
+    # two jobs' kernels in threads at once would abort the whole service mid-job
+    env = dict(os.environ, NUMBA_THREADING_LAYER="workqueue")
+    done = subprocess.run([sys.executable, "-m", "streamline_cam.cli", "serve", "--executor",
+                           "thread", "--workers", "2", "--port", "0", "--data-dir",
+                           str(tmp_path / "service")], env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 2
+    assert "--executor process" in done.stderr and "--workers 1" in done.stderr

@@ -90,6 +90,16 @@ def serve(args: argparse.Namespace) -> int:
     except (ValueError, CommandLineError) as exc:
         print(f"toolpath serve: error: {exc}", file=sys.stderr)
         return 2
+    if config.executor == "thread" and config.workers > 1 and config.scheduler is None:
+        from ..pipeline import kernels_threadsafe
+
+        if not kernels_threadsafe():  # two jobs' kernels at once would abort the service
+            print(f"toolpath serve: error: --executor thread with --workers "
+                  f"{config.workers} runs jobs' compiled kernels in threads at once, which "
+                  "numba's workqueue threading layer (neither TBB nor libgomp loads here) "
+                  "cannot do without aborting the process: use --executor process (the "
+                  "default) or --workers 1, or install libgomp1 or tbb", file=sys.stderr)
+            return 2
     try:
         sock = _bind(args.host, args.port)
     except OSError as exc:
