@@ -38,11 +38,16 @@ def _dexels(rng, n=1500):
     return points, np.tile([0.0, 0.0, 1.0], (n, 1))
 
 
-def test_the_near_pieces_are_a_view_of_the_collision_pieces(rng):
+def _built(rng):
+    """Ball and shank pieces, dexels over them, and the compiled index of both."""
     ball = _pieces(rng, 3000, shank=False, height_mm=2.0)
     shank = _pieces(rng, 400, shank=True, height_mm=6.0)
-    points, _ = _dexels(rng)
-    index = _index(ball, shank, points)
+    points, dirs = _dexels(rng)
+    return ball, shank, points, dirs, _index(ball, shank, points)
+
+
+def test_the_near_pieces_are_a_view_of_the_collision_pieces(rng):
+    ball, shank, _, _, index = _built(rng)
     near, far = index.pieces("near"), index.pieces("far")
     assert near.size == ball.size and far.size == ball.size + shank.size
     for name in ("a", "e", "mid", "axis", "height_mm", "half_mm"):
@@ -52,10 +57,7 @@ def test_the_near_pieces_are_a_view_of_the_collision_pieces(rng):
 
 
 def test_the_near_runs_are_the_collision_runs_among_its_pieces(rng):
-    ball = _pieces(rng, 3000, shank=False, height_mm=2.0)
-    shank = _pieces(rng, 400, shank=True, height_mm=6.0)
-    points, _ = _dexels(rng)
-    index = _index(ball, shank, points)
+    ball, _, _, _, index = _built(rng)
     near, far = index._runs_of("near"), index._runs_of("far")
     assert near.along_mm is far.along_mm
     assert near.stop.max() <= ball.size and (far.start[near.size:] >= ball.size).all()
