@@ -62,13 +62,14 @@ dexel, whose segments are kept whatever their count).
 
 from __future__ import annotations
 
-from dataclasses import replace
+from dataclasses import fields, replace
 from typing import TYPE_CHECKING, Final
 
 import numpy as np
 from numpy.typing import NDArray
 
 from .dexels import DexelResult, SweepIndex
+from .grid import span_indices
 from .piece_runs import ENTRY_MARGIN_MM
 from .pieces import Pieces
 from .search import scatter
@@ -349,9 +350,7 @@ def whole_blocks(segment_moves: IntArray, rows: IntArray) -> IntArray:
     moves = np.unique(segment_moves[rows])
     lo = np.searchsorted(segment_moves, moves, side="left")
     hi = np.searchsorted(segment_moves, moves, side="right")
-    count = hi - lo
-    return np.repeat(lo, count) + (np.arange(count.sum())
-                                   - np.repeat(np.cumsum(count) - count, count))
+    return span_indices(lo, hi - lo)
 
 
 def tie_keys(move: IntArray) -> IntArray:
@@ -375,6 +374,6 @@ def tie_keys(move: IntArray) -> IntArray:
     return (move.astype(np.int64) << TIE_KEY_BITS) + place
 
 
-#: The per-piece fields of :class:`~verification.pieces.Pieces`.
-_FIELDS: Final[tuple[str, ...]] = ("a", "e", "ee", "mid", "half_mm", "move", "shank", "axis",
-                                   "arc0_mm", "arc1_mm", "height_mm")
+#: The per-piece fields of :class:`~verification.pieces.Pieces` (all but the path's).
+_FIELDS: Final[tuple[str, ...]] = tuple(
+    f.name for f in fields(Pieces) if f.name not in ("path_arc_mm", "path_move"))

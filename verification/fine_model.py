@@ -65,6 +65,7 @@ from toolpath.surface import ParametricSurface
 
 from .dexels import SweepIndex
 from .fine_lazy import LazyFineSweeps
+from .grid import span_indices
 from .pieces import Pieces
 from .replay import ToolMotion, replay_rows
 from .samples import surface_points_normals
@@ -281,9 +282,7 @@ class FineModel:
         # standing still while the axis turns repeats its arc over several instances)
         lo = np.clip(np.searchsorted(path, pieces.arc0_mm[hit], side="left") - 1, 0, n_inst - 1)
         hi = np.clip(np.searchsorted(path, pieces.arc1_mm[hit], side="right"), 0, n_inst - 1)
-        count = np.maximum(hi - lo + 1, 1)
-        inst = np.repeat(lo, count) + (np.arange(count.sum())
-                                       - np.repeat(np.cumsum(count) - count, count))
+        inst = span_indices(lo, np.maximum(hi - lo + 1, 1))
         return np.unique(rows.of_instance[inst])
 
     def rows_within(self, centres: FloatArray, radii_mm: FloatArray) -> IntArray:
@@ -373,18 +372,13 @@ class FineModel:
         if self.builds_lazily(rows):
             index = LazyFineSweeps(self, middles, reach)
         else:
-            index = self._index(rows, middles, reach)
+            index = self.index_of(self.fine_pieces(rows), middles, reach)
         for i in near:
             level = asks[i].level_mm
             levels = (*(h for h in ev.horizons if h < level), level)
             out[i] = Dexels(index, ev.radius, levels, asks[i].depth_mm, ev.method,
                             corner_radius=ev.corner, model_tol_mm=self.chord_tol_mm)
         return out
-
-    def _index(self, rows: IntArray, middles: FloatArray, reach_mm: FloatArray
-               ) -> SweepIndex:
-        """The near pieces of some joint segments replayed finely, indexed around balls."""
-        return self.index_of(self.fine_pieces(rows), middles, reach_mm)
 
     def fine_pieces(self, rows: IntArray) -> Pieces:
         """The near pieces of some joint segments replayed finely (stretches not joined)."""

@@ -23,7 +23,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-__all__ = ["CELLS_PER_PIECE", "MAX_CELLS", "PieceGrid"]
+__all__ = ["CELLS_PER_PIECE", "MAX_CELLS", "PieceGrid", "places_within", "span_indices"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -162,7 +162,7 @@ class PieceGrid:
             total = int(c.sum())
             if total:
                 rows = np.repeat(np.arange(start, stop, dtype=np.int64), c)
-                within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(c) - c, c)
+                within = places_within(c)
                 pieces = lists[list_start[cell_of[rows]] + within]
                 yield by_cell[rows], pieces
             start = stop
@@ -186,13 +186,26 @@ class PieceGrid:
         first = self.starts[column + np.where(valid, k0, 0)]
         count = np.where(valid, self.starts[column + np.where(valid, k1, 0) + 1] - first, 0)
         count = count.ravel()
-        total = int(count.sum())
         rows = np.repeat(np.arange(count.shape[0], dtype=np.int64), count)
-        within = np.arange(total, dtype=np.int64) - np.repeat(np.cumsum(count) - count, count)
+        within = places_within(count)
         lists = self.order[first.ravel()[rows] + within]
         list_len = count.reshape(valid.shape).sum(axis=1)
         list_start = np.cumsum(list_len) - list_len
         return lists, list_start, list_len
+
+
+def places_within(count: IntArray) -> IntArray:
+    """Each element's place within its run, for runs of ``count`` elements laid end to end.
+
+    ``[0, 1, .., count[0] - 1, 0, 1, .., count[1] - 1, ...]`` (int64, ``count.sum()``).
+    """
+    return (np.arange(int(count.sum()), dtype=np.int64)
+            - np.repeat(np.cumsum(count) - count, count))
+
+
+def span_indices(first: IntArray, count: IntArray) -> IntArray:
+    """The indices ``first[i], .., first[i] + count[i] - 1`` of every span, in turn."""
+    return np.repeat(first, count) + places_within(count)
 
 
 @numba.njit(cache=True)

@@ -264,11 +264,11 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     # seed's surface: a = -n there) agrees with itself and reads low (0.71 of the ray cast
     # on the standing dev blade, 5-axis flat:6; its contact stood 1.9 mm off the seed's,
     # against a few um elsewhere): both poses must face the seed's surface
-    live &= (np.einsum("ij,ij->i", own_axis, n) > 0.0) & (np.einsum("ij,ij->i", next_axis, n)
-                                                          > 0.0)
-    # (both poses found and facing the seed's surface: their sections bound the ridge)
-    posed = own_ok & next_ok & (np.einsum("ij,ij->i", own_axis, n) > 0.0) & (
+    facing = (np.einsum("ij,ij->i", own_axis, n) > 0.0) & (
         np.einsum("ij,ij->i", next_axis, n) > 0.0)
+    live &= facing
+    # (both poses found and facing the seed's surface: their sections bound the ridge)
+    posed = own_ok & next_ok & facing
     poses = (ok[posed], own_c[posed], next_c[posed], own_axis[posed], next_axis[posed])
     ok, own_way, next_way = ok[live], own_way[live], next_way[live]
     own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
