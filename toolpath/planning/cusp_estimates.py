@@ -19,7 +19,6 @@ from scipy.spatial import cKDTree
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from ..vectors import move_axes, unit
-from .contact_kernel import window_nearest
 from .cusp_kernel import (
     RIDGE_FOUND,
     RIDGE_NO_PASS,
@@ -31,6 +30,7 @@ from .cusp_kernel import (
 from .cusp_search import SearchSeeds
 from .cut_volume import CutVolume
 from .cutters import radial_directions
+from .torus_kernel import window_nearest
 from .torus_profile import pose_section_ridges, profile_ridges
 
 __all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
@@ -559,7 +559,7 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     ``n_perp = n - (n . a) a``: over the pieces of the pass within
     :data:`CONTACT_WINDOW` of ``piece``, the foot of ``corner + (R - r) n_perp / |n_perp|``
     (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it
-    (:func:`~.contact_kernel.window_nearest`),
+    (:func:`~.torus_kernel.window_nearest`),
     sought again about that piece with its axis until it stays (:data:`CONTACT_WALKS`
     windows at most). Where the neighbouring poses tilt alike, the sections across the
     pass met at those poses stand as the contacts do (a pose's contact can lie a radius
