@@ -5,11 +5,14 @@ window in numpy: every candidate's foot on its segment, candidates of another pa
 out, the first of the nearest. :func:`~toolpath.planning.torus_kernel.side_crossings` (where
 two sections' sides cross, :mod:`toolpath.planning.torus_profile`) against both polylines
 sorted together and taken at every point in numpy (the former ``torus_profile._crossing``).
+:func:`~toolpath.planning.torus_kernel.disk_crossings` (the pose sections' bound,
+:func:`~toolpath.planning.torus_profile.pose_section_ridges`) against its bisection over
+all rows in numpy.
 """
 
 import numpy as np
 
-from toolpath.planning.torus_kernel import side_crossings, window_nearest
+from toolpath.planning.torus_kernel import disk_crossings, side_crossings, window_nearest
 from toolpath.tolerances import TINY
 
 
@@ -118,3 +121,51 @@ def test_side_crossings_equal_both_sides_sorted_together_in_numpy():
     np.testing.assert_array_equal(got_y, want_y)
     found = np.isfinite(want_x)
     assert 0.2 < found.mean() < 0.9  # (crossings and none)
+
+
+def _numpy_lowest(disks, at):
+    cx, cy, rho_sq = disks
+    off_sq = rho_sq[:, :, None] - (at[:, None, :] - cx[:, :, None]) ** 2
+    with np.errstate(invalid="ignore"):
+        arc = np.where(off_sq >= 0.0, cy[:, :, None] - np.sqrt(np.maximum(off_sq, 0.0)),
+                       np.inf)
+    return arc
+
+
+def _numpy_disk_crossings(own, nxt, reach, steps):
+    ends = np.stack([np.zeros_like(reach), reach], axis=1)
+    with np.errstate(invalid="ignore"):
+        gap = _numpy_lowest(own, ends).min(axis=1) - _numpy_lowest(nxt, ends).min(axis=1)
+    ok = (gap[:, 0] < 0.0) & (gap[:, 1] > 0.0)
+    xa, xb = ends[:, 0].copy(), ends[:, 1].copy()
+    for _ in range(steps):
+        mid = 0.5 * (xa + xb)
+        with np.errstate(invalid="ignore"):
+            above = (_numpy_lowest(own, mid[:, None]).min(axis=1)
+                     - _numpy_lowest(nxt, mid[:, None]).min(axis=1))[:, 0]
+        above = ~(above < 0.0)
+        xb, xa = np.where(above, mid, xb), np.where(above, xa, mid)
+    bracket = np.stack([xa, xb], axis=1)
+    bound = np.minimum(*(_numpy_lowest(d, bracket).max(axis=2).min(axis=1) for d in (own, nxt)))
+    return xb, bound, ok
+
+
+def test_disk_crossings_equal_the_bisection_over_all_rows_in_numpy():
+    rng = np.random.default_rng(32)
+    m, disks = 3000, 17
+    reach = rng.uniform(0.2, 2.0, m)
+
+    def side(x0, slope):
+        # a row of corner disks along a tilted ring: some miss the plane (negative radii)
+        cx = x0[:, None] + np.linspace(-1.5, 1.5, disks) * rng.uniform(0.5, 1.5, (m, 1))
+        cy = 1.0 + slope[:, None] * cx + rng.normal(scale=0.05, size=(m, disks))
+        rho_sq = rng.uniform(-0.1, 1.0, (m, disks))
+        return cx, cy, rho_sq
+
+    own = side(rng.uniform(-0.5, 0.3, m), rng.uniform(0.0, 0.6, m))
+    nxt = side(reach + rng.uniform(-0.3, 0.5, m), -rng.uniform(0.0, 0.6, m))
+    got = disk_crossings(own, nxt, reach, 32)
+    want = _numpy_disk_crossings(own, nxt, reach, 32)
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+    assert 0.2 < want[2].mean() < 0.95  # (crossed and not)

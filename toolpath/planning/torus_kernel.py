@@ -6,8 +6,10 @@ pass, the piece whose segment ``a + f e`` (``0 <= f <= 1``) comes nearest a targ
 (:func:`window_nearest`, without the ``(rows, window, 3)`` arrays of candidates). It meets
 two passes' sections where the own side first stands at or above the next's
 (:func:`side_crossings`, for :mod:`.torus_profile`: the two polylines walked together,
-stopping at the crossing, without sorting them together). Both do the numpy's sums in its
-order: the same numbers.
+stopping at the crossing, without sorting them together), and bounds the ridge between
+two poses' sections of corner disks (:func:`disk_crossings`, for
+:func:`~.torus_profile.pose_section_ridges`: its bisection row by row). Each does the
+numpy's sums in its order: the same numbers.
 """
 
 from __future__ import annotations
@@ -20,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 
-__all__ = ["side_crossings", "window_nearest"]
+__all__ = ["disk_crossings", "side_crossings", "window_nearest"]
 
 
 @numba.njit(cache=True)
@@ -155,3 +157,74 @@ def side_crossings(x1: NDArray[np.float64], y1: NDArray[np.float64],
         x1, y1, x2, y2 = (np.ascontiguousarray(v, dtype=float) for v in (x1, y1, x2, y2))
         _side_crossings(x1, y1, x2, y2, out_x, out_y)
     return out_x, out_y
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _arc(cx, cy, rho_sq, row, d, at):
+    """Disk ``d``'s lower arc at ``at``, ``inf`` where it does not cover ``at``."""
+    off_sq = rho_sq[row, d] - (at - cx[row, d]) ** 2
+    if off_sq >= 0.0:
+        return cy[row, d] - math.sqrt(off_sq)
+    return np.inf
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _lowest(cx, cy, rho_sq, row, at):
+    """The lowest of row ``row``'s disks' lower arcs at ``at`` (``inf``: none covers)."""
+    low = np.inf
+    for d in range(cx.shape[1]):
+        low = min(low, _arc(cx, cy, rho_sq, row, d, at))
+    return low
+
+
+@numba.njit(cache=True)
+def _disk_crossings(own, nxt, reach, steps, out_x, out_h, out_ok):
+    """The loop of :func:`disk_crossings`, into ``out_x``, ``out_h``, ``out_ok``."""
+    ocx, ocy, orho = own
+    ncx, ncy, nrho = nxt
+    for row in range(reach.size):
+        start = _lowest(ocx, ocy, orho, row, 0.0) - _lowest(ncx, ncy, nrho, row, 0.0)
+        end = (_lowest(ocx, ocy, orho, row, reach[row])
+               - _lowest(ncx, ncy, nrho, row, reach[row]))
+        out_ok[row] = start < 0.0 and end > 0.0
+        xa, xb = 0.0, reach[row]
+        for _ in range(steps):
+            mid = 0.5 * (xa + xb)
+            gap = _lowest(ocx, ocy, orho, row, mid) - _lowest(ncx, ncy, nrho, row, mid)
+            if not gap < 0.0:  # (nan: neither covers; taken as crossed)
+                xb = mid
+            else:
+                xa = mid
+        bound = np.inf
+        for cx, cy, rho_sq in (own, nxt):
+            side = np.inf
+            for d in range(cx.shape[1]):
+                side = min(side, max(_arc(cx, cy, rho_sq, row, d, xa),
+                                     _arc(cx, cy, rho_sq, row, d, xb)))
+            bound = min(bound, side)
+        out_x[row] = xb
+        out_h[row] = bound
+
+
+def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.float64], ...],
+                   reach: NDArray[np.float64], steps: int
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Where two poses' sections, each the lower envelope of its disks, cross; a bound there.
+
+    ``own``, ``nxt``: each pose's disks, centres ``x``, ``y`` and squared radii (m, S;
+    negative where the ball misses the plane). From ``x = 0`` to ``x = reach`` (m,), the
+    own envelope below the next's at 0 and above at ``reach`` (else not ``ok``), bisected
+    ``steps`` times (no gap below 0, as where neither covers, counts as crossed) to
+    ``[x_a, x_b]``; over it each disk's lower arc stands no higher than at its ends, so
+    the lesser of the two sides' ``min_i max(f_i(x_a), f_i(x_b))`` bounds the crossing.
+    Returns ``x_b``, that bound (``inf`` where a side's disks cover neither end) and
+    ``ok``.
+    """
+    m = len(reach)
+    out_x, out_h, out_ok = np.empty(m), np.empty(m), np.zeros(m, dtype=bool)
+    if m:
+        own, nxt = (tuple(np.ascontiguousarray(v, dtype=float) for v in disks)
+                    for disks in (own, nxt))
+        _disk_crossings(own, nxt, np.ascontiguousarray(reach, dtype=float), int(steps),
+                        out_x, out_h, out_ok)
+    return out_x, out_h, out_ok

@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
-from .torus_kernel import side_crossings
+from .torus_kernel import disk_crossings, side_crossings
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
            "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
@@ -293,17 +293,6 @@ def _disks(centre: NDArray[np.float64], axis: NDArray[np.float64],
             corner_mm * corner_mm - delta * delta)
 
 
-def _envelope(disks: tuple[NDArray[np.float64], ...], at: NDArray[np.float64]
-              ) -> NDArray[np.float64]:
-    """The lowest of the disks' lower arcs at ``at`` (m, n), ``inf`` where none covers."""
-    cx, cy, rho_sq = disks
-    off_sq = rho_sq[:, :, None] - (at[:, None, :] - cx[:, :, None]) ** 2
-    with np.errstate(invalid="ignore"):
-        arc = np.where(off_sq >= 0.0, cy[:, :, None] - np.sqrt(np.maximum(off_sq, 0.0)),
-                       np.inf)
-    return arc.min(axis=1)
-
-
 def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
                         own_axis: NDArray[np.float64], next_axis: NDArray[np.float64],
                         normal: NDArray[np.float64], toward: NDArray[np.float64], *,
@@ -356,28 +345,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
         frame = (through[rows], nu[rows], x[rows], y[rows])
         own = _disks(own_centre[rows], own_axis[rows], normal[rows], phi, frame, ring, r)
         nxt = _disks(next_centre[rows], next_axis[rows], normal[rows], phi, frame, ring, r)
-        ends = np.stack([np.zeros_like(reach), reach], axis=1)
-        with np.errstate(invalid="ignore"):
-            gap = _envelope(own, ends) - _envelope(nxt, ends)
-        ok = (gap[:, 0] < 0.0) & (gap[:, 1] > 0.0)
-        xa, xb = ends[:, 0].copy(), ends[:, 1].copy()
-        for _ in range(SECTION_STEPS):
-            mid = 0.5 * (xa + xb)
-            with np.errstate(invalid="ignore"):
-                above = (_envelope(own, mid[:, None]) - _envelope(nxt, mid[:, None]))[:, 0]
-            above = ~(above < 0.0)  # (nan: neither covers; taken as crossed)
-            xb = np.where(above, mid, xb)
-            xa = np.where(above, xa, mid)
-        bracket = np.stack([xa, xb], axis=1)
-        bound = []
-        for disks in (own, nxt):
-            cx, cy, rho_sq = disks
-            off_sq = rho_sq[:, :, None] - (bracket[:, None, :] - cx[:, :, None]) ** 2
-            with np.errstate(invalid="ignore"):
-                arc = np.where(off_sq >= 0.0, cy[:, :, None]
-                               - np.sqrt(np.maximum(off_sq, 0.0)), np.inf)
-            bound.append(arc.max(axis=2).min(axis=1))
-        height = np.minimum(bound[0], bound[1]) + sag
+        xb, bound, ok = disk_crossings(own, nxt, reach, SECTION_STEPS)
+        height = bound + sag
         ok &= np.isfinite(height)
         point[rows] = (through[rows] + xb[:, None] * x[rows]
                        + np.where(ok, height, 0.0)[:, None] * y[rows])
