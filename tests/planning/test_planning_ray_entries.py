@@ -3,7 +3,10 @@
 :func:`toolpath.planning.sweep_kernel.nearest_entries` skips pieces and golden-section
 searches on lower bounds of the entry (the tip plane, the tip's reach, the poses' shift
 over a piece, the sampled poses' distances from the ray's origin less their shift over half
-a sample's spacing: without that shift the test fails). Here the same method without any
+a sample's spacing: without that shift the test fails), and seeks no entry at a sampled
+pose, or a pose the golden-section search tries, whose distance from the ray's origin less
+``TOUCH_MM`` already says it cannot be kept (with that bound raised by 0.02 mm, or the
+samples' skip by as much, the test fails). Here the same method without any
 skip, pose by pose (each pose's entry the first root of the ray's convex distance to the
 cutter, by ternary search and bisection; the entry into a piece the best of its
 :data:`~toolpath.planning.sweep_kernel.POSES` samples, refined by the golden-section

@@ -81,6 +81,9 @@ cusp_kernel
     for the estimate).
 torus_profile
     Where two passes of a flat or bull-nose cutter meet across the passes.
+torus_kernel
+    The flat and bull-nose estimate's compiled parts: a pass's piece nearest a point over
+    a window of them, where two sections' sides cross, the pose sections' bound.
 uncut_area
     The area no cutter comes near, and distances over the surface to it.
 measure

@@ -30,6 +30,7 @@ from .cusp_kernel import (
 from .cusp_search import SearchSeeds
 from .cut_volume import CutVolume
 from .cutters import radial_directions
+from .torus_kernel import window_nearest
 from .torus_profile import pose_section_ridges, profile_ridges
 
 __all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
@@ -557,7 +558,8 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     corner-circle centre ``C + (R - r) w``, ``w = -n_perp / |n_perp|``,
     ``n_perp = n - (n . a) a``: over the pieces of the pass within
     :data:`CONTACT_WINDOW` of ``piece``, the foot of ``corner + (R - r) n_perp / |n_perp|``
-    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it,
+    (``a`` at the middle of ``piece``, then of the nearest) on the piece nearest to it
+    (:func:`~.torus_kernel.window_nearest`),
     sought again about that piece with its axis until it stays (:data:`CONTACT_WALKS`
     windows at most). Where the neighbouring poses tilt alike, the sections across the
     pass met at those poses stand as the contacts do (a pose's contact can lie a radius
@@ -569,7 +571,6 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
     """
     ring = volume.cutter.radius_mm - volume.cutter.corner_radius_mm
     a, e, pass_of = volume.piece_a, volume.piece_b - volume.piece_a, volume.pass_of
-    shift = np.arange(-CONTACT_WINDOW, CONTACT_WINDOW + 1)
     best = piece.copy()
     todo = np.arange(len(piece))
     edge = np.zeros(len(piece), dtype=bool)
@@ -579,15 +580,7 @@ def _contact_poses(volume: CutVolume, piece: NDArray[np.int64], corner: NDArray[
         inward, _ = radial_directions(normal[todo], unit(volume.axes0[start]
                                                          + volume.axes1[start]))
         target = corner[todo] + ring * inward
-        for lo in range(0, len(todo), 10_000):
-            rows = slice(lo, lo + 10_000)
-            cand = np.clip(start[rows, None] + shift, 0, len(pass_of) - 1)
-            near = target[rows, None]
-            foot, _ = _foot_on(a[cand], e[cand], near)
-            dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
-            dist[pass_of[cand] != pass_of[start[rows], None]] = np.inf
-            best[todo[rows]] = np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None],
-                                                  1)[:, 0]
+        best[todo] = window_nearest(start, target, a, e, pass_of, CONTACT_WINDOW)
         # moved: the target as the new piece's axis puts it (round a tight edge the axis
         # turns fast along the pass), and at the window's edge the contact lies farther
         edge[todo] = np.abs(best[todo] - start) >= CONTACT_WINDOW

@@ -35,7 +35,10 @@ stands farther from every sampled pose than ``L`` and how far the poses within h
 sample's spacing move the cutter past the ray's points (:func:`_pose_shift`), no entry is
 sought; a sampled pose entered within the ray's stop ends the piece; a piece entered no
 earlier than ``L`` at its samples gets no golden-section search where no pose it would try
-can hold a point of the ray before ``L``. All are lower bounds of the exact entry: skipped
+can hold a point of the ray before ``L``; a sampled pose, or a pose the search tries, whose
+distance from the ray's origin already says its entry cannot be kept (not below the best
+sample's; on the losing side of the search's next comparison, :func:`_entry_unless`) gets
+no entry sought, its distance standing in. All are lower bounds of the exact entry: skipped
 pieces and searches could not have lowered the result, which stays the same (with a stop
 above 0, the ray's entry is one within the stop, not the lowest).
 """
@@ -190,6 +193,26 @@ def _entry_at(u, q, n, poses, j, cutter, horizon, tip, axis):
     return _entry(q, n, tip, axis, cutter, horizon)
 
 
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _entry_unless(u, other, at_least, q, n, poses, j, cutter, horizon, tip, axis):
+    """:func:`_entry_at`, or a lower bound of it where that decides its comparison.
+
+    The golden-section search (:func:`_pair_entry`) next compares a new value ``f`` with
+    ``other`` (``f <= other`` for the search's left value, ``other <= f`` for its right)
+    and keeps only the smaller. The entry is at least ``g - TOUCH_MM`` (``g`` the ray
+    origin's distance to the cutter at that pose; the distance is 1-Lipschitz along the
+    ray): where that bound already stands above ``other`` (``at_least``: at or above),
+    the comparison, the value kept and the final minimum are the same with the bound in
+    place of the entry, and the entry's steps are saved.
+    """
+    _pose_at(u, poses, j, tip, axis)
+    g = _distance(q, n, 0.0, tip, axis, cutter)
+    low = g - TOUCH_MM
+    if low > other or (at_least and low >= other):
+        return low
+    return _entry_from(q, n, tip, axis, cutter, horizon, g)
+
+
 #: Axes turning by more than this across a piece (rad) get no pose bound
 #: (:func:`_piece_motion`): its turn rate grows without bound as the turn nears pi.
 LARGEST_BOUNDED_TURN = 0.98 * math.pi
@@ -256,6 +279,13 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, stop, tip, axis, values)
     exceeds :data:`TOUCH_MM`, the ray enters no pose up to ``below``: ``inf`` (the ray's
     smallest entry stays the same), without the entries (on the standing dev blade,
     bull:8:1, 63 % of the pieces tried).
+
+    A sample whose distance less :data:`TOUCH_MM` is at or above the best sample's entry
+    so far gets no entry (it is at least that: never the best, nor the first within
+    ``stop``), nor does a pose of the golden-section search whose bound already loses its
+    next comparison (:func:`_entry_unless`): the same result, the entries' steps saved
+    (the ray cast of every seed 9 % less CPU on the standing dev blade, bull:8:1, 20 %
+    flat:8).
     """
     inv_phi = (math.sqrt(5.0) - 1.0) / 2.0
     tip0, tip1, axis0, axis1 = poses
@@ -273,6 +303,10 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, stop, tip, axis, values)
         return np.inf
     best = 0
     for m in range(POSES):
+        if m > best and values[m] - TOUCH_MM >= values[best]:
+            # its entry, at least its distance less TOUCH_MM, cannot beat the best one
+            values[m] = np.inf
+            continue
         _pose_at(m / (POSES - 1), poses, j, tip, axis)
         values[m] = _entry_from(q, n, tip, axis, cutter, horizon, values[m])
         if values[m] <= stop:
@@ -292,16 +326,19 @@ def _pair_entry(q, n, poses, j, cutter, horizon, below, stop, tip, axis, values)
         x1 = hi - inv_phi * (hi - lo)
         x2 = lo + inv_phi * (hi - lo)
         f1 = _entry_at(x1, q, n, poses, j, cutter, horizon, tip, axis)
-        f2 = _entry_at(x2, q, n, poses, j, cutter, horizon, tip, axis)
+        # f2 is next compared as f1 <= f2: only where f1 <= f2 cannot be told without it
+        f2 = _entry_unless(x2, f1, True, q, n, poses, j, cutter, horizon, tip, axis)
         for _ in range(GOLDEN_STEPS):
             if f1 <= f2:
                 hi, x2, f2 = x2, x1, f1
                 x1 = hi - inv_phi * (hi - lo)
-                f1 = _entry_at(x1, q, n, poses, j, cutter, horizon, tip, axis)
+                f1 = _entry_unless(x1, f2, False, q, n, poses, j, cutter, horizon, tip,
+                                   axis)
             else:
                 lo, x1, f1 = x1, x2, f2
                 x2 = lo + inv_phi * (hi - lo)
-                f2 = _entry_at(x2, q, n, poses, j, cutter, horizon, tip, axis)
+                f2 = _entry_unless(x2, f1, True, q, n, poses, j, cutter, horizon, tip,
+                                   axis)
         found = min(found, f1, f2)
     return found
 

@@ -33,6 +33,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
+from .torus_kernel import disk_crossings, side_crossings
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
            "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
@@ -121,23 +122,6 @@ def _section_side(centre: NDArray[np.float64], axis: NDArray[np.float64],
     bx = centre[:, 0, None] + ex + corner_mm * cx + lift_mm * up * pa[:, 0, None]
     by = centre[:, 1, None] + ey + corner_mm * cy + lift_mm * up * pa[:, 1, None]
     return np.maximum.accumulate(bx, axis=1), by  # x never falls along a lower side
-
-
-def _on_merged(x: NDArray[np.float64], before: NDArray[np.int64], xp: NDArray[np.float64],
-               yp: NDArray[np.float64], left: NDArray[np.float64] | float,
-               right: NDArray[np.float64] | float) -> NDArray[np.float64]:
-    """Polyline ``(xp, yp)`` (rows, ``xp`` rising) at ``x`` (rows).
-
-    ``before`` counts its points at or left of each ``x``; ``left`` and ``right`` (rows
-    or one value) stand beyond its ends.
-    """
-    k = xp.shape[1]
-    i = np.clip(before, 1, k - 1)
-    x0, x1 = np.take_along_axis(xp, i - 1, 1), np.take_along_axis(xp, i, 1)
-    y0, y1 = np.take_along_axis(yp, i - 1, 1), np.take_along_axis(yp, i, 1)
-    out = y0 + np.clip((x - x0) / np.maximum(x1 - x0, TINY), 0.0, 1.0) * (y1 - y0)
-    out = np.where(before == 0, left, out)
-    return np.where((before == k) & (x > xp[:, -1:]), right, out)
 
 
 def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
@@ -229,7 +213,7 @@ def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.floa
         x2, y2 = _section_side(next_c, next_axis[rows], _oblique(way[rows], nu[rows], x[rows],
                                                                  y[rows]), -psi[::-1], ring,
                                corner_radius_mm, lift)
-        x_r, y_r = _crossing(x1[rows], y1[rows], x2, y2)
+        x_r, y_r = side_crossings(x1[rows], y1[rows], x2, y2)
         found[rows] &= np.isfinite(y_r)
         higher = y_r > best_y[rows]  # nan (not met) never is
         best_x[rows[higher]], best_y[rows[higher]] = x_r[higher], y_r[higher]
@@ -280,45 +264,6 @@ def _nearest_sample(xs: NDArray[np.float64], ys: NDArray[np.float64], x: NDArray
     return np.argmin((xs - x[:, None]) ** 2 + (ys - y[:, None]) ** 2, axis=1)
 
 
-def _crossing(x1: NDArray[np.float64], y1: NDArray[np.float64], x2: NDArray[np.float64],
-              y2: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """Where the own side ``(x1, y1)`` first stands at or above the next's ``(x2, y2)``.
-
-    Polylines (m, k), ``x`` rising. Returns ``x, y`` of the crossing (``nan``: none).
-    """
-    m, samples = x1.shape
-    # both polylines at all their points (sorted together): linear between neighbours
-    both = np.concatenate([x1, x2], axis=1)
-    order = np.argsort(both, axis=1, kind="stable")
-    xs = np.take_along_axis(both, order, 1)
-    own_before = np.cumsum(order < samples, axis=1)
-    # the own side left of its contact stands as there; nothing past either's edge
-    g1 = _on_merged(xs, own_before, x1, y1, y1[:, :1], np.inf)
-    g2 = _on_merged(xs, np.cumsum(order >= samples, axis=1), x2, y2, np.inf, y2[:, -1:])
-    with np.errstate(invalid="ignore"):
-        f = g1 - g2
-    rise = f >= 0.0
-    j = np.argmax(rise, axis=1)
-    found = rise.any(axis=1) & (j > 0)
-    j = np.maximum(j, 1)
-    rows = np.arange(m)
-    f0, f1 = f[rows, j - 1], f[rows, j]
-    found &= ~np.isnan(f0) & ~np.isnan(f1)
-    xa, xb = xs[rows, j - 1], xs[rows, j]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        lam = np.where(np.isfinite(f0) & np.isfinite(f1), f0 / (f0 - f1), 0.0)
-        ya = np.where(np.isfinite(g1[rows, j - 1]), g1[rows, j - 1], g2[rows, j - 1])
-        yb = np.where(np.isfinite(g1[rows, j]), g1[rows, j], g2[rows, j])
-    # -inf at the left: the next side starts at xb (its edge, the own side's height
-    # there); +inf at the right: the own side ends at xa (the next side's height there)
-    lam = np.where(np.isneginf(f0), 1.0, lam)
-    x_r = xa + lam * (xb - xa)
-    y_r = np.where(np.isposinf(f1) & np.isfinite(f0), g2[rows, j - 1], ya + lam * (yb - ya))
-    y_r = np.where(np.isneginf(f0), g1[rows, j], y_r)
-    found &= np.isfinite(x_r) & np.isfinite(y_r)
-    return np.where(found, x_r, np.nan), np.where(found, y_r, np.nan)
-
-
 #: Ring points of each pose sampled within its window about the contact
 #: (:func:`pose_section_ridges`): corner balls ``(R - r) dphi`` apart, whose disks' lower
 #: envelope sags at most ``((R - r) dphi)^2 / 8 r`` between them (the bound adds it).
@@ -346,17 +291,6 @@ def _disks(centre: NDArray[np.float64], axis: NDArray[np.float64],
     delta = np.einsum("ksj,kj->ks", p, nu)
     return (np.einsum("ksj,kj->ks", p, x), np.einsum("ksj,kj->ks", p, y),
             corner_mm * corner_mm - delta * delta)
-
-
-def _envelope(disks: tuple[NDArray[np.float64], ...], at: NDArray[np.float64]
-              ) -> NDArray[np.float64]:
-    """The lowest of the disks' lower arcs at ``at`` (m, n), ``inf`` where none covers."""
-    cx, cy, rho_sq = disks
-    off_sq = rho_sq[:, :, None] - (at[:, None, :] - cx[:, :, None]) ** 2
-    with np.errstate(invalid="ignore"):
-        arc = np.where(off_sq >= 0.0, cy[:, :, None] - np.sqrt(np.maximum(off_sq, 0.0)),
-                       np.inf)
-    return arc.min(axis=1)
 
 
 def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
@@ -411,28 +345,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
         frame = (through[rows], nu[rows], x[rows], y[rows])
         own = _disks(own_centre[rows], own_axis[rows], normal[rows], phi, frame, ring, r)
         nxt = _disks(next_centre[rows], next_axis[rows], normal[rows], phi, frame, ring, r)
-        ends = np.stack([np.zeros_like(reach), reach], axis=1)
-        with np.errstate(invalid="ignore"):
-            gap = _envelope(own, ends) - _envelope(nxt, ends)
-        ok = (gap[:, 0] < 0.0) & (gap[:, 1] > 0.0)
-        xa, xb = ends[:, 0].copy(), ends[:, 1].copy()
-        for _ in range(SECTION_STEPS):
-            mid = 0.5 * (xa + xb)
-            with np.errstate(invalid="ignore"):
-                above = (_envelope(own, mid[:, None]) - _envelope(nxt, mid[:, None]))[:, 0]
-            above = ~(above < 0.0)  # (nan: neither covers; taken as crossed)
-            xb = np.where(above, mid, xb)
-            xa = np.where(above, xa, mid)
-        bracket = np.stack([xa, xb], axis=1)
-        bound = []
-        for disks in (own, nxt):
-            cx, cy, rho_sq = disks
-            off_sq = rho_sq[:, :, None] - (bracket[:, None, :] - cx[:, :, None]) ** 2
-            with np.errstate(invalid="ignore"):
-                arc = np.where(off_sq >= 0.0, cy[:, :, None]
-                               - np.sqrt(np.maximum(off_sq, 0.0)), np.inf)
-            bound.append(arc.max(axis=2).min(axis=1))
-        height = np.minimum(bound[0], bound[1]) + sag
+        xb, bound, ok = disk_crossings(own, nxt, reach, SECTION_STEPS)
+        height = bound + sag
         ok &= np.isfinite(height)
         point[rows] = (through[rows] + xb[:, None] * x[rows]
                        + np.where(ok, height, 0.0)[:, None] * y[rows])

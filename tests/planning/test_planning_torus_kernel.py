@@ -1,0 +1,171 @@
+"""The flat/bull estimate's compiled parts give what the numpy they replaced gives.
+
+:func:`toolpath.planning.torus_kernel.window_nearest` (the contact poses) against the whole
+window in numpy: every candidate's foot on its segment, candidates of another pass left
+out, the first of the nearest. :func:`~toolpath.planning.torus_kernel.side_crossings` (where
+two sections' sides cross, :mod:`toolpath.planning.torus_profile`) against both polylines
+sorted together and taken at every point in numpy (the former ``torus_profile._crossing``).
+:func:`~toolpath.planning.torus_kernel.disk_crossings` (the pose sections' bound,
+:func:`~toolpath.planning.torus_profile.pose_section_ridges`) against its bisection over
+all rows in numpy.
+"""
+
+import numpy as np
+
+from toolpath.planning.torus_kernel import disk_crossings, side_crossings, window_nearest
+from toolpath.tolerances import TINY
+
+
+def _numpy_nearest(start, target, a, e, pass_of, window):
+    shift = np.arange(-window, window + 1)
+    cand = np.clip(start[:, None] + shift, 0, len(pass_of) - 1)
+    near = target[:, None]
+    f = np.clip(np.einsum("ijk,ijk->ij", near - a[cand], e[cand])
+                / np.maximum(np.einsum("ijk,ijk->ij", e[cand], e[cand]), 1e-300), 0.0, 1.0)
+    foot = a[cand] + f[..., None] * e[cand]
+    dist = np.einsum("ijk,ijk->ij", near - foot, near - foot)
+    dist[pass_of[cand] != pass_of[start, None]] = np.inf
+    return np.take_along_axis(cand, np.argmin(dist, axis=1)[:, None], 1)[:, 0]
+
+
+def test_window_nearest_equals_the_whole_window_in_numpy():
+    rng = np.random.default_rng(30)
+    # 40 passes of 30 pieces (some of no length), a wandering polyline each
+    n_pass, per = 40, 30
+    pass_of = np.repeat(np.arange(n_pass), per)
+    steps = rng.normal(scale=0.3, size=(n_pass * per, 3))
+    steps[rng.random(len(steps)) < 0.05] = 0.0
+    a = np.cumsum(steps, axis=0)
+    e = np.roll(a, -1, axis=0) - a
+    e[(np.arange(len(a)) + 1) % per == 0] = 0.0
+    m = 3000
+    start = rng.integers(0, len(a), m)
+    target = a[start] + rng.normal(scale=2.0, size=(m, 3))
+    for window in (1, 4, 24):
+        got = window_nearest(start, target, a, e, pass_of, window)
+        np.testing.assert_array_equal(got, _numpy_nearest(start, target, a, e, pass_of,
+                                                          window))
+        assert (pass_of[got] == pass_of[start]).all()
+        assert (got != start).mean() > 0.3  # (most rows move: the window is searched)
+
+
+def _on_merged(x: np.ndarray, before: np.ndarray, xp: np.ndarray,
+               yp: np.ndarray, left: np.ndarray | float,
+               right: np.ndarray | float) -> np.ndarray:
+    """Polyline ``(xp, yp)`` (rows, ``xp`` rising) at ``x`` (rows).
+
+    ``before`` counts its points at or left of each ``x``; ``left`` and ``right`` (rows
+    or one value) stand beyond its ends.
+    """
+    k = xp.shape[1]
+    i = np.clip(before, 1, k - 1)
+    x0, x1 = np.take_along_axis(xp, i - 1, 1), np.take_along_axis(xp, i, 1)
+    y0, y1 = np.take_along_axis(yp, i - 1, 1), np.take_along_axis(yp, i, 1)
+    out = y0 + np.clip((x - x0) / np.maximum(x1 - x0, TINY), 0.0, 1.0) * (y1 - y0)
+    out = np.where(before == 0, left, out)
+    return np.where((before == k) & (x > xp[:, -1:]), right, out)
+
+
+def _numpy_crossing(x1: np.ndarray, y1: np.ndarray, x2: np.ndarray,
+                    y2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Where the own side ``(x1, y1)`` first stands at or above the next's ``(x2, y2)``.
+
+    Polylines (m, k), ``x`` rising. Returns ``x, y`` of the crossing (``nan``: none).
+    """
+    m, samples = x1.shape
+    # both polylines at all their points (sorted together): linear between neighbours
+    both = np.concatenate([x1, x2], axis=1)
+    order = np.argsort(both, axis=1, kind="stable")
+    xs = np.take_along_axis(both, order, 1)
+    own_before = np.cumsum(order < samples, axis=1)
+    # the own side left of its contact stands as there; nothing past either's edge
+    g1 = _on_merged(xs, own_before, x1, y1, y1[:, :1], np.inf)
+    g2 = _on_merged(xs, np.cumsum(order >= samples, axis=1), x2, y2, np.inf, y2[:, -1:])
+    with np.errstate(invalid="ignore"):
+        f = g1 - g2
+    rise = f >= 0.0
+    j = np.argmax(rise, axis=1)
+    found = rise.any(axis=1) & (j > 0)
+    j = np.maximum(j, 1)
+    rows = np.arange(m)
+    f0, f1 = f[rows, j - 1], f[rows, j]
+    found &= ~np.isnan(f0) & ~np.isnan(f1)
+    xa, xb = xs[rows, j - 1], xs[rows, j]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        lam = np.where(np.isfinite(f0) & np.isfinite(f1), f0 / (f0 - f1), 0.0)
+        ya = np.where(np.isfinite(g1[rows, j - 1]), g1[rows, j - 1], g2[rows, j - 1])
+        yb = np.where(np.isfinite(g1[rows, j]), g1[rows, j], g2[rows, j])
+    # -inf at the left: the next side starts at xb (its edge, the own side's height
+    # there); +inf at the right: the own side ends at xa (the next side's height there)
+    lam = np.where(np.isneginf(f0), 1.0, lam)
+    x_r = xa + lam * (xb - xa)
+    y_r = np.where(np.isposinf(f1) & np.isfinite(f0), g2[rows, j - 1], ya + lam * (yb - ya))
+    y_r = np.where(np.isneginf(f0), g1[rows, j], y_r)
+    found &= np.isfinite(x_r) & np.isfinite(y_r)
+    return np.where(found, x_r, np.nan), np.where(found, y_r, np.nan)
+
+
+def test_side_crossings_equal_both_sides_sorted_together_in_numpy():
+    rng = np.random.default_rng(31)
+    m, k = 4000, 16
+    # rising x (some equal: ties between and within the sides), sides that cross, that
+    # do not, and that stand apart (the own ending before the next starts: inf either side)
+    x1 = np.cumsum(rng.choice([0.0, 0.1, 0.3], (m, k)), axis=1) - rng.uniform(0, 2, (m, 1))
+    x2 = np.cumsum(rng.choice([0.0, 0.1, 0.3], (m, k)), axis=1) + rng.uniform(-1, 3, (m, 1))
+    x1, x2 = np.round(x1, 1), np.round(x2, 1)
+    y1 = np.cumsum(rng.normal(0.1, 0.3, (m, k)), axis=1)
+    y2 = np.cumsum(rng.normal(-0.1, 0.3, (m, k)), axis=1) + rng.uniform(-1, 3, (m, 1))
+    got_x, got_y = side_crossings(x1, y1, x2, y2)
+    want_x, want_y = _numpy_crossing(x1, y1, x2, y2)
+    np.testing.assert_array_equal(got_x, want_x)
+    np.testing.assert_array_equal(got_y, want_y)
+    found = np.isfinite(want_x)
+    assert 0.2 < found.mean() < 0.9  # (crossings and none)
+
+
+def _numpy_lowest(disks, at):
+    cx, cy, rho_sq = disks
+    off_sq = rho_sq[:, :, None] - (at[:, None, :] - cx[:, :, None]) ** 2
+    with np.errstate(invalid="ignore"):
+        arc = np.where(off_sq >= 0.0, cy[:, :, None] - np.sqrt(np.maximum(off_sq, 0.0)),
+                       np.inf)
+    return arc
+
+
+def _numpy_disk_crossings(own, nxt, reach, steps):
+    ends = np.stack([np.zeros_like(reach), reach], axis=1)
+    with np.errstate(invalid="ignore"):
+        gap = _numpy_lowest(own, ends).min(axis=1) - _numpy_lowest(nxt, ends).min(axis=1)
+    ok = (gap[:, 0] < 0.0) & (gap[:, 1] > 0.0)
+    xa, xb = ends[:, 0].copy(), ends[:, 1].copy()
+    for _ in range(steps):
+        mid = 0.5 * (xa + xb)
+        with np.errstate(invalid="ignore"):
+            above = (_numpy_lowest(own, mid[:, None]).min(axis=1)
+                     - _numpy_lowest(nxt, mid[:, None]).min(axis=1))[:, 0]
+        above = ~(above < 0.0)
+        xb, xa = np.where(above, mid, xb), np.where(above, xa, mid)
+    bracket = np.stack([xa, xb], axis=1)
+    bound = np.minimum(*(_numpy_lowest(d, bracket).max(axis=2).min(axis=1) for d in (own, nxt)))
+    return xb, bound, ok
+
+
+def test_disk_crossings_equal_the_bisection_over_all_rows_in_numpy():
+    rng = np.random.default_rng(32)
+    m, disks = 3000, 17
+    reach = rng.uniform(0.2, 2.0, m)
+
+    def side(x0, slope):
+        # a row of corner disks along a tilted ring: some miss the plane (negative radii)
+        cx = x0[:, None] + np.linspace(-1.5, 1.5, disks) * rng.uniform(0.5, 1.5, (m, 1))
+        cy = 1.0 + slope[:, None] * cx + rng.normal(scale=0.05, size=(m, disks))
+        rho_sq = rng.uniform(-0.1, 1.0, (m, disks))
+        return cx, cy, rho_sq
+
+    own = side(rng.uniform(-0.5, 0.3, m), rng.uniform(0.0, 0.6, m))
+    nxt = side(reach + rng.uniform(-0.3, 0.5, m), -rng.uniform(0.0, 0.6, m))
+    got = disk_crossings(own, nxt, reach, 32)
+    want = _numpy_disk_crossings(own, nxt, reach, 32)
+    for g, w in zip(got, want, strict=True):
+        np.testing.assert_array_equal(g, w)
+    assert 0.2 < want[2].mean() < 0.95  # (crossed and not)

@@ -1,0 +1,230 @@
+"""The flat and bull-nose cusp estimate's compiled parts, row by row.
+
+The estimate (:func:`~.cusp_estimates.torus_cusp_estimates`) seeks the pose of a pass whose
+contact lies nearest a seed's: over the pieces within a window of a start piece along the
+pass, the piece whose segment ``a + f e`` (``0 <= f <= 1``) comes nearest a target point
+(:func:`window_nearest`, without the ``(rows, window, 3)`` arrays of candidates). It meets
+two passes' sections where the own side first stands at or above the next's
+(:func:`side_crossings`, for :mod:`.torus_profile`: the two polylines walked together,
+stopping at the crossing, without sorting them together), and bounds the ridge between
+two poses' sections of corner disks (:func:`disk_crossings`, for
+:func:`~.torus_profile.pose_section_ridges`: its bisection row by row). Each does the
+numpy's sums in its order: the same numbers.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numba
+import numpy as np
+from numpy.typing import NDArray
+
+from ..tolerances import TINY
+
+__all__ = ["disk_crossings", "side_crossings", "window_nearest"]
+
+
+@numba.njit(cache=True)
+def _window_nearest(start, target, a, e, pass_of, window, out):
+    """The loop of :func:`window_nearest`, into ``out``."""
+    last = pass_of.size - 1
+    for i in range(start.size):
+        own = pass_of[start[i]]
+        best = -1
+        best_d = np.inf
+        for shift in range(-window, window + 1):
+            j = min(max(start[i] + shift, 0), last)
+            if pass_of[j] != own:
+                if best < 0:  # (as argmin over all-inf rows so far: the first candidate)
+                    best = j
+                continue
+            px = target[i, 0] - a[j, 0]
+            py = target[i, 1] - a[j, 1]
+            pz = target[i, 2] - a[j, 2]
+            ee = e[j, 0] * e[j, 0] + e[j, 1] * e[j, 1] + e[j, 2] * e[j, 2]
+            f = (px * e[j, 0] + py * e[j, 1] + pz * e[j, 2]) / max(ee, TINY)
+            f = min(max(f, 0.0), 1.0)
+            dx = target[i, 0] - (a[j, 0] + f * e[j, 0])
+            dy = target[i, 1] - (a[j, 1] + f * e[j, 1])
+            dz = target[i, 2] - (a[j, 2] + f * e[j, 2])
+            d = dx * dx + dy * dy + dz * dz
+            if d < best_d:
+                best, best_d = j, d
+        out[i] = best
+
+
+def window_nearest(start: NDArray[np.int64], target: NDArray[np.float64],
+                   a: NDArray[np.float64], e: NDArray[np.float64],
+                   pass_of: NDArray[np.int64], window: int) -> NDArray[np.int64]:
+    """Per row, the piece of ``start``'s pass within ``window`` of it nearest ``target``.
+
+    Pieces ``start - window .. start + window`` (clipped to the pieces there are; pieces of
+    another pass left out), the squared distance from ``target`` (m, 3) to each segment
+    ``a + f e`` (``f`` clipped to ``[0, 1]``); the first of equal ones. Returns the piece
+    indices (m,).
+    """
+    out = np.empty(len(start), dtype=np.int64)
+    if len(start):
+        _window_nearest(np.ascontiguousarray(start, dtype=np.int64),
+                        np.ascontiguousarray(target, dtype=float),
+                        np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(e, dtype=float),
+                        np.ascontiguousarray(pass_of, dtype=np.int64), int(window), out)
+    return out
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _on_side(x, before, xp, yp, row, left, right):
+    """Polyline ``(xp[row], yp[row])`` (``x`` rising) at ``x``.
+
+    ``before`` of its points stand at or left of ``x``; ``left``, ``right`` beyond its ends.
+    """
+    k = xp.shape[1]
+    if before == 0:
+        return left
+    if before == k and x > xp[row, k - 1]:
+        return right
+    i = min(max(before, 1), k - 1)
+    x0, x1 = xp[row, i - 1], xp[row, i]
+    y0, y1 = yp[row, i - 1], yp[row, i]
+    return y0 + min(max((x - x0) / max(x1 - x0, TINY), 0.0), 1.0) * (y1 - y0)
+
+
+@numba.njit(cache=True)
+def _side_crossings(x1, y1, x2, y2, out_x, out_y):
+    """The loop of :func:`side_crossings`, into ``out_x``, ``out_y``."""
+    m, k = x1.shape
+    for row in range(m):
+        out_x[row] = np.nan
+        out_y[row] = np.nan
+        i1 = 0
+        i2 = 0
+        xa = g1a = g2a = fa = 0.0
+        for p in range(2 * k):
+            # the merged points in order, the own side's first of equal ones
+            if i2 >= k or (i1 < k and x1[row, i1] <= x2[row, i2]):
+                xb = x1[row, i1]
+                i1 += 1
+            else:
+                xb = x2[row, i2]
+                i2 += 1
+            # the own side left of its contact stands as there; nothing past either's edge
+            g1b = _on_side(xb, i1, x1, y1, row, y1[row, 0], np.inf)
+            g2b = _on_side(xb, i2, x2, y2, row, np.inf, y2[row, k - 1])
+            fb = g1b - g2b
+            if fb >= 0.0:
+                if p == 0 or math.isnan(fa):
+                    break
+                if math.isfinite(fa) and math.isfinite(fb):
+                    lam = fa / (fa - fb)
+                else:
+                    lam = 0.0
+                ya = g1a if math.isfinite(g1a) else g2a
+                yb = g1b if math.isfinite(g1b) else g2b
+                if fa == -np.inf:
+                    lam = 1.0
+                x_r = xa + lam * (xb - xa)
+                if fb == np.inf and math.isfinite(fa):
+                    y_r = g2a
+                else:
+                    y_r = ya + lam * (yb - ya)
+                if fa == -np.inf:
+                    y_r = g1b
+                if math.isfinite(x_r) and math.isfinite(y_r):
+                    out_x[row] = x_r
+                    out_y[row] = y_r
+                break
+            xa, g1a, g2a, fa = xb, g1b, g2b, fb
+
+
+def side_crossings(x1: NDArray[np.float64], y1: NDArray[np.float64],
+                   x2: NDArray[np.float64], y2: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Where the own side ``(x1, y1)`` first stands at or above the next's ``(x2, y2)``.
+
+    Polylines (m, k), ``x`` rising, taken at all their points merged in order (the own
+    side's first of equal ``x``), each linear between its points: the own side left of
+    its first point stands as there and ends at its last (``inf`` past it), the next side
+    starts at its first (``inf`` before it) and stands as at its last beyond. At the first
+    merged point where the own side is at or above the next (not the first point; no NaN
+    difference either side), the crossing between it and the point before: linear where
+    both differences are finite; an infinite one puts it at that end, at the side's height
+    there. Returns ``x, y`` of the crossing (``nan``: none).
+    """
+    m = x1.shape[0]
+    out_x, out_y = np.empty(m), np.empty(m)
+    if m:
+        x1, y1, x2, y2 = (np.ascontiguousarray(v, dtype=float) for v in (x1, y1, x2, y2))
+        _side_crossings(x1, y1, x2, y2, out_x, out_y)
+    return out_x, out_y
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _arc(cx, cy, rho_sq, row, d, at):
+    """Disk ``d``'s lower arc at ``at``, ``inf`` where it does not cover ``at``."""
+    off_sq = rho_sq[row, d] - (at - cx[row, d]) ** 2
+    if off_sq >= 0.0:
+        return cy[row, d] - math.sqrt(off_sq)
+    return np.inf
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _lowest(cx, cy, rho_sq, row, at):
+    """The lowest of row ``row``'s disks' lower arcs at ``at`` (``inf``: none covers)."""
+    low = np.inf
+    for d in range(cx.shape[1]):
+        low = min(low, _arc(cx, cy, rho_sq, row, d, at))
+    return low
+
+
+@numba.njit(cache=True)
+def _disk_crossings(own, nxt, reach, steps, out_x, out_h, out_ok):
+    """The loop of :func:`disk_crossings`, into ``out_x``, ``out_h``, ``out_ok``."""
+    ocx, ocy, orho = own
+    ncx, ncy, nrho = nxt
+    for row in range(reach.size):
+        start = _lowest(ocx, ocy, orho, row, 0.0) - _lowest(ncx, ncy, nrho, row, 0.0)
+        end = (_lowest(ocx, ocy, orho, row, reach[row])
+               - _lowest(ncx, ncy, nrho, row, reach[row]))
+        out_ok[row] = start < 0.0 and end > 0.0
+        xa, xb = 0.0, reach[row]
+        for _ in range(steps):
+            mid = 0.5 * (xa + xb)
+            gap = _lowest(ocx, ocy, orho, row, mid) - _lowest(ncx, ncy, nrho, row, mid)
+            if not gap < 0.0:  # (nan: neither covers; taken as crossed)
+                xb = mid
+            else:
+                xa = mid
+        bound = np.inf
+        for cx, cy, rho_sq in (own, nxt):
+            side = np.inf
+            for d in range(cx.shape[1]):
+                side = min(side, max(_arc(cx, cy, rho_sq, row, d, xa),
+                                     _arc(cx, cy, rho_sq, row, d, xb)))
+            bound = min(bound, side)
+        out_x[row] = xb
+        out_h[row] = bound
+
+
+def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.float64], ...],
+                   reach: NDArray[np.float64], steps: int
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
+    """Where two poses' sections, each the lower envelope of its disks, cross; a bound there.
+
+    ``own``, ``nxt``: each pose's disks, centres ``x``, ``y`` and squared radii (m, S;
+    negative where the ball misses the plane). From ``x = 0`` to ``x = reach`` (m,), the
+    own envelope below the next's at 0 and above at ``reach`` (else not ``ok``), bisected
+    ``steps`` times (no gap below 0, as where neither covers, counts as crossed) to
+    ``[x_a, x_b]``; over it each disk's lower arc stands no higher than at its ends, so
+    the lesser of the two sides' ``min_i max(f_i(x_a), f_i(x_b))`` bounds the crossing.
+    Returns ``x_b``, that bound (``inf`` where a side's disks cover neither end) and
+    ``ok``.
+    """
+    m = len(reach)
+    out_x, out_h, out_ok = np.empty(m), np.empty(m), np.zeros(m, dtype=bool)
+    if m:
+        own, nxt = (tuple(np.ascontiguousarray(v, dtype=float) for v in disks)
+                    for disks in (own, nxt))
+        _disk_crossings(own, nxt, np.ascontiguousarray(reach, dtype=float), int(steps),
+                        out_x, out_h, out_ok)
+    return out_x, out_h, out_ok
