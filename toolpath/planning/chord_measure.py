@@ -349,13 +349,18 @@ def _unsure_between(runs: _Runs, centres: NDArray[np.float64], feet: NDArray[np.
     Rows index ``centres``, the feet's points ``feet`` and ``gap`` (every location).
     """
     between, before, after = runs.between, runs.before, runs.after
-    here = centres[between]
-    own = np.linalg.norm(here - feet[between], axis=1)
+    here = centres.take(between, axis=0)
+
+    def apart(a: NDArray[np.float64], rows: NDArray[np.int64]) -> NDArray[np.float64]:
+        d = a - feet.take(rows, axis=0)  # (row norms by einsum: a third of norm's time)
+        return np.sqrt(np.einsum("ij,ij->i", d, d))
+
+    own = apart(here, between)
     # the run's locations are consecutive rows: between - 1 and between + 1 are on it
     nearer = np.zeros(between.size, dtype=bool)
     for other in (before, after, between - 1, between + 1):
-        nearer |= np.linalg.norm(here - feet[other], axis=1) < own - FOOT_SLACK_MM
-    spread = np.linalg.norm(feet[after] - feet[before], axis=1)
+        nearer |= apart(here, other) < own - FOOT_SLACK_MM
+    spread = apart(feet.take(after, axis=0), before)
     jump = spread > FOOT_SPREAD * runs.span + FOOT_SLACK_MM
     rise = gap[between] > np.maximum(gap[before], gap[after]) + FOOT_SLACK_MM
     return between[nearer | jump | rise]
