@@ -121,7 +121,7 @@ def ball_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: Se
     ok = np.flatnonzero(state == RIDGE_FOUND)
     own, other = pieces[ok, 0], pieces[ok, 1]
     height = _ridge_heights(surface, seeds, ok, x[ok])
-    depth = inside[ok].max(axis=1)
+    depth = np.maximum(inside[ok, 0], inside[ok, 1])  # (max(axis=1) over 2: ten times slower)
     big = volume.cutter.radius_mm
     curving = _piece_curving(volume, np.concatenate([own, other])).reshape(2, -1).max(axis=0)
     share = np.where(curving * big < GENTLE_CURVING, RIDGE_SINK_SHARE, TIGHT_SINK_SHARE)
@@ -182,8 +182,8 @@ def _ridge_heights(surface: ParametricSurface, seeds: SearchSeeds, rows: NDArray
     ``(X - X(t, s_c)) . n(t, s_c)`` over the surface point one first-order step from the
     seed, ``s_c = s + (X - Q) . X_s / |X_s|^2``.
     """
-    xs = seeds.x_s[rows]
-    s_c = np.clip(seeds.s[rows] + np.einsum("ij,ij->i", x - seeds.q[rows], xs)
+    xs = seeds.x_s.take(rows, axis=0)
+    s_c = np.clip(seeds.s[rows] + np.einsum("ij,ij->i", x - seeds.q.take(rows, axis=0), xs)
                   / np.maximum(np.einsum("ij,ij->i", xs, xs), TINY), 0.0, 1.0)
     foot_c, n_c = surface.points_and_normals(seeds.t[rows], s_c)
     return np.einsum("ij,ij->i", x - foot_c, n_c)

@@ -304,8 +304,10 @@ class CutVolume:
             # cross the passes; 0.4 times the time on the R150 dome's 140,000 rays)
             rows = rows[np.argsort(candidate[rows], kind="stable")]
             one = np.arange(rows.size)
-            out[rows] = np.isfinite(self.height(q[rows], n[rows], one, one + 1,
-                                                candidate[rows], first=True))
+            # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+            out[rows] = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0),
+                                                one, one + 1, candidate.take(rows),
+                                                first=True))
             rest = np.flatnonzero(~out)
         if self.ball and len(self.pass_of) and rest.size:
             owner, item = pairs_within(self.near_cells, q[rest] + self.lift * n[rest],

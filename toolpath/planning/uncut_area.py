@@ -69,7 +69,7 @@ class UncutArea:
         # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
         parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
         q, across = parts[0, 0], np.cross(parts[1, 0], parts[0, 1])
-        area = np.linalg.norm(across, axis=1)
+        area = np.sqrt(np.einsum("ij,ij->i", across, across))
         # outward_normals' unit normals from the cross product and its length at hand
         n = surface.orientation * (across / np.where(area > 0.0, area, 1.0)[:, None])
         candidate = (None if contacts is None else
