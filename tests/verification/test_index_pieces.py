@@ -81,3 +81,20 @@ def test_searches_over_the_shared_pieces_give_the_pair_searchs_values(rng, which
     assert np.array_equal(fast.lam_mm, exact.lam_mm)
     assert np.array_equal(fast.piece, exact.piece)
     assert np.array_equal(fast.move, exact.move)
+
+
+def test_listing_pieces_near_points_copies_no_fields_into_the_grid_s_order(rng):
+    """The refine's :meth:`SweepIndex.pieces_within` walks a grid of the pieces but reads
+    them in their own order: no copies of their fields sorted by cell (840 MB on the 7 M
+    pieces of the bull-nose 5-axis blade program), the same pieces as a scan of all."""
+    ball, _, points, _, index = _built(rng)
+    centres = points[::300] + np.array([0.0, 0.0, 4.0])
+    radii = np.full(centres.shape[0], 0.5)
+    found = index.pieces_within("near", centres, radii)
+    assert index._grids and not index._sorted
+    v = centres[:, None, :] - ball.a[None, :, :]
+    f = np.clip(np.einsum("qpj,pj->qp", v, ball.e) / ball.ee, 0.0, 1.0)
+    gap = np.linalg.norm(v - f[..., None] * ball.e[None], axis=2)
+    every = np.flatnonzero((gap <= radii[:, None] + ball.height_mm[None]).any(axis=0))
+    assert 0 < every.shape[0] < ball.size
+    np.testing.assert_array_equal(found, every)
