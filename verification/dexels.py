@@ -295,9 +295,11 @@ class SweepIndex:
     def __post_init__(self) -> None:
         # the collision search's pieces are the near search's, then the shank's: one copy
         # of them, the near search's its first rows (a view), not a second concatenated
-        # copy (1 GB of the 7 M pieces of a bull-nose 5-axis blade program); the caller
-        # drops its own (:attr:`ball` is the view)
-        both = self.ball.concat(self.shank) if self.shank.size else self.ball
+        # copy (1 GB of the 7 M pieces of a bull-nose 5-axis blade program); the ball
+        # pieces given become that view field by field as they are copied
+        # (:meth:`Pieces.absorbing`), so the caller's no longer hold a copy of their own
+        # even while this runs
+        both = self.ball.absorbing(self.shank) if self.shank.size else self.ball
         self.ball = both.taken(slice(0, self.ball.size))
         self._pieces.update(near=self.ball, far=both)
 

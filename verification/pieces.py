@@ -130,6 +130,25 @@ class Pieces:
                       cat("shank"), cat("axis"), cat("arc0_mm"), cat("arc1_mm"),
                       self.path_arc_mm, self.path_move, cat("height_mm"))
 
+    def absorbing(self, other: Pieces) -> Pieces:
+        """Both sets of pieces, as :meth:`concat`, holding this set's memory only once.
+
+        Field by field, this set's array is copied into the concatenation and then
+        replaced by a view of its first rows (the same values, bit for bit), so each of
+        its own arrays is freed as soon as it is copied (where nothing else holds it):
+        the concatenation never holds two whole copies of this set, only one field's
+        (on the 7 M pieces of the bull-nose 5-axis blade program, 166 MB at most rather
+        than 1 GB). This set, changed in place, stays a valid set of the same pieces.
+        """
+        n = self.size
+        both = {}
+        for name in _ROW_FIELDS:
+            mine = getattr(self, name)
+            both[name] = np.concatenate((mine, getattr(other, name)))
+            object.__setattr__(self, name, both[name][:n])
+            del mine
+        return Pieces(**both, path_arc_mm=self.path_arc_mm, path_move=self.path_move)
+
     def taken(self, rows: NDArray[np.bool_] | IntArray) -> Pieces:
         """The pieces at ``rows`` (a mask or indices); the path arrays unchanged."""
         return Pieces(self.a[rows], self.e[rows], self.ee[rows], self.mid[rows],
@@ -163,6 +182,11 @@ class Pieces:
             inst = np.searchsorted(self.path_arc_mm, arc[ball], side="left")
             out[ball] = self.path_move[np.clip(inst, 1, self.path_arc_mm.shape[0] - 1)]
         return out
+
+
+#: The fields of :class:`Pieces` with one row per piece (the path arrays are per instance).
+_ROW_FIELDS = ("a", "e", "ee", "mid", "half_mm", "move", "shank", "axis", "arc0_mm",
+               "arc1_mm", "height_mm")
 
 
 def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
