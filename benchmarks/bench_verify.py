@@ -41,8 +41,8 @@ In one run:
    :mod:`verification.piece_runs`). Opt-in while its verification takes minutes: the
    fine model is built per batch from the segments that can decide
    (:mod:`verification.fine_lazy`), so the whole 142,158-line ``bull:8:1`` program now
-   verifies, in 5.3 GB and 484 CPU s (13.5 min wall at load 5-7 on 2 cores; it was
-   killed at 23 GB); ``--skip-bull`` leaves out both bull rows.
+   verifies (``toolpath verify``, session 30: 269 CPU s, peak 2.9 GB, was 4.3 GB; it
+   was once killed at 23 GB); ``--skip-bull`` leaves out both bull rows.
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.
