@@ -295,9 +295,11 @@ class SweepIndex:
     def __post_init__(self) -> None:
         # the collision search's pieces are the near search's, then the shank's: one copy
         # of them, the near search's its first rows (a view), not a second concatenated
-        # copy (1 GB of the 7 M pieces of a bull-nose 5-axis blade program); the caller
-        # drops its own (:attr:`ball` is the view)
-        both = self.ball.concat(self.shank) if self.shank.size else self.ball
+        # copy (1 GB of the 7 M pieces of a bull-nose 5-axis blade program); the ball
+        # pieces given become that view field by field as they are copied
+        # (:meth:`Pieces.absorbing`), so the caller's no longer hold a copy of their own
+        # even while this runs
+        both = self.ball.absorbing(self.shank) if self.shank.size else self.ball
         self.ball = both.taken(slice(0, self.ball.size))
         self._pieces.update(near=self.ball, far=both)
 
@@ -354,7 +356,8 @@ class SweepIndex:
         grid = self._grids.get((which, k))
         if grid is None or self._covers[id(grid)] < beyond_mm:
             if grid is not None:
-                del self._sorted[id(grid)], self._covers[id(grid)]
+                self._sorted.pop(id(grid), None)
+                del self._covers[id(grid)]
             pieces = self.pieces(which)
             cover = max(self.reach_limit_mm, beyond_mm)
             margin = grid_margin_mm(cover, pieces)
@@ -362,12 +365,24 @@ class SweepIndex:
                                    self.base_cell_mm * 2.0**k)
             self._grids[which, k] = grid
             self._covers[id(grid)] = cover
-            # the fields the compiled walks read, in the grid's order (read as met)
-            self._sorted[id(grid)] = tuple(
-                np.ascontiguousarray(v[grid.order], dtype=float)
-                for v in (pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee,
-                          pieces.axis, pieces.height_mm))
         return grid
+
+    def _sorted_fields(self, which: str, grid: PieceGrid) -> tuple[FloatArray, ...]:
+        """The fields the compiled capsule walk reads, in ``grid``'s order (read as met).
+
+        ``mid, half_mm, a, e, ee, axis, height_mm``: copied on the first walk over the
+        grid and kept with it, never for a grid only :meth:`pieces_within` walks (the
+        refine's, over the flat/bull-nose pieces: 840 MB of copies of the 7 M pieces of
+        the bull-nose 5-axis blade program, which it never read).
+        """
+        kept = self._sorted.get(id(grid))
+        if kept is None:
+            pieces = self.pieces(which)
+            kept = tuple(np.ascontiguousarray(v[grid.order], dtype=float)
+                         for v in (pieces.mid, pieces.half_mm, pieces.a, pieces.e, pieces.ee,
+                                   pieces.axis, pieces.height_mm))
+            self._sorted[id(grid)] = kept
+        return kept
 
     def _run_grid(self, which: str, reach_mm: float, beyond_mm: float = 0.0, *,
                   built: bool = False) -> tuple[PieceGrid, PieceRuns]:
@@ -438,7 +453,7 @@ class SweepIndex:
         spans = grid.span_of(reach)
         if self.compiled:
             # one walk, each dexel over its own span of cells
-            mid, half, a, e, ee, axis, _ = self._sorted[id(grid)]
+            mid, half, a, e, ee, axis, _ = self._sorted_fields(which, grid)
             lam, hit, behind, pairs = lowest_capsule_entries(
                 grid, spans, points, dirs, centres, reach, mid, half, a, e, ee, axis,
                 self.radius_mm, BEHIND_COSINE, below_mm=below_mm, below_piece=below_piece)

@@ -100,10 +100,8 @@ class PieceGrid:
             cell *= (volume_cells / max_cells) ** (1.0 / 3.0) * 1.01
         dims_arr = np.maximum(np.ceil(span / cell).astype(np.int64) + 1, 1)
         dims = (int(dims_arr[0]), int(dims_arr[1]), int(dims_arr[2]))
-        # far (or non-finite) midpoints: a cell outside the grid, left out
-        ijk = np.floor(np.clip(np.nan_to_num((midpoints - lo) / cell, nan=-1.0), -1.0,
-                               float(dims_arr.max()))).astype(np.int64)
-        starts, order = _counting_sort(np.ascontiguousarray(ijk), dims_arr)
+        starts, order = _counting_sort(np.ascontiguousarray(midpoints, dtype=float), lo, cell,
+                                       dims_arr)
         return cls(lo, cell, dims, starts, order)
 
     @property
@@ -209,24 +207,44 @@ def span_indices(first: IntArray, count: IntArray) -> IntArray:
 
 
 @numba.njit(cache=True)
-def _counting_sort(ijk: IntArray, dims: IntArray) -> tuple[IntArray, IntArray]:
+def _cell_of(x_mm: float, lo_mm: float, cell_mm: float, top: float) -> int:
+    """The cell along one axis of a coordinate: ``floor(clip((x - lo) / cell, -1, top))``.
+
+    NaN gives ``-1`` (outside), as infinities give ``-1`` or ``top``: far (or non-finite)
+    midpoints fall in a cell outside the grid and are left out.
+    """
+    v = (x_mm - lo_mm) / cell_mm
+    if v != v:
+        v = -1.0
+    return int(np.floor(min(max(v, -1.0), top)))
+
+
+@numba.njit(cache=True)
+def _counting_sort(midpoints: FloatArray, lo_mm: FloatArray, cell_mm: float, dims: IntArray
+                   ) -> tuple[IntArray, IntArray]:
     """Pieces inside the grid sorted by cell ``(i n_j + j) n_k + k`` (stable), and offsets.
 
-    ``starts[c]`` counts the pieces of the cells before ``c``; ``order`` lists the pieces
-    cell by cell, in their own order within a cell (the stable sort of their cell keys).
+    A piece's cell is :func:`_cell_of` its midpoint, found here piece by piece (no
+    temporaries of the pieces' size but their keys: a grid over the 7 M pieces of the
+    bull-nose 5-axis blade program made seven 168 MB ones). ``starts[c]`` counts the pieces
+    of the cells before ``c``; ``order`` lists the pieces cell by cell, in their own order
+    within a cell (the stable sort of their cell keys).
     """
     n_cells = dims[0] * dims[1] * dims[2]
+    top = float(max(dims[0], dims[1], dims[2]))
     starts = np.zeros(n_cells + 1, dtype=np.int64)
-    key = np.full(ijk.shape[0], -1, dtype=np.int64)
-    for p in range(ijk.shape[0]):
-        i, j, k = ijk[p, 0], ijk[p, 1], ijk[p, 2]
+    key = np.full(midpoints.shape[0], -1, dtype=np.int64)
+    for p in range(midpoints.shape[0]):
+        i = _cell_of(midpoints[p, 0], lo_mm[0], cell_mm, top)
+        j = _cell_of(midpoints[p, 1], lo_mm[1], cell_mm, top)
+        k = _cell_of(midpoints[p, 2], lo_mm[2], cell_mm, top)
         if 0 <= i < dims[0] and 0 <= j < dims[1] and 0 <= k < dims[2]:
             key[p] = (i * dims[1] + j) * dims[2] + k
             starts[key[p] + 1] += 1
     for c in range(n_cells):
         starts[c + 1] += starts[c]
     order = np.empty(starts[n_cells], dtype=np.int64)
-    for p in range(ijk.shape[0]):  # starts[c] runs up to the next cell's start
+    for p in range(midpoints.shape[0]):  # starts[c] runs up to the next cell's start
         if key[p] >= 0:
             order[starts[key[p]]] = p
             starts[key[p]] += 1

@@ -228,7 +228,7 @@ def verify_program(program: Program, surface: ParametricSurface, machine: Machin
                        base_cell_mm=(near_cell + ball.max_half_mm) / 2.0,
                        reach_limit_mm=radius + horizon + max(shape + depth, ball.max_height_mm),
                        max_pairs=opts.max_pairs, corner_radius_mm=corner)
-    ball = index.ball  # its view of the pieces it holds: this copy is freed
+    ball = index.ball  # its view of the pieces it holds (what was passed, now views of them)
     ev = Dexels(index, radius, levels, depth, method, corner_radius=corner,
                 model_tol_mm=opts.replay_tol_mm + opts.merge_tol_mm)
     fine = None
