@@ -130,7 +130,7 @@ def floor_entry(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 
 @numba.njit(cache=True, parallel=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: FloatArray,
-          wide2: FloatArray, grouped: bool, spans: IntArray, dims: IntArray,
+          wide2: FloatArray, grouped: bool, seeded: bool, spans: IntArray, dims: IntArray,
           origin: FloatArray, cell: float, starts: IntArray, run_mid: FloatArray,
           run_half: FloatArray,
           run_spread: FloatArray, run_start: IntArray, run_stop: IntArray, run_c0: FloatArray,
@@ -155,6 +155,7 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
         shared = np.empty(WALK_BLOCK, dtype=np.int64)
         n_shared = -1
+        seed = -1
         stop = min(n_q, (b + 1) * WALK_BLOCK)
         kept = np.empty(WALK_BLOCK, dtype=np.int64)
         bounds = np.empty(WALK_BLOCK)
@@ -194,6 +195,15 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
             found = -1
             best_behind = False
             met = 0
+            # the piece that left least on the task's previous dexel, measured first when
+            # a candidate here: a value some candidate leaves, so a best to prune by from
+            # the start (the least of (value, piece) is the same whatever is met first)
+            if seeded and seed >= 0 and is_candidate(seed, mid, cx, cy, cz, lim2):
+                met += 1
+                value, back = _value(p, d, a[seed], e[seed], axis[seed], height[seed],
+                                     core_radius, corner_radius, behind_cosine)
+                if ranks_before(value, seed, best, best_piece):
+                    best, best_piece, found, best_behind = value, seed, seed, back
             # walk 0: the runs that may hold a candidate and enter below the best so far,
             # with the bounds of their dilated reference pieces
             m = 0
@@ -308,6 +318,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                             highs[depth] = h if side == 0 else j
                             floors[depth] = halves[side]
                             depth += 1
+            if found >= 0:
+                seed = found
             lam[q] = best
             piece[q] = found
             behind[q] = best_behind
@@ -333,7 +345,8 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
                          core_radius_mm: float, corner_radius_mm: float,
                          behind_cosine: float,
                          below_mm: FloatArray | None = None,
-                         below_piece: IntArray | None = None, grouped: bool = True
+                         below_piece: IntArray | None = None, grouped: bool = True,
+                         seeded: bool = True
                          ) -> tuple[FloatArray, IntArray, NDArray[np.bool_], int]:
     """Per dexel the lowest value among flat/bull-nose pieces within ``reach_mm``.
 
@@ -404,7 +417,7 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     wide_mm = reach_mm + runs.max_spread_mm
     with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
         _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              reach_mm, wide_mm * wide_mm, bool(grouped), spans, dims,
+              reach_mm, wide_mm * wide_mm, bool(grouped), bool(seeded), spans, dims,
               f(grid.origin_mm, dtype=float),
               float(grid.cell_mm), grid.starts, runs.mid, runs.half_mm, runs.spread_mm,
               runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,

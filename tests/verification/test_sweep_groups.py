@@ -1,12 +1,13 @@
-"""Neighbouring dexels walk the runs' grid together in the bull-nose walk: the same result.
+"""Neighbouring dexels share work in the bull-nose walk: the same result as the full method.
 
 :func:`verification.sweep_search.lowest_sweep_entries` gathers the runs of a few
 neighbouring dexels in one walk of the grid over a ball holding their balls
 (:func:`~verification.capsule_search.group_ball`), then sorts them out per dexel
-(:func:`~verification.capsule_search.own_slots`). Against the full method, the pair search
-over every candidate (``SweepIndex(compiled=False)``), every dexel must get the same value
-and piece; against each dexel walking alone (``grouped=False``) the same runs met too (the
-same pair count).
+(:func:`~verification.capsule_search.own_slots`); and measures first, where a candidate,
+the piece that left least on the previous dexel (``seeded``). Against the full method,
+the pair search over every candidate (``SweepIndex(compiled=False)``), every dexel must get
+the same value, piece and side; against each dexel walking alone (``grouped=False``) the
+same runs met too (the same pair count); unseeded, the same values and pieces.
 """
 
 import functools
@@ -80,22 +81,47 @@ def _search(pieces, points, dirs, reach_mm, *, compiled):
     return index.search("near", points, dirs, points + CORNER_MM * dirs, reach)
 
 
-@pytest.mark.parametrize(("lead", "reach_mm"), [(0.0, 3.5), (0.15, 3.5), (0.15, 0.8)])
-def test_grouped_walk_finds_the_pair_searchs_values_and_pieces(rng, monkeypatch, lead,
-                                                               reach_mm):
-    # a short reach leaves out pieces that would cut: the candidates' edge decides values
+def _walked(monkeypatch, pieces, points, dirs, reach_mm, **how):
+    with monkeypatch.context() as m:
+        m.setattr(dexels_module, "lowest_sweep_entries",
+                  functools.partial(lowest_sweep_entries, **how))
+        return _search(pieces, points, dirs, reach_mm, compiled=True)
+
+
+def _assert_same(fast, exact):
+    assert np.array_equal(fast.lam_mm, exact.lam_mm)
+    assert np.array_equal(fast.piece, exact.piece)
+    assert np.array_equal(fast.behind, exact.behind)
+
+
+# a short reach leaves out pieces that would cut: the candidates' edge decides values
+CASES = [(0.0, 3.5), (0.15, 3.5), (0.15, 0.8), (-0.2, 0.8)]
+
+
+@pytest.mark.parametrize(("lead", "reach_mm"), CASES)
+def test_grouped_walk_meets_each_dexels_own_runs(rng, monkeypatch, lead, reach_mm):
     pieces = _five_axis_passes(lead=lead)
     points, dirs = _row_dexels(rng)
     grouped = _search(pieces, points, dirs, reach_mm, compiled=True)
     exact = _search(pieces, points, dirs, reach_mm, compiled=False)
-    with monkeypatch.context() as m:
-        m.setattr(dexels_module, "lowest_sweep_entries",
-                  functools.partial(lowest_sweep_entries, grouped=False))
-        alone = _search(pieces, points, dirs, reach_mm, compiled=True)
+    alone = _walked(monkeypatch, pieces, points, dirs, reach_mm, grouped=False)
     assert np.isfinite(exact.lam_mm).mean() > 0.9  # the passes cut the dexels
-    assert np.array_equal(grouped.lam_mm, exact.lam_mm)
-    assert np.array_equal(grouped.piece, exact.piece)
+    _assert_same(grouped, exact)
     # the very runs each dexel's own walk meets: the same floors and pieces measured
-    assert np.array_equal(grouped.lam_mm, alone.lam_mm)
-    assert np.array_equal(grouped.piece, alone.piece)
+    _assert_same(grouped, alone)
     assert grouped.pairs == alone.pairs > 0
+
+
+@pytest.mark.parametrize(("lead", "reach_mm"), CASES)
+def test_seeded_walk_finds_the_pair_searchs_values_and_pieces(rng, monkeypatch, lead,
+                                                              reach_mm):
+    # the previous dexel's piece measured first: only where a candidate here, and then
+    # only as a value to prune by, so the least (value, piece) is the unseeded walk's
+    pieces = _five_axis_passes(lead=lead)
+    points, dirs = _row_dexels(rng)
+    seeded = _search(pieces, points, dirs, reach_mm, compiled=True)
+    exact = _search(pieces, points, dirs, reach_mm, compiled=False)
+    unseeded = _walked(monkeypatch, pieces, points, dirs, reach_mm, seeded=False)
+    _assert_same(seeded, exact)
+    _assert_same(seeded, unseeded)
+    assert seeded.pairs != unseeded.pairs  # seeds were measured (here a few more pairs)
