@@ -10,7 +10,9 @@ verification. Here each dexel walks the runs of consecutive pieces
 whose midpoints lie within the search radius plus their spread of its centre, over the
 cells of :func:`~verification.capsule_search.candidate_slots` (walked for a few
 neighbouring dexels at once over a ball holding theirs, then sorted out per dexel, as the
-ball walk does: the same runs for ~8 % less of the search's time on the bull-nose blade):
+ball walk does: the same runs for ~8 % less of the search's time on the bull-nose blade),
+after the piece that left least on the previous dexel (next in the task) is measured, where
+a candidate, as the best so far (its pieces seldom change from one dexel to the next):
 
 1. every such run whose cheap lower bound on the entry (:func:`~verification.torus.sweep_bound`
    of its dilated reference: a bounding capsule cut by a slab) lies below the best so far;
@@ -24,7 +26,9 @@ ball walk does: the same runs for ~8 % less of the search's time on the bull-nos
    lies below the best.
 
 A floor is a lower bound on what every piece of its run leaves, so a run or half skipped
-holds no piece below the best: the same minimum as every candidate measured (a piece
+holds no piece below the best: the same minimum as every candidate measured, whatever
+the best it starts from (a seed is a candidate's value; the least ``(value, piece)`` of a
+total order does not depend on which is met first) (a piece
 that leaves ``p`` leaves it from within ``delta`` of the reference, see
 :mod:`verification.piece_runs`). On the bull-nose 5-axis blade (16,000 candidate pieces
 per dexel, thousands of them measured) a dexel measures about a hundred floors and a
