@@ -154,6 +154,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
     # piece); ``grouped``: WALK_GROUP neighbouring dexels walk the grid once over a ball
     # holding their balls of runs met (group_ball), each then sorting out its own
     # (own_slots: the very runs, in the same order, of its walk alone), as the ball walk
+    # does; ``seeded``: each dexel first measures the piece that left least on the
+    # task's previous one, where a candidate (tests turn both off to compare)
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
@@ -392,6 +394,9 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
         is sought too.
     grouped : bool
         Walk the grid for groups of neighbouring dexels (default), or for each alone.
+    seeded : bool
+        Measure first, where a candidate, the piece found on the previous dexel
+        (default): the same values and pieces, a pair more where seeded.
 
     Returns
     -------
