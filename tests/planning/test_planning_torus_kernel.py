@@ -49,6 +49,26 @@ def test_window_nearest_equals_the_whole_window_in_numpy():
         assert (got != start).mean() > 0.3  # (most rows move: the window is searched)
 
 
+
+def test_window_nearest_never_leaves_the_pieces_on_a_non_finite_target():
+    """A NaN or infinite target picks what numpy's argmin picks, never -1 (the last piece)."""
+    rng = np.random.default_rng(31)
+    pass_of = np.repeat(np.arange(3), 8)
+    a = rng.normal(size=(24, 3))
+    e = rng.normal(size=(24, 3))
+    e[::5] = 0.0
+    start = np.array([1, 5, 10, 12, 16, 23])
+    for bad in (np.nan, np.inf, -np.inf):
+        target = a[start] + 0.5
+        target[:, 1] = bad
+        target[2] = np.nan  # a whole row of NaN
+        for window in (2, 6):
+            got = window_nearest(start, target, a, e, pass_of, window)
+            assert (got >= 0).all()
+            with np.errstate(invalid="ignore"):
+                want = _numpy_nearest(start, target, a, e, pass_of, window)
+            np.testing.assert_array_equal(got, want)
+
 def _on_merged(x: np.ndarray, before: np.ndarray, xp: np.ndarray,
                yp: np.ndarray, left: np.ndarray | float,
                right: np.ndarray | float) -> np.ndarray:

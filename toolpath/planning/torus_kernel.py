@@ -33,6 +33,7 @@ def _window_nearest(start, target, a, e, pass_of, window, out):
         own = pass_of[start[i]]
         best = -1
         best_d = np.inf
+        nan_seen = False  # as numpy's argmin: the first NaN distance wins, and stays
         for shift in range(-window, window + 1):
             j = min(max(start[i] + shift, 0), last)
             if pass_of[j] != own:
@@ -49,7 +50,10 @@ def _window_nearest(start, target, a, e, pass_of, window, out):
             dy = target[i, 1] - (a[j, 1] + f * e[j, 1])
             dz = target[i, 2] - (a[j, 2] + f * e[j, 2])
             d = dx * dx + dy * dy + dz * dz
-            if d < best_d:
+            if math.isnan(d):
+                if not nan_seen:
+                    best, nan_seen = j, True
+            elif (d < best_d or best < 0) and not nan_seen:
                 best, best_d = j, d
         out[i] = best
 
