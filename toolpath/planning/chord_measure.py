@@ -5,7 +5,7 @@ toolpath's arrays (tips, axes, kinds, passes), the surface and the cutter solid.
 
 **Chord error.** Every cutter location on a cutting move is first projected onto the
 surface (Newton from the nearest of a grid of surface samples, sought within a reach
-first: :func:`_nearest_samples`; a ball's, at every eighth
+first: :func:`_nearest_samples`; a ball's, at every fourth
 location along a run of moves, the others from those contacts interpolated, and from their
 own nearest sample where the feet either side jumped or the foot found stands farther off
 than theirs; a foot farther than the sample nearest its point is searched again from
@@ -99,12 +99,8 @@ class ChordMeasurement:
 #: A ball's contacts along a run of cutting moves are searched from the nearest surface
 #: sample at every this many locations (and at the run's last); the others from those
 #: contacts (:func:`_run_anchors`), unless the guard of :func:`_unsure_between` sends them
-#: back to their own sample: the same feet, in about an eighth of the k-d tree's queries
-#: (a query and the three Newton steps from its sample cost several seeded steps). Against
-#: 4, the chord measure's CPU on bench_toolpath's dev blades and elliptic blade fell by 4
-#: to 8 % and its figures moved by under 1e-11 mm; 16 saved no more (the guard sends more
-#: back).
-CONTACT_STRIDE = 8
+#: back to their own sample: the same feet, in about a quarter of the k-d tree's queries.
+CONTACT_STRIDE = 4
 
 #: A ball's undercut (gap above the surface) under this share of the largest gap is taken
 #: as the projection's rounding (about 1e-12 of it on convex parts) and not followed up.
