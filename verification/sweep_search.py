@@ -14,7 +14,9 @@ cells of :func:`~verification.capsule_search.candidate_slots`:
    of its dilated reference: a bounding capsule cut by a slab) lies below the best so far;
 2. best first: the run of lowest bound has its *floor* measured, the dilated reference's
    exact entry (``inf`` where the dilated sweep leaves the dexel at or below the design
-   point: no piece inside it reaches there, the other side of a thin blade); the run of
+   point: no piece inside it reaches there, the other side of a thin blade), raised to
+   the pieces' least support plane at its normal there
+   (:func:`~verification.piece_runs.run_floor`); the run of
    lowest floor, when no cheap bound lies lower, is opened: halved, each half's own
    reference and dilation measured, while a half's floor lies below the best, down to
    single pieces, which are the candidates (midpoint within the search radius) and are
