@@ -11,7 +11,7 @@ another stretch's entry changes nothing. This module answers, per dexel ``q`` wi
 
 where ``k ⊕ w`` is the piece's sweep widened by ``w`` (its corner radius ``r + w``, every
 point within ``w`` of it) and ``floor`` is the lower bound of
-:func:`~verification.sweep_search.floor_entry` (the widened sweep's entry, ``inf`` where it
+:func:`~verification.piece_runs.floor_entry` (the widened sweep's entry, ``inf`` where it
 leaves the dexel at or below the design point). Every solid inside ``k ⊕ w`` leaves at
 least that floor on the dexel (:mod:`verification.sweep_search`), so a finely replayed
 piece lying within ``w`` of ``k`` and of no piece listed enters at ``U_q`` or above: it
@@ -20,7 +20,8 @@ cannot lower a value the listed stretches already bring down to ``U_q``.
 The walk is the one of :mod:`verification.sweep_search`, with a fixed bound in place of the
 best so far: the runs of consecutive pieces (:mod:`verification.piece_runs`) whose
 midpoints lie within reach, each whose widened, dilated reference floors below ``U_q``
-opened by halving (each half's own reference and dilation) down to single pieces, each
+(:func:`~verification.piece_runs.run_floor`: and so do the widened pieces' support planes
+there) opened by halving (each half's own reference and dilation) down to single pieces, each
 listed where its own widened floor lies below ``U_q``.
 """
 
@@ -32,8 +33,8 @@ from numpy.typing import NDArray
 
 from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, is_candidate, walk_shape
 from .grid import PieceGrid
-from .piece_runs import PieceRuns, span_reference
-from .sweep_search import floor_entry, piece_outer_mm
+from .piece_runs import PieceRuns, floor_entry, run_floor, span_reference
+from .sweep_search import piece_outer_mm
 from .torus import sweep_bound
 
 __all__ = ["pieces_entering_below"]
@@ -85,9 +86,10 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 grow = corner_radius + widen + run_dilation[slot]
                 lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                      run_height[slot], core_radius, grow)
-                if not floor_entry(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
-                                   run_height[slot], core_radius, grow, lo, hi,
-                                   bound) < bound:
+                if not run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                                 run_height[slot], core_radius, corner_radius + widen,
+                                 run_dilation[slot], lo, hi, bound, run_start[slot],
+                                 run_stop[slot], a, e, axis, height) < bound:
                     continue
                 lows[0], highs[0] = run_start[slot], run_stop[slot]
                 depth = 1
@@ -115,9 +117,9 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                                                        corner_radius, chord)
                             lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
                                                  core_radius, corner_radius + widen + grow)
-                            if not floor_entry(p, d, a[lo_i], chord, axis[ref], height[ref],
-                                               core_radius, corner_radius + widen + grow,
-                                               lo, hi, bound) < bound:
+                            if not run_floor(p, d, a[lo_i], chord, axis[ref], height[ref],
+                                             core_radius, corner_radius + widen, grow, lo, hi,
+                                             bound, lo_i, hi_j, a, e, axis, height) < bound:
                                 continue
                         lows[depth], highs[depth] = lo_i, hi_j
                         depth += 1

@@ -18,7 +18,9 @@ a candidate, as the best so far (its pieces seldom change from one dexel to the 
    of its dilated reference: a bounding capsule cut by a slab) lies below the best so far;
 2. best first: the run of lowest bound has its *floor* measured, the dilated reference's
    exact entry (``inf`` where the dilated sweep leaves the dexel at or below the design
-   point: no piece inside it reaches there, the other side of a thin blade); the run of
+   point: no piece inside it reaches there, the other side of a thin blade), raised to
+   the pieces' least support plane at its normal there
+   (:func:`~verification.piece_runs.run_floor`); the run of
    lowest floor, when no cheap bound lies lower, is opened: halved, each half's own
    reference and dilation measured, while a half's floor lies below the best, down to
    single pieces, which are the candidates (midpoint within the search radius) and are
@@ -68,10 +70,10 @@ from .capsule_search import (
     walk_shape,
 )
 from .grid import PieceGrid
-from .piece_runs import PieceRuns, span_reference
-from .torus import sweep_bound, sweep_entry, sweep_exit, sweep_interval
+from .piece_runs import PieceRuns, reaches, run_floor, span_reference
+from .torus import sweep_bound, sweep_interval
 
-__all__ = ["floor_entry", "lowest_sweep_entries", "piece_outer_mm"]
+__all__ = ["lowest_sweep_entries", "piece_outer_mm"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -79,24 +81,6 @@ IntArray = NDArray[np.int64]
 #: Entries of a run's halving stack: each level of halving leaves at most one half
 #: waiting, and a run of ``n`` pieces is halved ``ceil(log2 n)`` times.
 _STACK = 64
-
-
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def reaches(hi: float) -> bool:
-    """Whether pieces inside a sweep whose exit bound is ``hi`` may reach the design point.
-
-    ``hi`` is :func:`~verification.torus.sweep_bound`'s bound on the exit of a piece's
-    sweep, or of a run's or half's dilated one. A piece leaves material only where it
-    reaches the design point (``lam_out > 0``,
-    :func:`~verification.capsule_search.pair_value`), and its exit as measured (Newton
-    from the right: a point within ``CONVERGED_MM`` of its sweep, hence inside the
-    dilated one) stands at or before ``hi`` but for that bound's rounding; so a bound
-    below ``-ROUNDING_SLACK_MM`` rules out every piece inside, without the Newton steps of
-    :func:`floor_entry` (whose ``inf`` says the same). On the bull-nose 5-axis blade
-    these are the cutter on the other side of the thin blade, met by every dexel of this
-    side: 7 of every 8 runs floored, 120 -> 18 floors a dexel.
-    """
-    return not hi < -ROUNDING_SLACK_MM
 
 
 @numba.njit(cache=True)
@@ -108,28 +92,6 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     lam_in, lam_out = sweep_interval(p, d, c0, chord, axis, height, core_radius,
                                      corner_radius, cosine < behind_cosine)
     return pair_value(lam_in, lam_out, cosine, behind_cosine)
-
-
-@numba.njit(cache=True)
-def floor_entry(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray, axis: FloatArray,
-           height: float, core_radius: float, dilated_radius: float, lo: float, hi: float,
-           best: float) -> float:
-    """A lower bound on what any piece inside a dilated sweep leaves on a dexel.
-
-    The dilated sweep's entry (its bounds ``lo, hi`` from
-    :func:`~verification.torus.sweep_bound`); ``inf`` where it leaves the line at or below
-    the design point (a piece inside it then leaves nothing: the other side of a thin
-    blade), and ``lo`` itself when that is not below ``best`` (nothing measured).
-    """
-    if not lo < best:
-        return lo
-    entry = sweep_entry(p, d, c0, chord, axis, height, core_radius, dilated_radius, lo, hi)
-    if not entry < best:
-        return entry
-    if entry < 0.0 and not sweep_exit(p, d, c0, chord, axis, height, core_radius,
-                                      dilated_radius, entry, hi) > 0.0:
-        return math.inf
-    return entry
 
 
 @numba.njit(cache=True, parallel=True)
@@ -261,10 +223,10 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                         continue
                     if run_stop[slot] - run_start[slot] > 1:
                         met += 1
-                        floor = floor_entry(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
-                                       run_height[slot], core_radius,
-                                       corner_radius + run_dilation[slot], bounds[v], tops[v],
-                                       limit)
+                        floor = run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                                          run_height[slot], core_radius, corner_radius,
+                                          run_dilation[slot], bounds[v], tops[v], limit,
+                                          run_start[slot], run_stop[slot], a, e, axis, height)
                         if floor < limit:
                             bounds[v] = floor
                             pending[waiting], floors_of[waiting] = v, floor
@@ -313,10 +275,11 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                                                  core_radius, corner_radius + grow)
                             entry = math.inf
                             if reaches(hi):
-                                entry = floor_entry(p, d, a[lo_i], chord, axis[ref],
-                                                    height[ref], core_radius,
-                                                    corner_radius + grow, lo, hi,
-                                                    tie_limit(best, lo_i, best_piece))
+                                entry = run_floor(p, d, a[lo_i], chord, axis[ref],
+                                                  height[ref], core_radius, corner_radius,
+                                                  grow, lo, hi,
+                                                  tie_limit(best, lo_i, best_piece), lo_i,
+                                                  hi_j, a, e, axis, height)
                         halves[side] = entry
                     for side in (1, 0) if halves[0] <= halves[1] else (0, 1):
                         if halves[side] < tie_limit(best, i if side == 0 else h, best_piece):

@@ -60,8 +60,8 @@ from numpy.typing import NDArray
 from .capsule import capsule_interval
 
 __all__ = ["CONVERGED_MM", "core_signed_distance", "line_sweep_interval", "sweep_bound",
-           "sweep_distance", "sweep_entry", "sweep_entry_bound", "sweep_exit",
-           "sweep_interval"]
+           "sweep_distance", "sweep_entry", "sweep_entry_bound", "sweep_entry_normal",
+           "sweep_exit", "sweep_interval"]
 
 FloatArray = NDArray[np.float64]
 BoolArray = NDArray[np.bool_]
@@ -189,25 +189,28 @@ def _inner_min(yx: float, yy: float, yz: float, chord: FloatArray, axis: FloatAr
 @numba.njit(cache=True)
 def _newton(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
             axis: FloatArray, height: float, core_radius: float, corner_radius: float,
-            start: float, stop: float, sign: float) -> float:
+            start: float, stop: float, sign: float) -> tuple[float, float, float, float]:
     """First root of ``F`` going from ``start`` towards ``stop`` (``sign`` +1: rightwards).
 
-    ``+inf * sign`` where the line misses the sweep within ``[start, stop]``.
+    ``+inf * sign`` where the line misses the sweep within ``[start, stop]``. With it the
+    gradient of ``F`` at the last point measured (the sweep's outward normal at the root
+    found, unit but where the core's distance has none; zeros where nothing was measured).
     """
     lam = start
+    gx, gy, gz = 0.0, 0.0, 0.0
     for _ in range(_MAX_NEWTON):
         f, gx, gy, gz = _inner_min(p[0] + lam * d[0] - c0[0], p[1] + lam * d[1] - c0[1],
                                    p[2] + lam * d[2] - c0[2], chord, axis, height,
                                    core_radius, corner_radius)
         if f <= CONVERGED_MM:
-            return lam
+            return lam, gx, gy, gz
         slope = sign * (gx * d[0] + gy * d[1] + gz * d[2])  # dF along the walk
         if not slope < 0.0:
-            return sign * math.inf
+            return sign * math.inf, gx, gy, gz
         lam = lam - sign * f / slope
         if sign * (lam - stop) > 0.0:
-            return sign * math.inf
-    return lam  # converging on a tangency: within 2^-40 of the span
+            return sign * math.inf, gx, gy, gz
+    return lam, gx, gy, gz  # converging on a tangency: within 2^-40 of the span
 
 
 @numba.njit(cache=True)
@@ -254,8 +257,23 @@ def sweep_entry(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     ``lo, hi`` are :func:`sweep_bound`'s; ``+inf`` where the line misses. The Newton
     steps approach from the left: the value returned is at most the true entry.
     """
+    return sweep_entry_normal(p, d, c0, chord, axis, height, core_radius, corner_radius, lo,
+                              hi)[0]
+
+
+@numba.njit(cache=True)
+def sweep_entry_normal(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
+                       axis: FloatArray, height: float, core_radius: float,
+                       corner_radius: float, lo: float, hi: float
+                       ) -> tuple[float, float, float, float]:
+    """:func:`sweep_entry`, and the sweep's outward normal there.
+
+    The gradient of ``F`` at the entry returned (a unit vector: the direction from the
+    nearest point of the swept core); where the line misses, ``+inf`` and a gradient of
+    no meaning (zeros where nothing was measured).
+    """
     if not math.isfinite(lo):
-        return math.inf
+        return math.inf, 0.0, 0.0, 0.0
     return _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, lo, hi, 1.0)
 
 
@@ -268,7 +286,8 @@ def sweep_exit(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     ``hi`` is :func:`sweep_bound`'s upper bound. The Newton steps approach from the right:
     the value returned is at least the true exit.
     """
-    return _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, hi, entry, -1.0)
+    return _newton(p, d, c0, chord, axis, height, core_radius, corner_radius, hi, entry,
+                   -1.0)[0]
 
 
 @numba.njit(cache=True)
