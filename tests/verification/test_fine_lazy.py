@@ -235,3 +235,59 @@ def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces):
     np.testing.assert_array_equal(b.move, a.move)
     if kept_pieces == 1:
         assert model.index.drops > 0
+
+
+@pytest.mark.parametrize("lazy", [False, True], ids=["full", "lazy"])
+def test_a_guess_that_skips_the_narrower_levels_changes_nothing(lazy, monkeypatch):
+    """The near search started at a wider level (``guess_mm``, as the refinement guesses
+    from a coarser model or the previous level): the same values and blocks, ties across
+    levels included, as the deepening through every level; only the searches differ.
+
+    The floor raster's leaning dexels, from just under the floor (their material within
+    the first level: they stop there) to 70 um under it (the tie of two passes the first
+    level names wrongly), and the sphere's passes; guesses none, beyond every level,
+    random."""
+    x, y = np.meshgrid(np.linspace(-2.0, 2.0, 5), np.linspace(-1.0, 2.5, 15), indexing="ij")
+    ev, fine = _floor_raster_model(lazy)
+    rng = np.random.default_rng(27)
+    for z in (-0.052, -0.0533, -0.07, -0.12):
+        pts = np.stack([x.ravel(), y.ravel(), np.full(x.size, z)], axis=1)
+        nrm = np.tile([0.0, math.sqrt(0.5), math.sqrt(0.5)], (pts.shape[0], 1))
+        conv = np.zeros(pts.shape[0])
+        ask = FineAsk((pts + ev.corner * nrm)[None], np.zeros(1), np.zeros(1), 0.3, DEPTH_MM)
+        (model,) = fine.around_each([ask])
+        if lazy:
+            model.index.batch = 16
+        base = model.search(pts, nrm, conv)
+        for guess in (np.full(pts.shape[0], np.inf), rng.uniform(0.0, 0.2, pts.shape[0])):
+            got = model.search(pts, nrm, conv, guess_mm=guess)
+            np.testing.assert_array_equal(got.lam_mm, base.lam_mm)
+            np.testing.assert_array_equal(got.move, base.move)
+            np.testing.assert_array_equal(got.piece, base.piece)
+    # the sphere's passes, a deeper copy and a tied one
+    for spring in (False, True):
+        sphere, ev, fine = _model(lazy=lazy, spring=spring)
+        model, pts, nrm = _searches(sphere, ev, fine, *BOXES[0])
+        conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+        for shift_mm in (0.0, 0.004, 0.012):
+            p = pts + shift_mm * nrm
+            base = model.search(p, nrm, conv)
+            got = model.search(p, nrm, conv, guess_mm=np.full(p.shape[0], np.inf))
+            np.testing.assert_array_equal(got.lam_mm, base.lam_mm)
+            np.testing.assert_array_equal(got.move, base.move)
+    # the work: straight to the last level, one search of the index for every dexel, a
+    # second at the first level for those whose material lies within it
+    p = pts - 0.00485 * nrm  # some dexels hold less than the first level, some more
+    stops = int(np.sum(model.search(p, nrm, conv).lam_mm <= model.horizons[0]))
+    assert 0 < stops < p.shape[0]
+    calls: list[int] = []
+    index_search = type(model.index).search
+
+    def count(self, which, points, *args, **kwargs):
+        calls.append(points.shape[0])
+        return index_search(self, which, points, *args, **kwargs)
+
+    monkeypatch.setattr(type(model.index), "search", count)
+    model.search(p, nrm, conv, guess_mm=np.full(p.shape[0], np.inf))
+    assert calls == [p.shape[0], stops]
+
