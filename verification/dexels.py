@@ -489,6 +489,16 @@ class SweepIndex:
             corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm,
             below_piece=below_piece)
 
+    def runs_grid(self, which: str, reach_mm: FloatArray, centres: FloatArray
+                  ) -> tuple[PieceGrid, PieceRuns]:
+        """The runs' grid for walks of ``reach_mm`` about ``centres`` (one already built if any).
+
+        :meth:`_run_grid` at the median reach, holding every run those walks may take.
+        """
+        return self._run_grid(which, float(np.median(reach_mm)),
+                              reach_beyond_mm(centres, reach_mm, self.lo_mm, self.hi_mm),
+                              built=True)
+
     def pieces_entering_below(self, which: str, points: FloatArray, dirs: FloatArray,
                               centres: FloatArray, reach_mm: FloatArray,
                               below_mm: FloatArray, widen_mm: float) -> IntArray:

@@ -291,3 +291,21 @@ def test_a_guess_that_skips_the_narrower_levels_changes_nothing(lazy, monkeypatc
     model.search(p, nrm, conv, guess_mm=np.full(p.shape[0], np.inf))
     assert calls == [p.shape[0], stops]
 
+
+def test_the_runs_walk_lists_the_pieces_near_the_boxes_the_pair_search_lists():
+    """The segments the fine model may need, found over the coarse runs in compiled code
+    (``fine_model._runs_within``): the very pieces of the numpy pair search
+    (:meth:`~verification.dexels.SweepIndex.pieces_within`), balls of several radii."""
+    sphere, ev, fine = _model(lazy=True)
+    ask = _ask(sphere, ev, *BOXES[0])
+    _, middles, reach = fine.rows_around(ask.centres, ask.slack_mm, ask.convexity_per_mm,
+                                         level_mm=LEVEL_MM, depth_mm=DEPTH_MM)
+    rng = np.random.default_rng(27)
+    centres = np.concatenate([middles, ask.centres[0][::7]])
+    for radius_mm in (0.05, 0.5, float(reach[0]), 3.0 * float(reach[0])):
+        radii = radius_mm * rng.uniform(0.5, 1.0, centres.shape[0])
+        want = ev.index.pieces_within("near", centres, radii)
+        got = fine_model._runs_within(ev.index, centres, radii)
+        assert want.shape[0] > 0
+        np.testing.assert_array_equal(got, want)
+
