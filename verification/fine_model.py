@@ -287,6 +287,23 @@ class FineModel:
         inst = span_indices(lo, np.maximum(hi - lo + 1, 1))
         return np.unique(rows.of_instance[inst])
 
+    def row_spans(self, pieces: Pieces) -> tuple[IntArray, IntArray] | None:
+        """Per piece, the first and last joint segment :meth:`_rows` names for it.
+
+        Every segment it names lies between the two (the replay's instances are in path
+        order, so their segments are nondecreasing); None where they are not.
+        """
+        rows = self.motion.rows
+        assert rows is not None
+        of = rows.of_instance
+        if of.shape[0] == 0 or np.any(of[1:] < of[:-1]):
+            return None
+        n_inst = of.shape[0]
+        path = pieces.path_arc_mm
+        lo = np.clip(np.searchsorted(path, pieces.arc0_mm, side="left") - 1, 0, n_inst - 1)
+        hi = np.clip(np.searchsorted(path, pieces.arc1_mm, side="right"), 0, n_inst - 1)
+        return of[lo].astype(np.int32), of[np.maximum(hi, lo)].astype(np.int32)
+
     def rows_within(self, centres: FloatArray, radii_mm: FloatArray) -> IntArray:
         """Joint segments (sorted, unique) whose sweep may come within ``radii_mm`` of a centre.
 

@@ -124,7 +124,7 @@ def test_the_segments_of_each_lowest_coarse_piece_alone_are_not_enough(monkeypat
     lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
     conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
     monkeypatch.setattr(type(lazy_fine.coarse.index), "pieces_entering_below",
-                        lambda self, *args: np.zeros(0, dtype=np.int64))
+                        lambda self, *args, **kwargs: np.zeros(0, dtype=np.int64))
     differs = False
     for shift_mm in (0.0, 0.004, -0.003, 0.012):
         p = pts + shift_mm * nrm
@@ -309,3 +309,32 @@ def test_the_runs_walk_lists_the_pieces_near_the_boxes_the_pair_search_lists():
         assert want.shape[0] > 0
         np.testing.assert_array_equal(got, want)
 
+
+def test_step_two_leaves_out_the_pieces_whose_segments_are_kept(monkeypatch):
+    """Step 2 lists coarse pieces for their segments; those whose segments are all kept
+    already are not walked (``listed``): never listed, the same values and blocks as the
+    full method, in batches of 40 over the kept segments."""
+    sphere, ev, full_fine = _model(lazy=False, spring=True)
+    _, _, lazy_fine = _model(lazy=True, spring=True)
+    full, pts, nrm = _searches(sphere, ev, full_fine, *BOXES[0])
+    lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
+    lazy.index.batch = 40
+    calls = []
+    below = SweepIndex.pieces_entering_below
+
+    def spy(self, *args, listed=None):
+        out = below(self, *args, listed=listed)
+        calls.append((listed, out))
+        return out
+
+    monkeypatch.setattr(SweepIndex, "pieces_entering_below", spy)
+    conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    for shift_mm in (0.0, 0.004, -0.003):
+        p = pts + shift_mm * nrm
+        a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
+        np.testing.assert_array_equal(b.lam_mm, a.lam_mm)
+        np.testing.assert_array_equal(b.move, a.move)
+    given = [(listed, out) for listed, out in calls if listed is not None]
+    assert given and max(int(listed[-1]) for listed, _ in given) > 0
+    for listed, out in given:
+        assert not np.any(listed[out + 1] - listed[out])
