@@ -504,14 +504,26 @@ class SweepIndex:
             corner_radius_mm=self._corner, behind_cosine=BEHIND_COSINE, below_mm=below_mm,
             below_piece=below_piece)
 
+    def runs_grid(self, which: str, reach_mm: FloatArray, centres: FloatArray
+                  ) -> tuple[PieceGrid, PieceRuns]:
+        """The runs' grid for walks of ``reach_mm`` about ``centres`` (one already built if any).
+
+        :meth:`_run_grid` at the median reach, holding every run those walks may take.
+        """
+        return self._run_grid(which, float(np.median(reach_mm)),
+                              reach_beyond_mm(centres, reach_mm, self.lo_mm, self.hi_mm),
+                              built=True)
+
     def pieces_entering_below(self, which: str, points: FloatArray, dirs: FloatArray,
                               centres: FloatArray, reach_mm: FloatArray,
-                              below_mm: FloatArray, widen_mm: float) -> IntArray:
+                              below_mm: FloatArray, widen_mm: float,
+                              listed: IntArray | None = None) -> IntArray:
         """Flat/bull-nose pieces whose widened sweep may enter a dexel below ``below_mm``.
 
         Indices into :meth:`pieces`, sorted: the sweep widened by ``widen_mm``
-        (:func:`~verification.sweep_below.pieces_entering_below`), walked over a runs'
-        grid already built if any (:meth:`_run_grid`).
+        (:func:`~verification.sweep_below.pieces_entering_below`, ``listed`` the prefix
+        sums of pieces left out as listed already), walked over a runs' grid already
+        built if any (:meth:`_run_grid`).
         """
         pieces = self.pieces(which)
         if points.shape[0] == 0 or pieces.size == 0:
@@ -523,7 +535,7 @@ class SweepIndex:
             centres, reach_mm, below_mm, runs, pieces.mid, pieces.half_mm, pieces.a,
             pieces.e, pieces.axis, pieces.height_mm,
             core_radius_mm=self.radius_mm - self._corner, corner_radius_mm=self._corner,
-            widen_mm=widen_mm)
+            widen_mm=widen_mm, listed=listed)
         return np.flatnonzero(marked).astype(np.int64)
 
     def pieces_within(self, which: str, centres: FloatArray, radii_mm: FloatArray

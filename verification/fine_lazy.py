@@ -132,6 +132,10 @@ class LazyFineSweeps:
         self._counted = 0
         self._index: SweepIndex | None = None
         self._keys = np.zeros(0, dtype=np.int64)
+        # per coarse piece its segments' span (built once), and the prefix sums of the
+        # pieces whose segments are all kept, of the segments kept when counted
+        self._spans: tuple[IntArray, IntArray] | None = None
+        self._listed: tuple[IntArray, IntArray] | None = None
 
     @property
     def widen_mm(self) -> float:
@@ -191,6 +195,32 @@ class LazyFineSweeps:
             self._keys = tie_keys(kept.move)
             self._index = self.fine.index_of(kept, self.middles, self.reach_mm)
         return self._index
+
+    def _kept_pieces(self, pieces: Pieces) -> IntArray | None:
+        """Prefix sums over the coarse pieces of those whose segments are all kept.
+
+        Step 2 need not list them: it lists pieces for their segments, and the kept ones
+        are left out of what :meth:`_holding` adds (the same segments are added, the same
+        values found, with less of the walk). None: none kept, or the spans unknown.
+        """
+        if self._rows.shape[0] == 0:
+            return None
+        if self._listed is not None and self._listed[0] is self._rows:
+            return self._listed[1]
+        if self._spans is None:
+            spans = self.fine.row_spans(pieces)
+            if spans is None:
+                return None
+            self._spans = spans
+        first, last = self._spans
+        kept = np.zeros(self.fine.segment_moves.shape[0] + 1, dtype=np.int64)
+        kept[self._rows + 1] = 1
+        np.cumsum(kept, out=kept)
+        whole = (kept[last.astype(np.int64) + 1] - kept[first]) == (last - first + 1)
+        listed = np.zeros(whole.shape[0] + 1, dtype=np.int64)
+        np.cumsum(whole, out=listed[1:])
+        self._listed = (self._rows, listed)
+        return listed
 
     def _drop(self) -> None:
         """Every kept piece dropped (the budget)."""
@@ -272,8 +302,9 @@ class LazyFineSweeps:
                     res = self._searched(index, points, dirs, centres, radii_mm, below_mm,
                                          below_key)
                     known = self._bound(res, below_mm)
-        # 2. every segment a widened coarse piece may enter below U_q
-        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w)
+        # 2. every segment a widened coarse piece may enter below U_q (but those kept)
+        listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w,
+                                              listed=self._kept_pieces(pieces))
         if listed.shape[0] == 0:
             return res
         grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)

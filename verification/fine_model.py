@@ -57,12 +57,14 @@ from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Final
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine, forward
 from toolpath.surface import ParametricSurface
 
+from .capsule_search import candidate_slots, is_candidate, walk_shape
 from .dexels import SweepIndex
 from .fine_lazy import LazyFineSweeps
 from .grid import span_indices
@@ -285,19 +287,43 @@ class FineModel:
         inst = span_indices(lo, np.maximum(hi - lo + 1, 1))
         return np.unique(rows.of_instance[inst])
 
+    def row_spans(self, pieces: Pieces) -> tuple[IntArray, IntArray] | None:
+        """Per piece, the first and last joint segment :meth:`_rows` names for it.
+
+        Every segment it names lies between the two (the replay's instances are in path
+        order, so their segments are nondecreasing); None where they are not.
+        """
+        rows = self.motion.rows
+        assert rows is not None
+        of = rows.of_instance
+        if of.shape[0] == 0 or np.any(of[1:] < of[:-1]):
+            return None
+        n_inst = of.shape[0]
+        path = pieces.path_arc_mm
+        lo = np.clip(np.searchsorted(path, pieces.arc0_mm, side="left") - 1, 0, n_inst - 1)
+        hi = np.clip(np.searchsorted(path, pieces.arc1_mm, side="right"), 0, n_inst - 1)
+        return of[lo].astype(np.int32), of[np.maximum(hi, lo)].astype(np.int32)
+
     def rows_within(self, centres: FloatArray, radii_mm: FloatArray) -> IntArray:
         """Joint segments (sorted, unique) whose sweep may come within ``radii_mm`` of a centre.
 
         Those of every coarse near piece within ``radii_mm + model_tol + chord_tol``: a
         coarse piece stands within ``model_tol`` of the true sweep, a fine one within
-        ``chord_tol`` of it.
+        ``chord_tol`` of it. Of a flat or bull-nose cutter's pieces (millions on a 5-axis
+        program, a few hundred thousand within each ball) the runs the coarse searches
+        gridded are walked in compiled code (:func:`_pieces_near`), rather than every
+        candidate pair in numpy over a grid of the pieces built for it.
         """
         ev = self.coarse
-        hit = ev.index.pieces_within("near", centres,
-                                     radii_mm + self.model_tol_mm + self.chord_tol_mm)
+        index = ev.index
+        radii = radii_mm + self.model_tol_mm + self.chord_tol_mm
+        if index.corner_radius_mm is not None and index.compiled:
+            hit = _runs_within(index, centres, radii)
+        else:
+            hit = index.pieces_within("near", centres, radii)
         if hit.shape[0] == 0:
             return np.zeros(0, dtype=np.int64)
-        return self._rows(ev.index.pieces("near"), hit)
+        return self._rows(index.pieces("near"), hit)
 
     def rows_around(self, centres: FloatArray, slack_mm: FloatArray,
                     convexity_per_mm: FloatArray, *, level_mm: float, depth_mm: float
@@ -408,3 +434,64 @@ class FineModel:
                           middles.min(axis=0) - box, middles.max(axis=0) + box,
                           base_cell_mm=old.base_cell_mm, reach_limit_mm=old.reach_limit_mm,
                           max_pairs=old.max_pairs, corner_radius_mm=old.corner_radius_mm)
+
+
+def _runs_within(index: SweepIndex, centres: FloatArray, radii_mm: FloatArray) -> IntArray:
+    """Flat/bull-nose near pieces (sorted) within ``radii_mm`` of a centre, over their runs.
+
+    The set of :meth:`~verification.dexels.SweepIndex.pieces_within` (a piece's exact
+    point-segment distance within the radius plus its core height), over and above it
+    by at most a rounding (:data:`_WITHIN_SLACK_MM`: a superset of segments changes no
+    search, the soundness rule above): the pieces of every run whose midpoint lies
+    within the piece reach plus the run's spread of the centre (every piece within that
+    reach is in such a run), on the runs' grid the coarse searches built.
+    """
+    pieces = index.pieces("near")
+    if centres.shape[0] == 0 or pieces.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    reach = radii_mm + pieces.max_half_mm + pieces.max_height_mm
+    grid, runs = index.runs_grid("near", reach, centres)
+    spans, dims = walk_shape(grid, grid.span_of(reach + runs.max_spread_mm), centres.shape[0])
+    f = np.ascontiguousarray
+    marked = np.zeros(pieces.size, dtype=np.bool_)
+    _pieces_near(f(centres, dtype=float), f(radii_mm, dtype=float), f(reach, dtype=float),
+                 spans, dims, f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
+                 runs.mid, runs.spread_mm, runs.start, runs.stop, f(pieces.a, dtype=float),
+                 f(pieces.e, dtype=float), f(pieces.ee, dtype=float),
+                 f(pieces.height_mm, dtype=float), runs.max_spread_mm, marked)
+    return np.flatnonzero(marked).astype(np.int64)
+
+
+#: How far past :meth:`~verification.dexels.SweepIndex.pieces_within`'s distance test
+#: :func:`_runs_within` keeps a piece (compiled arithmetic may round otherwise), mm.
+_WITHIN_SLACK_MM: Final[float] = 1e-9
+
+
+@numba.njit(cache=True)
+def _pieces_near(centres: FloatArray, radii: FloatArray, reach: FloatArray, spans: IntArray,
+                 dims: IntArray, origin: FloatArray, cell: float, starts: IntArray,
+                 run_mid: FloatArray, run_spread: FloatArray, run_start: IntArray,
+                 run_stop: IntArray, a: FloatArray, e: FloatArray, ee: FloatArray,
+                 height: FloatArray, widest: float, marked: NDArray[np.bool_]) -> None:
+    buf = np.empty(1024, dtype=np.int64)
+    for q in range(centres.shape[0]):
+        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+        wide = reach[q] + widest
+        buf, n = candidate_slots(cx, cy, cz, wide * wide, spans[q], dims, origin, cell,
+                                 starts, run_mid, buf)
+        for c in range(n):
+            slot = buf[c]
+            own = reach[q] + run_spread[slot]
+            if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
+                continue
+            for i in range(run_start[slot], run_stop[slot]):
+                if marked[i]:
+                    continue
+                vx, vy, vz = cx - a[i, 0], cy - a[i, 1], cz - a[i, 2]
+                den = ee[i] if ee[i] > 0.0 else 1.0
+                t = (vx * e[i, 0] + vy * e[i, 1] + vz * e[i, 2]) / den
+                t = min(max(t, 0.0), 1.0)
+                gx, gy, gz = vx - t * e[i, 0], vy - t * e[i, 1], vz - t * e[i, 2]
+                lim = radii[q] + height[i] + _WITHIN_SLACK_MM
+                if gx * gx + gy * gy + gz * gz <= lim * lim:
+                    marked[i] = True

@@ -88,7 +88,8 @@ class Dexels:
     def search(self, points: FloatArray, normals: FloatArray, convexity: FloatArray,
                *, near: bool = True, far: bool = False, depth: float | None = None,
                below_mm: FloatArray | None = None,
-               below_piece: NDArray[np.int64] | None = None) -> DexelResult:
+               below_piece: NDArray[np.int64] | None = None,
+               guess_mm: FloatArray | None = None) -> DexelResult:
         """Near and/or collision search at design points.
 
         Parameters
@@ -109,6 +110,20 @@ class Dexels:
         below_piece : ndarray of int64, shape (q,), optional
             The pieces of ``below_mm`` (``-1``: none): an equal value of a piece before
             it is sought too (the tie rule of :mod:`verification.dexels`).
+        guess_mm : ndarray, shape (q,), optional
+            About how much material each dexel holds (normal deviation, mm; ``inf``:
+            beyond the horizon): the near search starts a dexel at the first level not
+            below its guess, skipping the narrower ones it would most likely pass. The
+            result is the same whatever the guess. A level's ball holds every narrower
+            level's, so of the levels a dexel passes the widest finds what the deepening
+            keeps of them all (the lowest value; of equal values the first piece, which
+            its merge keeps). A value found within a narrower level is exact (every piece
+            leaving less lies within that level's ball) and would have stopped the
+            deepening there, at the first level it lies within, whose ball may miss a
+            tied piece of smaller index the wider ball holds: such a dexel is searched
+            again at that level and takes its result (the guess was too high; that
+            search is the cost). Only the work differs: one wide search rather than
+            every narrower one before it.
 
         Returns
         -------
@@ -124,8 +139,15 @@ class Dexels:
             # are searched again with the next, wider level
             centres = normals * self.corner
             centres += points
-            todo = np.arange(points.shape[0])
-            for level in self.horizons:
+            first = (np.zeros(points.shape[0], dtype=np.int64) if guess_mm is None else
+                     np.minimum(np.searchsorted(self.horizons, guess_mm, side="left"),
+                                len(self.horizons) - 1))
+            todo = np.zeros(0, dtype=np.int64)
+            for k, level in enumerate(self.horizons):
+                # dexels guessed to hold more than the narrower levels join here
+                todo = np.union1d(todo, np.flatnonzero(first == k))
+                if todo.shape[0] == 0:
+                    continue
                 # the first level meets every dexel: no copies of the rows
                 every = todo.shape[0] == points.shape[0]
                 r = self.near_radius_mm(level, g, convexity if every else convexity[todo])
@@ -134,8 +156,12 @@ class Dexels:
                 # the first of both (the tie rule): a tied piece of smaller index may lie
                 # only in the wider ball
                 scatter(out, todo, part, merge=True)
-                todo = todo[~(part.lam_mm * cos[todo] <= level)]
-                if todo.shape[0] == 0:
+                value = part.lam_mm * cos[todo]
+                if k:
+                    self._narrower(out, todo[first[todo] == k], value[first[todo] == k], k,
+                                   points, dirs, centres, convexity, cos, g)
+                todo = todo[~(value <= level)]
+                if todo.shape[0] == 0 and not (first > k).any():
                     break
         if far:
             # a flat/bull-nose piece's core stands up to its height above its segment
@@ -152,6 +178,34 @@ class Dexels:
                      self.index.search("far", points, dirs, points, r, below_mm=low,
                                        below_piece=low_piece), merge=True)
         return out
+
+    def _narrower(self, out: DexelResult, joined: NDArray[np.int64], value: FloatArray,
+                  k: int, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+                  convexity: FloatArray, cos: FloatArray, depth: float) -> None:
+        """Dexels started at level ``k`` by a guess, where the deepening may have stopped sooner.
+
+        ``value``: their normal deviation at level ``k``. A narrower level finds no less
+        (its ball holds fewer pieces), so the deepening passes every level below the
+        first one ``value`` lies within; from there they are searched level by level as
+        the deepening searches them, and one that stops below ``k`` takes that level's
+        result (the first piece of that ball) in place of level ``k``'s.
+        """
+        stop = np.searchsorted(self.horizons, value, side="left")
+        back, stop = joined[stop < k], stop[stop < k]
+        for j in range(int(stop.min()) if back.shape[0] else k, k):
+            # those whose value lies within level j may stop there; the others pass it
+            may = back[stop <= j]
+            if may.shape[0] == 0:
+                continue
+            level = self.horizons[j]
+            part = self.index.search("near", points[may], dirs[may], centres[may],
+                                     self.near_radius_mm(level, depth, convexity[may]))
+            done = np.flatnonzero(part.lam_mm * cos[may] <= level)
+            scatter(out, may[done], DexelResult(part.lam_mm[done], part.move[done],
+                                                part.shank[done], part.behind[done],
+                                                part.pairs, part.piece[done]))
+            keep = ~np.isin(back, may[done])
+            back, stop = back[keep], stop[keep]
 
     def deviation(self, result: DexelResult, normals: FloatArray) -> FloatArray:
         """Normal deviation ``lam (d . n)``, mm; ``+inf`` beyond the horizon, NaN hidden."""

@@ -56,11 +56,13 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           half: FloatArray, a: FloatArray, e: FloatArray, axis: FloatArray,
           height: FloatArray, along: FloatArray, turned: FloatArray, core_radius: float,
           corner_radius: float, widen: float, outer: float, widest: float,
-          marked: NDArray[np.bool_]) -> None:
+          listed: IntArray, marked: NDArray[np.bool_]) -> None:
     # ``outer``: every widened piece lies within this plus its half length of its midpoint
     # (:func:`~verification.sweep_search.piece_outer_mm`, the corner radius widened);
     # ``widest``: the largest run spread (taken outside, as the walk of
-    # :mod:`verification.sweep_search` does: not a parallel reduction chunked by one)
+    # :mod:`verification.sweep_search` does: not a parallel reduction chunked by one);
+    # ``listed``: per piece, how many before it the caller has listed already (prefix
+    # sums, ``n + 1``): a run, half or piece of only such pieces is not walked
     n_q = points.shape[0]
     for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
         buf = np.empty(WALK_BLOCK, dtype=np.int64)
@@ -80,6 +82,9 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 own = reach[q] + run_spread[slot]
                 if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
                     continue
+                if (listed[run_stop[slot]] - listed[run_start[slot]]
+                        == run_stop[slot] - run_start[slot]):
+                    continue
                 if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
                                      d[2], outer, bound):
                     continue
@@ -96,6 +101,8 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 while depth > 0:
                     depth -= 1
                     i, j = lows[depth], highs[depth]
+                    if listed[j] - listed[i] == j - i:
+                        continue
                     if j - i == 1:
                         if marked[i] or not is_candidate(i, mid, cx, cy, cz, lim2):
                             continue
@@ -130,7 +137,8 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
                           below_mm: FloatArray, runs: PieceRuns, mid: FloatArray,
                           half_mm: FloatArray, a: FloatArray, e: FloatArray, axis: FloatArray,
                           height_mm: FloatArray, *, core_radius_mm: float,
-                          corner_radius_mm: float, widen_mm: float) -> NDArray[np.bool_]:
+                          corner_radius_mm: float, widen_mm: float,
+                          listed: IntArray | None = None) -> NDArray[np.bool_]:
     """Pieces whose sweep widened by ``widen_mm`` may enter some dexel below its bound.
 
     Parameters
@@ -155,11 +163,15 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
         ``rho0 = R - r`` and ``r``, mm.
     widen_mm : float
         ``w``: how far outside a piece the solids it stands for may reach, mm.
+    listed : ndarray of int64, shape (pieces + 1,), optional
+        Prefix sums of the pieces the caller holds listed already (their segments kept):
+        those are never marked, and a run or half of only such pieces is not walked
+        (the other pieces are marked as without it). Default: none.
 
     Returns
     -------
     ndarray of bool, shape (pieces,)
-        The pieces listed for some dexel.
+        The pieces listed for some dexel (of those not listed already).
     """
     marked = np.zeros(mid.shape[0], dtype=np.bool_)
     q = points.shape[0]
@@ -168,6 +180,8 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
     height_mm = f(height_mm, dtype=float)
+    if listed is None:
+        listed = np.zeros(mid.shape[0] + 1, dtype=np.int64)
     with numba.parallel_chunksize(1):
         _mark(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
               f(reach_mm, dtype=float), f(below_mm, dtype=float), spans, dims,
@@ -178,5 +192,5 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
               f(axis, dtype=float), height_mm, runs.along_mm, runs.turned,
               float(core_radius_mm), float(corner_radius_mm), float(widen_mm),
               piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm + widen_mm),
-              runs.max_spread_mm, marked)
+              runs.max_spread_mm, f(listed, dtype=np.int64), marked)
     return marked

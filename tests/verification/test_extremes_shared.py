@@ -28,8 +28,8 @@ class _Bump:
     def field(self, points):
         return self.PEAK - (points[:, 0] - 3.0) ** 2 - 4.0 * (points[:, 1] - 1.0) ** 2
 
-    def search(self, points, normals, convexity, *, far=False):
-        del normals, convexity, far
+    def search(self, points, normals, convexity, *, far=False, guess_mm=None):
+        del normals, convexity, far, guess_mm
         self.measured += points.shape[0]
         q = points.shape[0]
         return DexelResult(self.field(points), np.zeros(q, dtype=np.int64),

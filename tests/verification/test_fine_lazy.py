@@ -124,7 +124,7 @@ def test_the_segments_of_each_lowest_coarse_piece_alone_are_not_enough(monkeypat
     lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
     conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
     monkeypatch.setattr(type(lazy_fine.coarse.index), "pieces_entering_below",
-                        lambda self, *args: np.zeros(0, dtype=np.int64))
+                        lambda self, *args, **kwargs: np.zeros(0, dtype=np.int64))
     differs = False
     for shift_mm in (0.0, 0.004, -0.003, 0.012):
         p = pts + shift_mm * nrm
@@ -235,3 +235,106 @@ def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces):
     np.testing.assert_array_equal(b.move, a.move)
     if kept_pieces == 1:
         assert model.index.drops > 0
+
+
+@pytest.mark.parametrize("lazy", [False, True], ids=["full", "lazy"])
+def test_a_guess_that_skips_the_narrower_levels_changes_nothing(lazy, monkeypatch):
+    """The near search started at a wider level (``guess_mm``, as the refinement guesses
+    from a coarser model or the previous level): the same values and blocks, ties across
+    levels included, as the deepening through every level; only the searches differ.
+
+    The floor raster's leaning dexels, from just under the floor (their material within
+    the first level: they stop there) to 70 um under it (the tie of two passes the first
+    level names wrongly), and the sphere's passes; guesses none, beyond every level,
+    random."""
+    x, y = np.meshgrid(np.linspace(-2.0, 2.0, 5), np.linspace(-1.0, 2.5, 15), indexing="ij")
+    ev, fine = _floor_raster_model(lazy)
+    rng = np.random.default_rng(27)
+    for z in (-0.052, -0.0533, -0.07, -0.12):
+        pts = np.stack([x.ravel(), y.ravel(), np.full(x.size, z)], axis=1)
+        nrm = np.tile([0.0, math.sqrt(0.5), math.sqrt(0.5)], (pts.shape[0], 1))
+        conv = np.zeros(pts.shape[0])
+        ask = FineAsk((pts + ev.corner * nrm)[None], np.zeros(1), np.zeros(1), 0.3, DEPTH_MM)
+        (model,) = fine.around_each([ask])
+        if lazy:
+            model.index.batch = 16
+        base = model.search(pts, nrm, conv)
+        for guess in (np.full(pts.shape[0], np.inf), rng.uniform(0.0, 0.2, pts.shape[0])):
+            got = model.search(pts, nrm, conv, guess_mm=guess)
+            np.testing.assert_array_equal(got.lam_mm, base.lam_mm)
+            np.testing.assert_array_equal(got.move, base.move)
+            np.testing.assert_array_equal(got.piece, base.piece)
+    # the sphere's passes, a deeper copy and a tied one
+    for spring in (False, True):
+        sphere, ev, fine = _model(lazy=lazy, spring=spring)
+        model, pts, nrm = _searches(sphere, ev, fine, *BOXES[0])
+        conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+        for shift_mm in (0.0, 0.004, 0.012):
+            p = pts + shift_mm * nrm
+            base = model.search(p, nrm, conv)
+            got = model.search(p, nrm, conv, guess_mm=np.full(p.shape[0], np.inf))
+            np.testing.assert_array_equal(got.lam_mm, base.lam_mm)
+            np.testing.assert_array_equal(got.move, base.move)
+    # the work: straight to the last level, one search of the index for every dexel, a
+    # second at the first level for those whose material lies within it
+    p = pts - 0.00485 * nrm  # some dexels hold less than the first level, some more
+    stops = int(np.sum(model.search(p, nrm, conv).lam_mm <= model.horizons[0]))
+    assert 0 < stops < p.shape[0]
+    calls: list[int] = []
+    index_search = type(model.index).search
+
+    def count(self, which, points, *args, **kwargs):
+        calls.append(points.shape[0])
+        return index_search(self, which, points, *args, **kwargs)
+
+    monkeypatch.setattr(type(model.index), "search", count)
+    model.search(p, nrm, conv, guess_mm=np.full(p.shape[0], np.inf))
+    assert calls == [p.shape[0], stops]
+
+
+def test_the_runs_walk_lists_the_pieces_near_the_boxes_the_pair_search_lists():
+    """The segments the fine model may need, found over the coarse runs in compiled code
+    (``fine_model._runs_within``): the very pieces of the numpy pair search
+    (:meth:`~verification.dexels.SweepIndex.pieces_within`), balls of several radii."""
+    sphere, ev, fine = _model(lazy=True)
+    ask = _ask(sphere, ev, *BOXES[0])
+    _, middles, reach = fine.rows_around(ask.centres, ask.slack_mm, ask.convexity_per_mm,
+                                         level_mm=LEVEL_MM, depth_mm=DEPTH_MM)
+    rng = np.random.default_rng(27)
+    centres = np.concatenate([middles, ask.centres[0][::7]])
+    for radius_mm in (0.05, 0.5, float(reach[0]), 3.0 * float(reach[0])):
+        radii = radius_mm * rng.uniform(0.5, 1.0, centres.shape[0])
+        want = ev.index.pieces_within("near", centres, radii)
+        got = fine_model._runs_within(ev.index, centres, radii)
+        assert want.shape[0] > 0
+        np.testing.assert_array_equal(got, want)
+
+
+def test_step_two_leaves_out_the_pieces_whose_segments_are_kept(monkeypatch):
+    """Step 2 lists coarse pieces for their segments; those whose segments are all kept
+    already are not walked (``listed``): never listed, the same values and blocks as the
+    full method, in batches of 40 over the kept segments."""
+    sphere, ev, full_fine = _model(lazy=False, spring=True)
+    _, _, lazy_fine = _model(lazy=True, spring=True)
+    full, pts, nrm = _searches(sphere, ev, full_fine, *BOXES[0])
+    lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
+    lazy.index.batch = 40
+    calls = []
+    below = SweepIndex.pieces_entering_below
+
+    def spy(self, *args, listed=None):
+        out = below(self, *args, listed=listed)
+        calls.append((listed, out))
+        return out
+
+    monkeypatch.setattr(SweepIndex, "pieces_entering_below", spy)
+    conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    for shift_mm in (0.0, 0.004, -0.003):
+        p = pts + shift_mm * nrm
+        a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
+        np.testing.assert_array_equal(b.lam_mm, a.lam_mm)
+        np.testing.assert_array_equal(b.move, a.move)
+    given = [(listed, out) for listed, out in calls if listed is not None]
+    assert given and max(int(listed[-1]) for listed, _ in given) > 0
+    for listed, out in given:
+        assert not np.any(listed[out + 1] - listed[out])
