@@ -8,9 +8,10 @@ a 8 um gouge, a third of a 5 um scallop). Around a handful of points the sweep c
 modelled far better at little cost: :meth:`FineModel.around`
 
 1. lists the coarse near pieces that come within ``reach`` of the near-search centres
-   the caller's searches may use (:meth:`~verification.dexels.SweepIndex.pieces_within`),
-   and the joint-space segments of the replay they stand for (``motion.rows``, one
-   instance either side);
+   the caller's searches may use (:meth:`~verification.dexels.SweepIndex.pieces_within`;
+   of flat and bull-nose pieces a compiled walk over the coarse search's runs,
+   :meth:`FineModel.rows_within`), and the joint-space segments of the replay they stand
+   for (``motion.rows``, one instance either side);
 2. samples those stretches again in joint space to a fine chord tolerance
    (``VerifyOptions.extremes_tol_mm``, 20 nm; :func:`~verification.replay.replay_rows`)
    and keeps every chord (no merging);

@@ -139,7 +139,9 @@ class Pieces:
         its own arrays is freed as soon as it is copied (where nothing else holds it):
         the concatenation never holds two whole copies of this set, only one field's
         (on the 7 M pieces of the bull-nose 5-axis blade program, 166 MB at most rather
-        than 1 GB). This set, changed in place, stays a valid set of the same pieces.
+        than 1 GB). This set, changed in place, stays a valid set of the same pieces, but
+        from then on shares its memory with the concatenation: a write into one shows in
+        the other (pieces are never written in place once built; keep it so).
         """
         n = self.size
         both = {}

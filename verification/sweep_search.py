@@ -359,7 +359,9 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
         Walk the grid for groups of neighbouring dexels (default), or for each alone.
     seeded : bool
         Measure first, where a candidate, the piece found on the previous dexel
-        (default): the same values and pieces, a pair more where seeded.
+        (default): the same values and pieces; the pairs count moves (the seed is one
+        more pair measured, and it prunes others: on a 3,000-line bull-nose prefix 1.3 %
+        fewer).
 
     Returns
     -------
