@@ -83,7 +83,7 @@ from .pieces import Pieces
 from .torus import CONVERGED_MM, sweep_entry_normal, sweep_exit
 
 __all__ = ["ENTRY_MARGIN_MM", "RUN_DILATION_MM", "RUN_LENGTH_MM", "RUN_PIECES", "PieceRuns",
-           "floor_entry", "piece_runs", "reaches", "run_floor", "span_reference",
+           "floor_entry", "piece_runs", "run_floor", "span_reference",
            "support_floor"]
 
 FloatArray = NDArray[np.float64]
