@@ -319,8 +319,14 @@ def support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz: float,
     least = math.inf
     for k in range(first, stop):
         c = nx * axis[k, 0] + ny * axis[k, 1] + nz * axis[k, 2]
-        support = (core_radius * math.sqrt(max(1.0 - c * c, 0.0)) + height[k] * max(c, 0.0)
-                   + corner_radius)
+        # sin of the angle between nu and the axis: |nu x axis|, which keeps an angle of
+        # 1e-8 rad that 1 - c^2 rounds to 0 (a core radius of 25 mm would lose 2.5e-7 mm,
+        # past the margin); the larger of the two, as either may round low
+        sx = ny * axis[k, 2] - nz * axis[k, 1]
+        sy = nz * axis[k, 0] - nx * axis[k, 2]
+        sz = nx * axis[k, 1] - ny * axis[k, 0]
+        sine = max(math.sqrt(sx * sx + sy * sy + sz * sz), math.sqrt(max(1.0 - c * c, 0.0)))
+        support = core_radius * sine + height[k] * max(c, 0.0) + corner_radius
         ahead = max(nx * e[k, 0] + ny * e[k, 1] + nz * e[k, 2], 0.0)
         gap = (nx * (p[0] - a[k, 0]) + ny * (p[1] - a[k, 1]) + nz * (p[2] - a[k, 2]) - ahead
                - support - ENTRY_MARGIN_MM)

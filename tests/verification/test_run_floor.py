@@ -202,3 +202,45 @@ def test_turning_bull_nose_passes_open_few_halves_with_the_pair_searchs_values(m
     # runs and halves floored and pieces measured per dexel (the pair search measures
     # 4,581): 75.3 with the dilated floors alone (before the support planes), 29.4 with them
     assert fast.pairs / points.shape[0] < 45.0
+
+
+def _rotated(u, w, angle):
+    """Unit ``u`` turned by ``angle`` about unit ``w`` (perpendicular to it)."""
+    return _unit(u * np.cos(angle) + np.cross(w, u) * np.sin(angle))
+
+
+@pytest.mark.parametrize("core_mm", [25.0, 100.0])
+def test_a_large_flat_bottoms_floor_keeps_axes_1e8_rad_apart(rng, core_mm):
+    """The review's case: a flat cutter of large radius (flat:50, flat:200) whose pieces'
+    axes differ by ~1.5e-8 rad (a long move turning a rotary axis by 0.001 deg), a dexel
+    up the axis under the dipping rim. There ``1 - c^2`` rounds to 0 and the support
+    plane lost ``core * 1.5e-8`` (0.4-1.5 um, past the 0.1 um margin): the floor stood
+    above a piece's entry in 146-220 of 400 dexels."""
+    height_mm, above = 10.0, 0
+    for _ in range(300):
+        u0 = _unit(rng.normal(size=3))
+        w = _unit(np.cross(u0, rng.normal(size=3)))
+        theta = 1.5e-8
+        axes = np.array([_rotated(u0, w, theta * rng.uniform(0.3, 1.0)), u0,
+                         _rotated(u0, -w, theta * rng.uniform(0.3, 1.0))])
+        head = _unit(np.cross(u0, rng.normal(size=3)))
+        a = np.arange(3)[:, None] * 1e-3 * head + rng.uniform(-5.0, 5.0, 3)
+        e = np.tile(1e-3 * head, (3, 1))
+        ee = np.einsum("ij,ij->i", e, e)
+        pieces = Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(3),
+                        np.zeros(3, dtype=bool), axes, np.full(3, np.nan), np.full(3, np.nan),
+                        np.zeros(1), np.zeros(1, dtype=np.int64), np.full(3, height_mm))
+        runs = piece_runs(pieces, core_radius_mm=core_mm, corner_radius_mm=0.0)
+        assert runs.size == 1
+        rim = _unit(np.cross(w, u0))
+        rim = -rim * np.sign(np.dot(axes[0] - u0, rim))  # where piece 0's bottom dips
+        p = a[0] + (core_mm - 1e-6) * rim * rng.choice([1.0, -1.0]) - 3.0 * u0
+        d = u0.copy()
+        lo, hi = sweep_bound(p, d, runs.c0[0], runs.chord[0], runs.axis[0], height_mm, core_mm,
+                             runs.dilation_mm[0])
+        floor = run_floor(p, d, runs.c0[0], runs.chord[0], runs.axis[0], height_mm, core_mm,
+                          0.0, runs.dilation_mm[0], lo, hi, np.inf, 0, 3, pieces.a, pieces.e,
+                          pieces.axis, pieces.height_mm)
+        _, least = _least_values(p[None], d[None], pieces, 0, 3, core_mm, 0.0, 0.0)
+        above += bool(floor > least[0])
+    assert above == 0
