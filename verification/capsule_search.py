@@ -323,6 +323,60 @@ def own_slots(shared: IntArray, n_shared: int, cx: float, cy: float, cz: float,
     return buf, n
 
 
+@numba.njit(cache=True)
+def group_slots(q: int, first: int, stop: int, grouped: bool, centres: FloatArray,
+                lim2: FloatArray, spans: IntArray, dims: IntArray, origin: FloatArray,
+                cell: float, starts: IntArray, mid: FloatArray, shared: IntArray,
+                n_shared: int, buf: IntArray) -> tuple[IntArray, int, IntArray, int]:
+    """Dexel ``q``'s candidate slots, its group's grid walked once (:func:`group_ball`).
+
+    Dexels ``first .. stop`` are a walk's task; at every :data:`WALK_GROUP`-th of them
+    (``grouped``) the slots of the ball holding the next group's balls are gathered into
+    ``shared[:n_shared]`` (``n_shared = -1``: none, each dexel walks alone), and each
+    dexel takes its own from them (:func:`own_slots`: the very slots, in the same order,
+    :func:`candidate_slots` finds for it alone). Returns ``(shared, n_shared, buf, n)``:
+    the group's slots to carry to the next dexel, and this one's in ``buf[:n]``.
+    """
+    if grouped and (q - first) % WALK_GROUP == 0:
+        gx, gy, gz, g2 = group_ball(centres, lim2, q, min(stop, q + WALK_GROUP))
+        n_shared = -1
+        if g2 > 0.0:
+            shared, n_shared = candidate_slots(
+                gx, gy, gz, g2, max(1, math.ceil(math.sqrt(g2) / cell)), dims, origin, cell,
+                starts, mid, shared)
+    cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+    if n_shared >= 0:
+        buf, n = own_slots(shared, n_shared, cx, cy, cz, lim2[q], mid, buf)
+    else:
+        buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell, starts,
+                                 mid, buf)
+    return shared, n_shared, buf, n
+
+
+@numba.njit(cache=True)
+def spread_slots(cx: float, cy: float, cz: float, reach: float, widest: float, span: int,
+                 dims: IntArray, origin: FloatArray, cell: float, starts: IntArray,
+                 mid: FloatArray, spread: FloatArray, buf: IntArray) -> tuple[IntArray, int]:
+    """The slots whose midpoint lies within ``reach`` plus the slot's own ``spread`` of ``c``.
+
+    For runs of pieces (:mod:`verification.piece_runs`: a run's pieces lie within its
+    spread of its midpoint): :func:`candidate_slots` over ``reach + widest`` (``widest``
+    the largest spread), then :func:`is_candidate` with each slot's own; in the grid's
+    order, in ``buf[:n]``.
+    """
+    wide = reach + widest
+    buf, n = candidate_slots(cx, cy, cz, wide * wide, span, dims, origin, cell, starts, mid,
+                             buf)
+    k = 0
+    for c in range(n):
+        slot = buf[c]
+        own = reach + spread[slot]
+        if is_candidate(slot, mid, cx, cy, cz, own * own):
+            buf[k] = slot
+            k += 1
+    return buf, k
+
+
 @numba.njit(cache=True, inline="always")
 def capsule_entry_bound(slot: int, mid: FloatArray, half: FloatArray, e: FloatArray,
                         px: float, py: float, pz: float, dx: float, dy: float, dz: float,
@@ -367,21 +421,12 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
         seed = -1
         stop = min(n_q, (b + 1) * WALK_BLOCK)
         for q in range(b * WALK_BLOCK, stop):
-            if (q - b * WALK_BLOCK) % WALK_GROUP == 0:
-                gx, gy, gz, g2 = group_ball(centres, lim2, q, min(stop, q + WALK_GROUP))
-                n_shared = -1
-                if g2 > 0.0:
-                    shared, n_shared = candidate_slots(
-                        gx, gy, gz, g2, max(1, math.ceil(math.sqrt(g2) / cell)), dims,
-                        origin, cell, starts, mid, shared)
+            shared, n_shared, buf, n = group_slots(q, b * WALK_BLOCK, stop, True, centres,
+                                                   lim2, spans, dims, origin, cell, starts,
+                                                   mid, shared, n_shared, buf)
             px, py, pz = points[q, 0], points[q, 1], points[q, 2]
             dx, dy, dz = dirs[q, 0], dirs[q, 1], dirs[q, 2]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-            if n_shared >= 0:
-                buf, n = own_slots(shared, n_shared, cx, cy, cz, lim2[q], mid, buf)
-            else:
-                buf, n = candidate_slots(cx, cy, cz, lim2[q], spans[q], dims, origin, cell,
-                                         starts, mid, buf)
             best = lam[q]
             best_piece = piece[q]
             best_slot = -1

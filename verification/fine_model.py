@@ -65,7 +65,7 @@ from numpy.typing import NDArray
 from machines import Machine, forward
 from toolpath.surface import ParametricSurface
 
-from .capsule_search import candidate_slots, is_candidate, walk_shape
+from .capsule_search import spread_slots, walk_shape
 from .dexels import SweepIndex
 from .fine_lazy import LazyFineSweeps
 from .grid import span_indices
@@ -477,14 +477,10 @@ def _pieces_near(centres: FloatArray, radii: FloatArray, reach: FloatArray, span
     buf = np.empty(1024, dtype=np.int64)
     for q in range(centres.shape[0]):
         cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-        wide = reach[q] + widest
-        buf, n = candidate_slots(cx, cy, cz, wide * wide, spans[q], dims, origin, cell,
-                                 starts, run_mid, buf)
+        buf, n = spread_slots(cx, cy, cz, reach[q], widest, spans[q], dims, origin, cell,
+                              starts, run_mid, run_spread, buf)
         for c in range(n):
             slot = buf[c]
-            own = reach[q] + run_spread[slot]
-            if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
-                continue
             for i in range(run_start[slot], run_stop[slot]):
                 if marked[i]:
                     continue

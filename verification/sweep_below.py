@@ -31,7 +31,7 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
-from .capsule_search import WALK_BLOCK, candidate_slots, enters_before, is_candidate, walk_shape
+from .capsule_search import WALK_BLOCK, enters_before, is_candidate, spread_slots, walk_shape
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, floor_entry, run_floor, span_reference
 from .sweep_search import piece_outer_mm
@@ -74,14 +74,10 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
             p, d = points[q], dirs[q]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
             lim2 = reach[q] * reach[q]
-            wide = reach[q] + widest
-            buf, n = candidate_slots(cx, cy, cz, wide * wide, spans[q], dims, origin, cell,
-                                     starts, run_mid, buf)
+            buf, n = spread_slots(cx, cy, cz, reach[q], widest, spans[q], dims, origin, cell,
+                                  starts, run_mid, run_spread, buf)
             for c in range(n):
                 slot = buf[c]
-                own = reach[q] + run_spread[slot]
-                if not is_candidate(slot, run_mid, cx, cy, cz, own * own):
-                    continue
                 if (listed[run_stop[slot]] - listed[run_start[slot]]
                         == run_stop[slot] - run_start[slot]):
                     continue

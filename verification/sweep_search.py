@@ -58,12 +58,9 @@ from .capsule_search import (
     ROUNDING_SLACK_MM,
     TIE_SLACK_MM,
     WALK_BLOCK,
-    WALK_GROUP,
-    candidate_slots,
     enters_before,
-    group_ball,
+    group_slots,
     is_candidate,
-    own_slots,
     pair_value,
     ranks_before,
     tie_limit,
@@ -137,21 +134,12 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
         halves = np.empty(2)
         chord = np.empty(3)
         for q in range(b * WALK_BLOCK, stop):
-            if grouped and (q - b * WALK_BLOCK) % WALK_GROUP == 0:
-                gx, gy, gz, g2 = group_ball(centres, wide2, q, min(stop, q + WALK_GROUP))
-                n_shared = -1
-                if g2 > 0.0:
-                    shared, n_shared = candidate_slots(
-                        gx, gy, gz, g2, max(1, math.ceil(math.sqrt(g2) / cell)), dims,
-                        origin, cell, starts, run_mid, shared)
+            shared, n_shared, buf, n = group_slots(q, b * WALK_BLOCK, stop, grouped, centres,
+                                                   wide2, spans, dims, origin, cell, starts,
+                                                   run_mid, shared, n_shared, buf)
             p, d = points[q], dirs[q]
             cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
             lim2 = reach[q] * reach[q]
-            if n_shared >= 0:
-                buf, n = own_slots(shared, n_shared, cx, cy, cz, wide2[q], run_mid, buf)
-            else:
-                buf, n = candidate_slots(cx, cy, cz, wide2[q], spans[q], dims, origin, cell,
-                                         starts, run_mid, buf)
             if bounds.shape[0] < n:
                 kept = np.empty(buf.shape[0], dtype=np.int64)
                 bounds = np.empty(buf.shape[0])
