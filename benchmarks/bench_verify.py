@@ -38,11 +38,11 @@ In one run:
    after the issue-27 rows: the standing blade planned with it at ``--bull5-scallop``
    (default 0.005 mm), posted and verified in a fresh process: time, CPU, peak memory,
    gouge and scallop (a turning axis cuts a bull-nose's pieces short:
-   :mod:`verification.piece_runs`). Opt-in while its verification takes minutes: the
+   :mod:`verification.piece_runs`). Opt-in while its verification takes over a minute: the
    fine model is built per batch from the segments that can decide
    (:mod:`verification.fine_lazy`), so the whole 142,158-line ``bull:8:1`` program now
-   verifies (``toolpath verify``, session 30: 269 CPU s, peak 2.9 GB, was 4.3 GB; it
-   was once killed at 23 GB); ``--skip-bull`` leaves out both bull rows.
+   verifies (``toolpath verify``, quiet: 72 s wall, 121 CPU s, peak 3.0 GB; it was once
+   killed at 23 GB); ``--skip-bull`` leaves out both bull rows.
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.

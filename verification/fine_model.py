@@ -275,18 +275,25 @@ class FineModel:
         return next((h for h in self.coarse.horizons if h >= deviation_mm),
                     self.coarse.horizon)
 
-    def _rows(self, pieces: Pieces, hit: IntArray) -> IntArray:
-        """Joint segments (sorted, unique) the listed near pieces stand for."""
+    def _instances(self, pieces: Pieces, hit: IntArray | slice) -> tuple[IntArray, IntArray]:
+        """Per listed piece, the first and last replay instance it stands for.
+
+        Every instance whose arc lies in ``[arc0, arc1]`` and one either side (a centre
+        standing still while the axis turns repeats its arc over several instances).
+        """
         rows = self.motion.rows
         assert rows is not None
         n_inst = rows.of_instance.shape[0]
         path = pieces.path_arc_mm
-        # every instance whose arc lies in [arc0, arc1] and one either side (a centre
-        # standing still while the axis turns repeats its arc over several instances)
         lo = np.clip(np.searchsorted(path, pieces.arc0_mm[hit], side="left") - 1, 0, n_inst - 1)
         hi = np.clip(np.searchsorted(path, pieces.arc1_mm[hit], side="right"), 0, n_inst - 1)
+        return lo, hi
+
+    def _rows(self, pieces: Pieces, hit: IntArray) -> IntArray:
+        """Joint segments (sorted, unique) the listed near pieces stand for."""
+        lo, hi = self._instances(pieces, hit)
         inst = span_indices(lo, np.maximum(hi - lo + 1, 1))
-        return np.unique(rows.of_instance[inst])
+        return np.unique(self.motion.rows.of_instance[inst])
 
     def row_spans(self, pieces: Pieces) -> tuple[IntArray, IntArray] | None:
         """Per piece, the first and last joint segment :meth:`_rows` names for it.
@@ -294,15 +301,10 @@ class FineModel:
         Every segment it names lies between the two (the replay's instances are in path
         order, so their segments are nondecreasing); None where they are not.
         """
-        rows = self.motion.rows
-        assert rows is not None
-        of = rows.of_instance
+        of = self.motion.rows.of_instance
         if of.shape[0] == 0 or np.any(of[1:] < of[:-1]):
             return None
-        n_inst = of.shape[0]
-        path = pieces.path_arc_mm
-        lo = np.clip(np.searchsorted(path, pieces.arc0_mm, side="left") - 1, 0, n_inst - 1)
-        hi = np.clip(np.searchsorted(path, pieces.arc1_mm, side="right"), 0, n_inst - 1)
+        lo, hi = self._instances(pieces, slice(None))
         return of[lo].astype(np.int32), of[np.maximum(hi, lo)].astype(np.int32)
 
     def rows_within(self, centres: FloatArray, radii_mm: FloatArray) -> IntArray:

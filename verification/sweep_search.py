@@ -28,13 +28,12 @@ a candidate, as the best so far (its pieces seldom change from one dexel to the 
    lies below the best.
 
 A floor is a lower bound on what every piece of its run leaves, so a run or half skipped
-holds no piece below the best: the same minimum as every candidate measured, whatever
-the best it starts from (a seed is a candidate's value; the least ``(value, piece)`` of a
-total order does not depend on which is met first) (a piece
-that leaves ``p`` leaves it from within ``delta`` of the reference, see
-:mod:`verification.piece_runs`). On the bull-nose 5-axis blade (16,000 candidate pieces
-per dexel, thousands of them measured) a dexel measures about a hundred floors and a
-dozen pieces.
+holds no piece below the best (a piece that leaves ``p`` leaves it from within ``delta``
+of the reference, see :mod:`verification.piece_runs`): the same minimum as every
+candidate measured, whatever the best it starts from (a seed is a candidate's value; the
+least ``(value, piece)`` of a total order does not depend on which is met first). On
+the bull-nose 5-axis blade (16,000 candidate pieces per dexel, thousands of them
+measured) a dexel measures some tens of floors and a handful of pieces.
 
 The value of a pair is the one of :mod:`verification.dexels`: ``lam_in`` when the sweep
 reaches the design point (``lam_out > 0``), ``max(lam_in, -lam_out)`` when it comes from
