@@ -22,6 +22,14 @@ when numba gets imported, so that commands which never load numba do not pay for
   (the named tuples the kernels take); after an upgrade that renamed or removed one of them
   the unpickling raised ``AttributeError`` at the first call. An index that cannot be read
   now counts as empty: the kernel compiles again and writes a fresh index;
+* **a kernel is as fresh as every kernel it may call**: numba stamps a kernel's cache
+  with its own source file only, yet a kernel calling a compiled function of another
+  module holds that function's machine code too: after an edit of the callee's module (a
+  ``git pull`` into an editable install touches only the files that changed) the caller
+  loaded from the cache ran the old callee, silently. The stamp of every kernel of
+  :data:`KERNEL_PACKAGES` now also holds a digest of all their modules that use numba
+  (:func:`kernel_sources_digest`): an edit of any of them compiles those kernels afresh
+  as they are used;
 * **one process compiles a kernel, the others wait and load it**: a compile (and the cache
   look-up before it) holds a lock file beside the kernel's index, so processes starting on
   an empty cache at once (the warm-up's jobs, a service's or a batch's workers) never
@@ -36,6 +44,7 @@ processes share a list of kernels instead of waiting for each other.
 from __future__ import annotations
 
 import contextlib
+import hashlib
 import importlib.abc
 import importlib.util
 import os
@@ -53,9 +62,15 @@ except ImportError:  # (Windows: no lock across processes; each may compile a ke
     fcntl = None
 
 __all__ = ["BUSY", "CACHED", "COMPILED", "choose_cache_dir", "compile_if_free",
-           "ensure_kernel_cache", "hook_numba", "in_disk_cache", "working_while_waiting"]
+           "ensure_kernel_cache", "hook_numba", "in_disk_cache", "kernel_sources_digest",
+           "working_while_waiting"]
 
 PACKAGE_DIR = Path(__file__).resolve().parent
+#: Where the packages whose kernels call each other's lie (the folder holding ``toolpath``).
+KERNEL_ROOT = PACKAGE_DIR.parent
+#: The packages, under :data:`KERNEL_ROOT`, whose kernels share one source digest (a module
+#: with kernels in another package must be listed here: a test checks it).
+KERNEL_PACKAGES: tuple[str, ...] = ("toolpath", "verification")
 
 
 def _writable(folder: Path) -> bool:
@@ -153,9 +168,11 @@ class _PatchAfterLoad(importlib.abc.Loader):
 
 
 def _patch_numba() -> None:
-    """Make numba's cache drop stale indexes and compile each kernel in one process.
+    """Patch numba's kernel cache and compiler (the module's text).
 
-    And its type inference skip work that decides nothing (:mod:`toolpath.typing_speed`).
+    Stale indexes are dropped, kernels are stamped with the kernel modules' digest, each
+    kernel compiles in one process; its type inference skips work that decides nothing
+    (:mod:`toolpath.typing_speed`).
     """
     from numba.core import caching, dispatcher
 
@@ -164,6 +181,10 @@ def _patch_numba() -> None:
     speed_up_typing()
 
     # (numba's internals as of 0.68: a numba without them is left as it is)
+    located = getattr(caching, "_SourceFileBackedLocatorMixin", None)
+    if hasattr(located, "get_source_stamp") and not getattr(located, "_streamline_cam", False):
+        located.get_source_stamp = _with_package_digest(located.get_source_stamp)
+        located._streamline_cam = True
     index_file = getattr(caching, "IndexDataCacheFile", None)
     if hasattr(index_file, "_load_index") and not getattr(index_file, "_streamline_cam", False):
         index_file._load_index = _readable_index(index_file._load_index)
@@ -175,6 +196,45 @@ def _patch_numba() -> None:
         except ImportError:
             return
         compiled._streamline_cam = True
+
+
+_DIGEST: list[bytes] = []
+
+
+def kernel_sources_digest() -> bytes:
+    """SHA-256 over the path and content of every module of :data:`KERNEL_PACKAGES` using numba.
+
+    Read once per process (a hundred files, ~3 ms), at the first kernel's definition.
+    """
+    if not _DIGEST:
+        digest = hashlib.sha256()
+        for package in KERNEL_PACKAGES:
+            for path in sorted((KERNEL_ROOT / package).rglob("*.py")):
+                with contextlib.suppress(OSError):
+                    source = path.read_bytes()
+                    if b"numba" in source:
+                        digest.update(path.relative_to(KERNEL_ROOT).as_posix().encode())
+                        digest.update(hashlib.sha256(source).digest())
+        _DIGEST.append(digest.digest())
+    return _DIGEST[0]
+
+
+def _with_package_digest(source_stamp: Callable[[Any], Any]) -> Callable[[Any], Any]:
+    """Wrap numba's ``get_source_stamp``: kernels of :data:`KERNEL_PACKAGES` add the digest."""
+    roots = None
+
+    def get_source_stamp(self: Any) -> Any:
+        nonlocal roots
+        stamp = source_stamp(self)
+        if roots is None:
+            roots = tuple((KERNEL_ROOT / package).resolve() for package in KERNEL_PACKAGES)
+        path = getattr(self, "_py_file", None)
+        if path and any(Path(path).resolve().is_relative_to(root) for root in roots):
+            return stamp, kernel_sources_digest()
+        return stamp
+
+    get_source_stamp.__doc__ = source_stamp.__doc__
+    return get_source_stamp
 
 
 def _readable_index(load_index: Callable[[Any], dict]) -> Callable[[Any], dict]:

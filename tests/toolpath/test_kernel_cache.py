@@ -317,3 +317,69 @@ def test_compile_if_free_compiles_once_and_leaves_a_busy_kernel(tmp_path):
         finally:
             os.close(lock)
         assert run.returncode == 0 and json.loads(out) == expected
+
+
+# Two kernel modules of a package ``pkg``: ``caller`` calls ``callee``'s kernel. Run with
+# the package as the only kernel package; prints the caller's result.
+CALLEE = '''
+import numba
+
+
+@numba.njit(cache=True)
+def value():
+    return VALUE
+'''
+CALLER = '''
+import numba
+
+from pkg.callee import value
+
+
+@numba.njit(cache=True)
+def tenfold():
+    return 10 * value()
+'''
+RUN_CALLER = '''
+import sys
+from pathlib import Path
+import toolpath.kernel_cache as kc
+kc.KERNEL_ROOT, kc.KERNEL_PACKAGES = Path(sys.argv[1]), ("pkg",)
+from pkg.caller import tenfold
+print(tenfold())
+'''
+
+
+def test_a_cached_kernel_runs_its_callee_s_new_code_after_an_edit(tmp_path):
+    import subprocess
+    import sys
+
+    package = tmp_path / "pkg"
+    package.mkdir()
+    (package / "__init__.py").write_text("", encoding="utf-8")
+    (package / "caller.py").write_text(CALLER, encoding="utf-8")
+    root = Path(__file__).resolve().parents[2]
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join((str(tmp_path), str(root))),
+           "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
+
+    def run() -> str:
+        done = subprocess.run([sys.executable, "-c", RUN_CALLER, str(tmp_path)], cwd=tmp_path,
+                              env=env, capture_output=True, text=True, timeout=120)
+        assert done.returncode == 0, done.stderr
+        return done.stdout.strip()
+
+    for value in (1, 2, 3):  # (numba alone: the caller, unchanged, kept 10 from its cache)
+        (package / "callee.py").write_text(CALLEE.replace("VALUE", str(value)),
+                                           encoding="utf-8")
+        assert run() == str(10 * value)
+        assert run() == str(10 * value)  # (from the cache, still right)
+
+
+def test_every_module_with_kernels_is_in_a_kernel_package():
+    from toolpath import kernel_cache
+
+    root = kernel_cache.KERNEL_ROOT
+    packages = {path.parent.name for path in root.glob("*/__init__.py")}
+    with_kernels = {path.relative_to(root).parts[0]
+                    for package in packages for path in (root / package).rglob("*.py")
+                    if "njit" in path.read_text(encoding="utf-8", errors="replace")}
+    assert with_kernels and with_kernels <= set(kernel_cache.KERNEL_PACKAGES)
