@@ -9,6 +9,11 @@ CPU clock (all threads), the fastest of :data:`REPEATS` runs each, split by the 
 both). ``m/p`` is the measurement's CPU over the planning's (issue 27: at most 1). The
 counts: seeds, seeds ray cast, moves measured.
 
+``stand5ac`` is ``stand5`` planned and measured for the ``trunnion-ac`` machine, whose
+joint interpolation the plan is checked under: the measure places the cutter inside each
+move as the joints move it (issue 27's own case is such a job); the others move
+tip-linear.
+
 Run: ``python benchmarks/bench_measure_parts.py [CASE ...]`` (cases by the short names of
 :data:`CASES`; default all).
 """
@@ -22,13 +27,15 @@ import time
 
 from bench_toolpath import _cases
 
+from machines import load_machine
 from toolpath.planning import finishing, plan_finishing
 
-#: Short name -> (bench_toolpath's case name, axis mode).
+#: Short name -> (bench_toolpath's case name, axis mode[, machine]).
 CASES = {"cap3": ("sphere R50 cap", "3"), "cap5": ("sphere R50 cap", "lead-tilt"),
          "ell3": ("elliptic blade", "3"), "ell5": ("elliptic blade", "lead-tilt"),
          "dome5": ("sphere R150 dome", "lead-tilt"),
          "stand5": ("dev blade (standing)", "lead-tilt"),
+         "stand5ac": ("dev blade (standing)", "lead-tilt", "trunnion-ac"),
          "lying3": ("dev blade (lying)", "3")}
 
 #: Column -> (module file, function name) whose cumulative CPU it shows.
@@ -45,11 +52,14 @@ PARTS = {"contacts": ("chord_measure.py", "_end_contacts"),
 REPEATS = 3
 
 
-def _plan_inputs(surface, extra: dict, axis: str) -> tuple[float, tuple, tuple]:
+def _plan_inputs(surface, extra: dict, axis: str, machine: str | None = None
+                 ) -> tuple[float, tuple, tuple]:
     """The planning's CPU and the arguments the plan's measure stage passes on."""
     kw = dict(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis)
     if axis != "3":
         kw.update(lead_deg=10.0, linking=extra.get("linking", "zigzag"))
+    if machine is not None:
+        kw.update(machine=load_machine(machine))
     plan_finishing(surface, "ball:6", **kw)  # the kernels loaded
     plan_cpu = float("inf")
     for _ in range(REPEATS):
@@ -82,9 +92,10 @@ def main() -> None:
     print(f"{'case':<8}{'plan':>7}{'chord':>7}{'scallop':>8}{'m/p':>6}"
           + "".join(f"{p:>9}" for p in PARTS) + f"{'seeds':>8}{'cast':>6}{'moves':>7}")
     for name in names:
-        case, axis = CASES[name]
+        case, axis, *machine = CASES[name]
         surface, extra = surfaces[case]
-        plan_cpu, (c_args, c_kw), (s_args, s_kw) = _plan_inputs(surface, extra, axis)
+        plan_cpu, (c_args, c_kw), (s_args, s_kw) = _plan_inputs(surface, extra, axis,
+                                                                 *machine)
         best = {"chord": float("inf"), "scallop": float("inf")}
         parts = dict.fromkeys(PARTS, float("inf"))
         for _ in range(REPEATS):

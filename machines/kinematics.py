@@ -89,6 +89,7 @@ __all__ = [
     "linear_jacobian",
     "solve_inverse",
     "tilt_reach_deg",
+    "tool_point_gradient",
 ]
 
 SINGULAR_CONE_DEG: Final[float] = 0.1
@@ -272,6 +273,98 @@ def forward(machine: Machine, joints: ArrayLike) -> tuple[NDArray[np.float64], N
     if single:
         return tips[0], axes[0]
     return tips, axes
+
+
+def tool_point_gradient(machine: Machine, joints: ArrayLike, along_mm: float,
+                        covectors: ArrayLike) -> NDArray[np.float64]:
+    """How ``w . P`` changes with each joint, for a point ``P`` carried by the tool.
+
+    ``P = tip + along_mm * axis`` (workpiece frame, :func:`forward`; a ball's centre with
+    ``along_mm`` its radius) and ``w`` one covector per row (a unit normal: then the
+    rate of ``P``'s distance to a surface at its foot). Returns ``d(w . P)/dq`` per row
+    (n, n_axes), machine axis order, per mm of a linear joint and per deg of a rotary
+    one: the joints moving at rates ``dq`` move ``w . P`` at ``gradient . dq`` (under
+    joint interpolation, ``dq = q_b - q_a`` per unit ``u`` along the move).
+
+    The derivative of the formulas of the module's text: a rotation ``R_k(a)`` turning
+    at ``a'`` (rad) moves ``R_k(a) x`` at ``a' e_k x R_k(a) x``. With ``e_t`` the tilt
+    joint's axis, ``e'_t = R_z(-c) e_t`` (horizontal), ``P_0`` = ``rotary_centre`` and
+    ``P_C = P_0 + c_offset`` (per deg: times ``pi / 180``):
+
+    - table-table: ``dP/dG = R_z(-c) R_t(-t)``, so ``w . dP/dG = R_t(t) R_z(c) w``;
+      ``dP/dt = -e'_t x (P - P_C + O - R_z(-c)(P_0 - P_C))``;
+      ``dP/dc = -Z x (P - P_C + O)``;
+    - head-table: ``w . dP/dG = R_z(c) w``; ``dP/dt = (along - Lp - L) e'_t x axis``;
+      ``dP/dc = -Z x (P - P_0 + O)``;
+    - 3-axis: ``w . dP/dG = w``.
+
+    Parameters
+    ----------
+    machine : Machine
+        The machine.
+    joints : array_like, shape (n, n_axes)
+        Joint values in the machine's axis order.
+    along_mm : float
+        How far up the tool axis from the tip ``P`` lies, mm.
+    covectors : array_like, shape (n, 3)
+        ``w`` per row, workpiece frame.
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, n_axes)
+        ``d(w . P)/dq``: mm per mm of a linear joint, mm per deg of a rotary one (for a
+        unit ``w``).
+
+    Raises
+    ------
+    KinematicsError
+        For a wrong shape or non-finite values.
+    """
+    j, _ = _as_rows(joints, "joints", machine.n_axes)
+    w, _ = _as_rows(covectors, "covectors", 3)
+    if len(w) != len(j):
+        raise KinematicsError(f"covectors has {len(w)} rows, joints {len(j)}")
+    order = _order(machine)
+    out = np.zeros((len(j), machine.n_axes))
+    kin = machine.kinematics
+    if kin is KinematicType.XYZ:
+        out[:, order] = w
+        return out
+    tips, axes = forward(machine, j)
+    canon = j[:, order]
+    cos_c, sin_c = _cos_sin(canon[:, 4])
+    rad = np.pi / 180.0
+    origin = np.asarray(machine.work_origin)
+    centre = np.asarray(machine.rotary_centre)
+    point = tips + along_mm * axes
+    # e'_t = R_z(-c) e_t, horizontal: (cos c, -sin c, 0) for A, (sin c, cos c, 0) for B
+    k = _tilt_index(kin)
+    tilt = (cos_c, -sin_c) if k == 0 else (sin_c, cos_c)
+    if kin.tilting_head:
+        lin = _rot_cs(w, 2, cos_c, sin_c)
+        lever = along_mm - machine.head_pivot_length - machine.tool_length
+        arm = point - centre + origin
+        d_tilt = lever * _horizontal_triple(tilt, axes, w)
+    else:
+        lin = _rot_cs(_rot_cs(w, 2, cos_c, sin_c), k, *_cos_sin(canon[:, 3]))
+        offset = np.asarray(machine.c_offset, dtype=float)
+        arm = point - centre - offset + origin
+        lever = arm
+        if offset.any():  # arm - R_z(-c) (P - P_C), with P - P_C = -c_offset
+            lever = arm + _rot_cs(np.broadcast_to(offset, (len(j), 3)), 2, cos_c, -sin_c)
+        d_tilt = -_horizontal_triple(tilt, lever, w)
+    out[:, order[:3]] = lin
+    out[:, order[3]] = rad * d_tilt
+    # dP/dc = -Z x arm = (arm_y, -arm_x, 0)
+    out[:, order[4]] = rad * (arm[:, 1] * w[:, 0] - arm[:, 0] * w[:, 1])
+    return out
+
+
+def _horizontal_triple(a: tuple[NDArray[np.float64], NDArray[np.float64]],
+                       v: NDArray[np.float64], w: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``(a x v) . w = a . (v x w)`` per row, ``a = (a_x, a_y, 0)`` horizontal."""
+    return (a[0] * (v[:, 1] * w[:, 2] - v[:, 2] * w[:, 1])
+            + a[1] * (v[:, 2] * w[:, 0] - v[:, 0] * w[:, 2]))
 
 
 # --------------------------------------------------------------------------------------

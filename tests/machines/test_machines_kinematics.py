@@ -17,7 +17,7 @@ from machines import (
     load_machine,
     solve_inverse,
 )
-from machines.kinematics import linear_jacobian
+from machines.kinematics import linear_jacobian, tool_point_gradient
 
 LINEAR_TOL = 1e-9  # mm: round-off of a few rotations of ~1 m lever arms
 ANGLE_TOL = 1e-9  # deg
@@ -74,6 +74,28 @@ def test_linear_jacobian_is_how_the_linear_joints_follow_the_tip(any_machine, rn
     step = np.einsum("nij,nj->ni", linear_jacobian(any_machine, sol.joints), d)
     np.testing.assert_allclose(moved[:, linear] - sol.joints[:, linear], step, rtol=0,
                                atol=LINEAR_TOL)
+
+
+@pytest.mark.parametrize("along_mm", [0.0, 3.0, 40.0])
+def test_tool_point_gradient_is_the_derivative_of_forward(any_machine, rng, along_mm):
+    """``gradient . dq`` is ``w . dP/du`` of ``P = tip + along axis`` with the joints
+    moving along ``dq``: against a central difference of :func:`forward` (error ``h^2``
+    times the third derivative: 1e-10 of the rates here)."""
+    j = random_joints(any_machine, rng, 400)
+    dq = random_joints(any_machine, rng, 400) - j
+    w = rng.normal(size=(len(j), 3))
+    h = 1e-6
+    ahead, behind = forward(any_machine, j + h * dq), forward(any_machine, j - h * dq)
+    moved = (ahead[0] + along_mm * ahead[1] - behind[0] - along_mm * behind[1]) / (2.0 * h)
+    expected = np.einsum("ij,ij->i", moved, w)
+    got = np.einsum("ij,ij->i", tool_point_gradient(any_machine, j, along_mm, w), dq)
+    np.testing.assert_allclose(got, expected, rtol=0.0, atol=1e-6 * np.abs(expected).max())
+
+
+def test_tool_point_gradient_rows_must_match():
+    m = load_machine("trunnion-ac")
+    with pytest.raises(KinematicsError, match="covectors has 2 rows, joints 1"):
+        tool_point_gradient(m, np.zeros((1, m.n_axes)), 3.0, np.ones((2, 3)))
 
 
 def test_joint_columns_follow_machine_order():

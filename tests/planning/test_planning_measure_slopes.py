@@ -19,11 +19,19 @@ import pytest
 from measured_plans import planned
 
 from machines import load_machine
+from machines.kinematics import tool_point_gradient
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
 from toolpath.planning import EllipticBladeSurface, SpherePatch
-from toolpath.planning.chord_measure import measure_chord
+from toolpath.planning.chord_measure import (
+    _ball_slopes,
+    _cutting_moves,
+    _end_contacts,
+    measure_chord,
+)
 from toolpath.planning.cusp_search import SearchSeeds
+from toolpath.planning.measure_joints import checked_joints
+from toolpath.planning.sampling import move_gaps
 from toolpath.planning.setup import centred_on_table, rotation_from_spec
 
 CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
@@ -67,13 +75,47 @@ def test_closed_blade_spiral_chord_from_end_slopes():
 
 
 def test_blade_standing_chord_from_end_slopes_under_joint_interpolation(blade):
-    # the joints linear: the centre's velocity at the ends by a one-sided difference
+    # the joints linear: the centre's velocity at the ends from the joints' gradient
     standing = centred_on_table(blade, rotation_from_spec("y:-90"))
     measured = planned(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.01,
                        axis_mode="lead-tilt", lead_deg=10.0,
                        machine=load_machine("trunnion-ac"))
     assert measured.path.joints_checked_for is not None
     _same_chord(measured)
+
+
+def test_joint_slopes_are_the_gaps_derivative_at_the_ends(blade):
+    # under joint interpolation the slopes g'(0), g'(1) come from the joints' gradient of
+    # n . C at each location (computed once per location, shared by the move ending and
+    # the move starting there): against a central difference of the gap itself, the
+    # ball placed by the machine's joints a little before and after each end (they agree
+    # to the contacts' own accuracy: a foot off by 1e-5 mm tilts its normal by that over
+    # R; the one-sided difference of centres used before was off by twice as much)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    machine = load_machine("trunnion-ac")
+    measured = planned(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.01,
+                       axis_mode="lead-tilt", lead_deg=10.0, machine=machine)
+    path, surface, cutter = measured.path, measured.surface, measured.cutter
+    joints = checked_joints(path, machine)
+    move = _cutting_moves(path)
+    contacts = _end_contacts(path, surface, cutter, measured.samples, move, 100_000, 4)
+    ends, ia, ib = contacts.of_moves(path, move)
+    gradient = tool_point_gradient(machine, joints[contacts.points], cutter.radius_mm,
+                                   contacts.normal)
+    interpolation = (machine, joints[move], joints[move + 1])
+    slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia], contacts.normal[ib],
+                          interpolation, (gradient[ia], gradient[ib]))
+    h = 1e-5
+    for col, u in enumerate((0.0, 1.0)):
+        g = move_gaps(surface, cutter, ends, np.array([u - h, u + h]), newton=8,
+                      joints=interpolation)[0]
+        expected = (g[:, 1] - g[:, 0]) / (2.0 * h)
+        np.testing.assert_allclose(slopes[:, col], expected, rtol=0.0,
+                                   atol=1e-4 * np.abs(expected).max())
+    # the gradients given once per location are the ones each move's ends would compute
+    own = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia], contacts.normal[ib],
+                       interpolation)
+    np.testing.assert_allclose(slopes, own, rtol=0.0, atol=1e-12)
 
 
 @pytest.mark.parametrize("cutter", ["ball:6", "bull:8:1"])

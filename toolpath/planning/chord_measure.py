@@ -25,7 +25,9 @@ centre projected onto the surface. A ball is placed at ``u = 1/2`` only: the gap
 centre ``C(u)`` is the distance to the surface less ``R``, whose gradient at an end is the
 unit normal ``n`` at the end's contact, so the model's slopes at the ends are exactly
 ``g' = n . C'`` (:func:`_ball_slopes`) and the two projections at ``1/4`` and ``3/4``
-are not needed to fix it.
+are not needed to fix it. Under joint interpolation ``n . C'`` is the joints' gradient
+of ``n . C`` (:func:`~machines.kinematics.tool_point_gradient`) times their rates
+``q_b - q_a``: the gradient once per location (its normal is both moves' there), exact.
 
 The contacts and the mid-chord contacts above the surface seed the scallop measurement
 (:attr:`ChordMeasurement.seeds_t` and so on; :mod:`.measure`).
@@ -41,6 +43,7 @@ import numpy as np
 from numpy.typing import NDArray
 
 from machines import Machine
+from machines.kinematics import tool_point_gradient
 
 from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
@@ -56,7 +59,6 @@ from .sampling import (
     chord_extremes,
     cutter_gap,
     move_gaps,
-    move_poses,
 )
 
 __all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
@@ -130,13 +132,6 @@ BALL_CONTACT_NEWTON = 3
 #: ``s`` by 3e-8).
 SEEDED_CONTACT_NEWTON = 1
 
-#: Step in ``u`` of the one-sided difference giving a ball centre's velocity at a move's
-#: ends under joint interpolation (:func:`_ball_slopes`): its error, ``u`` times the
-#: centre's acceleration (a rotary turn of 0.01 rad over a 200 mm lever: 0.02 mm per
-#: unit ``u`` squared) over two, stays under 1e-6 mm per unit ``u``, and the round-off
-#: of positions of hundreds of mm over it, 1e-9.
-SLOPE_STEP_U = 1e-4
-
 
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, *, machine: Machine | None = None,
@@ -166,6 +161,12 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk, contact_stride,
                              seeded_newton)
     contact = float(np.abs(contacts.gap).max())
+    # under joint interpolation, d(n . C)/dq at every location, once: a location ends one
+    # move and starts the next, with the same contact normal (:func:`_ball_slopes`)
+    gradient = None
+    if joints is not None and end_slopes and cutter.kind is CutterKind.BALL:
+        gradient = tool_point_gradient(machine, joints[contacts.points], cutter.radius_mm,
+                                       contacts.normal)
     worst = np.zeros(move.size)
     over = under = 0.0
     seeds: list[tuple[NDArray[np.float64], ...]] = []
@@ -176,7 +177,8 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         slopes = None
         if end_slopes and cutter.kind is CutterKind.BALL:
             slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
-                                  contacts.normal[ib], interpolation)
+                                  contacts.normal[ib], interpolation,
+                                  None if gradient is None else (gradient[ia], gradient[ib]))
         gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia], contacts.gap[ib],
                                     max(contact, over, under), interpolation, slopes,
                                     seeded_newton)
@@ -484,15 +486,19 @@ def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.
 
 
 def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64],
-                 normal_b: NDArray[np.float64], joints: JointEnds | None
+                 normal_b: NDArray[np.float64], joints: JointEnds | None,
+                 gradient: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
                  ) -> NDArray[np.float64]:
     """``g'(0)``, ``g'(1)`` of a ball's gap along each move, mm per unit ``u`` (m, 2).
 
     The gap is the signed distance of the centre ``C(u)`` less ``R``; its gradient at an
     end is the unit normal at that end's contact (``normal_a``, ``normal_b``: the centre
     stands on it), so ``g' = n . C'``. Tip-linear: ``C'`` exactly
-    (:func:`~.sampling.ball_end_slopes`); under the machine's ``joints``: by the
-    one-sided difference over :data:`SLOPE_STEP_U` of the centres the joints place.
+    (:func:`~.sampling.ball_end_slopes`); under the machine's ``joints``, linear in ``u``
+    at the rates ``q_b - q_a``: ``n . C' = d(n . C)/dq . (q_b - q_a)``, exactly, with
+    ``gradient`` the ends' ``d(n . C)/dq`` (:func:`~machines.kinematics.tool_point_gradient`;
+    :func:`measure_chord` gives it, once per location; computed here when not given): no
+    poses inside the move.
     """
     m = len(normal_a)
     if joints is None:
@@ -500,12 +506,14 @@ def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64]
         axes = np.stack([ends.axes_a, ends.axes_b], axis=1).reshape(-1, 3)
         normals = np.stack([normal_a, normal_b], axis=1).reshape(-1, 3)
         return ball_end_slopes(radius_mm, tips, axes, normals, np.arange(0, 2 * m, 2))
-    u = np.array([0.0, SLOPE_STEP_U, 1.0 - SLOPE_STEP_U, 1.0])
-    tips, axes = move_poses(ends, np.broadcast_to(u, (m, u.size)), joints)
-    centres = (tips + radius_mm * axes).reshape(m, u.size, 3)
+    machine, q_a, q_b = joints
+    if gradient is None:
+        gradient = (tool_point_gradient(machine, q_a, radius_mm, normal_a),
+                    tool_point_gradient(machine, q_b, radius_mm, normal_b))
+    rate = q_b - q_a
     out = np.empty((m, 2))
-    out[:, 0] = np.einsum("ij,ij->i", centres[:, 1] - centres[:, 0], normal_a) / SLOPE_STEP_U
-    out[:, 1] = np.einsum("ij,ij->i", centres[:, 3] - centres[:, 2], normal_b) / SLOPE_STEP_U
+    out[:, 0] = np.einsum("ij,ij->i", gradient[0], rate)
+    out[:, 1] = np.einsum("ij,ij->i", gradient[1], rate)
     return out
 
 
