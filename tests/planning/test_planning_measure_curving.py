@@ -84,3 +84,18 @@ def test_a_pass_s_end_piece_reads_no_turn_from_itself():
     back = 3.6 + 0.5 * norm - (0.15 + 0.3 * 8)
     assert curving[12] == pytest.approx(np.arccos(last[0] / norm) / back, rel=1e-9)
     assert curving[13:].max() == 0.0  # (the next pass runs straight)
+
+
+def test_pieces_asked_more_than_once_each_read_their_own_curving():
+    # the estimate asks each seed's two pieces, many of them more than once and out of
+    # path order: each is walked from once, and every answer is its piece's
+    volume = CutVolume(_two_passes(), parse_cutter("ball:6"), 0.05, 0.005)
+    count = len(volume.pass_of)
+    inner = np.array([j for j in range(count)
+                      if 0 < j < count - 1 and volume.pass_of[j - 1] == volume.pass_of[j + 1]])
+    asked = np.random.default_rng(7).choice(inner, size=3 * len(inner))
+    asked[:5] = asked[5]  # (a run of one piece, as neighbouring seeds ask it)
+    assert len(np.unique(asked)) < len(asked)
+    expected = np.array([_by_definition(volume, j) for j in asked])
+    assert np.allclose(_piece_curving(volume, asked), expected, rtol=1e-9, atol=1e-12)
+    assert _piece_curving(volume, np.zeros(0, dtype=np.int64)).shape == (0,)

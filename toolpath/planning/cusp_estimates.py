@@ -624,24 +624,22 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
     big = volume.cutter.radius_mm
     centre = seeds.q + big * seeds.n
     seg = volume.piece_vectors
-    x = np.zeros((n_seed, 3))
-    inside = np.zeros((n_seed, 2))
-    state = np.full(n_seed, RIDGE_NO_PASS)
-    pieces = np.full((n_seed, 2), -1, dtype=np.int64)
+    found = [np.zeros((n_seed, 3)), np.zeros((n_seed, 2)), np.full(n_seed, RIDGE_NO_PASS),
+             np.full((n_seed, 2), -1, dtype=np.int64)]
 
     def search(todo: NDArray[np.int64], radius_mm: float) -> NDArray[np.bool_]:
-        if todo.size == n_seed:  # every seed (the first reach): no copies of them
-            out = ridges(centre, seeds.n, seeds.x_s, seeds.pass_, volume.near_cells,
-                         radius_mm, volume.a, seg, volume.pass_of, big)
-            x[:], inside[:], state[:], pieces[:] = out
-            return state == RIDGE_NO_PASS
+        if todo.size == n_seed:  # every seed (the first reach): its arrays are the result
+            found[:] = ridges(centre, seeds.n, seeds.x_s, seeds.pass_, volume.near_cells,
+                              radius_mm, volume.a, seg, volume.pass_of, big)
+            return found[2] == RIDGE_NO_PASS
+        x, inside, state, pieces = found
         x[todo], inside[todo], state[todo], pieces[todo] = ridges(
             centre[todo], seeds.n[todo], seeds.x_s[todo], seeds.pass_[todo],
             volume.near_cells, radius_mm, volume.a, seg, volume.pass_of, big)
         return state[todo] == RIDGE_NO_PASS
 
     _widening(volume, n_seed, search)
-    return x, inside, state, pieces
+    return tuple(found)
 
 
 def _widening(volume: CutVolume, count: int,

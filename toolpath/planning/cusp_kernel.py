@@ -358,18 +358,28 @@ def path_curving(piece: NDArray[np.int64], e: NDArray[np.float64],
     (``tiny`` at least), the larger of the two sides; a pass's end piece has no neighbour
     beyond the end (no turn that side). (A zero-length piece has no direction: its turn
     reads 90 degrees.)
+
+    A piece asked more than once (the cusp estimate asks each seed's two pieces: about
+    half of them twice or more, neighbouring seeds meeting the same pieces) is walked
+    from once, the pieces asked in path order; each answer is that piece's.
     """
     if not span_mm > 0.0:
         raise ValueError(f"the span of the path's curving must be > 0 mm, got {span_mm!r}")
+    piece = np.asarray(piece, dtype=np.int64)
+    if not piece.size:
+        return np.empty(0)
     length = np.sqrt(np.einsum("ij,ij->i", e, e))
     # each pass's first and last piece
     new_pass = np.flatnonzero(np.diff(pass_of)) + 1
     first = np.concatenate([[0], new_pass]).astype(np.int64)
     last = (np.concatenate([new_pass, [len(e)]]) - 1).astype(np.int64)
     mid = np.cumsum(length) - 0.5 * length  # along the path, mm
-    out = np.empty(len(piece))
-    if out.size:
-        f = np.ascontiguousarray
-        _path_curving(f(piece, dtype=np.int64), f(e, dtype=float), length, mid, first, last,
-                      0.5 * float(span_mm), float(tiny), out)
-    return out
+    asked = np.zeros(len(e), dtype=bool)
+    asked[piece] = True
+    each = np.flatnonzero(asked)  # every piece asked, once, in path order
+    curving = np.empty(len(each))
+    _path_curving(each, np.ascontiguousarray(e, dtype=float), length, mid, first, last,
+                  0.5 * float(span_mm), float(tiny), curving)
+    by_piece = np.empty(len(e))  # (read only at the pieces asked)
+    by_piece[each] = curving
+    return by_piece[piece]
