@@ -160,7 +160,9 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     """The pieces that can reach the rays over each bracket, of its own pass and the others.
 
     The pieces that matter have their centres on the sheet ``lift`` above the surface,
-    within ``lateral`` of the bracket; of those, the ones whose cutters come below the
+    within ``lateral`` of the bracket (sought within ``lateral`` plus the bracket's half
+    chord of its middle's point on the sheet, each bracket by its own:
+    :func:`_sheet_pairs`); of those, the ones whose cutters come below the
     horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
     cutter's reach of the bracket's chord on the surface (plus the chord's sag).
 
@@ -171,8 +173,7 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
     p0, p1 = surface(t, s0), surface(t, s1)
     half = 0.5 * np.linalg.norm(p1 - p0, axis=1)
-    owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
-        half.max()) if m else 0.0)
+    owner, item = _sheet_pairs(volume, mid + volume.lift * mid_n, volume.lateral + half)
     sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
     if not volume.ball:
         near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon
@@ -182,6 +183,37 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     owner, item = owner[near], item[near]
     mine = volume.pass_of[item] == own[owner]
     return ray_ranges(owner[mine], item[mine], m), ray_ranges(owner[~mine], item[~mine], m)
+
+
+#: Brackets whose pieces are sought together reach at most this many times as far as the
+#: shortest of them (:func:`_sheet_pairs`).
+REACH_SPREAD = 1.1
+
+
+def _sheet_pairs(volume: CutVolume, centre: NDArray[np.float64], radius: NDArray[np.float64]
+                 ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The pieces within at least ``radius[i]`` of ``centre[i]``: (row, piece) pairs.
+
+    Rows sought together, in groups of radii within :data:`REACH_SPREAD` of each other
+    (each group's pairs within its largest radius): a pass end's long bracket does not
+    widen every other bracket's search to its own reach, which would seek the pieces of
+    an area growing as the square of it for every row (and measure each against the
+    bracket's chord, only to leave out those beyond its reach).
+    """
+    if not len(centre):
+        return volume.pairs(centre, radius=0.0)
+    order = np.argsort(radius, kind="stable")
+    r = radius[order]
+    owners, items = [], []
+    lo = 0
+    while lo < r.size:
+        hi = int(np.searchsorted(r, REACH_SPREAD * r[lo], side="right"))
+        rows = order[lo:hi]
+        owner, item = volume.pairs(centre[rows], radius=float(r[hi - 1]))
+        owners.append(rows[owner])
+        items.append(item)
+        lo = hi
+    return np.concatenate(owners), np.concatenate(items)
 
 
 class _HeightDifference:
