@@ -65,7 +65,8 @@ class SearchSeeds(NamedTuple):
         live = np.flatnonzero(ss < 1.0 - ROUND_OFF)
         columns = (st, ss, sp, x_s, seed_q, seed_n)
         if live.size < st.size:  # (else the arrays as they are: no copies of every seed)
-            columns = tuple(a[live] for a in columns)
+            # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+            columns = tuple(a.take(live, axis=0) for a in columns)
         return cls(*columns, live), others
 
 
