@@ -209,7 +209,7 @@ def _sheet_pairs(volume: CutVolume, centre: NDArray[np.float64], radius: NDArray
     lo = 0
     while lo < r.size:
         hi = int(np.searchsorted(r, REACH_SPREAD * r[lo], side="right"))
-        rows = order[lo:hi]
+        rows = np.sort(order[lo:hi])  # (each group's pairs by row: runs a merge orders)
         owner, item = volume.pairs(centre[rows], radius=float(r[hi - 1]))
         owners.append(rows[owner])
         items.append(item)
