@@ -62,6 +62,51 @@ dilated floor and ``min_k lambda_k`` over the run's (or half's) pieces, a pass o
 without a Newton step. On the bull-nose blade's prefix that least plane stands a median
 0.9 um below the least entry of the pieces (:func:`support_floor`).
 
+**Blocks of support planes.** That pass is over every piece of a run or half, for every
+floor a dexel measures: on the bull-nose blade's fine model (runs of thousands of pieces a
+fraction of a micrometre long) 58 floors of some 3,000 pieces each per dexel, 8 billion
+planes on a 3,000-line prefix and most of its verification's time. So the pieces of each
+run are cut in *blocks* of :data:`SUPPORT_BLOCK` consecutive pieces, each with one plane
+bound on all its pieces. Write the numerator of ``lambda_k`` as
+``nu . P - max(H(a_k, u_k), H(b_k, u_k)) - m`` with ``b_k = a_k + e_k`` and
+
+.. math::
+
+    H(x, u) = \nu \cdot x + \rho_0 |\nu \times u| + L \max(0, \nu \cdot u) + r,
+
+which is convex in ``(x, u)`` (a linear term, a norm of a linear map, a maximum of linear
+terms; for any vector ``u``, not only a unit one) and Lipschitz:
+``|H(x, u) - H(x', u')| <= |x - x'| + (rho0 + L) |u - u'|``. Along the segment
+``z(t) = (x(t), u(t)) = (1 - t) (s0, u0) + t (s1, u1)`` from the block's first piece's
+start and axis to its last piece's end and axis, ``H(z(t))`` is convex in ``t``, so at
+most its larger end. For either end ``x`` of piece ``k``, take ``t_x`` projecting ``x``
+onto the positions' segment and ``t_u`` projecting ``u_k`` onto the axes' (any two places
+would do): ``nu . x <= nu . x(t_x) + |x - x(t_x)|``, ``x(t)`` is affine so
+``nu . x(t_x) = nu . x(t_u) + (t_x - t_u) nu . (s1 - s0)``, and
+``f(u_k) <= f(u(t_u)) + (rho0 + L) |u_k - u(t_u)|`` (``f = H - nu . x``): so
+
+.. math::
+
+    \max_k H(\cdot, u_k) \le \max(H(s_0, u_0), H(s_1, u_1)) + \zeta_x
+        + (\rho_0 + L) \zeta_u + \tau |\nu \cdot (s_1 - s_0)| + \epsilon
+
+with ``zeta_x``, ``zeta_u``, ``tau`` the largest ``|x - x(t_x)|``, ``|u_k - u(t_u)|`` and
+``|t_x - t_u|`` over the block (measured once; ``t_u = t_x`` where the axis does not
+turn). Projecting each on its own keeps ``zeta`` the sagittas of the path and of the
+axes' turn over a block: pairing a piece's end with its own axis at one ``t`` would
+charge a whole piece's turn, ``(rho0 + L)`` times 13 urad = 0.3 um on the blade's fine
+pieces; ``tau`` is charged along ``s1 - s0`` only, to which the sweep's normal at an
+entry stands nearly square. ``epsilon`` = :data:`_BLOCK_PAD_MM` covers the rounding of
+both sides, and the block's
+plane ``(nu . P - that - m) / (-nu . d)`` lies at or below every ``lambda_k`` of its
+pieces, as computed. :func:`run_floor` takes the block's plane where it is not below the
+best so far (``limit``) and its pieces' ``lambda_k`` one by one where it is: the least is
+then the same as the pass over every piece wherever that lies below ``limit`` (the piece
+giving it is in a block whose plane lies lower still, so opened), and at or above
+``limit`` wherever that does (every term is), so the walks take the same decisions, open
+the same halves and measure the same pieces (the same pairs count), for a block's two
+planes instead of its pieces' ``SUPPORT_BLOCK`` where the block's plane decides.
+
 A run takes, from its first piece, as many pieces as keep its ``delta`` within
 ``max_dilation_mm``, its length within ``max_length_mm`` and its count within
 ``max_pieces`` (found by doubling, then halving, the count): a jump in the path (a rapid,
@@ -82,9 +127,9 @@ from .capsule_search import ROUNDING_SLACK_MM
 from .pieces import Pieces
 from .torus import CONVERGED_MM, sweep_entry_normal, sweep_exit
 
-__all__ = ["ENTRY_MARGIN_MM", "RUN_DILATION_MM", "RUN_LENGTH_MM", "RUN_PIECES", "PieceRuns",
-           "floor_entry", "piece_runs", "run_floor", "span_reference",
-           "support_floor"]
+__all__ = ["ENTRY_MARGIN_MM", "RUN_DILATION_MM", "RUN_LENGTH_MM", "RUN_PIECES",
+           "SUPPORT_BLOCK", "PieceRuns", "blocked_support_floor", "floor_entry", "piece_runs",
+           "run_floor", "span_reference", "support_floor"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -107,12 +152,21 @@ RUN_LENGTH_MM: Final[float] = 1.0
 widens every dexel's walk over the runs' grid (long straight pieces of a 3-axis program
 would otherwise make runs metres long)."""
 
+SUPPORT_BLOCK: Final[int] = 128
+"""Most pieces in one block of support planes (module docstring, *Blocks*): a block's
+plane costs two pieces' planes and decides for all of its pieces where it lies at or
+above the best so far."""
+
 ENTRY_MARGIN_MM: Final[float] = 2.0 * CONVERGED_MM
 """Added to every run's dilation: a piece's entry as measured (a point within
 ``CONVERGED_MM`` of its sweep) stays at or after the run's."""
 
 #: Relative widening of a measured dilation (the rounding of its sums).
 _ROUNDING: Final[float] = 1e-9
+
+#: Added to a block's support bound, mm (``epsilon`` of the module docstring): the two
+#: sides' rounding, some 1e-13 mm at a metre from the origin, far inside it.
+_BLOCK_PAD_MM: Final[float] = 1e-9
 
 #: Relative (and absolute, mm) widening of a span's path length from the run's prefix
 #: sums: up to :data:`RUN_PIECES` terms of a run at most a few millimetres long, each
@@ -148,6 +202,13 @@ class PieceRuns:
         piece: the path length to its start through the pieces and the gaps between
         them, mm, and the steps ``|a_{m+1} - a_m|`` of the axis summed
         (:func:`span_reference` bounds any span's dilation from them).
+    block_of : ndarray of int64, shape (pieces,)
+        Per piece its block of support planes (module docstring, *Blocks*; blocks are
+        numbered in piece order and never cross a run).
+    block_span : ndarray of int64, shape (blocks, 2)
+        A block's pieces are ``block_span[b, 0] <= piece < block_span[b, 1]``.
+    block_slack : ndarray, shape (blocks, 3)
+        ``zeta_x`` (mm), ``zeta_u`` and ``tau`` of each block, widened for rounding.
     """
 
     start: IntArray
@@ -162,6 +223,9 @@ class PieceRuns:
     half_mm: FloatArray
     along_mm: FloatArray
     turned: FloatArray
+    block_of: IntArray
+    block_span: IntArray
+    block_slack: FloatArray
 
     @property
     def size(self) -> int:
@@ -174,7 +238,8 @@ class PieceRuns:
         return PieceRuns(f(self.start[rows]), f(self.stop[rows]), f(self.c0[rows]),
                          f(self.chord[rows]), f(self.axis[rows]), f(self.height_mm[rows]),
                          f(self.dilation_mm[rows]), f(self.mid[rows]), f(self.spread_mm[rows]),
-                         f(self.half_mm[rows]), self.along_mm, self.turned)
+                         f(self.half_mm[rows]), self.along_mm, self.turned, self.block_of,
+                         self.block_span, self.block_slack)
 
     @property
     def max_spread_mm(self) -> float:
@@ -337,19 +402,78 @@ def support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz: float,
 
 
 @numba.njit(cache=True)
+def _plane_height(nx: float, ny: float, nz: float, x: FloatArray, u: FloatArray,
+                  height: float, core_radius: float, corner_radius: float) -> float:
+    """``H(x, u)`` of the module docstring (*Blocks*): the support of a cutter at ``x``."""
+    c = nx * u[0] + ny * u[1] + nz * u[2]
+    sx = ny * u[2] - nz * u[1]
+    sy = nz * u[0] - nx * u[2]
+    sz = nx * u[1] - ny * u[0]
+    sine = max(math.sqrt(sx * sx + sy * sy + sz * sz), math.sqrt(max(1.0 - c * c, 0.0)))
+    return (nx * x[0] + ny * x[1] + nz * x[2] + core_radius * sine + height * max(c, 0.0)
+            + corner_radius)
+
+
+@numba.njit(cache=True)
+def blocked_support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz: float,
+                          first: int, stop: int, limit: float, a: FloatArray, e: FloatArray,
+                          axis: FloatArray, height: FloatArray, core_radius: float,
+                          corner_radius: float, block_of: IntArray, block_span: IntArray,
+                          block_slack: FloatArray) -> float:
+    """:func:`support_floor` wherever it lies below ``limit``; at or above it wherever it does.
+
+    Block by block (module docstring, *Blocks*): a block's one plane where it is not below
+    ``limit``, its pieces' planes (over ``first <= k < stop`` only) where it is. A block
+    holding pieces outside the span bounds the span's too (the least over more pieces is
+    no larger).
+    """
+    nd = nx * d[0] + ny * d[1] + nz * d[2]
+    if not nd < 0.0:
+        return -math.inf
+    if stop <= first:
+        return math.inf
+    at = nx * p[0] + ny * p[1] + nz * p[2]
+    least = math.inf
+    end = np.empty(3)
+    for b in range(block_of[first], block_of[stop - 1] + 1):
+        b0, b1 = block_span[b, 0], block_span[b, 1]
+        k = b1 - 1
+        for c in range(3):
+            end[c] = a[k, c] + e[k, c]
+        top = max(_plane_height(nx, ny, nz, a[b0], axis[b0], height[b0], core_radius,
+                                corner_radius),
+                  _plane_height(nx, ny, nz, end, axis[k], height[k], core_radius,
+                                corner_radius))
+        along = abs(nx * (end[0] - a[b0, 0]) + ny * (end[1] - a[b0, 1])
+                    + nz * (end[2] - a[b0, 2]))
+        top += (block_slack[b, 0] + (core_radius + height[b0]) * block_slack[b, 1]
+                + block_slack[b, 2] * along + _BLOCK_PAD_MM)
+        plane = (at - top - ENTRY_MARGIN_MM) / -nd
+        if not plane < limit:
+            least = min(least, plane)
+            continue
+        least = min(least, support_floor(p, d, nx, ny, nz, max(first, b0), min(stop, b1), a,
+                                         e, axis, height, core_radius, corner_radius))
+    return least
+
+
+@numba.njit(cache=True)
 def run_floor(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
               ref_axis: FloatArray, ref_height: float, core_radius: float,
               corner_radius: float, dilation: float, lo: float, hi: float, best: float,
               first: int, stop: int, a: FloatArray, e: FloatArray, axis: FloatArray,
-              height: FloatArray) -> float:
+              height: FloatArray, block_of: IntArray, block_span: IntArray,
+              block_slack: FloatArray) -> float:
     """A lower bound on what any of the pieces ``first <= k < stop`` leaves on a dexel.
 
     The pieces lie inside the reference (``c0``, ``chord``, ``ref_axis``,
     ``ref_height``) dilated by ``dilation`` (corner radius ``corner_radius + dilation``;
     ``lo, hi`` its :func:`~verification.torus.sweep_bound`). Its :func:`floor_entry`;
     where that lies below ``best``, the larger of it and the pieces' least support plane
-    at the dilated sweep's normal there (:func:`support_floor`). ``inf`` where no piece
-    reaches the design point, ``lo`` where that is not below ``best``.
+    at the dilated sweep's normal there (:func:`support_floor`, by blocks:
+    :func:`blocked_support_floor`, the same value wherever the result lies below
+    ``best``). ``inf`` where no piece reaches the design point, ``lo`` where that is not
+    below ``best``; the blocks are :class:`PieceRuns`'.
     """
     floor, gx, gy, gz = _dilated_floor(p, d, c0, chord, ref_axis, ref_height, core_radius,
                                        corner_radius + dilation, lo, hi, best)
@@ -358,8 +482,10 @@ def run_floor(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     norm = math.sqrt(gx * gx + gy * gy + gz * gz)
     if not norm > 0.0:
         return floor
-    return max(floor, support_floor(p, d, gx / norm, gy / norm, gz / norm, first, stop, a, e,
-                                    axis, height, core_radius, corner_radius))
+    return max(floor, blocked_support_floor(p, d, gx / norm, gy / norm, gz / norm, first,
+                                            stop, best, a, e, axis, height, core_radius,
+                                            corner_radius, block_of, block_span,
+                                            block_slack))
 
 
 @numba.njit(cache=True)
@@ -381,6 +507,69 @@ def _prefixes(a: FloatArray, e: FloatArray, axis: FloatArray, start: IntArray,
             tz = axis[k, 2] - axis[k - 1, 2]
             turned[k] = turned[k - 1] + math.sqrt(tx * tx + ty * ty + tz * tz)
     return along, turned
+
+
+@numba.njit(cache=True)
+def _blocks(a: FloatArray, e: FloatArray, axis: FloatArray, start: IntArray, stop: IntArray,
+            size: int) -> tuple[IntArray, IntArray, FloatArray]:
+    """Each run's pieces in blocks of ``size`` (module docstring, *Blocks*).
+
+    Per piece its block; per block its span and ``zeta_x, zeta_u, tau``, widened for
+    rounding.
+    """
+    n = a.shape[0]
+    block_of = np.zeros(n, dtype=np.int64)
+    count = 0
+    for r in range(start.shape[0]):
+        count += (stop[r] - start[r] + size - 1) // size
+    span = np.empty((count, 2), dtype=np.int64)
+    slack = np.zeros((count, 3))
+    x = np.empty(3)
+    b = 0
+    for r in range(start.shape[0]):
+        for b0 in range(start[r], stop[r], size):
+            b1 = min(b0 + size, stop[r])
+            span[b, 0], span[b, 1] = b0, b1
+            last = b1 - 1
+            s0, u0, u1 = a[b0], axis[b0], axis[last]
+            dx = a[last, 0] + e[last, 0] - s0[0]
+            dy = a[last, 1] + e[last, 1] - s0[1]
+            dz = a[last, 2] + e[last, 2] - s0[2]
+            dd = dx * dx + dy * dy + dz * dz
+            vx, vy, vz = u1[0] - u0[0], u1[1] - u0[1], u1[2] - u0[2]
+            vv = vx * vx + vy * vy + vz * vz
+            worst_x = 0.0
+            worst_u = 0.0
+            worst_t = 0.0
+            for k in range(b0, b1):
+                block_of[k] = b
+                # the axis's own place on the axes' segment (any place bounds it)
+                ux, uy, uz = axis[k, 0] - u0[0], axis[k, 1] - u0[1], axis[k, 2] - u0[2]
+                t_u = -1.0
+                if vv > 0.0:
+                    t_u = min(max((ux * vx + uy * vy + uz * vz) / vv, 0.0), 1.0)
+                for end in range(2):
+                    for c in range(3):
+                        x[c] = a[k, c] + (e[k, c] if end == 1 else 0.0)
+                    t = 0.0
+                    if dd > 0.0:
+                        t = min(max(((x[0] - s0[0]) * dx + (x[1] - s0[1]) * dy
+                                     + (x[2] - s0[2]) * dz) / dd, 0.0), 1.0)
+                    gx = x[0] - s0[0] - t * dx
+                    gy = x[1] - s0[1] - t * dy
+                    gz = x[2] - s0[2] - t * dz
+                    worst_x = max(worst_x, math.sqrt(gx * gx + gy * gy + gz * gz))
+                    tu = t if t_u < 0.0 else t_u
+                    hx = ux - tu * vx
+                    hy = uy - tu * vy
+                    hz = uz - tu * vz
+                    worst_u = max(worst_u, math.sqrt(hx * hx + hy * hy + hz * hz))
+                    worst_t = max(worst_t, abs(t - tu))
+            slack[b, 0] = worst_x * (1.0 + _ROUNDING)
+            slack[b, 1] = worst_u * (1.0 + _ROUNDING)
+            slack[b, 2] = worst_t * (1.0 + _ROUNDING)
+            b += 1
+    return block_of, span, slack
 
 
 @numba.njit(cache=True)
@@ -450,7 +639,8 @@ def _runs(a: FloatArray, e: FloatArray, axis: FloatArray, height: FloatArray,
 
 def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float,
                max_dilation_mm: float = RUN_DILATION_MM, max_pieces: int = RUN_PIECES,
-               max_length_mm: float = RUN_LENGTH_MM) -> PieceRuns:
+               max_length_mm: float = RUN_LENGTH_MM,
+               block_pieces: int = SUPPORT_BLOCK) -> PieceRuns:
     """Consecutive pieces gathered in runs, each inside its dilated reference piece.
 
     Parameters
@@ -465,6 +655,8 @@ def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float
         Most pieces in a run.
     max_length_mm : float
         Longest run (its reference segment), mm.
+    block_pieces : int
+        Most pieces in a block of support planes.
 
     Returns
     -------
@@ -491,4 +683,5 @@ def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float
     return PieceRuns(start, stop, f(c0), f(chord), f(ref_axis), f(pieces.height_mm[start]),
                      delta * (1.0 + _ROUNDING) + ENTRY_MARGIN_MM, f(mid),
                      spread * (1.0 + _ROUNDING), half * (1.0 + _ROUNDING),
-                     *_prefixes(a, e, axis, start, stop))
+                     *_prefixes(a, e, axis, start, stop),
+                     *_blocks(a, e, axis, start, stop, int(block_pieces)))

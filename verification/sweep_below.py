@@ -54,7 +54,8 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           run_c0: FloatArray, run_chord: FloatArray, run_axis: FloatArray,
           run_height: FloatArray, run_dilation: FloatArray, mid: FloatArray,
           half: FloatArray, a: FloatArray, e: FloatArray, axis: FloatArray,
-          height: FloatArray, along: FloatArray, turned: FloatArray, core_radius: float,
+          height: FloatArray, along: FloatArray, turned: FloatArray, block_of: IntArray,
+          block_span: IntArray, block_slack: FloatArray, core_radius: float,
           corner_radius: float, widen: float, outer: float, widest: float,
           listed: IntArray, marked: NDArray[np.bool_]) -> None:
     # ``outer``: every widened piece lies within this plus its half length of its midpoint
@@ -90,7 +91,8 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 if not run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                  run_height[slot], core_radius, corner_radius + widen,
                                  run_dilation[slot], lo, hi, bound, run_start[slot],
-                                 run_stop[slot], a, e, axis, height) < bound:
+                                 run_stop[slot], a, e, axis, height, block_of, block_span,
+                                 block_slack) < bound:
                     continue
                 lows[0], highs[0] = run_start[slot], run_stop[slot]
                 depth = 1
@@ -122,7 +124,8 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                                                  core_radius, corner_radius + widen + grow)
                             if not run_floor(p, d, a[lo_i], chord, axis[ref], height[ref],
                                              core_radius, corner_radius + widen, grow, lo, hi,
-                                             bound, lo_i, hi_j, a, e, axis, height) < bound:
+                                             bound, lo_i, hi_j, a, e, axis, height, block_of,
+                                             block_span, block_slack) < bound:
                                 continue
                         lows[depth], highs[depth] = lo_i, hi_j
                         depth += 1
@@ -185,8 +188,9 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
               runs.half_mm, runs.spread_mm, runs.start, runs.stop, runs.c0, runs.chord,
               runs.axis, runs.height_mm, runs.dilation_mm, f(mid, dtype=float),
               f(half_mm, dtype=float), f(a, dtype=float), f(e, dtype=float),
-              f(axis, dtype=float), height_mm, runs.along_mm, runs.turned,
-              float(core_radius_mm), float(corner_radius_mm), float(widen_mm),
+              f(axis, dtype=float), height_mm, runs.along_mm, runs.turned, runs.block_of,
+              runs.block_span, runs.block_slack, float(core_radius_mm),
+              float(corner_radius_mm), float(widen_mm),
               piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm + widen_mm),
               runs.max_spread_mm, f(listed, dtype=np.int64), marked)
     return marked

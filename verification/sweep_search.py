@@ -20,7 +20,8 @@ a candidate, as the best so far (its pieces seldom change from one dexel to the 
    exact entry (``inf`` where the dilated sweep leaves the dexel at or below the design
    point: no piece inside it reaches there, the other side of a thin blade), raised to
    the pieces' least support plane at its normal there
-   (:func:`~verification.piece_runs.run_floor`); the run of
+   (:func:`~verification.piece_runs.run_floor`, a block's one plane for its pieces where
+   that is not below the best: the same decisions as every piece's); the run of
    lowest floor, when no cheap bound lies lower, is opened: halved, each half's own
    reference and dilation measured, while a half's floor lies below the best, down to
    single pieces, which are the candidates (midpoint within the search radius) and are
@@ -99,7 +100,9 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           run_chord: FloatArray, run_axis: FloatArray, run_height: FloatArray,
           run_dilation: FloatArray, mid: FloatArray, half: FloatArray, a: FloatArray,
           e: FloatArray, axis: FloatArray, height: FloatArray, along: FloatArray,
-          turned: FloatArray, core_radius: float, corner_radius: float, behind_cosine: float,
+          turned: FloatArray, block_of: IntArray, block_span: IntArray,
+          block_slack: FloatArray, core_radius: float, corner_radius: float,
+          behind_cosine: float,
           outer: float, lam: FloatArray, piece: IntArray,
           behind: NDArray[np.bool_], pairs: IntArray) -> None:
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
@@ -213,7 +216,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                         floor = run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
                                           run_height[slot], core_radius, corner_radius,
                                           run_dilation[slot], bounds[v], tops[v], limit,
-                                          run_start[slot], run_stop[slot], a, e, axis, height)
+                                          run_start[slot], run_stop[slot], a, e, axis, height,
+                                          block_of, block_span, block_slack)
                         if floor < limit:
                             bounds[v] = floor
                             pending[waiting], floors_of[waiting] = v, floor
@@ -266,7 +270,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                                                   height[ref], core_radius, corner_radius,
                                                   grow, lo, hi,
                                                   tie_limit(best, lo_i, best_piece), lo_i,
-                                                  hi_j, a, e, axis, height)
+                                                  hi_j, a, e, axis, height, block_of,
+                                                  block_span, block_slack)
                         halves[side] = entry
                     for side in (1, 0) if halves[0] <= halves[1] else (0, 1):
                         if halves[side] < tie_limit(best, i if side == 0 else h, best_piece):
@@ -384,7 +389,8 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
               runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
               runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
               f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
-              height_mm, runs.along_mm, runs.turned, float(core_radius_mm),
+              height_mm, runs.along_mm, runs.turned, runs.block_of, runs.block_span,
+              runs.block_slack, float(core_radius_mm),
               float(corner_radius_mm), float(behind_cosine),
               piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm), lam, piece, behind,
               pairs)

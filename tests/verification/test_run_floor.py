@@ -10,7 +10,10 @@ straight or bending), for dexels from below, nearly along a flat bottom, from be
 (``a . d < BEHIND_COSINE``) and anywhere, with random normals too and the pieces widened
 as the fine model's walk widens them. And it must prune: on 5-axis passes with a leading,
 turning bull-nose the walk measures a fraction of the halves and pieces the dilated floor
-alone opened, with the same values as the pair search.
+alone opened, with the same values as the pair search. The planes taken block by block
+(:func:`~verification.piece_runs.blocked_support_floor`, one plane for a block's pieces
+where it does not lie below the best) give the walks the very decisions of the pass over
+every piece, and their planes stand within a fraction of a micrometre of the pieces'.
 """
 
 import numpy as np
@@ -24,6 +27,7 @@ from verification import VerifyOptions
 from verification.capsule_search import pair_values
 from verification.dexels import BEHIND_COSINE, SweepIndex
 from verification.piece_runs import (
+    blocked_support_floor,
     floor_entry,
     piece_runs,
     run_floor,
@@ -139,7 +143,8 @@ def test_a_runs_floor_never_exceeds_what_its_pieces_leave(rng, spec, height_mm):
                             floor = run_floor(points[q], dirs[q], c0, d_chord, ref_axis,
                                               height_mm, core, corner + widen, dilation, lo,
                                               hi, best, lo_k, hi_k, pieces.a, pieces.e,
-                                              pieces.axis, pieces.height_mm)
+                                              pieces.axis, pieces.height_mm, runs.block_of,
+                                              runs.block_span, runs.block_slack)
                             assert floor <= value[q], (floor, value[q], q)
                             if np.isfinite(entry[q]) and np.isfinite(value[q]):
                                 assert floor <= entry[q]
@@ -240,7 +245,100 @@ def test_a_large_flat_bottoms_floor_keeps_axes_1e8_rad_apart(rng, core_mm):
                              runs.dilation_mm[0])
         floor = run_floor(p, d, runs.c0[0], runs.chord[0], runs.axis[0], height_mm, core_mm,
                           0.0, runs.dilation_mm[0], lo, hi, np.inf, 0, 3, pieces.a, pieces.e,
-                          pieces.axis, pieces.height_mm)
+                          pieces.axis, pieces.height_mm, runs.block_of, runs.block_span,
+                          runs.block_slack)
         _, least = _least_values(p[None], d[None], pieces, 0, 3, core_mm, 0.0, 0.0)
         above += bool(floor > least[0])
     assert above == 0
+
+
+@pytest.mark.parametrize(("block", "height_mm"), [(4, 1.0), (16, 16.0), (128, 1.0)])
+def test_block_planes_take_the_pass_over_every_pieces_decisions(rng, block, height_mm):
+    # the shortcut against the full pass (support_floor), on paths bending and jumping,
+    # axes turning fast and slowly: below a limit the same value (bit for bit), at or
+    # above it wherever the pass is; each block's plane alone (a limit of -inf opens
+    # none) a lower bound on its pieces'
+    core, corner = 3.0, 1.0
+    decided = checked = 0
+    for turn_per_mm, bend in ((0.1, 0.0), (5.0, 0.05), (60.0, 0.5), (5.0, 0.0)):
+        pieces = _pieces_turning(rng, 400, turn_per_mm=turn_per_mm, bend=bend,
+                                 height_mm=height_mm)
+        runs = piece_runs(pieces, core_radius_mm=core, corner_radius_mm=corner,
+                          block_pieces=block)
+        spans = runs.block_span
+        assert spans[0, 0] == 0 and spans[-1, 1] == pieces.size
+        assert np.array_equal(spans[1:, 0], spans[:-1, 1])
+        assert np.all(spans[:, 1] - spans[:, 0] <= block)
+        assert np.all(runs.block_of[spans[:, 0]] == np.arange(spans.shape[0]))
+        blocks = (runs.block_of, runs.block_span, runs.block_slack)
+        for _ in range(12):
+            run = int(rng.integers(runs.size))
+            first, stop = int(runs.start[run]), int(runs.stop[run])
+            if rng.random() < 0.5 and stop - first > 2:  # a half, as the walks halve
+                first, stop = sorted(int(x) for x in rng.integers(first, stop + 1, 2))
+                stop = max(stop, first + 1)
+            points, dirs = _dexels(rng, pieces, first, stop, 40, core + corner, corner,
+                                   height_mm)
+            for q in range(points.shape[0]):
+                k = int(rng.integers(first, stop))
+                # a normal about where the pieces' bottoms face the dexel, or any
+                nu = _unit(-pieces.axis[k] + rng.normal(size=3) * rng.choice([0.05, 1.0]))
+                args = (pieces.a, pieces.e, pieces.axis, pieces.height_mm, core, corner)
+                full = support_floor(points[q], dirs[q], *nu, first, stop, *args)
+                if not np.isfinite(full):
+                    continue
+                alone = blocked_support_floor(points[q], dirs[q], *nu, first, stop, -np.inf,
+                                              *args, *blocks)
+                assert alone <= full
+                checked += 1
+                for limit in (full - 1e-3, full - 1e-9, full, full + 1e-9, full + 1e-3,
+                              np.inf):
+                    got = blocked_support_floor(points[q], dirs[q], *nu, first, stop, limit,
+                                                *args, *blocks)
+                    if full < limit:
+                        assert got == full, (got, full, limit)
+                    else:
+                        assert got >= limit, (got, full, limit)
+                        decided += got != full
+    assert checked > 500
+    assert decided > 0
+
+
+def test_a_blocks_plane_is_as_tight_as_its_pieces_on_a_smooth_turn(rng):
+    # the fine model's pieces on the bull-nose blade: a fraction of a micrometre each,
+    # the axis turning ~13 urad a piece along a bending pass; a block's one plane (ends
+    # and the sagittas zeta) then stands within nanometres of its pieces' least, so it
+    # decides wherever a piece's plane would by more than that (pairing a piece's end
+    # with its own axis at one place on the block's segment charged 0.3 um)
+    core, corner, height_mm, n = 3.0, 1.0, 20.0, 2000
+    s = np.arange(n + 1) * 3e-4  # 0.3 um pieces along an arc of radius 20 mm
+    path = np.column_stack([20.0 * np.sin(s / 20.0), 20.0 * (1.0 - np.cos(s / 20.0)),
+                            np.zeros(n + 1)])
+    angle = np.arange(n) * 13e-6
+    axes = np.column_stack([np.sin(angle) * 0.2, np.sin(angle), np.cos(angle)])
+    axes = _unit(axes)
+    a, e = path[:-1], np.diff(path, axis=0)
+    ee = np.einsum("ij,ij->i", e, e)
+    pieces = Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(n, dtype=np.int64),
+                    np.zeros(n, dtype=bool), axes, np.full(n, np.nan), np.full(n, np.nan),
+                    np.zeros(1), np.zeros(1, dtype=np.int64), np.full(n, height_mm))
+    runs = piece_runs(pieces, core_radius_mm=core, corner_radius_mm=corner)
+    blocks = (runs.block_of, runs.block_span, runs.block_slack)
+    assert runs.block_span.shape[0] > 10
+    gaps = []
+    for _ in range(300):
+        b = int(rng.integers(runs.block_span.shape[0]))
+        first, stop = (int(x) for x in runs.block_span[b])
+        k = int(rng.integers(first, stop))
+        # a normal square to the path, as the sweep's where a dexel enters its side
+        tangent = _unit(e[k])
+        nu = -axes[k] + rng.normal(size=3) * 0.2
+        nu = _unit(nu - np.dot(nu, tangent) * tangent)
+        p = pieces.mid[k] + rng.uniform(0.5, 3.0) * nu
+        d = -nu
+        args = (pieces.a, pieces.e, pieces.axis, pieces.height_mm, core, corner)
+        full = support_floor(p, d, *nu, first, stop, *args)
+        alone = blocked_support_floor(p, d, *nu, first, stop, -np.inf, *args, *blocks)
+        assert alone <= full
+        gaps.append(full - alone)
+    assert np.max(gaps) < 5e-5
