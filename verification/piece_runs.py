@@ -140,8 +140,9 @@ entry lies below the best value so far, then halved (each half's own, smaller di
 measured) down to single pieces: on the bull-nose 5-axis blade (pieces turning the axis by
 about a micrometre at the cutter's reach) 16 to 60 um took about as long with the dilated
 floor alone; with the pieces' support planes (:func:`run_floor`) the whole program's
-verification takes 135 s CPU at 30 um, 118-120 at 60 and 120 um, 136 at 250, 181 at 15
-(the same figures at each: the runs only prune)."""
+verification took 135 s CPU at 30 um, 118-120 at 60 and 120 um, 136 at 250, 181 at 15
+(the same figures at each: the runs only prune; measured before the block planes of
+:data:`SUPPORT_BLOCK`)."""
 
 RUN_PIECES: Final[int] = 4096
 """Most pieces in one run (the fine model's pieces, 25 times shorter than the whole
