@@ -92,14 +92,15 @@ would do): ``nu . x <= nu . x(t_x) + |x - x(t_x)|``, ``x(t)`` is affine so
 
 with ``zeta_x``, ``zeta_u``, ``tau`` the largest ``|x - x(t_x)|``, ``|u_k - u(t_u)|`` and
 ``|t_x - t_u|`` over the block (measured once; ``t_u = t_x`` where the axis does not
-turn). Projecting each on its own keeps ``zeta`` the sagittas of the path and of the
-axes' turn over a block: pairing a piece's end with its own axis at one ``t`` would
-charge a whole piece's turn, ``(rho0 + L)`` times 13 urad = 0.3 um on the blade's fine
-pieces; ``tau`` is charged along ``s1 - s0`` only, to which the sweep's normal at an
-entry stands nearly square. ``epsilon`` = :data:`_BLOCK_PAD_MM` covers the rounding of
-both sides, and the block's
-plane ``(nu . P - that - m) / (-nu . d)`` lies at or below every ``lambda_k`` of its
-pieces, as computed. :func:`run_floor` takes the block's plane where it is not below the
+turn), plus ``rho0`` times :data:`_SINE_ROUNDING` (a piece's sine as computed may
+stand that far above the true one). Projecting each on its own keeps ``zeta`` the
+sagittas of the path and of the axes' turn over a block: pairing a piece's end with its
+own axis at one ``t`` would charge a whole piece's turn, ``(rho0 + L)`` times 13 urad =
+0.3 um on the blade's fine pieces; ``tau`` is charged along ``s1 - s0`` only, to which
+the sweep's normal at an entry stands nearly square. ``epsilon`` =
+:data:`_BLOCK_PAD_MM` covers the rounding of both sides, and the block's plane
+``(nu . P - that - m) / (-nu . d)`` lies at or below every ``lambda_k`` of its pieces,
+as computed. :func:`run_floor` takes the block's plane where it is not below the
 best so far (``limit``) and its pieces' ``lambda_k`` one by one where it is: the least is
 then the same as the pass over every piece wherever that lies below ``limit`` (the piece
 giving it is in a block whose plane lies lower still, so opened), and at or above
@@ -168,6 +169,13 @@ _ROUNDING: Final[float] = 1e-9
 #: Added to a block's support bound, mm (``epsilon`` of the module docstring): the two
 #: sides' rounding, some 1e-13 mm at a metre from the origin, far inside it.
 _BLOCK_PAD_MM: Final[float] = 1e-9
+
+#: How far a piece's sine, ``max(|nu x u|, sqrt(1 - c^2))`` in :func:`support_floor`, may
+#: stand above the true one: ``c`` rounded by an ulp or two makes ``sqrt(1 - c^2)`` up to
+#: ``sqrt(1.4e-15)`` ~ 3.7e-8 where ``nu`` lies along the axis (|nu x u| ~ 1e-16). A block's
+#: bound (true sines, by convexity) is raised by ``core_radius`` times this, so an inner
+#: piece's rounded-up sine cannot put its plane under the block's (a flat 50's core: 1.25 nm).
+_SINE_ROUNDING: Final[float] = 5e-8
 
 #: Relative (and absolute, mm) widening of a span's path length from the run's prefix
 #: sums: up to :data:`RUN_PIECES` terms of a run at most a few millimetres long, each
@@ -448,7 +456,7 @@ def blocked_support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz
         along = abs(nx * (end[0] - a[b0, 0]) + ny * (end[1] - a[b0, 1])
                     + nz * (end[2] - a[b0, 2]))
         top += (block_slack[b, 0] + (core_radius + height[b0]) * block_slack[b, 1]
-                + block_slack[b, 2] * along + _BLOCK_PAD_MM)
+                + block_slack[b, 2] * along + _BLOCK_PAD_MM + core_radius * _SINE_ROUNDING)
         plane = (at - top - ENTRY_MARGIN_MM) / -nd
         if not plane < limit:
             least = min(least, plane)

@@ -342,3 +342,29 @@ def test_a_blocks_plane_is_as_tight_as_its_pieces_on_a_smooth_turn(rng):
         assert alone <= full
         gaps.append(full - alone)
     assert np.max(gaps) < 5e-5
+
+
+def test_a_blocks_plane_stays_under_pieces_whose_sine_rounds_up():
+    # a flat bottom seen along its axis: nu = -axis to an ulp, where a piece's sine as
+    # computed (sqrt(1 - c^2), c rounded) stands up to ~3.7e-8 above |nu x u| ~ 1e-16; a
+    # flat 50's core makes that 1e-6 mm: the block's plane must still lie at or below
+    # the inner piece's (the reviewer's case: it stood 3.7e-7 mm above before)
+    core, corner, height = 25.0, 0.0, 10.0
+    w = _unit(np.array([0.3, -0.5, 0.8]))
+    axes = np.array([w, _unit(w + np.array([0.0, 1e-16, 3e-16])), w])
+    head = _unit(np.cross(w, [1.0, 0.0, 0.0]))
+    a = np.arange(3)[:, None] * 1e-3 * head
+    e = np.tile(1e-3 * head, (3, 1))
+    ee = np.einsum("ij,ij->i", e, e)
+    pieces = Pieces(a, e, ee, a + 0.5 * e, 0.5 * np.sqrt(ee), np.arange(3),
+                    np.zeros(3, bool), axes, np.full(3, np.nan), np.full(3, np.nan),
+                    np.zeros(1), np.zeros(1, np.int64), np.full(3, height))
+    runs = piece_runs(pieces, core_radius_mm=core, corner_radius_mm=corner)
+    blocks = (runs.block_of, runs.block_span, runs.block_slack)
+    args = (pieces.a, pieces.e, pieces.axis, pieces.height_mm, core, corner)
+    nu, p, d = -w, a[1] + 0.5 * e[1] - 3.0 * w, w.copy()
+    full = support_floor(p, d, *nu, 0, 3, *args)
+    alone = blocked_support_floor(p, d, *nu, 0, 3, -np.inf, *args, *blocks)
+    assert alone <= full
+    for limit in (np.nextafter(full, np.inf), full + 1e-7, full + 1e-6):
+        assert blocked_support_floor(p, d, *nu, 0, 3, limit, *args, *blocks) == full
