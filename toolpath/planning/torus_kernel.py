@@ -303,11 +303,6 @@ def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, leve
                         if j > 0:
                             ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
                         before = here
-        # the own side's bound up to each interval, the next side's from it on
-        for j in range(1, count - 1):
-            ub[0, j] = max(ub[0, j], ub[0, j - 1])
-        for j in range(count - 3, -1, -1):
-            ub[1, j] = max(ub[1, j], ub[1, j + 1])
         best, where = -np.inf, 0.0
         for j in range(count - 1):
             value = min(ub[0, j], ub[1, j])
@@ -333,12 +328,11 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
     ``centre +- reach 2^-k``, ``k = 1 .. levels``: intervals halving towards ``centre``.
     Over an interval ``I = [x_a, x_b]`` each disk's lower arc (convex where it covers both
     ends) stands no higher than at its ends, so ``U(I) = min_i max(f_i(x_a), f_i(x_b))``
-    bounds ``F`` there; ``A(I)``, the largest ``U_own`` of the intervals up to ``I``,
-    bounds ``F_own`` there and to its left (non-decreasing), ``B(I)``, the largest
-    ``U_next`` from ``I`` on, ``F_next`` there and to its right. On each interval
-    ``min(F_own, F_next) <= min(A(I), B(I))``, and the largest of these bounds the ridge
-    whatever the envelopes' shapes (no crossing need be unique). Where the ridge lies
-    near ``centre`` the intervals there are narrow, so the bound is close.
+    bounds ``F`` there (``inf`` where the disk misses an end). On each interval
+    ``min(F_own, F_next) <= min(U_own(I), U_next(I))``, and the largest of these over the
+    intervals bounds the ridge whatever the envelopes' shapes (no crossing need be unique,
+    nor the envelopes monotone). Where the ridge lies near ``centre`` the intervals there
+    are narrow, so the bound is close; away from it wide intervals read high.
 
     Returns the middle ``x`` of the interval giving the bound and the bound (``inf``
     where no disk covers an interval whole on a side that decides it).

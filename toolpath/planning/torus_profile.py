@@ -339,9 +339,9 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     reads the ridge 1.1 to 1.5 times the ray cast where a bull-nose turns round its contact
     (the user's 5-axis blade job, bull:8:1): the pass's poses beside it cut deeper between
     the contacts. The sides, lower envelopes of several poses' disks, need not be convex,
-    nor cross once: the bound over them is :func:`~.torus_kernel.running_bounds` (each
-    side's largest bound up to, or from, each interval of a grid halving towards the
-    contact poses' crossing: every disk lies in a cutter, so no sag is owed), plus the sag
+    nor cross once: the bound over them is :func:`~.torus_kernel.running_bounds` (both
+    sides' arcs bounded over each interval of a grid halving towards the contact poses'
+    crossing: every disk lies in a cutter, so no sag is owed), plus the sag
     all the same, as a margin: the ridge's height over the surface is read at first order
     (:func:`~.cusp_estimates._ridge_heights`) and the ray cast runs along the normal at the
     crest, not the plane's ``y``; without it a seed of the standing dev blade (5-axis,
