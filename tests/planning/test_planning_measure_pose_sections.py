@@ -28,6 +28,10 @@ from toolpath.vectors import move_axes
 #: cylinder's (a few seeds; the cylinder's passes end within its seeds' reach) 2 and up.
 LEAST_SHARE = 0.995
 
+#: The standing blade's sections over the cast at the median, bull:8:1: 1.288 from one
+#: pose of each pass, 1.139 with their pieces' poses (bull:10:2: 1.156, 1.051).
+MEDIAN_SHARE = 1.2
+
 
 def _standing():
     rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
@@ -125,3 +129,14 @@ def test_contact_poses_are_poses_the_pass_takes(monkeypatch):
         np.testing.assert_allclose(tip, tips0 + f[:, None] * way, atol=1e-9)
         np.testing.assert_allclose(
             axis, move_axes(volume.axes0[piece], volume.axes1[piece], f), atol=1e-9)
+
+
+def test_the_pieces_poses_bring_the_pose_sections_near_the_ray_cast(monkeypatch):
+    # the user's own kind of job: the standing blade, bull:8:1, lead 10 deg, 5 axes. One
+    # pose of each pass read the ridge 1.1 to 1.5 times the cast; the poses of the contact
+    # pose's piece and its neighbours (cusp_estimates._piece_poses) lower it, never below
+    # the cast (the test above), so fewer seeds are cast
+    make, options = CASES["standing blade"]
+    ratio = _sections_over_casts(monkeypatch, make, options, "bull:8:1")
+    assert ratio.min() >= LEAST_SHARE, np.sort(ratio)[:5]
+    assert np.median(ratio) <= MEDIAN_SHARE, np.median(ratio)

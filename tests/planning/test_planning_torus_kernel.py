@@ -12,7 +12,13 @@ all rows in numpy.
 
 import numpy as np
 
-from toolpath.planning.torus_kernel import disk_crossings, side_crossings, window_nearest
+from toolpath.planning import torus_profile
+from toolpath.planning.torus_kernel import (
+    disk_crossings,
+    running_bounds,
+    side_crossings,
+    window_nearest,
+)
 from toolpath.tolerances import TINY
 
 
@@ -189,3 +195,65 @@ def test_disk_crossings_equal_the_bisection_over_all_rows_in_numpy():
     for g, w in zip(got, want, strict=True):
         np.testing.assert_array_equal(g, w)
     assert 0.2 < want[2].mean() < 0.95  # (crossed and not)
+
+
+def _envelope(disks, x):
+    """Lowest lower arc of the disks (each (m, S)) at ``x`` (k,): (m, k)."""
+    cx, cy, rho_sq = (v[:, :, None] for v in disks)
+    off = rho_sq - (x[None, None, :] - cx) ** 2
+    with np.errstate(invalid="ignore"):
+        arc = np.where(off >= 0.0, cy - np.sqrt(np.maximum(off, 0.0)), np.inf)
+    return arc.min(axis=1)
+
+
+def test_running_bounds_bound_the_ridge_of_several_poses_everywhere():
+    # several poses a side, tilted and shifted at random: envelopes neither convex nor
+    # crossing once. The bound must stand at or above the ridge, max_x min(F_own, F_next)
+    # over [0, reach], sampled densely (the oracle), and close to it; the contact poses'
+    # crossing (disk_crossings over the first pose of each side) is where the grid halves
+    # towards, as in pose_section_ridges
+    rng = np.random.default_rng(7)
+    m, k, ring, corner = 400, 4, 3.0, 1.0
+    through = np.zeros((m, 3))
+    nu, ex, ey = (np.tile(v, (m, 1)) for v in np.eye(3)[[1, 0, 2]])
+    normal = ey.copy()
+    reach = rng.uniform(0.3, 1.5, m)
+
+    def poses(at):
+        # a lead along the plane's normal (y): the ring's way to the contact runs along
+        # -y, the ring points about it across, in x; contacts near x = at, y = 0
+        axes = np.stack([rng.normal(scale=0.1, size=(m, k)), rng.uniform(0.1, 0.3, (m, k)),
+                         np.ones((m, k))], axis=2)
+        axes /= np.linalg.norm(axes, axis=2, keepdims=True)
+        way = -(normal[:, None] - axes[..., 2:] * axes)
+        way /= np.linalg.norm(way, axis=2, keepdims=True)
+        centres = np.zeros((m, k, 3))
+        centres[..., 0] = at[:, None] + rng.normal(scale=0.3, size=(m, k))
+        centres[..., 1] = -ring * way[..., 1] + rng.normal(scale=0.3, size=(m, k))
+        centres[..., 2] = corner + rng.uniform(0.0, 0.05, (m, k)) - ring * way[..., 2]
+        return centres, axes
+
+    own_c, own_a = poses(np.zeros(m))
+    next_c, next_a = poses(reach)
+    phi = np.linspace(-1.0, 1.0, 33)[None, :] * np.full((m, 1), 0.8)
+    frame = (through, nu, ex, ey)
+    sides = []
+    for centres, axes in ((own_c, own_a), (next_c, next_a)):
+        parts = [torus_profile._disks(centres[:, j], axes[:, j], normal, phi, frame, ring,
+                                      corner) for j in range(k)]
+        sides.append(tuple(np.concatenate(v, axis=1) for v in zip(*parts, strict=True)))
+    first = [tuple(v[:, :phi.shape[1]] for v in side) for side in sides]
+    centre, _, _ = disk_crossings(*first, reach, 32)
+    _, bound = running_bounds(frame, normal, (own_c, own_a, next_c, next_a), phi, ring,
+                              corner, reach, centre, 12)
+    x = np.linspace(0.0, 1.0, 20_001)[None, :] * reach[:, None]
+    ridge = np.empty(m)
+    for row in range(m):
+        one = [tuple(v[row:row + 1] for v in side) for side in sides]
+        ridge[row] = np.minimum(_envelope(one[0], x[row]), _envelope(one[1], x[row])).max()
+    finite = np.isfinite(ridge)
+    assert finite.sum() > m // 2
+    assert (bound[finite] >= ridge[finite] - 1e-12).all(), (bound - ridge)[finite].min()
+    # close where the ridge lies near the contact poses' crossing (the grid halves there);
+    # elsewhere coarse intervals read it high
+    assert np.mean(bound[finite] - ridge[finite] < 1e-3) >= 0.1  # (0.13 of these rows)

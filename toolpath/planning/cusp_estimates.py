@@ -36,8 +36,8 @@ from .torus_profile import pose_section_ridges, profile_ridges
 __all__ = ["AXIS_WAY_COSINE", "BEND_AWAY", "BEND_AWAY_CAP", "BEND_AWAY_GROWTH",
            "BEND_AWAY_SHARE", "CARRY_PIECES", "CARRY_TURN", "CONTACT_ALONG_SHARE",
            "CONTACT_WALKS", "CONTACT_WINDOW", "DEEP_FLAT_SHARE", "GENTLE_CURVING",
-           "PIVOT_TURN", "RIDGE_SINK_SHARE", "TIGHT_SINK_SHARE", "ball_cusp_estimates",
-           "torus_cusp_estimates"]
+           "PIVOT_TURN", "POSE_FRACTIONS", "POSE_PIECES", "RIDGE_SINK_SHARE",
+           "TIGHT_SINK_SHARE", "ball_cusp_estimates", "torus_cusp_estimates"]
 
 
 #: Share of how deep the ridge lies inside other tubes by which it sinks: where one side's
@@ -270,7 +270,8 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     live &= facing
     # (both poses found and facing the seed's surface: their sections bound the ridge)
     posed = own_ok & next_ok & facing
-    poses = (ok[posed], own_c[posed], next_c[posed], own_axis[posed], next_axis[posed])
+    poses = (ok[posed], own_c[posed], next_c[posed], own_axis[posed], next_axis[posed],
+             j_own[posed], j_next[posed])
     ok, own_way, next_way = ok[live], own_way[live], next_way[live]
     own_c, own_axis, next_c, next_axis = own_c[live], own_axis[live], next_c[live], next_axis[live]
     # the sections in the plane of the seed's line of t (where the ray cast meets the
@@ -310,9 +311,12 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
     ``out`` is NaN there (a cutter turning round its contact, a pass ending, bending away,
     running along its axis), the ridge between the two poses' own sections
     (:func:`~.torus_profile.pose_section_ridges`: each pose lies inside what its pass
-    removes) over the surface as for the prisms' (:func:`_ridge_heights`).
+    removes) over the surface as for the prisms' (:func:`_ridge_heights`), with the poses
+    of the two contact poses' pieces and their neighbours (:func:`_piece_poses`) joining
+    each side: every pose of a piece lies inside what the toolpath removes, so their
+    sections only lower the bound (to 1.06-1.14 of the ray cast at the median, from 1.4).
     """
-    rows, own_c, next_c, own_axis, next_axis = poses
+    rows, own_c, next_c, own_axis, next_axis, j_own, j_next = poses
     todo = np.flatnonzero(np.isnan(out[rows]))
     if not todo.size:
         return
@@ -333,8 +337,43 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
                                        next_axis[todo], n, seeds.x_s[rows], through=q,
                                        across=across, reach_mm=reach,
                                        radius_mm=cutter.radius_mm,
-                                       corner_radius_mm=cutter.corner_radius_mm)
+                                       corner_radius_mm=cutter.corner_radius_mm,
+                                       more_poses=(*_piece_poses(volume, j_own[todo]),
+                                                   *_piece_poses(volume, j_next[todo])))
     out[rows[found]] = _ridge_heights(surface, seeds, rows[found], point[found])
+
+
+#: The pieces whose poses join a contact pose's section in the bound
+#: (:func:`_pose_section_bounds`): its own and this many either side ...
+POSE_PIECES = 1
+
+#: ... each at this many even fractions (its start, then on; the last piece's end too).
+POSE_FRACTIONS = 3
+
+
+def _piece_poses(volume: CutVolume, piece: NDArray[np.int64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Ring centres and axes (m, K, 3) of poses the cut pieces round ``piece`` take.
+
+    Pieces ``piece - POSE_PIECES .. piece + POSE_PIECES`` (within the toolpath's pieces:
+    another pass's piece, at a pass's end, is cut material all the same), each at
+    fractions ``f = k / POSE_FRACTIONS`` (``k < POSE_FRACTIONS``; the last piece to
+    ``f = 1``): the tip linear and the axis normalized-linear along the piece, as the ray
+    cast's pieces move (:func:`_contact_poses`): poses the toolpath takes, each inside what
+    it removes.
+    """
+    last = len(volume.pass_of) - 1
+    centres, axes = [], []
+    for step in range(-POSE_PIECES, POSE_PIECES + 1):
+        j = np.clip(piece + step, 0, last)
+        ends = POSE_FRACTIONS + (step == POSE_PIECES)
+        for k in range(ends):
+            f = np.full(len(j), k / POSE_FRACTIONS)
+            axis = move_axes(volume.axes0[j], volume.axes1[j], f)
+            tip = volume.tips0[j] + f[:, None] * (volume.tips1[j] - volume.tips0[j])
+            centres.append(tip + volume.cutter.corner_radius_mm * axis)
+            axes.append(axis)
+    return np.stack(centres, axis=1), np.stack(axes, axis=1)
 
 
 #: Where a pass's ring centres bend away from the surface (``kappa_n R`` above this,

@@ -22,7 +22,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 
-__all__ = ["disk_crossings", "side_crossings", "window_nearest"]
+__all__ = ["disk_crossings", "running_bounds", "side_crossings", "window_nearest"]
 
 
 @numba.njit(cache=True)
@@ -232,3 +232,117 @@ def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.f
         _disk_crossings(own, nxt, np.ascontiguousarray(reach, dtype=float), int(steps),
                         out_x, out_h, out_ok)
     return out_x, out_h, out_ok
+
+
+
+@numba.njit(cache=True)
+def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels,
+                    out_x, out_h):
+    """The loop of :func:`running_bounds`, into ``out_x``, ``out_h``."""
+    through, nu, ex, ey = frame
+    own_c, own_a, next_c, next_a = poses
+    count_max = 2 * levels + 3
+    grid = np.empty(count_max)
+    ub = np.empty((2, count_max - 1))
+    w, v, p = np.empty(3), np.empty(3), np.empty(3)
+    for row in range(reach.size):
+        span, mid = reach[row], min(max(centre[row], 0.0), reach[row])
+        # 0, then towards ``mid`` by halving steps, ``mid``, away again, ``reach``
+        count = 1
+        grid[0] = 0.0
+        for k in range(1, levels + 1):
+            at = mid - span * 0.5 ** k
+            if at > grid[count - 1]:
+                grid[count] = at
+                count += 1
+        for k in range(levels + 1):
+            at = min(mid + span * 0.5 ** (levels + 1 - k), span) if k > 0 else mid
+            if at > grid[count - 1]:
+                grid[count] = at
+                count += 1
+        if span > grid[count - 1]:
+            grid[count] = span
+            count += 1
+        for side in range(2):
+            centres, axes = (own_c, own_a) if side == 0 else (next_c, next_a)
+            for j in range(count - 1):
+                ub[side, j] = np.inf
+            for pose in range(centres.shape[1]):
+                # the ring's way to the contact, across the axis towards -n, and a x w
+                dot = 0.0
+                for c in range(3):
+                    dot += normal[row, c] * axes[row, pose, c]
+                norm = 0.0
+                for c in range(3):
+                    w[c] = -(normal[row, c] - dot * axes[row, pose, c])
+                    norm += w[c] * w[c]
+                norm = math.sqrt(max(norm, TINY))
+                for c in range(3):
+                    w[c] /= norm
+                v[0] = axes[row, pose, 1] * w[2] - axes[row, pose, 2] * w[1]
+                v[1] = axes[row, pose, 2] * w[0] - axes[row, pose, 0] * w[2]
+                v[2] = axes[row, pose, 0] * w[1] - axes[row, pose, 1] * w[0]
+                for d in range(phi.shape[1]):
+                    cos_d, sin_d = math.cos(phi[row, d]), math.sin(phi[row, d])
+                    for c in range(3):
+                        p[c] = (centres[row, pose, c] - through[row, c]
+                                + ring * (cos_d * w[c] + sin_d * v[c]))
+                    delta = p[0] * nu[row, 0] + p[1] * nu[row, 1] + p[2] * nu[row, 2]
+                    rho_sq = corner * corner - delta * delta
+                    if rho_sq < 0.0:
+                        continue
+                    cx = p[0] * ex[row, 0] + p[1] * ex[row, 1] + p[2] * ex[row, 2]
+                    cy = p[0] * ey[row, 0] + p[1] * ey[row, 1] + p[2] * ey[row, 2]
+                    rho = math.sqrt(rho_sq)
+                    if cx + rho < 0.0 or cx - rho > span:
+                        continue  # covers no interval
+                    before = np.inf
+                    for j in range(count):
+                        off_sq = rho_sq - (grid[j] - cx) ** 2
+                        here = cy - math.sqrt(off_sq) if off_sq >= 0.0 else np.inf
+                        if j > 0:
+                            ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
+                        before = here
+        best, where = -np.inf, 0.0
+        for j in range(count - 1):
+            value = min(ub[0, j], ub[1, j])
+            if value > best:
+                best, where = value, 0.5 * (grid[j] + grid[j + 1])
+        out_h[row] = best
+        out_x[row] = where
+
+
+def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.float64],
+                   poses: tuple[NDArray[np.float64], ...], phi: NDArray[np.float64],
+                   ring_mm: float, corner_mm: float, reach: NDArray[np.float64],
+                   centre: NDArray[np.float64], levels: int
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """An upper bound on ``max_x min(F_own(x), F_next(x))`` over ``[0, reach]``, row by row.
+
+    Each side is the lower envelope ``F`` of the disks in which the balls of radius
+    ``corner_mm`` round ring points ``phi`` (m, S; about the contact, as
+    :func:`~.torus_profile.pose_section_ridges` takes them) of several poses cut the plane
+    ``frame`` (its point, normal and axes ``x, y``, each (m, 3)): ``poses`` the own ring
+    centres and axes, the next's (m, K, 3 each); ``normal`` (m, 3) the seed's. ``F`` is
+    convex on no account (several poses). ``[0, reach]`` is cut at ``centre`` (m,) and at
+    ``centre +- reach 2^-k``, ``k = 1 .. levels``: intervals halving towards ``centre``.
+    Over an interval ``I = [x_a, x_b]`` each disk's lower arc (convex where it covers both
+    ends) stands no higher than at its ends, so ``U(I) = min_i max(f_i(x_a), f_i(x_b))``
+    bounds ``F`` there (``inf`` where the disk misses an end). On each interval
+    ``min(F_own, F_next) <= min(U_own(I), U_next(I))``, and the largest of these over the
+    intervals bounds the ridge whatever the envelopes' shapes (no crossing need be unique,
+    nor the envelopes monotone). Where the ridge lies near ``centre`` the intervals there
+    are narrow, so the bound is close; away from it wide intervals read high.
+
+    Returns the middle ``x`` of the interval giving the bound and the bound (``inf``
+    where no disk covers an interval whole on a side that decides it).
+    """
+    m = len(reach)
+    out_x, out_h = np.empty(m), np.empty(m)
+    if m:
+        def c(v):
+            return np.ascontiguousarray(v, dtype=float)
+        _running_bounds(tuple(c(v) for v in frame), c(normal), tuple(c(v) for v in poses),
+                        c(phi), float(ring_mm), float(corner_mm), c(reach), c(centre),
+                        int(levels), out_x, out_h)
+    return out_x, out_h

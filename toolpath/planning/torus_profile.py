@@ -33,10 +33,10 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
-from .torus_kernel import disk_crossings, side_crossings
+from .torus_kernel import disk_crossings, running_bounds, side_crossings
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
-           "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
+           "SECTION_LEVELS", "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
            "profile_ridges"]
 
 #: Boundary points per section side. Their normals turn from ``0.25 pi/2`` past straight
@@ -273,6 +273,12 @@ SECTION_RING_SAMPLES = 65
 #: the bracket ends ``2^-steps`` of the contacts' distance apart.
 SECTION_STEPS = 32
 
+#: Halvings of the grid towards the contact poses' crossing over which several poses'
+#: sections are bounded (:func:`~.torus_kernel.running_bounds`): the intervals next to it
+#: ``2^-levels`` of the contacts' distance wide (a sloping side reads at most its slope
+#: times that high there).
+SECTION_LEVELS = 12
+
 
 def _disks(centre: NDArray[np.float64], axis: NDArray[np.float64],
            normal: NDArray[np.float64], phi: NDArray[np.float64],
@@ -298,7 +304,9 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                         normal: NDArray[np.float64], toward: NDArray[np.float64], *,
                         through: NDArray[np.float64], across: NDArray[np.float64],
                         reach_mm: NDArray[np.float64], radius_mm: float,
-                        corner_radius_mm: float, chunk: int = 4_000
+                        corner_radius_mm: float,
+                        more_poses: tuple[NDArray[np.float64], ...] | None = None,
+                        chunk: int = 4_000
                         ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """An upper bound on the ridge between two passes from one pose of each, no prism.
 
@@ -324,6 +332,21 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     whether it was found (not where the sections do not cross between the contacts or a
     disk covers neither bracket end). Only for corner radius ``r > 0`` (a flat's rim balls
     have no section).
+
+    With ``more_poses`` (own ring centres, own axes, next ring centres, next axes; each
+    (m, K, 3)): more poses each pass takes (:func:`~.cusp_estimates.torus_cusp_estimates`:
+    its pieces' poses round the contact pose), whose disks join their side's. One pose
+    reads the ridge 1.1 to 1.5 times the ray cast where a bull-nose turns round its contact
+    (the user's 5-axis blade job, bull:8:1): the pass's poses beside it cut deeper between
+    the contacts. The sides, lower envelopes of several poses' disks, need not be convex,
+    nor cross once: the bound over them is :func:`~.torus_kernel.running_bounds` (both
+    sides' arcs bounded over each interval of a grid halving towards the contact poses'
+    crossing: every disk lies in a cutter, so no sag is owed), plus the sag
+    all the same, as a margin: the ridge's height over the surface is read at first order
+    (:func:`~.cusp_estimates._ridge_heights`) and the ray cast runs along the normal at the
+    crest, not the plane's ``y``; without it a seed of the standing dev blade (5-axis,
+    bull:8:1, scallop 0.03 mm) read 0.9915 of a fine ray cast, with it 1.004 and up. The
+    lower of the two bounds is taken.
     """
     m = len(own_centre)
     point, found = np.zeros((m, 3)), np.zeros(m, dtype=bool)
@@ -347,6 +370,16 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
         nxt = _disks(next_centre[rows], next_axis[rows], normal[rows], phi, frame, ring, r)
         xb, bound, ok = disk_crossings(own, nxt, reach, SECTION_STEPS)
         height = bound + sag
+        if more_poses is not None:
+            own_c, own_a, next_c, next_a = (
+                np.concatenate([one[rows, None], many[rows]], axis=1)
+                for one, many in zip((own_centre, own_axis, next_centre, next_axis),
+                                     more_poses, strict=True))
+            x_more, h_more = running_bounds(frame, normal[rows], (own_c, own_a, next_c, next_a),
+                                            phi, ring, r, reach, xb, SECTION_LEVELS)
+            h_more = h_more + sag
+            lower = h_more < height
+            xb, height = np.where(lower, x_more, xb), np.where(lower, h_more, height)
         ok &= np.isfinite(height)
         point[rows] = (through[rows] + xb[:, None] * x[rows]
                        + np.where(ok, height, 0.0)[:, None] * y[rows])
