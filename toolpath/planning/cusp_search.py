@@ -161,11 +161,9 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     """The pieces that can reach the rays over each bracket, of its own pass and the others.
 
     The pieces that matter have their centres on the sheet ``lift`` above the surface,
-    within ``lateral`` of the bracket (sought within ``lateral`` plus the bracket's half
-    chord of its middle's point on the sheet, each bracket by its own:
-    :func:`_reach_groups`); of those, the ones whose cutters come below the horizon
-    somewhere over it (flat and bull-nose: a cheap bound first), within the cutter's reach
-    of the bracket's chord on the surface (plus the chord's sag).
+    within ``lateral`` of the bracket; of those, the ones whose cutters come below the
+    horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
+    cutter's reach of the bracket's chord on the surface (plus the chord's sag).
 
     Returns the ray ranges (:func:`~.sweep_kernel.ray_ranges`) of the seed's own pass and
     of the others.
@@ -174,56 +172,17 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     mid, mid_n = surface.points_and_normals(t, 0.5 * (s0 + s1))
     p0, p1 = surface(t, s0), surface(t, s1)
     half = 0.5 * np.linalg.norm(p1 - p0, axis=1)
+    owner, item = volume.pairs(mid + volume.lift * mid_n, radius=volume.lateral + float(
+        half.max()) if m else 0.0)
     sag = np.linalg.norm(0.5 * (p0 + p1) - mid, axis=1)
-    sheet = mid + volume.lift * mid_n
-    # each group's rays ranged over its own pieces, the groups' pieces laid end to end
-    lo, hi = np.zeros((2, m), dtype=np.int64), np.zeros((2, m), dtype=np.int64)
-    items: tuple[list[NDArray[np.int64]], ...] = ([], [])
-    count = [0, 0]
-    for rows, radius in _reach_groups(volume.lateral + half):
-        owner, item = volume.pairs(sheet[rows], radius=radius)
-        if not volume.ball:
-            near = volume.floor_over(mid[rows], half[rows] + sag[rows], owner,
-                                     item) <= volume.horizon
-            owner, item = owner[near], item[near]
-        dist = segment_distances(p0[rows], p1[rows], owner, volume.piece_a, volume.piece_b,
-                                 item)
-        near = dist <= volume.segment_reach + 2.0 * sag[rows][owner]
+    if not volume.ball:
+        near = volume.floor_over(mid, half + sag, owner, item) <= volume.horizon
         owner, item = owner[near], item[near]
-        mine = volume.pass_of[item] == own[rows][owner]
-        for k, keep in enumerate((mine, ~mine)):
-            first, last, listed = ray_ranges(owner[keep], item[keep], rows.size)
-            lo[k, rows], hi[k, rows] = first + count[k], last + count[k]
-            items[k].append(listed)
-            count[k] += listed.size
-    own_items, other_items = (np.concatenate(x) if x else np.zeros(0, dtype=np.int64)
-                              for x in items)
-    return (lo[0], hi[0], own_items), (lo[1], hi[1], other_items)
-
-
-#: Brackets whose pieces are sought together reach at most this many times as far as the
-#: shortest of them (:func:`_reach_groups`).
-REACH_SPREAD = 1.1
-
-
-def _reach_groups(radius: NDArray[np.float64]
-                  ) -> list[tuple[NDArray[np.int64], float]]:
-    """Rows sought together, and how far: groups of radii within :data:`REACH_SPREAD`.
-
-    Each group's rows (in order) with its largest radius, at least each row's own: a pass
-    end's long bracket does not widen every other bracket's search to its own reach, which
-    would seek the pieces of an area growing as the square of it for every row (and
-    measure each against the bracket's chord, only to leave out those beyond its reach).
-    """
-    order = np.argsort(radius, kind="stable")
-    r = radius[order]
-    groups = []
-    lo = 0
-    while lo < r.size:
-        hi = int(np.searchsorted(r, REACH_SPREAD * r[lo], side="right"))
-        groups.append((np.sort(order[lo:hi]), float(r[hi - 1])))
-        lo = hi
-    return groups
+    dist = segment_distances(p0, p1, owner, volume.piece_a, volume.piece_b, item)
+    near = dist <= volume.segment_reach + 2.0 * sag[owner]
+    owner, item = owner[near], item[near]
+    mine = volume.pass_of[item] == own[owner]
+    return ray_ranges(owner[mine], item[mine], m), ray_ranges(owner[~mine], item[~mine], m)
 
 
 class _HeightDifference:
