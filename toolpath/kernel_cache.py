@@ -27,9 +27,9 @@ when numba gets imported, so that commands which never load numba do not pay for
   module holds that function's machine code too: after an edit of the callee's module (a
   ``git pull`` into an editable install touches only the files that changed) the caller
   loaded from the cache ran the old callee, silently. The stamp of every kernel of
-  :data:`KERNEL_PACKAGES` now also holds a digest of all their modules that use numba
-  (:func:`kernel_sources_digest`): an edit of any of them compiles those kernels afresh
-  as they are used;
+  :data:`KERNEL_PACKAGES` now also holds a digest of all their modules
+  (:func:`kernel_sources_digest`; a module without kernels may hold constants a kernel
+  compiles in): an edit of any of them compiles those kernels afresh as they are used;
 * **one process compiles a kernel, the others wait and load it**: a compile (and the cache
   look-up before it) holds a lock file beside the kernel's index, so processes starting on
   an empty cache at once (the warm-up's jobs, a service's or a batch's workers) never
@@ -202,9 +202,11 @@ _DIGEST: list[bytes] = []
 
 
 def kernel_sources_digest() -> bytes:
-    """SHA-256 over the path and content of every module of :data:`KERNEL_PACKAGES` using numba.
+    """SHA-256 over the path and content of every module of :data:`KERNEL_PACKAGES`.
 
-    Read once per process (a hundred files, ~3 ms), at the first kernel's definition.
+    Every module, not only those defining kernels: a kernel compiles in the constants it
+    reads from others (tolerances, shares). Read once per process (a hundred files, ~3 ms),
+    at the first kernel's definition.
     """
     if not _DIGEST:
         digest = hashlib.sha256()
@@ -212,9 +214,8 @@ def kernel_sources_digest() -> bytes:
             for path in sorted((KERNEL_ROOT / package).rglob("*.py")):
                 with contextlib.suppress(OSError):
                     source = path.read_bytes()
-                    if b"numba" in source:
-                        digest.update(path.relative_to(KERNEL_ROOT).as_posix().encode())
-                        digest.update(hashlib.sha256(source).digest())
+                    digest.update(path.relative_to(KERNEL_ROOT).as_posix().encode())
+                    digest.update(hashlib.sha256(source).digest())
         _DIGEST.append(digest.digest())
     return _DIGEST[0]
 
