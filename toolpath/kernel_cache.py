@@ -44,6 +44,7 @@ processes share a list of kernels instead of waiting for each other.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import importlib.abc
 import importlib.util
@@ -198,9 +199,7 @@ def _patch_numba() -> None:
         compiled._streamline_cam = True
 
 
-_DIGEST: list[bytes] = []
-
-
+@functools.cache
 def kernel_sources_digest() -> bytes:
     """SHA-256 over the path and content of every module of :data:`KERNEL_PACKAGES`.
 
@@ -208,29 +207,30 @@ def kernel_sources_digest() -> bytes:
     reads from others (tolerances, shares). Read once per process (a hundred files, ~3 ms),
     at the first kernel's definition.
     """
-    if not _DIGEST:
-        digest = hashlib.sha256()
-        for package in KERNEL_PACKAGES:
-            for path in sorted((KERNEL_ROOT / package).rglob("*.py")):
-                with contextlib.suppress(OSError):
-                    source = path.read_bytes()
-                    digest.update(path.relative_to(KERNEL_ROOT).as_posix().encode())
-                    digest.update(hashlib.sha256(source).digest())
-        _DIGEST.append(digest.digest())
-    return _DIGEST[0]
+    digest = hashlib.sha256()
+    for package in KERNEL_PACKAGES:
+        for path in sorted((KERNEL_ROOT / package).rglob("*.py")):
+            with contextlib.suppress(OSError):
+                source = path.read_bytes()
+                digest.update(path.relative_to(KERNEL_ROOT).as_posix().encode())
+                digest.update(hashlib.sha256(source).digest())
+    return digest.digest()
+
+
+@functools.cache
+def _kernel_package_dirs() -> tuple[Path, ...]:
+    """The folders of :data:`KERNEL_PACKAGES`, resolved (once per process)."""
+    return tuple((KERNEL_ROOT / package).resolve() for package in KERNEL_PACKAGES)
 
 
 def _with_package_digest(source_stamp: Callable[[Any], Any]) -> Callable[[Any], Any]:
     """Wrap numba's ``get_source_stamp``: kernels of :data:`KERNEL_PACKAGES` add the digest."""
-    roots = None
 
     def get_source_stamp(self: Any) -> Any:
-        nonlocal roots
         stamp = source_stamp(self)
-        if roots is None:
-            roots = tuple((KERNEL_ROOT / package).resolve() for package in KERNEL_PACKAGES)
         path = getattr(self, "_py_file", None)
-        if path and any(Path(path).resolve().is_relative_to(root) for root in roots):
+        if path and any(Path(path).resolve().is_relative_to(root)
+                        for root in _kernel_package_dirs()):
             return stamp, kernel_sources_digest()
         return stamp
 

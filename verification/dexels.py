@@ -371,9 +371,9 @@ class SweepIndex:
         """The fields the compiled capsule walk reads, in ``grid``'s order (read as met).
 
         ``mid, half_mm, a, e, ee, axis, height_mm``: copied on the first walk over the
-        grid and kept with it, never for a grid only :meth:`pieces_within` walks (the
-        refine's, over the flat/bull-nose pieces: 840 MB of copies of the 7 M pieces of
-        the bull-nose 5-axis blade program, which it never read).
+        grid and kept with it, never for a grid only :meth:`pieces_within` walks (it reads
+        the pieces in their own order: copies there were 840 MB on the 7 M pieces of the
+        bull-nose 5-axis blade program).
         """
         kept = self._sorted.get(id(grid))
         if kept is None:
@@ -528,8 +528,7 @@ class SweepIndex:
         pieces = self.pieces(which)
         if points.shape[0] == 0 or pieces.size == 0:
             return np.zeros(0, dtype=np.int64)
-        runs_grid, runs = self._run_grid(which, float(np.median(reach_mm)), reach_beyond_mm(
-            centres, reach_mm, self.lo_mm, self.hi_mm), built=True)
+        runs_grid, runs = self.runs_grid(which, reach_mm, centres)
         marked = pieces_entering_below(
             runs_grid, runs_grid.span_of(reach_mm + runs.max_spread_mm), points, dirs,
             centres, reach_mm, below_mm, runs, pieces.mid, pieces.half_mm, pieces.a,

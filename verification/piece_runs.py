@@ -411,15 +411,19 @@ def support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz: float,
 
 
 @numba.njit(cache=True)
-def _plane_height(nx: float, ny: float, nz: float, x: FloatArray, u: FloatArray,
-                  height: float, core_radius: float, corner_radius: float) -> float:
-    """``H(x, u)`` of the module docstring (*Blocks*): the support of a cutter at ``x``."""
+def _plane_height(nx: float, ny: float, nz: float, x0: float, x1: float, x2: float,
+                  u: FloatArray, height: float, core_radius: float,
+                  corner_radius: float) -> float:
+    """``H(x, u)`` of the module docstring (*Blocks*), ``x = (x0, x1, x2)``.
+
+    The point as floats: no array made per block on the walks' hottest path.
+    """
     c = nx * u[0] + ny * u[1] + nz * u[2]
     sx = ny * u[2] - nz * u[1]
     sy = nz * u[0] - nx * u[2]
     sz = nx * u[1] - ny * u[0]
     sine = max(math.sqrt(sx * sx + sy * sy + sz * sz), math.sqrt(max(1.0 - c * c, 0.0)))
-    return (nx * x[0] + ny * x[1] + nz * x[2] + core_radius * sine + height * max(c, 0.0)
+    return (nx * x0 + ny * x1 + nz * x2 + core_radius * sine + height * max(c, 0.0)
             + corner_radius)
 
 
@@ -443,18 +447,15 @@ def blocked_support_floor(p: FloatArray, d: FloatArray, nx: float, ny: float, nz
         return math.inf
     at = nx * p[0] + ny * p[1] + nz * p[2]
     least = math.inf
-    end = np.empty(3)
     for b in range(block_of[first], block_of[stop - 1] + 1):
         b0, b1 = block_span[b, 0], block_span[b, 1]
         k = b1 - 1
-        for c in range(3):
-            end[c] = a[k, c] + e[k, c]
-        top = max(_plane_height(nx, ny, nz, a[b0], axis[b0], height[b0], core_radius,
-                                corner_radius),
-                  _plane_height(nx, ny, nz, end, axis[k], height[k], core_radius,
+        end0, end1, end2 = a[k, 0] + e[k, 0], a[k, 1] + e[k, 1], a[k, 2] + e[k, 2]
+        top = max(_plane_height(nx, ny, nz, a[b0, 0], a[b0, 1], a[b0, 2], axis[b0], height[b0],
+                                core_radius, corner_radius),
+                  _plane_height(nx, ny, nz, end0, end1, end2, axis[k], height[k], core_radius,
                                 corner_radius))
-        along = abs(nx * (end[0] - a[b0, 0]) + ny * (end[1] - a[b0, 1])
-                    + nz * (end[2] - a[b0, 2]))
+        along = abs(nx * (end0 - a[b0, 0]) + ny * (end1 - a[b0, 1]) + nz * (end2 - a[b0, 2]))
         top += (block_slack[b, 0] + (core_radius + height[b0]) * block_slack[b, 1]
                 + block_slack[b, 2] * along + _BLOCK_PAD_MM + core_radius * _SINE_ROUNDING)
         plane = (at - top - ENTRY_MARGIN_MM) / -nd

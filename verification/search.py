@@ -142,6 +142,7 @@ class Dexels:
             first = (np.zeros(points.shape[0], dtype=np.int64) if guess_mm is None else
                      np.minimum(np.searchsorted(self.horizons, guess_mm, side="left"),
                                 len(self.horizons) - 1))
+            last = int(first.max()) if first.size else 0  # (the last level any dexel joins)
             todo = np.zeros(0, dtype=np.int64)
             for k, level in enumerate(self.horizons):
                 # dexels guessed to hold more than the narrower levels join here
@@ -158,10 +159,11 @@ class Dexels:
                 scatter(out, todo, part, merge=True)
                 value = part.lam_mm * cos[todo]
                 if k:
-                    self._narrower(out, todo[first[todo] == k], value[first[todo] == k], k,
-                                   points, dirs, centres, convexity, cos, g)
+                    joined = first[todo] == k
+                    self._narrower(out, todo[joined], value[joined], k, points, dirs,
+                                   centres, convexity, cos, g)
                 todo = todo[~(value <= level)]
-                if todo.shape[0] == 0 and not (first > k).any():
+                if todo.shape[0] == 0 and k >= last:
                     break
         if far:
             # a flat/bull-nose piece's core stands up to its height above its segment

@@ -58,7 +58,8 @@ def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
     j = i + 1
     # (``take`` gathers rows of (n, k) arrays several times faster than indexing)
     p, a, pass_ = toolpath.positions_mm, toolpath.tool_axes, toolpath.pass_index
-    owner = np.where(pass_.take(i) >= 0, pass_.take(i), pass_.take(j))
+    start_pass = pass_.take(i)
+    owner = np.where(start_pass >= 0, start_pass, pass_.take(j))
     ends = (None, None) if joints is None else (joints.take(i, axis=0), joints.take(j, axis=0))
     return (p.take(i, axis=0), p.take(j, axis=0), a.take(i, axis=0), a.take(j, axis=0),
             owner.astype(np.int64), *ends, i)

@@ -8,8 +8,12 @@ two passes' sections where the own side first stands at or above the next's
 (:func:`side_crossings`, for :mod:`.torus_profile`: the two polylines walked together,
 stopping at the crossing, without sorting them together), and bounds the ridge between
 two poses' sections of corner disks (:func:`disk_crossings`, for
-:func:`~.torus_profile.pose_section_ridges`: its bisection row by row). Each does the
-numpy's sums in its order: the same numbers.
+:func:`~.torus_profile.pose_section_ridges`: its bisection row by row); those three do
+the numpy's sums in its order: the same numbers. :func:`running_bounds` (no numpy
+original) bounds the ridge between several poses a side over a grid halving towards the
+contact poses' crossing. It builds each pose's disks in its loop, as
+:func:`~.torus_profile._disks` does in numpy, rather than take them as (m, K S) arrays
+(~23 MB each at 4,000 rows, 11 poses and 65 ring points).
 """
 
 from __future__ import annotations
@@ -232,7 +236,6 @@ def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.f
         _disk_crossings(own, nxt, np.ascontiguousarray(reach, dtype=float), int(steps),
                         out_x, out_h, out_ok)
     return out_x, out_h, out_ok
-
 
 
 @numba.njit(cache=True)
