@@ -37,9 +37,9 @@ from .errors import InvalidParameterError
 from .path import MoveKind, SolvedJoints, Toolpath
 from .vectors import unit
 
-__all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "joint_path_deviation_mm", "joints_checked",
-           "known_joints", "machine_key", "path_joints", "refine_for_joint_interpolation",
-           "refine_with_joints", "with_solved_joints"]
+__all__ = ["MAX_ROUNDS", "RAPID_TOLERANCE_MM", "checked_moves", "joint_path_deviation_mm",
+           "joints_checked", "known_joints", "machine_key", "path_joints",
+           "refine_for_joint_interpolation", "refine_with_joints", "with_solved_joints"]
 
 #: Largest distance of a rapid's tool tip from its planned chord (on the clearance plane or
 #: sphere) under joint interpolation, mm: a rotary swing otherwise sweeps the tool far off
@@ -159,6 +159,16 @@ def refine_for_joint_interpolation(path: Toolpath, machine: Machine, tol_mm: flo
     return refine_with_joints(path, machine, tol_mm)[0]
 
 
+def checked_moves(kinds: NDArray[np.int64], passes: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """The moves ``i -> i + 1`` a planner checks under joint interpolation: cutting, in one pass.
+
+    On a path checked for a machine (:func:`joints_checked`) these are left whole here and
+    move as the joints interpolate them; the others (leads, links, plunges, rapids) are
+    split until the tip keeps to their chords (module docstring).
+    """
+    return (kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1]) & (passes[1:] >= 0)
+
+
 def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
                        ) -> tuple[Toolpath, NDArray[np.float64] | None]:
     """:func:`refine_for_joint_interpolation`, and the joints of the path it returns.
@@ -191,8 +201,7 @@ def refine_with_joints(path: Toolpath, machine: Machine, tol_mm: float
         rapid = kinds[1:] == MoveKind.RAPID
         split = deviation > np.where(rapid, RAPID_TOLERANCE_MM, tol_mm)
         if checked:
-            split &= ~((kinds[1:] == MoveKind.CUT) & (passes[1:] == passes[:-1])
-                       & (passes[1:] >= 0))
+            split &= ~checked_moves(kinds, passes)
         if not split.any():
             final = joints
             break

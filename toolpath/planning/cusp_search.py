@@ -161,7 +161,10 @@ def _bracket_pieces(volume: CutVolume, surface: ParametricSurface, t: NDArray[np
     """The pieces that can reach the rays over each bracket, of its own pass and the others.
 
     The pieces that matter have their centres on the sheet ``lift`` above the surface,
-    within ``lateral`` of the bracket; of those, the ones whose cutters come below the
+    within ``lateral`` of the bracket (a cutter whose centre came nearer the surface would
+    cut into it: the plan's gouge checks keep every pose of the program off it, within
+    the chord tolerance, and the cut volume moves the leads and links as the post emits
+    them, :class:`~.cut_volume.CutVolume`); of those, the ones whose cutters come below the
     horizon somewhere over it (flat and bull-nose: a cheap bound first), within the
     cutter's reach of the bracket's chord on the surface (plus the chord's sag).
 

@@ -4,12 +4,13 @@ Only the toolpath's arrays, the cutter solid and, for a toolpath checked under a
 machine's joint interpolation, that machine. For a ball, exactly, the union of capsules
 swept by the ball centre along each feed move (cut in pieces of ``R/8``, their ends placed
 as the control places them: under a 5-axis machine's joint interpolation, by its forward
-kinematics); for flat and bull-nose cutters, the union of the cutter solid over the poses
-of each piece (tip linear, axis normalized-linear), the ray met at each pose exactly and
-the earliest pose found by search (:mod:`.sweep_kernel`; a straight sweep of the cutter's
-cross-section would carry its points ahead of and behind the contact under ``Q`` even where
-the axis turns them away, round a tight leading edge). Heights beyond the horizon (10 times
-the request, at least 0.05 mm, :func:`cusp_horizon_mm`) count as *uncut*.
+kinematics, within the passes; the leads and links, which the post splits until their tips
+keep to their chords, tip-linear); for flat and bull-nose cutters, the union of the cutter
+solid over the poses of each piece (tip linear, axis normalized-linear), the ray met at each
+pose exactly and the earliest pose found by search (:mod:`.sweep_kernel`; a straight sweep
+of the cutter's cross-section would carry its points ahead of and behind the contact under
+``Q`` even where the axis turns them away, round a tight leading edge). Heights beyond the
+horizon (10 times the request, at least 0.05 mm, :func:`cusp_horizon_mm`) count as *uncut*.
 """
 
 from __future__ import annotations
@@ -20,6 +21,7 @@ from numpy.typing import NDArray
 from machines import Machine
 from machines.kinematics import forward
 
+from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
 from ..vectors import move_poses
 from .clearance_kernel import (
@@ -67,12 +69,13 @@ def _feed_segments(toolpath: Toolpath, joints: NDArray[np.float64] | None
 
 def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
                   ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
-                  joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
-                  ) -> NDArray[np.int64]:
+                  joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None,
+                  tip_linear: NDArray[np.bool_] | None = None) -> NDArray[np.int64]:
     """Pieces per move, so that the tip and the point ``reach_mm`` up the axis travel <= ``step``.
 
-    Under joint interpolation also so that the straight pieces stay within about ``sag_mm``
-    of the bowed path (the bow at mid-move, ``d``, falls as ``d / n^2`` over ``n`` pieces).
+    Under joint interpolation (but the moves ``tip_linear``) also so that the straight
+    pieces stay within about ``sag_mm`` of the bowed path (the bow at mid-move, ``d``,
+    falls as ``d / n^2`` over ``n`` pieces).
     """
     c_a, c_b = a + reach_mm * aa, b + reach_mm * ab
     length = np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c_b - c_a, axis=1))
@@ -82,14 +85,16 @@ def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
         tip, axis = forward(machine, 0.5 * (q_a + q_b))
         bow = np.maximum(np.linalg.norm(tip - 0.5 * (a + b), axis=1),
                          np.linalg.norm(tip + reach_mm * axis - 0.5 * (c_a + c_b), axis=1))
+        if tip_linear is not None:  # (few: worked out with the others, then dropped)
+            bow[tip_linear] = 0.0
         count = np.maximum(count, np.ceil(np.sqrt(bow / sag_mm)))
     return np.maximum(count, 1).astype(np.int64)
 
 
 def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
                 ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
-                joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None
-                ) -> tuple[NDArray[np.float64], ...]:
+                joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None = None,
+                tip_linear: NDArray[np.bool_] | None = None) -> tuple[NDArray[np.float64], ...]:
     """Split moves ``a -> b`` (tips, axes ``aa -> ab``) into straight pieces.
 
     Each move gets :func:`_piece_counts` pieces: the tip and the point ``reach_mm`` up the
@@ -100,9 +105,12 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
     The piece ends as the control places them: tips linear and axes renormalized, or,
     with ``joints = (machine, q_a, q_b)``, the joints linear and the pose their forward
     kinematics (the tip bows off the chord where the rotary axes turn) inside the move,
-    its own ends at the move's ends (the poses ``q_a``, ``q_b`` were solved for).
+    its own ends at the move's ends (the poses ``q_a``, ``q_b`` were solved for); the moves
+    ``tip_linear`` (a bool per move; None: none) tip-linear all the same (those the post
+    splits until their tips keep to the chord, :func:`~toolpath.joint_refine.checked_moves`).
     """
-    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints,
+                                      tip_linear)
     (p0, p1), (x0, x1) = piece_ends(a, b, tips, pieces), piece_ends(aa, ab, axes, pieces)
     return p0, p1, x0, x1, np.repeat(np.arange(len(a)), pieces)
 
@@ -110,7 +118,8 @@ def split_moves(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.f
 def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
                   ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
                   joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
-                  = None) -> tuple[NDArray[np.float64], ...]:
+                  = None, tip_linear: NDArray[np.bool_] | None = None
+                  ) -> tuple[NDArray[np.float64], ...]:
     """:func:`split_moves`' pieces as the points ``reach_mm`` up the axis (a ball's centres).
 
     The same pieces; their start and end points ``tip + reach_mm axis`` (the same numbers
@@ -124,21 +133,23 @@ def split_centres(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
         pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, None)
         c0, c1 = centre_pieces(a, b, aa, ab, pieces, reach_mm)
         return c0, c1, np.repeat(np.arange(len(a)), pieces)
-    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    pieces, tips, axes = _inner_poses(a, b, aa, ab, step, reach_mm, sag_mm, joints,
+                                      tip_linear)
     c0, c1 = piece_ends(a + reach_mm * aa, b + reach_mm * ab, tips + reach_mm * axes, pieces)
     return c0, c1, np.repeat(np.arange(len(a)), pieces)
 
 
 def _inner_poses(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.float64],
                  ab: NDArray[np.float64], step: float, reach_mm: float, sag_mm: float,
-                 joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None
+                 joints: tuple[Machine, NDArray[np.float64], NDArray[np.float64]] | None,
+                 tip_linear: NDArray[np.bool_] | None = None
                  ) -> tuple[NDArray[np.int64], NDArray[np.float64], NDArray[np.float64]]:
     """Pieces per move (:func:`_piece_counts`) and the tips and axes of the inner poses.
 
     Move after move, its ``pieces - 1`` inner poses at ``u = j / pieces`` (as
     :func:`split_moves` places them).
     """
-    pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints)
+    pieces = _piece_counts(a, b, aa, ab, step, reach_mm, sag_mm, joints, tip_linear)
     n = len(a)
     # piece j of a move of m pieces runs from the pose at u = j / m to (j + 1) / m: the
     # move's own ends, or one of its inner poses (placed once, shared by two pieces)
@@ -156,6 +167,10 @@ def _inner_poses(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np.
         machine, q_a, q_b = joints
         w = u[:, None]
         tips, axes = forward(machine, per_inner(q_a) * (1 - w) + per_inner(q_b) * w)
+        if tip_linear is not None:  # those of the moves ``tip_linear`` (few) placed anew
+            rows = np.flatnonzero(per_inner(tip_linear))
+            move = inner_move[rows]
+            tips[rows], axes[rows] = move_poses(a[move], aa[move], b[move], ab[move], u[rows])
     return pieces, tips, axes
 
 
@@ -209,6 +224,12 @@ class CutVolume:
         joints = checked_joints(toolpath, machine)
         a, b, xa, xb, owner, q_a, q_b, start = _feed_segments(toolpath, joints)
         interpolation = None if joints is None else (machine, q_a, q_b)
+        # the moves the post splits until their tips keep to the chord (leads, links):
+        # tip-linear, as the program moves them (within its joint tolerance), not as
+        # their joints would carry the cutter unsplit (through the part, on a link that
+        # turns the rotary axes)
+        tip_linear = (None if joints is None else
+                      ~checked_moves(toolpath.kinds, toolpath.pass_index).take(start))
         sag = PIECE_SAG_SHARE * scallop_mm  # straight pieces on a bowed (joint) path
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
@@ -216,7 +237,8 @@ class CutVolume:
         self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
         if self.ball:  # the centres' pieces
-            self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation)
+            self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation,
+                                                 tip_linear)
             mid = 0.5 * (self.a + self.b)
             self.piece_a, self.piece_b = self.a, self.b
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
@@ -226,7 +248,8 @@ class CutVolume:
                             + 0.05 * big)
         else:
             # pieces with their end tips and axes (the cutter solid over their poses)
-            p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation)
+            p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation,
+                                                 tip_linear)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
