@@ -33,7 +33,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
-from .torus_kernel import disk_crossings, running_bounds, side_crossings
+from .torus_kernel import disk_crossings, running_bounds, section_sides, side_crossings
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
            "SECTION_LEVELS", "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
@@ -102,26 +102,14 @@ def _section_side(centre: NDArray[np.float64], axis: NDArray[np.float64],
     under the projection ``proj`` (m, 2, 3; :func:`_oblique`). The ring circle projects to
     the ellipse ``S = ring^2 P (I - a a') P'``, the corner balls to ellipses ``Q = r^2 P P'``
     (circles when orthogonal): support points ``S m / sqrt(m' S m)`` and
-    ``r Q m / sqrt(m' Q m)``. ``centre`` (m, 2) in the plane's axes; ``psi`` (m, k) or (k,).
-    Returns their ``x`` and ``y``, (m, k).
+    ``r Q m / sqrt(m' Q m)``. ``centre`` (m, 2) in the plane's axes; ``psi`` (k,).
+    Returns their ``x`` (never falling along a lower side) and ``y``, (m, k); compiled,
+    row by row (:func:`~.torus_kernel.section_sides`).
     """
     pa = np.einsum("ikj,ij->ik", proj, axis)
     q = np.einsum("ikj,ilj->ikl", proj, proj)
     s = ring_mm**2 * (q - pa[:, :, None] * pa[:, None, :])
-    mx, my = np.sin(psi), -np.cos(psi)
-
-    def support(shape: NDArray[np.float64]) -> tuple[NDArray[np.float64], ...]:
-        sx = shape[:, 0, 0, None] * mx + shape[:, 0, 1, None] * my
-        sy = shape[:, 1, 0, None] * mx + shape[:, 1, 1, None] * my
-        norm = np.sqrt(np.maximum(mx * sx + my * sy, TINY))
-        return sx / norm, sy / norm
-
-    ex, ey = support(s)
-    cx, cy = support(q)
-    up = (mx * pa[:, 0, None] + my * pa[:, 1, None]) > 0.0
-    bx = centre[:, 0, None] + ex + corner_mm * cx + lift_mm * up * pa[:, 0, None]
-    by = centre[:, 1, None] + ey + corner_mm * cy + lift_mm * up * pa[:, 1, None]
-    return np.maximum.accumulate(bx, axis=1), by  # x never falls along a lower side
+    return section_sides(centre, pa, q, s, psi, corner_mm, lift_mm)
 
 
 def profile_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np.float64],
