@@ -15,12 +15,11 @@ The oracle: every seed ray cast (the full method).
 import numpy as np
 import pytest
 from measured_plans import planned
-from scipy.spatial import cKDTree
 
 from machines import load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
-from toolpath.planning.cusp_estimates import _nearest_of, torus_cusp_estimates
+from toolpath.planning.cusp_estimates import torus_cusp_estimates
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
 from toolpath.planning.measure import (
     ESTIMATE_SHARE,
@@ -75,20 +74,3 @@ def test_no_estimate_stands_far_above_the_largest_cusp(leading_edge):
     guess, _, full = leading_edge
     top = np.nanmax(np.where(np.isfinite(full.height), full.height, np.nan))
     assert np.nanmax(guess) < 10.0 * top
-
-
-def test_the_next_pass_is_the_one_least_far_ahead():
-    # the user's job's kind at scallop 0.005 mm: the next pass's contacts stood 1.04 mm
-    # apart along it, the passes 0.35 mm apart, so the nearest contact ahead was the pass
-    # beyond's (0.71 mm off) and the ridge met between passes two apart read 2 to 2.6
-    # times the largest cusp; of the passes ahead, the one least far along X_s is next,
-    # at its nearest contact
-    own = [(0.0, 0.2 * k, 0.0) for k in range(-2, 3)]
-    behind = [(-0.35, 0.3 * k, 0.0) for k in range(-1, 2)]
-    points = np.array(own + behind + [(0.35, 1.0, 0.0), (0.36, 1.5, 0.0), (0.7, 0.1, 0.0),
-                                      (0.71, -0.4, 0.0)])
-    passes = np.array([5] * len(own) + [4] * len(behind) + [6, 6, 7, 7])
-    seed = np.array([[0.0, 0.0, 0.0]])
-    picked = _nearest_of(cKDTree(points), passes, seed, np.array([5]), same=False,
-                         towards=np.array([[1.0, 0.0, 0.0]]))
-    assert picked[0] == len(own) + len(behind)  # pass 6's contact at (0.35, 1.0)

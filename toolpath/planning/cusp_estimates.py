@@ -517,14 +517,9 @@ def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.flo
     """The nearest of ``tree``'s points of the pass ``pass_`` (``same``) or of another pass.
 
     Per ``point`` (m, 3), with pass ``pass_`` (m,); ``pass_of`` the tree's points' passes.
-    With ``towards`` (m, 3), only points ``p`` with ``(p - point) . towards > 0``, and of
-    the passes among them the one whose point stands least far along ``towards`` (the
-    nearest point of that pass): the nearest point can be the pass's beyond, where the
-    next pass's points stand sparse along it (the standing dev blade's 5-axis program,
-    bull:8:1, scallop 0.005 mm: contacts 1.04 mm apart along a pass, the passes 0.35 mm
-    apart; 586 of 223,719 seeds met the pass beyond and read 2 to 2.6 times the largest
-    cusp, all cast). The nearest 16, then 64 and so on up to 1024 (a pass's points can
-    crowd round a tight edge). Returns the index, -1 where none.
+    With ``towards`` (m, 3), only points ``p`` with ``(p - point) . towards > 0``. The
+    nearest 16, then 64 and so on up to 1024 (a pass's points can crowd round a tight
+    edge). Returns the index, -1 where none.
     """
     out = np.full(len(point), -1, dtype=np.int64)
     n = tree.n
@@ -536,12 +531,8 @@ def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.flo
         pick = (pass_of[idx_ok] == pass_[todo, None]) == same
         pick &= np.isfinite(dist)
         if towards is not None:
-            ahead = np.einsum("ijk,ik->ij", tree.data[idx_ok] - point[todo, None],
-                              towards[todo])
-            pick &= ahead > 0.0
-            # of the passes there, the one least far ahead
-            least = np.argmin(np.where(pick, ahead, np.inf), axis=1)
-            pick &= pass_of[idx_ok] == pass_of[idx_ok[np.arange(len(todo)), least]][:, None]
+            ahead = tree.data[idx_ok] - point[todo, None]
+            pick &= np.einsum("ijk,ik->ij", ahead, towards[todo]) > 0.0
         hit = pick.any(axis=1)
         out[todo[hit]] = idx_ok[hit, np.argmax(pick[hit], axis=1)]
         todo = todo[~hit]
