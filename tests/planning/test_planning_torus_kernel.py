@@ -16,6 +16,7 @@ from toolpath.planning import torus_profile
 from toolpath.planning.torus_kernel import (
     disk_crossings,
     running_bounds,
+    section_sides,
     side_crossings,
     window_nearest,
 )
@@ -257,3 +258,43 @@ def test_running_bounds_bound_the_ridge_of_several_poses_everywhere():
     # close where the ridge lies near the contact poses' crossing (the grid halves there);
     # elsewhere coarse intervals read it high
     assert np.mean(bound[finite] - ridge[finite] < 1e-3) >= 0.1  # (0.13 of these rows)
+
+
+def _section_sides_numpy(centre, pa, q, s, psi, corner_mm, lift_mm):
+    """:func:`section_sides` over all rows at once, in numpy (its former reading)."""
+    mx, my = np.sin(psi), -np.cos(psi)
+
+    def support(shape):
+        sx = shape[:, 0, 0, None] * mx + shape[:, 0, 1, None] * my
+        sy = shape[:, 1, 0, None] * mx + shape[:, 1, 1, None] * my
+        norm = np.sqrt(np.maximum(mx * sx + my * sy, TINY))
+        return sx / norm, sy / norm
+
+    ex, ey = support(s)
+    cx, cy = support(q)
+    up = (mx * pa[:, 0, None] + my * pa[:, 1, None]) > 0.0
+    bx = centre[:, 0, None] + ex + corner_mm * cx + lift_mm * up * pa[:, 0, None]
+    by = centre[:, 1, None] + ey + corner_mm * cy + lift_mm * up * pa[:, 1, None]
+    return np.maximum.accumulate(bx, axis=1), by
+
+
+def test_section_sides_equal_all_rows_at_once_in_numpy():
+    rng = np.random.default_rng(32)
+    m = 3000
+    # projections of unit axes onto planes met aslant (as torus_profile._oblique makes)
+    proj = rng.normal(size=(m, 2, 3)) * rng.uniform(0.5, 2.0, (m, 1, 1))
+    axis = rng.normal(size=(m, 3))
+    axis /= np.linalg.norm(axis, axis=1)[:, None]
+    axis[:5] = proj[:5, 0] / np.linalg.norm(proj[:5, 0], axis=1)[:, None]  # degenerate
+    pa = np.einsum("ikj,ij->ik", proj, axis)
+    q = np.einsum("ikj,ilj->ikl", proj, proj)
+    s = 9.0 * (q - pa[:, :, None] * pa[:, None, :])
+    centre = rng.normal(size=(m, 2))
+    centre[7, 0] = np.nan  # a NaN carried on along x
+    t = np.linspace(-0.5, 1.0, 64)
+    for psi in (0.5 * np.pi * t * np.abs(t), -(0.5 * np.pi * t * np.abs(t))[::-1],
+                np.zeros(1)):
+        got = section_sides(centre, pa, q, s, psi, 1.0, 23.0)
+        want = _section_sides_numpy(centre, pa, q, s, psi, 1.0, 23.0)
+        for a, b in zip(got, want, strict=True):
+            np.testing.assert_array_equal(a, b)

@@ -3,12 +3,14 @@
 The estimate (:func:`~.cusp_estimates.torus_cusp_estimates`) seeks the pose of a pass whose
 contact lies nearest a seed's: over the pieces within a window of a start piece along the
 pass, the piece whose segment ``a + f e`` (``0 <= f <= 1``) comes nearest a target point
-(:func:`window_nearest`, without the ``(rows, window, 3)`` arrays of candidates). It meets
+(:func:`window_nearest`, without the ``(rows, window, 3)`` arrays of candidates). It takes
+each prism's section's boundary points at a run of outward normals (:func:`section_sides`,
+without the ``(rows, samples)`` temporaries of numpy's sums), meets
 two passes' sections where the own side first stands at or above the next's
 (:func:`side_crossings`, for :mod:`.torus_profile`: the two polylines walked together,
 stopping at the crossing, without sorting them together), and bounds the ridge between
 two poses' sections of corner disks (:func:`disk_crossings`, for
-:func:`~.torus_profile.pose_section_ridges`: its bisection row by row); those three do
+:func:`~.torus_profile.pose_section_ridges`: its bisection row by row); those four do
 the numpy's sums in its order: the same numbers. :func:`running_bounds` (no numpy
 original) bounds the ridge between several poses a side over a grid halving towards the
 contact poses' crossing. It builds each pose's disks in its loop, as
@@ -26,7 +28,8 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 
-__all__ = ["disk_crossings", "running_bounds", "side_crossings", "window_nearest"]
+__all__ = ["disk_crossings", "running_bounds", "section_sides", "side_crossings",
+           "window_nearest"]
 
 
 @numba.njit(cache=True)
@@ -79,6 +82,53 @@ def window_nearest(start: NDArray[np.int64], target: NDArray[np.float64],
                         np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(e, dtype=float),
                         np.ascontiguousarray(pass_of, dtype=np.int64), int(window), out)
     return out
+
+
+@numba.njit(cache=True)
+def _section_sides(centre, pa, q, s, mx, my, corner, lift, out_x, out_y):
+    """The loop of :func:`section_sides`, into ``out_x``, ``out_y``."""
+    for row in range(centre.shape[0]):
+        run = -np.inf
+        for j in range(mx.size):
+            # the ring's ellipse's support point, then the corner's, as numpy sums them
+            sx = s[row, 0, 0] * mx[j] + s[row, 0, 1] * my[j]
+            sy = s[row, 1, 0] * mx[j] + s[row, 1, 1] * my[j]
+            norm = math.sqrt(max(mx[j] * sx + my[j] * sy, TINY))
+            ex, ey = sx / norm, sy / norm
+            sx = q[row, 0, 0] * mx[j] + q[row, 0, 1] * my[j]
+            sy = q[row, 1, 0] * mx[j] + q[row, 1, 1] * my[j]
+            norm = math.sqrt(max(mx[j] * sx + my[j] * sy, TINY))
+            cx, cy = sx / norm, sy / norm
+            up = 1.0 if (mx[j] * pa[row, 0] + my[j] * pa[row, 1]) > 0.0 else 0.0
+            bx = centre[row, 0] + ex + corner * cx + lift * up * pa[row, 0]
+            out_y[row, j] = centre[row, 1] + ey + corner * cy + lift * up * pa[row, 1]
+            if math.isnan(run) or math.isnan(bx):
+                run = np.nan
+            elif bx > run:
+                run = bx
+            out_x[row, j] = run
+
+
+def section_sides(centre: NDArray[np.float64], pa: NDArray[np.float64],
+                  q: NDArray[np.float64], s: NDArray[np.float64], psi: NDArray[np.float64],
+                  corner_mm: float, lift_mm: float
+                  ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Boundary points of sections at outward normals ``m = (sin psi, -cos psi)``, row by row.
+
+    For :func:`~.torus_profile._section_side`: ``centre`` (m, 2), the axis's image ``pa``
+    (m, 2), the corner's and the ring's shapes ``q``, ``s`` (m, 2, 2), ``psi`` (k,).
+    The support points ``S m / sqrt(m' S m)`` and ``r Q m / sqrt(m' Q m)`` (``m' S m``
+    at least ``TINY``), lifted by ``L - r`` along ``pa`` where ``m . pa > 0``; ``x``
+    never falling along the side (its running maximum, as ``np.maximum.accumulate``:
+    a NaN carried on). Returns ``x, y`` (m, k).
+    """
+    m, k = len(centre), len(psi)
+    out_x, out_y = np.empty((m, k)), np.empty((m, k))
+    if m and k:
+        mx, my = np.sin(psi), -np.cos(psi)
+        _section_sides(*(np.ascontiguousarray(v, dtype=float) for v in (centre, pa, q, s, mx, my)),
+                       float(corner_mm), float(lift_mm), out_x, out_y)
+    return out_x, out_y
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)

@@ -1,0 +1,76 @@
+"""The flat and bull-nose estimate ranks the seeds it decides as their ray casts do.
+
+The measure ray casts the seeds of the largest estimates, those without one and those
+whose estimate stands above the largest cusp cast by more than
+:data:`~toolpath.planning.measure.ESTIMATE_SHARE`; the rest it decides without a cast
+(:func:`~toolpath.planning.measure.cast_beyond_estimates`). An estimate reading hundreds
+of times its cusp decides nothing: it is cast. The user's kind of job (the standing dev
+blade, 5-axis under trunnion-ac's joints, bull:8:1, lead 10 degrees), on a coarser
+request and the seeds round the leading edge (``t`` 0.46 to 0.5): where the passes' axes
+lean apart unequally the two passes' sections met on the own flank facing away, 0.47 mm
+up, 25 times the largest cusp (:func:`~toolpath.planning.torus_profile.profile_ridges`).
+The oracle: every seed ray cast (the full method).
+"""
+
+import numpy as np
+import pytest
+from measured_plans import planned
+
+from machines import load_machine
+from toolpath import fit_streamline_surface
+from toolpath.paper_examples import bundled_data_path
+from toolpath.planning.cusp_estimates import torus_cusp_estimates
+from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
+from toolpath.planning.measure import (
+    ESTIMATE_SHARE,
+    ESTIMATE_TOP,
+    ESTIMATE_TOP_MOST,
+    cast_beyond_estimates,
+)
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
+
+#: The seeds round the leading edge, ``t`` from and to.
+BAND_T = (0.46, 0.5)
+
+
+@pytest.fixture(scope="module")
+def leading_edge():
+    """The estimates and both searches (estimated, full) over the band's seeds."""
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3)[::2], tol=0.01,
+                                   closed=False)
+    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
+    measured = planned(standing, "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=10.0,
+                       machine=load_machine("trunnion-ac"))
+    volume = measured.volume()
+    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
+    band = np.flatnonzero((seeds.t >= BAND_T[0]) & (seeds.t < BAND_T[1]))
+    seeds = SearchSeeds(*(column[band] for column in seeds))
+    guess = torus_cusp_estimates(volume, measured.surface, seeds)
+    searches = [CuspSearch(volume, measured.surface, seeds, others, 1.0, 20_000)
+                for _ in range(2)]
+    fast, full = searches
+    cast_beyond_estimates(fast, guess, [np.ones(len(guess), dtype=bool)], ESTIMATE_TOP,
+                          ESTIMATE_TOP_MOST)
+    full.run(np.ones(len(guess), dtype=bool))
+    return guess, fast, full
+
+
+def test_the_seeds_decided_cast_within_the_share_or_below_the_largest(leading_edge):
+    guess, fast, full = leading_edge
+    top = np.nanmax(np.where(np.isfinite(full.height), full.height, np.nan))
+    assert np.nanmax(fast.height) == top > 0.0  # the largest cusp, as the full method
+    decided = ~fast.cast
+    assert decided.sum() > 0.5 * len(guess)
+    h, g = full.height[decided], guess[decided]
+    found = np.isfinite(h)
+    assert ((h[found] <= ESTIMATE_SHARE * g[found]) | (h[found] < top)).all()
+
+
+def test_no_estimate_stands_far_above_the_largest_cusp(leading_edge):
+    # the sections met on the own flank facing away read 0.47 mm (25 times the largest
+    # cusp); the ridge between the contacts reads near its cast
+    guess, _, full = leading_edge
+    top = np.nanmax(np.where(np.isfinite(full.height), full.height, np.nan))
+    assert np.nanmax(guess) < 10.0 * top
