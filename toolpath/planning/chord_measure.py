@@ -45,6 +45,7 @@ from numpy.typing import NDArray
 from machines import Machine
 from machines.kinematics import tool_point_gradient
 
+from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
@@ -170,22 +171,27 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     worst = np.zeros(move.size)
     over = under = 0.0
     seeds: list[tuple[NDArray[np.float64], ...]] = []
-    for lo in range(0, move.size, chunk):
-        seg = move[lo:lo + chunk]
-        ends, ia, ib = contacts.of_moves(toolpath, seg)
-        interpolation = None if joints is None else (machine, joints[seg], joints[seg + 1])
-        slopes = None
-        if end_slopes and cutter.kind is CutterKind.BALL:
-            slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
-                                  contacts.normal[ib], interpolation,
-                                  None if gradient is None else (gradient[ia], gradient[ib]))
-        gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia], contacts.gap[ib],
-                                    max(contact, over, under), interpolation, slopes,
-                                    seeded_newton)
-        worst[lo:lo + len(seg)] = np.abs(gap).max(axis=1)
-        over = max(over, float(-gap.min()))
-        under = max(under, float(gap.max()))
-        seeds.append(_cusp_seeds(surface, contacts, ia, ends, mid, toolpath.pass_index[seg]))
+    for rows, moved_by_joints in _interpolation_groups(toolpath, move, joints is not None):
+        for lo in range(0, rows.size, chunk):
+            at = rows[lo:lo + chunk]
+            seg = move[at]
+            ends, ia, ib = contacts.of_moves(toolpath, seg)
+            interpolation = ((machine, joints[seg], joints[seg + 1]) if moved_by_joints
+                             else None)
+            slopes = None
+            if end_slopes and cutter.kind is CutterKind.BALL:
+                slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
+                                      contacts.normal[ib], interpolation,
+                                      None if gradient is None or not moved_by_joints
+                                      else (gradient[ia], gradient[ib]))
+            gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
+                                        contacts.gap[ib], max(contact, over, under),
+                                        interpolation, slopes, seeded_newton)
+            worst[at] = np.abs(gap).max(axis=1)
+            over = max(over, float(-gap.min()))
+            under = max(under, float(gap.max()))
+            seeds.append(_cusp_seeds(surface, contacts, ia, ends, mid,
+                                     toolpath.pass_index[seg]))
     i = int(np.argmax(worst))
     contact_t = np.full(len(toolpath.kinds), np.nan)
     contact_s = contact_t.copy()
@@ -204,6 +210,26 @@ def _cutting_moves(toolpath: Toolpath) -> NDArray[np.int64]:
     """First points of the cutting moves from a point of a pass to a point of a pass."""
     kinds, passes = toolpath.kinds, toolpath.pass_index
     return np.flatnonzero((kinds[1:] == MoveKind.CUT) & (passes[1:] >= 0) & (passes[:-1] >= 0))
+
+
+def _interpolation_groups(toolpath: Toolpath, move: NDArray[np.int64], checked: bool
+                          ) -> list[tuple[NDArray[np.int64], bool]]:
+    """The rows of ``move`` and whether the joints move them (else tip-linear).
+
+    On a path checked under a machine's joint interpolation (``checked``) the post leaves
+    the cutting moves of a pass whole (:func:`~toolpath.joint_refine.checked_moves`): the
+    joints move them. A cutting move from one pass to the next (spiral linking) it splits
+    until its tip keeps to the chord: tip-linear, as the cut volume places it
+    (:class:`~.cut_volume.CutVolume`). One group where all are alike (the moves' order
+    kept).
+    """
+    rows = np.arange(move.size)
+    if not checked:
+        return [(rows, False)]
+    whole = checked_moves(toolpath.kinds, toolpath.pass_index).take(move)
+    if whole.all():
+        return [(rows, True)]
+    return [(rows[whole], True), (rows[~whole], False)]
 
 
 @dataclass(frozen=True)
