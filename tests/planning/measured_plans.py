@@ -2,20 +2,26 @@
 
 The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
 toolpath (planned here with ``measure=False``) and its chord measurement on the surface
-samples the gouge stage lays out (``gouge_sample_mm`` apart).
+samples the gouge stage lays out (``gouge_sample_mm`` apart). And the standing dev blade
+the 5-axis measure tests plan on.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
 
+import numpy as np
+
 from machines import Machine
+from toolpath import fit_streamline_surface
+from toolpath.paper_examples import bundled_data_path
 from toolpath.path import Toolpath
 from toolpath.planning import Cutter, FinishingOptions, parse_cutter, plan_finishing
 from toolpath.planning.chord_measure import ChordMeasurement, measure_chord
 from toolpath.planning.cut_volume import CutVolume, cusp_horizon_mm
 from toolpath.planning.gouge import SurfaceSamples, sample_surface
 from toolpath.planning.measure import SeedCusps, measure_scallop, seed_cusps
+from toolpath.planning.setup import centred_on_table, rotation_from_spec
 from toolpath.surface import ParametricSurface
 
 
@@ -53,3 +59,11 @@ def planned(surface, spec, *, machine=None, **options) -> Measured:
     samples = sample_surface(surface, sample_mm)
     chord = measure_chord(path, surface, cutter, samples, machine=machine)
     return Measured(path, surface, cutter, options["scallop_mm"], samples, chord, machine)
+
+
+def standing_dev_blade() -> ParametricSurface:
+    """The bundled dev blade's every other section (a shorter fit), standing on the table."""
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3)[::2], tol=0.01,
+                                   closed=False)
+    return centred_on_table(blade, rotation_from_spec("y:-90"))

@@ -14,11 +14,9 @@ The oracle: every seed ray cast (the full method).
 
 import numpy as np
 import pytest
-from measured_plans import planned
+from measured_plans import planned, standing_dev_blade
 
 from machines import load_machine
-from toolpath import fit_streamline_surface
-from toolpath.paper_examples import bundled_data_path
 from toolpath.planning.cusp_estimates import torus_cusp_estimates
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
 from toolpath.planning.measure import (
@@ -27,7 +25,6 @@ from toolpath.planning.measure import (
     ESTIMATE_TOP_MOST,
     cast_beyond_estimates,
 )
-from toolpath.planning.setup import centred_on_table, rotation_from_spec
 
 #: The seeds round the leading edge, ``t`` from and to.
 BAND_T = (0.46, 0.5)
@@ -36,11 +33,7 @@ BAND_T = (0.46, 0.5)
 @pytest.fixture(scope="module")
 def leading_edge():
     """The estimates and both searches (estimated, full) over the band's seeds."""
-    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
-    blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3)[::2], tol=0.01,
-                                   closed=False)
-    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    measured = planned(standing, "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
+    measured = planned(standing_dev_blade(), "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
                        axis_mode="lead-tilt", lead_deg=10.0,
                        machine=load_machine("trunnion-ac"))
     volume = measured.volume()

@@ -12,15 +12,12 @@ estimates must not read below the ray cast (the full method, the oracle here) an
 
 import numpy as np
 import pytest
-from measured_plans import planned
+from measured_plans import planned, standing_dev_blade
 
 import toolpath.planning.cusp_estimates as cusp_estimates
 from machines import load_machine
-from toolpath import fit_streamline_surface
-from toolpath.paper_examples import bundled_data_path
 from toolpath.planning import CylinderPatch, EllipticBladeSurface, SpherePatch
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
-from toolpath.planning.setup import centred_on_table, rotation_from_spec
 from toolpath.vectors import move_axes
 
 #: The ray cast's own tolerance. The standing blade's sections read 1.018 (bull:10:2) and
@@ -33,16 +30,9 @@ LEAST_SHARE = 0.995
 MEDIAN_SHARE = 1.2
 
 
-def _standing():
-    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
-    blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3)[::2], tol=0.01,
-                                   closed=False)
-    return centred_on_table(blade, rotation_from_spec("y:-90"))
-
-
 CASES = {
     # the leading edge (the cutter turning round its contact) and the pass ends
-    "standing blade": (_standing, {"scallop_mm": 0.03, "chord_tol_mm": 0.03,
+    "standing blade": (standing_dev_blade, {"scallop_mm": 0.03, "chord_tol_mm": 0.03,
                                    "lead_deg": 10.0, "machine": "trunnion-ac"}),
     "sphere cap": (lambda: SpherePatch(radius_mm=60.0, longitude_deg=(-20.0, 20.0),
                                        colatitude_deg=(5.0, 25.0)),

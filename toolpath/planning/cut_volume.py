@@ -225,7 +225,7 @@ class CutVolume:
         a, b, xa, xb, owner, q_a, q_b, start = _feed_segments(toolpath, joints)
         interpolation = None if joints is None else (machine, q_a, q_b)
         # the moves the post splits until their tips keep to the chord (leads, links):
-        # tip-linear, as the program moves them (within its joint tolerance), not as
+        # tip-linear, as the program moves them (its tip within the joint tolerance), not as
         # their joints would carry the cutter unsplit (through the part, on a link that
         # turns the rotary axes)
         tip_linear = (None if joints is None else
