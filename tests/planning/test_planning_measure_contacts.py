@@ -216,3 +216,15 @@ def test_the_nearest_sample_in_the_cells_is_the_k_d_tree_s(binned_mm):
     assert np.array_equal(found[within], want[within])
     nearest = chord_measure._nearest_samples(samples, queries, 3.0)
     assert np.array_equal(nearest, samples.tree.query(queries)[1])
+
+
+def test_the_nearest_sample_of_two_as_near_is_the_lower_and_none_at_the_reach():
+    # a closed surface's seam samples its points twice: of two copies the lower index,
+    # whichever cell each lies in; a sample exactly at the reach is not within it
+    from toolpath.planning.gouge import SurfaceSamples
+
+    points = np.array([[5.0, 0.0, 0.0], [0.0, 0.0, 0.0], [9.0, 9.0, 9.0], [0.0, 0.0, 0.0]])
+    samples = SurfaceSamples(points=points, t=np.zeros(4), s=np.zeros(4), spacing_mm=1.0)
+    samples.cells(0.5)
+    queries = np.array([[0.0, 0.0, 1.0], [2.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
+    assert samples.nearest(queries, 3.0).tolist() == [1, 1, -1]

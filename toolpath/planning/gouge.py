@@ -91,8 +91,9 @@ class SurfaceSamples:
 
         -1 where no sample lies within it. In the samples' cells binned already (the
         global gouge check's), else binned for ``reach_mm``: the k-d tree (:attr:`tree`)
-        is not built for a search that the cells answer (the same samples; of two as
-        near, the lower index).
+        is not built for a search that the cells answer (a sample as near as the tree's;
+        of two as near, the lower index, where the tree may take either: the two copies
+        of a closed surface's seam).
         """
         cells = next(iter(self._cells.values())) if self._cells else self.cells(reach_mm)
         return nearest_within(cells, points_mm, reach_mm)
