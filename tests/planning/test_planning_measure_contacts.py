@@ -188,3 +188,43 @@ def test_groove_narrower_than_the_ball_matches_the_full_method(depth_mm, width_m
     assert np.array_equal(fast.seeds_pass, full.seeds_pass)
     assert np.abs(fast.seeds_t - full.seeds_t).max() < SAME_SHOULDER_PARAMETER
     assert np.abs(fast.seeds_s - full.seeds_s).max() < SAME_SHOULDER_PARAMETER
+
+
+@pytest.mark.parametrize("binned_mm", [None, 1.0, 4.0])
+def test_the_nearest_sample_in_the_cells_is_the_k_d_tree_s(binned_mm):
+    # the samples' cells (none binned yet, or binned finer or coarser than the reach for
+    # another search) give each point the sample the k-d tree gives, within the reach,
+    # and none beyond it; lifted points beyond the reach get the tree's nearest of all
+    from toolpath.planning.gouge import SurfaceSamples
+
+    rng = np.random.default_rng(7)
+    t, s = rng.random(4000), rng.random(4000)
+    points = np.stack([40.0 * t, 25.0 * s, 3.0 * np.sin(6.0 * t) * np.cos(4.0 * s)], axis=1)
+    samples = SurfaceSamples(points=points, t=t, s=s, spacing_mm=0.6)
+    if binned_mm is not None:
+        samples.cells(binned_mm)
+    lift = rng.choice([0.5, 3.0, 6.0], 3000)[:, None]
+    normal = rng.normal(size=(3000, 3))
+    normal /= np.linalg.norm(normal, axis=1)[:, None]
+    queries = points[rng.integers(0, 4000, 3000)] + lift * normal
+    reach = 3.0 + samples.spacing_mm
+    found = samples.nearest(queries, reach)
+    want = samples.tree.query(queries, distance_upper_bound=reach)[1]
+    within = want < len(points)
+    assert 0 < within.sum() < len(queries)
+    assert np.array_equal(found >= 0, within)
+    assert np.array_equal(found[within], want[within])
+    nearest = chord_measure._nearest_samples(samples, queries, 3.0)
+    assert np.array_equal(nearest, samples.tree.query(queries)[1])
+
+
+def test_the_nearest_sample_of_two_as_near_is_the_lower_and_none_at_the_reach():
+    # a closed surface's seam samples its points twice: of two copies the lower index,
+    # whichever cell each lies in; a sample exactly at the reach is not within it
+    from toolpath.planning.gouge import SurfaceSamples
+
+    points = np.array([[5.0, 0.0, 0.0], [0.0, 0.0, 0.0], [9.0, 9.0, 9.0], [0.0, 0.0, 0.0]])
+    samples = SurfaceSamples(points=points, t=np.zeros(4), s=np.zeros(4), spacing_mm=1.0)
+    samples.cells(0.5)
+    queries = np.array([[0.0, 0.0, 1.0], [2.0, 0.0, 0.0], [0.0, 3.0, 0.0]])
+    assert samples.nearest(queries, 3.0).tolist() == [1, 1, -1]

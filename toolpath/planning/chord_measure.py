@@ -102,7 +102,7 @@ class ChordMeasurement:
 #: A ball's contacts along a run of cutting moves are searched from the nearest surface
 #: sample at every this many locations (and at the run's last); the others from those
 #: contacts (:func:`_run_anchors`), unless the guard of :func:`_unsure_between` sends them
-#: back to their own sample: the same feet, in about a quarter of the k-d tree's queries.
+#: back to their own sample: the same feet, in about a quarter of the nearest-sample searches.
 CONTACT_STRIDE = 4
 
 #: A ball's undercut (gap above the surface) under this share of the largest gap is taken
@@ -268,7 +268,7 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     centre on the axis (:func:`_contact_gaps`), ``chunk`` locations at a time. A ball's
     locations between the anchors :func:`_run_anchors` picks (every ``stride``-th) are
     seeded from the anchors' contacts instead, interpolated along the run (as
-    :func:`~.sampling.move_gaps` seeds the points inside a move): a k-d tree query of a
+    :func:`~.sampling.move_gaps` seeds the points inside a move): a nearest-sample search of a
     point a radius off the surface costs several times its Newton search, which takes
     ``seeded_newton`` steps there, then more while the foot moves. Those whose
     foot may be a wrong local one (:func:`_unsure_between`) are then searched from their
@@ -332,18 +332,18 @@ def _nearest_samples(samples: SurfaceSamples, points: NDArray[np.float64], lift_
     """The index of the sample nearest to each point (a cutter point ``lift_mm`` off).
 
     A cutter location's point stands about ``lift_mm`` off the surface, whose samples lie
-    :attr:`~.gouge.SurfaceSamples.spacing_mm` apart: the k-d tree is first asked within
-    ``lift_mm`` and :data:`NEAREST_REACH_SPACINGS` spacings, which prunes its search from
-    the start (a fifth of its time on the dev blade); the nearest sample within that
-    reach is the nearest of all. The points with none there (lifted higher) are asked
-    again without a reach: the same samples as one unbounded query.
+    :attr:`~.gouge.SurfaceSamples.spacing_mm` apart: the nearest sample is first sought
+    within ``lift_mm`` and :data:`NEAREST_REACH_SPACINGS` spacings, among the samples'
+    cells (:meth:`~.gouge.SurfaceSamples.nearest`: those the gouge check binned, no k-d
+    tree to build); the nearest sample within that reach is the nearest of all. The
+    points with none there (lifted higher) are asked of the k-d tree without a reach:
+    the same samples as one unbounded query (of two as near, either).
     """
-    reach = lift_mm + NEAREST_REACH_SPACINGS * samples.spacing_mm
-    tree, workers = samples.tree, numba.get_num_threads()
-    _, nearest = tree.query(points, k=1, workers=workers, distance_upper_bound=reach)
-    missed = np.flatnonzero(nearest >= tree.n)
+    nearest = samples.nearest(points, lift_mm + NEAREST_REACH_SPACINGS * samples.spacing_mm)
+    missed = np.flatnonzero(nearest < 0)
     if missed.size:
-        nearest[missed] = tree.query(points[missed], k=1, workers=workers)[1]
+        nearest[missed] = samples.tree.query(points[missed], k=1,
+                                             workers=numba.get_num_threads())[1]
     return nearest
 
 

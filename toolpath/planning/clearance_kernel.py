@@ -29,7 +29,8 @@ from ..row_threads import run_in_threads
 from .cutter_kernel import cutter_distance
 
 __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
-           "cell_scratch_size", "clearances", "counts_within", "pairs_within", "points_box"]
+           "cell_scratch_size", "clearances", "counts_within", "nearest_within",
+           "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -491,6 +492,45 @@ def counts_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm
                    np.zeros(len(q), dtype=np.int64), np.zeros(0, dtype=np.int64),
                    cell_scratch_size(radius_mm, cells.cell_mm))
     return counts
+
+
+@numba.njit(cache=True, nogil=True)
+def _nearest_within(binned, queries, radius, scratch_size, out, lo, hi):
+    """The nearest point within ``radius`` of queries ``lo .. hi - 1`` into ``out`` (-1: none).
+
+    (Slices of the queries in threads: :func:`~toolpath.row_threads.run_in_threads`.)
+    """
+    points, index, cell_start, origin, shape, cell, box, _ = binned
+    cells = np.empty(scratch_size, dtype=np.int64)
+    for i in range(lo, hi):
+        c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
+        best, at = radius * radius, -1
+        for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
+            cid = cells[m]
+            for j in range(cell_start[cid], cell_start[cid + 1]):
+                e0 = points[j, 0] - c0
+                e1 = points[j, 1] - c1
+                e2 = points[j, 2] - c2
+                d = e0 * e0 + e1 * e1 + e2 * e2
+                # (the lower index of two as near: the same whatever the cells' order)
+                if d < best or (d == best and at >= 0 and index[j] < at):
+                    best, at = d, index[j]
+        out[i] = at
+
+
+def nearest_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
+                   ) -> NDArray[np.int64]:
+    """The index of the binned point nearest to each query, among those within ``radius_mm``.
+
+    -1 where none lies within it. Of two as near, the lower index. (Every cell the
+    sphere meets is searched, :func:`cells_near`: the nearest point within the radius
+    is the nearest of all points when there is one.)
+    """
+    q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
+    out = np.full(len(q), -1, dtype=np.int64)
+    run_in_threads(_nearest_within, len(q), cells, q, float(radius_mm),
+                   cell_scratch_size(radius_mm, cells.cell_mm), out)
+    return out
 
 
 def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float

@@ -31,7 +31,7 @@ from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
 from ..surface import ParametricSurface
-from .clearance_kernel import SampleCells, bin_samples, clearances
+from .clearance_kernel import SampleCells, bin_samples, clearances, nearest_within
 from .cutters import Cutter
 from .local import PassFrame
 from .resolution import GOUGE_TOL_MM
@@ -85,6 +85,18 @@ class SurfaceSamples:
         if reach_mm not in self._cells:
             self._cells[reach_mm] = bin_samples(self.points, reach_mm)
         return self._cells[reach_mm]
+
+    def nearest(self, points_mm: NDArray[np.float64], reach_mm: float) -> NDArray[np.int64]:
+        """The index of the sample nearest to each point, sought within ``reach_mm``.
+
+        -1 where no sample lies within it. In the samples' cells binned already (the
+        global gouge check's), else binned for ``reach_mm``: the k-d tree (:attr:`tree`)
+        is not built for a search that the cells answer (a sample as near as the tree's;
+        of two as near, the lower index, where the tree may take either: the two copies
+        of a closed surface's seam).
+        """
+        cells = next(iter(self._cells.values())) if self._cells else self.cells(reach_mm)
+        return nearest_within(cells, points_mm, reach_mm)
 
 
 #: Largest turn of the normal between neighbouring sample columns (deg): a ``t`` interval

@@ -563,14 +563,18 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _capsule_entry(q, n, a, b, r2):
-    """Entry of the ray ``q + l n`` into the capsule round ``ab`` (0 inside, inf: misses)."""
-    d0, d1, d2 = b[0] - a[0], b[1] - a[1], b[2] - a[2]
-    m0, m1, m2 = q[0] - a[0], q[1] - a[1], q[2] - a[2]
+def _capsule_entry(q0, q1, q2, n0, n1, n2, a0, a1, a2, b0, b1, b2, r2):
+    """Entry of the ray ``q + l n`` into the capsule round ``ab`` (0 inside, inf: misses).
+
+    (The coordinates as scalars: a row of an array passed in costs its loop three times
+    the time, the capsule's own arithmetic included.)
+    """
+    d0, d1, d2 = b0 - a0, b1 - a1, b2 - a2
+    m0, m1, m2 = q0 - a0, q1 - a1, q2 - a2
     dd = d0 * d0 + d1 * d1 + d2 * d2
     md = m0 * d0 + m1 * d1 + m2 * d2
-    nd = n[0] * d0 + n[1] * d1 + n[2] * d2
-    mn = m0 * n[0] + m1 * n[1] + m2 * n[2]
+    nd = n0 * d0 + n1 * d1 + n2 * d2
+    mn = m0 * n0 + m1 * n1 + m2 * n2
     mm = m0 * m0 + m1 * m1 + m2 * m2
     foot = min(max(md / (dd if dd > 0.0 else 1.0), 0.0), 1.0)
     o0, o1, o2 = m0 - foot * d0, m1 - foot * d1, m2 - foot * d2
@@ -589,8 +593,8 @@ def _capsule_entry(q, n, a, b, r2):
             best = lam
     # the two end spheres
     for end in range(2):
-        c0, c1, c2 = (m0, m1, m2) if end == 0 else (q[0] - b[0], q[1] - b[1], q[2] - b[2])
-        bc = c0 * n[0] + c1 * n[1] + c2 * n[2]
+        c0, c1, c2 = (m0, m1, m2) if end == 0 else (q0 - b0, q1 - b1, q2 - b2)
+        bc = c0 * n0 + c1 * n1 + c2 * n2
         dsc = bc * bc - (c0 * c0 + c1 * c1 + c2 * c2 - r2)
         if dsc >= 0.0:
             lam = -bc - math.sqrt(dsc)
@@ -607,8 +611,11 @@ def _capsule_entries(rays, pieces, segments, r2, stop, out):
     a, b = segments
     for i in range(lo.size):
         best = np.inf
+        q0, q1, q2, n0, n1, n2 = q[i, 0], q[i, 1], q[i, 2], n[i, 0], n[i, 1], n[i, 2]
         for k in range(lo[i], hi[i]):
-            best = min(best, _capsule_entry(q[i], n[i], a[item[k]], b[item[k]], r2))
+            j = item[k]
+            best = min(best, _capsule_entry(q0, q1, q2, n0, n1, n2, a[j, 0], a[j, 1], a[j, 2],
+                                            b[j, 0], b[j, 1], b[j, 2], r2))
             if best <= stop:
                 break
         out[i] = best
@@ -635,9 +642,19 @@ def capsule_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _segment_distance(p0, p1, q0, q1):
     """Distance between segments ``p0 p1`` and ``q0 q1`` (clamped closest points)."""
-    d1 = (p1[0] - p0[0], p1[1] - p0[1], p1[2] - p0[2])
-    d2 = (q1[0] - q0[0], q1[1] - q0[1], q1[2] - q0[2])
-    r = (p0[0] - q0[0], p0[1] - q0[1], p0[2] - q0[2])
+    return _segment_distance_xyz(p0[0], p0[1], p0[2], p1[0], p1[1], p1[2],
+                                 q0[0], q0[1], q0[2], q1[0], q1[1], q1[2])
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _segment_distance_xyz(p00, p01, p02, p10, p11, p12, q00, q01, q02, q10, q11, q12):
+    """:func:`_segment_distance` of the ends' coordinates.
+
+    (As scalars: rows of arrays passed in cost a loop of them twice the time.)
+    """
+    d1 = (p10 - p00, p11 - p01, p12 - p02)
+    d2 = (q10 - q00, q11 - q01, q12 - q02)
+    r = (p00 - q00, p01 - q01, p02 - q02)
     a = d1[0] * d1[0] + d1[1] * d1[1] + d1[2] * d1[2]
     e = d2[0] * d2[0] + d2[1] * d2[1] + d2[2] * d2[2]
     f = d2[0] * r[0] + d2[1] * r[1] + d2[2] * r[2]
@@ -672,7 +689,10 @@ def _segment_distances(first, owner, second, item, out):
     p0, p1 = first
     a, b = second
     for k in range(owner.size):
-        out[k] = _segment_distance(p0[owner[k]], p1[owner[k]], a[item[k]], b[item[k]])
+        i, j = owner[k], item[k]
+        out[k] = _segment_distance_xyz(p0[i, 0], p0[i, 1], p0[i, 2], p1[i, 0], p1[i, 1],
+                                       p1[i, 2], a[j, 0], a[j, 1], a[j, 2], b[j, 0], b[j, 1],
+                                       b[j, 2])
 
 
 def segment_distances(p0: NDArray[np.float64], p1: NDArray[np.float64],
