@@ -216,7 +216,8 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     the ridge (:func:`_runs_on`) or runs along its cutter's axis (:data:`AXIS_WAY_COSINE`):
     there, where both contact poses were found facing the seed's surface, the ridge
     between those two poses' own sections bounds the cusp (:func:`_pose_section_bounds`;
-    bull-noses); elsewhere it returns NaN: the ray cast decides.
+    a flat's whole sections, a bull-nose's corner balls'); elsewhere it returns NaN: the
+    ray cast decides.
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -316,6 +317,8 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
     each side: every pose of a piece lies inside what the toolpath removes, so their
     sections only lower the bound (at the median, of the ray cast: bull:8:1 1.29 -> 1.13,
     bull:10:2 1.16 -> 1.05 on the standing blade, test_planning_measure_pose_sections).
+    A flat cutter's poses (tips: ``r = 0``) are each cut whole by the plane, a cylinder's
+    section (:func:`~.torus_kernel.flat_section_bounds`).
     """
     rows, own_c, next_c, own_axis, next_axis, j_own, j_next = poses
     todo = np.flatnonzero(np.isnan(out[rows]))
@@ -339,6 +342,7 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
                                        across=across, reach_mm=reach,
                                        radius_mm=cutter.radius_mm,
                                        corner_radius_mm=cutter.corner_radius_mm,
+                                       flute_length_mm=cutter.flute_length_mm,
                                        more_poses=(*_piece_poses(volume, j_own[todo]),
                                                    *_piece_poses(volume, j_next[todo])))
     out[rows[found]] = _ridge_heights(surface, seeds, rows[found], point[found])

@@ -33,7 +33,13 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
-from .torus_kernel import disk_crossings, running_bounds, section_sides, side_crossings
+from .torus_kernel import (
+    disk_crossings,
+    flat_section_bounds,
+    running_bounds,
+    section_sides,
+    side_crossings,
+)
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
            "SECTION_LEVELS", "SECTION_RING_SAMPLES", "SECTION_STEPS", "pose_section_ridges",
@@ -303,7 +309,7 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                         normal: NDArray[np.float64], toward: NDArray[np.float64], *,
                         through: NDArray[np.float64], across: NDArray[np.float64],
                         reach_mm: NDArray[np.float64], radius_mm: float,
-                        corner_radius_mm: float,
+                        corner_radius_mm: float, flute_length_mm: float | None = None,
                         more_poses: tuple[NDArray[np.float64], ...] | None = None,
                         chunk: int = 4_000
                         ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
@@ -329,8 +335,10 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     towards the next (``x``'s sign); ``through``, ``across``: the plane; ``reach_mm``
     (m,): how far across the next contact stands. Returns the bound's point (m, 3) and
     whether it was found (not where the sections do not cross between the contacts or a
-    disk covers neither bracket end). Only for corner radius ``r > 0`` (a flat's rim balls
-    have no section).
+    disk covers neither bracket end). A flat (``r = 0``: its rim balls have no section;
+    ``own_centre``, ``next_centre`` its tips) needs ``flute_length_mm`` (else none is
+    found): each pose's whole section, exact (:func:`~.torus_kernel.flat_section_bounds`:
+    a cylinder's section, convex, no ring samples, no sag owed), over the same grid.
 
     With ``more_poses`` (own ring centres, own axes, next ring centres, next axes; each
     (m, K, 3)): more poses each pass takes (:func:`~.cusp_estimates.torus_cusp_estimates`:
@@ -350,7 +358,7 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     m = len(own_centre)
     point, found = np.zeros((m, 3)), np.zeros(m, dtype=bool)
     ring, r = radius_mm - corner_radius_mm, corner_radius_mm
-    if not m or r <= 0.0:
+    if not m or (r <= 0.0 and flute_length_mm is None):
         return point, found
     nu = unit(across)
     y = unit(normal - np.einsum("ij,ij->i", normal, nu)[:, None] * nu)
@@ -360,11 +368,23 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     for lo in range(0, m, chunk):
         rows = slice(lo, lo + chunk)
         reach = reach_mm[rows]
+        frame = (through[rows], nu[rows], x[rows], y[rows])
+        if r <= 0.0:  # a flat: each pose's whole section (no corner balls, no sag)
+            sides = (own_centre, own_axis, next_centre, next_axis)
+            poses = tuple(one[rows, None] for one in sides) if more_poses is None else tuple(
+                np.concatenate([one[rows, None], many[rows]], axis=1)
+                for one, many in zip(sides, more_poses, strict=True))
+            xb, height, ok = flat_section_bounds(frame, poses, radius_mm, flute_length_mm,
+                                                 reach, SECTION_STEPS, SECTION_LEVELS)
+            ok &= np.isfinite(height)
+            point[rows] = (through[rows] + xb[:, None] * x[rows]
+                           + np.where(ok, height, 0.0)[:, None] * y[rows])
+            found[rows] = ok
+            continue
         window = np.minimum(np.arcsin(np.clip(1.5 * reach / max(ring, TINY), 0.0, 1.0))
                             + 0.05, 0.5 * np.pi)
         phi = window[:, None] * steps
         sag = (ring * 2.0 * window / (SECTION_RING_SAMPLES - 1)) ** 2 / (8.0 * r)
-        frame = (through[rows], nu[rows], x[rows], y[rows])
         own = _disks(own_centre[rows], own_axis[rows], normal[rows], phi, frame, ring, r)
         nxt = _disks(next_centre[rows], next_axis[rows], normal[rows], phi, frame, ring, r)
         xb, bound, ok = disk_crossings(own, nxt, reach, SECTION_STEPS)
