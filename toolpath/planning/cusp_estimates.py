@@ -318,7 +318,9 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
     sections only lower the bound (at the median, of the ray cast: bull:8:1 1.29 -> 1.13,
     bull:10:2 1.16 -> 1.05 on the standing blade, test_planning_measure_pose_sections).
     A flat cutter's poses (tips: ``r = 0``) are each cut whole by the plane, a cylinder's
-    section (:func:`~.torus_kernel.flat_section_bounds`).
+    section (:func:`~.torus_kernel.flat_section_bounds`). The bound is of the ridge's
+    height over the surface, whose section in the plane bends by the normal curvature
+    along the line of ``t``, ``X_ss . n / |X_s|^2`` (``bend_per_mm``).
     """
     rows, own_c, next_c, own_axis, next_axis, j_own, j_next = poses
     todo = np.flatnonzero(np.isnan(out[rows]))
@@ -337,8 +339,16 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
     apart = contact_next - contact_own
     reach = np.linalg.norm(apart - np.einsum("ij,ij->i", apart, across)[:, None] * across,
                            axis=1)
+    # the surface's normal curvature along the line of t: its section in the plane
+    x_s = seeds.x_s[rows]
+    x_ss = surface.partials_many(seeds.t[rows], seeds.s[rows], ((0, 2),))[(0, 2)]
+    speed_sq = np.maximum(np.einsum("ij,ij->i", x_s, x_s), TINY)
+    bend = np.einsum("ij,ij->i", x_ss, n) / speed_sq
+    # and how far across the surface runs, as _ridge_heights reads s from x
+    within = (1.0 - seeds.s[rows]) * np.sqrt(speed_sq)
     point, found = pose_section_ridges(own_c[todo], next_c[todo], own_axis[todo],
-                                       next_axis[todo], n, seeds.x_s[rows], through=q,
+                                       next_axis[todo], n, x_s, through=q, bend_per_mm=bend,
+                                       within_mm=within,
                                        across=across, reach_mm=reach,
                                        radius_mm=cutter.radius_mm,
                                        corner_radius_mm=cutter.corner_radius_mm,

@@ -316,9 +316,47 @@ def _halving_grid(span, centre, levels, grid):
     return count
 
 
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _highest_over(grid, count, ub, bend, limit):
+    """The interval whose bound stands highest over the surface: its ``x`` and bound ``y``.
+
+    ``ub`` (2, count - 1): each side's bound ``U`` on ``y`` over each interval of ``grid``.
+    The surface's section in the plane is ``y_s(x) = bend x^2 / 2`` (to second order;
+    ``bend`` its normal curvature along ``x``, negative where it falls away, as on a
+    convex part), so a point of interval ``I`` at most ``min(U_own, U_next)`` high in
+    ``y`` stands at most ``min(U_own, U_next) - min_I y_s`` over the surface (``x >= 0``:
+    the far end where ``bend < 0``, the near end where ``bend > 0``). The largest of these
+    bounds the ridge's height, not its ``y``: where the surface falls away the highest
+    ``y`` need not be the highest ridge (on a sphere of radius 10 mm, flat:6, lead 30 deg,
+    trunnion-ac, the crest stood 0.345 mm across, 0.0012 mm lower in ``y`` than the
+    highest ``y``'s interval at 0.181 mm, over a surface fallen 0.0060 mm there, not
+    0.0016: 0.0158 mm high, the highest ``y`` 0.0127). Only ``x <= limit`` counts (the
+    surface's edge: the ray cast looks no farther, and no height is read beyond it).
+    Returns the ``x`` where that interval's surface stands lowest (its middle where
+    ``bend`` is 0; the caller reads the point's height over the surface there) and its
+    ``min(U_own, U_next)`` (``-inf``: no interval within ``limit``).
+    """
+    best, where, high = -np.inf, 0.0, -np.inf
+    for j in range(count - 1):
+        if grid[j] > limit:
+            break
+        value = min(ub[0, j], ub[1, j])
+        end = min(grid[j + 1], limit)
+        if bend < 0.0:
+            at = end
+        elif bend > 0.0:
+            at = grid[j]
+        else:
+            at = 0.5 * (grid[j] + end)
+        over = value - 0.5 * bend * at * at
+        if over > best:
+            best, where, high = over, at, value
+    return where, high
+
+
 @numba.njit(cache=True)
-def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels,
-                    out_x, out_h):
+def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels, bend,
+                    limit, out_x, out_h):
     """The loop of :func:`running_bounds`, into ``out_x``, ``out_h``."""
     through, nu, ex, ey = frame
     own_c, own_a, next_c, next_a = poses
@@ -369,19 +407,14 @@ def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, leve
                         if j > 0:
                             ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
                         before = here
-        best, where = -np.inf, 0.0
-        for j in range(count - 1):
-            value = min(ub[0, j], ub[1, j])
-            if value > best:
-                best, where = value, 0.5 * (grid[j] + grid[j + 1])
-        out_h[row] = best
-        out_x[row] = where
+        out_x[row], out_h[row] = _highest_over(grid, count, ub, bend[row], limit[row])
 
 
 def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.float64],
                    poses: tuple[NDArray[np.float64], ...], phi: NDArray[np.float64],
                    ring_mm: float, corner_mm: float, reach: NDArray[np.float64],
-                   centre: NDArray[np.float64], levels: int
+                   centre: NDArray[np.float64], levels: int, bend: NDArray[np.float64],
+                   limit: NDArray[np.float64]
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
     """An upper bound on ``max_x min(F_own(x), F_next(x))`` over ``[0, reach]``, row by row.
 
@@ -398,10 +431,13 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
     ``min(F_own, F_next) <= min(U_own(I), U_next(I))``, and the largest of these over the
     intervals bounds the ridge whatever the envelopes' shapes (no crossing need be unique,
     nor the envelopes monotone). Where the ridge lies near ``centre`` the intervals there
-    are narrow, so the bound is close; away from it wide intervals read high.
+    are narrow, so the bound is close; away from it wide intervals read high. The ridge's
+    height over the surface, not its ``y``, is what is bounded: the interval chosen is the
+    one standing highest over the surface's section ``bend x^2 / 2`` (``bend`` (m,), 1/mm),
+    ``x`` up to ``limit`` (m,), the surface's edge (:func:`_highest_over`).
 
-    Returns the middle ``x`` of the interval giving the bound and the bound (``inf``
-    where no disk covers an interval whole on a side that decides it).
+    Returns the ``x`` where that interval's surface stands lowest and the interval's bound
+    on ``y`` (``inf`` where no disk covers an interval whole on a side that decides it).
     """
     m = len(reach)
     out_x, out_h = np.empty(m), np.empty(m)
@@ -410,7 +446,7 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
             return np.ascontiguousarray(v, dtype=float)
         _running_bounds(tuple(c(v) for v in frame), c(normal), tuple(c(v) for v in poses),
                         c(phi), float(ring_mm), float(corner_mm), c(reach), c(centre),
-                        int(levels), out_x, out_h)
+                        int(levels), c(bend), c(limit), out_x, out_h)
     return out_x, out_h
 
 
@@ -461,8 +497,8 @@ def _flat_gap(frame, poses, radius, length, row, at):
 
 
 @numba.njit(cache=True)
-def _flat_section_bounds(frame, poses, radius, length, reach, steps, levels, out_x, out_h,
-                         out_ok):
+def _flat_section_bounds(frame, poses, radius, length, reach, steps, levels, bend, limit,
+                         out_x, out_h, out_ok):
     """The loop of :func:`flat_section_bounds`, into ``out_x``, ``out_h``, ``out_ok``."""
     count_max = 2 * levels + 3
     grid = np.empty(count_max)
@@ -490,18 +526,13 @@ def _flat_section_bounds(frame, poses, radius, length, reach, steps, levels, out
                     if j > 0:
                         ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
                     before = here
-        best, where = -np.inf, 0.0
-        for j in range(count - 1):
-            value = min(ub[0, j], ub[1, j])
-            if value > best:
-                best, where = value, 0.5 * (grid[j] + grid[j + 1])
-        out_h[row] = best
-        out_x[row] = where
+        out_x[row], out_h[row] = _highest_over(grid, count, ub, bend[row], limit[row])
 
 
 def flat_section_bounds(frame: tuple[NDArray[np.float64], ...],
                         poses: tuple[NDArray[np.float64], ...], radius_mm: float,
-                        length_mm: float, reach: NDArray[np.float64], steps: int, levels: int
+                        length_mm: float, reach: NDArray[np.float64], steps: int, levels: int,
+                        bend: NDArray[np.float64], limit: NDArray[np.float64]
                         ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
     """An upper bound on the ridge between two passes' poses of a flat cutter, row by row.
 
@@ -518,9 +549,12 @@ def flat_section_bounds(frame: tuple[NDArray[np.float64], ...],
     crossing ``x_b``; then over the grid halving towards it (``levels``, as
     :func:`running_bounds`) each side's ``U(I) = min_k max(f_k(x_a), f_k(x_b))`` (a convex
     ``f_k`` stands no higher over ``I`` than at its ends; ``inf`` where it misses an end)
-    bounds the lower envelope of its poses' sections, and the largest of ``min(U_own,
-    U_next)`` bounds ``max_x min(F_own, F_next)``, the ridge, whatever the envelopes'
-    shapes. Returns the middle ``x`` of the interval giving it, the bound and ``ok``.
+    bounds the lower envelope of its poses' sections, and ``min(U_own, U_next)`` bounds
+    ``min(F_own, F_next)`` over ``I``, whatever the envelopes' shapes; the interval
+    standing highest over the surface's section ``bend x^2 / 2`` (``bend`` (m,), 1/mm),
+    ``x`` up to ``limit`` (m,), the surface's edge, bounds the ridge's height there
+    (:func:`_highest_over`). Returns the ``x`` where that
+    interval's surface stands lowest, its bound on ``y`` and ``ok``.
     """
     m = len(reach)
     out_x, out_h, out_ok = np.empty(m), np.empty(m), np.zeros(m, dtype=bool)
@@ -529,5 +563,5 @@ def flat_section_bounds(frame: tuple[NDArray[np.float64], ...],
             return np.ascontiguousarray(v, dtype=float)
         _flat_section_bounds(tuple(c(v) for v in frame), tuple(c(v) for v in poses),
                              float(radius_mm), float(length_mm), c(reach), int(steps),
-                             int(levels), out_x, out_h, out_ok)
+                             int(levels), c(bend), c(limit), out_x, out_h, out_ok)
     return out_x, out_h, out_ok

@@ -311,7 +311,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                         reach_mm: NDArray[np.float64], radius_mm: float,
                         corner_radius_mm: float, flute_length_mm: float | None = None,
                         more_poses: tuple[NDArray[np.float64], ...] | None = None,
-                        chunk: int = 4_000
+                        bend_per_mm: NDArray[np.float64] | None = None,
+                        within_mm: NDArray[np.float64] | None = None, chunk: int = 4_000
                         ) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
     """An upper bound on the ridge between two passes from one pose of each, no prism.
 
@@ -354,9 +355,30 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     crest, not the plane's ``y``; without it a seed of the standing dev blade (5-axis,
     bull:8:1, scallop 0.03 mm) read 0.9915 of a fine ray cast, with it 1.004 and up. The
     lower of the two bounds is taken.
+
+    ``bend_per_mm`` (m,; None: 0): the surface's normal curvature along the plane's ``x``
+    at the seed (negative where it falls away from ``normal``, as on a convex part). What
+    is bounded is the ridge's height over the surface, and where the surface falls away
+    across the passes the highest ridge need not be the highest ``y``: with several poses
+    a side each grid interval is weighed by how high its bound stands over the surface's
+    section ``bend x^2 / 2`` (:func:`~.torus_kernel.running_bounds`,
+    :func:`~.torus_kernel.flat_section_bounds`), and the one pose a side's crossing and the
+    several poses' bound compared by that height. (Weighed by ``y``, a flat's bound read
+    0.806 of the ray cast on a sphere of radius 10 mm, flat:6, lead 30 deg, trunnion-ac:
+    the crest stood 0.345 mm across, 0.0012 mm lower in ``y`` than the bound's interval at
+    0.181 mm, over a surface fallen by 0.006 mm; test_planning_measure_pose_sections.) The
+    one pose a side's crossing stays a bound of the height: beyond it the next section,
+    convex, less the surface's section, concave where it falls away, is convex, no higher
+    than at its ends, the crossing and the next contact (nothing left), and so on the own
+    side. ``within_mm`` (m,; None: no limit): how far across the surface runs (the ray
+    cast's bracket ends at its edge): no ridge is sought, nor its height read, beyond
+    (on a sphere of radius 10 mm, bull:6:1, lead 30 deg, a bound read at 1.02 mm across,
+    0.33 mm past the edge, stood 0.51 of the ray cast).
     """
     m = len(own_centre)
     point, found = np.zeros((m, 3)), np.zeros(m, dtype=bool)
+    bend = np.zeros(m) if bend_per_mm is None else np.asarray(bend_per_mm, dtype=float)
+    limit = np.full(m, np.inf) if within_mm is None else np.asarray(within_mm, dtype=float)
     ring, r = radius_mm - corner_radius_mm, corner_radius_mm
     if not m or (r <= 0.0 and flute_length_mm is None):
         return point, found
@@ -375,7 +397,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                 np.concatenate([one[rows, None], many[rows]], axis=1)
                 for one, many in zip(sides, more_poses, strict=True))
             xb, height, ok = flat_section_bounds(frame, poses, radius_mm, flute_length_mm,
-                                                 reach, SECTION_STEPS, SECTION_LEVELS)
+                                                 reach, SECTION_STEPS, SECTION_LEVELS,
+                                                 bend[rows], limit[rows])
             ok &= np.isfinite(height)
             point[rows] = (through[rows] + xb[:, None] * x[rows]
                            + np.where(ok, height, 0.0)[:, None] * y[rows])
@@ -395,9 +418,13 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                 for one, many in zip((own_centre, own_axis, next_centre, next_axis),
                                      more_poses, strict=True))
             x_more, h_more = running_bounds(frame, normal[rows], (own_c, own_a, next_c, next_a),
-                                            phi, ring, r, reach, xb, SECTION_LEVELS)
+                                            phi, ring, r, reach, xb, SECTION_LEVELS,
+                                            bend[rows], limit[rows])
             h_more = h_more + sag
-            lower = h_more < height
+            # (the lower over the surface: each read where its surface stands lowest; the
+            # one pose a side's crossing none beyond the edge)
+            lower = (h_more - 0.5 * bend[rows] * x_more**2 < height - 0.5 * bend[rows] * xb**2
+                     ) | (xb > limit[rows])
             xb, height = np.where(lower, x_more, xb), np.where(lower, h_more, height)
         ok &= np.isfinite(height)
         point[rows] = (through[rows] + xb[:, None] * x[rows]
