@@ -67,3 +67,27 @@ def test_no_estimate_stands_far_above_the_largest_cusp(leading_edge):
     guess, _, full = leading_edge
     top = np.nanmax(np.where(np.isfinite(full.height), full.height, np.nan))
     assert np.nanmax(guess) < 10.0 * top
+
+
+def test_the_nearest_of_the_own_pass_is_found_whatever_crowds_round():
+    """Per-pass k-d trees find each point's nearest of its own pass, as brute force does.
+
+    Crowded: 30 passes' points in a thin slab, the own pass's nearest often farther than
+    a thousand points of other passes (where the search among all points gave up).
+    """
+    from toolpath.planning.cusp_estimates import _nearest_in_pass
+
+    rng = np.random.default_rng(7)
+    points = rng.random((6000, 3)) * (10.0, 10.0, 0.1)
+    pass_of = rng.integers(0, 30, 6000)
+    pass_of[pass_of == 5] = 6  # (a pass with no point: -1)
+    point = rng.random((500, 3)) * (10.0, 10.0, 0.1)
+    pass_ = rng.integers(0, 30, 500)
+    got = _nearest_in_pass(points, pass_of, point, pass_)
+    for i in range(len(point)):
+        own = np.flatnonzero(pass_of == pass_[i])
+        if not own.size:
+            assert got[i] == -1
+            continue
+        dist = np.linalg.norm(points[own] - point[i], axis=1)
+        assert got[i] == own[np.argmin(dist)]
