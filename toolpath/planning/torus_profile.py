@@ -287,10 +287,13 @@ SECTION_LEVELS = 12
 #: ... and the grid cut into this many even steps too (:func:`~.torus_kernel.running_bounds`,
 #: where its intervals read above the bound over the finer grid): a side whose poses stand
 #: apart covered a wide interval with no one disk and the other side's far end read the
-#: bound. On the user's 5-axis job (standing dev blade,
-#: trunnion-ac, bull:8:1, lead 10 degrees, scallop 0.005 mm, 221,178 seeds) the pose
-#: bounds standing above ESTIMATE_SHARE times the largest cusp (each ray cast) fell from
-#: 8,260 to 2,184 (256 steps: 1,849; 2,048: 1,767).
+#: bound. On the user's 5-axis job (standing dev blade, trunnion-ac, bull:8:1, lead 10
+#: degrees, scallop 0.005 mm, 221,178 seeds) the estimates standing above ESTIMATE_SHARE
+#: times the largest cusp (each ray cast) fell from 8,816 to 2,622, the seeds cast from
+#: 15,298 to 7,597 (the pose bounds above it: 8,260 -> under 2,184; even grids alone of
+#: 256 and 2,048 steps: 1,849 and 1,767), for 4 s more of running_bounds' CPU (each
+#: interval weighed by y; weighed by its height over the surface, the seeds cast fell
+#: from 15,437 to 7,605 and measure_scallop's CPU from 41.9 to 32.2 s).
 SECTION_EVEN_STEPS = 64
 
 
