@@ -10,6 +10,8 @@ sorted together and taken at every point in numpy (the former ``torus_profile._c
 all rows in numpy.
 """
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -219,6 +221,17 @@ def _several_poses(bend, limit_share):
     max_x min(F_own, F_next) - bend x^2 / 2 over [0, min(reach, limit)], sampled densely
     (the oracle).
     """
+    args, limit, sides, x, lower = _poses_and_lower_envelope(limit_share)
+    ridge = (lower - 0.5 * bend * x**2).max(axis=1)
+    return args, np.full(len(ridge), bend), limit, sides, ridge
+
+
+@functools.lru_cache(maxsize=2)
+def _poses_and_lower_envelope(limit_share):
+    """:func:`_several_poses`' poses and ``min(F_own, F_next)`` at its dense ``x``, once.
+
+    (Whatever the bend: the oracle's sums, ~20 s a call, shared by the tests.)
+    """
     rng = np.random.default_rng(7)
     m, k, ring, corner = 400, 4, 3.0, 1.0
     through = np.zeros((m, 3))
@@ -253,13 +266,12 @@ def _several_poses(bend, limit_share):
     centre, _, _ = disk_crossings(*first, reach, 32)
     limit = np.full(m, np.inf) if limit_share is None else limit_share * reach
     x = np.linspace(0.0, 1.0, 20_001)[None, :] * np.minimum(reach, limit)[:, None]
-    ridge = np.empty(m)
+    lower = np.empty_like(x)
     for row in range(m):
         one = [tuple(v[row:row + 1] for v in side) for side in sides]
-        ridge[row] = (np.minimum(_envelope(one[0], x[row]), _envelope(one[1], x[row]))
-                      - 0.5 * bend * x[row] ** 2).max()
+        lower[row] = np.minimum(_envelope(one[0], x[row]), _envelope(one[1], x[row]))
     args = (frame, normal, (own_c, own_a, next_c, next_a), phi, ring, corner, reach, centre)
-    return args, np.full(m, bend), limit, sides, ridge
+    return args, limit, sides, x, lower
 
 
 @pytest.mark.parametrize("bend", [0.0, -0.1, 0.1])

@@ -216,8 +216,7 @@ def torus_cusp_estimates(volume: CutVolume, surface: ParametricSurface, seeds: S
     the ridge (:func:`_runs_on`) or runs along its cutter's axis (:data:`AXIS_WAY_COSINE`):
     there, where both contact poses were found facing the seed's surface, the ridge
     between those two poses' own sections bounds the cusp (:func:`_pose_section_bounds`;
-    a flat's whole sections, a bull-nose's corner balls'); elsewhere it returns NaN: the
-    ray cast decides.
+    bull-noses); elsewhere it returns NaN: the ray cast decides.
     """
     n_seed = len(seeds.t)
     out = np.full(n_seed, np.nan)
@@ -317,14 +316,13 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
     each side: every pose of a piece lies inside what the toolpath removes, so their
     sections only lower the bound (at the median, of the ray cast: bull:8:1 1.29 -> 1.13,
     bull:10:2 1.16 -> 1.05 on the standing blade, test_planning_measure_pose_sections).
-    A flat cutter's poses (tips: ``r = 0``) are each cut whole by the plane, a cylinder's
-    section (:func:`~.torus_kernel.flat_section_bounds`). The bound is of the ridge's
-    height over the surface, whose section in the plane bends by the normal curvature
-    along the line of ``t``, ``X_ss . n / |X_s|^2`` (``bend_per_mm``).
+    A flat cutter gets none (:func:`~.torus_profile.pose_section_ridges`). The bound is of
+    the ridge's height over the surface, whose section in the plane bends by the normal
+    curvature along the line of ``t``, ``X_ss . n / |X_s|^2`` (``bend_per_mm``).
     """
     rows, own_c, next_c, own_axis, next_axis, j_own, j_next = poses
     todo = np.flatnonzero(np.isnan(out[rows]))
-    if not todo.size:
+    if not todo.size or volume.cutter.corner_radius_mm <= 0.0:
         return
     rows = rows[todo]
     n, q = seeds.n[rows], seeds.q[rows]
@@ -352,7 +350,6 @@ def _pose_section_bounds(volume: CutVolume, surface: ParametricSurface, seeds: S
                                        across=across, reach_mm=reach,
                                        radius_mm=cutter.radius_mm,
                                        corner_radius_mm=cutter.corner_radius_mm,
-                                       flute_length_mm=cutter.flute_length_mm,
                                        more_poses=(*_piece_poses(volume, j_own[todo]),
                                                    *_piece_poses(volume, j_next[todo])))
     out[rows[found]] = _ridge_heights(surface, seeds, rows[found], point[found])

@@ -16,10 +16,8 @@ original) bounds the ridge between several poses a side over a grid halving towa
 contact poses' crossing (and, where that reads over a wide interval, an even grid too).
 It builds each pose's disks in its loop, as :func:`~.torus_profile._disks` does in numpy,
 rather than take them as (m, K S) arrays (~23 MB each at 4,000 rows, 11 poses and 65
-ring points). :func:`flat_section_bounds` (no numpy original) does both for a flat
-cutter, whose corner has no balls: each pose's whole section, a cylinder's, exact, over
-the same halving grid (:func:`_halving_grid`). Both weigh each interval by its bound's
-height over the surface's section (:func:`_over`).
+ring points), and weighs each interval by its bound's height over the surface's section
+(:func:`_over`).
 """
 
 from __future__ import annotations
@@ -32,8 +30,8 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 
-__all__ = ["disk_crossings", "flat_section_bounds", "running_bounds", "section_sides",
-           "side_crossings", "window_nearest"]
+__all__ = ["disk_crossings", "running_bounds", "section_sides", "side_crossings",
+           "window_nearest"]
 
 
 @numba.njit(cache=True)
@@ -570,120 +568,3 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
                         c(phi), float(ring_mm), float(corner_mm), c(reach), c(centre),
                         int(levels), int(even), c(bend), c(limit), out_x, out_h)
     return out_x, out_h
-
-
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _flat_lowest(frame, tips, axes, radius, length, row, pose, at):
-    """The lowest ``y`` of a flat cutter's section at ``x = at`` (``inf``: it misses).
-
-    :func:`flat_section_bounds`' section: ``g = (O - p) + x e_x + y e_y``, its height
-    ``h = g . a = h0 + y a_y`` and its squared distance from the axis ``|g|^2 - h^2 =
-    A y^2 + 2 B y + C`` (``A = 1 - a_y^2``, ``B = g0 . e_y - h0 a_y``, ``C = |g0|^2 - h0^2
-    - R^2``; ``g0 = (O - p) + x e_x``, ``h0 = g0 . a``): inside where that is at most 0
-    (between its roots) and ``0 <= h <= L``.
-    """
-    through, _, ex, ey = frame
-    gx = through[row, 0] - tips[row, pose, 0] + at * ex[row, 0]
-    gy = through[row, 1] - tips[row, pose, 1] + at * ex[row, 1]
-    gz = through[row, 2] - tips[row, pose, 2] + at * ex[row, 2]
-    h0 = gx * axes[row, pose, 0] + gy * axes[row, pose, 1] + gz * axes[row, pose, 2]
-    ay = (ey[row, 0] * axes[row, pose, 0] + ey[row, 1] * axes[row, pose, 1]
-          + ey[row, 2] * axes[row, pose, 2])
-    qa = 1.0 - ay * ay
-    qb = gx * ey[row, 0] + gy * ey[row, 1] + gz * ey[row, 2] - h0 * ay
-    qc = gx * gx + gy * gy + gz * gz - h0 * h0 - radius * radius
-    lo, hi = -np.inf, np.inf
-    if qa > TINY:
-        disc = qb * qb - qa * qc
-        if disc < 0.0:
-            return np.inf
-        root = math.sqrt(disc)
-        lo, hi = (-qb - root) / qa, (-qb + root) / qa
-    elif qc > 0.0:  # (the axis along y: the distance from it is the same all up)
-        return np.inf
-    if ay > TINY:
-        lo, hi = max(lo, -h0 / ay), min(hi, (length - h0) / ay)
-    elif ay < -TINY:
-        lo, hi = max(lo, (length - h0) / ay), min(hi, -h0 / ay)
-    elif h0 < 0.0 or h0 > length:
-        return np.inf
-    return lo if lo <= hi else np.inf
-
-
-@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _flat_gap(frame, poses, radius, length, row, at):
-    """The own contact pose's section less the next's at ``x = at`` (their lowest ``y``)."""
-    own_p, own_a, next_p, next_a = poses
-    return (_flat_lowest(frame, own_p, own_a, radius, length, row, 0, at)
-            - _flat_lowest(frame, next_p, next_a, radius, length, row, 0, at))
-
-
-@numba.njit(cache=True)
-def _flat_section_bounds(frame, poses, radius, length, reach, steps, levels, bend, limit,
-                         out_x, out_h, out_ok):
-    """The loop of :func:`flat_section_bounds`, into ``out_x``, ``out_h``, ``out_ok``."""
-    count_max = 2 * levels + 3
-    grid = np.empty(count_max)
-    ub = np.empty((2, count_max - 1))
-    for row in range(reach.size):
-        span = reach[row]
-        out_ok[row] = (_flat_gap(frame, poses, radius, length, row, 0.0) < 0.0
-                       and _flat_gap(frame, poses, radius, length, row, span) > 0.0)
-        xa, xb = 0.0, span
-        for _ in range(steps):
-            mid = 0.5 * (xa + xb)
-            if not _flat_gap(frame, poses, radius, length, row, mid) < 0.0:
-                xb = mid
-            else:
-                xa = mid
-        count = _halving_grid(span, xb, levels, grid)
-        for side in range(2):
-            tips, axes = (poses[0], poses[1]) if side == 0 else (poses[2], poses[3])
-            for j in range(count - 1):
-                ub[side, j] = np.inf
-            for pose in range(tips.shape[1]):
-                before = np.inf
-                for j in range(count):
-                    here = _flat_lowest(frame, tips, axes, radius, length, row, pose, grid[j])
-                    if j > 0:
-                        ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
-                    before = here
-        out_x[row], out_h[row], _ = _highest_over(grid, count, ub, bend[row], limit[row])
-
-
-def flat_section_bounds(frame: tuple[NDArray[np.float64], ...],
-                        poses: tuple[NDArray[np.float64], ...], radius_mm: float,
-                        length_mm: float, reach: NDArray[np.float64], steps: int, levels: int,
-                        bend: NDArray[np.float64], limit: NDArray[np.float64]
-                        ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.bool_]]:
-    """An upper bound on the ridge between two passes' poses of a flat cutter, row by row.
-
-    A flat end mill's pose (tip ``p``, unit axis ``a``, radius ``R``, flute length ``L``)
-    is the convex solid ``{p + h a + rho e : 0 <= h <= L, |rho| <= R, e across a}``. The
-    plane ``frame`` (its point ``O``, normal and axes ``x, y``; each (m, 3)) cuts it in a
-    convex region whose lower boundary ``f(x)`` is convex over the interval of ``x`` it
-    spans: at each ``x`` the lowest ``y`` with ``g = O - p + x e_x + y e_y`` inside, where
-    ``|g|^2 - (g . a)^2 <= R^2`` (a quadratic in ``y``: the cylinder's ellipse, or a strip
-    where the plane runs along ``a``) and ``0 <= g . a <= L`` (the end disk's line, the
-    shank's cut). ``poses``: the own tips and axes, the next's (m, K, 3 each), the
-    contact poses first. The contact poses' sections, the own below the next at ``x = 0``
-    and above at ``x = reach`` (else not ``ok``), are bisected ``steps`` times to their
-    crossing ``x_b``; then over the grid halving towards it (``levels``, as
-    :func:`running_bounds`) each side's ``U(I) = min_k max(f_k(x_a), f_k(x_b))`` (a convex
-    ``f_k`` stands no higher over ``I`` than at its ends; ``inf`` where it misses an end)
-    bounds the lower envelope of its poses' sections, and ``min(U_own, U_next)`` bounds
-    ``min(F_own, F_next)`` over ``I``, whatever the envelopes' shapes; the interval
-    standing highest over the surface's section ``bend x^2 / 2`` (``bend`` (m,), 1/mm),
-    ``x`` up to ``limit`` (m,), the surface's edge, bounds the ridge's height there
-    (:func:`_highest_over`). Returns the ``x`` where that
-    interval's surface stands lowest, its bound on ``y`` and ``ok``.
-    """
-    m = len(reach)
-    out_x, out_h, out_ok = np.empty(m), np.empty(m), np.zeros(m, dtype=bool)
-    if m:
-        def c(v):
-            return np.ascontiguousarray(v, dtype=float)
-        _flat_section_bounds(tuple(c(v) for v in frame), tuple(c(v) for v in poses),
-                             float(radius_mm), float(length_mm), c(reach), int(steps),
-                             int(levels), c(bend), c(limit), out_x, out_h, out_ok)
-    return out_x, out_h, out_ok

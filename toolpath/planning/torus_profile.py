@@ -33,13 +33,7 @@ from numpy.typing import NDArray
 
 from ..tolerances import TINY
 from ..vectors import unit
-from .torus_kernel import (
-    disk_crossings,
-    flat_section_bounds,
-    running_bounds,
-    section_sides,
-    side_crossings,
-)
+from .torus_kernel import disk_crossings, running_bounds, section_sides, side_crossings
 
 __all__ = ["LEAST_WAY_COSINE", "POSE_OFF_PLANE_SHARE", "PROFILE_SAMPLES", "RidgeProfile",
            "SECTION_EVEN_STEPS", "SECTION_LEVELS", "SECTION_RING_SAMPLES", "SECTION_STEPS",
@@ -321,7 +315,7 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
                         normal: NDArray[np.float64], toward: NDArray[np.float64], *,
                         through: NDArray[np.float64], across: NDArray[np.float64],
                         reach_mm: NDArray[np.float64], radius_mm: float,
-                        corner_radius_mm: float, flute_length_mm: float | None = None,
+                        corner_radius_mm: float,
                         more_poses: tuple[NDArray[np.float64], ...] | None = None,
                         bend_per_mm: NDArray[np.float64] | None = None,
                         within_mm: NDArray[np.float64] | None = None, chunk: int = 4_000
@@ -348,10 +342,10 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     towards the next (``x``'s sign); ``through``, ``across``: the plane; ``reach_mm``
     (m,): how far across the next contact stands. Returns the bound's point (m, 3) and
     whether it was found (not where the sections do not cross between the contacts or a
-    disk covers neither bracket end). A flat (``r = 0``: its rim balls have no section;
-    ``own_centre``, ``next_centre`` its tips) needs ``flute_length_mm`` (else none is
-    found): each pose's whole section, exact (:func:`~.torus_kernel.flat_section_bounds`:
-    a cylinder's section, convex, no ring samples, no sag owed), over the same grid.
+    disk covers neither bracket end). A flat (``r = 0``: its rim balls have no section)
+    gets none: the ray cast decides (a flat's whole sections searched up to the next
+    contact read down to 0.30 of the ray cast near an elliptic blade's trailing edge, the
+    ridge standing beyond that reach).
 
     With ``more_poses`` (own ring centres, own axes, next ring centres, next axes; each
     (m, K, 3)): more poses each pass takes (:func:`~.cusp_estimates.torus_cusp_estimates`:
@@ -373,12 +367,11 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     is bounded is the ridge's height over the surface, and where the surface falls away
     across the passes the highest ridge need not be the highest ``y``: with several poses
     a side each grid interval is weighed by how high its bound stands over the surface's
-    section ``bend x^2 / 2`` (:func:`~.torus_kernel.running_bounds`,
-    :func:`~.torus_kernel.flat_section_bounds`), and the one pose a side's crossing and the
-    several poses' bound compared by that height. (Weighed by ``y``, a flat's bound read
-    0.806 of the ray cast on a sphere of radius 10 mm, flat:6, lead 30 deg, trunnion-ac:
-    the crest stood 0.345 mm across, 0.0012 mm lower in ``y`` than the bound's interval at
-    0.181 mm, over a surface fallen by 0.006 mm; test_planning_measure_pose_sections.) The
+    section ``bend x^2 / 2`` (:func:`~.torus_kernel.running_bounds`), and the one pose a
+    side's crossing and the several poses' bound compared by that height. (Weighed by
+    ``y``, the bound read 0.739 of the ray cast on a sphere of radius 10 mm, bull:8:1, lead
+    30 deg, trunnion-ac, where the surface falls away across the passes;
+    test_planning_measure_pose_sections.) The
     one pose a side's crossing stays a bound of the height: beyond it the next section,
     convex, less the surface's section, concave where it falls away, is convex, no higher
     than at its ends, the crossing and the next contact (nothing left), and so on the own
@@ -392,7 +385,7 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     bend = np.zeros(m) if bend_per_mm is None else np.asarray(bend_per_mm, dtype=float)
     limit = np.full(m, np.inf) if within_mm is None else np.asarray(within_mm, dtype=float)
     ring, r = radius_mm - corner_radius_mm, corner_radius_mm
-    if not m or (r <= 0.0 and flute_length_mm is None):
+    if not m or r <= 0.0:
         return point, found
     nu = unit(across)
     y = unit(normal - np.einsum("ij,ij->i", normal, nu)[:, None] * nu)
@@ -403,19 +396,6 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
         rows = slice(lo, lo + chunk)
         reach = reach_mm[rows]
         frame = (through[rows], nu[rows], x[rows], y[rows])
-        if r <= 0.0:  # a flat: each pose's whole section (no corner balls, no sag)
-            sides = (own_centre, own_axis, next_centre, next_axis)
-            poses = tuple(one[rows, None] for one in sides) if more_poses is None else tuple(
-                np.concatenate([one[rows, None], many[rows]], axis=1)
-                for one, many in zip(sides, more_poses, strict=True))
-            xb, height, ok = flat_section_bounds(frame, poses, radius_mm, flute_length_mm,
-                                                 reach, SECTION_STEPS, SECTION_LEVELS,
-                                                 bend[rows], limit[rows])
-            ok &= np.isfinite(height)
-            point[rows] = (through[rows] + xb[:, None] * x[rows]
-                           + np.where(ok, height, 0.0)[:, None] * y[rows])
-            found[rows] = ok
-            continue
         window = np.minimum(np.arcsin(np.clip(1.5 * reach / max(ring, TINY), 0.0, 1.0))
                             + 0.05, 0.5 * np.pi)
         phi = window[:, None] * steps
