@@ -67,3 +67,33 @@ def test_no_estimate_stands_far_above_the_largest_cusp(leading_edge):
     guess, _, full = leading_edge
     top = np.nanmax(np.where(np.isfinite(full.height), full.height, np.nan))
     assert np.nanmax(guess) < 10.0 * top
+
+
+def test_the_nearest_of_the_own_pass_is_found_whatever_crowds_round():
+    """Per-pass k-d trees find each point's nearest of its own pass, as brute force does.
+
+    Crowded: 30 passes' points in a thin slab, and one pass whose points all stand behind
+    5,000 points of other passes round its queries (the search among the nearest 1,024 of
+    all points gave up there, -1, read as piece 0).
+    """
+    from toolpath.planning.cusp_estimates import _nearest_in_pass
+
+    rng = np.random.default_rng(7)
+    slab = rng.random((6000, 3)) * (10.0, 10.0, 0.1)
+    crowd = rng.normal(20.0, 0.1, (5000, 3))
+    behind = rng.normal(20.0, 0.1, (50, 3)) + np.array([3.0, 0.0, 0.0])
+    points = np.concatenate([slab, crowd, behind])
+    pass_of = np.concatenate([rng.integers(0, 30, 6000), 1 + np.arange(5000) % 29,
+                              np.full(50, 30)])
+    pass_of[pass_of == 5] = 6  # (a pass with no point: -1)
+    point = np.concatenate([rng.random((500, 3)) * (10.0, 10.0, 0.1),
+                            rng.normal(20.0, 0.05, (100, 3))])
+    pass_ = np.concatenate([rng.integers(0, 30, 500), np.full(100, 30)])
+    got = _nearest_in_pass(points, pass_of, point, pass_)
+    for i in range(len(point)):
+        own = np.flatnonzero(pass_of == pass_[i])
+        if not own.size:
+            assert got[i] == -1
+            continue
+        dist = np.linalg.norm(points[own] - point[i], axis=1)
+        assert got[i] == own[np.argmin(dist)]

@@ -39,6 +39,12 @@ CASES = {
                    {"scallop_mm": 0.01, "chord_tol_mm": 0.02, "lead_deg": 5.0}),
     "cylinder": (lambda: CylinderPatch(radius_mm=40.0),
                  {"scallop_mm": 0.05, "chord_tol_mm": 0.02, "lead_deg": 5.0}),
+    # a surface falling away across the passes: the highest ridge stands farther across
+    # than the highest y in the seed's plane (a review's case: torus_kernel._highest_over)
+    "small sphere": (lambda: SpherePatch(radius_mm=10.0, longitude_deg=(-30.0, 30.0),
+                                         colatitude_deg=(15.0, 70.0)),
+                     {"scallop_mm": 0.02, "chord_tol_mm": 0.02, "lead_deg": 30.0,
+                      "machine": "trunnion-ac"}),
 }
 
 
@@ -85,6 +91,21 @@ def test_the_pose_sections_hold_where_a_large_corner_turns_along_a_piece(monkeyp
     ratio = _sections_over_casts(monkeypatch, blade, {"scallop_mm": 0.03,
                                                       "chord_tol_mm": 0.03,
                                                       "lead_deg": 10.0}, "bull:6:2")
+    assert ratio.min() >= LEAST_SHARE, np.sort(ratio)[:5]
+
+
+def test_the_pose_sections_read_no_ridge_beyond_the_surfaces_edge(monkeypatch):
+    # a small sphere, bull:6:1, lead 30 deg, 3 axes: near the edge s = 1 the next contact
+    # stands past it, and the interval standing highest over the surface (it falls away)
+    # was its far end, 1.02 mm across, 0.33 mm past the edge, where the height was read
+    # over the edge's point: 0.51 of the ray cast (which stops at the edge)
+    def sphere():
+        return SpherePatch(radius_mm=10.0, longitude_deg=(-60.0, 60.0),
+                           colatitude_deg=(15.0, 70.0))
+
+    ratio = _sections_over_casts(monkeypatch, sphere, {"scallop_mm": 0.02,
+                                                       "chord_tol_mm": 0.02,
+                                                       "lead_deg": 30.0}, "bull:6:1")
     assert ratio.min() >= LEAST_SHARE, np.sort(ratio)[:5]
 
 

@@ -10,7 +10,10 @@ sorted together and taken at every point in numpy (the former ``torus_profile._c
 all rows in numpy.
 """
 
+import functools
+
 import numpy as np
+import pytest
 
 from toolpath.planning import torus_profile
 from toolpath.planning.torus_kernel import (
@@ -207,12 +210,28 @@ def _envelope(disks, x):
     return arc.min(axis=1)
 
 
-def test_running_bounds_bound_the_ridge_of_several_poses_everywhere():
-    # several poses a side, tilted and shifted at random: envelopes neither convex nor
-    # crossing once. The bound must stand at or above the ridge, max_x min(F_own, F_next)
-    # over [0, reach], sampled densely (the oracle), and close to it; the contact poses'
-    # crossing (disk_crossings over the first pose of each side) is where the grid halves
-    # towards, as in pose_section_ridges
+def _several_poses(bend, limit_share):
+    """Several poses a side, tilted and shifted at random, and the ridge between them.
+
+    Envelopes neither convex nor crossing once. Returns running_bounds' arguments but
+    ``levels`` and ``even`` (the contact poses' crossing, disk_crossings over the first
+    pose of each side, is where the grid halves towards, as in pose_section_ridges; the
+    surface's section ``y = bend x^2 / 2`` and its edge at ``limit_share`` of the reach,
+    None: none), each side's disks and the ridge's height over that section,
+    max_x min(F_own, F_next) - bend x^2 / 2 over [0, min(reach, limit)], sampled densely
+    (the oracle).
+    """
+    args, limit, sides, x, lower = _poses_and_lower_envelope(limit_share)
+    ridge = (lower - 0.5 * bend * x**2).max(axis=1)
+    return args, np.full(len(ridge), bend), limit, sides, ridge
+
+
+@functools.lru_cache(maxsize=2)
+def _poses_and_lower_envelope(limit_share):
+    """:func:`_several_poses`' poses and ``min(F_own, F_next)`` at its dense ``x``, once.
+
+    (Whatever the bend: the oracle's sums, ~20 s a call, shared by the tests.)
+    """
     rng = np.random.default_rng(7)
     m, k, ring, corner = 400, 4, 3.0, 1.0
     through = np.zeros((m, 3))
@@ -245,19 +264,91 @@ def test_running_bounds_bound_the_ridge_of_several_poses_everywhere():
         sides.append(tuple(np.concatenate(v, axis=1) for v in zip(*parts, strict=True)))
     first = [tuple(v[:, :phi.shape[1]] for v in side) for side in sides]
     centre, _, _ = disk_crossings(*first, reach, 32)
-    _, bound = running_bounds(frame, normal, (own_c, own_a, next_c, next_a), phi, ring,
-                              corner, reach, centre, 12)
-    x = np.linspace(0.0, 1.0, 20_001)[None, :] * reach[:, None]
-    ridge = np.empty(m)
+    limit = np.full(m, np.inf) if limit_share is None else limit_share * reach
+    x = np.linspace(0.0, 1.0, 20_001)[None, :] * np.minimum(reach, limit)[:, None]
+    lower = np.empty_like(x)
     for row in range(m):
         one = [tuple(v[row:row + 1] for v in side) for side in sides]
-        ridge[row] = np.minimum(_envelope(one[0], x[row]), _envelope(one[1], x[row])).max()
+        lower[row] = np.minimum(_envelope(one[0], x[row]), _envelope(one[1], x[row]))
+    args = (frame, normal, (own_c, own_a, next_c, next_a), phi, ring, corner, reach, centre)
+    return args, limit, sides, x, lower
+
+
+@pytest.mark.parametrize("bend", [0.0, -0.1, 0.1])
+def test_running_bounds_bound_the_ridge_of_several_poses_everywhere(bend):
+    # the bound must stand at or above the ridge's height over the surface's section
+    # y = bend x^2 / 2 and close to it where the ridge lies near the contact poses'
+    # crossing. (bend -0.1: a sphere of radius 10 mm. Weighed by y alone and read at the
+    # interval's middle, the bound stood up to 0.086 mm below the ridge's height here,
+    # 0.050 with bend 0.1.)
+    args, bends, limit, _, ridge = _several_poses(bend, None)
+    at, bound = running_bounds(*args, 12, bends, limit)
+    bound = bound - 0.5 * bend * at**2  # its height over the surface, where it is read
     finite = np.isfinite(ridge)
+    m = len(ridge)
     assert finite.sum() > m // 2
     assert (bound[finite] >= ridge[finite] - 1e-12).all(), (bound - ridge)[finite].min()
     # close where the ridge lies near the contact poses' crossing (the grid halves there);
     # elsewhere coarse intervals read it high
     assert np.mean(bound[finite] - ridge[finite] < 1e-3) >= 0.1  # (0.13 of these rows)
+
+
+def _halving_grid(span, mid, levels):
+    """The grid running_bounds halves towards ``mid`` over ``[0, span]`` (one row)."""
+    grid = [0.0]
+    for k in range(1, levels + 1):
+        if mid - span * 0.5**k > grid[-1]:
+            grid.append(mid - span * 0.5**k)
+    for k in range(levels + 1):
+        at = min(mid + span * 0.5 ** (levels + 1 - k), span) if k > 0 else mid
+        if at > grid[-1]:
+            grid.append(at)
+    if span > grid[-1]:
+        grid.append(span)
+    return np.array(grid)
+
+
+@pytest.mark.parametrize(("bend", "limit_share"),
+                         [(0.0, None), (-0.1, None), (0.1, None), (-0.1, 0.6), (0.1, 0.6)])
+def test_running_bounds_over_an_even_grid_too_equal_every_interval_cut_and_bound_the_ridge(
+        bend, limit_share):
+    # with even steps, the height over the surface of the halving grid cut at every even
+    # point too (all intervals' U in numpy, each weighed by its height over the surface's
+    # section at its lowest point within the edge: the full method the branch and bound
+    # skips intervals of), still at or above the ridge's, never above the halving grid's,
+    # and close to the ridge's on most rows (the halving grid alone: 0.13 of them within
+    # 1 um); read where the surface stands lowest, its y the interval's bound
+    args, bends, limit, sides, ridge = _several_poses(bend, limit_share)
+    levels, even = 12, 64
+    at_c, coarse = running_bounds(*args, levels, bends, limit)
+    at, bound = running_bounds(*args, levels, bends, limit, even)
+    coarse, over = coarse - 0.5 * bend * at_c**2, bound - 0.5 * bend * at**2
+    reach, centre = args[-2], args[-1]
+    full, full_at, full_y = (np.empty(len(reach)) for _ in range(3))
+    for row in range(len(reach)):
+        span, mid = reach[row], min(max(centre[row], 0.0), reach[row])
+        grid = np.union1d(_halving_grid(span, mid, levels), span * np.arange(even + 1) / even)
+        one = [tuple(v[row:row + 1] for v in side) for side in sides]
+        ends = []
+        for side in one:
+            cx, cy, rho_sq = (v[0][:, None] for v in side)
+            off = rho_sq - (grid[None, :] - cx) ** 2
+            with np.errstate(invalid="ignore"):
+                arc = np.where(off >= 0.0, cy - np.sqrt(np.maximum(off, 0.0)), np.inf)
+            ends.append(np.maximum(arc[:, :-1], arc[:, 1:]).min(axis=0))
+        value = np.minimum(*ends)
+        xa, xb = grid[:-1], np.minimum(grid[1:], limit[row])
+        lowest = xb if bend < 0.0 else xa if bend > 0.0 else 0.5 * (xa + xb)
+        height = np.where(xa <= limit[row], value - 0.5 * bend * lowest**2, -np.inf)
+        best = np.argmax(height)
+        full[row], full_at[row], full_y[row] = height[best], lowest[best], value[best]
+    finite = np.isfinite(ridge)
+    np.testing.assert_allclose(over[finite], full[finite], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(at[finite], full_at[finite], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(bound[finite], full_y[finite], rtol=0, atol=1e-12)
+    assert (over[finite] >= ridge[finite] - 1e-12).all(), (over - ridge)[finite].min()
+    assert (over <= coarse).all()
+    assert np.mean(over[finite] - ridge[finite] < 1e-3) >= 0.5
 
 
 def _section_sides_numpy(centre, pa, q, s, psi, corner_mm, lift_mm):

@@ -13,9 +13,11 @@ two poses' sections of corner disks (:func:`disk_crossings`, for
 :func:`~.torus_profile.pose_section_ridges`: its bisection row by row); those four do
 the numpy's sums in its order: the same numbers. :func:`running_bounds` (no numpy
 original) bounds the ridge between several poses a side over a grid halving towards the
-contact poses' crossing. It builds each pose's disks in its loop, as
-:func:`~.torus_profile._disks` does in numpy, rather than take them as (m, K S) arrays
-(~23 MB each at 4,000 rows, 11 poses and 65 ring points).
+contact poses' crossing (and, where that reads over a wide interval, an even grid too).
+It builds each pose's disks in its loop, as :func:`~.torus_profile._disks` does in numpy,
+rather than take them as (m, K S) arrays (~23 MB each at 4,000 rows, 11 poses and 65
+ring points), and weighs each interval by its bound's height over the surface's section
+(:func:`_over`).
 """
 
 from __future__ import annotations
@@ -288,38 +290,195 @@ def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.f
     return out_x, out_h, out_ok
 
 
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _halving_grid(span, centre, levels, grid):
+    """Cut ``[0, span]`` at ``centre`` and ``centre +- span 2^-k`` into ``grid``; the count.
+
+    0, then towards ``centre`` (clipped to ``[0, span]``) by halving steps, ``centre``,
+    away again, ``span``: rising, no point repeated.
+    """
+    mid = min(max(centre, 0.0), span)
+    count = 1
+    grid[0] = 0.0
+    for k in range(1, levels + 1):
+        at = mid - span * 0.5 ** k
+        if at > grid[count - 1]:
+            grid[count] = at
+            count += 1
+    for k in range(levels + 1):
+        at = min(mid + span * 0.5 ** (levels + 1 - k), span) if k > 0 else mid
+        if at > grid[count - 1]:
+            grid[count] = at
+            count += 1
+    if span > grid[count - 1]:
+        grid[count] = span
+        count += 1
+    return count
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _over(xa, xb, value, bend, limit):
+    """How high ``value`` on ``y`` over ``[xa, xb]`` stands over the surface at most; where.
+
+    The surface's section in the plane is ``y_s(x) = bend x^2 / 2`` (to second order;
+    ``bend`` its normal curvature along ``x``, negative where it falls away, as on a
+    convex part), so a point of the interval at most ``value`` high in ``y`` stands at
+    most ``value - min y_s`` over the surface, the minimum over ``[xa, min(xb, limit)]``
+    (``0 <= xa``: the far end where ``bend < 0``, the near end where ``bend > 0``). Only
+    ``x <= limit`` counts (the surface's edge: the ray cast looks no farther, and no
+    height is read beyond it). Returns that height and the ``x`` where the surface stands
+    lowest (the middle where ``bend`` is 0); ``-inf`` where ``xa > limit``. Over a part
+    of the interval ``value`` is no higher (a part's ``U``, :func:`running_bounds`) and
+    the surface's lowest point no lower (a minimum over fewer points), so a part's height
+    is at most the whole's: what lets :func:`_even_bounds` prune.
+    """
+    if xa > limit:
+        return -np.inf, xa
+    end = min(xb, limit)
+    if bend < 0.0:
+        at = end
+    elif bend > 0.0:
+        at = xa
+    else:
+        at = 0.5 * (xa + end)
+    return value - 0.5 * bend * at * at, at
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _highest_over(grid, count, ub, bend, limit):
+    """The interval whose bound stands highest over the surface: its ``x``, ``y``, height.
+
+    ``ub`` (2, count - 1): each side's bound ``U`` on ``y`` over each interval of ``grid``;
+    each interval's ``min(U_own, U_next)`` weighed by its height over the surface
+    (:func:`_over`). The largest bounds the ridge's height, not its ``y``: where the
+    surface falls away the highest ``y`` need not be the highest ridge (on a sphere of
+    radius 10 mm, flat:6, lead 30 deg, trunnion-ac, the crest stood 0.345 mm across,
+    0.0012 mm lower in ``y`` than the highest ``y``'s interval at 0.181 mm, over a surface
+    fallen 0.0060 mm there, not 0.0016: 0.0158 mm high, the highest ``y`` 0.0127).
+    Returns the ``x`` where that interval's surface stands lowest (the caller reads the
+    point's height over the surface there), its ``min(U_own, U_next)`` (``-inf``: no
+    interval within ``limit``) and its height over the surface.
+    """
+    best, where, high = -np.inf, 0.0, -np.inf
+    for j in range(count - 1):
+        value = min(ub[0, j], ub[1, j])
+        over, at = _over(grid[j], grid[j + 1], value, bend, limit)
+        if over > best:
+            best, where, high = over, at, value
+    return where, high, best
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _disk_bounds(disks, counts, points, count, ub):
+    """Each side's ``U`` over the intervals of ``points[:count]``, into ``ub``.
+
+    ``disks`` (2, 3, D): each side's disks' centres ``x``, ``y`` and squared radii, the
+    first ``counts[side]`` of them. Each disk is met only at the points within one of its
+    cover (binary search; the others read ``inf`` there all the same); the disks covering
+    none of them are passed over.
+    """
+    xa, xb = points[0], points[count - 1]
+    for side in range(2):
+        for j in range(count - 1):
+            ub[side, j] = np.inf
+        for d in range(counts[side]):
+            cx, cy, rho_sq = disks[side, 0, d], disks[side, 1, d], disks[side, 2, d]
+            rho = math.sqrt(rho_sq)
+            if cx + rho < xa or cx - rho > xb:
+                continue
+            lo = max(np.searchsorted(points[:count], cx - rho) - 1, 0)
+            hi = min(np.searchsorted(points[:count], cx + rho) + 1, count)
+            before = np.inf
+            for j in range(lo, hi):
+                off_sq = rho_sq - (points[j] - cx) ** 2
+                here = cy - math.sqrt(off_sq) if off_sq >= 0.0 else np.inf
+                if j > lo:
+                    ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
+                before = here
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _even_bounds(disks, counts, grid, count, ub, span, even, bend, limit, fine, low, order,
+                 overs):
+    """:func:`_highest_over` over ``grid[:count]`` cut at ``span k / even`` too, B&B.
+
+    ``ub`` holds each side's ``U`` over ``grid``'s intervals (:func:`_disk_bounds`). The
+    intervals are taken in falling order of their height over the surface (:func:`_over`),
+    each cut at the even points inside it and its parts' heights taken; none is cut once
+    its height is no more than the highest part found (a part's height is at most its
+    interval's: its ``U`` no higher, the surface's lowest point over it no lower): the
+    highest over the finer grid, as though every interval were cut. Returns its part's
+    ``x``, ``y`` and height as :func:`_highest_over` does.
+    """
+    n = count - 1
+    for j in range(n):
+        order[j] = j
+        overs[j] = _over(grid[j], grid[j + 1], min(ub[0, j], ub[1, j]), bend, limit)[0]
+    # (insertion sort by falling height: a few dozen intervals)
+    for j in range(1, n):
+        at = order[j]
+        i = j - 1
+        while i >= 0 and overs[order[i]] < overs[at]:
+            order[i + 1] = order[i]
+            i -= 1
+        order[i + 1] = at
+    found, found_at, found_y = -np.inf, 0.0, -np.inf
+    for rank in range(n):
+        j = order[rank]
+        if overs[j] <= found:
+            break
+        xa, xb = grid[j], grid[j + 1]
+        # the interval's ends and the even points inside it
+        points = 1
+        fine[0] = xa
+        k = math.floor(xa * even / span) if span > 0.0 else even + 1
+        while k <= even:
+            at = span * k / even
+            if at >= xb:
+                break
+            if at > fine[points - 1]:
+                fine[points] = at
+                points += 1
+            k += 1
+        fine[points] = xb
+        points += 1
+        if points == 2:  # not cut: its height stands
+            part_y = min(ub[0, j], ub[1, j])
+            part_over, part_at = _over(xa, xb, part_y, bend, limit)
+        else:
+            _disk_bounds(disks, counts, fine, points, low)
+            part_at, part_y, part_over = _highest_over(fine, points, low, bend, limit)
+        if part_over > found:
+            found, found_at, found_y = part_over, part_at, part_y
+    return found_at, found_y, found
+
+
 @numba.njit(cache=True)
-def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels,
-                    out_x, out_h):
+def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels, even,
+                    bend, limit, out_x, out_h):
     """The loop of :func:`running_bounds`, into ``out_x``, ``out_h``."""
     through, nu, ex, ey = frame
     own_c, own_a, next_c, next_a = poses
     count_max = 2 * levels + 3
     grid = np.empty(count_max)
     ub = np.empty((2, count_max - 1))
+    fine = np.empty(even + 2)
+    low = np.empty((2, even + 1))
+    order = np.empty(count_max, dtype=np.int64)
+    overs = np.empty(count_max)
+    size = max(own_c.shape[1], next_c.shape[1]) * phi.shape[1]
+    disks = np.empty((2, 3, size))
+    counts = np.zeros(2, dtype=np.int64)
+    cos_d, sin_d = np.empty(phi.shape[1]), np.empty(phi.shape[1])
     w, v, p = np.empty(3), np.empty(3), np.empty(3)
     for row in range(reach.size):
-        span, mid = reach[row], min(max(centre[row], 0.0), reach[row])
-        # 0, then towards ``mid`` by halving steps, ``mid``, away again, ``reach``
-        count = 1
-        grid[0] = 0.0
-        for k in range(1, levels + 1):
-            at = mid - span * 0.5 ** k
-            if at > grid[count - 1]:
-                grid[count] = at
-                count += 1
-        for k in range(levels + 1):
-            at = min(mid + span * 0.5 ** (levels + 1 - k), span) if k > 0 else mid
-            if at > grid[count - 1]:
-                grid[count] = at
-                count += 1
-        if span > grid[count - 1]:
-            grid[count] = span
-            count += 1
+        span = reach[row]
+        count = _halving_grid(span, centre[row], levels, grid)
+        for d in range(phi.shape[1]):
+            cos_d[d], sin_d[d] = math.cos(phi[row, d]), math.sin(phi[row, d])
         for side in range(2):
             centres, axes = (own_c, own_a) if side == 0 else (next_c, next_a)
-            for j in range(count - 1):
-                ub[side, j] = np.inf
+            counts[side] = 0
             for pose in range(centres.shape[1]):
                 # the ring's way to the contact, across the axis towards -n, and a x w
                 dot = 0.0
@@ -336,41 +495,38 @@ def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, leve
                 v[1] = axes[row, pose, 2] * w[0] - axes[row, pose, 0] * w[2]
                 v[2] = axes[row, pose, 0] * w[1] - axes[row, pose, 1] * w[0]
                 for d in range(phi.shape[1]):
-                    cos_d, sin_d = math.cos(phi[row, d]), math.sin(phi[row, d])
                     for c in range(3):
                         p[c] = (centres[row, pose, c] - through[row, c]
-                                + ring * (cos_d * w[c] + sin_d * v[c]))
+                                + ring * (cos_d[d] * w[c] + sin_d[d] * v[c]))
                     delta = p[0] * nu[row, 0] + p[1] * nu[row, 1] + p[2] * nu[row, 2]
                     rho_sq = corner * corner - delta * delta
                     if rho_sq < 0.0:
                         continue
                     cx = p[0] * ex[row, 0] + p[1] * ex[row, 1] + p[2] * ex[row, 2]
-                    cy = p[0] * ey[row, 0] + p[1] * ey[row, 1] + p[2] * ey[row, 2]
                     rho = math.sqrt(rho_sq)
                     if cx + rho < 0.0 or cx - rho > span:
                         continue  # covers no interval
-                    before = np.inf
-                    for j in range(count):
-                        off_sq = rho_sq - (grid[j] - cx) ** 2
-                        here = cy - math.sqrt(off_sq) if off_sq >= 0.0 else np.inf
-                        if j > 0:
-                            ub[side, j - 1] = min(ub[side, j - 1], max(before, here))
-                        before = here
-        best, where = -np.inf, 0.0
-        for j in range(count - 1):
-            value = min(ub[0, j], ub[1, j])
-            if value > best:
-                best, where = value, 0.5 * (grid[j] + grid[j + 1])
-        out_h[row] = best
-        out_x[row] = where
+                    at = counts[side]
+                    disks[side, 0, at] = cx
+                    disks[side, 1, at] = p[0] * ey[row, 0] + p[1] * ey[row, 1] + p[2] * ey[row, 2]
+                    disks[side, 2, at] = rho_sq
+                    counts[side] = at + 1
+        _disk_bounds(disks, counts, grid, count, ub)
+        if even > 0:
+            out_x[row], out_h[row], _ = _even_bounds(disks, counts, grid, count, ub, span,
+                                                     even, bend[row], limit[row], fine, low,
+                                                     order, overs)
+        else:
+            out_x[row], out_h[row], _ = _highest_over(grid, count, ub, bend[row], limit[row])
 
 
 def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.float64],
                    poses: tuple[NDArray[np.float64], ...], phi: NDArray[np.float64],
                    ring_mm: float, corner_mm: float, reach: NDArray[np.float64],
-                   centre: NDArray[np.float64], levels: int
+                   centre: NDArray[np.float64], levels: int, bend: NDArray[np.float64],
+                   limit: NDArray[np.float64], even: int = 0
                    ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
-    """An upper bound on ``max_x min(F_own(x), F_next(x))`` over ``[0, reach]``, row by row.
+    """An upper bound on the ridge ``min(F_own(x), F_next(x))`` over ``[0, reach]``, row by row.
 
     Each side is the lower envelope ``F`` of the disks in which the balls of radius
     ``corner_mm`` round ring points ``phi`` (m, S; about the contact, as
@@ -384,11 +540,24 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
     bounds ``F`` there (``inf`` where the disk misses an end). On each interval
     ``min(F_own, F_next) <= min(U_own(I), U_next(I))``, and the largest of these over the
     intervals bounds the ridge whatever the envelopes' shapes (no crossing need be unique,
-    nor the envelopes monotone). Where the ridge lies near ``centre`` the intervals there
-    are narrow, so the bound is close; away from it wide intervals read high.
+    nor the envelopes monotone). The ridge's height over the surface, not its ``y``, is
+    what is bounded: the interval chosen is the one standing highest over the surface's
+    section ``bend x^2 / 2`` (``bend`` (m,), 1/mm), ``x`` up to ``limit`` (m,), the
+    surface's edge (:func:`_highest_over`). Where the ridge lies near ``centre`` the
+    intervals there are narrow, so the bound is close; away from it wide intervals read
+    high: where a side's poses stand apart, no one disk covers a wide interval whole
+    (``U = inf``) and the other side's far end decides. So with ``even > 0`` the grid is
+    cut at ``reach k / even``, ``k = 0 .. even``, too (:func:`_even_bounds`, branch and
+    bound: only the intervals standing higher over the surface than the highest part found
+    are cut): a finer grid's intervals each lie in one of the coarser's, and a disk
+    covering an interval covers each part of it, its convex arc over the part no higher
+    than at the interval's ends, so each part's ``U`` is at most the whole's, and its
+    height over the surface too (:func:`_over`): the bound only falls, and still bounds
+    the ridge. Each disk is met only at the grid points its cover spans (the others read
+    ``inf`` all the same).
 
-    Returns the middle ``x`` of the interval giving the bound and the bound (``inf``
-    where no disk covers an interval whole on a side that decides it).
+    Returns the ``x`` where that interval's surface stands lowest and the interval's bound
+    on ``y`` (``inf`` where no disk covers an interval whole on a side that decides it).
     """
     m = len(reach)
     out_x, out_h = np.empty(m), np.empty(m)
@@ -397,5 +566,5 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
             return np.ascontiguousarray(v, dtype=float)
         _running_bounds(tuple(c(v) for v in frame), c(normal), tuple(c(v) for v in poses),
                         c(phi), float(ring_mm), float(corner_mm), c(reach), c(centre),
-                        int(levels), out_x, out_h)
+                        int(levels), int(even), c(bend), c(limit), out_x, out_h)
     return out_x, out_h
