@@ -76,6 +76,15 @@ def test_samples_binned_by_cell_in_a_stable_order():
     assert np.isinf(near).all() and np.isinf(far).all()
 
 
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+def test_a_sample_not_finite_is_named_not_binned(bad):
+    # (binned, a NaN sample's cell index ran out of the cells' arrays: the process crashed)
+    points = np.random.default_rng(5).normal(size=(50, 3))
+    points[17, 1] = bad
+    with pytest.raises(ValueError, match="sample 17 of 50 is not finite"):
+        bin_samples(points, 3.0)
+
+
 def test_repeated_toolpath_points_dropped_and_axes_made_unit():
     rng = np.random.default_rng(3)
     pts = np.repeat(rng.normal(size=(50, 3)), rng.integers(1, 4, size=50), axis=0)

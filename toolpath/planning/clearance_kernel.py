@@ -106,9 +106,15 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
 
     A query sphere then overlaps at most 3 x 3 x 3 cells, a capsule a few across its axis
     (finer cells, or cells a fifth larger, cost more in cell visits than they save in
-    samples on a blade's thin sheet of samples).
+    samples on a blade's thin sheet of samples). ValueError naming the first sample that
+    is not finite.
     """
     points = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
+    finite = np.isfinite(points).all(axis=1)
+    if not finite.all():  # (binned, it would index cells out of bounds)
+        bad = int(np.argmin(finite))
+        raise ValueError(f"sample {bad} of {len(points)} is not finite ({points[bad].tolist()}): "
+                         "only finite points can be binned")
     if not len(points):  # nothing to find: one empty cell
         return SampleCells(points=points, index=np.zeros(0, dtype=np.int64),
                            cell_start=np.zeros(2, dtype=np.int64), origin=np.zeros(3),
