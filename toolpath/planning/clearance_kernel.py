@@ -461,6 +461,15 @@ def _cell_clearances(points, index, first, stop, tip, axis, contact, capsule, cu
     return near_mm, near_at, far_mm, far_at
 
 
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def _distance_sq(points, j, c0, c1, c2):
+    """Squared distance from point ``j`` of ``points`` to ``(c0, c1, c2)``."""
+    e0 = points[j, 0] - c0
+    e1 = points[j, 1] - c1
+    e2 = points[j, 2] - c2
+    return e0 * e0 + e1 * e1 + e2 * e2
+
+
 @numba.njit(cache=True, nogil=True)
 def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size, lo, hi):
     """Count (``items`` empty) or list the points within ``radius`` of queries ``lo .. hi - 1``.
@@ -475,10 +484,7 @@ def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size, 
         for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
             cid = cells[m]
             for j in range(cell_start[cid], cell_start[cid + 1]):
-                e0 = points[j, 0] - c0
-                e1 = points[j, 1] - c1
-                e2 = points[j, 2] - c2
-                if e0 * e0 + e1 * e1 + e2 * e2 <= radius * radius:
+                if _distance_sq(points, j, c0, c1, c2) <= radius * radius:
                     if items.size:
                         items[starts[i] + found] = index[j]
                     found += 1
@@ -514,10 +520,7 @@ def _nearest_within(binned, queries, radius, scratch_size, out, lo, hi):
         for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
             cid = cells[m]
             for j in range(cell_start[cid], cell_start[cid + 1]):
-                e0 = points[j, 0] - c0
-                e1 = points[j, 1] - c1
-                e2 = points[j, 2] - c2
-                d = e0 * e0 + e1 * e1 + e2 * e2
+                d = _distance_sq(points, j, c0, c1, c2)
                 # (the lower index of two as near: the same whatever the cells' order)
                 if d < best or (d == best and at >= 0 and index[j] < at):
                     best, at = d, index[j]

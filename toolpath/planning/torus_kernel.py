@@ -352,9 +352,8 @@ def _highest_over(grid, count, ub, bend, limit):
     each interval's ``min(U_own, U_next)`` weighed by its height over the surface
     (:func:`_over`). The largest bounds the ridge's height, not its ``y``: where the
     surface falls away the highest ``y`` need not be the highest ridge (on a sphere of
-    radius 10 mm, flat:6, lead 30 deg, trunnion-ac, the crest stood 0.345 mm across,
-    0.0012 mm lower in ``y`` than the highest ``y``'s interval at 0.181 mm, over a surface
-    fallen 0.0060 mm there, not 0.0016: 0.0158 mm high, the highest ``y`` 0.0127).
+    radius 10 mm, bull:8:1, lead 30 deg, trunnion-ac, bounds weighed by ``y`` read down
+    to 0.739 of the ray cast; test_planning_measure_pose_sections' "small sphere").
     Returns the ``x`` where that interval's surface stands lowest (the caller reads the
     point's height over the surface there), its ``min(U_own, U_next)`` (``-inf``: no
     interval within ``limit``) and its height over the surface.
