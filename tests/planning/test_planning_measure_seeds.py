@@ -125,3 +125,28 @@ def test_nearest_samples_within_a_reach_are_the_tree_s_nearest(spiral):
     # as near as the tree's nearest (where two samples tie, e.g. on a closed seam, either)
     found = np.linalg.norm(samples.points[near] - points, axis=1)
     np.testing.assert_array_equal(found, samples.tree.query(points)[0])
+
+
+def test_tip_linear_poses_are_the_ends_interpolated_at_each_move_s_fractions():
+    # move_poses without joints, each move at its own fractions (m, k), rows move by move:
+    # the tip a + u (b - a), the axis the same, normalized; the definition row by row, to
+    # the last bit (the compiled loop it replaces summed the same terms in this order)
+    from toolpath.planning.sampling import MoveEnds
+
+    rng = np.random.default_rng(11)
+    m, k = 9, 4
+    tips_a, tips_b = rng.normal(0.0, 20.0, (m, 3)), rng.normal(0.0, 20.0, (m, 3))
+    axes_a, axes_b = rng.normal(size=(m, 3)), rng.normal(size=(m, 3))
+    axes_a /= np.linalg.norm(axes_a, axis=1)[:, None]
+    axes_b /= np.linalg.norm(axes_b, axis=1)[:, None]
+    ends = MoveEnds(tips_a, tips_b, axes_a, axes_b, *rng.random((4, m)))
+    u = rng.random((m, k))
+    tips, axes = move_poses(ends, u, None)
+    assert tips.shape == axes.shape == (m * k, 3)
+    for i in range(m):
+        for j in range(k):
+            tip = tips_a[i] + u[i, j] * (tips_b[i] - tips_a[i])
+            axis = axes_a[i] + u[i, j] * (axes_b[i] - axes_a[i])
+            size = np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
+            assert np.array_equal(tips[i * k + j], tip)
+            assert np.array_equal(axes[i * k + j], axis / size)

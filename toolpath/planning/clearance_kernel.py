@@ -239,7 +239,7 @@ def clearances(cells: SampleCells, tips_mm: NDArray[np.float64], axes: NDArray[n
 
 
 # (the kernel-only helpers here are calls, not inlined by numba (``inline="always"``):
-# inlined, _clearance_rows and _pairs_within took about 1 CPU s more to compile, issue 27)
+# inlined, _clearance_rows and the points search took about 1 CPU s more to compile, issue 27)
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def _gap(x, lo, size):
     """Distance from ``x`` to the interval ``[lo, lo + size]``."""
@@ -471,24 +471,40 @@ def _distance_sq(points, j, c0, c1, c2):
 
 
 @numba.njit(cache=True, nogil=True)
-def _pairs_within(binned, queries, radius, counts, starts, items, scratch_size, lo, hi):
-    """Count (``items`` empty) or list the points within ``radius`` of queries ``lo .. hi - 1``.
+def _points_within(binned, queries, radius, counts, starts, items, nearest, scratch_size, lo,
+                   hi):
+    """The points within ``radius`` of queries ``lo .. hi - 1``: counted, listed or the nearest.
 
-    (Slices of the queries in threads: :func:`~toolpath.row_threads.run_in_threads`.)
+    With ``nearest`` empty: counted into ``counts`` (``items`` empty) or listed into
+    ``items`` from ``starts``; else the nearest into ``nearest`` (-1: none; of two as near,
+    the lower index: the same whatever the cells' order). One kernel for the three (a
+    fresh process loads one, not two: ~3 ms each). (Slices of the queries in threads:
+    :func:`~toolpath.row_threads.run_in_threads`.)
     """
     points, index, cell_start, origin, shape, cell, box, _ = binned
     cells = np.empty(scratch_size, dtype=np.int64)
     for i in range(lo, hi):
         c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
         found = 0
+        best, at = radius * radius, -1
         for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
             cid = cells[m]
             for j in range(cell_start[cid], cell_start[cid + 1]):
-                if _distance_sq(points, j, c0, c1, c2) <= radius * radius:
+                d = _distance_sq(points, j, c0, c1, c2)
+                if nearest.size:
+                    if d < best or (d == best and at >= 0 and index[j] < at):
+                        best, at = d, index[j]
+                elif d <= radius * radius:
                     if items.size:
                         items[starts[i] + found] = index[j]
                     found += 1
-        counts[i] = found
+        if nearest.size:
+            nearest[i] = at
+        else:
+            counts[i] = found
+
+
+_NONE = np.zeros(0, dtype=np.int64)
 
 
 def counts_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
@@ -500,31 +516,9 @@ def counts_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm
     """
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     counts = np.zeros(len(q), dtype=np.int64)
-    run_in_threads(_pairs_within, len(q), cells, q, float(radius_mm), counts,
-                   np.zeros(len(q), dtype=np.int64), np.zeros(0, dtype=np.int64),
-                   cell_scratch_size(radius_mm, cells.cell_mm))
+    run_in_threads(_points_within, len(q), cells, q, float(radius_mm), counts, _NONE, _NONE,
+                   _NONE, cell_scratch_size(radius_mm, cells.cell_mm))
     return counts
-
-
-@numba.njit(cache=True, nogil=True)
-def _nearest_within(binned, queries, radius, scratch_size, out, lo, hi):
-    """The nearest point within ``radius`` of queries ``lo .. hi - 1`` into ``out`` (-1: none).
-
-    (Slices of the queries in threads: :func:`~toolpath.row_threads.run_in_threads`.)
-    """
-    points, index, cell_start, origin, shape, cell, box, _ = binned
-    cells = np.empty(scratch_size, dtype=np.int64)
-    for i in range(lo, hi):
-        c0, c1, c2 = queries[i, 0], queries[i, 1], queries[i, 2]
-        best, at = radius * radius, -1
-        for m in range(cells_near(c0, c1, c2, radius, origin, shape, cell, box, cells)):
-            cid = cells[m]
-            for j in range(cell_start[cid], cell_start[cid + 1]):
-                d = _distance_sq(points, j, c0, c1, c2)
-                # (the lower index of two as near: the same whatever the cells' order)
-                if d < best or (d == best and at >= 0 and index[j] < at):
-                    best, at = d, index[j]
-        out[i] = at
 
 
 def nearest_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float
@@ -537,8 +531,8 @@ def nearest_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_m
     """
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     out = np.full(len(q), -1, dtype=np.int64)
-    run_in_threads(_nearest_within, len(q), cells, q, float(radius_mm),
-                   cell_scratch_size(radius_mm, cells.cell_mm), out)
+    run_in_threads(_points_within, len(q), cells, q, float(radius_mm), _NONE, _NONE, _NONE,
+                   out, cell_scratch_size(radius_mm, cells.cell_mm))
     return out
 
 
@@ -557,5 +551,6 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)
     if items.size:
-        run_in_threads(_pairs_within, len(q), *args, counts, starts, items, scratch)
+        run_in_threads(_points_within, len(q), *args, counts, starts, items, _NONE,
+                       scratch)
     return np.repeat(np.arange(len(q)), counts), items

@@ -239,7 +239,6 @@ class CutVolume:
         if self.ball:  # the centres' pieces
             self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation,
                                                  tip_linear)
-            mid = 0.5 * (self.a + self.b)
             self.piece_a, self.piece_b = self.a, self.b
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
             # point R above it (plus a piece's half length and a margin for curvature)
@@ -251,13 +250,11 @@ class CutVolume:
             p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation,
                                                  tip_linear)
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
-            mid = 0.5 * (p0 + p1) + r * 0.5 * (x0 + x1)
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
             self.lift = r
             self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
         self.pass_of = owner.take(piece) if len(piece) else np.zeros(0, dtype=np.int64)
         self._move_start, self._piece_move = start, piece
-        self._mid = mid
         self._cells: SampleCells | None = None
         self._piece_vectors: NDArray[np.float64] | None = None
         # a ball's nearby pieces (the cusp estimate, the uncut grid's first try): within
@@ -276,7 +273,7 @@ class CutVolume:
         """
         if self._near_cells is None:
             # (a ball's midpoints are its pieces' own, as binned in :attr:`cells`)
-            mid = self._mid if self.ball else 0.5 * (self.piece_a + self.piece_b)
+            mid = self._midpoints() if self.ball else 0.5 * (self.piece_a + self.piece_b)
             lo, hi = points_box(mid)  # numpy's ptp(axis=0) of (n, 3) runs ten times slower
             sparse = float(np.prod(hi - lo + self.near_mm) / len(mid)) ** (1 / 3)
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))
@@ -290,9 +287,20 @@ class CutVolume:
         :attr:`near_cells`: these are binned only where a ray meets every piece within the
         cutter's reach, as :meth:`cut`'s last search.)
         """
-        if self._cells is None and len(self._mid):
-            self._cells = bin_samples(self._mid, self.reach)
+        if self._cells is None and len(self.pass_of):
+            self._cells = bin_samples(self._midpoints(), self.reach)
         return self._cells
+
+    def _midpoints(self) -> NDArray[np.float64]:
+        """Each piece's midpoint, mm, as :attr:`cells` bins it (worked out when binned, not kept).
+
+        A ball's centre segment's; a flat or bull-nose cutter's corner-circle centre at the
+        middle pose.
+        """
+        if self.ball:
+            return 0.5 * (self.a + self.b)
+        r = self.cutter.corner_radius_mm
+        return 0.5 * (self.tips0 + self.tips1) + r * 0.5 * (self.axes0 + self.axes1)
 
     @property
     def piece_vectors(self) -> NDArray[np.float64]:
@@ -351,6 +359,8 @@ class CutVolume:
             out[rows] = np.isfinite(self.height(q[rows], n[rows],
                                                 *ray_ranges(*self.pairs(q[rows]), len(rows)),
                                                 first=True))
+        if self.ball:  # (no other search of a ball's meets the reach's cells: not kept)
+            self._cells = None
         return out
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None

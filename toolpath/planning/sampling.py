@@ -460,38 +460,22 @@ def _kernel_rows(u: NDArray[np.float64]) -> NDArray[np.float64]:
 
 def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
           ) -> NDArray[np.float64]:
-    """Rows ``a + u (b - a)``, every move with its fractions ``u`` (m, k), move by move."""
-    out = np.empty((u.size, a.shape[1]))
-    _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-               _kernel_rows(u), False, out)
-    return out
+    """Rows ``a + u (b - a)``, every move with its fractions ``u`` (m, k), move by move.
+
+    numpy (a move's few fractions at a time: a compiled loop saved less than loading it
+    costs a fresh process, a few ms).
+    """
+    a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
+    u = np.asarray(u, dtype=float)
+    return (a[:, None, :] + u[:, :, None] * (b - a)[:, None, :]).reshape(-1, a.shape[1])
 
 
 def _nlerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
            ) -> NDArray[np.float64]:
     """:func:`_lerp` of unit vectors, normalized (the axis of a tip-linear move)."""
-    out = np.empty((u.size, 3))
-    _lerp_rows(np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(b, dtype=float),
-               _kernel_rows(u), True, out)
+    out = _lerp(a, b, u)
+    out /= np.sqrt(out[:, 0] * out[:, 0] + out[:, 1] * out[:, 1] + out[:, 2] * out[:, 2])[:, None]
     return out
-
-
-@numba.njit(cache=True)
-def _lerp_rows(a, b, u, unit, out):
-    m, k = u.shape
-    for i in range(m):
-        for j in range(k):
-            w = u[i, j]
-            row = i * k + j
-            size = 0.0
-            for c in range(a.shape[1]):
-                v = a[i, c] + w * (b[i, c] - a[i, c])
-                out[row, c] = v
-                size += v * v
-            if unit:
-                size = np.sqrt(size)
-                for c in range(a.shape[1]):
-                    out[row, c] /= size
 
 
 #: Moves under a 5-axis machine's joint interpolation: the machine and the joints at the

@@ -165,20 +165,22 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
         raise ValueError(f"the reach's limit must be >= 0 mm, got {limit_mm!r}")
     n_t, n_s = sources.shape
     node = np.arange(n_t * n_s).reshape(n_t, n_s)
-    pairs = [(node[1:, :], node[:-1, :]), (node[:, 1:], node[:, :-1]),
-             (node[1:, 1:], node[:-1, :-1]), (node[1:, :-1], node[:-1, 1:])]
+    ends = [(np.s_[1:, :], np.s_[:-1, :]), (np.s_[:, 1:], np.s_[:, :-1]),
+            (np.s_[1:, 1:], np.s_[:-1, :-1]), (np.s_[1:, :-1], np.s_[:-1, 1:])]
     if closed:
-        pairs.append((node[0, :], node[-1, :]))
-    a = np.concatenate([p[0].ravel() for p in pairs])
-    b = np.concatenate([p[1].ravel() for p in pairs])
+        ends.append((np.s_[0, :], np.s_[-1, :]))
+    a = np.concatenate([node[p].ravel() for p, _ in ends])
+    b = np.concatenate([node[q].ravel() for _, q in ends])
+    # each edge's chord from the grid's slices (no gather of its ends' points)
+    chord = np.concatenate([np.linalg.norm((grid[p] - grid[q]).reshape(-1, 3), axis=1)
+                            for p, q in ends])
     source = sources.ravel()
     keep = ~(source[a] & source[b])  # (an edge between two sources is on no such path)
     a, b = a[keep], b[keep]
     border = np.zeros(node.size, dtype=bool)
     border[a[source[a]]] = border[b[source[b]]] = True
-    flat = grid.reshape(-1, 3)
     # a stored 0 is no edge to the graph: coincident nodes (a collapsed row) keep theirs
-    weight = np.maximum(np.linalg.norm(flat[a] - flat[b], axis=1), LENGTH_SLACK_MM)
+    weight = np.maximum(chord[keep], LENGTH_SLACK_MM)
     graph = scipy.sparse.coo_matrix((weight, (a, b)), shape=(node.size, node.size)).tocsr()
     reach = np.full(node.size, np.inf)
     if border.any():
