@@ -150,3 +150,15 @@ def test_tip_linear_poses_are_the_ends_interpolated_at_each_move_s_fractions():
             size = np.sqrt(axis[0] * axis[0] + axis[1] * axis[1] + axis[2] * axis[2])
             assert np.array_equal(tips[i * k + j], tip)
             assert np.array_equal(axes[i * k + j], axis / size)
+
+
+def test_a_move_turning_its_axis_half_a_turn_is_named():
+    # end axes pointing opposite ways: no axis halfway along the move; the error names the
+    # move instead of a division by zero (or NaN axes) further on
+    from toolpath.planning.sampling import MoveEnds
+
+    up, down = np.array([[0.0, 0.0, 1.0], [0.0, 0.0, 1.0]]), np.array([[0.0, 0.0, 1.0],
+                                                                     [0.0, 0.0, -1.0]])
+    ends = MoveEnds(np.zeros((2, 3)), np.ones((2, 3)), up, down, *np.zeros((4, 2)))
+    with pytest.raises(ValueError, match=r"move 1 of this chunk turns its tool axis half a turn"):
+        move_poses(ends, np.array([[0.25, 0.5], [0.25, 0.5]]), None)

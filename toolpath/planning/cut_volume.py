@@ -359,7 +359,8 @@ class CutVolume:
             out[rows] = np.isfinite(self.height(q[rows], n[rows],
                                                 *ray_ranges(*self.pairs(q[rows]), len(rows)),
                                                 first=True))
-        if self.ball:  # (no other search of a ball's meets the reach's cells: not kept)
+        if self.ball:  # dropped: a ball's later searches seldom meet the reach's cells
+            # (a coarse request's bracket search whose radius reaches them bins them again)
             self._cells = None
         return out
 

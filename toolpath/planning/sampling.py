@@ -472,9 +472,19 @@ def _lerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
 
 def _nlerp(a: NDArray[np.float64], b: NDArray[np.float64], u: NDArray[np.float64]
            ) -> NDArray[np.float64]:
-    """:func:`_lerp` of unit vectors, normalized (the axis of a tip-linear move)."""
+    """:func:`_lerp` of unit vectors, normalized (the axis of a tip-linear move).
+
+    A move whose end axes point opposite ways has no axis where the chord passes through
+    zero: a ValueError names the move, not a division by zero further on.
+    """
     out = _lerp(a, b, u)
-    out /= np.sqrt(out[:, 0] * out[:, 0] + out[:, 1] * out[:, 1] + out[:, 2] * out[:, 2])[:, None]
+    length = np.sqrt(out[:, 0] * out[:, 0] + out[:, 1] * out[:, 1] + out[:, 2] * out[:, 2])
+    if not np.all(length > 0.0):
+        move = int(np.flatnonzero(~(length > 0.0))[0]) // max(np.shape(u)[-1], 1)
+        raise ValueError(f"move {move} of this chunk turns its tool axis half a turn: "
+                         f"its end axes {np.asarray(a)[move]} and {np.asarray(b)[move]} "
+                         "leave no axis between them to interpolate")
+    out /= length[:, None]
     return out
 
 
