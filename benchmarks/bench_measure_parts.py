@@ -14,8 +14,14 @@ joint interpolation the plan is checked under: the measure places the cutter ins
 move as the joints move it (issue 27's own case is such a job); the others move
 tip-linear.
 
+Opt-in, not run by default: ``bull5ac``, issue 27's user job as the CLI runs it
+(:data:`JOBS`: the dev blade's points fitted and placed by ``toolpath run``, 5-axis under
+trunnion-ac, bull:8:1, lead 10 degrees, scallop 0.005 mm, chord 0.01 mm); its planning and
+measure are timed on the arguments that run passes to ``plan_finishing``, the fastest of
+:data:`JOB_REPEATS` (its measure takes about half a minute).
+
 Run: ``python benchmarks/bench_measure_parts.py [CASE ...]`` (cases by the short names of
-:data:`CASES`; default all).
+:data:`CASES` and :data:`JOBS`; default all of :data:`CASES`).
 """
 
 from __future__ import annotations
@@ -23,11 +29,14 @@ from __future__ import annotations
 import cProfile
 import pstats
 import sys
+import tempfile
 import time
 
 from bench_toolpath import _cases
 
 from machines import load_machine
+from streamline_cam import cli, pipeline
+from toolpath.paper_examples import bundled_data_path
 from toolpath.planning import finishing, plan_finishing
 
 #: Short name -> (bench_toolpath's case name, axis mode[, machine]).
@@ -38,6 +47,12 @@ CASES = {"cap3": ("sphere R50 cap", "3"), "cap5": ("sphere R50 cap", "lead-tilt"
          "stand5ac": ("dev blade (standing)", "lead-tilt", "trunnion-ac"),
          "lying3": ("dev blade (lying)", "3")}
 
+#: Opt-in cases: short name -> the ``toolpath run`` arguments of a whole job (its points
+#: fitted and placed as the CLI does), whose ``plan_finishing`` call is timed.
+JOBS = {"bull5ac": ["run", str(bundled_data_path("dev_blade_15x142.csv")), "--machine",
+                    "trunnion-ac", "--axis", "lead-tilt", "--lead", "10", "--cutter",
+                    "bull:8:1", "--scallop", "0.005", "--chord-tol", "0.01"]}
+
 #: Column -> (module file, function name) whose cumulative CPU it shows.
 PARTS = {"contacts": ("chord_measure.py", "_end_contacts"),
          "gaps": ("chord_measure.py", "_move_chunk_gaps"),
@@ -45,11 +60,15 @@ PARTS = {"contacts": ("chord_measure.py", "_end_contacts"),
          "volume": ("cut_volume.py", "__init__"),
          "uncut": ("uncut_area.py", "on_grid"),
          "estimate": ("cusp_estimates.py", "ball_cusp_estimates"),
+         "torus": ("cusp_estimates.py", "torus_cusp_bounds"),
          "ridges": ("cusp_kernel.py", "ridges"),
          "casts": ("cusp_search.py", "run")}
 
 #: Runs per case; each figure is the fastest (a shared machine's noise is one-sided).
 REPEATS = 3
+
+#: ... per opt-in job (:data:`JOBS`).
+JOB_REPEATS = 2
 
 
 def _plan_inputs(surface, extra: dict, axis: str, machine: str | None = None
@@ -60,11 +79,41 @@ def _plan_inputs(surface, extra: dict, axis: str, machine: str | None = None
         kw.update(lead_deg=10.0, linking=extra.get("linking", "zigzag"))
     if machine is not None:
         kw.update(machine=load_machine(machine))
-    plan_finishing(surface, "ball:6", **kw)  # the kernels loaded
+    return _timed_plan((surface, "ball:6"), kw, REPEATS)
+
+
+class _Captured(Exception):
+    """Raised to stop a job once its plan_finishing arguments are captured."""
+
+
+def _job_inputs(argv: list[str]) -> tuple[float, tuple, tuple]:
+    """As :func:`_plan_inputs`, for the ``plan_finishing`` call of a ``toolpath run`` job."""
+    captured = {}
+    plan_call = pipeline.plan_finishing
+
+    def plan(*args, **kwargs):
+        captured["plan"] = (args, {k: v for k, v in kwargs.items() if k != "progress"})
+        raise _Captured
+
+    pipeline.plan_finishing = plan
+    try:
+        with tempfile.TemporaryDirectory() as out:
+            cli.main([*argv, "--quiet", "-o", f"{out}/part.nc"])
+    except _Captured:
+        pass
+    finally:
+        pipeline.plan_finishing = plan_call
+    args, kwargs = captured["plan"]
+    return _timed_plan(args, kwargs, JOB_REPEATS)
+
+
+def _timed_plan(args: tuple, kw: dict, repeats: int) -> tuple[float, tuple, tuple]:
+    """The planning's CPU (fastest of ``repeats``) and its measure calls' arguments."""
+    plan_finishing(*args, **kw)  # the kernels loaded
     plan_cpu = float("inf")
-    for _ in range(REPEATS):
+    for _ in range(repeats):
         c0 = time.process_time()
-        plan_finishing(surface, "ball:6", measure=False, **kw)
+        plan_finishing(*args, measure=False, **kw)
         plan_cpu = min(plan_cpu, time.process_time() - c0)
     captured = {}
     chord_call, scallop_call = finishing.measure_chord, finishing.measure_scallop
@@ -79,7 +128,7 @@ def _plan_inputs(surface, extra: dict, axis: str, machine: str | None = None
 
     finishing.measure_chord, finishing.measure_scallop = chord, scallop
     try:
-        plan_finishing(surface, "ball:6", **kw)
+        plan_finishing(*args, **kw)
     finally:
         finishing.measure_chord, finishing.measure_scallop = chord_call, scallop_call
     return plan_cpu, captured["chord"], captured["scallop"]
@@ -87,18 +136,28 @@ def _plan_inputs(surface, extra: dict, axis: str, machine: str | None = None
 
 def main() -> None:
     names = sys.argv[1:] or list(CASES)
-    surfaces = {name: (surface, extra) for name, surface, extra in _cases(quick=False)}
-    print(f"process CPU, ms (fastest of {REPEATS}); m/p: measure over plan")
+    unknown = [name for name in names if name not in CASES and name not in JOBS]
+    if unknown:
+        raise SystemExit(f"unknown case(s) {', '.join(unknown)}: choose from "
+                         f"{', '.join([*CASES, *JOBS])}")
+    surfaces = ({name: (surface, extra) for name, surface, extra in _cases(quick=False)}
+                if any(name in CASES for name in names) else {})
+    print(f"process CPU, ms (fastest of {REPEATS}, jobs {JOB_REPEATS}); m/p: measure over plan")
     print(f"{'case':<8}{'plan':>7}{'chord':>7}{'scallop':>8}{'m/p':>6}"
           + "".join(f"{p:>9}" for p in PARTS) + f"{'seeds':>8}{'cast':>6}{'moves':>7}")
     for name in names:
-        case, axis, *machine = CASES[name]
-        surface, extra = surfaces[case]
-        plan_cpu, (c_args, c_kw), (s_args, s_kw) = _plan_inputs(surface, extra, axis,
-                                                                 *machine)
+        if name in JOBS:
+            repeats = JOB_REPEATS
+            plan_cpu, (c_args, c_kw), (s_args, s_kw) = _job_inputs(JOBS[name])
+        else:
+            repeats = REPEATS
+            case, axis, *machine = CASES[name]
+            surface, extra = surfaces[case]
+            plan_cpu, (c_args, c_kw), (s_args, s_kw) = _plan_inputs(surface, extra, axis,
+                                                                     *machine)
         best = {"chord": float("inf"), "scallop": float("inf")}
         parts = dict.fromkeys(PARTS, float("inf"))
-        for _ in range(REPEATS):
+        for _ in range(repeats):
             # timed without the profiler (its overhead on Python-level steps would count),
             # then profiled for the parts
             c0 = time.process_time()

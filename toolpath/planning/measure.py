@@ -19,6 +19,7 @@ from it along the surface (:mod:`.uncut_area`).
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 
 import numpy as np
@@ -29,7 +30,7 @@ from machines import Machine
 from ..path import Toolpath
 from ..surface import ParametricSurface
 from .chord_measure import ChordMeasurement
-from .cusp_estimates import ball_cusp_estimates, torus_cusp_estimates
+from .cusp_estimates import ball_cusp_estimates, torus_cusp_bounds
 from .cusp_search import CuspSearch, SearchSeeds
 from .cut_volume import CutVolume, cusp_horizon_mm
 from .cutters import Cutter
@@ -157,7 +158,9 @@ class SeedCusps:
         The seed's pass.
     estimate_mm : ndarray
         The estimate from the passes' own geometry, mm (``nan``: not estimated, or
-        none stands; ``inf``: the tubes do not meet).
+        none stands; ``inf``: the tubes do not meet); a bull-nose's pose-section bounds
+        tightened only where they decide a cast (elsewhere the looser one-pose bound,
+        :class:`~.cusp_estimates.LooseEstimates`).
     cast : ndarray of bool
         The seeds ray cast.
     height_mm : ndarray
@@ -207,13 +210,18 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
     guess = np.full(len(seeds.t), np.nan)
     if estimate and len(seeds.t) > estimate_min_seeds:
         count = max(estimate_top, int(estimate_top_share * len(seeds.t)))
-        estimates = ball_cusp_estimates if volume.ball else torus_cusp_estimates
-        guess = estimates(volume, surface, seeds)
+        tighten = None
+        if volume.ball:
+            guess = ball_cusp_estimates(volume, surface, seeds)
+        else:  # (its loose bounds tightened where they decide: as though all were)
+            loose = torus_cusp_bounds(volume, surface, seeds)
+            guess, tighten = loose.mm, loose.tighten
         groups = [np.ones(len(seeds.t), dtype=bool)]
         away = uncut.away(seeds.q, seeds.t, seeds.s)
         if away is not None:
             groups.append(away)
-        cast_beyond_estimates(search, guess, groups, count, max(count, estimate_top_most))
+        cast_beyond_estimates(search, guess, groups, count, max(count, estimate_top_most),
+                              tighten=tighten)
     else:
         search.run(np.ones(len(seeds.t), dtype=bool))
     found = ~np.isnan(search.height)
@@ -227,7 +235,8 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
 
 
 def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
-                          groups: list[NDArray[np.bool_]], count: int, most: int) -> None:
+                          groups: list[NDArray[np.bool_]], count: int, most: int, *,
+                          tighten: Callable[..., int] | None = None) -> None:
     """Ray cast where the estimates cannot decide the largest cusp of each group.
 
     ``guess``: every seed's cusp from the passes' own geometry
@@ -238,10 +247,29 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
     each group (twice as many while any estimate not cast reaches the largest cusp cast,
     up to ``most``), and wherever an estimate stands above the largest cusp the ray cast
     found by more than it errs (:data:`ESTIMATE_SHARE`). ``search`` holds the casts.
+
+    ``tighten(at_least_mm, among=None)``: where some estimates are loose upper bounds
+    (:class:`~.cusp_estimates.LooseEstimates`), tightens (in ``guess``) those at or above
+    ``at_least_mm`` (of the mask ``among``) and says how many. Every choice here reads
+    estimates only against a height (the ``count``-th largest of a group, the largest
+    cusp, a share of it): the loose ones at or above it are tightened first (the ranks
+    until no loose one reaches the ``count``-th largest, which only falls), and a loose
+    one left below stands above its tight one, so below it too: the same seeds are cast
+    as with every estimate tight.
     """
+    def tight_from(at_least_mm: float, among: NDArray[np.bool_] | None = None) -> None:
+        if tighten is not None:
+            tighten(at_least_mm, among)
+
+    def largest(group: NDArray[np.bool_], top: int) -> NDArray[np.bool_]:
+        while tighten is not None and tighten(_nth_largest(guess, group, top), group):
+            # (the ranks down to twice as far too: fewer rounds, each tightening many)
+            tighten(_nth_largest(guess, group, 2 * top), group)
+        return _largest_first(guess, group, top)
+
     first = ~np.isfinite(guess)
     for group in groups:
-        first |= _largest_first(guess, group, count)
+        first |= largest(group, count)
     search.run(first)
     for group in groups:
         top = count
@@ -250,18 +278,28 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
             if not measured.any():  # (the whole group is cast below)
                 break
             top_mm = float(search.height[measured].max())
+            tight_from(top_mm, group & ~search.cast)
             if not np.any(group & ~search.cast & (guess >= top_mm)):
                 break  # (no seed left uncast whose estimate reaches what was found)
             top = min(2 * top, most)
-            search.run(_largest_first(guess, group, top))
+            search.run(largest(group, top))
     for group in groups:
         measured = group & search.cast & np.isfinite(search.height)
         if measured.any():
             # an estimate above the largest cusp by more than it errs: cast it too
             top = float(search.height[measured].max())
+            tight_from(ESTIMATE_SHARE * top, group & ~search.cast)
             search.run(group & (guess >= ESTIMATE_SHARE * top))
         else:
             search.run(group)
+
+
+def _nth_largest(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int) -> float:
+    """The ``count``-th largest finite estimate of ``group`` (``-inf``: fewer)."""
+    values = estimate[group & np.isfinite(estimate)]
+    if values.size < count or count < 1:
+        return -np.inf
+    return float(np.partition(values, values.size - count)[values.size - count])
 
 
 def _largest_first(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int

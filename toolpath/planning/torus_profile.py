@@ -378,7 +378,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
     side. ``within_mm`` (m,; None: no limit): how far across the surface runs (the ray
     cast's bracket ends at its edge): no ridge is sought, nor its height read, beyond
     (on a sphere of radius 10 mm, bull:6:1, lead 30 deg, a bound read at 1.02 mm across,
-    0.33 mm past the edge, stood 0.51 of the ray cast).
+    0.33 mm past the edge, stood 0.51 of the ray cast); without ``more_poses`` a crossing
+    beyond it is not found.
     """
     m = len(own_centre)
     point, found = np.zeros((m, 3)), np.zeros(m, dtype=bool)
@@ -418,6 +419,8 @@ def pose_section_ridges(own_centre: NDArray[np.float64], next_centre: NDArray[np
             lower = (h_more - 0.5 * bend[rows] * x_more**2 < height - 0.5 * bend[rows] * xb**2
                      ) | (xb > limit[rows])
             xb, height = np.where(lower, x_more, xb), np.where(lower, h_more, height)
+        else:
+            ok &= ~(xb > limit[rows])  # (one pose a side: none beyond the edge)
         ok &= np.isfinite(height)
         point[rows] = (through[rows] + xb[:, None] * x[rows]
                        + np.where(ok, height, 0.0)[:, None] * y[rows])

@@ -1,0 +1,123 @@
+"""Loose estimates tightened only where they decide cast the seeds all-tight ones do.
+
+A bull-nose seed's pose-section bound comes loose from the two contact poses alone, and
+tightens with their pieces' poses (about 60 times dearer) only where it reaches what the
+measure compares it with (:class:`~toolpath.planning.cusp_estimates.LooseEstimates`,
+:func:`~toolpath.planning.measure.cast_beyond_estimates`). The oracle: the same
+choices with every estimate tightened first (the full method).
+"""
+
+import numpy as np
+import pytest
+from measured_plans import planned, standing_dev_blade
+
+from machines import load_machine
+from toolpath.planning.cusp_estimates import (
+    LooseEstimates,
+    torus_cusp_bounds,
+    torus_cusp_estimates,
+)
+from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
+from toolpath.planning.measure import ESTIMATE_TOP, ESTIMATE_TOP_MOST, cast_beyond_estimates
+
+
+class _KnownCusps:
+    """A cusp search whose ray casts read known cusps; records which seeds were cast."""
+
+    def __init__(self, cusps_mm):
+        self.cusps_mm = np.asarray(cusps_mm, dtype=float)
+        self.cast = np.zeros(len(self.cusps_mm), dtype=bool)
+        self.height = np.full(len(self.cusps_mm), np.nan)
+
+    def run(self, rows):
+        todo = rows & ~self.cast
+        self.cast[todo] = True
+        self.height[todo] = self.cusps_mm[todo]
+
+
+def _casts(cusps, tight, loose_mm, loose, groups, count, most):
+    """Seeds cast with every estimate tight, and with the loose ones tightened on demand."""
+    full = _KnownCusps(cusps)
+    cast_beyond_estimates(full, tight.copy(), groups, count, most)
+    calls = []
+
+    def tighten_rows(rows):
+        calls.append(rows.size)
+        return tight[rows]
+
+    estimates = LooseEstimates(loose_mm.copy(), loose.copy(), tighten_rows)
+    lazy = _KnownCusps(cusps)
+    cast_beyond_estimates(lazy, estimates.mm, groups, count, most,
+                          tighten=estimates.tighten)
+    return full, lazy, estimates, calls
+
+
+@pytest.mark.parametrize("seed", [0, 1, 2])
+@pytest.mark.parametrize("case", ["cluster", "share", "doubling"])
+def test_loose_bounds_tightened_on_demand_cast_the_seeds_tight_ones_do(seed, case):
+    # 5,000 cusps, estimates 1 % high; 3,000 of them loose by up to 0.6 mm (their loose
+    # bounds rank far above the largest tight ones: tightening the largest lowers the
+    # count-th largest, which brings more loose ones to it, and so on); two groups, the
+    # second a random half. "cluster": alike cusps read high make the casts double (the
+    # ranks decide); "share": 200 estimates read 2 mm over cusps of 0.5 and rank first,
+    # the casts never double (the loose ones below them decided by the largest cusp's
+    # share); "doubling": 64 such, the largest cusp (1.0) without an estimate, the rest
+    # under 0.91 (whether to double is decided by the largest cusp cast)
+    rng = np.random.default_rng(seed)
+    n = 5000
+    cusps = 0.5 + 0.4 * rng.random(n)
+    cusps[300] = 1.0
+    tight = 1.01 * cusps
+    far, most = {"cluster": (0, 512), "share": (200, 64), "doubling": (64, 512)}[case]
+    if case == "cluster":
+        cusps[:300], tight[:300] = 0.975, 1.029 * 0.975
+    cusps[301:301 + far], tight[301:301 + far] = 0.5, 2.0
+    tight[rng.random(n) < 0.02] = np.nan  # (no estimate: cast)
+    if case == "doubling":
+        tight[300] = np.nan
+    loose = np.zeros(n, dtype=bool)
+    loose[rng.choice(n, 3000, replace=False)] = True
+    loose_mm = np.where(loose, tight + 0.6 * rng.random(n), tight)
+    groups = [np.ones(n, dtype=bool), rng.random(n) < 0.5]
+    full, lazy, estimates, calls = _casts(cusps, tight, loose_mm, loose, groups, 64, most)
+    assert np.array_equal(lazy.cast, full.cast)
+    assert np.array_equal(lazy.height, full.height, equal_nan=True)
+    assert np.nanmax(lazy.height) == 1.0
+    assert len(calls) > 1  # (tightened in several rounds)
+    assert estimates.loose.sum() > 500  # (loose bounds that decide nothing: left loose)
+    left = estimates.loose & np.isfinite(tight)
+    assert (estimates.mm[left] >= tight[left]).all()
+
+
+@pytest.fixture(scope="module")
+def leading_edge():
+    """The user's kind of bull-nose job round the leading edge: seeds, searches' inputs."""
+    measured = planned(standing_dev_blade(), "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=10.0,
+                       machine=load_machine("trunnion-ac"))
+    volume = measured.volume()
+    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
+    band = np.flatnonzero((seeds.t >= 0.46) & (seeds.t < 0.5))
+    seeds = SearchSeeds(*(column[band] for column in seeds))
+    return measured, volume, seeds, others
+
+
+def test_pose_section_bounds_tightened_on_demand_cast_as_all_tight(leading_edge):
+    measured, volume, seeds, others = leading_edge
+    tight = torus_cusp_estimates(volume, measured.surface, seeds)
+    estimates = torus_cusp_bounds(volume, measured.surface, seeds)
+    loose_mm, loose = estimates.mm.copy(), estimates.loose.copy()
+    assert loose.sum() > 100  # (the pose-section bounds come loose)
+    # a tight bound stands no higher than its loose one (and is one where none was)
+    assert (tight[loose] <= loose_mm[loose]).all()
+    assert np.array_equal(tight[~loose], loose_mm[~loose], equal_nan=True)
+    searches = [CuspSearch(volume, measured.surface, seeds, others, 1.0, 20_000)
+                for _ in range(2)]
+    full, lazy = searches
+    every = [np.ones(len(tight), dtype=bool)]
+    cast_beyond_estimates(full, tight, every, ESTIMATE_TOP, ESTIMATE_TOP_MOST)
+    cast_beyond_estimates(lazy, estimates.mm, every, ESTIMATE_TOP, ESTIMATE_TOP_MOST,
+                          tighten=estimates.tighten)
+    assert np.array_equal(lazy.cast, full.cast)
+    assert np.array_equal(lazy.height, full.height, equal_nan=True)
+    assert estimates.loose.sum() > 0.5 * loose.sum()  # (most never tightened)
