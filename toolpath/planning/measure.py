@@ -304,10 +304,18 @@ def _nth_largest(estimate: NDArray[np.float64], group: NDArray[np.bool_], count:
 
 def _largest_first(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int
                    ) -> NDArray[np.bool_]:
-    """The ``count`` seeds of ``group`` with the largest finite estimates."""
+    """The ``count`` seeds of ``group`` with the largest finite estimates.
+
+    Ties at the ``count``-th largest go to the seeds first in order, so the choice depends
+    only on the estimates at or above it: loose bounds left below it (never tightened,
+    :func:`cast_beyond_estimates`) pick the same seeds as tight ones would.
+    """
     rows = np.flatnonzero(group & np.isfinite(estimate))
     if rows.size > count:
-        rows = rows[np.argpartition(-estimate[rows], count - 1)[:count]]
+        value = estimate[rows]
+        least = value[np.argpartition(-value, count - 1)[count - 1]]  # the count-th largest
+        above = rows[value > least]
+        rows = np.concatenate([above, rows[value == least][:count - above.size]])
     out = np.zeros(len(estimate), dtype=bool)
     out[rows] = True
     return out
