@@ -3,7 +3,8 @@
 The measurement is given what ``plan_finishing``'s measure stage gives it: the plan's
 toolpath (planned here with ``measure=False``) and its chord measurement on the surface
 samples the gouge stage lays out (``gouge_sample_mm`` apart). And the standing dev blade
-the 5-axis measure tests plan on.
+the 5-axis measure tests plan on, its bull-nose seeds round the leading edge, and a cusp
+search that reads known cusps.
 """
 
 from __future__ import annotations
@@ -12,12 +13,13 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from machines import Machine
+from machines import Machine, load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
 from toolpath.path import Toolpath
 from toolpath.planning import Cutter, FinishingOptions, parse_cutter, plan_finishing
 from toolpath.planning.chord_measure import ChordMeasurement, measure_chord
+from toolpath.planning.cusp_search import SearchSeeds
 from toolpath.planning.cut_volume import CutVolume, cusp_horizon_mm
 from toolpath.planning.gouge import SurfaceSamples, sample_surface
 from toolpath.planning.measure import SeedCusps, measure_scallop, seed_cusps
@@ -67,3 +69,31 @@ def standing_dev_blade() -> ParametricSurface:
     blade = fit_streamline_surface(rows[:, 1:].reshape(15, 142, 3)[::2], tol=0.01,
                                    closed=False)
     return centred_on_table(blade, rotation_from_spec("y:-90"))
+
+
+def bull_leading_edge(t_from: float, t_to: float):
+    """The user's kind of bull-nose job (bull:8:1, lead 10, trunnion-ac) on the standing
+    blade, and its seeds with ``t_from <= t < t_to`` (round the leading edge): the plan, its
+    cut volume, those seeds and the others of :meth:`SearchSeeds.of`."""
+    measured = planned(standing_dev_blade(), "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=10.0,
+                       machine=load_machine("trunnion-ac"))
+    volume = measured.volume()
+    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
+    band = np.flatnonzero((seeds.t >= t_from) & (seeds.t < t_to))
+    return measured, volume, SearchSeeds(*(column[band] for column in seeds)), others
+
+
+class KnownCusps:
+    """A cusp search whose ray casts read known cusps (the full method's answer), and
+    which records which seeds were cast."""
+
+    def __init__(self, cusps_mm):
+        self.cusps_mm = np.asarray(cusps_mm, dtype=float)
+        self.cast = np.zeros(len(self.cusps_mm), dtype=bool)
+        self.height = np.full(len(self.cusps_mm), np.nan)
+
+    def run(self, rows):
+        todo = rows & ~self.cast
+        self.cast[todo] = True
+        self.height[todo] = self.cusps_mm[todo]

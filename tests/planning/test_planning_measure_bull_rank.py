@@ -14,11 +14,10 @@ The oracle: every seed ray cast (the full method).
 
 import numpy as np
 import pytest
-from measured_plans import planned, standing_dev_blade
+from measured_plans import bull_leading_edge
 
-from machines import load_machine
 from toolpath.planning.cusp_estimates import torus_cusp_estimates
-from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
+from toolpath.planning.cusp_search import CuspSearch
 from toolpath.planning.measure import (
     ESTIMATE_SHARE,
     ESTIMATE_TOP,
@@ -33,13 +32,7 @@ BAND_T = (0.46, 0.5)
 @pytest.fixture(scope="module")
 def leading_edge():
     """The estimates and both searches (estimated, full) over the band's seeds."""
-    measured = planned(standing_dev_blade(), "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
-                       axis_mode="lead-tilt", lead_deg=10.0,
-                       machine=load_machine("trunnion-ac"))
-    volume = measured.volume()
-    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
-    band = np.flatnonzero((seeds.t >= BAND_T[0]) & (seeds.t < BAND_T[1]))
-    seeds = SearchSeeds(*(column[band] for column in seeds))
+    measured, volume, seeds, others = bull_leading_edge(*BAND_T)
     guess = torus_cusp_estimates(volume, measured.surface, seeds)
     searches = [CuspSearch(volume, measured.surface, seeds, others, 1.0, 20_000)
                 for _ in range(2)]

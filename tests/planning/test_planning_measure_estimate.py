@@ -13,7 +13,7 @@ The measurement is given what ``plan_finishing``'s measure stage gives it
 
 import numpy as np
 import pytest
-from measured_plans import Measured, planned
+from measured_plans import KnownCusps, Measured, planned
 
 import toolpath.planning.cusp_estimates as cusp_estimates
 from machines import load_machine
@@ -338,21 +338,6 @@ def test_the_section_estimate_does_not_read_low_where_passes_bend_away(blade):
     assert np.median(ratio) == pytest.approx(1.0, abs=0.03)
 
 
-class _KnownCusps:
-    """A cusp search whose ray casts read known cusps (the full method's answer), and
-    which records which seeds were cast."""
-
-    def __init__(self, cusps_mm):
-        self.cusps_mm = np.asarray(cusps_mm, dtype=float)
-        self.cast = np.zeros(len(self.cusps_mm), dtype=bool)
-        self.height = np.full(len(self.cusps_mm), np.nan)
-
-    def run(self, rows):
-        todo = rows & ~self.cast
-        self.cast[todo] = True
-        self.height[todo] = self.cusps_mm[todo]
-
-
 def test_a_cluster_of_cusps_read_a_little_high_does_not_hide_the_largest():
     # 300 alike cusps (0.975) whose estimates read 2.9 % high rank above the largest cusp
     # (1.0, estimated exactly): the 256 largest estimates cast find 0.975 only, and no
@@ -363,7 +348,7 @@ def test_a_cluster_of_cusps_read_a_little_high_does_not_hide_the_largest():
     cusps_mm[:300], cusps_mm[300] = 0.975, 1.0
     guess = cusps_mm.copy()
     guess[:300] *= 1.029
-    search = _KnownCusps(cusps_mm)
+    search = KnownCusps(cusps_mm)
     cast_beyond_estimates(search, guess, [np.ones(5000, dtype=bool)], ESTIMATE_TOP,
                           ESTIMATE_TOP_MOST)
     assert np.nanmax(search.height) == 1.0

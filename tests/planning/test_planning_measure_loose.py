@@ -9,35 +9,20 @@ choices with every estimate tightened first (the full method).
 
 import numpy as np
 import pytest
-from measured_plans import planned, standing_dev_blade
+from measured_plans import KnownCusps, bull_leading_edge
 
-from machines import load_machine
 from toolpath.planning.cusp_estimates import (
     LooseEstimates,
     torus_cusp_bounds,
     torus_cusp_estimates,
 )
-from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
+from toolpath.planning.cusp_search import CuspSearch
 from toolpath.planning.measure import ESTIMATE_TOP, ESTIMATE_TOP_MOST, cast_beyond_estimates
-
-
-class _KnownCusps:
-    """A cusp search whose ray casts read known cusps; records which seeds were cast."""
-
-    def __init__(self, cusps_mm):
-        self.cusps_mm = np.asarray(cusps_mm, dtype=float)
-        self.cast = np.zeros(len(self.cusps_mm), dtype=bool)
-        self.height = np.full(len(self.cusps_mm), np.nan)
-
-    def run(self, rows):
-        todo = rows & ~self.cast
-        self.cast[todo] = True
-        self.height[todo] = self.cusps_mm[todo]
 
 
 def _casts(cusps, tight, loose_mm, loose, groups, count, most):
     """Seeds cast with every estimate tight, and with the loose ones tightened on demand."""
-    full = _KnownCusps(cusps)
+    full = KnownCusps(cusps)
     cast_beyond_estimates(full, tight.copy(), groups, count, most)
     calls = []
 
@@ -46,7 +31,7 @@ def _casts(cusps, tight, loose_mm, loose, groups, count, most):
         return tight[rows]
 
     estimates = LooseEstimates(loose_mm.copy(), loose.copy(), tighten_rows)
-    lazy = _KnownCusps(cusps)
+    lazy = KnownCusps(cusps)
     cast_beyond_estimates(lazy, estimates.mm, groups, count, most,
                           tighten=estimates.tighten)
     return full, lazy, estimates, calls
@@ -92,14 +77,7 @@ def test_loose_bounds_tightened_on_demand_cast_the_seeds_tight_ones_do(seed, cas
 @pytest.fixture(scope="module")
 def leading_edge():
     """The user's kind of bull-nose job round the leading edge: seeds, searches' inputs."""
-    measured = planned(standing_dev_blade(), "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
-                       axis_mode="lead-tilt", lead_deg=10.0,
-                       machine=load_machine("trunnion-ac"))
-    volume = measured.volume()
-    seeds, others = SearchSeeds.of(measured.surface, measured.chord)
-    band = np.flatnonzero((seeds.t >= 0.46) & (seeds.t < 0.5))
-    seeds = SearchSeeds(*(column[band] for column in seeds))
-    return measured, volume, seeds, others
+    return bull_leading_edge(0.46, 0.5)
 
 
 def test_pose_section_bounds_tightened_on_demand_cast_as_all_tight(leading_edge):
