@@ -273,7 +273,7 @@ class CutVolume:
         """
         if self._near_cells is None:
             # (a ball's midpoints are its pieces' own, as binned in :attr:`cells`)
-            mid = self._midpoints() if self.ball else 0.5 * (self.piece_a + self.piece_b)
+            mid = 0.5 * (self.piece_a + self.piece_b)
             lo, hi = points_box(mid)  # numpy's ptp(axis=0) of (n, 3) runs ten times slower
             sparse = float(np.prod(hi - lo + self.near_mm) / len(mid)) ** (1 / 3)
             self._near_cells = bin_samples(mid, max(2.0 * self.near_mm, sparse))

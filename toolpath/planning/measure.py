@@ -313,7 +313,7 @@ def _largest_first(estimate: NDArray[np.float64], group: NDArray[np.bool_], coun
     rows = np.flatnonzero(group & np.isfinite(estimate))
     if rows.size > count:
         value = estimate[rows]
-        least = value[np.argpartition(-value, count - 1)[count - 1]]  # the count-th largest
+        least = _nth_largest(estimate, group, count)
         above = rows[value > least]
         rows = np.concatenate([above, rows[value == least][:count - above.size]])
     out = np.zeros(len(estimate), dtype=bool)
