@@ -295,6 +295,24 @@ class PlanningReport:
             f"{k} {v:.2f}" for k, v in self.seconds.items()) + ")")
         return out
 
+    @property
+    def scallop_horizon_mm(self) -> float:
+        """Height above which the measure counts a scallop as uncut, mm.
+
+        Ten times the request, at least 0.05 mm. A scallop of ``inf`` stands above it:
+        where the measure's coarse uncut-area grid missed an uncut sliver, its cusp still
+        reads higher than this (:func:`~toolpath.planning.cut_volume.cusp_horizon_mm`).
+        """
+        from .cut_volume import cusp_horizon_mm
+
+        return cusp_horizon_mm(self.scallop_request_mm)
+
+    def _fmt_scallop(self, value: float | None) -> str:
+        """A scallop figure; one beyond the horizon says so (not ``none``)."""
+        if value is not None and value == math.inf:
+            return f"above {self.scallop_horizon_mm:g} mm (the measure's horizon)"
+        return _fmt(value)
+
     def _figure_lines(self) -> list[str]:
         """What was asked and what the plan achieved: passes, scallop, chord, clearance."""
         return [
@@ -303,9 +321,9 @@ class PlanningReport:
             + (f" ({self.linking_reason})" if self.linking_reason else ""),
             f"passes            {self.n_passes}",
             f"points            {self.n_points} ({self.n_cut_points} on passes)",
-            f"scallop           {_fmt(self.max_scallop_mm)} on the toolpath, before the "
-            f"G-code's rounding (request {self.scallop_request_mm:g} mm; away from uncut "
-            f"areas {_fmt(self.scallop_interior_mm)})",
+            f"scallop           {self._fmt_scallop(self.max_scallop_mm)} on the toolpath, "
+            f"before the G-code's rounding (request {self.scallop_request_mm:g} mm; away from "
+            f"uncut areas {self._fmt_scallop(self.scallop_interior_mm)})",
             f"chord error       {_fmt(self.max_chord_error_mm)} "
             f"(tolerance {self.chord_tol_mm:g} mm; overcut {_fmt(self.chord_overcut_mm)}, "
             f"undercut {_fmt(self.chord_undercut_mm)})",
@@ -323,10 +341,14 @@ class PlanningReport:
                f"{self.rounding_reserve_mm:.5f} mm; planned for scallop "
                f"{_fmt(self.planned_scallop_mm)}, chord "
                f"{_fmt(self.planned_chord_tol_mm)}"]
-        if self.written_scallop_bound_mm is not None:
-            out.append(f"  as written (rounded) the scallop may stand up to that much higher: "
-                       f"at most about {_fmt(self.written_scallop_bound_mm)} "
+        bound = self.written_scallop_bound_mm
+        if bound == math.inf:
+            out.append(f"  as written (rounded) the scallop stands above the measure's horizon "
+                       f"({self.scallop_horizon_mm:g} mm) as planned "
                        f"(toolpath verify measures the program)")
+        elif bound is not None:
+            out.append(f"  as written (rounded) the scallop may stand up to that much higher: "
+                       f"at most about {_fmt(bound)} (toolpath verify measures the program)")
         short = min(self.scallop_request_mm - (self.planned_scallop_mm or 0.0),
                     self.chord_tol_mm - (self.planned_chord_tol_mm or 0.0))
         if self.rounding_reserve_mm > short + _RESERVE_ROUND_OFF_MM:
@@ -377,8 +399,14 @@ class PlanningReport:
         return out
 
     def as_dict(self) -> dict[str, Any]:
-        """JSON-able dict (infinities as None)."""
+        """JSON-able dict (infinities as None).
+
+        ``scallop_above_horizon`` tells a scallop beyond :attr:`scallop_horizon_mm` from one
+        not measured.
+        """
         data = asdict(self)
+        data["scallop_horizon_mm"] = self.scallop_horizon_mm
+        data["scallop_above_horizon"] = self.max_scallop_mm == math.inf
         data["travel_violations"] = [v.message() for v in self.travel_violations]
         data["rate_violations"] = [v.message() for v in self.rate_violations]
         data["within_request"] = self.within_request
