@@ -254,3 +254,27 @@ def test_rays_cut_are_those_entering_a_piece_within_the_horizon(cutter):
     # rays with no piece within the reach: the uncut strip's, and rays far off the part
     off = q + 5.0 * volume.cutter.radius_mm * n
     assert not volume.cut(off, n).any()
+
+
+def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
+    # a flat cutter lying on a plane: its flank touches the rays along it 15 mm from its
+    # tip, whose pieces' midpoints (the tip, corner radius 0) lie beyond the reach the
+    # full search meets pieces within: a candidate piece there decides nothing, and the
+    # rays cut are the full search's (none there)
+    from toolpath.path import Toolpath
+    from toolpath.planning import parse_cutter
+    from toolpath.planning.cut_volume import CutVolume
+
+    tips = np.array([[-20.0, -1.0, 4.0], [-20.0, 1.0, 4.0]])
+    path = Toolpath(tips, np.tile([1.0, 0.0, 0.0], (2, 1)),
+                    np.array([MoveKind.RAPID, MoveKind.CUT], dtype=np.uint8),
+                    np.full(2, 1000.0), np.zeros(2, dtype=np.int32))
+    volume = CutVolume(path, parse_cutter("flat:8"), 0.05, 0.005)
+    q = np.array([[-5.0, 0.0, 0.0], [-19.0, 0.0, 0.0]])
+    n = np.tile([0.0, 0.0, 1.0], (2, 1))
+    one = np.arange(2)
+    entered = volume.height(q, n, one, one + 1, np.zeros(2, dtype=np.int64), first=True)
+    assert np.isfinite(entered).all()  # (the flank and the tip's end touch both rays)
+    full = volume.cut(q, n)
+    assert full.tolist() == [False, True]
+    assert np.array_equal(volume.cut(q, n, np.zeros(2, dtype=np.int64)), full)
