@@ -11,8 +11,9 @@ import numpy as np
 import pytest
 from measured_plans import planned
 
+from machines import load_machine
 from toolpath.path import MoveKind
-from toolpath.planning import SpherePatch
+from toolpath.planning import EllipticBladeSurface, SpherePatch
 from toolpath.planning.chord_measure import measure_chord
 from toolpath.planning.sweep_kernel import ray_ranges
 from toolpath.planning.uncut_area import UncutArea
@@ -27,26 +28,100 @@ def _without_passes(path, passes):
     return dataclasses.replace(path, kinds=kinds)
 
 
+def _passes_cut_short(path, passes):
+    """The toolpath with the second half of each of ``passes`` made rapids (ended early)."""
+    kinds = path.kinds.copy()
+    for p in passes:
+        rows = np.flatnonzero(path.pass_index == p)
+        kinds[rows[rows.size // 2:]] = MoveKind.RAPID
+    return dataclasses.replace(path, kinds=kinds)
+
+
+def _uncut_both_ways(measured, path, scramble=False):
+    """The uncut area with the contacts' pieces tried first (the shortcut) and without."""
+    chord = measure_chord(path, measured.surface, measured.cutter, measured.samples,
+                          machine=measured.machine)
+    measured = dataclasses.replace(measured, path=path, chord=chord)
+    volume = measured.volume()
+    contacts = (chord.contact_t, chord.contact_s)
+    assert np.isfinite(contacts[0]).sum() > 100
+    if scramble:  # pieces placed at nodes far from them: the search must take over
+        rng = np.random.default_rng(3)
+        contacts = tuple(rng.permutation(c) for c in contacts)
+    h = measured.request_mm
+    rho = measured.cutter.corner_radius_mm
+    rho = rho if rho > h else measured.cutter.radius_mm
+    width_mm = 2.0 * np.sqrt(h * (2.0 * rho - h))
+    fast = UncutArea.on_grid(measured.surface, volume, width_mm, contacts)
+    full = UncutArea.on_grid(measured.surface, volume, width_mm)
+    return fast, full
+
+
+def _assert_same(fast, full):
+    assert full.uncut.any() and (~full.uncut).any()
+    assert np.array_equal(fast.uncut, full.uncut)
+    assert fast.fraction == full.fraction
+    assert np.array_equal(fast.reach, full.reach)
+
+
 @pytest.mark.parametrize("scramble", [False, True])
 def test_the_contacts_pieces_find_the_uncut_area_the_full_search_finds(scramble):
     measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
     middle = int(measured.path.pass_index.max()) // 2
     path = _without_passes(measured.path, np.arange(middle - 3, middle + 4))
-    chord = measure_chord(path, CAP, measured.cutter, measured.samples)
-    measured = dataclasses.replace(measured, path=path, chord=chord)
+    _assert_same(*_uncut_both_ways(measured, path, scramble))
+
+
+@pytest.mark.parametrize("cutter, machine", [("flat:8", None), ("bull:8:1", None),
+                                             ("bull:6:2", None), ("bull:8:1", "trunnion-ac"),
+                                             ("flat:8", "head-table-bc")])
+def test_flat_and_bull_nose_uncut_strips_are_found_as_the_full_search_finds_them(cutter,
+                                                                                 machine):
+    # 5-axis faces, with or without a machine's joint interpolation: a thin uncut strip
+    # (one pass left out), a wide one, passes that end early (their second half rapids
+    # over the surface): every node the full search finds uncut, and no other
+    measured = planned(CAP, cutter, scallop_mm=0.005, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=5.0,
+                       machine=None if machine is None else load_machine(machine))
+    last = int(measured.path.pass_index.max())
+    path = _without_passes(measured.path, [last // 4, *range(last // 2, last // 2 + 3)])
+    path = _passes_cut_short(path, [3 * last // 4, 3 * last // 4 + 1])
+    fast, full = _uncut_both_ways(measured, path)
+    _assert_same(fast, full)
+
+
+def test_uncut_strips_across_a_closed_seam_are_found_as_the_full_search_finds_them():
+    # a closed section's passes cross the seam: the contacts' tracks the short way round
+    measured = planned(EllipticBladeSurface(), "bull:8:1", scallop_mm=0.05, chord_tol_mm=0.05,
+                       axis_mode="lead-tilt", lead_deg=5.0, linking="spiral")
+    assert measured.surface.closed_t
+    last = int(measured.path.pass_index.max())
+    path = _without_passes(measured.path, np.arange(last // 3, last // 3 + 5))
+    _assert_same(*_uncut_both_ways(measured, path))
+
+
+def test_the_contacts_pieces_decide_almost_every_node_of_a_bull_nose_plan():
+    # the bull-nose's cut within the horizon spans a short stretch along its pass round
+    # its contact (lead): the piece crossing a node's column cuts it, and the nodes
+    # between passes take the nearest pass's; few nodes are left to the full search
+    from toolpath.planning.uncut_area import _node_pieces
+
+    measured = planned(CAP, "bull:8:1", scallop_mm=0.01, chord_tol_mm=0.02,
+                       axis_mode="lead-tilt", lead_deg=5.0)
     volume = measured.volume()
-    contacts = (chord.contact_t, chord.contact_s)
-    assert np.isfinite(contacts[0]).sum() > 200
-    if scramble:  # pieces placed at nodes far from them: the search must take over
-        rng = np.random.default_rng(3)
-        contacts = tuple(rng.permutation(c) for c in contacts)
-    width_mm = 2.0 * np.sqrt(0.02 * (2.0 * 3.0 - 0.02))
-    fast = UncutArea.on_grid(CAP, volume, width_mm, contacts)
+    h, big = measured.request_mm, measured.cutter.radius_mm
+    width_mm = 2.0 * np.sqrt(h * (2.0 * measured.cutter.corner_radius_mm - h))
     full = UncutArea.on_grid(CAP, volume, width_mm)
-    assert full.uncut.any() and (~full.uncut).any()
-    assert np.array_equal(fast.uncut, full.uncut)
-    assert fast.fraction == full.fraction
-    assert np.array_equal(fast.reach, full.reach)
+    n_t, n_s = full.grid.shape[:2]
+    node = _node_pieces(volume, measured.chord.contact_t, measured.chord.contact_s, False,
+                        n_t, n_s, int(np.ceil(big / width_mm)))
+    q = full.grid.reshape(-1, 3)
+    t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s), indexing="ij")
+    _, n = CAP.points_and_normals(t.ravel(), s.ravel())
+    rows = np.flatnonzero(node >= 0)
+    one = np.arange(rows.size)
+    cut = np.isfinite(volume.height(q[rows], n[rows], one, one + 1, node[rows], first=True))
+    assert cut.sum() >= 0.9 * (~full.uncut).sum()
 
 
 def _reach_over_every_edge(grid, sources, closed, limit_mm):
@@ -107,34 +182,39 @@ def test_a_negative_reach_limit_is_refused_whatever_the_sources():
             _surface_reach(grid, sources, False, -1.0)
 
 
-def _node_pieces_by_definition(start, piece_move, contact_t, contact_s, closed, n_t, n_s):
-    """Each piece's middle ``(t, s)`` between its move's contacts, rounded to a node."""
-    count = np.bincount(piece_move, minlength=len(start))
-    rank = np.arange(len(piece_move)) - (np.cumsum(count) - count)[piece_move]
-    u = (rank + 0.5) / count[piece_move]
-    a = start[piece_move]
-    ta, tb, sa, sb = contact_t[a], contact_t[a + 1], contact_s[a], contact_s[a + 1]
-    rows = np.flatnonzero(np.isfinite(ta) & np.isfinite(tb) & np.isfinite(sa)
-                          & np.isfinite(sb))
-    ta, tb, sa, sb, u = ta[rows], tb[rows], sa[rows], sb[rows], u[rows]
-    if closed:  # the short way across the seam
-        tb = np.where(tb - ta > 0.5, tb - 1.0, np.where(ta - tb > 0.5, tb + 1.0, tb))
-    t = ta * (1.0 - u) + tb * u
-    t = np.mod(t, 1.0) if closed else t
-    s = sa + u * (sb - sa)
-    i = np.rint(np.clip(t, 0.0, 1.0) * (n_t - 1)).astype(np.int64)
-    j = np.rint(np.clip(s, 0.0, 1.0) * (n_s - 1)).astype(np.int64)
+def _node_pieces_by_definition(start, piece_move, contact_t, contact_s, closed, n_t, n_s,
+                               spread):
+    """Each move's ``(t, s)`` line crossing the grid's columns: the piece holding the
+    crossing, offered to the column's nodes within ``spread`` of it, the nearest kept."""
     node = np.full(n_t * n_s, -1, dtype=np.int64)
-    for piece, k in zip(rows, i * n_s + j, strict=True):  # the last one placed stays
-        node[k] = piece
+    nearest = np.full(n_t * n_s, np.inf)
+    for m, a in enumerate(start):
+        pieces = np.flatnonzero(piece_move == m)
+        ta, tb, sa, sb = contact_t[a], contact_t[a + 1], contact_s[a], contact_s[a + 1]
+        if not pieces.size or not np.isfinite([ta, tb, sa, sb]).all():
+            continue
+        if closed:  # the short way across the seam
+            tb = tb - 1.0 if tb - ta > 0.5 else tb + 1.0 if ta - tb > 0.5 else tb
+        for i in range(n_t):
+            for turn in (-1, 0, 1) if closed else (0,):
+                ti = i / (n_t - 1) + turn
+                if not min(ta, tb) <= ti <= max(ta, tb):
+                    continue
+                u = float(np.clip((ti - ta) / (tb - ta), 0.0, 1.0)) if tb != ta else 0.0
+                piece = pieces[min(int(u * pieces.size), pieces.size - 1)]
+                at = (sa + u * (sb - sa)) * (n_s - 1)
+                for j in range(n_s):
+                    off = abs(j - at)
+                    if off <= spread and off < nearest[i * n_s + j]:
+                        nearest[i * n_s + j], node[i * n_s + j] = off, piece
     return node
 
 
 @pytest.mark.parametrize("closed", [False, True])
-def test_each_node_gets_the_piece_its_move_s_contacts_place_there(closed):
-    # the compiled placement against the definition, piece by piece: moves of 1 to 5
-    # pieces, a link between contacts-less points, moves across a closed seam, several
-    # pieces at one node
+def test_each_node_gets_the_piece_crossing_its_column_nearest_to_it(closed):
+    # the compiled placement against the definition: moves of 1 to 5 pieces, a link
+    # between contacts-less points, moves across a closed seam, several tracks crossing a
+    # column near one node
     from types import SimpleNamespace
 
     from toolpath.planning.uncut_area import _node_pieces
@@ -148,10 +228,10 @@ def test_each_node_gets_the_piece_its_move_s_contacts_place_there(closed):
     piece_move = np.repeat(np.arange(len(start)), rng.integers(1, 6, len(start)))
     volume = SimpleNamespace(move_starts=start, piece_move=piece_move,
                              pass_of=np.zeros(len(piece_move), dtype=np.int64))
-    for n_t, n_s in ((41, 23), (7, 5)):
-        node = _node_pieces(volume, contact_t, contact_s, closed, n_t, n_s)
+    for n_t, n_s, spread in ((41, 23, 3), (7, 5, 1), (41, 23, 30)):
+        node = _node_pieces(volume, contact_t, contact_s, closed, n_t, n_s, spread)
         expected = _node_pieces_by_definition(start, piece_move, contact_t, contact_s, closed,
-                                              n_t, n_s)
+                                              n_t, n_s, spread)
         np.testing.assert_array_equal(node, expected)
         assert (node >= 0).sum() > 5
 
@@ -174,3 +254,27 @@ def test_rays_cut_are_those_entering_a_piece_within_the_horizon(cutter):
     # rays with no piece within the reach: the uncut strip's, and rays far off the part
     off = q + 5.0 * volume.cutter.radius_mm * n
     assert not volume.cut(off, n).any()
+
+
+def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
+    # a flat cutter lying on a plane: its flank touches the rays along it 15 mm from its
+    # tip, whose pieces' midpoints (the tip, corner radius 0) lie beyond the reach the
+    # full search meets pieces within: a candidate piece there decides nothing, and the
+    # rays cut are the full search's (none there)
+    from toolpath.path import Toolpath
+    from toolpath.planning import parse_cutter
+    from toolpath.planning.cut_volume import CutVolume
+
+    tips = np.array([[-20.0, -1.0, 4.0], [-20.0, 1.0, 4.0]])
+    path = Toolpath(tips, np.tile([1.0, 0.0, 0.0], (2, 1)),
+                    np.array([MoveKind.RAPID, MoveKind.CUT], dtype=np.uint8),
+                    np.full(2, 1000.0), np.zeros(2, dtype=np.int32))
+    volume = CutVolume(path, parse_cutter("flat:8"), 0.05, 0.005)
+    q = np.array([[-5.0, 0.0, 0.0], [-19.0, 0.0, 0.0]])
+    n = np.tile([0.0, 0.0, 1.0], (2, 1))
+    one = np.arange(2)
+    entered = volume.height(q, n, one, one + 1, np.zeros(2, dtype=np.int64), first=True)
+    assert np.isfinite(entered).all()  # (the flank and the tip's end touch both rays)
+    full = volume.cut(q, n)
+    assert full.tolist() == [False, True]
+    assert np.array_equal(volume.cut(q, n, np.zeros(2, dtype=np.int64)), full)

@@ -5,12 +5,12 @@ uncut area (rays that enter no cut within the horizon, :meth:`~.cut_volume.CutVo
 distances from it are taken along the surface (shortest paths over the grid), round a thin
 part's edges rather than through it.
 
-Where the chord measurement's contacts are given, each grid node first tries the one piece
-whose middle's ``(t, s)``, interpolated between its move's contacts, rounds to the node
-(:func:`_node_pieces`): a ray that piece cuts within the horizon is cut whatever the others
-do, and the cutter that left a contact stands over the nodes round it. Only the nodes it
-does not cut are searched among the pieces near them: the same uncut area, most nodes
-without a search.
+Where the chord measurement's contacts are given, each grid node first tries one piece:
+the one whose move's track in ``(t, s)`` (interpolated between its contacts) crosses the
+node's column nearest to the node (:func:`_node_pieces`). A ray that piece cuts within the
+horizon is cut whatever the others do, and the cutter that left a contact stands over the
+nodes round it. Only the nodes it does not cut are searched among the pieces near them:
+the same uncut area, most nodes without a search.
 """
 
 from __future__ import annotations
@@ -24,7 +24,6 @@ import scipy.sparse
 import scipy.sparse.csgraph
 from numpy.typing import NDArray
 
-from ..projection_kernel import seam_lerp
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from .cut_volume import CutVolume
@@ -72,8 +71,10 @@ class UncutArea:
         area = np.sqrt(np.einsum("ij,ij->i", across, across))
         # outward_normals' unit normals from the cross product and its length at hand
         n = surface.orientation * (across / np.where(area > 0.0, area, 1.0)[:, None])
+        # (a node a cutter radius across from a pass is beyond that pass's cutter)
         candidate = (None if contacts is None else
-                     _node_pieces(volume, *contacts, bool(surface.closed_t), n_t, n_s))
+                     _node_pieces(volume, *contacts, bool(surface.closed_t), n_t, n_s,
+                                  math.ceil(big / width_mm)))
         uncut = ~volume.cut(q, n, candidate)
         fraction = float(area[uncut].sum() / max(area.sum(), TINY))
         grid = q.reshape(n_t, n_s, 3)
@@ -90,15 +91,23 @@ class UncutArea:
 
 
 def _node_pieces(volume: CutVolume, contact_t: NDArray[np.float64],
-                 contact_s: NDArray[np.float64], closed: bool, n_t: int, n_s: int
-                 ) -> NDArray[np.int64] | None:
+                 contact_s: NDArray[np.float64], closed: bool, n_t: int, n_s: int,
+                 spread: int) -> NDArray[np.int64] | None:
     """A piece for each node of the ``(n_t, n_s)`` grid from the contacts' ``(t, s)`` (-1: none).
 
-    A piece of a move between two contacts stands at the ``(t, s)`` interpolated between
-    theirs at its middle (the short way across a closed section's seam); the node it
-    rounds to gets it (the last of them where several do). Pieces of other moves (links,
-    leads) place none. None where no contacts are given. Compiled, piece by piece
-    (:func:`_place_pieces`).
+    A move between two contacts runs, in ``(t, s)``, along the line between theirs (the
+    short way across a closed section's seam). Where that line crosses a grid column
+    (``t = i / (n_t - 1)``, at ``u`` along the move, ``s*`` there), the move's piece
+    holding ``u`` stands over the column at ``s*``: it is offered to the column's nodes
+    within ``spread`` nodes of ``s*``, and each node keeps the piece that crosses its
+    column nearest to it in ``s`` (the first of them where several are as near). Pieces of
+    other moves (links, leads) place none. None where no contacts are given, or none is
+    placed. Compiled, move by move (:func:`_place_pieces`).
+
+    (A piece's own cut spans a short stretch along its pass round its contact: a bull-nose
+    leaning ``lead`` ahead cuts within the horizon only within about
+    ``sqrt(2 r h)`` of it along the feed. So the piece that crosses the node's column, not
+    one whose middle lies within half a column of it, is the one that cuts its ray.)
     """
     if not len(contact_t) or not len(volume.pass_of):
         return None
@@ -108,20 +117,22 @@ def _node_pieces(volume: CutVolume, contact_t: NDArray[np.float64],
                            np.ascontiguousarray(piece_move, dtype=np.int64),
                            np.ascontiguousarray(contact_t, dtype=float),
                            np.ascontiguousarray(contact_s, dtype=float), closed, n_t, n_s,
-                           node)
+                           int(spread), node)
     return node if placed else None
 
 
 @numba.njit(cache=True)
-def _place_pieces(start, piece_move, contact_t, contact_s, closed, n_t, n_s, node):
+def _place_pieces(start, piece_move, contact_t, contact_s, closed, n_t, n_s, spread, node):
     """The loop of :func:`_node_pieces`: into ``node``; whether any piece was placed.
 
     A move's pieces run on in order (``piece_move`` rises): piece ``k`` of a move of ``c``
-    has its middle at ``u = (k + 1/2) / c``.
+    holds ``u`` in ``[k / c, (k + 1) / c)`` (the last also ``u = 1``).
     """
+    nearest = np.full(n_t * n_s, np.inf)
     placed = False
     first = 0
     total = piece_move.size
+    last_column = n_t - 1
     while first < total:
         m = piece_move[first]
         end = first
@@ -131,16 +142,30 @@ def _place_pieces(start, piece_move, contact_t, contact_s, closed, n_t, n_s, nod
         a = start[m]
         ta, tb, sa, sb = contact_t[a], contact_t[a + 1], contact_s[a], contact_s[a + 1]
         if np.isfinite(ta) and np.isfinite(tb) and np.isfinite(sa) and np.isfinite(sb):
-            for k in range(c):
-                u = (k + 0.5) / c
-                t = seam_lerp(ta, tb, u, closed)
-                if closed:
-                    t = t - math.floor(t)
-                sv = sa + u * (sb - sa)
-                i = np.rint(min(max(t, 0.0), 1.0) * (n_t - 1))
-                j = np.rint(min(max(sv, 0.0), 1.0) * (n_s - 1))
-                node[int(i) * n_s + int(j)] = first + k
-                placed = True
+            if closed:  # the short way across the seam (as :func:`seam_lerp`)
+                if tb - ta > 0.5:
+                    tb -= 1.0
+                elif ta - tb > 0.5:
+                    tb += 1.0
+            low, high = min(ta, tb), max(ta, tb)
+            turns = 1 if closed else 0
+            for turn in range(-turns, turns + 1):  # (the columns a whole turn on, too)
+                i0 = max(math.ceil((low - turn) * last_column), 0)
+                i1 = min(math.floor((high - turn) * last_column), last_column)
+                for i in range(i0, i1 + 1):
+                    u = 0.0
+                    if high > low:
+                        u = min(max((i / last_column + turn - ta) / (tb - ta), 0.0), 1.0)
+                    k = min(int(u * c), c - 1)
+                    at = (sa + u * (sb - sa)) * (n_s - 1)
+                    j0 = max(math.ceil(at - spread), 0)
+                    j1 = min(math.floor(at + spread), n_s - 1)
+                    for j in range(j0, j1 + 1):
+                        off = abs(j - at)
+                        if off < nearest[i * n_s + j]:
+                            nearest[i * n_s + j] = off
+                            node[i * n_s + j] = first + k
+                            placed = True
         first = end
     return placed
 
