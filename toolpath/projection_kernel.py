@@ -4,7 +4,8 @@ Both projections onto a surface take their steps here, so they cannot drift apar
 compiled one (:mod:`toolpath.compiled`, point by point over a streamline surface's kernel)
 and the numpy one (:func:`toolpath.planning.local.project_to_surface`, for surfaces without
 a kernel, on rows of partials). The functions are numba kernels; the ``*_rows`` ones run
-the same scalar rule over arrays for the numpy caller. The scalar steps only kernels call
+the same scalar rule over arrays for the numpy caller (:func:`seam_lerp_rows` in numpy,
+from :func:`seam_lerp`'s own source). The scalar steps only kernels call
 (:func:`newton_step`, :func:`trial`, :func:`clamp_s`, :func:`seam_lerp`,
 :func:`near_seam`) are compiled without the wrappers that let Python call them (not in
 ``__all__``; a first run compiled those wrappers for each, issue 27); :func:`wrap_t`,
@@ -92,15 +93,14 @@ def seam_lerp(ta, tb, f, closed):
     """The parameter a fraction ``f`` from ``ta`` to ``tb``: across the seam the short way.
 
     On closed sections ``tb`` is first moved by a whole turn to within 0.5 of ``ta`` and
-    the result folded by :func:`wrap_t`; on open ones the plain interpolation.
+    the result folded by :func:`wrap_t`; on open ones the plain interpolation. (Written
+    without branches on the values, so that its Python source runs on arrays too:
+    :func:`seam_lerp_rows`.)
     """
     if closed:
-        if tb - ta > 0.5:
-            tb -= 1.0
-        elif ta - tb > 0.5:
-            tb += 1.0
+        tb = tb - (tb - ta > 0.5) + (ta - tb > 0.5)
     t = ta * (1.0 - f) + tb * f
-    return t - math.floor(t) if closed else t
+    return t - np.floor(t) if closed else t
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
@@ -167,14 +167,14 @@ def halve_rows(rows, t, s, closed, step_t, step_s, new_t, new_s):
         new_t[j], new_s[j] = trial(t[j], s[j], step_t[j], step_s[j], closed)
 
 
-@numba.njit(cache=True)
 def seam_lerp_rows(ta, tb, u, closed):
-    """:func:`seam_lerp` from ``ta[j]`` to ``tb[j]`` at each fraction ``u[j, q]``: (m, k)."""
-    out = np.empty(u.shape)
-    for j in range(u.shape[0]):
-        for q in range(u.shape[1]):
-            out[j, q] = seam_lerp(ta[j], tb[j], u[j, q], closed)
-    return out
+    """:func:`seam_lerp` from ``ta[j]`` to ``tb[j]`` at each fraction ``u[j, q]``: (m, k).
+
+    In numpy: :func:`seam_lerp`'s own source on arrays (the same numbers; a compiled loop
+    would cost more to load in a fresh process than these few array operations).
+    """
+    ta, tb = np.asarray(ta, dtype=float), np.asarray(tb, dtype=float)
+    return seam_lerp.py_func(ta[:, None], tb[:, None], np.asarray(u, dtype=float), bool(closed))
 
 
 #: ``t`` just before a closed surface's seam: its normal there is the one from below.

@@ -79,6 +79,32 @@ def test_seam_rule_goes_the_short_way_round():
     np.testing.assert_allclose([wrap_t(t, False) for t in (-0.25, 1.25, 0.5)], [0.0, 1.0, 0.5])
 
 
+def test_seam_lerp_rows_in_numpy_are_the_compiled_rule_bit_for_bit():
+    # seam_lerp_rows runs seam_lerp's own source on arrays; the kernels compile it: the
+    # same numbers, across the seam, at differences of exactly 0.5 and where the fold
+    # reads 1 (a tiny negative t)
+    import numba
+
+    from toolpath.projection_kernel import seam_lerp
+
+    @numba.njit
+    def compiled_rows(ta, tb, u, closed):
+        out = np.empty(u.shape)
+        for j in range(u.shape[0]):
+            for q in range(u.shape[1]):
+                out[j, q] = seam_lerp(ta[j], tb[j], u[j, q], closed)
+        return out
+
+    rng = np.random.default_rng(3)
+    ta, tb = rng.random(4000), rng.random(4000)
+    ta[:3], tb[:3] = [0.25, 0.75, 0.0], [0.75, 0.25, 1.0 - 1e-17]
+    ta[3], tb[3] = 1e-17, 0.9  # (t just below 0 near u = 1/9: folds to 1.0 - 1e-17)
+    u = rng.random((4000, 3))
+    for closed in (True, False):
+        np.testing.assert_array_equal(seam_lerp_rows(ta, tb, u, closed),
+                                      compiled_rows(ta, tb, u, closed))
+
+
 def test_seam_corner_takes_the_corner_where_no_farther_signed_by_both_normals():
     # a knife edge at the origin: the part |y| < -x, outward normals 90 deg apart
     n_before, n_after = np.array([1.0, 1.0, 0.0]) / 2**0.5, np.array([1.0, -1.0, 0.0]) / 2**0.5
