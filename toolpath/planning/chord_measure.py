@@ -51,6 +51,7 @@ from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
+from .local import project_to_surface
 from .measure_joints import checked_joints
 from .sampling import (
     CHORD_FRACTIONS,
@@ -306,6 +307,9 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                 t0[lo:lo + chunk], s0[lo:lo + chunk])
 
     search_from_samples(runs.anchor)
+    if not ball:
+        _mend_from_neighbours(surface, cutter, pos[ends], axes[ends], (gap, t, s),
+                              _run_pairs(ends, move))
     between, before, after, w = runs.between, runs.before, runs.after, runs.w
     if between.size:
         t0 = seam_lerp_rows(t[before], t[after], w[:, None], bool(surface.closed_t)).ravel()
@@ -408,6 +412,66 @@ class _Runs(NamedTuple):
     after: NDArray[np.int64]
     w: NDArray[np.float64]
     span: NDArray[np.float64]
+
+
+def _run_pairs(ends: NDArray[np.int64], move: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Rows ``j`` of ``ends`` joined to row ``j + 1`` by a cutting move (the same run)."""
+    if ends.size < 2:
+        return np.zeros(0, dtype=np.int64)
+    joined = np.zeros(int(ends[-1]) + 1, dtype=bool)
+    joined[move] = True
+    return np.flatnonzero(joined[ends[:-1]] & (ends[1:] == ends[:-1] + 1))
+
+
+#: Rounds of :func:`_mend_from_neighbours`: a mended contact is offered on to its own
+#: neighbours, this many locations along the run at most.
+NEIGHBOUR_ROUNDS = 8
+
+
+def _mend_from_neighbours(surface: ParametricSurface, cutter: Cutter,
+                          tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                          found: tuple[NDArray[np.float64], ...], pairs: NDArray[np.int64]
+                          ) -> None:
+    """Flat and bull-nose contacts whose foot a run neighbour's contact shows wrong, searched again.
+
+    ``found``: every location's gap, ``t``, ``s`` (:func:`_contact_gaps`), mended in place;
+    ``pairs``: rows ``j`` whose location ``j + 1`` follows on the same run
+    (:func:`_run_pairs`). Where two sheets of the surface pass within a sample spacing of
+    each other (the sides of open sections meeting at a blunt trailing edge, 0.06-0.13 mm
+    apart on the dev blade), the nearest sample can lie on the other sheet, and the
+    contact search stays there: a foot whose normal faces away reads the cutter as
+    cutting through the part (0.196 mm on the dev blade's flat:6 3-axis job at a pass's
+    end over the trailing edge, where the surface rises 0.006 mm into the cutter at most).
+    The sample guard of :func:`_contact_gaps` cannot see it: the wrong foot stands nearer
+    than any sample. So the cutter point ``K = X + (gap + r) n`` of each contact is also
+    projected from each run neighbour's contact: a foot nearer to ``K`` than its own (by
+    more than :data:`FOOT_SLACK_MM`) shows its own is not ``K``'s closest point, and the
+    location is searched again from there; mended locations are offered on to their
+    neighbours, for :data:`NEIGHBOUR_ROUNDS` rounds or until none is mended.
+    """
+    gap, t, s = found
+    r = cutter.corner_radius_mm
+    todo = np.ones(len(gap), dtype=bool)
+    for _ in range(NEIGHBOUR_ROUNDS):
+        mended = np.zeros(len(gap), dtype=bool)
+        for src, dst in ((pairs, pairs + 1), (pairs + 1, pairs)):
+            live = todo[src] | todo[dst]
+            src, dst = src[live], dst[live]
+            if not src.size:
+                continue
+            x, n = surface.points_and_normals(t[dst], s[dst])
+            k = x + (gap[dst] + r)[:, None] * n
+            t1, s1, d1 = project_to_surface(surface, k, t[src], s[src], iterations=6)
+            wrong = d1 < np.abs(gap[dst] + r) - FOOT_SLACK_MM
+            rows = dst[wrong]
+            if rows.size:
+                gap[rows], t[rows], s[rows] = cutter_gap(
+                    surface, cutter, tips_mm[rows], axes[rows], t1[wrong], s1[wrong],
+                    newton=6, refine_rim=True)
+                mended[rows] = True
+        if not mended.any():
+            return
+        todo = mended
 
 
 def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
