@@ -1,4 +1,4 @@
-"""A flat cutter's contacts over a blunt trailing edge, against brute force.
+"""A flat cutter's feet over thin edges: contacts, and places inside moves.
 
 The dev blade's sections are open: their first and last points stand 0.06-0.13 mm apart
 at the blunt trailing edge, so two sheets of the fitted surface (``t`` near 0 and near 1)
@@ -12,14 +12,24 @@ The oracle is brute force: dense surface samples over the edge's strip, and for 
 cutting move near it the largest height of a sample above the flat end's plane within the
 cutter's radius, along the move (along the axis: at least the depth along the surface's
 normal that the measure reads, so no overcut near the tolerance stands there).
+
+Inside a move the disc's search starts between its ends' feet: round the small circles of
+dev_rotor_blunt's leading edge (laid flat, flat:6, 3 axes) a disc point's search could end
+on the far side, whose normal faces away: 2.84 mm of overcut read inside a 0.0006 mm move
+whose ends touch (the verifier finds 0.049 mm on that job). Those feet are checked against
+the surface samples as the contacts' are.
 """
+
+import dataclasses
 
 import numpy as np
 import pytest
 from measured_plans import planned
 from scipy.spatial import cKDTree
 
-from toolpath import fit_streamline_surface
+from streamline_cam.fit_report import fit_surface_by_method
+from toolpath import as_sections as read_grid
+from toolpath import fit_streamline_surface, read_sections
 from toolpath.paper_examples import bundled_data_path
 from toolpath.path import MoveKind
 from toolpath.placement import place_points
@@ -76,3 +86,14 @@ def test_flat_contacts_over_a_blunt_trailing_edge_match_brute_force(flat_over_th
     # contact on the other sheet)
     assert measured.chord.overcut_mm <= CHORD_TOL_MM
     assert measured.chord.contact_mm <= CHORD_TOL_MM
+
+
+def test_flat_feet_inside_moves_round_a_blunt_leading_edge_stay_on_their_side():
+    raw = read_grid(read_sections(bundled_data_path("dev_rotor_blunt_9x120.csv")))
+    placed, _ = place_points(raw.points, mode="flat", base_mm=5.0)
+    surface, _ = fit_surface_by_method(dataclasses.replace(raw, points=placed),
+                                       method="streamline", tol=0.01)
+    measured = planned(surface, "flat:6", scallop_mm=0.05, chord_tol_mm=0.05)
+    # the contacts touch; the largest overcut inside the moves is the plan's own
+    assert measured.chord.contact_mm < 0.01
+    assert 0.0 < measured.chord.overcut_mm <= 0.05

@@ -61,6 +61,7 @@ from .sampling import (
     chord_extremes,
     cutter_gap,
     move_gaps,
+    move_poses,
 )
 
 __all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
@@ -187,7 +188,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                                       else (gradient[ia], gradient[ib]))
             gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], max(contact, over, under),
-                                        interpolation, slopes, seeded_newton)
+                                        interpolation, slopes, seeded_newton, samples)
             worst[at] = np.abs(gap).max(axis=1)
             over = max(over, float(-gap.min()))
             under = max(under, float(gap.max()))
@@ -508,7 +509,8 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
 def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                      gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
                      joints: JointEnds | None, slopes: NDArray[np.float64] | None,
-                     seeded_newton: int = SEEDED_CONTACT_NEWTON
+                     seeded_newton: int = SEEDED_CONTACT_NEWTON,
+                     samples: SurfaceSamples | None = None
                      ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], ...]]:
     """Gaps along moves: at both ends, inside, and at the model's extremes.
 
@@ -519,7 +521,8 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     the places measured). ``joints``: the moves' ends under a machine's joint
     interpolation, as for :func:`~.sampling.move_gaps`. A ball's Newton search takes
     ``seeded_newton`` steps and more while its foot moves (seeded between the ends'
-    feet), a flat or bull-nose cutter's two.
+    feet), a flat or bull-nose cutter's two; with ``samples``, its feet checked against
+    them (:func:`_inside_gaps`).
 
     Returns ``gap`` (m, k + 4: end, the k places, lowest, highest, end) and the gap, ``t``
     and ``s`` at ``u = 1/2`` (m,).
@@ -527,8 +530,8 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     u = np.asarray((0.5,) if slopes is not None else CHORD_FRACTIONS, dtype=float)
     m = len(gap_a)
     newton = seeded_newton if cutter.kind is CutterKind.BALL else 2
-    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=newton, refine_rim=True,
-                           joints=joints)
+    g3, t3, s3 = _inside_gaps(surface, cutter, samples, ends, np.broadcast_to(u, (m, u.size)),
+                              newton, joints)
     low, u_low, high, u_high = chord_extremes(g3, u, end_slopes=slopes)
     top = max(float(np.abs(g3).max()), top_mm)
     # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
@@ -544,12 +547,35 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
             those = ends.take(sel)
             start = None if slopes is None else _feet_between(
                 those, t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
-            g_star[sel, col] = move_gaps(surface, cutter, those, u_at[sel, None],
-                                         newton=newton, refine_rim=True,
-                                         joints=_joint_rows(joints, sel), start=start)[0][:, 0]
+            g_star[sel, col] = _inside_gaps(surface, cutter, samples, those, u_at[sel, None],
+                                            newton, _joint_rows(joints, sel), start)[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
     return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
+
+
+def _inside_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples | None,
+                 ends: MoveEnds, u: NDArray[np.float64], newton: int,
+                 joints: JointEnds | None,
+                 start: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+                 ) -> tuple[NDArray[np.float64], ...]:
+    """:func:`~.sampling.move_gaps` at ``u`` (m, k), a flat or bull-nose cutter's checked.
+
+    The search inside a move starts between its ends' feet; over a tight edge (the
+    small circles of a blunt leading edge) a disc point's search from there can end in
+    another sheet's local minimum, whose normal faces away: 2.84 mm of overcut read on
+    dev_rotor_blunt's flat:6 3-axis job inside a 0.0006 mm move whose ends touch. With
+    ``samples``, the flat and bull-nose feet are checked against them as the contacts'
+    are (:func:`_mend_from_samples`, at the same poses). Returns ``gap, t, s`` (m, k).
+    """
+    found = move_gaps(surface, cutter, ends, u, newton=newton, refine_rim=True,
+                      joints=joints, start=start)
+    if samples is not None and cutter.kind is not CutterKind.BALL and found[0].size:
+        tips, axes = move_poses(ends, np.ascontiguousarray(u, dtype=float), joints)
+        flat = tuple(np.ascontiguousarray(x).ravel() for x in found)
+        _mend_from_samples(surface, cutter, samples, tips, axes, flat)
+        found = tuple(x.reshape(u.shape) for x in flat)
+    return found
 
 
 def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],
@@ -667,12 +693,26 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     as cutting through the part. Those locations are searched again from the sample
     nearest to ``K`` (twice at most).
     """
-    r = cutter.corner_radius_mm
     ball = cutter.kind is CutterKind.BALL
     gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, t0, s0,
                            newton=BALL_CONTACT_NEWTON if ball else 6, refine_rim=True)
-    if ball:
-        return gap, t, s
+    if not ball:
+        _mend_from_samples(surface, cutter, samples, tips_mm, axes, (gap, t, s))
+    return gap, t, s
+
+
+def _mend_from_samples(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
+                       tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                       found: tuple[NDArray[np.float64], ...]) -> None:
+    """Flat and bull-nose gaps whose foot a surface sample shows wrong, searched again.
+
+    ``found``: the gap, ``t``, ``s`` of each pose, mended in place. A foot farther from
+    its cutter point ``K = X + (gap + r) n`` than the sample nearest to ``K`` is not its
+    closest point (that sample is a surface point nearer to ``K``): those poses are
+    searched again from that sample (twice at most; :func:`_contact_gaps`).
+    """
+    gap, t, s = found
+    r = cutter.corner_radius_mm
     rows = np.arange(len(tips_mm))
     for _ in range(2):
         x, n = surface.points_and_normals(t[rows], s[rows])
@@ -681,8 +721,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
         wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:
-            break
+            return
         gap[rows], t[rows], s[rows] = cutter_gap(
             surface, cutter, tips_mm[rows], axes[rows], samples.t[near], samples.s[near],
             newton=6, refine_rim=True)
-    return gap, t, s
