@@ -51,6 +51,7 @@ from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
+from .local import project_to_surface
 from .measure_joints import checked_joints
 from .sampling import (
     CHORD_FRACTIONS,
@@ -60,6 +61,7 @@ from .sampling import (
     chord_extremes,
     cutter_gap,
     move_gaps,
+    move_poses,
 )
 
 __all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
@@ -186,7 +188,7 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                                       else (gradient[ia], gradient[ib]))
             gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], max(contact, over, under),
-                                        interpolation, slopes, seeded_newton)
+                                        interpolation, slopes, seeded_newton, samples)
             worst[at] = np.abs(gap).max(axis=1)
             over = max(over, float(-gap.min()))
             under = max(under, float(gap.max()))
@@ -306,6 +308,9 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                 t0[lo:lo + chunk], s0[lo:lo + chunk])
 
     search_from_samples(runs.anchor)
+    if not ball:
+        _mend_from_neighbours(surface, cutter, pos[ends], axes[ends], (gap, t, s),
+                              _run_pairs(ends, move))
     between, before, after, w = runs.between, runs.before, runs.after, runs.w
     if between.size:
         t0 = seam_lerp_rows(t[before], t[after], w[:, None], bool(surface.closed_t)).ravel()
@@ -410,6 +415,66 @@ class _Runs(NamedTuple):
     span: NDArray[np.float64]
 
 
+def _run_pairs(ends: NDArray[np.int64], move: NDArray[np.int64]) -> NDArray[np.int64]:
+    """Rows ``j`` of ``ends`` joined to row ``j + 1`` by a cutting move (the same run)."""
+    if ends.size < 2:
+        return np.zeros(0, dtype=np.int64)
+    joined = np.zeros(int(ends[-1]) + 1, dtype=bool)
+    joined[move] = True
+    return np.flatnonzero(joined[ends[:-1]] & (ends[1:] == ends[:-1] + 1))
+
+
+#: Rounds of :func:`_mend_from_neighbours`: a mended contact is offered on to its own
+#: neighbours, this many locations along the run at most.
+NEIGHBOUR_ROUNDS = 8
+
+
+def _mend_from_neighbours(surface: ParametricSurface, cutter: Cutter,
+                          tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                          found: tuple[NDArray[np.float64], ...], pairs: NDArray[np.int64]
+                          ) -> None:
+    """Flat and bull-nose contacts whose foot a run neighbour's contact shows wrong, searched again.
+
+    ``found``: every location's gap, ``t``, ``s`` (:func:`_contact_gaps`), mended in place;
+    ``pairs``: rows ``j`` whose location ``j + 1`` follows on the same run
+    (:func:`_run_pairs`). Where two sheets of the surface pass within a sample spacing of
+    each other (the sides of open sections meeting at a blunt trailing edge, 0.06-0.13 mm
+    apart on the dev blade), the nearest sample can lie on the other sheet, and the
+    contact search stays there: a foot whose normal faces away reads the cutter as
+    cutting through the part (0.196 mm on the dev blade's flat:6 3-axis job at a pass's
+    end over the trailing edge, where the surface rises 0.006 mm into the cutter at most).
+    The sample guard of :func:`_contact_gaps` cannot see it: the wrong foot stands nearer
+    than any sample. So the cutter point ``K = X + (gap + r) n`` of each contact is also
+    projected from each run neighbour's contact: a foot nearer to ``K`` than its own (by
+    more than :data:`FOOT_SLACK_MM`) shows its own is not ``K``'s closest point, and the
+    location is searched again from there; mended locations are offered on to their
+    neighbours, for :data:`NEIGHBOUR_ROUNDS` rounds or until none is mended.
+    """
+    gap, t, s = found
+    r = cutter.corner_radius_mm
+    todo = np.ones(len(gap), dtype=bool)
+    for _ in range(NEIGHBOUR_ROUNDS):
+        mended = np.zeros(len(gap), dtype=bool)
+        for src, dst in ((pairs, pairs + 1), (pairs + 1, pairs)):
+            live = todo[src] | todo[dst]
+            src, dst = src[live], dst[live]
+            if not src.size:
+                continue
+            x, n = surface.points_and_normals(t[dst], s[dst])
+            k = x + (gap[dst] + r)[:, None] * n
+            t1, s1, d1 = project_to_surface(surface, k, t[src], s[src], iterations=6)
+            wrong = d1 < np.abs(gap[dst] + r) - FOOT_SLACK_MM
+            rows = dst[wrong]
+            if rows.size:
+                gap[rows], t[rows], s[rows] = cutter_gap(
+                    surface, cutter, tips_mm[rows], axes[rows], t1[wrong], s1[wrong],
+                    newton=6, refine_rim=True)
+                mended[rows] = True
+        if not mended.any():
+            return
+        todo = mended
+
+
 def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
                  centres: NDArray[np.float64], stride: int) -> _Runs:
     """Which of the locations ``ends`` get a seed of their own, and how the others do.
@@ -444,7 +509,8 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
 def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                      gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
                      joints: JointEnds | None, slopes: NDArray[np.float64] | None,
-                     seeded_newton: int = SEEDED_CONTACT_NEWTON
+                     seeded_newton: int = SEEDED_CONTACT_NEWTON,
+                     samples: SurfaceSamples | None = None
                      ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], ...]]:
     """Gaps along moves: at both ends, inside, and at the model's extremes.
 
@@ -455,7 +521,8 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     the places measured). ``joints``: the moves' ends under a machine's joint
     interpolation, as for :func:`~.sampling.move_gaps`. A ball's Newton search takes
     ``seeded_newton`` steps and more while its foot moves (seeded between the ends'
-    feet), a flat or bull-nose cutter's two.
+    feet), a flat or bull-nose cutter's two; with ``samples``, its feet checked against
+    them (:func:`_inside_gaps`).
 
     Returns ``gap`` (m, k + 4: end, the k places, lowest, highest, end) and the gap, ``t``
     and ``s`` at ``u = 1/2`` (m,).
@@ -463,8 +530,8 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     u = np.asarray((0.5,) if slopes is not None else CHORD_FRACTIONS, dtype=float)
     m = len(gap_a)
     newton = seeded_newton if cutter.kind is CutterKind.BALL else 2
-    g3, t3, s3 = move_gaps(surface, cutter, ends, u, newton=newton, refine_rim=True,
-                           joints=joints)
+    g3, t3, s3 = _inside_gaps(surface, cutter, samples, ends, np.broadcast_to(u, (m, u.size)),
+                              newton, joints)
     low, u_low, high, u_high = chord_extremes(g3, u, end_slopes=slopes)
     top = max(float(np.abs(g3).max()), top_mm)
     # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
@@ -480,12 +547,35 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
             those = ends.take(sel)
             start = None if slopes is None else _feet_between(
                 those, t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
-            g_star[sel, col] = move_gaps(surface, cutter, those, u_at[sel, None],
-                                         newton=newton, refine_rim=True,
-                                         joints=_joint_rows(joints, sel), start=start)[0][:, 0]
+            g_star[sel, col] = _inside_gaps(surface, cutter, samples, those, u_at[sel, None],
+                                            newton, _joint_rows(joints, sel), start)[0][:, 0]
     gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
     return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
+
+
+def _inside_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples | None,
+                 ends: MoveEnds, u: NDArray[np.float64], newton: int,
+                 joints: JointEnds | None,
+                 start: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+                 ) -> tuple[NDArray[np.float64], ...]:
+    """:func:`~.sampling.move_gaps` at ``u`` (m, k), a flat or bull-nose cutter's checked.
+
+    The search inside a move starts between its ends' feet; over a tight edge (the
+    small circles of a blunt leading edge) a disc point's search from there can end in
+    another sheet's local minimum, whose normal faces away: 2.84 mm of overcut read on
+    dev_rotor_blunt's flat:6 3-axis job inside a 0.0006 mm move whose ends touch. With
+    ``samples``, the flat and bull-nose feet are checked against them as the contacts'
+    are (:func:`_mend_from_samples`, at the same poses). Returns ``gap, t, s`` (m, k).
+    """
+    found = move_gaps(surface, cutter, ends, u, newton=newton, refine_rim=True,
+                      joints=joints, start=start)
+    if samples is not None and cutter.kind is not CutterKind.BALL and found[0].size:
+        tips, axes = move_poses(ends, np.ascontiguousarray(u, dtype=float), joints)
+        flat = tuple(np.ascontiguousarray(x).ravel() for x in found)
+        _mend_from_samples(surface, cutter, samples, tips, axes, flat)
+        found = tuple(x.reshape(u.shape) for x in flat)
+    return found
 
 
 def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],
@@ -603,12 +693,26 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     as cutting through the part. Those locations are searched again from the sample
     nearest to ``K`` (twice at most).
     """
-    r = cutter.corner_radius_mm
     ball = cutter.kind is CutterKind.BALL
     gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, t0, s0,
                            newton=BALL_CONTACT_NEWTON if ball else 6, refine_rim=True)
-    if ball:
-        return gap, t, s
+    if not ball:
+        _mend_from_samples(surface, cutter, samples, tips_mm, axes, (gap, t, s))
+    return gap, t, s
+
+
+def _mend_from_samples(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
+                       tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
+                       found: tuple[NDArray[np.float64], ...]) -> None:
+    """Flat and bull-nose gaps whose foot a surface sample shows wrong, searched again.
+
+    ``found``: the gap, ``t``, ``s`` of each pose, mended in place. A foot farther from
+    its cutter point ``K = X + (gap + r) n`` than the sample nearest to ``K`` is not its
+    closest point (that sample is a surface point nearer to ``K``): those poses are
+    searched again from that sample (twice at most; :func:`_contact_gaps`).
+    """
+    gap, t, s = found
+    r = cutter.corner_radius_mm
     rows = np.arange(len(tips_mm))
     for _ in range(2):
         x, n = surface.points_and_normals(t[rows], s[rows])
@@ -617,8 +721,7 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
         wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:
-            break
+            return
         gap[rows], t[rows], s[rows] = cutter_gap(
             surface, cutter, tips_mm[rows], axes[rows], samples.t[near], samples.s[near],
             newton=6, refine_rim=True)
-    return gap, t, s

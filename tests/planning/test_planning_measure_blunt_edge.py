@@ -1,0 +1,99 @@
+"""A flat cutter's feet over thin edges: contacts, and places inside moves.
+
+The dev blade's sections are open: their first and last points stand 0.06-0.13 mm apart
+at the blunt trailing edge, so two sheets of the fitted surface (``t`` near 0 and near 1)
+pass within a sample spacing of each other there. Laid flat for 3 axes (the job's own
+placement) and cut with flat:6, the passes end over that edge with the cutter's disc
+hanging past it. A contact searched from the nearest surface sample could end on the
+other sheet, whose normal faces away: the chord measure read 0.196 mm of overcut (chord
+tolerance 0.02 mm) where the surface rises 0.006 mm into the cutter at most.
+
+The oracle is brute force: dense surface samples over the edge's strip, and for every
+cutting move near it the largest height of a sample above the flat end's plane within the
+cutter's radius, along the move (along the axis: at least the depth along the surface's
+normal that the measure reads, so no overcut near the tolerance stands there).
+
+Inside a move the disc's search starts between its ends' feet: round the small circles of
+dev_rotor_blunt's leading edge (laid flat, flat:6, 3 axes) a disc point's search could end
+on the far side, whose normal faces away: 2.84 mm of overcut read inside a 0.0006 mm move
+whose ends touch (the verifier finds 0.049 mm on that job). Those feet are checked against
+the surface samples as the contacts' are.
+"""
+
+import dataclasses
+
+import numpy as np
+import pytest
+from measured_plans import planned
+from scipy.spatial import cKDTree
+
+from streamline_cam.fit_report import fit_surface_by_method
+from toolpath import as_sections as read_grid
+from toolpath import fit_streamline_surface, read_sections
+from toolpath.paper_examples import bundled_data_path
+from toolpath.path import MoveKind
+from toolpath.placement import place_points
+from toolpath.sections import as_sections
+
+CHORD_TOL_MM = 0.02
+
+
+@pytest.fixture(scope="module")
+def flat_over_the_edge():
+    rows = np.loadtxt(bundled_data_path("dev_blade_15x142.csv"), delimiter=",", skiprows=1)
+    raw = as_sections(rows[:, 1:].reshape(15, 142, 3))
+    placed, _ = place_points(raw.points, mode="flat", base_mm=5.0)
+    surface = fit_streamline_surface(placed, tol=0.01, closed=False)
+    return planned(surface, "flat:6", scallop_mm=0.05, chord_tol_mm=CHORD_TOL_MM)
+
+
+def _brute_overcut(surface, path, radius_mm, t_band=0.02):
+    """Largest rise of the surface into the flat cutter over the moves near the edge, mm."""
+    t = np.concatenate([np.linspace(0.0, t_band, 41), np.linspace(1.0 - t_band, 1.0, 41)])
+    s = np.linspace(0.0, 1.0, 2001)
+    strip = surface(t, s, grid=True).reshape(-1, 3)
+    tree = cKDTree(strip)
+    tips, axes = path.positions_mm, path.tool_axes
+    cutting = np.flatnonzero((path.kinds[1:] == MoveKind.CUT) & (path.pass_index[1:] >= 0)
+                             & (path.pass_index[:-1] >= 0))
+    mid = 0.5 * (tips[cutting] + tips[cutting + 1])
+    half = 0.5 * np.linalg.norm(tips[cutting + 1] - tips[cutting], axis=1)
+    reach = radius_mm + half + 0.1
+    near = np.flatnonzero(tree.query(mid, distance_upper_bound=float(reach.max()))[0] <= reach)
+    assert near.size > 20, "no passes end over the trailing edge"
+    worst = -np.inf
+    for j, at, within in zip(cutting[near], mid[near], reach[near], strict=True):
+        pts = strip[tree.query_ball_point(at, within)]
+        for u in np.linspace(0.0, 1.0, 21):
+            tip = tips[j] + u * (tips[j + 1] - tips[j])
+            axis = axes[j] + u * (axes[j + 1] - axes[j])
+            axis /= np.linalg.norm(axis)
+            rel = pts - tip
+            height = rel @ axis
+            radial = np.linalg.norm(rel - height[:, None] * axis, axis=1)
+            inside = radial <= radius_mm
+            if inside.any():
+                worst = max(worst, float(height[inside].max()))
+    return worst
+
+
+def test_flat_contacts_over_a_blunt_trailing_edge_match_brute_force(flat_over_the_edge):
+    measured = flat_over_the_edge
+    brute = _brute_overcut(measured.surface, measured.path, measured.cutter.radius_mm)
+    # the surface rises into the cutter over the edge by about the tolerance at most ...
+    assert 0.0 < brute < 1.2 * CHORD_TOL_MM
+    # ... and the measure reads the plan within it (0.196 mm when a pass's end took its
+    # contact on the other sheet)
+    assert measured.chord.overcut_mm <= CHORD_TOL_MM
+    assert measured.chord.contact_mm <= CHORD_TOL_MM
+
+
+def test_flat_feet_inside_moves_round_a_blunt_leading_edge_stay_on_their_side():
+    raw = read_grid(read_sections(bundled_data_path("dev_rotor_blunt_9x120.csv")))
+    placed, _ = place_points(raw.points, mode="flat", base_mm=5.0)
+    surface, _ = fit_surface_by_method(dataclasses.replace(raw, points=placed),
+                                       method="streamline", tol=0.01)
+    measured = planned(surface, "flat:6", scallop_mm=0.05, chord_tol_mm=0.05)
+    # the contacts touch; the largest overcut inside the moves is the plan's own
+    assert measured.chord.contact_mm < 0.01
+    assert 0.0 < measured.chord.overcut_mm <= 0.05
