@@ -46,11 +46,13 @@ __all__ = [
 JOB_RECORD: Final[str] = "batch_job.json"
 #: Where unfinished folders are written before they are renamed into place.
 PARTIAL_DIR: Final[str] = ".partial"
-#: The summary's columns, in order.
+#: The summary's columns, in order. ``scallop_above_mm``: where the plan's largest scallop
+#: stands above the measure's horizon (its ``max_scallop_mm`` then empty, as in the report's
+#: JSON), that horizon: the scallop is more than this, not unmeasured.
 SUMMARY_FIELDS: Final[tuple[str, ...]] = (
     "file", "name", "status", "exit", "passes", "points", "max_scallop_mm",
-    "max_chord_error_mm", "verified_scallop_mm", "verified_gouge_mm", "check_errors",
-    "seconds", "worker", "error")
+    "scallop_above_mm", "max_chord_error_mm", "verified_scallop_mm", "verified_gouge_mm",
+    "check_errors", "seconds", "worker", "error")
 
 
 @dataclass(frozen=True)
@@ -162,6 +164,8 @@ def summary_row(job: BatchJob, outcome: JobOutcome | None, *, status: str,
     return row | {
         "exit": 1 if check.get("errors") else 0, "passes": plan.get("n_passes"),
         "points": plan.get("n_points"), "max_scallop_mm": plan.get("max_scallop_mm"),
+        "scallop_above_mm": (plan.get("scallop_horizon_mm") if plan.get("scallop_above_horizon")
+                             else None),
         "max_chord_error_mm": plan.get("max_chord_error_mm"),
         "verified_scallop_mm": verify.get("max_scallop_mm"),
         "verified_gouge_mm": verify.get("max_gouge_mm"), "check_errors": check.get("errors"),

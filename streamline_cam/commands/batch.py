@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from ..cli_types import positive_int
-from .run import add_job_arguments, request_from_args
+from .run import add_job_arguments, request_from_args, scallop_text
 
 __all__ = ["register"]
 
@@ -17,7 +17,7 @@ def _row_line(row: dict) -> str:
     if row["error"] and row["exit"] == 2:
         return f"{row['name']:<24} failed    {row['error']}"
     figures = (f"{row['passes']} passes, {row['points']} points, scallop "
-               f"{row['max_scallop_mm'] or 0.0:.4f} mm, chord "
+               f"{scallop_text(row['max_scallop_mm'], row.get('scallop_above_mm'))}, chord "
                f"{row['max_chord_error_mm'] or 0.0:.4f} mm")
     if row["verified_scallop_mm"] is not None or row["verified_gouge_mm"] is not None:
         figures += (f", verified scallop {row['verified_scallop_mm'] or 0.0:.4f} mm, gouge "

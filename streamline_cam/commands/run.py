@@ -16,7 +16,7 @@ from .plan import add_gouge_arguments, gouge_options
 if TYPE_CHECKING:
     from ..pipeline import JobRequest
 
-__all__ = ["register"]
+__all__ = ["register", "report_lines", "scallop_text"]
 
 
 def add_job_arguments(parser: argparse.ArgumentParser) -> None:
@@ -73,7 +73,7 @@ def report_lines(report: dict) -> list[str]:
            if fit.get("between_data_mm") is not None else "") + ")",
         *([f"fairness   {fit['fairness']['summary']}"] if fit.get("fairness") else []),
         f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
-        f"{plan['max_scallop_mm']:.4f} mm (asked {plan['scallop_request_mm']}), chord "
+        f"{_plan_scallop(plan)} (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
         *_written_line(plan),
@@ -99,6 +99,32 @@ def report_lines(report: dict) -> list[str]:
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
     return lines
+
+
+def scallop_text(max_mm: float | None, above_mm: float | None = None) -> str:
+    """A measured scallop for the summary: ``0.0041 mm``, or above the measure's horizon.
+
+    ``above_mm``: the horizon where the scallop stands above it (the report's JSON then
+    holds no number, ``scallop_above_horizon``); None with no figure: not measured.
+    """
+    if above_mm is not None:
+        return f"above {above_mm:g} mm (the measure's horizon)"
+    return "not measured" if max_mm is None else f"{max_mm:.4f} mm"
+
+
+def _plan_scallop(plan: dict) -> str:
+    """The plan's largest scallop, and the one away from uncut areas where it is less.
+
+    Beside an uncut area (faces the cutter cannot reach, the edge of the surface) a
+    cusp can stand higher than the request, as the report's ``scallop_interior_mm``
+    tells apart: the summary gives both where they differ.
+    """
+    above = plan.get("scallop_horizon_mm") if plan.get("scallop_above_horizon") else None
+    largest, inner = plan.get("max_scallop_mm"), plan.get("scallop_interior_mm")
+    text = scallop_text(largest, above)
+    if inner is not None and (largest is None or round(inner, 4) < round(largest, 4)):
+        text += f", {inner:.4f} mm away from uncut areas"
+    return text
 
 
 def _written_line(plan: dict) -> list[str]:
