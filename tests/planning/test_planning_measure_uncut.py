@@ -171,6 +171,17 @@ def test_distances_from_the_uncut_border_are_those_from_every_uncut_node(closed)
         assert np.all(fast[~within] > limit_mm)
 
 
+def test_the_chords_lengths_are_numpys_norms_bit_for_bit():
+    # the reach's edge weights from their components: the same sums of the same squares
+    # as np.linalg.norm's, in the same order, whatever the scale
+    from toolpath.planning.uncut_area import _chords
+
+    rng = np.random.default_rng(11)
+    for scale in (1e-6, 1.0, 1e4):
+        d = rng.normal(0.0, scale, (100_000, 3)) * rng.uniform(0.0, 2.0, (100_000, 1))
+        assert np.array_equal(_chords(d[:, 0], d[:, 1], d[:, 2]), np.linalg.norm(d, axis=1))
+
+
 def test_a_negative_reach_limit_is_refused_whatever_the_sources():
     # (the search runs only from border sources: with none, scipy's own check is not hit)
     from toolpath.planning.uncut_area import _surface_reach
