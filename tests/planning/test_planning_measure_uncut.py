@@ -267,6 +267,73 @@ def test_rays_cut_are_those_entering_a_piece_within_the_horizon(cutter):
     assert not volume.cut(off, n).any()
 
 
+def test_only_rays_with_pieces_within_the_reach_seek_the_near_pieces(monkeypatch):
+    # cut() counts each ray's pieces within the cutter's reach before it looks among a
+    # ball's near pieces: the rays with none (the uncut strip's, rays off the part) are
+    # uncut without that search, the others seek them, and the rays cut are the full
+    # method's (every ray meets every piece within the reach)
+    from toolpath.planning import cut_volume
+    from toolpath.planning.clearance_kernel import counts_within
+
+    measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    middle = int(measured.path.pass_index.max()) // 2
+    path = _without_passes(measured.path, np.arange(middle - 3, middle + 4))
+    volume = dataclasses.replace(measured, path=path).volume()
+    g = np.linspace(0.0, 1.0, 61)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    q = np.concatenate([q, q[::7] + 5.0 * volume.cutter.radius_mm * n[::7]])
+    n = np.concatenate([n, n[::7]])
+    full = np.isfinite(volume.height(q, n, *ray_ranges(*volume.pairs(q), len(q)), first=True))
+    within = counts_within(volume.cells, q, volume.reach) > 0
+    sought = []
+    real = cut_volume.pairs_within
+
+    def spy(cells, queries, radius):
+        if cells is volume.near_cells:
+            sought.append(len(queries))
+        return real(cells, queries, radius)
+
+    monkeypatch.setattr(cut_volume, "pairs_within", spy)
+    assert np.array_equal(volume.cut(q, n), full)
+    assert full.any() and (~full).any() and (~within[:t.size]).sum() > 100
+    assert sum(sought) == within.sum()
+
+
+def test_rays_their_candidate_missed_are_cut_by_near_pieces_without_the_reachs_cells(
+        monkeypatch):
+    # each ray's candidate: its farthest piece within the reach (a pass or two away,
+    # missing it); the near pieces then cut them all, so the reach's cells (binned for the
+    # rays with none of them) are never binned, and the rays cut are the full method's
+    from toolpath.planning import cut_volume
+
+    measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    volume = measured.volume()
+    g = np.linspace(0.2, 0.8, 31)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    owner, item = volume.pairs(q)
+    far = np.linalg.norm(volume._midpoints(item) - q[owner], axis=1)
+    order = np.lexsort((far, owner))  # (each ray's farthest last)
+    candidate = np.full(len(q), -1, dtype=np.int64)
+    candidate[owner[order]] = item[order]
+    one = np.arange(len(q))
+    missed = ~np.isfinite(volume.height(q, n, one, one + 1, candidate, first=True))
+    full = np.isfinite(volume.height(q, n, *ray_ranges(owner, item, len(q)), first=True))
+    binned = []
+    real = cut_volume.bin_samples
+
+    def spy(points, reach_mm):
+        binned.append(reach_mm)
+        return real(points, reach_mm)
+
+    monkeypatch.setattr(cut_volume, "bin_samples", spy)
+    volume._cells = None
+    assert np.array_equal(volume.cut(q, n, candidate), full)
+    assert full.all() and missed.sum() > 100
+    assert volume.reach not in binned
+
+
 def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
     # a flat cutter lying on a plane: its flank touches the rays along it 15 mm from its
     # tip, whose pieces' midpoints (the tip, corner radius 0) lie beyond the reach the
