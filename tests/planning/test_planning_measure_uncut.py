@@ -182,6 +182,16 @@ def test_the_chords_lengths_are_numpys_norms_bit_for_bit():
         assert np.array_equal(_chords(d[:, 0], d[:, 1], d[:, 2]), np.linalg.norm(d, axis=1))
 
 
+def test_the_grids_cross_products_are_numpys_bit_for_bit():
+    # the normals' cross products row by row: numpy's own products and differences
+    from toolpath.planning.uncut_area import _cross_rows
+
+    rng = np.random.default_rng(13)
+    for scale in (1e-6, 1.0, 1e4):
+        a, b = rng.normal(0.0, scale, (2, 50_000, 3))
+        assert np.array_equal(_cross_rows(a, b), np.cross(a, b))
+
+
 def test_a_negative_reach_limit_is_refused_whatever_the_sources():
     # (the search runs only from border sources: with none, scipy's own check is not hit)
     from toolpath.planning.uncut_area import _surface_reach

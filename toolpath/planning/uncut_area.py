@@ -205,7 +205,7 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
         border[q] |= sources[q] & keep
         a.append(node[p][keep])
         b.append(node[q][keep])
-        chord.append(_chords(x[p] - x[q], y[p] - y[q], z[p] - z[q])[keep])
+        chord.append(_chords(*(c[p][keep] - c[q][keep] for c in (x, y, z))))
     a, b = np.concatenate(a), np.concatenate(b)
     source, border = sources.ravel(), border.ravel()
     # a stored 0 is no edge to the graph: coincident nodes (a collapsed row) keep theirs
