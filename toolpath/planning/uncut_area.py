@@ -67,7 +67,7 @@ class UncutArea:
                            indexing="ij")
         # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
         parts = surface.partials_many(t.ravel(), s.ravel(), ((0, 0), (1, 0), (0, 1)))
-        q, across = parts[0, 0], np.cross(parts[1, 0], parts[0, 1])
+        q, across = parts[0, 0], _cross_rows(parts[1, 0], parts[0, 1])
         area = np.sqrt(np.einsum("ij,ij->i", across, across))
         # outward_normals' unit normals from the cross product and its length at hand
         n = surface.orientation * (across / np.where(area > 0.0, area, 1.0)[:, None])
@@ -218,6 +218,19 @@ def _surface_reach(grid: NDArray[np.float64], sources: NDArray[np.bool_], closed
                                               min_only=True, limit=limit_mm)
     reach[source] = 0.0
     return reach
+
+
+def _cross_rows(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.float64]:
+    """``np.cross(a, b)`` of ``(n, 3)`` rows: the same products, the same differences.
+
+    (``a1 b2 - a2 b1``, ``a2 b0 - a0 b2``, ``a0 b1 - a1 b0``, as numpy's own loop takes
+    them, without its set-up for any shapes: a third of its time on the uncut grid.)
+    """
+    out = np.empty_like(a)
+    for k in range(3):
+        i, j = (k + 1) % 3, (k + 2) % 3
+        np.subtract(a[:, i] * b[:, j], a[:, j] * b[:, i], out=out[:, k])
+    return out
 
 
 def _chords(dx: NDArray[np.float64], dy: NDArray[np.float64], dz: NDArray[np.float64]
