@@ -12,9 +12,10 @@ import pytest
 from measured_plans import planned
 
 from machines import load_machine
-from toolpath.path import MoveKind
-from toolpath.planning import EllipticBladeSurface, SpherePatch
+from toolpath.path import MoveKind, Toolpath
+from toolpath.planning import EllipticBladeSurface, SpherePatch, parse_cutter
 from toolpath.planning.chord_measure import measure_chord
+from toolpath.planning.cut_volume import CutVolume, cusp_horizon_mm
 from toolpath.planning.sweep_kernel import ray_ranges
 from toolpath.planning.uncut_area import UncutArea
 
@@ -366,3 +367,31 @@ def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
     full = volume.cut(q, n)
     assert full.tolist() == [False, True]
     assert np.array_equal(volume.cut(q, n, np.zeros(2, dtype=np.int64)), full)
+
+
+@pytest.mark.parametrize("theta_deg", [44.0, 90.0, 140.0])
+def test_a_piece_longer_than_the_step_is_within_the_reach_of_rays_it_cuts(theta_deg):
+    # a ball's tip-linear move whose axis swings by theta: its centres' pieces run longer
+    # than the step; a ray grazing a piece's free end, R + h/2 out along the piece, is cut
+    # by it though its midpoint lies more than R + h + step/2 away (the reach was that)
+    radius, scallop = 3.0, 0.005
+    horizon = cusp_horizon_mm(scallop)
+    th = np.radians(theta_deg)
+    a0, t0 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    a1 = np.cos(th) * a0 + np.sin(th) * t0
+    tip_b = radius * (1.0 - np.cos(th)) * a0
+    pos = np.array([[0.0, 0.0, 50.0], [0.0, 0.0, 0.0], tip_b, tip_b + np.array([0.0, 0.0, 50.0])])
+    kinds = np.array([MoveKind.RAPID, MoveKind.RAPID, MoveKind.CUT, MoveKind.RAPID], np.uint8)
+    path = Toolpath(pos, np.array([a0, a0, a1, a1]), kinds, np.array([0.0, 0.0, 1000.0, 0.0]),
+                    np.array([-1, 0, 0, -1], np.int32))
+    volume = CutVolume(path, parse_cutter("ball:6"), horizon, scallop)
+    a, b = volume.a, volume.b
+    assert np.linalg.norm(b - a, axis=1).max() > volume.step_mm  # (the case in point)
+    for end, other in ((a[0], b[0]), (b[-1], a[-1])):
+        out = (end - other) / np.linalg.norm(end - other)
+        q, n = (end + (radius + 0.5 * horizon) * out)[None], -out[None]
+        every = np.arange(len(a))
+        full = np.isfinite(volume.height(np.repeat(q, len(a), 0), np.repeat(n, len(a), 0),
+                                         every, every + 1, every, first=True)).any()
+        assert full  # some piece cuts the ray ...
+        assert volume.cut(q, n).tolist() == [True]  # ... and the grid's search finds it

@@ -196,6 +196,14 @@ HORIZON_SCALLOPS = 10.0
 LEAST_HORIZON_MM = 0.05
 
 
+def _half_longest(a: NDArray[np.float64], b: NDArray[np.float64], step_mm: float) -> float:
+    """Half the longest of the pieces ``a -> b``, and at least half ``step_mm``, mm."""
+    if not len(a):
+        return 0.5 * step_mm
+    d = b - a
+    return 0.5 * max(step_mm, float(np.sqrt(np.max(np.einsum("ij,ij->i", d, d)))))
+
+
 def cusp_horizon_mm(scallop_mm: float) -> float:
     """The scallop measurement's horizon for the request ``h``: ``max(10 h, 0.05)`` mm.
 
@@ -234,7 +242,6 @@ class CutVolume:
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         step = 0.125 * big
-        self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
         if self.ball:  # the centres' pieces
             self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation,
@@ -243,8 +250,8 @@ class CutVolume:
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
             # point R above it (plus a piece's half length and a margin for curvature)
             self.lift = big
-            self.lateral = (np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + 0.5 * step
-                            + 0.05 * big)
+            half = _half_longest(self.a, self.b, step)
+            self.lateral = np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + half + 0.05 * big
         else:
             # pieces with their end tips and axes (the cutter solid over their poses)
             p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation,
@@ -252,7 +259,12 @@ class CutVolume:
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
             self.lift = r
-            self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
+            half = _half_longest(self.piece_a, self.piece_b, step)
+            self.lateral = big + horizon_mm + half + 0.05 * big
+        # a piece cuts within the horizon only within R + h of its segment: its midpoint
+        # within that and half its length (a piece may run longer than ``step``: a ball's
+        # centres where the axis turns fast along a short move)
+        self.reach = self.segment_reach + half
         self.pass_of = owner.take(piece) if len(piece) else np.zeros(0, dtype=np.int64)
         self._move_start, self._piece_move = start, piece
         self._cells: SampleCells | None = None
