@@ -12,9 +12,10 @@ import pytest
 from measured_plans import planned
 
 from machines import load_machine
-from toolpath.path import MoveKind
-from toolpath.planning import EllipticBladeSurface, SpherePatch
+from toolpath.path import MoveKind, Toolpath
+from toolpath.planning import EllipticBladeSurface, SpherePatch, parse_cutter
 from toolpath.planning.chord_measure import measure_chord
+from toolpath.planning.cut_volume import CutVolume, cusp_horizon_mm
 from toolpath.planning.sweep_kernel import ray_ranges
 from toolpath.planning.uncut_area import UncutArea
 
@@ -171,6 +172,27 @@ def test_distances_from_the_uncut_border_are_those_from_every_uncut_node(closed)
         assert np.all(fast[~within] > limit_mm)
 
 
+def test_the_chords_lengths_are_numpys_norms_bit_for_bit():
+    # the reach's edge weights from their components: the same sums of the same squares
+    # as np.linalg.norm's, in the same order, whatever the scale
+    from toolpath.planning.uncut_area import _chords
+
+    rng = np.random.default_rng(11)
+    for scale in (1e-6, 1.0, 1e4):
+        d = rng.normal(0.0, scale, (100_000, 3)) * rng.uniform(0.0, 2.0, (100_000, 1))
+        assert np.array_equal(_chords(d[:, 0], d[:, 1], d[:, 2]), np.linalg.norm(d, axis=1))
+
+
+def test_the_grids_cross_products_are_numpys_bit_for_bit():
+    # the normals' cross products row by row: numpy's own products and differences
+    from toolpath.planning.uncut_area import _cross_rows
+
+    rng = np.random.default_rng(13)
+    for scale in (1e-6, 1.0, 1e4):
+        a, b = rng.normal(0.0, scale, (2, 50_000, 3))
+        assert np.array_equal(_cross_rows(a, b), np.cross(a, b))
+
+
 def test_a_negative_reach_limit_is_refused_whatever_the_sources():
     # (the search runs only from border sources: with none, scipy's own check is not hit)
     from toolpath.planning.uncut_area import _surface_reach
@@ -256,6 +278,73 @@ def test_rays_cut_are_those_entering_a_piece_within_the_horizon(cutter):
     assert not volume.cut(off, n).any()
 
 
+def test_only_rays_with_pieces_within_the_reach_seek_the_near_pieces(monkeypatch):
+    # cut() counts each ray's pieces within the cutter's reach before it looks among a
+    # ball's near pieces: the rays with none (the uncut strip's, rays off the part) are
+    # uncut without that search, the others seek them, and the rays cut are the full
+    # method's (every ray meets every piece within the reach)
+    from toolpath.planning import cut_volume
+    from toolpath.planning.clearance_kernel import counts_within
+
+    measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    middle = int(measured.path.pass_index.max()) // 2
+    path = _without_passes(measured.path, np.arange(middle - 3, middle + 4))
+    volume = dataclasses.replace(measured, path=path).volume()
+    g = np.linspace(0.0, 1.0, 61)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    q = np.concatenate([q, q[::7] + 5.0 * volume.cutter.radius_mm * n[::7]])
+    n = np.concatenate([n, n[::7]])
+    full = np.isfinite(volume.height(q, n, *ray_ranges(*volume.pairs(q), len(q)), first=True))
+    within = counts_within(volume.cells, q, volume.reach) > 0
+    sought = []
+    real = cut_volume.pairs_within
+
+    def spy(cells, queries, radius):
+        if cells is volume.near_cells:
+            sought.append(len(queries))
+        return real(cells, queries, radius)
+
+    monkeypatch.setattr(cut_volume, "pairs_within", spy)
+    assert np.array_equal(volume.cut(q, n), full)
+    assert full.any() and (~full).any() and (~within[:t.size]).sum() > 100
+    assert sum(sought) == within.sum()
+
+
+def test_rays_their_candidate_missed_are_cut_by_near_pieces_without_the_reachs_cells(
+        monkeypatch):
+    # each ray's candidate: its farthest piece within the reach (a pass or two away,
+    # missing it); the near pieces then cut them all, so the reach's cells (binned for the
+    # rays with none of them) are never binned, and the rays cut are the full method's
+    from toolpath.planning import cut_volume
+
+    measured = planned(CAP, "ball:6", scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    volume = measured.volume()
+    g = np.linspace(0.2, 0.8, 31)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    owner, item = volume.pairs(q)
+    far = np.linalg.norm(volume._midpoints(item) - q[owner], axis=1)
+    order = np.lexsort((far, owner))  # (each ray's farthest last)
+    candidate = np.full(len(q), -1, dtype=np.int64)
+    candidate[owner[order]] = item[order]
+    one = np.arange(len(q))
+    missed = ~np.isfinite(volume.height(q, n, one, one + 1, candidate, first=True))
+    full = np.isfinite(volume.height(q, n, *ray_ranges(owner, item, len(q)), first=True))
+    binned = []
+    real = cut_volume.bin_samples
+
+    def spy(points, reach_mm):
+        binned.append(reach_mm)
+        return real(points, reach_mm)
+
+    monkeypatch.setattr(cut_volume, "bin_samples", spy)
+    volume._cells = None
+    assert np.array_equal(volume.cut(q, n, candidate), full)
+    assert full.all() and missed.sum() > 100
+    assert volume.reach not in binned
+
+
 def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
     # a flat cutter lying on a plane: its flank touches the rays along it 15 mm from its
     # tip, whose pieces' midpoints (the tip, corner radius 0) lie beyond the reach the
@@ -278,3 +367,31 @@ def test_a_candidate_beyond_the_cutters_reach_is_not_taken():
     full = volume.cut(q, n)
     assert full.tolist() == [False, True]
     assert np.array_equal(volume.cut(q, n, np.zeros(2, dtype=np.int64)), full)
+
+
+@pytest.mark.parametrize("theta_deg", [44.0, 90.0, 140.0])
+def test_a_piece_longer_than_the_step_is_within_the_reach_of_rays_it_cuts(theta_deg):
+    # a ball's tip-linear move whose axis swings by theta: its centres' pieces run longer
+    # than the step; a ray grazing a piece's free end, R + h/2 out along the piece, is cut
+    # by it though its midpoint lies more than R + h + step/2 away (the reach was that)
+    radius, scallop = 3.0, 0.005
+    horizon = cusp_horizon_mm(scallop)
+    th = np.radians(theta_deg)
+    a0, t0 = np.array([1.0, 0.0, 0.0]), np.array([0.0, 1.0, 0.0])
+    a1 = np.cos(th) * a0 + np.sin(th) * t0
+    tip_b = radius * (1.0 - np.cos(th)) * a0
+    pos = np.array([[0.0, 0.0, 50.0], [0.0, 0.0, 0.0], tip_b, tip_b + np.array([0.0, 0.0, 50.0])])
+    kinds = np.array([MoveKind.RAPID, MoveKind.RAPID, MoveKind.CUT, MoveKind.RAPID], np.uint8)
+    path = Toolpath(pos, np.array([a0, a0, a1, a1]), kinds, np.array([0.0, 0.0, 1000.0, 0.0]),
+                    np.array([-1, 0, 0, -1], np.int32))
+    volume = CutVolume(path, parse_cutter("ball:6"), horizon, scallop)
+    a, b = volume.a, volume.b
+    assert np.linalg.norm(b - a, axis=1).max() > volume.step_mm  # (the case in point)
+    for end, other in ((a[0], b[0]), (b[-1], a[-1])):
+        out = (end - other) / np.linalg.norm(end - other)
+        q, n = (end + (radius + 0.5 * horizon) * out)[None], -out[None]
+        every = np.arange(len(a))
+        full = np.isfinite(volume.height(np.repeat(q, len(a), 0), np.repeat(n, len(a), 0),
+                                         every, every + 1, every, first=True)).any()
+        assert full  # some piece cuts the ray ...
+        assert volume.cut(q, n).tolist() == [True]  # ... and the grid's search finds it

@@ -110,9 +110,10 @@ def bin_samples(points_mm: NDArray[np.float64], reach_mm: float) -> SampleCells:
     is not finite.
     """
     points = np.ascontiguousarray(points_mm, dtype=float).reshape(-1, 3)
-    finite = np.isfinite(points).all(axis=1)
-    if not finite.all():  # (binned, it would index cells out of bounds)
-        bad = int(np.argmin(finite))
+    # (checked over the whole array: numpy's ``all(axis=1)`` of an (n, 3) array runs
+    # twenty times slower; the sample is looked for only when one is not finite)
+    if not np.isfinite(points).all():  # (binned, it would index cells out of bounds)
+        bad = int(np.argmin(np.isfinite(points).all(axis=1)))
         raise ValueError(f"sample {bad} of {len(points)} is not finite ({points[bad].tolist()}): "
                          "only finite points can be binned")
     if not len(points):  # nothing to find: one empty cell

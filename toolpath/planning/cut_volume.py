@@ -196,6 +196,14 @@ HORIZON_SCALLOPS = 10.0
 LEAST_HORIZON_MM = 0.05
 
 
+def _half_longest(a: NDArray[np.float64], b: NDArray[np.float64], step_mm: float) -> float:
+    """Half the longest of the pieces ``a -> b``, and at least half ``step_mm``, mm."""
+    if not len(a):
+        return 0.5 * step_mm
+    d = b - a
+    return 0.5 * max(step_mm, float(np.sqrt(np.max(np.einsum("ij,ij->i", d, d)))))
+
+
 def cusp_horizon_mm(scallop_mm: float) -> float:
     """The scallop measurement's horizon for the request ``h``: ``max(10 h, 0.05)`` mm.
 
@@ -234,7 +242,6 @@ class CutVolume:
         big, r = cutter.radius_mm, cutter.corner_radius_mm
         self.ball = cutter.kind is CutterKind.BALL
         step = 0.125 * big
-        self.reach = big + horizon_mm + 0.5 * step
         self.segment_reach = big + horizon_mm
         if self.ball:  # the centres' pieces
             self.a, self.b, piece = split_centres(a, b, xa, xb, step, big, sag, interpolation,
@@ -243,8 +250,8 @@ class CutVolume:
             # centres within R + h of a surface point lie within sqrt(2 R h + h^2) of the
             # point R above it (plus a piece's half length and a margin for curvature)
             self.lift = big
-            self.lateral = (np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + 0.5 * step
-                            + 0.05 * big)
+            half = _half_longest(self.a, self.b, step)
+            self.lateral = np.sqrt(2.0 * big * horizon_mm + horizon_mm**2) + half + 0.05 * big
         else:
             # pieces with their end tips and axes (the cutter solid over their poses)
             p0, p1, x0, x1, piece = split_moves(a, b, xa, xb, step, big, sag, interpolation,
@@ -252,7 +259,12 @@ class CutVolume:
             self.tips0, self.tips1, self.axes0, self.axes1 = p0, p1, x0, x1
             self.piece_a, self.piece_b = p0 + r * x0, p1 + r * x1
             self.lift = r
-            self.lateral = big + horizon_mm + 0.5 * step + 0.05 * big
+            half = _half_longest(self.piece_a, self.piece_b, step)
+            self.lateral = big + horizon_mm + half + 0.05 * big
+        # a piece cuts within the horizon only within R + h of its segment: its midpoint
+        # within that and half its length (a piece may run longer than ``step``: a ball's
+        # centres where the axis turns fast along a short move)
+        self.reach = self.segment_reach + half
         self.pass_of = owner.take(piece) if len(piece) else np.zeros(0, dtype=np.int64)
         self._move_start, self._piece_move = start, piece
         self._cells: SampleCells | None = None
@@ -329,51 +341,83 @@ class CutVolume:
 
         Each ray's ``candidate`` piece (-1: none), if given, is tried first where its
         midpoint lies within the cutter's reach of the ray's origin (a piece the last search
-        meets too; a flat or bull-nose cutter's flank may reach farther), then a ball's
-        pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the sheet of
-        ball centres): a ray one of them cuts is cut whatever the others do (the height is
-        the lowest entry); the rest meet all their pieces (:meth:`height`), those with any
-        within the cutter's reach (counted first: an uncut area's rays have none). So the
-        rays cut are those the last search alone would find.
+        meets too; a flat or bull-nose cutter's flank may reach farther). A ball's rays try
+        the pieces within half :attr:`near_mm` of the point ``R`` up the ray (on the sheet
+        of ball centres): a ray one of them cuts is cut whatever the others do (the height
+        is the lowest entry); the rest meet all their pieces within the cutter's reach
+        (:meth:`height`). So the rays cut are those the last search alone would find.
+
+        The rays are counted their pieces within the reach before they seek the near ones:
+        a ray with none (an uncut area's: half the grid's rays over a blade left uncut
+        underneath) is uncut without a search. But those their candidate missed seek the
+        near pieces first: a pass runs by them, a neighbour's piece likely cuts them.
         """
         out = np.zeros(len(q), dtype=bool)
-        rest = np.arange(len(q))
-        if candidate is not None and len(self.pass_of):
-            rows = np.flatnonzero(candidate >= 0)
-            # (the distance as the cells' count works it out: the same pieces within reach)
-            off = self._midpoints(candidate.take(rows)) - q.take(rows, axis=0)
-            rows = rows[off[:, 0] * off[:, 0] + off[:, 1] * off[:, 1] + off[:, 2] * off[:, 2]
-                        <= self.reach * self.reach]
-            # in the pieces' order (each ray's result is its own, whatever the order): the
-            # pieces are then read from memory in turn, not at random (a grid's rows
-            # cross the passes; 0.4 times the time on the R150 dome's 140,000 rays)
-            rows = rows[np.argsort(candidate[rows], kind="stable")]
-            one = np.arange(rows.size)
-            # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
-            out[rows] = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0),
-                                                one, one + 1, candidate.take(rows),
-                                                first=True))
-            rest = np.flatnonzero(~out)
-        if self.ball and len(self.pass_of) and rest.size:
-            owner, item = pairs_within(self.near_cells, q[rest] + self.lift * n[rest],
-                                       0.5 * self.near_mm)
-            lo, hi, item = ray_ranges(owner, item, rest.size)
-            out[rest] = np.isfinite(self.height(q[rest], n[rest], lo, hi, item, first=True))
-            rest = np.flatnonzero(~out)
         if not len(self.pass_of):
             return out
+        missed = (np.zeros(0, dtype=np.int64) if candidate is None else
+                  self._candidates_cut(q, n, candidate, out))
+        near = np.zeros(len(q), dtype=bool)  # (the rays a ball's near pieces were tried on)
+        if self.ball:
+            # first those their candidate missed: a pass runs by, a neighbour's piece
+            # likely cuts them (where all are, the reach's cells are never binned)
+            self._near_pieces_cut(q, n, missed, out)
+            near[missed] = True
+        rest = np.flatnonzero(~out)
         for i in range(0, len(rest), 100_000):
             rows = rest[i:i + 100_000]
             # a ray with no piece's midpoint within the reach enters none within the horizon
-            # (an uncut area's rays, most of these): the others alone meet their pieces
-            rows = rows[counts_within(self.cells, q[rows], self.reach) > 0]
-            out[rows] = np.isfinite(self.height(q[rows], n[rows],
-                                                *ray_ranges(*self.pairs(q[rows]), len(rows)),
-                                                first=True))
+            # (an uncut area's rays, most of these): counted first, the others alone are
+            # searched, among the near pieces (those not tried yet), then all within reach
+            rows = rows[counts_within(self.cells, q.take(rows, axis=0), self.reach) > 0]
+            if self.ball:
+                self._near_pieces_cut(q, n, rows[~near[rows]], out)
+                rows = rows[~out[rows]]
+            out[rows] = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0),
+                                                *ray_ranges(*self.pairs(q.take(rows, axis=0)),
+                                                            len(rows)), first=True))
         if self.ball:  # dropped: a ball's later searches seldom meet the reach's cells
             # (a coarse request's bracket search whose radius reaches them bins them again)
             self._cells = None
         return out
+
+    def _candidates_cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
+                        candidate: NDArray[np.int64], out: NDArray[np.bool_]
+                        ) -> NDArray[np.int64]:
+        """Rays cut by their ``candidate`` piece (within the reach) marked in ``out``.
+
+        Returns the rays whose candidate was tried and missed them.
+        """
+        rows = np.flatnonzero(candidate >= 0)
+        # (the distance as the cells' count works it out: the same pieces within reach)
+        off = self._midpoints(candidate.take(rows)) - q.take(rows, axis=0)
+        rows = rows[off[:, 0] * off[:, 0] + off[:, 1] * off[:, 1] + off[:, 2] * off[:, 2]
+                    <= self.reach * self.reach]
+        # in the pieces' order (each ray's result is its own, whatever the order): the
+        # pieces are then read from memory in turn, not at random (a grid's rows
+        # cross the passes; 0.4 times the time on the R150 dome's 140,000 rays)
+        rows = rows[np.argsort(candidate[rows], kind="stable")]
+        one = np.arange(rows.size)
+        # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+        cut = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0), one,
+                                      one + 1, candidate.take(rows), first=True))
+        out[rows] = cut
+        return rows[~cut]
+
+    def _near_pieces_cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
+                         rows: NDArray[np.int64], out: NDArray[np.bool_]) -> None:
+        """A ball's rays ``rows`` cut by a piece within half :attr:`near_mm` of ``q + R n``.
+
+        Marked in ``out``. (A ray that enters a piece within the horizon passes within
+        ``R`` of its centre segment there, so within the reach of its midpoint: a ray with
+        none there finds none here either.)
+        """
+        if not rows.size:
+            return
+        owner, item = pairs_within(self.near_cells, q.take(rows, axis=0)
+                                   + self.lift * n.take(rows, axis=0), 0.5 * self.near_mm)
+        out[rows] = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0),
+                                            *ray_ranges(owner, item, rows.size), first=True))
 
     def pairs(self, q: NDArray[np.float64], radius: float | None = None
               ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
