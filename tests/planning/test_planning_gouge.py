@@ -60,6 +60,19 @@ def test_cutter_larger_than_the_pocket_radius_is_refused_naming_the_place():
     assert rep.cutter_radius_there_mm == pytest.approx(2.5)
 
 
+@pytest.mark.parametrize("spec", ["flat:2", "bull:2:0.5"])
+def test_a_flat_end_over_a_concave_pocket_is_told_to_take_a_ball(spec):
+    # a flat end spans a concave surface whatever its radius: the pocket's concave
+    # radius (2.667 mm) is larger than the cutter's (1 mm), and a smaller cutter of the
+    # same kind would still cut in; the advice is a ball that fits
+    with pytest.raises(GougeError) as err:
+        plan_finishing(POCKET, spec, scallop_mm=0.02, chord_tol_mm=0.01)
+    text = str(err.value)
+    assert f"use a ball cutter of radius < 2.667 mm ({spec}'s flat end" in text
+    assert "use a cutter of radius" not in text
+    assert "--on-gouge lift" in text and "--gouge-tol" in text
+
+
 def test_global_check_sees_the_cutter_inside_the_surface():
     samples = sample_surface(POCKET, 0.25)
     cutter = parse_cutter("ball:6")

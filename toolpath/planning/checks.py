@@ -42,7 +42,8 @@ from .options import AxisMode, FinishingOptions, OnGouge, OnLimit, PlannedOption
 from .passes import PassPoints, frame_take, insert_move_poses, with_rate_record, with_tips
 from .travel import fit_travel
 
-__all__ = ["GougeStats", "MachineStats", "check_links", "gouge_stage", "machine_stage"]
+__all__ = ["GougeStats", "MachineStats", "check_links", "concave_remedy", "gouge_stage",
+           "machine_stage"]
 
 
 @dataclass(frozen=True)
@@ -235,6 +236,19 @@ FOLD_SAMPLES = 257
 LIFT_REMEDY = "--on-gouge lift (lifts the cutter clear, leaving material there)"
 
 
+def concave_remedy(cutter: Cutter, radius_mm: float) -> str:
+    """Which cutter fits a concave surface of ``radius_mm``, for a gouge message.
+
+    A ball of a smaller radius touches it at one point. A flat or bull-nose cutter's
+    flat end spans the surface wherever it curves up under it, whatever the radius:
+    a smaller cutter of the same kind only gouges less, so the advice is a ball.
+    """
+    if cutter.kind is CutterKind.BALL:
+        return f"use a cutter of radius < {radius_mm:.3f} mm"
+    return (f"use a ball cutter of radius < {radius_mm:.3f} mm ({cutter.spec}'s flat end "
+            "spans the concave surface)")
+
+
 def _gouge_error(surface: ParametricSurface, cutter: Cutter, pts: PassPoints, i: int,
                  clr: Clearance, k: int, samples: SurfaceSamples, *, far: bool
                  ) -> GougeError:
@@ -266,9 +280,10 @@ def _gouge_error(surface: ParametricSurface, cutter: Cutter, pts: PassPoints, i:
     gap = float(np.linalg.norm(q - frame.point[0]))
     if margin < 0.0 and kmax > 0.0 and gap <= 1.0 / kmax + cutter.radius_mm:
         radius = 1.0 / kmax
-        cause = (f"the surface's concave radius there is {radius:.4f} mm, smaller than the "
-                 f"cutter (radius {cutter.radius_mm:g} mm); use a cutter of radius < "
-                 f"{radius:.3f} mm, " + remedy)
+        than = ("smaller than the cutter" if radius < cutter.radius_mm else
+                "under the cutter's flat end")
+        cause = (f"the surface's concave radius there is {radius:.4f} mm, {than} (radius "
+                 f"{cutter.radius_mm:g} mm); {concave_remedy(cutter, radius)}, " + remedy)
     else:
         # the largest turn of the normal from the contact's on the way there (parameters
         # straight from the contact's: a fold between them turns it past 90 deg)

@@ -39,7 +39,14 @@ from ..surface import ParametricSurface, as_surface
 from ..tolerances import ANGLE_SLACK_DEG, FLAT_PER_MM, LIMIT_SLACK, TINY
 from .avoid import depth_text, gouge_depth_mm, local_depth_mm
 from .blunt_edge import blunt_face
-from .checks import GougeStats, MachineStats, check_links, gouge_stage, machine_stage
+from .checks import (
+    GougeStats,
+    MachineStats,
+    check_links,
+    concave_remedy,
+    gouge_stage,
+    machine_stage,
+)
 from .chord_measure import ChordMeasurement, measure_chord
 from .clearance_kernel import points_box
 from .cutters import Cutter, CutterKind, parse_cutter
@@ -1064,8 +1071,8 @@ def _probe_gouge(probe: ProbeGrid, cutter: Cutter, tol_mm: float) -> Exception:
         f"({p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}) mm), where the surface's concave radius is "
         f"{1.0 / float(kmax[i]):.4f} mm; it cuts deeper than the gouge tolerance "
         f"{tol_mm:g} mm at {int(gouging.sum())} of {gouging.size} probe points, the smallest "
-        f"concave radius among them {smallest:.4f} mm at t={t[tj]:.5f}, s={s[sj]:.5f}; use "
-        f"a cutter of radius < {smallest:.3f} mm, --on-gouge lift (lifts the cutter clear, "
+        f"concave radius among them {smallest:.4f} mm at t={t[tj]:.5f}, s={s[sj]:.5f}; "
+        f"{concave_remedy(cutter, smallest)}, --on-gouge lift (lifts the cutter clear, "
         f"leaving material there), or --gouge-tol above {depth_mm:.4f} mm if that is "
         "acceptable",
         t=float(t[ti]), s=float(s[si]), depth_mm=depth_mm)
