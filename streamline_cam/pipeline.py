@@ -61,6 +61,20 @@ STAGES = ("fit", "plan", "post", "check", "verify", "stream")
 Progress = Callable[[str, float], None]
 
 
+def _judged_scallop_mm(plan_report) -> float:
+    """The scallop a re-plan can lower: the one away from uncut areas, mm.
+
+    Beside an area no cutter reaches (an overhang in 3 axes, a ball's own neck) a cusp
+    stands higher than the step-over makes it, and no tighter request lowers it; the
+    report's :attr:`~toolpath.planning.report.PlanReport.within_request` judges the
+    interior figure for the same reason. Without an interior figure, the largest.
+    """
+    interior_mm = plan_report.scallop_interior_mm
+    if interior_mm is None:
+        return plan_report.max_scallop_mm or 0.0
+    return interior_mm
+
+
 @dataclass(frozen=True)
 class JobRequest:
     """Everything a job needs; defaults are the README's demo settings.
@@ -448,7 +462,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         attempts.append({"scallop_mm": scallop_mm, "chord_tol_mm": chord_mm,
                          "measured_scallop_mm": plan_report.max_scallop_mm,
                          "measured_chord_mm": plan_report.max_chord_error_mm})
-        over_scallop = (plan_report.max_scallop_mm or 0.0) / scallop_mm
+        over_scallop = _judged_scallop_mm(plan_report) / scallop_mm
         over_chord = (plan_report.max_chord_error_mm or 0.0) / chord_mm
         excess = max(over_scallop, over_chord)
         if excess <= 1.0 or excess > REPLAN_REACH or plan_report.n_lifted:
