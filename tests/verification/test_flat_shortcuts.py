@@ -1,13 +1,20 @@
 """Shortcuts of the flat and bull-nose search against their full methods.
 
 * the inner minimisation of :mod:`verification.torus` (bracketed Newton on ``w``) against
-  a dense minimisation of the core's distance over the chord
+  a dense minimisation of the core's distance over the chord;
+* :func:`~verification.torus.sweep_bound_within` (the slab first) against
+  :func:`~verification.torus.sweep_bound`: the same pieces kept, the same bounds
 """
 
 import numpy as np
 import pytest
 
-from verification.torus import core_signed_distance, sweep_distance
+from verification.torus import (
+    core_signed_distance,
+    sweep_bound,
+    sweep_bound_within,
+    sweep_distance,
+)
 
 
 def _unit(v):
@@ -62,3 +69,29 @@ def test_the_inner_minimum_is_the_dense_one(rng, core, height, corner):
     # and within the stopping test's 1e-9 mm of it
     assert (got >= want - 1e-12).all()
     np.testing.assert_allclose(got, want, rtol=0.0, atol=2e-9)
+
+
+def test_the_slab_first_bound_keeps_what_the_bound_keeps(rng):
+    # a walk keeps a piece where lo < below and hi >= above: the same pieces, the same
+    # bounds; limits drawn about each pair's own bounds (and the slab's ends) to sit on
+    # the edges; mutation caught: the slab's early exit on ``s_lo < below - 1e-3``
+    # (dropping pieces whose capsule still holds them)
+    m = 20000
+    c0, chord, axis = _three_axis_pieces(rng, m)
+    p = c0 + rng.normal(scale=2.0, size=(m, 3))
+    d = _unit(rng.normal(size=(m, 3)) + np.array([0.0, 0.0, 1.5]))
+    height, core, corner = 3.0, 3.0, 0.0
+    for k in range(m):
+        lo, hi = sweep_bound(p[k], d[k], c0[k], chord[k], axis[k], height, core, corner)
+        finite_lo = lo if np.isfinite(lo) else 0.0
+        finite_hi = hi if np.isfinite(hi) else 0.0
+        below = finite_lo + rng.choice([-1e-3, -1e-6, 0.0, 1e-6, 1e-3, np.inf])
+        above = finite_hi + rng.choice([-1e-3, 0.0, 1e-3, -np.inf])
+        got_lo, got_hi = sweep_bound_within(p[k], d[k], c0[k], chord[k], axis[k], height,
+                                            core, corner, below, above)
+        kept = lo < below and hi >= above
+        assert (got_lo < below and got_hi >= above) == kept
+        if kept:
+            assert (got_lo, got_hi) == (lo, hi)
+        if below == np.inf and above == -np.inf:
+            assert (got_lo, got_hi) == (lo, hi)
