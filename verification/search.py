@@ -152,8 +152,10 @@ class Dexels:
                 # the first level meets every dexel: no copies of the rows
                 every = todo.shape[0] == points.shape[0]
                 r = self.near_radius_mm(level, g, convexity if every else convexity[todo])
-                part = (self.index.search("near", points, dirs, centres, r) if every else
-                        self.index.search("near", points[todo], dirs[todo], centres[todo], r))
+                part = (self.index.search("near", points, dirs, centres, r, rim_in_radii=True)
+                        if every else
+                        self.index.search("near", points[todo], dirs[todo], centres[todo], r,
+                                          rim_in_radii=True))
                 # the first of both (the tie rule): a tied piece of smaller index may lie
                 # only in the wider ball
                 scatter(out, todo, part, merge=True)
@@ -201,7 +203,8 @@ class Dexels:
                 continue
             level = self.horizons[j]
             part = self.index.search("near", points[may], dirs[may], centres[may],
-                                     self.near_radius_mm(level, depth, convexity[may]))
+                                     self.near_radius_mm(level, depth, convexity[may]),
+                                     rim_in_radii=True)
             done = np.flatnonzero(part.lam_mm * cos[may] <= level)
             scatter(out, may[done], DexelResult(part.lam_mm[done], part.move[done],
                                                 part.shank[done], part.behind[done],

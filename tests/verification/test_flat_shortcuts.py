@@ -3,12 +3,19 @@
 * the inner minimisation of :mod:`verification.torus` (bracketed Newton on ``w``) against
   a dense minimisation of the core's distance over the chord;
 * :func:`~verification.torus.sweep_bound_within` (the slab first) against
-  :func:`~verification.torus.sweep_bound`: the same pieces kept, the same bounds
+  :func:`~verification.torus.sweep_bound`: the same pieces kept, the same bounds;
+* the near search's reach (:func:`~verification.dexels.candidate_reach_mm`, ``hypot`` of
+  the core's radius and height) against the sum it replaced, on a wall cut by the flank
 """
 
 import numpy as np
 import pytest
 
+import verification.dexels as dexels_module
+from gcode import Linear, Program, Rapid
+from toolpath.planning.analytic import PlaneSurface
+from toolpath.planning.cutters import parse_cutter
+from verification import VerifyOptions, verify_program
 from verification.torus import (
     core_signed_distance,
     sweep_bound,
@@ -95,3 +102,43 @@ def test_the_slab_first_bound_keeps_what_the_bound_keeps(rng):
             assert (got_lo, got_hi) == (lo, hi)
         if below == np.inf and above == -np.inf:
             assert (got_lo, got_hi) == (lo, hi)
+
+
+def _wall_program(tip_z_mm, y_mm):
+    """Flat passes along a vertical wall (the plane y = 0, material at y > 0), its side on it."""
+    blocks = [Rapid(z=10.0), Rapid(x=-6.0, y=y_mm)]
+    for k, z in enumerate(tip_z_mm):
+        x0, x1 = (-6.0, 12.0) if k % 2 == 0 else (12.0, -6.0)
+        blocks += [Rapid(x=x0), Linear(z=z, feed=300.0), Linear(x=x1, feed=800.0),
+                   Rapid(z=10.0)]
+    return Program(tuple(blocks))
+
+
+def _full_reach(radii_mm, pieces, core_radius_mm):
+    del core_radius_mm
+    return radii_mm + pieces.max_half_mm + pieces.max_height_mm
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:6:1"])
+def test_the_hypot_reach_finds_the_flank_contacts_of_the_full_reach(router, monkeypatch,
+                                                                     spec):
+    # the wall (z 0..2.85) is cut by the cutter's side from 0.1 mm above its tip up to its
+    # core's top: contacts up the flank, whose core bottom centre stands hypot(rho0, z)
+    # from them (the collision search, which would find them too, left out); mutation
+    # caught: the flank term dropped from candidate_reach_mm (``hypot(rho0, H) - rho0``
+    # -> 0), which leaves the wall's upper part uncut
+    cutter = parse_cutter(spec)
+    wall = PlaneSurface((0.0, 0.0, 0.0), (6.0, 0.0, 0.0), (0.0, 0.0, 2.85))
+    program = _wall_program([-0.1], -cutter.radius_mm - 0.01)
+    options = VerifyOptions(spacing_mm=0.1, collision=False)
+    fast = verify_program(program, wall, router, cutter, options=options)
+    with monkeypatch.context() as m:
+        m.setattr(dexels_module, "candidate_reach_mm", _full_reach)
+        full = verify_program(program, wall, router, cutter, options=options)
+    a, b = fast.deviation_map.deviation_mm, full.deviation_map.deviation_mm
+    # the wall is cut, 10 um deep where the cutter's straight side passes (the check has
+    # something to find; a bull-nose's corner leaves more at the wall's foot)
+    assert np.isfinite(b).mean() > 0.6 and (np.abs(b - 0.01) < 1e-6).mean() > 0.3
+    np.testing.assert_array_equal(a, b)
+    np.testing.assert_array_equal(fast.deviation_map.block_index,
+                                  full.deviation_map.block_index)
