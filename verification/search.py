@@ -257,8 +257,8 @@ class _Windows:
         return np.flatnonzero(mark)
 
 
-def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
-                 ) -> tuple[DexelResult, FloatArray]:
+def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None, *,
+                guess_mm: FloatArray | None = None) -> tuple[DexelResult, FloatArray]:
     """Deviation on the whole sample grid (near everywhere, collision coarse + around hits).
 
     Parameters
@@ -269,6 +269,10 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         The design samples.
     collision_stride : int or None
         Grid steps between the collision search's coarse samples; None: no collision search.
+    guess_mm : ndarray, shape (n_t, n_s), optional
+        About how much material each sample holds, for the near search to start at the
+        level that most likely finds it (:meth:`Dexels.search`: the same results, less
+        work; ``inf`` where nothing is expected).
 
     Returns
     -------
@@ -285,7 +289,10 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
     res = DexelResult.empty(pts.shape[0])
     # every sample visible (the normal dexels of a surface): no copies of the rows
     every = vis.shape[0] == pts.shape[0]
-    part = ev.search(pts, nrm, conv) if every else ev.search(pts[vis], nrm[vis], conv[vis])
+    guess = None if guess_mm is None else np.asarray(guess_mm, dtype=float).ravel()
+    part = (ev.search(pts, nrm, conv, guess_mm=guess) if every else
+            ev.search(pts[vis], nrm[vis], conv[vis],
+                      guess_mm=None if guess is None else guess[vis]))
     scatter(res, vis, part)
     if collision_stride is not None:
         ct = _coarse_positions(n_t, collision_stride)

@@ -5,13 +5,16 @@
 * :func:`~verification.torus.sweep_bound_within` (the slab first) against
   :func:`~verification.torus.sweep_bound`: the same pieces kept, the same bounds;
 * the near search's reach (:func:`~verification.dexels.candidate_reach_mm`, ``hypot`` of
-  the core's radius and height) against the sum it replaced, on a wall cut by the flank
+  the core's radius and height) against the sum it replaced, on a wall cut by the flank;
+* the near search of samples facing away started at the widest level (``guess_mm``)
+  against the deepening from the narrowest.
 """
 
 import numpy as np
 import pytest
 
 import verification.dexels as dexels_module
+import verification.verify as verify_module
 from gcode import Linear, Program, Rapid
 from toolpath.planning.analytic import PlaneSurface
 from toolpath.planning.cutters import parse_cutter
@@ -142,3 +145,38 @@ def test_the_hypot_reach_finds_the_flank_contacts_of_the_full_reach(router, monk
     np.testing.assert_array_equal(a, b)
     np.testing.assert_array_equal(fast.deviation_map.block_index,
                                   full.deviation_map.block_index)
+
+
+def test_samples_facing_away_start_at_the_widest_level_with_the_same_results(router,
+                                                                            monkeypatch):
+    # a plate 0.3 mm thick (its underside faces away from the +Z axis) under a flat raster
+    # that gouges through it: the underside's samples hold material the narrower levels
+    # find, so their search must come back to those levels (Dexels._narrower): the same
+    # material and blocks as the deepening from the narrowest level; mutation caught: the
+    # guess dropped in verify_program (every sample started at the narrowest level again)
+    cutter = parse_cutter("flat:6")
+    top = PlaneSurface((0.0, 0.0, 0.0), (6.0, 0.0, 0.0), (0.0, 6.0, 0.0))
+    program = Program((Rapid(z=5.0), Rapid(x=-5.0, y=1.0), Linear(z=-0.31, feed=300.0),
+                       Linear(x=11.0, feed=800.0), Linear(y=4.0, feed=800.0),
+                       Linear(x=-5.0, feed=800.0),
+                       Rapid(z=5.0)))
+    bottom = PlaneSurface((0.0, 0.0, -0.3), (0.0, 6.0, 0.0), (6.0, 0.0, 0.0))
+    grid_search = verify_module.grid_search
+    for surface in (top, bottom):
+        options = VerifyOptions(spacing_mm=0.1)
+        guessed = verify_program(program, surface, router, cutter, options=options)
+        calls = []
+
+        def no_guess(ev, samples, stride, *, guess_mm=None, _calls=calls):
+            _calls.append(guess_mm)
+            return grid_search(ev, samples, stride)
+
+        with monkeypatch.context() as m:
+            m.setattr(verify_module, "grid_search", no_guess)
+            plain = verify_program(program, surface, router, cutter, options=options)
+        assert calls and np.isinf(calls[0]).any() == (surface is bottom)
+        a, b = guessed.deviation_map.deviation_mm, plain.deviation_map.deviation_mm
+        np.testing.assert_array_equal(a, b)
+        np.testing.assert_array_equal(guessed.deviation_map.block_index,
+                                      plain.deviation_map.block_index)
+        assert guessed.max_gouge_mm == plain.max_gouge_mm
