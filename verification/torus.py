@@ -232,6 +232,7 @@ def _inner_min(yx: float, yy: float, yz: float, chord: FloatArray, axis: FloatAr
     ud = rx * ux + ry * uy + rz * uz
     uu = rx * rx + ry * ry + rz * rz
     x, sx, kx = w, slope, curv
+    step_last = step_before = hi - lo  # the last two steps' lengths (rtsafe's safeguard)
     for _ in range(_MAX_INNER):
         # convexity: min Phi >= Phi(v) - |slope(v)| (hi - lo) at either end and at x
         if not min(-slo, shi, abs(sx)) * (hi - lo) > CONVERGED_MM * 0.01:
@@ -239,8 +240,11 @@ def _inner_min(yx: float, yy: float, yz: float, chord: FloatArray, axis: FloatAr
         nw = x - sx / kx if kx > 0.0 else math.nan
         if not lo < nw < hi:
             nw = _next_break(x, sx < 0.0, lo, hi, z0, rise, height, ud, aa, uu, core_radius)
-            if not lo < nw < hi:
-                nw = 0.5 * (lo + hi)
+        if not lo < nw < hi or abs(nw - x) > 0.5 * step_before:
+            # outside the bracket, or not converging (a step over half the one before
+            # last: Newton steps on a steep bull-nose ramp crawled to the cap): bisect
+            nw = 0.5 * (lo + hi)
+        step_before, step_last = step_last, abs(nw - x)
         f, gx, gy, gz, kx = _phi(yx, yy, yz, nw, chord, axis, height, core_radius,
                                  corner_radius)
         if f < best:

@@ -81,6 +81,30 @@ def test_the_inner_minimum_is_the_dense_one(rng, core, height, corner):
     np.testing.assert_allclose(got, want, rtol=0.0, atol=2e-9)
 
 
+def test_a_bull_noses_steep_ramp_is_minimised_within_the_step_cap(rng):
+    # a bull-nose core swept down a steep ramp: Newton steps on the rim's curved slope
+    # crawled (each a small share of the one before) and stopped at the step cap 8.7e-3 mm
+    # above the minimum; steps over half the one before last now bisect (the review's
+    # case, and random steep ramps); mutation caught: the creeping test dropped
+    # (``abs(nw - x) > 0.5 * step_before`` in _inner_min)
+    y = np.array([[-1.7621, -1.0206, 0.7973]])
+    chord = np.array([[1.2687, -3.0920, -2.8688]])
+    m = 200
+    ramp = _unit(rng.normal(size=(m, 3))) * rng.uniform(2.0, 5.0, (m, 1))
+    ramp[:, 2] = -np.abs(ramp[:, 2]) - 2.0
+    c0 = np.zeros((m + 1, 3))
+    chord = np.vstack((chord, ramp))
+    w = rng.uniform(0.0, 1.0, m)[:, None]
+    rim = _unit(np.column_stack((rng.normal(size=(m, 2)), np.zeros(m)))) * 2.0
+    y = np.vstack((y, w * ramp + rim + rng.normal(scale=0.5, size=(m, 3))))
+    axis = np.tile([0.0, 0.0, 1.0], (m + 1, 1))
+    got = sweep_distance(y, c0, chord, axis, np.full(m + 1, 1.0), core_radius_mm=2.0,
+                         corner_radius_mm=1.0)
+    want = np.array([_dense_distance(y[k], c0[k], chord[k], axis[k], 1.0, 2.0, 1.0)
+                     for k in range(m + 1)])
+    np.testing.assert_allclose(got, want, rtol=0.0, atol=2e-9)
+
+
 def test_the_slab_first_bound_keeps_what_the_bound_keeps(rng):
     # a walk keeps a piece where lo < below and hi >= above: the same pieces, the same
     # bounds; limits drawn about each pair's own bounds (and the slab's ends) to sit on
