@@ -2,7 +2,8 @@
 
 Run:  python benchmarks/bench_verify.py [--blocks 1000000] [--skip-5axis] [--samples N]
       [--bull bull:6:1] [--bull5 [bull:8:1]] [--bull5-scallop MM] [--skip-bull]
-      [--only-5axis] [--skip-baseline]
+      [--only-5axis] [--skip-baseline] [--flat3 [flat:6,bull:6:1]] [--only-flat3]
+      [--flat3-repeats N] [--baseline-checkout DIR]
 
 In one run:
 
@@ -44,6 +45,17 @@ In one run:
    verifies (``toolpath verify``, quiet: 72 s wall, 121 CPU s, peak 3.0 GB before the
    runs' block support planes, which took 18 % of its CPU off back to back: 136 -> 112 s
    at load 3; it was once killed at 23 GB); ``--skip-bull`` leaves out both bull rows.
+
+9. flat and bull-nose 3-axis rows, asked for with ``--flat3 [SPECS]`` (``flat:6,bull:6:1``
+   when bare; ``--only-flat3`` runs just these): each the dev blade's ``toolpath run
+   --machine grbl-router --cutter SPEC --scallop 0.01 --chord-tol 0.02`` program (the job
+   plans and posts it, placing the blade itself), verified in fresh processes, twice each
+   (the second, warm, is timed: the kernels are loaded by the first), ``--flat3-repeats``
+   times, the fastest kept; with ``--baseline-checkout DIR`` the same children run the
+   verifier of that checkout too, alternately, in the same run. Beside the target of
+   :data:`FLAT3_TARGET_S` (the 5-axis ball program's verification on this machine took
+   ~3 s; these took 47-57 s before the flat and bull-nose search was sped up), and the
+   ratio to the baseline's time with its gouge and scallop.
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.
@@ -139,6 +151,13 @@ SAME_FIGURE_RATIO = 0.01
 FINE_MODEL = {"merge_tol_mm": 0.0, "replay_tol_mm": 1e-4}
 
 
+#: Warm verification of the 3-axis flat and bull-nose dev-blade programs (``--flat3``), s.
+FLAT3_TARGET_S = 10.0
+#: Their ``toolpath run`` settings: scallop and chord tolerance, mm.
+FLAT3_SCALLOP_MM = 0.01
+FLAT3_CHORD_MM = 0.02
+
+
 def exact_dialect(dialect: Dialect) -> Dialect:
     """``dialect`` writing coordinates and angles with :data:`SPLIT_POINT_DECIMALS` decimals.
 
@@ -173,12 +192,14 @@ def brute_force_s(program, surface, machine, cutter, n_dexels: int, seed: int = 
 
 
 def verify_child(argv: list[str]) -> int:
-    """``--child PROGRAM SURFACE.pkl MACHINE DIALECT [oracle|fine] [cutter=SPEC] [scallop=MM]``.
+    """``--child PROGRAM SURFACE MACHINE DIALECT [oracle|fine] [cutter=S] [scallop=MM] [runs=N]``.
 
     Parse, verify, print one JSON line. Run in a fresh process so its peak memory
     (:func:`peak_rss_mb`) is the verification's own; ``oracle`` verifies with the candidate-pair
     search the compiled walk replaced, ``fine`` with the finer model :data:`FINE_MODEL`;
-    ``cutter`` and ``scallop`` default to :data:`CUTTER` and :data:`SCALLOP_MM`.
+    ``cutter`` and ``scallop`` default to :data:`CUTTER` and :data:`SCALLOP_MM`. ``SURFACE``:
+    a pickle, or a surface JSON (``toolpath run``'s ``surface.json``); ``runs``: verify that
+    many times, the last one timed (the ones before load the kernels: a warm figure).
     """
     import functools
     import json
@@ -196,16 +217,22 @@ def verify_child(argv: list[str]) -> int:
     model = FINE_MODEL if modes == ["fine"] else {}
     cutter = parse_cutter(settings.get("cutter", CUTTER))
     scallop = float(settings.get("scallop", SCALLOP_MM))
-    with open(surface_pkl, "rb") as f:
-        surface = pickle.load(f)
+    if surface_pkl.endswith(".json"):
+        surface = verify_module.load_surface(surface_pkl)
+    else:
+        with open(surface_pkl, "rb") as f:
+            surface = pickle.load(f)
     machine = load_machine(machine_name)
     dialect = {"grbl": GRBL, "linuxcnc": LINUXCNC}[dialect_name]
+    options = VerifyOptions(scallop_mm=scallop, **model)
+    for _ in range(int(settings.get("runs", "1")) - 1):  # warm-up runs: the kernels loaded
+        verify_program(parse(open(path, encoding="utf-8").read(), dialect), surface, machine,
+                       cutter, options=options)
     cpu0 = resource.getrusage(resource.RUSAGE_SELF)
     text, t_read = timed(lambda: open(path, encoding="utf-8").read())
     program, t_parse = timed(lambda: parse(text, dialect))
     rep, t_verify = timed(lambda: verify_program(program, surface, machine, cutter,
-                                                 options=VerifyOptions(scallop_mm=scallop,
-                                                                       **model)))
+                                                 options=options))
     cpu1 = resource.getrusage(resource.RUSAGE_SELF)
     print(json.dumps({"lines": len(text.splitlines()), "parse_s": t_read + t_parse,
                       "verify_s": t_verify, "timings_s": rep.timings_s,
@@ -237,18 +264,22 @@ def peak_rss_mb() -> float:
     return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024
 
 
-def run_child(*args: str, repeats: int = 1) -> dict:
+def run_child(*args: str, repeats: int = 1, checkout: str | None = None) -> dict:
     """:func:`verify_child` in a fresh interpreter; the JSON of the fastest of ``repeats``.
 
     On a shared machine the noise is one-sided: the fastest run is the machine's figure.
+    ``checkout``: the packages of that directory (``PYTHONPATH``) rather than this one's.
     """
     import json
     import subprocess
 
+    env = None
+    if checkout is not None:
+        env = dict(os.environ, PYTHONPATH=os.path.abspath(checkout))
     runs = []
     for _ in range(repeats):
         out = subprocess.run([sys.executable, __file__, "--child", *args], check=True,
-                             capture_output=True, text=True).stdout
+                             capture_output=True, text=True, env=env).stdout
         runs.append(json.loads(out.strip().splitlines()[-1]))
     return min(runs, key=lambda r: r["parse_s"] + r["verify_s"])
 
@@ -475,6 +506,59 @@ def bull5_row(standing, spec: str, scallop_mm: float) -> None:
     print("    stages, s: " + ", ".join(f"{k} {v:.2f}" for k, v in r["timings_s"].items()))
 
 
+def flat3_rows(specs: list[str], repeats: int, baseline: str | None) -> None:
+    """The dev blade's 3-axis flat and bull-nose ``toolpath run`` programs, verified warm.
+
+    Each job (plan, post) runs once through the CLI; its program and placed surface are
+    verified in fresh processes (:func:`verify_child`, ``runs=2``: the second timed),
+    ``repeats`` times, alternating with the ``baseline`` checkout's verifier when given.
+    """
+    import subprocess
+    import tempfile
+
+    blade = str(files("toolpath") / "data" / "dev_blade_15x142.csv")
+    print(f"flat and bull-nose 3-axis (grbl-router, toolpath run --scallop {FLAT3_SCALLOP_MM} "
+          f"--chord-tol {FLAT3_CHORD_MM}; warm verification in fresh processes, fastest of "
+          f"{repeats}); load average " + " ".join(f"{v:.2f}" for v in os.getloadavg()))
+    header = (f"  {'cutter':<10}{'checkout':<10}{'verify s':>9}{'search s':>9}{'refine s':>9}"
+              f"{'CPU s':>7}{'target':>7}{'peak MB':>8}{'pairs':>11}{'gouge mm':>12}"
+              f"{'scallop mm':>12}")
+    with tempfile.TemporaryDirectory() as tmp:
+        for spec in specs:
+            job = os.path.join(tmp, spec.replace(":", "_"))
+            subprocess.run([sys.executable, "-m", "streamline_cam.cli", "run", blade,
+                            "--machine", "grbl-router", "--cutter", spec, "--scallop",
+                            str(FLAT3_SCALLOP_MM), "--chord-tol", str(FLAT3_CHORD_MM),
+                            "--quiet", "--json", "-o", os.path.join(job, "part.nc")],
+                           check=True, capture_output=True, text=True)
+            args = (os.path.join(job, "part.nc"), os.path.join(job, "surface.json"),
+                    "grbl-router", "grbl", f"cutter={spec}", f"scallop={FLAT3_SCALLOP_MM}",
+                    "runs=2")
+            checkouts = [("this", None)] + ([("baseline", baseline)] if baseline else [])
+            found: dict[str, list[dict]] = {name: [] for name, _ in checkouts}
+            for _ in range(repeats):
+                for name, where in checkouts:
+                    found[name].append(run_child(*args, checkout=where))
+            print(header)
+            best = {name: min(runs, key=lambda r: r["verify_s"]) for name, runs in found.items()}
+            for name, r in best.items():
+                print(f"  {spec:<10}{name:<10}{r['verify_s']:>9.1f}"
+                      f"{r['timings_s']['search']:>9.1f}{r['timings_s']['refine']:>9.1f}"
+                      f"{r['user_s'] + r['sys_s']:>7.1f}{FLAT3_TARGET_S:>7g}"
+                      f"{r['peak_mb']:>8.0f}{r['pairs']:>11,}{r['gouge_mm']:>12.7f}"
+                      f"{r['scallop_mm']:>12.7f}")
+            new = best["this"]
+            verdict = "met" if new["verify_s"] <= FLAT3_TARGET_S else "NOT met"
+            print(f"    {spec}: {new['verify_s']:.1f} s / target {FLAT3_TARGET_S:g} s = "
+                  f"{new['verify_s'] / FLAT3_TARGET_S:.2f}: {verdict} (wall at this load)")
+            if baseline:
+                old = best["baseline"]
+                print(f"    baseline / this: verify {old['verify_s'] / new['verify_s']:.1f}x, "
+                      f"CPU {(old['user_s'] + old['sys_s']) / (new['user_s'] + new['sys_s']):.1f}"
+                      f"x; gouge {new['gouge_mm'] / old['gouge_mm']:.5f}, scallop "
+                      f"{new['scallop_mm'] / old['scallop_mm']:.5f} of the baseline's")
+
+
 def main(argv: list[str] | None = None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     ap.add_argument("--blocks", type=int, default=1_000_000)
@@ -493,11 +577,24 @@ def main(argv: list[str] | None = None) -> int:
                     help="issue 27: leave out the old pair search on the 5-axis program")
     ap.add_argument("--only-5axis", action="store_true",
                     help="stop after the 5-axis rows (issue 27)")
+    ap.add_argument("--flat3", nargs="?", const="flat:6,bull:6:1", default=None,
+                    help="add the 3-axis flat and bull-nose rows with these cutters "
+                         "(comma-separated; flat:6,bull:6:1 when given bare)")
+    ap.add_argument("--only-flat3", action="store_true",
+                    help="run just the flat and bull-nose 3-axis rows (--flat3's cutters)")
+    ap.add_argument("--flat3-repeats", type=int, default=2,
+                    help="fresh processes per cutter and checkout of the --flat3 rows")
+    ap.add_argument("--baseline-checkout", default=None,
+                    help="the --flat3 rows verify with this checkout's packages too")
     argv = sys.argv[1:] if argv is None else argv
     if argv[:1] == ["--child"]:
         return verify_child(argv[1:])
     args = ap.parse_args(argv)
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}")
+    flat3 = (args.flat3 or ("flat:6,bull:6:1" if args.only_flat3 else None))
+    if args.only_flat3:
+        flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+        return 0
     cutter = parse_cutter(CUTTER)
     opts = VerifyOptions(scallop_mm=SCALLOP_MM, max_samples=args.samples)
     blade, t_fit = timed(dev_blade)
@@ -572,6 +669,8 @@ def main(argv: list[str] | None = None) -> int:
     print(f"  for {big.motion_blocks:,} moves the brute force grows to ~{brute_big:.0f} s; "
           f"ours {big.timings_s['search']:.1f} s of search: ratio "
           f"{brute_big / big.timings_s['search']:.0f}x")
+    if flat3 is not None:
+        flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
     return 0
 
 

@@ -149,9 +149,12 @@ class LazyFineSweeps:
 
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                radii_mm: FloatArray, *, below_mm: FloatArray | None = None,
-               below_piece: IntArray | None = None) -> DexelResult:
+               below_piece: IntArray | None = None, rim_in_radii: bool = False
+               ) -> DexelResult:
         """The fine model's near search (:meth:`~verification.dexels.SweepIndex.search`).
 
+        ``rim_in_radii`` is taken for that interface and left unused: the kept index is
+        searched with the full reach (a superset of the candidates; the same minimum).
         The pieces found are returned by their tie keys (:func:`tie_keys`), not by their
         numbers within the kept index, which change as segments are kept or dropped: the
         keys order pieces as the full model's numbers do, so results of different batches,
@@ -160,6 +163,7 @@ class LazyFineSweeps:
         """
         if which != "near":
             raise ValueError(f"the lazy fine model answers near searches only, not {which!r}")
+        del rim_in_radii
         q = points.shape[0]
         out = DexelResult.empty(q)
         for lo in range(0, q, self.batch):

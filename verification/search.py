@@ -152,8 +152,10 @@ class Dexels:
                 # the first level meets every dexel: no copies of the rows
                 every = todo.shape[0] == points.shape[0]
                 r = self.near_radius_mm(level, g, convexity if every else convexity[todo])
-                part = (self.index.search("near", points, dirs, centres, r) if every else
-                        self.index.search("near", points[todo], dirs[todo], centres[todo], r))
+                part = (self.index.search("near", points, dirs, centres, r, rim_in_radii=True)
+                        if every else
+                        self.index.search("near", points[todo], dirs[todo], centres[todo], r,
+                                          rim_in_radii=True))
                 # the first of both (the tie rule): a tied piece of smaller index may lie
                 # only in the wider ball
                 scatter(out, todo, part, merge=True)
@@ -201,7 +203,8 @@ class Dexels:
                 continue
             level = self.horizons[j]
             part = self.index.search("near", points[may], dirs[may], centres[may],
-                                     self.near_radius_mm(level, depth, convexity[may]))
+                                     self.near_radius_mm(level, depth, convexity[may]),
+                                     rim_in_radii=True)
             done = np.flatnonzero(part.lam_mm * cos[may] <= level)
             scatter(out, may[done], DexelResult(part.lam_mm[done], part.move[done],
                                                 part.shank[done], part.behind[done],
@@ -254,8 +257,8 @@ class _Windows:
         return np.flatnonzero(mark)
 
 
-def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
-                 ) -> tuple[DexelResult, FloatArray]:
+def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None, *,
+                guess_mm: FloatArray | None = None) -> tuple[DexelResult, FloatArray]:
     """Deviation on the whole sample grid (near everywhere, collision coarse + around hits).
 
     Parameters
@@ -266,6 +269,10 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
         The design samples.
     collision_stride : int or None
         Grid steps between the collision search's coarse samples; None: no collision search.
+    guess_mm : ndarray, shape (n_t, n_s), optional
+        About how much material each sample holds, for the near search to start at the
+        level that most likely finds it (:meth:`Dexels.search`: the same results, less
+        work; ``inf`` where nothing is expected).
 
     Returns
     -------
@@ -282,7 +289,10 @@ def grid_search(ev: Dexels, samples: DesignSamples, collision_stride: int | None
     res = DexelResult.empty(pts.shape[0])
     # every sample visible (the normal dexels of a surface): no copies of the rows
     every = vis.shape[0] == pts.shape[0]
-    part = ev.search(pts, nrm, conv) if every else ev.search(pts[vis], nrm[vis], conv[vis])
+    guess = None if guess_mm is None else np.asarray(guess_mm, dtype=float).ravel()
+    part = (ev.search(pts, nrm, conv, guess_mm=guess) if every else
+            ev.search(pts[vis], nrm[vis], conv[vis],
+                      guess_mm=None if guess is None else guess[vis]))
     scatter(res, vis, part)
     if collision_stride is not None:
         ct = _coarse_positions(n_t, collision_stride)

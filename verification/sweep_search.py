@@ -68,7 +68,7 @@ from .capsule_search import (
 )
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, reaches, run_floor, span_reference
-from .torus import sweep_bound, sweep_interval
+from .torus import sweep_bound, sweep_bound_within, sweep_interval
 
 __all__ = ["lowest_sweep_entries", "piece_outer_mm"]
 
@@ -174,9 +174,10 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                 if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
                                      d[2], outer, limit):
                     continue
-                lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
-                                     run_height[slot], core_radius,
-                                     corner_radius + run_dilation[slot])
+                lo, hi = sweep_bound_within(p, d, run_c0[slot], run_chord[slot],
+                                            run_axis[slot], run_height[slot], core_radius,
+                                            corner_radius + run_dilation[slot], limit,
+                                            -ROUNDING_SLACK_MM)
                 if not (lo < limit and reaches(hi)):
                     continue
                 kept[m], bounds[m], tops[m] = slot, lo, hi
@@ -243,8 +244,9 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
                         # from its distance to the point, not from hi, whose slab exit
                         # divides a rounding by d . a, tiny for a dexel in its bottom's
                         # plane: tests/verification/test_sweep_prunes.py)
-                        lo, _ = sweep_bound(p, d, a[i], e[i], axis[i], height[i],
-                                            core_radius, corner_radius)
+                        lo, _ = sweep_bound_within(p, d, a[i], e[i], axis[i], height[i],
+                                                   core_radius, corner_radius, limit,
+                                                   -math.inf)
                         if not lo < limit:
                             continue
                         value, back = _value(p, d, a[i], e[i], axis[i], height[i],

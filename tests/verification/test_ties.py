@@ -181,9 +181,9 @@ def _searches_of(monkeypatch, program, surface, machine, cutter, options):
     seen = {}
     grid_search = verify_module.grid_search
 
-    def spy(ev, samples, stride):
+    def spy(ev, samples, stride, **kwargs):
         seen.update(ev=ev, samples=samples)
-        return grid_search(ev, samples, stride)
+        return grid_search(ev, samples, stride, **kwargs)
 
     with monkeypatch.context() as m:
         m.setattr(verify_module, "grid_search", spy)
