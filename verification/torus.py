@@ -31,8 +31,10 @@ is jointly convex in ``(lam, w)``, so ``F`` (the signed distance of the dexel po
   root is bracketed between the ball's minimiser (the projection on ``D``) and an end,
   and found by Newton steps on it kept inside the bracket (where one leaves it, or
   ``Phi`` is linear in ``w`` on a flat face, the next point is the nearest ``w`` where
-  its formula changes, else the middle). It stops when ``|Phi_w| (hi - lo) <= 1e-9`` mm
-  at an end or the last point: by convexity the minimum is then known to 1e-9 mm;
+  its formula changes, else the middle; a step over half the one before last is
+  replaced by the middle, so the bracket halves at least every other step). It stops
+  when ``|Phi_w| (hi - lo) <= 1e-9`` mm at an end or the last point: by convexity the
+  minimum is then known to 1e-9 mm;
 * **outer problem** (``lam``): Newton's method on ``F`` from a lower bound (the entry into
   a bounding capsule and the slab the sweep spans along ``a``), with
   ``F'(lam) = grad(sd) . d`` at the inner minimiser (Danskin). On a convex function the
@@ -190,8 +192,10 @@ def _inner_min(yx: float, yy: float, yz: float, chord: FloatArray, axis: FloatAr
     The Newton step uses ``d^2 Phi / dw^2`` (:func:`_core_sd_along`); where it leaves the
     bracket, or ``Phi`` is linear there (a flat face: no curvature), the next point is the
     nearest change of formula downhill (:func:`_next_break`: the minimum lies at or past
-    it), else the bracket's middle. The minimiser near an entry sits on a rim, a zone of
-    ``w`` a few ``F / |D|`` wide between two faces, where the slope jumps by ``|D|``:
+    it), else the bracket's middle; the middle too where a step is over half the one
+    before last (rtsafe's safeguard: on a bull-nose rim swept down a steep ramp the Newton
+    steps crept, each a small share of the last). The minimiser near an entry sits on a
+    rim, a zone of ``w`` a few ``F / |D|`` wide between two faces, where the slope jumps by ``|D|``:
     false position took ~27 steps per minimisation there (3-axis flat and bull-nose
     blades), this some 3 to 6. It stops when ``min(|slope|) x (hi - lo) <= 1e-9`` mm at an
     end of the bracket or the last point: by convexity the minimum is then known to that.
