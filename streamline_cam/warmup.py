@@ -295,7 +295,6 @@ def _one_thread() -> None:
     os.environ["NUMBA_NUM_THREADS"] = "1"
 
 
-#: The job of :func:`load_kernels`: a coarse plan on a small blade-like strip, enough to
 def compile_modules(packages: Sequence[str] = PACKAGES) -> list[str]:
     """Write the bytecode of the packages' modules (``__pycache__/*.pyc``) where it is missing.
 
@@ -321,6 +320,7 @@ def compile_modules(packages: Sequence[str] = PACKAGES) -> list[str]:
     return missed
 
 
+#: The job of :func:`load_kernels`: a coarse plan on a small blade-like strip, enough to
 #: load (or, the first time on a machine, compile) the compiled kernels a job calls.
 _STRIP_OPTIONS: Final = {"scallop_mm": 0.5, "chord_tol_mm": 0.05}
 
