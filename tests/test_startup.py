@@ -135,3 +135,35 @@ def test_the_machines_modules_stay_reachable_as_attributes():
                           timeout=120, env={**os.environ, "PYTHONPATH": str(ROOT)})
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "machines.kinematics"
+
+
+def test_quiet_stage_bars_load_no_tqdm():
+    # fails if tqdm is imported with the module (mutation: the import back at its top) or
+    # a disabled bar is still made (mutation: drop the early return in StageBars.__call__)
+    code = """
+import sys
+from streamline_cam.progress import StageBars
+bars = StageBars(disable=True)
+for stage in ("fit", "plan"):
+    bars(stage, 0.0)
+    bars(stage, 1.0)
+bars.close()
+print("tqdm" in sys.modules)
+"""
+    env = {**os.environ, "PYTHONPATH": str(ROOT)}
+    done = subprocess.run([sys.executable, "-c", code], env=env, capture_output=True,
+                          text=True, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.split() == ["False"] and done.stderr == ""
+
+
+def test_stage_bars_draw_each_stage(capsys):
+    from streamline_cam.progress import StageBars
+
+    bars = StageBars()
+    bars("fit", 0.0)
+    bars("fit", 1.0)
+    bars("plan", 0.5)
+    bars.close()
+    err = capsys.readouterr().err
+    assert "fit" in err and "100%" in err and "plan" in err and "50%" in err

@@ -204,3 +204,36 @@ def test_after_the_warm_up_a_5_axis_job_compiles_nothing(tmp_path):
     assert job.returncode == 0, job.stderr
     result = json.loads(job.stdout.splitlines()[-1])
     assert result["code"] == 0 and result["compiled"] == []
+
+
+def test_the_warm_up_writes_the_modules_bytecode(tmp_path, monkeypatch):
+    # fails if compile_modules writes nothing (mutation: skip its compile_dir call), or
+    # writes one folder level only (mutation: compile_dir(..., maxlevels=0))
+    import importlib.util
+
+    package = tmp_path / "warmpkg"
+    (package / "inner").mkdir(parents=True)
+    modules = [package / "__init__.py", package / "a.py", package / "inner" / "__init__.py",
+               package / "inner" / "b.py"]
+    for module in modules:
+        module.write_text("VALUE = 1\n", encoding="utf-8")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(sys, "dont_write_bytecode", True)  # (as PYTHONDONTWRITEBYTECODE=1)
+    assert warmup.compile_modules(("warmpkg",)) == []
+    for module in modules:
+        assert Path(importlib.util.cache_from_source(str(module))).is_file(), module
+
+
+def test_the_warm_up_command_writes_the_bytecode_of_every_package(monkeypatch):
+    # fails if the command does not call compile_modules (mutation: drop the call), or
+    # its list leaves out a package the project installs
+    import tomllib
+
+    called = []
+    monkeypatch.setattr(warmup, "compile_modules", lambda: called.append(True) or [])
+    monkeypatch.setattr(warmup, "warm_up", lambda say=None: 0.0)
+    assert main(["warm-up", "--quiet"]) == 0
+    assert called == [True]
+    with open(ROOT / "pyproject.toml", "rb") as file:
+        find = tomllib.load(file)["tool"]["setuptools"]["packages"]["find"]
+    assert set(warmup.PACKAGES) == {name.rstrip("*") for name in find["include"]}

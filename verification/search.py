@@ -19,7 +19,7 @@ from .options import DexelMethod
 from .samples import DesignSamples
 from .vectors import row_norms
 
-__all__ = ["Z_MIN_COSINE", "Dexels", "grid_search", "scatter"]
+__all__ = ["Z_MIN_COSINE", "Dexels", "grid_search", "joined_rows", "scatter"]
 
 FloatArray = NDArray[np.float64]
 
@@ -146,7 +146,7 @@ class Dexels:
             todo = np.zeros(0, dtype=np.int64)
             for k, level in enumerate(self.horizons):
                 # dexels guessed to hold more than the narrower levels join here
-                todo = np.union1d(todo, np.flatnonzero(first == k))
+                todo = joined_rows(todo, np.flatnonzero(first == k))
                 if todo.shape[0] == 0:
                     continue
                 # the first level meets every dexel: no copies of the rows
@@ -219,6 +219,26 @@ class Dexels:
             dev = result.lam_mm * cos
         dev = np.where(np.isfinite(dev) & (dev <= self.horizon), dev, np.inf)
         return np.where(self.visible(normals), dev, np.nan)
+
+
+def joined_rows(rows: NDArray[np.int64], joining: NDArray[np.int64]) -> NDArray[np.int64]:
+    """``np.union1d(rows, joining)`` for two sorted, disjoint arrays of row indices.
+
+    The near search's dexels still to search (``rows``, sorted: the deepening only drops
+    some) and those joining at this level (``joining``, from :func:`np.flatnonzero`): a
+    dexel joins at one level only, so the two never share an index. Their union is then
+    the sorted merge, and one of them alone when the other is empty (most levels). Numpy
+    2.3+ finds a union's unique values by hashing: 0.45 s of CPU for the ~1,000,000
+    dexels joining at the first level on the issue-27 blade, and 0.3 s more over the
+    levels no dexel joins; the merge takes milliseconds.
+    """
+    if joining.shape[0] == 0:
+        return rows
+    if rows.shape[0] == 0:
+        return joining
+    merged = np.concatenate((rows, joining))
+    merged.sort(kind="stable")  # (two sorted runs: a merge)
+    return merged
 
 
 def _coarse_positions(n: int, stride: int) -> NDArray[np.int64]:
