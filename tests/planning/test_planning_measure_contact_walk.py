@@ -12,6 +12,7 @@ must be where the walk stays.
 """
 
 import numpy as np
+import pytest
 from measured_plans import planned, standing_dev_blade
 
 import toolpath.planning.cusp_estimates as cusp_estimates
@@ -29,9 +30,8 @@ def _measured():
                    chord_tol_mm=0.03, lead_deg=10.0)
 
 
-def _estimates(monkeypatch, walks_on):
-    """The standing blade's estimates and the contact poses sought, walking on so far."""
-    measured = _measured()
+def _estimates(measured, walks_on):
+    """The blade's estimates and the contact poses sought, walking on so far."""
     volume = measured.volume()
     seeds, others = SearchSeeds.of(measured.surface, measured.chord)
     sought = []
@@ -41,17 +41,23 @@ def _estimates(monkeypatch, walks_on):
         sought.append((args, contact_poses(*args)))
         return sought[-1][1]
 
-    with monkeypatch.context() as patch:
+    with pytest.MonkeyPatch.context() as patch:
         patch.setattr(cusp_estimates, "CONTACT_WALKS_ON", walks_on)
         patch.setattr(cusp_estimates, "_contact_poses", spy)
         guess = cusp_estimates.torus_cusp_estimates(volume, measured.surface, seeds)
-    return measured, volume, seeds, others, guess, sought
+    return volume, seeds, others, guess, sought
 
 
-def test_walking_on_brings_estimates_that_never_read_below_the_ray_cast(monkeypatch):
-    measured, volume, seeds, others, guess, _ = _estimates(
-        monkeypatch, cusp_estimates.CONTACT_WALKS_ON)
-    *_, stopped, _ = _estimates(monkeypatch, cusp_estimates.CONTACT_WALKS)
+@pytest.fixture(scope="module")
+def walked():
+    """The plan, and its estimates walking on and stopped (one plan for both tests)."""
+    measured = _measured()
+    return (measured, _estimates(measured, cusp_estimates.CONTACT_WALKS_ON),
+            _estimates(measured, cusp_estimates.CONTACT_WALKS))
+
+
+def test_walking_on_brings_estimates_that_never_read_below_the_ray_cast(walked):
+    measured, (volume, seeds, others, guess, _), (*_, stopped, _) = walked
     # walking on only finds poses the first windows left unfound: no other estimate moves
     before = np.isfinite(stopped)
     np.testing.assert_array_equal(guess[before], stopped[before])
@@ -67,8 +73,8 @@ def test_walking_on_brings_estimates_that_never_read_below_the_ray_cast(monkeypa
     assert ratio.min() >= LEAST_SHARE, np.sort(ratio)[:5]
 
 
-def test_the_poses_walking_on_finds_are_where_the_walk_stays(monkeypatch):
-    *_, volume, _, _, _, sought = _estimates(monkeypatch, cusp_estimates.CONTACT_WALKS_ON)
+def test_the_poses_walking_on_finds_are_where_the_walk_stays(walked, monkeypatch):
+    _, (volume, _, _, _, sought), _ = walked
     assert sought
     late = 0
     for (_, piece, corner, normal), (_, _, best, found) in sought:
