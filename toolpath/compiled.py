@@ -48,6 +48,8 @@ from .projection_kernel import (
     near_seam,
     newton_step,
     no_farther,
+    other_face_nearer,
+    other_face_t,
     seam_corner,
     seam_lerp,
     trial,
@@ -438,15 +440,17 @@ def _project_block(p, sf, search, t, s, dist, lo, hi):
         for c in range(3):  # as np.zeros compiled three more of numba's kernels)
             pt[k, 0, c] = 0.0
     # each point is copied into a one-row array of this thread's, searched as row 0:
-    # faster than searching p[j] where it lies (measured 10-15 %)
-    q1 = np.empty((1, 3))
-    t1, s1, d1 = np.empty(1), np.empty(1), np.empty(1)
+    # faster than searching p[j] where it lies (measured 10-15 %); row 1 takes the search
+    # from the seam's other face (_seam_signed)
+    q1 = np.empty((2, 3))
+    t1, s1, d1 = np.empty(2), np.empty(2), np.empty(2)
     for j in range(lo, hi):
-        q1[0, 0], q1[0, 1], q1[0, 2] = p[j, 0], p[j, 1], p[j, 2]
+        for c in range(3):
+            q1[0, c] = q1[1, c] = p[j, c]
         t1[0], s1[0] = t[j], s[j]
         _project_one(q1, 0, t1, s1, sf, search, d1, work, fr, pt)
         if search.closed and search.orientation != 0.0:
-            _seam_signed(q1, 0, t1, s1, sf, search.orientation, d1, work, pt)
+            _seam_signed(q1, t1, s1, sf, search, d1, work, fr, pt)
         t[j], s[j], dist[j] = t1[0], s1[0], d1[0]
 
 
@@ -481,25 +485,35 @@ def _seam_normal(t, s, sf, orientation, work, pt, x, n):
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
-def _seam_signed(p, i, t, s, sf, orientation, dist, work, pt):
-    """The corner rule at a closed surface's seam for point ``i``, in place.
+def _seam_signed(p, t, s, sf, search, dist, work, fr, pt):
+    """The seam rules of :mod:`toolpath.projection_kernel` for the point ``p[0]``, in place.
 
-    For a foot within :data:`~toolpath.projection_kernel.SEAM_WINDOW_T` of the seam: the
-    foot, the seam point ``X(0, s)`` and the one-sided normals there evaluated, the rule
-    itself :func:`~toolpath.projection_kernel.seam_corner` (which states the math).
+    For a foot (``t[0], s[0]``, signed distance ``dist[0]``) :func:`near_seam`: the search
+    again from the other face (:func:`~toolpath.projection_kernel.other_face_t`, as row 1:
+    ``p[1]`` the same point), the nearer foot kept
+    (:func:`~toolpath.projection_kernel.other_face_nearer`); then the seam point ``X(0, s)``
+    and the one-sided normals there, and the corner rule
+    :func:`~toolpath.projection_kernel.seam_corner` (which states the math).
     """
-    ti, si = t[i], s[i]
-    if not near_seam(ti):
+    if not near_seam(t[0]):
         return
-    _partials_at(ti, si, sf, np.int64(0), pt, np.int64(0), work)
+    t[1], s[1] = other_face_t(t[0]), s[0]
+    _project_one(p, 1, t, s, sf, search, dist, work, fr, pt)
+    _partials_at(t[0], s[0], sf, np.int64(0), pt, np.int64(0), work)
     foot = pt[0, 0].copy()
+    _partials_at(t[1], s[1], sf, np.int64(0), pt, np.int64(0), work)
+    other = pt[0, 0].copy()
+    if other_face_nearer(p[0], foot, other):
+        t[0], s[0], dist[0] = t[1], s[1], dist[1]
+        foot = other
+    orientation = search.orientation
     seam_x, n_after = np.empty(3), np.empty(3)
     before_x, n_before = np.empty(3), np.empty(3)
-    _seam_normal(0.0, si, sf, orientation, work, pt, seam_x, n_after)
-    _seam_normal(SEAM_BEFORE_T, si, sf, orientation, work, pt, before_x, n_before)
-    at_seam, signed = seam_corner(p[i], foot, seam_x, n_before, n_after)
+    _seam_normal(0.0, s[0], sf, orientation, work, pt, seam_x, n_after)
+    _seam_normal(SEAM_BEFORE_T, s[0], sf, orientation, work, pt, before_x, n_before)
+    at_seam, signed = seam_corner(p[0], foot, seam_x, n_before, n_after)
     if at_seam:
-        t[i], dist[i] = 0.0, signed
+        t[0], dist[0] = 0.0, signed
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)

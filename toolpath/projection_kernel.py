@@ -7,9 +7,10 @@ a kernel, on rows of partials). The functions are numba kernels; the ``*_rows`` 
 the same scalar rule over arrays for the numpy caller (:func:`seam_lerp_rows` in numpy,
 from :func:`seam_lerp`'s own source). The scalar steps only kernels call
 (:func:`newton_step`, :func:`trial`, :func:`clamp_s`, :func:`seam_lerp`,
-:func:`near_seam`) are compiled without the wrappers that let Python call them (not in
-``__all__``; a first run compiled those wrappers for each, issue 27); :func:`wrap_t`,
-:func:`no_farther` and :func:`seam_corner` keep theirs.
+:func:`near_seam`, :func:`other_face_nearer`) are compiled without the wrappers that let
+Python call them (not in ``__all__``; a first run compiled those wrappers for each, issue
+27); :func:`wrap_t`, :func:`no_farther`, :func:`other_face_t` and :func:`seam_corner` keep
+theirs.
 
 **Newton step.** The foot of ``p`` minimizes ``f(t, s) = |X(t, s) - p|^2 / 2``: with
 ``d = X - p`` the gradient is ``(d.X_t, d.X_s)`` and the Hessian
@@ -27,8 +28,16 @@ folded by ``t - floor(t)`` (:func:`wrap_t`; clipped to [0, 1] on an open surface
 parameters are interpolated the short way across the seam (:func:`seam_lerp`). ``s`` is
 never closed: it is clipped (:func:`clamp_s`).
 
-**Seam corner.** A closed section may have a corner at its seam, where a foot found near it
-is replaced by the seam point when that is no farther (:func:`seam_corner`).
+**Seam faces.** Round a thin closed section (a blade's trailing edge) the face across the
+seam holds a local minimum of the distance too: a search started there (a move's ends
+interpolated across the seam) settles on the wrong face, whose normal reads a point beside
+the right one as inside the part by about the edge's thickness (a flat end on a propeller
+read 1.4 mm deep). A foot found within :data:`SEAM_SEARCH_T` of the seam is therefore
+searched for from the other face too (from :func:`other_face_t`) and the nearer of the two
+kept (:func:`other_face_nearer`), signed by its own face's normal.
+
+**Seam corner.** A closed section may have a corner at its seam, where the foot kept is
+replaced by the seam point when that is no farther (:func:`seam_corner`).
 """
 
 from __future__ import annotations
@@ -45,12 +54,14 @@ __all__ = [
     "HALVINGS",
     "NO_FARTHER_SHARE",
     "SEAM_BEFORE_T",
+    "SEAM_SEARCH_T",
     "SEAM_SLACK_MM",
-    "SEAM_WINDOW_T",
     "STEP_CLIP",
     "halve_rows",
     "newton_step_rows",
     "no_farther",
+    "other_face_nearer_rows",
+    "other_face_t",
     "seam_corner",
     "seam_corner_rows",
     "seam_lerp_rows",
@@ -179,17 +190,54 @@ def seam_lerp_rows(ta, tb, u, closed):
 
 #: ``t`` just before a closed surface's seam: its normal there is the one from below.
 SEAM_BEFORE_T = 1.0 - 1e-12
-#: A foot found within this of a closed surface's seam (in ``t``) is compared with the
-#: seam point (:func:`seam_corner`).
-SEAM_WINDOW_T = 1e-3
+#: A foot found within this of a closed surface's seam (in ``t``) is searched for from the
+#: other face too and compared with the seam point (module docstring). A search started
+#: across the seam settles on the far face at the mirror of the true foot (dev_prop_7x100,
+#: brute force: from ``t = 0.02`` a point beside ``t = 0.97``), and a foot stalled at the
+#: corner lands up to ``HALVINGS`` halvings of :data:`STEP_CLIP` (0.001) off it: a window
+#: of a twentieth of the section (5-10 mm round a blade) holds both, for one more search.
+SEAM_SEARCH_T = 0.05
 #: The seam point is taken where no farther than the foot found by more than this (mm).
 SEAM_SLACK_MM = 1e-6
 
 
 @numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
 def near_seam(t):
-    """Whether a foot at ``t`` is within :data:`SEAM_WINDOW_T` of a closed surface's seam."""
-    return min(t, 1.0 - t) <= SEAM_WINDOW_T
+    """Whether a foot at ``t`` is within :data:`SEAM_SEARCH_T` of a closed surface's seam."""
+    return min(t, 1.0 - t) <= SEAM_SEARCH_T
+
+
+@numba.njit(cache=True)
+def other_face_t(t):
+    """Where the search from the other face of the seam starts: ``t`` mirrored, ``1 - t``.
+
+    The same distance from the seam on its other side; a foot on the seam itself (``t = 0``)
+    mirrors to :data:`SEAM_BEFORE_T`, just before it (1 would fold back onto 0). (Scalars
+    or arrays alike.)
+    """
+    return np.minimum(1.0 - t, SEAM_BEFORE_T)
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def other_face_nearer(p, foot, other):
+    """Whether the foot ``other`` (found from the other face) is nearer ``p`` than ``foot``.
+
+    Both are local minima of the distance (or stalled beside the seam's corner); the nearer
+    is the closest point there, and its own face's normal signs it.
+    """
+    a = 0.0
+    b = 0.0
+    for k in range(3):
+        a += (p[k] - foot[k]) ** 2
+        b += (p[k] - other[k]) ** 2
+    return b < a
+
+
+@numba.njit(cache=True)
+def other_face_nearer_rows(p, foot, other, out):
+    """:func:`other_face_nearer` at each row of (n, 3) arrays, into the bool array ``out``."""
+    for j in range(p.shape[0]):
+        out[j] = other_face_nearer(p[j], foot[j], other[j])
 
 
 @numba.njit(cache=True)
@@ -202,11 +250,12 @@ def seam_corner(p, foot, seam_x, n_before, n_after):
     :data:`SEAM_BEFORE_T`) and ``n+`` (``t -> 0``), by up to 180 deg round a knife edge.
     A point beside the edge whose closest point is the corner itself (a cutter resting on
     the edge) has no orthogonal foot: the Newton search stalls beside the corner, and the
-    normal of one side reads it as cut into the part. For a foot ``X`` found
-    :func:`near_seam` the seam point ``X(0, s)`` is taken instead where it is no farther
-    from ``p`` (to :data:`SEAM_SLACK_MM`); there the distance is ``|p - X|`` signed by
-    ``(p - X) . (n- + n+)`` (outside a convex corner exactly when ``p - X`` is in the
-    normals' cone; on a smooth seam, ``n- = n+``, the usual ``(p - X) . n``).
+    normal of one side reads it as cut into the part. For the foot ``X`` kept
+    :func:`near_seam` (the nearer of both faces') the seam point ``X(0, s)`` is taken
+    instead where it is no farther from ``p`` (to :data:`SEAM_SLACK_MM`); there the
+    distance is ``|p - X|`` signed by ``(p - X) . (n- + n+)`` (outside a convex corner
+    exactly when ``p - X`` is in the normals' cone; on a smooth seam, ``n- = n+``, the
+    usual ``(p - X) . n``).
 
     ``p``, ``foot``, ``seam_x`` points (mm), the normals outward unit vectors (3,).
     Returns whether the seam point is taken and its signed distance (0 where not).

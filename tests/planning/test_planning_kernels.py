@@ -1,5 +1,7 @@
 """Compiled helpers of the planner against straightforward numpy (the same numbers)."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -338,6 +340,65 @@ def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out
                                      max_rounds=1).worst_mm
     assert cut_short > res.planned_chord_tol_mm
 
+
+def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_length(
+        monkeypatch):
+    # the runaway of a flat end on a propeller (--on-gouge lift): over a stretch the gap
+    # measured inside every move stood 1 mm deep whatever the move's length (a gap read
+    # beside a knife edge), and each round split those moves into up to 8 parts, 12 rounds
+    # (16 min, then out of memory). Here a stretch of one pass reads 1 mm deep in every
+    # move: its moves are split STALLED_SPLITS times, their parts found stalled and left
+    # whole, counted in the planned error; the points stay bounded and the other moves as
+    # before. Fails with STALLED_SHARE = inf (or the stalled moves split anyway): too many
+    # points. (A ball's moves are never found stalled: its gap falls to 0 at its own
+    # locations.)
+    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    clean = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    assert clean.n_stalled == 0
+    measured = passes._gap_extremes
+
+    def deep_stretch(surface, cutter, res, pts, idx, machine, q):
+        low, high = measured(surface, cutter, res, pts, idx, machine, q)
+        inside = (pts.pid[idx] == 2) & (pts.t[idx] >= 0.4) & (pts.t[idx + 1] <= 0.6)
+        return np.where(inside, -1.0, low), high
+
+    monkeypatch.setattr(passes, "_gap_extremes", deep_stretch)
+    out = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    in_stretch = (start.pid == 2) & (start.t >= 0.4) & (start.t <= 0.6)
+    moves = int(in_stretch.sum()) - 1
+    assert out.n_stalled >= moves and out.stalled_mm == 1.0 and out.worst_mm == 1.0
+    # split STALLED_SPLITS times (into MAX_PARTS each; a move either side of the stretch
+    # too), then left whole
+    assert len(out.points) <= (len(clean.points)
+                               + passes.MAX_PARTS ** passes.STALLED_SPLITS * (moves + 1))
+
+
+
+def test_plan_reports_the_moves_the_chord_check_left_stalled(monkeypatch):
+    # the chord check's stalled moves (the test above) reach the plan's report, JSON and
+    # text, so a user can tell a gap read beside an edge from a measured chord error. The
+    # chord check is made to report 7 stalled moves up to 1 mm (a flat end's plan that
+    # stalls takes minutes). Fails if the plan drops RefinedChords.n_stalled or stalled_mm
+    # (the report's fields stay 0 and its line is missing).
+    refine = finishing.refine_chords
+
+    def stalled(*args, **kwargs):
+        return dataclasses.replace(refine(*args, **kwargs), n_stalled=7, stalled_mm=1.0)
+
+    monkeypatch.setattr(finishing, "refine_chords", stalled)
+    _, report = finishing.plan_finishing(EllipticBladeSurface(), "ball:6", scallop_mm=0.05,
+                                         chord_tol_mm=0.05, measure=False)
+    assert (report.n_stalled_moves, report.stalled_gap_mm) == (7, 1.0)
+    data = report.as_dict()
+    assert (data["n_stalled_moves"], data["stalled_gap_mm"]) == (7, 1.0)
+    line = [x for x in report.lines() if x.startswith("chord check")]
+    assert line and "7 move(s) left whole" in line[0] and "1.0000 mm" in line[0]
 
 def _greedy_by_search(grid, allowed, lower, scale, lookahead):
     """The greedy walk of pass_levels with np.searchsorted at every step."""

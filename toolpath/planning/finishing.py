@@ -789,7 +789,8 @@ def plan_finishing(surface: ParametricSurface, cutter: Cutter | str, *, scallop_
     clock.done()
 
     stages = _Stages(probe=probe, points=pts, cut=cut, spans=tuple(spans), gouge=gouge,
-                     planned_chord_mm=refined.worst_mm, machine=machined, scallop=scallop,
+                     planned_chord_mm=refined.worst_mm, n_stalled=refined.n_stalled,
+                     stalled_mm=refined.stalled_mm, machine=machined, scallop=scallop,
                      chord=chord, seconds=dict(clock.seconds))
     return path, _report(job, stages, path)
 
@@ -969,7 +970,8 @@ def _clearance(opts: FinishingOptions, probe: ProbeGrid
 class _Stages:
     """What the stages found, for the report.
 
-    ``cut``: the points the runs cut; ``planned_chord_mm``: the chord check's largest gap
+    ``cut``: the points the runs cut; ``planned_chord_mm``: the chord check's largest gap,
+    ``n_stalled``, ``stalled_mm`` the moves it left whole as stalled and their largest gap
     (:class:`~toolpath.planning.passes.RefinedChords`); ``scallop``, ``chord``: the
     measurement (None with ``measure=False``); ``machine``: None without a machine.
     """
@@ -980,6 +982,8 @@ class _Stages:
     spans: tuple[UnreachableSpan, ...]
     gouge: GougeStats
     planned_chord_mm: float
+    n_stalled: int
+    stalled_mm: float
     machine: MachineStats | None
     scallop: ScallopMeasurement | None
     chord: ChordMeasurement | None
@@ -1145,4 +1149,5 @@ def _report(job: _Job, stages: _Stages, path: Toolpath) -> PlanningReport:
         linking_reason=job.linking_reason,
         rotary_rates=(rotary_rates(path, mach) if mach is not None
                       and mach.kinematics.is_five_axis else None),
-        blunt_face=blunt_face(job.surface, opts.chord_tol_mm))
+        blunt_face=blunt_face(job.surface, opts.chord_tol_mm),
+        n_stalled_moves=stages.n_stalled, stalled_gap_mm=stages.stalled_mm)

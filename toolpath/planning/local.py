@@ -27,10 +27,12 @@ from numpy.typing import ArrayLike, NDArray
 from ..projection_kernel import (
     HALVINGS,
     SEAM_BEFORE_T,
-    SEAM_WINDOW_T,
+    SEAM_SEARCH_T,
     halve_rows,
     newton_step_rows,
     no_farther,
+    other_face_nearer_rows,
+    other_face_t,
     seam_corner_rows,
 )
 from ..surface import FRAME_ORDERS, ParametricSurface, parameter_pairs
@@ -235,9 +237,10 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     """Signed distance ``(p - X) . n`` to the closest point found from ``(t0, s0)``, mm.
 
     Positive on the outward side. The foot by :func:`project_to_surface`; returns the
-    distance and the foot's ``t``, ``s``. Beside a corner at a closed surface's seam (a
-    sharp trailing edge) the seam point where no farther, and ``|p - X|`` signed by the sum
-    of the two one-sided normals (:func:`toolpath.projection_kernel.seam_corner`).
+    distance and the foot's ``t``, ``s``. Beside a closed surface's seam the foot searched
+    for from the other face too, the nearer kept; beside a corner there (a sharp trailing
+    edge) the seam point where no farther, and ``|p - X|`` signed by the sum of the two
+    one-sided normals (:func:`toolpath.projection_kernel.seam_corner`).
     """
     p = np.asarray(points_mm, dtype=float).reshape(-1, 3)
     kernel = surface.kernel()
@@ -249,14 +252,35 @@ def signed_distance_near(surface: ParametricSurface, points_mm: ArrayLike, t0: A
     x, normals = surface.points_and_normals(t, s)
     signed = np.einsum("ij,ij->i", p - x, normals)
     if surface.closed_t and len(p):
-        # a foot beside the seam (a corner there, e.g. a sharp trailing edge): the seam point
-        # where no farther (projection_kernel.seam_corner, as the compiled search applies it)
-        near = np.flatnonzero(np.minimum(t, 1.0 - t) <= SEAM_WINDOW_T)
-        seam_x, n_after = surface.points_and_normals(np.zeros(near.size), s[near])
-        n_before = surface.points_and_normals(np.full(near.size, SEAM_BEFORE_T), s[near])[1]
-        seam_corner_rows(*(np.ascontiguousarray(a, dtype=float)
-                           for a in (p, x, seam_x, n_before, n_after)), near, t, signed)
+        _seam_rules(surface, p, t, s, x, signed, iterations)
     return signed, t, s
+
+
+def _seam_rules(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],
+                s: NDArray[np.float64], x: NDArray[np.float64], signed: NDArray[np.float64],
+                iterations: int) -> None:
+    """The seam rules of :mod:`toolpath.projection_kernel` on rows, in place (as compiled).
+
+    A foot ``x`` within :data:`~toolpath.projection_kernel.SEAM_SEARCH_T` of the seam: the
+    search again from the other face (:func:`~toolpath.projection_kernel.other_face_t`),
+    the nearer foot kept, signed by its own normal; then the seam point where no farther
+    (:func:`~toolpath.projection_kernel.seam_corner`).
+    """
+    near = np.flatnonzero(np.minimum(t, 1.0 - t) <= SEAM_SEARCH_T)
+    if not near.size:
+        return
+    t_o, s_o, _ = project_to_surface(surface, p[near], other_face_t(t[near]), s[near],
+                                     iterations=iterations)
+    x_o, n_o = surface.points_and_normals(t_o, s_o)
+    other = np.empty(near.size, dtype=bool)
+    other_face_nearer_rows(p[near], np.ascontiguousarray(x[near]), x_o, other)
+    taken = near[other]
+    t[taken], s[taken], x[taken] = t_o[other], s_o[other], x_o[other]
+    signed[taken] = np.einsum("ij,ij->i", p[taken] - x_o[other], n_o[other])
+    seam_x, n_after = surface.points_and_normals(np.zeros(near.size), s[near])
+    n_before = surface.points_and_normals(np.full(near.size, SEAM_BEFORE_T), s[near])[1]
+    seam_corner_rows(*(np.ascontiguousarray(a, dtype=float)
+                       for a in (p, x, seam_x, n_before, n_after)), near, t, signed)
 
 
 def _newton_step(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],

@@ -82,6 +82,17 @@ MEASURED_NEAR_U = 0.05
 
 #: Refinement rounds; each halves the offending chords, so 12 rounds shrink one 4096-fold.
 MAX_CHORD_ROUNDS = 12
+#: A move :data:`STALLED_SPLITS` splits down a line whose gap's excess over its limit is
+#: still above this share of the line's first move's is not split again
+#: (:func:`_not_shrunk`; flat and bull-nose cutters). A chord's gap falls with the square
+#: of its length (a part of ``p`` keeps ``1 / p^2 <= 1/4`` of it; where the cutter's
+#: lowest point jumps, a kink, ``1 / p <= 1/2``); where a flat end's lowest point moves
+#: along with the split, slower (dev_rotor_dca flat:6: 0.8-0.9 a split, 0.6 over three,
+#: then it settles). One that does not fall at all is not the chord's: the cutter there
+#: stands off or sinks in whatever the length (a gap measured beside an edge: dev_prop
+#: flat:6 read 1 mm over five splits), and splitting it multiplies points 8-fold a round.
+STALLED_SHARE = 0.8
+STALLED_SPLITS = 3
 #: With a 5-axis machine, the most a cutting move's joint interpolation may carry the tip
 #: sideways, across the pass (it widens the stepover: 0.002 mm on a 0.35 mm stepover raises
 #: the cusp by 1 %); along the normal the gap check sees it, along the feed it is harmless.
@@ -625,11 +636,19 @@ class RefinedChords:
         The largest ``|gap|`` (the model's extreme, measured where near a limit) over the
         moves left whole, in whichever round they were checked: every final move (an upper
         bound where an insertion smoothed the axes again and moved a checked move's ends).
+        Stalled moves' gaps count.
+    n_stalled : int
+        Moves beyond the tolerance left whole because splitting did not shrink their gap
+        (:data:`STALLED_SHARE`).
+    stalled_mm : float
+        The largest ``|gap|`` among them (0 when none).
     """
 
     points: PassPoints
     keep: NDArray[np.bool_] | None
     worst_mm: float
+    n_stalled: int = 0
+    stalled_mm: float = 0.0
 
 
 def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOptions,
@@ -646,6 +665,11 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     ``max_rounds`` rounds (:data:`MAX_CHORD_ROUNDS`) the parts of the moves split last go
     unchecked, and the gaps of the whole moves stand for them in ``worst_mm``.
 
+    A part of a split move whose gap did not shrink with its length, several splits running
+    (:func:`_not_shrunk`: flat and bull-nose cutters), is left whole: its gap is not the
+    chord's, and it counts in ``worst_mm`` and ``n_stalled``; so the points grow only
+    where splitting helps.
+
     After the first round the split moves go on alone (``pts`` then holds their ends and
     new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
     and are merged into the others once, at the end: merging each round copies every point
@@ -661,7 +685,12 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     origin: NDArray[np.int64] | None = None
     start_joints: InverseSolution | None = None
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
-    worst = unchecked = 0.0
+    worst = unchecked = stalled_mm = 0.0
+    n_stalled = 0
+    # per point: the excess of the move its line of splits started from (0: none), and
+    # how many splits deep it is
+    first_over = np.zeros(len(pts))
+    depth = np.zeros(len(pts), dtype=np.int64)
     for _ in range(max_rounds):
         seg_ok = pts.same_pass & check
         if keep is not None:
@@ -678,6 +707,14 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         low, high = _gap_extremes(surface, cutter, res, pts, idx, machine, q)
         bad = _moves_to_split(cutter, res, pts, idx, low, high, machine, q)
         gap = np.maximum(-low, high)
+        over = over_all = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))
+        origin_over = np.maximum(first_over[idx], first_over[idx + 1])
+        deep = np.maximum(depth[idx], depth[idx + 1])
+        stalled = bad & _not_shrunk(cutter, over, origin_over, deep)
+        if stalled.any():
+            n_stalled += int(stalled.sum())
+            stalled_mm = max(stalled_mm, float(gap[stalled].max()))
+            bad &= ~stalled
         if not bad.all():  # the moves left whole are final: the worst of them is reported
             worst = max(worst, float(gap[~bad].max()))
         if not bad.any():
@@ -686,7 +723,7 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # moves' gaps, larger, stand for them)
         unchecked = float(gap[bad].max())
         j = idx[bad]
-        over = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))[bad]
+        over = over[bad]
         parts = np.clip(np.ceil(np.sqrt(over / SPLIT_TARGET)), 2, MAX_PARTS).astype(np.int64)
         new_t, which = split_evenly(pts.t[j], pts.t[j + 1], parts)
         new_pid = pts.pid[j][which]
@@ -708,12 +745,52 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             raise too_many_points(opts, n_points)
         keep = None if keep is None else _kept_with_new(keep, where_new)
         check = _checked_again(cutter, tol, before, pts, where_new, kept)
+        first_over, depth = _split_lines(len(pts), where_new, which,
+                                         np.where(origin_over > 0.0, origin_over, over_all)[bad],
+                                         deep[bad])
     else:
         worst = max(worst, unchecked)
     if origin is not None:
         pts, keep = _merged_back(start, keep_start, pts, origin)
     return RefinedChords(with_rate_record(cutter, pts) if len(pts) > len(start) else pts,
-                         keep, worst)
+                         keep, worst, n_stalled, stalled_mm)
+
+
+def _not_shrunk(cutter: Cutter, over: NDArray[np.float64], origin_over: NDArray[np.float64],
+                depth: NDArray[np.int64]) -> NDArray[np.bool_]:
+    """Moves whose gap did not fall over :data:`STALLED_SPLITS` splits of their line.
+
+    ``over``: each move's gap over its limit (a ratio, > 1 beyond it); ``origin_over``:
+    that of the move its line of splits started from (0: a move never split), ``depth``
+    how many splits ago. Stalled: at least :data:`STALLED_SPLITS` deep, beyond the limit,
+    and still above :data:`STALLED_SHARE` of where it started.
+
+    Flat and bull-nose cutters only. A ball's gap at its own locations is 0 by
+    construction (its centre stands ``R`` off the contact along the normal), so its moves'
+    gaps fall to 0 with their length (a 5-axis part may first measure more than its whole
+    move, up to twice, where the axes were smoothed again: it settles in the next rounds).
+    A flat end's gap at its location is the lowest point of its disc, which the surface
+    can meet anywhere under it (or be measured beside an edge): it need not fall.
+    """
+    if cutter.kind is CutterKind.BALL:
+        return np.zeros(over.size, dtype=bool)
+    return ((depth >= STALLED_SPLITS) & (origin_over > 1.0) & (over > 1.0)
+            & (over > STALLED_SHARE * origin_over))
+
+
+def _split_lines(n_points: int, where_new: NDArray[np.int64], which: NDArray[np.int64],
+                 origin_over: NDArray[np.float64], depth: NDArray[np.int64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+    """Per point, the line of splits a new point belongs to (:func:`_not_shrunk`).
+
+    ``where_new``: the new points' rows, ``which``: the split move each was inserted into
+    (rows of ``origin_over`` and ``depth``, the split moves' lines). Old points: none.
+    """
+    first_over = np.zeros(n_points)
+    first_over[where_new] = origin_over[which]
+    deep = np.zeros(n_points, dtype=np.int64)
+    deep[where_new] = depth[which] + 1
+    return first_over, deep
 
 
 def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,

@@ -135,6 +135,13 @@ class PlanningReport:
         Largest cutter-to-surface gap the planner's own chord check estimates on any
         cutting move it kept (the gap model through three gaps per move, or a ball's
         end slopes and one gap).
+    n_stalled_moves : int
+        Cutting moves the chord check left whole beyond its tolerance because splitting
+        them did not shrink their gap (:data:`~toolpath.planning.passes.STALLED_SHARE`):
+        mostly a gap misread beside an edge, but a real overcut can stall too
+        (dev_rotor_dca's flat:6 5-axis job), so the measured chord error and ``toolpath
+        verify`` judge them; ``stalled_gap_mm`` the largest such planned gap (0: none).
+        Their gaps count in ``planned_chord_error_mm``.
     min_clearance_mm : float
         Smallest distance from the cutter to any surface sample away from its contact
         (the global gouge check); ``inf`` beyond the check's horizon; negative is a gouge.
@@ -243,6 +250,8 @@ class PlanningReport:
     linking_reason: str = ""
     rotary_rates: RotaryRates | None = None
     blunt_face: BluntFace | None = None
+    n_stalled_moves: int = 0
+    stalled_gap_mm: float = 0.0
     n_fold_points: int = 0
     max_fold_lift_mm: float = 0.0
 
@@ -361,6 +370,11 @@ class PlanningReport:
     def _uncut_lines(self) -> list[str]:
         """Area left uncut, cutter locations moved off gouges and folds, unreachable regions."""
         out = []
+        if self.n_stalled_moves:
+            out.append(f"chord check       {self.n_stalled_moves} move(s) left whole: splitting "
+                       f"did not shrink their planned gap (up to {self.stalled_gap_mm:.4f} mm: "
+                       f"a gap misread beside an edge, or a real one; the measured chord "
+                       f"error above and `toolpath verify` judge them)")
         if self.uncut_fraction is not None:
             out.append(f"uncut area        {100 * self.uncut_fraction:.2f} % of the surface")
         if self.n_lifted or self.n_retilted:

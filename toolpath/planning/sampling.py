@@ -328,18 +328,25 @@ class _Disc:
         """Signed distance of points to the surface and the foot's ``t, s``.
 
         With ``curvature=True`` also the foot's normal and largest absolute principal
-        curvature (1/mm).
+        curvature (1/mm). On a closed surface the foot and distance are always
+        :func:`~toolpath.planning.local.signed_distance_near`'s, whose seam rules search
+        the seam's other face too (a disc centre beside a knife edge, its search started
+        across the seam, read 1.4 mm inside the part from the far face).
         """
-        if not curvature:
+        if not curvature or self.surface.closed_t:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
                                                   iterations=self.iterations)
-            return signed, tt, ss
-        tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
-                                       iterations=self.iterations)
-        f = self.surface.frame(tt, ss)
+            if not curvature:
+                return signed, tt, ss
+            f = self.surface.frame(tt, ss)
+        else:
+            tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
+                                           iterations=self.iterations)
+            f = self.surface.frame(tt, ss)
+            signed = np.einsum("ij,ij->i", points - f.point, f.normal)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
-        return np.einsum("ij,ij->i", points - f.point, f.normal), tt, ss, f.normal, bend
+        return signed, tt, ss, f.normal, bend
 
     def rim(self, rows: NDArray[np.int64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
         """Rim points at ``angle`` (rad, from ``b1`` towards ``b2``) of discs ``rows``."""
