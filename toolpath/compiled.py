@@ -45,6 +45,7 @@ from .projection_kernel import (
     HALVINGS,
     SEAM_BEFORE_T,
     STEP_CLIP,
+    mirror_nearer,
     near_seam,
     newton_step,
     no_farther,
@@ -488,7 +489,9 @@ def _seam_normal(t, s, sf, orientation, work, pt, x, n):
 def _seam_signed(p, t, s, sf, search, dist, work, fr, pt):
     """The seam rules of :mod:`toolpath.projection_kernel` for the point ``p[0]``, in place.
 
-    For a foot (``t[0], s[0]``, signed distance ``dist[0]``) :func:`near_seam`: the search
+    For a foot (``t[0], s[0]``, signed distance ``dist[0]``) :func:`near_seam`, or farther
+    out with ``p[0]`` :func:`~toolpath.projection_kernel.mirror_nearer` (read deeper than it
+    lies from the foot's mirror ``X(1 - t, s)``, evaluated for points read inside): the search
     again from the other face (:func:`~toolpath.projection_kernel.other_face_t`, as row 1:
     ``p[1]`` the same point), the nearer foot kept
     (:func:`~toolpath.projection_kernel.other_face_nearer`); then the seam point ``X(0, s)``
@@ -496,7 +499,11 @@ def _seam_signed(p, t, s, sf, search, dist, work, fr, pt):
     :func:`~toolpath.projection_kernel.seam_corner` (which states the math).
     """
     if not near_seam(t[0]):
-        return
+        if dist[0] >= 0.0:
+            return
+        _partials_at(other_face_t(t[0]), s[0], sf, np.int64(0), pt, np.int64(0), work)
+        if not mirror_nearer(p[0], pt[0, 0], dist[0]):
+            return
     t[1], s[1] = other_face_t(t[0]), s[0]
     _project_one(p, 1, t, s, sf, search, dist, work, fr, pt)
     _partials_at(t[0], s[0], sf, np.int64(0), pt, np.int64(0), work)

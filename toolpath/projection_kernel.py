@@ -7,10 +7,10 @@ a kernel, on rows of partials). The functions are numba kernels; the ``*_rows`` 
 the same scalar rule over arrays for the numpy caller (:func:`seam_lerp_rows` in numpy,
 from :func:`seam_lerp`'s own source). The scalar steps only kernels call
 (:func:`newton_step`, :func:`trial`, :func:`clamp_s`, :func:`seam_lerp`,
-:func:`near_seam`, :func:`other_face_nearer`) are compiled without the wrappers that let
-Python call them (not in ``__all__``; a first run compiled those wrappers for each, issue
-27); :func:`wrap_t`, :func:`no_farther`, :func:`other_face_t` and :func:`seam_corner` keep
-theirs.
+:func:`near_seam`, :func:`other_face_nearer`, :func:`mirror_nearer`) are compiled without
+the wrappers that let Python call them (not in ``__all__``; a first run compiled those
+wrappers for each, issue 27); :func:`wrap_t`, :func:`no_farther`, :func:`other_face_t` and
+:func:`seam_corner` keep theirs.
 
 **Newton step.** The foot of ``p`` minimizes ``f(t, s) = |X(t, s) - p|^2 / 2``: with
 ``d = X - p`` the gradient is ``(d.X_t, d.X_s)`` and the Hessian
@@ -34,7 +34,11 @@ interpolated across the seam) settles on the wrong face, whose normal reads a po
 the right one as inside the part by about the edge's thickness (a flat end on a propeller
 read 1.4 mm deep). A foot found within :data:`SEAM_SEARCH_T` of the seam is therefore
 searched for from the other face too (from :func:`other_face_t`) and the nearer of the two
-kept (:func:`other_face_nearer`), signed by its own face's normal.
+kept (:func:`other_face_nearer`), signed by its own face's normal. So is a foot farther out
+that reads the point inside by more than the point lies from the foot's mirror ``X(1 - t,
+s)`` (:func:`mirror_nearer`): deeper than the section is thick there, so beyond the other
+face (a true foot 0.05-0.065 from the seam, the wrong one at its mirror just outside the
+window, read 2-4 mm deep from points 2 um outside).
 
 **Seam corner.** A closed section may have a corner at its seam, where the foot kept is
 replaced by the seam point when that is no farther (:func:`seam_corner`).
@@ -60,6 +64,7 @@ __all__ = [
     "halve_rows",
     "newton_step_rows",
     "no_farther",
+    "mirror_nearer_rows",
     "other_face_nearer_rows",
     "other_face_t",
     "seam_corner",
@@ -196,6 +201,7 @@ SEAM_BEFORE_T = 1.0 - 1e-12
 #: brute force: from ``t = 0.02`` a point beside ``t = 0.97``), and a foot stalled at the
 #: corner lands up to ``HALVINGS`` halvings of :data:`STEP_CLIP` (0.001) off it: a window
 #: of a twentieth of the section (5-10 mm round a blade) holds both, for one more search.
+#: A mirror settled just beyond it is caught by the depth it reads (:func:`mirror_nearer`).
 SEAM_SEARCH_T = 0.05
 #: The seam point is taken where no farther than the foot found by more than this (mm).
 SEAM_SLACK_MM = 1e-6
@@ -238,6 +244,32 @@ def other_face_nearer_rows(p, foot, other, out):
     """:func:`other_face_nearer` at each row of (n, 3) arrays, into the bool array ``out``."""
     for j in range(p.shape[0]):
         out[j] = other_face_nearer(p[j], foot[j], other[j])
+
+
+@numba.njit(cache=True, no_cpython_wrapper=True, no_cfunc_wrapper=True)
+def mirror_nearer(p, mirror, signed):
+    """Whether ``p``, read ``signed`` (mm) from its foot ``X(t, s)``, is nearer the mirror.
+
+    ``mirror`` is ``X(1 - t, s)``, the point across the seam as far from it as the foot (on a
+    thin section about the other face's foot of ``p``). A point read inside (``signed < 0``)
+    that lies nearer the mirror than ``|signed|`` (its distance from an orthogonal foot) is
+    not at its closest point: the read depth exceeds the section's thickness there, and the
+    foot is a wrong face's, its search settled beyond :data:`SEAM_SEARCH_T`. A point read
+    outside is never re-searched this way (one surface point, only for points read inside).
+    """
+    if signed >= 0.0:
+        return False
+    d2 = 0.0
+    for k in range(3):
+        d2 += (p[k] - mirror[k]) ** 2
+    return d2 < signed * signed
+
+
+@numba.njit(cache=True)
+def mirror_nearer_rows(p, mirror, signed, out):
+    """:func:`mirror_nearer` at each row of (n, 3) arrays, into the bool array ``out``."""
+    for j in range(p.shape[0]):
+        out[j] = mirror_nearer(p[j], mirror[j], signed[j])
 
 
 @numba.njit(cache=True)

@@ -29,6 +29,7 @@ from ..projection_kernel import (
     SEAM_BEFORE_T,
     SEAM_SEARCH_T,
     halve_rows,
+    mirror_nearer_rows,
     newton_step_rows,
     no_farther,
     other_face_nearer_rows,
@@ -261,12 +262,15 @@ def _seam_rules(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[n
                 iterations: int) -> None:
     """The seam rules of :mod:`toolpath.projection_kernel` on rows, in place (as compiled).
 
-    A foot ``x`` within :data:`~toolpath.projection_kernel.SEAM_SEARCH_T` of the seam: the
+    A foot ``x`` within :data:`~toolpath.projection_kernel.SEAM_SEARCH_T` of the seam, or
+    farther out one reading its point deeper than the point lies from the foot's mirror
+    (:func:`~toolpath.projection_kernel.mirror_nearer`, :func:`_read_past_mirror`): the
     search again from the other face (:func:`~toolpath.projection_kernel.other_face_t`),
     the nearer foot kept, signed by its own normal; then the seam point where no farther
     (:func:`~toolpath.projection_kernel.seam_corner`).
     """
-    near = np.flatnonzero(np.minimum(t, 1.0 - t) <= SEAM_SEARCH_T)
+    near = np.flatnonzero((np.minimum(t, 1.0 - t) <= SEAM_SEARCH_T)
+                          | _read_past_mirror(surface, p, t, s, signed))
     if not near.size:
         return
     t_o, s_o, _ = project_to_surface(surface, p[near], other_face_t(t[near]), s[near],
@@ -281,6 +285,23 @@ def _seam_rules(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[n
     n_before = surface.points_and_normals(np.full(near.size, SEAM_BEFORE_T), s[near])[1]
     seam_corner_rows(*(np.ascontiguousarray(a, dtype=float)
                        for a in (p, x, seam_x, n_before, n_after)), near, t, signed)
+
+
+def _read_past_mirror(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],
+                      s: NDArray[np.float64], signed: NDArray[np.float64]) -> NDArray[np.bool_]:
+    """Rows :func:`~toolpath.projection_kernel.mirror_nearer`: read inside, past the mirror.
+
+    The mirror ``X(1 - t, s)`` evaluated only at rows read inside (``signed < 0``).
+    """
+    out = np.zeros(len(p), dtype=bool)
+    inside = np.flatnonzero(signed < 0.0)
+    if inside.size:
+        mirror = surface(other_face_t(t[inside]), s[inside])
+        hit = np.empty(inside.size, dtype=bool)
+        mirror_nearer_rows(*(np.ascontiguousarray(a, dtype=float)
+                             for a in (p[inside], mirror, signed[inside])), hit)
+        out[inside] = hit
+    return out
 
 
 def _newton_step(surface: ParametricSurface, p: NDArray[np.float64], t: NDArray[np.float64],
