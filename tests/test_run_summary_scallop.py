@@ -3,6 +3,7 @@
 A scallop above the measure's horizon has no number in the report's JSON (null, with
 ``scallop_above_horizon``); the summary says so instead of failing on it or printing 0.
 Where the largest cusp stands beside an uncut area, the one away from it is given too.
+Moves the chord check left whole (their gap did not fall when split) are told.
 """
 
 from __future__ import annotations
@@ -40,6 +41,16 @@ def test_a_scallop_above_the_horizon_reads_so():
 def test_a_cusp_beside_an_uncut_area_is_told_apart():
     line = _plan_line(max_scallop_mm=0.0366, scallop_interior_mm=0.0046)
     assert "scallop 0.0366 mm, 0.0046 mm away from uncut areas (asked 0.01)" in line
+
+
+def test_moves_the_chord_check_left_whole_are_told_under_the_plan_line():
+    # the chord figure of a plan with stalled moves (dev_prop_7x100 flat:6: 1.79 mm where
+    # the verifier finds 0.05) is explained under it; fails if run's summary drops them
+    lines = report_lines(_report(max_scallop_mm=0.13, max_chord_error_mm=1.7894,
+                                 n_stalled_moves=199, stalled_gap_mm=2.3374))
+    after = lines[lines.index(next(x for x in lines if x.startswith("plan "))) + 1]
+    assert "199 move(s) left whole" in after and "2.3374 mm" in after
+    assert not any("left whole" in x for x in report_lines(_report(max_scallop_mm=0.004)))
 
 
 def test_the_batch_line_says_above_the_horizon_not_zero():
