@@ -19,6 +19,7 @@ from gcode import Linear, Program, Rapid
 from toolpath.planning.analytic import PlaneSurface
 from toolpath.planning.cutters import parse_cutter
 from verification import VerifyOptions, verify_program
+from verification.search import Dexels
 from verification.torus import (
     core_signed_distance,
     sweep_bound,
@@ -204,3 +205,47 @@ def test_samples_facing_away_start_at_the_widest_level_with_the_same_results(rou
         np.testing.assert_array_equal(guessed.deviation_map.block_index,
                                       plain.deviation_map.block_index)
         assert guessed.max_gouge_mm == plain.max_gouge_mm
+
+
+def test_a_dexel_started_wide_that_stops_narrower_names_the_narrower_levels_block(
+        router, monkeypatch):
+    # a bull-nose pass split into two blocks gouges 0.05 mm through the plate's underside
+    # (facing away: started at the widest level): where both blocks leave the same 0.05 mm
+    # on a dexel, the first block's end lies within the widest level's ball but outside the
+    # level the deepening stops at, which holds only the second block: the deepening names
+    # the second, the widest level the first (the tie rule). Dexels._narrower searches such
+    # dexels again at their level: the same blocks, gouged areas and lines as the deepening
+    # from the narrowest level; mutation caught: the ``self._narrower(...)`` call dropped
+    # from Dexels.search (122 samples name the other block, the blocks' areas move 1.2 mm2)
+    cutter = parse_cutter("bull:6:1")
+    bottom = PlaneSurface((0.0, 0.0, -0.3), (0.0, 6.0, 0.0), (6.0, 0.0, 0.0))
+    program = Program((Rapid(z=5.0), Rapid(x=-5.0, y=3.0), Linear(z=-0.35, feed=300.0),
+                       Linear(x=3.0, feed=800.0), Linear(x=11.0, feed=800.0),
+                       Rapid(z=5.0)))
+    options = VerifyOptions(spacing_mm=0.1)
+    grid_search = verify_module.grid_search
+
+    def no_guess(ev, samples, stride, *, guess_mm=None):
+        assert np.isinf(guess_mm).any()  # the underside is started at the widest level
+        return grid_search(ev, samples, stride)
+
+    def verify():
+        return verify_program(program, bottom, router, cutter, options=options)
+
+    guessed = verify()
+    with monkeypatch.context() as m:
+        m.setattr(verify_module, "grid_search", no_guess)
+        plain = verify()
+    with monkeypatch.context() as m:
+        m.setattr(Dexels, "_narrower", lambda *args: None)
+        widest = verify()
+    # the case has ties the narrower levels decide (else it could not fail): both blocks
+    # gouge, and the widest level alone names the other block on some samples
+    assert [g.block_index for g in plain.gouging_blocks] == [3, 4]
+    assert (widest.deviation_map.block_index != plain.deviation_map.block_index).any()
+    np.testing.assert_array_equal(guessed.deviation_map.deviation_mm,
+                                  plain.deviation_map.deviation_mm)
+    np.testing.assert_array_equal(guessed.deviation_map.block_index,
+                                  plain.deviation_map.block_index)
+    assert guessed.gouging_blocks == plain.gouging_blocks
+    assert guessed.max_gouge == plain.max_gouge
