@@ -333,16 +333,18 @@ class _Disc:
         the seam's other face too (a disc centre beside a knife edge, its search started
         across the seam, read 1.4 mm inside the part from the far face).
         """
-        if not curvature or self.surface.closed_t:
+        if not curvature:
+            return signed_distance_near(self.surface, points, tt, ss,
+                                        iterations=self.iterations)
+        signed = None
+        if self.surface.closed_t:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
                                                   iterations=self.iterations)
-            if not curvature:
-                return signed, tt, ss
-            f = self.surface.frame(tt, ss)
         else:
             tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
                                            iterations=self.iterations)
-            f = self.surface.frame(tt, ss)
+        f = self.surface.frame(tt, ss)
+        if signed is None:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
