@@ -589,7 +589,8 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
 
     ``sf`` the surface (:class:`SurfaceArrays`), ``search`` the :class:`NewtonSearch`,
     ``work`` a :class:`Scratch`; ``fr`` and ``pt`` take the partials (up to the second at
-    the point the step starts from, the first at its trial points).
+    the point the step starts from; at its trial points X, its first partials on a last
+    step, up to the second where another step follows).
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
     halved (up to :data:`~toolpath.projection_kernel.HALVINGS` times) while its point is

@@ -297,11 +297,14 @@ def _in_python(compiled):
     return types.FunctionType(f.__code__, {**f.__globals__, **names})
 
 
-def _project_fresh(kernel, point, t, s, iterations, extra, converged_mm, orientation):
+def _project_fresh(kernel, point, t, s, iterations, extra, converged_mm, orientation,
+                   no_closer=None):
     """:func:`toolpath.compiled._project_one` as it was: every step's partials evaluated anew.
 
     The reference for the kernel's reuse of a taken trial point's partials (same steps,
-    same numbers): scalars in Python through the kernel's own step functions.
+    same numbers): scalars in Python through the kernel's own step functions. The steps
+    whose every halving stayed farther (the last trial taken all the same) are counted in
+    ``no_closer`` (a list, appended to).
     """
     from toolpath.compiled import SMALL_STEP_SHARE, _taylor_signed
     from toolpath.projection_kernel import HALVINGS, STEP_CLIP, newton_step, no_farther, trial
@@ -339,6 +342,8 @@ def _project_fresh(kernel, point, t, s, iterations, extra, converged_mm, orienta
             new_t, new_s = trial(t, s, step_t, step_s, closed)
         else:
             pt = frame(new_t, new_s, tangents)
+            if no_closer is not None and k + 1 < iterations:
+                no_closer.append(k)
         moved = math.sqrt(_squared(pt[0, 0] - fr[0, 0]))
         t, s = new_t, new_s
     if orientation == 0.0:
@@ -346,24 +351,32 @@ def _project_fresh(kernel, point, t, s, iterations, extra, converged_mm, orienta
     return t, s, taylor(p, 0, frame(t, s, 1), 0.0, 0.0, orientation)
 
 
+@pytest.mark.parametrize("seeds", ["near", "anywhere"])
 @pytest.mark.parametrize("iterations", [1, 3, 7])
 @pytest.mark.parametrize("orientation", [0.0, -1.0])
 def test_projection_reusing_a_taken_points_partials_takes_the_fresh_steps(blade, iterations,
-                                                                          orientation):
+                                                                          orientation, seeds):
     # the kernel takes the next step's partials from its last trial point (evaluated to
     # the second order where another step surely follows): the same feet and distances,
-    # to the bit, as evaluating them anew every step. Mutation caught: the copy of the
-    # trial's partials into the next step's frame left out (stale second partials).
+    # to the bit, as evaluating them anew every step. Mutations caught: the copy of the
+    # trial's partials into the next step's frame left out (stale second partials); the
+    # trial taken after every halving stayed farther evaluated to the first order only
+    # (``tangents`` for ``ahead``: seeds anywhere on the blade reach that branch).
     rng = np.random.default_rng(11)
-    n = 60
+    n = 60 if seeds == "near" else 150
     t, s = rng.random(n), rng.random(n)
     points = blade(t, s) + rng.uniform(0.2, 3.0, n)[:, None] * blade.normal(t, s)
-    # seeds near and far (far ones take halvings and the extra steps)
-    t0 = np.clip(t + rng.normal(scale=0.05, size=n), 0, 1)
-    s0 = np.clip(s + rng.normal(scale=0.05, size=n), 0, 1)
+    if seeds == "near":  # near ones converge; far ones take halvings and the extra steps
+        t0 = np.clip(t + rng.normal(scale=0.05, size=n), 0, 1)
+        s0 = np.clip(s + rng.normal(scale=0.05, size=n), 0, 1)
+    else:
+        t0, s0 = rng.random(n), rng.random(n)
     kernel = blade.kernel()
     got = kernel.project(points, t0, s0, iterations, 24, 1e-3, orientation=orientation)
+    no_closer = []
     for i in range(n):
         want = _project_fresh(kernel, points[i], t0[i], s0[i], iterations, 24, 1e-3,
-                              orientation)
+                              orientation, no_closer)
         assert (got[0][i], got[1][i], got[2][i]) == want, i
+    if seeds == "anywhere" and iterations == 7:
+        assert no_closer, "no step of these seeds kept a trial that stayed farther"
