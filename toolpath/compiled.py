@@ -437,8 +437,8 @@ def _project_block(p, sf, search, t, s, dist, lo, hi):
     work = _scratch()
     fr = np.empty((6, 1, 3))
     pt = np.empty((6, 1, 3))
-    for k in range(6):  # (the second partials stay 0: read, times a zero step; a loop,
-        for c in range(3):  # as np.zeros compiled three more of numba's kernels)
+    for k in range(6):  # (the second partials, 0 or a trial point's, are read only times
+        for c in range(3):  # a zero step; a loop, as np.zeros compiled three more kernels)
             pt[k, 0, c] = 0.0
     # each point is copied into a one-row array of this thread's, searched as row 0:
     # faster than searching p[j] where it lies (measured 10-15 %); row 1 takes the search
@@ -589,7 +589,8 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
 
     ``sf`` the surface (:class:`SurfaceArrays`), ``search`` the :class:`NewtonSearch`,
     ``work`` a :class:`Scratch`; ``fr`` and ``pt`` take the partials (up to the second at
-    the point the step starts from, the first at its trial points).
+    the point the step starts from; at its trial points X, its first partials on a last
+    step, up to the second where another step follows).
     ``iterations`` steps, then up to ``extra`` more while a step moves the foot by more
     than ``converged_mm``; each step from :func:`~toolpath.projection_kernel.newton_step`,
     halved (up to :data:`~toolpath.projection_kernel.HALVINGS` times) while its point is
@@ -600,16 +601,21 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
     (:func:`_taylor_signed`; the numpy path evaluates both: the same foot to within that
     distance, the same distance to a nanometre). (The kernels then apply the corner rule
     at a closed surface's seam: :func:`_seam_signed`.) Called by :func:`_project_block`
-    alone (points inside moves come there too).
+    alone (points inside moves come there too). A trial point that another step surely
+    starts from is evaluated to the second partials at once, and that step takes them
+    (the same numbers as evaluating them there again: one evaluation a step, not two).
     """
     closed, iterations, extra, converged_mm, orientation = search
     ti, si = t[i], s[i]
     moved = np.inf
     have_tangents = False  # pt holds the first partials at (ti, si)
+    have_second = False  # fr holds the partials up to the second at (ti, si)
     for k in range(iterations + extra):
         if k >= iterations and moved <= converged_mm:
             break
-        _partials_at(ti, si, sf, np.int64(2), fr, np.int64(0), work)
+        if not have_second:
+            _partials_at(ti, si, sf, np.int64(2), fr, np.int64(0), work)
+        have_second = False
         step_t, step_s, here = newton_step(fr, 0, p, i)
         new_t, new_s = trial(ti, si, step_t, step_s, closed)
         xt0, xt1, xt2 = fr[1, 0, 0], fr[1, 0, 1], fr[1, 0, 2]
@@ -630,8 +636,12 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
         # where this may be the last step, the first partials there too: the signed
         # distance at the foot needs no other evaluation
         tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
+        # where another step surely follows, it starts from the point taken: the partials
+        # it needs there at once (X and its first partials are the same numbers at every
+        # order, :func:`_point_partials`), not X now and all of them again next step
+        ahead = np.int64(2) if k + 1 < iterations else np.int64(tangents)
         for _ in range(HALVINGS):
-            _partials_at(new_t, new_s, sf, tangents, pt, np.int64(0), work)
+            _partials_at(new_t, new_s, sf, ahead, pt, np.int64(0), work)
             e0 = pt[0, 0, 0] - p[i, 0]
             e1 = pt[0, 0, 1] - p[i, 1]
             e2 = pt[0, 0, 2] - p[i, 2]
@@ -642,13 +652,16 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
             step_s *= 0.5
             new_t, new_s = trial(ti, si, step_t, step_s, closed)
         if not closer:  # still farther after the last halving: the last step's point
-            _partials_at(new_t, new_s, sf, tangents, pt, np.int64(0), work)
+            _partials_at(new_t, new_s, sf, ahead, pt, np.int64(0), work)
         m0 = pt[0, 0, 0] - fr[0, 0, 0]
         m1 = pt[0, 0, 1] - fr[0, 0, 1]
         m2 = pt[0, 0, 2] - fr[0, 0, 2]
         moved = math.sqrt(m0 * m0 + m1 * m1 + m2 * m2)
         ti, si = new_t, new_s
         have_tangents = tangents == 1
+        if ahead == 2:
+            fr[:, 0, :] = pt[:, 0, :]
+            have_second = True
     if iterations + extra == 0:  # no step: the foot is the start
         _partials_at(ti, si, sf, np.int64(0), pt, np.int64(0), work)
     t[i], s[i] = ti, si

@@ -1,5 +1,7 @@
 """The compiled streamline kernels against independent evaluations and the numpy search."""
 
+import math
+
 import numpy as np
 import pytest
 import scipy.interpolate
@@ -275,3 +277,106 @@ def test_signed_distance_beside_a_sharp_seam_agrees_with_brute_force(thickness, 
                 # (beyond the edge the corner point's s stalls, ~1e-4: at 12 % up to 6 um at
                 # 3 mm; round the thinner edge 2 um at 0.3 mm, 8 um at 3 mm, as before)
                 assert (np.abs(got - truth) <= 1e-3 + stall_share * np.abs(truth)).all()
+
+
+def _squared(v):
+    """``|v|^2`` summed as the kernels sum it (a dot product may sum otherwise)."""
+    return float(v[0]) * float(v[0]) + float(v[1]) * float(v[1]) + float(v[2]) * float(v[2])
+
+
+def _in_python(compiled):
+    """A compiled kernel function's own source run in Python, its compiled callees likewise.
+
+    (Those compiled without a Python wrapper cannot be called from Python at all.)
+    """
+    import types
+
+    f = compiled.py_func
+    names = {name: _in_python(value) for name, value in f.__globals__.items()
+             if name in f.__code__.co_names and hasattr(value, "py_func")}
+    return types.FunctionType(f.__code__, {**f.__globals__, **names})
+
+
+def _project_fresh(kernel, point, t, s, iterations, extra, converged_mm, orientation,
+                   no_closer=None):
+    """:func:`toolpath.compiled._project_one` as it was: every step's partials evaluated anew.
+
+    The reference for the kernel's reuse of a taken trial point's partials (same steps,
+    same numbers): scalars in Python through the kernel's own step functions. The steps
+    whose every halving stayed farther (the last trial taken all the same) are counted in
+    ``no_closer`` (a list, appended to).
+    """
+    from toolpath.compiled import SMALL_STEP_SHARE, _taylor_signed
+    from toolpath.projection_kernel import HALVINGS, STEP_CLIP, newton_step, no_farther, trial
+
+    taylor, step, trial, no_farther = (_in_python(f) for f in (_taylor_signed, newton_step,
+                                                                trial, no_farther))
+    p = np.asarray(point, dtype=float)[None, :]
+
+    def frame(tt, ss, order):
+        out = np.zeros((6, 1, 3))
+        orders = ORDERS[:(order + 1) * (order + 2) // 2]
+        got = kernel.partials(np.array([tt]), np.array([ss]), orders)
+        for j, o in enumerate(ORDERS[:len(got)]):
+            out[j, 0] = got[o][0]
+        return out
+
+    closed = bool(kernel.closed_t)
+    moved, pt = np.inf, np.zeros((6, 1, 3))
+    for k in range(iterations + extra):
+        if k >= iterations and moved <= converged_mm:
+            break
+        fr = frame(t, s, 2)
+        step_t, step_s, here = step(fr, 0, p, 0)
+        new_t, new_s = trial(t, s, step_t, step_s, closed)
+        lin = fr[1, 0] * (new_t - t) + fr[2, 0] * (new_s - s)
+        if (orientation != 0.0 and k + 1 >= iterations and abs(new_t - t) < STEP_CLIP
+                and _squared(lin) < (SMALL_STEP_SHARE * converged_mm) ** 2):
+            return new_t, new_s, taylor(p, 0, fr, new_t - t, new_s - s, orientation)
+        tangents = 1 if orientation != 0.0 and k + 1 >= iterations else 0
+        for _ in range(HALVINGS):
+            pt = frame(new_t, new_s, tangents)
+            if no_farther(_squared(pt[0, 0] - p[0]), here):
+                break
+            step_t, step_s = 0.5 * step_t, 0.5 * step_s
+            new_t, new_s = trial(t, s, step_t, step_s, closed)
+        else:
+            pt = frame(new_t, new_s, tangents)
+            if no_closer is not None and k + 1 < iterations:
+                no_closer.append(k)
+        moved = math.sqrt(_squared(pt[0, 0] - fr[0, 0]))
+        t, s = new_t, new_s
+    if orientation == 0.0:
+        return t, s, math.sqrt(_squared(frame(t, s, 0)[0, 0] - p[0]))
+    return t, s, taylor(p, 0, frame(t, s, 1), 0.0, 0.0, orientation)
+
+
+@pytest.mark.parametrize("seeds", ["near", "anywhere"])
+@pytest.mark.parametrize("iterations", [1, 3, 7])
+@pytest.mark.parametrize("orientation", [0.0, -1.0])
+def test_projection_reusing_a_taken_points_partials_takes_the_fresh_steps(blade, iterations,
+                                                                          orientation, seeds):
+    # the kernel takes the next step's partials from its last trial point (evaluated to
+    # the second order where another step surely follows): the same feet and distances,
+    # to the bit, as evaluating them anew every step. Mutations caught: the copy of the
+    # trial's partials into the next step's frame left out (stale second partials); the
+    # trial taken after every halving stayed farther evaluated to the first order only
+    # (``tangents`` for ``ahead``: seeds anywhere on the blade reach that branch).
+    rng = np.random.default_rng(11)
+    n = 60 if seeds == "near" else 150
+    t, s = rng.random(n), rng.random(n)
+    points = blade(t, s) + rng.uniform(0.2, 3.0, n)[:, None] * blade.normal(t, s)
+    if seeds == "near":  # near ones converge; far ones take halvings and the extra steps
+        t0 = np.clip(t + rng.normal(scale=0.05, size=n), 0, 1)
+        s0 = np.clip(s + rng.normal(scale=0.05, size=n), 0, 1)
+    else:
+        t0, s0 = rng.random(n), rng.random(n)
+    kernel = blade.kernel()
+    got = kernel.project(points, t0, s0, iterations, 24, 1e-3, orientation=orientation)
+    no_closer = []
+    for i in range(n):
+        want = _project_fresh(kernel, points[i], t0[i], s0[i], iterations, 24, 1e-3,
+                              orientation, no_closer)
+        assert (got[0][i], got[1][i], got[2][i]) == want, i
+    if seeds == "anywhere" and iterations == 7:
+        assert no_closer, "no step of these seeds kept a trial that stayed farther"
