@@ -14,9 +14,8 @@ The oracle: every seed ray cast (the full method).
 
 import numpy as np
 import pytest
-from measured_plans import bull_leading_edge
+from measured_plans import bull_leading_edge, bull_leading_edge_estimates
 
-from toolpath.planning.cusp_estimates import torus_cusp_estimates
 from toolpath.planning.cusp_search import CuspSearch
 from toolpath.planning.measure import (
     ESTIMATE_SHARE,
@@ -33,7 +32,7 @@ BAND_T = (0.46, 0.5)
 def leading_edge():
     """The estimates and both searches (estimated, full) over the band's seeds."""
     measured, volume, seeds, others = bull_leading_edge(*BAND_T)
-    guess = torus_cusp_estimates(volume, measured.surface, seeds)
+    guess = bull_leading_edge_estimates(*BAND_T)
     searches = [CuspSearch(volume, measured.surface, seeds, others, 1.0, 20_000)
                 for _ in range(2)]
     fast, full = searches

@@ -13,21 +13,14 @@ must be where the walk stays.
 
 import numpy as np
 import pytest
-from measured_plans import planned, standing_dev_blade
+from measured_plans import standing_blade_job
 
 import toolpath.planning.cusp_estimates as cusp_estimates
-from machines import load_machine
 from toolpath.planning.cusp_search import CuspSearch, SearchSeeds
 
 #: The ray cast's own tolerance: the estimates walking on brings read 1.030 times the cast
 #: and up (84 of the 36,335 seeds' here; pose-section bounds).
 LEAST_SHARE = 0.995
-
-
-def _measured():
-    return planned(standing_dev_blade(), "bull:8:1", axis_mode="lead-tilt",
-                   machine=load_machine("trunnion-ac"), scallop_mm=0.03,
-                   chord_tol_mm=0.03, lead_deg=10.0)
 
 
 def _estimates(measured, walks_on):
@@ -51,7 +44,7 @@ def _estimates(measured, walks_on):
 @pytest.fixture(scope="module")
 def walked():
     """The plan, and its estimates walking on and stopped (one plan for both tests)."""
-    measured = _measured()
+    measured = standing_blade_job("bull:8:1", 0.03, 0.03)  # (the pose sections' job too)
     return (measured, _estimates(measured, cusp_estimates.CONTACT_WALKS_ON),
             _estimates(measured, cusp_estimates.CONTACT_WALKS))
 

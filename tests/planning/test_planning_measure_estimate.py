@@ -13,10 +13,9 @@ The measurement is given what ``plan_finishing``'s measure stage gives it
 
 import numpy as np
 import pytest
-from measured_plans import KnownCusps, Measured, planned
+from measured_plans import KnownCusps, Measured, planned, standing_blade_job
 
 import toolpath.planning.cusp_estimates as cusp_estimates
-from machines import load_machine
 from toolpath import fit_streamline_surface
 from toolpath.paper_examples import bundled_data_path
 from toolpath.planning import EllipticBladeSurface, SpherePatch, plan_finishing
@@ -73,14 +72,12 @@ def test_blade_lying_with_uncut_areas(blade, cutter):
 
 
 @pytest.mark.parametrize(("cutter", "request_mm"), [("ball:6", 0.03), ("bull:8:1", 0.1)])
-def test_blade_standing_under_joint_interpolation(blade, cutter, request_mm):
+def test_blade_standing_under_joint_interpolation(cutter, request_mm):
     # (the bull-nose on a coarser request: 14,000 seeds, not 36,000, each ray cast in
     # full for the comparison; about 40 % of them have no estimate round the edges and
     # are cast either way)
-    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    _same_scallop(planned(standing, cutter, scallop_mm=request_mm,
-                           chord_tol_mm=min(request_mm, 0.05), axis_mode="lead-tilt",
-                           lead_deg=10.0, machine=load_machine("trunnion-ac")))
+    # (the standing blade's jobs: planned once a session, measured by other tests too)
+    _same_scallop(standing_blade_job(cutter, request_mm, min(request_mm, 0.05)))
 
 
 def test_few_of_the_largest_estimates_are_cast_and_more_where_they_rank_poorly():
@@ -145,7 +142,11 @@ def _estimates_over_ray_cast(surface, cutter="ball:6", **options):
 
     (Cusps above half the largest, away from the passes' ends.)
     """
-    measured = planned(surface, cutter, **options)
+    return _plans_estimates_over_ray_cast(planned(surface, cutter, **options))
+
+
+def _plans_estimates_over_ray_cast(measured: Measured):
+    """:func:`_estimates_over_ray_cast` of a plan."""
     fast = measured.seeds(estimate=True, **FEW_RAYS)
     full = measured.seeds(estimate=False)
     np.testing.assert_array_equal(fast.t, full.t)
@@ -226,15 +227,13 @@ def test_the_section_estimate_does_not_read_low_round_the_leading_edge(blade):
     assert ratio.min() >= LEAST_ESTIMATE_SHARE
 
 
-def test_the_ball_estimate_does_not_read_low_round_the_leading_edge(blade):
+def test_the_ball_estimate_does_not_read_low_round_the_leading_edge():
     # the standing blade in 5 axes: round its 0.2 mm leading edge the ball's centres curve
     # about as tightly as the tube (kappa R near 1), the ridge between two straight
     # pieces' tubes lies up to twice its height inside the neighbouring pieces, and sunk
     # by half of that it read down to -1 times the ray cast (a cusp the cast would skip)
-    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    ratio = _estimates_over_ray_cast(standing, "ball:6", scallop_mm=0.03, chord_tol_mm=0.03,
-                                     axis_mode="lead-tilt", lead_deg=10.0,
-                                     machine=load_machine("trunnion-ac"))
+    # (the joint-interpolation test's ball:6 job: lead-tilt, lead 10, trunnion-ac)
+    ratio = _plans_estimates_over_ray_cast(standing_blade_job("ball:6", 0.03, 0.03))
     assert ratio.min() >= LEAST_ESTIMATE_SHARE
 
 
@@ -291,7 +290,7 @@ def test_the_uncut_test_stops_at_the_first_entry_as_the_full_entries_say(cutter,
     assert 0 < full.sum() < len(full)
 
 
-def test_the_section_estimate_meets_the_next_pass_round_the_leading_edge(blade, monkeypatch):
+def test_the_section_estimate_meets_the_next_pass_round_the_leading_edge(monkeypatch):
     # the standing blade in 5 axes with a bull-nose keeping a 10 degree lead: round the
     # leading edge a zigzag's neighbouring passes tilt their axes far apart, the next
     # pass's ring centres stand farther from the own pass's than the pass after it (the
@@ -301,10 +300,9 @@ def test_the_section_estimate_meets_the_next_pass_round_the_leading_edge(blade, 
     # prisms alone: where none holds the two poses' sections bound the ridge, looser
     # (test_planning_measure_pose_sections)
     monkeypatch.setattr(cusp_estimates, "_pose_section_bounds", lambda *args: None)
-    standing = centred_on_table(blade, rotation_from_spec("y:-90"))
-    measured = planned(standing, "bull:8:1", scallop_mm=0.03, chord_tol_mm=0.03,
-                       axis_mode="lead-tilt", lead_deg=10.0,
-                       machine=load_machine("trunnion-ac"))
+    # (planned with measure=False: no estimate, whatever is patched; the pose sections'
+    # and the contact walk's job too)
+    measured = standing_blade_job("bull:8:1", 0.03, 0.03)
     volume = measured.volume()
     seeds, others = SearchSeeds.of(measured.surface, measured.chord)
     guess = torus_cusp_estimates(volume, measured.surface, seeds)

@@ -9,12 +9,11 @@ choices with every estimate tightened first (the full method).
 
 import numpy as np
 import pytest
-from measured_plans import KnownCusps, bull_leading_edge
+from measured_plans import KnownCusps, bull_leading_edge, bull_leading_edge_estimates
 
 from toolpath.planning.cusp_estimates import (
     LooseEstimates,
     torus_cusp_bounds,
-    torus_cusp_estimates,
 )
 from toolpath.planning.cusp_search import CuspSearch
 from toolpath.planning.measure import ESTIMATE_TOP, ESTIMATE_TOP_MOST, cast_beyond_estimates
@@ -74,15 +73,19 @@ def test_loose_bounds_tightened_on_demand_cast_the_seeds_tight_ones_do(seed, cas
     assert (estimates.mm[left] >= tight[left]).all()
 
 
+#: The seeds round the leading edge, ``t`` from and to (the bull-nose ranks' band).
+BAND_T = (0.46, 0.5)
+
+
 @pytest.fixture(scope="module")
 def leading_edge():
     """The user's kind of bull-nose job round the leading edge: seeds, searches' inputs."""
-    return bull_leading_edge(0.46, 0.5)
+    return bull_leading_edge(*BAND_T)
 
 
 def test_pose_section_bounds_tightened_on_demand_cast_as_all_tight(leading_edge):
     measured, volume, seeds, others = leading_edge
-    tight = torus_cusp_estimates(volume, measured.surface, seeds)
+    tight = bull_leading_edge_estimates(*BAND_T)  # (every estimate tight)
     estimates = torus_cusp_bounds(volume, measured.surface, seeds)
     loose_mm, loose = estimates.mm.copy(), estimates.loose.copy()
     assert loose.sum() > 100  # (the pose-section bounds come loose)
