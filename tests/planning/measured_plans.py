@@ -13,6 +13,7 @@ measure the same plan, and their tests read it, never write it.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from dataclasses import dataclass
 
@@ -87,9 +88,21 @@ def standing_blade_job(spec: str, scallop_mm: float, chord_tol_mm: float,
     """The user's kind of 5-axis job on the standing blade (lead-tilt, lead 10 degrees,
     ``machine`` by name, None: none), planned once a session for each cutter and request
     (~15 s each under load; several test files measure the same plan)."""
-    return planned(standing_dev_blade(), spec, scallop_mm=scallop_mm,
-                   chord_tol_mm=chord_tol_mm, axis_mode="lead-tilt", lead_deg=10.0,
-                   machine=None if machine is None else load_machine(machine))
+    return _read_only(planned(standing_dev_blade(), spec, scallop_mm=scallop_mm,
+                              chord_tol_mm=chord_tol_mm, axis_mode="lead-tilt", lead_deg=10.0,
+                              machine=None if machine is None else load_machine(machine)))
+
+
+def _read_only(measured: Measured) -> Measured:
+    """``measured`` with the arrays of its toolpath, samples and chord measurement made
+    read-only: a test (or the code it tests) writing into a plan shared by the session
+    fails there instead of changing what later tests read."""
+    for part in (measured.path, measured.samples, measured.chord):
+        for field in dataclasses.fields(part):
+            value = getattr(part, field.name)
+            if isinstance(value, np.ndarray):
+                value.flags.writeable = False
+    return measured
 
 
 @functools.cache
@@ -104,7 +117,10 @@ def bull_leading_edge(t_from: float, t_to: float):
     volume = measured.volume()
     seeds, others = SearchSeeds.of(measured.surface, measured.chord)
     band = np.flatnonzero((seeds.t >= t_from) & (seeds.t < t_to))
-    return measured, volume, SearchSeeds(*(column[band] for column in seeds)), others
+    seeds = SearchSeeds(*(column[band] for column in seeds))
+    for column in seeds:
+        column.flags.writeable = False
+    return measured, volume, seeds, others
 
 
 @functools.cache
