@@ -175,7 +175,7 @@ def test_distances_from_the_uncut_border_are_those_from_every_uncut_node(closed)
 def test_the_chords_lengths_are_numpys_norms_bit_for_bit():
     # the reach's edge weights from their components: the same sums of the same squares
     # as np.linalg.norm's, in the same order, whatever the scale
-    from toolpath.planning.uncut_area import _chords
+    from toolpath.vectors import lengths as _chords
 
     rng = np.random.default_rng(11)
     for scale in (1e-6, 1.0, 1e4):
@@ -185,7 +185,7 @@ def test_the_chords_lengths_are_numpys_norms_bit_for_bit():
 
 def test_the_grids_cross_products_are_numpys_bit_for_bit():
     # the normals' cross products row by row: numpy's own products and differences
-    from toolpath.planning.uncut_area import _cross_rows
+    from toolpath.vectors import cross_rows as _cross_rows
 
     rng = np.random.default_rng(13)
     for scale in (1e-6, 1.0, 1e4):

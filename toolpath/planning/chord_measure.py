@@ -49,6 +49,7 @@ from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..surface import ParametricSurface, outward_normals
+from ..vectors import row_lengths
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
 from .local import project_to_surface
@@ -181,7 +182,9 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             interpolation = ((machine, joints[seg], joints[seg + 1]) if moved_by_joints
                              else None)
             slopes = None
-            if end_slopes and cutter.kind is CutterKind.BALL:
+            if end_slopes and cutter.kind is CutterKind.BALL and interpolation is None:
+                slopes = contacts.tip_linear_slopes(cutter.radius_mm, ia)
+            elif end_slopes and cutter.kind is CutterKind.BALL:
                 slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
                                       contacts.normal[ib], interpolation,
                                       None if gradient is None or not moved_by_joints
@@ -239,7 +242,7 @@ class _EndContacts:
     """The contact of the cutter at every point ``points`` ending a cutting move.
 
     ``gap`` (mm), the contact's ``t``, ``s``, its surface point (mm), outward unit normal
-    and ``X_s`` (mm per unit ``s``).
+    and ``X_s`` (mm per unit ``s``); the cutter's tip (mm) and axis there.
     """
 
     points: NDArray[np.int64]
@@ -249,6 +252,8 @@ class _EndContacts:
     point: NDArray[np.float64]
     normal: NDArray[np.float64]
     x_s: NDArray[np.float64]
+    tips: NDArray[np.float64]
+    axes: NDArray[np.float64]
 
     def of_moves(self, toolpath: Toolpath, first: NDArray[np.int64]
                  ) -> tuple[MoveEnds, NDArray[np.int64], NDArray[np.int64]]:
@@ -256,9 +261,22 @@ class _EndContacts:
         ia = np.searchsorted(self.points, first)
         ib = ia + 1
         pos, axes = toolpath.positions_mm, toolpath.tool_axes
-        ends = MoveEnds(pos[first], pos[first + 1], axes[first], axes[first + 1],
-                        self.t[ia], self.t[ib], self.s[ia], self.s[ib])
+        # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+        after = first + 1
+        ends = MoveEnds(pos.take(first, axis=0), pos.take(after, axis=0),
+                        axes.take(first, axis=0), axes.take(after, axis=0),
+                        self.t.take(ia), self.t.take(ib), self.s.take(ia), self.s.take(ib))
         return ends, ia, ib
+
+    def tip_linear_slopes(self, radius_mm: float, first: NDArray[np.int64]
+                          ) -> NDArray[np.float64]:
+        """A ball's ``g'(0)``, ``g'(1)`` along tip-linear moves from rows ``first``, mm per ``u``.
+
+        :func:`_ball_slopes` without joints: the same numbers, read where they lie (the
+        rows ``first`` and ``first + 1`` end each move), no rows of the moves' ends
+        gathered and interleaved.
+        """
+        return ball_end_slopes(radius_mm, self.tips, self.axes, self.normal, first)
 
 
 def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
@@ -284,7 +302,9 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     ends = np.flatnonzero(at_end)
     ball = cutter.kind is CutterKind.BALL
     lift = cutter.radius_mm if ball else cutter.corner_radius_mm
-    centres = pos[ends] + lift * axes[ends]
+    # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+    tips, tool_axes = pos.take(ends, axis=0), axes.take(ends, axis=0)
+    centres = tips + lift * tool_axes
     # a ball's contact is its centre's closest point: where the surface gives that in
     # closed form (a sphere), it is every location's own seed, exact
     closest = getattr(surface, "closest_parameters", None) if ball else None
@@ -304,19 +324,19 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         for lo in range(0, rows.size, chunk):
             part = rows[lo:lo + chunk]
             gap[part], t[part], s[part] = _contact_gaps(
-                surface, cutter, samples, pos[ends[part]], axes[ends[part]],
+                surface, cutter, samples, tips[part], tool_axes[part],
                 t0[lo:lo + chunk], s0[lo:lo + chunk])
 
     search_from_samples(runs.anchor)
     if not ball:
-        _mend_from_neighbours(surface, cutter, pos[ends], axes[ends], (gap, t, s),
+        _mend_from_neighbours(surface, cutter, tips, tool_axes, (gap, t, s),
                               _run_pairs(ends, move))
     between, before, after, w = runs.between, runs.before, runs.after, runs.w
     if between.size:
         t0 = seam_lerp_rows(t[before], t[after], w[:, None], bool(surface.closed_t)).ravel()
         s0 = s[before] + w * (s[after] - s[before])
         gap[between], t[between], s[between] = cutter_gap(
-            surface, cutter, pos[ends[between]], axes[ends[between]], t0, s0,
+            surface, cutter, tips[between], tool_axes[between], t0, s0,
             newton=seeded_newton)
     point, normal, x_s = _points_normals_x_s(surface, t, s)
     unsure = _unsure_between(runs, centres, point, gap) if between.size else between
@@ -324,7 +344,7 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         search_from_samples(unsure)
         point[unsure], normal[unsure], x_s[unsure] = _points_normals_x_s(surface, t[unsure],
                                                                          s[unsure])
-    return _EndContacts(ends, gap, t, s, point, normal, x_s)
+    return _EndContacts(ends, gap, t, s, point, normal, x_s, tips, tool_axes)
 
 
 #: The nearest sample of a point ``lift`` off the surface is first sought within
@@ -499,7 +519,7 @@ def _run_anchors(ends: NDArray[np.int64], move: NDArray[np.int64],
     between = np.flatnonzero(~anchor)
     before = between - rank[between] % stride
     after = np.minimum(before + stride, last[run[between]])
-    arc = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(centres, axis=0), axis=1))])
+    arc = np.concatenate([[0.0], np.cumsum(row_lengths(np.diff(centres, axis=0)))])
     span = arc[after] - arc[before]
     w = np.where(span > 0.0, (arc[between] - arc[before]) / np.where(span > 0.0, span, 1.0),
                  (between - before) / (after - before))
@@ -651,6 +671,12 @@ def _cusp_seeds(surface: ParametricSurface, contacts: _EndContacts, first: NDArr
     is_above = g_mid > 0.0
     above = np.flatnonzero(is_above)
     m = len(g_mid)
+    if not above.size:  # the contacts alone, in order (every move cuts into the surface)
+        # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
+        return (np.mod(ends.t_a, 1.0) if surface.closed_t else ends.t_a.copy(),
+                ends.s_a.copy(), passes.copy(),
+                *(frame.take(first, axis=0)
+                  for frame in (contacts.point, contacts.normal, contacts.x_s)))
     # each move's contact, then its middle where that stands above the surface: the
     # contacts' rows among the seeds (after the middles of the moves before), and the
     # middles' right after theirs

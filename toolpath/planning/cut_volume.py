@@ -23,7 +23,7 @@ from machines.kinematics import forward
 
 from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
-from ..vectors import move_poses
+from ..vectors import move_poses, row_lengths
 from .clearance_kernel import (
     SampleCells,
     bin_samples,
@@ -78,7 +78,7 @@ def _piece_counts(a: NDArray[np.float64], b: NDArray[np.float64], aa: NDArray[np
     falls as ``d / n^2`` over ``n`` pieces).
     """
     c_a, c_b = a + reach_mm * aa, b + reach_mm * ab
-    length = np.maximum(np.linalg.norm(b - a, axis=1), np.linalg.norm(c_b - c_a, axis=1))
+    length = np.maximum(row_lengths(b - a), row_lengths(c_b - c_a))
     count = np.ceil(length / step)
     if joints is not None:
         machine, q_a, q_b = joints
