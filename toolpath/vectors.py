@@ -30,7 +30,10 @@ def lengths(dx: NDArray[np.float64], dy: NDArray[np.float64], dz: NDArray[np.flo
 
 
 def row_lengths(v: NDArray[np.float64]) -> NDArray[np.float64]:
-    """``np.linalg.norm(v, axis=-1)`` of 3-vectors (:func:`lengths`: bit for bit, faster)."""
+    """``np.linalg.norm(v, axis=-1)`` of 3-vectors (:func:`lengths`: bit for bit, faster).
+
+    In float64 (numpy's norm of float32 rows stays float32: other bits).
+    """
     v = np.asarray(v, dtype=float)
     return lengths(v[..., 0], v[..., 1], v[..., 2])
 
@@ -40,7 +43,8 @@ def cross_rows(a: NDArray[np.float64], b: NDArray[np.float64]) -> NDArray[np.flo
 
     (``a1 b2 - a2 b1``, ``a2 b0 - a0 b2``, ``a0 b1 - a1 b0``, as numpy's own loop takes
     them, without its set-up for any shapes: a third of its time on ten thousand rows.)
-    ``a`` and ``b`` of one shape.
+    ``a`` and ``b`` of one shape, taken in float64 (numpy's cross keeps float32 and
+    integers: the same bits only for float64).
     """
     a, b = np.asarray(a, dtype=float), np.asarray(b, dtype=float)
     out = np.empty_like(a)

@@ -132,16 +132,34 @@ def test_tip_linear_ball_slopes_read_in_place_are_ball_slopes_bit_for_bit(cap3):
     assert np.array_equal(contacts.tip_linear_slopes(cutter.radius_mm, ia), plain)
 
 
-def test_seeds_of_moves_that_all_cut_in_are_their_contacts_whole(cap3):
+class _ClosedAlongT:
+    """``surface`` said to close along ``t`` (the seeds' ``t`` then taken modulo 1)."""
+
+    closed_t = True
+
+    def __init__(self, surface):
+        self._surface = surface
+
+    def __getattr__(self, name):
+        return getattr(self._surface, name)
+
+
+@pytest.mark.parametrize("closed", [False, True])
+def test_seeds_of_moves_that_all_cut_in_are_their_contacts_whole(cap3, closed):
     # every move's middle below the surface: the seeds are the moves' first contacts in
-    # order, as the general assembly places them (mutation caught: the frames of the
-    # rows after, first + 1)
+    # order, as the general assembly places them (mutations caught: the frames of the
+    # rows after, first + 1; on a surface closed along t, the contacts' t a turn on
+    # (t + 1) not taken modulo 1)
     path, surface, cutter = cap3.path, cap3.surface, cap3.cutter
     move = _cutting_moves(path)
     contacts = _end_contacts(path, surface, cutter, cap3.samples, move, 100_000, 4)
     ends, ia, _ = contacts.of_moves(path, move)
-    below = (np.full(len(move), -1e-3), ends.t_a, ends.s_a)
-    some_above = (np.where(np.arange(len(move)) == 3, 1e-3, -1e-3), ends.t_a, ends.s_a)
+    mid_t = ends.t_a
+    if closed:
+        surface = _ClosedAlongT(surface)
+        ends = ends._replace(t_a=ends.t_a + (np.arange(len(move)) % 2))
+    below = (np.full(len(move), -1e-3), mid_t, ends.s_a)
+    some_above = (np.where(np.arange(len(move)) == 3, 1e-3, -1e-3), mid_t, ends.s_a)
     passes = path.pass_index[move]
     lean = _cusp_seeds(surface, contacts, ia, ends, below, passes)
     general = _cusp_seeds(surface, contacts, ia, ends, some_above, passes)
@@ -149,3 +167,5 @@ def test_seeds_of_moves_that_all_cut_in_are_their_contacts_whole(cap3):
     for a, b in zip(lean, general, strict=True):
         assert a.dtype == b.dtype
         assert np.array_equal(a, b[keep])
+    if closed:  # (on the open cap t = 1 is a contact's own)
+        assert ((lean[0] >= 0.0) & (lean[0] < 1.0)).all()

@@ -62,8 +62,9 @@ class UncutArea:
         pts = surface(g, g, grid=True)
         len_t = np.linalg.norm(np.diff(pts, axis=0), axis=2).sum(axis=0).max() * 1.02
         len_s = np.linalg.norm(np.diff(pts, axis=1), axis=2).sum(axis=1).max() * 1.02
-        n_t = int(np.ceil(len_t / (0.5 * big))) + 1
-        n_s = int(np.ceil(len_s / width_mm)) + 1
+        # (two nodes at least each way: a point lies between four, :func:`_distance_from`)
+        n_t = max(int(np.ceil(len_t / (0.5 * big))) + 1, 2)
+        n_s = max(int(np.ceil(len_s / width_mm)) + 1, 2)
         t, s = np.meshgrid(np.linspace(0.0, 1.0, n_t), np.linspace(0.0, 1.0, n_s),
                            indexing="ij")
         # the first partials only: points, normals and |X_t x X_s| = sqrt(E G - F^2)
