@@ -660,7 +660,9 @@ def _project_one(p, i, t, s, sf, search, dist, work, fr, pt):
         ti, si = new_t, new_s
         have_tangents = tangents == 1
         if ahead == 2:
-            fr[:, 0, :] = pt[:, 0, :]
+            for r in range(6):  # (a loop: the slice copy fr[:, 0, :] = pt[:, 0, :] took
+                for c in range(3):  # a cold job's chords stage 3-4 s more to compile)
+                    fr[r, 0, c] = pt[r, 0, c]
             have_second = True
     if iterations + extra == 0:  # no step: the foot is the start
         _partials_at(ti, si, sf, np.int64(0), pt, np.int64(0), work)
