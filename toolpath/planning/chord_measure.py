@@ -182,13 +182,14 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             interpolation = ((machine, joints[seg], joints[seg + 1]) if moved_by_joints
                              else None)
             slopes = None
-            if end_slopes and cutter.kind is CutterKind.BALL and interpolation is None:
-                slopes = contacts.tip_linear_slopes(cutter.radius_mm, ia)
-            elif end_slopes and cutter.kind is CutterKind.BALL:
-                slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
-                                      contacts.normal[ib], interpolation,
-                                      None if gradient is None or not moved_by_joints
-                                      else (gradient[ia], gradient[ib]))
+            if end_slopes and cutter.kind is CutterKind.BALL:
+                # (tip-linear: read from the contacts where they lie, no rows gathered)
+                slopes = (contacts.tip_linear_slopes(cutter.radius_mm, ia)
+                          if interpolation is None else
+                          _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
+                                       contacts.normal[ib], interpolation,
+                                       None if gradient is None or not moved_by_joints
+                                       else (gradient[ia], gradient[ib])))
             gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], max(contact, over, under),
                                         interpolation, slopes, seeded_newton, samples)
@@ -302,7 +303,6 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     ends = np.flatnonzero(at_end)
     ball = cutter.kind is CutterKind.BALL
     lift = cutter.radius_mm if ball else cutter.corner_radius_mm
-    # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
     tips, tool_axes = pos.take(ends, axis=0), axes.take(ends, axis=0)
     centres = tips + lift * tool_axes
     # a ball's contact is its centre's closest point: where the surface gives that in
@@ -672,7 +672,6 @@ def _cusp_seeds(surface: ParametricSurface, contacts: _EndContacts, first: NDArr
     above = np.flatnonzero(is_above)
     m = len(g_mid)
     if not above.size:  # the contacts alone, in order (every move cuts into the surface)
-        # (``take`` gathers rows of (n, 3) arrays several times faster than indexing)
         return (np.mod(ends.t_a, 1.0) if surface.closed_t else ends.t_a.copy(),
                 ends.s_a.copy(), passes.copy(),
                 *(frame.take(first, axis=0)
