@@ -39,6 +39,8 @@ scallop
     Stepover from the cusp height (ball circle, flat and bull true section); pass levels.
 sampling
     Points along passes from the chord tolerance; cutter-surface gaps along moves.
+open_edges
+    A flat or bull-nose disc hanging past an open edge reads the edge, not its plane.
 tool_axis
     Fixed and lead/tilt axes, smoothing, lean limits, the singular cone.
 rate_limit

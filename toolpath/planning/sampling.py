@@ -50,6 +50,7 @@ from .local import (
     project_to_surface,
     signed_distance_near,
 )
+from .open_edges import edge_readings
 from .tool_axis import segment_index
 
 __all__ = [
@@ -274,9 +275,10 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
     centre = tips_mm + r * axes
-    disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1)
+    disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1, cutter=cutter)
+    all_rows = np.arange(len(tips_mm))
     # the centre's foot point: its normal tells which rim point can touch
-    d_c, t_c, s_c, n_c, k_c = disc.signed(centre, t0, s0, curvature=True)
+    d_c, t_c, s_c, n_c, k_c = disc.signed(centre, t0, s0, all_rows, curvature=True)
     lateral = n_c - np.einsum("ij,ij->i", n_c, axes)[:, None] * axes
     lean = np.linalg.norm(lateral, axis=1)
     # the rim point facing down the surface is the lowest when the normal leans clearly
@@ -303,8 +305,8 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     lat_0 = n_0 - np.einsum("ij,ij->i", n_0, axes)[:, None] * axes
     phi_0 = np.arctan2(-np.einsum("ij,ij->i", lat_0, disc.b2),
                        -np.einsum("ij,ij->i", lat_0, disc.b1))
-    all_rows = np.arange(len(tips_mm))
-    _keep_lower(out, all_rows, (*disc.signed(disc.rim(all_rows, phi_0), t0, s0), phi_0))
+    _keep_lower(out, all_rows, (*disc.signed(disc.rim(all_rows, phi_0), t0, s0, all_rows),
+                                phi_0))
     # only where the normal turns under the disc (the scanned rows): elsewhere the rim's
     # distance is smooth over a sample step and the parabola has it
     rows = np.flatnonzero(np.isfinite(out[3]) & full) if refine_rim else all_rows[:0]
@@ -318,15 +320,20 @@ class _Disc:
     """The corner-circle disc of a flat or bull-nose cutter at many poses (rows)."""
 
     def __init__(self, surface: ParametricSurface, centre: NDArray[np.float64],
-                 axes: NDArray[np.float64], radius_mm: float, iterations: int) -> None:
+                 axes: NDArray[np.float64], radius_mm: float, iterations: int, *,
+                 cutter: Cutter) -> None:
         self.surface, self.centre, self.radius = surface, centre, radius_mm
         self.iterations = iterations
+        self.cutter, self.axes = cutter, axes
         self.b1, self.b2 = disc_basis(axes)
 
     def signed(self, points: NDArray[np.float64], tt: NDArray[np.float64],
-               ss: NDArray[np.float64], *, curvature: bool = False) -> tuple[Any, ...]:
+               ss: NDArray[np.float64], poses: NDArray[np.int64], *,
+               curvature: bool = False) -> tuple[Any, ...]:
         """Signed distance of points to the surface and the foot's ``t, s``.
 
+        ``poses``: each point's disc (row). A point past an open edge of the surface reads
+        what its disc can cut there, the edge (:func:`~.open_edges.edge_readings`).
         With ``curvature=True`` also the foot's normal and largest absolute principal
         curvature (1/mm). On a closed surface the foot and distance are always
         :func:`~toolpath.planning.local.signed_distance_near`'s, whose seam rules search
@@ -334,8 +341,9 @@ class _Disc:
         across the seam, read 1.4 mm inside the part from the far face).
         """
         if not curvature:
-            return signed_distance_near(self.surface, points, tt, ss,
-                                        iterations=self.iterations)
+            signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
+                                                  iterations=self.iterations)
+            return self._edges(points, tt, ss, signed, poses), tt, ss
         signed = None
         if self.surface.closed_t:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
@@ -348,7 +356,15 @@ class _Disc:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
-        return signed, tt, ss, f.normal, bend
+        return self._edges(points, tt, ss, signed, poses), tt, ss, f.normal, bend
+
+    def _edges(self, points: NDArray[np.float64], tt: NDArray[np.float64],
+               ss: NDArray[np.float64], signed: NDArray[np.float64],
+               poses: NDArray[np.int64]) -> NDArray[np.float64]:
+        """``signed`` with the points past an open edge read at the edge."""
+        axes = self.axes.take(poses, 0)
+        tips = self.centre.take(poses, 0) - self.cutter.corner_radius_mm * axes
+        return edge_readings(self.surface, points, tt, ss, signed, self.cutter, tips, axes)
 
     def rim(self, rows: NDArray[np.int64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
         """Rim points at ``angle`` (rad, from ``b1`` towards ``b2``) of discs ``rows``."""
@@ -365,8 +381,9 @@ class _Disc:
         offsets = np.radians([-30.0, -15.0, 0.0, 15.0, 30.0])
         n, k = rows.size, offsets.size
         angle = (phi0[:, None] + offsets[None, :]).ravel()
-        d, t5, s5 = self.signed(self.rim(np.repeat(rows, k), angle), np.repeat(tt, k),
-                                np.repeat(ss, k))
+        poses = np.repeat(rows, k)
+        d, t5, s5 = self.signed(self.rim(poses, angle), np.repeat(tt, k), np.repeat(ss, k),
+                                poses)
         d, t5, s5 = d.reshape(n, k), t5.reshape(n, k), s5.reshape(n, k)
         j = np.argmin(d, axis=1)
         inside = (j > 0) & (j < k - 1)
@@ -378,7 +395,7 @@ class _Disc:
             ang = _parabola_angle(d[sel, js - 1], d[sel, js], d[sel, js + 1],
                                   phi0[sel] + offsets[js], offsets[1] - offsets[0])
             _keep_lower(out, sel, (*self.signed(self.rim(rows[sel], ang), t5[sel, js],
-                                                 s5[sel, js]), ang))
+                                                 s5[sel, js], rows[sel]), ang))
         return (*out, inside)
 
     def scan(self, rows: NDArray[np.int64], tt: NDArray[np.float64], ss: NDArray[np.float64]
@@ -397,7 +414,7 @@ class _Disc:
         m, k = rows.size, len(offs)
         pts = (self.centre[rows][:, None, :] + offs[None, :, 0, None] * self.b1[rows][:, None, :]
                + offs[None, :, 1, None] * self.b2[rows][:, None, :]).reshape(-1, 3)
-        d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k))
+        d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k), np.repeat(rows, k))
         d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
         best = np.argmin(d, axis=1)
         i_all = np.arange(m)
@@ -408,7 +425,8 @@ class _Disc:
             j = best[i]
             ang = _parabola_angle(d[i, (j - 1) % _RIM], d[i, j], d[i, (j + 1) % _RIM], phi[j],
                                   2.0 * np.pi / _RIM)
-            _keep_lower(out, i, (*self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j]), ang))
+            _keep_lower(out, i, (*self.signed(self.rim(rows[i], ang), tt[i, j], ss[i, j],
+                                              rows[i]), ang))
         return out
 
     def golden_rim(self, rows: NDArray[np.int64], phi: NDArray[np.float64],
@@ -421,7 +439,7 @@ class _Disc:
         ratio = (np.sqrt(5.0) - 1.0) / 2.0
         lo, hi = phi - half_width, phi + half_width
         a, b = hi - ratio * (hi - lo), lo + ratio * (hi - lo)
-        fa, fb = (self.signed(self.rim(rows, x), tt, ss) for x in (a, b))
+        fa, fb = (self.signed(self.rim(rows, x), tt, ss, rows) for x in (a, b))
         best = tuple(np.where(fa[0] <= fb[0], u, v) for u, v in zip((*fa, a), (*fb, b),
                                                                      strict=True))
         for _ in range(RIM_REFINE_STEPS - 2):
@@ -429,7 +447,7 @@ class _Disc:
             hi = np.where(left, b, hi)
             lo = np.where(left, lo, a)
             new = np.where(left, hi - ratio * (hi - lo), lo + ratio * (hi - lo))
-            f_new = self.signed(self.rim(rows, new), *best[1:3])
+            f_new = self.signed(self.rim(rows, new), *best[1:3], rows)
             # left: (a, b) <- (new, a); right: (a, b) <- (b, new)
             fa, fb = (tuple(np.where(left, u, v) for u, v in zip(f_new, fb, strict=True)),
                       tuple(np.where(left, u, v) for u, v in zip(fa, f_new, strict=True)))
