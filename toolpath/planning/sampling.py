@@ -274,11 +274,10 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
                  for i in range(0, len(tips_mm), chunk)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
-    centre = tips_mm + r * axes
-    disc = _Disc(surface, centre, axes, cutter.radius_mm - r, newton + 1, cutter=cutter)
+    disc = _Disc(surface, cutter, tips_mm, axes, newton + 1)
     all_rows = np.arange(len(tips_mm))
     # the centre's foot point: its normal tells which rim point can touch
-    d_c, t_c, s_c, n_c, k_c = disc.signed(centre, t0, s0, all_rows, curvature=True)
+    d_c, t_c, s_c, n_c, k_c = disc.signed(disc.centre, t0, s0, all_rows, curvature=True)
     lateral = n_c - np.einsum("ij,ij->i", n_c, axes)[:, None] * axes
     lean = np.linalg.norm(lateral, axis=1)
     # the rim point facing down the surface is the lowest when the normal leans clearly
@@ -317,14 +316,18 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
 
 
 class _Disc:
-    """The corner-circle disc of a flat or bull-nose cutter at many poses (rows)."""
+    """The corner-circle disc of a flat or bull-nose cutter at many poses (rows).
 
-    def __init__(self, surface: ParametricSurface, centre: NDArray[np.float64],
-                 axes: NDArray[np.float64], radius_mm: float, iterations: int, *,
-                 cutter: Cutter) -> None:
-        self.surface, self.centre, self.radius = surface, centre, radius_mm
+    Its centre ``r`` up the axis from each tip (``r`` the corner radius), its radius
+    ``R - r``.
+    """
+
+    def __init__(self, surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
+                 axes: NDArray[np.float64], iterations: int) -> None:
+        self.surface, self.cutter, self.tips, self.axes = surface, cutter, tips_mm, axes
+        self.centre = tips_mm + cutter.corner_radius_mm * axes
+        self.radius = cutter.radius_mm - cutter.corner_radius_mm
         self.iterations = iterations
-        self.cutter, self.axes = cutter, axes
         self.b1, self.b2 = disc_basis(axes)
 
     def signed(self, points: NDArray[np.float64], tt: NDArray[np.float64],
@@ -362,9 +365,8 @@ class _Disc:
                ss: NDArray[np.float64], signed: NDArray[np.float64],
                poses: NDArray[np.int64]) -> NDArray[np.float64]:
         """``signed`` with the points past an open edge read at the edge."""
-        axes = self.axes.take(poses, 0)
-        tips = self.centre.take(poses, 0) - self.cutter.corner_radius_mm * axes
-        return edge_readings(self.surface, points, tt, ss, signed, self.cutter, tips, axes)
+        return edge_readings(self.surface, points, tt, ss, signed, self.cutter,
+                             self.tips.take(poses, 0), self.axes.take(poses, 0))
 
     def rim(self, rows: NDArray[np.int64], angle: NDArray[np.float64]) -> NDArray[np.float64]:
         """Rim points at ``angle`` (rad, from ``b1`` towards ``b2``) of discs ``rows``."""
