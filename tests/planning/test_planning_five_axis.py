@@ -222,20 +222,83 @@ def test_rate_limit_finds_the_bend_of_a_slightly_twisted_pass():
     np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
 
 
-def test_axes_lean_at_least_as_far_as_a_minimum():
-    # an axis leaning less than its floor (a little, or not at all) takes the floor: its
-    # own small lean's direction means little; one leaning more is left alone
-    from toolpath.planning.tool_axis import keep_min_lean
+def _round_edge(alpha_deg):
+    """Contacts, normals and feeds over a 0.3 mm round edge along y (feed over its top)."""
+    al = np.radians(np.atleast_1d(alpha_deg))
+    n = np.stack([np.sin(al), np.zeros_like(al), np.cos(al)], axis=1)
+    f = np.stack([np.cos(al), np.zeros_like(al), -np.sin(al)], axis=1)
+    return 0.3 * n, n, f
 
-    n = np.tile([0.0, 0.0, 1.0], (3, 1))
-    floor = lead_tilt_axes(n, np.tile([1.0, 0.0, 0.0], (3, 1)), 10.0, 0.0)
-    axes = np.array([[np.sin(0.05), 0.0, np.cos(0.05)], [0.0, 0.0, 1.0],
-                     [0.0, np.sin(0.5), np.cos(0.5)]])
-    out, moved = keep_min_lean(axes, n, floor)
-    assert moved.tolist() == [True, True, False]
-    np.testing.assert_allclose(angle_deg(out, n), [10.0, 10.0, np.degrees(0.5)], atol=1e-9)
-    np.testing.assert_allclose(out[:2], floor[:2], atol=1e-12)
-    np.testing.assert_allclose(out[2], axes[2])
+
+def _leaning(n, f, lean_deg, direction_deg):
+    """An axis leaning ``lean_deg`` from ``n``, towards ``direction_deg`` from ``f`` round it."""
+    b = np.cross(n, f)
+    th, ph = np.radians(lean_deg), np.radians(direction_deg)
+    return np.cos(th) * n + np.sin(th) * (np.cos(ph) * f + np.sin(ph) * b)
+
+
+def test_a_flat_face_goes_round_the_normal_keeping_its_lean():
+    # round a leading edge the axes' lean may swing from ahead to behind and beside (the
+    # normal turning faster than the axes may): in between the face keeps its lean and
+    # its contact on the rim, so the tip moves smoothly round the contact; a slerp leans
+    # less, down to none, and the tip jumps across the face (5 mm in one move cut a 5 mm
+    # gouge into a propeller's edge)
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.tool_axis import lean_interpolated, slerp
+
+    cutter = parse_cutter("flat:6")
+    _, (na,), (fa,) = _round_edge(-5.0)
+    _, (nb,), (fb,) = _round_edge(5.0)
+    a, b = _leaning(na, fa, 10.0, 0.0), _leaning(nb, fb, 10.0, 130.0)
+    w = np.linspace(0.0, 1.0, 201)
+    p, n, f = _round_edge(-5.0 + 10.0 * w)
+    one = np.ones((w.size, 1))
+    axes = lean_interpolated(a * one, na * one, fa * one, b * one, nb * one, fb * one, w, n, f,
+                             np.full(w.size, 10.0))
+    np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
+    np.testing.assert_allclose(axes[[0, -1]], [a, b], atol=1e-12)
+    np.testing.assert_allclose(angle_deg(axes, n), 10.0, atol=1e-9)
+    tips = cutter.tips_from_contacts(p, n, axes)
+    steps = np.linalg.norm(np.diff(tips, axis=0), axis=1)
+    assert steps.max() < 0.05  # (3 mm round 130 degrees in 200 steps: 0.034 mm each)
+    # every disc clear of the edge: its points no nearer the edge's axis than 0.3 mm
+    rho, psi = np.meshgrid(np.linspace(0.0, 3.0, 13), np.radians(np.arange(0, 360, 5)))
+    for tip, ax in zip(tips, axes, strict=True):
+        u = np.cross(ax, [0.0, 1.0, 0.0])
+        u /= np.linalg.norm(u)
+        v = np.cross(ax, u)
+        disc = tip + (rho * np.cos(psi))[..., None] * u + (rho * np.sin(psi))[..., None] * v
+        assert np.hypot(disc[..., 0], disc[..., 2]).min() > 0.3 - 1e-9
+    # the slerp between the same ends: the lean halves (4.2 degrees), and with the
+    # lead kept the tip jumps by over 5 mm
+    mid = slerp(a[None], b[None], np.array([0.5]))
+    assert angle_deg(mid, n[100:101])[0] < 5.0
+    lead = _leaning(n, f, 10.0, 0.0)
+    jumps = cutter.tips_from_contacts(p, n, np.where((angle_deg(slerp(
+        a * one, b * one, w), n) < 10.0 - 1e-9)[:, None], lead, slerp(a * one, b * one, w)))
+    assert np.linalg.norm(np.diff(jumps, axis=0), axis=1).max() > 5.0
+
+
+def test_leans_alike_interpolate_like_a_slerp_and_upright_ends_by_their_lean_vectors():
+    from toolpath.planning.tool_axis import lean_interpolated, slerp
+
+    _, n, f = _round_edge(np.linspace(-1.0, 1.0, 11))
+    w = np.linspace(0.0, 1.0, 11)
+    a, b = _leaning(n[0], f[0], 10.0, 3.0), _leaning(n[-1], f[-1], 10.5, -2.0)
+    one = np.ones((11, 1))
+    got = lean_interpolated(a * one, n[0] * one, f[0] * one, b * one, n[-1] * one, f[-1] * one,
+                            w, n, f, np.zeros(11))
+    np.testing.assert_allclose(angle_deg(got, slerp(a * one, b * one, w)), 0.0, atol=0.05)
+    # an upright end (no lean, no direction): the lean vectors are interpolated
+    up = n[0]
+    got = lean_interpolated(up * one, n[0] * one, f[0] * one, b * one, n[-1] * one,
+                            f[-1] * one, w, n, f, np.zeros(11))
+    assert np.isfinite(got).all()
+    np.testing.assert_allclose(angle_deg(got, n), 10.5 * w, atol=0.05)
+    # a floor: no axis leans less than it
+    got = lean_interpolated(up * one, n[0] * one, f[0] * one, b * one, n[-1] * one,
+                            f[-1] * one, w, n, f, np.full(11, 4.0))
+    assert angle_deg(got, n).min() > 4.0 - 1e-9
 
 
 def test_axes_leaning_too_far_turn_back_onto_the_lean_cone_in_their_own_plane():

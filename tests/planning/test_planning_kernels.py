@@ -18,6 +18,7 @@ from toolpath.planning.sampling import (
     chord_extremes,
     point_move_gaps,
 )
+from toolpath.planning.tool_axis import angle_deg
 
 
 @pytest.mark.parametrize("shape", [(), (3,)])
@@ -355,6 +356,52 @@ def test_least_rate_of_a_tube_is_the_steepest_pair_and_fits_it():
                                              phi)
     # a repeated x: left to the bisection
     assert rate_limit._least_rate(np.array([0.0, 1.0, 1.0]), np.zeros(3), np.ones(3)) == np.inf
+
+
+def test_chord_check_splits_a_flat_face_whose_lean_swings_round_the_normal():
+    # round a propeller's leading edge the axes' lean swung from ahead to behind and beside
+    # between two points (the tilt joint's travel leaning them back): splitting that move
+    # slerped the axes, the slerp leaned less than the lead, the lead was put back, and
+    # every new point stood at the first end: the move stayed whole, its tip jumping 5 mm,
+    # and the program cut 5.5 mm into the edge. Here one pass's axes lean 130 degrees round
+    # from its feed from a point on: the move onto it is split until every part is within
+    # the tolerance, none left stalled, the tip moving round in small steps
+    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode="lead-tilt",
+                            lead_deg=10.0, max_points=20_000)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    assert start.smoothing is not None
+    swung = (start.pid == 2) & (start.t > 0.3) & (start.t < 0.45)
+    n = start.frame.normal[swung]
+    f = start.frame.e1[swung] * start.direction[swung][:, None]
+    f -= np.einsum("ij,ij->i", f, n)[:, None] * n
+    f /= np.linalg.norm(f, axis=1, keepdims=True)
+    th, ph = np.radians(10.0), np.radians(130.0)
+    axes = start.axes.copy()
+    axes[swung] = np.cos(th) * n + np.sin(th) * (np.cos(ph) * f + np.sin(ph) * np.cross(n, f))
+    tips = cutter.tips_from_contacts(start.frame.point, start.frame.normal, axes)
+    start = dataclasses.replace(start, axes=axes, tips=tips,
+                                smoothing=dataclasses.replace(start.smoothing, axes=axes))
+    first = int(np.flatnonzero(swung)[0])
+    assert np.linalg.norm(tips[first] - tips[first - 1]) > 4.0
+    out = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    pts = out.points
+    assert out.n_stalled == 0 and out.worst_mm <= res.planned_chord_tol_mm
+    onto = (pts.pid == 2) & (pts.t > start.t[first - 1]) & (pts.t < start.t[first])
+    assert onto.sum() >= 8
+    rows = np.flatnonzero(onto)
+    rows = np.r_[rows[0] - 1, rows]
+    steps = np.linalg.norm(np.diff(pts.tips[np.r_[rows, rows[-1] + 1]], axis=0), axis=1)
+    assert steps.max() < 1.5
+    lean = angle_deg(pts.axes[onto], pts.frame.normal[onto])  # (the ends': 10.08, 10)
+    assert lean.min() > 10.0 - 1e-6 and lean.max() < 10.1
+    gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, rows,
+                                 np.linspace(0.05, 0.95, 19), newton=6)
+    assert -gaps.min() <= 1.02 * res.planned_chord_tol_mm
 
 
 def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out():

@@ -43,9 +43,9 @@ from .tool_axis import (
     AxisSmoothing,
     TiltLean,
     angle_deg,
-    keep_min_lean,
     keep_out_of_cone,
     lead_tilt_axes,
+    lean_interpolated,
     lean_within_tilt,
     limit_lean,
     segment_turn_rates,
@@ -489,7 +489,10 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     In 5-axis the points already there keep their axes (and tips): new points strictly
     inside a move take the axis slerped between the move's ends in proportion to the
     corner-circle centre's path (the rate's path, so no piece turns faster than the move),
-    lean-limited and kept off the cone like the others. Smoothing and rate limiting
+    lean-limited and kept off the cone like the others. A flat or bull-nose face's axis
+    goes round the normal instead, keeping its lean (:func:`lean_interpolated`): its
+    contact stays on the rim, so the tip moves as far as the axis turns and a move split
+    often enough is cut as planned. Smoothing and rate limiting
     everything again would move every other tip by a little and make the chord check
     start over.
 
@@ -526,12 +529,18 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         # by arc length of the path the turn rate is measured on, turning at a uniform
         # rate (spherical interpolation): the pieces of a move then turn no faster than it
         w = _split_fractions(pts.frame, frame, after_old, cutter.corner_radius_mm)
-        axes = slerp(pts.axes[before], pts.axes[after], w)
+        if cutter.kind is CutterKind.BALL:
+            axes = slerp(pts.axes[before], pts.axes[after], w)
+        else:
+            # a flat face keeps its lean: where the normal turns faster than the axes (a
+            # leading edge) a slerp leans less, and the contact jumps across the face
+            axes = lean_interpolated(
+                pts.axes[before], pts.frame.normal[before],
+                pts.frame.e1[before] * pts.direction[before][:, None],
+                pts.axes[after], pts.frame.normal[after],
+                pts.frame.e1[after] * pts.direction[after][:, None], w, frame.normal,
+                frame.e1 * direction[:, None], angle_deg(nominal, frame.normal))
         axes, limited = limit_lean(axes, frame.normal, opts.max_lean_deg)
-        if cutter.kind is not CutterKind.BALL:
-            # a flat face keeps its lead: where the normal turns faster than the axes (a
-            # leading edge), the slerp may lean less, and the contact then leaves the heel
-            axes, _ = keep_min_lean(axes, frame.normal, nominal)
         axes, pushed = _off_cone(opts, axes, frame, direction)
         # (the rate figures are measured once the insertions are done: with_rate_record)
         smoothing = replace(pts.smoothing,

@@ -50,7 +50,7 @@ __all__ = [
     "box_window",
     "keep_out_of_cone",
     "lead_tilt_axes",
-    "keep_min_lean",
+    "lean_interpolated",
     "lean_within_tilt",
     "limit_lean",
     "segment_turn_rates",
@@ -358,17 +358,61 @@ def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over)
             out[i, k] = cos_lean * normals[i, k] + sin_lean * (out[i, k] / size)
 
 
-def keep_min_lean(axes: NDArray[np.float64], normals: NDArray[np.float64],
-                  min_axes: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.bool_]]:
-    """Axes leaning less from the normal than ``min_axes`` do replaced by ``min_axes``.
+def lean_interpolated(axes_a: NDArray[np.float64], normals_a: NDArray[np.float64],
+                      feeds_a: NDArray[np.float64], axes_b: NDArray[np.float64],
+                      normals_b: NDArray[np.float64], feeds_b: NDArray[np.float64],
+                      w: ArrayLike, normals: NDArray[np.float64], feeds: NDArray[np.float64],
+                      min_lean_deg: ArrayLike) -> NDArray[np.float64]:
+    """Axes a fraction ``w`` of the way from ``a`` to ``b`` in lean and in its direction.
 
-    For a flat face's lead: an axis slerped between two leaning ones, where the normal
-    turns faster than they do, may lean a little in any direction; scaling that lean up
-    would lean the face sideways or back, so the nominal axis is taken instead. Returns
-    the axes and which were replaced.
+    For a flat face's lead. Each axis is read in its own contact's frame as a lean
+    ``theta`` from the normal ``n`` and a direction ``phi`` about it, measured from the
+    feed direction ``f`` (made tangent) towards ``n x f``; between the ends
+
+    ``theta = (1 - w) theta_a + w theta_b``, ``phi = phi_a + w wrap(phi_b - phi_a)``,
+    ``a = cos(theta) n + sin(theta) (cos(phi) f + sin(phi) n x f)``
+
+    at the new contact's frame, with ``theta`` at least ``min_lean_deg`` (deg). So the
+    axis goes round the normal on the lean cone, not through it: where the normal turns
+    faster than the axes (round a leading edge, the lean's direction swinging from ahead to
+    beside or behind) a slerp between two leaning axes leans less, down to none, and the
+    contact then jumps across the face (the tip by up to its diameter in one move); here
+    the face keeps its lean and the contact stays on its rim, moving round it as far as
+    the lean's direction turns. Ends leaning less than 0.5 degree have no direction to
+    speak of: their lean vectors ``theta (cos(phi), sin(phi))`` are interpolated instead.
     """
-    under = angle_deg(axes, normals) < angle_deg(min_axes, normals) - ANGLE_SLACK_DEG
-    return np.where(under[:, None], min_axes, axes), under
+    w = np.asarray(w, dtype=float)
+    theta_a, phi_a = _lean_polar(axes_a, normals_a, feeds_a)
+    theta_b, phi_b = _lean_polar(axes_b, normals_b, feeds_b)
+    turn = np.remainder(phi_b - phi_a + np.pi, 2.0 * np.pi) - np.pi
+    theta = (1.0 - w) * theta_a + w * theta_b
+    phi = phi_a + w * turn
+    upright = np.minimum(theta_a, theta_b) < np.radians(0.5)
+    if upright.any():
+        x = (1.0 - w) * theta_a * np.cos(phi_a) + w * theta_b * np.cos(phi_b)
+        y = (1.0 - w) * theta_a * np.sin(phi_a) + w * theta_b * np.sin(phi_b)
+        theta = np.where(upright, np.hypot(x, y), theta)
+        phi = np.where(upright, np.arctan2(y, x), phi)
+    theta = np.maximum(theta, np.radians(np.asarray(min_lean_deg, dtype=float)))
+    f, b = _tangent_basis(normals, feeds)
+    return unit(np.cos(theta)[:, None] * normals + np.sin(theta)[:, None]
+                * (np.cos(phi)[:, None] * f + np.sin(phi)[:, None] * b))
+
+
+def _tangent_basis(normals: NDArray[np.float64], feeds: NDArray[np.float64]
+                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """``f`` made tangent (unit) and ``n x f``: the frame a lean's direction is read in."""
+    f = unit(feeds - np.einsum("ij,ij->i", feeds, normals)[:, None] * normals)
+    return f, np.cross(normals, f)
+
+
+def _lean_polar(axes: NDArray[np.float64], normals: NDArray[np.float64],
+                feeds: NDArray[np.float64]) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+    """Each axis's lean from the normal and its direction about it, rad."""
+    f, b = _tangent_basis(normals, feeds)
+    theta = np.radians(angle_deg(axes, normals))
+    phi = np.arctan2(np.einsum("ij,ij->i", axes, b), np.einsum("ij,ij->i", axes, f))
+    return theta, phi
 
 
 def smooth_axes(nominal: NDArray[np.float64], normals: NDArray[np.float64],
