@@ -281,7 +281,7 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
                  for i in range(0, len(tips_mm), chunk)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
-    disc = _Disc(surface, cutter, tips_mm, axes, newton + 1)
+    disc = _Disc(surface, cutter, tips_mm, axes, newton + 1, (t0, s0))
     all_rows = np.arange(len(tips_mm))
     # the centre's foot point: its normal tells which rim point can touch
     d_c, t_c, s_c, n_c, k_c = disc.signed(disc.centre, t0, s0, all_rows, curvature=True)
@@ -330,8 +330,11 @@ class _Disc:
     """
 
     def __init__(self, surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
-                 axes: NDArray[np.float64], iterations: int) -> None:
+                 axes: NDArray[np.float64], iterations: int,
+                 seeds: tuple[NDArray[np.float64], NDArray[np.float64]]) -> None:
         self.surface, self.cutter, self.tips, self.axes = surface, cutter, tips_mm, axes
+        self.seeds = tuple(np.broadcast_to(np.asarray(x, dtype=float), (len(tips_mm),))
+                           for x in seeds)  # (each pose's expected contact ``t``, ``s``)
         self.centre = tips_mm + cutter.corner_radius_mm * axes
         self.radius = cutter.radius_mm - cutter.corner_radius_mm
         self.iterations = iterations
@@ -374,7 +377,7 @@ class _Disc:
     def _stationary(self, points: NDArray[np.float64], signed: NDArray[np.float64] | None,
                     tt: NDArray[np.float64], ss: NDArray[np.float64], poses: NDArray[np.int64]
                     ) -> tuple[Any, NDArray[np.float64], NDArray[np.float64]]:
-        """Readings whose foot is not a closest point, searched again from a neighbour's.
+        """Readings whose foot is not a closest point, searched again.
 
         A foot ``X`` of ``K`` is a closest point only where ``K - X`` lies along the normal
         there. Round a leading edge thinner than the disc a point's Newton search can cycle
@@ -382,8 +385,13 @@ class _Disc:
         "foot", mostly sideways, read 0.084 mm inside the propeller's edge where the disc
         stands 0.001 mm deep): a foot off the normal by more than :data:`STATIONARY_MM` is
         searched again from the foot of the nearest point of the same disc whose foot is
-        a closest point (else from its own), and the new foot kept where it is one or
-        nearer to ``K``. ``signed`` (None: not read) and the feet are returned mended.
+        a closest point and reads no deeper than that (else from its own). And a foot on the
+        normal may be the far face's, ``K`` lying behind its plane though outside the part
+        (dev_rotor_blunt's bull:6:1 5-axis job read poses past the leading edge 3.1 mm deep
+        from the far face, 0.01 mm clear): a reading more than :data:`STATIONARY_MM` inside
+        is searched again likewise (else from its pose's expected contact), the new foot
+        kept where it is nearer to ``K``; an off-normal one's where it is a closest point or
+        nearer. ``signed`` (None: not read) and the feet are returned mended.
         """
         if signed is None:
             x, n = self.surface.points_and_normals(tt, ss)
@@ -396,11 +404,15 @@ class _Disc:
         inner = (ss > 0.0) & (ss < 1.0)
         if not self.surface.closed_t:
             inner &= (tt > 0.0) & (tt < 1.0)
-        bad = np.flatnonzero((off > STATIONARY_MM) & inner)
+        off_normal = (off > STATIONARY_MM) & inner
+        deep = ~off_normal & (along < -STATIONARY_MM)
+        bad = np.flatnonzero(off_normal | deep)
         if not bad.size:
             return signed, tt, ss
         seed_t, seed_s = tt[bad].copy(), ss[bad].copy()
-        good = np.flatnonzero(off <= STATIONARY_MM)
+        far = deep[bad]  # (without a neighbour: from the pose's expected contact)
+        seed_t[far], seed_s[far] = self.seeds[0][poses[bad[far]]], self.seeds[1][poses[bad[far]]]
+        good = np.flatnonzero(~off_normal & ~deep)
         good = good[np.argsort(poses[good], kind="stable")]
         first = np.searchsorted(poses[good], poses[bad], side="left")
         count = np.searchsorted(poses[good], poses[bad], side="right") - first
@@ -417,7 +429,8 @@ class _Disc:
                                           iterations=self.iterations + STATIONARY_EXTRA)
         reach2 = row_lengths(points[bad] - self.surface(t2, s2))
         off2 = np.sqrt(np.maximum(reach2 * reach2 - d2 * d2, 0.0))
-        take = (off2 <= STATIONARY_MM) | (reach2 < reach[bad])
+        nearer = reach2 < reach[bad]
+        take = np.where(far, nearer, (off2 <= STATIONARY_MM) | nearer)
         rows = bad[take]
         tt, ss = tt.copy(), ss.copy()
         tt[rows], ss[rows] = t2[take], s2[take]
