@@ -42,6 +42,7 @@ from ..projection_kernel import seam_lerp_rows
 from ..row_threads import run_in_threads
 from ..surface import ParametricSurface
 from ..tolerances import FLAT_PER_MM, LIMIT_SLACK, ROUND_OFF
+from ..vectors import row_lengths
 from .cutters import Cutter, CutterKind, disc_basis
 from .local import (
     CONVERGED_MM,
@@ -71,6 +72,12 @@ __all__ = [
 
 #: Where inside a move the gap is measured; with the ends (gap 0) they fix the model below.
 CHORD_FRACTIONS = (0.25, 0.5, 0.75)
+#: A disc point's foot off the normal through the point by more than this (mm) is not its
+#: closest point: a converged Newton foot lies on it to round-off (1e-14 mm measured), one
+#: stopped within :data:`~.local.CONVERGED_MM` of it to about that (:meth:`_Disc._stationary`).
+STATIONARY_MM = 0.01
+#: Newton steps beyond the disc's own for a point searched again from a neighbour's foot.
+STATIONARY_EXTRA = 4
 #: Samples of the gap model's slope on [0, 1] that bracket its extremes (:func:`chord_extremes`).
 _GRID = 21
 #: A gap model (mm) whose coefficients are all below this is round-off: it has no extremes
@@ -274,7 +281,7 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
                  for i in range(0, len(tips_mm), chunk)]
         gap, t, s = (np.concatenate(x) for x in zip(*parts, strict=True))
         return gap, t, s
-    disc = _Disc(surface, cutter, tips_mm, axes, newton + 1)
+    disc = _Disc(surface, cutter, tips_mm, axes, newton + 1, (t0, s0))
     all_rows = np.arange(len(tips_mm))
     # the centre's foot point: its normal tells which rim point can touch
     d_c, t_c, s_c, n_c, k_c = disc.signed(disc.centre, t0, s0, all_rows, curvature=True)
@@ -323,8 +330,11 @@ class _Disc:
     """
 
     def __init__(self, surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.float64],
-                 axes: NDArray[np.float64], iterations: int) -> None:
+                 axes: NDArray[np.float64], iterations: int,
+                 seeds: tuple[NDArray[np.float64], NDArray[np.float64]]) -> None:
         self.surface, self.cutter, self.tips, self.axes = surface, cutter, tips_mm, axes
+        self.seeds = tuple(np.broadcast_to(np.asarray(x, dtype=float), (len(tips_mm),))
+                           for x in seeds)  # (each pose's expected contact ``t``, ``s``)
         self.centre = tips_mm + cutter.corner_radius_mm * axes
         self.radius = cutter.radius_mm - cutter.corner_radius_mm
         self.iterations = iterations
@@ -346,20 +356,88 @@ class _Disc:
         if not curvature:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
                                                   iterations=self.iterations)
+            signed, tt, ss = self._stationary(points, signed, tt, ss, poses)
             return self._edges(points, tt, ss, signed, poses), tt, ss
         signed = None
         if self.surface.closed_t:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
                                                   iterations=self.iterations)
+            signed, tt, ss = self._stationary(points, signed, tt, ss, poses)
         else:
             tt, ss, _ = project_to_surface(self.surface, points, tt, ss,
                                            iterations=self.iterations)
+            _, tt, ss = self._stationary(points, None, tt, ss, poses)
         f = self.surface.frame(tt, ss)
         if signed is None:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
         return self._edges(points, tt, ss, signed, poses), tt, ss, f.normal, bend
+
+    def _stationary(self, points: NDArray[np.float64], signed: NDArray[np.float64] | None,
+                    tt: NDArray[np.float64], ss: NDArray[np.float64], poses: NDArray[np.int64]
+                    ) -> tuple[Any, NDArray[np.float64], NDArray[np.float64]]:
+        """Readings whose foot is not a closest point, searched again.
+
+        A foot ``X`` of ``K`` is a closest point only where ``K - X`` lies along the normal
+        there. Round a leading edge thinner than the disc a point's Newton search can cycle
+        between the two faces and stop anywhere (a flat:6 disc point 1.97 mm off its
+        "foot", mostly sideways, read 0.084 mm inside the propeller's edge where the disc
+        stands 0.001 mm deep): a foot off the normal by more than :data:`STATIONARY_MM` is
+        searched again from the foot of the nearest point of the same disc whose foot is
+        a closest point and reads no deeper than that (else from its own). And a foot on the
+        normal may be the far face's, ``K`` lying behind its plane though outside the part
+        (dev_rotor_blunt's bull:6:1 5-axis job read poses past the leading edge 3.1 mm deep
+        from the far face, 0.01 mm clear): a reading more than :data:`STATIONARY_MM` inside
+        is searched again likewise (else from its pose's expected contact), the new foot
+        kept where it is nearer to ``K``; an off-normal one's where it is a closest point or
+        nearer. ``signed`` (None: not read) and the feet are returned mended.
+        """
+        if signed is None:
+            x, n = self.surface.points_and_normals(tt, ss)
+            along = np.einsum("ij,ij->i", points - x, n)
+        else:  # (|K - X|^2 = along^2 + off^2: the point alone, no normal)
+            x, along = self.surface(tt, ss), signed
+        reach = row_lengths(points - x)
+        off = np.sqrt(np.maximum(reach * reach - along * along, 0.0))
+        # (a foot on an open edge stands off the normal: the edge's rule reads it)
+        inner = (ss > 0.0) & (ss < 1.0)
+        if not self.surface.closed_t:
+            inner &= (tt > 0.0) & (tt < 1.0)
+        off_normal = (off > STATIONARY_MM) & inner
+        deep = ~off_normal & (along < -STATIONARY_MM)
+        bad = np.flatnonzero(off_normal | deep)
+        if not bad.size:
+            return signed, tt, ss
+        seed_t, seed_s = tt[bad].copy(), ss[bad].copy()
+        far = deep[bad]  # (without a neighbour: from the pose's expected contact)
+        seed_t[far], seed_s[far] = self.seeds[0][poses[bad[far]]], self.seeds[1][poses[bad[far]]]
+        good = np.flatnonzero(~off_normal & ~deep)
+        good = good[np.argsort(poses[good], kind="stable")]
+        first = np.searchsorted(poses[good], poses[bad], side="left")
+        count = np.searchsorted(poses[good], poses[bad], side="right") - first
+        if count.max(initial=0) > 0:  # the same disc's good points, padded to the most
+            block = first[:, None] + np.arange(count.max())[None, :]
+            inside = np.arange(count.max())[None, :] < count[:, None]
+            rows = good[np.where(inside, block, 0)]
+            apart = np.where(inside, np.linalg.norm(points[rows] - points[bad][:, None, :],
+                                                    axis=2), np.inf)
+            near = rows[np.arange(bad.size), np.argmin(apart, axis=1)]
+            has = count > 0
+            seed_t[has], seed_s[has] = tt[near[has]], ss[near[has]]
+        d2, t2, s2 = signed_distance_near(self.surface, points[bad], seed_t, seed_s,
+                                          iterations=self.iterations + STATIONARY_EXTRA)
+        reach2 = row_lengths(points[bad] - self.surface(t2, s2))
+        off2 = np.sqrt(np.maximum(reach2 * reach2 - d2 * d2, 0.0))
+        nearer = reach2 < reach[bad]
+        take = np.where(far, nearer, (off2 <= STATIONARY_MM) | nearer)
+        rows = bad[take]
+        tt, ss = tt.copy(), ss.copy()
+        tt[rows], ss[rows] = t2[take], s2[take]
+        if signed is not None:
+            signed = signed.copy()
+            signed[rows] = d2[take]
+        return signed, tt, ss
 
     def _edges(self, points: NDArray[np.float64], tt: NDArray[np.float64],
                ss: NDArray[np.float64], signed: NDArray[np.float64],
