@@ -253,8 +253,7 @@ def test_a_flat_face_goes_round_the_normal_keeping_its_lean():
     w = np.linspace(0.0, 1.0, 201)
     p, n, f = _round_edge(-5.0 + 10.0 * w)
     one = np.ones((w.size, 1))
-    axes = lean_interpolated(a * one, na * one, fa * one, b * one, nb * one, fb * one, w, n, f,
-                             np.full(w.size, 10.0))
+    axes = lean_interpolated(a * one, na * one, fa * one, b * one, nb * one, fb * one, w, n, f)
     np.testing.assert_allclose(np.linalg.norm(axes, axis=1), 1.0)
     np.testing.assert_allclose(axes[[0, -1]], [a, b], atol=1e-12)
     np.testing.assert_allclose(angle_deg(axes, n), 10.0, atol=1e-9)
@@ -287,18 +286,22 @@ def test_leans_alike_interpolate_like_a_slerp_and_upright_ends_by_their_lean_vec
     a, b = _leaning(n[0], f[0], 10.0, 3.0), _leaning(n[-1], f[-1], 10.5, -2.0)
     one = np.ones((11, 1))
     got = lean_interpolated(a * one, n[0] * one, f[0] * one, b * one, n[-1] * one, f[-1] * one,
-                            w, n, f, np.zeros(11))
+                            w, n, f)
     np.testing.assert_allclose(angle_deg(got, slerp(a * one, b * one, w)), 0.0, atol=0.05)
     # an upright end (no lean, no direction): the lean vectors are interpolated
     up = n[0]
     got = lean_interpolated(up * one, n[0] * one, f[0] * one, b * one, n[-1] * one,
-                            f[-1] * one, w, n, f, np.zeros(11))
+                            f[-1] * one, w, n, f)
     assert np.isfinite(got).all()
     np.testing.assert_allclose(angle_deg(got, n), 10.5 * w, atol=0.05)
-    # a floor: no axis leans less than it
-    got = lean_interpolated(up * one, n[0] * one, f[0] * one, b * one, n[-1] * one,
-                            f[-1] * one, w, n, f, np.full(11, 4.0))
-    assert angle_deg(got, n).min() > 4.0 - 1e-9
+    # ends leaning less than the lead (5 and 6 degrees, held back by a tilt limit): the new
+    # axes lean between the two, not up to the lead (raised to 10 degrees a new point
+    # stood 4 degrees off both ends, its tip 1.5 mm out of the move)
+    a, b = _leaning(n[0], f[0], 5.0, -60.0), _leaning(n[-1], f[-1], 6.0, -44.0)
+    got = lean_interpolated(a * one, n[0] * one, f[0] * one, b * one, n[-1] * one, f[-1] * one,
+                            w, n, f)
+    np.testing.assert_allclose(angle_deg(got, n), 5.0 + w, atol=1e-9)
+    assert (angle_deg(got[1:], got[:-1]) < 0.5).all()
 
 
 def test_axes_leaning_too_far_turn_back_onto_the_lean_cone_in_their_own_plane():

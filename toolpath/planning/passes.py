@@ -539,7 +539,7 @@ def insert_points(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                 pts.frame.e1[before] * pts.direction[before][:, None],
                 pts.axes[after], pts.frame.normal[after],
                 pts.frame.e1[after] * pts.direction[after][:, None], w, frame.normal,
-                frame.e1 * direction[:, None], angle_deg(nominal, frame.normal))
+                frame.e1 * direction[:, None])
         axes, limited = limit_lean(axes, frame.normal, opts.max_lean_deg)
         axes, pushed = _off_cone(opts, axes, frame, direction)
         # (the rate figures are measured once the insertions are done: with_rate_record)

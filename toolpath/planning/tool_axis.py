@@ -361,8 +361,8 @@ def _limit_lean_rows(axes, normals, max_lean_deg, cos_lean, sin_lean, out, over)
 def lean_interpolated(axes_a: NDArray[np.float64], normals_a: NDArray[np.float64],
                       feeds_a: NDArray[np.float64], axes_b: NDArray[np.float64],
                       normals_b: NDArray[np.float64], feeds_b: NDArray[np.float64],
-                      w: ArrayLike, normals: NDArray[np.float64], feeds: NDArray[np.float64],
-                      min_lean_deg: ArrayLike) -> NDArray[np.float64]:
+                      w: ArrayLike, normals: NDArray[np.float64], feeds: NDArray[np.float64]
+                      ) -> NDArray[np.float64]:
     """Axes a fraction ``w`` of the way from ``a`` to ``b`` in lean and in its direction.
 
     For a flat face's lead. Each axis is read in its own contact's frame as a lean
@@ -372,14 +372,18 @@ def lean_interpolated(axes_a: NDArray[np.float64], normals_a: NDArray[np.float64
     ``theta = (1 - w) theta_a + w theta_b``, ``phi = phi_a + w wrap(phi_b - phi_a)``,
     ``a = cos(theta) n + sin(theta) (cos(phi) f + sin(phi) n x f)``
 
-    at the new contact's frame, with ``theta`` at least ``min_lean_deg`` (deg). So the
-    axis goes round the normal on the lean cone, not through it: where the normal turns
-    faster than the axes (round a leading edge, the lean's direction swinging from ahead to
-    beside or behind) a slerp between two leaning axes leans less, down to none, and the
-    contact then jumps across the face (the tip by up to its diameter in one move); here
-    the face keeps its lean and the contact stays on its rim, moving round it as far as
-    the lean's direction turns. Ends leaning less than 0.5 degree have no direction to
-    speak of: their lean vectors ``theta (cos(phi), sin(phi))`` are interpolated instead.
+    at the new contact's frame. So the axis goes round the normal on the lean cone, not
+    through it, and leans between its ends' leans (no floor at the lead: on the DCA
+    rotor's 5-axis flat:6 job, past the leading edge, ends leaning 5 and 6 degrees had a
+    new point raised to 10, 4 degrees off both and its tip 1.5 mm out of the move).
+
+    Where the normal turns faster than the axes (round a leading edge, the lean's
+    direction swinging from ahead to beside or behind) a slerp between two leaning axes
+    leans less, down to none, and the contact then jumps across the face (the tip by up to
+    its diameter in one move); here the face keeps its lean and the contact stays on its
+    rim, moving round it as far as the lean's direction turns. Ends leaning less than 0.5
+    degree have no direction to speak of: their lean vectors ``theta (cos(phi), sin(phi))``
+    are interpolated instead.
     """
     w = np.asarray(w, dtype=float)
     theta_a, phi_a = _lean_polar(axes_a, normals_a, feeds_a)
@@ -393,7 +397,6 @@ def lean_interpolated(axes_a: NDArray[np.float64], normals_a: NDArray[np.float64
         y = (1.0 - w) * theta_a * np.sin(phi_a) + w * theta_b * np.sin(phi_b)
         theta = np.where(upright, np.hypot(x, y), theta)
         phi = np.where(upright, np.arctan2(y, x), phi)
-    theta = np.maximum(theta, np.radians(np.asarray(min_lean_deg, dtype=float)))
     f, b = _tangent_basis(normals, feeds)
     return unit(np.cos(theta)[:, None] * normals + np.sin(theta)[:, None]
                 * (np.cos(phi)[:, None] * f + np.sin(phi)[:, None] * b))
