@@ -461,6 +461,23 @@ def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_le
 
 
 
+def test_a_move_is_stalled_only_once_its_splits_have_shrunk_it():
+    # three splits down, a gap still above STALLED_SHARE of its line's first is left whole
+    # only if the splits shrank the move to STALLED_TRAVEL_SHARE of the first's travel: a
+    # blunt leading edge's turn gathered at one end of a move stays in one part of the
+    # even splits (its travel 70 % of the first's three splits down) and goes on
+    cutter = parse_cutter("bull:6:1")
+    over, origin = np.array([1.7, 1.7, 1.7, 1.7]), np.array([1.66, 1.66, 1.66, 1.66])
+    depth = np.array([3, 3, 2, 3])
+    travel, origin_travel = np.array([1.29, 0.2, 0.2, 0.9]), np.full(4, 1.83)
+    stalled = passes._not_shrunk(cutter, over, origin, depth, travel, origin_travel)
+    assert stalled.tolist() == [
+        False, True, False, bool(0.9 <= passes.STALLED_TRAVEL_SHARE * 1.83)]
+    # a ball's moves never stall
+    assert not passes._not_shrunk(parse_cutter("ball:6"), over, origin, depth, travel,
+                                  origin_travel).any()
+
+
 def test_plan_reports_the_moves_the_chord_check_left_stalled(monkeypatch):
     # the chord check's stalled moves (the test above) reach the plan's report, JSON and
     # text, so a user can tell a gap read beside an edge from a measured chord error. The

@@ -93,6 +93,16 @@ MAX_CHORD_ROUNDS = 12
 #: flat:6 read 1 mm over five splits), and splitting it multiplies points 8-fold a round.
 STALLED_SHARE = 0.8
 STALLED_SPLITS = 3
+#: ... and only once the splits have shrunk the move to at most this share of its line's
+#: first move (its travel: tip path plus ``R`` times the axis turn, :func:`_travel_mm`).
+#: Splits are even in ``t``; where the turn is gathered at one end of a move (a blunt
+#: leading edge's small circle under joint interpolation: C turning 16 degrees, 13.5 of
+#: them over the last quarter) the first splits leave most of it, and the gap, in one
+#: part: dev_rotor_blunt bull:6:1 on trunnion-ac was left whole at 0.085 mm (tolerance
+#: 0.05) three splits down, its travel still 70 % of the first move's (another, 0.069
+#: mm, between a quarter and half). A gap that stands whatever the length still stops
+#: three splits down: the move is then an eighth of its first or less.
+STALLED_TRAVEL_SHARE = 0.25
 #: With a 5-axis machine, the most a cutting move's joint interpolation may carry the tip
 #: sideways, across the pass (it widens the stepover: 0.002 mm on a 0.35 mm stepover raises
 #: the cusp by 1 %); along the normal the gap check sees it, along the feed it is harmless.
@@ -696,9 +706,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     check = np.ones(max(len(pts) - 1, 0), dtype=bool)
     worst = unchecked = stalled_mm = 0.0
     n_stalled = 0
-    # per point: the excess of the move its line of splits started from (0: none), and
-    # how many splits deep it is
-    first_over = np.zeros(len(pts))
+    # per point: the excess and travel of the move its line of splits started from (0:
+    # none), and how many splits deep it is
+    first_over, first_travel = np.zeros(len(pts)), np.zeros(len(pts))
     depth = np.zeros(len(pts), dtype=np.int64)
     for _ in range(max_rounds):
         seg_ok = pts.same_pass & check
@@ -718,8 +728,11 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         gap = np.maximum(-low, high)
         over = over_all = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))
         origin_over = np.maximum(first_over[idx], first_over[idx + 1])
+        travel = _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
+                            pts.axes[idx + 1])
+        origin_travel = np.maximum(first_travel[idx], first_travel[idx + 1])
         deep = np.maximum(depth[idx], depth[idx + 1])
-        stalled = bad & _not_shrunk(cutter, over, origin_over, deep)
+        stalled = bad & _not_shrunk(cutter, over, origin_over, deep, travel, origin_travel)
         if stalled.any():
             n_stalled += int(stalled.sum())
             stalled_mm = max(stalled_mm, float(gap[stalled].max()))
@@ -754,9 +767,10 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
             raise too_many_points(opts, n_points)
         keep = None if keep is None else _kept_with_new(keep, where_new)
         check = _checked_again(cutter, tol, before, pts, where_new, kept)
-        first_over, depth = _split_lines(len(pts), where_new, which,
-                                         np.where(origin_over > 0.0, origin_over, over_all)[bad],
-                                         deep[bad])
+        line = origin_over > 0.0
+        first_over, first_travel, depth = _split_lines(
+            len(pts), where_new, which, np.where(line, origin_over, over_all)[bad],
+            np.where(line, origin_travel, travel)[bad], deep[bad])
     else:
         worst = max(worst, unchecked)
     if origin is not None:
@@ -766,13 +780,17 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
 
 
 def _not_shrunk(cutter: Cutter, over: NDArray[np.float64], origin_over: NDArray[np.float64],
-                depth: NDArray[np.int64]) -> NDArray[np.bool_]:
+                depth: NDArray[np.int64], travel: NDArray[np.float64],
+                origin_travel: NDArray[np.float64]) -> NDArray[np.bool_]:
     """Moves whose gap did not fall over :data:`STALLED_SPLITS` splits of their line.
 
     ``over``: each move's gap over its limit (a ratio, > 1 beyond it); ``origin_over``:
     that of the move its line of splits started from (0: a move never split), ``depth``
-    how many splits ago. Stalled: at least :data:`STALLED_SPLITS` deep, beyond the limit,
-    and still above :data:`STALLED_SHARE` of where it started.
+    how many splits ago; ``travel``, ``origin_travel`` the moves' and their lines' first
+    moves' travel (mm, :func:`_travel_mm`). Stalled: at least :data:`STALLED_SPLITS` deep,
+    beyond the limit, still above :data:`STALLED_SHARE` of where it started, though
+    split down to at most :data:`STALLED_TRAVEL_SHARE` of the first move's travel (a
+    move the even splits have not shrunk yet goes on being split).
 
     Flat and bull-nose cutters only. A ball's gap at its own locations is 0 by
     construction (its centre stands ``R`` off the contact along the normal), so its moves'
@@ -784,22 +802,26 @@ def _not_shrunk(cutter: Cutter, over: NDArray[np.float64], origin_over: NDArray[
     if cutter.kind is CutterKind.BALL:
         return np.zeros(over.size, dtype=bool)
     return ((depth >= STALLED_SPLITS) & (origin_over > 1.0) & (over > 1.0)
-            & (over > STALLED_SHARE * origin_over))
+            & (over > STALLED_SHARE * origin_over)
+            & (travel <= STALLED_TRAVEL_SHARE * origin_travel))
 
 
 def _split_lines(n_points: int, where_new: NDArray[np.int64], which: NDArray[np.int64],
-                 origin_over: NDArray[np.float64], depth: NDArray[np.int64]
-                 ) -> tuple[NDArray[np.float64], NDArray[np.int64]]:
+                 origin_over: NDArray[np.float64], origin_travel: NDArray[np.float64],
+                 depth: NDArray[np.int64]
+                 ) -> tuple[NDArray[np.float64], NDArray[np.float64], NDArray[np.int64]]:
     """Per point, the line of splits a new point belongs to (:func:`_not_shrunk`).
 
     ``where_new``: the new points' rows, ``which``: the split move each was inserted into
-    (rows of ``origin_over`` and ``depth``, the split moves' lines). Old points: none.
+    (rows of ``origin_over``, ``origin_travel`` and ``depth``, the split moves' lines).
+    Old points: none.
     """
-    first_over = np.zeros(n_points)
+    first_over, first_travel = np.zeros(n_points), np.zeros(n_points)
     first_over[where_new] = origin_over[which]
+    first_travel[where_new] = origin_travel[which]
     deep = np.zeros(n_points, dtype=np.int64)
     deep[where_new] = depth[which] + 1
-    return first_over, deep
+    return first_over, first_travel, deep
 
 
 def _joints_along(machine: Machine, start: PassPoints, pts: PassPoints,
