@@ -389,8 +389,10 @@ class _Disc:
         normal may be the far face's, ``K`` lying behind its plane though outside the part
         (dev_rotor_blunt's bull:6:1 5-axis job read poses past the leading edge 3.1 mm deep
         from the far face, 0.01 mm clear): a reading more than :data:`STATIONARY_MM` inside
-        is searched again likewise (else from its pose's expected contact), the new foot
-        kept where it is nearer to ``K``; an off-normal one's where it is a closest point or
+        from a face turned away from the tool axis (``n . a <= 0``; where a cutter cuts in,
+        a face turned towards it is inside it too, so the deepest reading stands on one) is
+        searched again likewise (else from its pose's expected contact), the new foot kept
+        where it is nearer to ``K``; an off-normal one's where it is a closest point or
         nearer. ``signed`` (None: not read) and the feet are returned mended.
         """
         if signed is None:
@@ -406,6 +408,10 @@ class _Disc:
             inner &= (tt > 0.0) & (tt < 1.0)
         off_normal = (off > STATIONARY_MM) & inner
         deep = ~off_normal & (along < -STATIONARY_MM)
+        if deep.any():  # (only a face turned from the tool: one it cuts faces it)
+            rows = np.flatnonzero(deep)
+            _, n = self.surface.points_and_normals(tt[rows], ss[rows])
+            deep[rows] = np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0
         bad = np.flatnonzero(off_normal | deep)
         if not bad.size:
             return signed, tt, ss
