@@ -322,6 +322,16 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     return out[0] - r, out[1], out[2]
 
 
+def _off_normal_mm(reach_mm: NDArray[np.float64], along_mm: NDArray[np.float64]
+                   ) -> NDArray[np.float64]:
+    """How far a foot ``X`` lies off the normal through its point ``K``, mm.
+
+    ``sqrt(|K - X|^2 - ((K - X) . n)^2)`` from ``reach_mm = |K - X|`` and ``along_mm =
+    (K - X) . n`` (0 at a closest point; round-off never makes it imaginary).
+    """
+    return np.sqrt(np.maximum(reach_mm * reach_mm - along_mm * along_mm, 0.0))
+
+
 class _Disc:
     """The corner-circle disc of a flat or bull-nose cutter at many poses (rows).
 
@@ -398,10 +408,10 @@ class _Disc:
         if signed is None:
             x, n = self.surface.points_and_normals(tt, ss)
             along = np.einsum("ij,ij->i", points - x, n)
-        else:  # (|K - X|^2 = along^2 + off^2: the point alone, no normal)
+        else:  # (off the normal from |K - X| and the reading: the point alone, no normal)
             x, along = self.surface(tt, ss), signed
         reach = row_lengths(points - x)
-        off = np.sqrt(np.maximum(reach * reach - along * along, 0.0))
+        off = _off_normal_mm(reach, along)
         # (a foot on an open edge stands off the normal: the edge's rule reads it)
         inner = (ss > 0.0) & (ss < 1.0)
         if not self.surface.closed_t:
@@ -434,7 +444,7 @@ class _Disc:
         d2, t2, s2 = signed_distance_near(self.surface, points[bad], seed_t, seed_s,
                                           iterations=self.iterations + STATIONARY_EXTRA)
         reach2 = row_lengths(points[bad] - self.surface(t2, s2))
-        off2 = np.sqrt(np.maximum(reach2 * reach2 - d2 * d2, 0.0))
+        off2 = _off_normal_mm(reach2, d2)
         nearer = reach2 < reach[bad]
         take = np.where(far, nearer, (off2 <= STATIONARY_MM) | nearer)
         rows = bad[take]
