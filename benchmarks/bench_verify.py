@@ -3,7 +3,7 @@
 Run:  python benchmarks/bench_verify.py [--blocks 1000000] [--skip-5axis] [--samples N]
       [--bull bull:6:1] [--bull5 [bull:8:1]] [--bull5-scallop MM] [--skip-bull]
       [--only-5axis] [--skip-baseline] [--flat3 [flat:6,bull:6:1]] [--only-flat3]
-      [--flat3-repeats N] [--baseline-checkout DIR]
+      [--flat3-repeats N] [--flat5 [flat:6,bull:6:1]] [--baseline-checkout DIR]
 
 In one run:
 
@@ -55,7 +55,12 @@ In one run:
    verifier of that checkout too, alternately, in the same run. Beside the target of
    :data:`FLAT3_TARGET_S` (the 5-axis ball program's verification on this machine took
    ~3 s; these took 47-57 s before the flat and bull-nose search was sped up), and the
-   ratio to the baseline's time with its gouge and scallop.
+   ratio to the baseline's time with its gouge and scallop. ``--flat5 [SPECS]``: the same
+   rows in 5 axes (``trunnion-ac``, ``--axis lead-tilt --lead 10 --on-gouge lift``,
+   scallop and chord tolerance :data:`FLAT5_SCALLOP_MM`): the dev blade's ``flat:6``
+   program took 149 s to verify before its fine refinement went a group of starts at a
+   time (:func:`verification.extremes._start_groups`), 57 s after; with ``--only-flat3``
+   only these rows (and ``--flat3``'s when given).
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
 (:func:`exact_dialect`), so they are the original path, not its 1 um rounding.
@@ -156,6 +161,10 @@ FLAT3_TARGET_S = 10.0
 #: Their ``toolpath run`` settings: scallop and chord tolerance, mm.
 FLAT3_SCALLOP_MM = 0.01
 FLAT3_CHORD_MM = 0.02
+#: The 5-axis rows' ``toolpath run`` settings (``--flat5``): scallop and chord tolerance,
+#: mm, and the job's tool axis.
+FLAT5_SCALLOP_MM = 0.02
+FLAT5_JOB = ("--axis", "lead-tilt", "--lead", "10", "--on-gouge", "lift")
 
 
 def exact_dialect(dialect: Dialect) -> Dialect:
@@ -506,19 +515,28 @@ def bull5_row(standing, spec: str, scallop_mm: float) -> None:
     print("    stages, s: " + ", ".join(f"{k} {v:.2f}" for k, v in r["timings_s"].items()))
 
 
-def flat3_rows(specs: list[str], repeats: int, baseline: str | None) -> None:
-    """The dev blade's 3-axis flat and bull-nose ``toolpath run`` programs, verified warm.
+def flat3_rows(specs: list[str], repeats: int, baseline: str | None, *,
+               five_axis: bool = False) -> None:
+    """The dev blade's flat and bull-nose ``toolpath run`` programs, verified warm.
 
     Each job (plan, post) runs once through the CLI; its program and placed surface are
     verified in fresh processes (:func:`verify_child`, ``runs=2``: the second timed),
     ``repeats`` times, alternating with the ``baseline`` checkout's verifier when given.
+    3-axis on ``grbl-router`` (scallop :data:`FLAT3_SCALLOP_MM`), or with ``five_axis`` on
+    ``trunnion-ac``, lead 10 deg (:data:`FLAT5_JOB`).
     """
     import subprocess
     import tempfile
 
     blade = str(files("toolpath") / "data" / "dev_blade_15x142.csv")
-    print(f"flat and bull-nose 3-axis (grbl-router, toolpath run --scallop {FLAT3_SCALLOP_MM} "
-          f"--chord-tol {FLAT3_CHORD_MM}; warm verification in fresh processes, fastest of "
+    machine, dialect = ("trunnion-ac", "linuxcnc") if five_axis else ("grbl-router", "grbl")
+    scallop = FLAT5_SCALLOP_MM if five_axis else FLAT3_SCALLOP_MM
+    job_args = (["--machine", machine, *FLAT5_JOB, "--scallop", str(scallop), "--chord-tol",
+                 str(scallop)] if five_axis else
+                ["--machine", machine, "--scallop", str(scallop), "--chord-tol",
+                 str(FLAT3_CHORD_MM)])
+    print(f"flat and bull-nose {'5' if five_axis else '3'}-axis ({machine}, toolpath run "
+          f"{' '.join(job_args[2:])}; warm verification in fresh processes, fastest of "
           f"{repeats}); load average " + " ".join(f"{v:.2f}" for v in os.getloadavg()))
     header = (f"  {'cutter':<10}{'checkout':<10}{'verify s':>9}{'search s':>9}{'refine s':>9}"
               f"{'CPU s':>7}{'target':>7}{'peak MB':>8}{'pairs':>11}{'gouge mm':>12}"
@@ -527,13 +545,11 @@ def flat3_rows(specs: list[str], repeats: int, baseline: str | None) -> None:
         for spec in specs:
             job = os.path.join(tmp, spec.replace(":", "_"))
             subprocess.run([sys.executable, "-m", "streamline_cam.cli", "run", blade,
-                            "--machine", "grbl-router", "--cutter", spec, "--scallop",
-                            str(FLAT3_SCALLOP_MM), "--chord-tol", str(FLAT3_CHORD_MM),
+                            "--cutter", spec, *job_args,
                             "--quiet", "--json", "-o", os.path.join(job, "part.nc")],
                            check=True, capture_output=True, text=True)
             args = (os.path.join(job, "part.nc"), os.path.join(job, "surface.json"),
-                    "grbl-router", "grbl", f"cutter={spec}", f"scallop={FLAT3_SCALLOP_MM}",
-                    "runs=2")
+                    machine, dialect, f"cutter={spec}", f"scallop={scallop}", "runs=2")
             checkouts = [("this", None)] + ([("baseline", baseline)] if baseline else [])
             found: dict[str, list[dict]] = {name: [] for name, _ in checkouts}
             for _ in range(repeats):
@@ -582,6 +598,9 @@ def main(argv: list[str] | None = None) -> int:
                          "(comma-separated; flat:6,bull:6:1 when given bare)")
     ap.add_argument("--only-flat3", action="store_true",
                     help="run just the flat and bull-nose 3-axis rows (--flat3's cutters)")
+    ap.add_argument("--flat5", nargs="?", const="flat:6,bull:6:1", default=None,
+                    help="the flat and bull-nose rows in 5 axes (trunnion-ac, lead 10) with "
+                         "these cutters; with --only-flat3 only these and --flat3's")
     ap.add_argument("--flat3-repeats", type=int, default=2,
                     help="fresh processes per cutter and checkout of the --flat3 rows")
     ap.add_argument("--baseline-checkout", default=None,
@@ -593,7 +612,11 @@ def main(argv: list[str] | None = None) -> int:
     print(f"python {sys.version.split()[0]}, numpy {np.__version__}, cpus {os.cpu_count()}")
     flat3 = (args.flat3 or ("flat:6,bull:6:1" if args.only_flat3 else None))
     if args.only_flat3:
-        flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+        if args.flat3 is not None or args.flat5 is None:
+            flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+        if args.flat5 is not None:
+            flat3_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
+                       five_axis=True)
         return 0
     cutter = parse_cutter(CUTTER)
     opts = VerifyOptions(scallop_mm=SCALLOP_MM, max_samples=args.samples)
@@ -671,6 +694,9 @@ def main(argv: list[str] | None = None) -> int:
           f"{brute_big / big.timings_s['search']:.0f}x")
     if flat3 is not None:
         flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+    if args.flat5 is not None:
+        flat3_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
+                   five_axis=True)
     return 0
 
 

@@ -9,7 +9,7 @@ uncut stock.
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from typing import Final
 
@@ -34,6 +34,10 @@ _REFINE_SCALES: Final[tuple[float, ...]] = (1.0, 0.25, 0.0625)
 #: The fine model's levels, from the coarse ends and the grid starts: a quarter of a step
 #: down to 1/256 of one.
 _FINE_SCALES: Final[tuple[float, ...]] = (0.25, 0.0625, 0.015625)
+#: Share of the lazy fine searches' budget (:data:`~verification.fine_lazy.KEPT_PIECES`)
+#: a group of fine starts is sized to need (:func:`_start_groups`): the pieces a pair of
+#: starts needs vary along the path with how fast the axis turns there.
+GROUP_BUDGET_SHARE: Final[float] = 0.5
 #: Share of a start's guessed deviation below which the near search's levels are skipped.
 _GUESS_SHARE: Final[float] = 0.5
 
@@ -101,6 +105,21 @@ class _Refined:
     def score(self, sign: float) -> FloatArray:
         """``sign x dev``, ``-inf`` where nothing was found."""
         return np.where(np.isfinite(self.dev), sign * self.dev, -np.inf)
+
+    @staticmethod
+    def placed(into: _Refined | None, rows: NDArray[np.int64], part: _Refined,
+               n: int) -> _Refined:
+        """``part`` (the values of the starts ``rows``) written into ``into``, in place.
+
+        ``into`` None: a new one of ``n`` starts, nothing found yet.
+        """
+        if into is None:
+            into = _Refined(np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
+                            np.full((n, 3), np.nan), np.full(n, -1, dtype=np.int64),
+                            np.zeros(n, dtype=bool))
+        for name in ("dev", "t", "s", "points", "move", "shank"):
+            getattr(into, name)[rows] = getattr(part, name)
+        return into
 
     def extreme(self, sign: float) -> Extreme | None:
         """The most extreme of the starts' values (None when none is finite)."""
@@ -232,22 +251,64 @@ def _refine_finely(ev: Dexels, coarse: Dexels, surface: ParametricSurface,
     The fine value is taken at the coarse ends and the grid starts themselves with the
     collision search (a contact only that search sees leads the levels nowhere), and
     from both through the fine levels, the most extreme kept.
+
+    Where the fine searches are lazy (:class:`~verification.fine_lazy.LazyFineSweeps`,
+    which keeps the fine pieces of the segments its searches needed, up to a budget) the
+    starts go through every level a group at a time (:func:`_start_groups`): a level of
+    all the starts at once asks for the segments round every start, more than the budget
+    holds on a 5-axis flat or bull-nose program, and each batch dropped and replayed what
+    the previous level's same batch had kept. Each start's levels depend on its own
+    values only, and a search's values not on what else is kept
+    (:mod:`verification.fine_lazy`), so the figures are those of all the starts at once.
     """
     sign = 1.0 if largest else -1.0
     kw = {"largest": largest, "collision": collision, "contacts": coarse}
-    # at the coarse ends and grid starts themselves, then from both through the fine
-    # levels: the coarse model's bumps may have led its levels to another top
     # guesses where the fine searches are lazy (each level a replay and a walk of the
     # whole program's coarse pieces); elsewhere a level skipped to builds a wider grid
     # (on the ball blade 70-90 MB more peak, for no time)
     lazy = isinstance(ev.index, LazyFineSweeps)
-    at_both = _refine(ev, surface, samples, starts.t, starts.s, starts.conv, scales=(),
-                      guess=starts.guess if lazy else None, **kw)
-    levels = _refine(ev, surface, samples, starts.t, starts.s, starts.conv,
-                     scales=_FINE_SCALES, guess=at_both.dev if lazy else None, **kw)
+    n = starts.t.shape[0]
+    at_both = levels = None
+    for rows in _start_groups(ev.index if lazy else None, n):
+        # at the coarse ends and grid starts themselves, then from both through the fine
+        # levels: the coarse model's bumps may have led its levels to another top
+        here = _refine(ev, surface, samples, starts.t[rows], starts.s[rows],
+                       starts.conv[rows], scales=(),
+                       guess=starts.guess[rows] if lazy else None, **kw)
+        deeper = _refine(ev, surface, samples, starts.t[rows], starts.s[rows],
+                         starts.conv[rows], scales=_FINE_SCALES,
+                         guess=here.dev if lazy else None, **kw)
+        at_both = _Refined.placed(at_both, rows, here, n)
+        levels = _Refined.placed(levels, rows, deeper, n)
+    assert at_both is not None and levels is not None
     best = [at_both.extreme(sign), levels.extreme(sign)]
     known = [e for e in best if e is not None]
     return max(known, key=lambda e: sign * e.dev) if known else None
+
+
+def _start_groups(lazy: LazyFineSweeps | None, n: int) -> Iterator[NDArray[np.int64]]:
+    """The rows of ``n`` fine starts, a group at a time (all at once without ``lazy``).
+
+    The starts are the coarse ends, then the grid starts in the same order
+    (:func:`_fine_starts`): a coarse end and its grid start lie within a third of a grid
+    step of each other and need the same segments, so they go in one group. The first
+    group's levels are one batch of ``lazy``'s searches; each next group as many pairs as
+    the budget holds :data:`GROUP_BUDGET_SHARE` of, at the pieces per pair kept so far
+    (those kept, since a drop, over the pairs searched since).
+    """
+    pairs = n // 2
+    if lazy is None:
+        yield np.arange(n)
+        return
+    per = max(lazy.batch // (2 * _REFINE_GRID ** 2), 1)
+    lo, since, drops = 0, 0, lazy.drops
+    while lo < pairs:
+        hi = min(lo + per, pairs)
+        yield np.concatenate((np.arange(lo, hi), pairs + np.arange(lo, hi)))
+        since = hi - lo if lazy.drops != drops else since + hi - lo
+        drops, lo = lazy.drops, hi
+        per = max(int(GROUP_BUDGET_SHARE * lazy.kept_pieces * since
+                      / max(lazy.pieces_kept, 1)), 1)
 
 
 def extreme(ev: Dexels, surface: ParametricSurface, samples: DesignSamples,

@@ -147,6 +147,11 @@ class LazyFineSweeps:
         """The joint segments whose fine pieces are kept (sorted)."""
         return self._rows
 
+    @property
+    def pieces_kept(self) -> int:
+        """The fine pieces kept, as counted against :attr:`kept_pieces` (the budget)."""
+        return self._counted
+
     def search(self, which: str, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                radii_mm: FloatArray, *, below_mm: FloatArray | None = None,
                below_piece: IntArray | None = None, rim_in_radii: bool = False
