@@ -65,8 +65,8 @@ from .sampling import (
     move_poses,
 )
 
-__all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "FOOT_SLACK_MM", "FOOT_SPREAD",
-           "SEEDED_CONTACT_NEWTON", "ChordMeasurement", "measure_chord"]
+__all__ = ["BALL_CONTACT_NEWTON", "CONTACT_STRIDE", "DISC_CONTACT_NEWTON", "FOOT_SLACK_MM",
+           "FOOT_SPREAD", "SEEDED_CONTACT_NEWTON", "ChordMeasurement", "measure_chord"]
 
 
 @dataclass(frozen=True)
@@ -136,12 +136,22 @@ BALL_CONTACT_NEWTON = 3
 #: ``s`` by 3e-8).
 SEEDED_CONTACT_NEWTON = 1
 
+#: Newton steps for each disc point of a flat or bull-nose cutter's contact, searched
+#: from the nearest surface sample (:func:`~.sampling.cutter_gap`: ``newton + 1`` fixed
+#: steps), then more while a step still moves the foot by over
+#: :data:`~.local.CONVERGED_MM`. The steps beyond those the feet still need changed no
+#: gap: against six, the 30 bull-nose plans of ``bench_toolpath.py --sweep`` and the
+#: real-like blades' flat and bull-nose jobs read the same figures to 1e-9 mm, and the
+#: chord measure took 10-15 % less time (one step fewer took no less).
+DISC_CONTACT_NEWTON = 2
+
 
 def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, *, machine: Machine | None = None,
                   chunk: int = 100_000, contact_stride: int = CONTACT_STRIDE,
                   end_slopes: bool = True,
-                  seeded_newton: int = SEEDED_CONTACT_NEWTON) -> ChordMeasurement:
+                  seeded_newton: int = SEEDED_CONTACT_NEWTON,
+                  disc_newton: int = DISC_CONTACT_NEWTON) -> ChordMeasurement:
     """Measure the chord error of ``toolpath`` (module docstring).
 
     With the 5-axis ``machine`` whose joint interpolation the toolpath was checked under
@@ -156,14 +166,15 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     full method, as for flat and bull-nose cutters). ``seeded_newton``: the Newton steps
     every ball contact seeded by its neighbours' feet takes (between anchors, inside
     moves), then more while the foot still moves (:data:`SEEDED_CONTACT_NEWTON`; more
-    steps: the full method).
+    steps: the full method). ``disc_newton``: likewise for a flat or bull-nose cutter's
+    contact searches (:data:`DISC_CONTACT_NEWTON`; 6: the full method).
     """
     joints = checked_joints(toolpath, machine)
     move = _cutting_moves(toolpath)
     if not move.size:
         return ChordMeasurement(0.0, 0.0, 0.0, -1, 0.0, 0)
     contacts = _end_contacts(toolpath, surface, cutter, samples, move, chunk, contact_stride,
-                             seeded_newton)
+                             seeded_newton, disc_newton)
     contact = float(np.abs(contacts.gap).max())
     # under joint interpolation, d(n . C)/dq at every location, once: a location ends one
     # move and starts the next, with the same contact normal (:func:`_ball_slopes`)
@@ -282,7 +293,8 @@ class _EndContacts:
 
 def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                   samples: SurfaceSamples, move: NDArray[np.int64], chunk: int,
-                  stride: int, seeded_newton: int = SEEDED_CONTACT_NEWTON) -> _EndContacts:
+                  stride: int, seeded_newton: int = SEEDED_CONTACT_NEWTON,
+                  disc_newton: int = DISC_CONTACT_NEWTON) -> _EndContacts:
     """The contact of every cutter location on a cutting move ``move``, once.
 
     Seeded by the surface sample nearest to the cutter's centre (ball) or corner-circle
@@ -325,7 +337,7 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             part = rows[lo:lo + chunk]
             gap[part], t[part], s[part] = _contact_gaps(
                 surface, cutter, samples, tips[part], tool_axes[part],
-                t0[lo:lo + chunk], s0[lo:lo + chunk])
+                t0[lo:lo + chunk], s0[lo:lo + chunk], disc_newton)
 
     search_from_samples(runs.anchor)
     if not ball:
@@ -707,9 +719,12 @@ FOOT_SLACK_MM = 1e-6
 
 def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSamples,
                   tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
-                  t0: NDArray[np.float64], s0: NDArray[np.float64]
-                  ) -> tuple[NDArray[np.float64], ...]:
+                  t0: NDArray[np.float64], s0: NDArray[np.float64],
+                  disc_newton: int = DISC_CONTACT_NEWTON) -> tuple[NDArray[np.float64], ...]:
     """Gap, ``t`` and ``s`` of the cutter at each location, searched from ``(t0, s0)``.
+
+    A flat or bull-nose cutter's disc points take ``disc_newton`` Newton steps, then
+    more while the foot moves (:data:`DISC_CONTACT_NEWTON`).
 
     A foot found farther from its cutter point ``K = X + (gap + r) n`` than the sample
     nearest to ``K`` is not its closest point (that sample is a surface point nearer to
@@ -720,7 +735,8 @@ def _contact_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSa
     """
     ball = cutter.kind is CutterKind.BALL
     gap, t, s = cutter_gap(surface, cutter, tips_mm, axes, t0, s0,
-                           newton=BALL_CONTACT_NEWTON if ball else 6, refine_rim=True)
+                           newton=BALL_CONTACT_NEWTON if ball else disc_newton,
+                           refine_rim=True)
     if not ball:
         _mend_from_samples(surface, cutter, samples, tips_mm, axes, (gap, t, s))
     return gap, t, s
