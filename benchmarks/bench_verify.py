@@ -58,8 +58,8 @@ In one run:
    ratio to the baseline's time with its gouge and scallop. ``--flat5 [SPECS]``: the same
    rows in 5 axes (``trunnion-ac``, ``--axis lead-tilt --lead 10 --on-gouge lift``,
    scallop and chord tolerance :data:`FLAT5_SCALLOP_MM`): the dev blade's ``flat:6``
-   program took 149 s to verify before its fine refinement went a group of starts at a
-   time (:func:`verification.extremes._start_groups`), 57 s after; with ``--only-flat3``
+   program took 145 s to verify before its fine refinement went a group of starts at a
+   time (:func:`verification.extremes._start_groups`), 55 s after; with ``--only-flat3``
    only these rows (and ``--flat3``'s when given).
 
 The split programs are written with split points to :data:`SPLIT_POINT_DECIMALS` decimals
@@ -515,7 +515,7 @@ def bull5_row(standing, spec: str, scallop_mm: float) -> None:
     print("    stages, s: " + ", ".join(f"{k} {v:.2f}" for k, v in r["timings_s"].items()))
 
 
-def flat3_rows(specs: list[str], repeats: int, baseline: str | None, *,
+def flat_rows(specs: list[str], repeats: int, baseline: str | None, *,
                five_axis: bool = False) -> None:
     """The dev blade's flat and bull-nose ``toolpath run`` programs, verified warm.
 
@@ -613,9 +613,9 @@ def main(argv: list[str] | None = None) -> int:
     flat3 = (args.flat3 or ("flat:6,bull:6:1" if args.only_flat3 else None))
     if args.only_flat3:
         if args.flat3 is not None or args.flat5 is None:
-            flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+            flat_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
         if args.flat5 is not None:
-            flat3_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
+            flat_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
                        five_axis=True)
         return 0
     cutter = parse_cutter(CUTTER)
@@ -693,9 +693,9 @@ def main(argv: list[str] | None = None) -> int:
           f"ours {big.timings_s['search']:.1f} s of search: ratio "
           f"{brute_big / big.timings_s['search']:.0f}x")
     if flat3 is not None:
-        flat3_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
+        flat_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
     if args.flat5 is not None:
-        flat3_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
+        flat_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
                    five_axis=True)
     return 0
 

@@ -107,19 +107,16 @@ class _Refined:
         return np.where(np.isfinite(self.dev), sign * self.dev, -np.inf)
 
     @staticmethod
-    def placed(into: _Refined | None, rows: NDArray[np.int64], part: _Refined,
-               n: int) -> _Refined:
-        """``part`` (the values of the starts ``rows``) written into ``into``, in place.
+    def unfound(n: int) -> _Refined:
+        """``n`` starts, nothing found yet (their values written in by :meth:`put`)."""
+        return _Refined(np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
+                        np.full((n, 3), np.nan), np.full(n, -1, dtype=np.int64),
+                        np.zeros(n, dtype=bool))
 
-        ``into`` None: a new one of ``n`` starts, nothing found yet.
-        """
-        if into is None:
-            into = _Refined(np.full(n, np.nan), np.full(n, np.nan), np.full(n, np.nan),
-                            np.full((n, 3), np.nan), np.full(n, -1, dtype=np.int64),
-                            np.zeros(n, dtype=bool))
+    def put(self, rows: NDArray[np.int64], part: _Refined) -> None:
+        """``part``, the values of the starts ``rows``, written in (in place)."""
         for name in ("dev", "t", "s", "points", "move", "shank"):
-            getattr(into, name)[rows] = getattr(part, name)
-        return into
+            getattr(self, name)[rows] = getattr(part, name)
 
     def extreme(self, sign: float) -> Extreme | None:
         """The most extreme of the starts' values (None when none is finite)."""
@@ -268,7 +265,7 @@ def _refine_finely(ev: Dexels, coarse: Dexels, surface: ParametricSurface,
     # (on the ball blade 70-90 MB more peak, for no time)
     lazy = isinstance(ev.index, LazyFineSweeps)
     n = starts.t.shape[0]
-    at_both = levels = None
+    at_both, levels = _Refined.unfound(n), _Refined.unfound(n)
     for rows in _start_groups(ev.index if lazy else None, n):
         # at the coarse ends and grid starts themselves, then from both through the fine
         # levels: the coarse model's bumps may have led its levels to another top
@@ -278,9 +275,8 @@ def _refine_finely(ev: Dexels, coarse: Dexels, surface: ParametricSurface,
         deeper = _refine(ev, surface, samples, starts.t[rows], starts.s[rows],
                          starts.conv[rows], scales=_FINE_SCALES,
                          guess=here.dev if lazy else None, **kw)
-        at_both = _Refined.placed(at_both, rows, here, n)
-        levels = _Refined.placed(levels, rows, deeper, n)
-    assert at_both is not None and levels is not None
+        at_both.put(rows, here)
+        levels.put(rows, deeper)
     best = [at_both.extreme(sign), levels.extreme(sign)]
     known = [e for e in best if e is not None]
     return max(known, key=lambda e: sign * e.dev) if known else None

@@ -724,12 +724,12 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
                 start_joints = solved
             q = solved.joints
         low, high = _gap_extremes(surface, cutter, res, pts, idx, machine, q)
-        bad = _moves_to_split(cutter, res, pts, idx, low, high, machine, q)
+        travel = _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
+                            pts.axes[idx + 1])
+        bad = _moves_to_split(res, pts, idx, low, high, travel, machine, q)
         gap = np.maximum(-low, high)
         over = over_all = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))
         origin_over = np.maximum(first_over[idx], first_over[idx + 1])
-        travel = _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
-                            pts.axes[idx + 1])
         origin_travel = np.maximum(first_travel[idx], first_travel[idx + 1])
         deep = np.maximum(depth[idx], depth[idx + 1])
         stalled = bad & _not_shrunk(cutter, over, origin_over, deep, travel, origin_travel)
@@ -933,9 +933,9 @@ def middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64
     return (size > TINY) & (cos_tilt < limit)
 
 
-def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
-                    idx: NDArray[np.int64], low: NDArray[np.float64],
-                    high: NDArray[np.float64], machine: Machine | None,
+def _moves_to_split(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64],
+                    low: NDArray[np.float64], high: NDArray[np.float64],
+                    travel: NDArray[np.float64], machine: Machine | None,
                     q: NDArray[np.float64] | None) -> NDArray[np.bool_]:
     """Which moves ``idx`` to split.
 
@@ -944,19 +944,15 @@ def _moves_to_split(cutter: Cutter, res: PlannedOptions, pts: PassPoints,
     (:func:`middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
 
-    A move shorter than the program's resolution (:data:`MIN_SPLIT_MM`: the tip, plus the
-    cutter radius times the axis turn) is not split: its gap is not the chord's (its ends
-    themselves stand off), and the report carries it.
+    A move shorter than the program's resolution (:data:`MIN_SPLIT_MM` of ``travel``: the
+    tip, plus the cutter radius times the axis turn, :func:`_travel_mm`) is not split: its
+    gap is not the chord's (its ends themselves stand off), and the report carries it.
     """
     bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
     bad |= middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
         bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
-    at = np.flatnonzero(bad)
-    j = idx[at]
-    bad[at] = _travel_mm(cutter, pts.tips[j], pts.tips[j + 1], pts.axes[j],
-                         pts.axes[j + 1]) > MIN_SPLIT_MM
-    return bad
+    return bad & (travel > MIN_SPLIT_MM)
 
 
 def _checked_again(cutter: Cutter, tol_mm: float, before: PassPoints, pts: PassPoints,

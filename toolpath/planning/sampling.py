@@ -405,9 +405,10 @@ class _Disc:
         where it is nearer to ``K``; an off-normal one's where it is a closest point or
         nearer. ``signed`` (None: not read) and the feet are returned mended.
         """
+        normals = None
         if signed is None:
-            x, n = self.surface.points_and_normals(tt, ss)
-            along = np.einsum("ij,ij->i", points - x, n)
+            x, normals = self.surface.points_and_normals(tt, ss)
+            along = np.einsum("ij,ij->i", points - x, normals)
         else:  # (off the normal from |K - X| and the reading: the point alone, no normal)
             x, along = self.surface(tt, ss), signed
         reach = row_lengths(points - x)
@@ -420,7 +421,8 @@ class _Disc:
         deep = ~off_normal & (along < -STATIONARY_MM)
         if deep.any():  # (only a face turned from the tool: one it cuts faces it)
             rows = np.flatnonzero(deep)
-            _, n = self.surface.points_and_normals(tt[rows], ss[rows])
+            n = (normals[rows] if normals is not None
+                 else self.surface.points_and_normals(tt[rows], ss[rows])[1])
             deep[rows] = np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0
         bad = np.flatnonzero(off_normal | deep)
         if not bad.size:
