@@ -16,6 +16,8 @@ from toolpath.planning.sampling import (
     CHORD_FRACTIONS,
     ball_end_slopes,
     chord_extremes,
+    contact_end_slopes,
+    cutter_gap,
     point_move_gaps,
 )
 from toolpath.planning.tool_axis import angle_deg
@@ -249,6 +251,42 @@ def test_ball_end_slopes_are_the_gap_slopes_at_the_ends(axis_mode):
     assert scale > 1e-3  # (moves that bend, in and out)
     np.testing.assert_allclose(slopes, measured, rtol=0.0, atol=5e-4 * scale)
     assert (slopes[:, 0] < 0).any() and (slopes[:, 1] > 0).any()
+
+
+@pytest.mark.parametrize("spec", ["flat:6", "bull:8:1"])
+@pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])
+def test_disc_end_slopes_are_the_gap_slopes_at_the_ends(spec, axis_mode):
+    # a flat or bull-nose cutter's gap is the lowest over its disc; by the envelope theorem
+    # its slope at an end is the rate of the distance at the lowest point held on the
+    # moving cutter: against the gap measured just inside each end (3-axis; lead-tilt,
+    # whose axis turns along the move and swings the contact round the rim)
+    surface, cutter = EllipticBladeSurface(), parse_cutter(spec)
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis_mode,
+                            lead_deg=10.0 if axis_mode == "lead-tilt" else 0.0)
+    res = opts.resolved(cutter, 0.0)
+    layout = passes.PassLayout(np.array([0.3, 0.6]), np.array([0.3, 0.6]), np.array([1, 1]))
+    t, pid = np.tile(np.linspace(0.2, 0.8, 40), 2), np.repeat(np.arange(2), 40)
+    pts = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    first = np.flatnonzero(pts.same_pass)
+    r = cutter.corner_radius_mm
+    gap, t_foot, s_foot = cutter_gap(surface, cutter, pts.tips, pts.axes, pts.t, pts.s,
+                                     newton=8, refine_rim=True)
+    foot, normal = surface.points_and_normals(t_foot, s_foot)
+    off_axis = foot + (gap + r)[:, None] * normal - pts.tips - r * pts.axes
+    assert np.abs(np.einsum("ij,ij->i", off_axis, pts.axes)).max() < 1e-6  # (in the disc)
+    slopes = contact_end_slopes(r, pts.tips, pts.axes, normal, off_axis, first)
+    h = 1e-4
+    gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, first,
+                                 np.array([0.0, h, 1.0 - h, 1.0]), newton=8, refine_rim=True)
+    measured = np.stack([(gaps[:, 1] - gaps[:, 0]) / h, (gaps[:, 3] - gaps[:, 2]) / h], axis=1)
+    scale = np.abs(slopes).max()
+    assert scale > 1e-3  # (moves that bend, in and out)
+    np.testing.assert_allclose(slopes, measured, rtol=0.0, atol=2e-3 * scale)
+    # the axis's turn counts: a ball's formula at the corner circle's centre (the contact
+    # taken on the axis) is off where the axis turns
+    on_axis = contact_end_slopes(r, pts.tips, pts.axes, normal, np.zeros((0, 3)), first)
+    turned = np.abs(on_axis - measured).max() > 0.05 * scale
+    assert turned == (axis_mode == "lead-tilt")
 
 
 @pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])

@@ -1,9 +1,12 @@
-"""A ball's chord measured from its exact end slopes and one gap, against three gaps.
+"""The chord measured from the gap's exact end slopes and one gap, against three gaps.
 
-``measure_chord`` fits a ball's gap model along each move to the slopes ``g' = n . C'``
-at the ends (the gradient of the centre's distance is the normal at its contact) and the
-gap at ``u = 1/2``; ``end_slopes=False`` fits it to the gaps at ``u = 1/4, 1/2, 3/4``
-(the full method, the oracle here). Both place the cutter once more where their model is
+``measure_chord`` fits the gap model along each move to the slopes ``g' = n . K*'`` at
+the ends (the envelope theorem: the rate of the distance at the contact's point ``K*``
+held on the cutter; a ball's centre, or a flat or bull-nose cutter's lowest disc point)
+and the gap at ``u = 1/2``; a flat or bull-nose move whose gap may have a kink (its
+contact jumps across the disc, or its foot lies on the surface's edge) from three gaps;
+``end_slopes=False`` fits every move to the gaps at ``u = 1/4, 1/2, 3/4`` (the full
+method, the oracle here). Both place the cutter once more where their model is
 lowest and highest, so both must report the same chord error, and the same cusp seeds.
 The seeds' points, normals and ``X_s`` it carries must be those the scallop search would
 evaluate (``SearchSeeds.of`` of a measurement without them).
@@ -21,14 +24,16 @@ from measured_plans import planned, standing_blade_job
 from machines.kinematics import tool_point_gradient
 from toolpath.planning import EllipticBladeSurface, SpherePatch
 from toolpath.planning.chord_measure import (
-    _ball_slopes,
+    _contact_jumps,
     _cutting_moves,
     _end_contacts,
+    _end_slopes,
     measure_chord,
 )
 from toolpath.planning.cusp_search import SearchSeeds
+from toolpath.planning.cutters import parse_cutter
 from toolpath.planning.measure_joints import checked_joints
-from toolpath.planning.sampling import move_gaps
+from toolpath.planning.sampling import MoveEnds, move_gaps
 
 CAP = SpherePatch(radius_mm=50.0, longitude_deg=(-20.0, 20.0), colatitude_deg=(15.0, 40.0))
 
@@ -71,6 +76,62 @@ def test_blade_standing_chord_from_end_slopes_under_joint_interpolation():
     _same_chord(measured)
 
 
+@pytest.mark.parametrize("spec,axis", [("flat:6", {"axis_mode": "lead-tilt", "lead_deg": 10.0}),
+                                       ("bull:8:1", {"axis_mode": "lead-tilt", "lead_deg": 10.0}),
+                                       ("bull:6:1", {"axis_mode": "3"})])
+def test_flat_and_bull_chord_from_end_slopes(spec, axis):
+    # the 3-axis plan's passes end on the surface's open edge s = 1, where the gap's sign
+    # flips inside moves (read as 0.0058 mm of undercut by the full method's sample at
+    # u = 3/4): those moves take three gaps
+    _same_chord(planned(EllipticBladeSurface(), spec, scallop_mm=0.05, chord_tol_mm=0.05,
+                        **axis))
+
+
+def test_bull_chord_from_end_slopes_under_joint_interpolation():
+    # the joints linear: K*'s rate from the joints' gradients of n . (P + r a) and of the
+    # axis's turn against K*'s offset off the axis
+    measured = standing_blade_job("bull:8:1", 0.03, 0.03)
+    assert measured.path.joints_checked_for is not None
+    _same_chord(measured)
+
+
+def test_a_contact_jumping_across_the_disc_is_marked():
+    # a flat cutter slides over a sphere with its axis along the normal at (50, 0, 0):
+    # its face level with the surface there, the lowest point swings from one side of
+    # the axis to the other (a kinked gap: the slopes do not hold); sliding the same way
+    # 20 mm off that point, its lowest rim point turns a few degrees: not marked
+    cap = SpherePatch(radius_mm=50.0, longitude_deg=(-40.0, 40.0),
+                      colatitude_deg=(50.0, 130.0))
+    cutter = parse_cutter("flat:6")
+    axis = np.array([[1.0, 0.0, 0.0]])
+
+    def marked(z_mm):
+        tips = [np.array([[60.0, y_mm, z_mm]]) for y_mm in (-1.0, 1.0)]
+        # lowered along the axis until the lowest point touches (to the face's sampling,
+        # level over the sphere): the ends' contacts as the chord measure has them
+        for _ in range(6):
+            tips = [p - _contact_of(cap, cutter, p, axis)[0][:, None] * axis for p in tips]
+        (_, t_a, s_a, off_a), (_, t_b, s_b, off_b) = (_contact_of(cap, cutter, p, axis)
+                                                     for p in tips)
+        ends = MoveEnds(tips[0], tips[1], axis, axis, t_a, t_b, s_a, s_b)
+        middle = move_gaps(cap, cutter, ends, np.array([0.5]), newton=8, refine_rim=True)
+        return _contact_jumps(cap, cutter, ends, (off_a, off_b),
+                              tuple(x[:, 0] for x in middle), None).size
+
+    assert marked(0.0) == 1  # across the level point
+    assert marked(20.0) == 0  # 20 mm off it
+
+
+def _contact_of(surface, cutter, tips, axes):
+    """Gap, ``t``, ``s`` and the lowest point's offset off the axis of each pose."""
+    gap, t, s = move_gaps(surface, cutter, MoveEnds(tips, tips, axes, axes, *(np.full(
+        len(tips), 0.5),) * 4), np.array([0.0]), newton=8, refine_rim=True)
+    gap, t, s = gap[:, 0], t[:, 0], s[:, 0]
+    foot, normal = surface.points_and_normals(t, s)
+    r = cutter.corner_radius_mm
+    return gap, t, s, foot + (gap + r)[:, None] * normal - tips - r * axes
+
+
 def test_joint_slopes_are_the_gaps_derivative_at_the_ends():
     # under joint interpolation the slopes g'(0), g'(1) come from the joints' gradient of
     # n . C at each location (computed once per location, shared by the move ending and
@@ -88,7 +149,7 @@ def test_joint_slopes_are_the_gaps_derivative_at_the_ends():
     gradient = tool_point_gradient(machine, joints[contacts.points], cutter.radius_mm,
                                    contacts.normal)
     interpolation = (machine, joints[move], joints[move + 1])
-    slopes = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia], contacts.normal[ib],
+    slopes = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
                           interpolation, (gradient[ia], gradient[ib]))
     h = 1e-5
     for col, u in enumerate((0.0, 1.0)):
@@ -98,7 +159,7 @@ def test_joint_slopes_are_the_gaps_derivative_at_the_ends():
         np.testing.assert_allclose(slopes[:, col], expected, rtol=0.0,
                                    atol=1e-4 * np.abs(expected).max())
     # the gradients given once per location are the ones each move's ends would compute
-    own = _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia], contacts.normal[ib],
+    own = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
                        interpolation)
     np.testing.assert_allclose(slopes, own, rtol=0.0, atol=1e-12)
 

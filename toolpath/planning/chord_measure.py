@@ -21,13 +21,18 @@ half the largest sample), once more where a smooth model through those gaps is l
 where it is highest (a ball's search there starting on the parabola through its feet at
 ``u = 0, 1/2, 1``: :func:`_feet_between`); its signed
 gap to the surface is measured: ``gap = dist(K, surface) - r`` with ``K`` the corner-circle
-centre projected onto the surface. A ball is placed at ``u = 1/2`` only: the gap of its
-centre ``C(u)`` is the distance to the surface less ``R``, whose gradient at an end is the
-unit normal ``n`` at the end's contact, so the model's slopes at the ends are exactly
-``g' = n . C'`` (:func:`_ball_slopes`) and the two projections at ``1/4`` and ``3/4``
-are not needed to fix it. Under joint interpolation ``n . C'`` is the joints' gradient
-of ``n . C`` (:func:`~machines.kinematics.tool_point_gradient`) times their rates
+centre projected onto the surface. The cutter is placed at ``u = 1/2`` only where the
+model's slopes at the ends are known: the gap is the distance of the cutter's lowest
+point ``K*`` (a ball's centre; a flat or bull-nose cutter's lowest corner-circle point)
+less ``r``, and by the envelope theorem its rate at an end is the distance's at ``K*``
+held on the moving cutter, whose gradient is the unit normal ``n`` at the end's contact:
+``g' = n . K*'`` exactly (:func:`_end_slopes`), so the two projections at ``1/4`` and
+``3/4`` are not needed to fix the model. Under joint interpolation ``n . K*'`` is the
+joints' gradient of ``n . K*`` (:func:`_contact_gradient`) times their rates
 ``q_b - q_a``: the gradient once per location (its normal is both moves' there), exact.
+A flat or bull-nose move whose gap may have a kink (its ``K*`` jumps across the disc,
+or a foot lies on the surface's open edge: :func:`_contact_jumps`) takes the three
+places after all.
 
 The contacts and the mid-chord contacts above the surface seed the scallop measurement
 (:attr:`ChordMeasurement.seeds_t` and so on; :mod:`.measure`).
@@ -58,8 +63,8 @@ from .sampling import (
     CHORD_FRACTIONS,
     JointEnds,
     MoveEnds,
-    ball_end_slopes,
     chord_extremes,
+    contact_end_slopes,
     cutter_gap,
     move_gaps,
     move_poses,
@@ -161,9 +166,10 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
     nearest surface sample at every this many locations along a run of cutting moves,
     the others from theirs (:func:`_run_anchors`) unless their foot may be a wrong local
     one (:func:`_unsure_between`); 1: every one from its sample, the full method.
-    ``end_slopes``: a ball's gap model from its exact slopes at the ends and the gap at
-    ``u = 1/2`` (module docstring); False: from the gaps at ``u = 1/4, 1/2, 3/4`` (the
-    full method, as for flat and bull-nose cutters). ``seeded_newton``: the Newton steps
+    ``end_slopes``: the gap model from its exact slopes at the ends and the gap at
+    ``u = 1/2`` (module docstring; a flat or bull-nose move whose gap may have a kink
+    from three gaps); False: every move's from the gaps at ``u = 1/4, 1/2, 3/4`` (the
+    full method). ``seeded_newton``: the Newton steps
     every ball contact seeded by its neighbours' feet takes (between anchors, inside
     moves), then more while the foot still moves (:data:`SEEDED_CONTACT_NEWTON`; more
     steps: the full method). ``disc_newton``: likewise for a flat or bull-nose cutter's
@@ -177,11 +183,12 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
                              seeded_newton, disc_newton)
     contact = float(np.abs(contacts.gap).max())
     # under joint interpolation, d(n . C)/dq at every location, once: a location ends one
-    # move and starts the next, with the same contact normal (:func:`_ball_slopes`)
+    # move and starts the next, with the same contact normal (:func:`_contact_gradient`)
+    ball = cutter.kind is CutterKind.BALL
     gradient = None
-    if joints is not None and end_slopes and cutter.kind is CutterKind.BALL:
-        gradient = tool_point_gradient(machine, joints[contacts.points], cutter.radius_mm,
-                                       contacts.normal)
+    if joints is not None and end_slopes:
+        gradient = _contact_gradient(machine, joints[contacts.points], cutter, contacts.normal,
+                                     contacts.axes, None if ball else contacts.off_axis)
     worst = np.zeros(move.size)
     over = under = 0.0
     seeds: list[tuple[NDArray[np.float64], ...]] = []
@@ -192,18 +199,21 @@ def measure_chord(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
             ends, ia, ib = contacts.of_moves(toolpath, seg)
             interpolation = ((machine, joints[seg], joints[seg + 1]) if moved_by_joints
                              else None)
-            slopes = None
-            if end_slopes and cutter.kind is CutterKind.BALL:
+            slopes = off_axis = None
+            if not ball:
+                off_axis = (contacts.off_axis_rows(ia), contacts.off_axis_rows(ib))
+            if end_slopes:
                 # (tip-linear: read from the contacts where they lie, no rows gathered)
-                slopes = (contacts.tip_linear_slopes(cutter.radius_mm, ia)
+                slopes = (contacts.tip_linear_slopes(cutter.corner_radius_mm, ia)
                           if interpolation is None else
-                          _ball_slopes(cutter.radius_mm, ends, contacts.normal[ia],
-                                       contacts.normal[ib], interpolation,
-                                       None if gradient is None or not moved_by_joints
-                                       else (gradient[ia], gradient[ib])))
+                          _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
+                                      interpolation,
+                                      None if gradient is None or not moved_by_joints
+                                      else (gradient[ia], gradient[ib]), off_axis))
             gap, mid = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], max(contact, over, under),
-                                        interpolation, slopes, seeded_newton, samples)
+                                        interpolation, slopes, seeded_newton, samples,
+                                        off_axis)
             worst[at] = np.abs(gap).max(axis=1)
             over = max(over, float(-gap.min()))
             under = max(under, float(gap.max()))
@@ -266,6 +276,9 @@ class _EndContacts:
     x_s: NDArray[np.float64]
     tips: NDArray[np.float64]
     axes: NDArray[np.float64]
+    #: Where the contact's point ``K = X + (gap + r) n`` lies off the axis, in the disc's
+    #: plane: ``K - tip - r a`` (mm; a flat or bull-nose cutter's, (0, 3) for a ball's).
+    off_axis: NDArray[np.float64]
 
     def of_moves(self, toolpath: Toolpath, first: NDArray[np.int64]
                  ) -> tuple[MoveEnds, NDArray[np.int64], NDArray[np.int64]]:
@@ -280,15 +293,20 @@ class _EndContacts:
                         self.t.take(ia), self.t.take(ib), self.s.take(ia), self.s.take(ib))
         return ends, ia, ib
 
-    def tip_linear_slopes(self, radius_mm: float, first: NDArray[np.int64]
+    def tip_linear_slopes(self, corner_mm: float, first: NDArray[np.int64]
                           ) -> NDArray[np.float64]:
-        """A ball's ``g'(0)``, ``g'(1)`` along tip-linear moves from rows ``first``, mm per ``u``.
+        """``g'(0)``, ``g'(1)`` along tip-linear moves from rows ``first``, mm per ``u``.
 
-        :func:`_ball_slopes` without joints: the same numbers, read where they lie (the
+        :func:`_end_slopes` without joints: the same numbers, read where they lie (the
         rows ``first`` and ``first + 1`` end each move), no rows of the moves' ends
         gathered and interleaved.
         """
-        return ball_end_slopes(radius_mm, self.tips, self.axes, self.normal, first)
+        return contact_end_slopes(corner_mm, self.tips, self.axes, self.normal,
+                                  self.off_axis, first)
+
+    def off_axis_rows(self, rows: NDArray[np.int64]) -> NDArray[np.float64]:
+        """:attr:`off_axis` at ``rows`` ((0, 3) for a ball's contacts)."""
+        return self.off_axis if not len(self.off_axis) else self.off_axis.take(rows, axis=0)
 
 
 def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
@@ -356,7 +374,11 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         search_from_samples(unsure)
         point[unsure], normal[unsure], x_s[unsure] = _points_normals_x_s(surface, t[unsure],
                                                                          s[unsure])
-    return _EndContacts(ends, gap, t, s, point, normal, x_s, tips, tool_axes)
+    off_axis = np.zeros((0, 3))
+    if not ball:
+        off_axis = point + gap[:, None] * normal - tips  # + r n - r a: below
+        off_axis += lift * (normal - tool_axes)
+    return _EndContacts(ends, gap, t, s, point, normal, x_s, tips, tool_axes, off_axis)
 
 
 #: The nearest sample of a point ``lift`` off the surface is first sought within
@@ -542,12 +564,15 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                      gap_a: NDArray[np.float64], gap_b: NDArray[np.float64], top_mm: float,
                      joints: JointEnds | None, slopes: NDArray[np.float64] | None,
                      seeded_newton: int = SEEDED_CONTACT_NEWTON,
-                     samples: SurfaceSamples | None = None
+                     samples: SurfaceSamples | None = None,
+                     off_axis: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
                      ) -> tuple[NDArray[np.float64], tuple[NDArray[np.float64], ...]]:
     """Gaps along moves: at both ends, inside, and at the model's extremes.
 
     Measured at ``CHORD_FRACTIONS`` (with the ends' ``slopes`` ``g'(0)``, ``g'(1)``, at
-    ``u = 1/2`` only), then once more where the gap model through them is lowest
+    ``u = 1/2`` only; a flat or bull-nose move that :func:`_contact_jumps` marks, at
+    ``1/4`` and ``3/4`` too, its model from the three gaps: ``off_axis``, the ends' lowest
+    points off the axis, tells), then once more where the gap model through them is lowest
     and where it is highest (:func:`~.sampling.chord_extremes`), on the moves whose
     extreme could be the largest: within half of the largest gap so far (``top_mm`` and
     the places measured). ``joints``: the moves' ends under a machine's joint
@@ -556,32 +581,49 @@ def _move_chunk_gaps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     feet), a flat or bull-nose cutter's two; with ``samples``, its feet checked against
     them (:func:`_inside_gaps`).
 
-    Returns ``gap`` (m, k + 4: end, the k places, lowest, highest, end) and the gap, ``t``
-    and ``s`` at ``u = 1/2`` (m,).
+    Returns ``gap`` (m, k + 4, or k + 6 for a flat or bull-nose cutter with slopes: end,
+    the k places, the places 1/4 and 3/4 (0 where not measured), lowest, highest, end) and
+    the gap, ``t`` and ``s`` at ``u = 1/2`` (m,).
     """
     u = np.asarray((0.5,) if slopes is not None else CHORD_FRACTIONS, dtype=float)
     m = len(gap_a)
-    newton = seeded_newton if cutter.kind is CutterKind.BALL else 2
+    ball = cutter.kind is CutterKind.BALL
+    newton = seeded_newton if ball else 2
     g3, t3, s3 = _inside_gaps(surface, cutter, samples, ends, np.broadcast_to(u, (m, u.size)),
                               newton, joints)
     low, u_low, high, u_high = chord_extremes(g3, u, end_slopes=slopes)
-    top = max(float(np.abs(g3).max()), top_mm)
+    # where a flat or bull-nose contact jumps across the disc, its slopes do not hold:
+    # those moves' models from three gaps, as without slopes
+    quarters = np.zeros((m, 0))
+    if slopes is not None and not ball and m:
+        jumped = _contact_jumps(surface, cutter, ends, off_axis, (g3[:, 0], t3[:, 0], s3[:, 0]),
+                                joints)
+        quarters = np.zeros((m, 2))
+        if jumped.size:
+            u_q = np.broadcast_to(np.array([CHORD_FRACTIONS[0], CHORD_FRACTIONS[2]]),
+                                  (jumped.size, 2))
+            quarters[jumped] = _inside_gaps(surface, cutter, samples, ends.take(jumped), u_q,
+                                            newton, _joint_rows(joints, jumped))[0]
+            three = np.column_stack([quarters[jumped, 0], g3[jumped, 0], quarters[jumped, 1]])
+            low[jumped], u_low[jumped], high[jumped], u_high[jumped] = chord_extremes(three)
+    top = max(float(np.abs(g3).max()), float(np.abs(quarters).max(initial=0.0)), top_mm)
     # (a ball's undercuts are resolved as its overcuts, within half of their own largest:
     # the model's from its slopes has no samples at 1/4 and 3/4 to show them)
     # (gaps under UNDERCUT_NOISE of the largest are the projection's rounding: a pass that
     # only overcuts has its model's highest point at an end, where it is known already)
     tops = (top, top if slopes is None else max(float(high.max()), float(g3.max()),
+                                                float(quarters.max(initial=0.0)),
                                                 UNDERCUT_NOISE * top))
     g_star = np.zeros((m, 2))
     for col, (value, u_at) in enumerate(((low, u_low), (high, u_high))):
         sel = np.flatnonzero(np.abs(value) >= 0.5 * tops[col])
         if sel.size:
             those = ends.take(sel)
-            start = None if slopes is None else _feet_between(
+            start = None if slopes is None or not ball else _feet_between(
                 those, t3[sel, 0], s3[sel, 0], u_at[sel], bool(surface.closed_t))
             g_star[sel, col] = _inside_gaps(surface, cutter, samples, those, u_at[sel, None],
                                             newton, _joint_rows(joints, sel), start)[0][:, 0]
-    gap = np.concatenate([gap_a[:, None], g3, g_star, gap_b[:, None]], axis=1)
+    gap = np.concatenate([gap_a[:, None], g3, quarters, g_star, gap_b[:, None]], axis=1)
     mid = int(np.argmin(np.abs(u - 0.5)))
     return gap, (g3[:, mid], t3[:, mid], s3[:, mid])
 
@@ -610,6 +652,49 @@ def _inside_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSam
     return found
 
 
+#: A flat or bull-nose contact whose point on the cutter turns round the axis by more than
+#: this between a move's end and its middle is taken as jumped across the disc
+#: (:func:`_contact_jumps`), deg.
+CONTACT_TURN_DEG = 30.0
+
+
+def _contact_jumps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
+                   off_axis: tuple[NDArray[np.float64], NDArray[np.float64]],
+                   middle: tuple[NDArray[np.float64], ...], joints: JointEnds | None
+                   ) -> NDArray[np.int64]:
+    """Moves whose flat or bull-nose gap may have a kink: their end slopes do not hold.
+
+    The slopes of :func:`_end_slopes` hold where the contact's point ``K*`` moves
+    continuously along the cutter and its foot is a closest point inside the surface.
+    Where the surface lies almost level under the disc, or two of its points stand lowest
+    (round a tight edge, over a crest), ``K*`` jumps and the gap has a kink. ``K*`` off
+    the axis (``off_axis`` at the ends; at the middle from its gap, ``t``, ``s``:
+    ``middle``) turning by more than :data:`CONTACT_TURN_DEG` from either end to the
+    middle, or one of them within a micrometre of the axis (a face level with the
+    surface, whose lowest point is anywhere on it), marks the move; so does a foot on an
+    open edge of the surface at either end or the middle (there the distance's gradient
+    is not the normal, and the gap's sign flips where the foot leaves the edge).
+    """
+    gap, t, s = middle
+    on_edge = np.zeros(len(gap), dtype=bool)
+    for tt, ss in ((ends.t_a, ends.s_a), (t, s), (ends.t_b, ends.s_b)):
+        on_edge |= (ss <= 0.0) | (ss >= 1.0)
+        if not surface.closed_t:
+            on_edge |= (tt <= 0.0) | (tt >= 1.0)
+    tips, axes = move_poses(ends, np.full((len(gap), 1), 0.5), joints)
+    x, n = surface.points_and_normals(t, s)
+    r = cutter.corner_radius_mm
+    off_mid = x + gap[:, None] * n + r * (n - axes) - tips
+    cos_limit = np.cos(np.radians(CONTACT_TURN_DEG))
+    mid_len = row_lengths(off_mid)
+    jumped = on_edge | (mid_len < 1e-3)
+    for off in off_axis:
+        length = row_lengths(off)
+        cos = np.einsum("ij,ij->i", off, off_mid) / np.maximum(length * mid_len, 1e-300)
+        jumped |= (length < 1e-3) | (cos < cos_limit)
+    return np.flatnonzero(jumped)
+
+
 def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],
                   u: NDArray[np.float64], closed: bool
                   ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
@@ -633,18 +718,20 @@ def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.
     return (np.mod(t, 1.0) if closed else t)[:, None], s[:, None]
 
 
-def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64],
-                 normal_b: NDArray[np.float64], joints: JointEnds | None,
-                 gradient: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
-                 ) -> NDArray[np.float64]:
-    """``g'(0)``, ``g'(1)`` of a ball's gap along each move, mm per unit ``u`` (m, 2).
+def _end_slopes(cutter: Cutter, ends: MoveEnds, normal_a: NDArray[np.float64],
+                normal_b: NDArray[np.float64], joints: JointEnds | None,
+                gradient: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None,
+                off_axis: tuple[NDArray[np.float64], NDArray[np.float64]] | None = None
+                ) -> NDArray[np.float64]:
+    """``g'(0)``, ``g'(1)`` of the cutter's gap along each move, mm per unit ``u`` (m, 2).
 
-    The gap is the signed distance of the centre ``C(u)`` less ``R``; its gradient at an
-    end is the unit normal at that end's contact (``normal_a``, ``normal_b``: the centre
-    stands on it), so ``g' = n . C'``. Tip-linear: ``C'`` exactly
-    (:func:`~.sampling.ball_end_slopes`); under the machine's ``joints``, linear in ``u``
-    at the rates ``q_b - q_a``: ``n . C' = d(n . C)/dq . (q_b - q_a)``, exactly, with
-    ``gradient`` the ends' ``d(n . C)/dq`` (:func:`~machines.kinematics.tool_point_gradient`;
+    By the envelope theorem the rate of the distance at the contact's point ``K*`` held
+    on the moving cutter: ``n . dK*/du``, ``n`` the unit normal at that end's contact
+    (``normal_a``, ``normal_b``), ``K*`` off the axis by ``off_axis`` (the ends' rows of
+    :attr:`_EndContacts.off_axis`; None: on it, a ball's centre). Tip-linear: exactly
+    (:func:`~.sampling.contact_end_slopes`); under the machine's ``joints``, linear in
+    ``u`` at the rates ``q_b - q_a``: ``d(n . K*)/dq . (q_b - q_a)``, exactly, with
+    ``gradient`` the ends' ``d(n . K*)/dq`` (:func:`_contact_gradient`;
     :func:`measure_chord` gives it, once per location; computed here when not given): no
     poses inside the move.
     """
@@ -653,16 +740,41 @@ def _ball_slopes(radius_mm: float, ends: MoveEnds, normal_a: NDArray[np.float64]
         tips = np.stack([ends.tips_a, ends.tips_b], axis=1).reshape(-1, 3)
         axes = np.stack([ends.axes_a, ends.axes_b], axis=1).reshape(-1, 3)
         normals = np.stack([normal_a, normal_b], axis=1).reshape(-1, 3)
-        return ball_end_slopes(radius_mm, tips, axes, normals, np.arange(0, 2 * m, 2))
+        off = (np.zeros((0, 3)) if off_axis is None
+               else np.stack(off_axis, axis=1).reshape(-1, 3))
+        return contact_end_slopes(cutter.corner_radius_mm, tips, axes, normals, off,
+                                  np.arange(0, 2 * m, 2))
     machine, q_a, q_b = joints
     if gradient is None:
-        gradient = (tool_point_gradient(machine, q_a, radius_mm, normal_a),
-                    tool_point_gradient(machine, q_b, radius_mm, normal_b))
+        no_off = (None, None) if off_axis is None else off_axis
+        gradient = (_contact_gradient(machine, q_a, cutter, normal_a, ends.axes_a, no_off[0]),
+                    _contact_gradient(machine, q_b, cutter, normal_b, ends.axes_b, no_off[1]))
     rate = q_b - q_a
     out = np.empty((m, 2))
     out[:, 0] = np.einsum("ij,ij->i", gradient[0], rate)
     out[:, 1] = np.einsum("ij,ij->i", gradient[1], rate)
     return out
+
+
+def _contact_gradient(machine: Machine, joints: NDArray[np.float64], cutter: Cutter,
+                      normals: NDArray[np.float64], axes: NDArray[np.float64],
+                      off_axis: NDArray[np.float64] | None) -> NDArray[np.float64]:
+    """``d(n . K*)/dq`` per location, ``K*`` the contact's point held on the cutter.
+
+    ``K* = P + r a + d`` (``d = off_axis``, in the disc's plane; None: a ball's centre,
+    on the axis): its rate is ``(P + r a)' + w x d`` for the cutter's turn ``w``, whose
+    part about the axis moves ``K*`` along the disc (where the distance is stationary)
+    and whose rest is ``a x a'``, so ``n . K*' = n . (P + r a)' - (n . a)(a' . d)``:
+    :func:`~machines.kinematics.tool_point_gradient` of ``n`` at ``r`` up the axis, less
+    ``n . a`` times that of ``d`` at 1 less at 0 (``a' . d``).
+    """
+    r = cutter.corner_radius_mm
+    gradient = tool_point_gradient(machine, joints, r, normals)
+    if off_axis is not None and len(off_axis):
+        turn = (tool_point_gradient(machine, joints, 1.0, off_axis)
+                - tool_point_gradient(machine, joints, 0.0, off_axis))
+        gradient -= np.einsum("ij,ij->i", normals, axes)[:, None] * turn
+    return gradient
 
 
 def _joint_rows(joints: JointEnds | None, rows: NDArray[np.int64]) -> JointEnds | None:

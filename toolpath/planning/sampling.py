@@ -59,6 +59,7 @@ __all__ = [
     "ball_end_slopes",
     "chord_extremes",
     "chord_length_mm",
+    "contact_end_slopes",
     "cutter_gap",
     "equidistribute",
     "JointEnds",
@@ -788,20 +789,47 @@ def ball_end_slopes(radius_mm: float, tips_mm: NDArray[np.float64], axes: NDArra
     in ``u``) stands ``R`` off the surface at the ends, over the contacts; its gap is the
     signed distance of ``C(u)`` less ``R``, whose gradient at an end is the surface's unit
     normal ``n`` there. So ``g' = n . C'`` with ``C' = dP + R (da - (a . da) a)`` at each
-    end (``dP``, ``da``: the move's differences; ``|a| = 1`` at the ends).
+    end (``dP``, ``da``: the move's differences; ``|a| = 1`` at the ends):
+    :func:`contact_end_slopes` with the contact on the axis.
+    """
+    return contact_end_slopes(radius_mm, tips_mm, axes, normals, np.zeros((0, 3)), first)
+
+
+def contact_end_slopes(corner_mm: float, tips_mm: NDArray[np.float64],
+                       axes: NDArray[np.float64], normals: NDArray[np.float64],
+                       off_axis_mm: NDArray[np.float64], first: NDArray[np.int64]
+                       ) -> NDArray[np.float64]:
+    """``g'(0)``, ``g'(1)`` of a cutter's gap along tip-linear moves ``first -> first + 1``.
+
+    The gap is ``g(u) = min over K of dist(K, surface) - r``, ``K`` over the disc of
+    radius ``R - r`` at height ``r = corner_mm`` on the axis (the ball's centre alone
+    where ``r = R``). Where the lowest ``K*`` is a strict minimum, by the envelope theorem
+    ``g'`` is the rate of ``dist`` at ``K*`` held on the moving cutter: ``n . dK*/du``,
+    ``n`` the unit normal at its foot. The cutter moves with its tip, ``dP``, and turns
+    its axis at ``a' = da - (a . da) a`` (normalized-linear, ``|a| = 1`` at the ends), a
+    rotation ``a x a'`` (the spin about the axis moves ``K*`` along the disc, where
+    ``dist`` is stationary); with ``K* - P = r a + d`` (``d = off_axis_mm`` per location,
+    in the disc's plane; empty: on the axis, every row):
+
+        ``g' = n . (dP + r a') - (n . a)(a' . d)``.
+
+    Valid where ``K*`` moves continuously with ``u``; where it jumps across the disc
+    (two lowest points, a flat face level with the surface) ``g`` has a kink there.
     """
     out = np.empty((len(first), 2))
-    _ball_end_slopes(float(radius_mm), np.ascontiguousarray(tips_mm, dtype=float),
-                     np.ascontiguousarray(axes, dtype=float),
-                     np.ascontiguousarray(normals, dtype=float),
-                     np.ascontiguousarray(first, dtype=np.int64), out)
+    _contact_end_slopes(float(corner_mm), np.ascontiguousarray(tips_mm, dtype=float),
+                        np.ascontiguousarray(axes, dtype=float),
+                        np.ascontiguousarray(normals, dtype=float),
+                        np.ascontiguousarray(off_axis_mm, dtype=float),
+                        np.ascontiguousarray(first, dtype=np.int64), out)
     return out
 
 
 @numba.njit(cache=True)
-def _ball_end_slopes(radius, tips, axes, normals, first, out):
+def _contact_end_slopes(corner, tips, axes, normals, off_axis, first, out):
     # scalars, one row after the other: a few dozen flops a row, where the differences
     # as arrays (two allocations a row) and numba's parallel loop cost 250 ns a row
+    on_axis = off_axis.shape[0] == 0
     for j in range(first.size):
         i = first[j]
         for col in range(2):
@@ -810,11 +838,15 @@ def _ball_end_slopes(radius, tips, axes, normals, first, out):
             for k in range(3):
                 along += axes[c, k] * (axes[i + 1, k] - axes[i, k])
             slope = 0.0
+            tilt = 0.0  # a' . d
+            lean = 0.0  # n . a
             for k in range(3):
-                d_axis = axes[i + 1, k] - axes[i, k]
-                slope += ((tips[i + 1, k] - tips[i, k]) + radius * (d_axis - along * axes[c, k])
-                          ) * normals[c, k]
-            out[j, col] = slope
+                turn = (axes[i + 1, k] - axes[i, k]) - along * axes[c, k]
+                slope += ((tips[i + 1, k] - tips[i, k]) + corner * turn) * normals[c, k]
+                if not on_axis:
+                    tilt += turn * off_axis[c, k]
+                    lean += normals[c, k] * axes[c, k]
+            out[j, col] = slope - lean * tilt
 
 
 @numba.njit(cache=True, inline="always")
