@@ -27,6 +27,7 @@ contacts, exact for curvature varying quadratically along the move); the model's
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -401,10 +402,14 @@ class _Disc:
         (dev_rotor_blunt's bull:6:1 5-axis job read poses past the leading edge 3.1 mm deep
         from the far face, 0.01 mm clear): a reading more than :data:`STATIONARY_MM` inside
         from a face turned away from the tool axis (``n . a <= 0``; where a cutter cuts in,
-        a face turned towards it is inside it too, so the deepest reading stands on one) is
-        searched again likewise (else from its pose's expected contact), the new foot kept
-        where it is nearer to ``K``; an off-normal one's where it is a closest point or
-        nearer. ``signed`` (None: not read) and the feet are returned mended.
+        a face turned towards it is inside it too, so the deepest reading stands on one),
+        or farther from ``K`` than its pose's expected contact is (a surface point nearer
+        than the foot: round dev_rotor_blunt's 0.4 mm leading edge a flat:6 rim point
+        0.005 mm off the surface found a foot on the edge's nose, on its normal, 0.83 mm
+        off, whose face turns 83 deg from the axis: read 0.83 mm inside), is searched again
+        likewise (else from its pose's expected contact), the new foot kept where it is
+        nearer to ``K``; an off-normal one's where it is a closest point or nearer.
+        ``signed`` (None: not read) and the feet are returned mended.
         """
         normals = None
         if signed is None:
@@ -424,7 +429,9 @@ class _Disc:
             rows = np.flatnonzero(deep)
             n = (normals[rows] if normals is not None
                  else self.surface.points_and_normals(tt[rows], ss[rows])[1])
-            deep[rows] = np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0
+            seed_nearer = reach[rows] > row_lengths(points[rows]
+                                                    - self.seed_points.take(poses[rows], 0))
+            deep[rows] = (np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0) | seed_nearer
         bad = np.flatnonzero(off_normal | deep)
         if not bad.size:
             return signed, tt, ss
@@ -457,6 +464,11 @@ class _Disc:
             signed = signed.copy()
             signed[rows] = d2[take]
         return signed, tt, ss
+
+    @functools.cached_property
+    def seed_points(self) -> NDArray[np.float64]:
+        """Each pose's expected contact on the surface (mm), from its seed ``t, s``."""
+        return self.surface(*self.seeds)
 
     def _edges(self, points: NDArray[np.float64], tt: NDArray[np.float64],
                ss: NDArray[np.float64], signed: NDArray[np.float64],
