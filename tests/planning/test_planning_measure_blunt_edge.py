@@ -171,3 +171,29 @@ def test_a_disc_point_read_from_a_far_foot_on_a_face_turned_to_the_tool_is_searc
         gap, t, _ = cutter_gap(surface, parse_cutter("flat:6"), tip, axis, t0, s0,
                                newton=newton, refine_rim=True)
         assert abs(gap[0]) < 1e-4 and abs(t[0] - 0.5127) < 1e-3
+
+
+@pytest.mark.parametrize("tip,axis,t0,s0", [
+    ([27.0158310117, 2.8763042943, 16.9513462251], [-0.2263975931, -0.9730837438, -0.0430366995],
+     0.5362203919, 0.1469408379),
+    ([27.1798094590, 2.5406885377, 20.8547343460], [-0.2435121035, -0.9688958280, -0.0440764097],
+     0.5363931603, 0.1955537396)])
+def test_a_disc_centre_read_deep_from_the_far_face_is_no_lowest_point(tip, axis, t0, s0):
+    # the same re-planned job: poses a millimetre or two past the leading edge's contact,
+    # touching there; the disc's centre, 0.48 mm clear of the near face, found the far
+    # face's nose from the pose's contact (and from there again), on its normal, 1.35 to
+    # 1.40 mm behind its plane, a face turned away from the axis: the planner's chord check
+    # split those moves into stacks of points reading 1.4 to 1.8 mm deep (16,489 points
+    # where 15,215 do). An inner point of the disc read deep from a face turned away is no
+    # lowest point (where a cutter cuts in, its deepest reading stands on a face turned
+    # towards it): the pose reads its contact
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_blunt_9x120.csv")
+    axis = np.array([axis]) / np.linalg.norm(axis)
+    for newton in (1, 3):
+        gap, t, _ = cutter_gap(surface, parse_cutter("flat:6"), np.array([tip]), axis,
+                               np.array([t0]), np.array([s0]), newton=newton,
+                               refine_rim=True)
+        assert abs(gap[0]) < 1e-4 and abs(t[0] - t0) < 1e-3

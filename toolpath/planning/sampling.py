@@ -382,9 +382,29 @@ class _Disc:
         f = self.surface.frame(tt, ss)
         if signed is None:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
+        signed = self._inner_reading(signed, f.normal, poses)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
         return self._edges(points, tt, ss, signed, poses), tt, ss, f.normal, bend
+
+    def _inner_reading(self, signed: NDArray[np.float64], normals: NDArray[np.float64],
+                       poses: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Inner points' readings, ``inf`` where deep from a face turned away from the axis.
+
+        The inner points: the disc's centre and those at half its radius. Inside the disc
+        a point is lowest only where the surface lies almost level under it, a face turned
+        towards the axis; and where a cutter cuts in, the deepest reading stands on a face
+        turned towards it (the rim's readings have it). A deep reading from a face turned
+        away that :meth:`_stationary`'s search again kept is a stationary point's that is
+        no closest point: the flat:6 disc's centre beside dev_rotor_blunt's leading edge,
+        0.48 mm clear, read 1.40 mm deep from the far face's nose, seeded at its rim's
+        contact and again from there (the planner split that move into a stack of points
+        reading 1.4 to 1.8 mm). Not the rim's points: one of those dropped can take the
+        disc's lowest point with it.
+        """
+        return np.where((signed < -STATIONARY_MM)
+                        & (np.einsum("ij,ij->i", normals, self.axes[poses]) <= 0.0),
+                        np.inf, signed)
 
     def _stationary(self, points: NDArray[np.float64], signed: NDArray[np.float64] | None,
                     tt: NDArray[np.float64], ss: NDArray[np.float64], poses: NDArray[np.int64]
@@ -527,6 +547,12 @@ class _Disc:
                + offs[None, :, 1, None] * self.b2[rows][:, None, :]).reshape(-1, 3)
         d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k), np.repeat(rows, k))
         d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
+        deep = np.flatnonzero(d[:, _RIM:].min(axis=1) < -STATIONARY_MM)
+        if deep.size:  # (the inner points' deep readings: few)
+            inner = (deep[:, None], np.arange(_RIM, k)[None, :])
+            normals = self.surface.normal(tt[inner].ravel(), ss[inner].ravel())
+            d[inner] = self._inner_reading(d[inner].ravel(), normals,
+                                           np.repeat(rows[deep], k - _RIM)).reshape(-1, k - _RIM)
         best = np.argmin(d, axis=1)
         i_all = np.arange(m)
         out = (d[i_all, best], tt[i_all, best], ss[i_all, best],
