@@ -149,3 +149,51 @@ def test_a_disc_point_read_behind_the_far_face_is_searched_again_from_its_neighb
         gap, t, _ = cutter_gap(surface, parse_cutter("bull:6:1"), tip, axis, t0, s0,
                                newton=newton, refine_rim=True)
         assert abs(gap[0]) < 1e-4 and abs(t[0] - t0[0]) < 1e-3
+
+
+def test_a_disc_point_read_from_a_far_foot_on_a_face_turned_to_the_tool_is_searched_again():
+    # dev_rotor_blunt's 5-axis flat:6 job re-planned at scallop 0.0431 mm (upright,
+    # trunnion-ac, lead 10): a contact over the 0.4 mm leading edge touches (its rim point
+    # 0.005 mm off the surface), but the rim point's search, seeded at the contact, stopped
+    # on the edge's nose, on its normal, 0.83 mm off and behind its plane, a face turned
+    # 83 deg from the axis (not away from it): the chord measure reported 0.83 mm of
+    # overcut (asked 0.05) and the planner 1.6. The pose's expected contact stands nearer
+    # to that point than the foot: the foot is no closest point and is searched again
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_blunt_9x120.csv")
+    tip = np.array([[25.2947416392, 1.4948577861, 13.8837453311]])
+    axis = np.array([[0.6905833422, -0.7190679603, -0.0776911575]])
+    axis /= np.linalg.norm(axis)
+    t0, s0 = np.array([0.5127]), np.array([0.1104])
+    for newton in (1, 2, 6):
+        gap, t, _ = cutter_gap(surface, parse_cutter("flat:6"), tip, axis, t0, s0,
+                               newton=newton, refine_rim=True)
+        assert abs(gap[0]) < 1e-4 and abs(t[0] - 0.5127) < 1e-3
+
+
+@pytest.mark.parametrize("tip,axis,t0,s0", [
+    ([27.0158310117, 2.8763042943, 16.9513462251], [-0.2263975931, -0.9730837438, -0.0430366995],
+     0.5362203919, 0.1469408379),
+    ([27.1798094590, 2.5406885377, 20.8547343460], [-0.2435121035, -0.9688958280, -0.0440764097],
+     0.5363931603, 0.1955537396)])
+def test_a_disc_centre_read_deep_from_the_far_face_is_no_lowest_point(tip, axis, t0, s0):
+    # the same re-planned job: poses a millimetre or two past the leading edge's contact,
+    # touching there; the disc's centre, 0.48 mm clear of the near face, found the far
+    # face's nose from the pose's contact (and from there again), on its normal, 1.35 to
+    # 1.40 mm behind its plane, a face turned away from the axis: the planner's chord check
+    # split those moves into stacks of points reading 1.4 to 1.8 mm deep (16,489 points
+    # where 15,215 do). An inner point of the disc read deep from a face turned away is no
+    # lowest point (where a cutter cuts in, its deepest reading stands on a face turned
+    # towards it): the pose reads its contact
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_blunt_9x120.csv")
+    axis = np.array([axis]) / np.linalg.norm(axis)
+    for newton in (1, 3):
+        gap, t, _ = cutter_gap(surface, parse_cutter("flat:6"), np.array([tip]), axis,
+                               np.array([t0]), np.array([s0]), newton=newton,
+                               refine_rim=True)
+        assert abs(gap[0]) < 1e-4 and abs(t[0] - t0) < 1e-3

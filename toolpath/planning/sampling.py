@@ -27,6 +27,7 @@ contacts, exact for curvature varying quadratically along the move); the model's
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any, NamedTuple
 
@@ -381,9 +382,29 @@ class _Disc:
         f = self.surface.frame(tt, ss)
         if signed is None:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
+        signed = self._inner_reading(signed, f.normal, poses)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
         return self._edges(points, tt, ss, signed, poses), tt, ss, f.normal, bend
+
+    def _inner_reading(self, signed: NDArray[np.float64], normals: NDArray[np.float64],
+                       poses: NDArray[np.int64]) -> NDArray[np.float64]:
+        """Inner points' readings, ``inf`` where deep from a face turned away from the axis.
+
+        The inner points: the disc's centre and those at half its radius. Inside the disc
+        a point is lowest only where the surface lies almost level under it, a face turned
+        towards the axis; and where a cutter cuts in, the deepest reading stands on a face
+        turned towards it (the rim's readings have it). A deep reading from a face turned
+        away that :meth:`_stationary`'s search again kept is a stationary point's that is
+        no closest point: the flat:6 disc's centre beside dev_rotor_blunt's leading edge,
+        0.48 mm clear, read 1.40 mm deep from the far face's nose, seeded at its rim's
+        contact and again from there (the planner split that move into a stack of points
+        reading 1.4 to 1.8 mm). Not the rim's points: one of those dropped can take the
+        disc's lowest point with it.
+        """
+        return np.where((signed < -STATIONARY_MM)
+                        & (np.einsum("ij,ij->i", normals, self.axes[poses]) <= 0.0),
+                        np.inf, signed)
 
     def _stationary(self, points: NDArray[np.float64], signed: NDArray[np.float64] | None,
                     tt: NDArray[np.float64], ss: NDArray[np.float64], poses: NDArray[np.int64]
@@ -401,10 +422,14 @@ class _Disc:
         (dev_rotor_blunt's bull:6:1 5-axis job read poses past the leading edge 3.1 mm deep
         from the far face, 0.01 mm clear): a reading more than :data:`STATIONARY_MM` inside
         from a face turned away from the tool axis (``n . a <= 0``; where a cutter cuts in,
-        a face turned towards it is inside it too, so the deepest reading stands on one) is
-        searched again likewise (else from its pose's expected contact), the new foot kept
-        where it is nearer to ``K``; an off-normal one's where it is a closest point or
-        nearer. ``signed`` (None: not read) and the feet are returned mended.
+        a face turned towards it is inside it too, so the deepest reading stands on one),
+        or farther from ``K`` than its pose's expected contact is (a surface point nearer
+        than the foot: round dev_rotor_blunt's 0.4 mm leading edge a flat:6 rim point
+        0.005 mm off the surface found a foot on the edge's nose, on its normal, 0.83 mm
+        off, whose face turns 83 deg from the axis: read 0.83 mm inside), is searched again
+        likewise (else from its pose's expected contact), the new foot kept where it is
+        nearer to ``K``; an off-normal one's where it is a closest point or nearer.
+        ``signed`` (None: not read) and the feet are returned mended.
         """
         normals = None
         if signed is None:
@@ -424,7 +449,9 @@ class _Disc:
             rows = np.flatnonzero(deep)
             n = (normals[rows] if normals is not None
                  else self.surface.points_and_normals(tt[rows], ss[rows])[1])
-            deep[rows] = np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0
+            seed_nearer = reach[rows] > row_lengths(points[rows]
+                                                    - self.seed_points.take(poses[rows], 0))
+            deep[rows] = (np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0) | seed_nearer
         bad = np.flatnonzero(off_normal | deep)
         if not bad.size:
             return signed, tt, ss
@@ -457,6 +484,11 @@ class _Disc:
             signed = signed.copy()
             signed[rows] = d2[take]
         return signed, tt, ss
+
+    @functools.cached_property
+    def seed_points(self) -> NDArray[np.float64]:
+        """Each pose's expected contact on the surface (mm), from its seed ``t, s``."""
+        return self.surface(*self.seeds)
 
     def _edges(self, points: NDArray[np.float64], tt: NDArray[np.float64],
                ss: NDArray[np.float64], signed: NDArray[np.float64],
@@ -515,6 +547,12 @@ class _Disc:
                + offs[None, :, 1, None] * self.b2[rows][:, None, :]).reshape(-1, 3)
         d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k), np.repeat(rows, k))
         d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
+        deep = np.flatnonzero(d[:, _RIM:].min(axis=1) < -STATIONARY_MM)
+        if deep.size:  # (the inner points' deep readings: few)
+            inner = (deep[:, None], np.arange(_RIM, k)[None, :])
+            normals = self.surface.normal(tt[inner].ravel(), ss[inner].ravel())
+            d[inner] = self._inner_reading(d[inner].ravel(), normals,
+                                           np.repeat(rows[deep], k - _RIM)).reshape(-1, k - _RIM)
         best = np.argmin(d, axis=1)
         i_all = np.arange(m)
         out = (d[i_all, best], tt[i_all, best], ss[i_all, best],
