@@ -77,6 +77,7 @@ def report_lines(report: dict) -> list[str]:
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "
         f"{100 * plan['unreachable_fraction']:.1f}%",
         *_written_line(plan),
+        *_attempts_line(plan),
         *_stalled_line(plan),
         f"linking    {plan['linking']}"
         + (f" ({plan['linking_reason']})" if plan.get("linking_reason") else ""),
@@ -100,6 +101,20 @@ def report_lines(report: dict) -> list[str]:
     if "stream" in report:
         lines.append("stream     " + ", ".join(f"{k} {v}" for k, v in report["stream"].items()))
     return lines
+
+
+def _attempts_line(plan: dict) -> list[str]:
+    """Where the job planned more than once: what each plan measured, which was kept."""
+    attempts = plan.get("attempts") or []
+    if len(attempts) < 2:
+        return []
+    kept = plan.get("kept_attempt", len(attempts))
+    readings = "; ".join(
+        f"asked {a['scallop_mm']:.4f}/{a['chord_tol_mm']:.4f}, measured "
+        f"{a.get('judged_scallop_mm', a['measured_scallop_mm']) or 0.0:.4f}/"
+        f"{a['measured_chord_mm'] or 0.0:.4f}" for a in attempts)
+    return [f"re-plan    {len(attempts)} plans (scallop/chord mm: {readings}); plan {kept} "
+            "kept, the nearest to the request"]
 
 
 def scallop_text(max_mm: float | None, above_mm: float | None = None) -> str:
