@@ -230,18 +230,24 @@ def test_chord_extremes_from_end_slopes_and_one_gap_are_the_same_model():
         assert all(x.shape == (0,) for x in empty)
 
 
-@pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])
-def test_ball_end_slopes_are_the_gap_slopes_at_the_ends(axis_mode):
-    # the ball's gap measured just inside each end of real moves (3-axis, and lead-tilt
-    # whose axis turns along the move) against the slope from the ends alone
-    surface, cutter = EllipticBladeSurface(), parse_cutter("ball:6")
+def _two_passes(spec, axis_mode):
+    """Two passes of 40 points on the elliptic blade: surface, cutter, points, the rows
+    that start a move."""
+    surface, cutter = EllipticBladeSurface(), parse_cutter(spec)
     opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis_mode,
                             lead_deg=10.0 if axis_mode == "lead-tilt" else 0.0)
     res = opts.resolved(cutter, 0.0)
     layout = passes.PassLayout(np.array([0.3, 0.6]), np.array([0.3, 0.6]), np.array([1, 1]))
     t, pid = np.tile(np.linspace(0.2, 0.8, 40), 2), np.repeat(np.arange(2), 40)
     pts = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
-    first = np.flatnonzero(pts.same_pass)
+    return surface, cutter, pts, np.flatnonzero(pts.same_pass)
+
+
+@pytest.mark.parametrize("axis_mode", ["3", "lead-tilt"])
+def test_ball_end_slopes_are_the_gap_slopes_at_the_ends(axis_mode):
+    # the ball's gap measured just inside each end of real moves (3-axis, and lead-tilt
+    # whose axis turns along the move) against the slope from the ends alone
+    surface, cutter, pts, first = _two_passes("ball:6", axis_mode)
     slopes = ball_end_slopes(cutter.radius_mm, pts.tips, pts.axes, pts.frame.normal, first)
     h = 1e-4
     gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, first,
@@ -260,14 +266,7 @@ def test_disc_end_slopes_are_the_gap_slopes_at_the_ends(spec, axis_mode):
     # its slope at an end is the rate of the distance at the lowest point held on the
     # moving cutter: against the gap measured just inside each end (3-axis; lead-tilt,
     # whose axis turns along the move and swings the contact round the rim)
-    surface, cutter = EllipticBladeSurface(), parse_cutter(spec)
-    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, axis_mode=axis_mode,
-                            lead_deg=10.0 if axis_mode == "lead-tilt" else 0.0)
-    res = opts.resolved(cutter, 0.0)
-    layout = passes.PassLayout(np.array([0.3, 0.6]), np.array([0.3, 0.6]), np.array([1, 1]))
-    t, pid = np.tile(np.linspace(0.2, 0.8, 40), 2), np.repeat(np.arange(2), 40)
-    pts = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
-    first = np.flatnonzero(pts.same_pass)
+    surface, cutter, pts, first = _two_passes(spec, axis_mode)
     r = cutter.corner_radius_mm
     gap, t_foot, s_foot = cutter_gap(surface, cutter, pts.tips, pts.axes, pts.t, pts.s,
                                      newton=8, refine_rim=True)
