@@ -374,10 +374,8 @@ def _end_contacts(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter
         search_from_samples(unsure)
         point[unsure], normal[unsure], x_s[unsure] = _points_normals_x_s(surface, t[unsure],
                                                                          s[unsure])
-    off_axis = np.zeros((0, 3))
-    if not ball:
-        off_axis = point + gap[:, None] * normal - tips  # + r n - r a: below
-        off_axis += lift * (normal - tool_axes)
+    off_axis = (np.zeros((0, 3)) if ball
+                else _off_axis(point, normal, gap, lift, tips, tool_axes))
     return _EndContacts(ends, gap, t, s, point, normal, x_s, tips, tool_axes, off_axis)
 
 
@@ -657,6 +655,10 @@ def _inside_gaps(surface: ParametricSurface, cutter: Cutter, samples: SurfaceSam
 #: (:func:`_contact_jumps`), deg.
 CONTACT_TURN_DEG = 30.0
 
+#: ... or whose point stands within this of the axis (mm): a face level with the surface,
+#: whose lowest point is anywhere on it.
+LEVEL_OFF_AXIS_MM = 1e-3
+
 
 def _contact_jumps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
                    off_axis: tuple[NDArray[np.float64], NDArray[np.float64]],
@@ -670,8 +672,8 @@ def _contact_jumps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     (round a tight edge, over a crest), ``K*`` jumps and the gap has a kink. ``K*`` off
     the axis (``off_axis`` at the ends; at the middle from its gap, ``t``, ``s``:
     ``middle``) turning by more than :data:`CONTACT_TURN_DEG` from either end to the
-    middle, or one of them within a micrometre of the axis (a face level with the
-    surface, whose lowest point is anywhere on it), marks the move; so does a foot on an
+    middle, or one of them within :data:`LEVEL_OFF_AXIS_MM` of the axis (a face level
+    with the surface, whose lowest point is anywhere on it), marks the move; so does a foot on an
     open edge of the surface at either end or the middle (there the distance's gradient
     is not the normal, and the gap's sign flips where the foot leaves the edge).
     """
@@ -682,17 +684,27 @@ def _contact_jumps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
         if not surface.closed_t:
             on_edge |= (tt <= 0.0) | (tt >= 1.0)
     tips, axes = move_poses(ends, np.full((len(gap), 1), 0.5), joints)
-    x, n = surface.points_and_normals(t, s)
-    r = cutter.corner_radius_mm
-    off_mid = x + gap[:, None] * n + r * (n - axes) - tips
+    off_mid = _off_axis(*surface.points_and_normals(t, s), gap, cutter.corner_radius_mm,
+                        tips, axes)
     cos_limit = np.cos(np.radians(CONTACT_TURN_DEG))
     mid_len = row_lengths(off_mid)
-    jumped = on_edge | (mid_len < 1e-3)
+    jumped = on_edge | (mid_len < LEVEL_OFF_AXIS_MM)
     for off in off_axis:
         length = row_lengths(off)
         cos = np.einsum("ij,ij->i", off, off_mid) / np.maximum(length * mid_len, 1e-300)
-        jumped |= (length < 1e-3) | (cos < cos_limit)
+        jumped |= (length < LEVEL_OFF_AXIS_MM) | (cos < cos_limit)
     return np.flatnonzero(jumped)
+
+
+def _off_axis(point: NDArray[np.float64], normal: NDArray[np.float64],
+              gap: NDArray[np.float64], corner_mm: float, tips: NDArray[np.float64],
+              axes: NDArray[np.float64]) -> NDArray[np.float64]:
+    """Where a contact's point ``K = X + (gap + r) n`` lies off the axis: ``K - P - r a``.
+
+    ``point``, ``normal``: the foot ``X`` and its unit normal; ``tips``, ``axes``: the
+    pose's ``P`` and ``a``; ``corner_mm``: ``r``. Returns (m, 3), mm.
+    """
+    return point + gap[:, None] * normal + corner_mm * (normal - axes) - tips
 
 
 def _feet_between(ends: MoveEnds, t_mid: NDArray[np.float64], s_mid: NDArray[np.float64],

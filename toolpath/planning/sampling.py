@@ -286,7 +286,8 @@ def cutter_gap(surface: ParametricSurface, cutter: Cutter, tips_mm: NDArray[np.f
     disc = _Disc(surface, cutter, tips_mm, axes, newton + 1, (t0, s0))
     all_rows = np.arange(len(tips_mm))
     # the centre's foot point: its normal tells which rim point can touch
-    d_c, t_c, s_c, n_c, k_c = disc.signed(disc.centre, t0, s0, all_rows, curvature=True)
+    d_c, t_c, s_c, n_c, k_c = disc.signed(disc.centre, t0, s0, all_rows, curvature=True,
+                                          inner=np.ones(len(tips_mm), dtype=bool))
     lateral = n_c - np.einsum("ij,ij->i", n_c, axes)[:, None] * axes
     lean = np.linalg.norm(lateral, axis=1)
     # the rim point facing down the surface is the lowest when the normal leans clearly
@@ -354,10 +355,13 @@ class _Disc:
 
     def signed(self, points: NDArray[np.float64], tt: NDArray[np.float64],
                ss: NDArray[np.float64], poses: NDArray[np.int64], *,
-               curvature: bool = False) -> tuple[Any, ...]:
+               curvature: bool = False, inner: NDArray[np.bool_] | None = None
+               ) -> tuple[Any, ...]:
         """Signed distance of points to the surface and the foot's ``t, s``.
 
-        ``poses``: each point's disc (row). A point past an open edge of the surface reads
+        ``poses``: each point's disc (row). ``inner``: the points inside the disc (not
+        on its rim; None: none), whose deep readings from a face turned away are dropped
+        (:meth:`_inner_reading`). A point past an open edge of the surface reads
         what its disc can cut there, the edge (:func:`~.open_edges.edge_readings`).
         With ``curvature=True`` also the foot's normal and largest absolute principal
         curvature (1/mm). On a closed surface the foot and distance are always
@@ -369,6 +373,11 @@ class _Disc:
             signed, tt, ss = signed_distance_near(self.surface, points, tt, ss,
                                                   iterations=self.iterations)
             signed, tt, ss = self._stationary(points, signed, tt, ss, poses)
+            if inner is not None:
+                rows = np.flatnonzero(inner & (signed < -STATIONARY_MM))
+                if rows.size:  # (the inner points' deep readings: few)
+                    signed[rows] = self._inner_reading(
+                        signed[rows], self.surface.normal(tt[rows], ss[rows]), poses[rows])
             return self._edges(points, tt, ss, signed, poses), tt, ss
         signed = None
         if self.surface.closed_t:
@@ -382,7 +391,8 @@ class _Disc:
         f = self.surface.frame(tt, ss)
         if signed is None:
             signed = np.einsum("ij,ij->i", points - f.point, f.normal)
-        signed = self._inner_reading(signed, f.normal, poses)
+        if inner is not None:
+            signed = np.where(inner, self._inner_reading(signed, f.normal, poses), signed)
         k_min, k_max = f.principal_curvatures()
         bend = np.nan_to_num(np.maximum(np.abs(k_min), np.abs(k_max)), nan=np.inf)
         return self._edges(points, tt, ss, signed, poses), tt, ss, f.normal, bend
@@ -545,14 +555,9 @@ class _Disc:
         m, k = rows.size, len(offs)
         pts = (self.centre[rows][:, None, :] + offs[None, :, 0, None] * self.b1[rows][:, None, :]
                + offs[None, :, 1, None] * self.b2[rows][:, None, :]).reshape(-1, 3)
-        d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k), np.repeat(rows, k))
+        d, tt, ss = self.signed(pts, np.repeat(tt, k), np.repeat(ss, k), np.repeat(rows, k),
+                                inner=np.tile(np.arange(k) >= _RIM, m))
         d, tt, ss = d.reshape(m, k), tt.reshape(m, k), ss.reshape(m, k)
-        deep = np.flatnonzero(d[:, _RIM:].min(axis=1) < -STATIONARY_MM)
-        if deep.size:  # (the inner points' deep readings: few)
-            inner = (deep[:, None], np.arange(_RIM, k)[None, :])
-            normals = self.surface.normal(tt[inner].ravel(), ss[inner].ravel())
-            d[inner] = self._inner_reading(d[inner].ravel(), normals,
-                                           np.repeat(rows[deep], k - _RIM)).reshape(-1, k - _RIM)
         best = np.argmin(d, axis=1)
         i_all = np.arange(m)
         out = (d[i_all, best], tt[i_all, best], ss[i_all, best],
