@@ -28,7 +28,8 @@ from typing import Any
 
 import numba
 
-__all__ = ["MIN_ROWS_PER_THREAD", "SLICES_PER_THREAD", "row_slices", "run_in_threads"]
+__all__ = ["MIN_ROWS_PER_THREAD", "SLICES_PER_THREAD", "query_workers", "row_slices",
+           "run_in_threads"]
 
 #: Fewer rows than this per thread run in the calling thread alone: below it, starting
 #: threads costs more than it saves.
@@ -51,6 +52,19 @@ def row_slices(n_rows: int, threads: int) -> list[tuple[int, int]]:
     count = min(threads * SLICES_PER_THREAD, n_rows // MIN_ROWS_PER_THREAD)
     bounds = [n_rows * k // count for k in range(count + 1)]
     return list(itertools.pairwise(bounds))
+
+
+def query_workers(n_rows: int) -> int:
+    """Workers for a k-d tree query of ``n_rows`` points (scipy's ``cKDTree.query``).
+
+    scipy starts its worker threads afresh on every query: about 0.2 to 0.35 ms for two,
+    more than a query of a few hundred points takes in one (the cusp search's queries of
+    3 to 700 contacts on the sweep's small plans). Fewer rows than
+    :data:`MIN_ROWS_PER_THREAD` are queried in the calling thread alone, more in numba's
+    threads (``numba.get_num_threads()``, as :func:`run_in_threads`). The neighbours found
+    are the same either way.
+    """
+    return 1 if n_rows < MIN_ROWS_PER_THREAD else numba.get_num_threads()
 
 
 def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any,

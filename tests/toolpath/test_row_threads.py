@@ -9,7 +9,7 @@ import numba
 import numpy as np
 import pytest
 
-from toolpath.row_threads import MIN_ROWS_PER_THREAD, row_slices, run_in_threads
+from toolpath.row_threads import MIN_ROWS_PER_THREAD, query_workers, row_slices, run_in_threads
 
 
 @pytest.mark.parametrize("n_rows", [0, 1, MIN_ROWS_PER_THREAD, 2 * MIN_ROWS_PER_THREAD - 1,
@@ -115,3 +115,16 @@ def test_numba_s_debug_mode_runs_the_python_rows():
                           timeout=120, env={**os.environ, "NUMBA_DISABLE_JIT": "1"})
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "ok"
+
+
+def test_a_small_k_d_query_runs_in_the_calling_thread_alone():
+    # scipy starts its query's workers afresh each call: a few hundred points are asked
+    # in one thread, many in numba's threads (one where numba is held to one)
+    assert query_workers(0) == query_workers(MIN_ROWS_PER_THREAD - 1) == 1
+    assert query_workers(MIN_ROWS_PER_THREAD) == numba.get_num_threads()
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert query_workers(10 * MIN_ROWS_PER_THREAD) == 1
+    finally:
+        numba.set_num_threads(before)

@@ -43,7 +43,6 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 
@@ -53,6 +52,7 @@ from machines.kinematics import tool_point_gradient
 from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
+from ..row_threads import query_workers
 from ..surface import ParametricSurface, outward_normals
 from ..vectors import row_lengths
 from .cutters import Cutter, CutterKind
@@ -400,7 +400,7 @@ def _nearest_samples(samples: SurfaceSamples, points: NDArray[np.float64], lift_
     missed = np.flatnonzero(nearest < 0)
     if missed.size:
         nearest[missed] = samples.tree.query(points[missed], k=1,
-                                             workers=numba.get_num_threads())[1]
+                                             workers=query_workers(missed.size))[1]
     return nearest
 
 
@@ -882,7 +882,7 @@ def _mend_from_samples(surface: ParametricSurface, cutter: Cutter, samples: Surf
     for _ in range(2):
         x, n = surface.points_and_normals(t[rows], s[rows])
         k = x + (gap[rows] + r)[:, None] * n
-        near_mm, near = samples.tree.query(k, workers=numba.get_num_threads())
+        near_mm, near = samples.tree.query(k, workers=query_workers(len(k)))
         wrong = np.abs(gap[rows] + r) > near_mm + FOOT_SLACK_MM
         rows, near = rows[wrong], near[wrong]
         if not rows.size:

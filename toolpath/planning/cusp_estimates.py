@@ -11,11 +11,11 @@ from __future__ import annotations
 
 from collections.abc import Callable
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from ..row_threads import query_workers
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
 from ..vectors import move_axes, unit
@@ -646,7 +646,7 @@ def _nearest_of(tree: cKDTree, pass_of: NDArray[np.int64], point: NDArray[np.flo
     n = tree.n
     todo, k = np.arange(len(point)), 16
     while todo.size and n:
-        dist, idx = tree.query(point[todo], k=min(k, n), workers=numba.get_num_threads())
+        dist, idx = tree.query(point[todo], k=min(k, n), workers=query_workers(todo.size))
         dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
         idx_ok = np.minimum(idx, n - 1)
         pick = pass_of[idx_ok] != pass_[todo, None]

@@ -14,11 +14,11 @@ from __future__ import annotations
 
 from typing import NamedTuple
 
-import numba
 import numpy as np
 from numpy.typing import NDArray
 from scipy.spatial import cKDTree
 
+from ..row_threads import query_workers
 from ..surface import ParametricSurface, outward_normals
 from ..tolerances import ROUND_OFF, TINY
 from ..vectors import row_lengths
@@ -294,7 +294,7 @@ class _OtherPasses:
         k = FIRST_NEIGHBOURS
         while todo.size:
             dist, idx = self.tree.query(self.points[rows[todo]], k=min(k, n),
-                                        workers=numba.get_num_threads())
+                                        workers=query_workers(todo.size))
             dist, idx = dist.reshape(len(todo), -1), idx.reshape(len(todo), -1)
             other = self.passes[np.minimum(idx, n - 1)] != self.passes[rows[todo]][:, None]
             other &= np.isfinite(dist)
