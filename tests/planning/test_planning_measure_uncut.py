@@ -395,3 +395,30 @@ def test_a_piece_longer_than_the_step_is_within_the_reach_of_rays_it_cuts(theta_
                                          every, every + 1, every, first=True)).any()
         assert full  # some piece cuts the ray ...
         assert volume.cut(q, n).tolist() == [True]  # ... and the grid's search finds it
+
+
+@pytest.mark.parametrize("cutter", ["flat:6", "bull:8:1"])
+def test_rays_that_cannot_climb_to_a_pieces_tip_plane_skip_it_and_are_cut_as_before(cutter):
+    # under one tool axis a cutter lies above its tip plane: a ray that does not climb
+    # from below a piece's two end tips never enters it (cut() drops those pairs before
+    # the search); the rays cut are the full method's, every ray meeting every piece
+    # within the reach: the cap's own rays and rays from 0.05 mm under it (climbing to the
+    # tip planes over them: cut) and rays 1 mm under it pointing down, away from the
+    # cutters (the far side of a thin part: none enters)
+    measured = planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="3")
+    volume = measured.volume()
+    g = np.linspace(0.0, 1.0, 41)
+    t, s = (a.ravel() for a in np.meshgrid(g, g, indexing="ij"))
+    q, n = CAP.points_and_normals(t, s)
+    for rays in ((q, n), (q - 0.05 * n, n), (q - 1.0 * n, -n)):
+        full = np.isfinite(volume.height(*rays, *ray_ranges(*volume.pairs(rays[0]), len(q)),
+                                         first=True))
+        assert np.array_equal(volume.cut(*rays), full)
+    assert full.sum() == 0 and volume.cut(q - 0.05 * n, n).mean() > 0.9
+    owner, item = volume.pairs(q - 1.0 * n)
+    kept, _ = volume._enterable(q - 1.0 * n, -n, owner, item)
+    assert owner.size > 1000 and kept.size == 0
+    # a turning axis keeps every pair
+    tilted = planned(CAP, cutter, scallop_mm=0.02, chord_tol_mm=0.02, axis_mode="lead-tilt",
+                     lead_deg=10.0).volume()
+    assert volume.lowest_tip_mm is not None and tilted.lowest_tip_mm is None

@@ -15,6 +15,8 @@ horizon (10 times the request, at least 0.05 mm, :func:`cusp_horizon_mm`) count 
 
 from __future__ import annotations
 
+from functools import cached_property
+
 import numpy as np
 from numpy.typing import NDArray
 
@@ -23,6 +25,7 @@ from machines.kinematics import forward
 
 from ..joint_refine import checked_moves
 from ..path import MoveKind, Toolpath
+from ..tolerances import LENGTH_SLACK_MM, ROUND_OFF
 from ..vectors import move_poses, row_lengths
 from .clearance_kernel import (
     SampleCells,
@@ -373,13 +376,55 @@ class CutVolume:
             if self.ball:
                 self._near_pieces_cut(q, n, rows[~near[rows]], out)
                 rows = rows[~out[rows]]
-            out[rows] = np.isfinite(self.height(q.take(rows, axis=0), n.take(rows, axis=0),
-                                                *ray_ranges(*self.pairs(q.take(rows, axis=0)),
-                                                            len(rows)), first=True))
+            q_rows, n_rows = q.take(rows, axis=0), n.take(rows, axis=0)
+            pairs = self._enterable(q_rows, n_rows, *self.pairs(q_rows))
+            out[rows] = np.isfinite(self.height(q_rows, n_rows, *ray_ranges(*pairs, len(rows)),
+                                                first=True))
         if self.ball:  # dropped: a ball's later searches seldom meet the reach's cells
             # (a coarse request's bracket search whose radius reaches them bins them again)
             self._cells = None
         return out
+
+    def _enterable(self, q: NDArray[np.float64], n: NDArray[np.float64],
+                   owner: NDArray[np.int64], item: NDArray[np.int64]
+                   ) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+        """The pairs of rays ``q + l n`` (rows ``owner``) and pieces ``item`` a ray can enter.
+
+        Under one tool axis ``a`` for every piece (3 axes), a flat or bull-nose cutter lies
+        on its tip plane's upper side at each pose, ``(x - T) . a >= 0``, the tip ``T``
+        moving linearly along a piece: a ray not climbing (``n . a <= 0``) from below both
+        its end tips' planes (``q . a`` under the lower, :attr:`lowest_tip_mm`) never
+        enters the piece. Those pairs are dropped before the search (which would skip them
+        one by one, :func:`~.sweep_kernel.nearest_entries`' tip-plane bound: the same
+        rays cut). Under a thin part the rays of its far side point away from the
+        cutters over it and meet hundreds of their pieces within the reach each (lying
+        dev blade, bull:8:1, 3 axes, scallop 0.01 mm, chord 0.1 mm: 4,286 of the uncut
+        grid's 5,326 rays searched, 631,243 of their 832,390 pairs). Other cutters and
+        turning axes: every pair.
+        """
+        lowest = self.lowest_tip_mm
+        if lowest is None or not len(item):
+            return owner, item
+        axis = self.axes0[0]
+        height = q @ axis
+        climbing = n @ axis > 0.0
+        keep = climbing[owner] | (height[owner] >= lowest[item] - LENGTH_SLACK_MM)
+        return owner[keep], item[keep]
+
+    @cached_property
+    def lowest_tip_mm(self) -> NDArray[np.float64] | None:
+        """Each piece's lower end tip's height along the one tool axis, mm (worked out once).
+
+        None for a ball, or where the pieces' axes differ by more than round-off (a
+        5-axis toolpath's).
+        """
+        if self.ball or not len(self.pass_of):
+            return None
+        axis = self.axes0[0]
+        if max(float(np.abs(self.axes0 - axis).max()),
+               float(np.abs(self.axes1 - axis).max())) > ROUND_OFF:
+            return None
+        return np.minimum(self.tips0 @ axis, self.tips1 @ axis)
 
     def _candidates_cut(self, q: NDArray[np.float64], n: NDArray[np.float64],
                         candidate: NDArray[np.int64], out: NDArray[np.bool_]
