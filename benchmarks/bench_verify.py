@@ -516,7 +516,7 @@ def bull5_row(standing, spec: str, scallop_mm: float) -> None:
 
 
 def flat_rows(specs: list[str], repeats: int, baseline: str | None, *,
-               five_axis: bool = False) -> None:
+              five_axis: bool = False) -> None:
     """The dev blade's flat and bull-nose ``toolpath run`` programs, verified warm.
 
     Each job (plan, post) runs once through the CLI; its program and placed surface are
@@ -616,7 +616,7 @@ def main(argv: list[str] | None = None) -> int:
             flat_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
         if args.flat5 is not None:
             flat_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
-                       five_axis=True)
+                      five_axis=True)
         return 0
     cutter = parse_cutter(CUTTER)
     opts = VerifyOptions(scallop_mm=SCALLOP_MM, max_samples=args.samples)
@@ -696,7 +696,7 @@ def main(argv: list[str] | None = None) -> int:
         flat_rows(flat3.split(","), args.flat3_repeats, args.baseline_checkout)
     if args.flat5 is not None:
         flat_rows(args.flat5.split(","), args.flat3_repeats, args.baseline_checkout,
-                   five_axis=True)
+                  five_axis=True)
     return 0
 
 

@@ -485,7 +485,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
                          "judged_scallop_mm": _judged_scallop_mm(plan_report),
                          "measured_chord_mm": plan_report.max_chord_error_mm})
         plans.append((path, plan_report, scallop_mm, chord_mm))
-        over_scallop = _judged_scallop_mm(plan_report) / scallop_mm
+        over_scallop = attempts[-1]["judged_scallop_mm"] / scallop_mm
         over_chord = (plan_report.max_chord_error_mm or 0.0) / chord_mm
         excess = max(over_scallop, over_chord)
         if excess <= 1.0 or excess > REPLAN_REACH or plan_report.n_lifted:

@@ -83,10 +83,10 @@ def _job_measured(tmp_path, monkeypatch, scallops):
     def measured(surface, cutter, **kw):
         path, report = real(surface, cutter, **kw)
         asked.append(kw["scallop_mm"])
-        if len(asked) <= len(scallops):
+        if len(asked) <= len(scallops):  # (the first plan is asked the user's request)
             largest, interior = scallops[len(asked) - 1]
-            report = dataclasses.replace(report, max_scallop_mm=largest * 0.05,
-                                         scallop_interior_mm=interior * 0.05)
+            report = dataclasses.replace(report, max_scallop_mm=largest * asked[0],
+                                         scallop_interior_mm=interior * asked[0])
         return path, report
 
     monkeypatch.setattr(pipeline, "plan_finishing", measured)

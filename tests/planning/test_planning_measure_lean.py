@@ -126,8 +126,7 @@ def test_tip_linear_ball_slopes_read_in_place_are_ball_slopes_bit_for_bit(cap3):
     move = _cutting_moves(path)
     contacts = _end_contacts(path, surface, cutter, cap3.samples, move, 100_000, 4)
     ends, ia, ib = contacts.of_moves(path, move)
-    plain = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
-                         None)
+    plain = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib], None)
     assert len(plain) > 100 and np.abs(plain).max() > 0.0
     assert np.array_equal(contacts.tip_linear_slopes(cutter.radius_mm, ia), plain)
 

@@ -54,8 +54,7 @@ def _moves(measured):
     contacts = _end_contacts(path, surface, cutter, measured.samples, move, 100_000, 4)
     ends, ia, ib = contacts.of_moves(path, move)
     g, t, s = move_gaps(surface, cutter, ends, np.array([0.5]), newton=6)
-    slopes = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
-                          None)
+    slopes = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib], None)
     u_low = chord_extremes(g, [0.5], end_slopes=slopes)[1]
     return ends, t[:, 0], s[:, 0], u_low
 
@@ -104,8 +103,7 @@ def test_every_moves_extremes_same_as_the_full_search(name, request):
     for newton in (1, 6):
         contacts = _end_contacts(path, surface, cutter, measured.samples, move, 100_000, 4)
         ends, ia, ib = contacts.of_moves(path, move)
-        slopes = _end_slopes(cutter, ends, contacts.normal[ia],
-                              contacts.normal[ib], None)
+        slopes = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib], None)
         gaps[newton] = _move_chunk_gaps(surface, cutter, ends, contacts.gap[ia],
                                         contacts.gap[ib], 0.0, None, slopes, newton)[0]
     np.testing.assert_allclose(gaps[1], gaps[6], rtol=0.0, atol=1e-9)

@@ -150,7 +150,7 @@ def test_joint_slopes_are_the_gaps_derivative_at_the_ends():
                                    contacts.normal)
     interpolation = (machine, joints[move], joints[move + 1])
     slopes = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
-                          interpolation, (gradient[ia], gradient[ib]))
+                         interpolation, (gradient[ia], gradient[ib]))
     h = 1e-5
     for col, u in enumerate((0.0, 1.0)):
         g = move_gaps(surface, cutter, ends, np.array([u - h, u + h]), newton=8,
@@ -159,8 +159,7 @@ def test_joint_slopes_are_the_gaps_derivative_at_the_ends():
         np.testing.assert_allclose(slopes[:, col], expected, rtol=0.0,
                                    atol=1e-4 * np.abs(expected).max())
     # the gradients given once per location are the ones each move's ends would compute
-    own = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib],
-                       interpolation)
+    own = _end_slopes(cutter, ends, contacts.normal[ia], contacts.normal[ib], interpolation)
     np.testing.assert_allclose(slopes, own, rtol=0.0, atol=1e-12)
 
 

@@ -54,6 +54,7 @@ from ..path import MoveKind, Toolpath
 from ..projection_kernel import seam_lerp_rows
 from ..row_threads import query_workers
 from ..surface import ParametricSurface, outward_normals
+from ..tolerances import TINY
 from ..vectors import row_lengths
 from .cutters import Cutter, CutterKind
 from .gouge import SurfaceSamples
@@ -691,7 +692,7 @@ def _contact_jumps(surface: ParametricSurface, cutter: Cutter, ends: MoveEnds,
     jumped = on_edge | (mid_len < LEVEL_OFF_AXIS_MM)
     for off in off_axis:
         length = row_lengths(off)
-        cos = np.einsum("ij,ij->i", off, off_mid) / np.maximum(length * mid_len, 1e-300)
+        cos = np.einsum("ij,ij->i", off, off_mid) / np.maximum(length * mid_len, TINY)
         jumped |= (length < LEVEL_OFF_AXIS_MM) | (cos < cos_limit)
     return np.flatnonzero(jumped)
 
