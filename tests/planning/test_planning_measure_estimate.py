@@ -81,10 +81,11 @@ def test_blade_standing_under_joint_interpolation(cutter, request_mm):
 
 
 def test_few_of_the_largest_estimates_are_cast_and_more_where_they_rank_poorly():
-    # bench_toolpath's R50 cap: the estimate ranks the seeds well, and casting the 256
-    # largest finds the largest cusp (1024 were cast); its elliptic blade in 5 axes: more
-    # estimates stand above what the 256 largest find than were cast, and casting twice
-    # as many, and so on, finds it; both the full method's figures exactly
+    # bench_toolpath's R50 cap: the estimate ranks the seeds well, and casting the
+    # largest (256 of them with those twice as many) finds the largest cusp; its elliptic
+    # blade in 5 axes: more estimates stand above what the largest find than were cast,
+    # and casting twice as many, and so on up to 1024, finds it; both the full method's
+    # figures exactly
     cap = SpherePatch(radius_mm=50.0, longitude_deg=(-40.0, 40.0), colatitude_deg=(15.0, 60.0))
     request = {"scallop_mm": 0.005, "chord_tol_mm": 0.01}
     cases = [(cap, {"axis_mode": "3"}),
@@ -338,7 +339,7 @@ def test_the_section_estimate_does_not_read_low_where_passes_bend_away(blade):
 
 def test_a_cluster_of_cusps_read_a_little_high_does_not_hide_the_largest():
     # 300 alike cusps (0.975) whose estimates read 2.9 % high rank above the largest cusp
-    # (1.0, estimated exactly): the 256 largest estimates cast find 0.975 only, and no
+    # (1.0, estimated exactly): the 64 largest estimates cast find 0.975 only, and no
     # estimate stands above it by more than it errs; casting more while any estimate not
     # cast reaches what was found finds the largest cusp (review of session 23)
     rng = np.random.default_rng(1)
