@@ -15,6 +15,9 @@ limited to one thread runs the loop in its own thread, as a parallel kernel woul
 ``k`` of ``w`` takes slices ``k, k + w, k + 2 w, ...`` (the calling thread is thread 0, the
 others come from one pool of threads kept for the process): interleaved, so that a run of
 costly rows is shared out, and fixed, so that the same call splits the same way each time.
+With ``dynamic``, the rows come in many slices of ``min_rows`` and each thread takes the
+next slice nobody has taken as it frees, as a ``prange`` loop under
+``numba.parallel_chunksize`` does: a thread slowed by other work takes fewer.
 """
 
 from __future__ import annotations
@@ -39,17 +42,22 @@ MIN_ROWS_PER_THREAD = 1024
 SLICES_PER_THREAD = 4
 
 
-def row_slices(n_rows: int, threads: int) -> list[tuple[int, int]]:
+def row_slices(n_rows: int, threads: int, *, min_rows: int = MIN_ROWS_PER_THREAD,
+               dynamic: bool = False) -> list[tuple[int, int]]:
     """``(lo, hi)`` ranges covering rows ``0 .. n_rows - 1`` in order, for ``threads``.
 
-    One range when the rows are too few to share (:data:`MIN_ROWS_PER_THREAD`), else
-    about :data:`SLICES_PER_THREAD` per thread, each at least that many rows.
+    One range when the rows are too few to share (fewer than twice ``min_rows``,
+    default :data:`MIN_ROWS_PER_THREAD`), else about :data:`SLICES_PER_THREAD` per thread
+    (``dynamic``: as many as there are ``min_rows`` in the rows), each at least
+    ``min_rows`` rows.
     """
     if n_rows <= 0:
         return []
-    if threads <= 1 or n_rows < 2 * MIN_ROWS_PER_THREAD:
+    if threads <= 1 or n_rows < 2 * min_rows:
         return [(0, n_rows)]
-    count = min(threads * SLICES_PER_THREAD, n_rows // MIN_ROWS_PER_THREAD)
+    count = n_rows // min_rows
+    if not dynamic:
+        count = min(threads * SLICES_PER_THREAD, count)
     bounds = [n_rows * k // count for k in range(count + 1)]
     return list(itertools.pairwise(bounds))
 
@@ -68,26 +76,38 @@ def query_workers(n_rows: int) -> int:
 
 
 def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any,
-                   threads: int | None = None) -> None:
+                   threads: int | None = None, min_rows: int = MIN_ROWS_PER_THREAD,
+                   dynamic: bool = False) -> None:
     """Call ``block(*args, lo, hi)`` over rows ``0 .. n_rows - 1``, in numba's threads.
 
     ``block`` is a kernel compiled with ``nogil=True`` that writes its rows' results in
     place (its return value is dropped); the slices are :func:`row_slices` for ``threads``
-    threads (default ``numba.get_num_threads()``). An exception in a slice is raised here
-    once every thread has ended (a thread stops at its first error). Raises TypeError for
-    a ``block`` that is not a ``nogil`` kernel: it would hold the interpreter's lock, and
-    the threads would take turns.
+    threads (default ``numba.get_num_threads()``), ``min_rows`` and ``dynamic`` (the
+    slices taken as the threads free, module docstring). An exception in a slice is
+    raised here once every thread has ended (a thread stops at its first error). Raises
+    TypeError for a ``block`` that is not a ``nogil`` kernel: it would hold the
+    interpreter's lock, and the threads would take turns.
     """
     _check_nogil(block)
     threads = numba.get_num_threads() if threads is None else threads
-    slices = row_slices(n_rows, threads)
+    slices = row_slices(n_rows, threads, min_rows=min_rows, dynamic=dynamic)
     if len(slices) <= 1:
         for lo, hi in slices:
             block(*args, lo, hi)
         return
     workers = min(threads, len(slices))
+    untaken = iter(slices)
+    taking = threading.Lock()
+
+    def next_slice() -> tuple[int, int] | None:
+        with taking:
+            return next(untaken, None)
 
     def run_share(first: int) -> None:
+        if dynamic:
+            while (rows := next_slice()) is not None:
+                block(*args, *rows)
+            return
         for lo, hi in slices[first::workers]:
             block(*args, lo, hi)
 

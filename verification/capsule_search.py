@@ -49,6 +49,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from toolpath.row_threads import run_in_threads
+
 from .capsule import capsule_interval
 from .grid import PieceGrid
 
@@ -62,10 +64,15 @@ IntArray = NDArray[np.int64]
 #: meets a column or a cell: the cell a midpoint was filed in comes from a floor of its own
 #: rounding, so a ball grazing a border keeps the cell on both sides.
 COLUMN_RIM = 1e-6
-#: Dexels one task of a compiled walk takes (tasks are handed to the cores as they free,
-#: so a core slowed by other work takes fewer); within a task the piece that left least
-#: on one dexel is tried first on the next.
+#: Dexels a compiled walk takes in a block: within it the piece that left least on one
+#: dexel is tried first on the next.
 WALK_BLOCK = 64
+#: Dexels one task of a compiled walk takes (:func:`~toolpath.row_threads.run_in_threads`,
+#: the tasks handed to the threads as they free, so a core slowed by other work takes
+#: fewer): whole blocks, about 4 ms of the 5-axis blade program's near search each. (A
+#: ``prange`` loop over the blocks did the same, for 2.6 s more CPU of compiling, which a
+#: job on a cold kernel cache pays: 9.6 s against 7.0 s.)
+WALK_TASK = 16 * WALK_BLOCK
 #: Neighbouring dexels (next samples along a row of the design grid) whose candidates are
 #: gathered in one walk of the grid: over a ball holding all their search balls, then
 #: sorted out for each by its own ball (:func:`group_ball`, :func:`own_slots`). On the
@@ -400,28 +407,29 @@ def capsule_entry_bound(slot: int, mid: FloatArray, half: FloatArray, e: FloatAr
     return t - 0.5 * along - math.sqrt(room)
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: FloatArray,
           spans: IntArray, dims: IntArray, origin: FloatArray, cell: float,
           starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
-          piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray) -> None:
+          piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray, lo: int, hi: int
+          ) -> None:
+    # dexels lo .. hi - 1 (a slice of them in each thread, run_in_threads)
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
     # found
     # pieces (a, e, ee, axis) in the grid's order, read by slot; dexels in blocks, each
     # block's first piece tried the one that left least on the block's previous dexel;
     # within a block, groups of WALK_GROUP dexels walk the grid once (group_ball)
     r2 = radius * radius
-    n_q = points.shape[0]
-    for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
-        buf = np.empty(WALK_BLOCK, dtype=np.int64)
-        shared = np.empty(WALK_BLOCK, dtype=np.int64)
+    buf = np.empty(WALK_BLOCK, dtype=np.int64)
+    shared = np.empty(WALK_BLOCK, dtype=np.int64)
+    for start in range(lo, hi, WALK_BLOCK):
         n_shared = -1
         seed = -1
-        stop = min(n_q, (b + 1) * WALK_BLOCK)
-        for q in range(b * WALK_BLOCK, stop):
-            shared, n_shared, buf, n = group_slots(q, b * WALK_BLOCK, stop, True, centres,
+        stop = min(hi, start + WALK_BLOCK)
+        for q in range(start, stop):
+            shared, n_shared, buf, n = group_slots(q, start, stop, True, centres,
                                                    lim2, spans, dims, origin, cell, starts,
                                                    mid, shared, n_shared, buf)
             px, py, pz = points[q, 0], points[q, 1], points[q, 2]
@@ -538,11 +546,11 @@ def lowest_capsule_entries(grid: PieceGrid, span: int | IntArray, points: FloatA
         return np.full(q, np.inf), np.full(q, -1, dtype=np.int64), behind, 0
     spans, dims = walk_shape(grid, span, q)
     f = np.ascontiguousarray
-    with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
-        _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              f(reach_mm * reach_mm, dtype=float), spans, dims,
-              f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
-              grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
-              float(radius_mm), float(behind_cosine), lam, piece, behind, pairs)
+    run_in_threads(_walk, q, f(points, dtype=float), f(dirs, dtype=float),
+                   f(centres, dtype=float), f(reach_mm * reach_mm, dtype=float), spans, dims,
+                   f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts,
+                   grid.order, f(sorted_mid), f(sorted_half_mm), f(a), f(e), f(ee), f(axis),
+                   float(radius_mm), float(behind_cosine), lam, piece, behind, pairs,
+                   min_rows=WALK_TASK, dynamic=True)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())

@@ -4,6 +4,7 @@ import os
 import subprocess
 import sys
 import threading
+import time
 
 import numba
 import numpy as np
@@ -71,6 +72,36 @@ def test_each_row_once_in_its_slice_from_several_threads(threads):
     assert len(set(thread.tolist())) >= 2
     for lo, hi in slices:  # a slice runs in one thread
         assert len(set(thread[lo:hi].tolist())) == 1
+
+
+@numba.njit(nogil=True)
+def _slow_first_slice(visits, slice_lo, thread, lo, hi):
+    """``_mark_rows``, the first slice held up: the other thread takes the rest meanwhile."""
+    if lo == 0:
+        with numba.objmode():
+            time.sleep(0.5)
+    _mark_rows(visits, slice_lo, thread, lo, hi)
+
+
+@pytest.mark.filterwarnings("ignore:.*Code running in object mode")
+def test_dynamic_slices_are_taken_as_the_threads_free():
+    n, small = 40 * 64 + 9, 64
+    slices = row_slices(n, 2, min_rows=small, dynamic=True)
+    assert len(slices) == n // small  # as many as there are min_rows in the rows
+    assert min(hi - lo for lo, hi in slices) >= small
+    assert [i for lo, hi in slices for i in range(lo, hi)] == list(range(n))
+    assert len(row_slices(n, 2, min_rows=small)) == 2 * 4  # static: SLICES_PER_THREAD each
+    visits, slice_lo = np.zeros(n, dtype=np.int64), np.full(n, -1, dtype=np.int64)
+    thread = np.zeros(n, dtype=np.uint64)
+    run_in_threads(_slow_first_slice, n, visits, slice_lo, thread, threads=2, min_rows=small,
+                   dynamic=True)
+    assert (visits == 1).all()
+    expected = np.concatenate([np.full(hi - lo, lo) for lo, hi in slices])
+    np.testing.assert_array_equal(slice_lo, expected)
+    held = thread[0]
+    # while the first slice slept, the other thread took every other one (statically it
+    # would have had half of them)
+    assert (thread[slices[1][0]:] != held).all()
 
 
 @numba.njit(nogil=True)
