@@ -48,7 +48,7 @@ def row_slices(n_rows: int, threads: int, *, min_rows: int = MIN_ROWS_PER_THREAD
 
     One range when the rows are too few to share (fewer than twice ``min_rows``,
     default :data:`MIN_ROWS_PER_THREAD`), else about :data:`SLICES_PER_THREAD` per thread
-    (``dynamic``: as many as there are ``min_rows`` in the rows), each at least
+    (``dynamic``: ``min_rows`` each from row 0, the last with the rest), each at least
     ``min_rows`` rows.
     """
     if n_rows <= 0:
@@ -56,8 +56,9 @@ def row_slices(n_rows: int, threads: int, *, min_rows: int = MIN_ROWS_PER_THREAD
     if threads <= 1 or n_rows < 2 * min_rows:
         return [(0, n_rows)]
     count = n_rows // min_rows
-    if not dynamic:
-        count = min(threads * SLICES_PER_THREAD, count)
+    if dynamic:  # slices of min_rows from row 0 (the last takes the rest)
+        return list(itertools.pairwise([k * min_rows for k in range(count)] + [n_rows]))
+    count = min(threads * SLICES_PER_THREAD, count)
     bounds = [n_rows * k // count for k in range(count + 1)]
     return list(itertools.pairwise(bounds))
 

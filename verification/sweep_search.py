@@ -54,6 +54,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from toolpath.row_threads import run_in_threads
+
 from .capsule_search import (
     ROUNDING_SLACK_MM,
     TIE_SLACK_MM,
@@ -91,7 +93,16 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
     return pair_value(lam_in, lam_out, cosine, behind_cosine)
 
 
-@numba.njit(cache=True, parallel=True)
+#: Dexels one task of the bull-nose walk takes (:func:`~toolpath.row_threads.run_in_threads`,
+#: the tasks handed to the threads as they free): whole blocks of
+#: :data:`~.capsule_search.WALK_BLOCK`, fewer than the ball walk's task
+#: (:data:`~.capsule_search.WALK_TASK`) as a dexel costs many times more here (a swept
+#: bull-nose's bounds and intervals against a capsule's), so that the last tasks leave no
+#: core idle for long. (A ``prange`` loop over the blocks
+#: did the same for about 5 s more CPU of compiling on a cold kernel cache.)
+SWEEP_WALK_TASK = 4 * WALK_BLOCK
+
+@numba.njit(cache=True, nogil=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: FloatArray,
           wide2: FloatArray, grouped: bool, seeded: bool, spans: IntArray, dims: IntArray,
           origin: FloatArray, cell: float, starts: IntArray, run_mid: FloatArray,
@@ -104,7 +115,8 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           block_slack: FloatArray, core_radius: float, corner_radius: float,
           behind_cosine: float,
           outer: float, lam: FloatArray, piece: IntArray,
-          behind: NDArray[np.bool_], pairs: IntArray) -> None:
+          behind: NDArray[np.bool_], pairs: IntArray, row_lo: int, row_hi: int) -> None:
+    # dexels row_lo .. row_hi - 1 (a slice of them in each thread, run_in_threads)
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
     # found; a bound is compared with tie_limit(best, its run's or half's first piece)
     # ``outer``: every piece's cutter lies within this plus its half length of its
@@ -117,26 +129,25 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
     # (own_slots: the very runs, in the same order, of its walk alone), as the ball walk
     # does; ``seeded``: each dexel first measures the piece that left least on the
     # task's previous one, where a candidate (tests turn both off to compare)
-    n_q = points.shape[0]
-    for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
-        buf = np.empty(WALK_BLOCK, dtype=np.int64)
-        shared = np.empty(WALK_BLOCK, dtype=np.int64)
+    buf = np.empty(WALK_BLOCK, dtype=np.int64)
+    shared = np.empty(WALK_BLOCK, dtype=np.int64)
+    kept = np.empty(WALK_BLOCK, dtype=np.int64)
+    bounds = np.empty(WALK_BLOCK)
+    tops = np.empty(WALK_BLOCK)
+    pending = np.empty(WALK_BLOCK, dtype=np.int64)
+    floors_of = np.empty(WALK_BLOCK)
+    # the halving's stack (depth at most twice log2 of a run's pieces) and scratch
+    lows = np.empty(_STACK, dtype=np.int64)
+    highs = np.empty(_STACK, dtype=np.int64)
+    floors = np.empty(_STACK)
+    halves = np.empty(2)
+    chord = np.empty(3)
+    for block_start in range(row_lo, row_hi, WALK_BLOCK):
         n_shared = -1
         seed = -1
-        stop = min(n_q, (b + 1) * WALK_BLOCK)
-        kept = np.empty(WALK_BLOCK, dtype=np.int64)
-        bounds = np.empty(WALK_BLOCK)
-        tops = np.empty(WALK_BLOCK)
-        pending = np.empty(WALK_BLOCK, dtype=np.int64)
-        floors_of = np.empty(WALK_BLOCK)
-        # the halving's stack (depth at most twice log2 of a run's pieces) and scratch
-        lows = np.empty(_STACK, dtype=np.int64)
-        highs = np.empty(_STACK, dtype=np.int64)
-        floors = np.empty(_STACK)
-        halves = np.empty(2)
-        chord = np.empty(3)
-        for q in range(b * WALK_BLOCK, stop):
-            shared, n_shared, buf, n = group_slots(q, b * WALK_BLOCK, stop, grouped, centres,
+        stop = min(row_hi, block_start + WALK_BLOCK)
+        for q in range(block_start, stop):
+            shared, n_shared, buf, n = group_slots(q, block_start, stop, grouped, centres,
                                                    wide2, spans, dims, origin, cell, starts,
                                                    run_mid, shared, n_shared, buf)
             p, d = points[q], dirs[q]
@@ -383,18 +394,17 @@ def lowest_sweep_entries(grid: PieceGrid, span: IntArray, points: FloatArray,
     height_mm = f(height_mm, dtype=float)
     reach_mm = f(reach_mm, dtype=float)
     wide_mm = reach_mm + runs.max_spread_mm
-    with numba.parallel_chunksize(1):  # one WALK_BLOCK of dexels at a time
-        _walk(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              reach_mm, wide_mm * wide_mm, bool(grouped), bool(seeded), spans, dims,
-              f(grid.origin_mm, dtype=float),
-              float(grid.cell_mm), grid.starts, runs.mid, runs.half_mm, runs.spread_mm,
-              runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
-              runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
-              f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
-              height_mm, runs.along_mm, runs.turned, runs.block_of, runs.block_span,
-              runs.block_slack, float(core_radius_mm),
-              float(corner_radius_mm), float(behind_cosine),
-              piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm), lam, piece, behind,
-              pairs)
+    run_in_threads(_walk, q, f(points, dtype=float), f(dirs, dtype=float),
+                   f(centres, dtype=float), reach_mm, wide_mm * wide_mm, bool(grouped),
+                   bool(seeded), spans, dims, f(grid.origin_mm, dtype=float),
+                   float(grid.cell_mm), grid.starts, runs.mid, runs.half_mm, runs.spread_mm,
+                   runs.start, runs.stop, runs.c0, runs.chord, runs.axis, runs.height_mm,
+                   runs.dilation_mm, f(mid, dtype=float), f(half_mm, dtype=float),
+                   f(a, dtype=float), f(e, dtype=float), f(axis, dtype=float),
+                   height_mm, runs.along_mm, runs.turned, runs.block_of, runs.block_span,
+                   runs.block_slack, float(core_radius_mm),
+                   float(corner_radius_mm), float(behind_cosine),
+                   piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm), lam, piece,
+                   behind, pairs, min_rows=SWEEP_WALK_TASK, dynamic=True)
     lam[piece < 0] = np.inf
     return lam, piece, behind, int(pairs.sum())
