@@ -97,20 +97,19 @@ def run_in_threads(block: Callable[..., Any], n_rows: int, *args: Any,
             block(*args, lo, hi)
         return
     workers = min(threads, len(slices))
-    untaken = iter(slices)
-    taking = threading.Lock()
-
-    def next_slice() -> tuple[int, int] | None:
-        with taking:
-            return next(untaken, None)
+    untaken, taking = iter(slices), threading.Lock()
 
     def run_share(first: int) -> None:
-        if dynamic:
-            while (rows := next_slice()) is not None:
-                block(*args, *rows)
+        if not dynamic:
+            for lo, hi in slices[first::workers]:
+                block(*args, lo, hi)
             return
-        for lo, hi in slices[first::workers]:
-            block(*args, lo, hi)
+        while True:  # the next slice nobody has taken
+            with taking:
+                rows = next(untaken, None)
+            if rows is None:
+                return
+            block(*args, *rows)
 
     others = [_pool().submit(run_share, k) for k in range(1, workers)]
     try:

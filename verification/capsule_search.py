@@ -69,9 +69,8 @@ COLUMN_RIM = 1e-6
 WALK_BLOCK = 64
 #: Dexels one task of a compiled walk takes (:func:`~toolpath.row_threads.run_in_threads`,
 #: the tasks handed to the threads as they free, so a core slowed by other work takes
-#: fewer): whole blocks, about 4 ms of the 5-axis blade program's near search each. (A
-#: ``prange`` loop over the blocks did the same, for 2.6 s more CPU of compiling, which a
-#: job on a cold kernel cache pays: 9.6 s against 7.0 s.)
+#: fewer): whole blocks. (A ``prange`` loop over the blocks did the same, for 2.6 s more
+#: CPU of compiling, which a job on a cold kernel cache pays: 9.6 s against 7.0 s.)
 WALK_TASK = 16 * WALK_BLOCK
 #: Neighbouring dexels (next samples along a row of the design grid) whose candidates are
 #: gathered in one walk of the grid: over a ball holding all their search balls, then
@@ -413,9 +412,9 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
           starts: IntArray, order: IntArray,
           mid: FloatArray, half: FloatArray, a: FloatArray, e: FloatArray, ee: FloatArray,
           axis: FloatArray, radius: float, behind_cosine: float, lam: FloatArray,
-          piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray, lo: int, hi: int
-          ) -> None:
-    # dexels lo .. hi - 1 (a slice of them in each thread, run_in_threads)
+          piece: IntArray, behind: NDArray[np.bool_], pairs: IntArray, row_lo: int,
+          row_hi: int) -> None:
+    # dexels row_lo .. row_hi - 1 (a slice of them in each thread, run_in_threads)
     # ``piece`` holds on entry the piece of a value given (``-1``: none), on exit the one
     # found
     # pieces (a, e, ee, axis) in the grid's order, read by slot; dexels in blocks, each
@@ -424,12 +423,12 @@ def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, lim2: Float
     r2 = radius * radius
     buf = np.empty(WALK_BLOCK, dtype=np.int64)
     shared = np.empty(WALK_BLOCK, dtype=np.int64)
-    for start in range(lo, hi, WALK_BLOCK):
+    for block_start in range(row_lo, row_hi, WALK_BLOCK):
         n_shared = -1
         seed = -1
-        stop = min(hi, start + WALK_BLOCK)
-        for q in range(start, stop):
-            shared, n_shared, buf, n = group_slots(q, start, stop, True, centres,
+        stop = min(row_hi, block_start + WALK_BLOCK)
+        for q in range(block_start, stop):
+            shared, n_shared, buf, n = group_slots(q, block_start, stop, True, centres,
                                                    lim2, spans, dims, origin, cell, starts,
                                                    mid, shared, n_shared, buf)
             px, py, pz = points[q, 0], points[q, 1], points[q, 2]

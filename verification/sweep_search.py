@@ -98,9 +98,10 @@ def _value(p: FloatArray, d: FloatArray, c0: FloatArray, chord: FloatArray,
 #: :data:`~.capsule_search.WALK_BLOCK`, fewer than the ball walk's task
 #: (:data:`~.capsule_search.WALK_TASK`) as a dexel costs many times more here (a swept
 #: bull-nose's bounds and intervals against a capsule's), so that the last tasks leave no
-#: core idle for long. (A ``prange`` loop over the blocks
-#: did the same for about 5 s more CPU of compiling on a cold kernel cache.)
+#: core idle for long. (A ``prange`` loop over the blocks did the same for about 5 s more
+#: CPU of compiling on a cold kernel cache.)
 SWEEP_WALK_TASK = 4 * WALK_BLOCK
+
 
 @numba.njit(cache=True, nogil=True)
 def _walk(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: FloatArray,

@@ -85,10 +85,11 @@ ESTIMATE_SHARE = 1.03
 #: cusps are all alike (the estimate then ranks seeds by its few per cent of error; more
 #: are cast wherever an estimate not cast reaches the largest found, below). 64, not 256
 #: as before: on the 90 plans of ``bench_toolpath.py --sweep`` the same figures to the
-#: printed digit, a flat or bull-nose cutter's casts (about half a millisecond a seed)
-#: cut by up to 70 % on the smaller plans (the lying blade, bull:8:1, scallop 0.25 mm,
-#: chord 0.03 mm: 352 -> 103); of the 90, one plan's largest cusp came 0.005 % lower (a
-#: cusp among thousands alike that the 256 had happened to cast) ...
+#: printed digit, and the smaller plans of a flat or bull-nose cutter (about half a
+#: millisecond a cast) measured faster (lying blade, bull:8:1, scallop 0.25 mm, chord
+#: 0.03 mm: 0.297 -> 0.213 s; standing, chord 0.1 mm: 0.379 -> 0.242 s); in full
+#: precision one plan's largest cusp came 0.005 % lower (one among thousands alike that
+#: the 256 had happened to cast) ...
 ESTIMATE_TOP = 64
 
 #: ... or this share of the seeds, when more (a quarter of the 1 % it was, with the count).
