@@ -39,10 +39,11 @@ from collections.abc import Callable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
-__all__ = ["COARSE", "ENV_SWITCH", "KERNELS_FILE", "Kernel", "MAX_HELPERS", "background_compile",
-           "cache_is_cold", "compile_kernel", "compile_kernels", "decode_type", "encode_type",
-           "helper_order", "job_kernels", "record_job_kernels", "recorded_jobs",
-           "recorded_kernels", "say_on_stderr", "usable_cores", "work_ahead"]
+__all__ = ["COARSE", "CORNER_JOBS", "ENV_SWITCH", "KERNELS_FILE", "MAX_HELPERS", "Kernel",
+           "RecordedJob", "background_compile", "cache_is_cold", "compile_kernel",
+           "compile_kernels", "cutter_kind", "decode_type", "encode_type", "helper_order",
+           "job_kernels", "record_job_kernels", "recorded_jobs", "recorded_kernels",
+           "say_on_stderr", "usable_cores", "work_ahead"]
 
 #: The recorded kernels and argument types of the jobs (see the module's text).
 KERNELS_FILE: Final = Path(__file__).resolve().parent / "data" / "job_kernels.json"
@@ -142,23 +143,43 @@ def _dispatcher(kernel: Kernel) -> Any:
 
 # -- the recorded jobs ----------------------------------------------------------------------
 
-def job_kernels(axis_mode: str, stages: Sequence[str],
+def job_kernels(axis_mode: str, stages: Sequence[str], cutter: str = "ball",
                 path: Path = KERNELS_FILE) -> list[Kernel]:
     """The recorded kernels of a job in ``axis_mode`` reached in ``stages``, in call order.
 
-    Empty when the file is missing or unreadable, or the axis mode is not recorded.
+    ``stages`` in the order the job reaches them. ``cutter``: the job's cutter spec
+    (``ball:6``, ``bull:10:2``); a flat or bull-nose job's list adds the
+    :data:`CORNER_JOBS`' kernels its axis mode's ball-nose jobs do not call, stage by
+    stage. Empty when the file is missing or unreadable, or the axis mode is not recorded.
     """
     try:
-        recorded = json.loads(path.read_text(encoding="utf-8"))["jobs"][axis_mode]
+        jobs = json.loads(path.read_text(encoding="utf-8"))["jobs"]
+        recorded = list(jobs[axis_mode])
+        if cutter_kind(cutter) != "ball":
+            recorded += jobs.get(CORNER_JOBS, [])
     except (OSError, ValueError, KeyError, TypeError):
         return []
-    return [Kernel.from_json(k) for k in recorded if k["stage"] in stages]
+    kernels: dict[tuple[str, str, str], Kernel] = {}
+    for entry in recorded:
+        if entry["stage"] in stages:
+            kernel = Kernel.from_json(entry)
+            kernels.setdefault((kernel.module, kernel.name, json.dumps(kernel.args)), kernel)
+    order = list(stages)  # (the job's order)
+    return sorted(kernels.values(), key=lambda kernel: order.index(kernel.stage))
+
+
+def cutter_kind(spec: str) -> str:
+    """The kind of a cutter spec, ``ball``, ``flat`` or ``bull`` (its first field, lower case).
+
+    Read without the planner's modules (the job parses and checks the spec itself).
+    """
+    return spec.strip().split(":", 1)[0].strip().lower()
 
 
 def recorded_kernels(path: Path = KERNELS_FILE) -> list[Kernel]:
-    """Every recorded kernel of every axis mode once, stage by stage (for the warm-up).
+    """Every recorded kernel of every kind of job once, stage by stage (for the warm-up).
 
-    Stages in the order the jobs reach them; within one, the first axis mode's call order.
+    Stages in the order the jobs reach them; within one, the first kind's call order.
     Empty when the file is missing or unreadable.
     """
     try:
@@ -398,12 +419,31 @@ def _helper_main() -> int:
 
 # -- recording ------------------------------------------------------------------------------
 
-#: The recorded jobs: axis mode -> (bundled blade, machine), coarse (:data:`COARSE`) and
-#: verified: the open development blade and the closed propeller blade, so that both kinds
-#: of section reach their kernels.
+class RecordedJob(NamedTuple):
+    """A recorded job: a bundled blade, the machine and cutter it is cut with, its axis mode."""
+
+    blade: str
+    machine: str
+    axis_mode: str
+    cutter: str = "ball:6"
+
+
+#: The kind of recorded jobs whose kernels a flat or bull-nose job adds to its axis mode's.
+CORNER_JOBS: Final = "flat-bull"
+
+#: The recorded jobs per kind, coarse (:data:`COARSE`) and verified: the axis modes'
+#: ball-nose jobs on the open development blade and the closed propeller blade (both kinds
+#: of section reach their kernels), and a bull-nose job (:data:`CORNER_JOBS`) for the flat
+#: and bull-nose cutters' kernels: the torus contact and envelope, the swept-cutter search
+#: of the planner and of the verifier (a flat cutter calls some of them). A 3-axis one:
+#: a 5-axis bull-nose verification refines with the fine model, a minute on these blades,
+#: which the test that the recording is current would run; the one kernel only that
+#: reaches (``sweep_below._mark``) compiles at its first use.
 RECORDED_JOBS: Final = {
-    "3": (("dev_blade_15x142.csv", "grbl-router"),),
-    "lead-tilt": (("dev_blade_15x142.csv", "trunnion-ac"), ("dev_prop_7x100.csv", "trunnion-ac")),
+    "3": (RecordedJob("dev_blade_15x142.csv", "grbl-router", "3"),),
+    "lead-tilt": (RecordedJob("dev_blade_15x142.csv", "trunnion-ac", "lead-tilt"),
+                  RecordedJob("dev_prop_7x100.csv", "trunnion-ac", "lead-tilt")),
+    CORNER_JOBS: (RecordedJob("dev_blade_15x142.csv", "grbl-router", "3", "bull:8:1"),),
 }
 
 #: The recorded jobs' settings: the kernels matter here, not the figures.
@@ -448,8 +488,8 @@ def _calls_from_python(stage: list[str]) -> Iterator[list[Kernel]]:
         dispatcher.Dispatcher.compile = compile_
 
 
-def record_job_kernels(axis_mode: str) -> list[Kernel]:
-    """Run the :data:`RECORDED_JOBS` of ``axis_mode`` here and record their kernels.
+def record_job_kernels(kind: str) -> list[Kernel]:
+    """Run the :data:`RECORDED_JOBS` of ``kind`` here and record their kernels.
 
     In a fresh process (kernels called before are not seen): in the order the jobs first
     call them, each with the job stage that did; a later job adds only what is new.
@@ -469,35 +509,35 @@ def record_job_kernels(axis_mode: str) -> list[Kernel]:
 
     with _calls_from_python(stage) as calls, \
             tempfile.TemporaryDirectory(prefix="toolpath-record-") as folder:
-        for name, machine in RECORDED_JOBS[axis_mode]:
-            request = JobRequest(bundled_data_path(name), machine=machine,
-                                 axis_mode=axis_mode, **COARSE)
+        for job in RECORDED_JOBS[kind]:
+            request = JobRequest(bundled_data_path(job.blade), machine=job.machine,
+                                 axis_mode=job.axis_mode, cutter=job.cutter, **COARSE)
             with warnings.catch_warnings():
                 warnings.simplefilter("ignore")
-                run_job(request, Path(folder) / name, progress=progress, verify=True)
+                run_job(request, Path(folder) / job.blade, progress=progress, verify=True)
     return sorted(calls, key=lambda kernel: STAGES.index(kernel.stage))  # (stable)
 
 
 def recorded_jobs() -> dict[str, Any]:
-    """:data:`KERNELS_FILE`'s content as recorded now: each axis mode in a fresh process."""
+    """:data:`KERNELS_FILE`'s content as recorded now: each kind of job in a fresh process."""
     import numba
 
     jobs = {}
-    for axis_mode in RECORDED_JOBS:
-        command = [sys.executable, "-m", HELPER_MODULE, "--record-mode", axis_mode]
+    for kind in RECORDED_JOBS:
+        command = [sys.executable, "-m", HELPER_MODULE, "--record-mode", kind]
         done = subprocess.run(command, capture_output=True, text=True, timeout=1200)
         if done.returncode != 0:
-            raise RuntimeError(f"recording the {axis_mode!r} jobs' kernels failed "
+            raise RuntimeError(f"recording the {kind!r} jobs' kernels failed "
                                f"(exit {done.returncode}): {' '.join(command[1:])}\n"
                                f"{done.stderr[-3000:]}")
-        jobs[axis_mode] = json.loads(done.stdout)
+        jobs[kind] = json.loads(done.stdout)
     return {"numba": numba.__version__,
             "note": "python -m streamline_cam.background_compile --record FILE writes it",
             "jobs": jobs}
 
 
 def _record_main(argv: list[str]) -> int:
-    """``--record FILE``: write :func:`recorded_jobs`; ``--record-mode MODE``: print one."""
+    """``--record FILE``: write :func:`recorded_jobs`; ``--record-mode KIND``: print one."""
     if argv[0] == "--record-mode":
         print(json.dumps([k.as_json() for k in record_job_kernels(argv[1])]))
         return 0
@@ -508,7 +548,7 @@ def _record_main(argv: list[str]) -> int:
     return 0
 
 
-USAGE: Final = (f"usage: python -m {HELPER_MODULE} --record FILE | --record-mode MODE\n"
+USAGE: Final = (f"usage: python -m {HELPER_MODULE} --record FILE | --record-mode KIND\n"
                 "(the job starts the helper itself)")
 
 if __name__ == "__main__":

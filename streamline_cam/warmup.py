@@ -2,17 +2,17 @@
 
 The planner's kernels (numba, ``cache=True``) are compiled on first use and kept in the
 kernel cache (:mod:`toolpath.kernel_cache`: next to the sources, or a user cache folder
-when the package folder is read-only), so the first job after an install pays for them
-and every later process loads them. The warm-up compiles them ahead of time, without
-running a job: the kernels the recorded jobs call, for the argument types they pass
-(:data:`~.background_compile.KERNELS_FILE`: every axis mode, every stage from the fit to
-the verifier; the kernels they call compile with them). They are shared among one process
-per usable core, handed out from both ends of the list (the first stages' kernels and the
-last stages' call few kernels in common, so two processes seldom need the same one at
-once); each process takes the next kernel nobody has taken. A kernel the cache holds
-already is skipped (not loaded); one that another process compiles at that moment (as a
-kernel it calls) is checked again once that process is done. A line per stage as its
-kernels are done shows the progress.
+when the package folder is read-only), so the first job after an install pays for them and
+every later process loads them. The warm-up compiles them ahead of time, without running a
+job: the kernels the recorded jobs call, for the argument types they pass
+(:data:`~.background_compile.KERNELS_FILE`: every axis mode and cutter kind, every stage
+from the fit to the verifier; the kernels they call compile with them). They are shared
+among one process per usable core, handed out from both ends of the list (the first
+stages' kernels and the last stages' call few kernels in common, so two processes seldom
+need the same one at once); each process takes the next kernel nobody has taken. A kernel
+the cache holds already is skipped (not loaded); one that another process compiles at that
+moment (as a kernel it calls) is checked again once that process is done. A line per stage
+as its kernels are done shows the progress.
 
 Nothing depends on it: a kernel it did not reach compiles when a job first calls it, and a
 kernel that fails to compile (a stale record would be a bug) is reported and skipped; so is

@@ -22,6 +22,7 @@ except ImportError:  # (Windows)
     fcntl = None
 
 from streamline_cam.background_compile import (
+    CORNER_JOBS,
     ENV_SWITCH,
     KERNELS_FILE,
     decode_type,
@@ -178,6 +179,29 @@ def test_a_plan_is_given_its_later_kernels_and_a_5_axis_one_its_axis_kernels():
     assert "_limit_passes" in names5 and "_limit_passes" not in names3
     assert {k.stage for k in job_kernels("3", ("plan", "verify"))} == {"plan", "verify"}
     assert job_kernels("no such mode", ("plan",)) == []
+
+
+def test_a_flat_or_bull_nose_job_is_given_the_corner_cutters_kernels_too():
+    stages = ("fit", "plan", "post", "check", "verify")
+    keys = lambda kernels: [(k.module, k.name, json.dumps(k.args)) for k in kernels]  # noqa: E731
+    for mode in ("3", "lead-tilt"):
+        ball = keys(job_kernels(mode, stages))
+        assert keys(job_kernels(mode, stages, "ball:6")) == ball
+        for cutter in ("bull:8:1", "FLAT:10", " flat : 6 "):
+            corner = job_kernels(mode, stages, cutter)
+            # the ball-nose job's kernels and the bull-nose job's others, each once,
+            # stage by stage in the job's order
+            assert len(set(keys(corner))) == len(corner)
+            assert set(keys(corner)) == set(ball) | set(keys(job_kernels(CORNER_JOBS, stages)))
+            assert len(corner) > len(ball)
+            assert [stages.index(k.stage) for k in corner] == sorted(
+                stages.index(k.stage) for k in corner)
+            names = {k.name for k in corner}
+            # the planner's torus contact and both near searches of swept cutters
+            assert {"_window_nearest", "_nearest_entries"} <= names
+    # asked in another order, listed in that order
+    asked = [k.stage for k in job_kernels("3", ("verify", "plan"), "bull:8:1")]
+    assert asked == sorted(asked, reverse=True) and set(asked) == {"plan", "verify"}
 
 
 @pytest.mark.slow

@@ -11,6 +11,7 @@ import pytest
 
 from streamline_cam import warmup
 from streamline_cam.background_compile import (
+    CORNER_JOBS,
     RECORDED_JOBS,
     job_kernels,
     recorded_kernels,
@@ -22,12 +23,16 @@ from toolpath.paper_examples import bundled_data_path
 ROOT = Path(__file__).resolve().parents[1]
 
 
-def test_the_recorded_jobs_cover_open_and_closed_blades_3_and_5_axis():
-    kinds = {(mode, as_sections(read_sections(bundled_data_path(name))).closed, machine)
-             for mode, jobs in RECORDED_JOBS.items() for name, machine in jobs}
-    # 3-axis on the open development blade; 5-axis on it and round closed sections
-    assert kinds == {("3", False, "grbl-router"), ("lead-tilt", False, "trunnion-ac"),
-                     ("lead-tilt", True, "trunnion-ac")}
+def test_the_recorded_jobs_cover_open_and_closed_blades_3_and_5_axis_and_corner_cutters():
+    kinds = {(kind, job.axis_mode, as_sections(read_sections(bundled_data_path(job.blade))).closed,
+              job.machine, job.cutter)
+             for kind, jobs in RECORDED_JOBS.items() for job in jobs}
+    # ball-nose 3-axis on the open development blade, 5-axis on it and round closed
+    # sections; a bull-nose job for the flat and bull-nose cutters' kernels
+    assert kinds == {("3", "3", False, "grbl-router", "ball:6"),
+                     ("lead-tilt", "lead-tilt", False, "trunnion-ac", "ball:6"),
+                     ("lead-tilt", "lead-tilt", True, "trunnion-ac", "ball:6"),
+                     (CORNER_JOBS, "3", False, "grbl-router", "bull:8:1")}
 
 
 def test_the_warm_up_compiles_every_recorded_kernel_once_stage_by_stage():
@@ -165,8 +170,9 @@ def test_a_kernel_whose_compile_kills_its_process_is_reported_and_skipped(tmp_pa
     assert result["value"] == 6.0 and result["hits"] == {"inner": 0, "outer": 1}
 
 
-# A coarse 5-axis job as a user runs it, counting what numba compiles for our kernels.
-JOB = '''
+# Coarse jobs as a user runs them, counting what numba compiles for our kernels: a 5-axis
+# ball-nose job, then a verified 3-axis bull-nose one.
+JOBS = '''
 import json, sys
 from numba.core import event
 from streamline_cam.cli import main
@@ -184,26 +190,29 @@ class Compiles(event.Listener):
 
 
 event.register("numba:compile", Compiles())
-code = main(["run", sys.argv[1], "--machine", "trunnion-ac", "--axis", "lead-tilt",
-             "--lead", "10", "--scallop", "0.05", "--chord-tol", "0.02", "--quiet",
-             "-o", "job/part.nc"])
-print(json.dumps({"code": code, "compiled": compiled}))
+codes = [main(["run", sys.argv[1], "--machine", "trunnion-ac", "--axis", "lead-tilt",
+               "--lead", "10", "--scallop", "0.05", "--chord-tol", "0.02", "--quiet",
+               "-o", "job/part.nc"])]
+ball_compiled = list(compiled)
+codes.append(main(["run", sys.argv[1], "--cutter", "bull:8:1", "--scallop", "0.05",
+                   "--chord-tol", "0.05", "--verify", "--quiet", "-o", "bull/part.nc"]))
+print(json.dumps({"codes": codes, "compiled": [ball_compiled, compiled[len(ball_compiled):]]}))
 '''
 
 
 @pytest.mark.slow
-def test_after_the_warm_up_a_5_axis_job_compiles_nothing(tmp_path):
+def test_after_the_warm_up_ball_and_bull_nose_jobs_compile_nothing(tmp_path):
     env = {**os.environ, "PYTHONPATH": str(ROOT), "NUMBA_CACHE_DIR": str(tmp_path / "cache")}
     warm = subprocess.run([sys.executable, "-m", "streamline_cam.cli", "warm-up"], cwd=tmp_path,
                           env=env, capture_output=True, text=True, timeout=1800)
     assert warm.returncode == 0, warm.stderr
     assert "did not compile" not in warm.stderr, warm.stderr
     blade = str(bundled_data_path("dev_blade_15x142.csv"))
-    job = subprocess.run([sys.executable, "-c", JOB, blade], cwd=tmp_path, env=env,
+    job = subprocess.run([sys.executable, "-c", JOBS, blade], cwd=tmp_path, env=env,
                          capture_output=True, text=True, timeout=1800)
     assert job.returncode == 0, job.stderr
     result = json.loads(job.stdout.splitlines()[-1])
-    assert result["code"] == 0 and result["compiled"] == []
+    assert result["codes"] == [0, 0] and result["compiled"] == [[], []]
 
 
 def test_the_warm_up_writes_the_modules_bytecode(tmp_path, monkeypatch):

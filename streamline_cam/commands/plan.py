@@ -107,7 +107,7 @@ def run_plan(args: argparse.Namespace) -> int:
     loaded = load_surface(args.surface)
     # on a cold kernel cache, helper processes compile the job's kernels too (started
     # before the planner's modules load: the cache check loads one kernel's module)
-    with background_compile(job_kernels(args.axis, ("plan",)), say=say_on_stderr):
+    with background_compile(job_kernels(args.axis, ("plan",), args.cutter), say=say_on_stderr):
         from tqdm import tqdm
 
         from toolpath.planning.finishing import plan_finishing

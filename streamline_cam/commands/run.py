@@ -235,7 +235,7 @@ def _run(args: argparse.Namespace) -> int:
     # before the pipeline's modules load: the cache check loads one kernel's module)
     stages = ("fit", "plan", "post", "check") + (("verify",) if args.verify else ())
     try:
-        with background_compile(job_kernels(args.axis, stages),
+        with background_compile(job_kernels(args.axis, stages, args.cutter),
                                 say=None if args.quiet else say_on_stderr):
             from ..pipeline import run_job
 
