@@ -44,8 +44,11 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Final
 
+import numba
 import numpy as np
 from numpy.typing import NDArray
+
+from toolpath.row_threads import run_in_threads
 
 from .replay import ToolMotion
 from .vectors import row_norms
@@ -259,26 +262,26 @@ def simplify_polyline(points: FloatArray, tol_mm: float, max_length_mm: float
     return keep
 
 
-SPLIT_CHUNK_PIECES: Final[int] = 1 << 18
-"""Pieces :func:`_split` cuts at a time (segments in groups of about this many pieces, a
-segment of more alone), written into the whole set's arrays: its temporaries (repeats,
-fractions, the rows before and after the cut, a dozen arrays of up to 24 bytes a piece)
-are a group's, not the whole set's (about 650 MB over the 7 M pieces of the bull-nose
-5-axis blade program). Every piece is computed from its own segment alone, so the pieces
-are the same, bit for bit, whatever the groups."""
+#: Fewest segments per thread when :func:`_split` cuts pieces in threads
+#: (:func:`~toolpath.row_threads.run_in_threads`).
+SPLIT_SEGMENTS_PER_THREAD: Final[int] = 256
 
 
 def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0: FloatArray,
            arc1: FloatArray, max_piece_mm: float, shank: bool, path_arc: FloatArray,
            path_move: IntArray, *, height_mm: float = 0.0,
            min_count: IntArray | None = None, axis_end: FloatArray | None = None,
-           chunk_pieces: int = SPLIT_CHUNK_PIECES) -> Pieces:
+           threads: int | None = None) -> Pieces:
     """Pieces of the segments ``a -> b`` (rows (n, 3)), none longer than ``max_piece_mm``.
 
-    ``min_count`` asks for at least that many pieces per segment. With ``axis_end`` (the
-    axes at ``b``) every piece holds the normalised interpolated axis at its middle;
-    otherwise the segment's ``axis``. Cut ``chunk_pieces`` pieces at a time
-    (:data:`SPLIT_CHUNK_PIECES`).
+    ``min_count`` asks for at least that many pieces per segment. Once any segment is cut,
+    every segment's ``count`` pieces are cut at the fractions ``k / count`` of its chord
+    (:func:`_cut_rows`); otherwise each piece is its segment, ends as given. With
+    ``axis_end`` (the axes at ``b``) every piece holds the normalised interpolated axis at
+    its middle; otherwise the segment's ``axis``. The pieces are written straight into
+    the set's arrays (no temporaries: the bull-nose 5-axis blade program's fine model cuts
+    millions of pieces), in ``threads`` threads (default numba's), each piece from its own
+    segment alone: the same pieces, bit for bit, whatever the threads.
     """
     length = row_norms(b - a)
     count = np.maximum(np.ceil(length / max_piece_mm), 1).astype(np.int64)
@@ -286,62 +289,85 @@ def _split(a: FloatArray, b: FloatArray, axis: FloatArray, move: IntArray, arc0:
         count = np.maximum(count, min_count)
     # one rule for every segment: cut at fractions of the chord once any segment is cut
     cut = int(count.max(initial=1)) > 1
-    ends = np.cumsum(count)
-    n = int(ends[-1]) if ends.shape[0] else 0
+    first = np.cumsum(count) - count
+    n = int(first[-1] + count[-1]) if count.shape[0] else 0
     out = {"a": np.empty((n, 3)), "e": np.empty((n, 3)), "ee": np.empty(n),
            "mid": np.empty((n, 3)), "half_mm": np.empty(n), "move": np.empty(n, dtype=np.int64),
            "axis": np.empty((n, 3)), "arc0_mm": np.empty(n), "arc1_mm": np.empty(n)}
-    s0 = 0
-    while s0 < count.shape[0]:
-        done = int(ends[s0 - 1]) if s0 else 0
-        s1 = max(int(np.searchsorted(ends, done + chunk_pieces, side="right")), s0 + 1)
-        rows = slice(done, int(ends[s1 - 1]))
-        seg = slice(s0, s1)
-        _cut(out, rows, a[seg], b[seg], axis[seg], None if axis_end is None else axis_end[seg],
-             move[seg], arc0[seg], arc1[seg], count[seg] if cut else None)
-        s0 = s1
+    f = np.ascontiguousarray
+    ends = axis_end is not None
+    run_in_threads(_cut_rows, count.shape[0], f(a, dtype=float), f(b, dtype=float),
+                   f(axis, dtype=float), f(axis_end if ends else axis, dtype=float),
+                   f(move, dtype=np.int64), f(arc0, dtype=float), f(arc1, dtype=float), count,
+                   first, cut, ends, *out.values(), threads=threads,
+                   min_rows=SPLIT_SEGMENTS_PER_THREAD)
     return Pieces(**out, shank=np.full(n, shank), path_arc_mm=path_arc, path_move=path_move,
                   height_mm=np.full(n, float(height_mm)))
 
 
-def _cut(out: dict[str, NDArray[np.float64]], rows: slice, a: FloatArray, b: FloatArray,
-         axis: FloatArray, axis_end: FloatArray | None, move: IntArray, arc0: FloatArray,
-         arc1: FloatArray, count: IntArray | None) -> None:
-    """Pieces of some segments written into ``out[name][rows]`` (:func:`_split`).
+@numba.njit(cache=True, nogil=True)
+def _cut_rows(a: FloatArray, b: FloatArray, axis: FloatArray, axis_end: FloatArray,
+              move: IntArray, arc0: FloatArray, arc1: FloatArray, count: IntArray,
+              first: IntArray, cut: bool, ends: bool, out_a: FloatArray, out_e: FloatArray,
+              out_ee: FloatArray, out_mid: FloatArray, out_half: FloatArray,
+              out_move: IntArray, out_axis: FloatArray, out_arc0: FloatArray,
+              out_arc1: FloatArray, lo: int, hi: int) -> None:
+    """The pieces of segments ``lo .. hi - 1`` into rows ``first[s] ..`` (:func:`_split`).
 
-    ``count``: pieces per segment, cut at the fractions ``k / count`` of the chord (None:
-    every segment one piece, its ends as given).
+    ``cut``: segment ``s``'s piece ``k`` of ``count[s]`` runs from ``a + f0 (b - a)`` to
+    ``a + f1 (b - a)``, ``f0 = k / count``, ``f1 = (k + 1) / count``, its path lengths
+    alike; with ``ends``, its axis is ``axis + f (axis_end - axis)`` normalised, ``f`` the
+    mean of ``f0`` and ``f1``. Not ``cut``: the piece is the segment, its axis ``axis +
+    axis_end`` normalised (``ends``). Then ``e = end - start``, ``ee = e . e``, the midpoint
+    ``start + e / 2`` and half length ``sqrt(ee) / 2``.
     """
-    if count is not None:
-        rep = np.repeat(np.arange(a.shape[0]), count)
-        first = np.cumsum(count) - count
-        k = np.arange(rep.shape[0]) - first[rep]
-        f0 = k / count[rep]
-        f1 = (k + 1) / count[rep]
-        d = b[rep] - a[rep]
-        da = arc1[rep] - arc0[rep]
-        a, b = a[rep] + f0[:, None] * d, a[rep] + f1[:, None] * d
-        arc0, arc1, move = arc0[rep] + f0 * da, arc0[rep] + f1 * da, move[rep]
-        if axis_end is not None:
-            f = 0.5 * (f0 + f1)[:, None]
-            axis, axis_end = axis[rep] + f * (axis_end[rep] - axis[rep]), None
-            axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-        else:
-            axis = axis[rep]
-    if axis_end is not None:
-        axis = axis + axis_end
-        axis /= np.linalg.norm(axis, axis=1, keepdims=True)
-    e = b - a
-    ee = np.einsum("ij,ij->i", e, e)
-    out["a"][rows] = a
-    out["e"][rows] = e
-    out["ee"][rows] = ee
-    out["mid"][rows] = a + 0.5 * e
-    out["half_mm"][rows] = 0.5 * np.sqrt(ee)
-    out["move"][rows] = move
-    out["axis"][rows] = axis
-    out["arc0_mm"][rows] = arc0
-    out["arc1_mm"][rows] = arc1
+    p = np.empty(3)
+    q = np.empty(3)
+    x = np.empty(3)
+    for s in range(lo, hi):
+        n = count[s]
+        for k in range(n):
+            row = first[s] + k
+            if cut:
+                f0 = k / n
+                f1 = (k + 1) / n
+                for j in range(3):
+                    d = b[s, j] - a[s, j]
+                    p[j] = a[s, j] + f0 * d
+                    q[j] = a[s, j] + f1 * d
+                da = arc1[s] - arc0[s]
+                c0, c1 = arc0[s] + f0 * da, arc0[s] + f1 * da
+                if ends:
+                    f = 0.5 * (f0 + f1)
+                    for j in range(3):
+                        x[j] = axis[s, j] + f * (axis_end[s, j] - axis[s, j])
+            else:
+                for j in range(3):
+                    p[j] = a[s, j]
+                    q[j] = b[s, j]
+                c0, c1 = arc0[s], arc1[s]
+                if ends:
+                    for j in range(3):
+                        x[j] = axis[s, j] + axis_end[s, j]
+            if ends:
+                norm = np.sqrt(x[0] * x[0] + x[1] * x[1] + x[2] * x[2])
+                for j in range(3):
+                    out_axis[row, j] = x[j] / norm
+            else:
+                for j in range(3):
+                    out_axis[row, j] = axis[s, j]
+            ee = 0.0
+            for j in range(3):
+                e = q[j] - p[j]
+                out_a[row, j] = p[j]
+                out_e[row, j] = e
+                out_mid[row, j] = p[j] + 0.5 * e
+                ee += e * e
+            out_ee[row] = ee
+            out_half[row] = 0.5 * np.sqrt(ee)
+            out_move[row] = move[s]
+            out_arc0[row] = c0
+            out_arc1[row] = c1
 
 
 def _path(motion: ToolMotion, radius_mm: float) -> tuple[FloatArray, FloatArray]:
