@@ -124,6 +124,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from toolpath.row_threads import run_in_threads
+
 from .capsule_search import ROUNDING_SLACK_MM
 from .pieces import Pieces
 from .torus import CONVERGED_MM, sweep_entry_normal, sweep_exit
@@ -158,6 +160,11 @@ SUPPORT_BLOCK: Final[int] = 128
 """Most pieces in one block of support planes (module docstring, *Blocks*): a block's
 plane costs two pieces' planes and decides for all of its pieces where it lies at or
 above the best so far."""
+
+RUN_SLICE_PIECES: Final[int] = 1 << 16
+"""Pieces whose runs a thread finds at a time (:func:`piece_runs`); no run crosses a
+multiple of it, so the runs are the same whatever the threads (a run break every 65,536
+pieces: a few more runs among the hundreds of thousands of a 5-axis program's)."""
 
 ENTRY_MARGIN_MM: Final[float] = 2.0 * CONVERGED_MM
 """Added to every run's dilation: a piece's entry as measured (a point within
@@ -599,27 +606,27 @@ def _fits(first: int, last: int, a: FloatArray, e: FloatArray, axis: FloatArray,
     return delta if delta <= max_dilation else -1.0
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _runs(a: FloatArray, e: FloatArray, axis: FloatArray, height: FloatArray,
           shank: NDArray[np.bool_], core_radius: float, corner_radius: float,
-          max_dilation: float, max_pieces: int, max_length: float
-          ) -> tuple[IntArray, FloatArray]:
-    """Runs from each first piece: the longest that fits, found by doubling then halving.
+          max_dilation: float, max_pieces: int, max_length: float, slice_pieces: int,
+          first: NDArray[np.bool_], delta_of: FloatArray, lo: int, hi: int) -> None:
+    """Runs of pieces ``lo .. hi - 1``: the longest that fits, found by doubling then halving.
 
-    A run's dilation is measured whole for each length tried (``O(m log m)`` per run of
-    ``m`` pieces); the length kept is one that fits, not always the longest.
+    Marks each run's first piece in ``first`` and writes its dilation in ``delta_of``. No
+    run crosses a multiple of ``slice_pieces`` (``lo`` and ``hi`` are such multiples, or
+    the ends): the runs are the same however the pieces are shared among threads. A run's
+    dilation is measured whole for each length tried (``O(m log m)`` per run of ``m``
+    pieces); the length kept is one that fits, not always the longest.
     """
-    n = a.shape[0]
-    starts = np.empty(n + 1, dtype=np.int64)
-    dil = np.empty(n)
-    k = 0
-    i = 0
-    while i < n:
+    i = lo
+    while i < hi:
+        end = min(hi, (i // slice_pieces + 1) * slice_pieces)
         good, delta = 1, 0.0
         bad = 2
         # doubling: the first length that does not fit (or the most allowed)
         while True:
-            size = min(bad, max_pieces, n - i)
+            size = min(bad, max_pieces, end - i)
             if size <= good:
                 bad = size + 1
                 break
@@ -639,12 +646,9 @@ def _runs(a: FloatArray, e: FloatArray, axis: FloatArray, height: FloatArray,
                 bad = size
             else:
                 good, delta = size, trial
-        starts[k] = i
-        dil[k] = delta
-        k += 1
+        first[i] = True
+        delta_of[i] = delta
         i += good
-    starts[k] = n
-    return starts[:k + 1].copy(), dil[:k].copy()
 
 
 def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float,
@@ -674,11 +678,16 @@ def piece_runs(pieces: Pieces, *, core_radius_mm: float, corner_radius_mm: float
     """
     f = np.ascontiguousarray
     a, e, axis = f(pieces.a, dtype=float), f(pieces.e, dtype=float), f(pieces.axis, dtype=float)
-    bounds, delta = _runs(a, e, axis, f(pieces.height_mm, dtype=float),
-                          f(pieces.shank, dtype=np.bool_), float(core_radius_mm),
-                          float(corner_radius_mm), float(max_dilation_mm), int(max_pieces),
-                          float(max_length_mm))
+    n = a.shape[0]
+    first, delta_of = np.zeros(n, dtype=np.bool_), np.zeros(n)
+    run_in_threads(_runs, n, a, e, axis, f(pieces.height_mm, dtype=float),
+                   f(pieces.shank, dtype=np.bool_), float(core_radius_mm),
+                   float(corner_radius_mm), float(max_dilation_mm), int(max_pieces),
+                   float(max_length_mm), RUN_SLICE_PIECES, first, delta_of,
+                   min_rows=RUN_SLICE_PIECES, dynamic=True)
+    bounds = np.append(np.flatnonzero(first), n)
     start, stop = bounds[:-1], bounds[1:]
+    delta = delta_of[start]
     last = stop - 1
     c0 = a[start]
     chord = a[last] + e[last] - c0

@@ -34,14 +34,19 @@ def _cap(spec):
     return machine, cutter, program
 
 
-@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
-def test_every_piece_of_a_run_lies_inside_its_dilated_reference(rng, spec):
+def _cap_pieces(spec):
+    """The cutter and its pieces (the verifier's own) over the cap's 5-axis passes."""
     machine, cutter, program = _cap(spec)
     opts = VerifyOptions()
     _, cfg = _settings(SpherePatch(radius_mm=20.0), cutter, opts)
     motion = replay(program, machine, chord_tol_mm=opts.replay_tol_mm,
                     radius_mm=cutter.radius_mm)
-    pieces, _ = _pieces(motion, cutter, cfg, opts, shank=False)
+    return cutter, _pieces(motion, cutter, cfg, opts, shank=False)[0]
+
+
+@pytest.mark.parametrize("spec", ["bull:6:1", "flat:6"])
+def test_every_piece_of_a_run_lies_inside_its_dilated_reference(rng, spec):
+    cutter, pieces = _cap_pieces(spec)
     corner = cutter.corner_radius_mm
     core = cutter.radius_mm - corner
     runs = piece_runs(pieces, core_radius_mm=core, corner_radius_mm=corner)
@@ -242,3 +247,36 @@ def test_a_half_runs_constant_time_bound_holds_its_pieces(rng, spec):
             outside = own >= 0.0
             assert np.all(far[outside] - bound <= own[outside] + 1e-12)
             assert np.all(far[~outside] <= bound + 1e-12)
+
+
+def test_the_runs_are_the_same_in_one_thread_or_two_and_break_at_each_slice(monkeypatch):
+    import numba
+
+    import verification.piece_runs as runs_module
+
+    cutter, pieces = _cap_pieces("bull:6:1")
+    corner = cutter.corner_radius_mm
+    kw = {"core_radius_mm": cutter.radius_mm - corner, "corner_radius_mm": corner}
+    whole = piece_runs(pieces, **kw)
+    slice_pieces = max(8, pieces.size // 9)
+    monkeypatch.setattr(runs_module, "RUN_SLICE_PIECES", slice_pieces)
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        one = piece_runs(pieces, **kw)
+        numba.set_num_threads(min(2, numba.config.NUMBA_NUM_THREADS))
+        two = piece_runs(pieces, **kw)
+    finally:
+        numba.set_num_threads(threads)
+    for name in ("start", "stop", "dilation_mm", "mid", "spread_mm"):
+        np.testing.assert_array_equal(getattr(one, name), getattr(two, name), err_msg=name)
+    # the runs cover every piece once, none across a slice's end, and they are the
+    # unsliced runs up to the first of those that crosses one
+    assert one.start[0] == 0 and one.stop[-1] == pieces.size
+    np.testing.assert_array_equal(one.start[1:], one.stop[:-1])
+    np.testing.assert_array_equal(one.start // slice_pieces, (one.stop - 1) // slice_pieces)
+    crossing = np.flatnonzero(whole.start // slice_pieces != (whole.stop - 1) // slice_pieces)
+    assert crossing.shape[0] > 0
+    np.testing.assert_array_equal(one.start[:crossing[0] + 1], whole.start[:crossing[0] + 1])
+    np.testing.assert_array_equal(one.stop[:crossing[0]], whole.stop[:crossing[0]])
+    assert one.stop[crossing[0]] < whole.stop[crossing[0]]
