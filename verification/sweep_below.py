@@ -31,6 +31,8 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from toolpath.row_threads import run_in_threads
+
 from .capsule_search import WALK_BLOCK, enters_before, is_candidate, spread_slots, walk_shape
 from .grid import PieceGrid
 from .piece_runs import PieceRuns, floor_entry, run_floor, span_reference
@@ -46,7 +48,7 @@ IntArray = NDArray[np.int64]
 _STACK = 64
 
 
-@numba.njit(cache=True, parallel=True)
+@numba.njit(cache=True, nogil=True)
 def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: FloatArray,
           below: FloatArray, spans: IntArray, dims: IntArray, origin: FloatArray,
           cell: float, starts: IntArray, run_mid: FloatArray, run_half: FloatArray,
@@ -57,78 +59,78 @@ def _mark(points: FloatArray, dirs: FloatArray, centres: FloatArray, reach: Floa
           height: FloatArray, along: FloatArray, turned: FloatArray, block_of: IntArray,
           block_span: IntArray, block_slack: FloatArray, core_radius: float,
           corner_radius: float, widen: float, outer: float, widest: float,
-          listed: IntArray, marked: NDArray[np.bool_]) -> None:
-    # ``outer``: every widened piece lies within this plus its half length of its midpoint
+          listed: IntArray, marked: NDArray[np.bool_], row_lo: int, row_hi: int) -> None:
+    # dexels row_lo .. row_hi - 1 (a slice of them in each thread, run_in_threads: a
+    # piece is marked where any dexel marks it, whichever thread that is); ``outer``:
+    # every widened piece lies within this plus its half length of its midpoint
     # (:func:`~verification.sweep_search.piece_outer_mm`, the corner radius widened);
     # ``widest``: the largest run spread (taken outside, as the walk of
-    # :mod:`verification.sweep_search` does: not a parallel reduction chunked by one);
+    # :mod:`verification.sweep_search` does);
     # ``listed``: per piece, how many before it the caller has listed already (prefix
     # sums, ``n + 1``): a run, half or piece of only such pieces is not walked
-    n_q = points.shape[0]
-    for b in numba.prange((n_q + WALK_BLOCK - 1) // WALK_BLOCK):
-        buf = np.empty(WALK_BLOCK, dtype=np.int64)
-        lows = np.empty(_STACK, dtype=np.int64)
-        highs = np.empty(_STACK, dtype=np.int64)
-        chord = np.empty(3)
-        for q in range(b * WALK_BLOCK, min(n_q, (b + 1) * WALK_BLOCK)):
-            bound = below[q]
-            p, d = points[q], dirs[q]
-            cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
-            lim2 = reach[q] * reach[q]
-            buf, n = spread_slots(cx, cy, cz, reach[q], widest, spans[q], dims, origin, cell,
-                                  starts, run_mid, run_spread, buf)
-            for c in range(n):
-                slot = buf[c]
-                if (listed[run_stop[slot]] - listed[run_start[slot]]
-                        == run_stop[slot] - run_start[slot]):
+    buf = np.empty(WALK_BLOCK, dtype=np.int64)
+    lows = np.empty(_STACK, dtype=np.int64)
+    highs = np.empty(_STACK, dtype=np.int64)
+    chord = np.empty(3)
+    for q in range(row_lo, row_hi):
+        bound = below[q]
+        p, d = points[q], dirs[q]
+        cx, cy, cz = centres[q, 0], centres[q, 1], centres[q, 2]
+        lim2 = reach[q] * reach[q]
+        buf, n = spread_slots(cx, cy, cz, reach[q], widest, spans[q], dims, origin, cell,
+                              starts, run_mid, run_spread, buf)
+        for c in range(n):
+            slot = buf[c]
+            if (listed[run_stop[slot]] - listed[run_start[slot]]
+                    == run_stop[slot] - run_start[slot]):
+                continue
+            if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
+                                 d[2], outer, bound):
+                continue
+            grow = corner_radius + widen + run_dilation[slot]
+            lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                                 run_height[slot], core_radius, grow)
+            if not run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
+                             run_height[slot], core_radius, corner_radius + widen,
+                             run_dilation[slot], lo, hi, bound, run_start[slot],
+                             run_stop[slot], a, e, axis, height, block_of, block_span,
+                             block_slack) < bound:
+                continue
+            lows[0], highs[0] = run_start[slot], run_stop[slot]
+            depth = 1
+            while depth > 0:
+                depth -= 1
+                i, j = lows[depth], highs[depth]
+                if listed[j] - listed[i] == j - i:
                     continue
-                if not enters_before(slot, run_mid, run_half, p[0], p[1], p[2], d[0], d[1],
-                                     d[2], outer, bound):
-                    continue
-                grow = corner_radius + widen + run_dilation[slot]
-                lo, hi = sweep_bound(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
-                                     run_height[slot], core_radius, grow)
-                if not run_floor(p, d, run_c0[slot], run_chord[slot], run_axis[slot],
-                                 run_height[slot], core_radius, corner_radius + widen,
-                                 run_dilation[slot], lo, hi, bound, run_start[slot],
-                                 run_stop[slot], a, e, axis, height, block_of, block_span,
-                                 block_slack) < bound:
-                    continue
-                lows[0], highs[0] = run_start[slot], run_stop[slot]
-                depth = 1
-                while depth > 0:
-                    depth -= 1
-                    i, j = lows[depth], highs[depth]
-                    if listed[j] - listed[i] == j - i:
+                if j - i == 1:
+                    if marked[i] or not is_candidate(i, mid, cx, cy, cz, lim2):
                         continue
-                    if j - i == 1:
-                        if marked[i] or not is_candidate(i, mid, cx, cy, cz, lim2):
-                            continue
-                        if not enters_before(i, mid, half, p[0], p[1], p[2], d[0], d[1],
-                                             d[2], outer, bound):
-                            continue
-                        lo, hi = sweep_bound(p, d, a[i], e[i], axis[i], height[i],
-                                             core_radius, corner_radius + widen)
-                        if floor_entry(p, d, a[i], e[i], axis[i], height[i], core_radius,
-                                       corner_radius + widen, lo, hi, bound) < bound:
-                            marked[i] = True
+                    if not enters_before(i, mid, half, p[0], p[1], p[2], d[0], d[1],
+                                         d[2], outer, bound):
                         continue
-                    h = (i + j) // 2
-                    for side in range(2):
-                        lo_i, hi_j = (i, h) if side == 0 else (h, j)
-                        if hi_j - lo_i > 1:
-                            ref, grow = span_reference(lo_i, hi_j - 1, a, e, axis, height,
-                                                       along, turned, core_radius,
-                                                       corner_radius, chord)
-                            lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
-                                                 core_radius, corner_radius + widen + grow)
-                            if not run_floor(p, d, a[lo_i], chord, axis[ref], height[ref],
-                                             core_radius, corner_radius + widen, grow, lo, hi,
-                                             bound, lo_i, hi_j, a, e, axis, height, block_of,
-                                             block_span, block_slack) < bound:
-                                continue
-                        lows[depth], highs[depth] = lo_i, hi_j
-                        depth += 1
+                    lo, hi = sweep_bound(p, d, a[i], e[i], axis[i], height[i],
+                                         core_radius, corner_radius + widen)
+                    if floor_entry(p, d, a[i], e[i], axis[i], height[i], core_radius,
+                                   corner_radius + widen, lo, hi, bound) < bound:
+                        marked[i] = True
+                    continue
+                h = (i + j) // 2
+                for side in range(2):
+                    lo_i, hi_j = (i, h) if side == 0 else (h, j)
+                    if hi_j - lo_i > 1:
+                        ref, grow = span_reference(lo_i, hi_j - 1, a, e, axis, height,
+                                                   along, turned, core_radius,
+                                                   corner_radius, chord)
+                        lo, hi = sweep_bound(p, d, a[lo_i], chord, axis[ref], height[ref],
+                                             core_radius, corner_radius + widen + grow)
+                        if not run_floor(p, d, a[lo_i], chord, axis[ref], height[ref],
+                                         core_radius, corner_radius + widen, grow, lo, hi,
+                                         bound, lo_i, hi_j, a, e, axis, height, block_of,
+                                         block_span, block_slack) < bound:
+                            continue
+                    lows[depth], highs[depth] = lo_i, hi_j
+                    depth += 1
 
 
 def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
@@ -181,16 +183,18 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
     height_mm = f(height_mm, dtype=float)
     if listed is None:
         listed = np.zeros(mid.shape[0] + 1, dtype=np.int64)
-    with numba.parallel_chunksize(1):
-        _mark(f(points, dtype=float), f(dirs, dtype=float), f(centres, dtype=float),
-              f(reach_mm, dtype=float), f(below_mm, dtype=float), spans, dims,
-              f(grid.origin_mm, dtype=float), float(grid.cell_mm), grid.starts, runs.mid,
-              runs.half_mm, runs.spread_mm, runs.start, runs.stop, runs.c0, runs.chord,
-              runs.axis, runs.height_mm, runs.dilation_mm, f(mid, dtype=float),
-              f(half_mm, dtype=float), f(a, dtype=float), f(e, dtype=float),
-              f(axis, dtype=float), height_mm, runs.along_mm, runs.turned, runs.block_of,
-              runs.block_span, runs.block_slack, float(core_radius_mm),
-              float(corner_radius_mm), float(widen_mm),
-              piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm + widen_mm),
-              runs.max_spread_mm, f(listed, dtype=np.int64), marked)
+    # slices of WALK_BLOCK dexels taken as the threads free (as the parallel loop over
+    # blocks under parallel_chunksize(1) it was, for about 2.6 s less CPU of compiling)
+    run_in_threads(_mark, q, f(points, dtype=float), f(dirs, dtype=float),
+                   f(centres, dtype=float), f(reach_mm, dtype=float), f(below_mm, dtype=float),
+                   spans, dims, f(grid.origin_mm, dtype=float), float(grid.cell_mm),
+                   grid.starts, runs.mid, runs.half_mm, runs.spread_mm, runs.start, runs.stop,
+                   runs.c0, runs.chord, runs.axis, runs.height_mm, runs.dilation_mm,
+                   f(mid, dtype=float), f(half_mm, dtype=float), f(a, dtype=float),
+                   f(e, dtype=float), f(axis, dtype=float), height_mm, runs.along_mm,
+                   runs.turned, runs.block_of, runs.block_span, runs.block_slack,
+                   float(core_radius_mm), float(corner_radius_mm), float(widen_mm),
+                   piece_outer_mm(height_mm, core_radius_mm, corner_radius_mm + widen_mm),
+                   runs.max_spread_mm, f(listed, dtype=np.int64), marked,
+                   min_rows=WALK_BLOCK, dynamic=True)
     return marked
