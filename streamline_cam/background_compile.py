@@ -35,7 +35,7 @@ import os
 import subprocess
 import sys
 import threading
-from collections.abc import Callable, Iterator, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from pathlib import Path
 from typing import Any, Final, NamedTuple
 
@@ -159,13 +159,9 @@ def job_kernels(axis_mode: str, stages: Sequence[str], cutter: str = "ball",
             recorded += jobs.get(CORNER_JOBS, [])
     except (OSError, ValueError, KeyError, TypeError):
         return []
-    kernels: dict[tuple[str, str, str], Kernel] = {}
-    for entry in recorded:
-        if entry["stage"] in stages:
-            kernel = Kernel.from_json(entry)
-            kernels.setdefault((kernel.module, kernel.name, json.dumps(kernel.args)), kernel)
+    kernels = _each_once(entry for entry in recorded if entry["stage"] in stages)
     order = list(stages)  # (the job's order)
-    return sorted(kernels.values(), key=lambda kernel: order.index(kernel.stage))
+    return sorted(kernels, key=lambda kernel: order.index(kernel.stage))
 
 
 def cutter_kind(spec: str) -> str:
@@ -186,13 +182,22 @@ def recorded_kernels(path: Path = KERNELS_FILE) -> list[Kernel]:
         jobs = json.loads(path.read_text(encoding="utf-8"))["jobs"]
     except (OSError, ValueError, KeyError, TypeError):
         return []
+    kernels = _each_once(entry for recorded in jobs.values() for entry in recorded)
+    stages = list(dict.fromkeys(kernel.stage for kernel in kernels))
+    return sorted(kernels, key=lambda kernel: stages.index(kernel.stage))
+
+
+def _each_once(entries: Iterable[Mapping[str, Any]]) -> list[Kernel]:
+    """The recorded kernels of ``entries`` (JSON objects), each kernel and types once.
+
+    In the order of their first entry; a later entry of the same kernel and argument types
+    (another kind of job's, another stage's) is left out.
+    """
     kernels: dict[tuple[str, str, str], Kernel] = {}
-    for recorded in jobs.values():
-        for entry in recorded:
-            kernel = Kernel.from_json(entry)
-            kernels.setdefault((kernel.module, kernel.name, json.dumps(kernel.args)), kernel)
-    stages = list(dict.fromkeys(kernel.stage for kernel in kernels.values()))
-    return sorted(kernels.values(), key=lambda kernel: stages.index(kernel.stage))
+    for entry in entries:
+        kernel = Kernel.from_json(entry)
+        kernels.setdefault((kernel.module, kernel.name, json.dumps(kernel.args)), kernel)
+    return list(kernels.values())
 
 
 def cache_is_cold(kernels: Sequence[Kernel]) -> bool:
@@ -435,10 +440,10 @@ CORNER_JOBS: Final = "flat-bull"
 #: ball-nose jobs on the open development blade and the closed propeller blade (both kinds
 #: of section reach their kernels), and a bull-nose job (:data:`CORNER_JOBS`) for the flat
 #: and bull-nose cutters' kernels: the torus contact and envelope, the swept-cutter search
-#: of the planner and of the verifier (a flat cutter calls some of them). A 3-axis one:
-#: a 5-axis bull-nose verification refines with the fine model, a minute on these blades,
-#: which the test that the recording is current would run; the one kernel only that
-#: reaches (``sweep_below._mark``) compiles at its first use.
+#: of the planner and of the verifier (a flat cutter calls some of them). The bull-nose job
+#: is 3-axis: a 5-axis one's verification refines with the fine model, about a minute on
+#: these blades, which the test that the recording is current would re-run. The one kernel
+#: only that refinement calls (``sweep_below._mark``) compiles at its first use.
 RECORDED_JOBS: Final = {
     "3": (RecordedJob("dev_blade_15x142.csv", "grbl-router", "3"),),
     "lead-tilt": (RecordedJob("dev_blade_15x142.csv", "trunnion-ac", "lead-tilt"),

@@ -183,8 +183,8 @@ def pieces_entering_below(grid: PieceGrid, span: IntArray, points: FloatArray,
     height_mm = f(height_mm, dtype=float)
     if listed is None:
         listed = np.zeros(mid.shape[0] + 1, dtype=np.int64)
-    # slices of WALK_BLOCK dexels taken as the threads free (as the parallel loop over
-    # blocks under parallel_chunksize(1) it was, for about 2.6 s less CPU of compiling)
+    # slices of WALK_BLOCK dexels taken as the threads free, as the parallel loop over
+    # blocks under parallel_chunksize(1) it was (whose parfor cost more to compile)
     run_in_threads(_mark, q, f(points, dtype=float), f(dirs, dtype=float),
                    f(centres, dtype=float), f(reach_mm, dtype=float), f(below_mm, dtype=float),
                    spans, dims, f(grid.origin_mm, dtype=float), float(grid.cell_mm),
