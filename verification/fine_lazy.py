@@ -41,6 +41,16 @@ them holding those the steps name is the minimum over all (the rule above). The 
 which holds the first segments: a lower bound still reached by fine pieces, which lists
 fewer segments in step 2.
 
+The kept pieces stand in **layers**, one per growth, each with an index of its own: a
+search walks them one after the other, each below the first value (and tie key) the ones
+before reached, and takes the first of the results by the tie rule, which is the search of
+all their pieces together. Steps 1 and 2 then search only the layer they add, below what
+the kept ones reach, and no growth indexes the kept pieces again (the one joined index was
+rebuilt at each growth, twice per batch where both steps add segments: on a bull-nose
+5-axis program the rebuilds and the searches of the rebuilt index over all the batch's
+dexels cost more than the new pieces' own). The layers are held to :data:`LAYERS_MOST` by
+joining the two smallest, and dropped with the kept pieces for the budget.
+
 **Ties** (:func:`~verification.capsule_search.ranks_before`: of bit-equal values the
 piece the full model numbers first). The kept pieces are renumbered as segments are kept
 or dropped, so a search gives its pieces back by their tie keys (:func:`tie_keys`: block,
@@ -68,7 +78,7 @@ from typing import TYPE_CHECKING, Final
 import numpy as np
 from numpy.typing import NDArray
 
-from .dexels import DexelResult, SweepIndex
+from .dexels import DexelResult
 from .grid import span_indices
 from .piece_runs import ENTRY_MARGIN_MM
 from .pieces import Pieces
@@ -77,7 +87,7 @@ from .search import scatter
 if TYPE_CHECKING:
     from .fine_model import FineModel
 
-__all__ = ["FINE_BATCH", "KEPT_PIECES", "TIE_KEY_BITS", "LazyFineSweeps", "tie_keys",
+__all__ = ["FINE_BATCH", "KEPT_PIECES", "LAYERS_MOST", "TIE_KEY_BITS", "LazyFineSweeps", "tie_keys",
            "whole_blocks"]
 
 FloatArray = NDArray[np.float64]
@@ -91,6 +101,10 @@ KEPT_PIECES: Final[int] = 1_500_000
 <verification.fine_model.FineModel.full_pieces>` before they are built): about 0.65 GB at
 the fine model's 430 bytes a piece."""
 
+
+LAYERS_MOST: Final[int] = 16
+"""Most layers of kept pieces, each indexed on its own, before the two smallest are joined
+(:meth:`LazyFineSweeps._compact`)."""
 
 TIE_KEY_BITS: Final[int] = 32
 """Bits of a tie key (:func:`tie_keys`) given to a piece's place within its block."""
@@ -115,23 +129,27 @@ class LazyFineSweeps:
         Most dexels per pass of the two steps (default :data:`FINE_BATCH`).
     kept_pieces : int, optional
         Most fine pieces kept (default :data:`KEPT_PIECES`).
+    layers_most : int, optional
+        Most layers of kept pieces (default :data:`LAYERS_MOST`; 1: one index of them
+        all at the start of each batch).
     """
 
     def __init__(self, fine: FineModel, middles: FloatArray, reach_mm: FloatArray, *,
-                 batch: int | None = None, kept_pieces: int | None = None) -> None:
+                 batch: int | None = None, kept_pieces: int | None = None,
+                 layers_most: int | None = None) -> None:
         self.fine = fine
         self.middles, self.reach_mm = middles, reach_mm
         self.batch = FINE_BATCH if batch is None else batch
         self.kept_pieces = KEPT_PIECES if kept_pieces is None else kept_pieces
+        self.layers_most = LAYERS_MOST if layers_most is None else layers_most
         #: segments replayed finely, summed (a measure of the work)
         self.rows_built = 0
         #: times the kept pieces were dropped for the budget
         self.drops = 0
         self._rows = np.zeros(0, dtype=np.int64)
-        self._chunks: list[Pieces] = []
         self._counted = 0
-        self._index: SweepIndex | None = None
-        self._keys = np.zeros(0, dtype=np.int64)
+        # the kept pieces, a few sets of whole blocks, each with its own index (newest last)
+        self._layers: list[_Layer] = []
         # per coarse piece its segments' span (built once), and the prefix sums of the
         # pieces whose segments are all kept, of the segments kept when counted
         self._spans: tuple[IntArray, IntArray] | None = None
@@ -146,6 +164,11 @@ class LazyFineSweeps:
     def rows_kept(self) -> IntArray:
         """The joint segments whose fine pieces are kept (sorted)."""
         return self._rows
+
+    @property
+    def layer_sizes(self) -> list[int]:
+        """The fine pieces of each layer of those kept, oldest first."""
+        return [layer.pieces.size for layer in self._layers]
 
     @property
     def pieces_kept(self) -> int:
@@ -179,37 +202,46 @@ class LazyFineSweeps:
             scatter(out, sel, part)
         return out
 
-    def _holding(self, rows: IntArray, *, force: bool = False) -> SweepIndex | None:
-        """The kept index grown to hold ``rows``; None where that would pass the budget.
+    def _grown(self, rows: IntArray, *, force: bool = False) -> tuple[bool, _Layer | None]:
+        """Whether ``rows`` fit the budget, and the layer of those not kept yet, now kept.
 
-        ``force``: grown whatever the count. Every segment of a block the rows belong to
-        is kept with them (:func:`whole_blocks`), so that the tie keys hold.
+        ``force``: kept whatever the count. Every segment of a block the rows belong to is
+        kept with them (:func:`whole_blocks`), so that the tie keys hold. The layer is
+        None where every block is kept already, and where they do not fit.
         """
         new = np.setdiff1d(whole_blocks(self.fine.segment_moves, rows), self._rows,
                            assume_unique=True)
-        if new.shape[0] == 0 and not self._chunks:
-            return None
-        if new.shape[0]:
-            counted = self.fine.full_pieces(new)
-            if not force and self._counted + counted > self.kept_pieces:
-                return None
-            self._chunks.append(self.fine.fine_pieces(new))
-            self.rows_built += int(new.shape[0])
-            self._counted += counted
-            self._rows = np.union1d(self._rows, new)
-            self._index = None
-        if self._index is None:
-            kept = _one_path(self._chunks)
-            self._chunks = [kept]
-            self._keys = tie_keys(kept.move)
-            self._index = self.fine.index_of(kept, self.middles, self.reach_mm)
-        return self._index
+        if new.shape[0] == 0:
+            return True, None
+        counted = self.fine.full_pieces(new)
+        if not force and self._counted + counted > self.kept_pieces:
+            return False, None
+        layer = _Layer(_one_path([self.fine.fine_pieces(new)]), self)
+        self._layers.append(layer)
+        self.rows_built += int(new.shape[0])
+        self._counted += counted
+        self._rows = np.union1d(self._rows, new)
+        return True, layer
+
+    def _compact(self) -> None:
+        """The two smallest layers joined while there are over :attr:`layers_most`.
+
+        (A search walks each layer on its own: each walk costs a little, and the budget's
+        drops seldom leave more than a dozen on a bull-nose 5-axis blade program.)
+        """
+        layers = self._layers
+        while len(layers) > max(self.layers_most, 1):
+            sizes = [layer.pieces.size for layer in layers]
+            first, second = sorted(range(len(layers)), key=sizes.__getitem__)[:2]
+            joined = _Layer(_one_path([layers[first].pieces, layers[second].pieces]), self)
+            layers[min(first, second)] = joined
+            del layers[max(first, second)]
 
     def _kept_pieces(self, pieces: Pieces) -> IntArray | None:
         """Prefix sums over the coarse pieces of those whose segments are all kept.
 
         Step 2 need not list them: it lists pieces for their segments, and the kept ones
-        are left out of what :meth:`_holding` adds (the same segments are added, the same
+        are left out of what :meth:`_grown` adds (the same segments are added, the same
         values found, with less of the walk). None: none kept, or the spans unknown.
         """
         if self._rows.shape[0] == 0:
@@ -235,8 +267,7 @@ class LazyFineSweeps:
         """Every kept piece dropped (the budget)."""
         self.drops += 1
         self._rows = np.zeros(0, dtype=np.int64)
-        self._chunks, self._counted, self._index = [], 0, None
-        self._keys = np.zeros(0, dtype=np.int64)
+        self._layers, self._counted = [], 0
 
     @staticmethod
     def _bound(res: DexelResult, below_mm: FloatArray | None) -> FloatArray:
@@ -245,33 +276,30 @@ class LazyFineSweeps:
             return res.lam_mm
         return np.where(res.move >= 0, res.lam_mm, below_mm)
 
-    def _searched(self, index: SweepIndex | None, points: FloatArray, dirs: FloatArray,
+    @staticmethod
+    def _searched(layers: list[_Layer], points: FloatArray, dirs: FloatArray,
                   centres: FloatArray, radii_mm: FloatArray, below_mm: FloatArray | None,
-                  below_key: IntArray | None) -> DexelResult:
-        """The fine search over ``index`` (None: no segment, nothing found), pieces as keys.
+                  below_key: IntArray | None, res: DexelResult | None = None) -> DexelResult:
+        """The fine search over the pieces of ``layers`` (none: nothing found), as keys.
 
-        A given key becomes the number of the first kept piece whose key is not below it
-        (past the last: none is): the kept pieces before it, and those only, rank before
-        it, so the search seeks what the full model's would; a piece found is given back
-        by its key, the value given by the key given.
+        ``res``: what a search of other layers found, which this one goes on from (the
+        layers searched one after the other, each below the first value so far, the
+        results merged by the tie rule: the search of their pieces all together). A
+        dexel where nothing is found holds ``inf`` and the key given.
         """
-        if index is None:
-            res = DexelResult.empty(points.shape[0])
-            if below_mm is not None:
-                res.lam_mm[:] = below_mm
-            if below_key is not None:
-                res.piece[:] = below_key
-            return res
-        keys = self._keys
-        given = None
-        if below_mm is not None and below_key is not None:
-            given = np.where(below_key >= 0, np.searchsorted(keys, below_key, side="left"), -1)
-        res = index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm,
-                           below_piece=given)
-        found = res.move >= 0
-        key = np.where(found, keys[np.where(found, res.piece, 0)] if keys.shape[0] else -1,
-                       -1 if below_key is None else below_key)
-        return replace(res, piece=key.astype(np.int64))
+        q = points.shape[0]
+        res = DexelResult.empty(q) if res is None else res
+        given_mm = np.full(q, np.inf) if below_mm is None else below_mm
+        given_key = np.full(q, -1, dtype=np.int64) if below_key is None else below_key
+        everyone = np.arange(q)
+        for layer in layers:
+            found = res.move >= 0
+            scatter(res, everyone, layer.search(points, dirs, centres, radii_mm,
+                                                np.where(found, res.lam_mm, given_mm),
+                                                np.where(found, res.piece, given_key)),
+                    merge=True)
+        res.piece[res.move < 0] = given_key[res.move < 0]
+        return res
 
     def _batch(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                radii_mm: FloatArray, below_mm: FloatArray | None,
@@ -291,8 +319,9 @@ class LazyFineSweeps:
         reach = radii_mm + w + 3.0 * pieces.max_half_mm + pieces.max_height_mm
         # 0. the segments kept (a value they reach is a U_q as good as step 1's)
         q = points.shape[0]
-        index = self._index
-        res = self._searched(index, points, dirs, centres, radii_mm, below_mm, below_key)
+        self._compact()
+        res = self._searched(self._layers, points, dirs, centres, radii_mm, below_mm,
+                             below_key)
         known = self._bound(res, below_mm)
         todo = np.flatnonzero(~np.isfinite(known))
         if todo.shape[0]:
@@ -302,27 +331,28 @@ class LazyFineSweeps:
                                                 centres[todo], reach[todo], built=True)
             first = fine._rows(pieces, np.unique(hit[hit >= 0]))
             if first.shape[0]:
-                grown = self._holding(first, force=fresh and q == 1)
-                if grown is None:
+                fits, layer = self._grown(first, force=fresh and q == 1)
+                if not fits:
                     return self._over_budget(points, dirs, centres, radii_mm, below_mm,
                                              below_key, fresh)
-                if grown is not index:
-                    index = grown
-                    res = self._searched(index, points, dirs, centres, radii_mm, below_mm,
-                                         below_key)
+                if layer is not None:
+                    # the new pieces searched below what the kept ones reach
+                    res = self._searched([layer], points, dirs, centres, radii_mm, below_mm,
+                                         below_key, res)
                     known = self._bound(res, below_mm)
         # 2. every segment a widened coarse piece may enter below U_q (but those kept)
         listed = coarse.pieces_entering_below("near", points, dirs, centres, reach, known, w,
                                               listed=self._kept_pieces(pieces))
         if listed.shape[0] == 0:
             return res
-        grown = self._holding(fine._rows(pieces, listed), force=fresh and q == 1)
-        if grown is None:
+        fits, layer = self._grown(fine._rows(pieces, listed), force=fresh and q == 1)
+        if not fits:
             return self._over_budget(points, dirs, centres, radii_mm, below_mm, below_key,
                                      fresh)
-        if grown is index:
+        if layer is None:
             return res
-        return self._searched(grown, points, dirs, centres, radii_mm, below_mm, below_key)
+        return self._searched([layer], points, dirs, centres, radii_mm, below_mm, below_key,
+                              res)
 
     def _over_budget(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
                      radii_mm: FloatArray, below_mm: FloatArray | None,
@@ -351,6 +381,34 @@ class LazyFineSweeps:
                                           None if below_mm is None else below_mm[sel],
                                           None if below_key is None else below_key[sel]))
         return out
+
+
+class _Layer:
+    """Fine pieces of some whole blocks (in block order), their tie keys and their index."""
+
+    def __init__(self, pieces: Pieces, owner: LazyFineSweeps) -> None:
+        self.pieces = pieces
+        self.keys = tie_keys(pieces.move)
+        self.index = owner.fine.index_of(pieces, owner.middles, owner.reach_mm)
+
+    def search(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
+               radii_mm: FloatArray, below_mm: FloatArray, below_key: IntArray
+               ) -> DexelResult:
+        """The near search of these pieces below ``(below_mm, below_key)``, pieces as keys.
+
+        A key given becomes the number of the first piece here whose key is not below it
+        (past the last: none is): the pieces before it, and those only, rank before it,
+        so the search seeks what the full model's would; a piece found is given back by
+        its key, the key given where none is.
+        """
+        keys = self.keys
+        given = np.where(below_key >= 0, np.searchsorted(keys, below_key, side="left"), -1)
+        res = self.index.search("near", points, dirs, centres, radii_mm, below_mm=below_mm,
+                                below_piece=given)
+        found = res.move >= 0
+        key = np.where(found, keys[np.where(found, res.piece, 0)] if keys.shape[0] else -1,
+                       below_key)
+        return replace(res, piece=key.astype(np.int64))
 
 
 def _one_path(chunks: list[Pieces]) -> Pieces:

@@ -152,30 +152,38 @@ def test_the_full_method_where_its_model_is_small_the_lazy_one_where_large():
         assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
 
 
+@pytest.mark.parametrize("layers_most", [fine_lazy.LAYERS_MOST, 1], ids=["layers", "joined"])
 @pytest.mark.parametrize("kept_pieces", [fine_lazy.KEPT_PIECES, 1], ids=["kept", "budget 1"])
-def test_segments_kept_across_batches_are_replayed_once_and_change_nothing(kept_pieces):
+def test_segments_kept_across_batches_are_replayed_once_and_change_nothing(kept_pieces,
+                                                                           layers_most):
     """Every batch searches the segments kept so far: each replayed once, not per batch,
     the same values and blocks as the full method; over the budget (one piece: every
-    batch halved down to single dexels, the kept pieces dropped) the same again."""
+    batch halved down to single dexels, the kept pieces dropped) the same again. Each
+    growth a layer searched after the others, or all joined at each batch's start: the
+    same values and blocks."""
     sphere, ev, full_fine = _model(lazy=False, spring=True)
     _, _, lazy_fine = _model(lazy=True, spring=True)
     full, pts, nrm = _searches(sphere, ev, full_fine, *BOXES[0])
     lazy, _, _ = _searches(sphere, lazy_fine.coarse, lazy_fine, *BOXES[0])
     sweeps = lazy.index
     assert isinstance(sweeps, fine_lazy.LazyFineSweeps)
-    sweeps.batch, sweeps.kept_pieces = 40, kept_pieces
+    sweeps.batch, sweeps.kept_pieces, sweeps.layers_most = 40, kept_pieces, layers_most
     conv = np.full(pts.shape[0], 1.0 / SPHERE_MM)
+    layers = []
     for shift_mm in (0.0, 0.004, -0.003):
         p = pts + shift_mm * nrm
         a, b = full.search(p, nrm, conv), lazy.search(p, nrm, conv)
         np.testing.assert_allclose(b.lam_mm, a.lam_mm, rtol=0.0, atol=1e-12)
         np.testing.assert_array_equal(b.move, a.move)
+        layers.append(len(sweeps.layer_sizes))
     if kept_pieces == 1:
         assert sweeps.drops > 0
     else:
         # 11 batches of 40 dexels, levels and shifts: each segment replayed once
         assert sweeps.drops == 0
         assert sweeps.rows_built == sweeps.rows_kept.shape[0]
+        # (joined: at most the two growths of the last batch beside the joined layer)
+        assert max(layers) > 3 if layers_most > 3 else max(layers) <= 3
 
 
 def _floor_raster_model(lazy: bool):
@@ -204,8 +212,9 @@ def _floor_raster_model(lazy: bool):
                          model_tol_mm=COARSE_TOL_MM, chord_tol_mm=1e-4, lazy=lazy)
 
 
+@pytest.mark.parametrize("layers_most", [fine_lazy.LAYERS_MOST, 1], ids=["layers", "joined"])
 @pytest.mark.parametrize("kept_pieces", [fine_lazy.KEPT_PIECES, 1], ids=["kept", "budget 1"])
-def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces):
+def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces, layers_most):
     """Dexels leaning 45 deg under the floor both passes cut (70 um under it): the flat
     bottoms of both enter each one at the same value, bit for bit; the later pass's pieces
     stand near the search centre (the first level finds them), the first pass's farther
@@ -223,7 +232,11 @@ def test_a_tie_between_two_levels_names_the_full_models_block(kept_pieces):
         assert isinstance(model.index, fine_lazy.LazyFineSweeps) is lazy
         if lazy:
             model.index.batch, model.index.kept_pieces = 40, kept_pieces
+            model.index.layers_most = layers_most
         found[lazy] = model.search(pts, nrm, conv)
+        if lazy and kept_pieces > 1:
+            # (the batches' growths searched as layers, one after the other, or joined)
+            assert (len(model.index.layer_sizes) > 1) is (layers_most > 1)
         if not lazy:
             first = Dexels(model.index, model.radius, model.horizons[:1], model.depth,
                            model.method, corner_radius=model.corner).search(pts, nrm, conv)
