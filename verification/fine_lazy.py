@@ -87,8 +87,8 @@ from .search import scatter
 if TYPE_CHECKING:
     from .fine_model import FineModel
 
-__all__ = ["FINE_BATCH", "KEPT_PIECES", "LAYERS_MOST", "TIE_KEY_BITS", "LazyFineSweeps", "tie_keys",
-           "whole_blocks"]
+__all__ = ["FINE_BATCH", "KEPT_PIECES", "LAYERS_MOST", "TIE_KEY_BITS", "LazyFineSweeps",
+           "tie_keys", "whole_blocks"]
 
 FloatArray = NDArray[np.float64]
 IntArray = NDArray[np.int64]
@@ -298,7 +298,8 @@ class LazyFineSweeps:
                                                 np.where(found, res.lam_mm, given_mm),
                                                 np.where(found, res.piece, given_key)),
                     merge=True)
-        res.piece[res.move < 0] = given_key[res.move < 0]
+        none = res.move < 0
+        res.piece[none] = given_key[none]
         return res
 
     def _batch(self, points: FloatArray, dirs: FloatArray, centres: FloatArray,
