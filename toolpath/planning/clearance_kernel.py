@@ -19,6 +19,7 @@ value among the samples near its contact and among the others.
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from typing import NamedTuple
 
 import numba
@@ -30,7 +31,7 @@ from .cutter_kernel import cutter_distance
 
 __all__ = ["BLOCK", "Capsule", "Cutter", "SampleCells", "bin_samples",
            "cell_scratch_size", "clearances", "counts_within", "nearest_within",
-           "pairs_within", "points_box"]
+           "pair_batches", "pairs_within", "points_box"]
 
 #: Cells at most in the grid (the cell grows past the query radius beyond this).
 MAX_CELLS = 4_000_000
@@ -545,13 +546,40 @@ def pairs_within(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm:
     points in the array given to :func:`bin_samples`).
     """
     q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
+    return _pairs_counted(cells, q, radius_mm, counts_within(cells, q, radius_mm))
+
+
+def pair_batches(cells: SampleCells, queries_mm: NDArray[np.float64], radius_mm: float,
+                 most_pairs: int
+                 ) -> Iterator[tuple[NDArray[np.int64], NDArray[np.int64]]]:
+    """:func:`pairs_within`'s pairs a run of queries at a time, about ``most_pairs`` a run.
+
+    Yields ``owner`` (query indices, ascending, of the whole ``queries_mm``) and ``item``
+    per run of consecutive queries whose pairs number at most ``most_pairs`` (a query
+    with more, alone): the pairs of all the runs in turn are :func:`pairs_within`'s, and
+    a caller that keeps a few of them holds no more than a run's at once.
+    """
+    q = np.ascontiguousarray(queries_mm, dtype=float).reshape(-1, 3)
     counts = counts_within(cells, q, radius_mm)
+    ends = np.cumsum(counts)
+    lo = 0
+    while lo < len(q):
+        # the run's last query: as many as fit in most_pairs after those before it
+        hi = max(lo + 1, int(np.searchsorted(ends, ends[lo] - counts[lo] + most_pairs,
+                                             side="right")))
+        owner, item = _pairs_counted(cells, q[lo:hi], radius_mm, counts[lo:hi])
+        yield owner + lo, item
+        lo = hi
+
+
+def _pairs_counted(cells: SampleCells, q: NDArray[np.float64], radius_mm: float,
+                   counts: NDArray[np.int64]) -> tuple[NDArray[np.int64], NDArray[np.int64]]:
+    """The pairs of the queries ``q`` (C-ordered), ``counts`` of them each (their first pass)."""
     starts = np.zeros(len(q), dtype=np.int64)
-    args = (cells, q, float(radius_mm))
     scratch = cell_scratch_size(radius_mm, cells.cell_mm)
     starts[1:] = np.cumsum(counts)[:-1]
     items = np.empty(int(counts.sum()), dtype=np.int64)
     if items.size:
-        run_in_threads(_points_within, len(q), *args, counts, starts, items, _NONE,
-                       scratch)
+        run_in_threads(_points_within, len(q), cells, q, float(radius_mm), counts, starts,
+                       items, _NONE, scratch)
     return np.repeat(np.arange(len(q)), counts), items

@@ -15,6 +15,7 @@ horizon (10 times the request, at least 0.05 mm, :func:`cusp_horizon_mm`) count 
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from functools import cached_property
 
 import numpy as np
@@ -31,6 +32,7 @@ from .clearance_kernel import (
     SampleCells,
     bin_samples,
     counts_within,
+    pair_batches,
     pairs_within,
     points_box,
 )
@@ -477,8 +479,20 @@ class CutVolume:
             return np.zeros(0, dtype=np.int64), np.zeros(0, dtype=np.int64)
         if radius is None:
             radius = self.reach
-        cells = self.near_cells if self.ball and radius < self.reach else self.cells
-        return pairs_within(cells, q, radius)
+        return pairs_within(self._cells_for(radius), q, radius)
+
+    def pair_batches(self, q: NDArray[np.float64], radius: float, most_pairs: int
+                     ) -> Iterator[tuple[NDArray[np.int64], NDArray[np.int64]]]:
+        """:meth:`pairs` a run of consecutive points at a time, about ``most_pairs`` a run.
+
+        (:func:`~.clearance_kernel.pair_batches`: the owners index the whole ``q``.)
+        """
+        if len(self.pass_of):
+            yield from pair_batches(self._cells_for(radius), q, radius, most_pairs)
+
+    def _cells_for(self, radius: float) -> SampleCells | None:
+        """The cells :meth:`pairs` meets pieces within ``radius`` in."""
+        return self.near_cells if self.ball and radius < self.reach else self.cells
 
     def height(self, q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[np.int64],
                hi: NDArray[np.int64], item: NDArray[np.int64], *, first: bool = False
