@@ -69,3 +69,34 @@ def test_casts_in_small_pair_batches_read_as_in_one(flat_five_axis, monkeypatch)
     assert np.isfinite(whole.height).sum() > 100
     np.testing.assert_array_equal(batched.height, whole.height)
     np.testing.assert_array_equal(batched.s, whole.s)
+
+
+def test_seeds_cast_fewer_at_a_time_where_their_brackets_meet_many_pieces(flat_five_axis,
+                                                                         monkeypatch):
+    measured = flat_five_axis
+    sizes = []
+    cusps = cusp_search._cusps
+
+    def counted(volume, surface, t, *args):
+        sizes.append(len(t))
+        return cusps(volume, surface, t, *args)
+
+    def casts() -> CuspSearch:
+        seeds, others = SearchSeeds.of(measured.surface, measured.chord)
+        search = CuspSearch(measured.volume(), measured.surface, seeds, others, 1.0, 20_000)
+        search.run(np.ones(len(seeds.t), dtype=bool))
+        return search
+
+    monkeypatch.setattr(cusp_search, "_cusps", counted)
+    whole = casts()
+    assert sizes[0] <= cusp_search.FIRST_CHUNK and len(sizes) <= 2  # (a few pieces a seed)
+    cast = sum(sizes)
+    sizes.clear()
+    # about 15 seeds' pieces a batch after the first of 10 seeds (about 170 a seed)
+    monkeypatch.setattr(cusp_search, "FIRST_CHUNK", 10)
+    monkeypatch.setattr(cusp_search, "KEPT_PAIRS_CHUNK", 15 * 170)
+    few = casts()
+    assert len(sizes) > 10 and sizes[0] == 10 and len(set(sizes)) > 2 and sum(sizes) == cast
+    np.testing.assert_array_equal(few.height, whole.height)
+    np.testing.assert_array_equal(few.s, whole.s)
+    np.testing.assert_array_equal(few.bracket_s, whole.bracket_s)

@@ -28,7 +28,7 @@ from .roots import illinois_roots
 from .sweep_kernel import segment_distances
 
 __all__ = ["BRACKET_PAIRS_BATCH", "CUSP_BISECT_STEPS", "CUSP_HEIGHT_SHARE", "CUSP_SECANT_STEPS",
-           "CUSP_S_SHARE", "CuspSearch", "SearchSeeds"]
+           "CUSP_S_SHARE", "FIRST_CHUNK", "KEPT_PAIRS_CHUNK", "CuspSearch", "SearchSeeds"]
 
 
 class SearchSeeds(NamedTuple):
@@ -76,7 +76,8 @@ class CuspSearch:
 
     From a seed at ``s`` over 2.5 times the distance to the nearest contact of another
     pass (what the toolpath itself shows of the spacing; ``default_gap_mm`` where none),
-    ``chunk`` seeds at a time. :attr:`height` and :attr:`s` hold the cusps found (``nan``:
+    at most ``chunk`` seeds at a time (fewer where their brackets meet many pieces:
+    :data:`KEPT_PAIRS_CHUNK`). :attr:`height` and :attr:`s` hold the cusps found (``nan``:
     none or not cast), :attr:`cast` the seeds cast, :attr:`bracket_s` where their
     brackets end.
     """
@@ -106,23 +107,32 @@ class CuspSearch:
         # reach of its longest bracket
         order = np.argsort(gap[room], kind="stable")
         todo, s1 = todo[room][order], s1[room][order]
-        for lo in range(0, todo.size, self.chunk):
-            sl = todo[lo:lo + self.chunk]
-            self.height[sl], self.s[sl] = _cusps(self.volume, self.surface, seeds.t[sl],
-                                                 seeds.s[sl], s1[lo:lo + self.chunk],
-                                                 seeds.pass_[sl])
+        # as many seeds at a time as keep their pieces within KEPT_PAIRS_CHUNK (the last
+        # batch's pieces per seed tell; the brackets only lengthen), at most ``chunk``
+        least = min(self.chunk, FIRST_CHUNK)
+        lo, size = 0, least
+        while lo < todo.size:
+            sl = todo[lo:lo + size]
+            self.height[sl], self.s[sl], pairs = _cusps(
+                self.volume, self.surface, seeds.t[sl], seeds.s[sl], s1[lo:lo + size],
+                seeds.pass_[sl])
+            lo += size
+            size = int(np.clip(KEPT_PAIRS_CHUNK * sl.size / max(pairs, 1), least,
+                               self.chunk))
 
 
 def _cusps(volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64],
            s0: NDArray[np.float64], s1: NDArray[np.float64], own: NDArray[np.int64]
-           ) -> tuple[NDArray[np.float64], NDArray[np.float64]]:
+           ) -> tuple[NDArray[np.float64], NDArray[np.float64], int]:
     """Cusp height and ``s`` between ``s0`` (a contact of pass ``own``) and ``s1``, fixed ``t``.
 
     ``nan`` where no other pass comes within the bracket; ``inf`` where the cusp is higher
-    than the horizon.
+    than the horizon. And how many (ray, piece) pairs the brackets met.
     """
     m = len(t)
-    f = _HeightDifference(volume, surface, t, *_bracket_pieces(volume, surface, t, s0, s1, own))
+    own_pieces, other_pieces = _bracket_pieces(volume, surface, t, s0, s1, own)
+    pairs = own_pieces[2].size + other_pieces[2].size
+    f = _HeightDifference(volume, surface, t, own_pieces, other_pieces)
     # at its own contact a pass leaves nothing and the others leave more: f(s0) < 0 (where
     # it does not read so, within the search's tolerance, another pass touches there too:
     # -horizon stands in)
@@ -136,7 +146,7 @@ def _cusps(volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64]
     result_s = np.full(m, np.nan)
     act = np.flatnonzero(~np.isnan(hi))
     if not act.size:
-        return result_h, result_s
+        return result_h, result_s, pairs
     # the crossing, from the side where the own pass stands lower (-f >= 0); the ends'
     # heights are the own pass's and the other's there, each below the crest between
     # them: the higher is the cusp
@@ -148,7 +158,14 @@ def _cusps(volume: CutVolume, surface: ParametricSurface, t: NDArray[np.float64]
     high = f.end_h[act, 1] > f.end_h[act, 0]
     result_h[act] = f.end_h[act, high.astype(np.int64)]
     result_s[act] = np.where(high, s_high, s_low)
-    return result_h, result_s
+    return result_h, result_s, pairs
+
+
+#: Seeds are cast so many at a time that their brackets keep about this many (ray, piece)
+#: pairs (the pieces a cast meets: :func:`_bracket_pieces`; about 130 MB of them), ...
+KEPT_PAIRS_CHUNK = 16_000_000
+#: ... and at least this many (the first batch's size, before any pairs are counted).
+FIRST_CHUNK = 2_000
 
 
 #: The bracket's candidate pieces are met and filtered this many (ray, piece) pairs at a
