@@ -35,6 +35,7 @@ import os
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -43,6 +44,8 @@ from toolpath import as_sections, read_sections
 DATA = Path(__file__).resolve().parent.parent / "toolpath" / "data"
 MACHINES = (("grbl-router", "3"), ("trunnion-ac", "lead-tilt"), ("head-table-bc", "lead-tilt"))
 STAGES = ("fit", "plan", "post", "check", "verify")
+#: A case still running after this long is killed (and its row says so, exit -9).
+CASE_TIMEOUT_S = 1800.0
 
 
 def blade_files() -> list[Path]:
@@ -63,8 +66,11 @@ def run_case(blade: Path, machine: str, axis: str, closed: bool, scallop_mm: flo
                "-o", str(out / "part.nc"), "--quiet"] + (["--verify"] if verify else [])
     start = time.perf_counter()
     with open(out / "stderr.txt", "w+") as stderr:
-        job = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr, text=True)
+        job = subprocess.Popen(command, stdout=subprocess.DEVNULL, stderr=stderr)
+        timer = threading.Timer(CASE_TIMEOUT_S, job.kill)  # (wait4 takes no time-out)
+        timer.start()
         _, status, usage = os.wait4(job.pid, 0)  # (the child's own rusage: its peak RSS)
+        timer.cancel()
         job.returncode = os.waitstatus_to_exitcode(status)
         stderr.seek(0)
         error_text = stderr.read()
@@ -88,16 +94,17 @@ def row(blade: Path, machine: str, case: dict) -> str:
         return f"{name} exit {case['exit']}  {case['wall_s']:6.1f} s  {case['error'][:110]}"
     plan, seconds = report["plan"], report["seconds"]
     verify = report.get("verify") or {}
-    gouge = (verify.get("max_gouge") or {}).get("deviation_mm") or 0.0
-    scallop = verify.get("max_scallop_mm") or 0.0
+    if verify:
+        gouge = (verify.get("max_gouge") or {}).get("deviation_mm") or 0.0
+        scallop = verify.get("max_scallop_mm") or 0.0
+    else:  # (the plan's own measurement as the run judged it)
+        kept = plan["attempts"][plan["kept_attempt"] - 1]
+        scallop = kept["judged_scallop_mm"] or 0.0
+        gouge = -(kept["measured_chord_mm"] or 0.0)
     stages = " ".join(f"{seconds.get(s, 0.0):6.1f}" for s in STAGES)
     # the verifier's (facing away from every axis the program cuts with, or covered by no
     # pass: 5-axis programs too), else the plan's
     unreachable = verify.get("unreachable_fraction", plan["unreachable_fraction"])
-    if "verify" not in report:  # (the plan's own measurement as the run judged it)
-        kept = plan["attempts"][plan["kept_attempt"] - 1]
-        scallop = kept["judged_scallop_mm"] or 0.0
-        gouge = -(kept["measured_chord_mm"] or 0.0)
     measure_s = plan["seconds"].get("measure", 0.0)
     per_plan = measure_s / max(sum(plan["seconds"].values()) - measure_s, 1e-9)
     return (f"{name} exit {case['exit']} {plan['n_passes']:5d} {plan['n_points']:7d} "
