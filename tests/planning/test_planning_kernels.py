@@ -486,7 +486,12 @@ def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_le
         inside = (pts.pid[idx] == 2) & (pts.t[idx] >= 0.4) & (pts.t[idx + 1] <= 0.6)
         return np.where(inside, -1.0, low), high
 
+    def deep_ends(surface, cutter, pts, idx):  # (at length 0 too)
+        inside = (pts.pid[idx] == 2) & (pts.t[idx] >= 0.4) & (pts.t[idx + 1] <= 0.6)
+        return np.where(inside, 1.0, 0.0)
+
     monkeypatch.setattr(passes, "_gap_extremes", deep_stretch)
+    monkeypatch.setattr(passes, "_end_gaps_mm", deep_ends)
     out = passes.refine_chords(surface, cutter, opts, res, layout, start)
     in_stretch = (start.pid == 2) & (start.t >= 0.4) & (start.t <= 0.6)
     moves = int(in_stretch.sum()) - 1
@@ -496,6 +501,38 @@ def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_le
     assert len(out.points) <= (len(clean.points)
                                + passes.MAX_PARTS ** passes.STALLED_SPLITS * (moves + 1))
 
+
+
+def test_a_move_whose_ends_sit_on_the_surface_is_split_until_its_gap_falls(monkeypatch):
+    # a joint move on head-table-bc (dev_rotor_dca flat:6) read 0.127 mm against 0.05 three
+    # splits down, more than its line's first move (the splits even in t, the axes' turn
+    # gathered in one part): left whole as stalled, it cut 0.79 mm (toolpath verify). Its
+    # ends sat on the surface: the gap was the chord's. Here one move of a pass reads 1 mm
+    # deep in every part longer than three splits leave it, its ends read for real (on the
+    # surface): it is split a fourth time, and its parts are then clean. Fails if the
+    # stall rule ignores the ends (the move left whole: n_stalled > 0, worst 1 mm).
+    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    measured = passes._gap_extremes
+    longest = (1.0 / 29) / passes.MAX_PARTS ** passes.STALLED_SPLITS  # three splits down
+
+    def deep_until_short(surface, cutter, res, pts, idx, machine, q):
+        low, high = measured(surface, cutter, res, pts, idx, machine, q)
+        inside = (pts.pid[idx] == 2) & (pts.t[idx] >= 0.41) & (pts.t[idx + 1] <= 0.45)
+        return np.where(inside & (pts.t[idx + 1] - pts.t[idx] > 0.75 * longest), -1.0,
+                        low), high
+
+    monkeypatch.setattr(passes, "_gap_extremes", deep_until_short)
+    out = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    assert out.n_stalled == 0 and out.worst_mm <= res.planned_chord_tol_mm
+    pts = out.points
+    stretch = (pts.pid == 2) & (pts.t > 0.41) & (pts.t < 0.45)
+    assert stretch.sum() >= passes.MAX_PARTS ** (passes.STALLED_SPLITS + 1) - 1
 
 
 def test_a_move_is_stalled_only_once_its_splits_have_shrunk_it():

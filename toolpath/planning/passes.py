@@ -103,6 +103,13 @@ STALLED_SPLITS = 3
 #: mm, between a quarter and half). A gap that stands whatever the length still stops
 #: three splits down: the move is then an eighth of its first or less.
 STALLED_TRAVEL_SHARE = 0.25
+#: ... and only where the move's own ends read at least this share of its gap (the cutter
+#: at the points themselves, a move of length 0): a gap that does not fall with the length
+#: is there at length 0 too. Where the ends sit on the surface the gap is the chord's, and
+#: splitting shrinks it with the square of the length however it grew on the way (a joint
+#: move whose axes turn where the splits gathered: dev_rotor_dca flat:6 on head-table-bc
+#: read 0.127 mm against 0.05, its ends 0, three splits down; left whole, it cut 0.79 mm).
+STALLED_END_SHARE = 0.5
 #: With a 5-axis machine, the most a cutting move's joint interpolation may carry the tip
 #: sideways, across the pass (it widens the stepover: 0.002 mm on a 0.35 mm stepover raises
 #: the cusp by 1 %); along the normal the gap check sees it, along the feed it is harmless.
@@ -658,7 +665,7 @@ class RefinedChords:
         Stalled moves' gaps count.
     n_stalled : int
         Moves beyond the tolerance left whole because splitting did not shrink their gap
-        (:data:`STALLED_SHARE`).
+        and their ends read it too (:data:`STALLED_SHARE`, :data:`STALLED_END_SHARE`).
     stalled_mm : float
         The largest ``|gap|`` among them (0 when none).
     """
@@ -685,9 +692,9 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
     unchecked, and the gaps of the whole moves stand for them in ``worst_mm``.
 
     A part of a split move whose gap did not shrink with its length, several splits running
-    (:func:`_not_shrunk`: flat and bull-nose cutters), is left whole: its gap is not the
-    chord's, and it counts in ``worst_mm`` and ``n_stalled``; so the points grow only
-    where splitting helps.
+    (:func:`_not_shrunk`: flat and bull-nose cutters), and stands at its own ends too
+    (:func:`_end_gaps_mm`), is left whole: its gap is not the chord's, and it counts in
+    ``worst_mm`` and ``n_stalled``; so the points grow only where splitting helps.
 
     After the first round the split moves go on alone (``pts`` then holds their ends and
     new points, ``origin`` the rows of the starting points the ends are, -1 for new points)
@@ -733,6 +740,10 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         origin_travel = np.maximum(first_travel[idx], first_travel[idx + 1])
         deep = np.maximum(depth[idx], depth[idx + 1])
         stalled = bad & _not_shrunk(cutter, over, origin_over, deep, travel, origin_travel)
+        if stalled.any():
+            # (a move whose ends sit on the surface is a chord: split on)
+            k = np.flatnonzero(stalled)
+            stalled[k] = _end_gaps_mm(surface, cutter, pts, idx[k]) >= STALLED_END_SHARE * gap[k]
         if stalled.any():
             n_stalled += int(stalled.sum())
             stalled_mm = max(stalled_mm, float(gap[stalled].max()))
@@ -804,6 +815,19 @@ def _not_shrunk(cutter: Cutter, over: NDArray[np.float64], origin_over: NDArray[
     return ((depth >= STALLED_SPLITS) & (origin_over > 1.0) & (over > 1.0)
             & (over > STALLED_SHARE * origin_over)
             & (travel <= STALLED_TRAVEL_SHARE * origin_travel))
+
+
+def _end_gaps_mm(surface: ParametricSurface, cutter: Cutter, pts: PassPoints,
+                 idx: NDArray[np.int64]) -> NDArray[np.float64]:
+    """The larger ``|gap|`` (mm) of the cutter at the two ends of moves ``idx -> idx + 1``.
+
+    The poses at the points themselves (fractions 0 and 1 of the move, whatever its
+    interpolation), measured as :func:`_gap_extremes` measures inside moves: what a
+    move's gap tends to as splitting shrinks it (:data:`STALLED_END_SHARE`).
+    """
+    gaps, _, _ = point_move_gaps(surface, cutter, pts.tips, pts.axes, pts.t, pts.s, idx,
+                                 np.array([0.0, 1.0]), newton=1, refine_rim=True)
+    return np.abs(gaps).max(axis=1)
 
 
 def _split_lines(n_points: int, where_new: NDArray[np.int64], which: NDArray[np.int64],

@@ -137,10 +137,12 @@ class PlanningReport:
         end slopes and one gap).
     n_stalled_moves : int
         Cutting moves the chord check left whole beyond its tolerance because splitting
-        them did not shrink their gap (:data:`~toolpath.planning.passes.STALLED_SHARE`):
-        mostly a gap misread beside an edge, but a real overcut can stall too
-        (dev_rotor_dca's flat:6 5-axis job), so the measured chord error and ``toolpath
-        verify`` judge them; ``stalled_gap_mm`` the largest such planned gap (0: none).
+        them did not shrink their gap and the cutter at their own ends reads it too
+        (:data:`~toolpath.planning.passes.STALLED_SHARE`,
+        :data:`~toolpath.planning.passes.STALLED_END_SHARE`): mostly a gap misread beside
+        an edge, so the measured chord error and ``toolpath verify`` judge them (a move
+        whose ends sit on the surface is split on: its gap is the chord's);
+        ``stalled_gap_mm`` the largest such planned gap (0: none).
         Their gaps count in ``planned_chord_error_mm``.
     min_clearance_mm : float
         Smallest distance from the cutter to any surface sample away from its contact
@@ -372,7 +374,8 @@ class PlanningReport:
         out = []
         if self.n_stalled_moves:
             out.append(f"chord check       {self.n_stalled_moves} move(s) left whole: splitting "
-                       f"did not shrink their planned gap (up to {self.stalled_gap_mm:.4f} mm: "
+                       f"did not shrink their planned gap, read at their ends too (up "
+                       f"to {self.stalled_gap_mm:.4f} mm: "
                        f"a gap misread beside an edge, or a real one; the measured chord "
                        f"error above and `toolpath verify` judge them)")
         if self.uncut_fraction is not None:
