@@ -14,7 +14,7 @@ lint:
 
 test: install lint
 	scripts/install-chromium
-	$(PYTHON) -m pytest
+	$(PYTHON) -m pytest -n 2 --dist loadfile
 
 bench:
 	$(PYTHON) -m pip install -q -e '.[test,bench]'
