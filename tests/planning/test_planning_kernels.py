@@ -535,6 +535,37 @@ def test_a_move_whose_ends_sit_on_the_surface_is_split_until_its_gap_falls(monke
     assert stretch.sum() >= passes.MAX_PARTS ** (passes.STALLED_SPLITS + 1) - 1
 
 
+def test_moves_split_for_the_tilt_cap_alone_stop_at_motion_splits(monkeypatch):
+    # where neighbouring contacts' axes jump (each inserted point leaned back within the
+    # tilt cap by its own need: a short cut of dev_rotor_dca on head-table-bc, flat:6), a
+    # move's middle leans past the cap however short it is split, and every round split
+    # such moves in two: 0.45 to 0.93 million points, 15 minutes in the chord check. Here
+    # a stretch of one pass reads past the cap in every move: its moves are split
+    # MOTION_SPLITS times, then left whole; the other moves as before. Fails without the
+    # depth limit: too many points.
+    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    clean = passes.refine_chords(surface, cutter, opts, res, layout, start)
+
+    def past_in_stretch(res, pts, idx):
+        return (pts.pid[idx] == 2) & (pts.t[idx] >= 0.4) & (pts.t[idx + 1] <= 0.6)
+
+    monkeypatch.setattr(passes, "middle_past_tilt", past_in_stretch)
+    out = passes.refine_chords(surface, cutter, opts, res, layout, start)
+    in_stretch = (start.pid == 2) & (start.t >= 0.4) & (start.t <= 0.6)
+    moves = int(in_stretch.sum()) - 1
+    # each stretch move split MOTION_SPLITS times (at least in two), then no more: without
+    # the limit the rounds go on doubling them past max_points (a PlanningError)
+    added = len(out.points) - len(clean.points)
+    assert added >= moves * (2 ** passes.MOTION_SPLITS - 1)
+    assert out.worst_mm == clean.worst_mm and out.n_stalled == 0
+
+
 def test_a_move_is_stalled_only_once_its_splits_have_shrunk_it():
     # three splits down, a gap still above STALLED_SHARE of its line's first is left whole
     # only if the splits shrank the move to STALLED_TRAVEL_SHARE of the first's travel: a

@@ -114,6 +114,16 @@ STALLED_END_SHARE = 0.5
 #: sideways, across the pass (it widens the stepover: 0.002 mm on a 0.35 mm stepover raises
 #: the cusp by 1 %); along the normal the gap check sees it, along the feed it is harmless.
 JOINT_SIDEWAYS_MM = 0.002
+#: The tilt cap's and the sideways criteria (:func:`_moves_to_split`) split a line of moves
+#: at most this many times: a split at least halves a part's turn and joint bow, so what
+#: they measure falls at least 4-fold a split (6 splits: 4096-fold). One still there
+#: deeper lies across a jump of the axes between neighbouring contacts, which no split
+#: shrinks: a 4-section cut of dev_rotor_dca (flat:6, head-table-bc, the leading edge
+#: leaned back to the B cap) split such moves in two every round, 0.45 million points to
+#: 0.93 million in the last two rounds looked at (15 minutes in the chord check), their
+#: ends 1.6e-5 apart in t and still turning C 4.5 degrees. Left whole, the post and the
+#: check judge the move against the machine's travel.
+MOTION_SPLITS = 6
 #: An offending move is split into parts whose gap, scaling with the square of the
 #: length, is this share of its limit (at least 2 parts, at most :data:`MAX_PARTS`).
 SPLIT_TARGET = 0.8
@@ -733,12 +743,12 @@ def refine_chords(surface: ParametricSurface, cutter: Cutter, opts: FinishingOpt
         low, high = _gap_extremes(surface, cutter, res, pts, idx, machine, q)
         travel = _travel_mm(cutter, pts.tips[idx], pts.tips[idx + 1], pts.axes[idx],
                             pts.axes[idx + 1])
-        bad = _moves_to_split(res, pts, idx, low, high, travel, machine, q)
+        deep = np.maximum(depth[idx], depth[idx + 1])
+        bad = _moves_to_split(res, pts, idx, low, high, travel, machine, q, deep)
         gap = np.maximum(-low, high)
         over = over_all = np.maximum(-low / tol, high / _undercut_limit(res, pts, idx))
         origin_over = np.maximum(first_over[idx], first_over[idx + 1])
         origin_travel = np.maximum(first_travel[idx], first_travel[idx + 1])
-        deep = np.maximum(depth[idx], depth[idx + 1])
         stalled = bad & _not_shrunk(cutter, over, origin_over, deep, travel, origin_travel)
         if stalled.any():
             # (a move whose ends sit on the surface is a chord: split on)
@@ -960,23 +970,27 @@ def middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64
 def _moves_to_split(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64],
                     low: NDArray[np.float64], high: NDArray[np.float64],
                     travel: NDArray[np.float64], machine: Machine | None,
-                    q: NDArray[np.float64] | None) -> NDArray[np.bool_]:
+                    q: NDArray[np.float64] | None,
+                    depth: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
     """Which moves ``idx`` to split.
 
     Those cutting deeper than the chord tolerance, standing higher than they may
     (:func:`_undercut_limit`), whose middle leans past the tilt cap
     (:func:`middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
-    :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole).
+    :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole); the last
+    two only less than :data:`MOTION_SPLITS` splits deep (``depth``, per move; None: 0).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM` of ``travel``: the
     tip, plus the cutter radius times the axis turn, :func:`_travel_mm`) is not split: its
     gap is not the chord's (its ends themselves stand off), and the report carries it.
     """
     bad = (low < -res.planned_chord_tol_mm) | (high > _undercut_limit(res, pts, idx))
-    bad |= middle_past_tilt(res, pts, idx)
+    motion = middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
-        bad |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
-    return bad & (travel > MIN_SPLIT_MM)
+        motion |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
+    if depth is not None:
+        motion &= depth < MOTION_SPLITS
+    return (bad | motion) & (travel > MIN_SPLIT_MM)
 
 
 def _checked_again(cutter: Cutter, tol_mm: float, before: PassPoints, pts: PassPoints,
