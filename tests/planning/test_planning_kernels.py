@@ -459,6 +459,18 @@ def test_planned_chord_error_counts_the_unchecked_splits_when_the_rounds_run_out
     assert cut_short > res.planned_chord_tol_mm
 
 
+def _five_flat_passes():
+    """Five passes of 30 points on the elliptic blade, flat:6, 3-axis (the stall tests')."""
+    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
+    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
+    res = opts.resolved(cutter, 0.0)
+    levels = np.linspace(0.1, 0.9, 5)
+    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
+    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
+    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    return surface, cutter, opts, res, layout, start
+
+
 def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_length(
         monkeypatch):
     # the runaway of a flat end on a propeller (--on-gouge lift): over a stretch the gap
@@ -470,13 +482,7 @@ def test_chord_check_stops_splitting_moves_whose_gap_does_not_fall_with_their_le
     # before. Fails with STALLED_SHARE = inf (or the stalled moves split anyway): too many
     # points. (A ball's moves are never found stalled: its gap falls to 0 at its own
     # locations.)
-    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
-    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
-    res = opts.resolved(cutter, 0.0)
-    levels = np.linspace(0.1, 0.9, 5)
-    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
-    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
-    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    surface, cutter, opts, res, layout, start = _five_flat_passes()
     clean = passes.refine_chords(surface, cutter, opts, res, layout, start)
     assert clean.n_stalled == 0
     measured = passes._gap_extremes
@@ -511,13 +517,7 @@ def test_a_move_whose_ends_sit_on_the_surface_is_split_until_its_gap_falls(monke
     # deep in every part longer than three splits leave it, its ends read for real (on the
     # surface): it is split a fourth time, and its parts are then clean. Fails if the
     # stall rule ignores the ends (the move left whole: n_stalled > 0, worst 1 mm).
-    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
-    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
-    res = opts.resolved(cutter, 0.0)
-    levels = np.linspace(0.1, 0.9, 5)
-    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
-    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
-    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    surface, cutter, opts, res, layout, start = _five_flat_passes()
     measured = passes._gap_extremes
     longest = (1.0 / 29) / passes.MAX_PARTS ** passes.STALLED_SPLITS  # three splits down
 
@@ -543,13 +543,7 @@ def test_moves_split_for_the_tilt_cap_alone_stop_at_motion_splits(monkeypatch):
     # a stretch of one pass reads past the cap in every move: its moves are split
     # MOTION_SPLITS times, then left whole; the other moves as before. Fails without the
     # depth limit: too many points.
-    surface, cutter = EllipticBladeSurface(), parse_cutter("flat:6")
-    opts = FinishingOptions(scallop_mm=0.005, chord_tol_mm=0.01, max_points=20_000)
-    res = opts.resolved(cutter, 0.0)
-    levels = np.linspace(0.1, 0.9, 5)
-    layout = passes.PassLayout(levels, levels, np.array([1, -1, 1, -1, 1]))
-    t, pid = np.tile(np.linspace(0.0, 1.0, 30), 5), np.repeat(np.arange(5), 30)
-    start = passes.evaluate_points(surface, cutter, opts, res, layout, t, pid)
+    surface, cutter, opts, res, layout, start = _five_flat_passes()
     clean = passes.refine_chords(surface, cutter, opts, res, layout, start)
 
     def past_in_stretch(res, pts, idx):
