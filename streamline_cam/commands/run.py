@@ -161,10 +161,9 @@ def _written_line(plan: dict) -> list[str]:
 def _stalled_line(plan: dict) -> list[str]:
     """The moves the chord check left whole, where splitting did not shrink their gap.
 
-    (Their ends read the gap too: a move whose ends sit on the surface is split on.)
-
-    Their planned gap (the report's ``stalled_gap_mm``) counts in the chord figure; it is
-    mostly misread beside an edge (a flat end's disc beyond the open tip, 2.34 mm planned
+    Their planned gap (the report's ``stalled_gap_mm``), read at their ends too (a move whose
+    ends sit on the surface is split on), counts in the chord figure; it is mostly misread
+    beside an edge (a flat end's disc beyond the open tip, 2.34 mm planned
     on dev_prop_7x100 flat:6 where the verifier finds 0.05 mm), but can be real.
     """
     if not plan.get("n_stalled_moves"):

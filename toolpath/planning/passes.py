@@ -970,15 +970,15 @@ def middle_past_tilt(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64
 def _moves_to_split(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64],
                     low: NDArray[np.float64], high: NDArray[np.float64],
                     travel: NDArray[np.float64], machine: Machine | None,
-                    q: NDArray[np.float64] | None,
-                    depth: NDArray[np.int64] | None = None) -> NDArray[np.bool_]:
+                    q: NDArray[np.float64] | None, depth: NDArray[np.int64]
+                    ) -> NDArray[np.bool_]:
     """Which moves ``idx`` to split.
 
     Those cutting deeper than the chord tolerance, standing higher than they may
     (:func:`_undercut_limit`), whose middle leans past the tilt cap
     (:func:`middle_past_tilt`), or (5-axis, joints ``q``) carrying the tip more than
     :data:`JOINT_SIDEWAYS_MM` across the pass (the post then leaves them whole); the last
-    two only less than :data:`MOTION_SPLITS` splits deep (``depth``, per move; None: 0).
+    two only less than :data:`MOTION_SPLITS` splits deep (``depth``, per move).
 
     A move shorter than the program's resolution (:data:`MIN_SPLIT_MM` of ``travel``: the
     tip, plus the cutter radius times the axis turn, :func:`_travel_mm`) is not split: its
@@ -988,9 +988,7 @@ def _moves_to_split(res: PlannedOptions, pts: PassPoints, idx: NDArray[np.int64]
     motion = middle_past_tilt(res, pts, idx)
     if q is not None and machine is not None:
         motion |= _sideways_mm(machine, pts, q, idx) > JOINT_SIDEWAYS_MM
-    if depth is not None:
-        motion &= depth < MOTION_SPLITS
-    return (bad | motion) & (travel > MIN_SPLIT_MM)
+    return (bad | (motion & (depth < MOTION_SPLITS))) & (travel > MIN_SPLIT_MM)
 
 
 def _checked_again(cutter: Cutter, tol_mm: float, before: PassPoints, pts: PassPoints,

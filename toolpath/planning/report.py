@@ -374,10 +374,10 @@ class PlanningReport:
         out = []
         if self.n_stalled_moves:
             out.append(f"chord check       {self.n_stalled_moves} move(s) left whole: splitting "
-                       f"did not shrink their planned gap, read at their ends too (up "
-                       f"to {self.stalled_gap_mm:.4f} mm: "
-                       f"a gap misread beside an edge, or a real one; the measured chord "
-                       f"error above and `toolpath verify` judge them)")
+                       f"did not shrink their planned gap, read at their ends too "
+                       f"(up to {self.stalled_gap_mm:.4f} mm: a gap misread beside an edge, "
+                       f"or a real one; the measured chord error above and `toolpath "
+                       f"verify` judge them)")
         if self.uncut_fraction is not None:
             out.append(f"uncut area        {100 * self.uncut_fraction:.2f} % of the surface")
         if self.n_lifted or self.n_retilted:
