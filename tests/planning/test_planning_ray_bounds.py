@@ -7,7 +7,8 @@ one: at a sampled pose the floor holds even without any shift, and random rays s
 graze a pose between samples closely enough. So each bound is checked on its own here:
 
 * :func:`_pose_shift` (with :func:`_piece_motion`): over ``|v - u| <= du`` a point ``arm``
-  from the tip at ``u`` changes its distance to the cutter by at most the shift, on pieces
+  from the tip at ``u`` changes its distance to the cutter by at most the shift (``du`` a
+  sample's spacing, and a whole piece: the floor from a piece's start pose), on pieces
   that travel up to 20 mm and turn up to 170 deg, points up to 30 mm out; and the bound is
   nearly reached (so the first check probes it where it is tight: a shift a fifth too small,
   or without its turn term, fails);
@@ -76,8 +77,9 @@ def _largest_shift_ratio(poses, points, cutter, du, steps):
     return largest
 
 
+@pytest.mark.parametrize("du", [0.5 / (sk.POSES - 1), 1.0])  # (a sample's; a whole piece's)
 @pytest.mark.parametrize("spec", SPECS)
-def test_the_pose_shift_bounds_how_far_the_cutter_moves_past_a_point(spec):
+def test_the_pose_shift_bounds_how_far_the_cutter_moves_past_a_point(spec, du):
     rng = np.random.default_rng(7)
     cutter = parse_cutter(spec)
     n, per_piece = 120, 40
@@ -89,8 +91,7 @@ def test_the_pose_shift_bounds_how_far_the_cutter_moves_past_a_point(spec):
     points = (tip + rng.normal(size=(n, per_piece, 3))
               * rng.choice([0.5, 2.0, 6.0, 30.0], (n, per_piece, 1))
               + rng.uniform(0.0, cutter.flute_length_mm, (n, per_piece, 1)) * axis)
-    ratio = _largest_shift_ratio(poses, np.ascontiguousarray(points), _cutter(spec),
-                                 0.5 / (sk.POSES - 1), 32)
+    ratio = _largest_shift_ratio(poses, np.ascontiguousarray(points), _cutter(spec), du, 32)
     assert ratio <= 1.0
     assert ratio > 0.9  # the check reaches where the bound is tight
 
@@ -104,13 +105,14 @@ def _floor_misses(rays, directions, poses, cutter, horizon, below, dense):
     tip, axis, values = np.empty(3), np.empty(3), np.empty(sk.POSES)
     skipped, wrong = 0, 0
     for i in range(rays.shape[0]):
-        got = sk._pair_entry(rays[i], directions[i], poses, i, cutter, horizon, below[i],
-                             -1.0, tip, axis, values)
+        travel, rate = sk._piece_motion(poses[0][i], poses[1][i], poses[2][i], poses[3][i])
+        got = sk._pair_entry(rays[i], directions[i], poses, i, travel, rate, cutter, horizon,
+                             below[i], -1.0, tip, axis, values)
         if got < np.inf:
             continue
         # the full method: with no best entry yet, no floor and no skipped search
-        if sk._pair_entry(rays[i], directions[i], poses, i, cutter, horizon, np.inf, -1.0,
-                          tip, axis, values) == np.inf:
+        if sk._pair_entry(rays[i], directions[i], poses, i, travel, rate, cutter, horizon,
+                          np.inf, -1.0, tip, axis, values) == np.inf:
             continue
         skipped += 1
         for t in range(dense + 1):

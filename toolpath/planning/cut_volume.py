@@ -39,10 +39,12 @@ from .clearance_kernel import (
 from .cutters import Cutter, CutterKind
 from .measure_joints import checked_joints
 from .sweep_kernel import (
+    Motions,
     capsule_entries,
     centre_pieces,
     nearest_entries,
     piece_ends,
+    piece_motions,
     ray_ranges,
     tip_plane_floors,
 )
@@ -510,11 +512,21 @@ class CutVolume:
                                   self.axes1, corner_radius_mm=self.cutter.corner_radius_mm,
                                   radius_mm=self.cutter.radius_mm,
                                   flute_length_mm=self.cutter.flute_length_mm,
-                                  horizon_mm=self.horizon, stop_mm=stop)
+                                  horizon_mm=self.horizon, stop_mm=stop,
+                                  motions=self.motions)
         else:
             out = capsule_entries(q, n, lo, hi, item, self.a, self.b, self.cutter.radius_mm,
                                   stop_mm=stop)
         return np.where(out > self.horizon, np.inf, out)
+
+    @cached_property
+    def motions(self) -> Motions:
+        """Flat and bull-nose: how fast each piece's poses move (when first asked).
+
+        :func:`.sweep_kernel.piece_motions`, once for all the rays :meth:`height` casts.
+        """
+        return piece_motions(self.tips0, self.tips1, self.axes0, self.axes1,
+                             self.cutter.radius_mm)
 
     def floor_over(self, centre: NDArray[np.float64], radius: NDArray[np.float64],
                    owner: NDArray[np.int64], item: NDArray[np.int64]) -> NDArray[np.float64]:
