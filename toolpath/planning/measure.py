@@ -108,6 +108,23 @@ ESTIMATE_TOP_MOST = 1024
 ESTIMATE_MIN_SEEDS = ESTIMATE_TOP
 
 
+#: Seeds with no estimate from the passes' own geometry (a flat end or a bull-nose turning
+#: round its contact, or where no pose of a pass touches near the seed: most seeds of the
+#: 5-axis flat-end jobs on the real-like blades) are ray cast a sample at a time: along each
+#: run of them (consecutive seeds of a pass, a contact or a mid-chord contact apart: about
+#: 0.07 mm at the median on the DCA rotor's 5-axis flat:6 job) its first and last and every
+#: this many between, ...
+SAMPLE_STRIDE = 8
+
+#: ... and then every seed with no estimate within :data:`SAMPLE_STRIDE` seeds of one whose
+#: cusp (cast, or estimated) reaches this share of the largest cusp cast in its group, or
+#: stands above the horizon, until none is left near one (the cusps along a pass change
+#: gradually: on the DCA rotor's 5-axis flat:6 job, trunnion-ac, every seed of a cusp above
+#: 0.8 of the largest had a seed within 16 of it, among every 16th, of at least 0.9 of
+#: it).
+SAMPLE_NEAR_SHARE = 0.6
+
+
 def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
                     scallop_mm: float, chord: ChordMeasurement, *,
                     machine: Machine | None = None, chunk: int = 20_000,
@@ -230,7 +247,7 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
         if away is not None:
             groups.append(away)
         cast_beyond_estimates(search, guess, groups, count, max(count, estimate_top_most),
-                              tighten=tighten)
+                              tighten=tighten, passes=seeds.pass_)
     else:
         search.run(np.ones(len(seeds.t), dtype=bool))
     found = ~np.isnan(search.height)
@@ -245,17 +262,22 @@ def seed_cusps(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutter,
 
 def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
                           groups: list[NDArray[np.bool_]], count: int, most: int, *,
-                          tighten: Callable[..., int] | None = None) -> None:
+                          tighten: Callable[..., int] | None = None,
+                          passes: NDArray[np.int64] | None = None) -> None:
     """Ray cast where the estimates cannot decide the largest cusp of each group.
 
     ``guess``: every seed's cusp from the passes' own geometry
     (:func:`~.cusp_estimates.ball_cusp_estimates`,
     :func:`~.cusp_estimates.torus_cusp_estimates`; NaN where none stands); ``groups``:
     masks of the seeds whose largest cusp is reported (all, and away from uncut areas as
-    the seeds stand). Cast: where no estimate stands, the ``count`` largest estimates of
-    each group (twice as many while any estimate not cast reaches the largest cusp cast,
-    up to ``most``), and wherever an estimate stands above the largest cusp the ray cast
-    found by more than it errs (:data:`ESTIMATE_SHARE`). ``search`` holds the casts.
+    the seeds stand). Cast: where the tubes do not meet (an infinite estimate), the
+    ``count`` largest estimates of each group (twice as many while any estimate not cast
+    reaches the largest cusp cast, up to ``most``), and wherever an estimate stands above
+    the largest cusp the ray cast found by more than it errs (:data:`ESTIMATE_SHARE`);
+    where none stands, a sample of the seeds along each run of them (:func:`_run_samples`,
+    :data:`SAMPLE_STRIDE`: ``passes``, each seed's pass, tells the runs apart; None: one
+    pass), then those near a high cusp (:func:`_cast_near_high`). ``search`` holds the
+    casts.
 
     ``tighten(at_least_mm, among=None)``: where some estimates are loose upper bounds
     (:class:`~.cusp_estimates.LooseEstimates`), tightens (in ``guess``) those at or above
@@ -276,7 +298,9 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
             tighten(_nth_largest(guess, group, 2 * top), group)
         return _largest_first(guess, group, top)
 
-    first = ~np.isfinite(guess)
+    unknown = np.isnan(guess)
+    passes = np.zeros(len(guess), dtype=np.int64) if passes is None else passes
+    first = np.isinf(guess) | _run_samples(unknown, passes, SAMPLE_STRIDE)
     for group in groups:
         first |= largest(group, count)
     search.run(first)
@@ -301,6 +325,50 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
             search.run(group & (guess >= ESTIMATE_SHARE * top))
         else:
             search.run(group)
+    _cast_near_high(search, unknown, groups, SAMPLE_STRIDE, SAMPLE_NEAR_SHARE)
+
+
+def _run_samples(rows: NDArray[np.bool_], pass_: NDArray[np.int64], stride: int
+                 ) -> NDArray[np.bool_]:
+    """Of each run of consecutive ``rows`` of one pass: its first, its last, every ``stride``-th."""
+    at = np.flatnonzero(rows)
+    out = np.zeros(len(rows), dtype=bool)
+    if not at.size:
+        return out
+    starts = np.ones(at.size, dtype=bool)
+    starts[1:] = (np.diff(at) > 1) | (pass_[at[1:]] != pass_[at[:-1]])
+    first = np.flatnonzero(starts)
+    within = np.arange(at.size) - first[np.cumsum(starts) - 1]
+    ends = np.append(starts[1:], True)
+    out[at[(within % stride == 0) | ends]] = True
+    return out
+
+
+def _cast_near_high(search: CuspSearch, unknown: NDArray[np.bool_],
+                    groups: list[NDArray[np.bool_]], stride: int, share: float) -> None:
+    """Ray cast the ``unknown`` seeds within ``stride`` seeds of a high cusp, until none is left.
+
+    High: a cusp cast at or above ``share`` of the largest cusp cast in its group, or one
+    above the horizon (:data:`SAMPLE_NEAR_SHARE`). (Only what was cast decides: the same
+    seeds are cast whether loose estimates were tightened or not.)
+    """
+    while True:
+        high = search.cast & np.isinf(search.height)
+        for group in groups:
+            measured = group & search.cast & np.isfinite(search.height)
+            if not measured.any():
+                high |= group & unknown  # (nothing measured: every seed)
+                continue
+            least = share * float(search.height[measured].max())
+            high |= measured & (search.height >= least)
+        # (a window of 2 stride + 1 seeds about each high one: the counts' running sum)
+        total = np.concatenate([[0], np.cumsum(high)])
+        rows = np.arange(len(high))
+        near = total[np.minimum(rows + stride + 1, len(high))] > total[np.maximum(rows - stride, 0)]
+        todo = near & unknown & ~search.cast
+        if not todo.any():
+            return
+        search.run(todo)
 
 
 def _nth_largest(estimate: NDArray[np.float64], group: NDArray[np.bool_], count: int) -> float:
