@@ -108,6 +108,17 @@ def test_a_plan_measured_over_the_request_is_planned_again_tighter(tmp_path, mon
     assert plan["max_scallop_mm"] <= asked[1] < 0.05
 
 
+def test_a_re_plan_within_the_request_is_kept_though_over_what_it_was_asked(
+        tmp_path, monkeypatch):
+    # the second plan, asked 0.05 * 0.97 / 1.25 = 0.0388 mm, measures 0.045 mm: over what
+    # it was asked, within the user's 0.05 mm: the job ends there (a third plan would cost
+    # as much again and not be kept)
+    asked, plan = _job_measured(tmp_path, monkeypatch, [(1.25, 1.25), (0.9, 0.9)])
+    assert len(asked) == len(plan["attempts"]) == 2
+    assert plan["kept_attempt"] == 2
+    assert plan["max_scallop_mm"] == pytest.approx(0.9 * 0.05)
+
+
 def test_a_cusp_beside_an_uncut_area_alone_is_not_planned_again(tmp_path, monkeypatch):
     # a cusp beside an area no cutter reaches stands higher than the step-over makes it
     # and no tighter request lowers it: with the interior scallop within the request the
