@@ -12,7 +12,8 @@ mid-chord contact standing above the surface found by the chord measurement, at 
 ``t``, towards increasing ``s``, where the height left by the contact's own pass meets the
 height left by the other passes (ray cast, :mod:`.cusp_search`; most seeds' cusps first
 estimated from the passes' own geometry, :mod:`.cusp_estimates`, and ray cast only where
-the estimate cannot decide). A contact with no other pass within the search's bracket
+the estimate cannot decide; where none stands, a sample along the passes and the seeds near
+its high cusps). A contact with no other pass within the search's bracket
 borders an uncut area and has no cusp. A coarse grid gives the uncut area, and distances
 from it along the surface (:mod:`.uncut_area`).
 """
@@ -117,8 +118,8 @@ ESTIMATE_MIN_SEEDS = ESTIMATE_TOP
 SAMPLE_STRIDE = 8
 
 #: ... and then every seed with no estimate within :data:`SAMPLE_STRIDE` seeds of one whose
-#: cusp (cast, or estimated) reaches this share of the largest cusp cast in its group, or
-#: stands above the horizon, until none is left near one (the cusps along a pass change
+#: cusp cast reaches this share of the largest cusp cast in its group, or stands above the
+#: horizon, until none is left near one (the cusps along a pass change
 #: gradually: on the DCA rotor's 5-axis flat:6 job, trunnion-ac, every seed of a cusp above
 #: 0.8 of the largest had a seed within 16 of it, among every 16th, of at least 0.9 of
 #: it).
@@ -154,7 +155,8 @@ def measure_scallop(toolpath: Toolpath, surface: ParametricSurface, cutter: Cutt
         More than ``estimate_min_seeds`` seeds: estimate every seed's cusp from the
         passes' own geometry (:func:`~.cusp_estimates.ball_cusp_estimates`, flat and
         bull-nose cutters :func:`~.cusp_estimates.torus_cusp_estimates`) and ray-cast only
-        the seeds of the largest estimates and those the estimate cannot tell;
+        the seeds of the largest estimates, and of those with none a sample and the seeds
+        near its high cusps (:func:`cast_beyond_estimates`);
         False ray-casts every seed (the full method).
     estimate_min_seeds, estimate_top, estimate_top_share, estimate_top_most
         Fewer seeds are all ray cast; else at least the ``estimate_top`` seeds of the
