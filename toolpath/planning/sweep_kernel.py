@@ -23,14 +23,16 @@ capsule, and the ray's entry is the first non-negative root among the cylinder's
 (foot inside the segment) and the two end spheres (:func:`capsule_entries`).
 
 Each ray comes with its pieces (``item[lo:hi]``, :func:`ray_ranges`); rays are computed in
-parallel and keep only their first entry. :func:`nearest_entries` tries first the pieces
-whose end poses stand nearest the ray's origin, and skips those it cannot enter before the
-best entry so far ``L``: the ones whose tip plane it meets after ``L``, or leaves behind
+parallel and keep only their first entry. :func:`nearest_entries` tries first the piece
+whose start pose stands nearest the ray's origin (with a stop above 0, every piece nearest
+first), and skips those it cannot enter before the best entry so far ``L``: the ones whose
+tip plane it meets after ``L``, or leaves behind
 before it starts (:func:`_tip_plane_bound`), and the ones whose tip segment stays farther
 from the ray's segment than the part of the cutter within ``L`` of the tip plane reaches
 (:func:`_tip_reach`), and the ones whose end poses stand farther from the ray's origin than
-``L`` and how far a pose within half the piece of an end moves the cutter past the ray's
-points (:func:`_pose_floor`). Within a piece (:func:`_pair_entry`): where the ray's origin
+``L`` and how far a pose within the piece of its start, then within half the piece of an
+end, moves the cutter past the ray's points (:func:`_end_floor`, :func:`_pose_floor`).
+Within a piece (:func:`_pair_entry`): where the ray's origin
 stands farther from every sampled pose than ``L`` and how far the poses within half a
 sample's spacing move the cutter past the ray's points (:func:`_pose_shift`), no entry is
 sought; a sampled pose entered within the ray's stop ends the piece; a piece entered no
