@@ -77,11 +77,15 @@ def kept_attempt(attempts: list[dict[str, Any]], scallop_mm: float, chord_tol_mm
     leading edge the step-over does not follow the request), and the last, worst, plan
     was the one written.
     """
-    def excess(attempt: dict[str, Any]) -> float:
-        return max(attempt["judged_scallop_mm"] / scallop_mm,
-                   (attempt["measured_chord_mm"] or 0.0) / chord_tol_mm)
+    return min(range(len(attempts)),
+               key=lambda k: max(_over_request(attempts[k], scallop_mm, chord_tol_mm)))
 
-    return min(range(len(attempts)), key=lambda k: excess(attempts[k]))
+
+def _over_request(attempt: dict[str, Any], scallop_mm: float, chord_tol_mm: float
+                  ) -> tuple[float, float]:
+    """An attempt's judged scallop and chord error over the user's request, each a ratio."""
+    return (attempt["judged_scallop_mm"] / scallop_mm,
+            (attempt["measured_chord_mm"] or 0.0) / chord_tol_mm)
 
 
 def _judged_scallop_mm(plan_report) -> float:
@@ -490,8 +494,8 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
         plans.append((path, plan_report, scallop_mm, chord_mm))
         # the excess over the user's request (not this plan's tightened one: a plan within
         # the request is kept, whatever it was asked)
-        over_scallop = attempts[-1]["judged_scallop_mm"] / request.scallop_mm
-        over_chord = (plan_report.max_chord_error_mm or 0.0) / request.chord_tol_mm
+        over_scallop, over_chord = _over_request(attempts[-1], request.scallop_mm,
+                                                 request.chord_tol_mm)
         excess = max(over_scallop, over_chord)
         if excess <= 1.0 or excess > REPLAN_REACH or plan_report.n_lifted:
             # (lifted clear of a gouge, the cutter leaves material the measurement counts;

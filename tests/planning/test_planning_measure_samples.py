@@ -70,12 +70,16 @@ def test_a_peak_between_the_samples_is_found_from_the_samples_beside_it():
 
 
 def test_a_cast_above_the_horizon_casts_the_seeds_beside_it():
+    # low cusps (0.1 of the largest: none high by its share) but a stretch above the
+    # horizon, samples 96 and 104 among it: the seeds between them are cast for it alone
     cusps = np.full(200, 0.1)
-    cusps[97:104] = np.inf  # uncut: above the horizon
+    cusps[40] = 1.0  # the largest, on a sample
+    cusps[94:107] = np.inf  # uncut: above the horizon
     search = KnownCusps(cusps)
     cast_beyond_estimates(search, np.full(200, np.nan), [np.ones(200, dtype=bool)],
                           ESTIMATE_TOP, ESTIMATE_TOP_MOST, passes=np.zeros(200, dtype=int))
     assert search.cast[97:104].all()
+    assert not search.cast[150:190].all()  # (the low seeds away from both: samples only)
 
 
 def test_without_casting_near_high_cusps_the_peak_is_missed(monkeypatch):
