@@ -99,7 +99,9 @@ ESTIMATE_TOP_SHARE = 0.0025
 #: Where an estimate not cast still reaches the largest cusp found (the estimate ranks the
 #: seeds poorly there, as on the elliptic blade in 5 axes, or a cluster of alike cusps
 #: reads a little high), twice as many of the largest are cast, and so on up to this many:
-#: a cusp the first cast missed is then found wherever the estimates do not read low.
+#: a cusp the first cast missed is then found wherever the estimates do not read low. (The
+#: estimates standing above the largest cusp by more than they err are then cast this many
+#: at a time, then twice as many, and so on.)
 ESTIMATE_TOP_MOST = 1024
 
 #: Fewer seeds are all ray cast: as few as the first round casts. Above it the estimate
@@ -275,7 +277,12 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
     the seeds stand). Cast: where the tubes do not meet (an infinite estimate), the
     ``count`` largest estimates of each group (twice as many while any estimate not cast
     reaches the largest cusp cast, up to ``most``), and wherever an estimate stands above
-    the largest cusp the ray cast found by more than it errs (:data:`ESTIMATE_SHARE`);
+    the largest cusp the ray cast found by more than it errs (:data:`ESTIMATE_SHARE`):
+    the largest of them first, ``most`` and then twice as many a round, the largest cusp
+    found rising as they are cast (where the largest estimates read far above their cusps,
+    the largest cusp cast after the first rounds lies among the estimates' bulk: on the
+    DCA rotor's 5-axis ball job, scallop 0.005 mm, all at once from there would be 83,000
+    of 151,000 seeds; round by round 2,700, the same largest cusp);
     where none stands, a sample of the seeds along each run of them (:func:`_run_samples`,
     :data:`SAMPLE_STRIDE`: ``passes``, each seed's pass, tells the runs apart; None: one
     pass), then those near a high cusp (:func:`_cast_near_high`). ``search`` holds the
@@ -319,14 +326,21 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
             top = min(2 * top, most)
             search.run(largest(group, top))
     for group in groups:
-        measured = group & search.cast & np.isfinite(search.height)
-        if measured.any():
-            # an estimate above the largest cusp by more than it errs: cast it too
-            top = float(search.height[measured].max())
-            tight_from(ESTIMATE_SHARE * top, group & ~search.cast)
-            search.run(group & (guess >= ESTIMATE_SHARE * top))
-        else:
-            search.run(group)
+        size = most
+        while True:
+            measured = group & search.cast & np.isfinite(search.height)
+            if not measured.any():
+                search.run(group)
+                break
+            # an estimate above the largest cusp by more than it errs: cast it too, the
+            # largest first (the largest cusp rises as they are cast)
+            beyond = ESTIMATE_SHARE * float(search.height[measured].max())
+            tight_from(beyond, group & ~search.cast)
+            left = group & ~search.cast & (guess >= beyond)
+            if not left.any():
+                break
+            search.run(largest(left, size))
+            size *= 2
     _cast_near_high(search, unknown, groups, SAMPLE_STRIDE, SAMPLE_NEAR_SHARE)
 
 
