@@ -109,4 +109,6 @@ def test_a_five_axis_flat_end_blade_job_reads_the_full_method_s_figures():
     assert (got.t, got.s) == (want.t, want.s)
     # every seed cast reads as the full method's
     np.testing.assert_array_equal(fast.height_mm[fast.cast], full.height_mm[fast.cast])
-    assert np.nanmax(full.height_mm[~fast.cast]) <= want.max_mm
+    # the seeds left uncast stand well below the largest cusp (0.58 of it here): the
+    # casts near the high ones took the high stretches
+    assert np.nanmax(full.height_mm[~fast.cast]) < 0.9 * want.max_mm

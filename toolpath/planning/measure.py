@@ -316,10 +316,9 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
     for group in groups:
         top = count
         while top < most:  # the estimate ranks poorly here: cast more of the largest
-            measured = group & search.cast & np.isfinite(search.height)
-            if not measured.any():  # (the whole group is cast below)
+            top_mm = _largest_cast(search, group)
+            if top_mm is None:  # (the whole group is cast below)
                 break
-            top_mm = float(search.height[measured].max())
             tight_from(top_mm, group & ~search.cast)
             if not np.any(group & ~search.cast & (guess >= top_mm)):
                 break  # (no seed left uncast whose estimate reaches what was found)
@@ -328,13 +327,13 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
     for group in groups:
         size = most
         while True:
-            measured = group & search.cast & np.isfinite(search.height)
-            if not measured.any():
+            top_mm = _largest_cast(search, group)
+            if top_mm is None:
                 search.run(group)
                 break
             # an estimate above the largest cusp by more than it errs: cast it too, the
             # largest first (the largest cusp rises as they are cast)
-            beyond = ESTIMATE_SHARE * float(search.height[measured].max())
+            beyond = ESTIMATE_SHARE * top_mm
             tight_from(beyond, group & ~search.cast)
             left = group & ~search.cast & (guess >= beyond)
             if not left.any():
@@ -342,6 +341,12 @@ def cast_beyond_estimates(search: CuspSearch, guess: NDArray[np.float64],
             search.run(largest(left, size))
             size *= 2
     _cast_near_high(search, unknown, groups, SAMPLE_STRIDE, SAMPLE_NEAR_SHARE)
+
+
+def _largest_cast(search: CuspSearch, group: NDArray[np.bool_]) -> float | None:
+    """The largest finite cusp cast among ``group``, mm (None: none yet)."""
+    measured = group & search.cast & np.isfinite(search.height)
+    return float(search.height[measured].max()) if measured.any() else None
 
 
 def _run_samples(rows: NDArray[np.bool_], pass_: NDArray[np.int64], stride: int
@@ -371,12 +376,11 @@ def _cast_near_high(search: CuspSearch, unknown: NDArray[np.bool_],
     while True:
         high = search.cast & np.isinf(search.height)
         for group in groups:
-            measured = group & search.cast & np.isfinite(search.height)
-            if not measured.any():
+            top_mm = _largest_cast(search, group)
+            if top_mm is None:
                 high |= group & unknown  # (nothing measured: every seed)
                 continue
-            least = share * float(search.height[measured].max())
-            high |= measured & (search.height >= least)
+            high |= group & search.cast & (search.height >= share * top_mm)
         # (a window of 2 stride + 1 seeds about each high one: the counts' running sum)
         total = np.concatenate([[0], np.cumsum(high)])
         rows = np.arange(len(high))

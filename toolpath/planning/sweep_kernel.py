@@ -606,8 +606,9 @@ def nearest_entries(q: NDArray[np.float64], n: NDArray[np.float64], lo: NDArray[
                     motions: Motions | None = None) -> NDArray[np.float64]:
     """Each ray's first entry into the material removed by its pieces, mm.
 
-    Pieces are tried nearest first, skipping those that cannot be entered before the best
-    entry found (:func:`_nearest_entries`), or up to the first entry within ``stop_mm``
+    The nearest piece first (with ``stop_mm`` above 0, every piece nearest first), skipping
+    those that cannot be entered before the best entry found (:func:`_nearest_entries`), or up
+    to the first entry within ``stop_mm``
     (0: the first entry, exactly; the horizon: whether the ray enters within it, as soon
     as one sampled pose of a piece says so).
 
