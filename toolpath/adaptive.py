@@ -46,8 +46,6 @@ KNOT_METHODS = ("density", "dominant")
 #: Error-equidistribution sweeps per knot count; the tolerance search carries the learned
 #: density from one count to the next, so later counts start near the optimum.
 DEFAULT_SWEEPS = 12
-#: Turning angle (deg) from which a sharp turn may be a corner (Ex 5's corner is 20°).
-DEFAULT_CORNER_ANGLE_DEG = 8.0
 
 #: Preliminary fits giving the seed density, each on knots from the previous one's density
 #: (a 120-point blade section at 20 control points: the first sweep starts at 0.29 mm after

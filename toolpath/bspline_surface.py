@@ -14,8 +14,9 @@ import numpy as np
 import scipy.interpolate
 from numpy.typing import NDArray
 
-from .adaptive import DEFAULT_CORNER_ANGLE_DEG, DEFAULT_SWEEPS, knot_options
+from .adaptive import DEFAULT_SWEEPS, knot_options
 from .fitted_surface import FittedSurface, column_errors, fit_grid
+from .knots import DEFAULT_CORNER_ANGLE_DEG
 from .sections import as_sections
 from .splinefit import DEGREE, end_interpolating_lsq
 

@@ -85,7 +85,7 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
         return (rows, errors), errors.max(axis=0)
 
     if sections.closed:  # periodic along t (toolpath.periodic)
-        seam = seam_multiplicity(sections.stacked, options.corner_angle_deg)
+        seam = _seam_multiplicity(sections, options.corner_angle_deg)
         (rows, errors), _, knots = adapt_closed_knots(sections.stacked, sections.t,
                                                       seed_values, driver_fit, options,
                                                       seam=seam, fair_check=fair_check)
@@ -93,6 +93,27 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
         (rows, errors), _, knots = adapt_knots(sections.stacked, sections.t, seed_values,
                                                driver_fit, options, fair_check)
     return GridFit(knots_t=knots, rows=rows, errors=errors)
+
+
+def _seam_multiplicity(sections: Sections, corner_angle_deg: float | None) -> int:
+    """The seam's knot multiplicity: ``DEGREE`` where the data have a corner there, else 1.
+
+    All data: the columns as one curve (:func:`~toolpath.periodic.seam_multiplicity`).
+    On a union grid (:mod:`toolpath.section_matching`) each section's own points are
+    judged, with its seam point (a data point, or read from its interpolating cubic where
+    the edge lies between points), and the seam is a corner where at least half the
+    sections have one there: the union's columns bunch up round the seam (sections of
+    the same stations from other start points put columns a few hundred-thousandths
+    apart there), and the turns between such columns tell nothing of a corner (a
+    propeller's sharp trailing edges read no corner, and the fit rounded them).
+    """
+    if sections.mask is None:
+        return seam_multiplicity(sections.stacked, corner_angle_deg)
+    ends = np.zeros(sections.n_columns, bool)
+    ends[[0, -1]] = True  # (the seam point and its copy at t = 1)
+    votes = [seam_multiplicity(points[keep | ends], corner_angle_deg) > 1
+             for points, keep in zip(sections.points, sections.mask, strict=True)]
+    return DEGREE if 2 * sum(votes) >= len(votes) else 1
 
 
 def _outward_sign(surface: ParametricSurface, sections: Sections) -> float:

@@ -39,6 +39,7 @@ from .splinefit import (
 )
 
 __all__ = [
+    "DEFAULT_CORNER_ANGLE_DEG",
     "Corner",
     "detect_corners",
     "dominant_point_knots",
@@ -49,8 +50,12 @@ __all__ = [
     "place_knots",
     "refill_knots",
     "refine_dominant_points",
+    "seam_multiplicity",
     "turning_angles",
 ]
+
+#: Turning angle (deg) from which a sharp turn may be a corner (Ex 5's corner is 20°).
+DEFAULT_CORNER_ANGLE_DEG = 8.0
 
 #: A turning angle this many times larger than the largest nearby turn marks a corner.
 CORNER_CONTRAST = 4.0
@@ -162,6 +167,29 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
             continue
         i += 1
     return corners
+
+
+def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: float | None
+                      ) -> int:
+    """``DEGREE`` when the data have a corner at the seam, else 1.
+
+    ``closed_points`` ``(n + 1, d)`` end with the first point again. The polygon is rolled
+    so the seam sits mid-way and :func:`detect_corners` judges it with the
+    same rule as any other sample (turn and contrast with its neighbours); a corner found
+    just beside the seam, between it and the next sample, is put on the seam.
+    """
+    if corner_angle_deg is None:
+        return 1
+    loop = np.asarray(closed_points[:-1], dtype=float)
+    half = len(loop) // 2
+    rolled = np.roll(loop, half, axis=0)
+    t = np.linspace(0.0, 1.0, len(rolled))
+    corners = detect_corners(rolled, t, min_angle_deg=corner_angle_deg)
+    # a corner at the seam sample, or between it and a neighbour (the pair reading of two
+    # sharp turns side by side, e.g. the two ends of a blunt base closed by ``--closed``)
+    at_seam = any(c.index == half or (c.index == half - 1 and c.t > t[half - 1])
+                  for c in corners)
+    return DEGREE if at_seam else 1
 
 
 def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: int,

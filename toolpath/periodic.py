@@ -54,7 +54,7 @@ from numpy.typing import NDArray
 
 from .adaptive import adapt_knots
 from .errors import ConvergenceWarning, FitError, InvalidParameterError
-from .knots import detect_corners
+from .knots import seam_multiplicity
 from .splinefit import DEGREE, clamped_knots, interior_knots
 from .tolerances import ROUND_OFF
 
@@ -214,29 +214,6 @@ def from_clamped(knots: NDArray[np.float64], seam: int = 1) -> NDArray[np.float6
         j = int(np.argmax(np.diff(edges)))
         period = np.sort(np.append(period, 0.5 * (edges[j] + edges[j + 1])))
     return periodic_knots(period)
-
-
-def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: float | None
-                      ) -> int:
-    """``DEGREE`` when the data have a corner at the seam, else 1.
-
-    ``closed_points`` ``(n + 1, d)`` end with the first point again. The polygon is rolled
-    so the seam sits mid-way and :func:`toolpath.knots.detect_corners` judges it with the
-    same rule as any other sample (turn and contrast with its neighbours); a corner found
-    just beside the seam, between it and the next sample, is put on the seam.
-    """
-    if corner_angle_deg is None:
-        return 1
-    loop = np.asarray(closed_points[:-1], dtype=float)
-    half = len(loop) // 2
-    rolled = np.roll(loop, half, axis=0)
-    t = np.linspace(0.0, 1.0, len(rolled))
-    corners = detect_corners(rolled, t, min_angle_deg=corner_angle_deg)
-    # a corner at the seam sample, or between it and a neighbour (the pair reading of two
-    # sharp turns side by side, e.g. the two ends of a blunt base closed by ``--closed``)
-    at_seam = any(c.index == half or (c.index == half - 1 and c.t > t[half - 1])
-                  for c in corners)
-    return DEGREE if at_seam else 1
 
 
 #: The driver's cut moves off the seam when the seam's steps (in ``t``) are under this

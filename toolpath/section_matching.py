@@ -50,6 +50,7 @@ import scipy.interpolate
 from numpy.typing import NDArray
 
 from .errors import InvalidPointsError
+from .knots import DEFAULT_CORNER_ANGLE_DEG, seam_multiplicity
 from .parametrize import cumulative_parameters
 
 __all__ = ["MatchedGrid", "SectionLandmarks", "match_sections", "section_landmarks"]
@@ -114,9 +115,14 @@ def _entries(t: NDArray[np.float64], points: NDArray[np.float64], closed: bool
     several intervals, bending concave where the section is convex (DCA rotor: 0.7° of
     concave turn after the TE nose), and the fit on the grid follows it. Akima's slopes
     settle on the flank's chords at once. A closed section is wrapped by three points each
-    side so the seam is read like any other point.
+    side so the seam is read like any other point, unless the seam is a corner of its data
+    (a sharp trailing edge, :func:`toolpath.knots.seam_multiplicity`): each flank then
+    runs to it on its own side. Wrapped, the slopes at a wedge's neighbours took in the
+    other flank's chords: the entries of a propeller section sampled at half the stations
+    of its neighbours rounded the wedge they ran to, and the fit, a corner at the seam,
+    folded between them (a ball cutter 3 mm into it).
     """
-    if not closed:
+    if not closed or seam_multiplicity(points, DEFAULT_CORNER_ANGLE_DEG) > 1:
         return scipy.interpolate.Akima1DInterpolator(t, points, axis=0)
     ring, period = points[:-1], t[-1] - t[0]
     wrap_t = np.concatenate((t[-4:-1] - period, t, t[1:4] + period))
@@ -346,6 +352,34 @@ def _correspond(sections: list[NDArray[np.float64]], us: list[NDArray[np.float64
     return True
 
 
+def _seam_shift(us: list[NDArray[np.float64]], marks: list[SectionLandmarks]) -> int:
+    """The data index every corresponding closed section's trailing edge is (0: none or the seam).
+
+    Where each section's trailing edge lies on its point ``k`` (within
+    :data:`SNAP_FRACTION` of the spacing there, the same ``k`` on every section), the
+    sections are rolled so that ``k`` starts them: the seam then lies on the trailing edge,
+    as on sections that do not correspond (:func:`_matched`). A sharp edge is a corner
+    of the data, which the fit keeps only at the seam (C0 there,
+    :func:`toolpath.knots.seam_multiplicity`) and the planner's passes meet only
+    there: one point off the seam (the export running the other way round, or starting
+    one point past the edge), the fit's knots at the corner and at the seam stood one
+    point apart and the propeller's fit bent 0.05 mm round the hub's trailing edge (a
+    ball cutter cut 0.24 mm into it); starting at the leading edge, the corner stood in
+    the passes' way.
+    """
+    shift = None
+    for u, mk in zip(us, marks, strict=True):
+        steps = np.diff(u)
+        rel = np.mod(u[:-1] - mk.u_te, mk.length)
+        off = np.minimum(rel, mk.length - rel)  # round the loop
+        k = int(np.argmin(off))
+        spacing = min(steps[k], steps[k - 1])  # (k - 1 wraps round for k = 0)
+        if off[k] > SNAP_FRACTION * spacing or shift not in (None, k):
+            return 0
+        shift = k
+    return shift or 0
+
+
 def _columns(matched: list[_MatchedSection]) -> NDArray[np.float64]:
     """The union of the sections' matched parameters, values equal to rounding once.
 
@@ -388,6 +422,13 @@ def match_sections(sections: list[NDArray[np.float64]], closed: bool, params: st
     m = len(sections)
     if len({len(p) for p in sections}) == 1 and (
             not blade_like or _correspond(sections, us, marks, closed)):
+        shift = _seam_shift(us, marks) if closed and blade_like else 0
+        if shift:  # the seam onto the trailing edge's point, every section alike
+            sections = [np.vstack((np.roll(p[:-1], -shift, axis=0), p[shift])) for p in sections]
+            us = [cumulative_parameters(p, params) for p in sections]
+            marks = section_landmarks(sections, closed, params, cumulative=us)
+            t_le = float(np.mean([np.mod(mk.u_le - mk.u_te, mk.length) / mk.length
+                                  for mk in marks]))
         # one column per point index, as given
         t = np.mean([u / u[-1] for u in us], axis=0)
         return MatchedGrid(np.stack(sections), t, np.ones((m, len(t)), bool), t_le)

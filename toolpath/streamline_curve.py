@@ -36,18 +36,13 @@ import scipy.interpolate
 import scipy.linalg
 from numpy.typing import NDArray
 
-from .adaptive import (
-    DEFAULT_CORNER_ANGLE_DEG,
-    DEFAULT_SWEEPS,
-    adapt_knots,
-    check_given_knots,
-    knot_options,
-)
+from .adaptive import DEFAULT_SWEEPS, adapt_knots, check_given_knots, knot_options
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
+from .knots import DEFAULT_CORNER_ANGLE_DEG
 from .periodic import adapt_closed_knots, seam_multiplicity
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 

@@ -36,17 +36,13 @@ import numpy as np
 import scipy.interpolate
 from numpy.typing import NDArray
 
-from .adaptive import (
-    DEFAULT_CORNER_ANGLE_DEG,
-    DEFAULT_SWEEPS,
-    check_given_knots,
-    knot_options,
-)
+from .adaptive import DEFAULT_SWEEPS, check_given_knots, knot_options
 from .bspline_surface import fit_bspline_surface
 from .compiled import StreamlineKernel
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fitted_surface import FittedSurface, GridFit, column_errors, fit_grid
+from .knots import DEFAULT_CORNER_ANGLE_DEG
 from .sections import Sections, as_sections
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 from .streamline_curve import (

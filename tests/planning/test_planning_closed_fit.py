@@ -24,3 +24,18 @@ def test_five_axis_spiral_round_a_fitted_closed_blade():
     assert report.within_request and report.uncut_fraction == 0.0
     assert np.allclose(np.linalg.norm(path.tool_axes, axis=1), 1.0)
     assert report.min_concave_radius_mm > 3.0
+
+
+def test_a_propeller_exported_the_other_way_round_plans_round_its_sharp_edge():
+    # the propeller's sections run the other way round (the pressure side first): the sharp
+    # trailing-edge wedge at their last point, one point before the seam. The seam moves
+    # onto the wedge (C0 there, as the export in the bundled order): before, the fit bent
+    # round the hub's wedge and the plan stopped on a 4.5 mm gouge there
+    from toolpath import read_sections
+    from toolpath.paper_examples import bundled_data_path
+
+    sections = [p[::-1] for p in read_sections(bundled_data_path("dev_prop_7x100.csv"))]
+    surface = fit_streamline_surface(sections, tol=0.01)
+    _, report = plan_finishing(surface, "ball:6", scallop_mm=0.05, chord_tol_mm=0.05,
+                               axis_mode="lead-tilt", lead_deg=10.0, measure=False)
+    assert report.min_concave_radius_mm > 3.0

@@ -92,6 +92,52 @@ def test_shuffled_start_gives_the_same_matched_sections(dca):
     assert (a.mask == b.mask).all()
 
 
+@pytest.fixture(scope="module")
+def propeller():
+    """The propeller's sections: closed, a sharp trailing-edge wedge at point 0 of each."""
+    return read_sections(bundled_data_path("dev_prop_7x100.csv"))
+
+
+def wedge_curvature(surface):
+    """Largest principal curvature (1/mm, either sign) beside the seam (``t`` within 0.02
+    of it, the seam itself left out), hub to tip."""
+    t = np.r_[np.linspace(0.98, 1.0 - 1e-6, 200), np.linspace(1e-6, 0.02, 200)]
+    k1, k2 = surface.principal_curvatures(t, np.linspace(0.0, 1.0, 60), grid=True)
+    return float(np.abs(np.concatenate([k1.ravel(), k2.ravel()])).max())
+
+
+@pytest.mark.parametrize("export", ["reversed", "one past the edge", "one before it",
+                                    "from the leading edge", "starts apart",
+                                    "every other at half the stations"])
+def test_a_sharp_trailing_edge_is_the_seam_wherever_the_export_starts(propeller, export):
+    # the wedge is a corner of the data: the fit keeps a corner C0 only at the seam, and
+    # the planner's passes meet only there. With the points reversed the wedge stood one
+    # point before the seam (the sections correspond, so the seams stayed where they
+    # were): knots at the wedge and at the seam one point apart bent the hub 0.09 mm
+    # round the edge (curvature 11/mm) and a ball cutter cut 0.24 mm into it; starting
+    # at the leading edge the corner stood mid-way, in the passes' way (a 5.5 mm gouge
+    # after six minutes); rolled apart section by section (columns bunched round the
+    # seam on the union grid) the seam read no corner and the fit rounded the wedge; with
+    # every other section at half the stations, their entries between points, wrapped
+    # round the seam, rounded the wedge the others' data keep sharp, and the fit folded
+    # (curvature 4,300/mm beside the seam)
+    turned = {"reversed": [p[::-1] for p in propeller],
+              "one past the edge": [np.roll(p, -1, axis=0) for p in propeller],
+              "one before it": [np.roll(p, 1, axis=0) for p in propeller],
+              "from the leading edge": [np.roll(p, -50, axis=0) for p in propeller],
+              "starts apart": [np.roll(p, 37 + 5 * j, axis=0)
+                               for j, p in enumerate(propeller)],
+              "every other at half the stations": [p[::1 + j % 2]
+                                                   for j, p in enumerate(propeller)]}[export]
+    grid = as_sections(turned)
+    wedge = np.array([p[0] for p in propeller])
+    assert np.abs(grid.points[:, 0] - wedge).max() < 1e-9  # the seam is the wedge's point
+    surface = fit_streamline_surface(turned, tol=TOL_MM)
+    assert np.count_nonzero(surface.knots_t == 0.0) == 3  # C0 at the seam
+    assert wedge_curvature(surface) < 0.1  # as the export the data come in: 0.026
+    assert wedge_curvature(fit_streamline_surface(list(propeller), tol=TOL_MM)) < 0.1
+
+
 def test_a_section_running_the_other_way_is_named(dca):
     sections = list(dca)
     sections[4] = sections[4][::-1]
