@@ -90,13 +90,15 @@ def _fit_curve(args: argparse.Namespace) -> int:
     from toolpath import read_points
     from toolpath.arrays import as_curve_points, as_positive_length
 
+    from .cli_types import fit_tolerance_flag
     from .fit_report import fit_curve_by_method
 
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     points = as_curve_points(read_points(args.points))
-    curve, report = fit_curve_by_method(points, method=args.method, tol=tol,
-                                        closed=args.closed)
+    with fit_tolerance_flag("--tol"):
+        curve, report = fit_curve_by_method(points, method=args.method, tol=tol,
+                                            closed=args.closed)
     if output:
         output.write_text(json.dumps(curve.to_dict()), encoding="utf-8")
     if plot:
@@ -114,12 +116,14 @@ def _fit_surface(args: argparse.Namespace) -> int:
     from toolpath import as_sections, read_sections
     from toolpath.arrays import as_positive_length
 
+    from .cli_types import fit_tolerance_flag
     from .fit_report import fit_surface_by_method
 
     tol = as_positive_length(args.tol, name="--tol")
     output, plot = output_file(args.output, "-o"), output_file(args.plot, "--plot")
     sections = as_sections(read_sections(args.points), closed=args.closed)
-    surface, report = fit_surface_by_method(sections, method=args.method, tol=tol)
+    with fit_tolerance_flag("--tol"):
+        surface, report = fit_surface_by_method(sections, method=args.method, tol=tol)
     if output:
         output.write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     if plot:

@@ -24,7 +24,12 @@ from numpy.typing import NDArray
 
 from .arrays import as_positive_length
 from .between_data import BETWEEN_DATA
-from .errors import ConvergenceWarning, FitError, InvalidParameterError
+from .errors import (
+    ConvergenceWarning,
+    FitError,
+    InvalidParameterError,
+    ToleranceNotReachedError,
+)
 from .fairness import FLAT_CURVATURE_PER_MM
 from .knots import (
     Corner,
@@ -712,11 +717,11 @@ def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
 
 def _raise_not_reached(tol: float, best_fail: _Trial) -> None:
     _checked(best_fail)
-    raise FitError(
-        f"tol={tol!r} mm not reached with {n_coefficients(best_fail.knots)} control "
-        f"points (best max error {best_fail.max_error:.6g} mm); raise "
-        "max_control_points or tol"
-    )
+    count = n_coefficients(best_fail.knots)
+    raise ToleranceNotReachedError(
+        f"tol={tol!r} mm not reached with {count} control points (best max error "
+        f"{best_fail.max_error:.6g} mm); raise max_control_points or tol",
+        tol_mm=tol, best_mm=float(best_fail.max_error), control_points=count)
 
 
 def _bisect(attempt, lo: int, hi: int, passing: _Trial, tol: float) -> _Trial:
@@ -779,10 +784,10 @@ def _dominant(points, t, fit_at, options: KnotOptions) -> _Trial:
         if count >= limit:
             if target is not None:
                 return trial
-            raise FitError(
+            raise ToleranceNotReachedError(
                 f"tol={options.tol!r} mm not reached with {count} control points (dominant "
-                f"points; best max error {trial.max_error:.6g} mm)"
-            )
+                f"points; best max error {trial.max_error:.6g} mm)",
+                tol_mm=options.tol, best_mm=float(trial.max_error), control_points=count)
         grown = refine_dominant_points(points, dominant, trial.errors)
         if grown.size == dominant.size:  # the worst segment cannot be split: any other
             free = np.setdiff1d(np.arange(t.size), dominant)

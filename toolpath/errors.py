@@ -13,6 +13,7 @@ __all__ = [
     "InvalidParameterError",
     "InvalidPointsError",
     "LogRangeError",
+    "ToleranceNotReachedError",
     "ToolpathError",
 ]
 
@@ -59,6 +60,25 @@ class DataFileError(ToolpathError):
 
 class FitError(ToolpathError):
     """A fit that cannot be carried out or cannot reach the requested tolerance."""
+
+
+class ToleranceNotReachedError(FitError):
+    """A fit whose error stays above the tolerance with the most control points allowed.
+
+    Attributes
+    ----------
+    tol_mm : float
+        The tolerance asked.
+    best_mm : float
+        The smallest largest error reached (mm).
+    control_points : int
+        Control points of that fit (the most allowed).
+    """
+
+    def __init__(self, message: str, *, tol_mm: float, best_mm: float,
+                 control_points: int) -> None:
+        super().__init__(message)
+        self.tol_mm, self.best_mm, self.control_points = tol_mm, best_mm, control_points
 
 
 class LogRangeError(FitError):

@@ -53,7 +53,12 @@ import scipy.sparse
 from numpy.typing import NDArray
 
 from .adaptive import adapt_knots
-from .errors import ConvergenceWarning, FitError, InvalidParameterError
+from .errors import (
+    ConvergenceWarning,
+    FitError,
+    InvalidParameterError,
+    ToleranceNotReachedError,
+)
 from .knots import seam_multiplicity
 from .splinefit import DEGREE, clamped_knots, interior_knots
 from .tolerances import ROUND_OFF
@@ -360,6 +365,10 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
             warnings.simplefilter("always", ConvergenceWarning)
             fit, errors, knots = adapt_knots(view_points, view_t, view_seed, wrapped, driver,
                                              wrapped_check)
+    except ToleranceNotReachedError as exc:
+        raise ToleranceNotReachedError(
+            counted(str(exc)), tol_mm=exc.tol_mm, best_mm=exc.best_mm,
+            control_points=exc.control_points - offset) from None
     except FitError as exc:
         raise FitError(counted(str(exc))) from None
     for warning in caught:

@@ -74,3 +74,29 @@ def test_fit_surface_of_ragged_sections_reports_each_count(tmp_path, capsys):
     assert main(["fit", "surface", str(path), "--method", "bspline", "--tol", "0.02"]) == 0
     text = capsys.readouterr().out
     assert "6 x 153-181 points (closed)" in text and "(estimate:" in text
+
+
+def test_a_tolerance_the_fit_cannot_reach_names_the_flag_and_a_value_to_give(tmp_path,
+                                                                              capsys):
+    # the propeller's points with 3 um of noise: the fit stays about 0.023 mm off them with
+    # the most control points allowed. The library names its own keywords (tol,
+    # max_control_points, which no command offers); the command names its flag, and a
+    # tolerance the fit reaches
+    from toolpath import read_sections
+
+    rng = np.random.default_rng(0)
+    path = tmp_path / "noisy.csv"
+    with path.open("w") as out:
+        out.write("section,x,y,z\n")
+        for j, section in enumerate(read_sections(bundled_data_path("dev_prop_7x100.csv"))):
+            for x, y, z in section + rng.normal(0.0, 0.003, section.shape):
+                out.write(f"{j},{x:.6f},{y:.6f},{z:.6f}\n")
+    for argv, flag in ((["fit", "surface", str(path), "--tol", "0.01"], "--tol"),
+                       (["run", str(path), "--fit-tol", "0.01", "--quiet",
+                         "-o", str(tmp_path / "job" / "part.nc")], "--fit-tol")):
+        assert main(argv) == 2
+        err = capsys.readouterr().err
+        assert f"the fit cannot reach {flag} 0.01 mm" in err and "max_control_points" not in err
+        given = float(err.split(f"give {flag} ")[1].split()[0])
+        assert 0.02 < given < 0.03  # a little above the best the fit reaches
+    assert main(["fit", "surface", str(path), "--tol", f"{given:g}"]) == 0  # reached
