@@ -29,7 +29,7 @@ from gcode.summary import summarize
 from machines import load_machine
 from toolpath import as_sections, read_sections
 from toolpath.arrays import as_positive_length
-from toolpath.errors import InvalidParameterError
+from toolpath.errors import FitError, InvalidParameterError, ToleranceNotReachedError
 from toolpath.joint_refine import known_joints
 from toolpath.path import MoveKind
 from toolpath.placement import place_points, translated_surface
@@ -457,8 +457,11 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     placed, placement = place_points(raw.points, mode=mode, base_mm=request.base_mm)
     # a rigid move: the matched grid keeps its parameters and its mask of data entries
     placed_sections = dataclasses.replace(raw, points=placed)
-    surface, fit_report = fit_surface_by_method(placed_sections, method=request.method,
-                                                tol=request.fit_tol_mm)
+    try:
+        surface, fit_report = fit_surface_by_method(placed_sections, method=request.method,
+                                                    tol=request.fit_tol_mm)
+    except ToleranceNotReachedError as exc:  # (told with the flag; a service: its field)
+        raise FitError(exc.advice("--fit-tol")) from None
     files["surface"] = out_dir / "surface.json"
     files["surface"].write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     report["placement"] = placement.as_dict() | {"text": placement.describe()}

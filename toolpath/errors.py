@@ -6,6 +6,8 @@ also a :class:`ValueError`, and names the offending value, point index or file l
 
 from __future__ import annotations
 
+import math
+
 __all__ = [
     "ConvergenceWarning",
     "DataFileError",
@@ -79,6 +81,21 @@ class ToleranceNotReachedError(FitError):
                  control_points: int) -> None:
         super().__init__(message)
         self.tol_mm, self.best_mm, self.control_points = tol_mm, best_mm, control_points
+
+    def advice(self, flag: str) -> str:
+        """The failure told with the command-line ``flag`` that sets the tolerance.
+
+        The message names the library's keywords (``tol``, ``max_control_points``, which
+        no command offers); a command-line user reads what to give the flag instead: 5 %
+        above the best error, rounded up to two digits.
+        """
+        value = 1.05 * self.best_mm
+        step = 10.0 ** (math.floor(math.log10(value)) - 1)
+        looser = round(math.ceil(value / step) * step, 12)
+        return (f"the fit cannot reach {flag} {self.tol_mm:g} mm: with the most control points "
+                f"the fitter allows ({self.control_points}) it stays {self.best_mm:.4g} mm off "
+                f"the data; give {flag} {looser:g} or more (noisy points, or edges sampled "
+                "coarser than their radius, need a looser fit)")
 
 
 class LogRangeError(FitError):

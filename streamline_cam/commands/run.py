@@ -216,7 +216,6 @@ def _check_points(points: Path, closed: bool | None) -> None:
 
 def _run(args: argparse.Namespace) -> int:
     from ..background_compile import background_compile, job_kernels, say_on_stderr
-    from ..cli_types import fit_tolerance_flag
     from ..progress import StageBars
 
     out = (output_folder(Path(args.output).parent, "-o", shown=args.output) if args.output
@@ -241,10 +240,8 @@ def _run(args: argparse.Namespace) -> int:
                                 say=None if args.quiet else say_on_stderr):
             from ..pipeline import run_job
 
-            with fit_tolerance_flag("--fit-tol"):
-                result = run_job(request_from_args(Path(args.points), args), out,
-                                 progress=bars, stream=stream, plots=args.plots,
-                                 verify=args.verify)
+            result = run_job(request_from_args(Path(args.points), args), out, progress=bars,
+                             stream=stream, plots=args.plots, verify=args.verify)
     finally:
         bars.close()
     if args.output and Path(args.output) != result.files["gcode"]:

@@ -1,9 +1,11 @@
 import json
 
 import numpy as np
+import pytest
 
 from streamline_cam.cli import main
 from toolpath import curve_from_dict, surface_from_dict
+from toolpath.errors import FitError
 from toolpath.paper_examples import bundled_data_path
 
 
@@ -100,3 +102,10 @@ def test_a_tolerance_the_fit_cannot_reach_names_the_flag_and_a_value_to_give(tmp
         given = float(err.split(f"give {flag} ")[1].split()[0])
         assert 0.02 < given < 0.03  # a little above the best the fit reaches
     assert main(["fit", "surface", str(path), "--tol", f"{given:g}"]) == 0  # reached
+    # a batch's or the service's job says it in the job's field
+    from streamline_cam.pipeline import JobRequest, run_job
+    from streamline_cam.service.runner import as_job_fields
+
+    with pytest.raises(FitError) as raised:
+        run_job(JobRequest(sections_path=path, fit_tol_mm=0.01), tmp_path / "service-job")
+    assert "the fit cannot reach fit_tol_mm 0.01 mm" in as_job_fields(str(raised.value))
