@@ -98,7 +98,7 @@ def fit_grid(sections: Sections, seed_values: NDArray[np.float64], fit_at,
 def _seam_multiplicity(sections: Sections, corner_angle_deg: float | None) -> int:
     """The seam's knot multiplicity: ``DEGREE`` where the data have a corner there, else 1.
 
-    All data: the columns as one curve (:func:`~toolpath.periodic.seam_multiplicity`).
+    All data: the columns as one curve (:func:`~toolpath.knots.seam_multiplicity`).
     On a union grid (:mod:`toolpath.section_matching`) each section's own points are
     judged, with its seam point (a data point, or read from its interpolating cubic where
     the edge lies between points), and the seam is a corner where at least half the

@@ -121,7 +121,7 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     curvature climbs along both sides to its vertex.
     A closed loop (the last point equal to the first, as closed curves and sections are
     stored) is read round its seam: the samples beside the seam have neighbours on both
-    sides (a corner *at* the seam is :func:`toolpath.periodic.seam_multiplicity`'s).
+    sides (a corner *at* the seam is :func:`seam_multiplicity`'s).
     """
     turn = turning_angles(points)  # turn[i] is at sample i + 1
     n = turn.size
