@@ -423,12 +423,10 @@ def match_sections(sections: list[NDArray[np.float64]], closed: bool, params: st
     if len({len(p) for p in sections}) == 1 and (
             not blade_like or _correspond(sections, us, marks, closed)):
         shift = _seam_shift(us, marks) if closed and blade_like else 0
-        if shift:  # the seam onto the trailing edge's point, every section alike
+        if shift:  # the seam onto the trailing edge's point, every section alike (each
+            # loop the same, only started elsewhere: its edges' fractions, t_le, stay)
             sections = [np.vstack((np.roll(p[:-1], -shift, axis=0), p[shift])) for p in sections]
             us = [cumulative_parameters(p, params) for p in sections]
-            marks = section_landmarks(sections, closed, params, cumulative=us)
-            t_le = float(np.mean([np.mod(mk.u_le - mk.u_te, mk.length) / mk.length
-                                  for mk in marks]))
         # one column per point index, as given
         t = np.mean([u / u[-1] for u in us], axis=0)
         return MatchedGrid(np.stack(sections), t, np.ones((m, len(t)), bool), t_le)

@@ -135,6 +135,10 @@ def test_a_sharp_trailing_edge_is_the_seam_wherever_the_export_starts(propeller,
     surface = fit_streamline_surface(turned, tol=TOL_MM)
     assert np.count_nonzero(surface.knots_t == 0.0) == 3  # C0 at the seam
     assert wedge_curvature(surface) < 0.1  # as the export the data come in: 0.026
+
+
+def test_the_propeller_as_exported_keeps_its_wedge(propeller):
+    # the yardstick of the exports above: the bundled order, its seam on the wedge already
     assert wedge_curvature(fit_streamline_surface(list(propeller), tol=TOL_MM)) < 0.1
 
 
