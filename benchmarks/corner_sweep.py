@@ -14,7 +14,10 @@ Run ``python benchmarks/corner_sweep.py`` (a few seconds). It prints two counts 
   bending with the turn) meeting at 150 or 165 deg, sampled and placed as above.
 
 ``--noise-um`` adds Gaussian noise of that standard deviation to every point of every case
-(seeded, so counts repeat). ``--list`` prints each failure's case. Cases are built from
+(seeded, so counts repeat); what that scatter may turn a sample is set aside
+(:data:`toolpath.knots.SCATTER_CONTRAST`, :data:`toolpath.knots.SCATTER_SHARE`). Without
+noise: 0, 12 and 0 failures; at 3 um 36, 129 and 12 (before the scatter was set aside
+29, 166 and 20). ``--list`` prints each failure's case. Cases are built from
 the traits (thin noses sampled with few points, tangent discontinuities between flanks),
 not from any blade file.
 """

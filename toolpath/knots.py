@@ -78,6 +78,16 @@ RAMP_LIMIT = CORNER_CONTRAST
 #: radius 0.05-0.3 mm, axes 1-4 : 1, 6-20 points round (8 points round a 4:1 ellipse turn
 #: 2.3, 5.2, 9.7, 72.9 deg); twice that is the margin (``benchmarks/corner_sweep.py``).
 TREND_CONTRAST = 2.0 * CORNER_CONTRAST
+#: A corner turns at least this many times what the points' scatter may turn it
+#: (:func:`_scatter_turns`): 3 um of scatter on a blade's clustered open end read as
+#: corners of 13-26 deg at 1.1-1.3 times that, real ones turn tens of times more.
+SCATTER_CONTRAST = 3.0
+#: The share of what the scatter may turn a corner's neighbour that :func:`_continues_arc`
+#: sets aside (its arc must show beyond it). ``benchmarks/corner_sweep.py --noise-um 3``
+#: (the scatter set aside not at all / by this share): real corners missed 166 / 129 of
+#: 405, wedges 20 / 12 of 162, noses read as corners 29 / 36 of 1728 (the whole of it:
+#: 113, 8 and 48); without noise nothing changes.
+SCATTER_SHARE = 0.5
 #: Error sweeps take a span's ``e^{1/4}`` within this factor of the median span's (so its
 #: length changes at most about this much relative to the others per sweep). Without it, on
 #: the 71-point half profile at 20 control points, spans the fit interpolated were emptied
@@ -122,6 +132,15 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     A closed loop (the last point equal to the first, as closed curves and sections are
     stored) is read round its seam: the samples beside the seam have neighbours on both
     sides (a corner *at* the seam is :func:`seam_multiplicity`'s).
+
+    Measured points scatter about the true curve, and where they stand close together
+    (an edge's clustered stations) the scatter alone turns them by degrees: 3 um of scatter
+    turns samples 30 um apart at a blade's open end by up to 25 deg. What the scatter may
+    turn each sample (:func:`_scatter_turns`) is left out of the evidence both ways: a
+    candidate turning less than :data:`SCATTER_CONTRAST` times it is no corner, and a
+    neighbour's turn shows an arc only beyond :data:`SCATTER_SHARE` of it (a trailing-edge
+    wedge's neighbours, 0.17 mm apart, turned 10 deg by 3 um of scatter, read as its arc).
+    Points without scatter (exact, synthetic) are judged as before.
     """
     turn = turning_angles(points)  # turn[i] is at sample i + 1
     n = turn.size
@@ -135,6 +154,7 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
     unit = chords / steps[:, None]  # closed: unit[n] then unit[0] round the seam
     corners: list[Corner] = []
     threshold = np.radians(min_angle_deg)
+    scatter = _scatter_turns(points, steps, n if ring is None else n + 1)
     i = 0
     while i < n:
         pair = turn[i] + (turn[i + 1] if i + 1 < n else 0.0)
@@ -153,9 +173,13 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
                   else turn[[k for k in (i - 1, i + (1 if single else 2)) if 0 <= k < n]])
         background = max(background, float(beside.max()) if beside.size else 0.0)
         turns = turn if ring is None else ring
-        if (_continues_arc(turns, steps, i, ring is not None)
+        if (_continues_arc(turns, steps, i, ring is not None, SCATTER_SHARE * scatter)
                 or _follows_trend(turns, unit, i, single, ring is not None)):
             i += 1
+            continue
+        if (turn[i] if single else pair) < SCATTER_CONTRAST * (
+                scatter[i] if single else scatter[i] + scatter[(i + 1) % scatter.size]):
+            i += 1  # the points' scatter may turn it that much
             continue
         if single and turn[i] >= CORNER_CONTRAST * background:
             corners.append(Corner(float(t[i + 1]), float(np.degrees(turn[i])), i + 1))
@@ -167,6 +191,29 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
             continue
         i += 1
     return corners
+
+
+def _scatter_turns(points: NDArray[np.float64], steps: NDArray[np.float64], count: int
+                  ) -> NDArray[np.float64]:
+    """What the points' scatter may turn each of the first ``count`` samples (rad).
+
+    ``r_i = p_i − (b p_{i−1} + a p_{i+1}) / (a + b)`` is each sample's offset from the chord
+    of its neighbours (``a``, ``b`` the steps before and after); on a smooth curve it
+    follows the curvature from sample to sample, so its second difference
+    ``e_i = r_i − (r_{i−1} + r_{i+1}) / 2`` is what scatter adds (~0 on exact points). Its
+    lower quartile ``w`` (mm) is about 1.6 σ for a scatter σ on every coordinate (3-D),
+    and a sample between steps ``a`` and ``b`` is turned by up to about ``w (1/a + 1/b)``.
+    ``steps[k]`` runs from sample ``k`` to ``k + 1``; turn ``k`` sits between steps ``k``
+    and ``k + 1`` (round the loop where ``count`` reaches the last).
+    """
+    if steps.size < 4:
+        return np.zeros(count)
+    before, after = steps[:-1, None], steps[1:, None]
+    offset = points[1:-1] - (after * points[:-2] + before * points[2:]) / (before + after)
+    wobble = np.linalg.norm(offset[1:-1] - 0.5 * (offset[:-2] + offset[2:]), axis=1)
+    wobble_mm = float(np.percentile(wobble, 25.0))
+    k = np.arange(count)
+    return wobble_mm * (1.0 / steps[k % steps.size] + 1.0 / steps[(k + 1) % steps.size])
 
 
 def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: float | None
@@ -193,7 +240,7 @@ def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: floa
 
 
 def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: int,
-                   closed: bool) -> bool:
+                   closed: bool, scatter: NDArray[np.float64] | None = None) -> bool:
     """Whether a neighbour of a corner at turn ``i`` continues its arc.
 
     ``turns[k]`` is the turn between chords ``steps[k]`` and ``steps[k + 1]``. A corner at or
@@ -204,7 +251,8 @@ def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: in
     ``d`` after ``i + 1`` (``c`` between them), the neighbour across ``a`` turns about
     ``Θ (a/2) / (a/2 + c + d/2)`` more than the side's own turning (the least turn two to
     five samples out on that side); likewise across ``d``. A neighbour continues the arc
-    when its excess reaches :data:`ARC_FRACTION` of that. ``closed``: indices wrap.
+    when its excess, less what ``scatter[k]`` allows turn ``k`` (rad), reaches
+    :data:`ARC_FRACTION` of that. ``closed``: indices wrap.
     """
     n = turns.size
     if (closed or i > 0) and turns[(i - 1) % n] > turns[(i + 1) % n]:
@@ -223,7 +271,8 @@ def _continues_arc(turns: NDArray[np.float64], steps: NDArray[np.float64], i: in
                 continue
             far = [k for k in far if 0 <= k < n]
         own = float(turns[np.array(far) % n].min()) if far else 0.0
-        if turns[beside % n] - own >= ARC_FRACTION * total * half / length:
+        allowed = 0.0 if scatter is None else float(scatter[beside % n])
+        if turns[beside % n] - own - allowed >= ARC_FRACTION * total * half / length:
             return True
     return False
 

@@ -393,3 +393,52 @@ def test_stacked_sections_read_a_thin_nose_and_a_corner_alike():
     wedge = stacked(_polyline_turning([*flank, 1.0, 1.0, 150.0, 1.0, 1.0, *flank]))
     found = detect_corners(wedge, unit_curve_parameters(wedge))
     assert [c.index for c in found] == [15]
+
+
+def _clustered_flank(n_points=142, length_mm=60.0, bend_per_mm=0.02):
+    """An open, gently bent flank (3-D) whose stations cluster cosine-wise at both ends:
+    the last step about 30 um, the middle ones about 0.7 mm (a measured open edge)."""
+    u = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, n_points)))
+    x = length_mm * u
+    return np.c_[x, 0.5 * bend_per_mm * (x - 0.5 * length_mm) ** 2, 0.1 * x]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_scattered_points_clustered_at_an_open_end_read_no_corner(seed):
+    # 3 um of scatter turns samples 30 um apart by up to 25 deg, 4x their neighbours 60-
+    # 160 um apart: a blade's measured open trailing edge read a corner there, its double
+    # knot curled the fit's edge (curvature 17/mm) and the cutter gouged 1.6 mm
+    points = _clustered_flank()
+    rng = np.random.default_rng(seed)
+    noisy = points + rng.normal(0.0, 0.003, points.shape)
+    assert detect_corners(noisy, unit_curve_parameters(noisy)) == []
+    # the same flank with a real corner of 30 deg in the middle keeps it
+    bent = points.copy()
+    mid = len(points) // 2
+    turn = np.radians(30.0)
+    rel = bent[mid:] - bent[mid]
+    rotation = np.array([[np.cos(turn), -np.sin(turn), 0.0], [np.sin(turn), np.cos(turn), 0.0],
+                         [0.0, 0.0, 1.0]])
+    bent[mid:] = bent[mid] + rel @ rotation.T
+    noisy = bent + rng.normal(0.0, 0.003, bent.shape)
+    found = detect_corners(noisy, unit_curve_parameters(noisy))
+    assert [c.index for c in found] == [mid]
+
+
+@pytest.mark.parametrize("seed", range(6))
+def test_a_scattered_wedge_at_the_seam_keeps_its_corner(seed):
+    # a closed section's sharp trailing edge at the seam, its stations clustering towards
+    # it (the steps beside it 0.17 mm): 3 um of scatter turned the wedge's neighbours 10
+    # deg, read as the arc of a round edge, and the fit rounded the wedge (0.023 mm off)
+    from toolpath.knots import DEGREE, seam_multiplicity
+    u = 0.5 * (1.0 - np.cos(np.linspace(0.0, np.pi, 50)))  # 0 at the TE, 1 at the LE
+    x = 40.0 * u
+    thickness = u * np.sqrt(1.0 - u)  # a wedge at the TE, a round nose at the LE
+    upper = np.c_[x, 4.0 * thickness, 0.02 * x]
+    lower = np.c_[x, -2.0 * thickness, 0.02 * x]
+    # from the trailing edge round the upper side, back along the lower one
+    loop = np.vstack((upper, lower[-2:0:-1]))
+    assert seam_multiplicity(np.vstack((loop, loop[:1])), 8.0) == DEGREE
+    rng = np.random.default_rng(seed)
+    noisy = loop + rng.normal(0.0, 0.003, loop.shape)
+    assert seam_multiplicity(np.vstack((noisy, noisy[:1])), 8.0) == DEGREE
