@@ -110,6 +110,7 @@ def run_plan(args: argparse.Namespace) -> int:
     with background_compile(job_kernels(args.axis, ("plan",), args.cutter), say=say_on_stderr):
         from tqdm import tqdm
 
+        from toolpath.planning.errors import PlanTravelLimitError
         from toolpath.planning.finishing import plan_finishing
 
         surface = placed_surface(loaded, args)
@@ -124,10 +125,17 @@ def run_plan(args: argparse.Namespace) -> int:
                 bar.set_description_str(f"planning: {stage}")
                 bar.update(max(0, round(100 * fraction) - bar.n))
 
-            path, report = plan_finishing(
-                surface, args.cutter, scallop_mm=args.scallop, chord_tol_mm=args.chord_tol,
-                axis_mode=args.axis, lead_deg=args.lead, tilt_deg=args.tilt,
-                linking=args.linking, machine=args.machine, progress=progress, **options)
+            try:
+                path, report = plan_finishing(
+                    surface, args.cutter, scallop_mm=args.scallop,
+                    chord_tol_mm=args.chord_tol, axis_mode=args.axis, lead_deg=args.lead,
+                    tilt_deg=args.tilt, linking=args.linking, machine=args.machine,
+                    progress=progress, **options)
+            except PlanTravelLimitError as exc:
+                advice = _tilt_advice(loaded, surface, args)
+                if advice is None:
+                    raise
+                raise PlanTravelLimitError(exc.violations, f"{exc.where}; {advice}") from None
     if output:
         path.save(output)
     if plot:
@@ -144,8 +152,34 @@ def run_plan(args: argparse.Namespace) -> int:
             print(f"wrote {args.output} ({len(path)} points)")
         if args.plot:
             print(f"wrote {args.plot}")
+    if args.axis == "lead-tilt":
+        from ..setup_advice import placement_warning
+
+        warning = placement_warning(loaded, surface, report.max_tilt_deg,
+                                    report.tilt_leaned_points, report.max_tilt_lean_deg,
+                                    report.n_points)
+        if warning:
+            print(f"toolpath: warning: {warning}", file=sys.stderr)
     if not report.within_request:
         print("toolpath: warning: the measured result does not meet the request "
               "(see the report)", file=sys.stderr)
         return 1
     return 0
+
+
+def _tilt_advice(loaded: Any, placed: Any, args: argparse.Namespace) -> str | None:
+    """The upright setup's advice where a 5-axis plan left the tilt joint's travel."""
+    if args.axis != "lead-tilt":
+        return None
+    from machines.kinematics import tilt_reach_deg
+    from machines.machine import load_machine
+    from toolpath.planning.options import TILT_MARGIN_DEG
+
+    from ..setup_advice import upright_advice
+
+    machine = load_machine(args.machine)
+    if not machine.kinematics.is_five_axis:
+        return None
+    reach = tilt_reach_deg(machine)
+    advice = None if reach >= 180.0 else upright_advice(loaded, placed, reach - TILT_MARGIN_DEG)
+    return None if advice is None else advice[1]

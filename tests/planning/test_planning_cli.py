@@ -63,3 +63,58 @@ def test_plan_errors_are_one_line_exit_2(tmp_path, capsys):
     assert "DIAMETER" in capsys.readouterr().err
     assert main(["plan", str(tmp_path / "missing.json"), "--machine", "grbl-router"]) == 2
     assert "missing.json" in capsys.readouterr().err
+
+
+def test_plan_of_a_part_facing_away_from_the_spindle_says_how_to_place_it(tmp_path, capsys):
+    # a blade laid on its side: 6 % of its area faces further from +Z than the tilt joint
+    # reaches; the planner leans those axes back toward +Z (up to 65 deg off
+    # the lead and tilt) and still plans. The command warns and gives the upright setup
+    # 'toolpath run' takes; planned that way, nothing faces away and nothing is leaned.
+    import shlex
+
+    from toolpath.planning.setup import rotation_from_spec
+
+    src = tmp_path / "blade.json"
+    blade = EllipticBladeSurface(semi_axes_hub_mm=(12.0, 3.0), semi_axes_tip_mm=(11.0, 2.5),
+                                 z_range_mm=(0.0, 40.0))
+    src.write_text(json.dumps(blade.to_dict()))
+    common = ["plan", str(src), "--machine", "trunnion-ac", "--axis", "lead-tilt", "--lead",
+              "10", "--scallop", "0.05", "--chord-tol", "0.05", "--no-measure",
+              "--on-limit", "report", "--json"]
+    main([*common, "--rotate", "x:30,y:90"])
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["tilt_leaned_points"] > 0
+    warning = [line for line in captured.err.splitlines() if "not placed" in line]
+    assert len(warning) == 1 and "faces further from +Z than the tilt joint" in warning[0]
+    advised = warning[0].split("from the surface as saved, ")[1].split(" stands it")[0]
+    flags = shlex.split(advised.replace(" without --rotate", ""))
+    if "--rotate" in flags:
+        rotation_from_spec(flags[flags.index("--rotate") + 1])  # a spec the flag reads
+    main([*common, *flags])
+    captured = capsys.readouterr()
+    assert json.loads(captured.out)["tilt_leaned_points"] == 0
+    assert "not placed" not in captured.err
+
+
+def test_a_plan_beyond_the_tilt_joint_names_the_upright_setup(tmp_path, capsys):
+    src = tmp_path / "blade.json"
+    blade = EllipticBladeSurface(semi_axes_hub_mm=(12.0, 3.0), semi_axes_tip_mm=(11.0, 2.5),
+                                 z_range_mm=(0.0, 40.0))
+    src.write_text(json.dumps(blade.to_dict()))
+    code = main(["plan", str(src), "--machine", "head-table-bc", "--axis", "lead-tilt",
+                 "--scallop", "0.05", "--chord-tol", "0.05", "--no-measure",
+                 "--rotate", "y:90"])
+    err = capsys.readouterr().err
+    assert code == 2 and "is below its minimum" in err
+    assert "--on-table" in err and "stands it upright" in err
+
+
+def test_the_advised_rotation_reads_back_as_the_rotation():
+    from scipy.spatial.transform import Rotation
+
+    from toolpath.planning.setup import rotation_from_spec, spec_from_rotation
+
+    for matrix in Rotation.random(20, random_state=1).as_matrix():
+        back = rotation_from_spec(spec_from_rotation(matrix))
+        assert np.degrees(Rotation.from_matrix(back.T @ matrix).magnitude()) < 0.2
+    assert spec_from_rotation(np.eye(3)) == ""

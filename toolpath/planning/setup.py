@@ -5,7 +5,8 @@ A fitted blade comes in its design frame (for the development blade the stacking
 the stacking axis +Z, or lying on a router bed with the side to cut facing +Z).
 :class:`PlacedSurface` is the rigid motion of a surface (a rotation keeps the parameters,
 the closure and the outward side); :func:`rotation_from_spec` reads ``"y:-90,z:30"``
-(successive right-handed rotations about the fixed axes, deg).
+(successive right-handed rotations about the fixed axes, deg), :func:`spec_from_rotation`
+writes one.
 
 Examples
 --------
@@ -27,7 +28,7 @@ from ..compiled import StreamlineKernel
 from ..errors import InvalidParameterError
 from ..surface import ParametricSurface
 
-__all__ = ["PlacedSurface", "centred_on_table", "rotation_from_spec"]
+__all__ = ["PlacedSurface", "centred_on_table", "rotation_from_spec", "spec_from_rotation"]
 
 #: A rotation's ``Q Q^T`` may differ from the identity by this (per entry): a matrix built
 #: in doubles is orthonormal to 1e-15, a product of a few to 1e-13; any real shear or
@@ -68,6 +69,20 @@ def rotation_from_spec(spec: str) -> NDArray[np.float64]:
                 "x, y, z (e.g. 'y:-90,z:30')")
         out = _axis_rotation(axis, angle) @ out
     return out
+
+
+def spec_from_rotation(rotation: ArrayLike) -> str:
+    """``"x:A,y:B,z:C"`` (tenths of a degree, zeros left out) that reads back as ``rotation``.
+
+    The rotations about fixed x, then y, then z: ``R = R_z(C) R_y(B) R_x(A)``
+    (:func:`rotation_from_spec`'s order); ``""`` for the identity.
+    """
+    from scipy.spatial.transform import Rotation
+
+    angles = Rotation.from_matrix(np.asarray(rotation, dtype=float)).as_euler("xyz",
+                                                                              degrees=True)
+    return ",".join(f"{axis}:{angle:.1f}".replace(".0", "")
+                    for axis, angle in zip("xyz", angles, strict=True) if abs(angle) >= 0.05)
 
 
 class PlacedSurface(ParametricSurface):
