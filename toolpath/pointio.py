@@ -1,4 +1,10 @@
-"""Reading point files: CSV with a header (``x,y[,z]``) or whitespace-separated columns."""
+"""Reading point files: CSV with a header (``x,y[,z]``) or whitespace-separated columns.
+
+The field separator is read from the first line: a comma, else a semicolon, else
+whitespace. Spreadsheets in locales whose decimal mark is a comma write ``;``-separated
+files with numbers like ``143,900063``: with ``;`` a decimal comma is read as a point.
+A UTF-8 byte order mark (spreadsheets' "CSV UTF-8") is skipped.
+"""
 
 from __future__ import annotations
 
@@ -17,11 +23,12 @@ __all__ = ["read_points", "read_sections"]
 _AXES = ("x", "y", "z")
 
 
-def _parse_row(fields: list[str], *, path: str, line: int) -> list[float]:
+def _parse_row(fields: list[str], *, path: str, line: int, decimal_comma: bool = False
+               ) -> list[float]:
     values = []
     for field in fields:
         try:
-            value = float(field)
+            value = float(field.replace(",", ".") if decimal_comma else field)
         except ValueError:
             raise DataFileError(f"{field.strip()!r} is not a number", path=path,
                                 line=line) from None
@@ -35,7 +42,7 @@ def _read_lines(path: str | Path) -> list[tuple[int, str]]:
     """Numbered non-blank, non-comment lines of a text file."""
     name = str(path)
     try:
-        text = Path(path).read_text(encoding="utf-8")
+        text = Path(path).read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise DataFileError(f"cannot read the file: {exc}", path=name) from None
     lines = [
@@ -59,7 +66,8 @@ def _table(path: str | Path, lines: list[tuple[int, str]], columns: list[int],
                 f"expected {n_fields} columns, found {len(fields)}: {raw.strip()!r}",
                 path=name, line=no,
             )
-        rows.append(_parse_row([fields[c] for c in columns], path=name, line=no))
+        rows.append(_parse_row([fields[c] for c in columns], path=name, line=no,
+                               decimal_comma=delimiter == ";"))
     if not rows:
         raise DataFileError("the file has a header but no points", path=name)
     return np.asarray(rows, dtype=float)
@@ -83,7 +91,7 @@ def read_points(path: str | Path) -> NDArray[np.float64]:
     """
     lines = _read_lines(path)
     first_no, first = lines[0]
-    delimiter = "," if "," in first else None
+    delimiter = _delimiter(first)
     head = _split(first, delimiter)
     if any(_is_word(f) for f in head):
         lowered = [h.strip().lower() for h in head]
@@ -104,8 +112,8 @@ def read_points(path: str | Path) -> NDArray[np.float64]:
 def read_sections(path: str | Path) -> list[NDArray[np.float64]]:
     """Read blade sections from CSV with the header ``section,x,y,z`` (any column order).
 
-    Rows are grouped by section, sections numbered in increasing order, and points are in
-    order within each section.
+    A section's rows stand together, its points in order; sections are taken by their
+    numbers, the lowest first, in whatever order the file lists them.
 
     Returns
     -------
@@ -115,12 +123,12 @@ def read_sections(path: str | Path) -> list[NDArray[np.float64]]:
     Raises
     ------
     DataFileError
-        A missing column, a bad number, a section number that is not an integer, or
-        sections out of order or interleaved, naming the file line.
+        A missing column, a bad number, a section number that is not an integer, or a
+        section whose rows do not stand together, naming the file line.
     """
     lines = _read_lines(path)
     first_no, first = lines[0]
-    delimiter = "," if "," in first else None
+    delimiter = _delimiter(first)
     lowered = [h.strip().lower() for h in _split(first, delimiter)]
     missing = [c for c in ("section", *_AXES) if c not in lowered]
     if missing:
@@ -136,14 +144,27 @@ def read_sections(path: str | Path) -> list[NDArray[np.float64]]:
         i = int(np.argmax(bad))
         raise DataFileError(f"section number {ids[i]!r} is not an integer", path=str(path),
                             line=line_numbers[i])
-    back = np.diff(ids) < 0
-    if back.any():
-        i = int(np.argmax(back)) + 1
-        raise DataFileError(
-            f"section {int(ids[i])} comes after section {int(ids[i - 1])}: rows must be "
-            "grouped by section in increasing order", path=str(path), line=line_numbers[i])
     starts = np.flatnonzero(np.diff(ids)) + 1
-    return [chunk[:, 1:] for chunk in np.split(table, starts)]
+    first_ids = ids[np.r_[0, starts]]
+    seen: dict[float, int] = {}
+    for k, value in enumerate(first_ids):
+        if value in seen:
+            i = int(starts[k - 1])
+            raise DataFileError(
+                f"section {int(value)} comes again after section {int(ids[i - 1])} (its "
+                f"rows began on line {line_numbers[seen[value]]}): a section's rows must "
+                "stand together", path=str(path), line=line_numbers[i])
+        seen[value] = 0 if k == 0 else int(starts[k - 1])
+    chunks = np.split(table, starts)
+    # hub to tip by section number, however the file lists them
+    return [chunks[k][:, 1:] for k in np.argsort(first_ids, kind="stable")]
+
+
+def _delimiter(first_line: str) -> str | None:
+    """The separator the first line uses: ``,``, else ``;``, else whitespace (None)."""
+    if "," in first_line:
+        return ","
+    return ";" if ";" in first_line else None
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:

@@ -220,8 +220,41 @@ def test_blade_csv_missing_column_and_disorder(tmp_path):
     with pytest.raises(DataFileError, match=r"lacks column.*z"):
         toolpath.read_sections(path)
     path.write_text("section,x,y,z\n0,1,2,3\n1,1,2,4\n0,1,2,5\n", encoding="utf-8")
-    with pytest.raises(DataFileError, match=r"csv:4: section 0 comes after section 1"):
+    with pytest.raises(DataFileError, match=r"csv:4: section 0 comes again after section 1 "
+                                            r"\(its rows began on line 2\)"):
         toolpath.read_sections(path)
+
+
+def test_blade_csv_as_spreadsheets_and_other_tools_write_it(tmp_path):
+    # the same two sections written as a spreadsheet in a decimal-comma locale writes
+    # them (";" between fields), with a UTF-8 byte order mark, tab-separated, and listed
+    # tip first: each reads as the plain file does
+    rows = [(0, 1.5, 2.25, 3.0), (0, 1.75, 2.5, 3.0), (0, 2.0, 2.5, 3.0),
+            (1, 1.5, 2.25, 4.0), (1, 1.75, 2.5, 4.0), (1, 2.0, 2.5, 4.0)]
+    plain = tmp_path / "plain.csv"
+    plain.write_text("section,x,y,z\n" + "".join(f"{k},{x},{y},{z}\n" for k, x, y, z in rows),
+                     encoding="utf-8")
+    expected = toolpath.read_sections(plain)
+    assert [len(p) for p in expected] == [3, 3] and expected[1][0, 2] == 4.0
+    variants = {
+        "semicolons.csv": ("section;x;y;z\n" + "".join(
+            f"{k};{x};{y};{z}\n".replace(".", ",") for k, x, y, z in rows), "utf-8"),
+        "bom.csv": ("section,x,y,z\r\n" + "".join(
+            f"{k},{x},{y},{z}\r\n" for k, x, y, z in rows), "utf-8-sig"),
+        "tabs.csv": ("section\tx\ty\tz\n" + "".join(
+            f"{k}\t{x}\t{y}\t{z}\n" for k, x, y, z in rows), "utf-8"),
+        "tip_first.csv": ("section,x,y,z\n" + "".join(
+            f"{k},{x},{y},{z}\n" for k, x, y, z in rows[3:] + rows[:3]), "utf-8"),
+    }
+    for name, (text, encoding) in variants.items():
+        path = tmp_path / name
+        path.write_text(text, encoding=encoding)
+        got = toolpath.read_sections(path)
+        assert len(got) == 2, name
+        assert all(np.array_equal(a, b) for a, b in zip(got, expected, strict=True)), name
+    curve = tmp_path / "curve.csv"
+    curve.write_text("x;y\n1,5;2,25\n1,75;2,5\n", encoding="utf-8-sig")
+    assert toolpath.read_points(curve).tolist() == [[1.5, 2.25], [1.75, 2.5]]
 
 
 def test_surface_derivative_orders_are_checked(blade):
