@@ -12,6 +12,7 @@ from numpy.typing import NDArray
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.fit_methods import CURVE_METHODS, LINEAR_MODELS, SURFACE_METHODS
+from toolpath.scatter import SMOOTH_TOL_PER_SIGMA, sections_scatter_mm
 
 __all__ = [
     "CURVE_METHODS",
@@ -20,6 +21,7 @@ __all__ = [
     "SurfaceFitReport",
     "fit_curve_by_method",
     "fit_surface_by_method",
+    "smoothing_advice",
 ]
 
 @dataclass(frozen=True)
@@ -188,6 +190,18 @@ class SurfaceFitReport:
     between_data_section: int | None = None
     between_data_t: float | None = None
     between_data_basis: str = BETWEEN_DATA_BASIS
+    #: How far the points scatter about smooth curves through them, mm (the median of
+    #: the sections' σ, :func:`toolpath.scatter.sections_scatter_mm`).
+    scatter_mm: float = 0.0
+
+    @property
+    def follows_scatter(self) -> bool:
+        """Whether the tolerance is so tight that the fit follows the points' scatter."""
+        return self.tol_mm < SMOOTH_TOL_PER_SIGMA * self.scatter_mm
+
+    def smoothing_advice(self, flag: str | None = None) -> str:
+        """What the scatter does to a fit within the tolerance (:func:`smoothing_advice`)."""
+        return smoothing_advice(self.scatter_mm, self.tol_mm, flag)
 
     @property
     def within_tol(self) -> bool:
@@ -197,7 +211,7 @@ class SurfaceFitReport:
     def as_dict(self) -> dict[str, Any]:
         """JSON-ready form."""
         return {**self.__dict__, "n_control_points": list(self.n_control_points),
-                "within_tol": self.within_tol}
+                "within_tol": self.within_tol, "follows_scatter": self.follows_scatter}
 
     def lines(self) -> list[str]:
         """Human-readable report lines."""
@@ -216,6 +230,8 @@ class SurfaceFitReport:
             f"between sections  {self.between_sections_mm:.6f} mm ({self.between_sections_basis})",
             *_between_data_lines(self.between_data_mm, self.between_data_section,
                                  self.between_data_t, self.between_data_basis),
+            f"scatter           {self.scatter_mm:.4f} mm (the points about smooth curves "
+            "through them, median of the sections)",
             f"time              {self.seconds:.3f} s",
         ]
         out.extend(_fairness_lines(self.fairness))
@@ -261,6 +277,8 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
     if grid.n_sections < WINDOW:
         notes.append(_few_sections_note(grid.n_sections, surface.loo_error, WINDOW))
     between_data, data_section, data_t = surface_between_data(surface, grid)
+    scatter = sections_scatter_mm([p[keep] for p, keep in zip(grid.points, grid.data_mask,
+                                                              strict=True)])
     report = SurfaceFitReport(
         method=method, n_sections=len(surface.s_params), points_per_section=max(counts),
         closed=surface.closed_t, n_control_points=surface.n_control_points,
@@ -268,5 +286,28 @@ def fit_surface_by_method(sections: Any, *, method: str, tol: float, closed: boo
         between_sections_mm=surface.between_error, tol_mm=tol, seconds=seconds, notes=notes,
         fairness=fairness.as_dict(), section_point_counts=counts,
         leave_one_out_mm=surface.loo_error, between_data_mm=between_data,
-        between_data_section=data_section, between_data_t=data_t)
+        between_data_section=data_section, between_data_t=data_t, scatter_mm=scatter)
+    if report.follows_scatter:
+        notes.append("scatter: " + report.smoothing_advice())
     return surface, report
+
+
+def smoothing_advice(scatter_mm: float, tol_mm: float, flag: str | None = None) -> str:
+    """What a scatter of ``scatter_mm`` does to a fit within ``tol_mm``, and the cure.
+
+    Told with ``flag`` (``--fit-tol``, ``--tol``) when given, else in plain words.
+    """
+    smooth_mm = _round_up(SMOOTH_TOL_PER_SIGMA * scatter_mm)
+    asked, advised = ((f"{tol_mm:g} mm", f"a tolerance of {smooth_mm:g} mm") if flag is None
+                      else (f"{flag} {tol_mm:g}", f"{flag} {smooth_mm:g}"))
+    return (f"the points scatter {scatter_mm:.4f} mm about smooth curves through them, and "
+            f"a fit within {asked} follows that scatter (its edges and noses ripple): "
+            f"{advised} or more smooths it")
+
+
+def _round_up(value_mm: float) -> float:
+    """``value_mm`` rounded up to two significant figures (a tolerance to type)."""
+    if value_mm <= 0.0:
+        return 0.0
+    step = 10.0 ** (np.floor(np.log10(value_mm)) - 1)
+    return float(np.ceil(value_mm / step - 1e-9) * step)

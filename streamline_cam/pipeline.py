@@ -33,7 +33,7 @@ from toolpath.errors import FitError, InvalidParameterError, ToleranceNotReached
 from toolpath.joint_refine import known_joints
 from toolpath.path import MoveKind
 from toolpath.placement import place_points, translated_surface
-from toolpath.planning.errors import PlanTravelLimitError
+from toolpath.planning.errors import GougeError, PlanTravelLimitError
 from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
 
@@ -482,14 +482,23 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     attempts = []
     plans = []  # (path, report, scallop and chord asked) of each attempt
     for _ in range(1 + REPLANS):
-        path, plan_report = plan_finishing(
-            surface, request.cutter, scallop_mm=scallop_mm, chord_tol_mm=chord_mm,
-            axis_mode=request.axis_mode,
-            lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
-            tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
-            linking=request.linking, machine=machine,
-            **({"progress": lambda _name, fraction: report_progress("plan", fraction),
-                "on_limit": "report"} | request.planning_options))
+        try:
+            path, plan_report = plan_finishing(
+                surface, request.cutter, scallop_mm=scallop_mm, chord_tol_mm=chord_mm,
+                axis_mode=request.axis_mode,
+                lead_deg=request.lead_deg if request.axis_mode != "3" else 0.0,
+                tilt_deg=request.tilt_deg if request.axis_mode != "3" else 0.0,
+                linking=request.linking, machine=machine,
+                **({"progress": lambda _name, fraction: report_progress("plan", fraction),
+                    "on_limit": "report"} | request.planning_options))
+        except GougeError as exc:
+            if not fit_report.follows_scatter:
+                raise
+            # (a fit following the points' scatter ripples, and the cutter gouges there:
+            # the cause to tell first; a service reads the flag as its field)
+            raise GougeError(f"{exc}; {fit_report.smoothing_advice('--fit-tol')}",
+                             pass_index=exc.pass_index, point_index=exc.point_index,
+                             t=exc.t, s=exc.s, depth_mm=exc.depth_mm) from None
         attempts.append({"scallop_mm": scallop_mm, "chord_tol_mm": chord_mm,
                          "measured_scallop_mm": plan_report.max_scallop_mm,
                          "judged_scallop_mm": _judged_scallop_mm(plan_report),

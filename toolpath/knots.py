@@ -30,6 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
+from .scatter import point_wobble_mm
 from .splinefit import (
     DEGREE,
     admissible_knots,
@@ -194,24 +195,15 @@ def detect_corners(points: NDArray[np.float64], t: NDArray[np.float64], *,
 
 
 def _scatter_turns(points: NDArray[np.float64], steps: NDArray[np.float64], count: int
-                  ) -> NDArray[np.float64]:
+                   ) -> NDArray[np.float64]:
     """What the points' scatter may turn each of the first ``count`` samples (rad).
 
-    ``r_i = p_i − (b p_{i−1} + a p_{i+1}) / (a + b)`` is each sample's offset from the chord
-    of its neighbours (``a``, ``b`` the steps before and after); on a smooth curve it
-    follows the curvature from sample to sample, so its second difference
-    ``e_i = r_i − (r_{i−1} + r_{i+1}) / 2`` is what scatter adds (~0 on exact points). Its
-    lower quartile ``w`` (mm) is about 1.6 σ for a scatter σ on every coordinate (3-D),
-    and a sample between steps ``a`` and ``b`` is turned by up to about ``w (1/a + 1/b)``.
+    A sample between steps ``a`` and ``b`` is turned by up to about ``w (1/a + 1/b)``, ``w``
+    the points' wobble (:func:`toolpath.scatter.point_wobble_mm`, ~0 on exact points).
     ``steps[k]`` runs from sample ``k`` to ``k + 1``; turn ``k`` sits between steps ``k``
     and ``k + 1`` (round the loop where ``count`` reaches the last).
     """
-    if steps.size < 4:
-        return np.zeros(count)
-    before, after = steps[:-1, None], steps[1:, None]
-    offset = points[1:-1] - (after * points[:-2] + before * points[2:]) / (before + after)
-    wobble = np.linalg.norm(offset[1:-1] - 0.5 * (offset[:-2] + offset[2:]), axis=1)
-    wobble_mm = float(np.percentile(wobble, 25.0))
+    wobble_mm = point_wobble_mm(points, steps)
     k = np.arange(count)
     return wobble_mm * (1.0 / steps[k % steps.size] + 1.0 / steps[(k + 1) % steps.size])
 

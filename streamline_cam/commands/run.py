@@ -62,6 +62,13 @@ def request_from_args(points: Path, args: argparse.Namespace) -> JobRequest:
         | ({} if args.extend is None else {"extend_mm": args.extend}))
 
 
+def _scatter_advice(fit: dict) -> str:
+    """The fit report's advice on scattered points, told with ``--fit-tol``."""
+    from ..fit_report import smoothing_advice
+
+    return smoothing_advice(fit["scatter_mm"], fit["tol_mm"], "--fit-tol")
+
+
 def report_lines(report: dict) -> list[str]:
     """The final report, one figure per line."""
     fit, plan, program, check = report["fit"], report["plan"], report["program"], report["check"]
@@ -72,6 +79,7 @@ def report_lines(report: dict) -> list[str]:
         + (f", between data {fit['between_data_mm']:.4f}"
            if fit.get("between_data_mm") is not None else "") + ")",
         *([f"fairness   {fit['fairness']['summary']}"] if fit.get("fairness") else []),
+        *([f"scatter    {_scatter_advice(fit)}"] if fit.get("follows_scatter") else []),
         f"plan       {plan['n_passes']} passes, {plan['n_points']} points, scallop "
         f"{_plan_scallop(plan)} (asked {plan['scallop_request_mm']}), chord "
         f"{plan['max_chord_error_mm']:.4f} mm (asked {plan['chord_tol_mm']}), unreachable "

@@ -110,3 +110,43 @@ def test_a_tolerance_the_fit_cannot_reach_names_the_flag_and_a_value_to_give(tmp
     with pytest.raises(FitError) as raised:
         run_job(JobRequest(sections_path=path, fit_tol_mm=1e-5), tmp_path / "service-job")
     assert "the fit cannot reach fit_tol_mm 1e-05 mm" in as_job_fields(str(raised.value))
+
+
+def _scattered_blade(tmp_path, sigma_mm=0.003):
+    """The bundled blade's sections with ``sigma_mm`` of scatter on every coordinate."""
+    from toolpath import read_sections
+
+    rng = np.random.default_rng(0)
+    path = tmp_path / "scattered.csv"
+    with path.open("w") as out:
+        out.write("section,x,y,z\n")
+        for j, section in enumerate(read_sections(bundled_data_path("dev_blade_15x142.csv"))):
+            for x, y, z in section + rng.normal(0.0, sigma_mm, section.shape):
+                out.write(f"{j},{x:.6f},{y:.6f},{z:.6f}\n")
+    return path
+
+
+def test_scattered_points_are_told_with_the_tolerance_that_smooths_them(tmp_path, capsys):
+    # 3 um of scatter: within 0.01 mm (3.4 sigma) the fit takes in the farthest points and
+    # ripples at the blade's open edge, where a 6 mm ball then gouged 0.45 mm. The fit
+    # report says how far the points scatter and what tolerance smooths them; the job's
+    # gouge error says it with --fit-tol (a service: fit_tol_mm); exact points say nothing
+    path = _scattered_blade(tmp_path)
+    assert main(["fit", "surface", str(path), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert 0.0025 < report["scatter_mm"] < 0.0035 and report["follows_scatter"]
+    note = [n for n in report["notes"] if n.startswith("scatter: ")]
+    assert len(note) == 1 and "a fit within 0.01 mm follows that scatter" in note[0]
+    advised = float(note[0].split("a tolerance of ")[1].split()[0])
+    assert 0.015 <= advised <= 0.021  # 6 sigma, rounded up
+    assert main(["fit", "surface", str(bundled_data_path("dev_blade_15x142.csv")),
+                 "--json"]) == 0
+    exact = json.loads(capsys.readouterr().out)
+    assert exact["scatter_mm"] < 1e-4 and not exact["follows_scatter"]
+    assert not any(n.startswith("scatter: ") for n in exact["notes"])
+    # the whole job stops on the ripple's gouge, naming the cause and the cure
+    assert main(["run", str(path), "--machine", "trunnion-ac", "--axis", "lead-tilt",
+                 "--lead", "10", "--quiet", "-o", str(tmp_path / "job" / "part.nc")]) == 2
+    err = capsys.readouterr().err
+    assert "would cut" in err and "a fit within --fit-tol 0.01 follows that scatter" in err
+    assert f"--fit-tol {advised:g} or more smooths it" in err
