@@ -19,7 +19,10 @@ the open polygon and ``θ_a``, ``θ_b`` the turning angles at the two ends of th
     steps (a point or two missing at most), and
   * ``g <= GAP_LENGTH_FRACTION · L``: the ends nearly meet on the scale of the contour, and
   * the step is **not a blunt base**: a flat edge between two corners turns about 90° at
-    both of its ends (``min(θ_a, θ_b) >= BLUNT_TURN_DEG``); a smooth contour continues
+    both of its ends (``min(θ_a, θ_b) >= BLUNT_TURN_DEG``, and each turn beyond
+    :data:`~toolpath.knots.SCATTER_CONTRAST` times what the points' scatter may turn it,
+    :func:`~toolpath.scatter.scatter_turn_rad`: 3 um of scatter turned the DCA rotor's
+    closing steps of 17 um by 50-62 deg); a smooth contour continues
     through both ends (both turns small), and a sharp edge sampled at the seam turns at
     one end only. A step turning sharply at both ends but much shorter than its
     neighbours (``g < EDGE_STEP_FRACTION · h_min``) is the tip of a sharp edge falling
@@ -43,6 +46,9 @@ from dataclasses import dataclass
 
 import numpy as np
 from numpy.typing import NDArray
+
+from .knots import SCATTER_CONTRAST
+from .scatter import point_wobble_mm, scatter_turn_rad
 
 __all__ = [
     "BLUNT_TURN_DEG",
@@ -136,7 +142,13 @@ def read_seam(points: NDArray[np.float64]) -> Seam:
         return Seam(**base, closed=False, reason=(
             f"the ends are {gap:.4g} mm apart, {100 * gap / length:.3g}% of the contour's "
             f"length (at most {100 * GAP_LENGTH_FRACTION:g}% closes)"))
-    if min(turns) >= BLUNT_TURN_DEG and gap >= EDGE_STEP_FRACTION * h_min:
+    # what the points' scatter may turn each end (3 um turns steps of 20 um by tens of
+    # degrees) is no evidence of a base's corners
+    wobble = point_wobble_mm(p, steps)
+    scatter_deg = np.degrees(SCATTER_CONTRAST * scatter_turn_rad(wobble, [last, gap],
+                                                                  [gap, first]))
+    least = np.maximum(BLUNT_TURN_DEG, scatter_deg)
+    if all(np.asarray(turns) >= least) and gap >= EDGE_STEP_FRACTION * h_min:
         return Seam(**base, closed=False, reason=(
             f"the {gap:.4g} mm from the last point to the first turns {turns[0]:.1f} and "
             f"{turns[1]:.1f} deg at its ends: a blunt edge, not a closing step"))

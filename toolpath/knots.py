@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import NDArray
 
-from .scatter import point_wobble_mm
+from .scatter import point_wobble_mm, scatter_turn_rad
 from .splinefit import (
     DEGREE,
     admissible_knots,
@@ -198,14 +198,14 @@ def _scatter_turns(points: NDArray[np.float64], steps: NDArray[np.float64], coun
                    ) -> NDArray[np.float64]:
     """What the points' scatter may turn each of the first ``count`` samples (rad).
 
-    A sample between steps ``a`` and ``b`` is turned by up to about ``w (1/a + 1/b)``, ``w``
-    the points' wobble (:func:`toolpath.scatter.point_wobble_mm`, ~0 on exact points).
+    (:func:`toolpath.scatter.scatter_turn_rad` of the points' wobble,
+    :func:`toolpath.scatter.point_wobble_mm`, ~0 on exact points.)
     ``steps[k]`` runs from sample ``k`` to ``k + 1``; turn ``k`` sits between steps ``k``
     and ``k + 1`` (round the loop where ``count`` reaches the last).
     """
-    wobble_mm = point_wobble_mm(points, steps)
     k = np.arange(count)
-    return wobble_mm * (1.0 / steps[k % steps.size] + 1.0 / steps[(k + 1) % steps.size])
+    return scatter_turn_rad(point_wobble_mm(points, steps), steps[k % steps.size],
+                            steps[(k + 1) % steps.size])
 
 
 def seam_multiplicity(closed_points: NDArray[np.float64], corner_angle_deg: float | None
