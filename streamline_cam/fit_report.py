@@ -12,7 +12,7 @@ from numpy.typing import NDArray
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.fit_methods import CURVE_METHODS, LINEAR_MODELS, SURFACE_METHODS
-from toolpath.scatter import SMOOTH_TOL_PER_SIGMA, sections_scatter_mm
+from toolpath.scatter import SMOOTH_TOL_PER_SIGMA, point_scatter_mm, sections_scatter_mm
 
 __all__ = [
     "CURVE_METHODS",
@@ -47,6 +47,9 @@ class CurveFitReport:
     between_data_mm: float | None = None
     between_data_t: float | None = None
     between_data_basis: str | None = None
+    #: How far the points scatter about a smooth curve through them, mm
+    #: (:func:`toolpath.scatter.point_scatter_mm`).
+    scatter_mm: float = 0.0
 
     @property
     def within_tol(self) -> bool:
@@ -70,6 +73,8 @@ class CurveFitReport:
             f"rms error         {self.rms_error_mm:.6f} mm",
             *_between_data_lines(self.between_data_mm, None, self.between_data_t,
                                  self.between_data_basis),
+            f"scatter           {self.scatter_mm:.4f} mm (the points about a smooth curve "
+            "through them)",
             f"time              {self.seconds:.3f} s",
         ]
         for name, matrix in (("T", self.T), ("A", self.A)):
@@ -120,6 +125,9 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
     if method not in LINEAR_MODELS:
         extra.update(_curve_between_data(curve, points))
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
+    extra["scatter_mm"] = point_scatter_mm(np.asarray(points, dtype=float))
+    if method not in LINEAR_MODELS and tol < SMOOTH_TOL_PER_SIGMA * extra["scatter_mm"]:
+        extra["notes"].append("scatter: " + smoothing_advice(extra["scatter_mm"], tol))
     report = CurveFitReport(method=method, n_points=len(points),
                             closed=is_closed,
                             n_control_points=curve.n_control_points,

@@ -4,10 +4,13 @@ Each sample's offset from the chord of its neighbours,
 ``r_i = p_i − (b p_{i−1} + a p_{i+1}) / (a + b)`` (``a``, ``b`` the steps before and after),
 follows a smooth curve's curvature from sample to sample, so its second difference
 ``e_i = r_i − (r_{i−1} + r_{i+1}) / 2`` is what scatter adds: ~0 on exact points, however
-unevenly spaced. The lower quartile of ``|e_i|`` (the **wobble**) is about
-:data:`WOBBLE_PER_SIGMA` times a Gaussian scatter σ on every coordinate (3-D; the share
-along the chord moves the interpolation's weights, not the offset), and the quartile keeps
-a few sharp features (a corner, a nose's ends) out of it.
+unevenly spaced. For a Gaussian scatter σ on every coordinate each component of ``e``
+across the curve spreads ``√(35/8) σ`` (evenly spaced: ``1.5 p_i − (p_{i−1} + p_{i+1}) +
+(p_{i−2} + p_{i+2}) / 4``; the share along the chord moves the interpolation's weights, not
+the offset), so the lower quartile of ``|e_i|`` (the **wobble**) is ``√(35/8) σ`` times the
+lower quartile of a chi distribution with ``d − 1`` degrees of freedom
+(:func:`wobble_per_sigma`: 1.59 in 3-D, 0.67 in 2-D); the quartile keeps a few sharp
+features (a corner, a nose's ends) out of it.
 
 On the bundled blades the estimate of σ is at most 0.00006 mm (exact points written with 6
 decimals); with 1, 2 and 3 um of scatter added the median over the sections reads 0.9-1.2,
@@ -28,12 +31,9 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SMOOTH_TOL_PER_SIGMA", "WOBBLE_PER_SIGMA", "point_scatter_mm",
-           "point_wobble_mm", "scatter_turn_rad", "sections_scatter_mm"]
+__all__ = ["SMOOTH_TOL_PER_SIGMA", "point_scatter_mm", "point_wobble_mm", "scatter_turn_rad",
+           "sections_scatter_mm", "wobble_per_sigma"]
 
-#: The wobble (lower quartile of ``|e_i|``) per unit of Gaussian scatter σ (3-D), measured
-#: on a gently bent curve sampled 25 um apart with 3 um of scatter: 1.62.
-WOBBLE_PER_SIGMA = 1.6
 #: A fit tolerance below this many σ of scatter makes the fit follow the scatter (the
 #: bundled blades with 3 um of scatter, ``toolpath run`` 5-axis: the blade and the blunt
 #: rotor ran from 5 σ, the propeller gouged at its seam at 5.1 σ and ran at 6.1 σ).
@@ -69,9 +69,17 @@ def scatter_turn_rad(wobble_mm: float, before_mm: ArrayLike, after_mm: ArrayLike
     return wobble_mm * (1.0 / before + 1.0 / after)
 
 
+def wobble_per_sigma(dimensions: int) -> float:
+    """The wobble per unit of Gaussian scatter σ of points in ``dimensions`` (>= 2)."""
+    from scipy.stats import chi
+
+    return float(np.sqrt(35.0 / 8.0) * chi.ppf(0.25, dimensions - 1))
+
+
 def point_scatter_mm(points: NDArray[np.float64]) -> float:
-    """The scatter σ of ordered points ``(n, 3)`` about a smooth curve through them, mm."""
-    return point_wobble_mm(points) / WOBBLE_PER_SIGMA
+    """The scatter σ of ordered points ``(n, d)`` about a smooth curve through them, mm."""
+    points = np.asarray(points, dtype=float)
+    return point_wobble_mm(points) / wobble_per_sigma(points.shape[1])
 
 
 def sections_scatter_mm(sections: Sequence[NDArray[np.float64]]) -> float:

@@ -150,3 +150,19 @@ def test_scattered_points_are_told_with_the_tolerance_that_smooths_them(tmp_path
     err = capsys.readouterr().err
     assert "would cut" in err and "a fit within --fit-tol 0.01 follows that scatter" in err
     assert f"--fit-tol {advised:g} or more smooths it" in err
+
+
+def test_a_curve_fit_reports_the_points_scatter(tmp_path, capsys):
+    points = np.loadtxt(bundled_data_path("dev_half_profile_71.csv"), delimiter=",",
+                        skiprows=1)
+    assert main(["fit", "curve", str(bundled_data_path("dev_half_profile_71.csv")),
+                 "--json"]) == 0
+    assert json.loads(capsys.readouterr().out)["scatter_mm"] < 1e-4
+    noisy = tmp_path / "noisy.csv"
+    rng = np.random.default_rng(3)
+    np.savetxt(noisy, points + rng.normal(0.0, 0.003, points.shape), delimiter=",",
+               header="x,y,z", comments="", fmt="%.6f")
+    assert main(["fit", "curve", str(noisy), "--json"]) == 0
+    report = json.loads(capsys.readouterr().out)
+    assert 0.002 < report["scatter_mm"] < 0.0045
+    assert any(n.startswith("scatter: the points scatter") for n in report["notes"])
