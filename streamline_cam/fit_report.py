@@ -12,7 +12,12 @@ from numpy.typing import NDArray
 from toolpath.errors import InvalidParameterError
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.fit_methods import CURVE_METHODS, LINEAR_MODELS, SURFACE_METHODS
-from toolpath.scatter import SMOOTH_TOL_PER_SIGMA, point_scatter_mm, sections_scatter_mm
+from toolpath.scatter import (
+    SMOOTH_TOL_PER_SIGMA,
+    follows_scatter,
+    point_scatter_mm,
+    sections_scatter_mm,
+)
 
 __all__ = [
     "CURVE_METHODS",
@@ -126,7 +131,7 @@ def fit_curve_by_method(points: NDArray[np.float64], *, method: str, tol: float,
         extra.update(_curve_between_data(curve, points))
     extra["notes"] = [*extra.get("notes", []), *fairness.warnings(tol)]
     extra["scatter_mm"] = point_scatter_mm(np.asarray(points, dtype=float))
-    if method not in LINEAR_MODELS and tol < SMOOTH_TOL_PER_SIGMA * extra["scatter_mm"]:
+    if method not in LINEAR_MODELS and follows_scatter(tol, extra["scatter_mm"]):
         extra["notes"].append("scatter: " + smoothing_advice(extra["scatter_mm"], tol))
     report = CurveFitReport(method=method, n_points=len(points),
                             closed=is_closed,
@@ -205,7 +210,7 @@ class SurfaceFitReport:
     @property
     def follows_scatter(self) -> bool:
         """Whether the tolerance is so tight that the fit follows the points' scatter."""
-        return self.tol_mm < SMOOTH_TOL_PER_SIGMA * self.scatter_mm
+        return follows_scatter(self.tol_mm, self.scatter_mm)
 
     def smoothing_advice(self, flag: str | None = None) -> str:
         """What the scatter does to a fit within the tolerance (:func:`smoothing_advice`)."""

@@ -495,7 +495,8 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
             if not fit_report.follows_scatter:
                 raise
             # (a fit following the points' scatter ripples, and the cutter gouges there:
-            # the cause to tell first; a service reads the flag as its field)
+            # the likely cause, told after the gouge's place; a service reads the flag as
+            # its field)
             raise GougeError(f"{exc}; {fit_report.smoothing_advice('--fit-tol')}",
                              pass_index=exc.pass_index, point_index=exc.point_index,
                              t=exc.t, s=exc.s, depth_mm=exc.depth_mm) from None

@@ -1,6 +1,6 @@
 """Reading point files: CSV with a header (``x,y[,z]``) or whitespace-separated columns.
 
-The field separator is read from the first line: a comma, else a semicolon, else
+The field separator is read from the first line: a semicolon, else a comma, else
 whitespace. Spreadsheets in locales whose decimal mark is a comma write ``;``-separated
 files with numbers like ``143,900063``: with ``;`` a decimal comma is read as a point.
 A UTF-8 byte order mark (spreadsheets' "CSV UTF-8") is skipped.
@@ -93,7 +93,7 @@ def read_points(path: str | Path) -> NDArray[np.float64]:
     first_no, first = lines[0]
     delimiter = _delimiter(first)
     head = _split(first, delimiter)
-    if any(_is_word(f) for f in head):
+    if any(_is_word(f.replace(",", ".") if delimiter == ";" else f) for f in head):
         lowered = [h.strip().lower() for h in head]
         if "x" not in lowered or "y" not in lowered:
             raise DataFileError(
@@ -161,10 +161,13 @@ def read_sections(path: str | Path) -> list[NDArray[np.float64]]:
 
 
 def _delimiter(first_line: str) -> str | None:
-    """The separator the first line uses: ``,``, else ``;``, else whitespace (None)."""
-    if "," in first_line:
-        return ","
-    return ";" if ";" in first_line else None
+    """The separator the first line uses: ``;``, else ``,``, else whitespace (None).
+
+    (A semicolon first: beside it a comma is a decimal mark, ``1,5;2,25``.)
+    """
+    if ";" in first_line:
+        return ";"
+    return "," if "," in first_line else None
 
 
 def _split(line: str, delimiter: str | None) -> list[str]:

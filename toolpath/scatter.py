@@ -31,13 +31,18 @@ from collections.abc import Sequence
 import numpy as np
 from numpy.typing import ArrayLike, NDArray
 
-__all__ = ["SMOOTH_TOL_PER_SIGMA", "point_scatter_mm", "point_wobble_mm", "scatter_turn_rad",
-           "sections_scatter_mm", "wobble_per_sigma"]
+__all__ = ["SMOOTH_TOL_PER_SIGMA", "follows_scatter", "point_scatter_mm", "point_wobble_mm",
+           "scatter_turn_rad", "sections_scatter_mm", "wobble_per_sigma"]
 
 #: A fit tolerance below this many σ of scatter makes the fit follow the scatter (the
 #: bundled blades with 3 um of scatter, ``toolpath run`` 5-axis: the blade and the blunt
 #: rotor ran from 5 σ, the propeller gouged at its seam at 5.1 σ and ran at 6.1 σ).
 SMOOTH_TOL_PER_SIGMA = 6.0
+
+
+def follows_scatter(tol_mm: float, scatter_mm: float) -> bool:
+    """Whether a fit within ``tol_mm`` follows points scattering ``scatter_mm`` (σ)."""
+    return tol_mm < SMOOTH_TOL_PER_SIGMA * scatter_mm
 
 
 def point_wobble_mm(points: NDArray[np.float64],

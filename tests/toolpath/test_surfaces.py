@@ -255,6 +255,8 @@ def test_blade_csv_as_spreadsheets_and_other_tools_write_it(tmp_path):
     curve = tmp_path / "curve.csv"
     curve.write_text("x;y\n1,5;2,25\n1,75;2,5\n", encoding="utf-8-sig")
     assert toolpath.read_points(curve).tolist() == [[1.5, 2.25], [1.75, 2.5]]
+    curve.write_text("1,5;2,25\n1,75;2,5\n", encoding="utf-8")  # no header
+    assert toolpath.read_points(curve).tolist() == [[1.5, 2.25], [1.75, 2.5]]
 
 
 def test_surface_derivative_orders_are_checked(blade):
