@@ -11,7 +11,8 @@ from __future__ import annotations
 
 from typing import Any
 
-__all__ = ["report_verdict", "verdict_summary", "verify_excess", "verify_verdict"]
+__all__ = ["plan_excess", "report_verdict", "verdict_summary", "verify_excess",
+           "verify_verdict"]
 
 
 def verify_verdict(report: dict[str, Any]) -> dict[str, Any] | None:
@@ -62,3 +63,30 @@ def verdict_summary(verdict: dict[str, Any]) -> str:
     return (f"verified: deepest gouge {verdict['gouge_mm']:.4f} mm within the chord tolerance "
             f"{verdict['chord_tol_mm']:g} mm, scallop {verdict['scallop_mm']:.4f} mm within the "
             f"{verdict['scallop_request_mm']:g} mm asked")
+
+
+def plan_excess(report: dict[str, Any]) -> str | None:
+    """What the plan's own measurement found beyond the request, in one line; None if nothing.
+
+    For a job not verified: the plan's scallop away from uncut areas (where a re-plan can
+    lower it; the largest where there is no such figure) against the user's scallop, its
+    chord error against the chord tolerance, as ``toolpath plan`` judges its exit code.
+    A job may keep a plan over the request: re-planned tighter, the nearest was kept, or
+    the excess was too large to re-plan (the propeller with flat:6 in 5 axes, scallop
+    0.01 mm: 0.0152 mm at its leading edge).
+    """
+    plan, request = report.get("plan") or {}, report.get("request") or {}
+    over = []
+    scallop = plan.get("scallop_interior_mm")
+    scallop = plan.get("max_scallop_mm") if scallop is None else scallop
+    asked = request.get("scallop_mm", plan.get("scallop_request_mm"))
+    if scallop is not None and asked is not None and scallop > asked:
+        at = plan.get("scallop_at")
+        over.append(f"scallop {scallop:.4f} mm exceeds the {asked:g} mm asked (--scallop)"
+                    + (f" at t={at[0]:.4f}, s={at[1]:.4f}" if at else ""))
+    chord = plan.get("max_chord_error_mm")
+    tol = request.get("chord_tol_mm", plan.get("chord_tol_mm"))
+    if chord is not None and tol is not None and chord > tol:
+        over.append(f"chord error {chord:.4f} mm exceeds the chord tolerance {tol:g} mm "
+                    "(--chord-tol)")
+    return "; ".join(over) or None

@@ -175,6 +175,45 @@ def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
         assert "verify failed" not in err
 
 
+@pytest.mark.parametrize(("plan_fields", "exceeded"), [
+    ({}, None),
+    # kept over the request (the propeller with flat:6 in 5 axes, scallop 0.01 mm, read
+    # 0.0152 mm at its leading edge, too far over to re-plan): it exited 0 unverified
+    ({"max_scallop_mm": 0.0304, "scallop_interior_mm": 0.0304, "scallop_at": [0.5042, 0.242]},
+     "scallop 0.0304 mm exceeds the 0.02 mm asked (--scallop) at t=0.5042, s=0.2420"),
+    # beside an uncut area only: the figure away from it is what a job is held to
+    ({"max_scallop_mm": 0.0304, "scallop_interior_mm": 0.0195}, None),
+    ({"max_chord_error_mm": 0.0123},
+     "chord error 0.0123 mm exceeds the chord tolerance 0.01 mm (--chord-tol)"),
+])
+def test_run_fails_when_the_plan_measures_beyond_the_request(
+        tmp_path, monkeypatch, capsys, plan_fields, exceeded):
+    from streamline_cam import cli, pipeline
+    from streamline_cam.pipeline import JobResult
+
+    gcode = tmp_path / "part.nc"
+    gcode.write_text("G0 Z5\n")
+    report = _job_report(scallop_mm=0.0, gouge_mm=0.0)
+    del report["verify"]
+    report["plan"].update(plan_fields)
+    report["request"] = {"scallop_mm": 0.02, "chord_tol_mm": 0.01}
+
+    def finished(request, out_dir, **kwargs):
+        assert not kwargs["verify"]
+        return JobResult(report, {"gcode": gcode})
+
+    monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
+    blade = str(bundled_data_path("dev_blade_15x142.csv"))  # (run reads it before the job)
+    code = cli.main(["run", blade, "--quiet"])
+    err = capsys.readouterr().err
+    assert code == (1 if exceeded else 0)
+    assert gcode.exists()  # the outputs are kept
+    if exceeded:
+        assert err.count("\n") == 1 and exceeded in err and "--verify measures" in err
+    else:
+        assert "does not meet the request" not in err
+
+
 def test_the_plan_nearest_the_request_is_kept_when_re_plans_read_worse(tmp_path, monkeypatch):
     # a tighter request usually lowers the measured scallop, not always (dev_rotor_blunt's
     # flat:6 5-axis job measured 0.0563, 0.0503 and 0.0591 mm asked 0.05, 0.0431 and

@@ -10,7 +10,7 @@ from typing import TYPE_CHECKING
 
 from ..cli import add_closure_arguments
 from ..cli_files import CommandLineError, output_folder
-from ..verdict import verify_excess
+from ..verdict import plan_excess, verify_excess
 from .plan import add_gouge_arguments, gouge_options
 
 if TYPE_CHECKING:
@@ -262,6 +262,10 @@ def _run(args: argparse.Namespace) -> int:
     excess = verify_excess(result.report)
     if excess:
         print(f"toolpath: verify failed: {excess}; the files are kept for inspection",
+              file=sys.stderr)
+    elif "verify" not in result.report and (excess := plan_excess(result.report)):
+        print(f"toolpath: the plan's measurement does not meet the request: {excess}; the "
+              "files are kept for inspection (--verify measures the program itself)",
               file=sys.stderr)
     return 1 if failed or excess else 0
 
