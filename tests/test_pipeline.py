@@ -144,6 +144,34 @@ def _job_report(*, scallop_mm, gouge_mm):
     }
 
 
+def _run_finishing_with(report, tmp_path, monkeypatch, capsys, *flags):
+    """``toolpath run`` of a job that finishes with ``report``: (exit code, stderr, G-code)."""
+    from streamline_cam import cli, pipeline
+    from streamline_cam.pipeline import JobResult
+
+    gcode = tmp_path / "part.nc"
+    gcode.write_text("G0 Z5\n")
+
+    def finished(request, out_dir, **kwargs):
+        assert kwargs["verify"] == ("--verify" in flags)
+        return JobResult(report, {"gcode": gcode})
+
+    monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
+    blade = str(bundled_data_path("dev_blade_15x142.csv"))  # (run reads it before the job)
+    code = cli.main(["run", blade, *flags, "--quiet"])
+    return code, capsys.readouterr().err, gcode
+
+
+def _assert_kept_and_told(code, err, gcode, exceeded, told):
+    """Exit 1 and one line on stderr with ``told`` and what ``exceeded`` (None: exit 0, silent)."""
+    assert code == (1 if exceeded else 0)
+    assert gcode.exists()  # the outputs are kept
+    if exceeded:
+        assert err.count("\n") == 1 and exceeded in err and told in err
+    else:
+        assert told not in err
+
+
 @pytest.mark.parametrize(("scallop_mm", "gouge_mm", "exceeded"), [
     (0.0195, 0.0096, None),
     (0.0195, 0.0123, "deepest gouge 0.0123 mm exceeds the chord tolerance 0.01 mm "
@@ -152,27 +180,9 @@ def _job_report(*, scallop_mm, gouge_mm):
 ])
 def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
         tmp_path, monkeypatch, capsys, scallop_mm, gouge_mm, exceeded):
-    from streamline_cam import cli, pipeline
-    from streamline_cam.pipeline import JobResult
-
-    gcode = tmp_path / "part.nc"
-    gcode.write_text("G0 Z5\n")
-
-    def finished(request, out_dir, **kwargs):
-        assert kwargs["verify"]
-        return JobResult(_job_report(scallop_mm=scallop_mm, gouge_mm=gouge_mm),
-                         {"gcode": gcode})
-
-    monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
-    blade = str(bundled_data_path("dev_blade_15x142.csv"))  # (run reads it before the job)
-    code = cli.main(["run", blade, "--verify", "--quiet"])
-    err = capsys.readouterr().err
-    assert code == (1 if exceeded else 0)
-    assert gcode.exists()  # the outputs are kept
-    if exceeded:
-        assert err.count("\n") == 1 and exceeded in err and "verify failed" in err
-    else:
-        assert "verify failed" not in err
+    told = _run_finishing_with(_job_report(scallop_mm=scallop_mm, gouge_mm=gouge_mm),
+                               tmp_path, monkeypatch, capsys, "--verify")
+    _assert_kept_and_told(*told, exceeded, "verify failed")
 
 
 @pytest.mark.parametrize(("plan_fields", "exceeded"), [
@@ -188,30 +198,12 @@ def test_run_verify_fails_when_the_program_cuts_beyond_the_request(
 ])
 def test_run_fails_when_the_plan_measures_beyond_the_request(
         tmp_path, monkeypatch, capsys, plan_fields, exceeded):
-    from streamline_cam import cli, pipeline
-    from streamline_cam.pipeline import JobResult
-
-    gcode = tmp_path / "part.nc"
-    gcode.write_text("G0 Z5\n")
     report = _job_report(scallop_mm=0.0, gouge_mm=0.0)
     del report["verify"]
     report["plan"].update(plan_fields)
     report["request"] = {"scallop_mm": 0.02, "chord_tol_mm": 0.01}
-
-    def finished(request, out_dir, **kwargs):
-        assert not kwargs["verify"]
-        return JobResult(report, {"gcode": gcode})
-
-    monkeypatch.setattr(pipeline, "run_job", finished)  # run imports it when it runs
-    blade = str(bundled_data_path("dev_blade_15x142.csv"))  # (run reads it before the job)
-    code = cli.main(["run", blade, "--quiet"])
-    err = capsys.readouterr().err
-    assert code == (1 if exceeded else 0)
-    assert gcode.exists()  # the outputs are kept
-    if exceeded:
-        assert err.count("\n") == 1 and exceeded in err and "--verify measures" in err
-    else:
-        assert "does not meet the request" not in err
+    told = _run_finishing_with(report, tmp_path, monkeypatch, capsys)
+    _assert_kept_and_told(*told, exceeded, "the plan's measurement does not meet the request")
 
 
 def test_the_plan_nearest_the_request_is_kept_when_re_plans_read_worse(tmp_path, monkeypatch):
