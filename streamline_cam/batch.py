@@ -29,6 +29,7 @@ from toolpath.errors import DataFileError, InvalidParameterError
 
 from .job_task import JobOutcome, PackedJob, pack_job, write_files
 from .pipeline import JobRequest
+from .verdict import plan_excess, verify_excess
 
 __all__ = [
     "JOB_RECORD",
@@ -79,7 +80,7 @@ class BatchSummary:
 
     @property
     def all_held(self) -> bool:
-        """Every job made a program that checked clean."""
+        """Every job made a program that checked clean, its figures within the request."""
         return all(row["exit"] == 0 for row in self.rows)
 
 
@@ -161,15 +162,18 @@ def summary_row(job: BatchJob, outcome: JobOutcome | None, *, status: str,
     report = outcome.report or {}
     plan, check = report.get("plan", {}), report.get("check", {})
     verify = report.get("verify", {})
+    # as `toolpath run` exits: 1 on check errors, or figures beyond the request (the
+    # verifier's when verified, else the plan's own)
+    excess = verify_excess(report) if verify else plan_excess(report)
     return row | {
-        "exit": 1 if check.get("errors") else 0, "passes": plan.get("n_passes"),
+        "exit": 1 if check.get("errors") or excess else 0, "passes": plan.get("n_passes"),
         "points": plan.get("n_points"), "max_scallop_mm": plan.get("max_scallop_mm"),
         "scallop_above_mm": (plan.get("scallop_horizon_mm") if plan.get("scallop_above_horizon")
                              else None),
         "max_chord_error_mm": plan.get("max_chord_error_mm"),
         "verified_scallop_mm": verify.get("max_scallop_mm"),
         "verified_gouge_mm": verify.get("max_gouge_mm"), "check_errors": check.get("errors"),
-        "error": (check.get("issues") or [None])[0] if check.get("errors") else None}
+        "error": ((check.get("issues") or [None])[0] if check.get("errors") else excess)}
 
 
 def _finished_record(folder: Path, fingerprint: str) -> dict[str, Any] | None:

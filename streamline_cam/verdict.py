@@ -79,8 +79,12 @@ def plan_excess(report: dict[str, Any]) -> str | None:
     over = []
     scallop = plan.get("scallop_interior_mm")
     scallop = plan.get("max_scallop_mm") if scallop is None else scallop
+    above = plan.get("scallop_horizon_mm") if plan.get("scallop_above_horizon") else None
     asked = request.get("scallop_mm", plan.get("scallop_request_mm"))
-    if scallop is not None and asked is not None and scallop > asked:
+    if scallop is None and above is not None and asked is not None:
+        over.append(f"scallop above {above:g} mm (the measure's horizon) exceeds the "
+                    f"{asked:g} mm asked (--scallop)")
+    elif scallop is not None and asked is not None and scallop > asked:
         at = plan.get("scallop_at")
         over.append(f"scallop {scallop:.4f} mm exceeds the {asked:g} mm asked (--scallop)"
                     + (f" at t={at[0]:.4f}, s={at[1]:.4f}" if at else ""))

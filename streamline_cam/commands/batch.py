@@ -22,8 +22,10 @@ def _row_line(row: dict) -> str:
     if row["verified_scallop_mm"] is not None or row["verified_gouge_mm"] is not None:
         figures += (f", verified scallop {row['verified_scallop_mm'] or 0.0:.4f} mm, gouge "
                     f"{row['verified_gouge_mm'] or 0.0:.4f} mm")
-    if row["exit"]:
+    if row["exit"] and row["check_errors"]:
         figures += f"; {row['check_errors']} check error(s): {row['error']}"
+    elif row["exit"]:
+        figures += f"; beyond the request: {row['error']}"
     return f"{row['name']:<24} {row['status']:<9} {figures} ({row['seconds']} s, {row['worker']})"
 
 
