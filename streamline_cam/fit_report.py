@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import NDArray
 
-from toolpath.errors import InvalidParameterError
+from toolpath.errors import InvalidParameterError, tolerance_to_give
 from toolpath.fairness import SAMPLES_PER_INTERVAL, curve_fairness, surface_fairness
 from toolpath.fit_methods import CURVE_METHODS, LINEAR_MODELS, SURFACE_METHODS
 from toolpath.scatter import (
@@ -310,17 +310,9 @@ def smoothing_advice(scatter_mm: float, tol_mm: float, flag: str | None = None) 
 
     Told with ``flag`` (``--fit-tol``, ``--tol``) when given, else in plain words.
     """
-    smooth_mm = _round_up(SMOOTH_TOL_PER_SIGMA * scatter_mm)
+    smooth_mm = tolerance_to_give(SMOOTH_TOL_PER_SIGMA * scatter_mm)
     asked, advised = ((f"{tol_mm:g} mm", f"a tolerance of {smooth_mm:g} mm") if flag is None
                       else (f"{flag} {tol_mm:g}", f"{flag} {smooth_mm:g}"))
     return (f"the points scatter {scatter_mm:.4f} mm about smooth curves through them, and "
             f"a fit within {asked} follows that scatter (its edges and noses ripple): "
             f"{advised} or more smooths it")
-
-
-def _round_up(value_mm: float) -> float:
-    """``value_mm`` rounded up to two significant figures (a tolerance to type)."""
-    if value_mm <= 0.0:
-        return 0.0
-    step = 10.0 ** (np.floor(np.log10(value_mm)) - 1)
-    return float(np.ceil(value_mm / step - 1e-9) * step)

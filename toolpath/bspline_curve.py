@@ -18,8 +18,8 @@ from numpy.typing import NDArray
 from .adaptive import DEFAULT_SWEEPS, adapt_knots, knot_options
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
-from .knots import DEFAULT_CORNER_ANGLE_DEG
-from .periodic import adapt_closed_knots, seam_multiplicity
+from .knots import DEFAULT_CORNER_ANGLE_DEG, seam_multiplicity
+from .periodic import adapt_closed_knots
 from .splinefit import DEGREE, end_interpolating_lsq
 
 __all__ = ["BSplineCurve", "fit_bspline_curve"]

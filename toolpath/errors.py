@@ -17,6 +17,7 @@ __all__ = [
     "LogRangeError",
     "ToleranceNotReachedError",
     "ToolpathError",
+    "tolerance_to_give",
 ]
 
 
@@ -89,9 +90,7 @@ class ToleranceNotReachedError(FitError):
         no command offers); a command-line user reads what to give the flag instead: 5 %
         above the best error, rounded up to two digits.
         """
-        value = 1.05 * self.best_mm
-        step = 10.0 ** (math.floor(math.log10(value)) - 1)
-        looser = round(math.ceil(value / step) * step, 12)
+        looser = tolerance_to_give(1.05 * self.best_mm)
         return (f"the fit cannot reach {flag} {self.tol_mm:g} mm: with the most control points "
                 f"the fitter allows ({self.control_points}) it stays {self.best_mm:.4g} mm off "
                 f"the data; give {flag} {looser:g} or more (noisy points, or edges sampled "
@@ -108,3 +107,11 @@ class LogRangeError(FitError):
 
 class ConvergenceWarning(UserWarning):
     """An iterative refinement stopped before converging; the result is still valid."""
+
+
+def tolerance_to_give(value_mm: float) -> float:
+    """``value_mm`` rounded up to two significant figures: a tolerance to type into a flag."""
+    if value_mm <= 0.0:
+        return 0.0
+    step = 10.0 ** (math.floor(math.log10(value_mm)) - 1)
+    return round(math.ceil(value_mm / step - 1e-9) * step, 12)

@@ -38,7 +38,8 @@ from .adaptive import KnotOptions, adapt_knots
 from .between_sections import between_sections_estimate
 from .fairness import SAMPLES_PER_INTERVAL, surface_fair_check
 from .fitted_curve import error_figures
-from .periodic import adapt_closed_knots, free_coefficients, seam_multiplicity
+from .knots import seam_multiplicity
+from .periodic import adapt_closed_knots, free_coefficients
 from .sections import Sections
 from .splinefit import DEGREE, n_coefficients
 from .surface import ParametricSurface

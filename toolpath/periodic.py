@@ -59,7 +59,6 @@ from .errors import (
     InvalidParameterError,
     ToleranceNotReachedError,
 )
-from .knots import seam_multiplicity
 from .splinefit import DEGREE, clamped_knots, interior_knots
 from .tolerances import ROUND_OFF
 
@@ -74,7 +73,6 @@ __all__ = [
     "periodic_lsq",
     "period_of",
     "periodic_violation",
-    "seam_multiplicity",
     "to_clamped",
     "view_knots_on_loop",
 ]

@@ -42,8 +42,8 @@ from .cone_frame import ConeFrame, candidate_frames, paper_frame
 from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
-from .knots import DEFAULT_CORNER_ANGLE_DEG
-from .periodic import adapt_closed_knots, seam_multiplicity
+from .knots import DEFAULT_CORNER_ANGLE_DEG, seam_multiplicity
+from .periodic import adapt_closed_knots
 from .splinefit import DEGREE, end_interpolating_lsq, n_coefficients
 
 __all__ = ["FRAME_METHODS", "StreamlineCurve", "fit_in_frames", "fit_streamline_curve"]
