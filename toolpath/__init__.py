@@ -46,6 +46,7 @@ from .errors import (
     InvalidParameterError,
     InvalidPointsError,
     ToolpathError,
+    UnfairFitWarning,
 )
 from .kernel_cache import ensure_kernel_cache
 from .lazy import lazy_exports
@@ -94,6 +95,7 @@ __all__ = [
     "StreamlineSurface",
     "Toolpath",
     "ToolpathError",
+    "UnfairFitWarning",
     "as_sections",
     "curve_from_dict",
     "fit_bspline_curve",

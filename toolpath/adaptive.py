@@ -29,6 +29,7 @@ from .errors import (
     FitError,
     InvalidParameterError,
     ToleranceNotReachedError,
+    UnfairFitWarning,
 )
 from .fairness import FLAT_CURVATURE_PER_MM
 from .knots import (
@@ -403,12 +404,12 @@ def _mend(trial: _Trial, points, t: NDArray[np.float64], seed_values, fit_at: Fi
             best = (score, trial, stretches)
     _, trial, stretches = best
     if stretches:
-        warnings.warn(ConvergenceWarning(
+        warnings.warn(UnfairFitWarning(
             f"the fit stays unfair (or off the data between points) after adding knots "
             f"({n_coefficients(trial.knots)} control points): "
             f"{'; '.join(s[3] for s in stretches[:3])}"
-            + (f" and {len(stretches) - 3} more" if len(stretches) > 3 else "")),
-            stacklevel=3)
+            + (f" and {len(stretches) - 3} more" if len(stretches) > 3 else ""),
+            _unfairness(stretches)), stacklevel=3)
     return trial
 
 

@@ -17,6 +17,7 @@ __all__ = [
     "LogRangeError",
     "ToleranceNotReachedError",
     "ToolpathError",
+    "UnfairFitWarning",
     "tolerance_to_give",
 ]
 
@@ -107,6 +108,20 @@ class LogRangeError(FitError):
 
 class ConvergenceWarning(UserWarning):
     """An iterative refinement stopped before converging; the result is still valid."""
+
+
+class UnfairFitWarning(ConvergenceWarning):
+    """A fit within its tolerance that stays unfair after its knots were mended.
+
+    Concave where the data turn convex (or estimated off the data between points).
+    ``unfairness`` orders such fits, fairest first (fewer unfair stretches, fewer intervals
+    off the data, a shallower deepest stretch, a smaller largest estimate); the streamline
+    fitters try their next cone frame on it (:func:`toolpath.streamline_curve.fit_in_frames`).
+    """
+
+    def __init__(self, message: str, unfairness: tuple[float, ...] = ()) -> None:
+        super().__init__(message)
+        self.unfairness = tuple(unfairness)
 
 
 def tolerance_to_give(value_mm: float) -> float:

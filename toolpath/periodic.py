@@ -58,6 +58,7 @@ from .errors import (
     FitError,
     InvalidParameterError,
     ToleranceNotReachedError,
+    UnfairFitWarning,
 )
 from .splinefit import DEGREE, clamped_knots, interior_knots
 from .tolerances import ROUND_OFF
@@ -370,7 +371,10 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
     except FitError as exc:
         raise FitError(counted(str(exc))) from None
     for warning in caught:
-        if issubclass(warning.category, ConvergenceWarning):
+        if issubclass(warning.category, UnfairFitWarning):  # (its order of fairness kept)
+            warnings.warn(UnfairFitWarning(counted(str(warning.message)),
+                                           warning.message.unfairness), stacklevel=3)
+        elif issubclass(warning.category, ConvergenceWarning):
             warnings.warn(ConvergenceWarning(counted(str(warning.message))), stacklevel=3)
         else:
             warnings.warn_explicit(warning.message, warning.category, warning.filename,

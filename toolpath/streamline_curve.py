@@ -39,7 +39,7 @@ from numpy.typing import NDArray
 from .adaptive import DEFAULT_SWEEPS, adapt_knots, check_given_knots, knot_options
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError
+from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError, UnfairFitWarning
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
 from .knots import DEFAULT_CORNER_ANGLE_DEG, seam_multiplicity
@@ -316,24 +316,49 @@ def _ranked_frames(x: NDArray[np.float64], t: NDArray[np.float64],
 
 def fit_in_frames(frames: list[ConeFrame], fit_in: Callable[[ConeFrame], _Fit]
                   ) -> tuple[ConeFrame, _Fit]:
-    """``fit_in(frame)`` in the first of ``frames`` (best first) that keeps ``G`` in range.
+    """``fit_in(frame)`` in the first of ``frames`` (best first) in range and fair.
 
     The frames are ranked on the baseline's knots; the knots the fit settles on may still
     make ``G`` leave the data's log range in one (:class:`LogRangeError`), and the next
-    one is tried then. Curves and surfaces both fit this way.
+    one is tried then. A fit that stays unfair after its knots were mended
+    (:class:`~toolpath.errors.UnfairFitWarning`) gives way to the next frame's too, and
+    when no frame's fit is fair the fairest stands, with its warnings: points that scatter
+    a micrometre about the blade, fitted on knots nearly as dense as they stand, may dent
+    in one frame where the next is fair (the blunt rotor with 1 um of scatter: 13 um
+    concave midway between its first two sections in the best-ranked frame, fair in the
+    second). Curves and surfaces both fit this way.
 
     Raises
     ------
     LogRangeError
         The last frame's, when every frame leaves the log range.
     """
-    for tried, frame in enumerate(frames, start=1):
+    kept: tuple | None = None  # (unfairness, frame, fit, warnings) of the fairest so far
+    failure: LogRangeError | None = None
+    for frame in frames:
         try:
-            return frame, fit_in(frame)
-        except LogRangeError:
-            if tried == len(frames):
-                raise  # no frame left: the reason names the stretch
-    raise InvalidParameterError("no cone frame to fit in")
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter("always")
+                fit = fit_in(frame)
+        except LogRangeError as exc:
+            failure = exc  # (the last one names the stretch)
+            continue
+        unfair = [w.message.unfairness for w in caught
+                  if issubclass(w.category, UnfairFitWarning)]
+        if not unfair:
+            kept = ((), frame, fit, caught)
+            break
+        if kept is None or max(unfair) < kept[0]:
+            kept = (max(unfair), frame, fit, caught)
+    if kept is None:
+        if failure is not None:
+            raise failure
+        raise InvalidParameterError("no cone frame to fit in")
+    _, frame, fit, caught = kept
+    for warning in caught:  # (through the caller's filters, as though never caught)
+        warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                               warning.lineno)
+    return frame, fit
 
 
 def fit_streamline_curve(
