@@ -14,6 +14,7 @@ import dataclasses
 import json
 import threading
 import time
+import warnings
 from collections.abc import Callable
 from dataclasses import asdict, dataclass, field, is_dataclass
 from pathlib import Path
@@ -29,13 +30,19 @@ from gcode.summary import summarize
 from machines import load_machine
 from toolpath import as_sections, read_sections
 from toolpath.arrays import as_positive_length
-from toolpath.errors import FitError, InvalidParameterError, ToleranceNotReachedError
+from toolpath.errors import (
+    ClosureWarning,
+    FitError,
+    InvalidParameterError,
+    ToleranceNotReachedError,
+)
 from toolpath.joint_refine import known_joints
 from toolpath.path import MoveKind
 from toolpath.placement import place_points, translated_surface
 from toolpath.planning.errors import GougeError, PlanTravelLimitError
 from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
+from toolpath.sections import Sections
 
 from .fit_report import SURFACE_METHODS, fit_surface_by_method
 from .job_process import as_job
@@ -409,6 +416,23 @@ def _no_progress(stage: str, fraction: float) -> None:
 
 
 @as_job  # memory reuse, idle threads asleep; freed memory handed back after
+
+def _read_sections(request: JobRequest) -> tuple[Sections, list[str]]:
+    """The request's sections, and the notes of how their closure was read.
+
+    Sections read otherwise than most of the blade's are fitted as most read
+    (:class:`~toolpath.errors.ClosureWarning`): said as the command says it (a warning), and
+    kept in the fit's notes for whoever reads the report (a service's user).
+    """
+    with warnings.catch_warnings(record=True) as said:
+        warnings.simplefilter("always", ClosureWarning)
+        sections = as_sections(read_sections(request.sections_path), closed=request.closed)
+    for warning in said:  # (through the caller's filters, as though never caught)
+        warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                               warning.lineno)
+    return sections, [f"closure: {w.message}" for w in said
+                      if issubclass(w.category, ClosureWarning)]
+
 def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
             stream: Callable[[Path, Any], dict[str, Any]] | None = None,
             plots: bool = False, verify: bool = False) -> JobResult:
@@ -450,7 +474,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
 
     start = time.perf_counter()
     report_progress("fit", 0.0)
-    raw = as_sections(read_sections(request.sections_path), closed=request.closed)
+    raw, closure_notes = _read_sections(request)
     mode = request.placement
     if mode == "auto":
         mode = "flat" if request.axis_mode == "3" else "upright"
@@ -466,6 +490,7 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
     files["surface"].write_text(json.dumps(surface.to_dict()), encoding="utf-8")
     report["placement"] = placement.as_dict() | {"text": placement.describe()}
     report["fit"] = fit_report.as_dict()
+    report["fit"]["notes"] = [*closure_notes, *report["fit"].get("notes", [])]
     if plots:
         from toolpath.plotting import plot_surface_fit
 

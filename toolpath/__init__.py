@@ -40,6 +40,7 @@ from __future__ import annotations
 from typing import Any
 
 from .errors import (
+    ClosureWarning,
     ConvergenceWarning,
     DataFileError,
     FitError,
@@ -82,6 +83,7 @@ __all__ = [
     "LINEAR_MODELS",
     "BSplineCurve",
     "BSplineSurface",
+    "ClosureWarning",
     "ConvergenceWarning",
     "DataFileError",
     "FitError",

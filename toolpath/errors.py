@@ -9,6 +9,7 @@ from __future__ import annotations
 import math
 
 __all__ = [
+    "ClosureWarning",
     "ConvergenceWarning",
     "DataFileError",
     "FitError",
@@ -108,6 +109,10 @@ class LogRangeError(FitError):
 
 class ConvergenceWarning(UserWarning):
     """An iterative refinement stopped before converging; the result is still valid."""
+
+
+class ClosureWarning(UserWarning):
+    """Sections whose seams read otherwise than most of the blade's, fitted as most read."""
 
 
 class UnfairFitWarning(ConvergenceWarning):
