@@ -7,6 +7,7 @@ import importlib
 import json
 import pkgutil
 import sys
+import warnings
 
 from gcode.errors import GCodeError
 from machines.errors import MachineError
@@ -135,8 +136,21 @@ def _fit_surface(args: argparse.Namespace) -> int:
     return 0
 
 
+def _show_warning(message: Warning | str, category: type[Warning], filename: str,
+                  lineno: int, file=None, line: str | None = None) -> None:
+    """A warning as a user reads it: ``toolpath: warning: ...`` (no source file or line)."""
+    print(f"toolpath: warning: {message}", file=sys.stderr if file is None else file)
+
+
 def main(argv: list[str] | None = None) -> int:
     """Run the command line; returns the exit code (non-zero on error)."""
+    with warnings.catch_warnings():  # (the caller's way of showing them, back after)
+        warnings.showwarning = _show_warning
+        return _main(argv)
+
+
+def _main(argv: list[str] | None) -> int:
+    """:func:`main` with warnings shown as the user reads them."""
     argv = sys.argv[1:] if argv is None else argv
     args = _parser(argv[0] if argv else None).parse_args(argv)
     prepare_job_process()  # memory reuse, idle threads asleep (streamline_cam.job_process)

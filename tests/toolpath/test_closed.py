@@ -191,6 +191,15 @@ def _rotor_missing_points(path):
     return path
 
 
+def test_the_command_shows_a_warning_as_a_user_reads_it(tmp_path, capsys):
+    path = _rotor_missing_points(tmp_path / "rotor.csv")
+    assert main(["fit", "surface", str(path), "--json"]) == 0
+    out = capsys.readouterr()
+    assert json.loads(out.out)["closed"] is True
+    assert out.err.startswith("toolpath: warning: section 4 reads open")
+    assert "ClosureWarning" not in out.err and ".py:" not in out.err
+
+
 # ----------------------------------------------------------------------------- periodic fits
 def _seam_jumps(value_at):
     """Relative jumps of value, first and second derivative across the seam."""
