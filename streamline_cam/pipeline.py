@@ -44,7 +44,13 @@ from toolpath.planning.finishing import plan_finishing
 from toolpath.planning.travel import fit_travel
 from toolpath.sections import Sections
 
-from .fit_report import SURFACE_METHODS, fit_surface_by_method
+from .fit_report import (
+    SURFACE_METHODS,
+    SurfaceFitReport,
+    fair_tolerance,
+    fit_surface_by_method,
+    unfair_advice,
+)
 from .job_process import as_job
 from .verdict import verify_verdict
 
@@ -433,6 +439,20 @@ def _read_sections(request: JobRequest) -> tuple[Sections, list[str]]:
     return sections, [f"closure: {w.message}" for w in said
                       if issubclass(w.category, ClosureWarning)]
 
+
+def _fit_advice(fit_report: SurfaceFitReport, sections: Sections, method: str) -> str | None:
+    """What in the fit likely caused a gouge, and the ``--fit-tol`` that cures it (None: none).
+
+    A tolerance so tight that the fit follows the points' scatter
+    (:meth:`SurfaceFitReport.smoothing_advice`); else a fit of scattered points left
+    unfair, where a wider tolerance fits them fair (:func:`fair_tolerance`: fitted again
+    to find it, on this failure only).
+    """
+    if fit_report.follows_scatter:
+        return fit_report.smoothing_advice("--fit-tol")
+    fair_mm = fair_tolerance(sections, fit_report, method)
+    return None if fair_mm is None else unfair_advice(fit_report, fair_mm, "--fit-tol")
+
 def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
             stream: Callable[[Path, Any], dict[str, Any]] | None = None,
             plots: bool = False, verify: bool = False) -> JobResult:
@@ -517,14 +537,15 @@ def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = N
                 **({"progress": lambda _name, fraction: report_progress("plan", fraction),
                     "on_limit": "report"} | request.planning_options))
         except GougeError as exc:
-            if not fit_report.follows_scatter:
+            advice = _fit_advice(fit_report, placed_sections, request.method)
+            if advice is None:
                 raise
             # (a fit following the points' scatter ripples, and the cutter gouges there:
             # the likely cause, told after the gouge's place; a service reads the flag as
             # its field)
-            raise GougeError(f"{exc}; {fit_report.smoothing_advice('--fit-tol')}",
-                             pass_index=exc.pass_index, point_index=exc.point_index,
-                             t=exc.t, s=exc.s, depth_mm=exc.depth_mm) from None
+            raise GougeError(f"{exc}; {advice}", pass_index=exc.pass_index,
+                             point_index=exc.point_index, t=exc.t, s=exc.s,
+                             depth_mm=exc.depth_mm) from None
         attempts.append({"scallop_mm": scallop_mm, "chord_tol_mm": chord_mm,
                          "measured_scallop_mm": plan_report.max_scallop_mm,
                          "judged_scallop_mm": _judged_scallop_mm(plan_report),
