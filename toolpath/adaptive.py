@@ -109,6 +109,9 @@ class KnotOptions:
     #: Knots of a related fit for the same request (e.g. the B-spline probe of a streamline
     #: fit): the search starts at their count and density instead of from scratch.
     start_knots: NDArray[np.float64] | None = None
+    #: The data's corners as the caller judged them (a union grid's sections vote,
+    #: :func:`toolpath.fitted_surface.fit_grid`); None: detected on the points.
+    corners: tuple[Corner, ...] | None = None
 
 
 def knot_options(*, tol: Any, n_control_points: Any, max_control_points: Any, knots: Any,
@@ -653,9 +656,17 @@ def _limit(options: KnotOptions, n_points: int) -> int:
 _LEAST_KNOT_GAP = 1e-12
 
 
+def _data_corners(points, t: NDArray[np.float64], options: KnotOptions) -> list[Corner]:
+    """The data's corners: none without a corner angle, else the caller's, else detected."""
+    if options.corner_angle_deg is None:
+        return []
+    if options.corners is not None:
+        return list(options.corners)
+    return detect_corners(points, t, min_angle_deg=options.corner_angle_deg)
+
+
 def _density(points, t, seed_values, fit_at, options: KnotOptions) -> _Trial:
-    corners = ([] if options.corner_angle_deg is None
-               else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
+    corners = _data_corners(points, t, options)
     fixed = DEGREE + 1 + DEGREE * len(corners)
     if options.start_knots is not None and options.tol is not None:
         edges = np.unique(options.start_knots)
@@ -766,8 +777,7 @@ def _search_near(attempt, start: int, tol: float, most: int) -> _Trial:
 
 
 def _dominant(points, t, fit_at, options: KnotOptions) -> _Trial:
-    corners = ([] if options.corner_angle_deg is None
-               else detect_corners(points, t, min_angle_deg=options.corner_angle_deg))
+    corners = _data_corners(points, t, options)
     dominant = initial_dominant_points(points, corners)
     target = options.n_control_points
     limit = _limit(options, t.size)

@@ -60,6 +60,7 @@ from .errors import (
     ToleranceNotReachedError,
     UnfairFitWarning,
 )
+from .knots import Corner
 from .splinefit import DEGREE, clamped_knots, interior_knots
 from .tolerances import ROUND_OFF
 
@@ -328,8 +329,12 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
 
     offset = DEGREE + 1 - seam
     start = options.start_knots
+    corners = options.corners  # (the caller's, judged on the loop: moved into the view)
+    if corners is not None and k:
+        corners = tuple(Corner(float(np.mod(c.t - cut_t, 1.0)), c.angle_deg,
+                               int(back[c.index % n])) for c in corners)
     driver = dataclasses.replace(
-        options, knots=given,
+        options, knots=given, corners=corners,
         n_control_points=(None if options.n_control_points is None
                           else options.n_control_points + offset),
         max_control_points=(None if options.max_control_points is None

@@ -281,3 +281,37 @@ def test_a_ball_along_the_normal_round_small_noses_does_not_gouge_the_fit(nosed_
                                speed_t=np.linalg.norm(frame.xt, axis=1),
                                speed_s=np.linalg.norm(frame.xs, axis=1)).depth_mm
         assert depth.max() <= 0.001, f"s={s}: {depth.max():.4f} mm at t={t[depth.argmax()]}"
+
+
+def _interior_multiple_knots(surface):
+    """Interior ``t``-knots of multiplicity DEGREE (corner knots), rounded."""
+    values, counts = np.unique(np.round(np.asarray(surface.knots_t), 9), return_counts=True)
+    return [float(v) for v, c in zip(values, counts, strict=True) if 0.0 < v < 1.0 and c >= 3]
+
+
+def _kinked_section(n, z, kink_deg=30.0):
+    """An open, gently bent line 50 mm long, then another turning ``kink_deg`` more: a corner."""
+    x = np.linspace(0.0, 50.0, n // 2, endpoint=False)
+    way = np.array([1.0, 0.2 + np.tan(np.radians(kink_deg))])
+    tail = np.array([50.0, 5.0]) + np.linspace(0.0, 50.0, n - n // 2)[:, None] * way / np.hypot(
+        *way)
+    points = np.vstack([np.c_[x, 0.002 * x**2], tail])
+    return np.c_[points, np.full(len(points), z)]
+
+
+def test_a_union_grids_corners_are_voted_by_its_sections_own_points():
+    # the union's columns bunch up where sections' stations fall close together (round the
+    # seam): 2 um of scatter turned the DCA rotor's stacked columns there into an 11 deg
+    # "corner", a C0 knot at t = 0.0028 turned the fit 8 deg concave within 2 um and a
+    # 6 mm ball gouged; none of its 11 sections reads a corner on its own points
+    rng = np.random.default_rng(1)
+    scattered = as_sections([p + rng.normal(0.0, 0.002, p.shape) for p in
+                             read_sections(bundled_data_path("dev_rotor_dca_11x181.csv"))])
+    assert scattered.mask is not None
+    assert _interior_multiple_knots(fit_bspline_surface(scattered, tol=0.01)) == []
+    # a corner every section has stays one (the stacked columns, interleaving the
+    # sections' stations, spread its turn and read none: the fit rounded it)
+    kinked = as_sections([_kinked_section(60 + 3 * j, 10.0 * j) for j in range(6)])
+    assert kinked.mask is not None
+    corners = _interior_multiple_knots(fit_bspline_surface(kinked, tol=0.01))
+    assert len(corners) == 1 and abs(corners[0] - 0.5) < 0.01
