@@ -35,6 +35,7 @@ from toolpath.errors import (
     FitError,
     InvalidParameterError,
     ToleranceNotReachedError,
+    reissue_warnings,
 )
 from toolpath.joint_refine import known_joints
 from toolpath.path import MoveKind
@@ -433,9 +434,7 @@ def _read_sections(request: JobRequest) -> tuple[Sections, list[str]]:
     with warnings.catch_warnings(record=True) as said:
         warnings.simplefilter("always", ClosureWarning)
         sections = as_sections(read_sections(request.sections_path), closed=request.closed)
-    for warning in said:  # (through the caller's filters, as though never caught)
-        warnings.warn_explicit(warning.message, warning.category, warning.filename,
-                               warning.lineno)
+    reissue_warnings(said)
     return sections, [f"closure: {w.message}" for w in said
                       if issubclass(w.category, ClosureWarning)]
 

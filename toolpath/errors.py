@@ -7,6 +7,8 @@ also a :class:`ValueError`, and names the offending value, point index or file l
 from __future__ import annotations
 
 import math
+import warnings
+from collections.abc import Iterable
 
 __all__ = [
     "ClosureWarning",
@@ -19,6 +21,7 @@ __all__ = [
     "ToleranceNotReachedError",
     "ToolpathError",
     "UnfairFitWarning",
+    "reissue_warnings",
     "tolerance_to_give",
 ]
 
@@ -135,3 +138,14 @@ def tolerance_to_give(value_mm: float) -> float:
         return 0.0
     step = 10.0 ** (math.floor(math.log10(value_mm)) - 1)
     return round(math.ceil(value_mm / step - 1e-9) * step, 12)
+
+
+def reissue_warnings(caught: Iterable[warnings.WarningMessage]) -> None:
+    """Warn again what ``warnings.catch_warnings(record=True)`` caught.
+
+    Through the filters in force now, as though it had never been caught (an "error"
+    filter raises it here).
+    """
+    for warning in caught:
+        warnings.warn_explicit(warning.message, warning.category, warning.filename,
+                               warning.lineno)

@@ -59,6 +59,7 @@ from .errors import (
     InvalidParameterError,
     ToleranceNotReachedError,
     UnfairFitWarning,
+    reissue_warnings,
 )
 from .knots import Corner
 from .splinefit import DEGREE, clamped_knots, interior_knots
@@ -382,8 +383,7 @@ def adapt_closed_knots(points: NDArray[np.float64], t: NDArray[np.float64],
         elif issubclass(warning.category, ConvergenceWarning):
             warnings.warn(ConvergenceWarning(counted(str(warning.message))), stacklevel=3)
         else:
-            warnings.warn_explicit(warning.message, warning.category, warning.filename,
-                                   warning.lineno)
+            reissue_warnings([warning])
     if k:
         errors = np.asarray(errors)[np.r_[back, back[0]]]
     return fit, errors, to_period(knots)

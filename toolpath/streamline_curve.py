@@ -39,7 +39,13 @@ from numpy.typing import NDArray
 from .adaptive import DEFAULT_SWEEPS, adapt_knots, check_given_knots, knot_options
 from .bspline_curve import fit_bspline_curve
 from .cone_frame import ConeFrame, candidate_frames, paper_frame
-from .errors import ConvergenceWarning, InvalidParameterError, LogRangeError, UnfairFitWarning
+from .errors import (
+    ConvergenceWarning,
+    InvalidParameterError,
+    LogRangeError,
+    UnfairFitWarning,
+    reissue_warnings,
+)
 from .fairness import curve_fair_check
 from .fitted_curve import FittedCurve, check_order, curve_data, error_figures
 from .knots import DEFAULT_CORNER_ANGLE_DEG, seam_multiplicity
@@ -355,9 +361,7 @@ def fit_in_frames(frames: list[ConeFrame], fit_in: Callable[[ConeFrame], _Fit]
             raise failure
         raise InvalidParameterError("no cone frame to fit in")
     _, frame, fit, caught = kept
-    for warning in caught:  # (through the caller's filters, as though never caught)
-        warnings.warn_explicit(warning.message, warning.category, warning.filename,
-                               warning.lineno)
+    reissue_warnings(caught)
     return frame, fit
 
 
