@@ -18,6 +18,7 @@ import pytest
 
 from toolpath.planning import torus_profile
 from toolpath.planning.torus_kernel import (
+    RUNNING_BOUNDS_ROWS,
     disk_crossings,
     running_bounds,
     section_sides,
@@ -432,3 +433,19 @@ def test_section_sides_equal_all_rows_at_once_in_numpy():
         want = _section_sides_numpy(centre, pa, q, s, psi, 1.0, 23.0)
         for a, b in zip(got, want, strict=True):
             np.testing.assert_array_equal(a, b)
+
+
+def test_running_bounds_read_the_same_in_one_thread_as_in_several():
+    # its rows run in slices as the threads free (run_in_threads, dynamic): whichever
+    # thread takes a slice, each row's bound is the same
+    args, bends, limit, _, _ = _several_poses(0.1, 0.6)
+    threads = numba.get_num_threads()
+    assert len(args[-2]) >= 2 * RUNNING_BOUNDS_ROWS  # (sliced)
+    try:
+        numba.set_num_threads(1)
+        alone = running_bounds(*args, 12, bends, limit, 64)
+    finally:
+        numba.set_num_threads(threads)
+    shared = running_bounds(*args, 12, bends, limit, 64)
+    for one, many in zip(alone, shared, strict=True):
+        np.testing.assert_array_equal(one, many)

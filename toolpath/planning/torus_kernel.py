@@ -17,7 +17,9 @@ contact poses' crossing (and, where that reads over a wide interval, an even gri
 It builds each pose's disks in its loop, as :func:`~.torus_profile._disks` does in numpy,
 rather than take them as (m, K S) arrays (~23 MB each at 4,000 rows, 11 poses and 65
 ring points), and weighs each interval by its bound's height over the surface's section
-(:func:`_over`).
+(:func:`_over`). Each loop's rows are independent: they run in slices in threads
+(:func:`~toolpath.row_threads.run_in_threads`; :func:`running_bounds`' costly rows taken
+as the threads free, :data:`RUNNING_BOUNDS_ROWS` at a time).
 """
 
 from __future__ import annotations
@@ -28,17 +30,25 @@ import numba
 import numpy as np
 from numpy.typing import NDArray
 
+from ..row_threads import run_in_threads
 from ..tolerances import TINY
 
-__all__ = ["disk_crossings", "running_bounds", "section_sides", "side_crossings",
-           "window_nearest"]
+__all__ = ["RUNNING_BOUNDS_ROWS", "disk_crossings", "running_bounds", "section_sides",
+           "side_crossings", "window_nearest"]
+
+#: Rows of :func:`running_bounds` a thread takes at a time (``dynamic``: the next slice
+#: nobody has taken, as it frees; :func:`~toolpath.row_threads.run_in_threads`). A row
+#: costs about 0.15 ms (17 poses a side, bull:8:1 on the standing dev blade), and its
+#: branch and bound cuts more intervals on some rows than on others: 64 rows, about 10 ms,
+#: against a thread's hand-over of a few tens of microseconds.
+RUNNING_BOUNDS_ROWS = 64
 
 
-@numba.njit(cache=True)
-def _window_nearest(start, target, a, e, pass_of, window, out):
-    """The loop of :func:`window_nearest`, into ``out``."""
+@numba.njit(cache=True, nogil=True)
+def _window_nearest(start, target, a, e, pass_of, window, out, first, stop):
+    """The loop of :func:`window_nearest`, rows ``first .. stop - 1``, into ``out``."""
     last = pass_of.size - 1
-    for i in range(start.size):
+    for i in range(first, stop):
         own = pass_of[start[i]]
         best = -1
         best_d = np.inf
@@ -79,17 +89,17 @@ def window_nearest(start: NDArray[np.int64], target: NDArray[np.float64],
     """
     out = np.empty(len(start), dtype=np.int64)
     if len(start):
-        _window_nearest(np.ascontiguousarray(start, dtype=np.int64),
-                        np.ascontiguousarray(target, dtype=float),
-                        np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(e, dtype=float),
-                        np.ascontiguousarray(pass_of, dtype=np.int64), int(window), out)
+        run_in_threads(_window_nearest, len(start), np.ascontiguousarray(start, dtype=np.int64),
+                       np.ascontiguousarray(target, dtype=float),
+                       np.ascontiguousarray(a, dtype=float), np.ascontiguousarray(e, dtype=float),
+                       np.ascontiguousarray(pass_of, dtype=np.int64), int(window), out)
     return out
 
 
-@numba.njit(cache=True)
-def _section_sides(centre, pa, q, s, mx, my, corner, lift, out_x, out_y):
-    """The loop of :func:`section_sides`, into ``out_x``, ``out_y``."""
-    for row in range(centre.shape[0]):
+@numba.njit(cache=True, nogil=True)
+def _section_sides(centre, pa, q, s, mx, my, corner, lift, out_x, out_y, first, stop):
+    """The loop of :func:`section_sides`, rows ``first .. stop - 1``, into ``out_x``, ``out_y``."""
+    for row in range(first, stop):
         run = -np.inf
         for j in range(mx.size):
             # the ring's ellipse's support point, then the corner's, as numpy sums them
@@ -128,7 +138,8 @@ def section_sides(centre: NDArray[np.float64], pa: NDArray[np.float64],
     out_x, out_y = np.empty((m, k)), np.empty((m, k))
     if m and k:
         mx, my = np.sin(psi), -np.cos(psi)
-        _section_sides(*(np.ascontiguousarray(v, dtype=float) for v in (centre, pa, q, s, mx, my)),
+        run_in_threads(_section_sides, m,
+                       *(np.ascontiguousarray(v, dtype=float) for v in (centre, pa, q, s, mx, my)),
                        float(corner_mm), float(lift_mm), out_x, out_y)
     return out_x, out_y
 
@@ -150,11 +161,11 @@ def _on_side(x, before, xp, yp, row, left, right):
     return y0 + min(max((x - x0) / max(x1 - x0, TINY), 0.0), 1.0) * (y1 - y0)
 
 
-@numba.njit(cache=True)
-def _side_crossings(x1, y1, x2, y2, out_x, out_y):
-    """The loop of :func:`side_crossings`, into ``out_x``, ``out_y``."""
-    m, k = x1.shape
-    for row in range(m):
+@numba.njit(cache=True, nogil=True)
+def _side_crossings(x1, y1, x2, y2, out_x, out_y, first, stop):
+    """The loop of :func:`side_crossings`, rows ``first .. stop - 1``, into ``out_x``, ``out_y``."""
+    k = x1.shape[1]
+    for row in range(first, stop):
         out_x[row] = np.nan
         out_y[row] = np.nan
         i1 = 0
@@ -215,7 +226,7 @@ def side_crossings(x1: NDArray[np.float64], y1: NDArray[np.float64],
     out_x, out_y = np.empty(m), np.empty(m)
     if m:
         x1, y1, x2, y2 = (np.ascontiguousarray(v, dtype=float) for v in (x1, y1, x2, y2))
-        _side_crossings(x1, y1, x2, y2, out_x, out_y)
+        run_in_threads(_side_crossings, m, x1, y1, x2, y2, out_x, out_y)
     return out_x, out_y
 
 
@@ -237,12 +248,12 @@ def _lowest(cx, cy, rho_sq, row, at):
     return low
 
 
-@numba.njit(cache=True)
-def _disk_crossings(own, nxt, reach, steps, out_x, out_h, out_ok):
-    """The loop of :func:`disk_crossings`, into ``out_x``, ``out_h``, ``out_ok``."""
+@numba.njit(cache=True, nogil=True)
+def _disk_crossings(own, nxt, reach, steps, out_x, out_h, out_ok, first, stop):
+    """The loop of :func:`disk_crossings`, rows ``first .. stop - 1``, into the ``out_*``."""
     ocx, ocy, orho = own
     ncx, ncy, nrho = nxt
-    for row in range(reach.size):
+    for row in range(first, stop):
         start = _lowest(ocx, ocy, orho, row, 0.0) - _lowest(ncx, ncy, nrho, row, 0.0)
         end = (_lowest(ocx, ocy, orho, row, reach[row])
                - _lowest(ncx, ncy, nrho, row, reach[row]))
@@ -285,8 +296,8 @@ def disk_crossings(own: tuple[NDArray[np.float64], ...], nxt: tuple[NDArray[np.f
     if m:
         own, nxt = (tuple(np.ascontiguousarray(v, dtype=float) for v in disks)
                     for disks in (own, nxt))
-        _disk_crossings(own, nxt, np.ascontiguousarray(reach, dtype=float), int(steps),
-                        out_x, out_h, out_ok)
+        run_in_threads(_disk_crossings, m, own, nxt, np.ascontiguousarray(reach, dtype=float),
+                       int(steps), out_x, out_h, out_ok)
     return out_x, out_h, out_ok
 
 
@@ -452,10 +463,10 @@ def _even_bounds(disks, counts, grid, count, ub, span, even, bend, limit, fine, 
     return found_at, found_y, found
 
 
-@numba.njit(cache=True)
+@numba.njit(cache=True, nogil=True)
 def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, levels, even,
-                    bend, limit, out_x, out_h):
-    """The loop of :func:`running_bounds`, into ``out_x``, ``out_h``."""
+                    bend, limit, out_x, out_h, first, stop):
+    """The loop of :func:`running_bounds`, rows ``first .. stop - 1``, into ``out_x``, ``out_h``."""
     through, nu, ex, ey = frame
     own_c, own_a, next_c, next_a = poses
     count_max = 2 * levels + 3
@@ -470,7 +481,7 @@ def _running_bounds(frame, normal, poses, phi, ring, corner, reach, centre, leve
     counts = np.zeros(2, dtype=np.int64)
     cos_d, sin_d = np.empty(phi.shape[1]), np.empty(phi.shape[1])
     w, v, p = np.empty(3), np.empty(3), np.empty(3)
-    for row in range(reach.size):
+    for row in range(first, stop):
         span = reach[row]
         count = _halving_grid(span, centre[row], levels, grid)
         for d in range(phi.shape[1]):
@@ -563,7 +574,8 @@ def running_bounds(frame: tuple[NDArray[np.float64], ...], normal: NDArray[np.fl
     if m:
         def c(v):
             return np.ascontiguousarray(v, dtype=float)
-        _running_bounds(tuple(c(v) for v in frame), c(normal), tuple(c(v) for v in poses),
-                        c(phi), float(ring_mm), float(corner_mm), c(reach), c(centre),
-                        int(levels), int(even), c(bend), c(limit), out_x, out_h)
+        run_in_threads(_running_bounds, m, tuple(c(v) for v in frame), c(normal),
+                       tuple(c(v) for v in poses), c(phi), float(ring_mm), float(corner_mm),
+                       c(reach), c(centre), int(levels), int(even), c(bend), c(limit), out_x,
+                       out_h, min_rows=RUNNING_BOUNDS_ROWS, dynamic=True)
     return out_x, out_h
