@@ -18,12 +18,12 @@ from scipy.spatial import cKDTree
 from ..row_threads import query_workers
 from ..surface import ParametricSurface
 from ..tolerances import LENGTH_SLACK_MM, TINY
-from ..vectors import move_axes, unit
+from ..vectors import move_axes, row_lengths, unit
 from .cusp_kernel import (
     RIDGE_FOUND,
     RIDGE_NO_PASS,
     RIDGE_OPEN,
-    nearest_pieces,
+    next_pieces,
     path_curving,
     ridges,
 )
@@ -235,12 +235,15 @@ def torus_cusp_bounds(volume: CutVolume, surface: ParametricSurface, seeds: Sear
                       ) -> LooseEstimates:
     """Cusp height from each seed towards increasing ``s`` for a flat or bull-nose cutter.
 
-    The piece of the seed's own pass nearest to it (:func:`~.cusp_kernel.nearest_pieces`,
-    from the own ring centre as the own pass's nearest piece's axis puts it: within
-    :attr:`CutVolume.near_mm`, where none within 4 times that, and so on up to ``2 R``
-    and a piece's length) and the next pass's: that of the nearest seed of another pass
-    on the ``+s`` side (the contacts, not the ring centres, show which pass is next:
-    round a leading edge a zigzag's lead tilts neighbouring passes' axes far apart), the
+    The piece of the seed's own pass whose ring centre lies nearest the own ring centre
+    as the own pass's nearest piece's axis puts it (one k-d tree a pass: the own pass's
+    pieces alone are met, however many other passes' crowd round a tight edge; its
+    segment within ``2 R`` and a piece's length of it) and the next pass's: that of the
+    nearest seed of another pass on the ``+s`` side (the contacts, not the ring centres,
+    show which pass is next: round a leading edge a zigzag's lead tilts neighbouring
+    passes' axes far apart; where there is none, the piece of another pass nearest the
+    own one on that side, :func:`~.cusp_kernel.next_pieces`, within
+    :attr:`CutVolume.near_mm`, where none within 4 times that, and so on), the
     poses of their passes that touch nearest the seed's contact (:func:`_contact_poses`),
     and the two passes'
     sections in the plane of the seed's line of ``t`` through its contact (normal
@@ -273,18 +276,18 @@ def torus_cusp_bounds(volume: CutVolume, surface: ParametricSurface, seeds: Sear
     corner = seeds.q + r * seeds.n
     # the own ring centre as the axis of the own pass's piece whose ring centre is nearest
     # puts it (round a leading edge another pass's nearest pose stands tilted far off)
-    near = _nearest_in_pass(a + 0.5 * e, volume.pass_of, corner, seeds.pass_)
+    middle = a + 0.5 * e
+    near = _nearest_in_pass(middle, volume.pass_of, corner, seeds.pass_)
     near = np.maximum(near, 0)
     inward, _ = radial_directions(seeds.n, unit(volume.axes0[near] + volume.axes1[near]))
     target = corner + (big - r) * inward
     found = np.full((n_seed, 2), -1, dtype=np.int64)
-
-    def search(todo: NDArray[np.int64], apart_mm: float) -> NDArray[np.bool_]:
-        found[todo] = nearest_pieces(target[todo], seeds.x_s[todo], seeds.pass_[todo],
-                                     volume.near_cells, apart_mm, a, e, volume.pass_of)
-        return (found[todo] < 0).any(axis=1)
-
-    _widening(volume, n_seed, search)
+    # the own pass's piece whose ring centre is nearest that (its contact pose is sought
+    # about it: _contact_poses), where its segment lies within reach of it
+    own = _nearest_in_pass(middle, volume.pass_of, target, seeds.pass_)
+    foot, _ = _foot_on(a[np.maximum(own, 0)], e[np.maximum(own, 0)], target)
+    close = (own >= 0) & (row_lengths(foot - target) <= _widest_reach(volume))
+    found[close, 0] = own[close]
     # the next pass as the contacts show it: the pass of the nearest contact of another
     # pass on the +s side, at its own piece (the ring centres' nearest can skip a pass
     # round a leading edge, where a zigzag's lead tilts the two ways' axes far apart)
@@ -292,6 +295,14 @@ def torus_cusp_bounds(volume: CutVolume, surface: ParametricSurface, seeds: Sear
                          towards=seeds.x_s)
     known = (beside >= 0) & (found[np.maximum(beside, 0), 0] >= 0)
     found[known, 1] = found[beside[known], 0]
+
+    def search(todo: NDArray[np.int64], apart_mm: float) -> NDArray[np.bool_]:
+        found[todo, 1] = next_pieces(foot[todo], seeds.x_s[todo], seeds.pass_[todo],
+                                     volume.near_cells, apart_mm, a, e, volume.pass_of)
+        return found[todo, 1] < 0
+
+    # elsewhere the next pass's piece nearest the own one's foot, on the +s side
+    _widening(volume, np.flatnonzero(close & ~known), search)
     ok = np.flatnonzero((found >= 0).all(axis=1))
     own_c, own_axis, j_own, own_ok = _contact_poses(volume, found[ok, 0], corner[ok],
                                                     seeds.n[ok])
@@ -852,20 +863,25 @@ def _ridges_widening(volume: CutVolume, seeds: SearchSeeds) -> tuple[NDArray[np.
             volume.near_cells, radius_mm, volume.a, seg, volume.pass_of, big)
         return state[todo] == RIDGE_NO_PASS
 
-    _widening(volume, n_seed, search)
+    _widening(volume, np.arange(n_seed), search)
     return tuple(found)
 
 
-def _widening(volume: CutVolume, count: int,
+def _widest_reach(volume: CutVolume) -> float:
+    """How far the pieces of another pass are sought at most: ``2 R`` and a piece's length, mm."""
+    return 2.0 * volume.cutter.radius_mm + volume.step_mm
+
+
+def _widening(volume: CutVolume, rows: NDArray[np.int64],
               search: Callable[[NDArray[np.int64], float], NDArray[np.bool_]]) -> None:
-    """Run ``search(rows, reach_mm)`` over rows ``0 .. count - 1`` with a reach that widens.
+    """Run ``search(rows, reach_mm)`` over ``rows`` with a reach that widens.
 
     First within :attr:`CutVolume.near_mm`; the rows ``search`` reports as not found again
-    within 4 times that, and so on up to ``2 R`` and a piece's length (beyond it another
-    pass's tube cannot meet the own pass's).
+    within 4 times that, and so on up to :func:`_widest_reach` (beyond it another pass's
+    tube cannot meet the own pass's).
     """
-    todo = np.arange(count)
-    reach, limit = volume.near_mm, 2.0 * volume.cutter.radius_mm + volume.step_mm
+    todo = rows
+    reach, limit = volume.near_mm, _widest_reach(volume)
     while todo.size:
         todo = todo[search(todo, reach)]
         if reach >= limit:

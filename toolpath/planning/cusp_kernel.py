@@ -9,7 +9,7 @@ side, and returns where their tubes of radius ``R`` meet nearest the surface, an
 that point lies inside the tubes of a third pass's pieces and of the two passes' other
 pieces (see
 :func:`toolpath.planning.cusp_estimates.ball_cusp_estimates` for the geometry).
-:func:`nearest_pieces` finds the same two pieces for a flat or bull-nose cutter, whose
+:func:`next_pieces` finds the next pass's piece for a flat or bull-nose cutter, whose
 ring-centre segments stand aside from the contact (:mod:`.torus_profile` meets them).
 :func:`path_curving` gives how tightly the centre path curves round pieces (the estimate's
 sink rule).
@@ -27,7 +27,7 @@ from numpy.typing import NDArray
 from ..row_threads import run_in_threads
 from .clearance_kernel import BLOCK, SampleCells, cell_scratch_size, cells_near
 
-__all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "nearest_pieces",
+__all__ = ["RIDGE_FOUND", "RIDGE_NO_LENGTH", "RIDGE_NO_PASS", "RIDGE_OPEN", "next_pieces",
            "path_curving", "ridges"]
 
 RIDGE_FOUND = 1  #: the tubes meet: ``point`` and ``inside`` hold the ridge
@@ -270,29 +270,14 @@ def ridges(centre: NDArray[np.float64], normal: NDArray[np.float64], x_s: NDArra
 
 
 @numba.njit(cache=True, parallel=True)
-def _nearest_pieces(target, x_s, own, binned, reach, apart, scratch_size, pieces, found):
-    """The loop of :func:`nearest_pieces`, blocks of seeds in parallel (see there)."""
+def _next_pieces(foot, x_s, own, binned, reach, apart, scratch_size, pieces, found):
+    """The loop of :func:`next_pieces`, blocks of seeds in parallel (see there)."""
     points, index, cell_start, origin, shape, cell, box, _ = binned
     a, e, pass_of = pieces
-    for block in numba.prange((target.shape[0] + BLOCK - 1) // BLOCK):
+    for block in numba.prange((foot.shape[0] + BLOCK - 1) // BLOCK):
         cells = np.empty(scratch_size, dtype=np.int64)
-        for i in range(block * BLOCK, min((block + 1) * BLOCK, target.shape[0])):
-            px, py, pz = target[i, 0], target[i, 1], target[i, 2]
-            n_cells = cells_near(px, py, pz, reach, origin, shape, cell, box, cells)
-            d_own, j_own = math.inf, -1
-            o0 = o1 = o2 = 0.0
-            for m in range(n_cells):
-                for jj in range(cell_start[cells[m]], cell_start[cells[m] + 1]):
-                    j = index[jj]
-                    if pass_of[j] != own[i] or not _near(points, jj, px, py, pz, reach):
-                        continue
-                    f0, f1, f2 = _foot(px, py, pz, a, e, j)
-                    dist = math.sqrt((f0 - px) ** 2 + (f1 - py) ** 2 + (f2 - pz) ** 2)
-                    if dist < d_own:
-                        d_own, j_own, o0, o1, o2 = dist, j, f0, f1, f2
-            found[i, 0] = j_own
-            if j_own < 0:
-                continue
+        for i in range(block * BLOCK, min((block + 1) * BLOCK, foot.shape[0])):
+            o0, o1, o2 = foot[i, 0], foot[i, 1], foot[i, 2]
             n_cells = cells_near(o0, o1, o2, reach, origin, shape, cell, box, cells)
             d_other = apart
             for m in range(n_cells):
@@ -305,28 +290,25 @@ def _nearest_pieces(target, x_s, own, binned, reach, apart, scratch_size, pieces
                     dist = math.sqrt(w0 * w0 + w1 * w1 + w2 * w2)
                     if (w0 * x_s[i, 0] + w1 * x_s[i, 1] + w2 * x_s[i, 2] > 0.0
                             and dist <= d_other):
-                        d_other, found[i, 1] = dist, j
+                        d_other, found[i] = dist, j
 
 
-def nearest_pieces(target: NDArray[np.float64], x_s: NDArray[np.float64],
-                   own: NDArray[np.int64], cells: SampleCells, apart_mm: float,
-                   a: NDArray[np.float64], e: NDArray[np.float64],
-                   pass_of: NDArray[np.int64]) -> NDArray[np.int64]:
-    """The pieces of a flat or bull-nose cutter's own pass and of the next pass, per seed.
+def next_pieces(foot: NDArray[np.float64], x_s: NDArray[np.float64], own: NDArray[np.int64],
+                cells: SampleCells, apart_mm: float, a: NDArray[np.float64],
+                e: NDArray[np.float64], pass_of: NDArray[np.int64]) -> NDArray[np.int64]:
+    """The next pass's piece per seed, for a flat or bull-nose cutter.
 
     A piece is the segment ``a + f e`` (``0 <= f <= 1``) its ring centre (the axis point
-    ``r`` above the tip) sweeps. ``target`` is a point on the own pass's way near the
-    seed (its ring centre as a nearby pose's axis puts it: the contact's corner-circle
-    centre ``K = Q + r n`` stands ``R - r`` from it, across the axis): the own pass's
-    piece nearest to it, within ``apart_mm``, and its foot ``C1``. The next pass is the
-    piece of another pass nearest to ``C1`` (within ``apart_mm``) on the ``+s`` side
-    (``(C2 - C1) . X_s > 0``): the ring centres of two neighbouring poses stand as far
-    apart as their contacts.
+    ``r`` above the tip) sweeps. ``foot`` is ``C1``, the point of the seed's own pass's
+    piece nearest its ring centre (:func:`~.cusp_estimates.torus_cusp_bounds`): the next
+    pass's is the piece of another pass nearest to ``C1`` (within ``apart_mm``) on the
+    ``+s`` side (``(C2 - C1) . X_s > 0``): the ring centres of two neighbouring poses
+    stand as far apart as their contacts.
 
     Parameters
     ----------
-    target, x_s : ndarray, shape (m, 3)
-        The point (mm) and ``X_s`` at each seed.
+    foot, x_s : ndarray, shape (m, 3)
+        ``C1`` (mm) and ``X_s`` at each seed.
     own : ndarray of int64, shape (m,)
         The seed's pass.
     cells : SampleCells
@@ -340,19 +322,19 @@ def nearest_pieces(target: NDArray[np.float64], x_s: NDArray[np.float64],
 
     Returns
     -------
-    ndarray of int64, shape (m, 2)
-        The own piece and the next pass's (-1: none within reach).
+    ndarray of int64, shape (m,)
+        The next pass's piece (-1: none within reach).
     """
-    m = target.shape[0]
-    found = np.full((m, 2), -1, dtype=np.int64)
+    m = foot.shape[0]
+    found = np.full(m, -1, dtype=np.int64)
     if m and len(cells.index):
         f = np.ascontiguousarray
         pieces = Pieces(f(a, dtype=float), f(e, dtype=float), f(pass_of, dtype=np.int64))
         # midpoints within half a piece of the segments
         reach = float(apart_mm) + 0.5 * float(np.sqrt((e * e).sum(axis=1)).max())
         scratch = cell_scratch_size(reach, cells.cell_mm)
-        _nearest_pieces(f(target, dtype=float), f(x_s, dtype=float), f(own, dtype=np.int64),
-                        cells, reach, float(apart_mm), scratch, pieces, found)
+        _next_pieces(f(foot, dtype=float), f(x_s, dtype=float), f(own, dtype=np.int64),
+                     cells, reach, float(apart_mm), scratch, pieces, found)
     return found
 
 
