@@ -422,8 +422,6 @@ def _no_progress(stage: str, fraction: float) -> None:
     del stage, fraction
 
 
-@as_job  # memory reuse, idle threads asleep; freed memory handed back after
-
 def _read_sections(request: JobRequest) -> tuple[Sections, list[str]]:
     """The request's sections, and the notes of how their closure was read.
 
@@ -452,6 +450,8 @@ def _fit_advice(fit_report: SurfaceFitReport, sections: Sections, method: str) -
     fair_mm = fair_tolerance(sections, fit_report, method)
     return None if fair_mm is None else unfair_advice(fit_report, fair_mm, "--fit-tol")
 
+
+@as_job  # memory reuse, idle threads asleep; freed memory handed back after
 def run_job(request: JobRequest, out_dir: Path, *, progress: Progress | None = None,
             stream: Callable[[Path, Any], dict[str, Any]] | None = None,
             plots: bool = False, verify: bool = False) -> JobResult:

@@ -263,3 +263,18 @@ def test_a_gouge_where_a_fit_of_scattered_points_stays_unfair_names_the_fit_tol_
     monkeypatch.setattr(pipeline, "fit_surface_by_method", fit)
     with pytest.raises(GougeError, match=r"\(test\)$"):
         run_job(request, tmp_path / "fair")
+
+
+def test_a_job_hands_its_freed_memory_back_once_however_it_ends(tmp_path, monkeypatch):
+    # run_job is the job a service's or batch's worker runs: as_job's release comes after
+    # it whole, not after a helper of it (040b8fb had left the decorator on the sections'
+    # reading, run_job unwrapped)
+    from streamline_cam import job_process
+
+    calls = []
+    monkeypatch.setattr(job_process, "release_freed_memory", lambda: calls.append("released"))
+    monkeypatch.setattr(job_process, "_freezes_at_exit", False)  # (a long-lived process)
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=-1.0)
+    with pytest.raises(ValueError, match="scallop_mm"):
+        run_job(request, tmp_path)
+    assert calls == ["released"]
