@@ -197,3 +197,29 @@ def test_a_disc_centre_read_deep_from_the_far_face_is_no_lowest_point(tip, axis,
                                np.array([t0]), np.array([s0]), newton=newton,
                                refine_rim=True)
         assert abs(gap[0]) < 1e-4 and abs(t[0] - t0) < 1e-3
+
+
+def test_a_tilted_disc_over_a_thin_edge_reads_its_far_rim_from_its_contact():
+    # dev_rotor_blunt's 5-axis flat:6 job at scallop 0.005 mm (upright, trunnion-ac, lead
+    # 10): a pose touching the leading edge (the rim's lowest point 2e-13 mm off; every rim
+    # point's search seeded at the contact reads 0.0005 mm or more), its disc tilted over
+    # the edge, read 1.07 mm deep: the window of rim points seeded at the disc centre's
+    # foot, 2.4 mm off, put a far rim point's foot on the far face (a face turned away),
+    # and its search again from a neighbour's foot found a stationary point 0.78 mm
+    # behind a face at 89 deg to the axis (0.09 mm clear). The chord check split that
+    # move into 29 points 0.08 um apart and the plan ended "chord error 1.0677 mm". A
+    # reading still deep is searched again from the pose's contact and the nearer foot
+    # kept: the pose reads its contact
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_blunt_9x120.csv")
+    tip = np.array([[25.0455349, -1.12047908, 45.31295489]])
+    axis = np.array([[0.66122156, -0.74803406, -0.05684275]])
+    axis /= np.linalg.norm(axis)
+    t0, s0 = np.array([0.5122760834]), np.array([0.5001628013])
+    for newton in (1, 3, 6):
+        gap, t, _ = cutter_gap(surface, parse_cutter("flat:6"), tip, axis, t0, s0,
+                               newton=newton, refine_rim=True)
+        assert abs(gap[0]) < 1e-4 and abs(t[0] - t0[0]) < 1e-3
+

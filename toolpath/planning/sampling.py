@@ -438,16 +438,89 @@ class _Disc:
         0.005 mm off the surface found a foot on the edge's nose, on its normal, 0.83 mm
         off, whose face turns 83 deg from the axis: read 0.83 mm inside), is searched again
         likewise (else from its pose's expected contact), the new foot kept where it is
-        nearer to ``K``; an off-normal one's where it is a closest point or nearer.
+        nearer to ``K``; an off-normal one's where it is a closest point or nearer. Then
+        what a neighbour's foot left doubtful, and every reading still deeper than
+        :data:`STATIONARY_MM`, is searched from the pose's expected contact too (once),
+        kept where it is nearer (or a doubtful one's where it is no longer doubtful).
         ``signed`` (None: not read) and the feet are returned mended.
         """
-        normals = None
-        if signed is None:
+        read = signed is not None
+        if not read:
             x, normals = self.surface.points_and_normals(tt, ss)
             along = np.einsum("ij,ij->i", points - x, normals)
         else:  # (off the normal from |K - X| and the reading: the point alone, no normal)
-            x, along = self.surface(tt, ss), signed
+            x, along, normals = self.surface(tt, ss), signed, None
         reach = row_lengths(points - x)
+        off_normal, deep = self._doubtful(points, x, along, reach, normals, tt, ss, poses)
+        bad = np.flatnonzero(off_normal | deep)
+        if not bad.size and not np.any(along < -STATIONARY_MM):
+            return (signed if read else None), tt, ss
+        seed_t, seed_s = tt[bad].copy(), ss[bad].copy()
+        far = deep[bad]  # (without a neighbour: from the pose's expected contact)
+        seed_t[far], seed_s[far] = self.seeds[0][poses[bad[far]]], self.seeds[1][poses[bad[far]]]
+        good = np.flatnonzero(~off_normal & ~deep)
+        good = good[np.argsort(poses[good], kind="stable")]
+        first = np.searchsorted(poses[good], poses[bad], side="left")
+        count = np.searchsorted(poses[good], poses[bad], side="right") - first
+        has = count > 0  # (seeded from a neighbour's foot)
+        if has.any():  # the same disc's good points, padded to the most
+            block = first[:, None] + np.arange(count.max())[None, :]
+            inside = np.arange(count.max())[None, :] < count[:, None]
+            rows = good[np.where(inside, block, 0)]
+            apart = np.where(inside, np.linalg.norm(points[rows] - points[bad][:, None, :],
+                                                    axis=2), np.inf)
+            near = rows[np.arange(bad.size), np.argmin(apart, axis=1)]
+            seed_t[has], seed_s[has] = tt[near[has]], ss[near[has]]
+        d2, t2, s2 = signed_distance_near(self.surface, points[bad], seed_t, seed_s,
+                                          iterations=self.iterations + STATIONARY_EXTRA)
+        x2 = self.surface(t2, s2)
+        reach2 = row_lengths(points[bad] - x2)
+        off2 = _off_normal_mm(reach2, d2)
+        nearer = reach2 < reach[bad]
+        take = np.where(far, nearer, (off2 <= STATIONARY_MM) | nearer)
+        tt, ss = tt.copy(), ss.copy()
+        signed = along.copy() if signed is None else signed.copy()
+        rows = bad[take]
+        tt[rows], ss[rows], signed[rows], reach[rows] = t2[take], s2[take], d2[take], reach2[take]
+        x[rows] = x2[take]
+        # from the pose's expected contact too: what is still doubtful after a search from
+        # a neighbour's foot, and every reading still deep (a closest point of the far
+        # face, or a stationary point that is none: the nearest foot found decides). Round
+        # a leading edge thinner than the disc, the feet of a tilted disc's far rim lie on
+        # the far face or across the nose, as the window seeded at the centre's foot found
+        # them: dev_rotor_blunt's flat:6 5-axis job (scallop 0.005 mm) read a pose that
+        # touches the edge 1.07 mm deep, a rim point 0.78 mm deep from a face at 89 deg to
+        # the axis, 0.09 mm clear
+        from_contact = np.zeros(len(points), dtype=bool)
+        from_contact[bad[far & ~has]] = True
+        doubtful = np.zeros(len(points), dtype=bool)
+        doubtful[bad[has]] = np.logical_or(*self._doubtful(
+            points[bad[has]], x[bad[has]], signed[bad[has]], reach[bad[has]], None,
+            tt[bad[has]], ss[bad[has]], poses[bad[has]]))
+        again = np.flatnonzero((doubtful | (signed < -STATIONARY_MM)) & ~from_contact)
+        if again.size:
+            d3, t3, s3 = signed_distance_near(
+                self.surface, points[again], self.seeds[0][poses[again]],
+                self.seeds[1][poses[again]], iterations=self.iterations + STATIONARY_EXTRA)
+            x3 = self.surface(t3, s3)
+            reach3 = row_lengths(points[again] - x3)
+            sure = ~np.logical_or(*self._doubtful(points[again], x3, d3, reach3, None, t3,
+                                                  s3, poses[again]))
+            take = (sure & doubtful[again]) | (reach3 < reach[again])
+            rows = again[take]
+            tt[rows], ss[rows], signed[rows] = t3[take], s3[take], d3[take]
+        return (signed if read else None), tt, ss
+
+    def _doubtful(self, points: NDArray[np.float64], x: NDArray[np.float64],
+                  along: NDArray[np.float64], reach: NDArray[np.float64],
+                  normals: NDArray[np.float64] | None, tt: NDArray[np.float64],
+                  ss: NDArray[np.float64], poses: NDArray[np.int64]
+                  ) -> tuple[NDArray[np.bool_], NDArray[np.bool_]]:
+        """Feet ``x`` of ``points`` off the normal, and deep ones that may be no closest point.
+
+        :meth:`_stationary`'s two tests: ``along`` is ``(K - X) . n``, ``reach``
+        ``|K - X|``, ``normals`` the feet's (None: evaluated for the deep ones).
+        """
         off = _off_normal_mm(reach, along)
         # (a foot on an open edge stands off the normal: the edge's rule reads it)
         inner = (ss > 0.0) & (ss < 1.0)
@@ -462,38 +535,7 @@ class _Disc:
             seed_nearer = reach[rows] > row_lengths(points[rows]
                                                     - self.seed_points.take(poses[rows], 0))
             deep[rows] = (np.einsum("ij,ij->i", n, self.axes[poses[rows]]) <= 0.0) | seed_nearer
-        bad = np.flatnonzero(off_normal | deep)
-        if not bad.size:
-            return signed, tt, ss
-        seed_t, seed_s = tt[bad].copy(), ss[bad].copy()
-        far = deep[bad]  # (without a neighbour: from the pose's expected contact)
-        seed_t[far], seed_s[far] = self.seeds[0][poses[bad[far]]], self.seeds[1][poses[bad[far]]]
-        good = np.flatnonzero(~off_normal & ~deep)
-        good = good[np.argsort(poses[good], kind="stable")]
-        first = np.searchsorted(poses[good], poses[bad], side="left")
-        count = np.searchsorted(poses[good], poses[bad], side="right") - first
-        if count.max(initial=0) > 0:  # the same disc's good points, padded to the most
-            block = first[:, None] + np.arange(count.max())[None, :]
-            inside = np.arange(count.max())[None, :] < count[:, None]
-            rows = good[np.where(inside, block, 0)]
-            apart = np.where(inside, np.linalg.norm(points[rows] - points[bad][:, None, :],
-                                                    axis=2), np.inf)
-            near = rows[np.arange(bad.size), np.argmin(apart, axis=1)]
-            has = count > 0
-            seed_t[has], seed_s[has] = tt[near[has]], ss[near[has]]
-        d2, t2, s2 = signed_distance_near(self.surface, points[bad], seed_t, seed_s,
-                                          iterations=self.iterations + STATIONARY_EXTRA)
-        reach2 = row_lengths(points[bad] - self.surface(t2, s2))
-        off2 = _off_normal_mm(reach2, d2)
-        nearer = reach2 < reach[bad]
-        take = np.where(far, nearer, (off2 <= STATIONARY_MM) | nearer)
-        rows = bad[take]
-        tt, ss = tt.copy(), ss.copy()
-        tt[rows], ss[rows] = t2[take], s2[take]
-        if signed is not None:
-            signed = signed.copy()
-            signed[rows] = d2[take]
-        return signed, tt, ss
+        return off_normal, deep
 
     @functools.cached_property
     def seed_points(self) -> NDArray[np.float64]:
