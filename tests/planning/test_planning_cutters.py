@@ -114,7 +114,7 @@ def test_flat_and_bull_gap_matches_a_scan_of_the_whole_disc(spec):
     gap, _, _ = cutter_gap(sphere, cutter, tips, axes, t, s, newton=3)
     r = cutter.corner_radius_mm
     disc = _Disc(sphere, cutter, tips, axes, 4, (t, s))
-    scanned = disc.scan(np.arange(300), t, s)[0]
+    scanned = disc.scan(np.arange(300), t, s)[0][0]
     assert np.all(gap <= scanned - r + 5e-4)
     assert np.median(np.abs(gap - (scanned - r))) < 1e-5
     # in chunks of poses (the disc's samples of a million moves would take gigabytes),

@@ -223,3 +223,25 @@ def test_a_tilted_disc_over_a_thin_edge_reads_its_far_rim_from_its_contact():
                                newton=newton, refine_rim=True)
         assert abs(gap[0]) < 1e-4 and abs(t[0] - t0[0]) < 1e-3
 
+
+def test_a_rim_that_dips_twice_over_a_thin_edge_is_refined_round_both_dips():
+    # dev_rotor_dca's 5-axis flat:6 job at scallop 0.02 mm (upright, trunnion-ac, lead 10):
+    # a pose of the first pass at the hub edge, over the leading edge, touches at a rim
+    # point 22 deg round (its neighbours' contacts read 0). Searched from the nearest
+    # surface sample, the disc's rim samples dipped twice: 0.071 mm at 90 deg (the lowest
+    # sample, refined round it) and 0.074 mm at 30 deg, beside the contact: the chord
+    # measure read 0.071 mm of undercut there (asked 0.02) and the plan ended over its
+    # request. The rim is refined round its other dip too: the pose reads its contact
+    # whatever the Newton steps
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_dca_11x181.csv")
+    tip = np.array([[0.9712313241, 5.4880143601, 2.4081589217]])
+    axis = np.array([[0.2008899928, -0.9680251456, -0.1502349102]])
+    axis /= np.linalg.norm(axis)
+    for newton in (1, 2, 6):
+        gap, t, s = cutter_gap(surface, parse_cutter("flat:6"), tip, axis,
+                               np.array([0.5022222222]), np.array([0.0]), newton=newton,
+                               refine_rim=True)
+        assert abs(gap[0]) < 1e-5 and abs(t[0] - 0.50585) < 1e-4 and s[0] < 1e-3
