@@ -245,3 +245,28 @@ def test_a_rim_that_dips_twice_over_a_thin_edge_is_refined_round_both_dips():
                                np.array([0.5022222222]), np.array([0.0]), newton=newton,
                                refine_rim=True)
         assert abs(gap[0]) < 1e-5 and abs(t[0] - 0.50585) < 1e-4 and s[0] < 1e-3
+
+
+def test_a_contact_reading_above_its_neighbours_is_searched_from_their_contact():
+    # dev_rotor_dca's 5-axis flat:6 job at scallop 0.01 mm (upright, trunnion-ac, lead 10):
+    # two poses of a pass over the leading edge, both touching. The second's search from
+    # the surface sample nearest its disc's centre (on the hub edge, s = 0) read 0.036 mm
+    # of undercut with two Newton steps: the chord measure reported it (asked 0.02) and
+    # the plan ended over its request. A contact reading above a run neighbour's is
+    # searched again from the neighbour's contact, the lower reading kept
+    from toolpath.planning.chord_measure import _mend_from_neighbours
+    from toolpath.planning.cutters import parse_cutter
+    from toolpath.planning.sampling import cutter_gap
+
+    surface = _fitted_upright("dev_rotor_dca_11x181.csv")
+    cutter = parse_cutter("flat:6")
+    tips = np.array([[-0.3753681621, 4.8746842234, 3.6739838666],
+                     [-0.7472765701, 4.8324814685, 3.8284307087]])
+    axes = np.array([[0.0983179828, -0.9839083865, -0.1491906874],
+                     [0.0698477242, -0.9873521179, -0.1423274071]])
+    axes /= np.linalg.norm(axes, axis=1)[:, None]
+    gap, t, s = cutter_gap(surface, cutter, tips, axes, np.array([0.506489, 0.5038095238]),
+                           np.array([0.020439, 0.0]), newton=2, refine_rim=True)
+    assert abs(gap[0]) < 1e-5 and gap[1] > 0.03  # (the second as its sample left it)
+    _mend_from_neighbours(surface, cutter, tips, axes, (gap, t, s), np.array([0]))
+    assert np.all(np.abs(gap) < 1e-5) and abs(s[1] - 0.0204) < 1e-3

@@ -481,6 +481,12 @@ def _run_pairs(ends: NDArray[np.int64], move: NDArray[np.int64]) -> NDArray[np.i
 #: neighbours, this many locations along the run at most.
 NEIGHBOUR_ROUNDS = 8
 
+#: A flat or bull-nose contact's gap above a run neighbour's by more than this (mm) is
+#: searched again from the neighbour's contact (:func:`_mend_from_neighbours`): a tenth
+#: of a micrometre, above the searches' spread between neighbours that both touch
+#: (1e-5 mm round dev_rotor_dca's leading edge) and far below any chord tolerance.
+GAP_JUMP_MM = 1e-4
+
 
 def _mend_from_neighbours(surface: ParametricSurface, cutter: Cutter,
                           tips_mm: NDArray[np.float64], axes: NDArray[np.float64],
@@ -500,7 +506,15 @@ def _mend_from_neighbours(surface: ParametricSurface, cutter: Cutter,
     than any sample. So the cutter point ``K = X + (gap + r) n`` of each contact is also
     projected from each run neighbour's contact: a foot nearer to ``K`` than its own (by
     more than :data:`FOOT_SLACK_MM`) shows its own is not ``K``'s closest point, and the
-    location is searched again from there; mended locations are offered on to their
+    location is searched again from there. And a gap above a run neighbour's by more
+    than :data:`GAP_JUMP_MM` may have missed the disc's lowest point (its rim dipping
+    between the samples the search took, round an edge tighter than the disc): it is
+    searched again from the neighbour's contact and the lower reading kept, unless it
+    reads below the neighbour's by as much (dev_rotor_dca's
+    5-axis flat:6 job at scallop 0.01 mm: a pose over the leading edge, searched from the
+    surface sample nearest its disc's centre, on the hub edge, read 0.036 mm of undercut
+    between neighbours that touch; from a neighbour's contact it touches too). Mended
+    locations are offered on to their
     neighbours, for :data:`NEIGHBOUR_ROUNDS` rounds or until none is mended.
     """
     gap, t, s = found
@@ -522,6 +536,19 @@ def _mend_from_neighbours(surface: ParametricSurface, cutter: Cutter,
                 gap[rows], t[rows], s[rows] = cutter_gap(
                     surface, cutter, tips_mm[rows], axes[rows], t1[wrong], s1[wrong],
                     newton=6, refine_rim=True)
+                mended[rows] = True
+            # a reading above its neighbour's may have missed the disc's lowest point
+            higher = gap[dst] > gap[src] + GAP_JUMP_MM
+            rows = dst[higher]
+            if rows.size:
+                g2, t2, s2 = cutter_gap(surface, cutter, tips_mm[rows], axes[rows],
+                                        t[src[higher]], s[src[higher]], newton=6,
+                                        refine_rim=True)
+                # (lower, not below the neighbour's by the jump: the far sheet's foot of a
+                # blunt edge reads through the part from there)
+                lower = (g2 < gap[rows] - FOOT_SLACK_MM) & (g2 >= gap[src[higher]] - GAP_JUMP_MM)
+                rows = rows[lower]
+                gap[rows], t[rows], s[rows] = g2[lower], t2[lower], s2[lower]
                 mended[rows] = True
         if not mended.any():
             return
