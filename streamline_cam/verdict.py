@@ -93,4 +93,6 @@ def plan_excess(report: dict[str, Any]) -> str | None:
     if chord is not None and tol is not None and chord > tol:
         over.append(f"chord error {chord:.4f} mm exceeds the chord tolerance {tol:g} mm "
                     "(--chord-tol)")
+    if over and plan.get("replan_stopped"):
+        over.append(plan["replan_stopped"])
     return "; ".join(over) or None

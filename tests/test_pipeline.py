@@ -130,6 +130,47 @@ def test_a_cusp_beside_an_uncut_area_alone_is_not_planned_again(tmp_path, monkey
     assert plan["max_scallop_mm"] == pytest.approx(1.25 * 0.05)
 
 
+def test_a_re_plan_that_gouges_keeps_the_plans_made(tmp_path, monkeypatch):
+    # dev_rotor_dca's 5-axis flat:6 job at scallop 0.01 mm measured 0.0117 mm; its re-plan
+    # at 0.0083 mm met the hub edge 0.0014 mm deep and the job ended on that gouge, its
+    # own plan (no gouge) lost. Here the first plan reads 1.25 times the request and the
+    # re-plan raises a gouge: the job keeps the first plan and tells why it stopped
+    import dataclasses
+
+    import streamline_cam.pipeline as pipeline
+    from streamline_cam.verdict import plan_excess
+    from toolpath.planning.errors import GougeError
+
+    real = pipeline.plan_finishing
+    asked = []
+
+    def gouges_when_tighter(surface, cutter, **kw):
+        asked.append(kw["scallop_mm"])
+        if len(asked) > 1:
+            raise GougeError("gouge on pass 46 point 277: the cutter would cut 0.0014 mm "
+                             "into the surface", pass_index=46, point_index=277)
+        path, report = real(surface, cutter, **kw)
+        return path, dataclasses.replace(report, max_scallop_mm=1.25 * kw["scallop_mm"],
+                                         scallop_interior_mm=1.25 * kw["scallop_mm"])
+
+    monkeypatch.setattr(pipeline, "plan_finishing", gouges_when_tighter)
+    request = JobRequest(Path(bundled_data_path("dev_blade_15x142.csv")), scallop_mm=0.05,
+                         chord_tol_mm=0.03)
+    report = run_job(request, tmp_path).report
+    plan = report["plan"]
+    assert len(asked) == 2 and len(plan["attempts"]) == 1 and plan["kept_attempt"] == 1
+    assert plan["max_scallop_mm"] == pytest.approx(1.25 * 0.05)
+    assert plan["replan_stopped"].startswith(
+        f"a re-plan at scallop {asked[1]:.4g} mm, chord 0.03 mm stopped: gouge on pass 46")
+    excess = plan_excess(report)
+    assert excess.startswith("scallop 0.0625 mm exceeds the 0.05 mm asked (--scallop)")
+    assert "a re-plan at scallop" in excess
+    from streamline_cam.commands.run import _attempts_line
+
+    (line,) = _attempts_line(plan)
+    assert line.startswith("re-plan    a re-plan at scallop")
+
+
 def _job_report(*, scallop_mm, gouge_mm):
     """The report of a finished job whose verification measured these figures."""
     return {

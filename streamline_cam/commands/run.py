@@ -112,17 +112,21 @@ def report_lines(report: dict) -> list[str]:
 
 
 def _attempts_line(plan: dict) -> list[str]:
-    """Where the job planned more than once: what each plan measured, which was kept."""
+    """Where the job planned more than once: what each plan measured, which was kept.
+
+    And why a re-plan stopped (it gouged), where one did.
+    """
     attempts = plan.get("attempts") or []
+    stopped = [f"re-plan    {plan['replan_stopped']}"] if plan.get("replan_stopped") else []
     if len(attempts) < 2:
-        return []
+        return stopped
     kept = plan.get("kept_attempt", len(attempts))
     readings = "; ".join(
         f"asked {a['scallop_mm']:.4f}/{a['chord_tol_mm']:.4f}, measured "
         f"{a.get('judged_scallop_mm', a['measured_scallop_mm']) or 0.0:.4f}/"
         f"{a['measured_chord_mm'] or 0.0:.4f}" for a in attempts)
     return [f"re-plan    {len(attempts)} plans (scallop/chord mm: {readings}); plan {kept} "
-            "kept, the nearest to the request"]
+            "kept, the nearest to the request", *stopped]
 
 
 def scallop_text(max_mm: float | None, above_mm: float | None = None) -> str:
