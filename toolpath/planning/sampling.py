@@ -452,7 +452,8 @@ class _Disc:
         likewise (else from its pose's expected contact), the new foot kept where it is
         nearer to ``K``; an off-normal one's where it is a closest point or nearer. Then
         what a neighbour's foot left doubtful, and every reading still deeper than
-        :data:`STATIONARY_MM`, is searched from the pose's expected contact too (once),
+        :data:`STATIONARY_MM` whose foot lies beside the cutter's footprint (farther from
+        the axis than its radius), is searched from the pose's expected contact too (once),
         kept where it is nearer (or a doubtful one's where it is no longer doubtful).
         ``signed`` (None: not read) and the feet are returned mended.
         """
@@ -465,7 +466,8 @@ class _Disc:
         reach = row_lengths(points - x)
         off_normal, deep = self._doubtful(points, x, along, reach, normals, tt, ss, poses)
         bad = np.flatnonzero(off_normal | deep)
-        if not bad.size and not np.any(along < -STATIONARY_MM):
+        beyond = (along < -STATIONARY_MM) & self._past_footprint(x, poses)
+        if not bad.size and not beyond.any():
             return (signed if read else None), tt, ss
         seed_t, seed_s = tt[bad].copy(), ss[bad].copy()
         far = deep[bad]  # (without a neighbour: from the pose's expected contact)
@@ -496,8 +498,9 @@ class _Disc:
         tt[rows], ss[rows], signed[rows], reach[rows] = t2[take], s2[take], d2[take], reach2[take]
         x[rows] = x2[take]
         # from the pose's expected contact too: what is still doubtful after a search from
-        # a neighbour's foot, and every reading still deep (a closest point of the far
-        # face, or a stationary point that is none: the nearest foot found decides). Round
+        # a neighbour's foot, and every reading still deep from a foot beside the cutter's
+        # footprint (a closest point of the far face, or a stationary point that is none:
+        # the nearest foot found decides). Round
         # a leading edge thinner than the disc, the feet of a tilted disc's far rim lie on
         # the far face or across the nose, as the window seeded at the centre's foot found
         # them: dev_rotor_blunt's flat:6 5-axis job (scallop 0.005 mm) read a pose that
@@ -509,7 +512,8 @@ class _Disc:
         doubtful[bad[has]] = np.logical_or(*self._doubtful(
             points[bad[has]], x[bad[has]], signed[bad[has]], reach[bad[has]], None,
             tt[bad[has]], ss[bad[has]], poses[bad[has]]))
-        again = np.flatnonzero((doubtful | (signed < -STATIONARY_MM)) & ~from_contact)
+        beyond[bad] = (signed[bad] < -STATIONARY_MM) & self._past_footprint(x[bad], poses[bad])
+        again = np.flatnonzero((doubtful | beyond) & ~from_contact)
         if again.size:
             d3, t3, s3 = signed_distance_near(
                 self.surface, points[again], self.seeds[0][poses[again]],
@@ -522,6 +526,18 @@ class _Disc:
             rows = again[take]
             tt[rows], ss[rows], signed[rows] = t3[take], s3[take], d3[take]
         return (signed if read else None), tt, ss
+
+    def _past_footprint(self, x: NDArray[np.float64], poses: NDArray[np.int64]
+                        ) -> NDArray[np.bool_]:
+        """Feet ``x`` farther from their pose's axis than the cutter's radius.
+
+        A deep reading where the cutter cuts in stands over the cut, within the cutter's
+        footprint; one whose foot lies beside it may be a far face's.
+        """
+        rel = x - self.tips.take(poses, 0)
+        axes = self.axes.take(poses, 0)
+        rel -= np.einsum("ij,ij->i", rel, axes)[:, None] * axes
+        return row_lengths(rel) > self.cutter.radius_mm
 
     def _doubtful(self, points: NDArray[np.float64], x: NDArray[np.float64],
                   along: NDArray[np.float64], reach: NDArray[np.float64],
